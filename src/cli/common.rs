@@ -1,0 +1,150 @@
+//! What several commands share: loading the machine and the program, planning settings,
+//! formatting.
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+
+use crate::gcode::{GcodeErrors, InterpretOptions, Program, parse_program};
+use crate::machine::{ConfigError, MachineConfig};
+use crate::output::OutputError;
+use crate::plan::{PlanConfig, ProfileKind};
+use crate::units::{m_from_mm, s_from_ms};
+
+/// Errors a command can end with.
+#[derive(Debug, thiserror::Error)]
+pub enum CliError {
+    /// The program has G-code errors.
+    #[error("{0}")]
+    Gcode(#[from] GcodeErrors),
+    /// The machine file is wrong.
+    #[error("{0}")]
+    Config(#[from] ConfigError),
+    /// An output could not be written.
+    #[error("{0}")]
+    Output(#[from] OutputError),
+    /// An input file could not be read.
+    #[error("{path}: {message}")]
+    Read {
+        /// The file.
+        path: String,
+        /// Why.
+        message: String,
+    },
+    /// Arguments that make no sense together.
+    #[error("{0}")]
+    Usage(String),
+}
+
+/// `--machine FILE`.
+#[derive(Debug, Args)]
+pub struct MachineArgs {
+    /// Machine file (TOML); default: the embedded `hvmc` preset.
+    #[arg(long, value_name = "FILE")]
+    pub machine: Option<PathBuf>,
+}
+
+impl MachineArgs {
+    /// The machine to use.
+    pub fn load(&self) -> Result<MachineConfig, CliError> {
+        match &self.machine {
+            Some(path) => Ok(MachineConfig::load(path)?),
+            None => Ok(MachineConfig::default_preset()),
+        }
+    }
+}
+
+/// Planner flags.
+#[derive(Debug, Args)]
+pub struct PlanningArgs {
+    /// Speed profile: s-curve (jerk-limited), trapezoid, or ideal (the programmed feed from the
+    /// first instant, as in the paper's experiments).
+    #[arg(long, default_value = "s-curve", value_name = "KIND")]
+    pub profile: ProfileKind,
+    /// Interpolation cycle in ms (default: the machine's).
+    #[arg(long, value_name = "MS")]
+    pub cycle_ms: Option<f64>,
+    /// Corner tolerance under G64 without P, in mm.
+    #[arg(long, default_value_t = 0.01, value_name = "MM")]
+    pub blend_tolerance_mm: f64,
+}
+
+impl PlanningArgs {
+    /// Validated planner settings.
+    pub fn config(&self, machine: &MachineConfig) -> Result<PlanConfig, CliError> {
+        let mut c = PlanConfig::for_machine(machine);
+        c.profile = self.profile;
+        if let Some(ms) = self.cycle_ms {
+            if !(ms.is_finite() && (0.05..=100.0).contains(&ms)) {
+                return Err(CliError::Usage(format!(
+                    "--cycle-ms {ms}: must lie between 0.05 and 100"
+                )));
+            }
+            c.cycle_s = s_from_ms(ms);
+        }
+        let tol = self.blend_tolerance_mm;
+        if !(tol.is_finite() && tol > 0.0) {
+            return Err(CliError::Usage(format!(
+                "--blend-tolerance-mm {tol}: must be positive"
+            )));
+        }
+        c.default_blend_tolerance_m = m_from_mm(tol);
+        Ok(c)
+    }
+}
+
+/// Reads and interprets a program (bytes that are not UTF-8, in comments say, are replaced).
+pub fn load_program(path: &Path) -> Result<Program, CliError> {
+    let bytes = std::fs::read(path).map_err(|e| CliError::Read {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })?;
+    let text = String::from_utf8_lossy(&bytes);
+    Ok(parse_program(
+        &text,
+        &path.display().to_string(),
+        &InterpretOptions::default(),
+    )?)
+}
+
+/// "1 h 02 min 03.4 s" style durations.
+pub fn format_duration(seconds: f64) -> String {
+    let h = (seconds / 3600.0).floor();
+    let m = ((seconds - h * 3600.0) / 60.0).floor();
+    let s = seconds - h * 3600.0 - m * 60.0;
+    if h > 0.0 {
+        format!("{h:.0} h {m:02.0} min {s:04.1} s")
+    } else if m > 0.0 {
+        format!("{m:.0} min {s:04.1} s")
+    } else {
+        format!("{s:.2} s")
+    }
+}
+
+/// Warnings with the same message merged into one line listing where they occur
+/// ("lines 11, 14, 17 … (143 places): message"), in order of first appearance.
+pub fn group_warnings(warnings: &[crate::gcode::Warning]) -> Vec<String> {
+    let mut groups: Vec<(&str, Vec<u32>)> = Vec::new();
+    for w in warnings {
+        match groups.iter_mut().find(|(m, _)| *m == w.message) {
+            Some((_, lines)) => lines.push(w.line),
+            None => groups.push((&w.message, vec![w.line])),
+        }
+    }
+    groups
+        .into_iter()
+        .map(|(message, lines)| match lines.as_slice() {
+            [0] => message.to_string(),
+            [one] => format!("line {one}: {message}"),
+            many => {
+                let shown: Vec<String> = many.iter().take(3).map(u32::to_string).collect();
+                let more = if many.len() > 3 {
+                    format!(" … ({} places)", many.len())
+                } else {
+                    String::new()
+                };
+                format!("lines {}{more}: {message}", shown.join(", "))
+            }
+        })
+        .collect()
+}

@@ -1,0 +1,53 @@
+//! Command-line interface: raw flags (clap) are turned into validated settings, the library
+//! does the work, and results are printed. Exit status: 0 ok, 1 prediction over tolerance,
+//! 2 error.
+
+mod common;
+mod plan_cmd;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+pub use common::CliError;
+
+/// contourcheck: predicts a heavy CNC machining centre's contour error from a part program.
+#[derive(Debug, Parser)]
+#[command(name = "contourcheck", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Parse and plan a program: blocks, path length, cycle time, peak axis dynamics.
+    Plan(plan_cmd::PlanArgs),
+}
+
+/// What a run ended with.
+pub enum Outcome {
+    /// Success.
+    Ok,
+    /// The prediction exceeded the tolerance the user set.
+    OverTolerance,
+}
+
+/// Parses the process arguments, runs the command and returns the exit status.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(Outcome::Ok) => ExitCode::SUCCESS,
+        Ok(Outcome::OverTolerance) => ExitCode::from(1),
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<Outcome, CliError> {
+    match cli.command {
+        Command::Plan(args) => plan_cmd::run(&args),
+    }
+}

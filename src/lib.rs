@@ -1,0 +1,15 @@
+//! contourcheck predicts how far a heavy CNC machining centre will stray from the programmed
+//! contour, from the part program and a model of the machine's servo-feed axes.
+//!
+//! The pipeline, one module per stage: [`gcode`] (parse and interpret) → [`path`] (exact
+//! geometry) → [`plan`] (feed planning and interpolation) → … See `ARCHITECTURE.md`.
+
+#![deny(missing_docs)]
+
+pub mod cli;
+pub mod gcode;
+pub mod machine;
+pub mod output;
+pub mod path;
+pub mod plan;
+pub mod units;

@@ -1,0 +1,521 @@
+//! Machine configuration: one TOML file, one section per axis, every value in the unit a CNC
+//! engineer reads off the control (Kv in m/min/mm, K_s in N·m·s/rad, backlash in µm).
+//!
+//! The paper's machine is embedded as the preset `hvmc` (see `hvmc.toml`, which documents
+//! every key with its unit and source). A user file starts from a preset (`base = "hvmc"`,
+//! the default) and overrides only the keys it names. Loading validates the whole machine
+//! before anything runs: a missing, negative, non-finite or inconsistent value is an error
+//! naming the key and the file.
+
+mod validate;
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+/// The embedded presets: name and TOML text.
+pub const PRESETS: [(&str, &str); 1] = [("hvmc", include_str!("hvmc.toml"))];
+
+/// The default preset's name.
+pub const DEFAULT_PRESET: &str = "hvmc";
+
+/// A whole machine: interpolation settings and the X, Y (simulated) and Z (planned) axes.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MachineConfig {
+    /// Short name, shown in reports.
+    pub name: String,
+    /// One-line description.
+    pub description: String,
+    /// Interpolator settings.
+    pub interpolation: Interpolation,
+    /// X axis.
+    pub x: AxisConfig,
+    /// Y axis.
+    pub y: AxisConfig,
+    /// Z axis: only its kinematic limits (Z is planned, not simulated).
+    pub z: PlannedAxis,
+}
+
+/// Interpolator settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Interpolation {
+    /// Interpolation (IPO) cycle: the period of the position commands (ms).
+    pub cycle_ms: f64,
+}
+
+/// One simulated feed axis.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxisConfig {
+    /// Position loop (P + feed-forward).
+    pub position_loop: PositionLoop,
+    /// Velocity loop (PI).
+    pub velocity_loop: VelocityLoop,
+    /// Current loop (PI with filters).
+    pub current_loop: CurrentLoop,
+    /// Servo motor.
+    pub motor: Motor,
+    /// Coupling, ball screw, nut and table.
+    pub drive: Drive,
+    /// Guideway friction at the table.
+    pub friction: Friction,
+    /// Lateral shift of the screw from beam sag (only on the axis that moves the tool
+    /// holder along the beam).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lateral_shift: Option<LateralShift>,
+    /// Kinematic limits for the planner.
+    pub limits: Limits,
+}
+
+/// An axis that is planned but not simulated.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlannedAxis {
+    /// Kinematic limits for the planner.
+    pub limits: Limits,
+}
+
+/// Where the position loop reads the axis position.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Feedback {
+    /// Full closed loop: a linear scale on the table.
+    LinearScale,
+    /// Semi-closed loop: the motor encoder, translated by the nominal lead.
+    MotorEncoder,
+}
+
+/// Position loop.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PositionLoop {
+    /// Position gain Kv (m/min/mm; 1 m/min/mm = 16.667 1/s).
+    pub kv_m_per_min_per_mm: f64,
+    /// Velocity feed-forward factor k_f (0 = off, 1 = full).
+    pub velocity_feedforward: f64,
+    /// Acceleration feed-forward factor k_a (0 = off, 1 = full).
+    pub accel_feedforward: f64,
+    /// Position feedback.
+    pub feedback: Feedback,
+}
+
+/// Velocity loop.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VelocityLoop {
+    /// Proportional gain K_s as set on the CNC (N·m·s/rad; divided by K_t inside).
+    pub ks_nm_s_per_rad: f64,
+    /// Integral time T_s (ms).
+    pub ts_ms: f64,
+    /// Current command limit (A).
+    pub i_max_a: f64,
+}
+
+/// Current loop.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CurrentLoop {
+    /// Proportional gain K_i (V/A).
+    pub ki_v_per_a: f64,
+    /// Integral time T_i (ms).
+    pub ti_ms: f64,
+    /// Time constant of the current filters, forward and feedback (ms).
+    pub tcf_ms: f64,
+    /// Voltage limit (V).
+    pub u_max_v: f64,
+}
+
+/// Servo motor.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Motor {
+    /// Armature resistance R_a (Ω).
+    pub ra_ohm: f64,
+    /// Armature inductance L_a (mH).
+    pub la_mh: f64,
+    /// Torque constant K_t (N·m/A).
+    pub kt_nm_per_a: f64,
+    /// Back-EMF constant K_e (V·s/rad).
+    pub ke_v_s_per_rad: f64,
+    /// Rotor (+ sleeve) inertia J_m (kg·m²).
+    pub jm_kg_m2: f64,
+}
+
+/// Mechanical drive: coupling, gear, ball screw, nut, table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Drive {
+    /// Screw (+ sleeve) inertia J_s (kg·m²).
+    pub js_kg_m2: f64,
+    /// Torsional stiffness at the coupling K_θ (N·m/rad).
+    pub k_theta_nm_per_rad: f64,
+    /// Axial stiffness screw–nut–table K_m (N/m).
+    pub k_m_n_per_m: f64,
+    /// Damping ratio of the torsional mode ζ_θ.
+    pub zeta_theta: f64,
+    /// Damping ratio of the axial mode ζ_m.
+    pub zeta_m: f64,
+    /// Ball-screw lead P (mm per screw revolution).
+    pub lead_mm: f64,
+    /// Gear ratio i_t (screw angle per motor angle).
+    pub gear_ratio: f64,
+    /// Table (+ nut) mass M_T (kg).
+    pub table_mass_kg: f64,
+    /// Viscous damping of the screw bearings B (N·m·s/rad).
+    pub screw_viscous_nm_s_per_rad: f64,
+    /// Total free play of the screw–nut b (µm).
+    pub backlash_um: f64,
+}
+
+/// Guideway friction (static, Coulomb, viscous).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Friction {
+    /// Coulomb coefficient c: f_c = c·M_T·g.
+    pub coulomb_coefficient: f64,
+    /// Static-to-Coulomb ratio f_s/f_c (≥ 1).
+    pub static_to_coulomb: f64,
+    /// Viscous coefficient f_v (N·s/m).
+    pub viscous_n_s_per_m: f64,
+}
+
+/// Beam sag that tilts the screw and scales its lead (MODEL.md §1.7).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LateralShift {
+    /// Beam length l (m).
+    pub beam_length_m: f64,
+    /// Bending stiffness EI (N·m²).
+    pub bending_stiffness_n_m2: f64,
+    /// Weight of tool holder, ram and slide F (N).
+    pub holder_load_n: f64,
+    /// Distance a of the holder from the beam's left end when the axis is at 0 (m).
+    pub holder_at_zero_m: f64,
+}
+
+/// Kinematic limits of an axis, for the planner.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Limits {
+    /// Highest cutting feed (mm/min).
+    pub max_feed_mm_per_min: f64,
+    /// Rapid traverse rate (mm/min).
+    pub rapid_mm_per_min: f64,
+    /// Acceleration limit (m/s²).
+    pub max_accel_m_per_s2: f64,
+    /// Jerk limit (m/s³).
+    pub max_jerk_m_per_s3: f64,
+}
+
+/// Which of the two simulated axes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, PartialOrd, Ord)]
+#[serde(rename_all = "lowercase")]
+pub enum AxisName {
+    /// X.
+    X,
+    /// Y.
+    Y,
+}
+
+impl AxisName {
+    /// Both simulated axes.
+    pub const BOTH: [AxisName; 2] = [AxisName::X, AxisName::Y];
+
+    /// Lower-case name as used in keys and on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            AxisName::X => "x",
+            AxisName::Y => "y",
+        }
+    }
+
+    /// Index into XY arrays.
+    pub fn index(self) -> usize {
+        match self {
+            AxisName::X => 0,
+            AxisName::Y => 1,
+        }
+    }
+}
+
+impl std::fmt::Display for AxisName {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            AxisName::X => "X",
+            AxisName::Y => "Y",
+        })
+    }
+}
+
+impl std::str::FromStr for AxisName {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s.to_ascii_lowercase().as_str() {
+            "x" => Ok(AxisName::X),
+            "y" => Ok(AxisName::Y),
+            other => Err(format!("no simulated axis '{other}' (x or y)")),
+        }
+    }
+}
+
+impl MachineConfig {
+    /// The axis by name.
+    pub fn axis(&self, name: AxisName) -> &AxisConfig {
+        match name {
+            AxisName::X => &self.x,
+            AxisName::Y => &self.y,
+        }
+    }
+
+    /// The axis by name, mutably.
+    pub fn axis_mut(&mut self, name: AxisName) -> &mut AxisConfig {
+        match name {
+            AxisName::X => &mut self.x,
+            AxisName::Y => &mut self.y,
+        }
+    }
+
+    /// The embedded default machine.
+    pub fn default_preset() -> MachineConfig {
+        Self::preset(DEFAULT_PRESET).expect("the embedded default preset is valid")
+    }
+
+    /// An embedded preset by name, validated.
+    pub fn preset(name: &str) -> Result<MachineConfig, ConfigError> {
+        let table = preset_table(name, "<command line>")?;
+        from_table(table, &format!("<preset {name}>"))
+    }
+
+    /// Loads a machine file: its `base` preset (default `hvmc`, or `"none"`) with the file's
+    /// keys laid over it, then validated.
+    pub fn load(path: &Path) -> Result<MachineConfig, ConfigError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| ConfigError::Io {
+            file: file.clone(),
+            message: e.to_string(),
+        })?;
+        Self::from_toml_str(&text, &file)
+    }
+
+    /// Parses a machine from TOML text; `file` names it in errors.
+    pub fn from_toml_str(text: &str, file: &str) -> Result<MachineConfig, ConfigError> {
+        let mut over: toml::Table =
+            text.parse()
+                .map_err(|e: toml::de::Error| ConfigError::Syntax {
+                    file: file.to_string(),
+                    message: syntax_message(text, &e),
+                })?;
+        let base = match over.remove("base") {
+            None => DEFAULT_PRESET.to_string(),
+            Some(toml::Value::String(s)) => s,
+            Some(other) => {
+                return Err(ConfigError::Invalid {
+                    file: file.to_string(),
+                    key: "base".into(),
+                    problem: format!("must be a preset name, not {other}"),
+                });
+            }
+        };
+        let mut table = if base == "none" {
+            toml::Table::new()
+        } else {
+            preset_table(&base, file)?
+        };
+        merge(&mut table, over);
+        from_table(table, file)
+    }
+
+    /// The machine as TOML (the full set of keys, no `base`).
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).expect("a machine always serialises")
+    }
+}
+
+/// A configuration error, naming the file and the key.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("{file}: {message}")]
+    Io {
+        /// File.
+        file: String,
+        /// OS message.
+        message: String,
+    },
+    /// Not valid TOML.
+    #[error("{file}: {message}")]
+    Syntax {
+        /// File.
+        file: String,
+        /// Parser message with line and column.
+        message: String,
+    },
+    /// A key that must be present is not.
+    #[error("{file}: missing key `{key}`")]
+    Missing {
+        /// File.
+        file: String,
+        /// Dotted key path.
+        key: String,
+    },
+    /// A key the machine does not have (a typo, usually).
+    #[error("{file}: unknown key `{key}`")]
+    UnknownKey {
+        /// File.
+        file: String,
+        /// Dotted key path.
+        key: String,
+    },
+    /// A value of the wrong type, out of range or inconsistent with another.
+    #[error("{file}: key `{key}` {problem}")]
+    Invalid {
+        /// File.
+        file: String,
+        /// Dotted key path.
+        key: String,
+        /// What is wrong.
+        problem: String,
+    },
+    /// `base` names no embedded preset.
+    #[error("{file}: no preset named `{name}` (available: {available})")]
+    UnknownPreset {
+        /// File.
+        file: String,
+        /// The name given.
+        name: String,
+        /// The presets there are.
+        available: String,
+    },
+}
+
+fn preset_table(name: &str, file: &str) -> Result<toml::Table, ConfigError> {
+    let Some((_, text)) = PRESETS.iter().find(|(n, _)| *n == name) else {
+        return Err(ConfigError::UnknownPreset {
+            file: file.to_string(),
+            name: name.to_string(),
+            available: PRESETS
+                .iter()
+                .map(|(n, _)| *n)
+                .collect::<Vec<_>>()
+                .join(", "),
+        });
+    };
+    Ok(text.parse().expect("embedded presets are valid TOML"))
+}
+
+/// Lays `over` onto `base`, table by table; values in `over` win.
+fn merge(base: &mut toml::Table, over: toml::Table) {
+    for (key, value) in over {
+        match (base.get_mut(&key), value) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge(b, o),
+            (_, v) => {
+                base.insert(key, v);
+            }
+        }
+    }
+}
+
+fn from_table(table: toml::Table, file: &str) -> Result<MachineConfig, ConfigError> {
+    let value = toml::Value::Table(table);
+    let machine: MachineConfig = serde_path_to_error::deserialize(value).map_err(|e| {
+        let key = e.path().to_string();
+        let message = e.inner().to_string();
+        classify_serde_error(file, &key, &message)
+    })?;
+    validate::validate(&machine, file)?;
+    Ok(machine)
+}
+
+fn classify_serde_error(file: &str, path: &str, message: &str) -> ConfigError {
+    // serde_path_to_error's path ends at the unknown key itself but at the parent of a
+    // missing one.
+    let join = |leaf: &str| {
+        if path.is_empty() || path == "." {
+            leaf.to_string()
+        } else if path == leaf || path.ends_with(&format!(".{leaf}")) {
+            path.to_string()
+        } else {
+            format!("{path}.{leaf}")
+        }
+    };
+    let quoted = message.split('`').nth(1).unwrap_or("").to_string();
+    if message.starts_with("missing field") {
+        ConfigError::Missing {
+            file: file.into(),
+            key: join(&quoted),
+        }
+    } else if message.starts_with("unknown field") {
+        ConfigError::UnknownKey {
+            file: file.into(),
+            key: join(&quoted),
+        }
+    } else {
+        ConfigError::Invalid {
+            file: file.into(),
+            key: path.to_string(),
+            problem: message.to_string(),
+        }
+    }
+}
+
+/// toml's message, reduced to "line L, column C: …".
+fn syntax_message(text: &str, e: &toml::de::Error) -> String {
+    match e.span() {
+        Some(span) => {
+            let before = &text[..span.start.min(text.len())];
+            let line = before.matches('\n').count() + 1;
+            let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+            format!("line {line}, column {column}: {}", e.message())
+        }
+        None => e.message().to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn preset_loads_and_round_trips() {
+        let m = MachineConfig::default_preset();
+        assert_eq!(m.x.position_loop.kv_m_per_min_per_mm, 1.0);
+        assert!(m.x.lateral_shift.is_some() && m.y.lateral_shift.is_none());
+        let again = MachineConfig::from_toml_str(&format!("base = \"none\"\n{}", m.to_toml()), "t")
+            .unwrap();
+        assert_eq!(again, m);
+    }
+
+    #[test]
+    fn a_file_overrides_only_what_it_names() {
+        let m = MachineConfig::from_toml_str("[x.drive]\nbacklash_um = 12.5\n", "m.toml").unwrap();
+        assert_eq!(m.x.drive.backlash_um, 12.5);
+        assert_eq!(m.y.drive.backlash_um, 0.0);
+        assert_eq!(m.x.drive.lead_mm, 16.0);
+    }
+
+    #[test]
+    fn errors_name_the_key_and_the_file() {
+        let e = MachineConfig::from_toml_str("[x.drive]\nbacklash_um = -1.0\n", "m.toml");
+        assert_eq!(
+            e.unwrap_err().to_string(),
+            "m.toml: key `x.drive.backlash_um` must not be negative (got -1)"
+        );
+        let e = MachineConfig::from_toml_str("[x.drive]\nbaklash_um = 1.0\n", "m.toml");
+        assert_eq!(
+            e.unwrap_err().to_string(),
+            "m.toml: unknown key `x.drive.baklash_um`"
+        );
+        let e = MachineConfig::from_toml_str("base = \"none\"\nname = \"a\"\n", "m.toml");
+        assert!(matches!(e.unwrap_err(), ConfigError::Missing { .. }));
+        let e = MachineConfig::from_toml_str("[x.motor]\nra_ohm = \"a\"\n", "m.toml");
+        assert!(e.unwrap_err().to_string().contains("x.motor.ra_ohm"));
+        let e = MachineConfig::from_toml_str("[x.motor\n", "m.toml");
+        assert!(
+            e.unwrap_err()
+                .to_string()
+                .starts_with("m.toml: line 1, column")
+        );
+    }
+}

@@ -1,0 +1,192 @@
+//! Validation of a whole machine: every number finite and in range, and the values that
+//! must agree with each other (static ≥ Coulomb friction, rapid ≥ cutting feed) agreeing.
+
+use super::{AxisConfig, ConfigError, Limits, MachineConfig};
+
+/// What a value must satisfy.
+#[derive(Clone, Copy)]
+enum Rule {
+    /// > 0.
+    Positive,
+    /// ≥ 0.
+    NonNegative,
+    /// Within [lo, hi].
+    Range(f64, f64),
+}
+
+struct Checker<'a> {
+    file: &'a str,
+}
+
+impl Checker<'_> {
+    fn check(&self, key: &str, value: f64, rule: Rule) -> Result<(), ConfigError> {
+        let problem = if !value.is_finite() {
+            Some("must be a finite number".to_string())
+        } else {
+            match rule {
+                Rule::Positive if value <= 0.0 => Some("must be positive".to_string()),
+                Rule::NonNegative if value < 0.0 => Some("must not be negative".to_string()),
+                Rule::Range(lo, hi) if !(lo..=hi).contains(&value) => {
+                    Some(format!("must lie between {lo} and {hi}"))
+                }
+                _ => None,
+            }
+        };
+        match problem {
+            Some(p) => Err(ConfigError::Invalid {
+                file: self.file.to_string(),
+                key: key.to_string(),
+                problem: format!("{p} (got {value})"),
+            }),
+            None => Ok(()),
+        }
+    }
+
+    fn inconsistent(&self, key: &str, problem: String) -> ConfigError {
+        ConfigError::Invalid {
+            file: self.file.to_string(),
+            key: key.to_string(),
+            problem,
+        }
+    }
+}
+
+/// Validates a deserialised machine.
+pub fn validate(m: &MachineConfig, file: &str) -> Result<(), ConfigError> {
+    let c = Checker { file };
+    c.check(
+        "interpolation.cycle_ms",
+        m.interpolation.cycle_ms,
+        Rule::Range(0.05, 100.0),
+    )?;
+    validate_axis(&c, "x", &m.x)?;
+    validate_axis(&c, "y", &m.y)?;
+    validate_limits(&c, "z.limits", &m.z.limits)
+}
+
+fn validate_axis(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigError> {
+    use Rule::{NonNegative, Positive, Range};
+    let k = |s: &str| format!("{axis}.{s}");
+    let p = &a.position_loop;
+    c.check(
+        &k("position_loop.kv_m_per_min_per_mm"),
+        p.kv_m_per_min_per_mm,
+        Positive,
+    )?;
+    c.check(
+        &k("position_loop.velocity_feedforward"),
+        p.velocity_feedforward,
+        Range(0.0, 2.0),
+    )?;
+    c.check(
+        &k("position_loop.accel_feedforward"),
+        p.accel_feedforward,
+        Range(0.0, 2.0),
+    )?;
+    let v = &a.velocity_loop;
+    c.check(
+        &k("velocity_loop.ks_nm_s_per_rad"),
+        v.ks_nm_s_per_rad,
+        Positive,
+    )?;
+    c.check(&k("velocity_loop.ts_ms"), v.ts_ms, Positive)?;
+    c.check(&k("velocity_loop.i_max_a"), v.i_max_a, Positive)?;
+    let i = &a.current_loop;
+    c.check(&k("current_loop.ki_v_per_a"), i.ki_v_per_a, Positive)?;
+    c.check(&k("current_loop.ti_ms"), i.ti_ms, Positive)?;
+    c.check(&k("current_loop.tcf_ms"), i.tcf_ms, Positive)?;
+    c.check(&k("current_loop.u_max_v"), i.u_max_v, Positive)?;
+    let mo = &a.motor;
+    c.check(&k("motor.ra_ohm"), mo.ra_ohm, Positive)?;
+    c.check(&k("motor.la_mh"), mo.la_mh, Positive)?;
+    c.check(&k("motor.kt_nm_per_a"), mo.kt_nm_per_a, Positive)?;
+    c.check(&k("motor.ke_v_s_per_rad"), mo.ke_v_s_per_rad, NonNegative)?;
+    c.check(&k("motor.jm_kg_m2"), mo.jm_kg_m2, Positive)?;
+    let d = &a.drive;
+    c.check(&k("drive.js_kg_m2"), d.js_kg_m2, Positive)?;
+    c.check(
+        &k("drive.k_theta_nm_per_rad"),
+        d.k_theta_nm_per_rad,
+        Positive,
+    )?;
+    c.check(&k("drive.k_m_n_per_m"), d.k_m_n_per_m, Positive)?;
+    c.check(&k("drive.zeta_theta"), d.zeta_theta, Range(0.0, 2.0))?;
+    c.check(&k("drive.zeta_m"), d.zeta_m, Range(0.0, 2.0))?;
+    c.check(&k("drive.lead_mm"), d.lead_mm, Positive)?;
+    c.check(&k("drive.gear_ratio"), d.gear_ratio, Positive)?;
+    c.check(&k("drive.table_mass_kg"), d.table_mass_kg, Positive)?;
+    c.check(
+        &k("drive.screw_viscous_nm_s_per_rad"),
+        d.screw_viscous_nm_s_per_rad,
+        NonNegative,
+    )?;
+    c.check(&k("drive.backlash_um"), d.backlash_um, NonNegative)?;
+    let f = &a.friction;
+    c.check(
+        &k("friction.coulomb_coefficient"),
+        f.coulomb_coefficient,
+        Range(0.0, 1.0),
+    )?;
+    c.check(
+        &k("friction.static_to_coulomb"),
+        f.static_to_coulomb,
+        Positive,
+    )?;
+    c.check(
+        &k("friction.viscous_n_s_per_m"),
+        f.viscous_n_s_per_m,
+        NonNegative,
+    )?;
+    if f.static_to_coulomb < 1.0 {
+        return Err(c.inconsistent(
+            &k("friction.static_to_coulomb"),
+            format!(
+                "is {}: static friction below Coulomb friction would let a stuck table slide \
+                 under less force than a sliding one needs (must be at least 1)",
+                f.static_to_coulomb
+            ),
+        ));
+    }
+    if let Some(ls) = &a.lateral_shift {
+        c.check(
+            &k("lateral_shift.beam_length_m"),
+            ls.beam_length_m,
+            Positive,
+        )?;
+        c.check(
+            &k("lateral_shift.bending_stiffness_n_m2"),
+            ls.bending_stiffness_n_m2,
+            Positive,
+        )?;
+        c.check(
+            &k("lateral_shift.holder_load_n"),
+            ls.holder_load_n,
+            NonNegative,
+        )?;
+        c.check(
+            &k("lateral_shift.holder_at_zero_m"),
+            ls.holder_at_zero_m,
+            Range(0.0, ls.beam_length_m),
+        )?;
+    }
+    validate_limits(c, &k("limits"), &a.limits)
+}
+
+fn validate_limits(c: &Checker, prefix: &str, l: &Limits) -> Result<(), ConfigError> {
+    use Rule::Positive;
+    let k = |s: &str| format!("{prefix}.{s}");
+    c.check(&k("max_feed_mm_per_min"), l.max_feed_mm_per_min, Positive)?;
+    c.check(&k("rapid_mm_per_min"), l.rapid_mm_per_min, Positive)?;
+    c.check(&k("max_accel_m_per_s2"), l.max_accel_m_per_s2, Positive)?;
+    c.check(&k("max_jerk_m_per_s3"), l.max_jerk_m_per_s3, Positive)?;
+    if l.rapid_mm_per_min < l.max_feed_mm_per_min {
+        return Err(c.inconsistent(
+            &k("rapid_mm_per_min"),
+            format!(
+                "is {} mm/min, below the maximum cutting feed {} mm/min",
+                l.rapid_mm_per_min, l.max_feed_mm_per_min
+            ),
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,534 @@
+//! The programmed path: lines, arcs and dwells with exact geometry, in metres, each
+//! carrying the source line of the block that made it.
+//!
+//! Arcs are general enough for what real controls interpolate: a circle in XY, optionally
+//! helical (Z linear in the angle) and optionally a slight Archimedean spiral (radius linear
+//! in the angle) — the way LinuxCNC interprets an I/J arc whose end radius differs from its
+//! start radius within tolerance. Everything downstream evaluates the geometry by arc
+//! length `s` along the 3-D path, so that the planner's speed is the true tool speed.
+
+use serde::Serialize;
+
+/// Whether a move is a rapid (G0) or a feed move (G1/G2/G3).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Motion {
+    /// G0: at the machine's rapid rate.
+    Rapid,
+    /// G1/G2/G3: at the programmed feed.
+    Feed,
+}
+
+/// How the move ends: stop exactly (G61) or blend into the next (G64).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Blend {
+    /// G61 / G61.1: come to a stop at the end of the move.
+    ExactStop,
+    /// G64: keep moving through the junction, deviating from the corner by at most the
+    /// tolerance (metres; `None` = the machine's default).
+    Continuous {
+        /// G64 P value converted to metres.
+        tolerance_m: Option<f64>,
+    },
+}
+
+/// A circular, helical or slightly spiral arc in the XY plane.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Arc {
+    /// Centre in XY (m).
+    pub center_m: [f64; 2],
+    /// Radius at the start (m).
+    pub r_start_m: f64,
+    /// Radius at the end (m); differs from `r_start_m` only for a tolerated spiral.
+    pub r_end_m: f64,
+    /// Polar angle of the start point about the centre (rad).
+    pub theta_start_rad: f64,
+    /// Signed swept angle (rad): positive counter-clockwise (G3), negative clockwise (G2).
+    /// Its magnitude exceeds 2π for multi-turn arcs.
+    pub sweep_rad: f64,
+}
+
+/// The shape of a segment.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "type", rename_all = "snake_case")]
+pub enum Geometry {
+    /// A straight move.
+    Line,
+    /// An arc (see [`Arc`]).
+    Arc(Arc),
+    /// A dwell (G4): no motion for a time.
+    Dwell {
+        /// Dwell time (s).
+        seconds: f64,
+    },
+}
+
+/// One segment of the programmed path.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Segment {
+    /// Shape.
+    pub geometry: Geometry,
+    /// Start point in machine coordinates (m).
+    pub start_m: [f64; 3],
+    /// End point in machine coordinates (m).
+    pub end_m: [f64; 3],
+    /// Rapid or feed.
+    pub motion: Motion,
+    /// Programmed feed (m/s); for rapids, `f64::INFINITY` (the machine's rapid rate).
+    pub feed_m_per_s: f64,
+    /// How the segment ends.
+    pub blend: Blend,
+    /// 1-based source line of the block that made it.
+    pub line: u32,
+}
+
+/// Position, unit tangent and curvature vector at a point of a segment.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PathPoint {
+    /// Position (m).
+    pub pos: [f64; 3],
+    /// dP/ds: the unit tangent (zero for dwells).
+    pub tangent: [f64; 3],
+    /// d²P/ds² (1/m): the curvature vector (zero for lines).
+    pub curvature: [f64; 3],
+}
+
+/// 8-point Gauss–Legendre nodes and weights on [0, 1]: exact to machine precision for the
+/// smooth, nearly constant speed of a spiral arc.
+const GL_NODES: [f64; 8] = [
+    0.019_855_071_751_231_856,
+    0.101_666_761_293_186_63,
+    0.237_233_795_041_835_5,
+    0.408_282_678_752_175_1,
+    0.591_717_321_247_824_9,
+    0.762_766_204_958_164_5,
+    0.898_333_238_706_813_4,
+    0.980_144_928_248_768_2,
+];
+const GL_WEIGHTS: [f64; 8] = [
+    0.050_614_268_145_188_13,
+    0.111_190_517_226_687_24,
+    0.156_853_322_938_943_65,
+    0.181_341_891_689_180_99,
+    0.181_341_891_689_180_99,
+    0.156_853_322_938_943_65,
+    0.111_190_517_226_687_24,
+    0.050_614_268_145_188_13,
+];
+
+impl Arc {
+    /// Radius change over the arc (m).
+    fn dr(&self) -> f64 {
+        self.r_end_m - self.r_start_m
+    }
+
+    fn is_spiral(&self) -> bool {
+        self.dr() != 0.0
+    }
+
+    /// |dP/du| at parameter u ∈ [0, 1], with `dz` the Z travel.
+    fn speed_du(&self, u: f64, dz: f64) -> f64 {
+        let r = self.r_start_m + self.dr() * u;
+        ((self.sweep_rad * r).powi(2) + self.dr().powi(2) + dz * dz).sqrt()
+    }
+
+    /// Arc length from u = 0 to `u` (m).
+    fn length_to(&self, u: f64, dz: f64) -> f64 {
+        if !self.is_spiral() {
+            return u * self.speed_du(0.0, dz);
+        }
+        u * GL_NODES
+            .iter()
+            .zip(GL_WEIGHTS)
+            .map(|(x, w)| w * self.speed_du(u * x, dz))
+            .sum::<f64>()
+    }
+
+    /// The parameter u at arc length `s` (Newton on the monotone length function).
+    fn param_at(&self, s: f64, length: f64, dz: f64) -> f64 {
+        if length <= 0.0 {
+            return 0.0;
+        }
+        let mut u = (s / length).clamp(0.0, 1.0);
+        if self.is_spiral() {
+            for _ in 0..8 {
+                let step = (self.length_to(u, dz) - s) / self.speed_du(u, dz);
+                u = (u - step).clamp(0.0, 1.0);
+                if step.abs() < 1e-15 {
+                    break;
+                }
+            }
+        }
+        u
+    }
+
+    /// XY point at parameter u.
+    pub fn xy_at(&self, u: f64) -> [f64; 2] {
+        let r = self.r_start_m + self.dr() * u;
+        let th = self.theta_start_rad + self.sweep_rad * u;
+        [
+            self.center_m[0] + r * th.cos(),
+            self.center_m[1] + r * th.sin(),
+        ]
+    }
+
+    /// Radius at parameter u (m).
+    pub fn radius_at(&self, u: f64) -> f64 {
+        self.r_start_m + self.dr() * u
+    }
+
+    /// Smallest radius along the arc (m).
+    pub fn min_radius_m(&self) -> f64 {
+        self.r_start_m.min(self.r_end_m)
+    }
+
+    /// Length of the XY projection (m).
+    pub fn xy_length_m(&self) -> f64 {
+        self.length_to(1.0, 0.0)
+    }
+}
+
+impl Segment {
+    /// Length of the 3-D path (m); zero for dwells.
+    pub fn length_m(&self) -> f64 {
+        match self.geometry {
+            Geometry::Line => dist3(self.start_m, self.end_m),
+            Geometry::Arc(a) => a.length_to(1.0, self.end_m[2] - self.start_m[2]),
+            Geometry::Dwell { .. } => 0.0,
+        }
+    }
+
+    /// Length of the XY projection (m).
+    pub fn xy_length_m(&self) -> f64 {
+        match self.geometry {
+            Geometry::Line => {
+                (self.end_m[0] - self.start_m[0]).hypot(self.end_m[1] - self.start_m[1])
+            }
+            Geometry::Arc(a) => a.xy_length_m(),
+            Geometry::Dwell { .. } => 0.0,
+        }
+    }
+
+    /// True for dwells.
+    pub fn is_dwell(&self) -> bool {
+        matches!(self.geometry, Geometry::Dwell { .. })
+    }
+
+    /// Position, tangent and curvature at arc length `s` (m) from the segment's start.
+    /// `length` must be [`Segment::length_m`] (passed in because callers cache it).
+    pub fn eval(&self, s: f64, length: f64) -> PathPoint {
+        match self.geometry {
+            Geometry::Dwell { .. } => PathPoint {
+                pos: self.start_m,
+                tangent: [0.0; 3],
+                curvature: [0.0; 3],
+            },
+            Geometry::Line => {
+                if length <= 0.0 {
+                    return PathPoint {
+                        pos: self.start_m,
+                        tangent: [0.0; 3],
+                        curvature: [0.0; 3],
+                    };
+                }
+                let u = (s / length).clamp(0.0, 1.0);
+                let mut pos = [0.0; 3];
+                let mut tangent = [0.0; 3];
+                for i in 0..3 {
+                    let d = self.end_m[i] - self.start_m[i];
+                    pos[i] = self.start_m[i] + d * u;
+                    tangent[i] = d / length;
+                }
+                // The end point is reproduced exactly, not to rounding.
+                if u == 1.0 {
+                    pos = self.end_m;
+                }
+                PathPoint {
+                    pos,
+                    tangent,
+                    curvature: [0.0; 3],
+                }
+            }
+            Geometry::Arc(a) => self.eval_arc(&a, s, length),
+        }
+    }
+
+    fn eval_arc(&self, a: &Arc, s: f64, length: f64) -> PathPoint {
+        let dz = self.end_m[2] - self.start_m[2];
+        let u = a.param_at(s, length, dz);
+        let (k, phi) = (a.dr(), a.sweep_rad);
+        let r = a.r_start_m + k * u;
+        let th = a.theta_start_rad + phi * u;
+        let (sin, cos) = th.sin_cos();
+        let pos = if u == 1.0 {
+            self.end_m
+        } else {
+            [
+                a.center_m[0] + r * cos,
+                a.center_m[1] + r * sin,
+                self.start_m[2] + dz * u,
+            ]
+        };
+        // Derivatives with respect to u, then converted to arc length.
+        let p_u = [k * cos - r * phi * sin, k * sin + r * phi * cos, dz];
+        let p_uu = [
+            -2.0 * k * phi * sin - r * phi * phi * cos,
+            2.0 * k * phi * cos - r * phi * phi * sin,
+            0.0,
+        ];
+        let s_u = norm3(p_u);
+        if s_u == 0.0 {
+            return PathPoint {
+                pos,
+                tangent: [0.0; 3],
+                curvature: [0.0; 3],
+            };
+        }
+        let s_uu = dot3(p_u, p_uu) / s_u;
+        let mut tangent = [0.0; 3];
+        let mut curvature = [0.0; 3];
+        for i in 0..3 {
+            tangent[i] = p_u[i] / s_u;
+            curvature[i] = (p_uu[i] - p_u[i] * s_uu / s_u) / (s_u * s_u);
+        }
+        PathPoint {
+            pos,
+            tangent,
+            curvature,
+        }
+    }
+
+    /// Unit tangent at the start (zero for dwells and null moves).
+    pub fn start_tangent(&self) -> [f64; 3] {
+        self.eval(0.0, self.length_m()).tangent
+    }
+
+    /// Unit tangent at the end.
+    pub fn end_tangent(&self) -> [f64; 3] {
+        let l = self.length_m();
+        self.eval(l, l).tangent
+    }
+
+    /// Curvature vector at the start (1/m).
+    pub fn start_curvature(&self) -> [f64; 3] {
+        self.eval(0.0, self.length_m()).curvature
+    }
+
+    /// Curvature vector at the end (1/m).
+    pub fn end_curvature(&self) -> [f64; 3] {
+        let l = self.length_m();
+        self.eval(l, l).curvature
+    }
+}
+
+/// Result of projecting an XY point onto a segment.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Projection {
+    /// Signed distance (m): positive to the left of the direction of travel.
+    pub signed_distance_m: f64,
+    /// Parameter of the foot point along the segment, in [0, 1].
+    pub u: f64,
+    /// For arcs: radial deviation |q − c| − r(u) (m), positive outward; `None` for lines.
+    pub radial_m: Option<f64>,
+}
+
+impl Segment {
+    /// Projects an XY point onto the segment's XY projection. `u_hint` picks the turn of a
+    /// multi-turn arc (the foot point nearest to the hint).
+    pub fn project_xy(&self, q: [f64; 2], u_hint: f64) -> Projection {
+        match self.geometry {
+            Geometry::Line | Geometry::Dwell { .. } => {
+                let (p0, p1) = (
+                    [self.start_m[0], self.start_m[1]],
+                    [self.end_m[0], self.end_m[1]],
+                );
+                let d = [p1[0] - p0[0], p1[1] - p0[1]];
+                let l2 = d[0] * d[0] + d[1] * d[1];
+                if l2 == 0.0 {
+                    let dist = (q[0] - p0[0]).hypot(q[1] - p0[1]);
+                    return Projection {
+                        signed_distance_m: dist,
+                        u: 0.0,
+                        radial_m: None,
+                    };
+                }
+                let rel = [q[0] - p0[0], q[1] - p0[1]];
+                let u = ((rel[0] * d[0] + rel[1] * d[1]) / l2).clamp(0.0, 1.0);
+                let foot = [p0[0] + d[0] * u, p0[1] + d[1] * u];
+                let dist = (q[0] - foot[0]).hypot(q[1] - foot[1]);
+                // Left of travel = positive cross product of direction and offset.
+                let cross = d[0] * (q[1] - foot[1]) - d[1] * (q[0] - foot[0]);
+                Projection {
+                    signed_distance_m: dist.copysign(cross),
+                    u,
+                    radial_m: None,
+                }
+            }
+            Geometry::Arc(a) => {
+                let rel = [q[0] - a.center_m[0], q[1] - a.center_m[1]];
+                let rq = rel[0].hypot(rel[1]);
+                let ang = rel[1].atan2(rel[0]);
+                let u = arc_param_near(&a, ang, u_hint);
+                let radial = rq - a.radius_at(u);
+                let inside_angle = u > 0.0 && u < 1.0;
+                if inside_angle {
+                    // CCW travel has the centre on its left: outward is to the right.
+                    let signed = if a.sweep_rad > 0.0 { -radial } else { radial };
+                    Projection {
+                        signed_distance_m: signed,
+                        u,
+                        radial_m: Some(radial),
+                    }
+                } else {
+                    // Beyond an end: distance to the end point, sign from the radial side.
+                    let e = a.xy_at(u);
+                    let dist = (q[0] - e[0]).hypot(q[1] - e[1]);
+                    let side = if a.sweep_rad > 0.0 { -radial } else { radial };
+                    Projection {
+                        signed_distance_m: dist.copysign(side),
+                        u,
+                        radial_m: Some(radial),
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The arc parameter whose angle matches `ang` (mod 2π) and lies nearest `u_hint`, clamped
+/// to the arc.
+fn arc_param_near(a: &Arc, ang: f64, u_hint: f64) -> f64 {
+    let tau = std::f64::consts::TAU;
+    if a.sweep_rad == 0.0 {
+        return 0.0;
+    }
+    // Angle offset from the start in the direction of travel, in [0, 2π).
+    let signed = if a.sweep_rad > 0.0 {
+        ang - a.theta_start_rad
+    } else {
+        a.theta_start_rad - ang
+    };
+    let base = signed.rem_euclid(tau);
+    let turns = a.sweep_rad.abs();
+    // Candidates base + 2πn; choose the one nearest the hint's angle.
+    let hint_angle = u_hint.clamp(0.0, 1.0) * turns;
+    let n = ((hint_angle - base) / tau).round();
+    let mut best = base + n * tau;
+    // Keep within [−π, turns + π] so that angles just outside the ends clamp to the near end.
+    if best > turns + std::f64::consts::PI {
+        best -= tau;
+    }
+    if best < -std::f64::consts::PI {
+        best += tau;
+    }
+    (best / turns).clamp(0.0, 1.0)
+}
+
+/// Euclidean distance between two points.
+pub fn dist3(a: [f64; 3], b: [f64; 3]) -> f64 {
+    norm3([b[0] - a[0], b[1] - a[1], b[2] - a[2]])
+}
+
+/// Euclidean norm.
+pub fn norm3(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// Dot product.
+pub fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::{FRAC_PI_2, PI};
+
+    fn arc_segment(arc: Arc, z0: f64, z1: f64) -> Segment {
+        let s = arc.xy_at(0.0);
+        let e = arc.xy_at(1.0);
+        Segment {
+            geometry: Geometry::Arc(arc),
+            start_m: [s[0], s[1], z0],
+            end_m: [e[0], e[1], z1],
+            motion: Motion::Feed,
+            feed_m_per_s: 0.01,
+            blend: Blend::ExactStop,
+            line: 1,
+        }
+    }
+
+    #[test]
+    fn circle_length_curvature_and_projection() {
+        let arc = Arc {
+            center_m: [0.0, 0.0],
+            r_start_m: 0.1,
+            r_end_m: 0.1,
+            theta_start_rad: 0.0,
+            sweep_rad: FRAC_PI_2,
+        };
+        let seg = arc_segment(arc, 0.0, 0.0);
+        let l = seg.length_m();
+        assert!((l - 0.1 * FRAC_PI_2).abs() < 1e-15);
+        let mid = seg.eval(l / 2.0, l);
+        let k = norm3(mid.curvature);
+        assert!((k - 10.0).abs() < 1e-12, "curvature 1/R");
+        // A point 1 µm outside the arc, CCW travel: right of travel, radial positive.
+        let p = seg.project_xy(
+            [0.100001 * (PI / 4.0).cos(), 0.100001 * (PI / 4.0).sin()],
+            0.5,
+        );
+        assert!((p.radial_m.unwrap() - 1e-6).abs() < 1e-15);
+        assert!((p.signed_distance_m + 1e-6).abs() < 1e-15);
+        assert!((p.u - 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn helix_length_is_the_hypotenuse() {
+        let arc = Arc {
+            center_m: [0.0, 0.0],
+            r_start_m: 0.05,
+            r_end_m: 0.05,
+            theta_start_rad: 0.0,
+            sweep_rad: -2.0 * PI,
+        };
+        let seg = arc_segment(arc, 0.0, -0.01);
+        let expected = (2.0 * PI * 0.05f64).hypot(0.01);
+        assert!((seg.length_m() - expected).abs() < 1e-15);
+        let end = seg.eval(seg.length_m(), seg.length_m());
+        assert_eq!(end.pos, seg.end_m);
+    }
+
+    #[test]
+    fn spiral_length_matches_fine_quadrature() {
+        let arc = Arc {
+            center_m: [0.01, -0.02],
+            r_start_m: 0.02,
+            r_end_m: 0.02002,
+            theta_start_rad: 0.3,
+            sweep_rad: 3.0,
+        };
+        let seg = arc_segment(arc, 0.0, 0.0);
+        // Polyline with a million chords.
+        let n = 1_000_000;
+        let mut l = 0.0;
+        let mut prev = arc.xy_at(0.0);
+        for i in 1..=n {
+            let p = arc.xy_at(i as f64 / n as f64);
+            l += (p[0] - prev[0]).hypot(p[1] - prev[1]);
+            prev = p;
+        }
+        assert!(
+            (seg.length_m() - l).abs() < 1e-12,
+            "{} vs {}",
+            seg.length_m(),
+            l
+        );
+        // Evaluating at half the length lands where the length to it is half.
+        let half = seg.eval(l / 2.0, seg.length_m());
+        let u = arc.param_at(l / 2.0, seg.length_m(), 0.0);
+        assert!((arc.length_to(u, 0.0) - l / 2.0).abs() < 1e-14);
+        assert!((norm3(half.tangent) - 1.0).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,458 @@
+//! Feed planning: the path speed over the whole program, within every axis's limits.
+//!
+//! 1. Each segment gets a speed limit (programmed F, clamped to the axes' feed limits; on
+//!    arcs also the centripetal acceleration v²/R and, for S-curves, the jerk v³/R² of the
+//!    rotating acceleration) and the tangential acceleration and jerk its direction allows.
+//! 2. Each junction gets a speed limit: zero under exact stop (G61), at dwells and at program
+//!    stops; under G64 the lowest of grbl's junction-deviation speed for the blend tolerance
+//!    and the interpolation-cycle rule — a corner's per-axis velocity jump may be at most
+//!    what the axis could do in one cycle (a·T, or j·T² for S-curves), and for S-curves a
+//!    curvature jump's per-axis acceleration step at most j·T.
+//! 3. A backward and a forward pass over the whole program bring every junction speed down
+//!    to what the neighbouring segments can reach (look-ahead over the whole program).
+//! 4. Each segment gets the fastest ramp–cruise–ramp profile between its junction speeds.
+//!
+//! Profiles start and end every segment with zero path acceleration, so the only
+//! acceleration steps are those of curvature (and, for trapezoids, of the ramps themselves).
+
+pub mod profile;
+pub mod sample;
+
+use crate::gcode::{Program, Warning};
+use crate::machine::{Limits, MachineConfig};
+use crate::path::{Blend, Geometry, Motion, Segment, dot3};
+use crate::units::{m_from_mm, m_per_s_from_mm_per_min, mm_per_min_from_m_per_s, s_from_ms};
+use profile::{Dynamics, SegmentProfile, reachable_speed};
+
+pub use sample::{AxisCommands, AxisPeaks, Commands, sample};
+
+/// The shape of the speed profile.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ProfileKind {
+    /// Acceleration-limited (trapezoidal speed).
+    Trapezoid,
+    /// Jerk-limited (S-curve speed).
+    SCurve,
+    /// The programmed feed from the first instant, no acceleration limit: the velocity-step
+    /// inputs of the paper's experiments.
+    Ideal,
+}
+
+impl std::str::FromStr for ProfileKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "trapezoid" => Ok(ProfileKind::Trapezoid),
+            "s-curve" | "scurve" => Ok(ProfileKind::SCurve),
+            "ideal" => Ok(ProfileKind::Ideal),
+            _ => Err(format!("unknown profile '{s}' (trapezoid, s-curve, ideal)")),
+        }
+    }
+}
+
+/// Planner settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlanConfig {
+    /// Profile shape.
+    pub profile: ProfileKind,
+    /// Interpolation cycle T (s): the command sample period.
+    pub cycle_s: f64,
+    /// Corner tolerance under G64 without P (m).
+    pub default_blend_tolerance_m: f64,
+    /// Share η of an axis's acceleration an arc may spend on centripetal acceleration; the
+    /// tangential acceleration gets √(1 − η²) so that the vector sum stays within the limit.
+    pub arc_normal_share: f64,
+}
+
+impl PlanConfig {
+    /// Defaults for a machine: its interpolation cycle, S-curve profiles, 10 µm corner
+    /// tolerance, half the acceleration for centripetal use on arcs.
+    pub fn for_machine(machine: &MachineConfig) -> PlanConfig {
+        PlanConfig {
+            profile: ProfileKind::SCurve,
+            cycle_s: s_from_ms(machine.interpolation.cycle_ms),
+            default_blend_tolerance_m: m_from_mm(0.01),
+            arc_normal_share: 0.5,
+        }
+    }
+}
+
+/// Kinematic limits of one axis in SI units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AxisLimits {
+    /// Cutting feed limit (m/s).
+    pub max_feed_m_per_s: f64,
+    /// Rapid rate (m/s).
+    pub rapid_m_per_s: f64,
+    /// Acceleration limit (m/s²).
+    pub accel_m_per_s2: f64,
+    /// Jerk limit (m/s³).
+    pub jerk_m_per_s3: f64,
+}
+
+impl From<&Limits> for AxisLimits {
+    fn from(l: &Limits) -> Self {
+        AxisLimits {
+            max_feed_m_per_s: m_per_s_from_mm_per_min(l.max_feed_mm_per_min),
+            rapid_m_per_s: m_per_s_from_mm_per_min(l.rapid_mm_per_min),
+            accel_m_per_s2: l.max_accel_m_per_s2,
+            jerk_m_per_s3: l.max_jerk_m_per_s3,
+        }
+    }
+}
+
+/// Limits of the X, Y and Z axes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KinematicLimits {
+    /// X, Y, Z.
+    pub axes: [AxisLimits; 3],
+}
+
+impl KinematicLimits {
+    /// The machine's limits.
+    pub fn of(machine: &MachineConfig) -> Self {
+        KinematicLimits {
+            axes: [
+                (&machine.x.limits).into(),
+                (&machine.y.limits).into(),
+                (&machine.z.limits).into(),
+            ],
+        }
+    }
+}
+
+/// The plan of one segment.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SegmentPlan {
+    /// Start time (s) from the program start.
+    pub t_start_s: f64,
+    /// Path length (m).
+    pub length_m: f64,
+    /// Speed at the start (m/s).
+    pub v_entry: f64,
+    /// Speed at the end (m/s).
+    pub v_exit: f64,
+    /// Speed limit of the segment (m/s).
+    pub v_limit: f64,
+    /// Path dynamics used.
+    pub dynamics: Dynamics,
+    /// Duration (s).
+    pub duration_s: f64,
+}
+
+impl SegmentPlan {
+    /// Rebuilds the speed profile (cheap; not stored, to keep plans small).
+    pub fn profile(&self) -> SegmentProfile {
+        SegmentProfile::plan(
+            self.v_entry,
+            self.v_exit,
+            self.v_limit,
+            self.length_m,
+            self.dynamics,
+        )
+    }
+}
+
+/// A planned program: the path and the timing of each segment.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The path (dwells included).
+    pub segments: Vec<Segment>,
+    /// One plan per segment.
+    pub plans: Vec<SegmentPlan>,
+    /// Total time (s).
+    pub total_time_s: f64,
+    /// Planner warnings (clamped feeds).
+    pub warnings: Vec<Warning>,
+    /// The settings used.
+    pub config: PlanConfig,
+}
+
+impl Plan {
+    /// Total path length (m), rapids included.
+    pub fn path_length_m(&self) -> f64 {
+        self.plans.iter().map(|p| p.length_m).sum()
+    }
+}
+
+/// Limits a segment imposes on itself.
+#[derive(Debug, Clone, Copy)]
+struct SegmentLimits {
+    length: f64,
+    v_max: f64,
+    dynamics: Dynamics,
+}
+
+/// Plans a program on a machine.
+pub fn plan(program: &Program, limits: &KinematicLimits, config: &PlanConfig) -> Plan {
+    plan_segments(program.segments.clone(), limits, config)
+}
+
+/// Plans a list of segments.
+pub fn plan_segments(
+    segments: Vec<Segment>,
+    limits: &KinematicLimits,
+    config: &PlanConfig,
+) -> Plan {
+    let mut warnings = FeedWarnings::default();
+    let seg_limits: Vec<SegmentLimits> = segments
+        .iter()
+        .map(|s| segment_limits(s, limits, config, &mut warnings))
+        .collect();
+    let mut junction = junction_limits(&segments, &seg_limits, limits, config);
+    look_ahead(&segments, &seg_limits, &mut junction);
+    let mut plans = Vec::with_capacity(segments.len());
+    let mut t = 0.0;
+    for (i, (seg, lim)) in segments.iter().zip(&seg_limits).enumerate() {
+        let (v_entry, v_exit) = (junction[i], junction[i + 1]);
+        let duration_s = match seg.geometry {
+            Geometry::Dwell { seconds } => seconds,
+            _ => SegmentProfile::plan(v_entry, v_exit, lim.v_max, lim.length, lim.dynamics)
+                .duration(),
+        };
+        plans.push(SegmentPlan {
+            t_start_s: t,
+            length_m: lim.length,
+            v_entry,
+            v_exit,
+            v_limit: lim.v_max,
+            dynamics: lim.dynamics,
+            duration_s,
+        });
+        t += duration_s;
+    }
+    Plan {
+        segments,
+        plans,
+        total_time_s: t,
+        warnings: warnings.finish(),
+        config: *config,
+    }
+}
+
+/// Collects clamped-feed warnings, one per source line, capped.
+#[derive(Default)]
+struct FeedWarnings {
+    list: Vec<Warning>,
+    more: usize,
+    last_line: u32,
+}
+
+impl FeedWarnings {
+    const CAP: usize = 20;
+
+    fn clamped(&mut self, line: u32, feed: f64, limit: f64, axis: char) {
+        if line == self.last_line {
+            return;
+        }
+        self.last_line = line;
+        if self.list.len() == Self::CAP {
+            self.more += 1;
+            return;
+        }
+        self.list.push(Warning {
+            line,
+            message: format!(
+                "programmed feed {:.0} mm/min exceeds what the {axis} axis allows on this move; \
+                 clamped to {:.0} mm/min",
+                mm_per_min_from_m_per_s(feed),
+                mm_per_min_from_m_per_s(limit)
+            ),
+        });
+    }
+
+    fn finish(mut self) -> Vec<Warning> {
+        if self.more > 0 {
+            self.list.push(Warning {
+                line: 0,
+                message: format!("{} more moves had their feed clamped", self.more),
+            });
+        }
+        self.list
+    }
+}
+
+const AXIS_NAMES: [char; 3] = ['X', 'Y', 'Z'];
+
+fn segment_limits(
+    seg: &Segment,
+    limits: &KinematicLimits,
+    config: &PlanConfig,
+    warnings: &mut FeedWarnings,
+) -> SegmentLimits {
+    let length = seg.length_m();
+    let ideal = config.profile == ProfileKind::Ideal;
+    let jerk_limited = config.profile == ProfileKind::SCurve;
+    let axis_speed = |i: usize| match seg.motion {
+        Motion::Rapid => limits.axes[i].rapid_m_per_s,
+        Motion::Feed => limits.axes[i].max_feed_m_per_s,
+    };
+    let mut v_max = seg.feed_m_per_s;
+    let mut accel = f64::INFINITY;
+    let mut jerk = f64::INFINITY;
+    let mut clamp_speed = |cap: f64, axis: usize, v_max: &mut f64| {
+        if cap < *v_max {
+            if seg.motion == Motion::Feed && seg.feed_m_per_s > cap {
+                warnings.clamped(seg.line, seg.feed_m_per_s, cap, AXIS_NAMES[axis]);
+            }
+            *v_max = cap;
+        }
+    };
+    match seg.geometry {
+        Geometry::Dwell { .. } => {}
+        Geometry::Line => {
+            for i in 0..3 {
+                let share = (seg.end_m[i] - seg.start_m[i]).abs() / length;
+                if share > 1e-12 {
+                    clamp_speed(axis_speed(i) / share, i, &mut v_max);
+                    accel = accel.min(limits.axes[i].accel_m_per_s2 / share);
+                    jerk = jerk.min(limits.axes[i].jerk_m_per_s3 / share);
+                }
+            }
+        }
+        Geometry::Arc(arc) => {
+            let f_xy = arc.xy_length_m() / length;
+            let f_z = (seg.end_m[2] - seg.start_m[2]).abs() / length;
+            let [x, y, z] = limits.axes;
+            let a_xy = x.accel_m_per_s2.min(y.accel_m_per_s2);
+            let j_xy = x.jerk_m_per_s3.min(y.jerk_m_per_s3);
+            let r = arc.min_radius_m();
+            let eta = config.arc_normal_share;
+            if f_xy > 1e-12 {
+                let (vx, vy) = (axis_speed(0), axis_speed(1));
+                let (axis, v_axis) = if vx <= vy { (0, vx) } else { (1, vy) };
+                clamp_speed(v_axis / f_xy, axis, &mut v_max);
+                if !ideal {
+                    // Centripetal acceleration (v f_xy)²/R within η·a.
+                    v_max = v_max.min((eta * a_xy * r).sqrt() / f_xy);
+                }
+                accel = accel.min((1.0 - eta * eta).sqrt() * a_xy / f_xy);
+                if jerk_limited {
+                    // The rotating centripetal acceleration's jerk v³/R² within j/4.
+                    v_max = v_max.min((0.25 * j_xy * r * r).cbrt() / f_xy);
+                    // The cross term 3·v·a_t/R within j/4, and the tangential jerk within j/2.
+                    accel = accel.min(0.25 * j_xy * r / (3.0 * v_max.max(1e-12) * f_xy * f_xy));
+                    jerk = jerk.min(0.5 * j_xy / f_xy);
+                }
+            }
+            if f_z > 1e-12 {
+                clamp_speed(axis_speed(2) / f_z, 2, &mut v_max);
+                accel = accel.min(z.accel_m_per_s2 / f_z);
+                jerk = jerk.min(z.jerk_m_per_s3 / f_z);
+            }
+        }
+    }
+    let dynamics = match config.profile {
+        ProfileKind::Ideal => Dynamics {
+            accel: f64::INFINITY,
+            jerk: f64::INFINITY,
+        },
+        ProfileKind::Trapezoid => Dynamics {
+            accel,
+            jerk: f64::INFINITY,
+        },
+        ProfileKind::SCurve => Dynamics { accel, jerk },
+    };
+    SegmentLimits {
+        length,
+        v_max,
+        dynamics,
+    }
+}
+
+/// Speed limit at each segment boundary: index i is the start of segment i; the last entry
+/// is the program end.
+fn junction_limits(
+    segments: &[Segment],
+    seg_limits: &[SegmentLimits],
+    limits: &KinematicLimits,
+    config: &PlanConfig,
+) -> Vec<f64> {
+    let n = segments.len();
+    let mut v = vec![0.0; n + 1];
+    for i in 1..n {
+        let (a, b) = (&segments[i - 1], &segments[i]);
+        if a.is_dwell() || b.is_dwell() || a.blend == Blend::ExactStop {
+            continue;
+        }
+        let cap = seg_limits[i - 1].v_max.min(seg_limits[i].v_max);
+        v[i] = if config.profile == ProfileKind::Ideal {
+            cap
+        } else {
+            cap.min(corner_speed(a, b, limits, config))
+        };
+    }
+    v
+}
+
+/// The corner rules of the module documentation for the junction between `a` and `b`.
+fn corner_speed(a: &Segment, b: &Segment, limits: &KinematicLimits, config: &PlanConfig) -> f64 {
+    let (t_in, t_out) = (a.end_tangent(), b.start_tangent());
+    let jerk_limited = config.profile == ProfileKind::SCurve;
+    let t = config.cycle_s;
+    let mut v = f64::INFINITY;
+    // Per-axis velocity jump within one interpolation cycle.
+    for i in 0..3 {
+        let jump = (t_out[i] - t_in[i]).abs();
+        if jump > 1e-12 {
+            let ax = &limits.axes[i];
+            let budget = if jerk_limited {
+                ax.jerk_m_per_s3 * t * t
+            } else {
+                ax.accel_m_per_s2 * t
+            };
+            v = v.min(budget / jump);
+        }
+    }
+    // grbl's junction deviation: a virtual arc tangent to both moves that stays within the
+    // tolerance of the corner.
+    let tolerance = match a.blend {
+        Blend::Continuous {
+            tolerance_m: Some(tol),
+        } => tol,
+        _ => config.default_blend_tolerance_m,
+    };
+    let cos_inner = -dot3(t_in, t_out);
+    if cos_inner > -1.0 + 1e-12 {
+        let sin_half = (0.5 * (1.0 - cos_inner)).max(0.0).sqrt();
+        let a_min = limits
+            .axes
+            .iter()
+            .map(|l| l.accel_m_per_s2)
+            .fold(f64::INFINITY, f64::min);
+        if sin_half < 1.0 - 1e-12 {
+            v = v.min((a_min * tolerance * sin_half / (1.0 - sin_half)).sqrt());
+        }
+    }
+    // S-curves: the acceleration step of a curvature jump within one cycle's jerk.
+    if jerk_limited {
+        let (k_in, k_out) = (a.end_curvature(), b.start_curvature());
+        for i in 0..3 {
+            let step = (k_out[i] - k_in[i]).abs();
+            if step > 1e-12 {
+                v = v.min((limits.axes[i].jerk_m_per_s3 * t / step).sqrt());
+            }
+        }
+    }
+    v
+}
+
+/// Backward then forward pass: every junction speed reachable from its neighbours.
+fn look_ahead(segments: &[Segment], seg_limits: &[SegmentLimits], v: &mut [f64]) {
+    let n = segments.len();
+    for i in (0..n).rev() {
+        let lim = &seg_limits[i];
+        if segments[i].is_dwell() {
+            continue;
+        }
+        v[i] = v[i].min(reachable_speed(v[i + 1], lim.length, lim.dynamics));
+    }
+    for i in 0..n {
+        let lim = &seg_limits[i];
+        if segments[i].is_dwell() {
+            continue;
+        }
+        v[i + 1] = v[i + 1].min(reachable_speed(v[i], lim.length, lim.dynamics));
+    }
+}

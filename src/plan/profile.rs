@@ -1,0 +1,278 @@
+//! One-dimensional motion along the path: velocity changes with bounded acceleration (and,
+//! for S-curves, bounded jerk), starting and ending with zero acceleration.
+//!
+//! A jerk-limited change from v0 to v1 has a symmetric acceleration pulse: jerk up for t_j,
+//! constant acceleration for t_a, jerk down for t_j. Its mean velocity is (v0 + v1)/2, which
+//! gives the closed forms for distance and for the highest speed reachable in a distance.
+
+/// Acceleration and jerk available along the path. `jerk = ∞` gives trapezoidal profiles,
+/// `accel = ∞` the ideal (instantaneous) ones.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Dynamics {
+    /// Path acceleration limit (m/s²).
+    pub accel: f64,
+    /// Path jerk limit (m/s³).
+    pub jerk: f64,
+}
+
+/// A velocity change from `v0` to `v1` (m/s) with zero acceleration at both ends.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Ramp {
+    v0: f64,
+    v1: f64,
+    /// Duration of each jerk phase (s).
+    t_j: f64,
+    /// Duration of the constant-acceleration phase (s).
+    t_a: f64,
+    /// Signed peak acceleration (m/s²).
+    a_peak: f64,
+}
+
+impl Ramp {
+    /// The fastest change from `v0` to `v1` within the dynamics.
+    pub fn new(v0: f64, v1: f64, d: Dynamics) -> Ramp {
+        let dv = (v1 - v0).abs();
+        let sign = if v1 >= v0 { 1.0 } else { -1.0 };
+        if dv == 0.0 || d.accel.is_infinite() {
+            return Ramp {
+                v0,
+                v1,
+                t_j: 0.0,
+                t_a: 0.0,
+                a_peak: 0.0,
+            };
+        }
+        if d.jerk.is_infinite() {
+            return Ramp {
+                v0,
+                v1,
+                t_j: 0.0,
+                t_a: dv / d.accel,
+                a_peak: sign * d.accel,
+            };
+        }
+        if dv * d.jerk >= d.accel * d.accel {
+            // The acceleration limit is reached: a plateau between two jerk phases.
+            let t_j = d.accel / d.jerk;
+            Ramp {
+                v0,
+                v1,
+                t_j,
+                t_a: dv / d.accel - t_j,
+                a_peak: sign * d.accel,
+            }
+        } else {
+            // A triangular acceleration pulse.
+            let t_j = (dv / d.jerk).sqrt();
+            Ramp {
+                v0,
+                v1,
+                t_j,
+                t_a: 0.0,
+                a_peak: sign * d.jerk * t_j,
+            }
+        }
+    }
+
+    /// Duration (s).
+    pub fn duration(&self) -> f64 {
+        2.0 * self.t_j + self.t_a
+    }
+
+    /// Distance covered (m).
+    pub fn distance(&self) -> f64 {
+        0.5 * (self.v0 + self.v1) * self.duration()
+    }
+
+    /// Distance, velocity and acceleration at time `t` ∈ [0, duration] from the start.
+    pub fn eval(&self, t: f64) -> (f64, f64, f64) {
+        let (v0, a) = (self.v0, self.a_peak);
+        let t = t.clamp(0.0, self.duration());
+        let tj = self.t_j;
+        let j = if tj > 0.0 { a / tj } else { 0.0 };
+        // End of the first jerk phase.
+        let (s1, v1) = (v0 * tj + j * tj.powi(3) / 6.0, v0 + 0.5 * a * tj);
+        if t < tj {
+            return (v0 * t + j * t.powi(3) / 6.0, v0 + 0.5 * j * t * t, j * t);
+        }
+        let tau = t - tj;
+        if tau < self.t_a {
+            return (s1 + v1 * tau + 0.5 * a * tau * tau, v1 + a * tau, a);
+        }
+        let (s2, v2) = (
+            s1 + v1 * self.t_a + 0.5 * a * self.t_a.powi(2),
+            v1 + a * self.t_a,
+        );
+        let tau = tau - self.t_a;
+        (
+            s2 + v2 * tau + 0.5 * a * tau * tau - j * tau.powi(3) / 6.0,
+            v2 + a * tau - 0.5 * j * tau * tau,
+            a - j * tau,
+        )
+    }
+}
+
+/// Distance needed to change speed from `v0` to `v1` (m).
+pub fn ramp_distance(v0: f64, v1: f64, d: Dynamics) -> f64 {
+    Ramp::new(v0, v1, d).distance()
+}
+
+/// The highest speed reachable from `v0` by accelerating over `length` (m).
+pub fn reachable_speed(v0: f64, length: f64, d: Dynamics) -> f64 {
+    if d.accel.is_infinite() {
+        return f64::INFINITY;
+    }
+    if length <= 0.0 {
+        return v0;
+    }
+    if d.jerk.is_infinite() {
+        return (v0 * v0 + 2.0 * d.accel * length).sqrt();
+    }
+    let (a, j) = (d.accel, d.jerk);
+    let plateau_dv = a * a / j;
+    // With a plateau: L = (2 v0 + dv)/2 · (dv/a + a/j), a quadratic in dv.
+    let b = 2.0 * v0 + plateau_dv;
+    let c = 2.0 * v0 * plateau_dv - 2.0 * length * a;
+    let dv_plateau = 0.5 * (-b + (b * b - 4.0 * c).sqrt());
+    if dv_plateau >= plateau_dv {
+        return v0 + dv_plateau;
+    }
+    // Triangular pulse: L = (2 v0 + dv)·√(dv/j). With w = √dv: w³ + 2 v0 w − L√j = 0,
+    // a depressed cubic with one real root (Cardano), polished by Newton.
+    let (p, q) = (2.0 * v0, -length * j.sqrt());
+    let disc = (q * q / 4.0 + p * p * p / 27.0).sqrt();
+    let mut w = (-q / 2.0 + disc).cbrt() + (-q / 2.0 - disc).cbrt();
+    for _ in 0..3 {
+        let f = w * w * w + p * w + q;
+        let df = 3.0 * w * w + p;
+        if df > 0.0 {
+            w -= f / df;
+        }
+    }
+    v0 + w.max(0.0).powi(2)
+}
+
+/// Speed profile of one segment: a ramp up to `v_peak`, a cruise, a ramp down.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SegmentProfile {
+    up: Ramp,
+    cruise_s: f64,
+    v_peak: f64,
+    down: Ramp,
+}
+
+impl SegmentProfile {
+    /// The fastest profile over `length` from `v_entry` to `v_exit` not exceeding `v_max`.
+    /// The caller guarantees that the exit speed is reachable (the planner's passes do).
+    pub fn plan(v_entry: f64, v_exit: f64, v_max: f64, length: f64, d: Dynamics) -> Self {
+        let needed = |vp: f64| ramp_distance(v_entry, vp, d) + ramp_distance(vp, v_exit, d);
+        let floor = v_entry.max(v_exit);
+        let v_peak = if v_max <= floor || needed(v_max) <= length {
+            v_max.max(floor)
+        } else {
+            // Bisection on the peak speed: the distance needed grows with it.
+            let (mut lo, mut hi) = (floor, v_max);
+            for _ in 0..100 {
+                let mid = 0.5 * (lo + hi);
+                if needed(mid) <= length {
+                    lo = mid
+                } else {
+                    hi = mid
+                }
+                if hi - lo <= 1e-15 * hi {
+                    break;
+                }
+            }
+            lo
+        };
+        let up = Ramp::new(v_entry, v_peak, d);
+        let down = Ramp::new(v_peak, v_exit, d);
+        let rest = (length - up.distance() - down.distance()).max(0.0);
+        let cruise_s = if v_peak > 0.0 { rest / v_peak } else { 0.0 };
+        SegmentProfile {
+            up,
+            cruise_s,
+            v_peak,
+            down,
+        }
+    }
+
+    /// Peak speed (m/s).
+    pub fn v_peak(&self) -> f64 {
+        self.v_peak
+    }
+
+    /// Duration (s).
+    pub fn duration(&self) -> f64 {
+        self.up.duration() + self.cruise_s + self.down.duration()
+    }
+
+    /// Distance, speed and acceleration along the path at time `t` from the segment start.
+    pub fn eval(&self, t: f64) -> (f64, f64, f64) {
+        let t_up = self.up.duration();
+        if t < t_up {
+            return self.up.eval(t);
+        }
+        let s_up = self.up.distance();
+        let t = t - t_up;
+        if t < self.cruise_s {
+            return (s_up + self.v_peak * t, self.v_peak, 0.0);
+        }
+        let (s, v, a) = self.down.eval(t - self.cruise_s);
+        (s_up + self.v_peak * self.cruise_s + s, v, a)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const S: Dynamics = Dynamics {
+        accel: 0.5,
+        jerk: 5.0,
+    };
+
+    #[test]
+    fn ramp_ends_at_its_target_with_zero_acceleration() {
+        for (v0, v1) in [(0.0, 0.0167), (0.1, 0.0), (0.0, 0.2), (0.05, 0.3)] {
+            let r = Ramp::new(v0, v1, S);
+            let (s, v, a) = r.eval(r.duration());
+            assert!((v - v1).abs() < 1e-15, "{v} vs {v1}");
+            assert!(a.abs() < 1e-12);
+            assert!((s - r.distance()).abs() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn reachable_speed_inverts_ramp_distance() {
+        for d in [
+            S,
+            Dynamics {
+                accel: 0.5,
+                jerk: f64::INFINITY,
+            },
+        ] {
+            for &v0 in &[0.0, 0.001, 0.02, 0.3] {
+                for &l in &[1e-6, 1e-3, 0.01, 0.5, 3.0] {
+                    let v1 = reachable_speed(v0, l, d);
+                    let back = ramp_distance(v0, v1, d);
+                    assert!(
+                        (back - l).abs() < 1e-12 * (1.0 + l),
+                        "v0 {v0} L {l}: {back}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn trapezoid_single_move_matches_closed_form() {
+        // 100 mm at 1 m/s max with 0.5 m/s²: triangular (no cruise), T = 2·√(L/a).
+        let d = Dynamics {
+            accel: 0.5,
+            jerk: f64::INFINITY,
+        };
+        let p = SegmentProfile::plan(0.0, 0.0, 1.0, 0.1, d);
+        assert!((p.duration() - 2.0 * (0.1f64 / 0.5).sqrt()).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,180 @@
+//! The interpolator: position, velocity and acceleration commands for each axis at every
+//! interpolation cycle, taken exactly from the programmed geometry (true arcs, no chords).
+
+use super::Plan;
+use crate::path::Geometry;
+
+/// Commands of one axis, one entry per interpolation cycle.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct AxisCommands {
+    /// Position x_ref (m).
+    pub pos_m: Vec<f64>,
+    /// Velocity v_ref (m/s).
+    pub vel_m_per_s: Vec<f64>,
+    /// Acceleration a_ref (m/s²).
+    pub acc_m_per_s2: Vec<f64>,
+}
+
+impl AxisCommands {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.pos_m.len()
+    }
+
+    /// True when there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.pos_m.is_empty()
+    }
+
+    fn push(&mut self, p: f64, v: f64, a: f64) {
+        self.pos_m.push(p);
+        self.vel_m_per_s.push(v);
+        self.acc_m_per_s2.push(a);
+    }
+
+    /// A constant-velocity ramp from `x0` at speed `v` (the paper's test input), `n` samples.
+    pub fn ramp(x0_m: f64, v_m_per_s: f64, dt_s: f64, n: usize) -> AxisCommands {
+        let mut c = AxisCommands::default();
+        for k in 0..n {
+            c.push(x0_m + v_m_per_s * k as f64 * dt_s, v_m_per_s, 0.0);
+        }
+        c
+    }
+}
+
+/// The interpolator's output for a program: X, Y (simulated) and Z (carried) commands on a
+/// uniform time grid t_k = k·dt, with the path segment each sample lies on.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Commands {
+    /// Sample period (s).
+    pub dt_s: f64,
+    /// X commands.
+    pub x: AxisCommands,
+    /// Y commands.
+    pub y: AxisCommands,
+    /// Z position (m), carried for reports.
+    pub z_m: Vec<f64>,
+    /// Index of the path segment of each sample (into the plan's segments).
+    pub segment: Vec<u32>,
+}
+
+impl Commands {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.x.len()
+    }
+
+    /// True when there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.x.is_empty()
+    }
+
+    /// Time of sample k (s).
+    pub fn time_s(&self, k: usize) -> f64 {
+        k as f64 * self.dt_s
+    }
+
+    /// Duration covered (s).
+    pub fn duration_s(&self) -> f64 {
+        self.len().saturating_sub(1) as f64 * self.dt_s
+    }
+
+    /// Appends `seconds` of standing still at the last position, so that the axes can settle
+    /// after the program ends.
+    pub fn hold(&mut self, seconds: f64) {
+        let n = (seconds / self.dt_s).ceil() as usize;
+        let (Some(&x), Some(&y), Some(&z), Some(&seg)) = (
+            self.x.pos_m.last(),
+            self.y.pos_m.last(),
+            self.z_m.last(),
+            self.segment.last(),
+        ) else {
+            return;
+        };
+        for _ in 0..n {
+            self.x.push(x, 0.0, 0.0);
+            self.y.push(y, 0.0, 0.0);
+            self.z_m.push(z);
+            self.segment.push(seg);
+        }
+    }
+}
+
+/// Peak magnitudes of one axis's commands.
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
+pub struct AxisPeaks {
+    /// Largest |v_ref| (m/s).
+    pub speed_m_per_s: f64,
+    /// Largest |a_ref| (m/s²).
+    pub accel_m_per_s2: f64,
+    /// Largest |Δa_ref|/T between consecutive samples (m/s³).
+    pub jerk_m_per_s3: f64,
+}
+
+impl AxisCommands {
+    /// Peak speed, acceleration and (sampled) jerk.
+    pub fn peaks(&self, dt_s: f64) -> AxisPeaks {
+        let max_abs = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let jerk = self
+            .acc_m_per_s2
+            .windows(2)
+            .fold(0.0f64, |m, w| m.max((w[1] - w[0]).abs() / dt_s));
+        AxisPeaks {
+            speed_m_per_s: max_abs(&self.vel_m_per_s),
+            accel_m_per_s2: max_abs(&self.acc_m_per_s2),
+            jerk_m_per_s3: jerk,
+        }
+    }
+}
+
+/// Samples a plan at its interpolation cycle, from t = 0 to the end of the program.
+pub fn sample(plan: &Plan) -> Commands {
+    let dt = plan.config.cycle_s;
+    // Up to and including the first sample at or after the end, so the end point is reached.
+    let n = (plan.total_time_s / dt).ceil() as usize + 1;
+    let mut out = Commands {
+        dt_s: dt,
+        ..Default::default()
+    };
+    for c in [&mut out.x, &mut out.y] {
+        c.pos_m.reserve(n);
+        c.vel_m_per_s.reserve(n);
+        c.acc_m_per_s2.reserve(n);
+    }
+    out.z_m.reserve(n);
+    out.segment.reserve(n);
+    if plan.segments.is_empty() {
+        return out;
+    }
+    let mut index = 0;
+    let mut profile = plan.plans[0].profile();
+    for k in 0..n {
+        let t = k as f64 * dt;
+        // Advance to the segment that holds t (the later one at a boundary).
+        while index + 1 < plan.plans.len() && t >= plan.plans[index + 1].t_start_s {
+            index += 1;
+            profile = plan.plans[index].profile();
+        }
+        let (seg, sp) = (&plan.segments[index], &plan.plans[index]);
+        let tau = (t - sp.t_start_s).clamp(0.0, sp.duration_s);
+        let (s, v, a) = match seg.geometry {
+            Geometry::Dwell { .. } => (0.0, 0.0, 0.0),
+            _ => profile.eval(tau),
+        };
+        let p = seg.eval(s.min(sp.length_m), sp.length_m);
+        // Axis acceleration: tangential part plus the curvature's v².
+        let axis = |i: usize| {
+            (
+                p.pos[i],
+                p.tangent[i] * v,
+                p.tangent[i] * a + p.curvature[i] * v * v,
+            )
+        };
+        let (x, y) = (axis(0), axis(1));
+        out.x.push(x.0, x.1, x.2);
+        out.y.push(y.0, y.1, y.2);
+        out.z_m.push(p.pos[2]);
+        out.segment.push(index as u32);
+    }
+    out
+}

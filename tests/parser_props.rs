@@ -1,0 +1,147 @@
+//! Property tests of the G-code front end: no input panics it, and every number is read
+//! exactly as `str::parse::<f64>` reads the same text.
+
+use contourcheck::gcode::lexer::{LexedLine, lex_line};
+use contourcheck::gcode::{InterpretOptions, parse_program};
+use proptest::prelude::*;
+
+/// Fragments real and broken programs are made of.
+fn token() -> impl Strategy<Value = String> {
+    prop_oneof![
+        prop::sample::select(vec![
+            "G0",
+            "G1",
+            "G2",
+            "G3",
+            "G4",
+            "G17",
+            "G18",
+            "G20",
+            "G21",
+            "G28",
+            "G40",
+            "G41",
+            "G43",
+            "G53",
+            "G54",
+            "G61",
+            "G64",
+            "G80",
+            "G81",
+            "G90",
+            "G90.1",
+            "G91",
+            "G91.1",
+            "G92",
+            "G10",
+            "L2",
+            "L20",
+            "M2",
+            "M3",
+            "M30",
+            "M6",
+            "M99",
+            "O100",
+            "sub",
+            "call",
+            "#1",
+            "[",
+            "]",
+            "[1+2]",
+            "SIN[30]",
+            "ATAN[1]/[2]",
+            "(",
+            ")",
+            "(comment)",
+            ";",
+            "/",
+            "%",
+            " ",
+            "\t",
+            "\n",
+            "\r\n",
+            "@",
+            "^",
+            "$",
+            "P",
+            "R",
+            "Q",
+            "E",
+            "**",
+            "MOD",
+        ])
+        .prop_map(str::to_string),
+        (
+            prop::sample::select(vec![
+                'X', 'Y', 'Z', 'I', 'J', 'K', 'R', 'F', 'P', 'x', 'g', 'A'
+            ]),
+            number_text()
+        )
+            .prop_map(|(l, n)| format!("{l}{n}")),
+        any::<char>().prop_map(|c| c.to_string()),
+    ]
+}
+
+/// Decimal numbers in every RS274/NGC form, including large and tiny ones.
+fn number_text() -> impl Strategy<Value = String> {
+    (
+        prop::sample::select(vec!["", "+", "-"]),
+        prop::option::of("[0-9]{1,12}"),
+        prop::option::of("[0-9]{0,12}"),
+    )
+        .prop_map(|(sign, int, frac)| match (int, frac) {
+            (Some(i), Some(f)) => format!("{sign}{i}.{f}"),
+            (Some(i), None) => format!("{sign}{i}"),
+            (None, Some(f)) if !f.is_empty() => format!("{sign}.{f}"),
+            _ => format!("{sign}0"),
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 2000, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..400)) {
+        let text = String::from_utf8_lossy(&bytes);
+        let _ = parse_program(&text, "fuzz.nc", &InterpretOptions::default());
+    }
+
+    #[test]
+    fn token_soups_never_panic(tokens in prop::collection::vec(token(), 0..60)) {
+        let text: String = tokens.concat();
+        let _ = parse_program(&text, "soup.nc", &InterpretOptions::default());
+    }
+
+    #[test]
+    fn numbers_read_exactly_as_str_parse(n in number_text(), letter in prop::sample::select(vec!['X', 'y', 'F', 'r'])) {
+        let mut out = LexedLine::default();
+        lex_line(&format!("{letter}{n}"), &mut out).unwrap();
+        let expected: f64 = n.parse().unwrap();
+        prop_assert_eq!(out.words.len(), 1);
+        prop_assert_eq!(out.words[0].value.to_bits(), expected.to_bits());
+        prop_assert_eq!(out.words[0].letter, letter.to_ascii_uppercase() as u8);
+    }
+
+    #[test]
+    fn packed_words_split_where_letters_start(a in number_text(), b in number_text()) {
+        let mut out = LexedLine::default();
+        lex_line(&format!("G01X{a}Y{b}F600"), &mut out).unwrap();
+        prop_assert_eq!(out.words.len(), 4);
+        prop_assert_eq!(out.words[1].value.to_bits(), a.parse::<f64>().unwrap().to_bits());
+        prop_assert_eq!(out.words[2].value.to_bits(), b.parse::<f64>().unwrap().to_bits());
+    }
+}
+
+/// Deep nesting and long runs must be refused or read, never overflow the stack.
+#[test]
+fn pathological_lines_are_handled() {
+    for text in [
+        format!("X{}1{}", "[".repeat(100_000), "]".repeat(100_000)),
+        format!("X[{}1]", "-".repeat(100_000)),
+        "(".repeat(100_000),
+        "G1 ".repeat(50_000),
+        format!("X{}", "9".repeat(400)),
+    ] {
+        let _ = parse_program(&text, "deep.nc", &InterpretOptions::default());
+    }
+}

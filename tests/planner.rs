@@ -1,0 +1,218 @@
+//! The feed planner and interpolator: closed-form cycle times, commands exactly on the
+//! programmed geometry, and — for random programs — no axis limit ever exceeded.
+
+use contourcheck::gcode::{InterpretOptions, parse_program};
+use contourcheck::machine::MachineConfig;
+use contourcheck::plan::{Commands, KinematicLimits, Plan, PlanConfig, ProfileKind, plan, sample};
+use proptest::prelude::*;
+
+fn plan_text(src: &str, profile: ProfileKind) -> (Plan, Commands, KinematicLimits) {
+    let machine = MachineConfig::default_preset();
+    let program = parse_program(src, "t.nc", &InterpretOptions::default()).unwrap();
+    let limits = KinematicLimits::of(&machine);
+    let mut config = PlanConfig::for_machine(&machine);
+    config.profile = profile;
+    let p = plan(&program, &limits, &config);
+    let c = sample(&p);
+    (p, c, limits)
+}
+
+#[test]
+fn single_move_cycle_time_matches_the_closed_forms() {
+    // 100 mm at 1000 mm/min (v = 16.667 mm/s) with a = 0.5 m/s², j = 5 m/s³.
+    let v = 1000.0 / 60_000.0;
+    let (a, j, l) = (0.5, 5.0, 0.1);
+    // Trapezoid: cruise L/v plus one ramp's time v/a.
+    let (p, _, _) = plan_text("G21 F1000\nG1 X100\n", ProfileKind::Trapezoid);
+    assert!(
+        (p.total_time_s - (l / v + v / a)).abs() < 1e-12,
+        "{}",
+        p.total_time_s
+    );
+    // S-curve: v²·j < a², so each ramp is a triangular acceleration pulse of 2·√(v/j);
+    // the two ramps together cost the time of one: L/v + 2√(v/j).
+    let (p, _, _) = plan_text("G21 F1000\nG1 X100\n", ProfileKind::SCurve);
+    assert!(
+        (p.total_time_s - (l / v + 2.0 * (v / j).sqrt())).abs() < 1e-12,
+        "{}",
+        p.total_time_s
+    );
+    // Ideal: the paper's velocity step, L/v exactly.
+    let (p, _, _) = plan_text("G21 F1000\nG1 X100\n", ProfileKind::Ideal);
+    assert!((p.total_time_s - l / v).abs() < 1e-12);
+    // A short move never reaches F: triangular speed, T = 2·√(L/a) for the trapezoid.
+    let (p, _, _) = plan_text("G21 F1000\nG1 X0.1\n", ProfileKind::Trapezoid);
+    assert!(
+        (p.total_time_s - 2.0 * (1e-4f64 / a).sqrt()).abs() < 1e-12,
+        "{}",
+        p.total_time_s
+    );
+}
+
+#[test]
+fn feed_above_the_axis_limit_is_clamped_with_a_warning() {
+    let (p, c, _) = plan_text("G21 F3000\nG1 X100\n", ProfileKind::SCurve);
+    assert_eq!(p.warnings.len(), 1);
+    assert_eq!(p.warnings[0].line, 2);
+    let peak = c.x.peaks(c.dt_s).speed_m_per_s;
+    assert!((peak - 1000.0 / 60_000.0).abs() < 1e-12, "{peak}");
+}
+
+#[test]
+fn sampled_commands_lie_on_the_programmed_geometry() {
+    for file in [
+        "circle-test.nc",
+        "profile-pocket.nc",
+        "cam-flange.nc",
+        "cam-adaptive.nc",
+    ] {
+        let src = std::fs::read_to_string(format!(
+            "{}/gcode-samples/{file}",
+            env!("CARGO_MANIFEST_DIR")
+        ))
+        .unwrap();
+        let (p, c, _) = plan_text(&src, ProfileKind::SCurve);
+        let mut worst = 0.0f64;
+        for k in 0..c.len() {
+            let seg = &p.segments[c.segment[k] as usize];
+            let q = [c.x.pos_m[k], c.y.pos_m[k]];
+            let along = 0.5; // the projection's turn hint; every sample arc here is single-turn or checked radially
+            let proj = seg.project_xy(q, along);
+            let off = proj.radial_m.unwrap_or(proj.signed_distance_m).abs();
+            worst = worst.max(off);
+        }
+        assert!(
+            worst < 1e-9,
+            "{file}: a command lies {worst:e} m off its segment"
+        );
+    }
+}
+
+/// Checks every per-axis limit on a sampled program (see `plan` module docs for the rules:
+/// continuous values within the limits; at junctions one extra cycle's worth of velocity or
+/// acceleration step).
+fn assert_within_limits(p: &Plan, c: &Commands, limits: &KinematicLimits, profile: ProfileKind) {
+    let t = c.dt_s;
+    let tol = 1e-9;
+    for (i, axis) in [&c.x, &c.y].into_iter().enumerate() {
+        let lim = &limits.axes[i];
+        for k in 0..axis.len() {
+            let v = axis.vel_m_per_s[k].abs();
+            let a = axis.acc_m_per_s2[k].abs();
+            assert!(
+                v <= lim.rapid_m_per_s * (1.0 + tol),
+                "axis {i} speed {v} at sample {k}"
+            );
+            let seg = &p.segments[c.segment[k] as usize];
+            if seg.motion == contourcheck::path::Motion::Feed {
+                assert!(
+                    v <= lim.max_feed_m_per_s * (1.0 + tol) + 1e-12,
+                    "axis {i} feed {v} at {k}"
+                );
+            }
+            if profile != ProfileKind::Ideal {
+                assert!(
+                    a <= lim.accel_m_per_s2 * (1.0 + tol) + 1e-12,
+                    "axis {i} accel {a} at {k}"
+                );
+            }
+        }
+        if profile == ProfileKind::Ideal {
+            continue;
+        }
+        for k in 1..axis.len() {
+            let crossing = c.segment[k] != c.segment[k - 1];
+            let factor = if crossing { 2.0 } else { 1.0 };
+            let dv = (axis.vel_m_per_s[k] - axis.vel_m_per_s[k - 1]).abs();
+            assert!(
+                dv <= factor * lim.accel_m_per_s2 * t * (1.0 + 1e-6) + 1e-12,
+                "axis {i}: velocity step {dv} between samples {} and {k} (junction: {crossing})",
+                k - 1
+            );
+            if profile == ProfileKind::SCurve {
+                let da = (axis.acc_m_per_s2[k] - axis.acc_m_per_s2[k - 1]).abs();
+                assert!(
+                    da <= factor * lim.jerk_m_per_s3 * t * (1.0 + 1e-6) + 1e-12,
+                    "axis {i}: acceleration step {da} between samples {} and {k} (junction: {crossing})",
+                    k - 1
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn samples_respect_the_limits() {
+    for file in [
+        "circle-test.nc",
+        "square.nc",
+        "profile-pocket.nc",
+        "cam-flange.nc",
+        "cam-adaptive.nc",
+    ] {
+        let src = std::fs::read_to_string(format!(
+            "{}/gcode-samples/{file}",
+            env!("CARGO_MANIFEST_DIR")
+        ))
+        .unwrap();
+        for profile in [ProfileKind::SCurve, ProfileKind::Trapezoid] {
+            let (p, c, limits) = plan_text(&src, profile);
+            assert_within_limits(&p, &c, &limits, profile);
+        }
+    }
+}
+
+/// A random program: lines and arcs (both directions, both forms), feeds above and below
+/// the axis limit, exact stop and blending, rapids.
+fn random_program() -> impl Strategy<Value = String> {
+    let step = prop_oneof![
+        (-20.0..20.0f64, -20.0..20.0f64, 10.0..3000.0f64)
+            .prop_map(|(x, y, f)| format!("G1 X{x:.3} Y{y:.3} F{f:.0}")),
+        (-20.0..20.0f64, -20.0..20.0f64).prop_map(|(x, y)| format!("G0 X{x:.3} Y{y:.3}")),
+        (
+            prop::bool::ANY,
+            -20.0..20.0f64,
+            -20.0..20.0f64,
+            0.5..30.0f64,
+            prop::bool::ANY
+        )
+            .prop_map(|(cw, x, y, r, major)| {
+                let r = if major { -r } else { r };
+                format!("{} X{x:.3} Y{y:.3} R{r:.3}", if cw { "G2" } else { "G3" })
+            }),
+        (prop::bool::ANY, -5.0..5.0f64, -5.0..5.0f64)
+            .prop_map(|(cw, i, j)| format!("{} I{i:.3} J{j:.3}", if cw { "G2" } else { "G3" })),
+        prop::sample::select(vec![
+            "G61".to_string(),
+            "G64".to_string(),
+            "G64 P0.05".to_string()
+        ]),
+    ];
+    prop::collection::vec(step, 1..12)
+        .prop_map(|steps| format!("G21 G90 F500\n{}\nM2\n", steps.join("\n")))
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    #[test]
+    fn the_planner_never_exceeds_an_axis_limit(src in random_program(), scurve in prop::bool::ANY) {
+        let Ok(program) = parse_program(&src, "r.nc", &InterpretOptions::default()) else {
+            return Ok(()); // radius too small for the chord, etc.
+        };
+        let profile = if scurve { ProfileKind::SCurve } else { ProfileKind::Trapezoid };
+        let machine = MachineConfig::default_preset();
+        let limits = KinematicLimits::of(&machine);
+        let mut config = PlanConfig::for_machine(&machine);
+        config.profile = profile;
+        let p = plan(&program, &limits, &config);
+        let c = sample(&p);
+        assert_within_limits(&p, &c, &limits, profile);
+        // The plan ends where the program ends.
+        let end = program.segments.last().map(|s| s.end_m);
+        if let Some(end) = end {
+            prop_assert!((c.x.pos_m[c.len() - 1] - end[0]).abs() < 1e-12);
+            prop_assert!((c.y.pos_m[c.len() - 1] - end[1]).abs() < 1e-12);
+        }
+    }
+}
