@@ -117,6 +117,59 @@ pub fn ramp_distance(v0: f64, v1: f64, d: Dynamics) -> f64 {
     Ramp::new(v0, v1, d).distance()
 }
 
+/// Distance of a ramp between `v_low` and `v_high ≥ v_low` (either direction: the distance is
+/// symmetric) and its derivative with respect to `v_high`.
+fn ramp_distance_slope(v_low: f64, v_high: f64, d: Dynamics) -> (f64, f64) {
+    let dv = (v_high - v_low).max(0.0);
+    let sum = v_low + v_high;
+    if d.jerk.is_infinite() {
+        return (sum * dv / (2.0 * d.accel), v_high / d.accel);
+    }
+    if dv * d.jerk >= d.accel * d.accel {
+        let t = dv / d.accel + d.accel / d.jerk;
+        return (0.5 * sum * t, 0.5 * t + sum / (2.0 * d.accel));
+    }
+    if dv == 0.0 {
+        return (0.0, f64::INFINITY);
+    }
+    let root = (dv / d.jerk).sqrt();
+    (sum * root, root + sum / (2.0 * (dv * d.jerk).sqrt()))
+}
+
+/// The highest peak speed in [`floor`, `v_max`] whose ramp up from `v_entry` and down to
+/// `v_exit` fit in `length`: Newton's method on the distance needed, kept inside a bracket
+/// [feasible, infeasible] that every iterate narrows, with bisection when a Newton step
+/// would leave it (as it does near the floor, where the slope is infinite).
+fn peak_speed(v_entry: f64, v_exit: f64, floor: f64, v_max: f64, length: f64, d: Dynamics) -> f64 {
+    let (mut lo, mut hi) = (floor, v_max); // lo feasible (caller's guarantee), hi not
+    let mut x = 0.5 * (lo + hi);
+    for _ in 0..80 {
+        let (up, up_slope) = ramp_distance_slope(v_entry, x, d);
+        let (down, down_slope) = ramp_distance_slope(v_exit, x, d);
+        let excess = up + down - length;
+        if excess <= 0.0 {
+            lo = x
+        } else {
+            hi = x
+        }
+        if hi - lo <= 1e-13 * hi {
+            break;
+        }
+        let newton = x - excess / (up_slope + down_slope);
+        // Converging from the feasible side (the distance is concave in the peak speed, so
+        // Newton approaches the root from below) the bracket's upper end never moves.
+        if excess <= 0.0 && (newton - x).abs() <= 1e-13 * x {
+            break;
+        }
+        x = if newton > lo && newton < hi {
+            newton
+        } else {
+            0.5 * (lo + hi)
+        };
+    }
+    lo
+}
+
 /// The highest speed reachable from `v0` by accelerating over `length` (m).
 pub fn reachable_speed(v0: f64, length: f64, d: Dynamics) -> f64 {
     if d.accel.is_infinite() {
@@ -170,20 +223,7 @@ impl SegmentProfile {
         let v_peak = if v_max <= floor || needed(v_max) <= length {
             v_max.max(floor)
         } else {
-            // Bisection on the peak speed: the distance needed grows with it.
-            let (mut lo, mut hi) = (floor, v_max);
-            for _ in 0..100 {
-                let mid = 0.5 * (lo + hi);
-                if needed(mid) <= length {
-                    lo = mid
-                } else {
-                    hi = mid
-                }
-                if hi - lo <= 1e-15 * hi {
-                    break;
-                }
-            }
-            lo
+            peak_speed(v_entry, v_exit, floor, v_max, length, d)
         };
         let up = Ramp::new(v_entry, v_peak, d);
         let down = Ramp::new(v_peak, v_exit, d);
@@ -261,6 +301,36 @@ mod tests {
                         "v0 {v0} L {l}: {back}"
                     );
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn peak_speed_fills_the_length_exactly() {
+        for d in [
+            S,
+            Dynamics {
+                accel: 0.5,
+                jerk: f64::INFINITY,
+            },
+            Dynamics {
+                accel: 0.05,
+                jerk: 5.0,
+            },
+        ] {
+            for &(v0, v1, extra) in &[
+                (0.0, 0.0, 1e-4),
+                (0.01, 0.0, 1e-6),
+                (0.002, 0.015, 2e-3),
+                (0.1, 0.1, 0.02),
+            ] {
+                let l = ramp_distance(v0, v1, d) + extra;
+                let vmax = 10.0;
+                let floor = f64::max(v0, v1);
+                let vp = peak_speed(v0, v1, floor, vmax, l, d);
+                let used = ramp_distance(v0, vp, d) + ramp_distance(vp, v1, d);
+                assert!(used <= l, "infeasible: {used} > {l}");
+                assert!(l - used < 1e-12, "{d:?} {v0} {v1} {l}: wasted {}", l - used);
             }
         }
     }
