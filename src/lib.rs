@@ -12,4 +12,5 @@ pub mod machine;
 pub mod output;
 pub mod path;
 pub mod plan;
+pub mod sim;
 pub mod units;

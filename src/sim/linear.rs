@@ -1,0 +1,352 @@
+//! The linearised axis (friction as viscous only, nut in contact, no limits): closed-loop
+//! stability and the frequency responses of the current, velocity and position loops.
+//!
+//! Each loop is unity-feedback (the current filter acts on command and feedback alike), so
+//! its open loop follows from its closed loop: L = T/(1 − T). A loop's closed response is
+//! taken with the loops inside it closed and the loop outside it open, as a drive's
+//! commissioning tool measures it.
+
+use nalgebra::{Complex, DMatrix, DVector};
+use serde::Serialize;
+
+use super::SimError;
+use super::model::{
+    AR, AxisModel, ClampMode, ContactMode, FC, FrictionMode, Mode, Row, VR, XR, ZW,
+};
+
+/// Number of physical states (the reference states are inputs here).
+const NS: usize = 11;
+
+/// The loops of the cascade.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Loop {
+    /// Current command → current (velocity loop open).
+    Current,
+    /// Speed command → motor speed (position loop open).
+    Velocity,
+    /// Position command → position feedback.
+    Position,
+}
+
+impl Loop {
+    /// All three, inner first.
+    pub const ALL: [Loop; 3] = [Loop::Current, Loop::Velocity, Loop::Position];
+
+    /// Name for tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Loop::Current => "current",
+            Loop::Velocity => "velocity",
+            Loop::Position => "position",
+        }
+    }
+}
+
+/// The linear mode used for analysis.
+pub fn nominal_mode() -> Mode {
+    Mode {
+        friction: FrictionMode::SlipPos,
+        contact: ContactMode::Pos,
+        current: ClampMode::Linear,
+        voltage: ClampMode::Linear,
+    }
+}
+
+/// A single-input single-output state space: ẋ = A x + (b0 + s·b1 + s²·b2) u, y = c x.
+struct Siso {
+    a: DMatrix<f64>,
+    b: [DVector<f64>; 3],
+    c: DVector<f64>,
+}
+
+fn restrict_row(row: &Row) -> DVector<f64> {
+    DVector::from_fn(NS, |i, _| row[i])
+}
+
+fn loop_system(model: &AxisModel, which: Loop) -> Siso {
+    let full = model.dynamics(nominal_mode());
+    let s = model.signals();
+    let mut a = DMatrix::from_fn(NS, NS, |i, j| full[(i, j)]);
+    let zero = DVector::zeros(NS);
+    let column = |j: usize| DVector::from_fn(NS, |i, _| full[(i, j)]);
+    match which {
+        Loop::Position => Siso {
+            a,
+            b: [column(XR), column(VR), column(AR)],
+            c: restrict_row(&s.x_fb),
+        },
+        Loop::Velocity => {
+            // ω_cmd becomes the input: remove its dependence on the states.
+            let w = restrict_row(&s.w_cmd);
+            let k = model.ks / model.tcf;
+            for j in 0..NS {
+                a[(FC, j)] -= k * w[j];
+                a[(ZW, j)] -= w[j];
+            }
+            let mut b = DVector::zeros(NS);
+            b[FC] = k;
+            b[ZW] = 1.0;
+            let mut c = DVector::zeros(NS);
+            c[super::model::W_M] = 1.0;
+            Siso {
+                a,
+                b: [b, zero.clone(), zero],
+                c,
+            }
+        }
+        Loop::Current => {
+            // i_cmd becomes the input: the command filter sees it instead of the speed loop.
+            for j in 0..NS {
+                a[(FC, j)] = 0.0;
+            }
+            a[(FC, FC)] = -1.0 / model.tcf;
+            let mut b = DVector::zeros(NS);
+            b[FC] = 1.0 / model.tcf;
+            let mut c = DVector::zeros(NS);
+            c[super::model::I] = 1.0;
+            Siso {
+                a,
+                b: [b, zero.clone(), zero],
+                c,
+            }
+        }
+    }
+}
+
+impl Siso {
+    fn response(&self, freq_hz: f64) -> Complex<f64> {
+        let s = Complex::new(0.0, std::f64::consts::TAU * freq_hz);
+        let m = DMatrix::from_fn(NS, NS, |i, j| {
+            let diag = if i == j { s } else { Complex::new(0.0, 0.0) };
+            diag - Complex::new(self.a[(i, j)], 0.0)
+        });
+        let b = DVector::from_fn(NS, |i, _| {
+            Complex::new(self.b[0][i], 0.0) + s * self.b[1][i] + s * s * self.b[2][i]
+        });
+        let x = m.lu().solve(&b).unwrap_or_else(|| DVector::zeros(NS));
+        (0..NS).map(|i| x[i] * self.c[i]).sum()
+    }
+}
+
+/// Closed-loop frequency response of a loop at `freq_hz`.
+pub fn closed_loop(model: &AxisModel, which: Loop, freq_hz: f64) -> Complex<f64> {
+    loop_system(model, which).response(freq_hz)
+}
+
+/// Open-loop frequency response, L = T/(1 − T).
+pub fn open_loop(model: &AxisModel, which: Loop, freq_hz: f64) -> Complex<f64> {
+    let t = closed_loop(model, which, freq_hz);
+    t / (Complex::new(1.0, 0.0) - t)
+}
+
+/// Magnitude (dB) and phase (degrees, unwrapped from 0 at low frequency) over a frequency
+/// list.
+pub fn bode(model: &AxisModel, which: Loop, freqs_hz: &[f64], open: bool) -> Vec<(f64, f64, f64)> {
+    let sys = loop_system(model, which);
+    let mut out = Vec::with_capacity(freqs_hz.len());
+    let mut prev_phase: Option<f64> = None;
+    for &f in freqs_hz {
+        let t = sys.response(f);
+        let h = if open {
+            t / (Complex::new(1.0, 0.0) - t)
+        } else {
+            t
+        };
+        let mut phase = h.arg().to_degrees();
+        if let Some(p) = prev_phase {
+            while phase - p > 180.0 {
+                phase -= 360.0;
+            }
+            while phase - p < -180.0 {
+                phase += 360.0;
+            }
+        }
+        prev_phase = Some(phase);
+        out.push((f, 20.0 * h.norm().log10(), phase));
+    }
+    out
+}
+
+/// Logarithmically spaced frequencies.
+pub fn log_space(from_hz: f64, to_hz: f64, per_decade: usize) -> Vec<f64> {
+    let decades = (to_hz / from_hz).log10();
+    let n = (decades * per_decade as f64).ceil() as usize;
+    (0..=n)
+        .map(|i| from_hz * 10f64.powf(decades * i as f64 / n as f64))
+        .collect()
+}
+
+/// The figures a commissioning engineer reads off a loop's Bode plots.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct LoopFigures {
+    /// Which loop.
+    pub which: Loop,
+    /// Open-loop gain crossover (Hz).
+    pub crossover_hz: f64,
+    /// Phase margin at the crossover (degrees).
+    pub phase_margin_deg: f64,
+    /// Closed loop: first frequency where the gain falls to −3 dB (Hz).
+    pub bandwidth_3db_hz: f64,
+    /// Closed loop: first frequency where the phase reaches −10° (Hz).
+    pub phase_10deg_hz: f64,
+    /// Closed-loop gain at low frequency (dB).
+    pub dc_gain_db: f64,
+}
+
+/// Crossover, phase margin, −3 dB and −10° frequencies of a loop.
+pub fn loop_figures(model: &AxisModel, which: Loop) -> LoopFigures {
+    let sys = loop_system(model, which);
+    let grid = log_space(0.01, 100_000.0, 200);
+    let closed: Vec<Complex<f64>> = grid.iter().map(|&f| sys.response(f)).collect();
+    let open_mag = |t: Complex<f64>| (t / (Complex::new(1.0, 0.0) - t)).norm();
+    let crossover_hz = first_crossing(
+        &grid,
+        |f| open_mag(sys.response(f)) - 1.0,
+        &closed,
+        |t| open_mag(t) - 1.0,
+    );
+    let phase_margin_deg = 180.0 + unwrapped_phase(&sys, crossover_hz);
+    let gain_3db = 1.0 / 2f64.sqrt();
+    let bandwidth_3db_hz = first_crossing(
+        &grid,
+        |f| sys.response(f).norm() - gain_3db,
+        &closed,
+        |t| t.norm() - gain_3db,
+    );
+    let phase_10deg_hz = first_crossing_phase(&sys, &grid, -10.0);
+    LoopFigures {
+        which,
+        crossover_hz,
+        phase_margin_deg,
+        bandwidth_3db_hz,
+        phase_10deg_hz,
+        dc_gain_db: 20.0 * sys.response(0.01).norm().log10(),
+    }
+}
+
+/// First frequency on the grid where `g` changes sign from positive, refined by bisection.
+fn first_crossing(
+    grid: &[f64],
+    g: impl Fn(f64) -> f64,
+    sampled: &[Complex<f64>],
+    g_sampled: impl Fn(Complex<f64>) -> f64,
+) -> f64 {
+    for i in 1..grid.len() {
+        if g_sampled(sampled[i - 1]) > 0.0 && g_sampled(sampled[i]) <= 0.0 {
+            let (mut lo, mut hi) = (grid[i - 1], grid[i]);
+            for _ in 0..60 {
+                let mid = (lo * hi).sqrt();
+                if g(mid) > 0.0 { lo = mid } else { hi = mid }
+            }
+            return (lo * hi).sqrt();
+        }
+    }
+    f64::NAN
+}
+
+/// The loop's open-loop phase at `f`, unwrapped from low frequency (degrees).
+fn unwrapped_phase(sys: &Siso, f: f64) -> f64 {
+    let grid = log_space(0.01, f, 100);
+    let mut phase = 0.0;
+    let mut prev: Option<f64> = None;
+    for &g in &grid {
+        let t = sys.response(g);
+        let l = t / (Complex::new(1.0, 0.0) - t);
+        let mut p = l.arg().to_degrees();
+        if let Some(q) = prev {
+            while p - q > 180.0 {
+                p -= 360.0;
+            }
+            while p - q < -180.0 {
+                p += 360.0;
+            }
+        }
+        prev = Some(p);
+        phase = p;
+    }
+    phase
+}
+
+fn first_crossing_phase(sys: &Siso, grid: &[f64], level_deg: f64) -> f64 {
+    let mut prev: Option<(f64, f64)> = None;
+    for &f in grid {
+        let mut p = sys.response(f).arg().to_degrees();
+        if let Some((_, q)) = prev {
+            while p - q > 180.0 {
+                p -= 360.0;
+            }
+            while p - q < -180.0 {
+                p += 360.0;
+            }
+        }
+        if let Some((f0, q)) = prev {
+            if q > level_deg && p <= level_deg {
+                let (mut lo, mut hi) = (f0, f);
+                for _ in 0..60 {
+                    let mid = (lo * hi).sqrt();
+                    // Near the crossing the phase is far from the ±180° cut.
+                    if sys.response(mid).arg().to_degrees() > level_deg {
+                        lo = mid
+                    } else {
+                        hi = mid
+                    }
+                }
+                return (lo * hi).sqrt();
+            }
+        }
+        prev = Some((f, p));
+    }
+    f64::NAN
+}
+
+/// A closed-loop mode: its natural frequency and damping ratio.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ModalFigure {
+    /// Natural frequency |λ|/2π (Hz).
+    pub frequency_hz: f64,
+    /// Damping ratio −Re λ/|λ|.
+    pub damping: f64,
+    /// Real part of the eigenvalue (1/s).
+    pub real_per_s: f64,
+}
+
+/// Eigenvalues of the closed position loop (the whole linearised axis).
+pub fn closed_loop_modes(model: &AxisModel) -> Vec<ModalFigure> {
+    let full = model.dynamics(nominal_mode());
+    let a = DMatrix::from_fn(NS, NS, |i, j| full[(i, j)]);
+    a.complex_eigenvalues()
+        .iter()
+        .map(|l| {
+            let norm = l.norm();
+            ModalFigure {
+                frequency_hz: norm / std::f64::consts::TAU,
+                damping: if norm > 0.0 { -l.re / norm } else { 1.0 },
+                real_per_s: l.re,
+            }
+        })
+        .collect()
+}
+
+/// The least damped oscillatory closed-loop mode (damping below 1).
+pub fn least_damped(model: &AxisModel) -> Option<ModalFigure> {
+    closed_loop_modes(model)
+        .into_iter()
+        .filter(|m| m.damping < 0.999 && m.frequency_hz > 0.0)
+        .min_by(|a, b| a.damping.total_cmp(&b.damping))
+}
+
+/// An error when any closed-loop mode grows.
+pub fn check_stable(model: &AxisModel) -> Result<(), SimError> {
+    let modes = closed_loop_modes(model);
+    let worst = modes
+        .iter()
+        .max_by(|a, b| a.real_per_s.total_cmp(&b.real_per_s));
+    match worst {
+        Some(m) if m.real_per_s > 1e-9 * (1.0 + m.frequency_hz) => Err(SimError::Unstable {
+            frequency_hz: m.frequency_hz,
+            growth_per_s: m.real_per_s,
+        }),
+        _ => Ok(()),
+    }
+}

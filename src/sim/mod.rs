@@ -1,0 +1,138 @@
+//! The servo-feed axis simulator (MODEL.md §1): three-loop control, ball-screw mechanics,
+//! hybrid stick/slip friction, backlash, lateral shift, current and voltage limits.
+//!
+//! [`simulate`] is pure: model and commands in, trace out, no I/O and no shared state, so
+//! axes and sweeps run in parallel. [`linear`] gives the linearised loops (Bode, stability)
+//! and [`stickslip`] the paper's stick-slip criterion.
+
+pub mod discrete;
+pub mod linear;
+pub mod model;
+pub mod simulate;
+pub mod stickslip;
+
+pub use model::{AxisModel, FrictionMode, Mode};
+pub use simulate::simulate;
+
+use model::{Aug, I, W_M, X2, XR};
+
+/// Simulation settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimConfig {
+    /// Simulation steps per command sample (the step is the interpolation cycle divided by
+    /// this). The linear dynamics are exact at any step; the step bounds how finely the
+    /// event search looks for mode switches (it finds every switch whose guard changes sign
+    /// once within a step).
+    pub substeps: u32,
+    /// A following error beyond this (m) is reported as divergence.
+    pub divergence_limit_m: f64,
+    /// Record every friction mode switch (for stick-slip analysis).
+    pub record_friction_events: bool,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        SimConfig {
+            substeps: 4,
+            divergence_limit_m: 1.0,
+            record_friction_events: false,
+        }
+    }
+}
+
+/// Why a simulation stopped.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SimError {
+    /// The linearised closed loop has a growing mode: the gain setting is unstable.
+    #[error(
+        "unstable gain setting: a closed-loop mode at {frequency_hz:.1} Hz grows at \
+         {growth_per_s:.3} 1/s"
+    )]
+    Unstable {
+        /// Frequency of the growing mode.
+        frequency_hz: f64,
+        /// Its growth rate (positive real part).
+        growth_per_s: f64,
+    },
+    /// The following error left every plausible bound.
+    #[error("the axis diverged: following error {error_m:e} m at t = {t_s:.3} s")]
+    Diverged {
+        /// When.
+        t_s: f64,
+        /// How large.
+        error_m: f64,
+    },
+    /// Mode switches without end inside one step.
+    #[error("the friction/backlash/limit modes chatter without end at t = {t_s:.6} s")]
+    Chattering {
+        /// When.
+        t_s: f64,
+    },
+}
+
+/// A friction mode switch (for stick-slip analysis).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrictionEvent {
+    /// Time (s).
+    pub t_s: f64,
+    /// Table position at the switch (m).
+    pub x_m: f64,
+    /// The new friction mode.
+    pub to: FrictionMode,
+}
+
+/// What one axis did, sampled at the command period.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct AxisTrace {
+    /// Sample period (s).
+    pub dt_s: f64,
+    /// Table position X2 (m).
+    pub pos_m: Vec<f64>,
+    /// Reference position x_ref (m).
+    pub ref_m: Vec<f64>,
+    /// Motor speed (rad/s).
+    pub motor_speed_rad_per_s: Vec<f64>,
+    /// Armature current (A).
+    pub current_a: Vec<f64>,
+    /// Mode code ([`Mode::code`]).
+    pub mode: Vec<u8>,
+    /// Friction switches, when recorded.
+    pub friction_events: Vec<FrictionEvent>,
+}
+
+impl AxisTrace {
+    fn with_capacity(dt_s: f64, n: usize) -> Self {
+        AxisTrace {
+            dt_s,
+            pos_m: Vec::with_capacity(n),
+            ref_m: Vec::with_capacity(n),
+            motor_speed_rad_per_s: Vec::with_capacity(n),
+            current_a: Vec::with_capacity(n),
+            mode: Vec::with_capacity(n),
+            friction_events: Vec::new(),
+        }
+    }
+
+    fn push(&mut self, x: &Aug, mode: Mode) {
+        self.pos_m.push(x[X2]);
+        self.ref_m.push(x[XR]);
+        self.motor_speed_rad_per_s.push(x[W_M]);
+        self.current_a.push(x[I]);
+        self.mode.push(mode.code());
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.pos_m.len()
+    }
+
+    /// True when empty.
+    pub fn is_empty(&self) -> bool {
+        self.pos_m.is_empty()
+    }
+
+    /// Following error x_ref − x_table at sample k (m).
+    pub fn following_error_m(&self, k: usize) -> f64 {
+        self.ref_m[k] - self.pos_m[k]
+    }
+}

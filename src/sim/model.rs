@@ -1,0 +1,483 @@
+//! One axis as MODEL.md §1 specifies it, in SI units: the parameters derived once from the
+//! user's configuration, and the piecewise-linear state-space matrices of each mode.
+//!
+//! State (13): current-command filter, current-feedback filter, current PI integral,
+//! armature current, velocity PI integral, motor angle and speed, screw angle and speed,
+//! table position and speed, reference position and velocity. Inputs held over a step (5):
+//! reference acceleration, the constant 1 (for friction, backlash and limits), a feedback
+//! offset, a nut-travel offset and an external table force. The reference is part of the
+//! state so that a step's polynomial reference x_ref + v_ref·t + a_ref·t²/2 is integrated
+//! exactly, and so that a step can be split at an event without re-sampling it.
+
+use nalgebra::{SMatrix, SVector};
+
+use crate::machine::{AxisConfig, Feedback};
+use crate::units::{
+    GRAVITY_M_PER_S2, h_from_mh, m_from_mm, m_from_um, per_s_from_kv_m_per_min_per_mm, s_from_ms,
+};
+
+/// Number of states.
+pub const N: usize = 13;
+/// Number of states plus held inputs.
+pub const NA: usize = 18;
+
+/// Filtered current command (A).
+pub const FC: usize = 0;
+/// Filtered current feedback (A).
+pub const FF: usize = 1;
+/// Integral of the current error (A·s).
+pub const ZI: usize = 2;
+/// Armature current (A).
+pub const I: usize = 3;
+/// Integral of the speed error (rad).
+pub const ZW: usize = 4;
+/// Motor angle (rad).
+pub const TH_M: usize = 5;
+/// Motor speed (rad/s).
+pub const W_M: usize = 6;
+/// Screw angle (rad).
+pub const TH_S: usize = 7;
+/// Screw speed (rad/s).
+pub const W_S: usize = 8;
+/// Table position (m).
+pub const X2: usize = 9;
+/// Table speed (m/s).
+pub const V2: usize = 10;
+/// Reference position (m).
+pub const XR: usize = 11;
+/// Reference velocity (m/s).
+pub const VR: usize = 12;
+/// Input: reference acceleration (m/s²).
+pub const AR: usize = 13;
+/// Input: the constant 1.
+pub const ONE: usize = 14;
+/// Input: offset added to the position feedback (m) — scale errors.
+pub const FB: usize = 15;
+/// Input: offset added to the nut's travel (m) — lead errors, lateral shift.
+pub const DL: usize = 16;
+/// Input: external force against the table (N) — Stribeck excess, disturbances.
+pub const FX: usize = 17;
+
+/// Augmented state vector: states then held inputs.
+pub type Aug = SVector<f64, NA>;
+/// A linear functional on the augmented state.
+pub type Row = SMatrix<f64, 1, NA>;
+/// Augmented dynamics matrix (the input rows are zero).
+pub type AugMatrix = SMatrix<f64, NA, NA>;
+
+/// One axis in SI units (see MODEL.md §1 for the symbols).
+#[derive(Debug, Clone, PartialEq)]
+pub struct AxisModel {
+    /// Position gain Kp (rad/s per m of error, at the motor).
+    pub kp: f64,
+    /// Velocity feed-forward factor.
+    pub kf: f64,
+    /// Acceleration feed-forward factor.
+    pub ka: f64,
+    /// Position feedback.
+    pub feedback: Feedback,
+    /// Velocity P gain (A·s/rad).
+    pub ks: f64,
+    /// Velocity integral time (s).
+    pub ts: f64,
+    /// Current limit (A).
+    pub i_max: f64,
+    /// Current P gain (V/A).
+    pub ki: f64,
+    /// Current integral time (s).
+    pub ti: f64,
+    /// Current filter time constant (s).
+    pub tcf: f64,
+    /// Voltage limit (V).
+    pub u_max: f64,
+    /// Armature resistance (Ω).
+    pub ra: f64,
+    /// Armature inductance (H).
+    pub la: f64,
+    /// Torque constant (N·m/A).
+    pub kt: f64,
+    /// Back-EMF constant (V·s/rad).
+    pub ke: f64,
+    /// Rotor inertia (kg·m²).
+    pub jm: f64,
+    /// Screw inertia (kg·m²).
+    pub js: f64,
+    /// Torsional stiffness (N·m/rad).
+    pub k_theta: f64,
+    /// Torsional damping (N·m·s/rad).
+    pub c_theta: f64,
+    /// Axial stiffness (N/m).
+    pub k_m: f64,
+    /// Axial damping while in contact (N·s/m).
+    pub c_m: f64,
+    /// Lead factor r = P/2π (m/rad).
+    pub r: f64,
+    /// Gear ratio i_t (screw angle per motor angle).
+    pub it: f64,
+    /// Table mass (kg).
+    pub mt: f64,
+    /// Screw bearing damping (N·m·s/rad).
+    pub b_screw: f64,
+    /// Half of the backlash gap e = b/2 (m).
+    pub half_gap: f64,
+    /// Coulomb friction force (N).
+    pub f_c: f64,
+    /// Static friction force (N).
+    pub f_s: f64,
+    /// Viscous friction coefficient (N·s/m).
+    pub f_v: f64,
+    /// Lateral shift of the screw, if this axis carries the tool holder along a beam.
+    pub lateral: Option<LateralShiftModel>,
+}
+
+/// Beam sag that scales the lead (MODEL.md §1.7).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LateralShiftModel {
+    /// Beam length l (m).
+    pub l: f64,
+    /// Bending stiffness EI (N·m²).
+    pub ei: f64,
+    /// Holder weight F (N).
+    pub load: f64,
+    /// Holder distance from the left end when the axis is at 0 (m).
+    pub a0: f64,
+}
+
+impl LateralShiftModel {
+    /// The lead scale K_λ = b/√(b² + y_a²) with the holder at axis position `x` (m), where
+    /// y_a = F a² b² / (3 l EI) is the sag under the holder (a from the left end, b = l − a).
+    pub fn k_lambda(&self, x: f64) -> f64 {
+        let a = (self.a0 + x).clamp(0.0, self.l);
+        let b = self.l - a;
+        if b <= 0.0 {
+            return 1.0;
+        }
+        let ya = self.load * a * a * b * b / (3.0 * self.l * self.ei);
+        b / (b * b + ya * ya).sqrt()
+    }
+}
+
+impl AxisModel {
+    /// Derives the SI model from an axis configuration (all conversions happen here).
+    pub fn from_config(c: &AxisConfig) -> AxisModel {
+        let d = &c.drive;
+        let r = m_from_mm(d.lead_mm) / std::f64::consts::TAU;
+        let it = d.gear_ratio;
+        let kt = c.motor.kt_nm_per_a;
+        let (jm, js, mt) = (c.motor.jm_kg_m2, d.js_kg_m2, d.table_mass_kg);
+        // Damping of each spring from its two sides' reduced inertia: C = 2ζ√(K·m_eq).
+        let reduced = |a: f64, b: f64| a * b / (a + b);
+        let j_theta = reduced(jm / (it * it), js);
+        let m_axial = reduced((jm / (it * it) + js) / (r * r), mt);
+        let f_c = c.friction.coulomb_coefficient * mt * GRAVITY_M_PER_S2;
+        AxisModel {
+            kp: per_s_from_kv_m_per_min_per_mm(c.position_loop.kv_m_per_min_per_mm) / (r * it),
+            kf: c.position_loop.velocity_feedforward,
+            ka: c.position_loop.accel_feedforward,
+            feedback: c.position_loop.feedback,
+            ks: c.velocity_loop.ks_nm_s_per_rad / kt,
+            ts: s_from_ms(c.velocity_loop.ts_ms),
+            i_max: c.velocity_loop.i_max_a,
+            ki: c.current_loop.ki_v_per_a,
+            ti: s_from_ms(c.current_loop.ti_ms),
+            tcf: s_from_ms(c.current_loop.tcf_ms),
+            u_max: c.current_loop.u_max_v,
+            ra: c.motor.ra_ohm,
+            la: h_from_mh(c.motor.la_mh),
+            kt,
+            ke: c.motor.ke_v_s_per_rad,
+            jm,
+            js,
+            k_theta: d.k_theta_nm_per_rad,
+            c_theta: 2.0 * d.zeta_theta * (d.k_theta_nm_per_rad * j_theta).sqrt(),
+            k_m: d.k_m_n_per_m,
+            c_m: 2.0 * d.zeta_m * (d.k_m_n_per_m * m_axial).sqrt(),
+            r,
+            it,
+            mt,
+            b_screw: d.screw_viscous_nm_s_per_rad,
+            half_gap: 0.5 * m_from_um(d.backlash_um),
+            f_c,
+            f_s: c.friction.static_to_coulomb * f_c,
+            f_v: c.friction.viscous_n_s_per_m,
+            lateral: c.lateral_shift.as_ref().map(|l| LateralShiftModel {
+                l: l.beam_length_m,
+                ei: l.bending_stiffness_n_m2,
+                load: l.holder_load_n,
+                a0: l.holder_at_zero_m,
+            }),
+        }
+    }
+
+    /// Total inertia reflected to the motor, J_m + i_t² J_s + (r i_t)² M_T (kg·m²).
+    pub fn j_tot(&self) -> f64 {
+        self.jm + self.it * self.it * self.js + (self.r * self.it).powi(2) * self.mt
+    }
+
+    /// Table travel per motor radian, r·i_t (m/rad).
+    pub fn travel_per_motor_rad(&self) -> f64 {
+        self.r * self.it
+    }
+
+    /// The position gain as the CNC shows it, Kv = Kp·r·i_t (1/s).
+    pub fn kv_per_s(&self) -> f64 {
+        self.kp * self.r * self.it
+    }
+
+    /// True when the axis has backlash (a gap to cross at reversals).
+    pub fn has_backlash(&self) -> bool {
+        self.half_gap > 0.0
+    }
+}
+
+/// Friction state of the table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum FrictionMode {
+    /// Sliding forward (V2 > 0).
+    SlipPos,
+    /// Sliding backward (V2 < 0).
+    SlipNeg,
+    /// Stuck (V2 = 0).
+    Stick,
+}
+
+/// Contact state of the screw–nut gap.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ContactMode {
+    /// Driving forward (δ > e).
+    Pos,
+    /// Inside the gap (|δ| ≤ e): no force.
+    Free,
+    /// Driving backward (δ < −e).
+    Neg,
+}
+
+/// State of a limited controller output with its integrator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ClampMode {
+    /// Within the limits; the integrator runs.
+    Linear,
+    /// At the upper limit, integrator held.
+    HeldHi,
+    /// At the upper limit, integrator following it (releasing would re-saturate at once).
+    SlideHi,
+    /// At the lower limit, integrator held.
+    HeldLo,
+    /// At the lower limit, integrator following it.
+    SlideLo,
+}
+
+impl ClampMode {
+    /// The output's value when clamped: Some(+1) high, Some(−1) low.
+    fn side(self) -> Option<f64> {
+        match self {
+            ClampMode::Linear => None,
+            ClampMode::HeldHi | ClampMode::SlideHi => Some(1.0),
+            ClampMode::HeldLo | ClampMode::SlideLo => Some(-1.0),
+        }
+    }
+}
+
+/// The full mode of the piecewise-linear axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Mode {
+    /// Table friction.
+    pub friction: FrictionMode,
+    /// Screw–nut contact.
+    pub contact: ContactMode,
+    /// Current-command limit (velocity controller output).
+    pub current: ClampMode,
+    /// Voltage limit (current controller output).
+    pub voltage: ClampMode,
+}
+
+impl Mode {
+    /// Number of distinct modes.
+    pub const COUNT: usize = 3 * 3 * 5 * 5;
+
+    /// A dense index in 0..COUNT.
+    pub fn index(self) -> usize {
+        let f = self.friction as usize;
+        let c = self.contact as usize;
+        ((f * 3 + c) * 5 + self.current as usize) * 5 + self.voltage as usize
+    }
+
+    /// A compact code for traces: friction (0 slip+, 1 slip−, 2 stick) + 3·contact
+    /// (0 pos, 1 free, 2 neg) + 9 when a limit is active.
+    pub fn code(self) -> u8 {
+        let limited = self.current != ClampMode::Linear || self.voltage != ClampMode::Linear;
+        self.friction as u8 + 3 * self.contact as u8 + if limited { 9 } else { 0 }
+    }
+}
+
+fn unit(i: usize) -> Row {
+    let mut r = Row::zeros();
+    r[i] = 1.0;
+    r
+}
+
+/// The linear functionals the model is built from (rows over the augmented state).
+pub struct Signals {
+    /// Position feedback x_fb.
+    pub x_fb: Row,
+    /// Speed command ω_cmd.
+    pub w_cmd: Row,
+    /// Speed error e_ω.
+    pub e_w: Row,
+    /// Unclamped current command.
+    pub i_cmd_raw: Row,
+    /// Current error e_i (filtered).
+    pub e_i: Row,
+    /// Unclamped voltage.
+    pub u_raw: Row,
+    /// Screw–nut relative travel δ.
+    pub delta: Row,
+    /// Its rate.
+    pub delta_rate: Row,
+    /// Coupling torque.
+    pub t_c: Row,
+}
+
+impl AxisModel {
+    /// The model's signals as functionals of the augmented state.
+    pub fn signals(&self) -> Signals {
+        let x_fb = match self.feedback {
+            Feedback::LinearScale => unit(X2) + unit(FB),
+            Feedback::MotorEncoder => unit(TH_S) * self.r + unit(FB),
+        };
+        let rit = self.r * self.it;
+        let w_cmd = (unit(XR) - x_fb) * self.kp + unit(VR) * (self.kf / rit);
+        let e_w = w_cmd - unit(W_M);
+        let i_ff = unit(AR) * (self.ka * self.j_tot() / (rit * self.kt));
+        let i_cmd_raw = (e_w + unit(ZW) / self.ts) * self.ks + i_ff;
+        let e_i = unit(FC) - unit(FF);
+        let u_raw = (e_i + unit(ZI) / self.ti) * self.ki;
+        let delta = unit(TH_S) * self.r - unit(X2) + unit(DL);
+        let delta_rate = unit(W_S) * self.r - unit(V2);
+        let t_c = (unit(TH_M) * self.it - unit(TH_S)) * self.k_theta
+            + (unit(W_M) * self.it - unit(W_S)) * self.c_theta;
+        Signals {
+            x_fb,
+            w_cmd,
+            e_w,
+            i_cmd_raw,
+            e_i,
+            u_raw,
+            delta,
+            delta_rate,
+            t_c,
+        }
+    }
+
+    /// Nut force in a contact mode (N).
+    pub fn nut_force(&self, s: &Signals, contact: ContactMode) -> Row {
+        let spring =
+            |offset: f64| (s.delta + unit(ONE) * offset) * self.k_m + s.delta_rate * self.c_m;
+        match contact {
+            ContactMode::Pos => spring(-self.half_gap),
+            ContactMode::Free => Row::zeros(),
+            ContactMode::Neg => spring(self.half_gap),
+        }
+    }
+
+    /// The augmented dynamics matrix of a mode: d/dt [x; u] = A [x; u] (input rows zero).
+    pub fn dynamics(&self, mode: Mode) -> AugMatrix {
+        let s = self.signals();
+        let mut a = AugMatrix::zeros();
+        let mut set = |i: usize, row: Row| a.set_row(i, &row);
+        let clamped = |m: ClampMode, raw: Row, limit: f64| match m.side() {
+            Some(side) => unit(ONE) * (side * limit),
+            None => raw,
+        };
+        let i_cmd = clamped(mode.current, s.i_cmd_raw, self.i_max);
+        let u = clamped(mode.voltage, s.u_raw, self.u_max);
+        let f_n = self.nut_force(&s, mode.contact);
+        set(FC, (i_cmd - unit(FC)) / self.tcf);
+        set(FF, (unit(I) - unit(FF)) / self.tcf);
+        set(I, (u - unit(I) * self.ra - unit(W_M) * self.ke) / self.la);
+        set(TH_M, unit(W_M));
+        set(W_M, (unit(I) * self.kt - s.t_c * self.it) / self.jm);
+        set(TH_S, unit(W_S));
+        set(
+            W_S,
+            (s.t_c - unit(W_S) * self.b_screw - f_n * self.r) / self.js,
+        );
+        match mode.friction {
+            FrictionMode::Stick => {}
+            slip => {
+                let sign = if slip == FrictionMode::SlipPos {
+                    1.0
+                } else {
+                    -1.0
+                };
+                set(X2, unit(V2));
+                let friction = unit(V2) * self.f_v + unit(ONE) * (sign * self.f_c);
+                set(V2, (f_n - friction - unit(FX)) / self.mt);
+            }
+        }
+        set(XR, unit(VR));
+        set(VR, unit(AR));
+        // Integrators last: a sliding one follows its limit, which needs the other rows.
+        let zi_row = integrator_row(mode.voltage, s.e_i, self.ti, &a);
+        let zw_row = integrator_row(mode.current, s.e_w, self.ts, &a);
+        a.set_row(ZI, &zi_row);
+        a.set_row(ZW, &zw_row);
+        a
+    }
+}
+
+/// Row of an integrator z of a PI output y = K(e + z/T): running (dz = e), held (dz = 0), or
+/// following the limit (dz = −T·de/dt, which keeps y constant).
+fn integrator_row(mode: ClampMode, e: Row, t: f64, a: &AugMatrix) -> Row {
+    match mode {
+        ClampMode::Linear => e,
+        ClampMode::HeldHi | ClampMode::HeldLo => Row::zeros(),
+        ClampMode::SlideHi | ClampMode::SlideLo => (e * a) * -t,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::machine::MachineConfig;
+
+    fn hvmc() -> AxisModel {
+        AxisModel::from_config(&MachineConfig::default_preset().x)
+    }
+
+    #[test]
+    fn derived_parameters_match_model_md() {
+        let m = hvmc();
+        // Kp = 26.18e3 rad/s/m is Kv = 1 m/min/mm with P = 16 mm, i_t = 0.25.
+        assert!((m.kp - 26_179.94).abs() < 0.01, "{}", m.kp);
+        assert!((m.j_tot() - 0.024557).abs() < 1e-6, "{}", m.j_tot());
+        assert!((m.ks - 16.0 / 2.34).abs() < 1e-12);
+        assert!((m.f_c - 588.6).abs() < 1e-9);
+        assert!((m.f_s - m.f_c - 76.518).abs() < 1e-9);
+        // K_λ − 1 at the beam centre ≈ −5.6e-10 (MODEL.md §2).
+        let k = m.lateral.unwrap().k_lambda(0.0) - 1.0;
+        assert!((k + 5.6e-10).abs() < 0.1e-10, "{k:e}");
+    }
+
+    #[test]
+    fn rigid_motion_is_an_equilibrium_of_the_mechanics() {
+        // Everything displaced together, no current: no acceleration anywhere.
+        let m = hvmc();
+        let a = m.dynamics(Mode {
+            friction: FrictionMode::SlipPos,
+            contact: ContactMode::Pos,
+            current: ClampMode::Linear,
+            voltage: ClampMode::Linear,
+        });
+        let mut x = Aug::zeros();
+        x[X2] = 0.3;
+        x[TH_S] = 0.3 / m.r;
+        x[TH_M] = x[TH_S] / m.it;
+        x[XR] = 0.3;
+        let dx = a * x;
+        // Rounding of the 118 rad screw angle times K_θ = 4e7 N·m/rad leaves ~1e-6 N·m.
+        for i in [W_M, W_S, V2, FC, I] {
+            assert!(dx[i].abs() < 1e-3, "state {i}: {}", dx[i]);
+        }
+    }
+}

@@ -1,0 +1,568 @@
+//! The hybrid simulation of one axis: exact linear steps between mode switches, switches
+//! located inside the step by bisection on the dyadic maps (to h/2^24, a few tens of ps).
+//!
+//! Each mode has guards — linear functionals of the augmented state that stay non-negative
+//! while the mode holds (table speed sign, |net force| below static friction, nut inside or
+//! outside the gap, controller outputs within or at their limits). A step whose end violates
+//! a guard is bisected to the first violation, the mode is switched there (with the state
+//! projected where the switch demands it: V2 = 0 on sticking, the integrator on its limit
+//! when it starts to follow it), and the rest of the step is taken in the new mode.
+
+use super::discrete::{LEVELS, MapCache};
+use super::model::{
+    AR, Aug, AxisModel, ClampMode, ContactMode, DL, FX, FrictionMode, Mode, N, NA, ONE, Row,
+    Signals, TH_S, V2, VR, X2, XR, ZI, ZW,
+};
+use super::{AxisTrace, FrictionEvent, SimConfig, SimError};
+use crate::plan::AxisCommands;
+
+/// Guard tolerances: a guard counts as violated only below −tolerance, so that a state just
+/// placed on a switching surface does not trigger again.
+const TOL_SPEED: f64 = 1e-12; // m/s
+const TOL_FORCE: f64 = 1e-9; // N
+const TOL_GAP: f64 = 1e-13; // m
+const TOL_CURRENT: f64 = 1e-9; // A
+const TOL_VOLTAGE: f64 = 1e-9; // V
+const TOL_RATE: f64 = 1e-9; // A/s or V/s
+/// More switches than this inside one step means the model chatters; it is reported.
+const MAX_EVENTS_PER_STEP: usize = 2000;
+
+/// A guard: valid while row·x ≥ −tol.
+struct Guard {
+    row: Row,
+    tol: f64,
+}
+
+/// Rows of a kernel: the 13 states, then up to 8 guards (friction 2, contact 2, current 2,
+/// voltage 2). 24 keeps the columns a multiple of four for vector units.
+const ROWS: usize = 24;
+
+/// One step of one mode at one level, fused with the mode's guards: a single column-major
+/// product gives the next state and every guard's value at it.
+struct Kernel {
+    cols: [[f64; ROWS]; NA],
+    guards: usize,
+    tol: [f64; ROWS - N],
+}
+
+impl Kernel {
+    fn new(map: &super::discrete::StepMap, guards: &[Guard]) -> Kernel {
+        let mut cols = [[0.0; ROWS]; NA];
+        for (j, col) in cols.iter_mut().enumerate() {
+            for i in 0..N {
+                col[i] = map[(i, j)];
+            }
+        }
+        let mut tol = [0.0; ROWS - N];
+        for (k, g) in guards.iter().enumerate() {
+            // g·[x'; u] with x' = M·[x; u]: the state part composed with the map, plus the
+            // guard's own input part.
+            for (j, col) in cols.iter_mut().enumerate() {
+                let mut v = if j >= N { g.row[j] } else { 0.0 };
+                for i in 0..N {
+                    v += g.row[i] * map[(i, j)];
+                }
+                col[N + k] = v;
+            }
+            tol[k] = g.tol;
+        }
+        Kernel {
+            cols,
+            guards: guards.len(),
+            tol,
+        }
+    }
+
+    /// Next state and guard values.
+    #[inline]
+    fn apply(&self, x: &Aug) -> [f64; ROWS] {
+        let mut y = [0.0; ROWS];
+        for (col, &xj) in self.cols.iter().zip(x.iter()) {
+            for (yi, ci) in y.iter_mut().zip(col) {
+                *yi += ci * xj;
+            }
+        }
+        y
+    }
+
+    #[inline]
+    fn guards_hold(&self, y: &[f64; ROWS]) -> bool {
+        (0..self.guards).all(|k| y[N + k] >= -self.tol[k])
+    }
+}
+
+/// The simulator of one axis.
+pub struct AxisSim<'a> {
+    model: &'a AxisModel,
+    signals: Signals,
+    cache: MapCache,
+    kernels: Vec<Option<Box<Kernel>>>,
+    events_in_step: usize,
+}
+
+impl<'a> AxisSim<'a> {
+    /// A simulator with steps of `h` seconds.
+    pub fn new(model: &'a AxisModel, h: f64) -> Self {
+        AxisSim {
+            model,
+            signals: model.signals(),
+            cache: MapCache::new(h),
+            kernels: (0..Mode::COUNT * (LEVELS + 1)).map(|_| None).collect(),
+            events_in_step: 0,
+        }
+    }
+
+    fn build_guards(&mut self, mode: Mode) -> Vec<Guard> {
+        let m = self.model;
+        let s = &self.signals;
+        let a = *self.cache.dynamics(m, mode);
+        let mut g = Vec::new();
+        let one = unit(ONE);
+        match mode.friction {
+            FrictionMode::SlipPos => g.push(Guard {
+                row: unit(V2),
+                tol: TOL_SPEED,
+            }),
+            FrictionMode::SlipNeg => g.push(Guard {
+                row: -unit(V2),
+                tol: TOL_SPEED,
+            }),
+            FrictionMode::Stick => {
+                let f_e = m.nut_force(s, mode.contact) - unit(FX);
+                g.push(Guard {
+                    row: one * m.f_s - f_e,
+                    tol: TOL_FORCE,
+                });
+                g.push(Guard {
+                    row: one * m.f_s + f_e,
+                    tol: TOL_FORCE,
+                });
+            }
+        }
+        if m.has_backlash() {
+            let e = m.half_gap;
+            match mode.contact {
+                ContactMode::Pos => g.push(Guard {
+                    row: s.delta - one * e,
+                    tol: TOL_GAP,
+                }),
+                ContactMode::Neg => g.push(Guard {
+                    row: -s.delta - one * e,
+                    tol: TOL_GAP,
+                }),
+                ContactMode::Free => {
+                    g.push(Guard {
+                        row: one * e - s.delta,
+                        tol: TOL_GAP,
+                    });
+                    g.push(Guard {
+                        row: s.delta + one * e,
+                        tol: TOL_GAP,
+                    });
+                }
+            }
+        }
+        let current = ClampSignals::current(m, s, &a);
+        let voltage = ClampSignals::voltage(m, s, &a);
+        clamp_guards(&mut g, mode.current, &current, TOL_CURRENT);
+        clamp_guards(&mut g, mode.voltage, &voltage, TOL_VOLTAGE);
+        g
+    }
+
+    fn kernel(&mut self, mode: Mode, level: usize) -> &Kernel {
+        let slot = mode.index() * (LEVELS + 1) + level;
+        if self.kernels[slot].is_none() {
+            let guards = self.build_guards(mode);
+            let map = *self.cache.map(self.model, mode, level);
+            self.kernels[slot] = Some(Box::new(Kernel::new(&map, &guards)));
+        }
+        self.kernels[slot].as_ref().expect("just built")
+    }
+
+    /// One step of h/2^level in place when the mode's guards hold at its end (returns true);
+    /// otherwise `x` is left as it was (returns false).
+    #[inline]
+    fn try_step(&mut self, mode: Mode, level: usize, x: &mut Aug) -> bool {
+        let kernel = self.kernel(mode, level);
+        let y = kernel.apply(x);
+        let ok = kernel.guards_hold(&y);
+        if ok {
+            x.as_mut_slice()[..N].copy_from_slice(&y[..N]);
+        }
+        ok
+    }
+
+    /// One step of h/2^level in place, whatever the guards say.
+    fn force_step(&mut self, mode: Mode, level: usize, x: &mut Aug) {
+        let y = self.kernel(mode, level).apply(x);
+        x.as_mut_slice()[..N].copy_from_slice(&y[..N]);
+    }
+
+    /// Advances `x` by one full step h in `mode`, switching modes where guards demand.
+    pub fn step(
+        &mut self,
+        x: &mut Aug,
+        mode: &mut Mode,
+        t: f64,
+        events: Option<&mut Vec<FrictionEvent>>,
+    ) -> Result<(), SimError> {
+        let full: u64 = 1 << LEVELS;
+        let mut done: u64 = 0;
+        self.events_in_step = 0;
+        let mut events = events;
+        while done < full {
+            let remaining = full - done;
+            // The largest dyadic chunk that fits what is left (and aligns with it).
+            // Maps are time-invariant, so any chunk may start anywhere.
+            let level = LEVELS - (63 - remaining.leading_zeros() as usize).min(LEVELS);
+            let chunk: u64 = 1 << (LEVELS - level);
+            if self.try_step(*mode, level, x) {
+                done += chunk;
+                continue;
+            }
+            // Bisect the chunk to the last state where the guards hold.
+            let mut consumed: u64 = 0;
+            for lvl in level + 1..=LEVELS {
+                if self.try_step(*mode, lvl, x) {
+                    consumed += 1 << (LEVELS - lvl);
+                }
+            }
+            // One finest tick further the guard is violated: switch there.
+            self.force_step(*mode, LEVELS, x);
+            consumed += 1;
+            done += consumed;
+            let before = *mode;
+            self.switch_mode(x, mode);
+            if let Some(ev) = events.as_deref_mut() {
+                if before.friction != mode.friction {
+                    let t_event = t + self.cache.step_s() * done as f64 / full as f64;
+                    ev.push(FrictionEvent {
+                        t_s: t_event,
+                        x_m: x[X2],
+                        to: mode.friction,
+                    });
+                }
+            }
+            self.events_in_step += 1;
+            if self.events_in_step > MAX_EVENTS_PER_STEP {
+                return Err(SimError::Chattering { t_s: t });
+            }
+        }
+        Ok(())
+    }
+
+    /// Chooses the mode consistent with the state at a switching instant, projecting the
+    /// state where a switch demands it.
+    fn switch_mode(&mut self, x: &mut Aug, mode: &mut Mode) {
+        for _ in 0..8 {
+            let mut changed = false;
+            changed |= self.switch_contact(x, mode);
+            changed |= self.switch_friction(x, mode);
+            changed |= self.switch_clamp(x, mode, Limit::Current);
+            changed |= self.switch_clamp(x, mode, Limit::Voltage);
+            if !changed {
+                return;
+            }
+        }
+    }
+
+    fn switch_contact(&mut self, x: &Aug, mode: &mut Mode) -> bool {
+        let m = self.model;
+        if !m.has_backlash() {
+            return false;
+        }
+        let d = (self.signals.delta * x)[0];
+        let e = m.half_gap;
+        let want = if d > e + TOL_GAP {
+            ContactMode::Pos
+        } else if d < -e - TOL_GAP {
+            ContactMode::Neg
+        } else if (mode.contact == ContactMode::Pos && d < e - TOL_GAP)
+            || (mode.contact == ContactMode::Neg && d > -e + TOL_GAP)
+        {
+            ContactMode::Free
+        } else {
+            mode.contact
+        };
+        let changed = want != mode.contact;
+        mode.contact = want;
+        changed
+    }
+
+    fn switch_friction(&mut self, x: &mut Aug, mode: &mut Mode) -> bool {
+        let m = self.model;
+        let f_e = ((m.nut_force(&self.signals, mode.contact) - unit(FX)) * &*x)[0];
+        let v = x[V2];
+        let want = match mode.friction {
+            FrictionMode::SlipPos if v < -TOL_SPEED => self.at_zero_speed(f_e),
+            FrictionMode::SlipNeg if v > TOL_SPEED => self.at_zero_speed(f_e),
+            FrictionMode::Stick if f_e.abs() > m.f_s + TOL_FORCE => {
+                if f_e > 0.0 {
+                    FrictionMode::SlipPos
+                } else {
+                    FrictionMode::SlipNeg
+                }
+            }
+            current => current,
+        };
+        if want == mode.friction {
+            return false;
+        }
+        if want == FrictionMode::Stick || mode.friction == FrictionMode::Stick {
+            // Sticking: the table is still. Breaking away: it starts from rest.
+            x[V2] = 0.0;
+        }
+        mode.friction = want;
+        true
+    }
+
+    /// At a speed zero crossing: stick if static friction can hold the net force.
+    fn at_zero_speed(&self, f_e: f64) -> FrictionMode {
+        if f_e.abs() < self.model.f_s {
+            FrictionMode::Stick
+        } else if f_e > 0.0 {
+            FrictionMode::SlipPos
+        } else {
+            FrictionMode::SlipNeg
+        }
+    }
+
+    fn switch_clamp(&mut self, x: &mut Aug, mode: &mut Mode, which: Limit) -> bool {
+        let a = *self.cache.dynamics(self.model, *mode);
+        let c = match which {
+            Limit::Current => ClampSignals::current(self.model, &self.signals, &a),
+            Limit::Voltage => ClampSignals::voltage(self.model, &self.signals, &a),
+        };
+        let tol = match which {
+            Limit::Current => TOL_CURRENT,
+            Limit::Voltage => TOL_VOLTAGE,
+        };
+        let current = match which {
+            Limit::Current => mode.current,
+            Limit::Voltage => mode.voltage,
+        };
+        let y = (c.output * &*x)[0];
+        let held_rate = (c.held_rate * &*x)[0];
+        let natural_rate = (c.natural_rate * &*x)[0];
+        let l = c.limit;
+        use ClampMode::*;
+        let want = match current {
+            Linear if y > l + tol => {
+                if held_rate > 0.0 {
+                    HeldHi
+                } else {
+                    SlideHi
+                }
+            }
+            Linear if y < -l - tol => {
+                if held_rate < 0.0 {
+                    HeldLo
+                } else {
+                    SlideLo
+                }
+            }
+            HeldHi if y < l - tol => {
+                if natural_rate > 0.0 {
+                    SlideHi
+                } else {
+                    Linear
+                }
+            }
+            HeldLo if y > -l + tol => {
+                if natural_rate < 0.0 {
+                    SlideLo
+                } else {
+                    Linear
+                }
+            }
+            SlideHi if natural_rate < -TOL_RATE => Linear,
+            SlideHi if held_rate > TOL_RATE => HeldHi,
+            SlideLo if natural_rate > TOL_RATE => Linear,
+            SlideLo if held_rate < -TOL_RATE => HeldLo,
+            m => m,
+        };
+        if want == current {
+            return false;
+        }
+        // A sliding integrator sits exactly where the output equals the limit.
+        if let Some(side) = match want {
+            SlideHi => Some(1.0),
+            SlideLo => Some(-1.0),
+            _ => None,
+        } {
+            let z_idx = c.integrator;
+            let without_z = y - c.z_gain * x[z_idx];
+            x[z_idx] = (side * l - without_z) / c.z_gain;
+        }
+        match which {
+            Limit::Current => mode.current = want,
+            Limit::Voltage => mode.voltage = want,
+        }
+        true
+    }
+}
+
+#[derive(Clone, Copy)]
+enum Limit {
+    Current,
+    Voltage,
+}
+
+/// A limited PI output y = K(e + z/T) (+ feed-forward) and its rates.
+struct ClampSignals {
+    output: Row,
+    /// dy/dt with the integrator held: K·de/dt.
+    held_rate: Row,
+    /// dy/dt with the integrator running: K·(de/dt + e/T).
+    natural_rate: Row,
+    limit: f64,
+    integrator: usize,
+    /// ∂y/∂z = K/T.
+    z_gain: f64,
+}
+
+impl ClampSignals {
+    fn current(m: &AxisModel, s: &Signals, a: &super::model::AugMatrix) -> Self {
+        let de = s.e_w * a;
+        ClampSignals {
+            output: s.i_cmd_raw,
+            held_rate: de * m.ks,
+            natural_rate: (de + s.e_w / m.ts) * m.ks,
+            limit: m.i_max,
+            integrator: ZW,
+            z_gain: m.ks / m.ts,
+        }
+    }
+
+    fn voltage(m: &AxisModel, s: &Signals, a: &super::model::AugMatrix) -> Self {
+        let de = s.e_i * a;
+        ClampSignals {
+            output: s.u_raw,
+            held_rate: de * m.ki,
+            natural_rate: (de + s.e_i / m.ti) * m.ki,
+            limit: m.u_max,
+            integrator: ZI,
+            z_gain: m.ki / m.ti,
+        }
+    }
+}
+
+fn clamp_guards(g: &mut Vec<Guard>, mode: ClampMode, c: &ClampSignals, tol: f64) {
+    let one = unit(ONE) * c.limit;
+    match mode {
+        ClampMode::Linear => {
+            g.push(Guard {
+                row: one - c.output,
+                tol,
+            });
+            g.push(Guard {
+                row: c.output + one,
+                tol,
+            });
+        }
+        ClampMode::HeldHi => g.push(Guard {
+            row: c.output - one,
+            tol,
+        }),
+        ClampMode::HeldLo => g.push(Guard {
+            row: -c.output - one,
+            tol,
+        }),
+        ClampMode::SlideHi => {
+            g.push(Guard {
+                row: c.natural_rate,
+                tol: TOL_RATE,
+            });
+            g.push(Guard {
+                row: -c.held_rate,
+                tol: TOL_RATE,
+            });
+        }
+        ClampMode::SlideLo => {
+            g.push(Guard {
+                row: -c.natural_rate,
+                tol: TOL_RATE,
+            });
+            g.push(Guard {
+                row: c.held_rate,
+                tol: TOL_RATE,
+            });
+        }
+    }
+}
+
+fn unit(i: usize) -> Row {
+    let mut r = Row::zeros();
+    r[i] = 1.0;
+    r
+}
+
+/// The state of an axis at rest at `x0` (m): everything aligned, no current, stuck, the nut
+/// in the middle of its gap.
+pub fn rest_state(model: &AxisModel, x0: f64) -> (Aug, Mode) {
+    let mut x = Aug::zeros();
+    x[X2] = x0;
+    x[TH_S] = x0 / model.r;
+    x[super::model::TH_M] = x[TH_S] / model.it;
+    x[XR] = x0;
+    x[ONE] = 1.0;
+    let contact = if model.has_backlash() {
+        ContactMode::Free
+    } else {
+        ContactMode::Pos
+    };
+    let mode = Mode {
+        friction: FrictionMode::Stick,
+        contact,
+        current: ClampMode::Linear,
+        voltage: ClampMode::Linear,
+    };
+    (x, mode)
+}
+
+/// Simulates one axis following its commands (sampled every `dt_s`), recording the trace
+/// at every command sample.
+pub fn simulate(
+    model: &AxisModel,
+    commands: &AxisCommands,
+    dt_s: f64,
+    config: &SimConfig,
+) -> Result<AxisTrace, SimError> {
+    super::linear::check_stable(model)?;
+    let n = commands.len();
+    let substeps = config.substeps.max(1) as usize;
+    let h = dt_s / substeps as f64;
+    let mut sim = AxisSim::new(model, h);
+    let x0 = commands.pos_m.first().copied().unwrap_or(0.0);
+    let (mut x, mut mode) = rest_state(model, x0);
+    let mut trace = AxisTrace::with_capacity(dt_s, n);
+    let mut friction_events = config.record_friction_events.then(Vec::new);
+    for k in 0..n {
+        // The reference of this interpolation cycle: x + v·τ + a·τ²/2, integrated exactly.
+        x[XR] = commands.pos_m[k];
+        x[VR] = commands.vel_m_per_s[k];
+        x[AR] = commands.acc_m_per_s2[k];
+        if let Some(lat) = &model.lateral {
+            // Nut travel K_λ·r·θ_s: the lead scale enters as an offset on δ. It changes by
+            // parts in 1e10 over a cycle, so once per interpolation cycle is exact enough.
+            x[DL] = (lat.k_lambda(x[X2]) - 1.0) * model.r * x[TH_S];
+        }
+        trace.push(&x, mode);
+        if k + 1 == n {
+            break;
+        }
+        for sub in 0..substeps {
+            let t = (k as f64 + sub as f64 / substeps as f64) * dt_s;
+            sim.step(&mut x, &mut mode, t, friction_events.as_mut())?;
+        }
+        let lag = x[XR] - x[X2];
+        if !lag.is_finite() || lag.abs() > config.divergence_limit_m {
+            return Err(SimError::Diverged {
+                t_s: (k + 1) as f64 * dt_s,
+                error_m: lag,
+            });
+        }
+    }
+    trace.friction_events = friction_events.unwrap_or_default();
+    Ok(trace)
+}

@@ -1,0 +1,170 @@
+//! Stick-slip by the paper's criterion (§4.2.2, MODEL.md §4): from rest, a constant
+//! commanded feed (a velocity step) for 30 s; a slip is the table's travel from a break-away
+//! to the next stick; slips that break away in the second half of the run count; stick-slip
+//! is present when one of them reaches 1 µm. The critical velocity is the lowest feed above
+//! which there is none: found by a scan, then bisection.
+
+use serde::Serialize;
+
+use super::model::AxisModel;
+use super::{FrictionEvent, FrictionMode, SimConfig, SimError, simulate};
+use crate::plan::AxisCommands;
+
+/// Settings of the criterion.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StickSlipConfig {
+    /// Length of each run (s).
+    pub run_s: f64,
+    /// A slip at least this long is stick-slip (m).
+    pub threshold_m: f64,
+    /// Command sample period (s).
+    pub dt_s: f64,
+    /// Simulator settings.
+    pub sim: SimConfig,
+    /// Resolution of the critical-velocity bisection (m/s).
+    pub resolution_m_per_s: f64,
+}
+
+impl Default for StickSlipConfig {
+    fn default() -> Self {
+        StickSlipConfig {
+            run_s: 30.0,
+            threshold_m: 1e-6,
+            dt_s: 0.002,
+            sim: SimConfig {
+                record_friction_events: true,
+                ..SimConfig::default()
+            },
+            resolution_m_per_s: 0.1 / 60_000.0,
+        }
+    }
+}
+
+/// One slip: from a break-away to the next stick.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Slip {
+    /// Break-away time (s).
+    pub start_s: f64,
+    /// Time of the next stick (s).
+    pub end_s: f64,
+    /// Table travel (m).
+    pub travel_m: f64,
+}
+
+/// The outcome of one run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct StickSlipRun {
+    /// Commanded feed (m/s).
+    pub feed_m_per_s: f64,
+    /// Every completed slip.
+    pub slips: Vec<Slip>,
+    /// Largest slip that broke away in the second half (m); 0 when none.
+    pub max_counted_slip_m: f64,
+    /// Whether the criterion finds stick-slip.
+    pub stick_slip: bool,
+    /// Table position every sample (m), for plots.
+    #[serde(skip)]
+    pub position_m: Vec<f64>,
+    /// Sample period (s).
+    pub dt_s: f64,
+}
+
+/// Runs the criterion at one feed.
+pub fn run(
+    model: &AxisModel,
+    feed_m_per_s: f64,
+    cfg: &StickSlipConfig,
+) -> Result<StickSlipRun, SimError> {
+    let n = (cfg.run_s / cfg.dt_s).round() as usize + 1;
+    let commands = AxisCommands::ramp(0.0, feed_m_per_s, cfg.dt_s, n);
+    let mut sim = cfg.sim;
+    sim.record_friction_events = true;
+    let trace = simulate(model, &commands, cfg.dt_s, &sim)?;
+    let slips = slips_of(&trace.friction_events);
+    let half = 0.5 * cfg.run_s;
+    let max_counted_slip_m = slips
+        .iter()
+        .filter(|s| s.start_s >= half)
+        .map(|s| s.travel_m)
+        .fold(0.0, f64::max);
+    Ok(StickSlipRun {
+        feed_m_per_s,
+        slips,
+        max_counted_slip_m,
+        stick_slip: max_counted_slip_m >= cfg.threshold_m,
+        position_m: trace.pos_m,
+        dt_s: cfg.dt_s,
+    })
+}
+
+/// Slips from the friction switches: each break-away paired with the next stick.
+pub fn slips_of(events: &[FrictionEvent]) -> Vec<Slip> {
+    let mut slips = Vec::new();
+    let mut start: Option<&FrictionEvent> = None;
+    for e in events {
+        match e.to {
+            FrictionMode::SlipPos | FrictionMode::SlipNeg => {
+                start.get_or_insert(e);
+            }
+            FrictionMode::Stick => {
+                if let Some(s) = start.take() {
+                    slips.push(Slip {
+                        start_s: s.t_s,
+                        end_s: e.t_s,
+                        travel_m: (e.x_m - s.x_m).abs(),
+                    });
+                }
+            }
+        }
+    }
+    slips
+}
+
+/// The critical stick-slip velocity and how it was bracketed.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CriticalVelocity {
+    /// The lowest feed above which no stick-slip occurs (m/s), to the configured resolution:
+    /// the midpoint of the final bracket.
+    pub feed_m_per_s: f64,
+    /// Highest feed found with stick-slip (m/s).
+    pub last_sticking_m_per_s: f64,
+    /// Lowest feed above it found without (m/s).
+    pub first_smooth_m_per_s: f64,
+    /// The scan's runs (feed, largest counted slip).
+    pub scan: Vec<(f64, f64)>,
+}
+
+/// Scans the given feeds (ascending), then bisects between the highest feed with stick-slip
+/// and the next one without.
+pub fn critical_velocity(
+    model: &AxisModel,
+    scan_feeds_m_per_s: &[f64],
+    cfg: &StickSlipConfig,
+) -> Result<Option<CriticalVelocity>, SimError> {
+    let mut scan = Vec::new();
+    for &f in scan_feeds_m_per_s {
+        let r = run(model, f, cfg)?;
+        scan.push((f, r.max_counted_slip_m));
+    }
+    let Some(last) = scan.iter().rposition(|&(_, s)| s >= cfg.threshold_m) else {
+        return Ok(None);
+    };
+    let Some(&(hi0, _)) = scan.get(last + 1) else {
+        return Ok(None); // stick-slip up to the highest feed scanned
+    };
+    let (mut lo, mut hi) = (scan[last].0, hi0);
+    while hi - lo > cfg.resolution_m_per_s {
+        let mid = 0.5 * (lo + hi);
+        if run(model, mid, cfg)?.stick_slip {
+            lo = mid
+        } else {
+            hi = mid
+        }
+    }
+    Ok(Some(CriticalVelocity {
+        feed_m_per_s: 0.5 * (lo + hi),
+        last_sticking_m_per_s: lo,
+        first_smooth_m_per_s: hi,
+        scan,
+    }))
+}
