@@ -12,5 +12,7 @@ pub mod machine;
 pub mod output;
 pub mod path;
 pub mod plan;
+pub mod plot;
 pub mod sim;
 pub mod units;
+pub mod validate;

@@ -23,6 +23,9 @@ pub enum CliError {
     /// An output could not be written.
     #[error("{0}")]
     Output(#[from] OutputError),
+    /// The simulation could not run (unstable gains, divergence).
+    #[error("{0}")]
+    Sim(#[from] crate::sim::SimError),
     /// An input file could not be read.
     #[error("{path}: {message}")]
     Read {
@@ -147,4 +150,37 @@ pub fn group_warnings(warnings: &[crate::gcode::Warning]) -> Vec<String> {
             }
         })
         .collect()
+}
+
+/// A progress bar on a terminal; hidden when stderr is piped or under CI.
+pub fn progress(len: u64, message: &str) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    let quiet = !std::io::stderr().is_terminal() || std::env::var_os("CI").is_some();
+    if quiet {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(len);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} ({eta})")
+            .expect("a valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_message(message.to_string());
+    bar
+}
+
+/// `--axis x|y`.
+#[derive(Debug, Args)]
+pub struct AxisArg {
+    /// Which simulated axis.
+    #[arg(long, default_value = "x", value_name = "AXIS")]
+    pub axis: crate::machine::AxisName,
+}
+
+/// Writes a plot whole or not at all.
+pub fn write_plot(path: &Path, figure: &impl crate::plot::Figure) -> Result<(), CliError> {
+    let mut batch = crate::output::OutputBatch::new();
+    batch.stage_with_path(path, |tmp| crate::plot::render(tmp, figure))?;
+    batch.commit()?;
+    Ok(())
 }

@@ -2,8 +2,11 @@
 //! does the work, and results are printed. Exit status: 0 ok, 1 prediction over tolerance,
 //! 2 error.
 
+mod bode_cmd;
 mod common;
 mod plan_cmd;
+mod stickslip_cmd;
+mod validate_cmd;
 
 use std::process::ExitCode;
 
@@ -23,6 +26,12 @@ pub struct Cli {
 enum Command {
     /// Parse and plan a program: blocks, path length, cycle time, peak axis dynamics.
     Plan(plan_cmd::PlanArgs),
+    /// Frequency responses of the current, velocity and position loops.
+    Bode(bode_cmd::BodeArgs),
+    /// Stick-slip at low feeds (the paper's criterion) and the critical velocity.
+    Stickslip(stickslip_cmd::StickSlipArgs),
+    /// Every comparison with the paper, side by side.
+    Validate(validate_cmd::ValidateArgs),
 }
 
 /// What a run ended with.
@@ -49,5 +58,8 @@ pub fn main() -> ExitCode {
 fn run(cli: Cli) -> Result<Outcome, CliError> {
     match cli.command {
         Command::Plan(args) => plan_cmd::run(&args),
+        Command::Bode(args) => bode_cmd::run(&args),
+        Command::Stickslip(args) => stickslip_cmd::run(&args),
+        Command::Validate(args) => validate_cmd::run(&args),
     }
 }

@@ -1,0 +1,122 @@
+//! `contourcheck stickslip`: the paper's stick-slip criterion at low feeds and the critical
+//! velocity.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use rayon::prelude::*;
+
+use super::Outcome;
+use super::common::{AxisArg, CliError, MachineArgs, progress, write_plot};
+use crate::plot::stickslip::{StickSlipCurve, StickSlipPlot};
+use crate::sim::{AxisModel, stickslip};
+use crate::units::{m_per_s_from_mm_per_min, mm_per_min_from_m_per_s, um_from_m};
+
+/// Arguments of `stickslip`.
+#[derive(Debug, Args)]
+pub struct StickSlipArgs {
+    #[command(flatten)]
+    pub machine: MachineArgs,
+    #[command(flatten)]
+    pub axis: AxisArg,
+    /// Feeds to run, mm/min (the paper's Fig. 29 set by default).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0.1,0.5,1,3,4,5",
+        value_name = "MM_PER_MIN,…"
+    )]
+    pub feeds: Vec<f64>,
+    /// Length of each run (s).
+    #[arg(long, default_value_t = 30.0, value_name = "S")]
+    pub duration: f64,
+    /// Write time–displacement curves to this PNG or SVG.
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
+}
+
+pub fn run(args: &StickSlipArgs) -> Result<Outcome, CliError> {
+    let machine = args.machine.load()?;
+    let model = AxisModel::from_config(machine.axis(args.axis.axis));
+    let mut feeds = args.feeds.clone();
+    if feeds.iter().any(|f| !(f.is_finite() && *f > 0.0)) {
+        return Err(CliError::Usage("--feeds must all be positive".into()));
+    }
+    if !(args.duration.is_finite() && args.duration >= 1.0) {
+        return Err(CliError::Usage("--duration must be at least 1 s".into()));
+    }
+    feeds.sort_by(f64::total_cmp);
+    let cfg = stickslip::StickSlipConfig {
+        run_s: args.duration,
+        ..Default::default()
+    };
+    let bar = progress(feeds.len() as u64, "stick-slip runs");
+    let runs = feeds
+        .par_iter()
+        .map(|&f| {
+            let r = stickslip::run(&model, m_per_s_from_mm_per_min(f), &cfg);
+            bar.inc(1);
+            r
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    bar.finish_and_clear();
+    println!(
+        "{} axis of {}: from rest, {} s per feed; a slip ≥ 1 µm breaking away in the second half is stick-slip",
+        args.axis.axis, machine.name, args.duration
+    );
+    println!("feed (mm/min)  slips  largest counted slip  verdict");
+    for r in &runs {
+        println!(
+            "{:>12.2} {:>6} {:>17.3} µm  {}",
+            mm_per_min_from_m_per_s(r.feed_m_per_s),
+            r.slips.len(),
+            um_from_m(r.max_counted_slip_m),
+            if r.stick_slip { "stick-slip" } else { "smooth" }
+        );
+    }
+    let scan: Vec<f64> = feeds.iter().map(|&f| m_per_s_from_mm_per_min(f)).collect();
+    match stickslip::critical_velocity(&model, &scan, &cfg)? {
+        Some(c) => println!(
+            "critical stick-slip velocity: {:.2} mm/min (stick-slip at {:.2}, none at {:.2})",
+            mm_per_min_from_m_per_s(c.feed_m_per_s),
+            mm_per_min_from_m_per_s(c.last_sticking_m_per_s),
+            mm_per_min_from_m_per_s(c.first_smooth_m_per_s)
+        ),
+        None => println!("critical stick-slip velocity: not bracketed by these feeds"),
+    }
+    if let Some(path) = &args.plot {
+        // A short window from the second half, where the criterion counts slips: over the
+        // whole run µm steps would vanish in mm of travel.
+        let window_s = 0.5f64.min(0.5 * args.duration);
+        let curves = runs
+            .iter()
+            .map(|r| {
+                let first = ((2.0 / 3.0 * args.duration) / r.dt_s) as usize;
+                let last = (first + (window_s / r.dt_s) as usize).min(r.position_m.len() - 1);
+                let origin = r.feed_m_per_s * first as f64 * r.dt_s;
+                let pts = |f: &dyn Fn(usize) -> f64| -> Vec<(f64, f64)> {
+                    (first..=last)
+                        .map(|k| (k as f64 * r.dt_s, f(k) - um_from_m(origin)))
+                        .collect()
+                };
+                StickSlipCurve {
+                    label: format!(
+                        "{:.2} mm/min — {} (largest slip {:.2} µm)",
+                        mm_per_min_from_m_per_s(r.feed_m_per_s),
+                        if r.stick_slip { "stick-slip" } else { "smooth" },
+                        um_from_m(r.max_counted_slip_m)
+                    ),
+                    table_um: pts(&|k| um_from_m(r.position_m[k])),
+                    command_um: pts(&|k| um_from_m(r.feed_m_per_s * k as f64 * r.dt_s)),
+                }
+            })
+            .collect();
+        let title = format!(
+            "Stick-slip, {} axis of {}: displacement over {window_s} s of the run's last third",
+            args.axis.axis, machine.name
+        );
+        write_plot(path, &StickSlipPlot { title, curves })?;
+        println!("plot: {}", path.display());
+    }
+    Ok(Outcome::Ok)
+}

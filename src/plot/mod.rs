@@ -1,0 +1,76 @@
+//! Plots with plotters: PNG or SVG by the file's extension, axes labelled with units, text
+//! in an embedded font (DejaVu Sans) so that nothing depends on the system's fonts.
+
+pub mod bode;
+pub mod stickslip;
+
+use std::path::Path;
+use std::sync::Once;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+/// Pixel size of every plot.
+pub const SIZE: (u32, u32) = (1200, 800);
+
+/// Font family name used throughout.
+pub const FONT: &str = "sans-serif";
+
+static FONT_ONCE: Once = Once::new();
+
+/// Makes the embedded font available to the bitmap backend (once per process).
+pub fn register_font() {
+    FONT_ONCE.call_once(|| {
+        // The embedded font is a valid TTF; failure would only mean text is not drawn.
+        let _ = plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular());
+        let _ = plotters::style::register_font(FONT, FontStyle::Bold, dejavu::sans::bold());
+    });
+}
+
+/// A plotting failure.
+pub type PlotResult = Result<(), String>;
+
+/// Something that can be drawn on any plotters backend.
+pub trait Figure {
+    /// Draws the figure on `root`.
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> PlotResult;
+}
+
+/// Draws a figure into a PNG or SVG at `path` (chosen by extension; default PNG).
+pub fn render(path: &Path, figure: &impl Figure) -> PlotResult {
+    register_font();
+    let svg = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("svg"));
+    if svg {
+        let root = SVGBackend::new(path, SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        figure.draw(&root)?;
+        root.present().map_err(err)
+    } else {
+        let root = BitMapBackend::new(path, SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        figure.draw(&root)?;
+        root.present().map_err(err)
+    }
+}
+
+/// Turns any plotters error into text.
+pub fn err<E: std::fmt::Display>(e: E) -> String {
+    e.to_string()
+}
+
+/// A distinguishable colour for series `i`.
+pub fn series_color(i: usize) -> RGBColor {
+    const COLORS: [RGBColor; 8] = [
+        RGBColor(31, 119, 180),
+        RGBColor(214, 39, 40),
+        RGBColor(44, 160, 44),
+        RGBColor(148, 103, 189),
+        RGBColor(255, 127, 14),
+        RGBColor(23, 190, 207),
+        RGBColor(140, 86, 75),
+        RGBColor(127, 127, 127),
+    ];
+    COLORS[i % COLORS.len()]
+}
