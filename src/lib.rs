@@ -6,13 +6,17 @@
 
 #![deny(missing_docs)]
 
+pub mod check;
 pub mod cli;
+pub mod contour;
 pub mod gcode;
+pub mod hotspot;
 pub mod machine;
 pub mod output;
 pub mod path;
 pub mod plan;
 pub mod plot;
+pub mod report;
 pub mod sim;
 pub mod units;
 pub mod validate;

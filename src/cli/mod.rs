@@ -3,6 +3,7 @@
 //! 2 error.
 
 mod bode_cmd;
+mod check_cmd;
 mod common;
 mod plan_cmd;
 mod stickslip_cmd;
@@ -24,6 +25,8 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Predict a program's contour error: where, how much and why.
+    Check(check_cmd::CheckArgs),
     /// Parse and plan a program: blocks, path length, cycle time, peak axis dynamics.
     Plan(plan_cmd::PlanArgs),
     /// Frequency responses of the current, velocity and position loops.
@@ -57,6 +60,7 @@ pub fn main() -> ExitCode {
 
 fn run(cli: Cli) -> Result<Outcome, CliError> {
     match cli.command {
+        Command::Check(args) => check_cmd::run(&args),
         Command::Plan(args) => plan_cmd::run(&args),
         Command::Bode(args) => bode_cmd::run(&args),
         Command::Stickslip(args) => stickslip_cmd::run(&args),

@@ -43,6 +43,9 @@ pub struct MachineConfig {
 pub struct Interpolation {
     /// Interpolation (IPO) cycle: the period of the position commands (ms).
     pub cycle_ms: f64,
+    /// Exact-stop window (mm): after a rapid or an exact stop (G61) the next block starts
+    /// only when every axis's following error is this small.
+    pub in_position_window_mm: f64,
 }
 
 /// One simulated feed axis.

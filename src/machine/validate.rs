@@ -59,6 +59,11 @@ pub fn validate(m: &MachineConfig, file: &str) -> Result<(), ConfigError> {
         m.interpolation.cycle_ms,
         Rule::Range(0.05, 100.0),
     )?;
+    c.check(
+        "interpolation.in_position_window_mm",
+        m.interpolation.in_position_window_mm,
+        Rule::Positive,
+    )?;
     validate_axis(&c, "x", &m.x)?;
     validate_axis(&c, "y", &m.y)?;
     validate_limits(&c, "z.limits", &m.z.limits)

@@ -21,7 +21,10 @@ pub mod sample;
 use crate::gcode::{Program, Warning};
 use crate::machine::{Limits, MachineConfig};
 use crate::path::{Blend, Geometry, Motion, Segment, dot3};
-use crate::units::{m_from_mm, m_per_s_from_mm_per_min, mm_per_min_from_m_per_s, s_from_ms};
+use crate::units::{
+    m_from_mm, m_per_s_from_mm_per_min, mm_per_min_from_m_per_s, per_s_from_kv_m_per_min_per_mm,
+    s_from_ms,
+};
 use profile::{Dynamics, SegmentProfile, reachable_speed};
 
 pub use sample::{AxisCommands, AxisPeaks, Commands, sample};
@@ -51,6 +54,16 @@ impl std::str::FromStr for ProfileKind {
     }
 }
 
+/// The control's in-position check: after an exact stop (the end of a rapid, a G61 block)
+/// the next block starts only when every axis's following error is within the window.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InPosition {
+    /// Exact-stop window (m).
+    pub window_m: f64,
+    /// Position-loop gain of X and Y (1/s), for the first-order estimate of their lag.
+    pub kv_per_s: [f64; 2],
+}
+
 /// Planner settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PlanConfig {
@@ -63,6 +76,9 @@ pub struct PlanConfig {
     /// Share η of an axis's acceleration an arc may spend on centripetal acceleration; the
     /// tangential acceleration gets √(1 − η²) so that the vector sum stays within the limit.
     pub arc_normal_share: f64,
+    /// In-position check at exact stops (`None`: the next block starts as soon as the
+    /// interpolator stops).
+    pub in_position: Option<InPosition>,
 }
 
 impl PlanConfig {
@@ -74,6 +90,11 @@ impl PlanConfig {
             cycle_s: s_from_ms(machine.interpolation.cycle_ms),
             default_blend_tolerance_m: m_from_mm(0.01),
             arc_normal_share: 0.5,
+            in_position: Some(InPosition {
+                window_m: m_from_mm(machine.interpolation.in_position_window_mm),
+                kv_per_s: [&machine.x, &machine.y]
+                    .map(|a| per_s_from_kv_m_per_min_per_mm(a.position_loop.kv_m_per_min_per_mm)),
+            }),
         }
     }
 }
@@ -137,11 +158,18 @@ pub struct SegmentPlan {
     pub v_limit: f64,
     /// Path dynamics used.
     pub dynamics: Dynamics,
-    /// Duration (s).
+    /// Duration of the motion (s).
     pub duration_s: f64,
+    /// Standing time after the motion: the in-position wait at an exact stop (s).
+    pub wait_s: f64,
 }
 
 impl SegmentPlan {
+    /// Time from this segment's start to the next one's (s).
+    pub fn span_s(&self) -> f64 {
+        self.duration_s + self.wait_s
+    }
+
     /// Rebuilds the speed profile (cheap; not stored, to keep plans small).
     pub fn profile(&self) -> SegmentProfile {
         SegmentProfile::plan(
@@ -202,7 +230,7 @@ pub fn plan_segments(
         .collect();
     let mut junction = junction_limits(&segments, &seg_limits, limits, config);
     look_ahead(&segments, &seg_limits, &mut junction);
-    let mut plans = Vec::with_capacity(segments.len());
+    let mut plans: Vec<SegmentPlan> = Vec::with_capacity(segments.len());
     let mut t = 0.0;
     for (i, (seg, lim)) in segments.iter().zip(&seg_limits).enumerate() {
         let (v_entry, v_exit) = (junction[i], junction[i + 1]);
@@ -219,8 +247,14 @@ pub fn plan_segments(
             v_limit: lim.v_max,
             dynamics: lim.dynamics,
             duration_s,
+            wait_s: 0.0,
         });
-        t += duration_s;
+        if let Some(ip) = &config.in_position {
+            if ends_in_exact_stop(&segments, i) {
+                plans[i].wait_s = in_position_wait(&segments, &plans, i, ip);
+            }
+        }
+        t += plans[i].span_s();
     }
     Plan {
         segments,
@@ -229,6 +263,49 @@ pub fn plan_segments(
         warnings: warnings.finish(),
         config: *config,
     }
+}
+
+/// A motion segment the control stops exactly after, before a next block that moves.
+fn ends_in_exact_stop(segments: &[Segment], i: usize) -> bool {
+    let seg = &segments[i];
+    let next_moves = segments.get(i + 1).is_some_and(|n| !n.is_dwell());
+    !seg.is_dwell() && next_moves && (seg.motion == Motion::Rapid || seg.blend == Blend::ExactStop)
+}
+
+/// How long the axes need after segment `i` to come within the window: each axis's lag at
+/// the stop from the first-order position loop, e(T) = ∫ v(τ) e^{−Kv (T − τ)} dτ over the
+/// last few time constants of motion, then decaying as e^{−Kv t}.
+fn in_position_wait(segments: &[Segment], plans: &[SegmentPlan], i: usize, ip: &InPosition) -> f64 {
+    let t_stop = plans[i].t_start_s + plans[i].duration_s;
+    let mut wait = 0.0f64;
+    for (axis, &kv) in ip.kv_per_s.iter().enumerate() {
+        let horizon = 8.0 / kv;
+        let mut lag = 0.0;
+        let mut j = i;
+        loop {
+            let (seg, sp) = (&segments[j], &plans[j]);
+            let from = (t_stop - horizon - sp.t_start_s).max(0.0);
+            if !seg.is_dwell() && sp.duration_s > from {
+                let profile = sp.profile();
+                let steps = (((sp.duration_s - from) / 1e-3).ceil() as usize).max(1);
+                let h = (sp.duration_s - from) / steps as f64;
+                for k in 0..steps {
+                    let tau = from + (k as f64 + 0.5) * h;
+                    let (s, v, _) = profile.eval(tau);
+                    let tangent = seg.eval(s.min(sp.length_m), sp.length_m).tangent[axis];
+                    lag += tangent * v * (-kv * (t_stop - sp.t_start_s - tau)).exp() * h;
+                }
+            }
+            if j == 0 || sp.t_start_s <= t_stop - horizon {
+                break;
+            }
+            j -= 1;
+        }
+        if lag.abs() > ip.window_m {
+            wait = wait.max((lag.abs() / ip.window_m).ln() / kv);
+        }
+    }
+    wait
 }
 
 /// Collects clamped-feed warnings, one per source line, capped.
@@ -373,7 +450,10 @@ fn junction_limits(
     let mut v = vec![0.0; n + 1];
     for i in 1..n {
         let (a, b) = (&segments[i - 1], &segments[i]);
-        if a.is_dwell() || b.is_dwell() || a.blend == Blend::ExactStop {
+        // Rapids end in an exact stop, as on most controls (Siemens G0 with G60, Fanuc's
+        // rapid in-position check).
+        if a.is_dwell() || b.is_dwell() || a.blend == Blend::ExactStop || a.motion == Motion::Rapid
+        {
             continue;
         }
         let cap = seg_limits[i - 1].v_max.min(seg_limits[i].v_max);

@@ -1,8 +1,11 @@
 //! Plots with plotters: PNG or SVG by the file's extension, axes labelled with units, text
 //! in an embedded font (DejaVu Sans) so that nothing depends on the system's fonts.
 
+pub mod along_path;
 pub mod bode;
+pub mod polar;
 pub mod stickslip;
+pub mod toolpath;
 
 use std::path::Path;
 use std::sync::Once;

@@ -12,7 +12,7 @@ pub mod simulate;
 pub mod stickslip;
 
 pub use model::{AxisModel, FrictionMode, Mode};
-pub use simulate::simulate;
+pub use simulate::{simulate, simulate_with_progress};
 
 use model::{Aug, I, W_M, X2, XR};
 

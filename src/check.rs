@@ -1,0 +1,233 @@
+//! The main job: a part program on a machine → where and by how much the machine will
+//! leave the programmed contour, and why.
+//!
+//! plan → sample → simulate X and Y (in parallel) → contour error → hotspots. Pure: no I/O,
+//! so that sweeps can run it many times in parallel.
+
+use serde::Serialize;
+
+use crate::contour::{ContourSeries, contour_errors};
+use crate::gcode::Program;
+use crate::hotspot::{Hotspot, HotspotConfig, RunView, find_hotspots};
+use crate::machine::MachineConfig;
+use crate::path::{Geometry, Motion};
+use crate::plan::{Commands, KinematicLimits, Plan, PlanConfig, plan, sample};
+use crate::sim::{AxisModel, AxisTrace, SimConfig, SimError, simulate_with_progress};
+
+/// Settings of a check.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CheckSettings {
+    /// Planner settings.
+    pub plan: PlanConfig,
+    /// Simulator settings.
+    pub sim: SimConfig,
+    /// Standing time after the program end, so the axes settle (s).
+    pub settle_s: f64,
+    /// Most hotspots reported.
+    pub max_hotspots: usize,
+}
+
+impl CheckSettings {
+    /// Defaults for a machine.
+    pub fn for_machine(machine: &MachineConfig) -> Self {
+        CheckSettings {
+            plan: PlanConfig::for_machine(machine),
+            sim: SimConfig::default(),
+            settle_s: 0.3,
+            max_hotspots: 50,
+        }
+    }
+}
+
+/// Figures of a run.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Summary {
+    /// Planned cycle time (s).
+    pub cycle_time_s: f64,
+    /// Path length, rapids included (m).
+    pub path_length_m: f64,
+    /// Length of the cutting moves (m).
+    pub cut_length_m: f64,
+    /// Largest |contour error| while cutting (m).
+    pub max_contour_error_m: f64,
+    /// Sample of that maximum.
+    pub max_contour_sample: Option<usize>,
+    /// RMS contour error while cutting (m).
+    pub rms_contour_error_m: f64,
+    /// Largest |following error| of X and Y while cutting (m).
+    pub max_following_error_cutting_m: [f64; 2],
+    /// Largest |following error| of X and Y over the whole run, rapids included (m).
+    pub max_following_error_m: [f64; 2],
+}
+
+/// Everything a check produced.
+#[derive(Debug, Clone)]
+pub struct CheckRun {
+    /// The plan.
+    pub plan: Plan,
+    /// The commands (with the settling tail).
+    pub commands: Commands,
+    /// X trace.
+    pub x: AxisTrace,
+    /// Y trace.
+    pub y: AxisTrace,
+    /// Contour error.
+    pub contour: ContourSeries,
+    /// Hotspots, ranked.
+    pub hotspots: Vec<Hotspot>,
+    /// Figures.
+    pub summary: Summary,
+    /// The settings the run used.
+    pub settings: CheckSettings,
+}
+
+/// Checks a program on a machine.
+pub fn check(
+    program: &Program,
+    machine: &MachineConfig,
+    settings: &CheckSettings,
+) -> Result<CheckRun, SimError> {
+    let (planned, commands) = plan_commands(program, machine, settings);
+    simulate_plan(planned, commands, machine, settings, &|_| {})
+}
+
+/// The plan of a program and its commands, with the settling tail.
+pub fn plan_commands(
+    program: &Program,
+    machine: &MachineConfig,
+    settings: &CheckSettings,
+) -> (Plan, Commands) {
+    let planned = plan(program, &KinematicLimits::of(machine), &settings.plan);
+    let mut commands = sample(&planned);
+    commands.hold(settings.settle_s);
+    (planned, commands)
+}
+
+/// Simulates planned commands and analyses them (the part of [`check`] after planning).
+/// `progress` is told how many samples of either axis are done, now and then.
+pub fn simulate_plan(
+    planned: Plan,
+    commands: Commands,
+    machine: &MachineConfig,
+    settings: &CheckSettings,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<CheckRun, SimError> {
+    let (mx, my) = (
+        AxisModel::from_config(&machine.x),
+        AxisModel::from_config(&machine.y),
+    );
+    let (x, y) = rayon::join(
+        || simulate_with_progress(&mx, &commands.x, commands.dt_s, &settings.sim, progress),
+        || simulate_with_progress(&my, &commands.y, commands.dt_s, &settings.sim, progress),
+    );
+    let (x, y) = (x?, y?);
+    let contour = contour_errors(&planned, &commands, &x.pos_m, &y.pos_m);
+    let view = RunView {
+        plan: &planned,
+        commands: &commands,
+        traces: [&x, &y],
+        backlash_m: [2.0 * mx.half_gap, 2.0 * my.half_gap],
+        contour: &contour,
+    };
+    let kv = mx.kv_per_s().min(my.kv_per_s());
+    let hotspots = find_hotspots(&view, &HotspotConfig::for_kv(kv), settings.max_hotspots);
+    let summary = summarize(&planned, &commands, [&x, &y], &contour);
+    Ok(CheckRun {
+        plan: planned,
+        commands,
+        x,
+        y,
+        contour,
+        hotspots,
+        summary,
+        settings: *settings,
+    })
+}
+
+fn summarize(
+    plan: &Plan,
+    commands: &Commands,
+    traces: [&AxisTrace; 2],
+    contour: &ContourSeries,
+) -> Summary {
+    let cut_length_m = plan
+        .segments
+        .iter()
+        .zip(&plan.plans)
+        .filter(|(s, _)| s.motion == Motion::Feed)
+        .map(|(_, p)| p.length_m)
+        .sum();
+    let mut fe_cut = [0.0f64; 2];
+    let mut fe_all = [0.0f64; 2];
+    for (i, t) in traces.iter().enumerate() {
+        for k in 0..t.len() {
+            let e = t.following_error_m(k).abs();
+            fe_all[i] = fe_all[i].max(e);
+            if plan.segments[commands.segment[k] as usize].motion == Motion::Feed {
+                fe_cut[i] = fe_cut[i].max(e);
+            }
+        }
+    }
+    let max = contour.max_abs();
+    Summary {
+        cycle_time_s: plan.total_time_s,
+        path_length_m: plan.path_length_m(),
+        cut_length_m,
+        max_contour_error_m: max.map_or(0.0, |m| m.1),
+        max_contour_sample: max.map(|m| m.0),
+        rms_contour_error_m: contour.rms(),
+        max_following_error_cutting_m: fe_cut,
+        max_following_error_m: fe_all,
+    }
+}
+
+/// A full circle in the program: the ISO 230-4 circular test a ballbar would measure.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CircleTest {
+    /// Index of the arc segment.
+    pub segment: usize,
+    /// Source line.
+    pub line: u32,
+    /// Centre (m).
+    pub center_m: [f64; 2],
+    /// Nominal radius (m).
+    pub radius_m: f64,
+    /// Counter-clockwise (G3) or clockwise (G2).
+    pub ccw: bool,
+    /// (angle rad, radial deviation m) of every sample on the circle.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// The full circles of a run with the radial deviation measured around them.
+pub fn circle_tests(run: &CheckRun) -> Vec<CircleTest> {
+    let mut out = Vec::new();
+    for (i, seg) in run.plan.segments.iter().enumerate() {
+        let Geometry::Arc(arc) = seg.geometry else {
+            continue;
+        };
+        if arc.sweep_rad.abs() < std::f64::consts::TAU - 1e-9 {
+            continue;
+        }
+        let points: Vec<(f64, f64)> = (0..run.contour.segment.len())
+            .filter(|&k| {
+                run.contour.segment[k] as usize == i && run.contour.radial_m[k].is_finite()
+            })
+            .map(|k| {
+                let (x, y) = (
+                    run.x.pos_m[k] - arc.center_m[0],
+                    run.y.pos_m[k] - arc.center_m[1],
+                );
+                (y.atan2(x), run.contour.radial_m[k])
+            })
+            .collect();
+        out.push(CircleTest {
+            segment: i,
+            line: seg.line,
+            center_m: arc.center_m,
+            radius_m: arc.r_start_m,
+            ccw: arc.sweep_rad > 0.0,
+            points,
+        });
+    }
+    out
+}

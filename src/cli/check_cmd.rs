@@ -1,0 +1,262 @@
+//! `contourcheck check`: the main job — predicted contour error, hotspots, reports, plots.
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+
+use super::Outcome;
+use super::common::{CliError, MachineArgs, PlanningArgs, load_program, progress};
+use crate::check::{CheckRun, CheckSettings, circle_tests, plan_commands, simulate_plan};
+use crate::output::OutputBatch;
+use crate::path::{Geometry, Motion};
+use crate::plot::along_path::AlongPathPlot;
+use crate::plot::polar::{PolarPlot, PolarTrace};
+use crate::plot::toolpath::{Marker, PathPoint, ToolpathPlot};
+use crate::report::{CheckReport, summary_text, write_trace_csv};
+use crate::units::{mm_from_m, um_from_m};
+
+/// Arguments of `check`.
+#[derive(Debug, Args)]
+pub struct CheckArgs {
+    /// The part program.
+    pub program: PathBuf,
+    #[command(flatten)]
+    pub machine: MachineArgs,
+    #[command(flatten)]
+    pub planning: PlanningArgs,
+    /// Write the report as JSON (schema contourcheck.check/1, see docs/report-schema.md).
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Write the run as CSV: commanded and actual positions, following and contour errors.
+    #[arg(long, value_name = "FILE")]
+    pub trace: Option<PathBuf>,
+    /// Keep every Nth sample in the trace CSV.
+    #[arg(long, default_value_t = 1, value_name = "N")]
+    pub trace_every: usize,
+    /// Write plots (PNG and SVG) into this directory: toolpath, contour error along the path,
+    /// and a polar plot per circular test.
+    #[arg(long, value_name = "DIR")]
+    pub plot: Option<PathBuf>,
+    /// Exit with status 1 when the predicted largest contour error exceeds this (µm).
+    #[arg(long, value_name = "UM")]
+    pub tolerance: Option<f64>,
+    /// Hotspots listed on the terminal.
+    #[arg(long, default_value_t = 10, value_name = "N")]
+    pub hotspots: usize,
+}
+
+pub fn run(args: &CheckArgs) -> Result<Outcome, CliError> {
+    if let Some(t) = args.tolerance {
+        if !(t.is_finite() && t > 0.0) {
+            return Err(CliError::Usage(format!(
+                "--tolerance {t}: must be a positive number of µm"
+            )));
+        }
+    }
+    let machine = args.machine.load()?;
+    let mut settings = CheckSettings::for_machine(&machine);
+    settings.plan = args.planning.config(&machine)?;
+    let program = load_program(&args.program)?;
+    let (planned, commands) = plan_commands(&program, &machine, &settings);
+    let bar = progress(2 * commands.len() as u64, "simulating X and Y");
+    let run = simulate_plan(planned, commands, &machine, &settings, &|n| bar.inc(n))?;
+    bar.finish_and_clear();
+    let report = CheckReport::new(&run, &program, &machine, args.tolerance);
+    write_outputs(args, &run, &report)?;
+    print!("{}", summary_text(&report, args.hotspots));
+    Ok(match report.within_tolerance {
+        Some(false) => Outcome::OverTolerance,
+        _ => Outcome::Ok,
+    })
+}
+
+/// Stages every output, then makes them all visible together.
+fn write_outputs(args: &CheckArgs, run: &CheckRun, report: &CheckReport) -> Result<(), CliError> {
+    let mut batch = OutputBatch::new();
+    if let Some(path) = &args.json {
+        batch.stage(path, |w| report.write_json(w))?;
+    }
+    if let Some(path) = &args.trace {
+        batch.stage(path, |w| write_trace_csv(w, run, args.trace_every))?;
+    }
+    if let Some(dir) = &args.plot {
+        std::fs::create_dir_all(dir).map_err(|e| CliError::Read {
+            path: dir.display().to_string(),
+            message: e.to_string(),
+        })?;
+        stage_plots(&mut batch, dir, run, report)?;
+    }
+    batch.commit()?;
+    Ok(())
+}
+
+fn stage_plots(
+    batch: &mut OutputBatch,
+    dir: &Path,
+    run: &CheckRun,
+    report: &CheckReport,
+) -> Result<(), CliError> {
+    let name = Path::new(&report.program.file)
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let toolpath = toolpath_figure(run, &name, report);
+    let along = along_path_figure(run, &name);
+    let circles = polar_figures(run, &name);
+    for ext in ["png", "svg"] {
+        batch.stage_with_path(&dir.join(format!("toolpath.{ext}")), |p| {
+            crate::plot::render(p, &toolpath)
+        })?;
+        batch.stage_with_path(&dir.join(format!("contour-along-path.{ext}")), |p| {
+            crate::plot::render(p, &along)
+        })?;
+        for (i, c) in circles.iter().enumerate() {
+            batch.stage_with_path(&dir.join(format!("circle-{}.{ext}", i + 1)), |p| {
+                crate::plot::render(p, c)
+            })?;
+        }
+    }
+    Ok(())
+}
+
+/// Programmed feed moves as polylines (mm).
+fn programmed_polylines(run: &CheckRun) -> Vec<Vec<(f64, f64)>> {
+    run.plan
+        .segments
+        .iter()
+        .filter(|s| s.motion == Motion::Feed)
+        .map(|s| match s.geometry {
+            Geometry::Arc(a) => {
+                let n = ((a.sweep_rad.abs() / 0.02).ceil() as usize).max(2);
+                (0..=n)
+                    .map(|i| a.xy_at(i as f64 / n as f64))
+                    .map(|p| (mm_from_m(p[0]), mm_from_m(p[1])))
+                    .collect()
+            }
+            _ => vec![
+                (mm_from_m(s.start_m[0]), mm_from_m(s.start_m[1])),
+                (mm_from_m(s.end_m[0]), mm_from_m(s.end_m[1])),
+            ],
+        })
+        .collect()
+}
+
+/// Most points a plot draws (the run is decimated evenly, keeping the hotspots' peaks).
+const PLOT_POINTS: usize = 40_000;
+
+fn decimation(n: usize) -> usize {
+    n.div_ceil(PLOT_POINTS).max(1)
+}
+
+fn toolpath_figure(run: &CheckRun, name: &str, report: &CheckReport) -> ToolpathPlot {
+    let every = decimation(run.x.len());
+    let mut keep: Vec<usize> = (0..run.x.len()).step_by(every).collect();
+    keep.extend(run.hotspots.iter().map(|h| h.sample));
+    keep.sort_unstable();
+    keep.dedup();
+    let actual = keep
+        .iter()
+        .map(|&k| PathPoint {
+            x_mm: mm_from_m(run.x.pos_m[k]),
+            y_mm: mm_from_m(run.y.pos_m[k]),
+            error_um: um_from_m(run.contour.error_m[k].abs()),
+        })
+        .collect();
+    let markers = run
+        .hotspots
+        .iter()
+        .take(10)
+        .enumerate()
+        .map(|(i, h)| Marker {
+            x_mm: h.x_mm,
+            y_mm: h.y_mm,
+            label: format!(" {}: L{}", i + 1, h.line),
+        })
+        .collect();
+    ToolpathPlot {
+        title: format!(
+            "{name}: predicted contour error on {} (max {:.2} µm)",
+            report.machine.name, report.contour_error_um.max
+        ),
+        programmed: programmed_polylines(run),
+        actual,
+        markers,
+    }
+}
+
+fn along_path_figure(run: &CheckRun, name: &str) -> AlongPathPlot {
+    let every = decimation(run.x.len());
+    let points = (0..run.x.len())
+        .step_by(every)
+        .map(|k| {
+            (
+                mm_from_m(run.contour.path_s_m[k]),
+                um_from_m(run.contour.error_m[k]),
+            )
+        })
+        .collect();
+    let markers = run
+        .hotspots
+        .iter()
+        .take(10)
+        .enumerate()
+        .map(|(i, h)| {
+            (
+                mm_from_m(run.contour.path_s_m[h.sample]),
+                h.error_um,
+                format!(" {}: L{}", i + 1, h.line),
+            )
+        })
+        .collect();
+    AlongPathPlot {
+        title: format!("{name}: contour error along the path"),
+        points,
+        markers,
+    }
+}
+
+/// One polar plot per circle, both directions together when the program runs the same
+/// circle both ways.
+fn polar_figures(run: &CheckRun, name: &str) -> Vec<PolarPlot> {
+    let mut groups: Vec<Vec<crate::check::CircleTest>> = Vec::new();
+    for c in circle_tests(run) {
+        let same = |g: &Vec<crate::check::CircleTest>| {
+            let a = &g[0];
+            (a.center_m[0] - c.center_m[0]).hypot(a.center_m[1] - c.center_m[1]) < 1e-6
+                && (a.radius_m - c.radius_m).abs() < 1e-6
+        };
+        match groups.iter_mut().find(|g| same(g)) {
+            Some(g) => g.push(c),
+            None => groups.push(vec![c]),
+        }
+    }
+    groups
+        .into_iter()
+        .map(|g| {
+            let r = g[0].radius_m;
+            PolarPlot {
+                title: format!(
+                    "{name}: circular test R{:.1} mm, centre ({:.1}, {:.1}) — radial deviation",
+                    mm_from_m(r),
+                    mm_from_m(g[0].center_m[0]),
+                    mm_from_m(g[0].center_m[1])
+                ),
+                radius_mm: mm_from_m(r),
+                traces: g
+                    .iter()
+                    .map(|c| PolarTrace {
+                        label: format!(
+                            "{} (line {})",
+                            if c.ccw {
+                                "counter-clockwise"
+                            } else {
+                                "clockwise"
+                            },
+                            c.line
+                        ),
+                        points: c.points.iter().map(|&(a, d)| (a, um_from_m(d))).collect(),
+                    })
+                    .collect(),
+            }
+        })
+        .collect()
+}

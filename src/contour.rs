@@ -1,0 +1,128 @@
+//! Contour error (MODEL.md §3): the signed shortest distance from the actual tool position
+//! to the programmed geometry — the G-code's lines and true arcs, not the time-parametrised
+//! reference point. Positive to the left of the direction of travel; on arcs the radial
+//! deviation (positive outward) is kept as well.
+//!
+//! The search is local and follows the path: for each sample only the segments within a
+//! window of path length around the segment being commanded are tried, the window being
+//! the distance between commanded and actual position plus a margin. The cost stays linear
+//! in the length of the run, and a tool passing near an earlier part of the path is never
+//! matched to it.
+
+use crate::path::{Geometry, Motion, Segment};
+use crate::plan::{Commands, Plan};
+
+/// Path length a search may look beyond the commanded–actual distance (m).
+const SEARCH_MARGIN_M: f64 = 0.5e-3;
+
+/// Contour error along a run.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ContourSeries {
+    /// Signed contour error per sample (m); NaN while not cutting (rapids).
+    pub error_m: Vec<f64>,
+    /// Radial deviation (m, positive outward) when the nearest geometry is an arc, else NaN.
+    pub radial_m: Vec<f64>,
+    /// Index of the nearest segment.
+    pub segment: Vec<u32>,
+    /// Path length of the foot point from the program start (m).
+    pub path_s_m: Vec<f64>,
+}
+
+impl ContourSeries {
+    /// Largest |error| and its sample, over cutting samples.
+    pub fn max_abs(&self) -> Option<(usize, f64)> {
+        self.error_m
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| e.is_finite())
+            .map(|(k, e)| (k, e.abs()))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+    }
+
+    /// Root mean square over cutting samples (m).
+    pub fn rms(&self) -> f64 {
+        let (sum, n) = self
+            .error_m
+            .iter()
+            .filter(|e| e.is_finite())
+            .fold((0.0, 0usize), |(s, n), e| (s + e * e, n + 1));
+        if n == 0 { 0.0 } else { (sum / n as f64).sqrt() }
+    }
+}
+
+/// Whether a segment is part of the cutting contour.
+fn is_contour(seg: &Segment) -> bool {
+    seg.motion == Motion::Feed && !matches!(seg.geometry, Geometry::Dwell { .. })
+}
+
+/// Contour errors of the actual XY positions (`x_m`, `y_m`, one per command sample).
+pub fn contour_errors(plan: &Plan, commands: &Commands, x_m: &[f64], y_m: &[f64]) -> ContourSeries {
+    let segs = &plan.segments;
+    let mut cum = Vec::with_capacity(segs.len() + 1);
+    cum.push(0.0);
+    for p in &plan.plans {
+        cum.push(cum.last().copied().unwrap_or(0.0) + p.length_m);
+    }
+    let n = x_m.len().min(commands.len());
+    let mut out = ContourSeries {
+        error_m: Vec::with_capacity(n),
+        radial_m: Vec::with_capacity(n),
+        segment: Vec::with_capacity(n),
+        path_s_m: Vec::with_capacity(n),
+    };
+    for k in 0..n {
+        let c = commands.segment[k] as usize;
+        let q = [x_m[k], y_m[k]];
+        let reference = [commands.x.pos_m[k], commands.y.pos_m[k]];
+        let ref_u = segs[c].project_xy(reference, 0.5).u;
+        if !is_contour(&segs[c]) {
+            out.push_none(c as u32, cum[c] + ref_u * plan.plans[c].length_m);
+            continue;
+        }
+        let s_ref = cum[c] + ref_u * plan.plans[c].length_m;
+        let window = (q[0] - reference[0]).hypot(q[1] - reference[1]) * 2.0 + SEARCH_MARGIN_M;
+        let mut best: Option<(f64, f64, usize, f64)> = None; // (|e|, e, segment, u)
+        let mut radial = f64::NAN;
+        let mut consider = |j: usize, hint: f64, best: &mut Option<(f64, f64, usize, f64)>| {
+            if !is_contour(&segs[j]) {
+                return;
+            }
+            let p = segs[j].project_xy(q, hint);
+            let d = p.signed_distance_m.abs();
+            if best.is_none_or(|b| d < b.0) {
+                *best = Some((d, p.signed_distance_m, j, p.u));
+                radial = p.radial_m.unwrap_or(f64::NAN);
+            }
+        };
+        consider(c, ref_u, &mut best);
+        let mut j = c;
+        while j > 0 && s_ref - cum[j] <= window {
+            j -= 1;
+            consider(j, 1.0, &mut best);
+        }
+        let mut j = c + 1;
+        while j < segs.len() && cum[j] - s_ref <= window {
+            consider(j, 0.0, &mut best);
+            j += 1;
+        }
+        match best {
+            Some((_, e, j, u)) => {
+                out.error_m.push(e);
+                out.radial_m.push(radial);
+                out.segment.push(j as u32);
+                out.path_s_m.push(cum[j] + u * plan.plans[j].length_m);
+            }
+            None => out.push_none(c as u32, s_ref),
+        }
+    }
+    out
+}
+
+impl ContourSeries {
+    fn push_none(&mut self, segment: u32, s: f64) {
+        self.error_m.push(f64::NAN);
+        self.radial_m.push(f64::NAN);
+        self.segment.push(segment);
+        self.path_s_m.push(s);
+    }
+}

@@ -1,0 +1,76 @@
+//! Contour error along the path length, with the hotspots marked.
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::{FONT, Figure, PlotResult, err, series_color};
+
+/// The figure.
+pub struct AlongPathPlot {
+    /// Title.
+    pub title: String,
+    /// (path length mm, signed contour error µm); NaN error breaks the line (rapids).
+    pub points: Vec<(f64, f64)>,
+    /// (path length mm, error µm, label) of the hotspots.
+    pub markers: Vec<(f64, f64, String)>,
+}
+
+impl Figure for AlongPathPlot {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> PlotResult {
+        let root = root.titled(&self.title, (FONT, 26)).map_err(err)?;
+        let finite = || self.points.iter().filter(|p| p.1.is_finite());
+        let s_max = self
+            .points
+            .iter()
+            .map(|p| p.0)
+            .fold(0.0, f64::max)
+            .max(1e-3);
+        let (lo, hi) = finite().fold((0.0f64, 0.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
+        let pad = 0.08 * (hi - lo).max(1e-3);
+        let mut chart = ChartBuilder::on(&root)
+            .margin(15)
+            .x_label_area_size(45)
+            .y_label_area_size(75)
+            .build_cartesian_2d(0.0..s_max, (lo - pad)..(hi + pad))
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc("path length (mm)")
+            .y_desc("contour error (µm, + left of travel)")
+            .label_style((FONT, 15))
+            .axis_desc_style((FONT, 17))
+            .draw()
+            .map_err(err)?;
+        // One line per stretch of cutting: rapids (NaN) break it.
+        let color = series_color(0);
+        for run in self
+            .points
+            .split(|p| !p.1.is_finite())
+            .filter(|r| r.len() > 1)
+        {
+            chart
+                .draw_series(LineSeries::new(run.iter().copied(), color.stroke_width(2)))
+                .map_err(err)?;
+        }
+        chart
+            .draw_series(LineSeries::new([(0.0, 0.0), (s_max, 0.0)], BLACK.mix(0.5)))
+            .map_err(err)?;
+        for (s, e, label) in &self.markers {
+            chart
+                .draw_series(std::iter::once(Circle::new(
+                    (*s, *e),
+                    6,
+                    RED.stroke_width(2),
+                )))
+                .map_err(err)?;
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    label.clone(),
+                    (*s, *e),
+                    (FONT, 14).into_font().color(&RED),
+                )))
+                .map_err(err)?;
+        }
+        Ok(())
+    }
+}

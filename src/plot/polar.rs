@@ -1,0 +1,149 @@
+//! A ballbar-style polar plot of a circular test (ISO 230-4): the radial deviation around
+//! the nominal circle, magnified, for both directions of travel.
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::{FONT, Figure, PlotResult, err, series_color};
+
+/// One direction's trace.
+pub struct PolarTrace {
+    /// Legend label, e.g. "counter-clockwise (line 13)".
+    pub label: String,
+    /// (angle rad, radial deviation µm).
+    pub points: Vec<(f64, f64)>,
+}
+
+/// The figure.
+pub struct PolarPlot {
+    /// Title.
+    pub title: String,
+    /// Nominal radius (mm), for the caption.
+    pub radius_mm: f64,
+    /// Traces.
+    pub traces: Vec<PolarTrace>,
+}
+
+/// Radius of the nominal circle in plot units; deviations are drawn around it.
+const NOMINAL: f64 = 1.0;
+/// The largest deviation is drawn this far from the nominal circle.
+const SPAN: f64 = 0.45;
+
+/// A round number of µm per grid ring for deviations up to `max_um`.
+fn ring_step(max_um: f64) -> f64 {
+    let raw = (max_um / 2.0).max(1e-3);
+    let mag = 10f64.powf(raw.log10().floor());
+    [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .map(|m| m * mag)
+        .find(|s| *s >= raw)
+        .unwrap_or(10.0 * mag)
+}
+
+impl Figure for PolarPlot {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> PlotResult {
+        let root = root.titled(&self.title, (FONT, 26)).map_err(err)?;
+        let (w, h) = root.dim_in_pixel();
+        let (plot, legend) = root.split_horizontally(w.min(h + 60));
+        let max_um = self
+            .traces
+            .iter()
+            .flat_map(|t| t.points.iter().map(|p| p.1.abs()))
+            .fold(0.0, f64::max);
+        let step = ring_step(max_um);
+        let rings = (max_um / step).ceil().max(1.0);
+        let scale = SPAN / (rings * step); // plot units per µm
+        let lim = NOMINAL + SPAN + 0.12;
+        let mut chart = ChartBuilder::on(&plot)
+            .margin(20)
+            .build_cartesian_2d(-lim..lim, -lim..lim)
+            .map_err(err)?;
+        let circle = |r: f64| {
+            (0..=360).map(move |d| {
+                let a = (d as f64).to_radians();
+                (r * a.cos(), r * a.sin())
+            })
+        };
+        for i in -(rings as i64)..=(rings as i64) {
+            let r = NOMINAL + i as f64 * step * scale;
+            let style = if i == 0 {
+                BLACK.stroke_width(2)
+            } else {
+                BLACK.mix(0.2).stroke_width(1)
+            };
+            chart
+                .draw_series(LineSeries::new(circle(r), style))
+                .map_err(err)?;
+            if i != 0 {
+                let label = format!("{:+} µm", i as f64 * step);
+                chart
+                    .draw_series(std::iter::once(Text::new(
+                        label,
+                        (0.02, r),
+                        (FONT, 12).into_font().color(&BLACK.mix(0.6)),
+                    )))
+                    .map_err(err)?;
+            }
+        }
+        for d in (0..360).step_by(45) {
+            let a = (d as f64).to_radians();
+            let (r0, r1) = (NOMINAL - SPAN, NOMINAL + SPAN);
+            chart
+                .draw_series(LineSeries::new(
+                    [(r0 * a.cos(), r0 * a.sin()), (r1 * a.cos(), r1 * a.sin())],
+                    BLACK.mix(0.2),
+                ))
+                .map_err(err)?;
+            let (lx, ly) = ((r1 + 0.07) * a.cos(), (r1 + 0.07) * a.sin());
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    format!("{d}°"),
+                    (lx - 0.05, ly),
+                    (FONT, 14),
+                )))
+                .map_err(err)?;
+        }
+        for (i, t) in self.traces.iter().enumerate() {
+            let pts = t.points.iter().map(|&(a, dev)| {
+                let r = NOMINAL + dev * scale;
+                (r * a.cos(), r * a.sin())
+            });
+            chart
+                .draw_series(LineSeries::new(pts, series_color(i).stroke_width(2)))
+                .map_err(err)?;
+        }
+        let mut y = 40;
+        let lines: Vec<(String, RGBColor)> =
+            std::iter::once((format!("nominal radius {:.3} mm", self.radius_mm), BLACK))
+                .chain(std::iter::once((
+                    format!("grid: {step} µm per ring"),
+                    BLACK,
+                )))
+                .chain(self.traces.iter().enumerate().flat_map(|(i, t)| {
+                    let (lo, hi) = t
+                        .points
+                        .iter()
+                        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
+                    [
+                        (t.label.clone(), series_color(i)),
+                        (
+                            format!("  deviation {lo:+.2} … {hi:+.2} µm"),
+                            series_color(i),
+                        ),
+                        (format!("  circularity {:.2} µm", hi - lo), series_color(i)),
+                    ]
+                }))
+                .collect();
+        for (text, color) in lines {
+            legend
+                .draw(&Text::new(
+                    text,
+                    (10, y),
+                    (FONT, 17).into_font().color(&color),
+                ))
+                .map_err(err)?;
+            y += 28;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,328 @@
+//! The results of a check for people (a summary) and for scripts (JSON, CSV).
+//!
+//! The JSON report's schema is versioned by its `schema` field (`contourcheck.check/1`) and
+//! documented field by field in `docs/report-schema.md`; a field is never removed or
+//! changed in meaning without a new version. Lengths are in mm, errors in µm, times in s.
+
+use std::io::Write;
+
+use serde::Serialize;
+
+use crate::check::CheckRun;
+use crate::gcode::{CodeNote, Program, Warning};
+use crate::hotspot::Hotspot;
+use crate::machine::MachineConfig;
+use crate::units::{mm_from_m, um_from_m};
+
+/// Version tag of the JSON report.
+pub const SCHEMA: &str = "contourcheck.check/1";
+
+/// The JSON report of a check.
+#[derive(Debug, Clone, Serialize)]
+pub struct CheckReport {
+    /// Schema version tag.
+    pub schema: &'static str,
+    /// The program.
+    pub program: ProgramInfo,
+    /// The machine.
+    pub machine: MachineInfo,
+    /// Planner and simulator settings.
+    pub settings: SettingsInfo,
+    /// Planned cycle time (s).
+    pub cycle_time_s: f64,
+    /// Path length with rapids (mm).
+    pub path_length_mm: f64,
+    /// Length of the cutting moves (mm).
+    pub cut_length_mm: f64,
+    /// Contour error while cutting.
+    pub contour_error_um: ContourInfo,
+    /// Following error per axis.
+    pub following_error_um: FollowingInfo,
+    /// The tolerance given, if any (µm).
+    pub tolerance_um: Option<f64>,
+    /// Whether the largest contour error is within it (absent without a tolerance).
+    pub within_tolerance: Option<bool>,
+    /// Hotspots, ranked by |error|.
+    pub hotspots: Vec<HotspotInfo>,
+    /// Warnings from the interpreter and the planner.
+    pub warnings: Vec<Warning>,
+    /// Codes accepted without effect on the XY path.
+    pub accepted_codes: Vec<CodeNote>,
+}
+
+/// Program facts.
+#[derive(Debug, Clone, Serialize)]
+pub struct ProgramInfo {
+    /// File name as given.
+    pub file: String,
+    /// Source lines.
+    pub lines: usize,
+    /// Blocks with words.
+    pub blocks: usize,
+    /// Path segments.
+    pub segments: usize,
+}
+
+/// Machine facts.
+#[derive(Debug, Clone, Serialize)]
+pub struct MachineInfo {
+    /// Name.
+    pub name: String,
+    /// Description.
+    pub description: String,
+}
+
+/// Settings used.
+#[derive(Debug, Clone, Serialize)]
+pub struct SettingsInfo {
+    /// Speed profile.
+    pub profile: crate::plan::ProfileKind,
+    /// Interpolation cycle (ms).
+    pub interpolation_cycle_ms: f64,
+    /// Simulation step (ms).
+    pub simulation_step_ms: f64,
+}
+
+/// Contour error figures.
+#[derive(Debug, Clone, Serialize)]
+pub struct ContourInfo {
+    /// Largest |error| (µm).
+    pub max: f64,
+    /// Root mean square (µm).
+    pub rms: f64,
+    /// Where the largest occurs.
+    pub max_at: Option<Location>,
+}
+
+/// A place in the run.
+#[derive(Debug, Clone, Serialize)]
+pub struct Location {
+    /// Time (s).
+    pub t_s: f64,
+    /// Actual X (mm).
+    pub x_mm: f64,
+    /// Actual Y (mm).
+    pub y_mm: f64,
+    /// Source line of the block being executed.
+    pub line: u32,
+}
+
+/// Following error figures.
+#[derive(Debug, Clone, Serialize)]
+pub struct FollowingInfo {
+    /// X axis.
+    pub x: AxisFollowing,
+    /// Y axis.
+    pub y: AxisFollowing,
+}
+
+/// One axis's following error.
+#[derive(Debug, Clone, Serialize)]
+pub struct AxisFollowing {
+    /// Largest |error| while cutting (µm).
+    pub max_cutting: f64,
+    /// Largest |error| including rapids (µm).
+    pub max: f64,
+}
+
+/// One hotspot in the report.
+#[derive(Debug, Clone, Serialize)]
+pub struct HotspotInfo {
+    /// 1-based rank.
+    pub rank: usize,
+    /// The hotspot.
+    #[serde(flatten)]
+    pub hotspot: Hotspot,
+    /// Human-readable cause.
+    pub label: String,
+}
+
+impl CheckReport {
+    /// Assembles the report of a run.
+    pub fn new(
+        run: &CheckRun,
+        program: &Program,
+        machine: &MachineConfig,
+        tolerance_um: Option<f64>,
+    ) -> Self {
+        let s = &run.summary;
+        let max_um = um_from_m(s.max_contour_error_m);
+        let max_at = s.max_contour_sample.map(|k| Location {
+            t_s: run.commands.time_s(k),
+            x_mm: mm_from_m(run.x.pos_m[k]),
+            y_mm: mm_from_m(run.y.pos_m[k]),
+            line: run.plan.segments[run.commands.segment[k] as usize].line,
+        });
+        let axis = |i: usize| AxisFollowing {
+            max_cutting: um_from_m(s.max_following_error_cutting_m[i]),
+            max: um_from_m(s.max_following_error_m[i]),
+        };
+        CheckReport {
+            schema: SCHEMA,
+            program: ProgramInfo {
+                file: program.file.clone(),
+                lines: program.lines,
+                blocks: program.blocks,
+                segments: run.plan.segments.len(),
+            },
+            machine: MachineInfo {
+                name: machine.name.clone(),
+                description: machine.description.clone(),
+            },
+            settings: SettingsInfo {
+                profile: run.plan.config.profile,
+                interpolation_cycle_ms: run.plan.config.cycle_s * 1e3,
+                simulation_step_ms: run.commands.dt_s * 1e3
+                    / f64::from(run.settings.sim.substeps.max(1)),
+            },
+            cycle_time_s: s.cycle_time_s,
+            path_length_mm: mm_from_m(s.path_length_m),
+            cut_length_mm: mm_from_m(s.cut_length_m),
+            contour_error_um: ContourInfo {
+                max: max_um,
+                rms: um_from_m(s.rms_contour_error_m),
+                max_at,
+            },
+            following_error_um: FollowingInfo {
+                x: axis(0),
+                y: axis(1),
+            },
+            tolerance_um,
+            within_tolerance: tolerance_um.map(|t| max_um <= t),
+            hotspots: run
+                .hotspots
+                .iter()
+                .enumerate()
+                .map(|(i, h)| HotspotInfo {
+                    rank: i + 1,
+                    hotspot: h.clone(),
+                    label: h.cause.label(),
+                })
+                .collect(),
+            warnings: program
+                .warnings
+                .iter()
+                .chain(&run.plan.warnings)
+                .cloned()
+                .collect(),
+            accepted_codes: program.notes.clone(),
+        }
+    }
+
+    /// The report as pretty JSON.
+    pub fn write_json(&self, w: &mut dyn Write) -> std::io::Result<()> {
+        serde_json::to_writer_pretty(&mut *w, self).map_err(std::io::Error::other)?;
+        writeln!(w)
+    }
+}
+
+/// Writes the run as CSV, one row every `every` samples: time, line, commanded and actual
+/// X/Y (mm), following errors and contour error (µm; empty while not cutting).
+pub fn write_trace_csv(w: &mut dyn Write, run: &CheckRun, every: usize) -> std::io::Result<()> {
+    let mut out = csv::Writer::from_writer(w);
+    out.write_record([
+        "t_s",
+        "line",
+        "x_ref_mm",
+        "y_ref_mm",
+        "x_mm",
+        "y_mm",
+        "fe_x_um",
+        "fe_y_um",
+        "contour_um",
+    ])?;
+    let c = &run.commands;
+    for k in (0..run.x.len()).step_by(every.max(1)) {
+        let e = run.contour.error_m[k];
+        out.write_record(&[
+            format!("{:.4}", c.time_s(k)),
+            run.plan.segments[c.segment[k] as usize].line.to_string(),
+            format!("{:.6}", mm_from_m(c.x.pos_m[k])),
+            format!("{:.6}", mm_from_m(c.y.pos_m[k])),
+            format!("{:.6}", mm_from_m(run.x.pos_m[k])),
+            format!("{:.6}", mm_from_m(run.y.pos_m[k])),
+            format!("{:.4}", um_from_m(run.x.following_error_m(k))),
+            format!("{:.4}", um_from_m(run.y.following_error_m(k))),
+            if e.is_finite() {
+                format!("{:.4}", um_from_m(e))
+            } else {
+                String::new()
+            },
+        ])?;
+    }
+    out.flush()
+}
+
+/// The human-readable summary.
+pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "program   {} ({} lines, {} blocks)",
+        r.program.file, r.program.lines, r.program.blocks
+    );
+    let _ = writeln!(
+        s,
+        "machine   {} — {}",
+        r.machine.name, r.machine.description
+    );
+    let _ = writeln!(
+        s,
+        "settings  {:?} profile, interpolation {} ms, simulation step {} ms",
+        r.settings.profile, r.settings.interpolation_cycle_ms, r.settings.simulation_step_ms
+    );
+    let _ = writeln!(
+        s,
+        "cycle     {:.2} s over {:.1} mm ({:.1} mm cutting)",
+        r.cycle_time_s, r.path_length_mm, r.cut_length_mm
+    );
+    let at = r
+        .contour_error_um
+        .max_at
+        .as_ref()
+        .map_or(String::new(), |l| {
+            format!(
+                " at line {} (X {:.3}, Y {:.3} mm, t {:.3} s)",
+                l.line, l.x_mm, l.y_mm, l.t_s
+            )
+        });
+    let _ = writeln!(
+        s,
+        "contour   max {:.2} µm{at}, RMS {:.2} µm",
+        r.contour_error_um.max, r.contour_error_um.rms
+    );
+    let fe = &r.following_error_um;
+    let _ = writeln!(
+        s,
+        "following max while cutting: X {:.1} µm, Y {:.1} µm (with rapids: X {:.1} µm, Y {:.1} µm)",
+        fe.x.max_cutting, fe.y.max_cutting, fe.x.max, fe.y.max
+    );
+    if let (Some(t), Some(ok)) = (r.tolerance_um, r.within_tolerance) {
+        let verdict = if ok { "within" } else { "EXCEEDS" };
+        let _ = writeln!(s, "tolerance {t} µm: the predicted maximum {verdict} it");
+    }
+    if !r.hotspots.is_empty() {
+        let _ = writeln!(s, "\nhotspots (largest first)");
+        let _ = writeln!(
+            s,
+            "  rank  line   time (s)     X (mm)     Y (mm)   error (µm)  spike (µm)  cause"
+        );
+        for h in r.hotspots.iter().take(max_hotspots) {
+            let hs = &h.hotspot;
+            let _ = writeln!(
+                s,
+                "  {:>4}  {:>4}  {:>9.3}  {:>9.3}  {:>9.3}  {:>11.2}  {:>10.2}  {}",
+                h.rank, hs.line, hs.t_s, hs.x_mm, hs.y_mm, hs.error_um, hs.excess_um, h.label
+            );
+        }
+        if r.hotspots.len() > max_hotspots {
+            let _ = writeln!(
+                s,
+                "  … {} more in the JSON report",
+                r.hotspots.len() - max_hotspots
+            );
+        }
+    }
+    s
+}

@@ -1,0 +1,240 @@
+//! The main job end to end, against numbers derived independently of the code under test:
+//! a line's steady lag, a circle's radius loss, backlash at a circle's reversals.
+
+use std::f64::consts::PI;
+
+use contourcheck::check::{CheckRun, CheckSettings, check, circle_tests};
+use contourcheck::gcode::{InterpretOptions, parse_program};
+use contourcheck::hotspot::Cause;
+use contourcheck::machine::{AxisName, Feedback, MachineConfig};
+use contourcheck::plan::ProfileKind;
+use contourcheck::sim::AxisModel;
+use contourcheck::sim::linear::{self, Loop};
+
+fn run(src: &str, machine: &MachineConfig, profile: ProfileKind) -> CheckRun {
+    let program = parse_program(src, "t.nc", &InterpretOptions::default()).unwrap();
+    let mut settings = CheckSettings::for_machine(machine);
+    settings.plan.profile = profile;
+    check(&program, machine, &settings).unwrap()
+}
+
+fn kv_per_s(m_per_min_per_mm: f64) -> f64 {
+    m_per_min_per_mm * 1000.0 / 60.0
+}
+
+/// The paper's line: 60° at F120. Steady samples: the second half of the move.
+fn line_60(machine: &MachineConfig) -> (CheckRun, std::ops::Range<usize>) {
+    let r = run(
+        "G21 G90 G61\nG0 X0 Y0\nG1 X20 Y34.641016 F120\nM2\n",
+        machine,
+        ProfileKind::Ideal,
+    );
+    let n = r.x.len();
+    let moving = (0..n)
+        .filter(|&k| r.commands.x.vel_m_per_s[k] > 0.0)
+        .collect::<Vec<_>>();
+    let (first, last) = (moving[0], *moving.last().unwrap());
+    (r, (first + last) / 2..last)
+}
+
+#[test]
+fn line_at_60_degrees_lags_on_each_axis_but_stays_on_the_contour() {
+    let machine = MachineConfig::default_preset();
+    let (r, steady) = line_60(&machine);
+    let f = 120.0 / 60_000.0;
+    let kv = kv_per_s(1.0);
+    let (sin, cos) = (PI / 3.0).sin_cos();
+    for k in steady {
+        assert!(
+            (r.x.following_error_m(k) - f * cos / kv).abs() < 1e-9,
+            "X lag {}",
+            r.x.following_error_m(k)
+        );
+        assert!(
+            (r.y.following_error_m(k) - f * sin / kv).abs() < 1e-9,
+            "Y lag {}",
+            r.y.following_error_m(k)
+        );
+        assert!(
+            r.contour.error_m[k].abs() < 1e-9,
+            "contour {}",
+            r.contour.error_m[k]
+        );
+    }
+}
+
+#[test]
+fn mismatched_gains_offset_a_line_by_the_analytic_amount() {
+    let mut machine = MachineConfig::default_preset();
+    machine.y.position_loop.kv_m_per_min_per_mm = 0.8;
+    let (r, steady) = line_60(&machine);
+    let f = 120.0 / 60_000.0;
+    let (kvx, kvy) = (kv_per_s(1.0), kv_per_s(0.8));
+    let a = PI / 3.0;
+    // The lag vector (F cos/Kvx, F sin/Kvy) has a component across the line: with n the
+    // left normal (−sin, cos), e = F sin cos (1/Kvx − 1/Kvy).
+    let expected = f * a.sin() * a.cos() * (1.0 / kvx - 1.0 / kvy);
+    assert!((expected + 13.0e-6).abs() < 0.1e-6, "{expected}");
+    for k in steady {
+        assert!(
+            (r.contour.error_m[k] - expected).abs() < 1e-9,
+            "{} vs {expected}",
+            r.contour.error_m[k]
+        );
+    }
+}
+
+#[test]
+fn circle_radius_loss_matches_the_closed_loop_frequency_response() {
+    // A linear axis (no Coulomb friction, no backlash): the circle's radius shrinks by
+    // R·(1 − |T(jω)|) with T the closed position loop at ω = F/R.
+    let mut machine = MachineConfig::default_preset();
+    for a in [AxisName::X, AxisName::Y] {
+        machine.axis_mut(a).friction.coulomb_coefficient = 0.0;
+    }
+    let (r_mm, feed) = (100.0, 1000.0);
+    let src =
+        format!("G21 G90 G64\nG0 X{r_mm} Y-30\nG1 Y0 F{feed}\nG3 X{r_mm} Y0 I-{r_mm} J0\nM2\n");
+    let run = run(&src, &machine, ProfileKind::SCurve);
+    let model = AxisModel::from_config(&machine.x);
+    let omega = (feed / 60_000.0) / (r_mm * 1e-3);
+    let t = linear::closed_loop(&model, Loop::Position, omega / (2.0 * PI));
+    let expected = -r_mm * 1e-3 * (1.0 - t.norm());
+    // A first-order position loop alone would give −v²/(2 R Kv²) ≈ −5.0 µm.
+    assert!((expected + 5.0e-6).abs() < 0.3e-6, "{expected}");
+    let circle = &circle_tests(&run)[0];
+    // Steady part: from 90° to 315° of the quarter-circle-entered circle.
+    let steady: Vec<f64> = circle
+        .points
+        .iter()
+        .filter(|(a, _)| {
+            let d = a.to_degrees().rem_euclid(360.0);
+            (90.0..315.0).contains(&d)
+        })
+        .map(|p| p.1)
+        .collect();
+    assert!(steady.len() > 1000);
+    let mean = steady.iter().sum::<f64>() / steady.len() as f64;
+    assert!(
+        (mean - expected).abs() < 0.01 * expected.abs(),
+        "radius loss {mean} vs {expected}"
+    );
+    for d in steady {
+        assert!((d - expected).abs() < 0.05e-6, "{d} vs {expected}");
+    }
+}
+
+fn circle_test(machine: &MachineConfig) -> CheckRun {
+    let src = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/gcode-samples/circle-test.nc"
+    ))
+    .unwrap();
+    run(&src, machine, ProfileKind::SCurve)
+}
+
+/// Angle of a hotspot on the test circle (degrees, 0..360).
+fn angle_deg(h: &contourcheck::hotspot::Hotspot) -> f64 {
+    h.y_mm.atan2(h.x_mm).to_degrees().rem_euclid(360.0)
+}
+
+#[test]
+fn backlash_on_x_shows_at_the_x_reversals_in_both_directions() {
+    let b_um = 20.0;
+    let mut machine = MachineConfig::default_preset();
+    machine.x.drive.backlash_um = b_um;
+    let r = circle_test(&machine);
+    let backlash: Vec<_> = r
+        .hotspots
+        .iter()
+        .filter(|h| h.cause == Cause::Backlash { axis: AxisName::X })
+        .collect();
+    // X reverses at 0° and 180° on each circle: four places, two per direction.
+    assert_eq!(backlash.len(), 4, "{:#?}", r.hotspots);
+    let (ccw_line, cw_line) = (13, 16);
+    for line in [ccw_line, cw_line] {
+        let mut angles: Vec<f64> = backlash
+            .iter()
+            .filter(|h| h.line == line)
+            .map(|h| angle_deg(h))
+            .collect();
+        angles.sort_by(f64::total_cmp);
+        assert_eq!(angles.len(), 2, "line {line}");
+        let near =
+            |a: f64, target: f64| ((a - target + 180.0).rem_euclid(360.0) - 180.0).abs() < 3.0;
+        assert!(
+            angles.iter().any(|&a| near(a, 0.0)) && angles.iter().any(|&a| near(a, 180.0)),
+            "{angles:?}"
+        );
+    }
+    // Full closed loop: the loop sees the stuck table and recovers it; the jump it cannot
+    // prevent is of the order of the backlash.
+    for h in &backlash {
+        assert!(h.excess_um > 0.4 * b_um && h.excess_um <= b_um, "{h:?}");
+    }
+    // And none on the same machine without backlash.
+    let clean = circle_test(&MachineConfig::default_preset());
+    assert!(
+        clean
+            .hotspots
+            .iter()
+            .all(|h| !matches!(h.cause, Cause::Backlash { .. }))
+    );
+}
+
+#[test]
+fn semi_closed_backlash_steps_the_radius_by_the_whole_gap() {
+    // With the motor encoder as feedback the table trails by half the gap plus the spring's
+    // deflection under Coulomb friction, f_c/K_m, on either side of a reversal: the radial
+    // deviation steps by b + 2 f_c/K_m at the X reversals.
+    let b_um = 20.0;
+    let mut machine = MachineConfig::default_preset();
+    machine.x.drive.backlash_um = b_um;
+    machine.x.position_loop.feedback = Feedback::MotorEncoder;
+    let r = circle_test(&machine);
+    let f_c = 0.01 * 6000.0 * 9.81;
+    let expected_um = b_um + 2.0 * f_c / 3.6e8 * 1e6;
+    let circle = circle_tests(&r).into_iter().find(|c| c.ccw).unwrap();
+    let mean_near = |deg: f64| {
+        let v: Vec<f64> = circle
+            .points
+            .iter()
+            .filter(|(a, _)| (a.to_degrees().rem_euclid(360.0) - deg).abs() < 2.0)
+            .map(|p| p.1 * 1e6)
+            .collect();
+        v.iter().sum::<f64>() / v.len() as f64
+    };
+    // Around 180° on the CCW circle: X moves −, then +.
+    let step = mean_near(185.0) - mean_near(175.0);
+    assert!(
+        (step - expected_um).abs() < 0.1 * expected_um,
+        "step {step} µm vs {expected_um}"
+    );
+}
+
+#[test]
+fn every_sample_program_checks_end_to_end() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/gcode-samples");
+    let machine = MachineConfig::default_preset();
+    let mut n = 0;
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "nc") {
+            continue;
+        }
+        n += 1;
+        let src = std::fs::read_to_string(&path).unwrap();
+        let r = run(&src, &machine, ProfileKind::SCurve);
+        let s = &r.summary;
+        assert!(s.cycle_time_s > 0.0 && s.cut_length_m > 0.0, "{path:?}");
+        // Within cutting the error stays below the steady lag of the fastest feed (F/Kv =
+        // 1 mm at 1000 mm/min): a sanity bound, not a prediction.
+        assert!(
+            s.max_contour_error_m < 1e-3,
+            "{path:?}: {}",
+            s.max_contour_error_m
+        );
+        assert!(!r.hotspots.is_empty(), "{path:?}");
+    }
+    assert!(n >= 6, "{n} samples");
+}

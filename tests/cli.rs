@@ -1,0 +1,181 @@
+//! The command line: exit statuses, outputs written whole, errors that name the place.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_contourcheck"))
+}
+
+fn sample(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("gcode-samples")
+        .join(name)
+}
+
+fn run(args: &[&str]) -> Output {
+    bin().args(args).env("CI", "1").output().unwrap()
+}
+
+fn text(o: &[u8]) -> String {
+    String::from_utf8_lossy(o).into_owned()
+}
+
+#[test]
+fn check_writes_a_report_a_trace_and_plots_that_parse_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let (json, csv_path, plots) = (
+        dir.path().join("r.json"),
+        dir.path().join("t.csv"),
+        dir.path().join("plots"),
+    );
+    let o = run(&[
+        "check",
+        sample("circle-test.nc").to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+        "--trace",
+        csv_path.to_str().unwrap(),
+        "--trace-every",
+        "10",
+        "--plot",
+        plots.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(text(&o.stdout).contains("hotspots"));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(report["schema"], "contourcheck.check/1");
+    let max = report["contour_error_um"]["max"].as_f64().unwrap();
+    assert!(max > 0.0 && max < 1000.0);
+    assert!(report["hotspots"].as_array().unwrap().len() >= 4);
+    assert_eq!(report["hotspots"][0]["rank"], 1);
+    let mut reader = csv::Reader::from_path(&csv_path).unwrap();
+    assert_eq!(reader.headers().unwrap().get(8), Some("contour_um"));
+    let rows = reader.records().count();
+    let cycle = report["cycle_time_s"].as_f64().unwrap();
+    // Every 10th sample of a 2 ms grid over the cycle plus the settling tail.
+    assert!(
+        (rows as f64 - (cycle + 0.3) / 0.02).abs() < 3.0,
+        "{rows} rows for {cycle} s"
+    );
+    for name in [
+        "toolpath.png",
+        "toolpath.svg",
+        "contour-along-path.png",
+        "circle-1.png",
+        "circle-1.svg",
+    ] {
+        let len = std::fs::metadata(plots.join(name))
+            .map(|m| m.len())
+            .unwrap_or(0);
+        assert!(len > 10_000, "{name}: {len} bytes");
+    }
+    // Nothing but the outputs: no temporary files left behind.
+    assert_eq!(std::fs::read_dir(&plots).unwrap().count(), 6);
+}
+
+#[test]
+fn tolerance_gates_with_exit_status_one() {
+    let circle = sample("circle-test.nc");
+    let over = run(&["check", circle.to_str().unwrap(), "--tolerance", "1"]);
+    assert_eq!(over.status.code(), Some(1), "{}", text(&over.stderr));
+    assert!(text(&over.stdout).contains("EXCEEDS"));
+    let within = run(&["check", circle.to_str().unwrap(), "--tolerance", "500"]);
+    assert_eq!(within.status.code(), Some(0));
+}
+
+#[test]
+fn a_bad_program_names_file_line_and_column_and_writes_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.nc");
+    std::fs::write(&bad, "G21 G90 F500\nG1 X10\nG41 D1 G1 Y10\nG1 X#3\n").unwrap();
+    let json = dir.path().join("r.json");
+    let plots = dir.path().join("plots");
+    let o = run(&[
+        "check",
+        bad.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+        "--plot",
+        plots.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = text(&o.stderr);
+    assert!(err.contains("bad.nc:3:1: G41"), "{err}");
+    assert!(err.contains("bad.nc:4:5:"), "{err}");
+    assert!(!json.exists() && !plots.exists(), "no partial outputs");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+}
+
+#[test]
+fn a_bad_machine_file_names_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = dir.path().join("m.toml");
+    std::fs::write(&m, "[y.friction]\nstatic_to_coulomb = 0.8\n").unwrap();
+    let o = run(&[
+        "check",
+        sample("square.nc").to_str().unwrap(),
+        "--machine",
+        m.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = text(&o.stderr);
+    assert!(
+        err.contains("m.toml") && err.contains("y.friction.static_to_coulomb"),
+        "{err}"
+    );
+}
+
+#[test]
+fn missing_files_and_unstable_gains_are_errors_not_panics() {
+    let o = run(&["check", "/nonexistent/part.nc"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("/nonexistent/part.nc"));
+    let dir = tempfile::tempdir().unwrap();
+    let m = dir.path().join("hot.toml");
+    std::fs::write(&m, "[x.position_loop]\nkv_m_per_min_per_mm = 40.0\n").unwrap();
+    let o = run(&[
+        "check",
+        sample("square.nc").to_str().unwrap(),
+        "--machine",
+        m.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("unstable"), "{}", text(&o.stderr));
+}
+
+#[test]
+fn plan_bode_stickslip_and_validate_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv_path = dir.path().join("c.csv");
+    let o = run(&[
+        "plan",
+        sample("profile-pocket.nc").to_str().unwrap(),
+        "--csv",
+        csv_path.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(csv::Reader::from_path(&csv_path).unwrap().records().count() > 1000);
+    let bode = dir.path().join("bode.svg");
+    let o = run(&["bode", "--axis", "y", "--plot", bode.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0));
+    assert!(text(&o.stdout).contains("velocity"));
+    assert!(std::fs::read_to_string(&bode).unwrap().contains("<svg"));
+    let ss = dir.path().join("ss.png");
+    let o = run(&[
+        "stickslip",
+        "--feeds",
+        "3,6",
+        "--duration",
+        "4",
+        "--plot",
+        ss.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(text(&o.stdout).contains("stick-slip"));
+    assert!(ss.exists());
+    let o = run(&["validate"]);
+    assert_eq!(o.status.code(), Some(0));
+    assert!(text(&o.stdout).contains("Table 4"));
+}
