@@ -18,5 +18,6 @@ pub mod plan;
 pub mod plot;
 pub mod report;
 pub mod sim;
+pub mod sweep;
 pub mod units;
 pub mod validate;

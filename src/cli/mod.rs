@@ -7,11 +7,12 @@ mod check_cmd;
 mod common;
 mod plan_cmd;
 mod stickslip_cmd;
+mod sweep_cmd;
 mod validate_cmd;
 
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
+use clap::{ArgMatches, CommandFactory, FromArgMatches, Parser, Subcommand};
 
 pub use common::CliError;
 
@@ -33,6 +34,8 @@ enum Command {
     Bode(bode_cmd::BodeArgs),
     /// Stick-slip at low feeds (the paper's criterion) and the critical velocity.
     Stickslip(stickslip_cmd::StickSlipArgs),
+    /// Compare gain (or any numeric machine) settings on a program: ranked, plotted.
+    Sweep(sweep_cmd::SweepArgs),
     /// Every comparison with the paper, side by side.
     Validate(validate_cmd::ValidateArgs),
 }
@@ -47,8 +50,9 @@ pub enum Outcome {
 
 /// Parses the process arguments, runs the command and returns the exit status.
 pub fn main() -> ExitCode {
-    let cli = Cli::parse();
-    match run(cli) {
+    let matches = Cli::command().get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    match run(cli, &matches) {
         Ok(Outcome::Ok) => ExitCode::SUCCESS,
         Ok(Outcome::OverTolerance) => ExitCode::from(1),
         Err(e) => {
@@ -58,8 +62,14 @@ pub fn main() -> ExitCode {
     }
 }
 
-fn run(cli: Cli) -> Result<Outcome, CliError> {
+fn run(cli: Cli, matches: &ArgMatches) -> Result<Outcome, CliError> {
     match cli.command {
+        Command::Sweep(args) => {
+            let sub = matches
+                .subcommand_matches("sweep")
+                .expect("the sweep subcommand's matches");
+            sweep_cmd::run(&args, sub)
+        }
         Command::Check(args) => check_cmd::run(&args),
         Command::Plan(args) => plan_cmd::run(&args),
         Command::Bode(args) => bode_cmd::run(&args),

@@ -5,6 +5,7 @@ pub mod along_path;
 pub mod bode;
 pub mod polar;
 pub mod stickslip;
+pub mod sweep;
 pub mod toolpath;
 
 use std::path::Path;

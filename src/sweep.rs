@@ -1,0 +1,402 @@
+//! Gain and parameter sweeps: one program, a grid of machine settings, the contour error
+//! of each — ranked, with unstable and poorly damped settings flagged rather than measured.
+//!
+//! Any numeric machine key can be swept by name (`x.drive.backlash_um`, or its leaf
+//! `x.backlash_um`); values are applied through the machine's TOML form, so each setting is
+//! validated exactly as a machine file would be. Every grid point is an independent, pure
+//! run of [`crate::check`], so the grid runs in parallel and gives the same results as a
+//! serial run.
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::check::{CheckRun, CheckSettings, check};
+use crate::gcode::Program;
+use crate::machine::{AxisName, ConfigError, MachineConfig};
+use crate::plan::PlanConfig;
+use crate::sim::linear;
+use crate::sim::{AxisModel, SimError};
+use crate::units::um_from_m;
+
+/// Least closed-loop damping ratio below which a setting is flagged as poorly damped.
+pub const POOR_DAMPING: f64 = 0.01;
+
+/// One swept dimension: a name for tables, the keys it sets (one per axis it applies to)
+/// and its values.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Dimension {
+    /// Column name, e.g. `x.kv` or `xy.backlash_um`.
+    pub name: String,
+    /// Full dotted machine keys set to the value.
+    pub keys: Vec<String>,
+    /// Values in machine-file units.
+    pub values: Vec<f64>,
+}
+
+/// Parses `a:b:step`, `a,b,c` or a single number.
+pub fn parse_range(text: &str) -> Result<Vec<f64>, String> {
+    let num = |s: &str| {
+        s.trim()
+            .parse::<f64>()
+            .map_err(|_| format!("'{s}' is not a number"))
+    };
+    let values = if let Some((from, rest)) = text.split_once(':') {
+        let (to, step) = rest
+            .split_once(':')
+            .ok_or_else(|| format!("'{text}': a range is from:to:step"))?;
+        let (a, b, s) = (num(from)?, num(to)?, num(step)?);
+        if !(s > 0.0 && s.is_finite()) || b < a {
+            return Err(format!("'{text}': needs from ≤ to and a positive step"));
+        }
+        let n = ((b - a) / s + 1e-9).floor() as usize;
+        if n > 10_000 {
+            return Err(format!("'{text}': more than 10000 values"));
+        }
+        // Snapped to the step's decimals, so that 0.7 + 5 × 0.1 reads 1.2.
+        let decimals = 10f64.powi(12 - s.abs().log10().floor() as i32).min(1e15);
+        (0..=n)
+            .map(|i| ((a + s * i as f64) * decimals).round() / decimals)
+            .collect()
+    } else {
+        text.split(',').map(num).collect::<Result<Vec<_>, _>>()?
+    };
+    if values.iter().any(|v| !v.is_finite()) {
+        return Err(format!("'{text}': values must be finite"));
+    }
+    Ok(values)
+}
+
+/// Resolves `axis.key` to a full dotted key of the machine: either already full
+/// (`x.drive.backlash_um`) or a leaf unique within the axis (`x.backlash_um`).
+pub fn resolve_key(machine: &MachineConfig, key: &str) -> Result<String, String> {
+    let table: toml::Table = machine.to_toml().parse().map_err(|e| format!("{e}"))?;
+    if lookup(&table, key).is_some_and(toml::Value::is_float) {
+        return Ok(key.to_string());
+    }
+    let (axis, leaf) = key
+        .split_once('.')
+        .ok_or_else(|| format!("'{key}': name a key as axis.key, e.g. x.backlash_um"))?;
+    let Some(toml::Value::Table(section)) = table.get(axis) else {
+        return Err(format!("'{key}': no axis '{axis}' in the machine"));
+    };
+    let found: Vec<String> = section
+        .iter()
+        .filter_map(|(group, v)| match v {
+            toml::Value::Table(t) if t.get(leaf).is_some_and(toml::Value::is_float) => {
+                Some(format!("{axis}.{group}.{leaf}"))
+            }
+            _ => None,
+        })
+        .collect();
+    match found.as_slice() {
+        [one] => Ok(one.clone()),
+        [] => Err(format!(
+            "'{key}': no numeric key of that name in the machine"
+        )),
+        many => Err(format!("'{key}' is ambiguous: {}", many.join(", "))),
+    }
+}
+
+fn lookup<'a>(table: &'a toml::Table, key: &str) -> Option<&'a toml::Value> {
+    let mut parts = key.split('.');
+    let mut v = table.get(parts.next()?)?;
+    for p in parts {
+        v = v.as_table()?.get(p)?;
+    }
+    Some(v)
+}
+
+/// The machine with `keys` set to `value`, validated as a machine file is.
+pub fn with_values(
+    machine: &MachineConfig,
+    settings: &[(&[String], f64)],
+) -> Result<MachineConfig, ConfigError> {
+    let mut table: toml::Table = machine
+        .to_toml()
+        .parse()
+        .expect("a machine serialises to valid TOML");
+    for (keys, value) in settings {
+        for key in keys.iter() {
+            let mut parts: Vec<&str> = key.split('.').collect();
+            let leaf = parts.pop().unwrap_or_default();
+            let mut t = &mut table;
+            for p in parts {
+                t = t
+                    .entry(p.to_string())
+                    .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+                    .as_table_mut()
+                    .ok_or_else(|| ConfigError::Invalid {
+                        file: "<sweep>".into(),
+                        key: key.clone(),
+                        problem: "is not a table".into(),
+                    })?;
+            }
+            t.insert(leaf.to_string(), toml::Value::Float(*value));
+        }
+    }
+    MachineConfig::from_toml_str(&format!("base = \"none\"\n{table}"), "<sweep>")
+}
+
+/// What one setting gave.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "status", rename_all = "snake_case")]
+pub enum PointResult {
+    /// Simulated; `poorly_damped` when the least closed-loop damping is below
+    /// [`POOR_DAMPING`].
+    Ok {
+        /// Figures.
+        metrics: Metrics,
+        /// Least damping ratio of the closed loops of X and Y.
+        least_damping: f64,
+        /// Whether that is below [`POOR_DAMPING`].
+        poorly_damped: bool,
+    },
+    /// A closed-loop mode grows: no numbers.
+    Unstable {
+        /// Axis.
+        axis: AxisName,
+        /// The growing mode's frequency (Hz).
+        frequency_hz: f64,
+    },
+    /// The setting is not a valid machine, or the simulation failed.
+    Invalid {
+        /// Why.
+        reason: String,
+    },
+}
+
+/// Figures of a setting.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Metrics {
+    /// Largest |contour error| while cutting (µm).
+    pub max_contour_um: f64,
+    /// RMS contour error while cutting (µm).
+    pub rms_contour_um: f64,
+    /// Largest |following error| of X and Y while cutting (µm).
+    pub max_following_um: [f64; 2],
+    /// Largest run past the commanded position against the last direction of motion (µm).
+    pub overshoot_um: f64,
+    /// RMS of the contour error's departure from its own 1/Kv moving average (µm): ringing.
+    pub ripple_um: f64,
+}
+
+/// One grid point.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SweepPoint {
+    /// Values of the dimensions, in order.
+    pub values: Vec<f64>,
+    /// Outcome.
+    pub result: PointResult,
+}
+
+impl SweepPoint {
+    /// The ranking key: largest contour error (unstable and invalid last).
+    pub fn rank_key(&self) -> f64 {
+        match &self.result {
+            PointResult::Ok { metrics, .. } => metrics.max_contour_um,
+            _ => f64::INFINITY,
+        }
+    }
+}
+
+/// Every combination of the dimensions' values (the first dimension varies slowest).
+pub fn grid(dims: &[Dimension]) -> Vec<Vec<f64>> {
+    dims.iter().fold(vec![Vec::new()], |acc, d| {
+        acc.iter()
+            .flat_map(|prefix| {
+                d.values
+                    .iter()
+                    .map(move |v| [prefix.clone(), vec![*v]].concat())
+            })
+            .collect()
+    })
+}
+
+/// Runs the grid, in parallel when `parallel`, calling `done` after each point.
+pub fn run(
+    program: &Program,
+    machine: &MachineConfig,
+    plan: &PlanConfig,
+    dims: &[Dimension],
+    parallel: bool,
+    done: &(dyn Fn() + Sync),
+) -> Vec<SweepPoint> {
+    let points = grid(dims);
+    let one = |values: &Vec<f64>| {
+        let r = run_point(program, machine, plan, dims, values);
+        done();
+        SweepPoint {
+            values: values.clone(),
+            result: r,
+        }
+    };
+    if parallel {
+        points.par_iter().map(one).collect()
+    } else {
+        points.iter().map(one).collect()
+    }
+}
+
+fn run_point(
+    program: &Program,
+    base: &MachineConfig,
+    plan: &PlanConfig,
+    dims: &[Dimension],
+    values: &[f64],
+) -> PointResult {
+    let settings: Vec<(&[String], f64)> = dims
+        .iter()
+        .zip(values)
+        .map(|(d, v)| (d.keys.as_slice(), *v))
+        .collect();
+    let machine = match with_values(base, &settings) {
+        Ok(m) => m,
+        Err(e) => {
+            return PointResult::Invalid {
+                reason: e.to_string(),
+            };
+        }
+    };
+    let mut least_damping = f64::INFINITY;
+    for axis in AxisName::BOTH {
+        let model = AxisModel::from_config(machine.axis(axis));
+        if let Err(SimError::Unstable { frequency_hz, .. }) = linear::check_stable(&model) {
+            return PointResult::Unstable { axis, frequency_hz };
+        }
+        if let Some(m) = linear::least_damped(&model) {
+            least_damping = least_damping.min(m.damping);
+        }
+    }
+    let mut settings = CheckSettings::for_machine(&machine);
+    settings.plan = PlanConfig {
+        in_position: settings.plan.in_position,
+        ..*plan
+    };
+    match check(program, &machine, &settings) {
+        Ok(run) => PointResult::Ok {
+            metrics: metrics(&run, AxisModel::from_config(&machine.x).kv_per_s()),
+            least_damping,
+            poorly_damped: least_damping < POOR_DAMPING,
+        },
+        Err(SimError::Unstable { frequency_hz, .. }) => PointResult::Unstable {
+            axis: AxisName::X,
+            frequency_hz,
+        },
+        Err(e) => PointResult::Invalid {
+            reason: e.to_string(),
+        },
+    }
+}
+
+/// The figures of a run.
+pub fn metrics(run: &CheckRun, kv_per_s: f64) -> Metrics {
+    let s = &run.summary;
+    Metrics {
+        max_contour_um: um_from_m(s.max_contour_error_m),
+        rms_contour_um: um_from_m(s.rms_contour_error_m),
+        max_following_um: s.max_following_error_cutting_m.map(um_from_m),
+        overshoot_um: um_from_m(overshoot_m(run)),
+        ripple_um: um_from_m(ripple_m(
+            &run.contour.error_m,
+            (1.0 / (kv_per_s * run.commands.dt_s)).round() as usize,
+        )),
+    }
+}
+
+/// The largest distance either axis runs past a point where its command stands still, in
+/// the direction it was travelling (a reversal without standstill is not an overshoot: the
+/// axis simply has not reached the turning point yet).
+fn overshoot_m(run: &CheckRun) -> f64 {
+    let mut worst = 0.0f64;
+    for (trace, cmd) in [(&run.x, &run.commands.x), (&run.y, &run.commands.y)] {
+        let mut direction = 0.0;
+        for k in 0..trace.len() {
+            let (v, a) = (cmd.vel_m_per_s[k], cmd.acc_m_per_s2[k]);
+            if v.abs() > 1e-12 || a.abs() > 1e-12 {
+                if v.abs() > 1e-12 {
+                    direction = v.signum();
+                }
+                continue;
+            }
+            worst = worst.max(direction * (trace.pos_m[k] - trace.ref_m[k]));
+        }
+    }
+    worst
+}
+
+/// RMS of the departure from a centred moving average of `window` samples, over the
+/// stretches of finite values.
+fn ripple_m(e: &[f64], window: usize) -> f64 {
+    let half = (window / 2).max(1);
+    let (mut sum, mut n) = (0.0, 0usize);
+    for run in e.split(|x| !x.is_finite()).filter(|r| r.len() > 2 * half) {
+        let mut prefix = vec![0.0; run.len() + 1];
+        for (i, x) in run.iter().enumerate() {
+            prefix[i + 1] = prefix[i] + x;
+        }
+        for i in half..run.len() - half {
+            let mean = (prefix[i + half + 1] - prefix[i - half]) / (2 * half + 1) as f64;
+            sum += (run[i] - mean).powi(2);
+            n += 1;
+        }
+    }
+    if n == 0 { 0.0 } else { (sum / n as f64).sqrt() }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranges_and_grids() {
+        let kv = parse_range("0.7:1.2:0.1").unwrap();
+        assert_eq!(kv.len(), 6);
+        assert_eq!(kv[5], 1.2);
+        assert_eq!(parse_range("12,16,20").unwrap(), vec![12.0, 16.0, 20.0]);
+        assert!(parse_range("1:0:1").is_err());
+        let dims = [
+            Dimension {
+                name: "a".into(),
+                keys: vec![],
+                values: vec![1.0, 2.0],
+            },
+            Dimension {
+                name: "b".into(),
+                keys: vec![],
+                values: vec![3.0, 4.0, 5.0],
+            },
+        ];
+        let g = grid(&dims);
+        assert_eq!(g.len(), 6);
+        assert_eq!(g[0], vec![1.0, 3.0]);
+        assert_eq!(g[5], vec![2.0, 5.0]);
+    }
+
+    #[test]
+    fn keys_resolve_by_leaf_and_values_are_validated() {
+        let m = MachineConfig::default_preset();
+        assert_eq!(
+            resolve_key(&m, "x.backlash_um").unwrap(),
+            "x.drive.backlash_um"
+        );
+        assert_eq!(
+            resolve_key(&m, "y.velocity_loop.ks_nm_s_per_rad").unwrap(),
+            "y.velocity_loop.ks_nm_s_per_rad"
+        );
+        assert!(resolve_key(&m, "x.nonsense").is_err());
+        let keys = vec!["x.drive.backlash_um".to_string()];
+        let changed = with_values(&m, &[(&keys, 7.5)]).unwrap();
+        assert_eq!(changed.x.drive.backlash_um, 7.5);
+        let e = with_values(&m, &[(&keys, -1.0)]).unwrap_err();
+        assert!(e.to_string().contains("x.drive.backlash_um"));
+    }
+
+    #[test]
+    fn ripple_sees_oscillation_not_offset() {
+        let steady = vec![5.0; 200];
+        assert!(ripple_m(&steady, 20) < 1e-12);
+        let wavy: Vec<f64> = (0..400).map(|i| 5.0 + (i as f64 * 0.9).sin()).collect();
+        let r = ripple_m(&wavy, 20);
+        assert!((r - 0.5f64.sqrt()).abs() < 0.1, "{r}");
+    }
+}
