@@ -9,9 +9,11 @@
 pub mod check;
 pub mod cli;
 pub mod contour;
+pub mod diagnose;
 pub mod gcode;
 pub mod hotspot;
 pub mod machine;
+pub mod measured;
 pub mod output;
 pub mod path;
 pub mod plan;
@@ -19,5 +21,6 @@ pub mod plot;
 pub mod report;
 pub mod sim;
 pub mod sweep;
+pub mod synth;
 pub mod units;
 pub mod validate;

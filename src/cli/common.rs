@@ -34,6 +34,12 @@ pub enum CliError {
         /// Why.
         message: String,
     },
+    /// Measured data is unreadable or malformed.
+    #[error("{0}")]
+    Measured(#[from] crate::measured::MeasuredError),
+    /// A diagnosis could not be made.
+    #[error("{0}")]
+    Diagnose(#[from] crate::diagnose::DiagnoseError),
     /// Arguments that make no sense together.
     #[error("{0}")]
     Usage(String),
@@ -167,6 +173,18 @@ pub fn progress(len: u64, message: &str) -> indicatif::ProgressBar {
     );
     bar.set_message(message.to_string());
     bar
+}
+
+/// A spinner for work of unknown length on a terminal; hidden when piped or under CI.
+pub fn spinner(message: &str) -> indicatif::ProgressBar {
+    let bar = progress(0, message);
+    if bar.is_hidden() {
+        return bar;
+    }
+    let spin = indicatif::ProgressBar::new_spinner();
+    spin.set_message(message.to_string());
+    spin.enable_steady_tick(std::time::Duration::from_millis(120));
+    spin
 }
 
 /// `--axis x|y`.

@@ -5,9 +5,11 @@
 mod bode_cmd;
 mod check_cmd;
 mod common;
+mod diagnose_cmd;
 mod plan_cmd;
 mod stickslip_cmd;
 mod sweep_cmd;
+mod synth_cmd;
 mod validate_cmd;
 
 use std::process::ExitCode;
@@ -38,6 +40,10 @@ enum Command {
     Sweep(sweep_cmd::SweepArgs),
     /// Every comparison with the paper, side by side.
     Validate(validate_cmd::ValidateArgs),
+    /// Learn from a measurement: where the model is wrong, the cause, the fitted extension.
+    Diagnose(diagnose_cmd::DiagnoseArgs),
+    /// A synthetic measurement of a machine with one hidden effect.
+    Synth(synth_cmd::SynthArgs),
 }
 
 /// What a run ended with.
@@ -75,5 +81,7 @@ fn run(cli: Cli, matches: &ArgMatches) -> Result<Outcome, CliError> {
         Command::Bode(args) => bode_cmd::run(&args),
         Command::Stickslip(args) => stickslip_cmd::run(&args),
         Command::Validate(args) => validate_cmd::run(&args),
+        Command::Diagnose(args) => diagnose_cmd::run(&args),
+        Command::Synth(args) => synth_cmd::run(&args),
     }
 }

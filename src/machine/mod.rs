@@ -70,6 +70,30 @@ pub struct AxisConfig {
     pub lateral_shift: Option<LateralShift>,
     /// Kinematic limits for the planner.
     pub limits: Limits,
+    /// Errors outside the paper's model (measuring system, structure); all off by default.
+    /// `contourcheck diagnose` fits them from measurements.
+    #[serde(default)]
+    pub errors: Errors,
+}
+
+/// Effects outside the nominal model (MODEL.md §5), each off at zero.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Errors {
+    /// Scale (full closed loop) or lead (semi-closed loop) error proportional to position
+    /// (ppm): the measuring system reads this much too long.
+    pub scale_error_ppm: f64,
+    /// Amplitude of a cyclic error of the measuring system (µm).
+    pub cyclic_amplitude_um: f64,
+    /// Its period (mm); 0 means the ball-screw lead.
+    pub cyclic_period_mm: f64,
+    /// Its phase at position 0 (degrees).
+    pub cyclic_phase_deg: f64,
+    /// Natural frequency of a structural mode between the table and the measured point,
+    /// excited by the table's acceleration (Hz); 0 = none.
+    pub resonance_hz: f64,
+    /// Its damping ratio.
+    pub resonance_damping: f64,
 }
 
 /// An axis that is planned but not simulated.
@@ -102,6 +126,10 @@ pub struct PositionLoop {
     pub accel_feedforward: f64,
     /// Position feedback.
     pub feedback: Feedback,
+    /// Dead time between the interpolator and the position controller (ms); 0 in the
+    /// paper's model.
+    #[serde(default)]
+    pub dead_time_ms: f64,
 }
 
 /// Velocity loop.
@@ -182,6 +210,13 @@ pub struct Friction {
     pub static_to_coulomb: f64,
     /// Viscous coefficient f_v (N·s/m).
     pub viscous_n_s_per_m: f64,
+    /// Stribeck effect: extra sliding friction at low speed, level·exp(−(v/v_s)²) (N);
+    /// 0 in the paper's model.
+    #[serde(default)]
+    pub stribeck_level_n: f64,
+    /// Stribeck velocity v_s (mm/min).
+    #[serde(default)]
+    pub stribeck_velocity_mm_per_min: f64,
 }
 
 /// Beam sag that tilts the screw and scales its lead (MODEL.md §1.7).
@@ -231,6 +266,14 @@ impl AxisName {
         match self {
             AxisName::X => "x",
             AxisName::Y => "y",
+        }
+    }
+
+    /// The other simulated axis.
+    pub fn other(self) -> AxisName {
+        match self {
+            AxisName::X => AxisName::Y,
+            AxisName::Y => AxisName::X,
         }
     }
 

@@ -152,6 +152,60 @@ fn validate_axis(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigEr
             ),
         ));
     }
+    c.check(
+        &k("position_loop.dead_time_ms"),
+        p.dead_time_ms,
+        Range(0.0, 1000.0),
+    )?;
+    c.check(
+        &k("friction.stribeck_level_n"),
+        f.stribeck_level_n,
+        NonNegative,
+    )?;
+    c.check(
+        &k("friction.stribeck_velocity_mm_per_min"),
+        f.stribeck_velocity_mm_per_min,
+        NonNegative,
+    )?;
+    if f.stribeck_level_n > 0.0 && f.stribeck_velocity_mm_per_min <= 0.0 {
+        return Err(c.inconsistent(
+            &k("friction.stribeck_velocity_mm_per_min"),
+            "must be positive when friction.stribeck_level_n is set".into(),
+        ));
+    }
+    let e = &a.errors;
+    c.check(
+        &k("errors.scale_error_ppm"),
+        e.scale_error_ppm,
+        Range(-1e5, 1e5),
+    )?;
+    c.check(
+        &k("errors.cyclic_amplitude_um"),
+        e.cyclic_amplitude_um,
+        Range(0.0, 1e4),
+    )?;
+    c.check(
+        &k("errors.cyclic_period_mm"),
+        e.cyclic_period_mm,
+        NonNegative,
+    )?;
+    c.check(
+        &k("errors.cyclic_phase_deg"),
+        e.cyclic_phase_deg,
+        Range(-1e6, 1e6),
+    )?;
+    c.check(&k("errors.resonance_hz"), e.resonance_hz, Range(0.0, 1e4))?;
+    c.check(
+        &k("errors.resonance_damping"),
+        e.resonance_damping,
+        Range(0.0, 2.0),
+    )?;
+    if e.resonance_hz > 0.0 && e.resonance_damping <= 0.0 {
+        return Err(c.inconsistent(
+            &k("errors.resonance_damping"),
+            "must be positive when errors.resonance_hz is set".into(),
+        ));
+    }
     if let Some(ls) = &a.lateral_shift {
         c.check(
             &k("lateral_shift.beam_length_m"),

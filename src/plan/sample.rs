@@ -2,6 +2,7 @@
 //! interpolation cycle, taken exactly from the programmed geometry (true arcs, no chords).
 
 use super::Plan;
+use crate::machine::AxisName;
 use crate::path::Geometry;
 
 /// Commands of one axis, one entry per interpolation cycle.
@@ -26,7 +27,8 @@ impl AxisCommands {
         self.pos_m.is_empty()
     }
 
-    fn push(&mut self, p: f64, v: f64, a: f64) {
+    /// Appends one sample: position (m), velocity (m/s), acceleration (m/s²).
+    pub fn push(&mut self, p: f64, v: f64, a: f64) {
         self.pos_m.push(p);
         self.vel_m_per_s.push(v);
         self.acc_m_per_s2.push(a);
@@ -59,6 +61,14 @@ pub struct Commands {
 }
 
 impl Commands {
+    /// One axis's commands.
+    pub fn axis(&self, axis: AxisName) -> &AxisCommands {
+        match axis {
+            AxisName::X => &self.x,
+            AxisName::Y => &self.y,
+        }
+    }
+
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.x.len()

@@ -3,6 +3,7 @@
 
 pub mod along_path;
 pub mod bode;
+pub mod panels;
 pub mod polar;
 pub mod stickslip;
 pub mod sweep;

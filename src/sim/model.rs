@@ -13,7 +13,8 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::machine::{AxisConfig, Feedback};
 use crate::units::{
-    GRAVITY_M_PER_S2, h_from_mh, m_from_mm, m_from_um, per_s_from_kv_m_per_min_per_mm, s_from_ms,
+    GRAVITY_M_PER_S2, h_from_mh, m_from_mm, m_from_um, m_per_s_from_mm_per_min,
+    per_s_from_kv_m_per_min_per_mm, s_from_ms,
 };
 
 /// Number of states.
@@ -128,6 +129,39 @@ pub struct AxisModel {
     pub f_v: f64,
     /// Lateral shift of the screw, if this axis carries the tool holder along a beam.
     pub lateral: Option<LateralShiftModel>,
+    /// Dead time of the commands (s).
+    pub dead_time_s: f64,
+    /// Stribeck friction: extra level (N) and velocity (m/s); `None` when off.
+    pub stribeck: Option<(f64, f64)>,
+    /// Error of the measuring system (scale, or lead in semi-closed loop).
+    pub measuring: MeasuringError,
+    /// Structural mode between the table and the measured point: ω (rad/s) and ζ.
+    pub resonance: Option<(f64, f64)>,
+}
+
+/// Error of the measuring system as a function of position: e(x) = s·x + A·sin(k·x + φ).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct MeasuringError {
+    /// Scale factor error s.
+    pub scale: f64,
+    /// Cyclic amplitude A (m).
+    pub amplitude_m: f64,
+    /// Wavenumber k = 2π/period (rad/m).
+    pub wavenumber_per_m: f64,
+    /// Phase φ (rad).
+    pub phase_rad: f64,
+}
+
+impl MeasuringError {
+    /// True when there is any error.
+    pub fn is_active(&self) -> bool {
+        self.scale != 0.0 || self.amplitude_m != 0.0
+    }
+
+    /// e(x) (m).
+    pub fn at(&self, x: f64) -> f64 {
+        self.scale * x + self.amplitude_m * (self.wavenumber_per_m * x + self.phase_rad).sin()
+    }
 }
 
 /// Beam sag that scales the lead (MODEL.md §1.7).
@@ -198,13 +232,39 @@ impl AxisModel {
             b_screw: d.screw_viscous_nm_s_per_rad,
             half_gap: 0.5 * m_from_um(d.backlash_um),
             f_c,
-            f_s: c.friction.static_to_coulomb * f_c,
+            // With a Stribeck excess the friction at rest is f_c + level: the break-away
+            // force cannot be lower than that (the Stribeck curve starts at static friction).
+            f_s: (c.friction.static_to_coulomb * f_c).max(f_c + c.friction.stribeck_level_n),
             f_v: c.friction.viscous_n_s_per_m,
             lateral: c.lateral_shift.as_ref().map(|l| LateralShiftModel {
                 l: l.beam_length_m,
                 ei: l.bending_stiffness_n_m2,
                 load: l.holder_load_n,
                 a0: l.holder_at_zero_m,
+            }),
+            dead_time_s: s_from_ms(c.position_loop.dead_time_ms),
+            stribeck: (c.friction.stribeck_level_n > 0.0).then(|| {
+                (
+                    c.friction.stribeck_level_n,
+                    m_per_s_from_mm_per_min(c.friction.stribeck_velocity_mm_per_min),
+                )
+            }),
+            measuring: MeasuringError {
+                scale: c.errors.scale_error_ppm * 1e-6,
+                amplitude_m: m_from_um(c.errors.cyclic_amplitude_um),
+                wavenumber_per_m: std::f64::consts::TAU
+                    / m_from_mm(if c.errors.cyclic_period_mm > 0.0 {
+                        c.errors.cyclic_period_mm
+                    } else {
+                        d.lead_mm
+                    }),
+                phase_rad: c.errors.cyclic_phase_deg.to_radians(),
+            },
+            resonance: (c.errors.resonance_hz > 0.0).then(|| {
+                (
+                    std::f64::consts::TAU * c.errors.resonance_hz,
+                    c.errors.resonance_damping,
+                )
             }),
         }
     }

@@ -10,10 +10,11 @@
 
 use super::discrete::{LEVELS, MapCache};
 use super::model::{
-    AR, Aug, AxisModel, ClampMode, ContactMode, DL, FX, FrictionMode, Mode, N, NA, ONE, Row,
+    AR, Aug, AxisModel, ClampMode, ContactMode, DL, FB, FX, FrictionMode, Mode, N, NA, ONE, Row,
     Signals, TH_S, V2, VR, X2, XR, ZI, ZW,
 };
 use super::{AxisTrace, FrictionEvent, SimConfig, SimError};
+use crate::machine::Feedback;
 use crate::plan::AxisCommands;
 
 /// Guard tolerances: a guard counts as violated only below −tolerance, so that a state just
@@ -498,13 +499,39 @@ fn unit(i: usize) -> Row {
 
 /// The state of an axis at rest at `x0` (m): everything aligned, no current, stuck, the nut
 /// in the middle of its gap.
+///
+/// "At rest" means where the loop holds the axis: the feedback reads `x0`. With a measuring
+/// error that is not where the table is — a scale reading e too long holds the table at
+/// x0 − e, a lead error puts it at x0 + e — and starting elsewhere would make the axis creep
+/// the difference out through static friction before anything else happens.
 pub fn rest_state(model: &AxisModel, x0: f64) -> (Aug, Mode) {
     let mut x = Aug::zeros();
-    x[X2] = x0;
-    x[TH_S] = x0 / model.r;
+    let (screw_travel, table) = match model.feedback {
+        Feedback::LinearScale => {
+            // Solve X2 + e(X2) = x0 by fixed point (|e'| ≪ 1).
+            let mut t = x0;
+            for _ in 0..4 {
+                t = x0 - model.measuring.at(t);
+            }
+            (t, t)
+        }
+        Feedback::MotorEncoder => (x0, x0 + model.measuring.at(x0)),
+    };
+    x[X2] = table;
+    x[TH_S] = screw_travel / model.r;
     x[super::model::TH_M] = x[TH_S] / model.it;
     x[XR] = x0;
     x[ONE] = 1.0;
+    x[FB] = if model.feedback == Feedback::LinearScale {
+        table - screw_travel + model.measuring.at(table)
+    } else {
+        0.0
+    };
+    x[DL] = if model.feedback == Feedback::MotorEncoder {
+        table - screw_travel
+    } else {
+        0.0
+    };
     let contact = if model.has_backlash() {
         ContactMode::Free
     } else {
@@ -542,6 +569,13 @@ pub fn simulate_with_progress(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<AxisTrace, SimError> {
     super::linear::check_stable(model)?;
+    let delayed_commands;
+    let commands = if model.dead_time_s > 0.0 {
+        delayed_commands = delayed(commands, dt_s, model.dead_time_s);
+        &delayed_commands
+    } else {
+        commands
+    };
     let n = commands.len();
     let substeps = config.substeps.max(1) as usize;
     let h = dt_s / substeps as f64;
@@ -550,6 +584,8 @@ pub fn simulate_with_progress(
     let (mut x, mut mode) = rest_state(model, x0);
     let mut trace = AxisTrace::with_capacity(dt_s, n);
     let mut friction_events = config.record_friction_events.then(Vec::new);
+    let per_substep_inputs = model.stribeck.is_some() || model.measuring.is_active();
+    let mut lateral_dl = 0.0;
     for k in 0..n {
         // The reference of this interpolation cycle: x + v·τ + a·τ²/2, integrated exactly.
         x[XR] = commands.pos_m[k];
@@ -558,13 +594,17 @@ pub fn simulate_with_progress(
         if let Some(lat) = &model.lateral {
             // Nut travel K_λ·r·θ_s: the lead scale enters as an offset on δ. It changes by
             // parts in 1e10 over a cycle, so once per interpolation cycle is exact enough.
-            x[DL] = (lat.k_lambda(x[X2]) - 1.0) * model.r * x[TH_S];
+            lateral_dl = (lat.k_lambda(x[X2]) - 1.0) * model.r * x[TH_S];
+            x[DL] = lateral_dl;
         }
         trace.push(&x, mode);
         if k + 1 == n {
             break;
         }
         for sub in 0..substeps {
+            if per_substep_inputs {
+                substep_inputs(model, &mut x, mode, lateral_dl);
+            }
             let t = (k as f64 + sub as f64 / substeps as f64) * dt_s;
             sim.step(&mut x, &mut mode, t, friction_events.as_mut())?;
         }
@@ -580,7 +620,86 @@ pub fn simulate_with_progress(
         }
     }
     trace.friction_events = friction_events.unwrap_or_default();
+    if let Some((omega, zeta)) = model.resonance {
+        add_structural_mode(&mut trace.pos_m, dt_s, omega, zeta);
+    }
     Ok(trace)
+}
+
+/// Inputs held over one sub-step that depend on the state: the Stribeck excess while
+/// sliding (against the motion), and the measuring system's error — on the feedback (linear
+/// scale) or on the nut's travel (motor encoder).
+fn substep_inputs(model: &AxisModel, x: &mut Aug, mode: Mode, lateral_dl: f64) {
+    x[FX] = match (model.stribeck, mode.friction) {
+        (Some((level, v_s)), FrictionMode::SlipPos) => level * (-(x[V2] / v_s).powi(2)).exp(),
+        (Some((level, v_s)), FrictionMode::SlipNeg) => -level * (-(x[V2] / v_s).powi(2)).exp(),
+        _ => 0.0,
+    };
+    if model.measuring.is_active() {
+        match model.feedback {
+            Feedback::LinearScale => x[FB] = model.measuring.at(x[X2]),
+            Feedback::MotorEncoder => x[DL] = lateral_dl + model.measuring.at(model.r * x[TH_S]),
+        }
+    }
+}
+
+/// The commands as the position controller receives them `dead_s` later: each sample
+/// re-evaluated `dead_s` back on the interpolator's own polynomial (standing still before
+/// the first).
+fn delayed(c: &AxisCommands, dt_s: f64, dead_s: f64) -> AxisCommands {
+    let mut out = AxisCommands::default();
+    for k in 0..c.len() {
+        let t = k as f64 * dt_s - dead_s;
+        let (p, v, a) = if t < 0.0 {
+            (c.pos_m[0], 0.0, 0.0)
+        } else {
+            let j = ((t / dt_s).floor() as usize).min(c.len() - 1);
+            let tau = t - j as f64 * dt_s;
+            let (p, v, a) = (c.pos_m[j], c.vel_m_per_s[j], c.acc_m_per_s2[j]);
+            (p + v * tau + 0.5 * a * tau * tau, v + a * tau, a)
+        };
+        out.pos_m.push(p);
+        out.vel_m_per_s.push(v);
+        out.acc_m_per_s2.push(a);
+    }
+    out
+}
+
+/// Adds the response q of a structural mode (ω, ζ) at the measured point to the table's
+/// positions: q̈ + 2ζω q̇ + ω² q = −ẍ_table, integrated exactly with the table acceleration
+/// (second differences of the positions) held over each sample.
+fn add_structural_mode(pos: &mut [f64], dt: f64, omega: f64, zeta: f64) {
+    let n = pos.len();
+    if n < 3 {
+        return;
+    }
+    let a = nalgebra::Matrix3::new(
+        0.0,
+        1.0,
+        0.0,
+        -omega * omega,
+        -2.0 * zeta * omega,
+        -1.0,
+        0.0,
+        0.0,
+        0.0,
+    );
+    let e = (a * dt).exp();
+    let accel: Vec<f64> = (0..n)
+        .map(|k| {
+            let k = k.clamp(1, n - 2);
+            (pos[k + 1] - 2.0 * pos[k] + pos[k - 1]) / (dt * dt)
+        })
+        .collect();
+    let (mut q, mut qd) = (0.0, 0.0);
+    for (p, acc) in pos.iter_mut().zip(accel) {
+        *p += q;
+        let (nq, nqd) = (
+            e[(0, 0)] * q + e[(0, 1)] * qd + e[(0, 2)] * acc,
+            e[(1, 0)] * q + e[(1, 1)] * qd + e[(1, 2)] * acc,
+        );
+        (q, qd) = (nq, nqd);
+    }
 }
 
 #[cfg(test)]

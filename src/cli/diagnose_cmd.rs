@@ -1,0 +1,312 @@
+//! `contourcheck diagnose`: what the model gets wrong against a measurement, the cause, the
+//! fitted extension and the gain — for a measured trace of a program, or for a table of
+//! steady following errors.
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+
+use super::Outcome;
+use super::common::{CliError, MachineArgs, PlanningArgs, load_program, spinner};
+use crate::diagnose::report::{DiagnoseReport, machine_file};
+use crate::diagnose::table::diagnose_table;
+use crate::diagnose::{DiagnoseSettings, Diagnosis, diagnose};
+use crate::measured::{read_table, read_trace};
+use crate::output::OutputBatch;
+use crate::plot::panels::{Curve, Panel, PanelsPlot};
+use crate::units::{mm_from_m, um_from_m};
+
+/// Arguments of `diagnose`.
+#[derive(Debug, Args)]
+pub struct DiagnoseArgs {
+    /// The part program the measurement ran (not needed with --table).
+    pub program: Option<PathBuf>,
+    /// Measured trace: CSV with `t_s,x_mm,y_mm`, optionally `x_cmd_mm,y_cmd_mm`.
+    #[arg(long, value_name = "FILE", conflicts_with = "table")]
+    pub measured: Option<PathBuf>,
+    /// Table of steady following errors instead of a trace: CSV with `table, axis,
+    /// feed_mm_per_min, kv_m_per_min_per_mm, ks_nm_s_per_rad, following_error_mm` (the
+    /// paper's Tables 3–5 ship as data/paper-tables.csv).
+    #[arg(long, value_name = "FILE")]
+    pub table: Option<PathBuf>,
+    #[command(flatten)]
+    pub machine: MachineArgs,
+    #[command(flatten)]
+    pub planning: PlanningArgs,
+    /// Write the diagnosis as JSON (schema contourcheck.diagnose/1, or
+    /// contourcheck.diagnose-table/1 with --table; see docs/report-schema.md).
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Write the extended machine as a machine file for check, sweep and diagnose.
+    #[arg(long, value_name = "FILE")]
+    pub write_machine: Option<PathBuf>,
+    /// Write plots (PNG and SVG) into this directory: measured vs nominal vs extended, and
+    /// the residual before and after over time and along the path.
+    #[arg(long, value_name = "DIR")]
+    pub plot: Option<PathBuf>,
+    /// Most causes named.
+    #[arg(long, default_value_t = 3, value_name = "N")]
+    pub max_causes: usize,
+    /// Evidence a cause needs (BIC units: 10 is very strong).
+    #[arg(long, default_value_t = 10.0, value_name = "X")]
+    pub evidence: f64,
+    /// Align each stretch between standstills on its own clock, for a control whose
+    /// in-position waits or dwells differ from the plan's and a measurement without
+    /// recorded commands (the free offsets absorb part of any gain error or lag).
+    #[arg(long)]
+    pub align_stretches: bool,
+}
+
+pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
+    if !(args.evidence.is_finite() && args.evidence >= 0.0) {
+        return Err(CliError::Usage(format!(
+            "--evidence {}: must be a number ≥ 0",
+            args.evidence
+        )));
+    }
+    let machine = args.machine.load()?;
+    if let Some(table) = &args.table {
+        return run_table(args, table, &machine);
+    }
+    let (Some(program_path), Some(measured_path)) = (&args.program, &args.measured) else {
+        return Err(CliError::Usage(
+            "diagnose needs a program and --measured TRACE.csv, or --table TABLE.csv".into(),
+        ));
+    };
+    let program = load_program(program_path)?;
+    let measured = read_trace(measured_path)?;
+    let mut settings = DiagnoseSettings::for_machine(&machine);
+    settings.check.plan = args.planning.config(&machine)?;
+    settings.max_causes = args.max_causes;
+    settings.evidence = args.evidence;
+    settings.align_stretches = args.align_stretches;
+    let bar = spinner("fitting causes");
+    let d = diagnose(&program, &machine, &measured, &settings)?;
+    bar.finish_and_clear();
+    let program_file = program_path.display().to_string();
+    let report = DiagnoseReport::new(&d, &program_file, &measured, &machine);
+    let mut batch = OutputBatch::new();
+    if let Some(path) = &args.json {
+        batch.stage(path, |w| report.write_json(w))?;
+    }
+    if let Some(path) = &args.write_machine {
+        let text = machine_file(&d.machine, &d, &program_file, &measured.file);
+        batch.stage(path, |w| w.write_all(text.as_bytes()))?;
+    }
+    if let Some(dir) = &args.plot {
+        std::fs::create_dir_all(dir).map_err(|e| CliError::Read {
+            path: dir.display().to_string(),
+            message: e.to_string(),
+        })?;
+        stage_plots(&mut batch, dir, &d, &program_file)?;
+    }
+    batch.commit()?;
+    print!("{}", report.summary_text());
+    Ok(Outcome::Ok)
+}
+
+fn run_table(
+    args: &DiagnoseArgs,
+    path: &Path,
+    machine: &crate::machine::MachineConfig,
+) -> Result<Outcome, CliError> {
+    if args.write_machine.is_some() || args.plot.is_some() {
+        return Err(CliError::Usage(
+            "--write-machine and --plot apply to traces, not to --table".into(),
+        ));
+    }
+    let rows = read_table(path)?;
+    let bar = spinner("fitting the table");
+    let d = diagnose_table(
+        machine,
+        &rows,
+        &crate::sim::SimConfig::default(),
+        args.evidence,
+    )?;
+    bar.finish_and_clear();
+    let file = path.display().to_string();
+    if let Some(json) = &args.json {
+        let mut batch = OutputBatch::new();
+        batch.stage(json, |w| d.write_json(w, &file, &machine.name))?;
+        batch.commit()?;
+    }
+    print!("{}", d.summary_text(&file, &machine.name));
+    Ok(Outcome::Ok)
+}
+
+/// Half-width of the close-up around the largest miss (s).
+const ZOOM_HALF_S: f64 = 0.15;
+
+/// Most points per curve.
+const PLOT_POINTS: usize = 20_000;
+
+/// (abscissa, value) pairs, decimated, with a NaN wherever the samples jump (a stretch
+/// left out) so the line breaks there.
+fn curve_points(x: &[f64], t: &[f64], y: impl Fn(usize) -> f64) -> Vec<(f64, f64)> {
+    let every = x.len().div_ceil(PLOT_POINTS).max(1);
+    let step = t
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(f64::MAX, f64::min)
+        .max(1e-9);
+    let mut out = Vec::new();
+    let mut last_t = f64::NAN;
+    for k in (0..x.len()).step_by(every) {
+        if t[k] - last_t > (every as f64 + 1.5) * step {
+            out.push((x[k], f64::NAN));
+        }
+        out.push((x[k], y(k)));
+        last_t = t[k];
+    }
+    out
+}
+
+fn stage_plots(
+    batch: &mut OutputBatch,
+    dir: &Path,
+    d: &Diagnosis,
+    program_file: &str,
+) -> Result<(), CliError> {
+    let name = Path::new(program_file)
+        .file_name()
+        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let s = &d.series;
+    let t = &s.t_s;
+    let found: Vec<String> = d
+        .causes
+        .iter()
+        .map(|c| format!("{} on {}", c.id.as_str(), c.axis))
+        .collect();
+    let extended_name = if found.is_empty() {
+        "extended (no cause found)".to_string()
+    } else {
+        format!("extended: {}", found.join(", "))
+    };
+    // Each axis's deviation from the command, measured and by both models, around where
+    // the nominal model misses most (the whole record when it misses nowhere).
+    let deviation = |a: usize| {
+        let axis = ["x", "y"][a];
+        let worst = d.places.iter().find(|p| p.what == axis);
+        let keep: Vec<usize> = match worst {
+            Some(p) => (0..t.len())
+                .filter(|&k| (t[k] - p.t_s).abs() <= ZOOM_HALF_S)
+                .collect(),
+            None => (0..t.len()).collect(),
+        };
+        let tk: Vec<f64> = keep.iter().map(|&k| t[k]).collect();
+        let dev = |model: &[f64]| {
+            curve_points(&tk, &tk, |j| {
+                um_from_m(model[keep[j]] - s.reference[a][keep[j]])
+            })
+        };
+        Panel {
+            caption: match worst {
+                Some(p) => format!(
+                    "{} axis: position − command around t = {:.2} s (line {}), where the nominal model misses most",
+                    axis.to_uppercase(),
+                    p.t_s,
+                    p.line
+                ),
+                None => format!("{} axis: position − command", axis.to_uppercase()),
+            },
+            y_label: "µm".into(),
+            curves: vec![
+                Curve {
+                    name: "measured".into(),
+                    points: dev(&s.measured[a]),
+                    color: None,
+                    width: 3,
+                },
+                Curve {
+                    name: "nominal model".into(),
+                    points: dev(&s.nominal[a]),
+                    color: Some(1),
+                    width: 2,
+                },
+                Curve {
+                    name: extended_name.clone(),
+                    points: dev(&s.extended[a]),
+                    color: Some(0),
+                    width: 2,
+                },
+            ],
+        }
+    };
+    let fit = PanelsPlot {
+        title: format!("{name}: measured against the nominal and the extended model"),
+        x_label: "program time (s)".into(),
+        panels: vec![deviation(0), deviation(1)],
+    };
+    let residual_panel = |caption: String,
+                          before: &dyn Fn(usize) -> f64,
+                          after: &dyn Fn(usize) -> f64,
+                          x: &[f64]| Panel {
+        caption,
+        y_label: "residual (µm)".into(),
+        curves: vec![
+            Curve {
+                name: "nominal model".into(),
+                points: curve_points(x, t, before),
+                color: None,
+                width: 1,
+            },
+            Curve {
+                name: "extended model".into(),
+                points: curve_points(x, t, after),
+                color: Some(0),
+                width: 1,
+            },
+        ],
+    };
+    let axis_residual = |a: usize| {
+        residual_panel(
+            format!(
+                "{} axis: measured − model (RMS {:.3} → {:.3} µm)",
+                ["X", "Y"][a],
+                [d.before.x, d.before.y][a].rms_um,
+                [d.after.x, d.after.y][a].rms_um
+            ),
+            &|k| um_from_m(s.measured[a][k] - s.nominal[a][k]),
+            &|k| um_from_m(s.measured[a][k] - s.extended[a][k]),
+            t,
+        )
+    };
+    let contour_caption = format!(
+        "contour error: measured − model (RMS {:.3} → {:.3} µm)",
+        d.before.contour.rms_um, d.after.contour.rms_um
+    );
+    let contour_before = |k: usize| um_from_m(s.contour_residual[0][k]);
+    let contour_after = |k: usize| um_from_m(s.contour_residual[1][k]);
+    let over_time = PanelsPlot {
+        title: format!("{name}: residual before and after the extension, over time"),
+        x_label: "program time (s)".into(),
+        panels: vec![
+            axis_residual(0),
+            axis_residual(1),
+            residual_panel(contour_caption.clone(), &contour_before, &contour_after, t),
+        ],
+    };
+    let path_mm: Vec<f64> = s.path_s_m.iter().map(|&v| mm_from_m(v)).collect();
+    let along_path = PanelsPlot {
+        title: format!("{name}: contour-error residual along the path"),
+        x_label: "path length (mm)".into(),
+        panels: vec![residual_panel(
+            contour_caption,
+            &contour_before,
+            &contour_after,
+            &path_mm,
+        )],
+    };
+    for ext in ["png", "svg"] {
+        batch.stage_with_path(&dir.join(format!("diagnose-fit.{ext}")), |p| {
+            crate::plot::render(p, &fit)
+        })?;
+        batch.stage_with_path(&dir.join(format!("diagnose-residual-time.{ext}")), |p| {
+            crate::plot::render(p, &over_time)
+        })?;
+        batch.stage_with_path(&dir.join(format!("diagnose-residual-path.{ext}")), |p| {
+            crate::plot::render(p, &along_path)
+        })?;
+    }
+    Ok(())
+}

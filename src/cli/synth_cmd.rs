@@ -1,0 +1,142 @@
+//! `contourcheck synth`: a synthetic measurement — the machine with one hidden effect runs a
+//! program and is measured with noise on a clock of its own — to see what a cause looks
+//! like, or to try `diagnose` on.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use super::Outcome;
+use super::common::{CliError, MachineArgs, load_program};
+use crate::diagnose::causes::CauseId;
+use crate::machine::AxisName;
+use crate::output::OutputBatch;
+use crate::synth::{SynthSpec, synthesize};
+use crate::units::{m_from_um, s_from_ms};
+
+/// Arguments of `synth`.
+#[derive(Debug, Args)]
+pub struct SynthArgs {
+    /// The part program.
+    pub program: PathBuf,
+    /// Where to write the measurement (CSV: t_s, x_mm, y_mm[, x_cmd_mm, y_cmd_mm]).
+    #[arg(long, short, value_name = "FILE")]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub machine: MachineArgs,
+    /// The hidden effect: backlash, coulomb_friction, stribeck, kv_gain, dead_time,
+    /// cyclic_error, scale_error, resonance (default: none, the nominal machine).
+    #[arg(long, value_name = "CAUSE", requires = "values")]
+    pub effect: Option<String>,
+    /// The axis it acts on.
+    #[arg(long, default_value = "x", value_name = "AXIS")]
+    pub axis: AxisName,
+    /// Its parameter values in the machine file's units, comma-separated, in the order
+    /// `diagnose` reports them (e.g. backlash: µm; stribeck: level N, velocity mm/min;
+    /// cyclic_error: amplitude µm, phase °; resonance: Hz, damping ratio).
+    #[arg(long, value_name = "V1,V2", value_delimiter = ',')]
+    pub values: Vec<f64>,
+    /// Measurement noise, standard deviation (µm).
+    #[arg(long, default_value_t = 0.3, value_name = "UM")]
+    pub noise_um: f64,
+    /// The measurement clock's reading when the program starts (s).
+    #[arg(long, default_value_t = 0.5, value_name = "S")]
+    pub offset_s: f64,
+    /// Sampling step (ms).
+    #[arg(long, default_value_t = 2.0, value_name = "MS")]
+    pub sample_ms: f64,
+    /// Record the commanded positions too, as a CNC servo trace does.
+    #[arg(long)]
+    pub with_commands: bool,
+    /// Seed of the noise.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+}
+
+pub fn run(args: &SynthArgs) -> Result<Outcome, CliError> {
+    let effect = match &args.effect {
+        None => None,
+        Some(name) => {
+            let cause = CauseId::ALL
+                .into_iter()
+                .find(|c| c.as_str() == name)
+                .ok_or_else(|| {
+                    let names: Vec<&str> = CauseId::ALL.iter().map(|c| c.as_str()).collect();
+                    CliError::Usage(format!(
+                        "--effect {name}: not a cause ({})",
+                        names.join(", ")
+                    ))
+                })?;
+            let wanted = cause.params().len();
+            if args.values.len() != wanted {
+                let keys: Vec<&str> = cause.params().iter().map(|p| p.key).collect();
+                return Err(CliError::Usage(format!(
+                    "--values: {name} takes {wanted} value(s): {}",
+                    keys.join(", ")
+                )));
+            }
+            for (p, v) in cause.params().iter().zip(&args.values) {
+                if !(v.is_finite() && (p.min..=p.max).contains(v)) {
+                    return Err(CliError::Usage(format!(
+                        "--values: {} = {v} lies outside {}..{}",
+                        p.key, p.min, p.max
+                    )));
+                }
+            }
+            Some((cause, args.axis, args.values.clone()))
+        }
+    };
+    if !(args.noise_um.is_finite() && args.noise_um >= 0.0) {
+        return Err(CliError::Usage(format!(
+            "--noise-um {}: must be ≥ 0",
+            args.noise_um
+        )));
+    }
+    if !(args.sample_ms.is_finite() && (0.05..=100.0).contains(&args.sample_ms)) {
+        return Err(CliError::Usage(format!(
+            "--sample-ms {}: must lie between 0.05 and 100",
+            args.sample_ms
+        )));
+    }
+    if !(args.offset_s.is_finite() && args.offset_s >= 0.0) {
+        return Err(CliError::Usage(format!(
+            "--offset-s {}: must be ≥ 0",
+            args.offset_s
+        )));
+    }
+    let machine = args.machine.load()?;
+    let program = load_program(&args.program)?;
+    let spec = SynthSpec {
+        effect,
+        noise_m: m_from_um(args.noise_um),
+        offset_s: args.offset_s,
+        sample_s: s_from_ms(args.sample_ms),
+        with_commands: args.with_commands,
+        seed: args.seed,
+    };
+    let synthetic = synthesize(&program, &machine, &spec)?;
+    let mut batch = OutputBatch::new();
+    batch.stage(&args.out, |w| synthetic.write_csv(w))?;
+    batch.commit()?;
+    let hidden = match &spec.effect {
+        None => "nothing hidden (the nominal machine)".to_string(),
+        Some((cause, axis, values)) => {
+            let params: Vec<String> = cause
+                .params()
+                .iter()
+                .zip(values)
+                .map(|(p, v)| format!("{} = {v} {}", p.key, p.unit).trim_end().to_string())
+                .collect();
+            format!("{} on {axis}: {}", cause.as_str(), params.join(", "))
+        }
+    };
+    println!(
+        "wrote {}: {} samples every {} ms, noise {} µm, clock offset {} s; {hidden}",
+        args.out.display(),
+        synthetic.rows.len(),
+        args.sample_ms,
+        args.noise_um,
+        args.offset_s
+    );
+    Ok(Outcome::Ok)
+}

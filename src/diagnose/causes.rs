@@ -1,0 +1,345 @@
+//! The catalogue of effects outside the nominal model (MODEL.md §5): what each one's
+//! parameters are (as machine keys, in the machine file's units), how it extends an axis,
+//! and its signature — a cheap test on the residual that says whether fitting it is worth
+//! a try.
+
+use serde::Serialize;
+
+use crate::machine::AxisConfig;
+
+/// The fixed vocabulary of causes.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, serde::Deserialize, PartialOrd, Ord,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum CauseId {
+    /// Lost motion at reversals.
+    Backlash,
+    /// Friction larger than modelled: spikes at reversals.
+    CoulombFriction,
+    /// Extra friction at low speed.
+    Stribeck,
+    /// A position gain other than the one set (servo mismatch between axes).
+    KvGain,
+    /// A delay between interpolator and position controller.
+    DeadTime,
+    /// A cyclic error of the measuring system (lead or scale period).
+    CyclicError,
+    /// A scale or lead error proportional to position.
+    ScaleError,
+    /// A structural mode ringing after accelerations.
+    Resonance,
+}
+
+impl CauseId {
+    /// Every cause.
+    pub const ALL: [CauseId; 8] = [
+        CauseId::Backlash,
+        CauseId::CoulombFriction,
+        CauseId::Stribeck,
+        CauseId::KvGain,
+        CauseId::DeadTime,
+        CauseId::CyclicError,
+        CauseId::ScaleError,
+        CauseId::Resonance,
+    ];
+
+    /// The id as written in reports and on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            CauseId::Backlash => "backlash",
+            CauseId::CoulombFriction => "coulomb_friction",
+            CauseId::Stribeck => "stribeck",
+            CauseId::KvGain => "kv_gain",
+            CauseId::DeadTime => "dead_time",
+            CauseId::CyclicError => "cyclic_error",
+            CauseId::ScaleError => "scale_error",
+            CauseId::Resonance => "resonance",
+        }
+    }
+
+    /// The fitted parameters.
+    pub fn params(self) -> &'static [Param] {
+        match self {
+            CauseId::Backlash => &[Param {
+                key: "drive.backlash_um",
+                unit: "µm",
+                scale: 10.0,
+                min: 0.0,
+                max: 1000.0,
+            }],
+            CauseId::CoulombFriction => &[Param {
+                key: "friction.coulomb_coefficient",
+                unit: "",
+                scale: 0.01,
+                min: 0.0,
+                max: 0.5,
+            }],
+            CauseId::Stribeck => &[
+                Param {
+                    key: "friction.stribeck_level_n",
+                    unit: "N",
+                    scale: 300.0,
+                    min: 1.0,
+                    max: 1e5,
+                },
+                Param {
+                    key: "friction.stribeck_velocity_mm_per_min",
+                    unit: "mm/min",
+                    scale: 20.0,
+                    min: 0.1,
+                    max: 1e4,
+                },
+            ],
+            CauseId::KvGain => &[Param {
+                key: "position_loop.kv_m_per_min_per_mm",
+                unit: "m/min/mm",
+                scale: 0.1,
+                min: 0.01,
+                max: 100.0,
+            }],
+            CauseId::DeadTime => &[Param {
+                key: "position_loop.dead_time_ms",
+                unit: "ms",
+                scale: 2.0,
+                min: 0.0,
+                max: 500.0,
+            }],
+            CauseId::CyclicError => &[
+                Param {
+                    key: "errors.cyclic_amplitude_um",
+                    unit: "µm",
+                    scale: 2.0,
+                    min: 0.0,
+                    max: 1e4,
+                },
+                Param {
+                    key: "errors.cyclic_phase_deg",
+                    unit: "°",
+                    scale: 30.0,
+                    min: -1e6,
+                    max: 1e6,
+                },
+            ],
+            CauseId::ScaleError => &[Param {
+                key: "errors.scale_error_ppm",
+                unit: "ppm",
+                scale: 10.0,
+                min: -1e5,
+                max: 1e5,
+            }],
+            CauseId::Resonance => &[
+                Param {
+                    key: "errors.resonance_hz",
+                    unit: "Hz",
+                    scale: 5.0,
+                    min: 0.5,
+                    max: 5000.0,
+                },
+                Param {
+                    key: "errors.resonance_damping",
+                    unit: "",
+                    scale: 0.02,
+                    min: 0.002,
+                    max: 1.0,
+                },
+            ],
+        }
+    }
+
+    /// Whether the cause acts at reversals only (its residual lives in windows around them).
+    pub fn is_local(self) -> bool {
+        matches!(
+            self,
+            CauseId::Backlash | CauseId::CoulombFriction | CauseId::Stribeck | CauseId::Resonance
+        )
+    }
+}
+
+/// A fitted parameter: a machine key below the axis, its unit, a typical magnitude (to
+/// scale the fit) and the range it may take.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Param {
+    /// Key below the axis, e.g. `drive.backlash_um`.
+    pub key: &'static str,
+    /// Unit as shown.
+    pub unit: &'static str,
+    /// Typical magnitude.
+    pub scale: f64,
+    /// Lower bound.
+    pub min: f64,
+    /// Upper bound.
+    pub max: f64,
+}
+
+/// Reads a parameter's value from an axis.
+pub fn get(axis: &AxisConfig, key: &str) -> f64 {
+    match key {
+        "drive.backlash_um" => axis.drive.backlash_um,
+        "friction.coulomb_coefficient" => axis.friction.coulomb_coefficient,
+        "friction.stribeck_level_n" => axis.friction.stribeck_level_n,
+        "friction.stribeck_velocity_mm_per_min" => axis.friction.stribeck_velocity_mm_per_min,
+        "position_loop.kv_m_per_min_per_mm" => axis.position_loop.kv_m_per_min_per_mm,
+        "position_loop.dead_time_ms" => axis.position_loop.dead_time_ms,
+        "errors.cyclic_amplitude_um" => axis.errors.cyclic_amplitude_um,
+        "errors.cyclic_phase_deg" => axis.errors.cyclic_phase_deg,
+        "errors.scale_error_ppm" => axis.errors.scale_error_ppm,
+        "errors.resonance_hz" => axis.errors.resonance_hz,
+        "errors.resonance_damping" => axis.errors.resonance_damping,
+        other => unreachable!("not a cause parameter: {other}"),
+    }
+}
+
+/// Sets a parameter on an axis.
+pub fn set(axis: &mut AxisConfig, key: &str, v: f64) {
+    let slot = match key {
+        "drive.backlash_um" => &mut axis.drive.backlash_um,
+        "friction.coulomb_coefficient" => &mut axis.friction.coulomb_coefficient,
+        "friction.stribeck_level_n" => &mut axis.friction.stribeck_level_n,
+        "friction.stribeck_velocity_mm_per_min" => &mut axis.friction.stribeck_velocity_mm_per_min,
+        "position_loop.kv_m_per_min_per_mm" => &mut axis.position_loop.kv_m_per_min_per_mm,
+        "position_loop.dead_time_ms" => &mut axis.position_loop.dead_time_ms,
+        "errors.cyclic_amplitude_um" => &mut axis.errors.cyclic_amplitude_um,
+        "errors.cyclic_phase_deg" => &mut axis.errors.cyclic_phase_deg,
+        "errors.scale_error_ppm" => &mut axis.errors.scale_error_ppm,
+        "errors.resonance_hz" => &mut axis.errors.resonance_hz,
+        "errors.resonance_damping" => &mut axis.errors.resonance_damping,
+        other => unreachable!("not a cause parameter: {other}"),
+    };
+    *slot = v;
+}
+
+/// Applies a cause with parameter values (clamped to their ranges) to an axis.
+pub fn apply(axis: &mut AxisConfig, cause: CauseId, values: &[f64]) {
+    for (p, &v) in cause.params().iter().zip(values) {
+        set(axis, p.key, v.clamp(p.min, p.max));
+    }
+}
+
+/// Kinematic signals of one axis on the residual's time grid, for the signature tests.
+pub struct Kinematics<'a> {
+    /// Position (m): where the axis is, by the current model.
+    pub pos_m: &'a [f64],
+    /// Commanded velocity (m/s).
+    pub vel_m_per_s: &'a [f64],
+    /// Samples within a window around this axis's reversals.
+    pub near_reversal: &'a [bool],
+    /// Sampling step (s).
+    pub dt_s: f64,
+    /// The cyclic error's period (m).
+    pub cyclic_period_m: f64,
+}
+
+/// How strongly the residual `r` shows a cause's signature: the share of its variance
+/// (in the relevant samples) a least-squares fit of the signature's regressors explains,
+/// from 0 (none) to 1 (all). Cheap: no simulation.
+pub fn signature(cause: CauseId, r: &[f64], k: &Kinematics) -> f64 {
+    let n = r.len().min(k.pos_m.len());
+    let all = |_: usize| true;
+    match cause {
+        CauseId::ScaleError => explained(r, n, &[&|i| k.pos_m[i]], &all),
+        CauseId::CyclicError => {
+            let w = std::f64::consts::TAU / k.cyclic_period_m;
+            explained(
+                r,
+                n,
+                &[&|i| (w * k.pos_m[i]).sin(), &|i| (w * k.pos_m[i]).cos()],
+                &all,
+            )
+        }
+        CauseId::KvGain | CauseId::DeadTime => explained(r, n, &[&|i| k.vel_m_per_s[i]], &all),
+        CauseId::Backlash | CauseId::CoulombFriction | CauseId::Stribeck => {
+            // The residual's energy near reversals against elsewhere, as a share.
+            let (mut near, mut far, mut n_near, mut n_far) = (0.0, 0.0, 0usize, 0usize);
+            for (v, &is_near) in r[..n].iter().zip(k.near_reversal) {
+                if is_near {
+                    near += v * v;
+                    n_near += 1;
+                } else {
+                    far += v * v;
+                    n_far += 1;
+                }
+            }
+            if n_near == 0 || n_far == 0 {
+                return 0.0;
+            }
+            let (near, far) = (near / n_near as f64, far / n_far as f64);
+            ((near - far) / (near + far)).max(0.0)
+        }
+        CauseId::Resonance => spectral_peak(r, k.dt_s),
+    }
+}
+
+/// Share of the variance of r (over samples where `keep`) that regressors explain.
+fn explained(
+    r: &[f64],
+    n: usize,
+    regressors: &[&dyn Fn(usize) -> f64],
+    keep: &dyn Fn(usize) -> bool,
+) -> f64 {
+    let m = regressors.len() + 1;
+    let mut ata = nalgebra::DMatrix::<f64>::zeros(m, m);
+    let mut atb = nalgebra::DVector::<f64>::zeros(m);
+    let (mut sum, mut sum2, mut count) = (0.0, 0.0, 0usize);
+    let mut row = vec![0.0; m];
+    for i in (0..n).filter(|&i| keep(i) && r[i].is_finite()) {
+        row[0] = 1.0;
+        for (j, f) in regressors.iter().enumerate() {
+            row[j + 1] = f(i);
+        }
+        for a in 0..m {
+            atb[a] += row[a] * r[i];
+            for b in 0..m {
+                ata[(a, b)] += row[a] * row[b];
+            }
+        }
+        sum += r[i];
+        sum2 += r[i] * r[i];
+        count += 1;
+    }
+    if count < 2 * m {
+        return 0.0;
+    }
+    let variance = sum2 - sum * sum / count as f64;
+    let Some(coef) = ata.clone().lu().solve(&atb) else {
+        return 0.0;
+    };
+    // Explained sum of squares beyond the mean.
+    let fitted: f64 = coef.dot(&atb) - sum * sum / count as f64;
+    if variance > 0.0 {
+        (fitted / variance).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
+/// The share of the residual's power in its strongest narrow band (5–500 Hz), from a
+/// periodogram evaluated on a logarithmic grid — a ringing mode concentrates it there.
+fn spectral_peak(r: &[f64], dt: f64) -> f64 {
+    let finite: Vec<f64> = r.iter().copied().filter(|v| v.is_finite()).collect();
+    let n = finite.len();
+    if n < 64 {
+        return 0.0;
+    }
+    let mean = finite.iter().sum::<f64>() / n as f64;
+    let total: f64 = finite.iter().map(|v| (v - mean).powi(2)).sum();
+    if total <= 0.0 {
+        return 0.0;
+    }
+    let nyquist = 0.5 / dt;
+    let mut best = 0.0f64;
+    let mut f = 5.0;
+    while f < nyquist.min(500.0) {
+        let w = std::f64::consts::TAU * f * dt;
+        let (mut c, mut s) = (0.0, 0.0);
+        for (i, v) in finite.iter().enumerate() {
+            let (sn, cs) = (w * i as f64).sin_cos();
+            c += (v - mean) * cs;
+            s += (v - mean) * sn;
+        }
+        // Power of this frequency's component, as a share of the total (2/n (c² + s²)).
+        best = best.max(2.0 * (c * c + s * s) / n as f64 / total);
+        f *= 1.02;
+    }
+    best.min(1.0)
+}

@@ -1,0 +1,641 @@
+//! The timeline a measurement is compared on: the commands that drive the simulation (the
+//! program's plan, or the commands the measurement recorded), the measurement's clock
+//! aligned to the program's, the samples the residual uses, and the residual itself.
+//!
+//! Without recorded commands the program's plan is the timeline, so the machine's own
+//! in-position waits matter: a model with another gain is re-planned with its waits
+//! ([`Context::simulate_axis`]). Rapids and the waits after them are left out of the
+//! residual.
+
+use super::residual::{chatter_noise_power, chatter_windows, rms};
+use super::{DiagnoseError, DiagnoseSettings};
+use crate::check::plan_commands;
+use crate::gcode::Program;
+use crate::machine::{AxisName, MachineConfig};
+use crate::measured::MeasuredTrace;
+use crate::path::Motion;
+use crate::plan::{AxisCommands, Commands, InPosition, Plan};
+use crate::sim::{AxisModel, SimConfig, simulate};
+use crate::synth::sample;
+use crate::units::{per_s_from_kv_m_per_min_per_mm, um_from_m};
+
+/// The timeline everything is compared on: the program's clock, with the simulation's
+/// commands, and the measured samples the residual uses.
+pub struct Context<'a> {
+    /// The measurement.
+    pub measured: &'a MeasuredTrace,
+    /// Commands driving the simulation, on the program's clock (t = 0 at program start).
+    pub commands: Commands,
+    /// The program's plan, for geometry and source lines.
+    pub plan: Plan,
+    /// The planned commands (for where in the program a time lies).
+    pub plan_commands: Commands,
+    /// Offset of the plan within the simulation's timeline (s): plan time = t − this.
+    pub plan_shift_s: f64,
+    /// Command period (s).
+    pub dt: f64,
+    /// The clock offset when it is known (the measurement recorded its commands).
+    pub fixed_offset: Option<f64>,
+    /// The program's stretches after the first, each starting at a standstill: where it
+    /// begins on the measurement's clock less the offset (s), and how much later it runs
+    /// there than planned (s). A control holds a standstill as long as its in-position check
+    /// takes on the real machine, which the plan can only estimate.
+    pub pieces: Vec<(f64, f64)>,
+    /// Simulator settings.
+    pub sim: SimConfig,
+    /// Standing time after the program (s), as the commands were built.
+    pub settle_s: f64,
+    /// Measured samples the residual uses.
+    pub samples: Vec<usize>,
+    /// The measurement's noise floor (m), once estimated.
+    pub noise_sigma: f64,
+}
+
+impl Context<'_> {
+    /// Simulates one axis of a machine on the context's commands; `None` if it cannot run.
+    pub fn simulate_axis(&self, machine: &MachineConfig, axis: AxisName) -> Option<Vec<f64>> {
+        let model = AxisModel::from_config(machine.axis(axis));
+        match self.replanned(machine) {
+            None => simulate(&model, self.commands.axis(axis), self.dt, &self.sim)
+                .ok()
+                .map(|t| t.pos_m),
+            Some((plan, commands)) => {
+                let trace = simulate(&model, commands.axis(axis), self.dt, &self.sim)
+                    .ok()?
+                    .pos_m;
+                // On the planned timeline the machine runs on its own plan's clock; with
+                // stretches aligned on their own, their offsets already hold the waits.
+                Some(if self.pieces.is_empty() {
+                    trace
+                } else {
+                    self.to_nominal_clock(&plan, &trace)
+                })
+            }
+        }
+    }
+
+    /// Simulates `axis` of `machine`, and the other axis too when `machine` changes the
+    /// program's timing (a gain changes the in-position waits, which both axes keep);
+    /// otherwise the other axis keeps `other`.
+    pub fn simulate_pair<'b>(
+        &self,
+        machine: &MachineConfig,
+        axis: AxisName,
+        other: &'b [f64],
+    ) -> Option<(Vec<f64>, std::borrow::Cow<'b, [f64]>)> {
+        let this = self.simulate_axis(machine, axis)?;
+        let other = if self.replanned(machine).is_some() {
+            std::borrow::Cow::Owned(self.simulate_axis(machine, axis.other())?)
+        } else {
+            std::borrow::Cow::Borrowed(other)
+        };
+        Some((this, other))
+    }
+
+    /// The plan and commands of `machine` when its in-position waits differ from those of
+    /// the plan the context was built on (its gains differ); `None` when that plan serves,
+    /// and always when the measurement recorded its own commands.
+    fn replanned(&self, machine: &MachineConfig) -> Option<(Plan, Commands)> {
+        if self.fixed_offset.is_some() {
+            return None;
+        }
+        let nominal = self.plan.config.in_position;
+        let in_position = nominal.map(|ip| InPosition {
+            kv_per_s: [&machine.x, &machine.y]
+                .map(|a| per_s_from_kv_m_per_min_per_mm(a.position_loop.kv_m_per_min_per_mm)),
+            ..ip
+        });
+        if in_position == nominal {
+            return None;
+        }
+        let plan = self.plan.with_in_position(in_position);
+        let mut commands = crate::plan::sample(&plan);
+        commands.hold(self.settle_s);
+        Some((plan, commands))
+    }
+
+    /// A trace simulated on `plan` (the context's plan with other waits) brought onto the
+    /// context's clock, sample by sample.
+    fn to_nominal_clock(&self, plan: &Plan, trace: &[f64]) -> Vec<f64> {
+        (0..self.commands.len())
+            .map(|k| {
+                let t =
+                    self.plan
+                        .time_in(plan, self.commands.segment[k] as usize, k as f64 * self.dt);
+                sample(trace, self.dt, t)
+            })
+            .collect()
+    }
+
+    fn measured_axis(&self, axis: AxisName) -> &[f64] {
+        match axis {
+            AxisName::X => &self.measured.x_m,
+            AxisName::Y => &self.measured.y_m,
+        }
+    }
+
+    /// Time of measured sample `i` on the program's clock, for a clock offset.
+    pub fn prog_time(&self, i: usize, offset_s: f64) -> f64 {
+        let u = self.measured.time_s(i) - offset_s;
+        let k = self.pieces.partition_point(|p| p.0 <= u);
+        if k == 0 { u } else { u - self.pieces[k - 1].1 }
+    }
+
+    /// measured − simulated at the context's samples.
+    pub fn raw_residual(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> Vec<f64> {
+        let m = self.measured_axis(axis);
+        self.samples
+            .iter()
+            .map(|&i| m[i] - sample(trace, self.dt, self.prog_time(i, offset_s)))
+            .collect()
+    }
+
+    /// The measured axis at the context's samples.
+    pub fn measured_at_samples(&self, axis: AxisName) -> Vec<f64> {
+        let m = self.measured_axis(axis);
+        self.samples.iter().map(|&i| m[i]).collect()
+    }
+
+    /// A trace at the context's samples.
+    pub fn at_samples(&self, trace: &[f64], offset_s: f64) -> Vec<f64> {
+        self.samples
+            .iter()
+            .map(|&i| sample(trace, self.dt, self.prog_time(i, offset_s)))
+            .collect()
+    }
+
+    /// measured − simulated at the context's samples (what point-by-point fits minimise).
+    pub fn residual(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> Vec<f64> {
+        self.raw_residual(axis, trace, offset_s)
+    }
+
+    /// d(simulated)/dt at the samples: how the residual changes with the offset.
+    pub fn residual_rate(&self, trace: &[f64], offset_s: f64) -> Vec<f64> {
+        let h = 0.25 * self.dt;
+        self.samples
+            .iter()
+            .map(|&i| {
+                let t = self.prog_time(i, offset_s);
+                (sample(trace, self.dt, t + h) - sample(trace, self.dt, t - h)) / (2.0 * h)
+            })
+            .collect()
+    }
+
+    /// The residual in the statistical domain, for an axis in stick-slip, whose chatter is
+    /// deterministic in its statistics but not in its phase. Per 0.25 s window, two values:
+    /// the mismatch of the mean position and the mismatch of the chatter power (the variance
+    /// about a ±10 ms running mean, the measurement's noise share removed). Each is in units
+    /// of its sampling spread, which counts the chatter itself as noise: a window holds
+    /// about a dozen slips whose timing no model predicts.
+    pub fn statistical_residual(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> Vec<f64> {
+        self.window_statistics(axis, trace, offset_s)
+            .into_iter()
+            .flat_map(|(mean, power)| [mean, power])
+            .collect()
+    }
+
+    /// Per window: the mean mismatch and the chatter-power mismatch, in spreads.
+    fn window_statistics(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> Vec<(f64, f64)> {
+        self.window_statistics_against(axis, trace, offset_s, false)
+    }
+
+    /// [`Context::window_statistics`]; with `no_model_chatter` the model is taken to have no
+    /// chatter at all (its trace then only matters for the means).
+    fn window_statistics_against(
+        &self,
+        axis: AxisName,
+        trace: &[f64],
+        offset_s: f64,
+        no_model_chatter: bool,
+    ) -> Vec<(f64, f64)> {
+        /// Independent slips in a window (a slip cycle lasts some 20 ms).
+        const SLIPS_PER_WINDOW: f64 = 12.0;
+        let sigma = self.noise_sigma;
+        let meas = self.measured_at_samples(axis);
+        let model = self.at_samples(trace, offset_s);
+        let noise_power = chatter_noise_power(sigma, self.measured.dt_s);
+        chatter_windows(&meas, &model, self.measured.dt_s, sigma)
+            .into_iter()
+            .map(|w| {
+                let pmod = if no_model_chatter { 0.0 } else { w.model_power };
+                let chatter = w.measured_power + pmod;
+                let mean_spread = (sigma * sigma / w.n + chatter / SLIPS_PER_WINDOW)
+                    .sqrt()
+                    .max(1e-30);
+                let power_spread = (chatter + noise_power)
+                    * (2.0 / SLIPS_PER_WINDOW.min(w.n)).sqrt()
+                    + noise_power * (2.0 / w.n).sqrt();
+                (
+                    w.mean_mismatch / mean_spread,
+                    (w.measured_power - pmod) / power_spread.max(1e-30),
+                )
+            })
+            .collect()
+    }
+
+    /// How far the measurement's chatter departs from the model's, in standard deviations
+    /// of its χ²: above a few, the axis is in stick-slip the model does not reproduce, and
+    /// point-by-point comparison means nothing there.
+    pub fn chatter_excess(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> f64 {
+        let w = self.window_statistics(axis, trace, offset_s);
+        let m = w.len() as f64;
+        (w.iter().map(|(_, p)| p * p).sum::<f64>() - m) / (2.0 * m).sqrt()
+    }
+
+    /// How far the measurement's own chatter exceeds its noise, in standard deviations of
+    /// that χ² (the model's chatter taken as none): an axis that chatters stays in the
+    /// statistical domain whatever the model does.
+    pub fn measured_chatter_excess(&self, axis: AxisName, offset_s: f64) -> f64 {
+        let flat: Vec<f64> = vec![0.0; self.commands.len()];
+        let w = self.window_statistics_against(axis, &flat, offset_s, true);
+        let m = w.len() as f64;
+        (w.iter().map(|(_, p)| p * p).sum::<f64>() - m) / (2.0 * m).sqrt()
+    }
+
+    /// Whether the program is in a rapid (or the in-position wait after it) at time `t`.
+    pub(crate) fn in_rapid(&self, t: f64) -> bool {
+        let pc = &self.plan_commands;
+        let k = ((t - self.plan_shift_s) / pc.dt_s)
+            .round()
+            .clamp(0.0, (pc.len().max(1) - 1) as f64) as usize;
+        pc.segment
+            .get(k)
+            .is_some_and(|&s| self.plan.segments[s as usize].motion == Motion::Rapid)
+    }
+
+    /// Commanded position and velocity of an axis at time `t`.
+    pub fn command_at(&self, axis: AxisName, t: f64) -> (f64, f64) {
+        let c = self.commands.axis(axis);
+        (
+            sample(&c.pos_m, self.dt, t),
+            sample(&c.vel_m_per_s, self.dt, t),
+        )
+    }
+}
+
+/// Builds the comparison timeline: commands, plan, samples, and a first clock offset.
+pub fn context<'a>(
+    program: &Program,
+    machine: &MachineConfig,
+    measured: &'a MeasuredTrace,
+    settings: &DiagnoseSettings,
+) -> Result<(Context<'a>, f64), DiagnoseError> {
+    let (plan, plan_commands) = plan_commands(program, machine, &settings.check);
+    let dt = plan_commands.dt_s;
+    let cannot = |reason: String| DiagnoseError::CannotAlign {
+        file: measured.file.clone(),
+        reason,
+    };
+    let (commands, fixed_offset, plan_shift_s) = match &measured.commands {
+        Some([xc, yc]) => {
+            // The measurement's commands drive the simulation on its own clock.
+            let commands = commands_from_samples(xc, yc, measured.dt_s, dt);
+            let shift = align_plan(&plan_commands, &commands).ok_or_else(|| {
+                cannot("the recorded commands do not match the program's path".into())
+            })?;
+            (commands, Some(measured.t0_s), shift)
+        }
+        None => (plan_commands.clone(), None, 0.0),
+    };
+    let mut ctx = Context {
+        measured,
+        commands,
+        plan,
+        plan_commands,
+        plan_shift_s,
+        dt,
+        fixed_offset,
+        pieces: Vec::new(),
+        sim: settings.check.sim,
+        settle_s: settings.check.settle_s,
+        samples: Vec::new(),
+        noise_sigma: 0.0,
+    };
+    let nominal = [AxisName::X, AxisName::Y].map(|a| ctx.simulate_axis(machine, a));
+    let [Some(x), Some(y)] = nominal else {
+        let model = AxisModel::from_config(&machine.x);
+        crate::sim::linear::check_stable(&model)?;
+        return Err(cannot(
+            "the nominal machine cannot be simulated on these commands".into(),
+        ));
+    };
+    let offset = match fixed_offset {
+        Some(o) => o,
+        None => coarse_offset(&ctx, &x, &y).ok_or_else(|| {
+            cannot("the measurement and the program do not overlap in time".into())
+        })?,
+    };
+    // Residual samples: those whose program time lies within the simulation, with a margin
+    // so that the offset can move during the fits.
+    let duration = ctx.commands.duration_s();
+    let margin = if fixed_offset.is_some() { 0.0 } else { 0.2 };
+    // Rapids are left out: the axes run there at their current and voltage limits, where
+    // a real drive departs most from any model, and their millimetres of lag would drown
+    // the micrometres the causes leave. The standstill after each rapid goes with it.
+    ctx.samples = (0..measured.len())
+        .filter(|&i| {
+            let t = ctx.prog_time(i, offset);
+            t >= margin && t <= duration - margin && !ctx.in_rapid(t)
+        })
+        .collect();
+    if (ctx.samples.len() as f64) < 0.5 * (duration / measured.dt_s).min(measured.len() as f64) {
+        return Err(cannot(format!(
+            "only {} of the measurement's samples fall within the program's {:.1} s",
+            ctx.samples.len(),
+            duration
+        )));
+    }
+    let offset = if fixed_offset.is_some() {
+        offset
+    } else {
+        refine_offset(&ctx, &x, &y, offset)
+    };
+    let offset = if fixed_offset.is_some() || !settings.align_stretches {
+        offset
+    } else {
+        let (first, pieces) = align_pieces(&ctx, &x, &y, offset);
+        ctx.pieces = pieces;
+        first
+    };
+    let rms = rms(&[
+        ctx.raw_residual(AxisName::X, &x, offset),
+        ctx.raw_residual(AxisName::Y, &y, offset),
+    ]
+    .concat());
+    if rms > 0.5e-3 {
+        return Err(cannot(format!(
+            "the best clock offset ({offset:.3} s) leaves {:.0} µm RMS between measurement and \
+             prediction: is this a measurement of this program, in the same coordinates?",
+            um_from_m(rms)
+        )));
+    }
+    Ok((ctx, offset))
+}
+
+/// Commands on the program's grid from recorded positions (velocity and acceleration by
+/// central differences).
+fn commands_from_samples(xc: &[f64], yc: &[f64], dt_in: f64, dt: f64) -> Commands {
+    let n = ((xc.len() - 1) as f64 * dt_in / dt).floor() as usize + 1;
+    let axis = |v: &[f64]| {
+        let pos: Vec<f64> = (0..n).map(|k| sample(v, dt_in, k as f64 * dt)).collect();
+        let d = |p: &[f64], k: usize| {
+            let (a, b) = (k.saturating_sub(1), (k + 1).min(p.len() - 1));
+            if b > a {
+                (p[b] - p[a]) / ((b - a) as f64 * dt)
+            } else {
+                0.0
+            }
+        };
+        let vel: Vec<f64> = (0..n).map(|k| d(&pos, k)).collect();
+        let acc: Vec<f64> = (0..n).map(|k| d(&vel, k)).collect();
+        AxisCommands {
+            pos_m: pos,
+            vel_m_per_s: vel,
+            acc_m_per_s2: acc,
+        }
+    };
+    Commands {
+        dt_s: dt,
+        x: axis(xc),
+        y: axis(yc),
+        z_m: vec![0.0; n],
+        segment: vec![0; n],
+    }
+}
+
+/// The shift between the planned commands and recorded ones (plan time = t − shift).
+fn align_plan(plan: &Commands, recorded: &Commands) -> Option<f64> {
+    let dt = plan.dt_s;
+    let needed = (0.5 * plan.duration_s().min(recorded.duration_s()) / (10.0 * dt)).max(10.0);
+    let cost = |shift: f64| -> f64 {
+        let mut s = 0.0;
+        let mut n = 0usize;
+        for k in (0..recorded.len()).step_by(10) {
+            let t = k as f64 * dt - shift;
+            if t < 0.0 || t > plan.duration_s() {
+                continue;
+            }
+            s += (recorded.x.pos_m[k] - sample(&plan.x.pos_m, dt, t)).powi(2)
+                + (recorded.y.pos_m[k] - sample(&plan.y.pos_m, dt, t)).powi(2);
+            n += 1;
+        }
+        // An overlap shorter than half the plan or the recording proves nothing (a program
+        // that ends where it started matches its own start at standstill).
+        if (n as f64) < needed {
+            f64::INFINITY
+        } else {
+            s / n as f64
+        }
+    };
+    let span = recorded.duration_s().max(plan.duration_s());
+    let best = (0..=((2.0 * span) / 0.02) as usize)
+        .map(|i| -span + i as f64 * 0.02)
+        .min_by(|a, b| cost(*a).total_cmp(&cost(*b)))?;
+    (cost(best) < (0.5e-3f64).powi(2)).then_some(best)
+}
+
+/// The clock offset that best lines the measurement up with the simulated path, searched
+/// on a coarse grid over every possible overlap.
+fn coarse_offset(ctx: &Context, x: &[f64], y: &[f64]) -> Option<f64> {
+    let m = ctx.measured;
+    let duration = ctx.commands.duration_s();
+    let step = 0.02;
+    let stride = ((step / m.dt_s).round() as usize).max(1);
+    let lo = m.t0_s - duration;
+    let hi = m.time_s(m.len() - 1);
+    let mut best: Option<(f64, f64)> = None;
+    let mut offset = lo;
+    while offset <= hi {
+        let (mut s, mut n) = (0.0, 0usize);
+        for i in (0..m.len()).step_by(stride) {
+            let t = m.time_s(i) - offset;
+            if (0.0..=duration).contains(&t) {
+                s += (m.x_m[i] - sample(x, ctx.dt, t)).powi(2)
+                    + (m.y_m[i] - sample(y, ctx.dt, t)).powi(2);
+                n += 1;
+            }
+        }
+        // Overlaps shorter than half the program or the measurement prove nothing.
+        let needed = 0.5 * (duration.min(m.dt_s * m.len() as f64)) / (stride as f64 * m.dt_s);
+        if n as f64 >= needed {
+            let cost = s / n as f64;
+            if best.is_none_or(|b| cost < b.1) {
+                best = Some((offset, cost));
+            }
+        }
+        offset += step;
+    }
+    best.map(|b| b.0)
+}
+
+/// Golden-section refinement of the offset within ±2 coarse steps, at full resolution.
+fn refine_offset(ctx: &Context, x: &[f64], y: &[f64], start: f64) -> f64 {
+    let cost = |o: f64| {
+        let r = [
+            ctx.raw_residual(AxisName::X, x, o),
+            ctx.raw_residual(AxisName::Y, y, o),
+        ]
+        .concat();
+        r.iter().map(|v| v * v).sum::<f64>()
+    };
+    golden_section(start - 0.04, start + 0.04, 1e-6, &cost)
+}
+
+/// The standstills inside the commands (both axes still for at least 10 ms, neither at the
+/// start nor at the end): their start and end on the program's clock (s).
+fn standstills(c: &Commands) -> Vec<(f64, f64)> {
+    let still = |k: usize| c.x.vel_m_per_s[k].abs() < 1e-9 && c.y.vel_m_per_s[k].abs() < 1e-9;
+    let n = c.len();
+    let min_len = (0.01 / c.dt_s).ceil() as usize;
+    let mut out = Vec::new();
+    let mut k = 0;
+    // Skip the still start.
+    while k < n && still(k) {
+        k += 1;
+    }
+    while k < n {
+        if still(k) {
+            let from = k;
+            while k < n && still(k) {
+                k += 1;
+            }
+            if k < n && k - from >= min_len {
+                out.push((from as f64 * c.dt_s, (k - 1) as f64 * c.dt_s));
+            }
+        } else {
+            k += 1;
+        }
+    }
+    out
+}
+
+/// Each stretch of the program between standstills aligned on its own: its clock offset
+/// refined on its own samples, within what keeps the standstill before it (where the
+/// position does not change, so the clocks may slip there unseen) of positive length on
+/// both clocks. Returns the first stretch's offset and [`Context::pieces`] relative to it.
+fn align_pieces(ctx: &Context, x: &[f64], y: &[f64], global: f64) -> (f64, Vec<(f64, f64)>) {
+    /// How far a stretch's clock may slip from the whole record's (s).
+    const MAX_SLIP_S: f64 = 0.15;
+    let stops = standstills(&ctx.commands);
+    if stops.is_empty() {
+        return (global, Vec::new());
+    }
+    let m = ctx.measured;
+    let mut bounds = vec![0.0];
+    for s in &stops {
+        bounds.extend([s.0, s.1]);
+    }
+    bounds.push(ctx.commands.duration_s());
+    let offsets: Vec<Option<f64>> = bounds
+        .chunks(2)
+        .map(|span| {
+            let (from, to) = (span[0], span[1]);
+            let members = |o: f64| {
+                ctx.samples
+                    .iter()
+                    .copied()
+                    .filter(move |&i| (from..to).contains(&(m.time_s(i) - o)))
+            };
+            let cost = |o: f64| {
+                let (mut s, mut n) = (0.0, 0usize);
+                for i in members(o) {
+                    let t = m.time_s(i) - o;
+                    s += (m.x_m[i] - sample(x, ctx.dt, t)).powi(2)
+                        + (m.y_m[i] - sample(y, ctx.dt, t)).powi(2);
+                    n += 1;
+                }
+                if n < 20 { f64::INFINITY } else { s / n as f64 }
+            };
+            (members(global).count() >= 50)
+                .then(|| golden_section(global - MAX_SLIP_S, global + MAX_SLIP_S, 1e-6, &cost))
+        })
+        .collect();
+    // Stretches too short to align follow their neighbour.
+    let mut own: Vec<f64> = Vec::with_capacity(offsets.len());
+    for (k, o) in offsets.iter().enumerate() {
+        let fallback = own
+            .last()
+            .copied()
+            .or_else(|| offsets[k..].iter().flatten().next().copied())
+            .unwrap_or(global);
+        own.push(o.unwrap_or(fallback));
+    }
+    let mut pieces = Vec::with_capacity(stops.len());
+    for (k, &(stop_start, stop_end)) in stops.iter().enumerate() {
+        let slack = 0.9 * (stop_end - stop_start);
+        own[k + 1] = own[k + 1].max(own[k] - slack);
+        // The stretch starts on the measurement's clock midway through the standstill as
+        // each side of it sees it.
+        let start = 0.5 * ((stop_start + own[k]) + (stop_end + own[k + 1]));
+        pieces.push((start - own[0], own[k + 1] - own[0]));
+    }
+    (own[0], pieces)
+}
+
+/// Golden-section minimum of `f` on [a, b] to a bracket of `tol`.
+pub(crate) fn golden_section(mut a: f64, mut b: f64, tol: f64, f: &dyn Fn(f64) -> f64) -> f64 {
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut c, mut d) = (b - g * (b - a), a + g * (b - a));
+    let (mut fc, mut fd) = (f(c), f(d));
+    while b - a > tol {
+        if fc < fd {
+            (b, d, fd) = (d, c, fc);
+            c = b - g * (b - a);
+            fc = f(c);
+        } else {
+            (a, c, fc) = (c, d, fd);
+            d = a + g * (b - a);
+            fd = f(d);
+        }
+    }
+    0.5 * (a + b)
+}
+
+impl Context<'_> {
+    /// Per-axis masks at the residual samples: near a reversal, and near any event
+    /// (reversal or acceleration).
+    pub fn event_masks(
+        &self,
+        axis: AxisName,
+        offset: f64,
+        half_window_s: f64,
+    ) -> (Vec<bool>, Vec<bool>) {
+        let ctx = self;
+        let c = ctx.commands.axis(axis);
+        let n = c.len();
+        let w = (half_window_s / ctx.dt).ceil() as isize;
+        let mut reversal = vec![false; n];
+        let mut event = vec![false; n];
+        let mark = |mask: &mut Vec<bool>, k: usize| {
+            for j in (k as isize - w).max(0)..(k as isize + w).min(n as isize) {
+                mask[j as usize] = true;
+            }
+        };
+        let mut last_sign = 0.0;
+        for k in 0..n {
+            let v = c.vel_m_per_s[k];
+            if v.abs() > 1e-9 {
+                if last_sign != 0.0 && v.signum() != last_sign {
+                    mark(&mut reversal, k);
+                    mark(&mut event, k);
+                }
+                last_sign = v.signum();
+            }
+            if c.acc_m_per_s2[k].abs() > 0.02 {
+                mark(&mut event, k);
+            }
+        }
+        let at = |mask: &[bool]| -> Vec<bool> {
+            ctx.samples
+                .iter()
+                .map(|&i| {
+                    let k = (ctx.prog_time(i, offset) / ctx.dt)
+                        .round()
+                        .clamp(0.0, (n - 1) as f64) as usize;
+                    mask[k]
+                })
+                .collect()
+        };
+        (at(&reversal), at(&event))
+    }
+}

@@ -1,0 +1,467 @@
+//! Fitting one cause on one axis by re-simulating.
+//!
+//! Point by point ([`fit_cause`]), on the residual's sum of squares:
+//! 1. the best of a set of starting points (a grid for causes not linear in their
+//!    parameters);
+//! 2. Nelder–Mead from there with the clock offset held: the hybrid model's residual is
+//!    continuous in a cause's parameters but has kinks (a backlash's is V-shaped at its
+//!    minimum), where a derivative-free search does not stall;
+//! 3. Levenberg–Marquardt over the parameters (scaled to their typical magnitudes) and,
+//!    unless the measurement recorded its commands, the clock offset, for the polish and
+//!    the Jacobian the uncertainties come from. Step 2's values stand when it does not
+//!    improve on them.
+//!
+//! On statistics ([`fit_statistical`]), for an axis in stick-slip: steps 1 and 2 on the χ²
+//! of [`Context::statistical_residual`], the offset held; uncertainties from its curvature.
+//!
+//! Bounds are kept by clamping inside the model. The Jacobian is by forward differences of
+//! re-simulations for the cause's parameters (1 % of each one's scale: smaller steps would
+//! see the switching instants' discontinuities, not the slope) and analytic for the offset.
+
+use std::cell::RefCell;
+
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use nalgebra::{DMatrix, DVector, Dyn, Owned};
+
+use super::Context;
+use super::causes::{self, CauseId, Param};
+use crate::machine::{AxisName, MachineConfig};
+
+/// A fitted cause.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Fitted {
+    /// Parameter values (machine units).
+    pub values: Vec<f64>,
+    /// Their standard uncertainties (machine units).
+    pub sigma: Vec<f64>,
+    /// Time offset (s).
+    pub offset_s: f64,
+    /// Residual sum of squares over both axes (m²).
+    pub rss: f64,
+    /// χ² of the axis's statistical residual (for statistical fits; else NaN).
+    pub chi2_stat: f64,
+    /// The axis's simulated trace with the fitted cause (m).
+    pub trace: Vec<f64>,
+    /// The other axis's trace (m): changed too when the cause changes the program's timing.
+    pub other: Vec<f64>,
+}
+
+/// Fits `cause` on `axis` of `machine` point by point, from the best of `starts`
+/// (parameter values in machine units) and the offset `offset_s`; the other axis keeps its
+/// trace `other`.
+pub fn fit_cause(
+    ctx: &Context,
+    machine: &MachineConfig,
+    axis: AxisName,
+    cause: CauseId,
+    starts: &[Vec<f64>],
+    offset_s: f64,
+    other: &[f64],
+) -> Option<Fitted> {
+    let params = cause.params();
+    let simulate =
+        |values: &[f64]| ctx.simulate_pair(&with_cause(machine, axis, cause, values), axis, other);
+    let sum_sq = |v: Vec<f64>| v.iter().map(|x| x * x).sum::<f64>();
+    let fit_offset = ctx.fixed_offset.is_none();
+    // Both axes' residual at parameter values and an offset: the offset belongs to the
+    // search, or parameters would bend to make up for a first alignment that a lag (a gain
+    // error, a dead time) has pulled off.
+    let total_rss = |values: &[f64], offset: f64| {
+        simulate(values).map_or(f64::INFINITY, |(t, o)| {
+            sum_sq(ctx.residual(axis, &t, offset)) + sum_sq(ctx.residual(axis.other(), &o, offset))
+        })
+    };
+    let (start_cost, start) = starts
+        .iter()
+        .map(|s| (total_rss(s, offset_s), s))
+        .min_by(|a, b| a.0.total_cmp(&b.0))?;
+    // The offset rides along as one more parameter, in units of 2 ms.
+    let offset_param = Param {
+        key: "offset",
+        unit: "s",
+        scale: 2e-3,
+        min: -1e6,
+        max: 1e6,
+    };
+    let mut search: Vec<Param> = params.to_vec();
+    let mut start_point = start.clone();
+    if fit_offset {
+        search.push(offset_param);
+        start_point.push(offset_s);
+    }
+    let cost = |v: &[f64]| {
+        let offset = if fit_offset {
+            v[params.len()]
+        } else {
+            offset_s
+        };
+        total_rss(&v[..params.len()], offset)
+    };
+    let (point, best) = nelder_mead(&start_point, start_cost, &search, &cost);
+    let (values, nm_offset) = (
+        point[..params.len()].to_vec(),
+        if fit_offset {
+            point[params.len()]
+        } else {
+            offset_s
+        },
+    );
+    let mut p0: Vec<f64> = params
+        .iter()
+        .zip(&values)
+        .map(|(p, v)| v / p.scale)
+        .collect();
+    if fit_offset {
+        p0.push(nm_offset / ctx.dt);
+    }
+    let problem = Problem {
+        ctx,
+        machine,
+        axis,
+        cause,
+        other,
+        fit_offset,
+        p: DVector::from_vec(p0),
+        cache: RefCell::new(None),
+    };
+    let lm = LevenbergMarquardt::new()
+        .with_patience(40)
+        .with_ftol(1e-12)
+        .with_xtol(1e-10);
+    let (problem, _report) = lm.minimize(problem);
+    let (residual, lm_trace, lm_other) = problem.evaluate(&problem.p)?;
+    let lm_rss = residual.norm_squared();
+    if lm_rss < best {
+        let (values, offset) = problem.unscale(&problem.p);
+        let sigma = problem.uncertainties(&problem.p, lm_rss);
+        let fitted = Fitted {
+            values,
+            sigma,
+            offset_s: offset,
+            rss: lm_rss,
+            chi2_stat: f64::NAN,
+            trace: lm_trace,
+            other: lm_other,
+        };
+        return accept(params, fitted);
+    }
+    let at = problem.scaled(&values, nm_offset);
+    let sigma = problem.uncertainties(&at, best);
+    let (trace, other) = simulate(&values)?;
+    let other = other.into_owned();
+    accept(
+        params,
+        Fitted {
+            values,
+            sigma,
+            offset_s: nm_offset,
+            rss: best,
+            chi2_stat: f64::NAN,
+            trace,
+            other,
+        },
+    )
+}
+
+/// `machine` with `cause` on `axis` at parameter values `values`.
+fn with_cause(
+    machine: &MachineConfig,
+    axis: AxisName,
+    cause: CauseId,
+    values: &[f64],
+) -> MachineConfig {
+    let mut m = machine.clone();
+    causes::apply(m.axis_mut(axis), cause, values);
+    m
+}
+
+/// Fits `cause` on `axis` on the statistics of its residual (see
+/// [`Context::statistical_residual`]), the offset held.
+pub fn fit_statistical(
+    ctx: &Context,
+    machine: &MachineConfig,
+    axis: AxisName,
+    cause: CauseId,
+    starts: &[Vec<f64>],
+    offset_s: f64,
+    other: &[f64],
+) -> Option<Fitted> {
+    let params = cause.params();
+    let simulate =
+        |values: &[f64]| ctx.simulate_axis(&with_cause(machine, axis, cause, values), axis);
+    let chi2 = |values: &[f64]| {
+        simulate(values).map_or(f64::INFINITY, |t| {
+            ctx.statistical_residual(axis, &t, offset_s)
+                .iter()
+                .map(|v| v * v)
+                .sum()
+        })
+    };
+    let (start_cost, start) = starts
+        .iter()
+        .map(|s| (chi2(s), s))
+        .min_by(|a, b| a.0.total_cmp(&b.0))?;
+    let (values, best) = nelder_mead(start, start_cost, params, &chi2);
+    let sigma = curvature_sigma(params, &values, best, &chi2);
+    let trace = simulate(&values)?;
+    let sum_sq = |v: Vec<f64>| v.iter().map(|x| x * x).sum::<f64>();
+    let rss = sum_sq(ctx.residual(axis, &trace, offset_s))
+        + sum_sq(ctx.residual(axis.other(), other, offset_s));
+    accept(
+        params,
+        Fitted {
+            values,
+            sigma,
+            offset_s,
+            rss,
+            chi2_stat: best,
+            trace,
+            other: other.to_vec(),
+        },
+    )
+}
+
+/// A parameter pinned at a bound, or one the data cannot determine, is no identification.
+fn accept(params: &[Param], f: Fitted) -> Option<Fitted> {
+    let pinned = params.iter().zip(&f.values).any(|(q, v)| {
+        let span = (q.max - q.min).abs().max(1.0);
+        ((*v - q.min).abs() <= 1e-9 * span && q.min > 0.0) || (*v - q.max).abs() <= 1e-9 * span
+    });
+    (!pinned && f.sigma.iter().all(|s| s.is_finite())).then_some(f)
+}
+
+/// Standard uncertainties from the curvature of a −2 log-likelihood at its minimum: along
+/// each parameter, J(v ± h) − J(v) ≈ (h/σ)².
+fn curvature_sigma(
+    params: &[Param],
+    values: &[f64],
+    best: f64,
+    objective: &dyn Fn(&[f64]) -> f64,
+) -> Vec<f64> {
+    params
+        .iter()
+        .enumerate()
+        .map(|(j, q)| {
+            let h = 0.05 * values[j].abs().max(0.05 * q.scale);
+            let at = |d: f64| {
+                let mut v = values.to_vec();
+                v[j] += d;
+                objective(&v)
+            };
+            let curvature = (at(h) + at(-h) - 2.0 * best) / (h * h);
+            if curvature > 0.0 {
+                (2.0 / curvature).sqrt()
+            } else {
+                f64::NAN
+            }
+        })
+        .collect()
+}
+
+/// Nelder–Mead over the cause's parameters (scaled) from `start`; returns the best values
+/// and their cost.
+fn nelder_mead(
+    start: &[f64],
+    start_cost: f64,
+    params: &[Param],
+    cost: &dyn Fn(&[f64]) -> f64,
+) -> (Vec<f64>, f64) {
+    use argmin::core::{CostFunction, Error, Executor, State};
+    use argmin::solver::neldermead::NelderMead;
+    struct Scaled<'a> {
+        params: &'a [Param],
+        cost: &'a dyn Fn(&[f64]) -> f64,
+    }
+    impl Scaled<'_> {
+        fn values(&self, p: &[f64]) -> Vec<f64> {
+            self.params
+                .iter()
+                .zip(p)
+                .map(|(q, v)| (v * q.scale).clamp(q.min, q.max))
+                .collect()
+        }
+    }
+    impl CostFunction for Scaled<'_> {
+        type Param = Vec<f64>;
+        type Output = f64;
+        fn cost(&self, p: &Vec<f64>) -> Result<f64, Error> {
+            Ok((self.cost)(&self.values(p)))
+        }
+    }
+    let x0: Vec<f64> = params.iter().zip(start).map(|(q, v)| v / q.scale).collect();
+    // A simplex spanning a fifth of each parameter's value (at least 5 % of its scale).
+    let mut simplex = vec![x0.clone()];
+    for j in 0..x0.len() {
+        let mut v = x0.clone();
+        v[j] += (0.2 * x0[j].abs()).max(0.05);
+        simplex.push(v);
+    }
+    let scaled = Scaled { params, cost };
+    let solver = NelderMead::new(simplex)
+        .with_sd_tolerance(1e-9)
+        .expect("a valid tolerance");
+    let result = Executor::new(Scaled { params, cost }, solver)
+        .configure(|s| s.max_iters(60))
+        .run();
+    match result {
+        Ok(r) => match (r.state().get_best_param(), r.state().get_best_cost()) {
+            (Some(p), c) if c < start_cost => (scaled.values(p), c),
+            _ => (start.to_vec(), start_cost),
+        },
+        Err(_) => (start.to_vec(), start_cost),
+    }
+}
+
+struct Problem<'a> {
+    ctx: &'a Context<'a>,
+    machine: &'a MachineConfig,
+    axis: AxisName,
+    cause: CauseId,
+    other: &'a [f64],
+    fit_offset: bool,
+    p: DVector<f64>,
+    cache: RefCell<Option<(DVector<f64>, Evaluation)>>,
+}
+
+/// Residuals, this axis's trace, the other axis's trace.
+type Evaluation = (DVector<f64>, Vec<f64>, Vec<f64>);
+
+impl Problem<'_> {
+    fn scaled(&self, values: &[f64], offset: f64) -> DVector<f64> {
+        let mut p: Vec<f64> = self
+            .cause
+            .params()
+            .iter()
+            .zip(values)
+            .map(|(q, v)| v / q.scale)
+            .collect();
+        if self.fit_offset {
+            p.push(offset / self.ctx.dt);
+        }
+        DVector::from_vec(p)
+    }
+
+    fn unscale(&self, p: &DVector<f64>) -> (Vec<f64>, f64) {
+        let params = self.cause.params();
+        let values = params
+            .iter()
+            .enumerate()
+            .map(|(i, q)| (p[i] * q.scale).clamp(q.min, q.max))
+            .collect();
+        let offset = match self.ctx.fixed_offset {
+            Some(o) => o,
+            None => p[params.len()] * self.ctx.dt,
+        };
+        (values, offset)
+    }
+
+    /// This axis's trace and the other's at parameter values.
+    fn simulate(&self, values: &[f64]) -> Option<(Vec<f64>, Vec<f64>)> {
+        let m = with_cause(self.machine, self.axis, self.cause, values);
+        self.ctx
+            .simulate_pair(&m, self.axis, self.other)
+            .map(|(t, o)| (t, o.into_owned()))
+    }
+
+    /// Residuals (both axes), this axis's trace and the other's at scaled parameters `p`.
+    fn evaluate(&self, p: &DVector<f64>) -> Option<Evaluation> {
+        if let Some((_, e)) = self.cache.borrow().as_ref().filter(|(q, _)| q == p) {
+            return Some(e.clone());
+        }
+        let (values, offset) = self.unscale(p);
+        let (trace, other) = self.simulate(&values)?;
+        let r = self.residual_with(&trace, &other, offset);
+        let e = (r, trace, other);
+        *self.cache.borrow_mut() = Some((p.clone(), e.clone()));
+        Some(e)
+    }
+
+    fn traces<'b>(&self, trace: &'b [f64], other: &'b [f64]) -> [&'b [f64]; 2] {
+        match self.axis {
+            AxisName::X => [trace, other],
+            AxisName::Y => [other, trace],
+        }
+    }
+
+    fn residual_with(&self, trace: &[f64], other: &[f64], offset: f64) -> DVector<f64> {
+        let [x, y] = self.traces(trace, other);
+        let rx = self.ctx.residual(AxisName::X, x, offset);
+        let ry = self.ctx.residual(AxisName::Y, y, offset);
+        DVector::from_iterator(rx.len() + ry.len(), rx.into_iter().chain(ry))
+    }
+
+    fn jacobian_at(&self, p: &DVector<f64>) -> Option<DMatrix<f64>> {
+        let (r0, trace, other) = self.evaluate(p)?;
+        let n = self.cause.params().len();
+        let mut jac = DMatrix::zeros(r0.len(), p.len());
+        for j in 0..n {
+            let q = self.cause.params()[j];
+            // Step inward at an upper bound.
+            let step = if (p[j] + 1e-2) * q.scale > q.max {
+                -1e-2
+            } else {
+                1e-2
+            };
+            let mut pp = p.clone();
+            pp[j] += step;
+            let (values, offset) = self.unscale(&pp);
+            let (t, o) = self.simulate(&values)?;
+            let r = self.residual_with(&t, &o, offset);
+            jac.set_column(j, &((r - &r0) / step));
+        }
+        if self.fit_offset {
+            let (_, offset) = self.unscale(p);
+            let [x, y] = self.traces(&trace, &other);
+            // r = measured − sim(t − offset): ∂r/∂offset = sim'(t − offset), per unit dt.
+            let dx = self.ctx.residual_rate(x, offset);
+            let dy = self.ctx.residual_rate(y, offset);
+            let col = DVector::from_iterator(
+                dx.len() + dy.len(),
+                dx.into_iter().chain(dy).map(|v| v * self.ctx.dt),
+            );
+            jac.set_column(n, &col);
+        }
+        Some(jac)
+    }
+
+    /// Standard uncertainties from the Jacobian, s² (JᵀJ)⁻¹ with s² the residual's variance
+    /// per degree of freedom, in machine units.
+    fn uncertainties(&self, p: &DVector<f64>, rss: f64) -> Vec<f64> {
+        let params = self.cause.params();
+        let Some(jac) = self.jacobian_at(p) else {
+            return vec![f64::NAN; params.len()];
+        };
+        let s2 = rss / (jac.nrows() as f64 - jac.ncols() as f64).max(1.0);
+        let cov = (jac.transpose() * &jac).try_inverse().map(|m| m * s2);
+        params
+            .iter()
+            .enumerate()
+            .map(|(i, q)| {
+                cov.as_ref()
+                    .map_or(f64::NAN, |c| c[(i, i)].max(0.0).sqrt() * q.scale)
+            })
+            .collect()
+    }
+}
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, x: &DVector<f64>) {
+        self.p.copy_from(x);
+    }
+
+    fn params(&self) -> DVector<f64> {
+        self.p.clone()
+    }
+
+    fn residuals(&self) -> Option<DVector<f64>> {
+        self.evaluate(&self.p).map(|(r, _, _)| r)
+    }
+
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        self.jacobian_at(&self.p)
+    }
+}

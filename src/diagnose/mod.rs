@@ -1,0 +1,372 @@
+//! Learning from measurements: where the prediction is wrong, which physical cause that is,
+//! the model extended and fitted with it, and how much better it then predicts.
+//!
+//! 1. Simulate the nominal machine on the program's commands (or on the commands the
+//!    measurement recorded) and align the measurement's clock to the program's.
+//! 2. The residual, measured − simulated, per axis: its RMS, its RMS in windows around the
+//!    axis's events (reversals, accelerations — where local causes live), its peaks.
+//! 3. The noise floor from the measurement itself: the spread of the residual's sample-to-
+//!    sample differences (model errors are smooth at the sampling rate; noise is not).
+//! 4. On every axis whose residual exceeds the noise, fit every cause of the catalogue
+//!    ([`causes`]) by re-simulation ([`fit`]), jointly with the clock offset. A cause is
+//!    kept when its evidence — the fall in residual sum of squares in units of the noise
+//!    variance, less ln n per parameter (BIC with the variance known) — exceeds
+//!    [`DiagnoseSettings::evidence`]; the strongest is kept first, then the search repeats
+//!    on the extended model.
+
+pub mod causes;
+pub mod context;
+pub mod fit;
+pub mod report;
+pub mod residual;
+pub mod search;
+pub mod table;
+
+use serde::Serialize;
+
+use crate::check::CheckSettings;
+use crate::contour::contour_errors;
+use crate::gcode::Program;
+use crate::machine::{AxisName, MachineConfig};
+use crate::measured::{MeasuredError, MeasuredTrace};
+use crate::plan::Commands;
+use crate::sim::SimError;
+use crate::synth::sample;
+use crate::units::{mm_from_m, um_from_m};
+use causes::CauseId;
+pub use context::{Context, context};
+use residual::axis_residual;
+pub use residual::{AxisResidual, ResidualStats, noise_floor};
+pub use search::Candidate;
+
+/// Settings of a diagnosis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DiagnoseSettings {
+    /// Planner and simulator settings.
+    pub check: CheckSettings,
+    /// Evidence a cause needs to be kept (BIC units; 10 is "very strong").
+    pub evidence: f64,
+    /// Share of the residual beyond the noise a further cause must explain (0–1): a model
+    /// error the catalogue does not hold leaves a residual that any cause trims a little,
+    /// with evidence to spare on a long record.
+    pub min_share: f64,
+    /// Most causes named.
+    pub max_causes: usize,
+    /// Half-width of the event windows (s).
+    pub event_window_s: f64,
+    /// Align every stretch between standstills on its own clock offset (for a control whose
+    /// in-position waits or dwells differ from the plan's) instead of keeping the planned
+    /// timeline. Free offsets per stretch also absorb part of any lag (a gain error, a dead
+    /// time) and of position errors, so a measurement with recorded commands is better.
+    pub align_stretches: bool,
+}
+
+impl DiagnoseSettings {
+    /// Defaults for a machine.
+    pub fn for_machine(machine: &MachineConfig) -> Self {
+        DiagnoseSettings {
+            check: CheckSettings::for_machine(machine),
+            evidence: 10.0,
+            min_share: 0.1,
+            max_causes: 3,
+            event_window_s: 0.3,
+            align_stretches: false,
+        }
+    }
+}
+
+/// Why a diagnosis could not be made.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DiagnoseError {
+    /// The measured data is unreadable or malformed.
+    #[error("{0}")]
+    Measured(#[from] MeasuredError),
+    /// The measurement does not line up with the program.
+    #[error("{file}: cannot align the measurement with the program: {reason}")]
+    CannotAlign {
+        /// The measurement file.
+        file: String,
+        /// Why.
+        reason: String,
+    },
+    /// The nominal model cannot be simulated.
+    #[error("{0}")]
+    Sim(#[from] SimError),
+}
+
+/// A fitted parameter as reported.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FittedParam {
+    /// Machine key below the axis, e.g. `drive.backlash_um`.
+    pub key: String,
+    /// Unit.
+    pub unit: String,
+    /// Fitted value.
+    pub value: f64,
+    /// Standard uncertainty.
+    pub uncertainty: f64,
+}
+
+/// A cause found in the measurement.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FoundCause {
+    /// Its id from the fixed vocabulary.
+    pub id: CauseId,
+    /// The axis.
+    pub axis: AxisName,
+    /// Fitted parameters.
+    pub params: Vec<FittedParam>,
+    /// Evidence (BIC units) when it was added.
+    pub evidence: f64,
+    /// Whether it was fitted on the statistics of stick-slip chatter rather than point by
+    /// point.
+    pub statistical: bool,
+    /// The axis's residual before adding it.
+    pub before: AxisResidual,
+    /// After.
+    pub after: AxisResidual,
+}
+
+/// Where the residual is largest.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Place {
+    /// Axis or "contour".
+    pub what: String,
+    /// Time on the program's clock (s).
+    pub t_s: f64,
+    /// Measured X (mm).
+    pub x_mm: f64,
+    /// Measured Y (mm).
+    pub y_mm: f64,
+    /// Source line of the block being executed.
+    pub line: u32,
+    /// Residual there (µm).
+    pub residual_um: f64,
+}
+
+/// Series for plots, one entry per residual sample.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Series {
+    /// Program time (s).
+    pub t_s: Vec<f64>,
+    /// Path length of the nearest point (m).
+    pub path_s_m: Vec<f64>,
+    /// Commanded X, Y (m).
+    pub reference: [Vec<f64>; 2],
+    /// Measured X, Y (m).
+    pub measured: [Vec<f64>; 2],
+    /// Nominal model's X, Y (m).
+    pub nominal: [Vec<f64>; 2],
+    /// Extended model's X, Y (m).
+    pub extended: [Vec<f64>; 2],
+    /// Contour error residual before and after (m).
+    pub contour_residual: [Vec<f64>; 2],
+}
+
+/// The outcome of a diagnosis.
+#[derive(Debug, Clone)]
+pub struct Diagnosis {
+    /// Offset of the measurement's clock: measured time = program time + this (s).
+    pub offset_s: f64,
+    /// The measurement's noise floor (standard deviation, µm).
+    pub noise_floor_um: f64,
+    /// Causes found, in the order they were added (empty: no significant cause).
+    pub causes: Vec<FoundCause>,
+    /// Every cause tried in the first round, with its signature and evidence.
+    pub candidates: Vec<Candidate>,
+    /// Residuals of the nominal model.
+    pub before: ResidualStats,
+    /// Residuals of the extended model.
+    pub after: ResidualStats,
+    /// Where the nominal model's residual is largest.
+    pub places: Vec<Place>,
+    /// The extended machine.
+    pub machine: MachineConfig,
+    /// Series for plots.
+    pub series: Series,
+    /// Number of residual samples per axis.
+    pub samples: usize,
+    /// The measurement's sampling step (s).
+    pub sample_step_s: f64,
+}
+
+/// Diagnoses a measurement of `program` on `machine`.
+pub fn diagnose(
+    program: &Program,
+    machine: &MachineConfig,
+    measured: &MeasuredTrace,
+    settings: &DiagnoseSettings,
+) -> Result<Diagnosis, DiagnoseError> {
+    let (mut ctx, offset) = context::context(program, machine, measured, settings)?;
+    let simulate = |a| {
+        ctx.simulate_axis(machine, a)
+            .ok_or_else(|| DiagnoseError::CannotAlign {
+                file: measured.file.clone(),
+                reason: "the nominal machine cannot be simulated".into(),
+            })
+    };
+    let nominal = [simulate(AxisName::X)?, simulate(AxisName::Y)?];
+    let residuals = AxisName::BOTH.map(|a| ctx.residual(a, &nominal[a.index()], offset));
+    ctx.noise_sigma = noise_floor(&residuals).max(1e-12);
+    let ctx = ctx;
+    let outcome = search::search(&ctx, machine, settings, nominal.clone(), offset);
+    let (before, after, places, series) = summarize(
+        &ctx,
+        &nominal,
+        &outcome.traces,
+        outcome.offset_s,
+        settings.event_window_s,
+    );
+    // With recorded commands the simulation runs on the measurement's clock; the program
+    // starts where the recorded commands match its plan.
+    let program_start = if ctx.fixed_offset.is_some() {
+        outcome.offset_s + ctx.plan_shift_s
+    } else {
+        outcome.offset_s
+    };
+    Ok(Diagnosis {
+        offset_s: program_start,
+        noise_floor_um: um_from_m(ctx.noise_sigma),
+        causes: outcome.found,
+        candidates: outcome.candidates,
+        before,
+        after,
+        places,
+        machine: outcome.machine,
+        series,
+        samples: ctx.samples.len(),
+        sample_step_s: measured.dt_s,
+    })
+}
+
+/// Residual statistics before and after, the places of the largest residuals, and the
+/// series for plots.
+fn summarize(
+    ctx: &Context,
+    nominal: &[Vec<f64>; 2],
+    extended: &[Vec<f64>; 2],
+    offset: f64,
+    window_s: f64,
+) -> (ResidualStats, ResidualStats, Vec<Place>, Series) {
+    let m = ctx.measured;
+    let mut s = Series::default();
+    for &i in &ctx.samples {
+        let t = ctx.prog_time(i, offset);
+        s.t_s.push(t);
+        for a in 0..2 {
+            let axis = AxisName::BOTH[a];
+            s.reference[a].push(ctx.command_at(axis, t).0);
+            s.measured[a].push(if a == 0 { m.x_m[i] } else { m.y_m[i] });
+            s.nominal[a].push(sample(&nominal[a], ctx.dt, t));
+            s.extended[a].push(sample(&extended[a], ctx.dt, t));
+        }
+    }
+    // Contour errors of the three paths against the program's geometry, on the plan's clock.
+    let view = plan_view(ctx, &s.t_s);
+    let contour_of = |xy: &[Vec<f64>; 2]| contour_errors(&ctx.plan, &view, &xy[0], &xy[1]);
+    let (cm, cn, ce) = (
+        contour_of(&s.measured),
+        contour_of(&s.nominal),
+        contour_of(&s.extended),
+    );
+    s.path_s_m = cm.path_s_m.clone();
+    let diff = |a: &[f64], b: &[f64]| -> Vec<f64> { a.iter().zip(b).map(|(x, y)| x - y).collect() };
+    s.contour_residual = [
+        diff(&cm.error_m, &cn.error_m),
+        diff(&cm.error_m, &ce.error_m),
+    ];
+    let events = AxisName::BOTH.map(|a| ctx.event_masks(a, offset, window_s).1);
+    let either_event: Vec<bool> = events[0]
+        .iter()
+        .zip(&events[1])
+        .map(|(a, b)| *a || *b)
+        .collect();
+    let (dt, sigma) = (ctx.measured.dt_s, ctx.noise_sigma);
+    let stats = |model: &[Vec<f64>; 2], contour_model: &[f64]| {
+        let axis = |a: usize| axis_residual(&s.measured[a], &model[a], &events[a], dt, sigma);
+        // The contour error where both are defined (rapids have none).
+        let keep: Vec<usize> = (0..cm.error_m.len())
+            .filter(|&k| cm.error_m[k].is_finite() && contour_model[k].is_finite())
+            .collect();
+        let pick = |v: &[f64]| -> Vec<f64> { keep.iter().map(|&k| v[k]).collect() };
+        let event: Vec<bool> = keep.iter().map(|&k| either_event[k]).collect();
+        let contour = axis_residual(&pick(&cm.error_m), &pick(contour_model), &event, dt, sigma);
+        ResidualStats {
+            x: axis(0),
+            y: axis(1),
+            contour,
+        }
+    };
+    let before = stats(&s.nominal, &cn.error_m);
+    let after = stats(&s.extended, &ce.error_m);
+    let mut places = Vec::new();
+    for (what, r) in [
+        ("x", diff(&s.measured[0], &s.nominal[0])),
+        ("y", diff(&s.measured[1], &s.nominal[1])),
+        ("contour", s.contour_residual[0].clone()),
+    ] {
+        // Only residuals well clear of the noise are places worth naming.
+        let clear: Vec<f64> = r
+            .iter()
+            .map(|v| {
+                if v.abs() > 5.0 * ctx.noise_sigma {
+                    *v
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect();
+        for k in largest(&clear, &s.t_s, PLACES_PER_SERIES, 0.5) {
+            places.push(Place {
+                what: what.into(),
+                t_s: s.t_s[k],
+                x_mm: mm_from_m(s.measured[0][k]),
+                y_mm: mm_from_m(s.measured[1][k]),
+                line: ctx.plan.segments[view.segment[k] as usize].line,
+                residual_um: um_from_m(r[k]),
+            });
+        }
+    }
+    (before, after, places, s)
+}
+
+/// Places listed per residual series.
+const PLACES_PER_SERIES: usize = 5;
+
+/// Indices of the `count` largest |v| (finite), at least `apart_s` apart in time.
+fn largest(v: &[f64], t_s: &[f64], count: usize, apart_s: f64) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..v.len()).filter(|&k| v[k].is_finite()).collect();
+    order.sort_by(|&a, &b| v[b].abs().total_cmp(&v[a].abs()));
+    let mut chosen: Vec<usize> = Vec::new();
+    for k in order {
+        if chosen.len() == count {
+            break;
+        }
+        if chosen.iter().all(|&c| (t_s[c] - t_s[k]).abs() >= apart_s) {
+            chosen.push(k);
+        }
+    }
+    chosen
+}
+
+/// The planned commands sampled at the given simulation times (for the contour search).
+fn plan_view(ctx: &Context, times: &[f64]) -> Commands {
+    let pc = &ctx.plan_commands;
+    let mut v = Commands {
+        dt_s: pc.dt_s,
+        ..Default::default()
+    };
+    for &t in times {
+        let tp = t - ctx.plan_shift_s;
+        let k = (tp / pc.dt_s).round().clamp(0.0, (pc.len() - 1) as f64) as usize;
+        v.x.pos_m.push(sample(&pc.x.pos_m, pc.dt_s, tp));
+        v.y.pos_m.push(sample(&pc.y.pos_m, pc.dt_s, tp));
+        v.x.vel_m_per_s.push(pc.x.vel_m_per_s[k]);
+        v.y.vel_m_per_s.push(pc.y.vel_m_per_s[k]);
+        v.x.acc_m_per_s2.push(pc.x.acc_m_per_s2[k]);
+        v.y.acc_m_per_s2.push(pc.y.acc_m_per_s2[k]);
+        v.z_m.push(pc.z_m[k]);
+        v.segment.push(pc.segment[k]);
+    }
+    v
+}

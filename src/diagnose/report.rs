@@ -1,0 +1,385 @@
+//! The diagnosis as a report: a versioned JSON document for scripts (schema
+//! `contourcheck.diagnose/1`, documented in docs/report-schema.md), a summary for the
+//! terminal, and the extended machine as a machine file.
+
+use std::fmt::Write as _;
+use std::io::Write;
+
+use serde::Serialize;
+
+use super::causes::CauseId;
+use super::{AxisResidual, Candidate, Diagnosis, FittedParam, Place, ResidualStats};
+use crate::machine::{AxisName, MachineConfig};
+use crate::measured::MeasuredTrace;
+
+/// Schema id of the JSON report.
+pub const SCHEMA: &str = "contourcheck.diagnose/1";
+
+/// The report.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct DiagnoseReport {
+    /// Schema id.
+    pub schema: &'static str,
+    /// The program file.
+    pub program: String,
+    /// The measurement.
+    pub measured: MeasuredInfo,
+    /// The nominal machine's name.
+    pub machine: String,
+    /// Measured time = program time + this (s).
+    pub clock_offset_s: f64,
+    /// The measurement's noise floor (standard deviation, µm).
+    pub noise_floor_um: f64,
+    /// Causes found, strongest first; empty when none is significant.
+    pub causes: Vec<CauseReport>,
+    /// One sentence: what was found.
+    pub verdict: String,
+    /// Residual of the nominal and of the extended model, with the gains.
+    pub residual: ResidualReport,
+    /// Where the nominal model's residual is largest.
+    pub places: Vec<Place>,
+    /// Every cause tried in the first round.
+    pub candidates: Vec<Candidate>,
+}
+
+/// The measurement, as read.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MeasuredInfo {
+    /// File.
+    pub file: String,
+    /// Samples read.
+    pub samples: usize,
+    /// Sampling step (s).
+    pub sample_step_s: f64,
+    /// Whether irregular sampling was resampled.
+    pub resampled: bool,
+    /// Whether the simulation ran on the commands the measurement recorded.
+    pub commands_recorded: bool,
+    /// Samples compared (rapids and the margins left out).
+    pub samples_compared: usize,
+}
+
+/// A cause as reported.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CauseReport {
+    /// Id from the fixed vocabulary.
+    pub id: CauseId,
+    /// Axis.
+    pub axis: AxisName,
+    /// Fitted parameters, as machine keys below the axis, with units and standard
+    /// uncertainties.
+    pub params: Vec<FittedParam>,
+    /// Evidence (BIC units).
+    pub evidence: f64,
+    /// `points` (point-by-point residual) or `statistics` (stick-slip chatter compared on
+    /// its window statistics).
+    pub fitted_on: &'static str,
+    /// The axis's RMS residual before adding the cause (µm).
+    pub rms_before_um: f64,
+    /// After (µm).
+    pub rms_after_um: f64,
+    /// Every residual measure before.
+    pub before: AxisResidual,
+    /// After.
+    pub after: AxisResidual,
+    /// Gain in each measure (%).
+    pub gain_percent: Gains,
+}
+
+/// Relative fall of each residual measure (%; negative: it grew).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Gains {
+    /// Whole-record RMS.
+    pub rms: f64,
+    /// RMS near events.
+    pub event_rms: f64,
+    /// Smoothed RMS.
+    pub smoothed_rms: f64,
+    /// Chatter amplitude mismatch.
+    pub chatter: f64,
+}
+
+impl Gains {
+    fn between(before: &AxisResidual, after: &AxisResidual) -> Gains {
+        let gain = |b: f64, a: f64| if b > 0.0 { 100.0 * (1.0 - a / b) } else { 0.0 };
+        Gains {
+            rms: gain(before.rms_um, after.rms_um),
+            event_rms: gain(before.event_rms_um, after.event_rms_um),
+            smoothed_rms: gain(before.smoothed_rms_um, after.smoothed_rms_um),
+            chatter: gain(before.chatter_um, after.chatter_um),
+        }
+    }
+}
+
+/// Residuals of both models.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ResidualReport {
+    /// Nominal model.
+    pub nominal: ResidualStats,
+    /// Extended model.
+    pub extended: ResidualStats,
+    /// Gains per axis and for the contour (%).
+    pub gain_percent: GainStats,
+}
+
+/// Gains per axis and for the contour.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct GainStats {
+    /// X.
+    pub x: Gains,
+    /// Y.
+    pub y: Gains,
+    /// Contour error.
+    pub contour: Gains,
+}
+
+impl DiagnoseReport {
+    /// Builds the report.
+    pub fn new(
+        d: &Diagnosis,
+        program_file: &str,
+        measured: &MeasuredTrace,
+        machine: &MachineConfig,
+    ) -> DiagnoseReport {
+        let causes: Vec<CauseReport> = d
+            .causes
+            .iter()
+            .map(|c| CauseReport {
+                id: c.id,
+                axis: c.axis,
+                params: c.params.clone(),
+                evidence: c.evidence,
+                fitted_on: if c.statistical {
+                    "statistics"
+                } else {
+                    "points"
+                },
+                rms_before_um: c.before.rms_um,
+                rms_after_um: c.after.rms_um,
+                before: c.before,
+                after: c.after,
+                gain_percent: Gains::between(&c.before, &c.after),
+            })
+            .collect();
+        DiagnoseReport {
+            schema: SCHEMA,
+            program: program_file.to_string(),
+            measured: MeasuredInfo {
+                file: measured.file.clone(),
+                samples: measured.len(),
+                sample_step_s: measured.dt_s,
+                resampled: measured.resampled,
+                commands_recorded: measured.commands.is_some(),
+                samples_compared: d.samples,
+            },
+            machine: machine.name.clone(),
+            clock_offset_s: d.offset_s,
+            noise_floor_um: d.noise_floor_um,
+            verdict: verdict(d),
+            causes,
+            residual: ResidualReport {
+                nominal: d.before,
+                extended: d.after,
+                gain_percent: GainStats {
+                    x: Gains::between(&d.before.x, &d.after.x),
+                    y: Gains::between(&d.before.y, &d.after.y),
+                    contour: Gains::between(&d.before.contour, &d.after.contour),
+                },
+            },
+            places: d.places.clone(),
+            candidates: d.candidates.clone(),
+        }
+    }
+
+    /// Writes the report as pretty JSON.
+    pub fn write_json(&self, w: &mut dyn Write) -> std::io::Result<()> {
+        serde_json::to_writer_pretty(&mut *w, self)?;
+        writeln!(w)
+    }
+
+    /// The summary for the terminal.
+    pub fn summary_text(&self) -> String {
+        let mut s = String::new();
+        let m = &self.measured;
+        let _ = writeln!(
+            s,
+            "Diagnosis of {} against {} ({} samples every {:.3} ms{}{})",
+            self.program,
+            m.file,
+            m.samples,
+            m.sample_step_s * 1e3,
+            if m.resampled { ", resampled" } else { "" },
+            if m.commands_recorded {
+                ", simulated on its recorded commands"
+            } else {
+                ""
+            },
+        );
+        let _ = writeln!(
+            s,
+            "machine {}; clock offset {:.4} s; noise floor {:.3} µm; {} samples compared per axis",
+            self.machine, self.clock_offset_s, self.noise_floor_um, m.samples_compared
+        );
+        let _ = writeln!(s, "\n{}", self.verdict);
+        for (i, c) in self.causes.iter().enumerate() {
+            let params: Vec<String> = c
+                .params
+                .iter()
+                .map(|p| {
+                    format!(
+                        "{} = {} ± {} {}",
+                        p.key,
+                        sig(p.value),
+                        sig(p.uncertainty),
+                        p.unit
+                    )
+                    .trim_end()
+                    .to_string()
+                })
+                .collect();
+            let _ = writeln!(
+                s,
+                "  {}. {} on {}: {}  (evidence {:.0}, fitted on {})",
+                i + 1,
+                c.id.as_str(),
+                c.axis,
+                params.join(", "),
+                c.evidence,
+                c.fitted_on
+            );
+            let (b, a, g) = (&c.before, &c.after, &c.gain_percent);
+            let _ = writeln!(
+                s,
+                "     {} residual: RMS {:.3} → {:.3} µm ({:+.0} %), near events {:.3} → {:.3} µm ({:+.0} %), chatter {:.3} → {:.3} µm ({:+.0} %)",
+                c.axis,
+                b.rms_um,
+                a.rms_um,
+                -g.rms,
+                b.event_rms_um,
+                a.event_rms_um,
+                -g.event_rms,
+                b.chatter_um,
+                a.chatter_um,
+                -g.chatter
+            );
+        }
+        let _ = writeln!(
+            s,
+            "\nResidual, measured − model (µm):      nominal → extended"
+        );
+        let r = &self.residual;
+        for (name, b, a) in [
+            ("X", &r.nominal.x, &r.extended.x),
+            ("Y", &r.nominal.y, &r.extended.y),
+            ("contour", &r.nominal.contour, &r.extended.contour),
+        ] {
+            let _ = writeln!(
+                s,
+                "  {name:<8} RMS {:>8.3} → {:<8.3} near events {:>8.3} → {:<8.3} smoothed {:>8.3} → {:<8.3} chatter {:>7.3} → {:<7.3} peak {:>8.3} → {:.3}",
+                b.rms_um,
+                a.rms_um,
+                b.event_rms_um,
+                a.event_rms_um,
+                b.smoothed_rms_um,
+                a.smoothed_rms_um,
+                b.chatter_um,
+                a.chatter_um,
+                b.peak_um,
+                a.peak_um
+            );
+        }
+        if !self.places.is_empty() {
+            let _ = writeln!(s, "\nLargest residuals of the nominal model:");
+            let _ = writeln!(
+                s,
+                "  {:<8} {:>9} {:>10} {:>10} {:>6} {:>10}",
+                "what", "t (s)", "X (mm)", "Y (mm)", "line", "µm"
+            );
+            for p in &self.places {
+                let _ = writeln!(
+                    s,
+                    "  {:<8} {:>9.3} {:>10.3} {:>10.3} {:>6} {:>+10.3}",
+                    p.what, p.t_s, p.x_mm, p.y_mm, p.line, p.residual_um
+                );
+            }
+        }
+        s
+    }
+}
+
+/// A value with about four significant digits.
+fn sig(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let digits = (3 - v.abs().log10().floor() as i32).clamp(0, 9) as usize;
+    format!("{v:.digits$}")
+}
+
+/// The one-sentence outcome.
+fn verdict(d: &Diagnosis) -> String {
+    if !d.causes.is_empty() {
+        let names: Vec<String> = d
+            .causes
+            .iter()
+            .map(|c| format!("{} on {}", c.id.as_str(), c.axis))
+            .collect();
+        return format!(
+            "{} significant cause{}: {}.",
+            d.causes.len(),
+            if d.causes.len() == 1 { "" } else { "s" },
+            names.join(", ")
+        );
+    }
+    let worst = d.before.x.rms_um.max(d.before.y.rms_um);
+    if worst <= 1.2 * d.noise_floor_um {
+        format!(
+            "No significant cause: the nominal model predicts the measurement to its noise ({:.3} µm).",
+            d.noise_floor_um
+        )
+    } else {
+        format!(
+            "No significant cause: the residual ({worst:.3} µm RMS) exceeds the noise ({:.3} µm), but no cause of the \
+             catalogue explains enough of it.",
+            d.noise_floor_um
+        )
+    }
+}
+
+/// The extended machine as a machine file that `check`, `sweep` and `diagnose` load.
+pub fn machine_file(
+    machine: &MachineConfig,
+    d: &Diagnosis,
+    program_file: &str,
+    measured_file: &str,
+) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# {} extended by diagnosis of {program_file} against {measured_file}.",
+        machine.name
+    );
+    if d.causes.is_empty() {
+        let _ = writeln!(
+            s,
+            "# No significant cause was found: this is the nominal machine."
+        );
+    }
+    for c in &d.causes {
+        for p in &c.params {
+            let _ = writeln!(
+                s,
+                "#   {}.{} = {} ± {} {}  ({})",
+                c.axis,
+                p.key,
+                sig(p.value),
+                sig(p.uncertainty),
+                p.unit,
+                c.id.as_str()
+            );
+        }
+    }
+    let _ = writeln!(s, "base = \"none\"\n");
+    s.push_str(&machine.to_toml());
+    s
+}

@@ -1,0 +1,417 @@
+//! The search for causes: on every axis whose residual exceeds the noise, every cause of
+//! the catalogue is fitted ([`super::fit`]), in parallel; the one with the strongest
+//! evidence is kept if it beats the thresholds, and the search repeats on the extended
+//! model.
+//!
+//! Evidence is the fall in the residual's sum of squares in units of the noise variance,
+//! less ln n per parameter (the Bayesian information criterion with the variance known).
+//! On an axis in stick-slip the model does not reproduce, the same on the χ² of the
+//! residual's window statistics ([`Context::statistical_residual`]), and only causes that
+//! act at low speed and reversals are tried there.
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::causes::{self, CauseId, Kinematics};
+use super::context::Context;
+use super::fit::{self, Fitted};
+use super::residual::axis_residual;
+use super::{DiagnoseSettings, FittedParam, FoundCause};
+use crate::machine::{AxisConfig, AxisName, MachineConfig};
+use crate::synth::sample;
+use crate::units::{kv_m_per_min_per_mm_from_per_s, per_s_from_kv_m_per_min_per_mm, um_from_m};
+
+/// A cause tried on an axis in the first round.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Candidate {
+    /// The cause.
+    pub id: CauseId,
+    /// The axis.
+    pub axis: AxisName,
+    /// How strongly the residual shows the cause's signature before any fit (0–1).
+    pub signature: f64,
+    /// Evidence of the fitted cause (BIC units; `null` in JSON when the fit failed or
+    /// pinned a parameter at a bound).
+    pub evidence: f64,
+    /// Share of the residual beyond the noise the fitted cause explains.
+    pub share: f64,
+}
+
+/// What the search ends with.
+pub struct Outcome {
+    /// The extended machine.
+    pub machine: MachineConfig,
+    /// Its traces (X, Y) on the context's clock.
+    pub traces: [Vec<f64>; 2],
+    /// The clock offset.
+    pub offset_s: f64,
+    /// Causes kept, in order.
+    pub found: Vec<FoundCause>,
+    /// Every cause tried in the first round.
+    pub candidates: Vec<Candidate>,
+}
+
+/// A cause to fit on an axis, from these starting points.
+struct Try {
+    axis: AxisName,
+    cause: CauseId,
+    starts: Vec<Vec<f64>>,
+    signature: f64,
+    statistical: bool,
+}
+
+/// A fitted try with its evidence and share.
+struct Scored {
+    try_: Try,
+    fitted: Option<Fitted>,
+    evidence: f64,
+    share: f64,
+}
+
+/// Searches for causes from the nominal traces `traces` at clock offset `offset_s`.
+pub fn search(
+    ctx: &Context,
+    machine: &MachineConfig,
+    settings: &DiagnoseSettings,
+    mut traces: [Vec<f64>; 2],
+    mut offset_s: f64,
+) -> Outcome {
+    let sigma = ctx.noise_sigma;
+    let mut current = machine.clone();
+    let mut found: Vec<FoundCause> = Vec::new();
+    let mut candidates = Vec::new();
+    // Axes whose measurement chatters are compared on statistics throughout.
+    let mut stick_slip = AxisName::BOTH.map(|a| ctx.measured_chatter_excess(a, offset_s) > 5.0);
+    for round in 0..settings.max_causes {
+        let mut tries = Vec::new();
+        for axis in AxisName::BOTH {
+            if excess_over_noise(ctx, axis, &traces[axis.index()], offset_s) < 5.0 {
+                continue;
+            }
+            let statistical = stick_slip[axis.index()]
+                || ctx.chatter_excess(axis, &traces[axis.index()], offset_s) > 5.0;
+            stick_slip[axis.index()] = statistical;
+            let skip = |cause: CauseId| {
+                found.iter().any(|f| f.axis == axis && f.id == cause)
+                    || (statistical && !cause.is_local())
+            };
+            tries.extend(tries_on_axis(
+                ctx,
+                &current,
+                axis,
+                &traces,
+                offset_s,
+                settings,
+                statistical,
+                &skip,
+            ));
+        }
+        let scored = score(ctx, &current, tries, &traces, offset_s);
+        if round == 0 {
+            candidates = scored
+                .iter()
+                .map(|s| Candidate {
+                    id: s.try_.cause,
+                    axis: s.try_.axis,
+                    signature: s.try_.signature,
+                    evidence: s.evidence,
+                    share: s.share,
+                })
+                .collect();
+        }
+        let Some(best) = scored
+            .into_iter()
+            .filter(|s| {
+                s.fitted.is_some()
+                    && s.evidence >= settings.evidence
+                    && s.share >= settings.min_share
+            })
+            .max_by(|a, b| a.evidence.total_cmp(&b.evidence))
+        else {
+            break;
+        };
+        let (axis, cause) = (best.try_.axis, best.try_.cause);
+        let fitted = best.fitted.expect("filtered on a fit");
+        let (_, event) = ctx.event_masks(axis, offset_s, settings.event_window_s);
+        let meas = ctx.measured_at_samples(axis);
+        let residual_of = |trace: &[f64], offset: f64| {
+            axis_residual(
+                &meas,
+                &ctx.at_samples(trace, offset),
+                &event,
+                ctx.measured.dt_s,
+                sigma,
+            )
+        };
+        let before = residual_of(&traces[axis.index()], offset_s);
+        causes::apply(current.axis_mut(axis), cause, &fitted.values);
+        traces[axis.index()] = fitted.trace.clone();
+        traces[axis.other().index()] = fitted.other.clone();
+        offset_s = fitted.offset_s;
+        found.push(FoundCause {
+            id: cause,
+            axis,
+            params: cause
+                .params()
+                .iter()
+                .zip(fitted.values.iter().zip(&fitted.sigma))
+                .map(|(p, (v, s))| FittedParam {
+                    key: p.key.to_string(),
+                    unit: p.unit.to_string(),
+                    value: *v,
+                    uncertainty: *s,
+                })
+                .collect(),
+            evidence: best.evidence,
+            statistical: best.try_.statistical,
+            before,
+            after: residual_of(&traces[axis.index()], offset_s),
+        });
+    }
+    Outcome {
+        machine: current,
+        traces,
+        offset_s,
+        found,
+        candidates,
+    }
+}
+
+/// How far an axis's residual exceeds the noise: its sum of squares beyond n σ², in
+/// standard deviations of that χ². Only an axis above a few is worth fitting.
+fn excess_over_noise(ctx: &Context, axis: AxisName, trace: &[f64], offset_s: f64) -> f64 {
+    let r = ctx.residual(axis, trace, offset_s);
+    let n = r.len() as f64;
+    let sigma2 = ctx.noise_sigma * ctx.noise_sigma;
+    (r.iter().map(|v| v * v).sum::<f64>() / sigma2 - n) / (2.0 * n).sqrt()
+}
+
+/// The causes worth trying on one axis, with their starting points and signatures.
+#[allow(clippy::too_many_arguments)]
+fn tries_on_axis(
+    ctx: &Context,
+    current: &MachineConfig,
+    axis: AxisName,
+    traces: &[Vec<f64>; 2],
+    offset_s: f64,
+    settings: &DiagnoseSettings,
+    statistical: bool,
+    skip: &dyn Fn(CauseId) -> bool,
+) -> Vec<Try> {
+    let trace = &traces[axis.index()];
+    let r = ctx.residual(axis, trace, offset_s);
+    // Where the axis actually is (the current model): position-dependent errors follow it,
+    // not the command, which leads it by the lag.
+    let (pos, vel): (Vec<f64>, Vec<f64>) = ctx
+        .samples
+        .iter()
+        .map(|&i| {
+            let t = ctx.prog_time(i, offset_s);
+            (sample(trace, ctx.dt, t), ctx.command_at(axis, t).1)
+        })
+        .unzip();
+    let (reversal, _) = ctx.event_masks(axis, offset_s, settings.event_window_s);
+    let ax = current.axis(axis);
+    let period_mm = if ax.errors.cyclic_period_mm > 0.0 {
+        ax.errors.cyclic_period_mm
+    } else {
+        ax.drive.lead_mm
+    };
+    let kin = Kinematics {
+        pos_m: &pos,
+        vel_m_per_s: &vel,
+        near_reversal: &reversal,
+        dt_s: ctx.measured.dt_s,
+        cyclic_period_m: period_mm * 1e-3,
+    };
+    CauseId::ALL
+        .into_iter()
+        .filter(|&c| !skip(c))
+        .map(|cause| {
+            let now: Vec<f64> = cause
+                .params()
+                .iter()
+                .map(|p| causes::get(ax, p.key))
+                .collect();
+            Try {
+                axis,
+                cause,
+                starts: starts(cause, initial_guess(cause, ax, &r, &kin), &now),
+                signature: causes::signature(cause, &r, &kin),
+                statistical,
+            }
+        })
+        .collect()
+}
+
+/// Fits every try in parallel and scores it against the current traces.
+fn score(
+    ctx: &Context,
+    current: &MachineConfig,
+    tries: Vec<Try>,
+    traces: &[Vec<f64>; 2],
+    offset_s: f64,
+) -> Vec<Scored> {
+    let sigma2 = ctx.noise_sigma * ctx.noise_sigma;
+    let rss_now: f64 = AxisName::BOTH
+        .iter()
+        .map(|&a| {
+            ctx.residual(a, &traces[a.index()], offset_s)
+                .iter()
+                .map(|v| v * v)
+                .sum::<f64>()
+        })
+        .sum();
+    let n_total = 2.0 * ctx.samples.len() as f64;
+    tries
+        .into_par_iter()
+        .map(|t| {
+            let other = &traces[t.axis.other().index()];
+            let k = t.cause.params().len() as f64;
+            let (fitted, gain, excess, ln_n) = if t.statistical {
+                let chi2 = |trace: &[f64]| {
+                    ctx.statistical_residual(t.axis, trace, offset_s)
+                        .iter()
+                        .map(|v| v * v)
+                        .sum::<f64>()
+                };
+                let before = chi2(&traces[t.axis.index()]);
+                let m = ctx
+                    .statistical_residual(t.axis, &traces[t.axis.index()], offset_s)
+                    .len() as f64;
+                let fitted =
+                    fit::fit_statistical(ctx, current, t.axis, t.cause, &t.starts, offset_s, other);
+                let gain = fitted
+                    .as_ref()
+                    .map_or(f64::NEG_INFINITY, |f| before - f.chi2_stat);
+                (fitted, gain, before - m, m.ln())
+            } else {
+                let fitted =
+                    fit::fit_cause(ctx, current, t.axis, t.cause, &t.starts, offset_s, other);
+                let gain = fitted
+                    .as_ref()
+                    .map_or(f64::NEG_INFINITY, |f| (rss_now - f.rss) / sigma2);
+                (fitted, gain, rss_now / sigma2 - n_total, n_total.ln())
+            };
+            Scored {
+                try_: t,
+                fitted,
+                evidence: gain - k * ln_n,
+                share: gain / excess,
+            }
+        })
+        .collect()
+}
+
+/// First guesses of a cause's parameters from the residual (regressions where the cause
+/// is linear in its parameters, typical values elsewhere).
+fn initial_guess(cause: CauseId, axis: &AxisConfig, r: &[f64], k: &Kinematics) -> Vec<f64> {
+    let (pos, vel) = (k.pos_m, k.vel_m_per_s);
+    let slope = |f: &dyn Fn(usize) -> f64| {
+        let n = r.len();
+        let (mut sxy, mut sxx, mut sx, mut sy) = (0.0, 0.0, 0.0, 0.0);
+        for (i, &y) in r.iter().enumerate() {
+            let x = f(i);
+            sxy += x * y;
+            sxx += x * x;
+            sx += x;
+            sy += y;
+        }
+        let d = sxx - sx * sx / n as f64;
+        if d.abs() > 0.0 {
+            (sxy - sx * sy / n as f64) / d
+        } else {
+            0.0
+        }
+    };
+    match cause {
+        // r = −s·x in full closed loop (the table stops short): ppm = −slope.
+        CauseId::ScaleError => vec![-slope(&|i| pos[i]) * 1e6],
+        CauseId::CyclicError => {
+            let w = std::f64::consts::TAU / k.cyclic_period_m;
+            let (a, b) = (
+                slope(&|i| (w * pos[i]).sin()),
+                slope(&|i| (w * pos[i]).cos()),
+            );
+            // r = −A sin(wx + φ) = −A cos φ sin wx − A sin φ cos wx.
+            vec![um_from_m(a.hypot(b)), (-b).atan2(-a).to_degrees()]
+        }
+        CauseId::DeadTime => vec![(-slope(&|i| vel[i]) * 1e3).clamp(0.0, 200.0)],
+        CauseId::KvGain => {
+            let kv = per_s_from_kv_m_per_min_per_mm(axis.position_loop.kv_m_per_min_per_mm);
+            let c = slope(&|i| vel[i]);
+            let kv_new = 1.0 / (1.0 / kv - c);
+            vec![kv_m_per_min_per_mm_from_per_s(if kv_new > 0.0 {
+                kv_new
+            } else {
+                kv
+            })]
+        }
+        CauseId::Backlash => {
+            let peak = r
+                .iter()
+                .zip(k.near_reversal)
+                .filter(|(_, n)| **n)
+                .fold(0.0f64, |m, (v, _)| m.max(v.abs()));
+            vec![um_from_m(peak * 1.4).max(1.0)]
+        }
+        CauseId::CoulombFriction => vec![axis.friction.coulomb_coefficient * 3.0],
+        CauseId::Stribeck => vec![300.0, 20.0],
+        CauseId::Resonance => vec![dominant_frequency(r, k.dt_s), 0.05],
+    }
+}
+
+/// Where a fit may start: the data's first guess and, for causes that are not linear in
+/// their parameters, a small grid around typical values (the fit refines the best).
+fn starts(cause: CauseId, guess: Vec<f64>, current: &[f64]) -> Vec<Vec<f64>> {
+    let mut s = vec![guess.clone()];
+    match cause {
+        // Log-spaced grids: 0.5–50 µm; 0.25–8 × the nominal coefficient; levels and
+        // velocities over two decades; 5–200 Hz.
+        CauseId::Backlash => s.extend((0..=16).map(|i| vec![0.5 * 10f64.powf(i as f64 / 8.0)])),
+        CauseId::CoulombFriction => {
+            s.extend((0..=10).map(|i| vec![guess[0] / 3.0 * 0.25 * 2f64.powf(i as f64 / 2.0)]))
+        }
+        CauseId::Stribeck => {
+            for i in 0..9 {
+                for j in 0..7 {
+                    s.push(vec![30.0 * 1.5f64.powi(i), 3.0 * 1.6f64.powi(j)]);
+                }
+            }
+        }
+        // Gains 0.6–1.5 × the guess, dead times 0–20 ms: a lag also moves the program's
+        // waits, which can throw the regression's guess far off.
+        CauseId::KvGain => s.extend((0..=12).map(|i| vec![current[0] * 0.6 * 1.08f64.powi(i)])),
+        CauseId::DeadTime => s.extend((0..=10).map(|i| vec![2.0 * i as f64])),
+        CauseId::Resonance => {
+            for i in 0..12 {
+                for zeta in [0.02, 0.1] {
+                    s.push(vec![5.0 * 40f64.powf(i as f64 / 11.0), zeta]);
+                }
+            }
+        }
+        _ => {}
+    }
+    s
+}
+
+/// The frequency (5–200 Hz) where the residual's periodogram peaks.
+fn dominant_frequency(r: &[f64], dt: f64) -> f64 {
+    let mut best = (20.0, 0.0);
+    let mut f = 5.0;
+    while f < 200.0f64.min(0.45 / dt) {
+        let w = std::f64::consts::TAU * f * dt;
+        let (mut c, mut s) = (0.0, 0.0);
+        for (i, v) in r.iter().enumerate() {
+            let (sn, cs) = (w * i as f64).sin_cos();
+            c += v * cs;
+            s += v * sn;
+        }
+        let p = c * c + s * s;
+        if p > best.1 {
+            best = (f, p);
+        }
+        f *= 1.01;
+    }
+    best.0
+}

@@ -1,0 +1,161 @@
+//! Synthetic measurements: a "true" machine — a nominal one plus one hidden effect from the
+//! catalogue — runs a program, and its trace is written as a user's measurement would be:
+//! sampled on the measurement's own clock (offset from the program's), with noise.
+//!
+//! Users run it to see what each cause looks like; the tests use it to hide an effect and
+//! ask `diagnose` to find it from what a user would have.
+
+use std::io::Write;
+
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+
+use crate::check::{CheckSettings, plan_commands};
+use crate::diagnose::causes::{self, CauseId};
+use crate::gcode::Program;
+use crate::machine::{AxisName, MachineConfig};
+use crate::sim::{AxisModel, SimError, simulate};
+use crate::units::mm_from_m;
+
+/// What to hide and how to measure it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SynthSpec {
+    /// The hidden effect: cause, axis and its parameter values (machine units); `None` for
+    /// a control run of the nominal machine.
+    pub effect: Option<(CauseId, AxisName, Vec<f64>)>,
+    /// Standard deviation of the measurement noise (m).
+    pub noise_m: f64,
+    /// The measurement's clock reads this much when the program starts (s).
+    pub offset_s: f64,
+    /// Sampling step of the measurement (s).
+    pub sample_s: f64,
+    /// Record the commanded positions too (as a CNC servo trace does).
+    pub with_commands: bool,
+    /// Seed of the noise.
+    pub seed: u64,
+}
+
+impl Default for SynthSpec {
+    fn default() -> Self {
+        SynthSpec {
+            effect: None,
+            noise_m: 0.3e-6,
+            offset_s: 0.0,
+            sample_s: 0.002,
+            with_commands: false,
+            seed: 1,
+        }
+    }
+}
+
+/// A synthetic measurement.
+#[derive(Debug, Clone)]
+pub struct Synthetic {
+    /// The true machine.
+    pub machine: MachineConfig,
+    /// Rows: measurement time (s), actual X and Y (m), commanded X and Y (m).
+    pub rows: Vec<[f64; 5]>,
+    /// Whether the commanded positions are part of the measurement.
+    pub with_commands: bool,
+}
+
+/// Runs `program` on `nominal` with the hidden effect and measures it.
+pub fn synthesize(
+    program: &Program,
+    nominal: &MachineConfig,
+    spec: &SynthSpec,
+) -> Result<Synthetic, SimError> {
+    let mut machine = nominal.clone();
+    if let Some((cause, axis, values)) = &spec.effect {
+        causes::apply(machine.axis_mut(*axis), *cause, values);
+    }
+    let settings = CheckSettings::for_machine(&machine);
+    let (_, commands) = plan_commands(program, &machine, &settings);
+    let traces = [AxisName::X, AxisName::Y].map(|a| {
+        let c = if a == AxisName::X {
+            &commands.x
+        } else {
+            &commands.y
+        };
+        simulate(
+            &AxisModel::from_config(machine.axis(a)),
+            c,
+            commands.dt_s,
+            &settings.sim,
+        )
+    });
+    let [x, y] = traces;
+    let (x, y) = (x?, y?);
+    let mut rng = rand::rngs::StdRng::seed_from_u64(spec.seed);
+    let noise = Normal::new(0.0, spec.noise_m.max(0.0)).expect("a non-negative standard deviation");
+    let duration = commands.duration_s() + spec.offset_s.max(0.0);
+    let n = (duration / spec.sample_s).floor() as usize + 1;
+    let rows = (0..n)
+        .map(|k| {
+            let t_meas = k as f64 * spec.sample_s;
+            let t = t_meas - spec.offset_s;
+            [
+                t_meas,
+                sample(&x.pos_m, commands.dt_s, t) + noise.sample(&mut rng),
+                sample(&y.pos_m, commands.dt_s, t) + noise.sample(&mut rng),
+                sample(&commands.x.pos_m, commands.dt_s, t),
+                sample(&commands.y.pos_m, commands.dt_s, t),
+            ]
+        })
+        .collect();
+    Ok(Synthetic {
+        machine,
+        rows,
+        with_commands: spec.with_commands,
+    })
+}
+
+/// A signal sampled every `dt` at time `t`: cubic (Catmull–Rom) between samples, held
+/// before the first and after the last.
+pub fn sample(v: &[f64], dt: f64, t: f64) -> f64 {
+    let n = v.len();
+    if n == 0 {
+        return 0.0;
+    }
+    let u = t / dt;
+    if u <= 0.0 {
+        return v[0];
+    }
+    let i = u.floor() as usize;
+    if i + 1 >= n {
+        return v[n - 1];
+    }
+    let f = u - i as f64;
+    let p0 = v[i.saturating_sub(1)];
+    let (p1, p2) = (v[i], v[i + 1]);
+    let p3 = v[(i + 2).min(n - 1)];
+    p1 + 0.5
+        * f
+        * (p2 - p0 + f * (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3 + f * (3.0 * (p1 - p2) + p3 - p0)))
+}
+
+impl Synthetic {
+    /// Writes the measurement as CSV (`t_s,x_mm,y_mm`, and `x_cmd_mm,y_cmd_mm` when the
+    /// commands are recorded).
+    pub fn write_csv(&self, w: &mut dyn Write) -> std::io::Result<()> {
+        let mut out = csv::Writer::from_writer(w);
+        if self.with_commands {
+            out.write_record(["t_s", "x_mm", "y_mm", "x_cmd_mm", "y_cmd_mm"])?;
+        } else {
+            out.write_record(["t_s", "x_mm", "y_mm"])?;
+        }
+        for r in &self.rows {
+            let mut rec = vec![
+                format!("{:.6}", r[0]),
+                format!("{:.7}", mm_from_m(r[1])),
+                format!("{:.7}", mm_from_m(r[2])),
+            ];
+            if self.with_commands {
+                rec.push(format!("{:.7}", mm_from_m(r[3])));
+                rec.push(format!("{:.7}", mm_from_m(r[4])));
+            }
+            out.write_record(&rec)?;
+        }
+        out.flush()
+    }
+}
