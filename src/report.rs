@@ -269,7 +269,7 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
     );
     let _ = writeln!(
         s,
-        "settings  {:?} profile, interpolation {} ms, simulation step {} ms",
+        "settings  {} profile, interpolation {} ms, simulation step {} ms",
         r.settings.profile, r.settings.interpolation_cycle_ms, r.settings.simulation_step_ms
     );
     let _ = writeln!(

@@ -42,6 +42,17 @@ pub enum ProfileKind {
     Ideal,
 }
 
+impl std::fmt::Display for ProfileKind {
+    /// As on the command line: `trapezoid`, `s-curve`, `ideal`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            ProfileKind::Trapezoid => "trapezoid",
+            ProfileKind::SCurve => "s-curve",
+            ProfileKind::Ideal => "ideal",
+        })
+    }
+}
+
 impl std::str::FromStr for ProfileKind {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
