@@ -289,6 +289,49 @@ fn recorded_commands_drive_the_simulation_and_fix_the_clock() {
 }
 
 #[test]
+fn waits_longer_than_planned_are_measured_when_stretches_align_on_their_own() {
+    // The real control checks a 3 µm in-position window where the plan assumes 10 µm: each
+    // exact stop lasts ln(10/3)/Kv = 72.2 ms longer than planned.
+    let nominal = MachineConfig::default_preset();
+    let mut real = nominal.clone();
+    real.interpolation.in_position_window_mm = 0.003;
+    let prog = program("back-and-forth.nc");
+    let spec = SynthSpec {
+        effect: Some((CauseId::Backlash, AxisName::X, vec![10.0])),
+        offset_s: 0.37,
+        ..SynthSpec::default()
+    };
+    let mut csv = Vec::new();
+    synthesize(&prog, &real, &spec)
+        .unwrap()
+        .write_csv(&mut csv)
+        .unwrap();
+    let measured = parse_trace(std::str::from_utf8(&csv).unwrap(), "strokes.csv").unwrap();
+    // On the planned timeline the strokes drift away by 72 ms each: refused, with the way out.
+    let mut settings = DiagnoseSettings::for_machine(&nominal);
+    let e = diagnose(&prog, &nominal, &measured, &settings)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("--align-stretches"), "{e}");
+    settings.align_stretches = true;
+    let d = diagnose(&prog, &nominal, &measured, &settings).unwrap();
+    let expected_ms = (10.0f64 / 3.0).ln() / (1000.0 / 60.0) * 1e3;
+    assert_eq!(d.extra_waits.len(), 3, "{:?}", d.extra_waits);
+    for w in &d.extra_waits {
+        assert!(
+            (w.extra_ms - expected_ms).abs() < 1.0,
+            "{w:?} vs {expected_ms:.1} ms"
+        );
+    }
+    assert_eq!(
+        d.causes.iter().map(|c| (c.id, c.axis)).collect::<Vec<_>>(),
+        vec![(CauseId::Backlash, AxisName::X)]
+    );
+    assert!((d.causes[0].params[0].value - 10.0).abs() < 1.0);
+    assert!(d.after.x.rms_um < 1.2 * d.noise_floor_um, "{:?}", d.after.x);
+}
+
+#[test]
 fn a_measurement_of_another_program_is_rejected_with_the_reason() {
     let nominal = MachineConfig::default_preset();
     let mut csv = Vec::new();

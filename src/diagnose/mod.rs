@@ -54,10 +54,11 @@ pub struct DiagnoseSettings {
     pub max_causes: usize,
     /// Half-width of the event windows (s).
     pub event_window_s: f64,
-    /// Align every stretch between standstills on its own clock offset (for a control whose
-    /// in-position waits or dwells differ from the plan's) instead of keeping the planned
-    /// timeline. Free offsets per stretch also absorb part of any lag (a gain error, a dead
-    /// time) and of position errors, so a measurement with recorded commands is better.
+    /// Measure the control's waits at standstills from the measurement (each stretch between
+    /// standstills matched on its own) and plan with them, for a control whose in-position
+    /// waits or dwells differ from the plan's. On straight strokes between exact stops a
+    /// gain error or dead time then passes in part for a longer wait; a measurement with
+    /// recorded commands needs neither.
     pub align_stretches: bool,
 }
 
@@ -125,6 +126,28 @@ pub struct FoundCause {
     pub before: AxisResidual,
     /// After.
     pub after: AxisResidual,
+    /// Other causes that explain the data almost as well (the data barely tell them apart).
+    pub alternatives: Vec<Alternative>,
+}
+
+/// A cause nearly as good as the one kept.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Alternative {
+    /// The cause.
+    pub id: CauseId,
+    /// The axis.
+    pub axis: AxisName,
+    /// Its evidence.
+    pub evidence: f64,
+}
+
+/// A standstill the control held longer (or shorter) than planned.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ExtraWait {
+    /// Source line of the block the standstill follows.
+    pub line: u32,
+    /// Extra time (ms; negative: shorter).
+    pub extra_ms: f64,
 }
 
 /// Where the residual is largest.
@@ -188,6 +211,9 @@ pub struct Diagnosis {
     pub samples: usize,
     /// The measurement's sampling step (s).
     pub sample_step_s: f64,
+    /// With stretches aligned on their own: how much longer than planned the control stood
+    /// after a block (source line, extra ms).
+    pub extra_waits: Vec<ExtraWait>,
 }
 
 /// Diagnoses a measurement of `program` on `machine`.
@@ -236,6 +262,16 @@ pub fn diagnose(
         series,
         samples: ctx.samples.len(),
         sample_step_s: measured.dt_s,
+        extra_waits: ctx
+            .extra_wait_s
+            .iter()
+            .enumerate()
+            .filter(|(_, w)| **w != 0.0)
+            .map(|(i, w)| ExtraWait {
+                line: ctx.plan.segments[i].line,
+                extra_ms: w * 1e3,
+            })
+            .collect(),
     })
 }
 

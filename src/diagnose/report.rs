@@ -8,7 +8,9 @@ use std::io::Write;
 use serde::Serialize;
 
 use super::causes::CauseId;
-use super::{AxisResidual, Candidate, Diagnosis, FittedParam, Place, ResidualStats};
+use super::{
+    Alternative, AxisResidual, Candidate, Diagnosis, ExtraWait, FittedParam, Place, ResidualStats,
+};
 use crate::machine::{AxisName, MachineConfig};
 use crate::measured::MeasuredTrace;
 
@@ -30,6 +32,9 @@ pub struct DiagnoseReport {
     pub clock_offset_s: f64,
     /// The measurement's noise floor (standard deviation, µm).
     pub noise_floor_um: f64,
+    /// With stretches aligned on their own: standstills the control held longer than planned
+    /// (empty on the planned timeline).
+    pub extra_waits: Vec<ExtraWait>,
     /// Causes found, strongest first; empty when none is significant.
     pub causes: Vec<CauseReport>,
     /// One sentence: what was found.
@@ -84,6 +89,8 @@ pub struct CauseReport {
     pub after: AxisResidual,
     /// Gain in each measure (%).
     pub gain_percent: Gains,
+    /// Causes that explain the data almost as well.
+    pub alternatives: Vec<Alternative>,
 }
 
 /// Relative fall of each residual measure (%; negative: it grew).
@@ -159,6 +166,7 @@ impl DiagnoseReport {
                 before: c.before,
                 after: c.after,
                 gain_percent: Gains::between(&c.before, &c.after),
+                alternatives: c.alternatives.clone(),
             })
             .collect();
         DiagnoseReport {
@@ -175,6 +183,7 @@ impl DiagnoseReport {
             machine: machine.name.clone(),
             clock_offset_s: d.offset_s,
             noise_floor_um: d.noise_floor_um,
+            extra_waits: d.extra_waits.clone(),
             verdict: verdict(d),
             causes,
             residual: ResidualReport {
@@ -220,6 +229,14 @@ impl DiagnoseReport {
             "machine {}; clock offset {:.4} s; noise floor {:.3} µm; {} samples compared per axis",
             self.machine, self.clock_offset_s, self.noise_floor_um, m.samples_compared
         );
+        if !self.extra_waits.is_empty() {
+            let waits: Vec<String> = self
+                .extra_waits
+                .iter()
+                .map(|w| format!("{:+.1} ms after line {}", w.extra_ms, w.line))
+                .collect();
+            let _ = writeln!(s, "standstills longer than planned: {}", waits.join(", "));
+        }
         let _ = writeln!(s, "\n{}", self.verdict);
         for (i, c) in self.causes.iter().enumerate() {
             let params: Vec<String> = c
@@ -262,6 +279,25 @@ impl DiagnoseReport {
                 a.chatter_um,
                 -g.chatter
             );
+            if !c.alternatives.is_empty() {
+                let alt: Vec<String> = c
+                    .alternatives
+                    .iter()
+                    .map(|a| {
+                        format!(
+                            "{} on {} (evidence {:.0})",
+                            a.id.as_str(),
+                            a.axis,
+                            a.evidence
+                        )
+                    })
+                    .collect();
+                let _ = writeln!(
+                    s,
+                    "     almost as good: {} — a program with other speeds or reversals would tell them apart",
+                    alt.join(", ")
+                );
+            }
         }
         let _ = writeln!(
             s,

@@ -16,7 +16,7 @@ use super::causes::{self, CauseId, Kinematics};
 use super::context::Context;
 use super::fit::{self, Fitted};
 use super::residual::axis_residual;
-use super::{DiagnoseSettings, FittedParam, FoundCause};
+use super::{Alternative, DiagnoseSettings, FittedParam, FoundCause};
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::synth::sample;
 use crate::units::{kv_m_per_min_per_mm_from_per_s, per_s_from_kv_m_per_min_per_mm, um_from_m};
@@ -119,17 +119,30 @@ pub fn search(
                 })
                 .collect();
         }
-        let Some(best) = scored
+        let mut eligible: Vec<Scored> = scored
             .into_iter()
             .filter(|s| {
                 s.fitted.is_some()
                     && s.evidence >= settings.evidence
                     && s.share >= settings.min_share
             })
-            .max_by(|a, b| a.evidence.total_cmp(&b.evidence))
-        else {
+            .collect();
+        eligible.sort_by(|a, b| b.evidence.total_cmp(&a.evidence));
+        let mut eligible = eligible.into_iter();
+        let Some(best) = eligible.next() else {
             break;
         };
+        // Causes that explain the data almost as well: within 1 % of the evidence (at least
+        // the threshold's worth), the data barely tell them apart.
+        let margin = (0.01 * best.evidence).max(settings.evidence);
+        let alternatives = eligible
+            .filter(|s| s.evidence >= best.evidence - margin)
+            .map(|s| Alternative {
+                id: s.try_.cause,
+                axis: s.try_.axis,
+                evidence: s.evidence,
+            })
+            .collect();
         let (axis, cause) = (best.try_.axis, best.try_.cause);
         let fitted = best.fitted.expect("filtered on a fit");
         let (_, event) = ctx.event_masks(axis, offset_s, settings.event_window_s);
@@ -166,6 +179,7 @@ pub fn search(
             statistical: best.try_.statistical,
             before,
             after: residual_of(&traces[axis.index()], offset_s),
+            alternatives,
         });
     }
     Outcome {

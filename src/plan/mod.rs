@@ -214,40 +214,27 @@ impl Plan {
         self.plans.iter().map(|p| p.length_m).sum()
     }
 
-    /// The same motion under another in-position check (another gain, another window):
-    /// only the waits after exact stops, and with them the start times, change.
-    pub fn with_in_position(&self, in_position: Option<InPosition>) -> Plan {
+    /// The same motion under another in-position check (another gain, another window),
+    /// each segment's wait lengthened by `extra_wait_s[i]` (shortened when negative, never
+    /// below zero; missing entries are zero): only the waits, and with them the start times,
+    /// change.
+    pub fn with_waits(&self, in_position: Option<InPosition>, extra_wait_s: &[f64]) -> Plan {
         let mut p = self.clone();
         p.config.in_position = in_position;
         let mut t = 0.0;
         for i in 0..p.plans.len() {
             p.plans[i].t_start_s = t;
-            p.plans[i].wait_s = 0.0;
-            if let Some(ip) = &in_position {
-                if ends_in_exact_stop(&p.segments, i) {
-                    p.plans[i].wait_s = in_position_wait(&p.segments, &p.plans, i, ip);
+            let planned = match &in_position {
+                Some(ip) if ends_in_exact_stop(&p.segments, i) => {
+                    in_position_wait(&p.segments, &p.plans, i, ip)
                 }
-            }
+                _ => 0.0,
+            };
+            p.plans[i].wait_s = (planned + extra_wait_s.get(i).copied().unwrap_or(0.0)).max(0.0);
             t += p.plans[i].span_s();
         }
         p.total_time_s = t;
         p
-    }
-
-    /// Where time `t` of this plan falls in `other`, a plan of the same motion with other
-    /// waits: the same instant of the same segment's motion, and the same share of its
-    /// wait (the segment index is the one sampled at `t`).
-    pub fn time_in(&self, other: &Plan, segment: usize, t: f64) -> f64 {
-        let (a, b) = (&self.plans[segment], &other.plans[segment]);
-        let tau = t - a.t_start_s;
-        let shifted = if tau <= a.duration_s {
-            tau
-        } else if tau <= a.span_s() && a.wait_s > 0.0 {
-            a.duration_s + (tau - a.duration_s) * b.wait_s / a.wait_s
-        } else {
-            tau - a.wait_s + b.wait_s
-        };
-        b.t_start_s + shifted
     }
 }
 
