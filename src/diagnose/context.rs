@@ -118,8 +118,8 @@ impl Context<'_> {
         self.measured.time_s(i) - offset_s
     }
 
-    /// measured − simulated at the context's samples.
-    pub fn raw_residual(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> Vec<f64> {
+    /// measured − simulated at the context's samples (what point-by-point fits minimise).
+    pub fn residual(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> Vec<f64> {
         let m = self.measured_axis(axis);
         self.samples
             .iter()
@@ -139,11 +139,6 @@ impl Context<'_> {
             .iter()
             .map(|&i| sample(trace, self.dt, self.prog_time(i, offset_s)))
             .collect()
-    }
-
-    /// measured − simulated at the context's samples (what point-by-point fits minimise).
-    pub fn residual(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> Vec<f64> {
-        self.raw_residual(axis, trace, offset_s)
     }
 
     /// d(simulated)/dt at the samples: how the residual changes with the offset.
@@ -333,8 +328,8 @@ pub fn context<'a>(
         align_stretches(&mut ctx, machine, x, y, offset)
     };
     let rms = rms(&[
-        ctx.raw_residual(AxisName::X, &x, offset),
-        ctx.raw_residual(AxisName::Y, &y, offset),
+        ctx.residual(AxisName::X, &x, offset),
+        ctx.residual(AxisName::Y, &y, offset),
     ]
     .concat());
     if rms > 0.5e-3 {
@@ -456,8 +451,8 @@ fn coarse_offset(ctx: &Context, x: &[f64], y: &[f64]) -> Option<f64> {
 fn refine_offset(ctx: &Context, x: &[f64], y: &[f64], start: f64) -> f64 {
     let cost = |o: f64| {
         let r = [
-            ctx.raw_residual(AxisName::X, x, o),
-            ctx.raw_residual(AxisName::Y, y, o),
+            ctx.residual(AxisName::X, x, o),
+            ctx.residual(AxisName::Y, y, o),
         ]
         .concat();
         r.iter().map(|v| v * v).sum::<f64>()
