@@ -195,10 +195,10 @@ pub fn find_hotspots(run: &RunView, cfg: &HotspotConfig, max: usize) -> Vec<Hots
             Some(h)
         })
         .collect();
-    if let Some((k, _)) = run.contour.max_abs() {
-        if !windows.iter().any(|&(lo, hi, _)| (lo..=hi).contains(&k)) {
-            spots.push(hotspot(run, k, Cause::GlobalMaximum));
-        }
+    if let Some((k, _)) = run.contour.max_abs()
+        && !windows.iter().any(|&(lo, hi, _)| (lo..=hi).contains(&k))
+    {
+        spots.push(hotspot(run, k, Cause::GlobalMaximum));
     }
     spots.retain(|h| h.error_um.is_finite());
     spots.sort_by(|a, b| b.error_um.abs().total_cmp(&a.error_um.abs()));
@@ -262,12 +262,12 @@ fn reversal_events(run: &RunView) -> Vec<Event> {
             &c.y.vel_m_per_s
         };
         let mut last_sign = 0.0;
-        for k in 0..v.len() {
+        for (k, &vk) in v.iter().enumerate() {
             // Ignore the speed noise of a standing axis.
-            if v[k].abs() < 1e-9 {
+            if vk.abs() < 1e-9 {
                 continue;
             }
-            let sign = v[k].signum();
+            let sign = vk.signum();
             if last_sign != 0.0 && sign != last_sign && cutting(run, k) {
                 let cause = if run.backlash_m[axis.index()] > 0.0
                     && gap_crossed(run.traces[axis.index()], k, run)
@@ -360,8 +360,8 @@ fn stick_slip_events(run: &RunView, cfg: &HotspotConfig) -> Vec<Event> {
         };
         let stuck = |k: usize| trace.mode[k] % 3 == 2;
         let mut toggles: Vec<usize> = Vec::new();
-        for k in 1..trace.mode.len().min(v.len()) {
-            let slow = v[k].abs() > 0.0 && v[k].abs() < cfg.slow_m_per_s;
+        for (k, vk) in v.iter().enumerate().take(trace.mode.len()).skip(1) {
+            let slow = vk.abs() > 0.0 && vk.abs() < cfg.slow_m_per_s;
             if slow && cutting(run, k) && stuck(k) != stuck(k - 1) {
                 toggles.push(k);
             }

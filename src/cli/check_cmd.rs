@@ -46,12 +46,12 @@ pub struct CheckArgs {
 }
 
 pub fn run(args: &CheckArgs) -> Result<Outcome, CliError> {
-    if let Some(t) = args.tolerance {
-        if !(t.is_finite() && t > 0.0) {
-            return Err(CliError::Usage(format!(
-                "--tolerance {t}: must be a positive number of µm"
-            )));
-        }
+    if let Some(t) = args.tolerance
+        && !(t.is_finite() && t > 0.0)
+    {
+        return Err(CliError::Usage(format!(
+            "--tolerance {t}: must be a positive number of µm"
+        )));
     }
     let machine = args.machine.load()?;
     let mut settings = CheckSettings::for_machine(&machine);

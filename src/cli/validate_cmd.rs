@@ -97,7 +97,8 @@ fn print_trends(machine: &crate::machine::MachineConfig, sim: &SimConfig) -> Res
     println!(
         "\nStart-up at 500 mm/min from rest (paper Figs. 17–19): peak error, error at 20 ms, 1 % settling"
     );
-    let sweeps: [(&str, Vec<f64>, fn(&mut crate::machine::AxisConfig, f64)); 3] = [
+    type Setter = fn(&mut crate::machine::AxisConfig, f64);
+    let sweeps: [(&str, Vec<f64>, Setter); 3] = [
         ("fs/fc", vec![1.0, 1.1, 1.2, 1.3, 1.4], |a, v| {
             a.friction.static_to_coulomb = v
         }),

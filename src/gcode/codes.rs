@@ -39,7 +39,7 @@ pub fn classify_g(code10: u16) -> CodeClass {
         400 => Accepted { group: 7 },
         430 | 431 | 432 | 490 => Accepted { group: 8 },
         980 | 990 => Accepted { group: 10 },
-        540..=590 if code10 % 10 == 0 => Accepted { group: 12 },
+        540..=590 if code10.is_multiple_of(10) => Accepted { group: 12 },
         591..=593 => Accepted { group: 12 },
         610 | 611 | 640 => Accepted { group: 13 },
         960 | 970 => Accepted { group: 14 },
@@ -54,11 +54,11 @@ pub fn classify_g(code10: u16) -> CodeClass {
         410 | 411 | 420 | 421 => Refused(CUTTER_COMP),
         500 | 510 => Refused("scaling (G50/G51) is not supported"),
         680 => Refused("coordinate rotation (G68) is not supported"),
-        700..=720 if code10 % 10 == 0 => Refused(
+        700..=720 if code10.is_multiple_of(10) => Refused(
             "G70–G72 are lathe finishing/roughing cycles (dialects that mean inch/metric by \
              G70/G71 should use G20/G21)",
         ),
-        730 | 740 | 810..=890 if code10 % 10 == 0 => Refused(CANNED),
+        730 | 740 | 810..=890 if code10.is_multiple_of(10) => Refused(CANNED),
         930 => Refused("inverse-time feed (G93) is not supported"),
         950 => Refused("feed per revolution (G95) is not supported: the spindle is not modelled"),
         _ => Unknown,
@@ -68,7 +68,7 @@ pub fn classify_g(code10: u16) -> CodeClass {
 /// Classifies an M code (number × 10; M codes are whole numbers).
 pub fn classify_m(code10: u16) -> CodeClass {
     use CodeClass::{Accepted, Refused, Unknown};
-    if code10 % 10 != 0 {
+    if !code10.is_multiple_of(10) {
         return Unknown;
     }
     match code10 / 10 {
@@ -88,7 +88,7 @@ pub fn classify_m(code10: u16) -> CodeClass {
 
 /// Writes a code as the user would: `G90.1`, `M3`.
 pub fn code_name(letter: char, code10: u16) -> String {
-    if code10 % 10 == 0 {
+    if code10.is_multiple_of(10) {
         format!("{letter}{}", code10 / 10)
     } else {
         format!("{letter}{}.{}", code10 / 10, code10 % 10)
@@ -100,7 +100,7 @@ pub fn code_name(letter: char, code10: u16) -> String {
 pub fn accepted_note(letter: char, code10: u16) -> Option<&'static str> {
     let note = match (letter, code10) {
         ('G', 400) => "cutter compensation off (no effect)",
-        ('G', 430 | 431 | 432) => "tool length offset (Z only; taken as zero)",
+        ('G', 430..=432) => "tool length offset (Z only; taken as zero)",
         ('G', 490) => "tool length offset cancelled",
         ('G', 800) => "canned cycle cancel",
         ('G', 80) => "lathe radius mode (no effect on a mill)",

@@ -543,14 +543,14 @@ impl Interpreter {
                 _ => {}
             }
         }
-        if used_axes {
-            if let Some(&(code, off)) = gs.iter().find(|(c, _)| matches!(c, 0 | 10 | 20 | 30)) {
-                let kind = GcodeErrorKind::Invalid(format!(
-                    "{} and a G10/G28/G30/G52/G92 in one block both want the axis words",
-                    codes::code_name('G', code)
-                ));
-                return err(off, kind);
-            }
+        if used_axes
+            && let Some(&(code, off)) = gs.iter().find(|(c, _)| matches!(c, 0 | 10 | 20 | 30))
+        {
+            let kind = GcodeErrorKind::Invalid(format!(
+                "{} and a G10/G28/G30/G52/G92 in one block both want the axis words",
+                codes::code_name('G', code)
+            ));
+            return err(off, kind);
         }
         Ok(used_axes)
     }
@@ -645,8 +645,8 @@ impl Interpreter {
             sin * wanted[0] + cos * wanted[1],
             wanted[2],
         ];
-        for i in 0..3 {
-            self.work_offsets_mm[index][i] = self.pos_mm[i] - self.g92_mm[i] - rotated[i];
+        for (i, r) in rotated.iter().enumerate() {
+            self.work_offsets_mm[index][i] = self.pos_mm[i] - self.g92_mm[i] - r;
         }
         self.coord_index = saved;
     }
@@ -662,8 +662,8 @@ impl Interpreter {
         let wanted = self.block_point_mm(self.machine_to_program(self.pos_mm), false);
         self.g92_mm = [0.0; 3];
         let unshifted = self.program_to_machine(wanted);
-        for i in 0..3 {
-            self.g92_mm[i] = self.pos_mm[i] - unshifted[i];
+        for (i, u) in unshifted.iter().enumerate() {
+            self.g92_mm[i] = self.pos_mm[i] - u;
         }
         self.g92_saved_mm = self.g92_mm;
         Ok(())

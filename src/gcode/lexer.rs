@@ -296,6 +296,6 @@ mod tests {
 
     #[test]
     fn expressions_are_values() {
-        assert_eq!(words("R[0.7071/4]"), vec![('R', 0.7071 / 4.0)]);
+        assert_eq!(words("R[0.75/4]"), vec![('R', 0.75 / 4.0)]);
     }
 }

@@ -283,10 +283,10 @@ pub fn plan_segments(
             duration_s,
             wait_s: 0.0,
         });
-        if let Some(ip) = &config.in_position {
-            if ends_in_exact_stop(&segments, i) {
-                plans[i].wait_s = in_position_wait(&segments, &plans, i, ip);
-            }
+        if let Some(ip) = &config.in_position
+            && ends_in_exact_stop(&segments, i)
+        {
+            plans[i].wait_s = in_position_wait(&segments, &plans, i, ip);
         }
         t += plans[i].span_s();
     }

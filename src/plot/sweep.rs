@@ -7,14 +7,17 @@ use plotters::prelude::*;
 use super::toolpath::{colormap, draw_colorbar};
 use super::{FONT, Figure, PlotResult, err, series_color};
 
+/// One curve: its name and points (x, y; y is NaN where the setting was unstable).
+pub type Curve = (String, Vec<(f64, f64)>);
+
 /// Error curves over one parameter, in panels that share the parameter axis.
 pub struct SweepLinePlot {
     /// Title.
     pub title: String,
     /// X-axis label.
     pub x_label: String,
-    /// Panels: y-axis label and curves (name, points (x, y; NaN when unstable)).
-    pub panels: Vec<(String, Vec<(String, Vec<(f64, f64)>)>)>,
+    /// Panels: y-axis label and its curves.
+    pub panels: Vec<(String, Vec<Curve>)>,
     /// Parameter values flagged unstable.
     pub unstable: Vec<f64>,
 }

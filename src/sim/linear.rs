@@ -280,20 +280,21 @@ fn first_crossing_phase(sys: &Siso, grid: &[f64], level_deg: f64) -> f64 {
                 p += 360.0;
             }
         }
-        if let Some((f0, q)) = prev {
-            if q > level_deg && p <= level_deg {
-                let (mut lo, mut hi) = (f0, f);
-                for _ in 0..60 {
-                    let mid = (lo * hi).sqrt();
-                    // Near the crossing the phase is far from the ±180° cut.
-                    if sys.response(mid).arg().to_degrees() > level_deg {
-                        lo = mid
-                    } else {
-                        hi = mid
-                    }
+        if let Some((f0, q)) = prev
+            && q > level_deg
+            && p <= level_deg
+        {
+            let (mut lo, mut hi) = (f0, f);
+            for _ in 0..60 {
+                let mid = (lo * hi).sqrt();
+                // Near the crossing the phase is far from the ±180° cut.
+                if sys.response(mid).arg().to_degrees() > level_deg {
+                    lo = mid
+                } else {
+                    hi = mid
                 }
-                return (lo * hi).sqrt();
             }
+            return (lo * hi).sqrt();
         }
         prev = Some((f, p));
     }

@@ -260,7 +260,7 @@ impl AxisModel {
                     }),
                 phase_rad: c.errors.cyclic_phase_deg.to_radians(),
             },
-            resonance: (c.errors.resonance_hz > 0.0).then(|| {
+            resonance: (c.errors.resonance_hz > 0.0).then_some({
                 (
                     std::f64::consts::TAU * c.errors.resonance_hz,
                     c.errors.resonance_damping,

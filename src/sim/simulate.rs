@@ -234,15 +234,15 @@ impl<'a> AxisSim<'a> {
             done += consumed;
             let before = *mode;
             self.switch_mode(x, mode);
-            if let Some(ev) = events.as_deref_mut() {
-                if before.friction != mode.friction {
-                    let t_event = t + self.cache.step_s() * done as f64 / full as f64;
-                    ev.push(FrictionEvent {
-                        t_s: t_event,
-                        x_m: x[X2],
-                        to: mode.friction,
-                    });
-                }
+            if let Some(ev) = events.as_deref_mut()
+                && before.friction != mode.friction
+            {
+                let t_event = t + self.cache.step_s() * done as f64 / full as f64;
+                ev.push(FrictionEvent {
+                    t_s: t_event,
+                    x_m: x[X2],
+                    to: mode.friction,
+                });
             }
             self.events_in_step += 1;
             if self.events_in_step > MAX_EVENTS_PER_STEP {
@@ -295,7 +295,7 @@ impl<'a> AxisSim<'a> {
 
     fn switch_friction(&mut self, x: &mut Aug, mode: &mut Mode) -> bool {
         let m = self.model;
-        let f_e = ((m.nut_force(&self.signals, mode.contact) - unit(FX)) * &*x)[0];
+        let f_e = ((m.nut_force(&self.signals, mode.contact) - unit(FX)) * *x)[0];
         let v = x[V2];
         let want = match mode.friction {
             FrictionMode::SlipPos if v < 0.0 => self.at_zero_speed(f_e),
@@ -341,9 +341,9 @@ impl<'a> AxisSim<'a> {
             Limit::Current => mode.current,
             Limit::Voltage => mode.voltage,
         };
-        let y = (c.output * &*x)[0];
-        let held_rate = (c.held_rate * &*x)[0];
-        let natural_rate = (c.natural_rate * &*x)[0];
+        let y = (c.output * *x)[0];
+        let held_rate = (c.held_rate * *x)[0];
+        let natural_rate = (c.natural_rate * *x)[0];
         let l = c.limit;
         use ClampMode::*;
         let want = match current {
