@@ -3,10 +3,10 @@
 //! written as a measurement would be (noise of 0.3 µm, a clock offset nobody tells the
 //! diagnosis) and read back from the CSV text. The diagnosis gets only what a user has: the
 //! program, the nominal machine and the measured CSV. It must name the cause and the axis,
-//! fit the hidden value within 25 %, and bring the residual down by half or to the noise
-//! floor — measured where the cause shows: the whole-record RMS for causes that act
-//! everywhere, the RMS in windows around events for local ones, the mismatch of chatter
-//! amplitude for stick-slip. With nothing hidden it must name nothing.
+//! fit the hidden value within 25 % and within four of its stated uncertainties, and bring
+//! the residual down by half or to the noise floor — measured where the cause shows: the
+//! whole-record RMS for causes that act everywhere, the RMS in windows around events for
+//! local ones, the mismatch of chatter amplitude for stick-slip. With nothing hidden it must name nothing.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -97,6 +97,14 @@ fn assert_found(name: &str, cause: CauseId, axis: AxisName, hidden: &[f64], seed
             p.uncertainty.is_finite() && p.uncertainty > 0.0,
             "{}: uncertainty {}",
             p.key,
+            p.uncertainty
+        );
+        // An honest uncertainty covers the hidden value.
+        assert!(
+            (p.value - truth).abs() <= 4.0 * p.uncertainty,
+            "{name}: {} = {} ± {} leaves the hidden {truth} outside 4σ",
+            p.key,
+            p.value,
             p.uncertainty
         );
     }

@@ -202,8 +202,9 @@ pub fn fit_statistical(
         .map(|s| (chi2(s), s))
         .min_by(|a, b| a.0.total_cmp(&b.0))?;
     let (values, best) = nelder_mead(start, start_cost, params, &chi2);
-    let sigma = curvature_sigma(params, &values, best, &chi2);
     let trace = simulate(&values)?;
+    let n_terms = ctx.statistical_residual(axis, &trace, offset_s).len();
+    let sigma = curvature_sigma(params, &values, best, n_terms, &chi2);
     let sum_sq = |v: Vec<f64>| v.iter().map(|x| x * x).sum::<f64>();
     let rss = sum_sq(ctx.residual(axis, &trace, offset_s))
         + sum_sq(ctx.residual(axis.other(), other, offset_s));
@@ -230,30 +231,111 @@ fn accept(params: &[Param], f: Fitted) -> Option<Fitted> {
     (!pinned && f.sigma.iter().all(|s| s.is_finite())).then_some(f)
 }
 
-/// Standard uncertainties from the curvature of a −2 log-likelihood at its minimum: along
-/// each parameter, J(v ± h) − J(v) ≈ (h/σ)².
+/// Standard uncertainties of a statistical fit from the curvature of its χ² (a −2
+/// log-likelihood) around the minimum `best` over `n_terms` terms.
+///
+/// The χ² of chatter statistics is rough: a slightly different friction gives another
+/// realisation of the slips, and χ² jumps by tens between neighbouring points. A curvature
+/// from three points would measure that jitter, so a quadratic is fitted by least squares to
+/// a grid spanning ±20 % of each value, and its Hessian — all of it, since parameters that
+/// trade off (Stribeck level against velocity) lie along a valley only the inverse shows —
+/// gives the covariance 2·H⁻¹. Where the fit leaves more χ² than its degrees of freedom, the
+/// spreads the terms were scaled by were too small, and the covariance grows by that ratio
+/// (Birge's ratio). NaN only when the quadratic cannot be fitted.
 fn curvature_sigma(
     params: &[Param],
     values: &[f64],
     best: f64,
+    n_terms: usize,
     objective: &dyn Fn(&[f64]) -> f64,
 ) -> Vec<f64> {
-    params
+    let n = params.len();
+    let h: Vec<f64> = params
         .iter()
-        .enumerate()
-        .map(|(j, q)| {
-            let h = 0.05 * values[j].abs().max(0.05 * q.scale);
-            let at = |d: f64| {
-                let mut v = values.to_vec();
-                v[j] += d;
-                objective(&v)
-            };
-            let curvature = (at(h) + at(-h) - 2.0 * best) / (h * h);
-            if curvature > 0.0 {
-                (2.0 / curvature).sqrt()
+        .zip(values)
+        .map(|(q, v)| 0.1 * v.abs().max(0.05 * q.scale))
+        .collect();
+    let levels: &[f64] = if n <= 2 {
+        &[-2.0, -1.0, 0.0, 1.0, 2.0]
+    } else {
+        &[-2.0, 0.0, 2.0]
+    };
+    let mut design = vec![Vec::new()];
+    for _ in 0..n {
+        design = design
+            .into_iter()
+            .flat_map(|d: Vec<f64>| {
+                levels.iter().map(move |&l| {
+                    let mut d = d.clone();
+                    d.push(l);
+                    d
+                })
+            })
+            .collect();
+    }
+    // The quadratic in steps u (units of h): c + Σ bⱼuⱼ + ½ Σⱼ Hⱼⱼuⱼ² + Σⱼ<ₖ Hⱼₖuⱼuₖ.
+    let quadratic_terms: Vec<(usize, usize)> =
+        (0..n).flat_map(|j| (0..=j).map(move |k| (j, k))).collect();
+    let columns = 1 + n + quadratic_terms.len();
+    let mut a = DMatrix::<f64>::zeros(design.len(), columns);
+    let mut y = DVector::<f64>::zeros(design.len());
+    for (row, u) in design.iter().enumerate() {
+        let v: Vec<f64> = values
+            .iter()
+            .zip(u)
+            .zip(&h)
+            .map(|((v, u), h)| v + u * h)
+            .collect();
+        y[row] = if u.iter().all(|&u| u == 0.0) {
+            best
+        } else {
+            objective(&v)
+        };
+        a[(row, 0)] = 1.0;
+        for j in 0..n {
+            a[(row, 1 + j)] = u[j];
+        }
+        for (c, &(j, k)) in quadratic_terms.iter().enumerate() {
+            a[(row, 1 + n + c)] = if j == k {
+                0.5 * u[j] * u[j]
             } else {
-                f64::NAN
+                u[j] * u[k]
+            };
+        }
+    }
+    let Ok(coefficients) = a.svd(true, true).solve(&y, 1e-12) else {
+        return vec![f64::NAN; n];
+    };
+    // The Hessian in steps, and its principal directions.
+    let mut hessian = DMatrix::<f64>::zeros(n, n);
+    for (c, &(j, k)) in quadratic_terms.iter().enumerate() {
+        hessian[(j, k)] = coefficients[1 + n + c];
+        hessian[(k, j)] = coefficients[1 + n + c];
+    }
+    let birge = (best / (n_terms as f64 - n as f64).max(1.0)).max(1.0);
+    let eigen = hessian.symmetric_eigen();
+    // Along a direction in which χ² does not rise by 2·birge within the grid (flat, or
+    // falling: a valley the data leave open), the data only say the value is not pinned
+    // within the grid: its half-width stands for the uncertainty there.
+    let half_width = levels[levels.len() - 1];
+    let variance_in_steps: Vec<f64> = eigen
+        .eigenvalues
+        .iter()
+        .map(|&curvature| {
+            let variance = 2.0 * birge / curvature;
+            if curvature > 0.0 && variance < half_width * half_width {
+                variance
+            } else {
+                half_width * half_width
             }
+        })
+        .collect();
+    (0..n)
+        .map(|j| {
+            let steps_sq: f64 = (0..n)
+                .map(|i| eigen.eigenvectors[(j, i)].powi(2) * variance_in_steps[i])
+                .sum();
+            h[j] * steps_sq.sqrt()
         })
         .collect()
 }
