@@ -108,17 +108,22 @@ fn a_bad_program_names_file_line_and_column_and_writes_nothing() {
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
 }
 
-#[test]
-fn a_bad_machine_file_names_the_key() {
+/// `check` of the square on a machine file `name` holding `toml`.
+fn check_square_on_machine(name: &str, toml: &str) -> std::process::Output {
     let dir = tempfile::tempdir().unwrap();
-    let m = dir.path().join("m.toml");
-    std::fs::write(&m, "[y.friction]\nstatic_to_coulomb = 0.8\n").unwrap();
-    let o = run(&[
+    let m = dir.path().join(name);
+    std::fs::write(&m, toml).unwrap();
+    run(&[
         "check",
         sample("square.nc").to_str().unwrap(),
         "--machine",
         m.to_str().unwrap(),
-    ]);
+    ])
+}
+
+#[test]
+fn a_bad_machine_file_names_the_key() {
+    let o = check_square_on_machine("m.toml", "[y.friction]\nstatic_to_coulomb = 0.8\n");
     assert_eq!(o.status.code(), Some(2));
     let err = text(&o.stderr);
     assert!(
@@ -132,15 +137,10 @@ fn missing_files_and_unstable_gains_are_errors_not_panics() {
     let o = run(&["check", "/nonexistent/part.nc"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o.stderr).contains("/nonexistent/part.nc"));
-    let dir = tempfile::tempdir().unwrap();
-    let m = dir.path().join("hot.toml");
-    std::fs::write(&m, "[x.position_loop]\nkv_m_per_min_per_mm = 40.0\n").unwrap();
-    let o = run(&[
-        "check",
-        sample("square.nc").to_str().unwrap(),
-        "--machine",
-        m.to_str().unwrap(),
-    ]);
+    let o = check_square_on_machine(
+        "hot.toml",
+        "[x.position_loop]\nkv_m_per_min_per_mm = 40.0\n",
+    );
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o.stderr).contains("unstable"), "{}", text(&o.stderr));
 }

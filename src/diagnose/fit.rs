@@ -255,11 +255,8 @@ fn curvature_sigma(
         .zip(values)
         .map(|(q, v)| 0.1 * v.abs().max(0.05 * q.scale))
         .collect();
-    let levels: &[f64] = if n <= 2 {
-        &[-2.0, -1.0, 0.0, 1.0, 2.0]
-    } else {
-        &[-2.0, 0.0, 2.0]
-    };
+    // Five levels a parameter: 25 points for the catalogue's two-parameter causes.
+    let levels = [-2.0, -1.0, 0.0, 1.0, 2.0];
     let mut design = vec![Vec::new()];
     for _ in 0..n {
         design = design
