@@ -216,3 +216,60 @@ proptest! {
         }
     }
 }
+
+/// Regression: during the in-position wait after an exact stop the ideal profile's sampled
+/// command held x_ref but kept v_ref = F (a zero-duration ramp evaluated at its end gave
+/// its start speed). The simulator integrates x_ref + v_ref·τ + a_ref·τ²/2 inside each
+/// cycle, so the held command became a sawtooth on average F·T/2 ahead of the programme.
+///
+/// The invariant that catches it: each cycle's polynomial must arrive where the next sample
+/// starts, except at the few instants where the profile itself jumps (the ideal profile's
+/// velocity steps, the trapezoid's acceleration steps).
+#[test]
+fn each_cycle_of_the_command_arrives_where_the_next_one_starts() {
+    // Ramp and reverse with exact stops: F1000 out, wait, back.
+    let src = "G21 G61 F1000\nG1 X20\nG1 X0\nG1 X20\n";
+    let f = 1000.0 / 60_000.0;
+    for profile in [
+        ProfileKind::Ideal,
+        ProfileKind::Trapezoid,
+        ProfileKind::SCurve,
+    ] {
+        let (p, c, limits) = plan_text(src, profile);
+        let dt = c.dt_s;
+        let (a_max, j_max) = (limits.axes[0].accel_m_per_s2, limits.axes[0].jerk_m_per_s3);
+        // What a smooth profile may miss by within one cycle, and what counts as a jump.
+        let (smooth, jumps_allowed) = match profile {
+            // Velocity steps: two per segment, each missing by at most F·T.
+            ProfileKind::Ideal => (1e-12, 2 * p.segments.len()),
+            // Acceleration steps: four per segment, each missing by at most a·T²/2.
+            ProfileKind::Trapezoid => (1e-12, 4 * p.segments.len()),
+            // Jerk-limited: a cubic, missed by at most j·T³/6 per cycle.
+            ProfileKind::SCurve => (j_max * dt.powi(3) / 6.0 * 1.01, 0),
+        };
+        let cap = match profile {
+            ProfileKind::Ideal => f * dt * 1.0001,
+            _ => a_max * dt * dt / 2.0 * 1.0001 + smooth,
+        };
+        let x = &c.x;
+        let mut jumps = 0;
+        for k in 0..c.len() - 1 {
+            let arrives = x.pos_m[k] + x.vel_m_per_s[k] * dt + 0.5 * x.acc_m_per_s2[k] * dt * dt;
+            let miss = (arrives - x.pos_m[k + 1]).abs();
+            assert!(miss <= cap, "{profile}: cycle {k} misses by {miss:e} m");
+            if miss > smooth {
+                jumps += 1;
+            }
+        }
+        assert!(
+            jumps <= jumps_allowed,
+            "{profile}: {jumps} cycles whose polynomial misses the next sample"
+        );
+        // And a standing command stands: zero velocity and acceleration while held.
+        for k in 1..c.len() {
+            if x.pos_m[k] == x.pos_m[k - 1] {
+                assert_eq!((x.vel_m_per_s[k - 1], x.acc_m_per_s2[k - 1]), (0.0, 0.0));
+            }
+        }
+    }
+}

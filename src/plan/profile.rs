@@ -87,7 +87,13 @@ impl Ramp {
     /// Distance, velocity and acceleration at time `t` ∈ [0, duration] from the start.
     pub fn eval(&self, t: f64) -> (f64, f64, f64) {
         let (v0, a) = (self.v0, self.a_peak);
-        let t = t.clamp(0.0, self.duration());
+        // At and after the end the ramp has arrived: the target speed, no acceleration. (An
+        // instantaneous ramp of the ideal profile has zero duration, and its phase formulas
+        // below would still give the start speed there.)
+        if t >= self.duration() {
+            return (self.distance(), self.v1, 0.0);
+        }
+        let t = t.max(0.0);
         let tj = self.t_j;
         let j = if tj > 0.0 { a / tj } else { 0.0 };
         // End of the first jerk phase.
