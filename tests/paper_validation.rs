@@ -396,3 +396,49 @@ fn linear_step_and_ramp_responses_match_the_closed_form() {
         v / model.kv_per_s()
     );
 }
+
+/// Regression: with the default 0.5 ms step a brief dip of the table speed through zero —
+/// two sign changes inside one step — went unseen, because the friction guard was only
+/// checked at step ends. At 4.51 mm/min the axis then slid for ever, where steps of
+/// 0.125 ms and less stuck after a slip of about 1.8 µm, and the critical velocity
+/// depended on the step. The switch belongs at the zero crossing (MODEL.md §1.6), so the
+/// stick-slip verdict and the critical velocity must not depend on the step.
+#[test]
+fn a_speed_dip_through_zero_inside_one_step_sticks() {
+    let model = AxisModel::from_config(&preset().x);
+    let slip_um = |substeps| {
+        let mut cfg = stickslip::StickSlipConfig::default();
+        cfg.sim.substeps = substeps;
+        stickslip::run(&model, mm_per_min(4.51), &cfg)
+            .unwrap()
+            .max_counted_slip_m
+            * 1e6
+    };
+    // 0.5 ms (the default), 0.125 ms and 50 µs steps.
+    let (coarse, fine, finest) = (slip_um(4), slip_um(16), slip_um(40));
+    assert!(finest >= 1.0, "the fine-step reference sticks: {finest} µm");
+    assert!(
+        (coarse - finest).abs() < 0.01 && (fine - finest).abs() < 0.01,
+        "slips {coarse} / {fine} / {finest} µm at 0.5 / 0.125 / 0.05 ms"
+    );
+}
+
+#[test]
+fn the_critical_velocity_does_not_depend_on_the_step() {
+    let model = AxisModel::from_config(&preset().x);
+    let critical = |substeps| {
+        let mut cfg = stickslip::StickSlipConfig::default();
+        cfg.sim.substeps = substeps;
+        cfg.resolution_m_per_s = mm_per_min(0.0005);
+        let feeds = [mm_per_min(4.0), mm_per_min(5.0)];
+        let c = stickslip::critical_velocity(&model, &feeds, &cfg)
+            .unwrap()
+            .expect("bracketed between 4 and 5 mm/min");
+        c.feed_m_per_s * 60_000.0
+    };
+    let (coarse, finest) = (critical(4), critical(40));
+    assert!(
+        (coarse - finest).abs() <= 0.001,
+        "critical velocity {coarse} mm/min at 0.5 ms, {finest} at 50 µs"
+    );
+}

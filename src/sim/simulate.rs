@@ -35,8 +35,24 @@ struct Guard {
 }
 
 /// Rows of a kernel: the 13 states, then up to 8 guards (friction 2, contact 2, current 2,
-/// voltage 2). 24 keeps the columns a multiple of four for vector units.
+/// voltage 2), then the table's acceleration while sliding. 24 keeps the columns a multiple
+/// of four for vector units.
 const ROWS: usize = 24;
+
+/// A sliding table's speed may dip through zero and come back within one step: both ends
+/// satisfy the guard, yet the table should have stuck in between (MODEL.md §1.6 puts the
+/// switch at the zero crossing). The table's acceleration is a linear functional of the
+/// state too, so a kernel of a sliding mode also yields it at the chunk's end; when it turns
+/// from against the motion to with it inside the chunk, the speed has a minimum there,
+/// located on the cubic through both ends' speeds and accelerations.
+struct DipWatch {
+    /// dV2/dt as a row on [x; u] (m/s² per unit of each entry).
+    accel_row: Row,
+    /// +1 sliding forwards, −1 backwards: the speed in the direction of motion is sign·V2.
+    sign: f64,
+    /// The chunk's duration (s).
+    dt: f64,
+}
 
 /// One step of one mode at one level, fused with the mode's guards: a single column-major
 /// product gives the next state and every guard's value at it.
@@ -44,10 +60,21 @@ struct Kernel {
     cols: [[f64; ROWS]; NA],
     guards: usize,
     tol: [f64; ROWS - N],
+    dip: Option<DipWatch>,
+}
+
+/// g·[x'; u] with x' = M·[x; u], as a column entry per input j: the state part composed
+/// with the map, plus the row's own input part.
+fn compose(row: &Row, map: &super::discrete::StepMap, j: usize) -> f64 {
+    let mut v = if j >= N { row[j] } else { 0.0 };
+    for i in 0..N {
+        v += row[i] * map[(i, j)];
+    }
+    v
 }
 
 impl Kernel {
-    fn new(map: &super::discrete::StepMap, guards: &[Guard]) -> Kernel {
+    fn new(map: &super::discrete::StepMap, guards: &[Guard], dip: Option<DipWatch>) -> Kernel {
         let mut cols = [[0.0; ROWS]; NA];
         for (j, col) in cols.iter_mut().enumerate() {
             for i in 0..N {
@@ -56,22 +83,41 @@ impl Kernel {
         }
         let mut tol = [0.0; ROWS - N];
         for (k, g) in guards.iter().enumerate() {
-            // g·[x'; u] with x' = M·[x; u]: the state part composed with the map, plus the
-            // guard's own input part.
             for (j, col) in cols.iter_mut().enumerate() {
-                let mut v = if j >= N { g.row[j] } else { 0.0 };
-                for i in 0..N {
-                    v += g.row[i] * map[(i, j)];
-                }
-                col[N + k] = v;
+                col[N + k] = compose(&g.row, map, j);
             }
             tol[k] = g.tol;
+        }
+        if let Some(d) = &dip {
+            for (j, col) in cols.iter_mut().enumerate() {
+                col[N + guards.len()] = compose(&d.accel_row, map, j);
+            }
         }
         Kernel {
             cols,
             guards: guards.len(),
             tol,
+            dip,
         }
+    }
+
+    /// Whether a sliding table's speed passes through zero strictly inside the chunk from
+    /// `x` to `y` (the end itself is the guards' business).
+    #[inline]
+    fn dips_through_zero(&self, x: &Aug, y: &[f64; ROWS]) -> bool {
+        let Some(d) = &self.dip else {
+            return false;
+        };
+        let a1 = d.sign * y[N + self.guards];
+        if a1 <= 0.0 {
+            return false; // still slowing at the end: any crossing is at the end
+        }
+        let a0 = d.sign * (d.accel_row * x)[0];
+        if a0 >= 0.0 {
+            return false; // speeding up from the start: no interior minimum
+        }
+        let v = hermite_minimum(d.sign * x[V2], d.sign * y[V2], a0 * d.dt, a1 * d.dt);
+        v < -TOL_SPEED
     }
 
     /// Next state and guard values.
@@ -175,7 +221,18 @@ impl<'a> AxisSim<'a> {
         if self.kernels[slot].is_none() {
             let guards = self.build_guards(mode);
             let map = *self.cache.map(self.model, mode, level);
-            self.kernels[slot] = Some(Box::new(Kernel::new(&map, &guards)));
+            let sign = match mode.friction {
+                FrictionMode::SlipPos => Some(1.0),
+                FrictionMode::SlipNeg => Some(-1.0),
+                FrictionMode::Stick => None,
+            };
+            // At the finest level the end guard alone resolves the crossing.
+            let dip = sign.filter(|_| level < LEVELS).map(|sign| DipWatch {
+                accel_row: self.cache.dynamics(self.model, mode).row(V2).into_owned(),
+                sign,
+                dt: self.cache.step_s() / (1u64 << level) as f64,
+            });
+            self.kernels[slot] = Some(Box::new(Kernel::new(&map, &guards, dip)));
         }
         self.kernels[slot].as_ref().expect("just built")
     }
@@ -186,7 +243,7 @@ impl<'a> AxisSim<'a> {
     fn try_step(&mut self, mode: Mode, level: usize, x: &mut Aug) -> bool {
         let kernel = self.kernel(mode, level);
         let y = kernel.apply(x);
-        let ok = kernel.guards_hold(&y);
+        let ok = kernel.guards_hold(&y) && !kernel.dips_through_zero(x, &y);
         if ok {
             x.as_mut_slice()[..N].copy_from_slice(&y[..N]);
         }
@@ -489,6 +546,31 @@ fn clamp_guards(g: &mut Vec<Guard>, mode: ClampMode, c: &ClampSignals, tol: f64)
             });
         }
     }
+}
+
+/// The lowest value of the cubic Hermite interpolant on [0, 1] with end values `v0`, `v1`
+/// and end slopes `m0 < 0 < m1` (slopes per unit interval): its derivative changes sign
+/// once inside, found by bisection (this runs only at the rare chunks that qualify).
+fn hermite_minimum(v0: f64, v1: f64, m0: f64, m1: f64) -> f64 {
+    let value = |u: f64| {
+        let (u2, u3) = (u * u, u * u * u);
+        (2.0 * u3 - 3.0 * u2 + 1.0) * v0
+            + (u3 - 2.0 * u2 + u) * m0
+            + (-2.0 * u3 + 3.0 * u2) * v1
+            + (u3 - u2) * m1
+    };
+    let slope = |u: f64| {
+        let u2 = u * u;
+        (6.0 * u2 - 6.0 * u) * (v0 - v1)
+            + (3.0 * u2 - 4.0 * u + 1.0) * m0
+            + (3.0 * u2 - 2.0 * u) * m1
+    };
+    let (mut lo, mut hi) = (0.0, 1.0);
+    for _ in 0..40 {
+        let mid = 0.5 * (lo + hi);
+        if slope(mid) < 0.0 { lo = mid } else { hi = mid }
+    }
+    value(0.5 * (lo + hi))
 }
 
 fn unit(i: usize) -> Row {
