@@ -1,18 +1,20 @@
 //! The main job: a part program on a machine → where and by how much the machine will
 //! leave the programmed contour, and why.
 //!
-//! plan → sample → simulate X and Y (in parallel) → contour error → hotspots. Pure: no I/O,
+//! plan → execute (interpolate and simulate X and Y, in-position checks on the simulated
+//! axes) → contour error → hotspots. Pure: no I/O,
 //! so that sweeps can run it many times in parallel.
 
 use serde::Serialize;
 
 use crate::contour::{ContourSeries, contour_errors};
+use crate::execute::{ExecConfig, Execution, execute};
 use crate::gcode::Program;
 use crate::hotspot::{Hotspot, HotspotConfig, RunView, find_hotspots};
 use crate::machine::MachineConfig;
 use crate::path::{Geometry, Motion};
-use crate::plan::{Commands, KinematicLimits, Plan, PlanConfig, plan, sample};
-use crate::sim::{AxisModel, AxisTrace, SimConfig, SimError, simulate_with_progress};
+use crate::plan::{Commands, KinematicLimits, Plan, PlanConfig, plan};
+use crate::sim::{AxisModel, AxisTrace, SimConfig, SimError};
 
 /// Settings of a check.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -28,6 +30,15 @@ pub struct CheckSettings {
 }
 
 impl CheckSettings {
+    /// The execution settings within these.
+    pub fn exec(&self) -> ExecConfig {
+        ExecConfig {
+            sim: self.sim,
+            settle_s: self.settle_s,
+            ..ExecConfig::default()
+        }
+    }
+
     /// Defaults for a machine.
     pub fn for_machine(machine: &MachineConfig) -> Self {
         CheckSettings {
@@ -87,41 +98,49 @@ pub fn check(
     machine: &MachineConfig,
     settings: &CheckSettings,
 ) -> Result<CheckRun, SimError> {
-    let (planned, commands) = plan_commands(program, machine, settings);
-    simulate_plan(planned, commands, machine, settings, &|_| {})
+    let run = execute_program(program, machine, settings, &|_| {})?;
+    Ok(analyse(run, machine, settings))
 }
 
-/// The plan of a program and its commands, with the settling tail.
+/// Plans a program and runs it on the machine as its control does (the in-position waits
+/// from the simulated axes), with the settling tail. `progress` is told how many samples
+/// of either axis are done, now and then.
+pub fn execute_program(
+    program: &Program,
+    machine: &MachineConfig,
+    settings: &CheckSettings,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Execution, SimError> {
+    let planned = plan(program, &KinematicLimits::of(machine), &settings.plan);
+    execute(planned, machine, &settings.exec(), progress)
+}
+
+/// The plan of a program and its commands with the settling tail, the waits at exact stops
+/// as the planner estimates them (a first-order position loop). This is the timeline
+/// `diagnose` fits on: it moves continuously with the gains, where simulated waits move in
+/// whole interpolation cycles and would make a fit's objective a staircase.
 pub fn plan_commands(
     program: &Program,
     machine: &MachineConfig,
     settings: &CheckSettings,
 ) -> (Plan, Commands) {
     let planned = plan(program, &KinematicLimits::of(machine), &settings.plan);
-    let mut commands = sample(&planned);
+    let mut commands = crate::plan::sample(&planned);
     commands.hold(settings.settle_s);
     (planned, commands)
 }
 
-/// Simulates planned commands and analyses them (the part of [`check`] after planning).
-/// `progress` is told how many samples of either axis are done, now and then.
-pub fn simulate_plan(
-    planned: Plan,
-    commands: Commands,
-    machine: &MachineConfig,
-    settings: &CheckSettings,
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<CheckRun, SimError> {
-    let (mx, my) = (
-        AxisModel::from_config(&machine.x),
-        AxisModel::from_config(&machine.y),
-    );
-    let (x, y) = rayon::join(
-        || simulate_with_progress(&mx, &commands.x, commands.dt_s, &settings.sim, progress),
-        || simulate_with_progress(&my, &commands.y, commands.dt_s, &settings.sim, progress),
-    );
-    let (x, y) = (x?, y?);
+/// The contour error, hotspots and figures of an executed program (the part of [`check`]
+/// after the simulation).
+pub fn analyse(run: Execution, machine: &MachineConfig, settings: &CheckSettings) -> CheckRun {
+    let Execution {
+        plan: planned,
+        commands,
+        x,
+        y,
+    } = run;
     let contour = contour_errors(&planned, &commands, &x.pos_m, &y.pos_m);
+    let [mx, my] = [&machine.x, &machine.y].map(AxisModel::from_config);
     let view = RunView {
         plan: &planned,
         commands: &commands,
@@ -132,7 +151,7 @@ pub fn simulate_plan(
     let kv = mx.kv_per_s().min(my.kv_per_s());
     let hotspots = find_hotspots(&view, &HotspotConfig::for_kv(kv), settings.max_hotspots);
     let summary = summarize(&planned, &commands, [&x, &y], &contour);
-    Ok(CheckRun {
+    CheckRun {
         plan: planned,
         commands,
         x,
@@ -141,7 +160,7 @@ pub fn simulate_plan(
         hotspots,
         summary,
         settings: *settings,
-    })
+    }
 }
 
 fn summarize(

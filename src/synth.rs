@@ -2,6 +2,10 @@
 //! catalogue — runs a program, and its trace is written as a user's measurement would be:
 //! sampled on the measurement's own clock (offset from the program's), with noise.
 //!
+//! The control's waits at exact stops are the planner's estimate, the timeline `diagnose`
+//! compares on ([`crate::check::plan_commands`]), not the simulated in-position checks of
+//! `check`.
+//!
 //! Users run it to see what each cause looks like; the tests use it to hide an effect and
 //! ask `diagnose` to find it from what a user would have.
 

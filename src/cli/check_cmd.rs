@@ -6,9 +6,11 @@ use clap::Args;
 
 use super::Outcome;
 use super::common::{CliError, MachineArgs, PlanningArgs, load_program, progress};
-use crate::check::{CheckRun, CheckSettings, circle_tests, plan_commands, simulate_plan};
+use crate::check::{CheckRun, CheckSettings, analyse, circle_tests};
+use crate::execute::execute;
 use crate::output::OutputBatch;
 use crate::path::{Geometry, Motion};
+use crate::plan::{KinematicLimits, plan};
 use crate::plot::along_path::AlongPathPlot;
 use crate::plot::polar::{PolarPlot, PolarTrace};
 use crate::plot::toolpath::{Marker, PathPoint, ToolpathPlot};
@@ -57,10 +59,13 @@ pub fn run(args: &CheckArgs) -> Result<Outcome, CliError> {
     let mut settings = CheckSettings::for_machine(&machine);
     settings.plan = args.planning.config(&machine)?;
     let program = load_program(&args.program)?;
-    let (planned, commands) = plan_commands(&program, &machine, &settings);
-    let bar = progress(2 * commands.len() as u64, "simulating X and Y");
-    let run = simulate_plan(planned, commands, &machine, &settings, &|n| bar.inc(n))?;
+    let planned = plan(&program, &KinematicLimits::of(&machine), &settings.plan);
+    // The waits at exact stops come out of the simulation: the plan's estimate sizes the bar.
+    let samples = (planned.total_time_s + settings.settle_s) / planned.config.cycle_s;
+    let bar = progress(2 * samples.ceil() as u64, "simulating X and Y");
+    let run = execute(planned, &machine, &settings.exec(), &|n| bar.inc(n))?;
     bar.finish_and_clear();
+    let run = analyse(run, &machine, &settings);
     let report = CheckReport::new(&run, &program, &machine, args.tolerance);
     write_outputs(args, &run, &report)?;
     print!("{}", summary_text(&report, args.hotspots));

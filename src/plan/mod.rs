@@ -27,7 +27,7 @@ use crate::units::{
 };
 use profile::{Dynamics, SegmentProfile, reachable_speed};
 
-pub use sample::{AxisCommands, AxisPeaks, Commands, sample};
+pub use sample::{AxisCommands, AxisPeaks, Commands, Sampler, sample};
 
 /// The shape of the speed profile.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -215,9 +215,9 @@ impl Plan {
     }
 
     /// The same motion under another in-position check (another gain, another window),
-    /// each segment's wait lengthened by `extra_wait_s[i]` (shortened when negative, never
-    /// below zero; missing entries are zero): only the waits, and with them the start times,
-    /// change.
+    /// each segment's estimated wait lengthened by `extra_wait_s[i]` (shortened when
+    /// negative, never below zero; missing entries are zero): only the waits, and with them
+    /// the start times, change.
     pub fn with_waits(&self, in_position: Option<InPosition>, extra_wait_s: &[f64]) -> Plan {
         let mut p = self.clone();
         p.config.in_position = in_position;
@@ -300,7 +300,7 @@ pub fn plan_segments(
 }
 
 /// A motion segment the control stops exactly after, before a next block that moves.
-fn ends_in_exact_stop(segments: &[Segment], i: usize) -> bool {
+pub fn ends_in_exact_stop(segments: &[Segment], i: usize) -> bool {
     let seg = &segments[i];
     let next_moves = segments.get(i + 1).is_some_and(|n| !n.is_dwell());
     !seg.is_dwell() && next_moves && (seg.motion == Motion::Rapid || seg.blend == Blend::ExactStop)

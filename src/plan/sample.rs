@@ -89,6 +89,17 @@ impl Commands {
         self.len().saturating_sub(1) as f64 * self.dt_s
     }
 
+    /// Keeps the first `len` samples.
+    pub fn truncate(&mut self, len: usize) {
+        for c in [&mut self.x, &mut self.y] {
+            c.pos_m.truncate(len);
+            c.vel_m_per_s.truncate(len);
+            c.acc_m_per_s2.truncate(len);
+        }
+        self.z_m.truncate(len);
+        self.segment.truncate(len);
+    }
+
     /// Appends `seconds` of standing still at the last position, so that the axes can settle
     /// after the program ends.
     pub fn hold(&mut self, seconds: f64) {
@@ -137,7 +148,8 @@ impl AxisCommands {
     }
 }
 
-/// Samples a plan at its interpolation cycle, from t = 0 to the end of the program.
+/// Samples a plan at its interpolation cycle, from t = 0 to the end of the program, with
+/// the plan's own waits at exact stops.
 pub fn sample(plan: &Plan) -> Commands {
     let dt = plan.config.cycle_s;
     // Up to and including the first sample at or after the end, so the end point is reached.
@@ -146,30 +158,65 @@ pub fn sample(plan: &Plan) -> Commands {
         dt_s: dt,
         ..Default::default()
     };
-    for c in [&mut out.x, &mut out.y] {
-        c.pos_m.reserve(n);
-        c.vel_m_per_s.reserve(n);
-        c.acc_m_per_s2.reserve(n);
-    }
-    out.z_m.reserve(n);
-    out.segment.reserve(n);
+    out.reserve(n);
     if plan.segments.is_empty() {
         return out;
     }
-    let mut index = 0;
-    let mut profile = plan.plans[0].profile();
+    let mut sampler = Sampler::new(plan, 0, plan.segments.len() - 1);
     for k in 0..n {
-        let t = k as f64 * dt;
-        // Advance to the segment that holds t (the later one at a boundary).
-        while index + 1 < plan.plans.len() && t >= plan.plans[index + 1].t_start_s {
-            index += 1;
-            profile = plan.plans[index].profile();
+        sampler.push(k as f64 * dt, &mut out);
+    }
+    out
+}
+
+impl Commands {
+    /// Room for `more` samples.
+    pub fn reserve(&mut self, more: usize) {
+        for c in [&mut self.x, &mut self.y] {
+            c.pos_m.reserve(more);
+            c.vel_m_per_s.reserve(more);
+            c.acc_m_per_s2.reserve(more);
         }
-        let (seg, sp) = (&plan.segments[index], &plan.plans[index]);
+        self.z_m.reserve(more);
+        self.segment.reserve(more);
+    }
+}
+
+/// The interpolator over a run of a plan's segments: commands at increasing times, walking
+/// forward from segment to segment (never past `last`, whose end it holds once reached).
+pub struct Sampler<'p> {
+    plan: &'p Plan,
+    index: usize,
+    last: usize,
+    profile: super::profile::SegmentProfile,
+}
+
+impl<'p> Sampler<'p> {
+    /// A sampler over segments `first..=last` of a plan, whose start times must be set.
+    pub fn new(plan: &'p Plan, first: usize, last: usize) -> Self {
+        Sampler {
+            plan,
+            index: first,
+            last,
+            profile: plan.plans[first].profile(),
+        }
+    }
+
+    /// Appends the commands at time `t` (s on the plan's clock; not before the last call's).
+    pub fn push(&mut self, t: f64, out: &mut Commands) {
+        let plan = self.plan;
+        // Advance to the segment that holds t (the later one at a boundary).
+        while self.index < self.last && t >= plan.plans[self.index + 1].t_start_s {
+            self.index += 1;
+            self.profile = plan.plans[self.index].profile();
+        }
+        let (seg, sp) = (&plan.segments[self.index], &plan.plans[self.index]);
+        // Past the motion (an in-position wait, the program end) the profile holds its end:
+        // the end point, at rest.
         let tau = (t - sp.t_start_s).clamp(0.0, sp.duration_s);
         let (s, v, a) = match seg.geometry {
             Geometry::Dwell { .. } => (0.0, 0.0, 0.0),
-            _ => profile.eval(tau),
+            _ => self.profile.eval(tau),
         };
         let p = seg.eval(s.min(sp.length_m), sp.length_m);
         // Axis acceleration: tangential part plus the curvature's v².
@@ -184,7 +231,6 @@ pub fn sample(plan: &Plan) -> Commands {
         out.x.push(x.0, x.1, x.2);
         out.y.push(y.0, y.1, y.2);
         out.z_m.push(p.pos[2]);
-        out.segment.push(index as u32);
+        out.segment.push(self.index as u32);
     }
-    out
 }

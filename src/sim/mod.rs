@@ -12,7 +12,7 @@ pub mod simulate;
 pub mod stickslip;
 
 pub use model::{AxisModel, FrictionMode, Mode};
-pub use simulate::{simulate, simulate_with_progress};
+pub use simulate::{AxisRun, simulate, simulate_with_progress};
 
 use model::{Aug, I, W_M, X2, XR};
 
@@ -111,6 +111,14 @@ impl AxisTrace {
             mode: Vec::with_capacity(n),
             friction_events: Vec::new(),
         }
+    }
+
+    fn reserve(&mut self, more: usize) {
+        self.pos_m.reserve(more);
+        self.ref_m.reserve(more);
+        self.motor_speed_rad_per_s.reserve(more);
+        self.current_a.reserve(more);
+        self.mode.reserve(more);
     }
 
     fn push(&mut self, x: &Aug, mode: Mode) {

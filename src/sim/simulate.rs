@@ -650,62 +650,197 @@ pub fn simulate_with_progress(
     config: &SimConfig,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<AxisTrace, SimError> {
-    super::linear::check_stable(model)?;
-    let delayed_commands;
-    let commands = if model.dead_time_s > 0.0 {
-        delayed_commands = delayed(commands, dt_s, model.dead_time_s);
-        &delayed_commands
-    } else {
-        commands
-    };
-    let n = commands.len();
-    let substeps = config.substeps.max(1) as usize;
-    let h = dt_s / substeps as f64;
-    let mut sim = AxisSim::new(model, h);
     let x0 = commands.pos_m.first().copied().unwrap_or(0.0);
-    let (mut x, mut mode) = rest_state(model, x0);
-    let mut trace = AxisTrace::with_capacity(dt_s, n);
-    let mut friction_events = config.record_friction_events.then(Vec::new);
-    let per_substep_inputs = model.stribeck.is_some() || model.measuring.is_active();
-    let mut lateral_dl = 0.0;
-    for k in 0..n {
+    let mut run = AxisRun::new(model, x0, dt_s, config)?;
+    run.follow(commands, 0..commands.len(), progress)?;
+    Ok(run.finish())
+}
+
+/// One axis simulated cycle by cycle, so that a caller can decide each next command from
+/// what the axis has done so far — as a control's in-position check does at an exact stop.
+/// [`simulate`] is this run fed with a whole command list.
+pub struct AxisRun<'a> {
+    model: &'a AxisModel,
+    sim: AxisSim<'a>,
+    x: Aug,
+    mode: Mode,
+    dt_s: f64,
+    substeps: usize,
+    divergence_limit_m: f64,
+    trace: AxisTrace,
+    friction_events: Option<Vec<FrictionEvent>>,
+    per_substep_inputs: bool,
+    lateral_dl: f64,
+    /// The commands as the position controller receives them after the dead time.
+    delay: Option<DelayLine>,
+    /// The control's position reading as a row on the state.
+    feedback: Row,
+}
+
+impl<'a> AxisRun<'a> {
+    /// An axis at rest at `x0_m` (m), advanced in cycles of `dt_s` (s). An unstable gain
+    /// setting is refused here, before any step.
+    pub fn new(
+        model: &'a AxisModel,
+        x0_m: f64,
+        dt_s: f64,
+        config: &SimConfig,
+    ) -> Result<Self, SimError> {
+        super::linear::check_stable(model)?;
+        let substeps = config.substeps.max(1) as usize;
+        let (x, mode) = rest_state(model, x0_m);
+        Ok(AxisRun {
+            model,
+            sim: AxisSim::new(model, dt_s / substeps as f64),
+            x,
+            mode,
+            dt_s,
+            substeps,
+            divergence_limit_m: config.divergence_limit_m,
+            trace: AxisTrace::with_capacity(dt_s, 0),
+            friction_events: config.record_friction_events.then(Vec::new),
+            per_substep_inputs: model.stribeck.is_some() || model.measuring.is_active(),
+            lateral_dl: 0.0,
+            delay: (model.dead_time_s > 0.0).then(|| DelayLine::new(model.dead_time_s, dt_s, x0_m)),
+            feedback: model.signals().x_fb,
+        })
+    }
+
+    /// Cycles done so far (= samples recorded).
+    pub fn cycles(&self) -> usize {
+        self.trace.len()
+    }
+
+    /// Where the control reads the axis now (m): its position feedback — the linear scale,
+    /// or the motor encoder through the nominal lead — as the in-position check sees it.
+    pub fn feedback_m(&self) -> f64 {
+        (self.feedback * self.x)[0]
+    }
+
+    /// Records the sample at the start of this cycle with the command (position m,
+    /// velocity m/s, acceleration m/s²), then integrates over the cycle.
+    pub fn advance(
+        &mut self,
+        pos_m: f64,
+        vel_m_per_s: f64,
+        acc_m_per_s2: f64,
+    ) -> Result<(), SimError> {
+        let k = self.trace.len();
+        let (p, v, a) = match &mut self.delay {
+            Some(line) => line.push_and_read(pos_m, vel_m_per_s, acc_m_per_s2),
+            None => (pos_m, vel_m_per_s, acc_m_per_s2),
+        };
         // The reference of this interpolation cycle: x + v·τ + a·τ²/2, integrated exactly.
-        x[XR] = commands.pos_m[k];
-        x[VR] = commands.vel_m_per_s[k];
-        x[AR] = commands.acc_m_per_s2[k];
-        if let Some(lat) = &model.lateral {
+        self.x[XR] = p;
+        self.x[VR] = v;
+        self.x[AR] = a;
+        if let Some(lat) = &self.model.lateral {
             // Nut travel K_λ·r·θ_s: the lead scale enters as an offset on δ. It changes by
             // parts in 1e10 over a cycle, so once per interpolation cycle is exact enough.
-            lateral_dl = (lat.k_lambda(x[X2]) - 1.0) * model.r * x[TH_S];
-            x[DL] = lateral_dl;
+            self.lateral_dl = (lat.k_lambda(self.x[X2]) - 1.0) * self.model.r * self.x[TH_S];
+            self.x[DL] = self.lateral_dl;
         }
-        trace.push(&x, mode);
-        if k + 1 == n {
-            break;
-        }
-        for sub in 0..substeps {
-            if per_substep_inputs {
-                substep_inputs(model, &mut x, mode, lateral_dl);
+        self.trace.push(&self.x, self.mode);
+        for sub in 0..self.substeps {
+            if self.per_substep_inputs {
+                substep_inputs(self.model, &mut self.x, self.mode, self.lateral_dl);
             }
-            let t = (k as f64 + sub as f64 / substeps as f64) * dt_s;
-            sim.step(&mut x, &mut mode, t, friction_events.as_mut())?;
+            let t = (k as f64 + sub as f64 / self.substeps as f64) * self.dt_s;
+            self.sim.step(
+                &mut self.x,
+                &mut self.mode,
+                t,
+                self.friction_events.as_mut(),
+            )?;
         }
-        if (k + 1) % PROGRESS_EVERY == 0 {
-            progress(PROGRESS_EVERY as u64);
-        }
-        let lag = x[XR] - x[X2];
-        if !lag.is_finite() || lag.abs() > config.divergence_limit_m {
+        let lag = self.x[XR] - self.x[X2];
+        if !lag.is_finite() || lag.abs() > self.divergence_limit_m {
             return Err(SimError::Diverged {
-                t_s: (k + 1) as f64 * dt_s,
+                t_s: (k + 1) as f64 * self.dt_s,
                 error_m: lag,
             });
         }
+        Ok(())
     }
-    trace.friction_events = friction_events.unwrap_or_default();
-    if let Some((omega, zeta)) = model.resonance {
-        add_structural_mode(&mut trace.pos_m, dt_s, omega, zeta);
+
+    /// Advances through `commands[range]`, one cycle per sample.
+    pub fn follow(
+        &mut self,
+        commands: &AxisCommands,
+        range: std::ops::Range<usize>,
+        progress: &(dyn Fn(u64) + Sync),
+    ) -> Result<(), SimError> {
+        self.trace.reserve(range.len());
+        let mut since_report = 0;
+        for k in range {
+            self.advance(
+                commands.pos_m[k],
+                commands.vel_m_per_s[k],
+                commands.acc_m_per_s2[k],
+            )?;
+            since_report += 1;
+            if since_report == PROGRESS_EVERY {
+                progress(since_report as u64);
+                since_report = 0;
+            }
+        }
+        Ok(())
     }
-    Ok(trace)
+
+    /// The recorded trace (one sample per cycle advanced), with the structural mode at the
+    /// measured point added when the model has one.
+    pub fn finish(mut self) -> AxisTrace {
+        self.trace.friction_events = self.friction_events.take().unwrap_or_default();
+        if let Some((omega, zeta)) = self.model.resonance {
+            add_structural_mode(&mut self.trace.pos_m, self.dt_s, omega, zeta);
+        }
+        self.trace
+    }
+}
+
+/// The commands as the position controller receives them a dead time later: each sample
+/// re-evaluated that long back on the interpolator's own polynomial (standing still before
+/// the first).
+struct DelayLine {
+    dead_s: f64,
+    dt_s: f64,
+    x0_m: f64,
+    /// Recent commands; `first` is the cycle index of the front.
+    recent: std::collections::VecDeque<(f64, f64, f64)>,
+    first: usize,
+    next: usize,
+}
+
+impl DelayLine {
+    fn new(dead_s: f64, dt_s: f64, x0_m: f64) -> Self {
+        DelayLine {
+            dead_s,
+            dt_s,
+            x0_m,
+            recent: std::collections::VecDeque::new(),
+            first: 0,
+            next: 0,
+        }
+    }
+
+    fn push_and_read(&mut self, p: f64, v: f64, a: f64) -> (f64, f64, f64) {
+        self.recent.push_back((p, v, a));
+        let k = self.next;
+        self.next += 1;
+        let t = k as f64 * self.dt_s - self.dead_s;
+        if t < 0.0 {
+            return (self.x0_m, 0.0, 0.0);
+        }
+        let j = ((t / self.dt_s).floor() as usize).min(k);
+        // Older commands are never read again.
+        while self.first < j {
+            self.recent.pop_front();
+            self.first += 1;
+        }
+        let tau = t - j as f64 * self.dt_s;
+        let (p, v, a) = self.recent[j - self.first];
+        (p + v * tau + 0.5 * a * tau * tau, v + a * tau, a)
+    }
 }
 
 /// Inputs held over one sub-step that depend on the state: the Stribeck excess while
@@ -723,28 +858,6 @@ fn substep_inputs(model: &AxisModel, x: &mut Aug, mode: Mode, lateral_dl: f64) {
             Feedback::MotorEncoder => x[DL] = lateral_dl + model.measuring.at(model.r * x[TH_S]),
         }
     }
-}
-
-/// The commands as the position controller receives them `dead_s` later: each sample
-/// re-evaluated `dead_s` back on the interpolator's own polynomial (standing still before
-/// the first).
-fn delayed(c: &AxisCommands, dt_s: f64, dead_s: f64) -> AxisCommands {
-    let mut out = AxisCommands::default();
-    for k in 0..c.len() {
-        let t = k as f64 * dt_s - dead_s;
-        let (p, v, a) = if t < 0.0 {
-            (c.pos_m[0], 0.0, 0.0)
-        } else {
-            let j = ((t / dt_s).floor() as usize).min(c.len() - 1);
-            let tau = t - j as f64 * dt_s;
-            let (p, v, a) = (c.pos_m[j], c.vel_m_per_s[j], c.acc_m_per_s2[j]);
-            (p + v * tau + 0.5 * a * tau * tau, v + a * tau, a)
-        };
-        out.pos_m.push(p);
-        out.vel_m_per_s.push(v);
-        out.acc_m_per_s2.push(a);
-    }
-    out
 }
 
 /// Adds the response q of a structural mode (ω, ζ) at the measured point to the table's

@@ -1,0 +1,238 @@
+//! Running a plan as the control runs it: the interpolator and both simulated axes advance
+//! together, so that at every exact stop the in-position check is made on the simulated
+//! axes themselves.
+//!
+//! A control holds the next block after an exact stop (a rapid's end, a G61 block) until
+//! every axis's position reading lies within the exact-stop window of the commanded end
+//! point, checking once per interpolation cycle. How long that takes depends on everything
+//! the axis model holds — the loop gains, but also friction, backlash and the feed-forward —
+//! so the planner's waits are only an estimate; here each wait is what the simulated check
+//! gives, a whole number of interpolation cycles, and the plan is re-timed with it.
+//!
+//! Between two exact stops the axes do not influence each other, so each such stretch is
+//! simulated for X and Y in parallel; the waits are then stepped cycle by cycle.
+
+use crate::gcode::Warning;
+use crate::machine::MachineConfig;
+use crate::path::Segment;
+use crate::plan::{Commands, Plan, Sampler, ends_in_exact_stop};
+use crate::sim::{AxisModel, AxisRun, AxisTrace, SimConfig, SimError};
+use crate::units::um_from_m;
+
+/// Settings of an execution.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ExecConfig {
+    /// Simulator settings.
+    pub sim: SimConfig,
+    /// Standing time after the program end, so the axes settle (s).
+    pub settle_s: f64,
+    /// The longest an in-position check may take before the run goes on with a warning
+    /// (s). A control raises its positioning-monitoring alarm after such a time (on a
+    /// SINUMERIK 840D machine data 36020 POSITIONING_TIME, 1 s by default).
+    pub in_position_timeout_s: f64,
+}
+
+impl Default for ExecConfig {
+    fn default() -> Self {
+        ExecConfig {
+            sim: SimConfig::default(),
+            settle_s: 0.3,
+            in_position_timeout_s: 1.0,
+        }
+    }
+}
+
+/// A plan as the machine ran it.
+#[derive(Debug, Clone)]
+pub struct Execution {
+    /// The plan, re-timed with the simulated in-position waits (warnings added for checks
+    /// that timed out).
+    pub plan: Plan,
+    /// The commands (with the settling tail).
+    pub commands: Commands,
+    /// X trace, one sample per command.
+    pub x: AxisTrace,
+    /// Y trace, one sample per command.
+    pub y: AxisTrace,
+}
+
+/// Stretches shorter than this (samples) are simulated on one thread: splitting them over
+/// two costs more than it saves.
+const PARALLEL_FROM: usize = 256;
+
+/// Runs a plan on a machine, the in-position waits decided by the simulated axes.
+/// `progress` is told how many samples of either axis are done, now and then.
+pub fn execute(
+    mut plan: Plan,
+    machine: &MachineConfig,
+    config: &ExecConfig,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Execution, SimError> {
+    let models = [
+        AxisModel::from_config(&machine.x),
+        AxisModel::from_config(&machine.y),
+    ];
+    let dt = plan.config.cycle_s;
+    let mut commands = Commands {
+        dt_s: dt,
+        ..Default::default()
+    };
+    let start = plan.segments.first().map_or([0.0; 3], |s| s.start_m);
+    let mut runs = [
+        AxisRun::new(&models[0], start[0], dt, &config.sim)?,
+        AxisRun::new(&models[1], start[1], dt, &config.sim)?,
+    ];
+    let n = plan.segments.len();
+    let window_m = plan.config.in_position.map(|ip| ip.window_m);
+    let mut first = 0;
+    let mut t0 = 0.0;
+    while first < n {
+        let last = stretch_end(&plan.segments, first, window_m.is_some());
+        let t_end = time_stretch(&mut plan, first, last, t0);
+        let at_program_end = last + 1 == n;
+        // Up to the first sample at or after the motion's end — included at the program
+        // end, so that the end point is reached; otherwise the wait begins there.
+        let k_end = (t_end / dt).ceil() as usize + usize::from(at_program_end);
+        let k_start = commands.len();
+        let mut sampler = Sampler::new(&plan, first, last);
+        for k in k_start..k_end {
+            sampler.push(k as f64 * dt, &mut commands);
+        }
+        follow_both(&mut runs, &commands, k_start..k_end, progress)?;
+        if at_program_end {
+            break;
+        }
+        let window_m = window_m.expect("a stretch ends early only at an exact stop");
+        let waited = wait_in_position(&mut runs, &mut sampler, &mut commands, window_m, config)?;
+        if let Some(misses) = waited.timed_out {
+            plan.warnings.push(in_position_warning(
+                plan.segments[last].line,
+                misses,
+                window_m,
+                config.in_position_timeout_s,
+            ));
+        }
+        t0 = commands.len() as f64 * dt;
+        plan.plans[last].wait_s = t0 - t_end;
+        first = last + 1;
+    }
+    plan.total_time_s = plan.plans.last().map_or(0.0, |p| p.t_start_s + p.span_s());
+    let k_settle = commands.len();
+    commands.hold(config.settle_s);
+    follow_both(&mut runs, &commands, k_settle..commands.len(), progress)?;
+    let [x, y] = runs.map(AxisRun::finish);
+    Ok(Execution {
+        plan,
+        commands,
+        x,
+        y,
+    })
+}
+
+/// The last segment of the stretch that starts at `first`: the first one the control
+/// stops exactly after (when it checks positions at all), or the program's last.
+fn stretch_end(segments: &[Segment], first: usize, checks_in_position: bool) -> usize {
+    let n = segments.len();
+    (first..n)
+        .find(|&i| checks_in_position && ends_in_exact_stop(segments, i))
+        .unwrap_or(n - 1)
+}
+
+/// Sets the start times of segments `first..=last` from `t0` with no waits between them
+/// (none of them but the last ends in an exact stop), and returns when the motion ends.
+fn time_stretch(plan: &mut Plan, first: usize, last: usize, t0: f64) -> f64 {
+    let mut t = t0;
+    for p in &mut plan.plans[first..=last] {
+        p.t_start_s = t;
+        p.wait_s = 0.0;
+        t += p.duration_s;
+    }
+    t
+}
+
+/// Advances both axes through `commands[range]`, in parallel when that pays.
+fn follow_both(
+    runs: &mut [AxisRun; 2],
+    commands: &Commands,
+    range: std::ops::Range<usize>,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(), SimError> {
+    let [rx, ry] = runs;
+    let (x, y) = if range.len() >= PARALLEL_FROM {
+        rayon::join(
+            || rx.follow(&commands.x, range.clone(), progress),
+            || ry.follow(&commands.y, range.clone(), progress),
+        )
+    } else {
+        (
+            rx.follow(&commands.x, range.clone(), progress),
+            ry.follow(&commands.y, range.clone(), progress),
+        )
+    };
+    x.and(y)
+}
+
+/// How an in-position wait ended.
+struct Waited {
+    /// When the check timed out: each axis's distance from the end point then (m).
+    timed_out: Option<[f64; 2]>,
+}
+
+/// Holds the commanded end point, one cycle at a time, until both axes read within the
+/// window of it (checked at each cycle's start, as the control does) or the check times
+/// out.
+fn wait_in_position(
+    runs: &mut [AxisRun; 2],
+    sampler: &mut Sampler,
+    commands: &mut Commands,
+    window_m: f64,
+    config: &ExecConfig,
+) -> Result<Waited, SimError> {
+    let dt = commands.dt_s;
+    let max_cycles = (config.in_position_timeout_s / dt).ceil() as usize;
+    for cycle in 0..=max_cycles {
+        let k = commands.len();
+        // The held end point, as the interpolator gives it past the motion.
+        sampler.push(k as f64 * dt, commands);
+        let target = [commands.x.pos_m[k], commands.y.pos_m[k]];
+        let misses = [0, 1].map(|a| (target[a] - runs[a].feedback_m()).abs());
+        if misses.iter().all(|&m| m <= window_m) || cycle == max_cycles {
+            // The next block starts at this sample: it is not the wait's.
+            commands.truncate(k);
+            let timed_out =
+                (cycle == max_cycles && misses.iter().any(|&m| m > window_m)).then_some(misses);
+            return Ok(Waited { timed_out });
+        }
+        let [rx, ry] = runs;
+        rx.advance(
+            commands.x.pos_m[k],
+            commands.x.vel_m_per_s[k],
+            commands.x.acc_m_per_s2[k],
+        )?;
+        ry.advance(
+            commands.y.pos_m[k],
+            commands.y.vel_m_per_s[k],
+            commands.y.acc_m_per_s2[k],
+        )?;
+    }
+    unreachable!("the loop returns at its last cycle")
+}
+
+fn in_position_warning(line: u32, misses_m: [f64; 2], window_m: f64, timeout_s: f64) -> Warning {
+    let axes: Vec<String> = ["X", "Y"]
+        .iter()
+        .zip(misses_m)
+        .filter(|(_, m)| *m > window_m)
+        .map(|(a, m)| format!("{a} {:.1} µm", um_from_m(m)))
+        .collect();
+    Warning {
+        line,
+        message: format!(
+            "the axes did not come within the {:.1} µm in-position window of this block's end \
+             within {timeout_s} s (still off: {}); a control would stop with a \
+             positioning-monitoring alarm — the run goes on",
+            um_from_m(window_m),
+            axes.join(", ")
+        ),
+    }
+}
