@@ -79,8 +79,8 @@ pub fn execute(
     };
     let start = plan.segments.first().map_or([0.0; 3], |s| s.start_m);
     let mut runs = [
-        AxisRun::new(&models[0], start[0], dt, &config.sim)?,
-        AxisRun::new(&models[1], start[1], dt, &config.sim)?,
+        AxisRun::new(&models[0], start[0], dt, &config.sim).map_err(|e| e.on_axis('X', None))?,
+        AxisRun::new(&models[1], start[1], dt, &config.sim).map_err(|e| e.on_axis('Y', None))?,
     ];
     let n = plan.segments.len();
     let window_m = plan.config.in_position.map(|ip| ip.window_m);
@@ -98,12 +98,16 @@ pub fn execute(
         for k in k_start..k_end {
             sampler.push(k as f64 * dt, &mut commands);
         }
-        follow_both(&mut runs, &commands, k_start..k_end, progress)?;
-        if at_program_end {
+        follow_both(&mut runs, &commands, k_start..k_end, progress)
+            .map_err(|e| placed(e, &plan))?;
+        // The program's end is an exact stop too: the control reports it done when the
+        // axes are in position.
+        let Some(window_m) = window_m else {
+            debug_assert!(at_program_end, "a stretch ends early only at an exact stop");
             break;
-        }
-        let window_m = window_m.expect("a stretch ends early only at an exact stop");
-        let waited = wait_in_position(&mut runs, &mut sampler, &mut commands, window_m, config)?;
+        };
+        let waited = wait_in_position(&mut runs, &mut sampler, &mut commands, window_m, config)
+            .map_err(|e| placed(e, &plan))?;
         if let Some(misses) = waited.timed_out {
             plan.warnings.push(in_position_warning(
                 plan.segments[last].line,
@@ -114,12 +118,16 @@ pub fn execute(
         }
         t0 = commands.len() as f64 * dt;
         plan.plans[last].wait_s = t0 - t_end;
+        if at_program_end {
+            break;
+        }
         first = last + 1;
     }
     plan.total_time_s = plan.plans.last().map_or(0.0, |p| p.t_start_s + p.span_s());
     let k_settle = commands.len();
     commands.hold(config.settle_s);
-    follow_both(&mut runs, &commands, k_settle..commands.len(), progress)?;
+    follow_both(&mut runs, &commands, k_settle..commands.len(), progress)
+        .map_err(|e| placed(e, &plan))?;
     let [x, y] = runs.map(AxisRun::finish);
     Ok(Execution {
         plan,
@@ -169,7 +177,19 @@ fn follow_both(
             ry.follow(&commands.y, range.clone(), progress),
         )
     };
-    x.and(y)
+    x.map_err(|e| e.on_axis('X', None))
+        .and(y.map_err(|e| e.on_axis('Y', None)))
+}
+
+/// An axis's failure placed at the program line running when it happened.
+fn placed(error: SimError, plan: &Plan) -> SimError {
+    match error {
+        SimError::OnAxis { axis, source, .. } => {
+            let line = source.t_s().and_then(|t| plan.line_at(t));
+            source.on_axis(axis, line)
+        }
+        other => other,
+    }
 }
 
 /// How an in-position wait ended.
@@ -208,12 +228,14 @@ fn wait_in_position(
             commands.x.pos_m[k],
             commands.x.vel_m_per_s[k],
             commands.x.acc_m_per_s2[k],
-        )?;
+        )
+        .map_err(|e| e.on_axis('X', None))?;
         ry.advance(
             commands.y.pos_m[k],
             commands.y.vel_m_per_s[k],
             commands.y.acc_m_per_s2[k],
-        )?;
+        )
+        .map_err(|e| e.on_axis('Y', None))?;
     }
     unreachable!("the loop returns at its last cycle")
 }

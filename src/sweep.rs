@@ -278,10 +278,15 @@ fn run_point(
             least_damping,
             poorly_damped: least_damping < POOR_DAMPING,
         },
-        Err(SimError::Unstable { frequency_hz, .. }) => PointResult::Unstable {
-            axis: AxisName::X,
-            frequency_hz,
-        },
+        Err(e) if let SimError::Unstable { frequency_hz, .. } = *e.innermost() => {
+            PointResult::Unstable {
+                axis: match &e {
+                    SimError::OnAxis { axis: 'Y', .. } => AxisName::Y,
+                    _ => AxisName::X,
+                },
+                frequency_hz,
+            }
+        }
         Err(e) => PointResult::Invalid {
             reason: e.to_string(),
         },

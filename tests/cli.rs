@@ -139,10 +139,15 @@ fn missing_files_and_unstable_gains_are_errors_not_panics() {
     assert!(text(&o.stderr).contains("/nonexistent/part.nc"));
     let o = check_square_on_machine(
         "hot.toml",
-        "[x.position_loop]\nkv_m_per_min_per_mm = 40.0\n",
+        "[y.position_loop]\nkv_m_per_min_per_mm = 40.0\n",
     );
     assert_eq!(o.status.code(), Some(2));
-    assert!(text(&o.stderr).contains("unstable"), "{}", text(&o.stderr));
+    let err = text(&o.stderr);
+    // Which axis, and which keys set its loops.
+    assert!(
+        err.contains("Y axis: unstable") && err.contains("position_loop.kv_m_per_min_per_mm"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -1,11 +1,16 @@
 //! The real-program corpus in `../shared/gcode-corpus/` (programs written by others, with a
 //! manifest of where each came from and whether LinuxCNC's interpreter accepts it): every
 //! XY program LinuxCNC accepts must interpret, and every program in `reject/` must be refused
-//! with an error that names its line and column.
+//! with an error that names its line and column; and every such program must check under
+//! every speed profile and at neighbouring gains.
 
 use std::path::{Path, PathBuf};
 
+use contourcheck::check::{CheckSettings, check};
 use contourcheck::gcode::{InterpretOptions, parse_program};
+use contourcheck::machine::MachineConfig;
+use contourcheck::plan::ProfileKind;
+use rayon::prelude::*;
 
 fn corpus_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/gcode-corpus")
@@ -98,4 +103,82 @@ fn every_reject_program_is_refused_with_line_and_column() {
         accepted.is_empty(),
         "accepted programs that must be refused: {accepted:?}"
     );
+}
+
+/// Every accepted program runs through `check` under each profile, and at Kv 0.9, 1.0 and
+/// 1.1 m/min/mm (once a program stopped with chattering modes at Kv 1.0 only, a standing
+/// axis breaking away at a force within rounding of static friction). A run must end with
+/// both axes where the program ends, within the exact-stop window, and give finite figures.
+#[test]
+fn every_xy_program_linuxcnc_accepts_checks_under_every_profile_and_gain() {
+    let programs: Vec<_> = manifest()
+        .into_iter()
+        .filter(|e| e.category != "reject" && e.linuxcnc_accepts)
+        .map(|e| {
+            let p = parse_program(&read(&e), &e.file, &InterpretOptions::default())
+                .unwrap_or_else(|err| panic!("{err}"));
+            (e.file, p)
+        })
+        .collect();
+    let mut cases = Vec::new();
+    for (file, program) in &programs {
+        for profile in [
+            ProfileKind::SCurve,
+            ProfileKind::Trapezoid,
+            ProfileKind::Ideal,
+        ] {
+            cases.push((file, program, profile, 1.0));
+        }
+        for kv in [0.9, 1.1] {
+            cases.push((file, program, ProfileKind::SCurve, kv));
+        }
+    }
+    let failures: Vec<String> = cases
+        .par_iter()
+        .filter_map(|&(file, program, profile, kv)| {
+            let mut machine = MachineConfig::default_preset();
+            machine.x.position_loop.kv_m_per_min_per_mm = kv;
+            machine.y.position_loop.kv_m_per_min_per_mm = kv;
+            let mut settings = CheckSettings::for_machine(&machine);
+            settings.plan.profile = profile;
+            let why = match check(program, &machine, &settings) {
+                Err(e) => Some(e.to_string()),
+                Ok(run) => ends_where_the_program_ends(&run, &machine).err(),
+            };
+            why.map(|w| format!("{file} ({profile}, Kv {kv}): {w}"))
+        })
+        .collect();
+    assert!(programs.len() >= 60);
+    assert!(
+        failures.is_empty(),
+        "{} of {} runs failed:\n{}",
+        failures.len(),
+        cases.len(),
+        failures.join("\n")
+    );
+}
+
+fn ends_where_the_program_ends(
+    run: &contourcheck::check::CheckRun,
+    machine: &MachineConfig,
+) -> Result<(), String> {
+    let s = &run.summary;
+    if !(s.max_contour_error_m.is_finite() && s.cycle_time_s > 0.0) {
+        return Err(format!(
+            "figures: contour {} m, cycle {} s",
+            s.max_contour_error_m, s.cycle_time_s
+        ));
+    }
+    let end = run.plan.segments.last().expect("a path").end_m;
+    let window_m = machine.interpolation.in_position_window_mm * 1e-3;
+    for (axis, trace, target) in [("X", &run.x, end[0]), ("Y", &run.y, end[1])] {
+        let last = *trace.pos_m.last().expect("samples");
+        if (last - target).abs() > window_m {
+            return Err(format!(
+                "{axis} ends {:.1} µm from the program's end",
+                (last - target) * 1e6
+            ));
+        }
+    }
+    Ok(())
 }

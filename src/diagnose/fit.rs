@@ -241,7 +241,8 @@ fn accept(params: &[Param], f: Fitted) -> Option<Fitted> {
 /// trade off (Stribeck level against velocity) lie along a valley only the inverse shows —
 /// gives the covariance 2·H⁻¹. Where the fit leaves more χ² than its degrees of freedom, the
 /// spreads the terms were scaled by were too small, and the covariance grows by that ratio
-/// (Birge's ratio). NaN only when the quadratic cannot be fitted.
+/// (Birge's ratio); the jitter of χ² about the quadratic widens it further. NaN only when
+/// the quadratic cannot be fitted.
 fn curvature_sigma(
     params: &[Param],
     values: &[f64],
@@ -300,7 +301,7 @@ fn curvature_sigma(
             };
         }
     }
-    let Ok(coefficients) = a.svd(true, true).solve(&y, 1e-12) else {
+    let Ok(coefficients) = a.clone().svd(true, true).solve(&y, 1e-12) else {
         return vec![f64::NAN; n];
     };
     // The Hessian in steps, and its principal directions.
@@ -310,6 +311,13 @@ fn curvature_sigma(
         hessian[(k, j)] = coefficients[1 + n + c];
     }
     let birge = (best / (n_terms as f64 - n as f64).max(1.0)).max(1.0);
+    // The jitter: how far χ² scatters about the quadratic. Points whose smooth χ² differ by
+    // less than that cannot be ranked, so the minimum found may lie anywhere the smooth χ²
+    // rises by less than the jitter: its variance adds to the statistical one (2·jitter/H
+    // beside 2·birge/H).
+    let jitter =
+        ((&y - &a * &coefficients).norm_squared() / (design.len() - columns).max(1) as f64).sqrt();
+    let level = birge + jitter;
     let eigen = hessian.symmetric_eigen();
     // Along a direction in which χ² does not rise by 2·birge within the grid (flat, or
     // falling: a valley the data leave open), the data only say the value is not pinned
@@ -319,7 +327,7 @@ fn curvature_sigma(
         .eigenvalues
         .iter()
         .map(|&curvature| {
-            let variance = 2.0 * birge / curvature;
+            let variance = 2.0 * level / curvature;
             if curvature > 0.0 && variance < half_width * half_width {
                 variance
             } else {

@@ -214,6 +214,12 @@ impl Plan {
         self.plans.iter().map(|p| p.length_m).sum()
     }
 
+    /// The program line whose block runs (or waits) at `t_s`; the last one after the end.
+    pub fn line_at(&self, t_s: f64) -> Option<u32> {
+        let after = self.plans.partition_point(|p| p.t_start_s <= t_s);
+        self.segments.get(after.saturating_sub(1)).map(|s| s.line)
+    }
+
     /// The same motion under another in-position check (another gain, another window),
     /// each segment's estimated wait lengthened by `extra_wait_s[i]` (shortened when
     /// negative, never below zero; missing entries are zero): only the waits, and with them
@@ -299,11 +305,16 @@ pub fn plan_segments(
     }
 }
 
-/// A motion segment the control stops exactly after, before a next block that moves.
+/// A motion segment the control stops exactly after: before a next block that moves, when
+/// it is a rapid or in exact-stop mode, and always at the program's end (the program is done
+/// when the axes are in position).
 pub fn ends_in_exact_stop(segments: &[Segment], i: usize) -> bool {
     let seg = &segments[i];
     let next_moves = segments.get(i + 1).is_some_and(|n| !n.is_dwell());
-    !seg.is_dwell() && next_moves && (seg.motion == Motion::Rapid || seg.blend == Blend::ExactStop)
+    let program_end = i + 1 == segments.len();
+    !seg.is_dwell()
+        && (program_end
+            || next_moves && (seg.motion == Motion::Rapid || seg.blend == Blend::ExactStop))
 }
 
 /// How long the axes need after segment `i` to come within the window: each axis's lag at

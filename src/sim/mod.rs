@@ -46,7 +46,8 @@ pub enum SimError {
     /// The linearised closed loop has a growing mode: the gain setting is unstable.
     #[error(
         "unstable gain setting: a closed-loop mode at {frequency_hz:.1} Hz grows at \
-         {growth_per_s:.3} 1/s"
+         {growth_per_s:.3} 1/s — the loop gains are the keys position_loop.kv_m_per_min_per_mm, \
+         velocity_loop.ks_nm_s_per_rad and ts_ms, current_loop.ki_v_per_a and ti_ms"
     )]
     Unstable {
         /// Frequency of the growing mode.
@@ -63,11 +64,58 @@ pub enum SimError {
         error_m: f64,
     },
     /// Mode switches without end inside one step.
-    #[error("the friction/backlash/limit modes chatter without end at t = {t_s:.6} s")]
+    #[error(
+        "the friction/backlash/limit modes switch without end at t = {t_s:.6} s (last: {modes}); \
+         this is a defect of the simulator, not of the program"
+    )]
     Chattering {
         /// When.
         t_s: f64,
+        /// The modes it kept switching between, in words.
+        modes: String,
     },
+    /// A failure of one axis, placed in the program.
+    #[error("{axis} axis{}: {source}", near_line(*.line))]
+    OnAxis {
+        /// The axis (`X` or `Y`).
+        axis: char,
+        /// The program line running at the time, when there was one.
+        line: Option<u32>,
+        /// What went wrong.
+        source: Box<SimError>,
+    },
+}
+
+fn near_line(line: Option<u32>) -> String {
+    line.map(|l| format!(", line {l}")).unwrap_or_default()
+}
+
+impl SimError {
+    /// When it happened (s), if it happened during the run.
+    pub fn t_s(&self) -> Option<f64> {
+        match self {
+            SimError::Diverged { t_s, .. } | SimError::Chattering { t_s, .. } => Some(*t_s),
+            SimError::OnAxis { source, .. } => source.t_s(),
+            SimError::Unstable { .. } => None,
+        }
+    }
+
+    /// The failure itself, without the axis and line it was placed at.
+    pub fn innermost(&self) -> &SimError {
+        match self {
+            SimError::OnAxis { source, .. } => source.innermost(),
+            other => other,
+        }
+    }
+
+    /// The failure placed on `axis` and, when known, the program line running then.
+    pub fn on_axis(self, axis: char, line: Option<u32>) -> SimError {
+        SimError::OnAxis {
+            axis,
+            line,
+            source: Box::new(self),
+        }
+    }
 }
 
 /// A friction mode switch (for stick-slip analysis).
@@ -142,5 +190,27 @@ impl AxisTrace {
     /// Following error x_ref − x_table at sample k (m).
     pub fn following_error_m(&self, k: usize) -> f64 {
         self.ref_m[k] - self.pos_m[k]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_placed_failure_names_axis_line_and_modes() {
+        let e = SimError::Chattering {
+            t_s: 297.999,
+            modes: "stuck, nut driving +, current linear, voltage linear".into(),
+        }
+        .on_axis('X', Some(888));
+        let shown = e.to_string();
+        assert!(shown.starts_with("X axis, line 888: "), "{shown}");
+        assert!(
+            shown.contains("t = 297.999000 s") && shown.contains("stuck"),
+            "{shown}"
+        );
+        assert_eq!(e.t_s(), Some(297.999));
+        assert!(matches!(e.innermost(), SimError::Chattering { .. }));
     }
 }

@@ -338,6 +338,33 @@ impl ClampMode {
     }
 }
 
+impl std::fmt::Display for Mode {
+    /// In words, e.g. "stuck, nut driving +, current linear, voltage linear".
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let friction = match self.friction {
+            FrictionMode::SlipPos => "sliding +",
+            FrictionMode::SlipNeg => "sliding −",
+            FrictionMode::Stick => "stuck",
+        };
+        let contact = match self.contact {
+            ContactMode::Pos => "nut driving +",
+            ContactMode::Free => "nut in its gap",
+            ContactMode::Neg => "nut driving −",
+        };
+        let clamp = |c: ClampMode| match c {
+            ClampMode::Linear => "linear",
+            ClampMode::HeldHi | ClampMode::SlideHi => "at its upper limit",
+            ClampMode::HeldLo | ClampMode::SlideLo => "at its lower limit",
+        };
+        write!(
+            f,
+            "{friction}, {contact}, current {}, voltage {}",
+            clamp(self.current),
+            clamp(self.voltage)
+        )
+    }
+}
+
 /// The full mode of the piecewise-linear axis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Mode {
