@@ -123,11 +123,12 @@ pub fn plan_commands(
     program: &Program,
     machine: &MachineConfig,
     settings: &CheckSettings,
-) -> (Plan, Commands) {
+) -> Result<(Plan, Commands), SimError> {
     let planned = plan(program, &KinematicLimits::of(machine), &settings.plan);
+    crate::execute::check_run_length(&planned)?;
     let mut commands = crate::plan::sample(&planned);
     commands.hold(settings.settle_s);
-    (planned, commands)
+    Ok((planned, commands))
 }
 
 /// The contour error, hotspots and figures of an executed program (the part of [`check`]

@@ -60,6 +60,34 @@ pub struct Execution {
 /// two costs more than it saves.
 const PARALLEL_FROM: usize = 256;
 
+/// The most interpolation cycles a run holds (some 2.5 GB of commands and traces; 11 h at
+/// a 2 ms cycle).
+const MAX_CYCLES: f64 = 2.0e7;
+
+/// Refuses a plan whose run would not fit in memory, naming the block that takes longest.
+pub fn check_run_length(plan: &Plan) -> Result<(), SimError> {
+    let dt = plan.config.cycle_s;
+    // The waits and settling come on top; a 5 % margin keeps their share from mattering.
+    let cycles = plan.total_time_s * 1.05 / dt;
+    // A NaN cycle count (none should arise) is let through to fail loudly later.
+    if cycles.is_nan() || cycles <= MAX_CYCLES {
+        return Ok(());
+    }
+    let (longest_line, longest_s) = plan
+        .segments
+        .iter()
+        .zip(&plan.plans)
+        .map(|(s, p)| (s.line, p.span_s()))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or((0, 0.0));
+    Err(SimError::TooLong {
+        hours: plan.total_time_s / 3600.0,
+        longest_line,
+        longest_hours: longest_s / 3600.0,
+        limit_hours: MAX_CYCLES * dt / 1.05 / 3600.0,
+    })
+}
+
 /// Runs a plan on a machine, the in-position waits decided by the simulated axes.
 /// `progress` is told how many samples of either axis are done, now and then.
 pub fn execute(
@@ -68,6 +96,7 @@ pub fn execute(
     config: &ExecConfig,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Execution, SimError> {
+    check_run_length(&plan)?;
     let models = [
         AxisModel::from_config(&machine.x),
         AxisModel::from_config(&machine.y),

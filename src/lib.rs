@@ -10,6 +10,7 @@ pub mod check;
 pub mod cli;
 pub mod contour;
 pub mod diagnose;
+pub mod envelope;
 pub mod execute;
 pub mod gcode;
 pub mod hotspot;

@@ -318,10 +318,14 @@ pub fn parse_table(text: &str, file: &str) -> Result<Vec<TableRow>, MeasuredErro
             row: line,
             problem,
         };
-        let num = |i: usize, name: &str| -> Result<f64, MeasuredError> {
+        // Bounds as for a machine file: beyond them a value is a typing slip, not a setting.
+        let num = |i: usize, name: &str, at_most: f64| -> Result<f64, MeasuredError> {
             let text = record.get(c[i]).unwrap_or("");
             match text.parse::<f64>() {
-                Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+                Ok(v) if v.is_finite() && v > 0.0 && v <= at_most => Ok(v),
+                Ok(v) if v.is_finite() && v > at_most => Err(bad(format!(
+                    "{name} '{text}' is more than {at_most:e}: no machine has that"
+                ))),
                 _ => Err(bad(format!("{name} '{text}' is not a positive number"))),
             }
         };
@@ -329,10 +333,10 @@ pub fn parse_table(text: &str, file: &str) -> Result<Vec<TableRow>, MeasuredErro
         rows.push(TableRow {
             table: record.get(c[0]).unwrap_or("").to_string(),
             axis,
-            feed_mm_per_min: num(2, "feed_mm_per_min")?,
-            kv_m_per_min_per_mm: num(3, "kv_m_per_min_per_mm")?,
-            ks_nm_s_per_rad: num(4, "ks_nm_s_per_rad")?,
-            measured_mm: num(5, "following_error_mm")?,
+            feed_mm_per_min: num(2, "feed_mm_per_min", 1e6)?,
+            kv_m_per_min_per_mm: num(3, "kv_m_per_min_per_mm", 100.0)?,
+            ks_nm_s_per_rad: num(4, "ks_nm_s_per_rad", 1e5)?,
+            measured_mm: num(5, "following_error_mm", 1e4)?,
             line,
         });
     }
@@ -375,6 +379,19 @@ mod tests {
         assert!(e.to_string().contains("row 2"), "{e}");
         let e = parse_trace("time,x_mm,y_mm\n0,1,2\n", "m.csv").unwrap_err();
         assert!(e.to_string().contains("`t_s`"), "{e}");
+    }
+
+    #[test]
+    fn a_table_value_no_machine_has_is_refused_at_its_row() {
+        let head = "table,axis,feed_mm_per_min,kv_m_per_min_per_mm,ks_nm_s_per_rad,\
+                    following_error_mm\n3,x,500,1,16,0.5\n";
+        assert_eq!(parse_table(head, "t.csv").unwrap().len(), 1);
+        let e = parse_table(&format!("{head}3,x,1e300,1,16,0.5\n"), "t.csv").unwrap_err();
+        let shown = e.to_string();
+        assert!(
+            shown.starts_with("t.csv: row 3:") && shown.contains("feed_mm_per_min '1e300'"),
+            "{shown}"
+        );
     }
 
     #[test]

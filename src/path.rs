@@ -187,6 +187,38 @@ impl Arc {
     pub fn xy_length_m(&self) -> f64 {
         self.length_to(1.0, 0.0)
     }
+
+    /// The lowest and highest X and Y the arc reaches (m): its ends, and each point where
+    /// it passes a direction of the axes (0°, 90°, 180°, 270° about the centre).
+    pub fn xy_extent_m(&self) -> [[f64; 2]; 2] {
+        let mut ext = [[f64::INFINITY, f64::NEG_INFINITY]; 2];
+        let mut include = |p: [f64; 2]| {
+            for (e, v) in ext.iter_mut().zip(p) {
+                e[0] = e[0].min(v);
+                e[1] = e[1].max(v);
+            }
+        };
+        include(self.xy_at(0.0));
+        include(self.xy_at(1.0));
+        let quarter = std::f64::consts::FRAC_PI_2;
+        let (from, to) = if self.sweep_rad >= 0.0 {
+            (self.theta_start_rad, self.theta_start_rad + self.sweep_rad)
+        } else {
+            (self.theta_start_rad + self.sweep_rad, self.theta_start_rad)
+        };
+        // The radius changes linearly along a spiral, so over many turns the extremes lie
+        // in the first or the last turn: the quarter directions of those two suffice.
+        let (first, last) = (
+            (from / quarter).ceil() as i64,
+            (to / quarter).floor() as i64,
+        );
+        let candidates = (first..=last.min(first + 4)).chain((last - 4).max(first + 5)..=last);
+        for k in candidates.filter(|_| self.sweep_rad != 0.0) {
+            let u = (k as f64 * quarter - self.theta_start_rad) / self.sweep_rad;
+            include(self.xy_at(u.clamp(0.0, 1.0)));
+        }
+        ext
+    }
 }
 
 impl Segment {
@@ -196,6 +228,23 @@ impl Segment {
             Geometry::Line => dist3(self.start_m, self.end_m),
             Geometry::Arc(a) => a.length_to(1.0, self.end_m[2] - self.start_m[2]),
             Geometry::Dwell { .. } => 0.0,
+        }
+    }
+
+    /// The lowest and highest X, Y and Z the segment reaches (m), `[min, max]` per axis.
+    pub fn extent_m(&self) -> [[f64; 2]; 3] {
+        let span = |i: usize| {
+            [
+                self.start_m[i].min(self.end_m[i]),
+                self.start_m[i].max(self.end_m[i]),
+            ]
+        };
+        match self.geometry {
+            Geometry::Arc(a) => {
+                let [x, y] = a.xy_extent_m();
+                [x, y, span(2)]
+            }
+            _ => [span(0), span(1), span(2)],
         }
     }
 

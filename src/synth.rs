@@ -74,7 +74,7 @@ pub fn synthesize(
         causes::apply(machine.axis_mut(*axis), *cause, values);
     }
     let settings = CheckSettings::for_machine(&machine);
-    let (_, commands) = plan_commands(program, &machine, &settings);
+    let (_, commands) = plan_commands(program, &machine, &settings)?;
     let traces = [AxisName::X, AxisName::Y].map(|a| {
         let c = if a == AxisName::X {
             &commands.x

@@ -133,6 +133,110 @@ fn a_bad_machine_file_names_the_key() {
 }
 
 #[test]
+fn a_value_no_machine_has_is_refused_by_key() {
+    for (section, key, value) in [
+        ("x.drive", "table_mass_kg", "1e300"),
+        ("y.drive", "backlash_um", "1e12"),
+    ] {
+        let o = check_square_on_machine("m.toml", &format!("[{section}]\n{key} = {value}\n"));
+        assert_eq!(o.status.code(), Some(2));
+        let err = text(&o.stderr);
+        assert!(
+            err.contains(&format!("{section}.{key}")) && err.contains("at most"),
+            "{err}"
+        );
+    }
+}
+
+#[test]
+fn programs_that_do_not_fit_the_machine_are_refused_with_line_and_axis() {
+    let dir = tempfile::tempdir().unwrap();
+    let cases = [
+        // Beyond the preset's X travel (±2500 mm) by a slip of the exponent.
+        (
+            "far.nc",
+            "G1 X10 F500\nG1 X100000000000000000\n",
+            "far.nc:2: X reaches",
+        ),
+        // An arc whose ends are inside the Y travel (±1500 mm) but whose bulge is not.
+        (
+            "bulge.nc",
+            "G0 X-1000 Y1000\nG2 X1000 Y1000 I1000 J0 F500\n",
+            "bulge.nc:2: Y reaches",
+        ),
+        (
+            "empty.nc",
+            "(only a comment)\nM30\n",
+            "moves neither X nor Y",
+        ),
+        // Fine geometry, but days of motion: refused before any memory is taken.
+        ("slow.nc", "G1 X10 F0.0001\n", "runs 1666.7 h"),
+    ];
+    for (name, program, expected) in cases {
+        let path = dir.path().join(name);
+        std::fs::write(&path, program).unwrap();
+        let o = run(&["check", path.to_str().unwrap()]);
+        assert_eq!(o.status.code(), Some(2), "{name}: {}", text(&o.stdout));
+        assert!(
+            text(&o.stderr).contains(expected),
+            "{name}: {}",
+            text(&o.stderr)
+        );
+    }
+}
+
+#[test]
+fn bode_shows_no_nan_and_refuses_an_unstable_setting() {
+    let dir = tempfile::tempdir().unwrap();
+    // A crawling position loop (crossover 2.65 mHz) is still measured.
+    let slow = dir.path().join("slow.toml");
+    std::fs::write(
+        &slow,
+        "base = \"hvmc\"\n[x.position_loop]\nkv_m_per_min_per_mm = 0.001\n",
+    )
+    .unwrap();
+    let o = run(&["bode", "--machine", slow.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0));
+    let out = text(&o.stdout);
+    assert!(!out.to_lowercase().contains("nan"), "{out}");
+    assert!(out.contains("0.00265 Hz"), "{out}");
+    let hot = dir.path().join("hot.toml");
+    std::fs::write(
+        &hot,
+        "base = \"hvmc\"\n[x.position_loop]\nkv_m_per_min_per_mm = 60\n",
+    )
+    .unwrap();
+    let o = run(&["bode", "--machine", hot.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(!text(&o.stdout).to_lowercase().contains("nan"));
+    assert!(
+        text(&o.stderr).contains("X axis: unstable"),
+        "{}",
+        text(&o.stderr)
+    );
+    // A plot that cannot be written says why as any other file would.
+    let nowhere = dir.path().join("no-such-dir").join("bode.png");
+    let o = run(&["bode", "--plot", nowhere.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o.stderr).contains("No such file or directory"),
+        "{}",
+        text(&o.stderr)
+    );
+    let o = run(&["bode", "--plot", dir.path().join("b.txt").to_str().unwrap()]);
+    assert!(
+        text(&o.stderr).contains(".png or .svg"),
+        "{}",
+        text(&o.stderr)
+    );
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        2,
+        "only the two machines"
+    );
+}
+
+#[test]
 fn missing_files_and_unstable_gains_are_errors_not_panics() {
     let o = run(&["check", "/nonexistent/part.nc"]);
     assert_eq!(o.status.code(), Some(2));

@@ -32,18 +32,33 @@ pub fn run(args: &BodeArgs) -> Result<Outcome, CliError> {
     println!(
         "loop       crossover  phase margin  closed −3 dB  closed −10°  gain at crossover/100"
     );
+    let mut missing = false;
     for l in Loop::ALL {
         let f = linear::loop_figures(&model, l);
         let low = linear::closed_loop(&model, l, f.crossover_hz / 100.0);
+        let mut cell = |v: f64, width: usize, decimals: usize, unit: &str| {
+            if v.is_finite() {
+                // Slow loops (a tiny Kv) keep their significant digits.
+                let slow = unit == " Hz" && v.abs() < 0.1 && v != 0.0;
+                let decimals = if slow { 5 } else { decimals };
+                format!("{v:>width$.decimals$}{unit}")
+            } else {
+                missing = true;
+                format!("{:>w$}", "—", w = width + unit.chars().count())
+            }
+        };
         println!(
-            "{:<9} {:>8.2} Hz {:>11.1}° {:>10.2} Hz {:>9.2} Hz {:>10.2} dB",
+            "{:<9} {} {} {} {} {}",
             l.name(),
-            f.crossover_hz,
-            f.phase_margin_deg,
-            f.bandwidth_3db_hz,
-            f.phase_10deg_hz,
-            20.0 * low.norm().log10()
+            cell(f.crossover_hz, 8, 2, " Hz"),
+            cell(f.phase_margin_deg, 11, 1, "°"),
+            cell(f.bandwidth_3db_hz, 10, 2, " Hz"),
+            cell(f.phase_10deg_hz, 9, 2, " Hz"),
+            cell(20.0 * low.norm().log10(), 10, 2, " dB"),
         );
+    }
+    if missing {
+        println!("— : the loop does not reach that point between 0.1 mHz and 100 kHz");
     }
     if let Some(m) = linear::least_damped(&model) {
         println!(
@@ -51,6 +66,9 @@ pub fn run(args: &BodeArgs) -> Result<Outcome, CliError> {
             m.frequency_hz, m.damping
         );
     }
+    // The figures of an unstable loop are shown (they tell where it went wrong), but the
+    // setting is an error.
+    linear::check_stable(&model).map_err(|e| e.on_axis(args.axis.axis.letter(), None))?;
     if let Some(path) = &args.plot {
         let freqs = linear::log_space(0.1, 10_000.0, 60);
         let curves = Loop::ALL

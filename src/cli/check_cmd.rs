@@ -58,7 +58,7 @@ pub fn run(args: &CheckArgs) -> Result<Outcome, CliError> {
     let machine = args.machine.load()?;
     let mut settings = CheckSettings::for_machine(&machine);
     settings.plan = args.planning.config(&machine)?;
-    let program = load_program(&args.program)?;
+    let program = load_program(&args.program, &machine)?;
     let planned = plan(&program, &KinematicLimits::of(&machine), &settings.plan);
     // The waits at exact stops come out of the simulation: the plan's estimate sizes the bar.
     let samples = (planned.total_time_s + settings.settle_s) / planned.config.cycle_s;

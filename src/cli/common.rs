@@ -34,6 +34,9 @@ pub enum CliError {
         /// Why.
         message: String,
     },
+    /// The program does not fit the machine (no XY motion, outside travel).
+    #[error("{0}")]
+    Envelope(#[from] crate::envelope::EnvelopeError),
     /// Measured data is unreadable or malformed.
     #[error("{0}")]
     Measured(#[from] crate::measured::MeasuredError),
@@ -102,18 +105,21 @@ impl PlanningArgs {
     }
 }
 
-/// Reads and interprets a program (bytes that are not UTF-8, in comments say, are replaced).
-pub fn load_program(path: &Path) -> Result<Program, CliError> {
+/// Reads and interprets a program (bytes that are not UTF-8, in comments say, are replaced)
+/// and checks that it fits the machine (it moves in XY, within travel).
+pub fn load_program(path: &Path, machine: &MachineConfig) -> Result<Program, CliError> {
     let bytes = std::fs::read(path).map_err(|e| CliError::Read {
         path: path.display().to_string(),
         message: e.to_string(),
     })?;
     let text = String::from_utf8_lossy(&bytes);
-    Ok(parse_program(
+    let program = parse_program(
         &text,
         &path.display().to_string(),
         &InterpretOptions::default(),
-    )?)
+    )?;
+    crate::envelope::check_fits(&program, machine)?;
+    Ok(program)
 }
 
 /// "1 h 02 min 03.4 s" style durations.

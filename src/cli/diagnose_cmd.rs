@@ -73,7 +73,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
             "diagnose needs a program and --measured TRACE.csv, or --table TABLE.csv".into(),
         ));
     };
-    let program = load_program(program_path)?;
+    let program = load_program(program_path, &machine)?;
     let measured = read_trace(measured_path)?;
     let mut settings = DiagnoseSettings::for_machine(&machine);
     settings.check.plan = args.planning.config(&machine)?;

@@ -29,7 +29,7 @@ pub struct PlanArgs {
 pub fn run(args: &PlanArgs) -> Result<Outcome, CliError> {
     let machine = args.machine.load()?;
     let config = args.planning.config(&machine)?;
-    let program = load_program(&args.program)?;
+    let program = load_program(&args.program, &machine)?;
     let planned = plan(&program, &KinematicLimits::of(&machine), &config);
     let commands = sample(&planned);
     if let Some(path) = &args.csv {

@@ -155,7 +155,7 @@ fn on_off(text: &str) -> Result<Vec<f64>, CliError> {
 pub fn run(args: &SweepArgs, m: &ArgMatches) -> Result<Outcome, CliError> {
     let machine = args.machine.load()?;
     let plan = args.planning.config(&machine)?;
-    let program = load_program(&args.program)?;
+    let program = load_program(&args.program, &machine)?;
     let dims = dimensions(args, m, &machine)?;
     let total: usize = dims.iter().map(|d| d.values.len()).product();
     let bar = progress(total as u64, "sweep");

@@ -105,7 +105,7 @@ pub fn run(args: &SynthArgs) -> Result<Outcome, CliError> {
         )));
     }
     let machine = args.machine.load()?;
-    let program = load_program(&args.program)?;
+    let program = load_program(&args.program, &machine)?;
     let spec = SynthSpec {
         effect,
         noise_m: m_from_um(args.noise_um),

@@ -252,7 +252,7 @@ pub fn context<'a>(
     measured: &'a MeasuredTrace,
     settings: &DiagnoseSettings,
 ) -> Result<(Context<'a>, f64), DiagnoseError> {
-    let (plan, plan_commands) = plan_commands(program, machine, &settings.check);
+    let (plan, plan_commands) = plan_commands(program, machine, &settings.check)?;
     let dt = plan_commands.dt_s;
     let cannot = |reason: String| DiagnoseError::CannotAlign {
         file: measured.file.clone(),

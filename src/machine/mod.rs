@@ -245,6 +245,10 @@ pub struct Limits {
     pub max_accel_m_per_s2: f64,
     /// Jerk limit (m/s³).
     pub max_jerk_m_per_s3: f64,
+    /// Travel (soft limits) as [lowest, highest] position in program coordinates (mm): a
+    /// program that leaves it is refused, as a control refuses it. None: not checked.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub travel_mm: Option<[f64; 2]>,
 }
 
 /// Which of the two simulated axes.
@@ -286,12 +290,19 @@ impl AxisName {
     }
 }
 
+impl AxisName {
+    /// `X` or `Y`.
+    pub fn letter(self) -> char {
+        match self {
+            AxisName::X => 'X',
+            AxisName::Y => 'Y',
+        }
+    }
+}
+
 impl std::fmt::Display for AxisName {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            AxisName::X => "X",
-            AxisName::Y => "Y",
-        })
+        write!(f, "{}", self.letter())
     }
 }
 

@@ -3,15 +3,27 @@
 
 use super::{AxisConfig, ConfigError, Limits, MachineConfig};
 
-/// What a value must satisfy.
+/// What a value must satisfy. The upper bounds are generous — beyond anything from a desktop
+/// table to the heaviest machine — and there so that a slip of the exponent (a table of
+/// 1e300 kg, 1e12 µm of backlash) is caught here rather than turned into silent nonsense by
+/// the simulation.
 #[derive(Clone, Copy)]
 enum Rule {
-    /// > 0.
-    Positive,
-    /// ≥ 0.
-    NonNegative,
+    /// In (0, hi].
+    Positive(f64),
+    /// In [0, hi].
+    NonNegative(f64),
     /// Within [lo, hi].
     Range(f64, f64),
+}
+
+/// A number as a reader takes it in: exponent form when it is huge or tiny.
+fn number(v: f64) -> String {
+    if v != 0.0 && !(1e-4..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
 }
 
 struct Checker<'a> {
@@ -24,11 +36,17 @@ impl Checker<'_> {
             Some("must be a finite number".to_string())
         } else {
             match rule {
-                Rule::Positive if value <= 0.0 => Some("must be positive".to_string()),
-                Rule::NonNegative if value < 0.0 => Some("must not be negative".to_string()),
-                Rule::Range(lo, hi) if !(lo..=hi).contains(&value) => {
-                    Some(format!("must lie between {lo} and {hi}"))
-                }
+                Rule::Positive(_) if value <= 0.0 => Some("must be positive".to_string()),
+                Rule::NonNegative(_) if value < 0.0 => Some("must not be negative".to_string()),
+                Rule::Positive(hi) | Rule::NonNegative(hi) if value > hi => Some(format!(
+                    "must be at most {}: no machine axis has more",
+                    number(hi)
+                )),
+                Rule::Range(lo, hi) if !(lo..=hi).contains(&value) => Some(format!(
+                    "must lie between {} and {}",
+                    number(lo),
+                    number(hi)
+                )),
                 _ => None,
             }
         };
@@ -36,7 +54,7 @@ impl Checker<'_> {
             Some(p) => Err(ConfigError::Invalid {
                 file: self.file.to_string(),
                 key: key.to_string(),
-                problem: format!("{p} (got {value})"),
+                problem: format!("{p} (got {})", number(value)),
             }),
             None => Ok(()),
         }
@@ -62,7 +80,7 @@ pub fn validate(m: &MachineConfig, file: &str) -> Result<(), ConfigError> {
     c.check(
         "interpolation.in_position_window_mm",
         m.interpolation.in_position_window_mm,
-        Rule::Positive,
+        Rule::Positive(100.0),
     )?;
     validate_axis(&c, "x", &m.x)?;
     validate_axis(&c, "y", &m.y)?;
@@ -76,7 +94,7 @@ fn validate_axis(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigEr
     c.check(
         &k("position_loop.kv_m_per_min_per_mm"),
         p.kv_m_per_min_per_mm,
-        Positive,
+        Positive(100.0),
     )?;
     c.check(
         &k("position_loop.velocity_feedforward"),
@@ -92,40 +110,44 @@ fn validate_axis(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigEr
     c.check(
         &k("velocity_loop.ks_nm_s_per_rad"),
         v.ks_nm_s_per_rad,
-        Positive,
+        Positive(1e5),
     )?;
-    c.check(&k("velocity_loop.ts_ms"), v.ts_ms, Positive)?;
-    c.check(&k("velocity_loop.i_max_a"), v.i_max_a, Positive)?;
+    c.check(&k("velocity_loop.ts_ms"), v.ts_ms, Positive(1e6))?;
+    c.check(&k("velocity_loop.i_max_a"), v.i_max_a, Positive(1e5))?;
     let i = &a.current_loop;
-    c.check(&k("current_loop.ki_v_per_a"), i.ki_v_per_a, Positive)?;
-    c.check(&k("current_loop.ti_ms"), i.ti_ms, Positive)?;
-    c.check(&k("current_loop.tcf_ms"), i.tcf_ms, Positive)?;
-    c.check(&k("current_loop.u_max_v"), i.u_max_v, Positive)?;
+    c.check(&k("current_loop.ki_v_per_a"), i.ki_v_per_a, Positive(1e5))?;
+    c.check(&k("current_loop.ti_ms"), i.ti_ms, Positive(1e6))?;
+    c.check(&k("current_loop.tcf_ms"), i.tcf_ms, Positive(1e3))?;
+    c.check(&k("current_loop.u_max_v"), i.u_max_v, Positive(1e5))?;
     let mo = &a.motor;
-    c.check(&k("motor.ra_ohm"), mo.ra_ohm, Positive)?;
-    c.check(&k("motor.la_mh"), mo.la_mh, Positive)?;
-    c.check(&k("motor.kt_nm_per_a"), mo.kt_nm_per_a, Positive)?;
-    c.check(&k("motor.ke_v_s_per_rad"), mo.ke_v_s_per_rad, NonNegative)?;
-    c.check(&k("motor.jm_kg_m2"), mo.jm_kg_m2, Positive)?;
+    c.check(&k("motor.ra_ohm"), mo.ra_ohm, Positive(1e3))?;
+    c.check(&k("motor.la_mh"), mo.la_mh, Positive(1e4))?;
+    c.check(&k("motor.kt_nm_per_a"), mo.kt_nm_per_a, Positive(1e3))?;
+    c.check(
+        &k("motor.ke_v_s_per_rad"),
+        mo.ke_v_s_per_rad,
+        NonNegative(1e3),
+    )?;
+    c.check(&k("motor.jm_kg_m2"), mo.jm_kg_m2, Positive(1e3))?;
     let d = &a.drive;
-    c.check(&k("drive.js_kg_m2"), d.js_kg_m2, Positive)?;
+    c.check(&k("drive.js_kg_m2"), d.js_kg_m2, Positive(1e3))?;
     c.check(
         &k("drive.k_theta_nm_per_rad"),
         d.k_theta_nm_per_rad,
-        Positive,
+        Positive(1e12),
     )?;
-    c.check(&k("drive.k_m_n_per_m"), d.k_m_n_per_m, Positive)?;
+    c.check(&k("drive.k_m_n_per_m"), d.k_m_n_per_m, Positive(1e12))?;
     c.check(&k("drive.zeta_theta"), d.zeta_theta, Range(0.0, 2.0))?;
     c.check(&k("drive.zeta_m"), d.zeta_m, Range(0.0, 2.0))?;
-    c.check(&k("drive.lead_mm"), d.lead_mm, Positive)?;
-    c.check(&k("drive.gear_ratio"), d.gear_ratio, Positive)?;
-    c.check(&k("drive.table_mass_kg"), d.table_mass_kg, Positive)?;
+    c.check(&k("drive.lead_mm"), d.lead_mm, Positive(1e4))?;
+    c.check(&k("drive.gear_ratio"), d.gear_ratio, Positive(1e3))?;
+    c.check(&k("drive.table_mass_kg"), d.table_mass_kg, Positive(1e6))?;
     c.check(
         &k("drive.screw_viscous_nm_s_per_rad"),
         d.screw_viscous_nm_s_per_rad,
-        NonNegative,
+        NonNegative(1e6),
     )?;
-    c.check(&k("drive.backlash_um"), d.backlash_um, NonNegative)?;
+    c.check(&k("drive.backlash_um"), d.backlash_um, NonNegative(1e4))?;
     let f = &a.friction;
     c.check(
         &k("friction.coulomb_coefficient"),
@@ -135,12 +157,12 @@ fn validate_axis(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigEr
     c.check(
         &k("friction.static_to_coulomb"),
         f.static_to_coulomb,
-        Positive,
+        Positive(10.0),
     )?;
     c.check(
         &k("friction.viscous_n_s_per_m"),
         f.viscous_n_s_per_m,
-        NonNegative,
+        NonNegative(1e8),
     )?;
     if f.static_to_coulomb < 1.0 {
         return Err(c.inconsistent(
@@ -160,12 +182,12 @@ fn validate_axis(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigEr
     c.check(
         &k("friction.stribeck_level_n"),
         f.stribeck_level_n,
-        NonNegative,
+        NonNegative(1e7),
     )?;
     c.check(
         &k("friction.stribeck_velocity_mm_per_min"),
         f.stribeck_velocity_mm_per_min,
-        NonNegative,
+        NonNegative(1e6),
     )?;
     if f.stribeck_level_n > 0.0 && f.stribeck_velocity_mm_per_min <= 0.0 {
         return Err(c.inconsistent(
@@ -187,7 +209,7 @@ fn validate_axis(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigEr
     c.check(
         &k("errors.cyclic_period_mm"),
         e.cyclic_period_mm,
-        NonNegative,
+        NonNegative(1e4),
     )?;
     c.check(
         &k("errors.cyclic_phase_deg"),
@@ -210,17 +232,17 @@ fn validate_axis(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigEr
         c.check(
             &k("lateral_shift.beam_length_m"),
             ls.beam_length_m,
-            Positive,
+            Positive(100.0),
         )?;
         c.check(
             &k("lateral_shift.bending_stiffness_n_m2"),
             ls.bending_stiffness_n_m2,
-            Positive,
+            Positive(1e13),
         )?;
         c.check(
             &k("lateral_shift.holder_load_n"),
             ls.holder_load_n,
-            NonNegative,
+            NonNegative(1e8),
         )?;
         c.check(
             &k("lateral_shift.holder_at_zero_m"),
@@ -234,10 +256,28 @@ fn validate_axis(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigEr
 fn validate_limits(c: &Checker, prefix: &str, l: &Limits) -> Result<(), ConfigError> {
     use Rule::Positive;
     let k = |s: &str| format!("{prefix}.{s}");
-    c.check(&k("max_feed_mm_per_min"), l.max_feed_mm_per_min, Positive)?;
-    c.check(&k("rapid_mm_per_min"), l.rapid_mm_per_min, Positive)?;
-    c.check(&k("max_accel_m_per_s2"), l.max_accel_m_per_s2, Positive)?;
-    c.check(&k("max_jerk_m_per_s3"), l.max_jerk_m_per_s3, Positive)?;
+    c.check(
+        &k("max_feed_mm_per_min"),
+        l.max_feed_mm_per_min,
+        Positive(1e6),
+    )?;
+    c.check(&k("rapid_mm_per_min"), l.rapid_mm_per_min, Positive(1e6))?;
+    c.check(
+        &k("max_accel_m_per_s2"),
+        l.max_accel_m_per_s2,
+        Positive(1e4),
+    )?;
+    c.check(&k("max_jerk_m_per_s3"), l.max_jerk_m_per_s3, Positive(1e8))?;
+    if let Some([lo, hi]) = l.travel_mm {
+        c.check(&k("travel_mm"), lo, Rule::Range(-1e6, 1e6))?;
+        c.check(&k("travel_mm"), hi, Rule::Range(-1e6, 1e6))?;
+        if lo >= hi {
+            return Err(c.inconsistent(
+                &k("travel_mm"),
+                format!("is [{lo}, {hi}]: the lowest position must come first"),
+            ));
+        }
+    }
     if l.rapid_mm_per_min < l.max_feed_mm_per_min {
         return Err(c.inconsistent(
             &k("rapid_mm_per_min"),

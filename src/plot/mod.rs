@@ -41,12 +41,22 @@ pub trait Figure {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> PlotResult;
 }
 
-/// Draws a figure into a PNG or SVG at `path` (chosen by extension; default PNG).
+/// Draws a figure into a PNG or SVG at `path` (chosen by extension; none means PNG).
 pub fn render(path: &Path, figure: &impl Figure) -> PlotResult {
     register_font();
-    let svg = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("svg"));
+    let ext = path.extension().map(|e| e.to_string_lossy().to_lowercase());
+    let svg = match ext.as_deref() {
+        Some("svg") => true,
+        None | Some("png") => false,
+        Some(other) => {
+            return Err(format!(
+                "a plot is written as .png or .svg, and '.{other}' is neither"
+            ));
+        }
+    };
+    // Open the file first, so that a missing directory or a read-only place reads like
+    // any other I/O error rather than as the image encoder's.
+    std::fs::File::create(path).map_err(err)?;
     if svg {
         let root = SVGBackend::new(path, SIZE).into_drawing_area();
         root.fill(&WHITE).map_err(err)?;

@@ -197,7 +197,7 @@ pub struct LoopFigures {
 /// Crossover, phase margin, −3 dB and −10° frequencies of a loop.
 pub fn loop_figures(model: &AxisModel, which: Loop) -> LoopFigures {
     let sys = loop_system(model, which);
-    let grid = log_space(0.01, 100_000.0, 200);
+    let grid = log_space(1e-4, 100_000.0, 360);
     let closed: Vec<Complex<f64>> = grid.iter().map(|&f| sys.response(f)).collect();
     let open_mag = |t: Complex<f64>| (t / (Complex::new(1.0, 0.0) - t)).norm();
     let crossover_hz = first_crossing(
@@ -221,7 +221,7 @@ pub fn loop_figures(model: &AxisModel, which: Loop) -> LoopFigures {
         phase_margin_deg,
         bandwidth_3db_hz,
         phase_10deg_hz,
-        dc_gain_db: 20.0 * sys.response(0.01).norm().log10(),
+        dc_gain_db: 20.0 * sys.response(1e-4).norm().log10(),
     }
 }
 
@@ -247,7 +247,7 @@ fn first_crossing(
 
 /// The loop's open-loop phase at `f`, unwrapped from low frequency (degrees).
 fn unwrapped_phase(sys: &Siso, f: f64) -> f64 {
-    let grid = log_space(0.01, f, 100);
+    let grid = log_space(0.01f64.min(f / 100.0), f, 100);
     let mut phase = 0.0;
     let mut prev: Option<f64> = None;
     for &g in &grid {

@@ -74,6 +74,23 @@ pub enum SimError {
         /// The modes it kept switching between, in words.
         modes: String,
     },
+    /// The run would not fit in memory: a run is held whole, one sample per interpolation
+    /// cycle.
+    #[error(
+        "the program runs {hours:.1} h on this machine (line {longest_line} alone takes \
+         {longest_hours:.1} h); a run is held in memory whole, so runs of at most {limit_hours:.0} h \
+         at this interpolation cycle are simulated"
+    )]
+    TooLong {
+        /// The planned cycle time (h).
+        hours: f64,
+        /// The block that takes longest.
+        longest_line: u32,
+        /// How long it takes (h).
+        longest_hours: f64,
+        /// The longest run simulated (h).
+        limit_hours: f64,
+    },
     /// A failure of one axis, placed in the program.
     #[error("{axis} axis{}: {source}", near_line(*.line))]
     OnAxis {
@@ -96,7 +113,7 @@ impl SimError {
         match self {
             SimError::Diverged { t_s, .. } | SimError::Chattering { t_s, .. } => Some(*t_s),
             SimError::OnAxis { source, .. } => source.t_s(),
-            SimError::Unstable { .. } => None,
+            SimError::Unstable { .. } | SimError::TooLong { .. } => None,
         }
     }
 
