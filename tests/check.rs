@@ -332,3 +332,46 @@ fn exact_stops_last_as_long_as_the_simulated_axes_take() {
         );
     }
 }
+
+/// The contour error a chord polygon gives is the curve's: an R50 circle at F1000 as 0.1 mm
+/// chords and as one G3 lose the same radius (F²/(2·Kv²·R) ≈ 10 µm at Kv 1) and take the
+/// same time.
+#[test]
+fn a_circle_of_short_chords_errs_as_the_arc_does() {
+    let circle = |chords: bool| {
+        let mut src = String::from("G21 G90 G64\nG0 X50 Y0\nG1 F1000\n");
+        if chords {
+            let n = (2.0 * PI * 50.0 / 0.1).round() as usize;
+            for i in 1..=n {
+                let a = 2.0 * PI * i as f64 / n as f64;
+                src.push_str(&format!("X{:.4} Y{:.4}\n", 50.0 * a.cos(), 50.0 * a.sin()));
+            }
+        } else {
+            src.push_str("G3 X50 Y0 I-50 J0\n");
+        }
+        src
+    };
+    let machine = MachineConfig::default_preset();
+    let arc = run(&circle(false), &machine, ProfileKind::SCurve);
+    let chords = run(&circle(true), &machine, ProfileKind::SCurve);
+    let (a, c) = (&arc.summary, &chords.summary);
+    assert!(
+        (c.cycle_time_s / a.cycle_time_s - 1.0).abs() < 0.02,
+        "{} vs {}",
+        c.cycle_time_s,
+        a.cycle_time_s
+    );
+    assert!(
+        (c.rms_contour_error_m / a.rms_contour_error_m - 1.0).abs() < 0.03,
+        "RMS {} vs {} µm",
+        c.rms_contour_error_m * 1e6,
+        a.rms_contour_error_m * 1e6
+    );
+    let expected = (1000.0f64 / 60_000.0).powi(2) / (2.0 * kv_per_s(1.0).powi(2) * 0.05);
+    assert!(
+        (c.rms_contour_error_m - expected).abs() < 0.1 * expected,
+        "{} µm vs F²/(2Kv²R) = {} µm",
+        c.rms_contour_error_m * 1e6,
+        expected * 1e6
+    );
+}

@@ -200,8 +200,44 @@ fn random_program() -> impl Strategy<Value = String> {
         .prop_map(|steps| format!("G21 G90 F500\n{}\nM2\n", steps.join("\n")))
 }
 
+/// A CAM-style polyline: short chords (10 µm to 1 mm) turning by random small and large
+/// angles, some collinear splits, at random feeds.
+fn random_polyline() -> impl Strategy<Value = String> {
+    let chord = (0.01..1.0f64, -0.3..0.3f64, prop::bool::weighted(0.1));
+    (
+        prop::collection::vec(chord, 2..400),
+        100.0..3000.0f64,
+        prop::bool::ANY,
+    )
+        .prop_map(|(chords, feed, sharp)| {
+            let (mut x, mut y, mut heading) = (0.0f64, 0.0f64, 0.0f64);
+            let mut out = format!("G21 G90 G64 F{feed:.0}\nG1 X0 Y0\n");
+            for (length, turn, corner) in chords {
+                // Now and then a real corner, else the gentle turns of a sampled curve.
+                heading += if corner && sharp {
+                    6.0 * turn
+                } else {
+                    0.05 * turn
+                };
+                x += length * heading.cos();
+                y += length * heading.sin();
+                out.push_str(&format!("X{x:.4} Y{y:.4}\n"));
+            }
+            out
+        })
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// Runs of short segments planned as one profile keep every axis within its limits,
+    /// the turns at their vertices included.
+    #[test]
+    fn short_segment_runs_never_exceed_an_axis_limit(src in random_polyline(), scurve in prop::bool::ANY) {
+        let profile = if scurve { ProfileKind::SCurve } else { ProfileKind::Trapezoid };
+        let (p, c, limits) = plan_text(&src, profile);
+        assert_within_limits(&p, &c, &limits, profile);
+    }
 
     #[test]
     fn the_planner_never_exceeds_an_axis_limit(src in random_program(), scurve in prop::bool::ANY) {
@@ -280,4 +316,52 @@ fn each_cycle_of_the_command_arrives_where_the_next_one_starts() {
             }
         }
     }
+}
+
+/// A CAM system splits moves and cuts curves into chords; the control's look-ahead plans
+/// through them. 100 mm split into 100,000 collinear 1 µm blocks take as long as one block,
+/// and a circle of 0.1 mm chords as long as the G3 circle it was cut from.
+#[test]
+fn short_blocks_are_planned_through_like_the_curve_they_sample() {
+    let mut split = String::from("G21 G90 G64 F1000\nG1 X0 Y0\n");
+    for i in 1..=100_000 {
+        split.push_str(&format!("X{:.3}\n", i as f64 * 0.001));
+    }
+    for profile in [ProfileKind::SCurve, ProfileKind::Trapezoid] {
+        let (whole, _, _) = plan_text("G21 G90 G64 F1000\nG1 X0 Y0\nX100\n", profile);
+        let (pieces, _, _) = plan_text(&split, profile);
+        // The motion to the microsecond (the in-position estimate after it integrates
+        // block by block, so its rounding differs).
+        assert!(
+            (motion_time_s(&pieces) - motion_time_s(&whole)).abs() < 1e-6,
+            "{profile}: {} s in pieces, {} s whole",
+            motion_time_s(&pieces),
+            motion_time_s(&whole)
+        );
+        let (arc, _, _) = plan_text(&circle_program(None), profile);
+        let (chords, _, _) = plan_text(&circle_program(Some(0.1)), profile);
+        let ratio = chords.total_time_s / arc.total_time_s;
+        assert!(
+            (ratio - 1.0).abs() < 0.01,
+            "{profile}: chords {} s, arc {} s",
+            chords.total_time_s,
+            arc.total_time_s
+        );
+    }
+}
+
+/// An R50 circle at F1000 from (50, 0): one G3, or chords of `chord_mm`.
+pub fn circle_program(chord_mm: Option<f64>) -> String {
+    let mut src = String::from("G21 G90 G64\nG0 X50 Y0\nG1 F1000\n");
+    match chord_mm {
+        None => src.push_str("G3 X50 Y0 I-50 J0\n"),
+        Some(c) => {
+            let n = (2.0 * std::f64::consts::PI * 50.0 / c).round() as usize;
+            for i in 1..=n {
+                let a = 2.0 * std::f64::consts::PI * i as f64 / n as f64;
+                src.push_str(&format!("X{:.4} Y{:.4}\n", 50.0 * a.cos(), 50.0 * a.sin()));
+            }
+        }
+    }
+    src
 }

@@ -8,14 +8,19 @@
 //!    and the interpolation-cycle rule — a corner's per-axis velocity jump may be at most
 //!    what the axis could do in one cycle (a·T, or j·T² for S-curves), and for S-curves a
 //!    curvature jump's per-axis acceleration step at most j·T.
+//!    Consecutive blocks joined smoothly — a CAM polygon's vertices, tangent arcs, collinear
+//!    splits — form a run (see `runs`) planned as one segment, so the junction rules apply
+//!    only between runs.
 //! 3. A backward and a forward pass over the whole program bring every junction speed down
-//!    to what the neighbouring segments can reach (look-ahead over the whole program).
-//! 4. Each segment gets the fastest ramp–cruise–ramp profile between its junction speeds.
+//!    to what the neighbouring runs can reach (look-ahead over the whole program).
+//! 4. Each run gets the fastest ramp–cruise–ramp profile between its junction speeds, and
+//!    each of its segments the slice of it over its own length.
 //!
-//! Profiles start and end every segment with zero path acceleration, so the only
-//! acceleration steps are those of curvature (and, for trapezoids, of the ramps themselves).
+//! Profiles start and end every run with zero path acceleration, so the only acceleration
+//! steps are those of curvature (and, for trapezoids, of the ramps themselves).
 
 pub mod profile;
+mod runs;
 pub mod sample;
 
 use crate::gcode::{Program, Warning};
@@ -165,14 +170,50 @@ pub struct SegmentPlan {
     pub v_entry: f64,
     /// Speed at the end (m/s).
     pub v_exit: f64,
-    /// Speed limit of the segment (m/s).
+    /// Speed limit of the segment's run (m/s).
     pub v_limit: f64,
-    /// Path dynamics used.
+    /// Path dynamics of the segment's run.
     pub dynamics: Dynamics,
     /// Duration of the motion (s).
     pub duration_s: f64,
     /// Standing time after the motion: the in-position wait at an exact stop (s).
     pub wait_s: f64,
+    /// The run's profile this segment's motion is a part of.
+    pub slice: ProfileSlice,
+}
+
+/// Where a segment lies in the speed profile of its run (see `runs`): the profile's length
+/// and end speeds, and the distance and time from its start to the segment's start. A
+/// segment planned alone is the whole of its profile.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProfileSlice {
+    /// The run's length (m).
+    pub run_length_m: f64,
+    /// Speed at the run's start (m/s).
+    pub run_v_entry: f64,
+    /// Speed at the run's end (m/s).
+    pub run_v_exit: f64,
+    /// Distance from the run's start to the segment's start (m).
+    pub s_offset_m: f64,
+    /// Time from the run's start to the segment's start (s).
+    pub t_offset_s: f64,
+}
+
+/// A segment's motion: its run's profile seen from the segment's start.
+#[derive(Debug, Clone, Copy)]
+pub struct SegmentMotion {
+    profile: SegmentProfile,
+    s_offset_m: f64,
+    t_offset_s: f64,
+}
+
+impl SegmentMotion {
+    /// Distance along the segment (m), path speed (m/s) and path acceleration (m/s²) at
+    /// `tau` seconds after the segment's start.
+    pub fn eval(&self, tau: f64) -> (f64, f64, f64) {
+        let (s, v, a) = self.profile.eval(tau + self.t_offset_s);
+        (s - self.s_offset_m, v, a)
+    }
 }
 
 impl SegmentPlan {
@@ -181,15 +222,19 @@ impl SegmentPlan {
         self.duration_s + self.wait_s
     }
 
-    /// Rebuilds the speed profile (cheap; not stored, to keep plans small).
-    pub fn profile(&self) -> SegmentProfile {
-        SegmentProfile::plan(
-            self.v_entry,
-            self.v_exit,
-            self.v_limit,
-            self.length_m,
-            self.dynamics,
-        )
+    /// Rebuilds the motion (cheap; profiles are not stored, to keep plans small).
+    pub fn motion(&self) -> SegmentMotion {
+        SegmentMotion {
+            profile: SegmentProfile::plan(
+                self.slice.run_v_entry,
+                self.slice.run_v_exit,
+                self.v_limit,
+                self.slice.run_length_m,
+                self.dynamics,
+            ),
+            s_offset_m: self.slice.s_offset_m,
+            t_offset_s: self.slice.t_offset_s,
+        }
     }
 }
 
@@ -244,7 +289,7 @@ impl Plan {
     }
 }
 
-/// Limits a segment imposes on itself.
+/// Limits a segment imposes on itself (or a run on its common profile).
 #[derive(Debug, Clone, Copy)]
 struct SegmentLimits {
     length: f64,
@@ -268,33 +313,49 @@ pub fn plan_segments(
         .iter()
         .map(|s| segment_limits(s, limits, config, &mut warnings))
         .collect();
-    let mut junction = junction_limits(&segments, &seg_limits, limits, config);
-    look_ahead(&segments, &seg_limits, &mut junction);
+    let runs = runs::form_runs(&segments, &seg_limits, limits, config);
+    let mut junction = junction_limits(&segments, &runs, limits, config);
+    look_ahead(&segments, &runs, &mut junction);
     let mut plans: Vec<SegmentPlan> = Vec::with_capacity(segments.len());
     let mut t = 0.0;
-    for (i, (seg, lim)) in segments.iter().zip(&seg_limits).enumerate() {
-        let (v_entry, v_exit) = (junction[i], junction[i + 1]);
-        let duration_s = match seg.geometry {
-            Geometry::Dwell { seconds } => seconds,
-            _ => SegmentProfile::plan(v_entry, v_exit, lim.v_max, lim.length, lim.dynamics)
-                .duration(),
-        };
-        plans.push(SegmentPlan {
-            t_start_s: t,
-            length_m: lim.length,
-            v_entry,
-            v_exit,
-            v_limit: lim.v_max,
-            dynamics: lim.dynamics,
-            duration_s,
-            wait_s: 0.0,
-        });
-        if let Some(ip) = &config.in_position
-            && ends_in_exact_stop(&segments, i)
-        {
-            plans[i].wait_s = in_position_wait(&segments, &plans, i, ip);
+    for (k, run) in runs.iter().enumerate() {
+        let lim = &run.limits;
+        let (v_entry, v_exit) = (junction[k], junction[k + 1]);
+        let profile = SegmentProfile::plan(v_entry, v_exit, lim.v_max, lim.length, lim.dynamics);
+        let (mut s_offset_m, mut t_offset_s) = (0.0, 0.0);
+        for i in run.first..=run.last {
+            let length_m = seg_limits[i].length;
+            let t_end = match segments[i].geometry {
+                Geometry::Dwell { seconds } => seconds,
+                _ if i == run.last => profile.duration(),
+                _ => profile.time_at_distance(s_offset_m + length_m),
+            };
+            plans.push(SegmentPlan {
+                t_start_s: t,
+                length_m,
+                v_entry: profile.eval(t_offset_s).1,
+                v_exit: profile.eval(t_end).1,
+                v_limit: lim.v_max,
+                dynamics: lim.dynamics,
+                duration_s: t_end - t_offset_s,
+                wait_s: 0.0,
+                slice: ProfileSlice {
+                    run_length_m: lim.length,
+                    run_v_entry: v_entry,
+                    run_v_exit: v_exit,
+                    s_offset_m,
+                    t_offset_s,
+                },
+            });
+            if let Some(ip) = &config.in_position
+                && ends_in_exact_stop(&segments, i)
+            {
+                plans[i].wait_s = in_position_wait(&segments, &plans, i, ip);
+            }
+            t += plans[i].span_s();
+            s_offset_m += length_m;
+            t_offset_s = t_end;
         }
-        t += plans[i].span_s();
     }
     Plan {
         segments,
@@ -331,13 +392,13 @@ fn in_position_wait(segments: &[Segment], plans: &[SegmentPlan], i: usize, ip: &
             let (seg, sp) = (&segments[j], &plans[j]);
             let from = (t_stop - horizon - sp.t_start_s).max(0.0);
             if !seg.is_dwell() && sp.duration_s > from {
-                let profile = sp.profile();
+                let profile = sp.motion();
                 let steps = (((sp.duration_s - from) / 1e-3).ceil() as usize).max(1);
                 let h = (sp.duration_s - from) / steps as f64;
                 for k in 0..steps {
                     let tau = from + (k as f64 + 0.5) * h;
                     let (s, v, _) = profile.eval(tau);
-                    let tangent = seg.eval(s.min(sp.length_m), sp.length_m).tangent[axis];
+                    let tangent = seg.eval(s.clamp(0.0, sp.length_m), sp.length_m).tangent[axis];
                     lag += tangent * v * (-kv * (t_stop - sp.t_start_s - tau)).exp() * h;
                 }
             }
@@ -483,29 +544,33 @@ fn segment_limits(
     }
 }
 
-/// Speed limit at each segment boundary: index i is the start of segment i; the last entry
-/// is the program end.
+/// Speed limit at each run boundary: index k is the start of run k; the last entry is the
+/// program end.
 fn junction_limits(
     segments: &[Segment],
-    seg_limits: &[SegmentLimits],
+    runs: &[runs::Run],
     limits: &KinematicLimits,
     config: &PlanConfig,
 ) -> Vec<f64> {
-    let n = segments.len();
+    let n = runs.len();
     let mut v = vec![0.0; n + 1];
-    for i in 1..n {
-        let (a, b) = (&segments[i - 1], &segments[i]);
+    for k in 1..n {
+        let (a, b) = (&segments[runs[k - 1].last], &segments[runs[k].first]);
         // Rapids end in an exact stop, as on most controls (Siemens G0 with G60, Fanuc's
         // rapid in-position check).
         if a.is_dwell() || b.is_dwell() || a.blend == Blend::ExactStop || a.motion == Motion::Rapid
         {
             continue;
         }
-        let cap = seg_limits[i - 1].v_max.min(seg_limits[i].v_max);
-        v[i] = if config.profile == ProfileKind::Ideal {
+        let cap = runs[k - 1].limits.v_max.min(runs[k].limits.v_max);
+        v[k] = if config.profile == ProfileKind::Ideal {
             cap
         } else {
-            cap.min(corner_speed(a, b, limits, config))
+            // A smooth junction between runs whose limits differ: the curve's own limit;
+            // otherwise a corner.
+            let through = runs::smooth_junction_speed(a, b, limits, config)
+                .unwrap_or_else(|| corner_speed(a, b, limits, config));
+            cap.min(through)
         };
     }
     v
@@ -563,21 +628,22 @@ fn corner_speed(a: &Segment, b: &Segment, limits: &KinematicLimits, config: &Pla
     v
 }
 
-/// Backward then forward pass: every junction speed reachable from its neighbours.
-fn look_ahead(segments: &[Segment], seg_limits: &[SegmentLimits], v: &mut [f64]) {
-    let n = segments.len();
-    for i in (0..n).rev() {
-        let lim = &seg_limits[i];
-        if segments[i].is_dwell() {
+/// Backward then forward pass over the runs: every junction speed reachable from its
+/// neighbours.
+fn look_ahead(segments: &[Segment], runs: &[runs::Run], v: &mut [f64]) {
+    let n = runs.len();
+    for k in (0..n).rev() {
+        let lim = &runs[k].limits;
+        if segments[runs[k].first].is_dwell() {
             continue;
         }
-        v[i] = v[i].min(reachable_speed(v[i + 1], lim.length, lim.dynamics));
+        v[k] = v[k].min(reachable_speed(v[k + 1], lim.length, lim.dynamics));
     }
-    for i in 0..n {
-        let lim = &seg_limits[i];
-        if segments[i].is_dwell() {
+    for k in 0..n {
+        let lim = &runs[k].limits;
+        if segments[runs[k].first].is_dwell() {
             continue;
         }
-        v[i + 1] = v[i + 1].min(reachable_speed(v[i], lim.length, lim.dynamics));
+        v[k + 1] = v[k + 1].min(reachable_speed(v[k], lim.length, lim.dynamics));
     }
 }

@@ -253,6 +253,30 @@ impl SegmentProfile {
         self.up.duration() + self.cruise_s + self.down.duration()
     }
 
+    /// When the profile has covered `distance` (m): the inverse of its distance, which never
+    /// decreases (at the cruise in closed form, on the ramps by bisection).
+    pub fn time_at_distance(&self, distance: f64) -> f64 {
+        let (t_up, s_up) = (self.up.duration(), self.up.distance());
+        let s_cruise_end = s_up + self.v_peak * self.cruise_s;
+        if distance >= s_up && distance <= s_cruise_end && self.v_peak > 0.0 {
+            return t_up + (distance - s_up) / self.v_peak;
+        }
+        let (mut lo, mut hi) = if distance < s_up {
+            (0.0, t_up)
+        } else {
+            (t_up + self.cruise_s, self.duration())
+        };
+        for _ in 0..64 {
+            let mid = 0.5 * (lo + hi);
+            if self.eval(mid).0 < distance {
+                lo = mid
+            } else {
+                hi = mid
+            }
+        }
+        0.5 * (lo + hi)
+    }
+
     /// Distance, speed and acceleration along the path at time `t` from the segment start.
     pub fn eval(&self, t: f64) -> (f64, f64, f64) {
         let t_up = self.up.duration();

@@ -188,7 +188,7 @@ pub struct Sampler<'p> {
     plan: &'p Plan,
     index: usize,
     last: usize,
-    profile: super::profile::SegmentProfile,
+    motion: super::SegmentMotion,
 }
 
 impl<'p> Sampler<'p> {
@@ -198,7 +198,7 @@ impl<'p> Sampler<'p> {
             plan,
             index: first,
             last,
-            profile: plan.plans[first].profile(),
+            motion: plan.plans[first].motion(),
         }
     }
 
@@ -208,7 +208,7 @@ impl<'p> Sampler<'p> {
         // Advance to the segment that holds t (the later one at a boundary).
         while self.index < self.last && t >= plan.plans[self.index + 1].t_start_s {
             self.index += 1;
-            self.profile = plan.plans[self.index].profile();
+            self.motion = plan.plans[self.index].motion();
         }
         let (seg, sp) = (&plan.segments[self.index], &plan.plans[self.index]);
         // Past the motion (an in-position wait, the program end) the profile holds its end:
@@ -216,9 +216,9 @@ impl<'p> Sampler<'p> {
         let tau = (t - sp.t_start_s).clamp(0.0, sp.duration_s);
         let (s, v, a) = match seg.geometry {
             Geometry::Dwell { .. } => (0.0, 0.0, 0.0),
-            _ => self.profile.eval(tau),
+            _ => self.motion.eval(tau),
         };
-        let p = seg.eval(s.min(sp.length_m), sp.length_m);
+        let p = seg.eval(s.clamp(0.0, sp.length_m), sp.length_m);
         // Axis acceleration: tangential part plus the curvature's v².
         let axis = |i: usize| {
             (
