@@ -2,10 +2,84 @@
 //!
 //! Every output of a run is first written to a temporary file beside its destination; only
 //! when all of them are complete are they renamed into place. If anything fails on the way,
-//! the temporary files are removed and no destination is touched.
+//! the temporary files are removed and no destination is touched — also when the run is
+//! interrupted (Ctrl-C, SIGTERM: see [`remove_staged_on_interrupt`]), and a run killed
+//! outright (SIGKILL, a power cut) has its leftovers removed by the next run that writes to
+//! the same place.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+
+/// Every temporary file staged and not yet committed or removed, in this process.
+static STAGED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+fn staged_files() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    // A panic while holding the lock leaves a list that is still right.
+    STAGED.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+fn forget_staged(tmp: &Path) {
+    staged_files().retain(|p| p != tmp);
+}
+
+/// On SIGINT or SIGTERM, removes every staged temporary file and ends the process with
+/// status 130, as a shell reports an interrupted command. Installed once by the CLI.
+pub fn remove_staged_on_interrupt() {
+    // Only fails when a handler is already installed, which leaves one in place.
+    let _ = ctrlc::set_handler(|| {
+        for tmp in staged_files().drain(..) {
+            let _ = std::fs::remove_file(tmp);
+        }
+        std::process::exit(130);
+    });
+}
+
+/// Removes temporary files of `dest` left by runs that are no longer alive (killed before
+/// they could clean up); those of live runs are theirs.
+fn remove_stale_temporaries(dest: &Path) {
+    let (Some(dir), Some(name)) = (dest.parent(), dest.file_name()) else {
+        return;
+    };
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
+    let prefix = format!(".{}.tmp", name.to_string_lossy());
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let file_name = entry.file_name();
+        let file_name = file_name.to_string_lossy();
+        let Some(rest) = file_name.strip_prefix(&prefix) else {
+            continue;
+        };
+        let pid: String = rest.chars().take_while(char::is_ascii_digit).collect();
+        if let Ok(pid) = pid.parse::<u32>()
+            && pid != std::process::id()
+            && !process_alive(pid)
+        {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
+}
+
+#[cfg(unix)]
+fn process_alive(pid: u32) -> bool {
+    let Ok(pid) = libc::pid_t::try_from(pid) else {
+        return false;
+    };
+    // SAFETY: signal 0 sends nothing; it only asks whether the process exists.
+    let result = unsafe { libc::kill(pid, 0) };
+    result == 0 || std::io::Error::last_os_error().raw_os_error() != Some(libc::ESRCH)
+}
+
+#[cfg(not(unix))]
+fn process_alive(_pid: u32) -> bool {
+    true
+}
 
 /// An output that could not be written.
 #[derive(Debug, thiserror::Error)]
@@ -66,6 +140,7 @@ impl OutputBatch {
     }
 
     fn temp_path(&self, dest: &Path) -> Result<PathBuf, OutputError> {
+        remove_stale_temporaries(dest);
         let name = dest
             .file_name()
             .ok_or_else(|| OutputError::new(dest, "not a file name"))?;
@@ -77,13 +152,22 @@ impl OutputBatch {
             tmp_name.push(".");
             tmp_name.push(ext);
         }
-        Ok(dest.with_file_name(tmp_name))
+        let tmp = dest.with_file_name(tmp_name);
+        staged_files().push(tmp.clone());
+        Ok(tmp)
     }
 
     /// Moves every staged file into place.
     pub fn commit(mut self) -> Result<(), OutputError> {
         for (tmp, dest) in std::mem::take(&mut self.staged) {
-            std::fs::rename(&tmp, &dest).map_err(|e| OutputError::new(&dest, e))?;
+            let renamed = std::fs::rename(&tmp, &dest);
+            if renamed.is_err() {
+                // Put back, so that dropping the batch removes it with the rest.
+                self.staged.push((tmp, dest.clone()));
+            } else {
+                forget_staged(&tmp);
+            }
+            renamed.map_err(|e| OutputError::new(&dest, e))?;
         }
         Ok(())
     }
@@ -93,6 +177,7 @@ impl Drop for OutputBatch {
     fn drop(&mut self) {
         for (tmp, _) in &self.staged {
             let _ = std::fs::remove_file(tmp);
+            forget_staged(tmp);
         }
     }
 }

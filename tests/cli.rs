@@ -288,3 +288,63 @@ fn plan_bode_stickslip_and_validate_run() {
     assert_eq!(o.status.code(), Some(0));
     assert!(text(&o.stdout).contains("Table 4"));
 }
+
+/// Interrupted while writing its outputs, a run removes what it had staged and reports
+/// status 130; leftovers of a run killed outright are removed by the next run writing to the
+/// same place, and those of a live run are left alone.
+#[cfg(unix)]
+#[test]
+fn interrupted_and_killed_runs_leave_nothing_behind() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("long.nc");
+    // 2 m at F200: a 600 s run whose 20 MB trace takes a while to write.
+    std::fs::write(&program, "G1 X2000 F200\n").unwrap();
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    let trace = out.join("t.csv");
+    let mut child = bin()
+        .args(["check", program.to_str().unwrap(), "--trace"])
+        .arg(&trace)
+        .env("CI", "1")
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let staged = || {
+        std::fs::read_dir(&out)
+            .unwrap()
+            .flatten()
+            .any(|e| e.file_name().to_string_lossy().starts_with(".t.csv.tmp"))
+    };
+    let started = std::time::Instant::now();
+    while !staged() && started.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    assert!(staged(), "the trace was never staged");
+    // SAFETY: signalling our own child process.
+    unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) };
+    let status = child.wait().unwrap();
+    let left: Vec<_> = std::fs::read_dir(&out).unwrap().flatten().collect();
+    // The signal may land just after the rename: then the trace is complete.
+    if status.code() == Some(130) {
+        assert!(left.is_empty(), "left behind: {left:?}");
+    } else {
+        assert_eq!(status.code(), Some(0));
+        assert_eq!(left.len(), 1, "{left:?}");
+    }
+
+    // A dead run's leftover goes, a live one's stays.
+    let dead = out.join(".t.csv.tmp4194399.csv");
+    let live = out.join(format!(".t.csv.tmp{}.csv", std::process::id()));
+    std::fs::write(&dead, "half a trace").unwrap();
+    std::fs::write(&live, "being written").unwrap();
+    let o = run(&[
+        "check",
+        sample("square.nc").to_str().unwrap(),
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(!dead.exists(), "a dead run's temporary file stayed");
+    assert!(live.exists(), "a live run's temporary file was removed");
+    assert!(trace.exists());
+}

@@ -56,6 +56,7 @@ pub enum Outcome {
 
 /// Parses the process arguments, runs the command and returns the exit status.
 pub fn main() -> ExitCode {
+    crate::output::remove_staged_on_interrupt();
     let matches = Cli::command().get_matches();
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     match run(cli, &matches) {
