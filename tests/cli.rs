@@ -137,12 +137,14 @@ fn a_value_no_machine_has_is_refused_by_key() {
     for (section, key, value) in [
         ("x.drive", "table_mass_kg", "1e300"),
         ("y.drive", "backlash_um", "1e12"),
+        ("interpolation", "arc_normal_share", "1.5"),
     ] {
         let o = check_square_on_machine("m.toml", &format!("[{section}]\n{key} = {value}\n"));
         assert_eq!(o.status.code(), Some(2));
         let err = text(&o.stderr);
         assert!(
-            err.contains(&format!("{section}.{key}")) && err.contains("at most"),
+            err.contains(&format!("{section}.{key}"))
+                && (err.contains("at most") || err.contains("between")),
             "{err}"
         );
     }

@@ -365,3 +365,63 @@ pub fn circle_program(chord_mm: Option<f64>) -> String {
     }
     src
 }
+
+fn plan_on(src: &str, profile: ProfileKind, machine: &MachineConfig) -> Plan {
+    let program = parse_program(src, "t.nc", &InterpretOptions::default()).unwrap();
+    let mut config = PlanConfig::for_machine(machine);
+    config.profile = profile;
+    plan(&program, &KinematicLimits::of(machine), &config)
+}
+
+/// An arc too tight for the feed runs at its centripetal limit v = √(η·a·R), η the machine's
+/// `interpolation.arc_normal_share` (trapezoid: no jerk term).
+#[test]
+fn an_arc_runs_at_its_centripetal_limit() {
+    let mut machine = MachineConfig::default_preset();
+    let (a, r) = (0.5, 0.5e-3);
+    for share in [0.5, 0.8] {
+        machine.interpolation.arc_normal_share = share;
+        let p = plan_on(
+            "G21 G90 G64 F1000\nG0 X0.5 Y0\nG1 X0.5 Y0\nG3 X0.5 Y0 I-0.5 J0\n",
+            ProfileKind::Trapezoid,
+            &machine,
+        );
+        let arc = p.plans.last().unwrap();
+        let expected = (share * a * r).sqrt();
+        assert!(
+            (arc.v_limit - expected).abs() < 1e-12,
+            "η {share}: {} vs {expected}",
+            arc.v_limit
+        );
+    }
+}
+
+/// A path acceleration limit below the axes' sets the ramps: a single move takes
+/// L/v + v/a_path.
+#[test]
+fn a_path_acceleration_limit_sets_the_ramps() {
+    let mut machine = MachineConfig::default_preset();
+    machine.interpolation.path_accel_m_per_s2 = Some(0.2);
+    let p = plan_on("G21 F1000\nG1 X100\n", ProfileKind::Trapezoid, &machine);
+    let v = 1000.0 / 60_000.0;
+    assert!((motion_time_s(&p) - (0.1 / v + v / 0.2)).abs() < 1e-12);
+    // Above the axes' limit it changes nothing.
+    machine.interpolation.path_accel_m_per_s2 = Some(5.0);
+    let p = plan_on("G21 F1000\nG1 X100\n", ProfileKind::Trapezoid, &machine);
+    assert!((motion_time_s(&p) - (0.1 / v + v / 0.5)).abs() < 1e-12);
+}
+
+/// A 90° corner between two long lines under trapezoids: each axis's velocity jumps by the
+/// whole junction speed within one cycle, so the speed is a·T = 1 mm/s (below grbl's
+/// junction deviation √(a·δ·sin(θ/2)/(1 − sin(θ/2))) = 3.5 mm/s for δ = 10 µm).
+#[test]
+fn a_corner_runs_at_its_junction_speed() {
+    let p = plan_on(
+        "G21 G64 F1000\nG1 X50\nG1 Y50\n",
+        ProfileKind::Trapezoid,
+        &MachineConfig::default_preset(),
+    );
+    let junction = p.plans[0].v_exit;
+    assert!((junction - 0.5 * 0.002).abs() < 1e-12, "{junction}");
+    assert!((p.plans[1].v_entry - junction).abs() < 1e-15);
+}

@@ -46,6 +46,21 @@ pub struct Interpolation {
     /// Exact-stop window (mm): after a rapid or an exact stop (G61) the next block starts
     /// only when every axis's following error is this small.
     pub in_position_window_mm: f64,
+    /// Share of an axis's acceleration an arc may spend on centripetal acceleration (0–1);
+    /// the path's tangential acceleration gets √(1 − share²).
+    #[serde(default = "default_arc_normal_share")]
+    pub arc_normal_share: f64,
+    /// Limit on the path (tangential) acceleration beside the axes' own (m/s²), as a
+    /// control's path-acceleration setting; none: the axes alone limit it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub path_accel_m_per_s2: Option<f64>,
+    /// Limit on the path jerk (m/s³); none: the axes alone limit it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub path_jerk_m_per_s3: Option<f64>,
+}
+
+fn default_arc_normal_share() -> f64 {
+    0.5
 }
 
 /// One simulated feed axis.

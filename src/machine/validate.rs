@@ -82,6 +82,17 @@ pub fn validate(m: &MachineConfig, file: &str) -> Result<(), ConfigError> {
         m.interpolation.in_position_window_mm,
         Rule::Positive(100.0),
     )?;
+    c.check(
+        "interpolation.arc_normal_share",
+        m.interpolation.arc_normal_share,
+        Rule::Range(0.01, 0.99),
+    )?;
+    if let Some(a) = m.interpolation.path_accel_m_per_s2 {
+        c.check("interpolation.path_accel_m_per_s2", a, Rule::Positive(1e4))?;
+    }
+    if let Some(j) = m.interpolation.path_jerk_m_per_s3 {
+        c.check("interpolation.path_jerk_m_per_s3", j, Rule::Positive(1e8))?;
+    }
     validate_axis(&c, "x", &m.x)?;
     validate_axis(&c, "y", &m.y)?;
     validate_limits(&c, "z.limits", &m.z.limits)

@@ -92,20 +92,33 @@ pub struct PlanConfig {
     /// Share η of an axis's acceleration an arc may spend on centripetal acceleration; the
     /// tangential acceleration gets √(1 − η²) so that the vector sum stays within the limit.
     pub arc_normal_share: f64,
+    /// Path (tangential) acceleration and jerk limits beside the axes' (m/s², m/s³;
+    /// infinite: none).
+    pub path_dynamics: Dynamics,
     /// In-position check at exact stops (`None`: the next block starts as soon as the
     /// interpolator stops).
     pub in_position: Option<InPosition>,
 }
 
 impl PlanConfig {
-    /// Defaults for a machine: its interpolation cycle, S-curve profiles, 10 µm corner
-    /// tolerance, half the acceleration for centripetal use on arcs.
+    /// Defaults for a machine: its interpolation cycle, centripetal share and path limits,
+    /// S-curve profiles, 10 µm corner tolerance.
     pub fn for_machine(machine: &MachineConfig) -> PlanConfig {
         PlanConfig {
             profile: ProfileKind::SCurve,
             cycle_s: s_from_ms(machine.interpolation.cycle_ms),
             default_blend_tolerance_m: m_from_mm(0.01),
-            arc_normal_share: 0.5,
+            arc_normal_share: machine.interpolation.arc_normal_share,
+            path_dynamics: Dynamics {
+                accel: machine
+                    .interpolation
+                    .path_accel_m_per_s2
+                    .unwrap_or(f64::INFINITY),
+                jerk: machine
+                    .interpolation
+                    .path_jerk_m_per_s3
+                    .unwrap_or(f64::INFINITY),
+            },
             in_position: Some(InPosition {
                 window_m: m_from_mm(machine.interpolation.in_position_window_mm),
                 kv_per_s: [&machine.x, &machine.y]
@@ -526,6 +539,8 @@ fn segment_limits(
             }
         }
     }
+    accel = accel.min(config.path_dynamics.accel);
+    jerk = jerk.min(config.path_dynamics.jerk);
     let dynamics = match config.profile {
         ProfileKind::Ideal => Dynamics {
             accel: f64::INFINITY,
