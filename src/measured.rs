@@ -1,14 +1,16 @@
 //! Measured data: traces from a laser, a ballbar or the CNC's own servo trace, and tables of
 //! steady following errors like the paper's Tables 3–5.
 //!
-//! A trace is a CSV with a header: `t_s,x_mm,y_mm`, optionally `x_cmd_mm,y_cmd_mm` (the
-//! commanded positions, as a servo trace records them), in any order, other columns
-//! ignored. Time must increase; a gap longer than five sampling steps is an error naming the
-//! row; irregular sampling is resampled to the median step.
+//! A trace is a table with a header: time, measured X and Y and optionally the commanded X
+//! and Y (as a servo trace records them), in any order and units, other columns ignored —
+//! `t_s,x_mm,y_mm,x_cmd_mm,y_cmd_mm` as `synth` writes it, or as controls and labs write
+//! them (see `trace_format`). Time must increase with a plausible step; a gap longer than
+//! five sampling steps is an error naming the row; irregular sampling is resampled to the
+//! median step.
 
 use std::path::Path;
 
-use crate::units::m_from_mm;
+use crate::trace_format::{self, ColumnMap, Dialect, Mapped, Signal};
 
 /// A measured trace on a uniform time grid, in SI units.
 #[derive(Debug, Clone, PartialEq)]
@@ -27,6 +29,36 @@ pub struct MeasuredTrace {
     pub commands: Option<[Vec<f64>; 2]>,
     /// Whether irregular sampling was resampled.
     pub resampled: bool,
+    /// How the file was read.
+    pub layout: TraceLayout,
+    /// The recorded time steps before any resampling.
+    pub steps: StepStats,
+}
+
+/// The recorded sampling steps (s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepStats {
+    /// Median step.
+    pub median_s: f64,
+    /// RMS deviation from the median (the clock's jitter).
+    pub jitter_rms_s: f64,
+    /// Shortest and longest step.
+    pub min_s: f64,
+    /// Longest step.
+    pub max_s: f64,
+}
+
+impl StepStats {
+    fn of(t: &[f64], median_s: f64) -> StepStats {
+        let steps = t.windows(2).map(|w| w[1] - w[0]);
+        let n = (t.len() - 1) as f64;
+        StepStats {
+            median_s,
+            jitter_rms_s: (steps.clone().map(|d| (d - median_s).powi(2)).sum::<f64>() / n).sqrt(),
+            min_s: steps.clone().fold(f64::INFINITY, f64::min),
+            max_s: steps.fold(0.0, f64::max),
+        }
+    }
 }
 
 impl MeasuredTrace {
@@ -87,16 +119,23 @@ pub enum MeasuredError {
     },
 }
 
-const TRACE_COLUMNS: &str = "t_s, x_mm, y_mm and optionally x_cmd_mm, y_cmd_mm";
-
-/// Reads a trace file.
+/// Reads a trace file, its columns recognised from the header.
 pub fn read_trace(path: &Path) -> Result<MeasuredTrace, MeasuredError> {
+    read_trace_with(path, None)
+}
+
+/// Reads a trace file with the user's column mapping (None: recognised from the header).
+pub fn read_trace_with(
+    path: &Path,
+    map: Option<&ColumnMap>,
+) -> Result<MeasuredTrace, MeasuredError> {
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|e| MeasuredError::Io {
+    let bytes = std::fs::read(path).map_err(|e| MeasuredError::Io {
         file: file.clone(),
         message: e.to_string(),
     })?;
-    parse_trace(&text, &file)
+    // Lab exports are not always UTF-8 (a µ in Latin-1); only numbers matter here.
+    parse_trace_with(&String::from_utf8_lossy(&bytes), &file, map)
 }
 
 /// A CSV reader over `text` (fields trimmed, lines starting with `#` comments) and its
@@ -119,60 +158,81 @@ fn csv_reader<'t>(
     Ok((reader, headers))
 }
 
-/// Parses a trace from CSV text; `file` names it in errors.
+/// Parses a trace from text, its columns recognised from the header; `file` names it in
+/// errors.
 pub fn parse_trace(text: &str, file: &str) -> Result<MeasuredTrace, MeasuredError> {
-    let (mut reader, headers) = csv_reader(text, file)?;
-    let col = |name: &str| headers.iter().position(|h| h == name);
-    let need = |name: &str| {
-        col(name).ok_or_else(|| MeasuredError::MissingColumn {
-            file: file.into(),
-            column: name.into(),
-            expected: TRACE_COLUMNS,
-        })
+    parse_trace_with(text, file, None)
+}
+
+/// The plausible range of a trace's sampling step (s): 1 µs (a fast lab system) to 50 ms
+/// (20 Hz, below which no servo error can be seen); a record of a millisecond clock read as
+/// seconds falls above it unless sampled faster than 20 kHz.
+const PLAUSIBLE_STEP_S: (f64, f64) = (1e-6, 0.05);
+/// The longest plausible record (s): a day.
+const PLAUSIBLE_DURATION_S: f64 = 86_400.0;
+
+/// Parses a trace from text with the user's column mapping (None: recognised).
+pub fn parse_trace_with(
+    text: &str,
+    file: &str,
+    map: Option<&ColumnMap>,
+) -> Result<MeasuredTrace, MeasuredError> {
+    let data_error = |problem: String| MeasuredError::Data {
+        file: file.into(),
+        problem,
     };
-    let (ct, cx, cy) = (need("t_s")?, need("x_mm")?, need("y_mm")?);
-    let cmd_cols = match (col("x_cmd_mm"), col("y_cmd_mm")) {
-        (Some(a), Some(b)) => Some((a, b)),
-        (None, None) => None,
-        (Some(_), None) => {
-            return Err(MeasuredError::MissingColumn {
-                file: file.into(),
-                column: "y_cmd_mm".into(),
-                expected: TRACE_COLUMNS,
-            });
-        }
-        (None, Some(_)) => {
-            return Err(MeasuredError::MissingColumn {
-                file: file.into(),
-                column: "x_cmd_mm".into(),
-                expected: TRACE_COLUMNS,
-            });
-        }
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    // (1-based row, line) of every line that is neither blank nor a comment.
+    let lines: Vec<(u64, &str)> = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| (i as u64 + 1, l.trim_end_matches('\r')))
+        .filter(|(_, l)| !l.trim().is_empty() && !trace_format::is_comment(l))
+        .collect();
+    let Some(((header_row, header), data)) = lines.split_first() else {
+        return Err(data_error("no header line".into()));
     };
-    let mut t = Vec::new();
+    let sample: Vec<&str> = data.iter().take(20).map(|(_, l)| *l).collect();
+    let dialect = trace_format::sniff(header, &sample);
+    let headers: Vec<&str> = trace_format::fields(header, dialect.delimiter)
+        .into_iter()
+        .map(|h| h.trim_matches('"'))
+        .collect();
+    let mapped = trace_format::map_columns(&headers, map)
+        .map_err(|e| data_error(format!("row {header_row} (header): {e}")))?;
+    let time_col = mapped[0].index;
+    // Lines after the last one whose time field is a number are a trailer (`EOF,,,`, a
+    // checksum) — skipped; anything unreadable before that is an error at its row.
+    let time_of = |line: &str| {
+        trace_format::fields(line, dialect.delimiter)
+            .get(time_col)
+            .and_then(|f| trace_format::number(f.trim_matches('"'), &dialect))
+    };
+    let data_end = data
+        .iter()
+        .rposition(|(_, l)| time_of(l).is_some())
+        .map_or(0, |i| i + 1);
+    let trailer_rows = data.len() - data_end;
+    let mut t = Vec::with_capacity(data_end);
     let mut cols: [Vec<f64>; 4] = Default::default();
-    for record in reader.records() {
-        let record = record.map_err(|e| {
-            let row = e.position().map_or(0, |p| p.line());
-            MeasuredError::Row {
-                file: file.into(),
-                row,
-                problem: e.to_string(),
-            }
-        })?;
-        let row = record.position().map_or(0, |p| p.line());
-        let get = |c: usize, name: &str| -> Result<f64, MeasuredError> {
-            let text = record.get(c).unwrap_or("");
-            match text.parse::<f64>() {
-                Ok(v) if v.is_finite() => Ok(v),
-                _ => Err(MeasuredError::Row {
+    for &(row, line) in &data[..data_end] {
+        let f = trace_format::fields(line, dialect.delimiter);
+        let get = |m: &Mapped| -> Result<f64, MeasuredError> {
+            let text = f.get(m.index).map_or("", |v| v.trim_matches('"'));
+            trace_format::number(text, &dialect)
+                .map(|v| v * m.unit.to_si)
+                .ok_or_else(|| MeasuredError::Row {
                     file: file.into(),
                     row,
-                    problem: format!("{name} '{text}' is not a finite number"),
-                }),
-            }
+                    problem: format!(
+                        "column {} '{}' ({}): '{text}' is not a finite number",
+                        m.index + 1,
+                        m.header,
+                        m.signal.key()
+                    ),
+                })
         };
-        let ti = get(ct, "t_s")?;
+        let ti = get(&mapped[0])?;
         if let Some(&prev) = t.last().filter(|&&prev| ti <= prev) {
             return Err(MeasuredError::Row {
                 file: file.into(),
@@ -181,25 +241,29 @@ pub fn parse_trace(text: &str, file: &str) -> Result<MeasuredTrace, MeasuredErro
             });
         }
         t.push(ti);
-        cols[0].push(m_from_mm(get(cx, "x_mm")?));
-        cols[1].push(m_from_mm(get(cy, "y_mm")?));
-        if let Some((a, b)) = cmd_cols {
-            cols[2].push(m_from_mm(get(a, "x_cmd_mm")?));
-            cols[3].push(m_from_mm(get(b, "y_cmd_mm")?));
+        for m in &mapped[1..] {
+            let slot = match m.signal {
+                Signal::X => 0,
+                Signal::Y => 1,
+                Signal::XCmd => 2,
+                Signal::YCmd => 3,
+                Signal::Time => unreachable!("time is the first mapping"),
+            };
+            cols[slot].push(get(m)?);
         }
     }
     if t.len() < 10 {
-        return Err(MeasuredError::Data {
-            file: file.into(),
-            problem: format!("{} rows: too few to diagnose anything", t.len()),
-        });
+        return Err(data_error(format!(
+            "{} rows: too few to diagnose anything",
+            t.len()
+        )));
     }
-    let rows_start = 2; // the header is line 1
     let dt = median_step(&t);
+    check_time_plausible(dt, &t, &mapped[0]).map_err(data_error)?;
     if let Some(i) = (1..t.len()).find(|&i| t[i] - t[i - 1] > 5.0 * dt) {
         return Err(MeasuredError::Row {
             file: file.into(),
-            row: (rows_start + i) as u64,
+            row: data[i].0,
             problem: format!(
                 "a gap of {:.6} s before this row (the median step is {:.6} s)",
                 t[i] - t[i - 1],
@@ -208,6 +272,7 @@ pub fn parse_trace(text: &str, file: &str) -> Result<MeasuredTrace, MeasuredErro
         });
     }
     let irregular = (1..t.len()).any(|i| ((t[i] - t[i - 1]) / dt - 1.0).abs() > 0.01);
+    let has_commands = !cols[2].is_empty();
     let [x, y, xc, yc] = if irregular {
         cols.map(|c| {
             if c.is_empty() {
@@ -225,9 +290,71 @@ pub fn parse_trace(text: &str, file: &str) -> Result<MeasuredTrace, MeasuredErro
         dt_s: dt,
         x_m: x,
         y_m: y,
-        commands: cmd_cols.map(|_| [xc, yc]),
+        commands: has_commands.then_some([xc, yc]),
         resampled: irregular,
+        layout: TraceLayout {
+            dialect,
+            mapped,
+            trailer_rows,
+        },
+        steps: StepStats::of(&t, dt),
     })
+}
+
+/// A sampling step no measuring system has is a time column read in the wrong unit.
+fn check_time_plausible(dt: f64, t: &[f64], time: &Mapped) -> Result<(), String> {
+    let (lo, hi) = PLAUSIBLE_STEP_S;
+    let duration = t[t.len() - 1] - t[0];
+    if (lo..hi).contains(&dt) && duration <= PLAUSIBLE_DURATION_S {
+        return Ok(());
+    }
+    Err(format!(
+        "time column '{}' read in {}: a sampling step of {dt:e} s and a record of {duration:e} s \
+         are implausible (steps lie between {lo:e} and {hi} s, records within a day); state \
+         the unit, e.g. \
+         --columns t={}[ms],…",
+        time.header,
+        time.unit.label,
+        time.header
+            .split(['[', '('])
+            .next()
+            .unwrap_or(&time.header)
+            .trim()
+    ))
+}
+
+/// How a trace file was read: its dialect, which column became what, and how many trailer
+/// rows were skipped.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TraceLayout {
+    /// Delimiter and decimal mark.
+    pub dialect: Dialect,
+    /// Time, X, Y (and commands) as mapped.
+    pub mapped: Vec<Mapped>,
+    /// Lines after the data that were not data (skipped).
+    pub trailer_rows: usize,
+}
+
+impl TraceLayout {
+    /// Lines for the user: the dialect, then one per mapped column.
+    pub fn describe(&self) -> Vec<String> {
+        let mut lines = vec![format!(
+            "{}-separated{}{}",
+            self.dialect.delimiter,
+            if self.dialect.decimal_comma {
+                ", decimal comma"
+            } else {
+                ""
+            },
+            if self.trailer_rows > 0 {
+                format!(", {} trailer rows skipped", self.trailer_rows)
+            } else {
+                String::new()
+            }
+        )];
+        lines.extend(trace_format::describe_mapping(&self.mapped));
+        lines
+    }
 }
 
 fn median_step(t: &[f64]) -> f64 {
@@ -377,8 +504,78 @@ mod tests {
         assert!(e.to_string().starts_with("m.csv: row 14: a gap"), "{e}");
         let e = parse_trace("t_s,x_mm,y_mm\n0,1,nan\n", "m.csv").unwrap_err();
         assert!(e.to_string().contains("row 2"), "{e}");
-        let e = parse_trace("time,x_mm,y_mm\n0,1,2\n", "m.csv").unwrap_err();
-        assert!(e.to_string().contains("`t_s`"), "{e}");
+        let e = parse_trace("when,x_mm,y_mm\n0,1,2\n", "m.csv").unwrap_err();
+        assert!(e.to_string().contains("no column for time"), "{e}");
+    }
+
+    /// A vendor export: BOM, CRLF, semicolons and decimal commas, time in ms, vendor
+    /// names, positions in µm counts of 0.1 µm, a comment, and an `EOF` trailer.
+    #[test]
+    fn a_vendor_export_reads_without_conversion() {
+        let mut text = String::from("\u{feff}// exported by the control\r\n");
+        text.push_str("Time [ms];X_ActPos;Y_ActPos;X_Traj;Y_Traj;Spindle\r\n");
+        for k in 0..50 {
+            let t_ms = k as f64 * 0.5; // 2 kHz
+            let x_counts = (k * 1000) as f64; // 100 µm per sample in 0.1 µm counts
+            text.push_str(&format!(
+                "{};{};{};{};{};0\r\n",
+                format!("{t_ms:.1}").replace('.', ","),
+                x_counts,
+                -x_counts,
+                x_counts + 5.0,
+                -x_counts - 5.0
+            ));
+        }
+        text.push_str("EOF;;;;;\r\n");
+        let map = ColumnMap::parse(
+            "t=Time[ms],x=X_ActPos[counts:0.1um],y=Y_ActPos[counts:0.1um],\
+             x_cmd=X_Traj[counts:0.1um],y_cmd=Y_Traj[counts:0.1um]",
+        )
+        .unwrap();
+        let m = parse_trace_with(&text, "v.csv", Some(&map)).unwrap();
+        assert_eq!(m.len(), 50);
+        assert!((m.dt_s - 5e-4).abs() < 1e-12, "{}", m.dt_s);
+        assert!((m.x_m[10] - 1e-3).abs() < 1e-15, "{}", m.x_m[10]);
+        assert!((m.y_m[10] + 1e-3).abs() < 1e-15);
+        let [xc, _] = m.commands.as_ref().unwrap();
+        assert!((xc[10] - m.x_m[10] - 5e-7).abs() < 1e-15);
+        assert_eq!(m.layout.trailer_rows, 1);
+        assert!(m.layout.dialect.decimal_comma);
+        // Without the mapping the names are recognised, but counts read as mm are not
+        // guessed: the time unit comes from the header, the positions default to mm.
+        let m = parse_trace(&text, "v.csv").unwrap();
+        assert!((m.dt_s - 5e-4).abs() < 1e-12);
+        assert!((m.x_m[10] - 10.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_millisecond_clock_read_as_seconds_is_refused() {
+        let text: String = std::iter::once("time,x,y\n".to_string())
+            .chain((0..100).map(|k| format!("{},{},0\n", 2 * k, k)))
+            .collect();
+        let e = parse_trace(&text, "ms.csv").unwrap_err().to_string();
+        assert!(e.contains("implausible") && e.contains("t=time[ms]"), "{e}");
+        let m = parse_trace_with(
+            &text,
+            "ms.csv",
+            Some(&ColumnMap::parse("t=time[ms],x=x,y=y").unwrap()),
+        )
+        .unwrap();
+        assert!((m.dt_s - 2e-3).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_bad_field_inside_the_data_names_row_and_column() {
+        let mut text = String::from("t_s,x_mm,y_mm\n");
+        for k in 0..20 {
+            text.push_str(&format!("{},{},0\n", k as f64 * 0.001, k));
+        }
+        text = text.replace("\n0.005,5,0\n", "\n0.005,5.5.5,0\n");
+        let e = parse_trace(&text, "b.csv").unwrap_err().to_string();
+        assert!(
+            e.starts_with("b.csv: row 7: column 2 'x_mm' (x): '5.5.5'"),
+            "{e}"
+        );
     }
 
     #[test]

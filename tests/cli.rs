@@ -350,3 +350,76 @@ fn interrupted_and_killed_runs_leave_nothing_behind() {
     assert!(live.exists(), "a live run's temporary file was removed");
     assert!(trace.exists());
 }
+
+/// A control's export — milliseconds, vendor column names, semicolons with decimal commas,
+/// a comment and an `EOF` trailer — is diagnosed as it is, with a column mapping, and gives
+/// the diagnosis the plain file gives. `inspect` shows how it was read.
+#[test]
+fn a_vendor_export_is_diagnosed_without_conversion() {
+    let dir = tempfile::tempdir().unwrap();
+    let plain = dir.path().join("m.csv");
+    let circle = sample("circle-test.nc");
+    let o = run(&[
+        "synth",
+        circle.to_str().unwrap(),
+        "--out",
+        plain.to_str().unwrap(),
+        "--effect",
+        "backlash",
+        "--axis",
+        "x",
+        "--values",
+        "8",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let mut vendor =
+        String::from("// servo trace, axis positions in mm\r\nTime;X_ActPos;Y_ActPos\r\n");
+    for line in std::fs::read_to_string(&plain).unwrap().lines().skip(1) {
+        let f: Vec<f64> = line.split(',').map(|v| v.parse().unwrap()).collect();
+        let row = format!("{:.3};{:.7};{:.7}\r\n", f[0] * 1e3, f[1], f[2]);
+        vendor.push_str(&row.replace('.', ","));
+    }
+    vendor.push_str("EOF;;\r\n");
+    let exported = dir.path().join("export.csv");
+    std::fs::write(&exported, vendor).unwrap();
+
+    let o = run(&[
+        "inspect",
+        exported.to_str().unwrap(),
+        "--columns",
+        "t=Time[ms],x=X_ActPos[mm],y=Y_ActPos[mm]",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let shown = text(&o.stdout);
+    assert!(
+        shown.contains("semicolon-separated, decimal comma, 1 trailer rows skipped"),
+        "{shown}"
+    );
+    assert!(shown.contains("at 500.0 Hz"), "{shown}");
+    // Read as seconds, the millisecond clock is refused with the fix.
+    let o = run(&["inspect", exported.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o.stderr).contains("implausible"),
+        "{}",
+        text(&o.stderr)
+    );
+
+    let found = |measured: &std::path::Path, extra: &[&str]| {
+        let mut args = vec!["diagnose", circle.to_str().unwrap(), "--measured"];
+        args.push(measured.to_str().unwrap());
+        args.extend_from_slice(extra);
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+        text(&o.stdout)
+            .lines()
+            .find(|l| l.contains("drive.backlash_um ="))
+            .unwrap_or_else(|| panic!("no backlash found:\n{}", text(&o.stdout)))
+            .to_string()
+    };
+    let from_export = found(
+        &exported,
+        &["--columns", "t=Time[ms],x=X_ActPos[mm],y=Y_ActPos[mm]"],
+    );
+    assert_eq!(from_export, found(&plain, &[]));
+}

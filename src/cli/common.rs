@@ -193,6 +193,34 @@ pub fn spinner(message: &str) -> indicatif::ProgressBar {
     spin
 }
 
+/// How to read a measured trace's columns.
+#[derive(Debug, Args)]
+pub struct TraceArgs {
+    /// Which column is what, with units: `t=Time[ms],x=X_ActPos[mm],y=Y_ActPos[mm],
+    /// x_cmd=X_Traj,y_cmd=Y_Traj` (time s|ms|us|min; lengths m|mm|um|in|counts:0.1um).
+    /// Without it the usual spellings are recognised and the units read from the header.
+    #[arg(long, value_name = "MAP", conflicts_with = "trace_profile")]
+    pub columns: Option<String>,
+    /// A TOML trace profile holding `columns = "…"`, written once per control or lab system.
+    #[arg(long, value_name = "FILE")]
+    pub trace_profile: Option<PathBuf>,
+}
+
+impl TraceArgs {
+    /// Reads the trace at `path` as these arguments say.
+    pub fn read(&self, path: &Path) -> Result<crate::measured::MeasuredTrace, CliError> {
+        use crate::trace_format::{ColumnMap, TraceProfile};
+        let map = match (&self.columns, &self.trace_profile) {
+            (Some(text), _) => Some(
+                ColumnMap::parse(text).map_err(|e| CliError::Usage(format!("--columns: {e}")))?,
+            ),
+            (None, Some(profile)) => Some(TraceProfile::load(profile).map_err(CliError::Usage)?),
+            (None, None) => None,
+        };
+        Ok(crate::measured::read_trace_with(path, map.as_ref())?)
+    }
+}
+
 /// `--axis x|y`.
 #[derive(Debug, Args)]
 pub struct AxisArg {

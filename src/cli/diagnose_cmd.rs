@@ -7,11 +7,11 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::Outcome;
-use super::common::{CliError, MachineArgs, PlanningArgs, load_program, spinner};
+use super::common::{CliError, MachineArgs, PlanningArgs, TraceArgs, load_program, spinner};
 use crate::diagnose::report::{DiagnoseReport, machine_file};
 use crate::diagnose::table::diagnose_table;
 use crate::diagnose::{DiagnoseSettings, Diagnosis, diagnose};
-use crate::measured::{read_table, read_trace};
+use crate::measured::read_table;
 use crate::output::OutputBatch;
 use crate::plot::panels::{Curve, Panel, PanelsPlot};
 use crate::units::{mm_from_m, um_from_m};
@@ -21,9 +21,13 @@ use crate::units::{mm_from_m, um_from_m};
 pub struct DiagnoseArgs {
     /// The part program the measurement ran (not needed with --table).
     pub program: Option<PathBuf>,
-    /// Measured trace: CSV with `t_s,x_mm,y_mm`, optionally `x_cmd_mm,y_cmd_mm`.
+    /// Measured trace: a table of time, measured X and Y and optionally the commanded X
+    /// and Y — `t_s,x_mm,y_mm,x_cmd_mm,y_cmd_mm`, or a control's or lab's export (see
+    /// --columns).
     #[arg(long, value_name = "FILE", conflicts_with = "table")]
     pub measured: Option<PathBuf>,
+    #[command(flatten)]
+    pub trace: TraceArgs,
     /// Table of steady following errors instead of a trace: CSV with `table, axis,
     /// feed_mm_per_min, kv_m_per_min_per_mm, ks_nm_s_per_rad, following_error_mm` (the
     /// paper's Tables 3–5 ship as data/paper-tables.csv).
@@ -74,7 +78,12 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
         ));
     };
     let program = load_program(program_path, &machine)?;
-    let measured = read_trace(measured_path)?;
+    let measured = args.trace.read(measured_path)?;
+    eprintln!(
+        "{}: {}",
+        measured.file,
+        measured.layout.describe().join("\n  ")
+    );
     let mut settings = DiagnoseSettings::for_machine(&machine);
     settings.check.plan = args.planning.config(&machine)?;
     settings.max_causes = args.max_causes;

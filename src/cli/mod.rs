@@ -6,6 +6,7 @@ mod bode_cmd;
 mod check_cmd;
 mod common;
 mod diagnose_cmd;
+mod inspect_cmd;
 mod plan_cmd;
 mod stickslip_cmd;
 mod sweep_cmd;
@@ -44,6 +45,8 @@ enum Command {
     Diagnose(diagnose_cmd::DiagnoseArgs),
     /// A synthetic measurement of a machine with one hidden effect.
     Synth(synth_cmd::SynthArgs),
+    /// What a measured trace holds: columns found, sampling, motion, quantisation, lag.
+    Inspect(inspect_cmd::InspectArgs),
 }
 
 /// What a run ended with.
@@ -84,5 +87,6 @@ fn run(cli: Cli, matches: &ArgMatches) -> Result<Outcome, CliError> {
         Command::Validate(args) => validate_cmd::run(&args),
         Command::Diagnose(args) => diagnose_cmd::run(&args),
         Command::Synth(args) => synth_cmd::run(&args),
+        Command::Inspect(args) => inspect_cmd::run(&args),
     }
 }

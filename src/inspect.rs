@@ -1,0 +1,204 @@
+//! What a measured trace holds, before anything is fitted to it: sampling and its jitter,
+//! duration, the stretches where the axes move, each axis's quantisation step, and — when
+//! the commands were recorded — the largest following error. The first thing to look at on
+//! a record from an unfamiliar machine.
+
+use crate::measured::MeasuredTrace;
+use crate::units::um_from_m;
+
+/// An axis moves where its position changes by more than this over the window (m).
+const MOVING_M: f64 = 1e-6;
+/// The window for deciding motion (s).
+const MOVING_WINDOW_S: f64 = 0.01;
+
+/// The figures of a trace.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TraceSummary {
+    /// Samples.
+    pub samples: usize,
+    /// Duration (s).
+    pub duration_s: f64,
+    /// Sampling rate (Hz).
+    pub rate_hz: f64,
+    /// Clock jitter: RMS deviation of the steps from the median, as a share of it.
+    pub jitter_share: f64,
+    /// Moving stretches: (start s, end s) on the trace's clock.
+    pub moving: Vec<(f64, f64)>,
+    /// Quantisation step of X and Y (m), where the positions sit on a grid.
+    pub quantum_m: [Option<f64>; 2],
+    /// Largest following error of X and Y (m) and when (s), with recorded commands.
+    pub max_following: Option<[(f64, f64); 2]>,
+}
+
+/// Summarises a trace.
+pub fn summarise(trace: &MeasuredTrace) -> TraceSummary {
+    let n = trace.len();
+    let max_following = trace.commands.as_ref().map(|[xc, yc]| {
+        [(xc, &trace.x_m), (yc, &trace.y_m)].map(|(cmd, meas)| {
+            (0..n)
+                .map(|k| (cmd[k] - meas[k], trace.time_s(k)))
+                .max_by(|a, b| a.0.abs().total_cmp(&b.0.abs()))
+                .unwrap_or((0.0, 0.0))
+        })
+    });
+    TraceSummary {
+        samples: n,
+        duration_s: trace.dt_s * (n.saturating_sub(1)) as f64,
+        rate_hz: 1.0 / trace.dt_s,
+        jitter_share: trace.steps.jitter_rms_s / trace.steps.median_s,
+        moving: moving_stretches(trace),
+        quantum_m: [quantum(&trace.x_m), quantum(&trace.y_m)],
+        max_following,
+    }
+}
+
+/// Stretches where either axis's mean position over 10 ms moves more than 1 µm from the
+/// previous 10 ms' (means, so that measurement noise does not count as motion), merged
+/// across pauses shorter than 50 ms, and at least 50 ms long.
+fn moving_stretches(trace: &MeasuredTrace) -> Vec<(f64, f64)> {
+    const SHORTEST_S: f64 = 0.05;
+    let n = trace.len();
+    let w = ((MOVING_WINDOW_S / trace.dt_s).round() as usize).max(1);
+    if n < 2 * w + 1 {
+        return Vec::new();
+    }
+    let prefix = |x: &[f64]| {
+        let mut p = Vec::with_capacity(x.len() + 1);
+        p.push(0.0);
+        for v in x {
+            p.push(p[p.len() - 1] + v);
+        }
+        p
+    };
+    let (px, py) = (prefix(&trace.x_m), prefix(&trace.y_m));
+    let mean = |p: &[f64], a: usize| (p[a + w] - p[a]) / w as f64;
+    let moving = |k: usize| {
+        (mean(&px, k + w) - mean(&px, k)).abs() > MOVING_M
+            || (mean(&py, k + w) - mean(&py, k)).abs() > MOVING_M
+    };
+    let mut raw: Vec<(f64, f64)> = Vec::new();
+    let mut start = None;
+    for k in 0..=n - 2 * w {
+        match (moving(k), start) {
+            (true, None) => start = Some(k + w),
+            (false, Some(s)) => {
+                raw.push((trace.time_s(s), trace.time_s(k + w)));
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    if let Some(s) = start {
+        raw.push((trace.time_s(s), trace.time_s(n - 1)));
+    }
+    let mut merged: Vec<(f64, f64)> = Vec::new();
+    for (a, b) in raw {
+        match merged.last_mut() {
+            Some(last) if a - last.1 < SHORTEST_S => last.1 = b,
+            _ => merged.push((a, b)),
+        }
+    }
+    merged.retain(|(a, b)| b - a >= SHORTEST_S);
+    merged
+}
+
+/// The grid positions sit on, if they do (an encoder's count, a display's last digit): the
+/// greatest common divisor of the changes between samples, by Euclid's algorithm with a
+/// tolerance far below any real count. Positions off any grid drive it to nothing.
+fn quantum(x: &[f64]) -> Option<f64> {
+    const TOLERANCE_M: f64 = 1e-13;
+    const FINEST_M: f64 = 1e-11;
+    let gcd = |mut a: f64, mut b: f64| {
+        while b > TOLERANCE_M {
+            (a, b) = (b, a % b);
+        }
+        a
+    };
+    let mut steps = x
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|d| *d > TOLERANCE_M);
+    let first = steps.next()?;
+    let q = steps.fold(first, gcd);
+    (q > FINEST_M).then_some(q)
+}
+
+impl TraceSummary {
+    /// The summary as text, one figure a line.
+    pub fn text(&self) -> String {
+        let mut s = format!(
+            "samples   {} over {:.3} s at {:.1} Hz (clock jitter {:.2} % of the step)\n",
+            self.samples,
+            self.duration_s,
+            self.rate_hz,
+            100.0 * self.jitter_share
+        );
+        let moving_s: f64 = self.moving.iter().map(|(a, b)| b - a).sum();
+        s.push_str(&format!(
+            "moving    {} stretches, {:.3} s in all",
+            self.moving.len(),
+            moving_s
+        ));
+        if let Some((a, b)) = self.moving.first() {
+            s.push_str(&format!(" (first {a:.3}–{b:.3} s)"));
+        }
+        s.push('\n');
+        for (axis, q) in ["X", "Y"].iter().zip(self.quantum_m) {
+            match q {
+                Some(q) => s.push_str(&format!(
+                    "{axis} grid    positions on a {:.4} µm grid\n",
+                    um_from_m(q)
+                )),
+                None => s.push_str(&format!("{axis} grid    no quantisation visible\n")),
+            }
+        }
+        match &self.max_following {
+            Some(f) => {
+                for (axis, (e, t)) in ["X", "Y"].iter().zip(f) {
+                    s.push_str(&format!(
+                        "{axis} follow  largest following error {:.2} µm at {t:.3} s\n",
+                        um_from_m(*e)
+                    ));
+                }
+            }
+            None => s.push_str("commands  not recorded: no following error\n"),
+        }
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::measured::parse_trace;
+
+    /// 1 kHz, X moving 50 mm/min for 0.5 s on 0.1 µm counts, lagging its command by 5 µm.
+    #[test]
+    fn figures_of_a_quantised_record() {
+        let mut text = String::from("t_s,x_um,y_mm,x_cmd_um,y_cmd_mm\n");
+        for k in 0..1000 {
+            let t = k as f64 * 1e-3;
+            let cmd_um = if t < 0.25 {
+                0.0
+            } else {
+                (t - 0.25).min(0.5) * 50.0 / 60.0 * 1e3
+            };
+            let meas_um = (((cmd_um - 5.0).max(0.0)) * 10.0).round() / 10.0;
+            text.push_str(&format!("{t},{meas_um},0,{cmd_um},0\n"));
+        }
+        let s = summarise(&parse_trace(&text, "q.csv").unwrap());
+        assert_eq!(s.samples, 1000);
+        assert!((s.rate_hz - 1000.0).abs() < 1e-6);
+        assert_eq!(s.moving.len(), 1);
+        let (a, b) = s.moving[0];
+        assert!(
+            (a - 0.25).abs() < 0.02 && (b - 0.75).abs() < 0.02,
+            "{a} {b}"
+        );
+        let q = s.quantum_m[0].unwrap();
+        assert!((q - 1e-7).abs() < 1e-12, "{q}");
+        assert_eq!(s.quantum_m[1], None);
+        let (e, _) = s.max_following.unwrap()[0];
+        assert!((e - 5e-6).abs() < 0.06e-6, "{e}");
+    }
+}

@@ -1,0 +1,628 @@
+//! How a measured trace is laid out: which columns hold time, positions and commands, in
+//! which units, and how the text is delimited — as controls and lab systems write them.
+//!
+//! A layout comes from a mapping the user gives (`t=Time[ms],x=X_ActPos[mm],…`, on the
+//! command line or in a small TOML trace profile) or is recognised from the header's usual
+//! spellings (`t_s`, `time`, `Time [ms]`; `x_mm`, `X`, `X_act`, `X_ActPos`; `x_cmd_mm`,
+//! `X_ref`, `X_Traj` …). Units come from the mapping, from brackets in the header
+//! (`Time [ms]`, `X (µm)`) or from a suffix (`_ms`, `_um`); counts need a stated
+//! resolution (`x=X_enc[counts:0.0001mm]`). The text may be comma, semicolon, tab or
+//! whitespace separated, with a decimal comma, a byte-order mark, CRLF line ends, comment
+//! lines and trailer lines after the data.
+
+use std::fmt;
+
+/// A quantity a trace column holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Signal {
+    /// Time.
+    Time,
+    /// Measured X.
+    X,
+    /// Measured Y.
+    Y,
+    /// Commanded X.
+    XCmd,
+    /// Commanded Y.
+    YCmd,
+}
+
+impl Signal {
+    const ALL: [Signal; 5] = [
+        Signal::Time,
+        Signal::X,
+        Signal::Y,
+        Signal::XCmd,
+        Signal::YCmd,
+    ];
+
+    /// The key in a mapping: `t`, `x`, `y`, `x_cmd`, `y_cmd`.
+    pub fn key(self) -> &'static str {
+        match self {
+            Signal::Time => "t",
+            Signal::X => "x",
+            Signal::Y => "y",
+            Signal::XCmd => "x_cmd",
+            Signal::YCmd => "y_cmd",
+        }
+    }
+
+    fn from_key(key: &str) -> Option<Signal> {
+        Signal::ALL.into_iter().find(|s| s.key() == key)
+    }
+
+    fn is_time(self) -> bool {
+        self == Signal::Time
+    }
+}
+
+/// A column's unit: its value times `to_si` is seconds (time) or metres (positions).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Unit {
+    /// Factor to SI.
+    pub to_si: f64,
+    /// As written, for messages.
+    pub label: &'static str,
+}
+
+const TIME_UNITS: [(&str, f64); 5] = [
+    ("s", 1.0),
+    ("ms", 1e-3),
+    ("us", 1e-6),
+    ("µs", 1e-6),
+    ("min", 60.0),
+];
+const LENGTH_UNITS: [(&str, f64); 6] = [
+    ("m", 1.0),
+    ("mm", 1e-3),
+    ("um", 1e-6),
+    ("µm", 1e-6),
+    ("in", 0.0254),
+    ("inch", 0.0254),
+];
+
+/// Reads a unit for a signal: a time or length unit, or `counts:RESOLUTION` with a length
+/// unit on the resolution (`counts:0.1um`).
+fn parse_unit(text: &str, signal: Signal) -> Result<Unit, String> {
+    let t = text.trim();
+    let table: &[(&'static str, f64)] = if signal.is_time() {
+        &TIME_UNITS
+    } else {
+        &LENGTH_UNITS
+    };
+    if let Some((label, f)) = table.iter().find(|(l, _)| l.eq_ignore_ascii_case(t)) {
+        return Ok(Unit { to_si: *f, label });
+    }
+    if !signal.is_time()
+        && let Some(res) = t
+            .strip_prefix("counts:")
+            .or_else(|| t.strip_prefix("count:"))
+    {
+        let split = res
+            .find(|c: char| c.is_alphabetic() || c == 'µ')
+            .ok_or_else(|| {
+                format!("counts need a resolution with a unit, as counts:0.1um (got '{t}')")
+            })?;
+        let (number, unit) = res.split_at(split);
+        let step: f64 = number
+            .trim()
+            .parse()
+            .map_err(|_| format!("the count resolution '{number}' is not a number"))?;
+        let unit = parse_unit(unit, signal)?;
+        if !(step.is_finite() && step > 0.0) {
+            return Err(format!("the count resolution '{number}' must be positive"));
+        }
+        return Ok(Unit {
+            to_si: step * unit.to_si,
+            label: "counts",
+        });
+    }
+    let known: Vec<&str> = table.iter().map(|(l, _)| *l).collect();
+    Err(format!(
+        "unknown {} unit '{t}' (known: {}{})",
+        if signal.is_time() { "time" } else { "length" },
+        known.join(", "),
+        if signal.is_time() {
+            ""
+        } else {
+            ", counts:RESOLUTION"
+        }
+    ))
+}
+
+/// One column as mapped: its header name and unit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ColumnSpec {
+    /// The header as written in the file.
+    pub name: String,
+    /// Its unit; None: to be taken from the header, else the default (s, mm).
+    pub unit: Option<Unit>,
+}
+
+/// A user's mapping of signals to columns.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ColumnMap {
+    specs: Vec<(Signal, ColumnSpec)>,
+}
+
+impl ColumnMap {
+    /// Parses `t=Time[ms],x=X_ActPos[mm],y=Y_ActPos,x_cmd=X_Traj,y_cmd=Y_Traj`.
+    pub fn parse(text: &str) -> Result<ColumnMap, String> {
+        let mut map = ColumnMap::default();
+        for item in split_mapping(text) {
+            let (key, column) = item
+                .split_once('=')
+                .ok_or_else(|| format!("'{item}': expected KEY=COLUMN, as t=Time[ms]"))?;
+            let signal = Signal::from_key(key.trim())
+                .ok_or_else(|| format!("'{key}': the keys are t, x, y, x_cmd, y_cmd"))?;
+            map.set(signal, column)?;
+        }
+        map.check_complete()?;
+        Ok(map)
+    }
+
+    /// Sets one signal from `Name[unit]` or `Name`.
+    pub fn set(&mut self, signal: Signal, column: &str) -> Result<(), String> {
+        let (name, unit) = split_unit(column.trim());
+        let unit = unit.map(|u| parse_unit(u, signal)).transpose()?;
+        if name.is_empty() {
+            return Err(format!("{}: the column name is empty", signal.key()));
+        }
+        self.specs.retain(|(s, _)| *s != signal);
+        self.specs.push((
+            signal,
+            ColumnSpec {
+                name: name.to_string(),
+                unit,
+            },
+        ));
+        Ok(())
+    }
+
+    fn get(&self, signal: Signal) -> Option<&ColumnSpec> {
+        self.specs
+            .iter()
+            .find(|(s, _)| *s == signal)
+            .map(|(_, c)| c)
+    }
+
+    fn check_complete(&self) -> Result<(), String> {
+        for s in [Signal::Time, Signal::X, Signal::Y] {
+            if self.get(s).is_none() {
+                return Err(format!(
+                    "the mapping needs {}= (t, x and y are required)",
+                    s.key()
+                ));
+            }
+        }
+        if self.get(Signal::XCmd).is_some() != self.get(Signal::YCmd).is_some() {
+            return Err("x_cmd and y_cmd go together".into());
+        }
+        Ok(())
+    }
+}
+
+/// Splits a mapping at commas that are not inside brackets (`counts:0,1um` stays whole).
+fn split_mapping(text: &str) -> Vec<&str> {
+    let mut items = Vec::new();
+    let (mut depth, mut start) = (0i32, 0);
+    for (i, c) in text.char_indices() {
+        match c {
+            '[' | '(' => depth += 1,
+            ']' | ')' => depth -= 1,
+            ',' if depth == 0 => {
+                items.push(text[start..i].trim());
+                start = i + 1;
+            }
+            _ => {}
+        }
+    }
+    items.push(text[start..].trim());
+    items.into_iter().filter(|s| !s.is_empty()).collect()
+}
+
+/// `Time [ms]` → ("Time", Some("ms")); `X (µm)` likewise; `Time` → ("Time", None).
+fn split_unit(column: &str) -> (&str, Option<&str>) {
+    for (open, close) in [('[', ']'), ('(', ')')] {
+        if let (Some(a), true) = (column.rfind(open), column.ends_with(close)) {
+            return (
+                column[..a].trim(),
+                Some(column[a + 1..column.len() - 1].trim()),
+            );
+        }
+    }
+    (column, None)
+}
+
+/// A trace profile file: a shop's mapping written once.
+///
+/// ```toml
+/// columns = "t=Time[ms],x=X_ActPos[mm],y=Y_ActPos[mm],x_cmd=X_Traj[mm],y_cmd=Y_Traj[mm]"
+/// ```
+#[derive(Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TraceProfile {
+    /// The mapping, as for `--columns`.
+    pub columns: String,
+}
+
+impl TraceProfile {
+    /// Reads a profile file into a mapping.
+    pub fn load(path: &std::path::Path) -> Result<ColumnMap, String> {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let profile: TraceProfile =
+            toml::from_str(&text).map_err(|e| format!("{}: {}", path.display(), e.message()))?;
+        ColumnMap::parse(&profile.columns)
+            .map_err(|e| format!("{}: key `columns`: {e}", path.display()))
+    }
+}
+
+/// How the text is split into fields.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Delimiter {
+    /// A single byte: `,`, `;` or tab.
+    Byte(u8),
+    /// Runs of spaces or tabs.
+    Whitespace,
+}
+
+impl fmt::Display for Delimiter {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Delimiter::Byte(b',') => f.write_str("comma"),
+            Delimiter::Byte(b';') => f.write_str("semicolon"),
+            Delimiter::Byte(b'\t') => f.write_str("tab"),
+            Delimiter::Byte(b) => write!(f, "'{}'", *b as char),
+            Delimiter::Whitespace => f.write_str("whitespace"),
+        }
+    }
+}
+
+/// The text's dialect, as sniffed from its header and first data lines.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Dialect {
+    /// Field separator.
+    pub delimiter: Delimiter,
+    /// Numbers written with a decimal comma (`0,125`).
+    pub decimal_comma: bool,
+}
+
+/// Whether a line is a comment: `#`, `//`, `%` or `;` first (`;` only when it is not the
+/// delimiter).
+pub fn is_comment(line: &str) -> bool {
+    let l = line.trim_start();
+    l.starts_with('#') || l.starts_with("//") || l.starts_with('%')
+}
+
+/// Sniffs the dialect from the header line and the next few data lines.
+pub fn sniff(header: &str, data: &[&str]) -> Dialect {
+    let count = |b: char| header.matches(b).count();
+    let delimiter = if count('\t') > 0 {
+        Delimiter::Byte(b'\t')
+    } else if count(';') > 0 {
+        Delimiter::Byte(b';')
+    } else if count(',') > 0 {
+        Delimiter::Byte(b',')
+    } else {
+        Delimiter::Whitespace
+    };
+    // A decimal comma shows as digits on both sides of a comma in data fields, possible
+    // only when the comma is not the separator.
+    let decimal_comma = delimiter != Delimiter::Byte(b',')
+        && data.iter().any(|l| {
+            let b = l.as_bytes();
+            (1..b.len().saturating_sub(1))
+                .any(|i| b[i] == b',' && b[i - 1].is_ascii_digit() && b[i + 1].is_ascii_digit())
+        });
+    Dialect {
+        delimiter,
+        decimal_comma,
+    }
+}
+
+/// Splits a line into trimmed fields.
+pub fn fields(line: &str, d: Delimiter) -> Vec<&str> {
+    match d {
+        Delimiter::Byte(b) => line.split(b as char).map(str::trim).collect(),
+        Delimiter::Whitespace => line.split_whitespace().collect(),
+    }
+}
+
+/// Reads a number as written in the dialect.
+pub fn number(field: &str, dialect: &Dialect) -> Option<f64> {
+    let v = if dialect.decimal_comma {
+        field.replace(',', ".").parse::<f64>()
+    } else {
+        field.parse::<f64>()
+    };
+    v.ok().filter(|v| v.is_finite())
+}
+
+/// A signal found in the header: its column index, header text and unit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Mapped {
+    /// Which signal.
+    pub signal: Signal,
+    /// Column index (0-based).
+    pub index: usize,
+    /// The header as written.
+    pub header: String,
+    /// The unit used.
+    pub unit: Unit,
+    /// Where the unit came from: "mapping", "header", "default".
+    pub unit_from: &'static str,
+}
+
+/// Finds every signal's column in `headers`, from `map` when given, else by the usual
+/// spellings. Errors name what is missing and list the headers found.
+pub fn map_columns(headers: &[&str], map: Option<&ColumnMap>) -> Result<Vec<Mapped>, String> {
+    let mut out = Vec::new();
+    for signal in Signal::ALL {
+        let found = match map {
+            Some(m) => match m.get(signal) {
+                Some(spec) => Some(find_named(headers, spec, signal)?),
+                None => None,
+            },
+            None => recognise(headers, signal)?,
+        };
+        if let Some(f) = found {
+            out.push(f);
+        }
+    }
+    let has = |s: Signal| out.iter().any(|m| m.signal == s);
+    for s in [Signal::Time, Signal::X, Signal::Y] {
+        if !has(s) {
+            return Err(format!(
+                "no column for {} among the headers {:?}; name them with --columns \
+                 t=NAME[unit],x=NAME[unit],y=NAME[unit] (x_cmd, y_cmd optional)",
+                describe(s),
+                headers
+            ));
+        }
+    }
+    if has(Signal::XCmd) != has(Signal::YCmd) {
+        return Err(format!(
+            "a command column for only one axis among {headers:?}; map both x_cmd and y_cmd"
+        ));
+    }
+    Ok(out)
+}
+
+fn describe(s: Signal) -> &'static str {
+    match s {
+        Signal::Time => "time",
+        Signal::X => "the measured X",
+        Signal::Y => "the measured Y",
+        Signal::XCmd => "the commanded X",
+        Signal::YCmd => "the commanded Y",
+    }
+}
+
+fn find_named(headers: &[&str], spec: &ColumnSpec, signal: Signal) -> Result<Mapped, String> {
+    let index = headers
+        .iter()
+        .position(|h| *h == spec.name || split_unit(h).0 == spec.name)
+        .ok_or_else(|| {
+            format!(
+                "{}={}: no such column among the headers {headers:?}",
+                signal.key(),
+                spec.name
+            )
+        })?;
+    mapped(headers[index], index, signal, spec.unit)
+}
+
+/// The column's mapping with its unit: the one given, else the header's, else the default.
+fn mapped(
+    header: &str,
+    index: usize,
+    signal: Signal,
+    given: Option<Unit>,
+) -> Result<Mapped, String> {
+    let (unit, unit_from) = match given {
+        Some(u) => (u, "mapping"),
+        None => match header_unit(header, signal)? {
+            Some(u) => (u, "header"),
+            None => (
+                parse_unit(if signal.is_time() { "s" } else { "mm" }, signal)?,
+                "default",
+            ),
+        },
+    };
+    Ok(Mapped {
+        signal,
+        index,
+        header: header.to_string(),
+        unit,
+        unit_from,
+    })
+}
+
+/// A unit written into a header: `Time [ms]`, `X (µm)`, `t_ms`, `x_um`.
+fn header_unit(header: &str, signal: Signal) -> Result<Option<Unit>, String> {
+    if let (_, Some(u)) = split_unit(header) {
+        return parse_unit(u, signal)
+            .map(Some)
+            .map_err(|e| format!("column '{header}': {e}"));
+    }
+    let lower = header.to_lowercase();
+    let table: &[(&'static str, f64)] = if signal.is_time() {
+        &TIME_UNITS
+    } else {
+        &LENGTH_UNITS
+    };
+    Ok(table
+        .iter()
+        .find(|(l, _)| lower.ends_with(&format!("_{l}")))
+        .map(|(label, f)| Unit { to_si: *f, label }))
+}
+
+/// The usual spellings of each signal, compared without case, spaces, `_`, `-` or units.
+fn spellings(signal: Signal) -> &'static [&'static str] {
+    match signal {
+        Signal::Time => &[
+            "t",
+            "ts",
+            "tms",
+            "time",
+            "times",
+            "timems",
+            "zeit",
+            "timestamp",
+        ],
+        Signal::X => &[
+            "x",
+            "xmm",
+            "xum",
+            "xact",
+            "xactpos",
+            "xpos",
+            "posx",
+            "actposx",
+            "xactual",
+            "xmeas",
+            "xmeasured",
+            "xis",
+            "xist",
+        ],
+        Signal::Y => &[
+            "y",
+            "ymm",
+            "yum",
+            "yact",
+            "yactpos",
+            "ypos",
+            "posy",
+            "actposy",
+            "yactual",
+            "ymeas",
+            "ymeasured",
+            "yis",
+            "yist",
+        ],
+        Signal::XCmd => &[
+            "xcmd",
+            "xcmdmm",
+            "xref",
+            "xtraj",
+            "xset",
+            "xsetpos",
+            "xcmdpos",
+            "cmdposx",
+            "xsoll",
+            "xcommand",
+            "xcommanded",
+            "setposx",
+        ],
+        Signal::YCmd => &[
+            "ycmd",
+            "ycmdmm",
+            "yref",
+            "ytraj",
+            "yset",
+            "ysetpos",
+            "ycmdpos",
+            "cmdposy",
+            "ysoll",
+            "ycommand",
+            "ycommanded",
+            "setposy",
+        ],
+    }
+}
+
+/// A header reduced for comparison: no unit (bracketed or as a `_unit` suffix), no case, no
+/// separators.
+fn normalised(header: &str) -> String {
+    let mut name = split_unit(header).0.to_lowercase();
+    if let Some((stem, suffix)) = name.rsplit_once('_')
+        && TIME_UNITS
+            .iter()
+            .chain(&LENGTH_UNITS)
+            .any(|(label, _)| *label == suffix)
+    {
+        name = stem.to_string();
+    }
+    name.chars().filter(|c| c.is_alphanumeric()).collect()
+}
+
+fn recognise(headers: &[&str], signal: Signal) -> Result<Option<Mapped>, String> {
+    let names = spellings(signal);
+    let hits: Vec<usize> = (0..headers.len())
+        .filter(|&i| names.contains(&normalised(headers[i]).as_str()))
+        .collect();
+    match hits.as_slice() {
+        [] => Ok(None),
+        [i] => mapped(headers[*i], *i, signal, None).map(Some),
+        many => Err(format!(
+            "several columns could be {}: {:?}; choose with --columns",
+            describe(signal),
+            many.iter().map(|&i| headers[i]).collect::<Vec<_>>()
+        )),
+    }
+}
+
+/// One line per mapped signal, for the user: `t ← Time [ms] (unit from the header)`.
+pub fn describe_mapping(mapped: &[Mapped]) -> Vec<String> {
+    mapped
+        .iter()
+        .map(|m| {
+            format!(
+                "{:<5} ← column {} '{}' in {} (unit from the {})",
+                m.signal.key(),
+                m.index + 1,
+                m.header,
+                m.unit.label,
+                m.unit_from
+            )
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_mapping_reads_names_units_and_counts() {
+        let m = ColumnMap::parse("t=Time[ms],x=X_enc[counts:0.1um],y=Y_ActPos[in]").unwrap();
+        let headers = ["Time", "X_enc", "Y_ActPos"];
+        let mapped = map_columns(&headers, Some(&m)).unwrap();
+        assert_eq!(mapped[0].unit.to_si, 1e-3);
+        assert!((mapped[1].unit.to_si - 1e-7).abs() < 1e-22);
+        assert_eq!(mapped[2].unit.to_si, 0.0254);
+        assert!(ColumnMap::parse("t=Time[hours],x=a,y=b").is_err());
+        assert!(ColumnMap::parse("t=Time,x=a").unwrap_err().contains("y="));
+        assert!(ColumnMap::parse("t=T,x=a,y=b,x_cmd=c").is_err());
+    }
+
+    #[test]
+    fn vendor_spellings_are_recognised_with_their_units() {
+        let headers = ["Time [ms]", "X_Traj", "Y_Traj", "X_ActPos", "Y_ActPos"];
+        let m = map_columns(&headers, None).unwrap();
+        let by = |s: Signal| m.iter().find(|x| x.signal == s).unwrap();
+        assert_eq!(by(Signal::Time).index, 0);
+        assert_eq!(by(Signal::Time).unit.to_si, 1e-3);
+        assert_eq!(by(Signal::X).index, 3);
+        assert_eq!(by(Signal::XCmd).index, 1);
+        assert_eq!(by(Signal::YCmd).unit_from, "default");
+        // Ours as ever.
+        let m = map_columns(&["t_s", "x_mm", "y_mm"], None).unwrap();
+        assert_eq!(m.len(), 3);
+        let e = map_columns(&["a", "b"], None).unwrap_err();
+        assert!(e.contains("no column for time"), "{e}");
+    }
+
+    #[test]
+    fn dialects_are_sniffed() {
+        let d = sniff("Zeit;X;Y", &["0,001;1,5;2"]);
+        assert_eq!(d.delimiter, Delimiter::Byte(b';'));
+        assert!(d.decimal_comma);
+        assert_eq!(number("1,5", &d), Some(1.5));
+        let d = sniff("t x y", &["0.1 1 2"]);
+        assert_eq!(d.delimiter, Delimiter::Whitespace);
+        assert_eq!(fields("  0.1   1\t2 ", d.delimiter), vec!["0.1", "1", "2"]);
+        let d = sniff("t,x,y", &["0.1,1,2"]);
+        assert!(!d.decimal_comma);
+    }
+}
