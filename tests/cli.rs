@@ -190,32 +190,23 @@ fn programs_that_do_not_fit_the_machine_are_refused_with_line_and_axis() {
 #[test]
 fn bode_shows_no_nan_and_refuses_an_unstable_setting() {
     let dir = tempfile::tempdir().unwrap();
+    let bode_at_kv = |name: &str, kv: f64| {
+        let m = dir.path().join(name);
+        let toml = format!("base = \"hvmc\"\n[x.position_loop]\nkv_m_per_min_per_mm = {kv}\n");
+        std::fs::write(&m, toml).unwrap();
+        run(&["bode", "--machine", m.to_str().unwrap()])
+    };
     // A crawling position loop (crossover 2.65 mHz) is still measured.
-    let slow = dir.path().join("slow.toml");
-    std::fs::write(
-        &slow,
-        "base = \"hvmc\"\n[x.position_loop]\nkv_m_per_min_per_mm = 0.001\n",
-    )
-    .unwrap();
-    let o = run(&["bode", "--machine", slow.to_str().unwrap()]);
+    let o = bode_at_kv("slow.toml", 0.001);
     assert_eq!(o.status.code(), Some(0));
     let out = text(&o.stdout);
     assert!(!out.to_lowercase().contains("nan"), "{out}");
     assert!(out.contains("0.00265 Hz"), "{out}");
-    let hot = dir.path().join("hot.toml");
-    std::fs::write(
-        &hot,
-        "base = \"hvmc\"\n[x.position_loop]\nkv_m_per_min_per_mm = 60\n",
-    )
-    .unwrap();
-    let o = run(&["bode", "--machine", hot.to_str().unwrap()]);
+    let o = bode_at_kv("hot.toml", 60.0);
     assert_eq!(o.status.code(), Some(2));
     assert!(!text(&o.stdout).to_lowercase().contains("nan"));
-    assert!(
-        text(&o.stderr).contains("X axis: unstable"),
-        "{}",
-        text(&o.stderr)
-    );
+    let err = text(&o.stderr);
+    assert!(err.contains("X axis: unstable"), "{err}");
     // A plot that cannot be written says why as any other file would.
     let nowhere = dir.path().join("no-such-dir").join("bode.png");
     let o = run(&["bode", "--plot", nowhere.to_str().unwrap()]);
