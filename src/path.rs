@@ -30,6 +30,10 @@ pub enum Blend {
     Continuous {
         /// G64 P value converted to metres.
         tolerance_m: Option<f64>,
+        /// G64 Q, LinuxCNC's "naive CAM" tolerance, converted to metres: short blocks whose
+        /// vertices lie this close to a smooth curve are planned through as one (`None`:
+        /// the P tolerance serves).
+        naive_cam_m: Option<f64>,
     },
 }
 

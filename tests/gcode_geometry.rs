@@ -154,7 +154,8 @@ fn modes_feed_and_blending_are_carried() {
     assert_eq!(
         p.segments[1].blend,
         Blend::Continuous {
-            tolerance_m: Some(0.02e-3)
+            tolerance_m: Some(0.02e-3),
+            naive_cam_m: None,
         }
     );
     assert_eq!(p.segments[2].blend, Blend::ExactStop);

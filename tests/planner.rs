@@ -425,3 +425,27 @@ fn a_corner_runs_at_its_junction_speed() {
     assert!((junction - 0.5 * 0.002).abs() < 1e-12, "{junction}");
     assert!((p.plans[1].v_entry - junction).abs() < 1e-15);
 }
+
+/// LinuxCNC's G64 Q ("naive CAM" tolerance) sets how far chord vertices may stand off a
+/// smooth curve and still be planned through; P alone sets it otherwise. 2 mm chords of an
+/// R50 circle stand 10 µm off it: within Q 0.05 mm, beyond P 0.001 mm.
+#[test]
+fn g64_q_sets_which_chord_vertices_are_planned_through() {
+    let chords = |modes: &str| {
+        let mut src = format!("G21 G90 {modes}\nG0 X50 Y0\nG1 F1000\n");
+        let n = (2.0 * std::f64::consts::PI * 50.0 / 2.0).round() as usize;
+        for i in 1..=n {
+            let a = 2.0 * std::f64::consts::PI * i as f64 / n as f64;
+            src.push_str(&format!("X{:.4} Y{:.4}\n", 50.0 * a.cos(), 50.0 * a.sin()));
+        }
+        motion_time_s(&plan_text(&src, ProfileKind::SCurve).0)
+    };
+    let arc = motion_time_s(&plan_text(&circle_program(None), ProfileKind::SCurve).0);
+    let with_q = chords("G64 P0.001 Q0.05");
+    let p_only = chords("G64 P0.001");
+    assert!(
+        (with_q / arc - 1.0).abs() < 0.02,
+        "Q: {with_q} s vs arc {arc} s"
+    );
+    assert!(p_only > 1.2 * arc, "P only: {p_only} s vs arc {arc} s");
+}

@@ -195,7 +195,10 @@ impl Interpreter {
             motion: None,
             plane: Plane::Xy,
             feed_mm_per_min: 0.0,
-            blend: Blend::Continuous { tolerance_m: None },
+            blend: Blend::Continuous {
+                tolerance_m: None,
+                naive_cam_m: None,
+            },
             coord_index: 0,
             work_offsets_mm: opts.work_offsets_mm,
             rotation_deg: [0.0; 9],
@@ -496,17 +499,20 @@ impl Interpreter {
     }
 
     fn set_blend_tolerance(&mut self, offset: u32) -> IResult<()> {
-        let tolerance_m = match self.block.get(b'P') {
-            Some(p) if p < 0.0 => {
-                return err(
-                    offset,
-                    GcodeErrorKind::Invalid("G64 P must not be negative".into()),
-                );
-            }
-            Some(p) if p > 0.0 => Some(m_from_mm(p * self.mm_per_unit)),
-            _ => None,
+        let tolerance = |letter: u8| match self.block.get(letter) {
+            Some(v) if v < 0.0 => err(
+                offset,
+                GcodeErrorKind::Invalid(format!("G64 {} must not be negative", letter as char)),
+            ),
+            Some(v) if v > 0.0 => Ok(Some(m_from_mm(v * self.mm_per_unit))),
+            _ => Ok(None),
         };
-        self.blend = Blend::Continuous { tolerance_m };
+        let tolerance_m = tolerance(b'P')?;
+        let naive_cam_m = tolerance(b'Q')?;
+        self.blend = Blend::Continuous {
+            tolerance_m,
+            naive_cam_m,
+        };
         Ok(())
     }
 

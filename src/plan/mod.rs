@@ -615,6 +615,7 @@ fn corner_speed(a: &Segment, b: &Segment, limits: &KinematicLimits, config: &Pla
     let tolerance = match a.blend {
         Blend::Continuous {
             tolerance_m: Some(tol),
+            ..
         } => tol,
         _ => config.default_blend_tolerance_m,
     };

@@ -140,10 +140,16 @@ pub(super) fn smooth_junction_speed(
     let mut v = curvature_jump_speed(a, b, limits, config);
     if theta > 1e-9 {
         let shorter = a.length_m().min(b.length_m());
+        // LinuxCNC's G64 Q names this tolerance; otherwise the blend tolerance (P) serves.
         let tolerance = match a.blend {
             Blend::Continuous {
-                tolerance_m: Some(tol),
-            } => tol,
+                naive_cam_m: Some(q),
+                ..
+            } => q,
+            Blend::Continuous {
+                tolerance_m: Some(p),
+                ..
+            } => p,
             _ => config.default_blend_tolerance_m,
         };
         if shorter * theta / 8.0 > tolerance {
