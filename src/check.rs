@@ -135,11 +135,16 @@ pub fn plan_commands(
 /// after the simulation).
 pub fn analyse(run: Execution, machine: &MachineConfig, settings: &CheckSettings) -> CheckRun {
     let Execution {
-        plan: planned,
+        plan: mut planned,
         commands,
         x,
         y,
     } = run;
+    for (axis, trace, config) in [('X', &x, &machine.x), ('Y', &y, &machine.y)] {
+        if let Some(w) = limit_warning(axis, trace, config, &planned, &commands) {
+            planned.warnings.push(w);
+        }
+    }
     let contour = contour_errors(&planned, &commands, &x.pos_m, &y.pos_m);
     let [mx, my] = [&machine.x, &machine.y].map(AxisModel::from_config);
     let view = RunView {
@@ -162,6 +167,51 @@ pub fn analyse(run: Execution, machine: &MachineConfig, settings: &CheckSettings
         summary,
         settings: *settings,
     }
+}
+
+/// A drive that spends time at its current or voltage limit cannot follow its command
+/// there: the prediction includes it, but a wrong limit in the machine file (a 3 A current
+/// limit on a 60 A drive) would show as a large error at every reversal with no other hint.
+/// Says where (the first stretch's line), how long in all and which limit.
+fn limit_warning(
+    axis: char,
+    trace: &AxisTrace,
+    config: &crate::machine::AxisConfig,
+    plan: &Plan,
+    commands: &Commands,
+) -> Option<crate::gcode::Warning> {
+    // Trace mode codes from 9 up mark an active current or voltage limit.
+    let limited: Vec<usize> = (0..trace.mode.len())
+        .filter(|&k| trace.mode[k] >= 9)
+        .collect();
+    let &first = limited.first()?;
+    let stretches = 1 + limited.windows(2).filter(|w| w[1] != w[0] + 1).count();
+    let i_max = config.velocity_loop.i_max_a;
+    let at_current_limit = limited
+        .iter()
+        .filter(|&&k| trace.current_a[k].abs() >= 0.95 * i_max)
+        .count();
+    let which = if 2 * at_current_limit >= limited.len() {
+        format!("current limit (velocity_loop.i_max_a = {i_max} A)")
+    } else {
+        format!(
+            "voltage limit (current_loop.u_max_v = {} V)",
+            config.current_loop.u_max_v
+        )
+    };
+    let segment = commands.segment.get(first).copied().unwrap_or(0) as usize;
+    let line = plan.segments.get(segment).map_or(0, |s| s.line);
+    Some(crate::gcode::Warning {
+        line,
+        message: format!(
+            "the {axis} drive is at its {which} for {:.1} ms in {stretches} stretch{}, the \
+             first at t = {:.3} s: it cannot follow the command there (included in the \
+             prediction; check the limit if this is unexpected)",
+            limited.len() as f64 * trace.dt_s * 1e3,
+            if stretches == 1 { "" } else { "es" },
+            first as f64 * trace.dt_s
+        ),
+    })
 }
 
 fn summarize(

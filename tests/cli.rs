@@ -414,3 +414,19 @@ fn a_vendor_export_is_diagnosed_without_conversion() {
     );
     assert_eq!(from_export, found(&plain, &[]));
 }
+
+/// A current limit set far too low (1.5 A on a drive the preset gives 60 A; the square's
+/// 0.5 m/s² on 6 t take about 2 A) costs the prediction its shape: the run says so, with the
+/// axis, the key and where.
+#[test]
+fn time_at_a_drive_limit_is_reported() {
+    let o = check_square_on_machine("weak.toml", "[x.velocity_loop]\ni_max_a = 1.5\n");
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    assert!(
+        out.contains("line 8: the X drive is at its current limit (velocity_loop.i_max_a = 1.5 A)"),
+        "{out}"
+    );
+    let o = run(&["check", sample("square.nc").to_str().unwrap()]);
+    assert!(!text(&o.stdout).contains("drive is at"));
+}

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::Outcome;
-use super::common::{CliError, MachineArgs, PlanningArgs, load_program, progress};
+use super::common::{CliError, MachineArgs, PlanningArgs, group_warnings, load_program, progress};
 use crate::check::{CheckRun, CheckSettings, analyse, circle_tests};
 use crate::execute::execute;
 use crate::output::OutputBatch;
@@ -69,6 +69,13 @@ pub fn run(args: &CheckArgs) -> Result<Outcome, CliError> {
     let report = CheckReport::new(&run, &program, &machine, args.tolerance);
     write_outputs(args, &run, &report)?;
     print!("{}", summary_text(&report, args.hotspots));
+    let warnings = group_warnings(&report.warnings);
+    if !warnings.is_empty() {
+        println!("\nwarnings");
+        for w in warnings {
+            println!("  {w}");
+        }
+    }
     Ok(match report.within_tolerance {
         Some(false) => Outcome::OverTolerance,
         _ => Outcome::Ok,
