@@ -374,13 +374,17 @@ fn a_vendor_export_is_diagnosed_without_conversion() {
     let exported = dir.path().join("export.csv");
     std::fs::write(&exported, vendor).unwrap();
 
+    let overview = dir.path().join("overview.png");
     let o = run(&[
         "inspect",
         exported.to_str().unwrap(),
         "--columns",
         "t=Time[ms],x=X_ActPos[mm],y=Y_ActPos[mm]",
+        "--plot",
+        overview.to_str().unwrap(),
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(std::fs::read(&overview).unwrap().starts_with(b"\x89PNG"));
     let shown = text(&o.stdout);
     assert!(
         shown.contains("semicolon-separated, decimal comma, 1 trailer rows skipped"),

@@ -5,8 +5,11 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::Outcome;
-use super::common::{CliError, TraceArgs};
+use super::common::{CliError, TraceArgs, write_plot};
 use crate::inspect::summarise;
+use crate::measured::MeasuredTrace;
+use crate::plot::panels::{Curve, Panel, PanelsPlot};
+use crate::units::{mm_from_m, um_from_m};
 
 /// Arguments of `inspect`.
 #[derive(Debug, Args)]
@@ -15,6 +18,10 @@ pub struct InspectArgs {
     pub trace: PathBuf,
     #[command(flatten)]
     pub columns: TraceArgs,
+    /// Write a one-page plot (PNG or SVG): positions over time, following errors when the
+    /// commands were recorded.
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
 }
 
 pub fn run(args: &InspectArgs) -> Result<Outcome, CliError> {
@@ -32,5 +39,56 @@ pub fn run(args: &InspectArgs) -> Result<Outcome, CliError> {
         );
     }
     print!("{}", summarise(&trace).text());
+    if let Some(path) = &args.plot {
+        write_plot(path, &overview(&trace))?;
+        println!("plot: {}", path.display());
+    }
     Ok(Outcome::Ok)
+}
+
+/// Samples drawn per curve: enough for a page, however long the record.
+const POINTS: usize = 4000;
+
+/// Positions (measured, and commanded where recorded) and following errors over time.
+fn overview(trace: &MeasuredTrace) -> PanelsPlot {
+    let every = trace.len().div_ceil(POINTS).max(1);
+    let curve = |name: &str, color: Option<usize>, value: &dyn Fn(usize) -> f64| Curve {
+        name: name.into(),
+        points: (0..trace.len())
+            .step_by(every)
+            .map(|k| (trace.time_s(k), value(k)))
+            .collect(),
+        color,
+        width: if color.is_some() { 1 } else { 3 },
+    };
+    // The commands as wide grey references under the measured positions.
+    let mut positions = Vec::new();
+    let mut panels = Vec::new();
+    if let Some([xc, yc]) = &trace.commands {
+        positions.push(curve("commanded", None, &|k| mm_from_m(xc[k])));
+        positions.push(curve("", None, &|k| mm_from_m(yc[k])));
+        panels.push(Panel {
+            caption: "following error (command − measured)".into(),
+            y_label: "error (µm)".into(),
+            curves: vec![
+                curve("X", Some(0), &|k| um_from_m(xc[k] - trace.x_m[k])),
+                curve("Y", Some(1), &|k| um_from_m(yc[k] - trace.y_m[k])),
+            ],
+        });
+    }
+    positions.push(curve("X measured", Some(0), &|k| mm_from_m(trace.x_m[k])));
+    positions.push(curve("Y measured", Some(1), &|k| mm_from_m(trace.y_m[k])));
+    panels.insert(
+        0,
+        Panel {
+            caption: "positions".into(),
+            y_label: "position (mm)".into(),
+            curves: positions,
+        },
+    );
+    PanelsPlot {
+        title: format!("{}: what the trace holds", trace.file),
+        x_label: "trace time (s)".into(),
+        panels,
+    }
 }

@@ -99,8 +99,9 @@ fn draw_panel<DB: DrawingBackend>(
             let drawn = chart
                 .draw_series(LineSeries::new(run.iter().copied(), style))
                 .map_err(err)?;
-            // One legend entry per curve, however many pieces it is drawn in.
-            if first {
+            // One legend entry per curve, however many pieces it is drawn in; none for a
+            // curve without a name (a second curve of an entry already made).
+            if first && !curve.name.is_empty() {
                 drawn
                     .label(curve.name.clone())
                     .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], style));
