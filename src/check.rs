@@ -180,9 +180,8 @@ fn limit_warning(
     plan: &Plan,
     commands: &Commands,
 ) -> Option<crate::gcode::Warning> {
-    // Trace mode codes from 9 up mark an active current or voltage limit.
     let limited: Vec<usize> = (0..trace.mode.len())
-        .filter(|&k| trace.mode[k] >= 9)
+        .filter(|&k| crate::sim::Mode::code_is_limited(trace.mode[k]))
         .collect();
     let &first = limited.first()?;
     let stretches = 1 + limited.windows(2).filter(|w| w[1] != w[0] + 1).count();

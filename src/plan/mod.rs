@@ -249,6 +249,21 @@ impl SegmentPlan {
             t_offset_s: self.slice.t_offset_s,
         }
     }
+
+    /// The motion of this segment when `previous` is the one before it: the same profile
+    /// seen from a later offset while both lie in one run (a run's members follow each
+    /// other, and only its first starts at offset zero), else rebuilt.
+    pub fn motion_after(&self, previous: &SegmentMotion) -> SegmentMotion {
+        if self.slice.s_offset_m > 0.0 {
+            SegmentMotion {
+                s_offset_m: self.slice.s_offset_m,
+                t_offset_s: self.slice.t_offset_s,
+                ..*previous
+            }
+        } else {
+            self.motion()
+        }
+    }
 }
 
 /// A planned program: the path and the timing of each segment.

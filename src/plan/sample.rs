@@ -119,6 +119,17 @@ impl Commands {
             self.segment.push(seg);
         }
     }
+
+    /// Room for `more` samples.
+    pub fn reserve(&mut self, more: usize) {
+        for c in [&mut self.x, &mut self.y] {
+            c.pos_m.reserve(more);
+            c.vel_m_per_s.reserve(more);
+            c.acc_m_per_s2.reserve(more);
+        }
+        self.z_m.reserve(more);
+        self.segment.reserve(more);
+    }
 }
 
 /// Peak magnitudes of one axis's commands.
@@ -169,19 +180,6 @@ pub fn sample(plan: &Plan) -> Commands {
     out
 }
 
-impl Commands {
-    /// Room for `more` samples.
-    pub fn reserve(&mut self, more: usize) {
-        for c in [&mut self.x, &mut self.y] {
-            c.pos_m.reserve(more);
-            c.vel_m_per_s.reserve(more);
-            c.acc_m_per_s2.reserve(more);
-        }
-        self.z_m.reserve(more);
-        self.segment.reserve(more);
-    }
-}
-
 /// The interpolator over a run of a plan's segments: commands at increasing times, walking
 /// forward from segment to segment (never past `last`, whose end it holds once reached).
 pub struct Sampler<'p> {
@@ -208,7 +206,7 @@ impl<'p> Sampler<'p> {
         // Advance to the segment that holds t (the later one at a boundary).
         while self.index < self.last && t >= plan.plans[self.index + 1].t_start_s {
             self.index += 1;
-            self.motion = plan.plans[self.index].motion();
+            self.motion = plan.plans[self.index].motion_after(&self.motion);
         }
         let (seg, sp) = (&plan.segments[self.index], &plan.plans[self.index]);
         // Past the motion (an in-position wait, the program end) the profile holds its end:

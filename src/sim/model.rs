@@ -395,6 +395,11 @@ impl Mode {
         let limited = self.current != ClampMode::Linear || self.voltage != ClampMode::Linear;
         self.friction as u8 + 3 * self.contact as u8 + if limited { 9 } else { 0 }
     }
+
+    /// Whether a trace's mode code ([`Mode::code`]) has a current or voltage limit active.
+    pub fn code_is_limited(code: u8) -> bool {
+        code >= 9
+    }
 }
 
 fn unit(i: usize) -> Row {
