@@ -3,7 +3,7 @@
 //! the commands were recorded — the largest following error. The first thing to look at on
 //! a record from an unfamiliar machine.
 
-use crate::measured::MeasuredTrace;
+use crate::measured::{MeasuredTrace, quantum};
 use crate::units::um_from_m;
 
 /// An axis moves where its position changes by more than this over the window (m).
@@ -100,27 +100,6 @@ fn moving_stretches(trace: &MeasuredTrace) -> Vec<(f64, f64)> {
     }
     merged.retain(|(a, b)| b - a >= SHORTEST_S);
     merged
-}
-
-/// The grid positions sit on, if they do (an encoder's count, a display's last digit): the
-/// greatest common divisor of the changes between samples, by Euclid's algorithm with a
-/// tolerance far below any real count. Positions off any grid drive it to nothing.
-fn quantum(x: &[f64]) -> Option<f64> {
-    const TOLERANCE_M: f64 = 1e-13;
-    const FINEST_M: f64 = 1e-11;
-    let gcd = |mut a: f64, mut b: f64| {
-        while b > TOLERANCE_M {
-            (a, b) = (b, a % b);
-        }
-        a
-    };
-    let mut steps = x
-        .windows(2)
-        .map(|w| (w[1] - w[0]).abs())
-        .filter(|d| *d > TOLERANCE_M);
-    let first = steps.next()?;
-    let q = steps.fold(first, gcd);
-    (q > FINEST_M).then_some(q)
 }
 
 impl TraceSummary {

@@ -21,6 +21,7 @@ pub mod output;
 pub mod path;
 pub mod plan;
 pub mod plot;
+pub mod recorded;
 pub mod report;
 pub mod sim;
 pub mod sweep;

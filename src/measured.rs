@@ -476,6 +476,27 @@ pub fn parse_table(text: &str, file: &str) -> Result<Vec<TableRow>, MeasuredErro
     Ok(rows)
 }
 
+/// The grid positions sit on, if they do (an encoder's count, a display's last digit): the
+/// greatest common divisor of the changes between samples, by Euclid's algorithm with a
+/// tolerance far below any real count. Positions off any grid drive it to nothing.
+pub fn quantum(x: &[f64]) -> Option<f64> {
+    const TOLERANCE_M: f64 = 1e-13;
+    const FINEST_M: f64 = 1e-11;
+    let gcd = |mut a: f64, mut b: f64| {
+        while b > TOLERANCE_M {
+            (a, b) = (b, a % b);
+        }
+        a
+    };
+    let mut steps = x
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|d| *d > TOLERANCE_M);
+    let first = steps.next()?;
+    let q = steps.fold(first, gcd);
+    (q > FINEST_M).then_some(q)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -18,7 +18,8 @@ use crate::check::{CheckSettings, plan_commands};
 use crate::diagnose::causes::{self, CauseId};
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
-use crate::sim::{AxisModel, SimError, simulate};
+use crate::recorded::commands_from_record;
+use crate::sim::{AxisModel, MeasuredAt, SimError, simulate};
 use crate::units::mm_from_m;
 
 /// What to hide and how to measure it.
@@ -37,6 +38,25 @@ pub struct SynthSpec {
     pub with_commands: bool,
     /// Seed of the noise.
     pub seed: u64,
+    /// An external command stream to run instead of our plan of the program (another
+    /// interpolator's output: other timing, other profile); the program then only names
+    /// the geometry.
+    pub commands: Option<CommandStream>,
+    /// Step of the measuring system's counts (m); 0 for none.
+    pub quantization_m: f64,
+    /// Where the measurement reads the positions.
+    pub measured_at: MeasuredAt,
+}
+
+/// Commanded positions another interpolator produced, on its own uniform clock.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CommandStream {
+    /// Sampling step (s).
+    pub dt_s: f64,
+    /// Commanded X (m).
+    pub x_m: Vec<f64>,
+    /// Commanded Y (m).
+    pub y_m: Vec<f64>,
 }
 
 impl Default for SynthSpec {
@@ -48,6 +68,9 @@ impl Default for SynthSpec {
             sample_s: 0.002,
             with_commands: false,
             seed: 1,
+            commands: None,
+            quantization_m: 0.0,
+            measured_at: MeasuredAt::Table,
         }
     }
 }
@@ -74,7 +97,11 @@ pub fn synthesize(
         causes::apply(machine.axis_mut(*axis), *cause, values);
     }
     let settings = CheckSettings::for_machine(&machine);
-    let (_, commands) = plan_commands(program, &machine, &settings)?;
+    let (_, planned) = plan_commands(program, &machine, &settings)?;
+    let commands = match &spec.commands {
+        Some(stream) => commands_from_record(&stream.x_m, &stream.y_m, stream.dt_s, planned.dt_s),
+        None => planned,
+    };
     let traces = [AxisName::X, AxisName::Y].map(|a| {
         let c = if a == AxisName::X {
             &commands.x
@@ -89,7 +116,17 @@ pub fn synthesize(
         )
     });
     let [x, y] = traces;
-    let (x, y) = (x?, y?);
+    let (x, y) = (
+        x?.into_read_at(spec.measured_at),
+        y?.into_read_at(spec.measured_at),
+    );
+    let read = |v: f64| {
+        if spec.quantization_m > 0.0 {
+            (v / spec.quantization_m).round() * spec.quantization_m
+        } else {
+            v
+        }
+    };
     let mut rng = rand::rngs::StdRng::seed_from_u64(spec.seed);
     let noise = Normal::new(0.0, spec.noise_m.max(0.0)).expect("a non-negative standard deviation");
     let duration = commands.duration_s() + spec.offset_s.max(0.0);
@@ -98,12 +135,20 @@ pub fn synthesize(
         .map(|k| {
             let t_meas = k as f64 * spec.sample_s;
             let t = t_meas - spec.offset_s;
+            let (xc, yc) = match &spec.commands {
+                // Recorded commands are the control's own values, not a resampling of them.
+                Some(s) => (sample(&s.x_m, s.dt_s, t), sample(&s.y_m, s.dt_s, t)),
+                None => (
+                    sample(&commands.x.pos_m, commands.dt_s, t),
+                    sample(&commands.y.pos_m, commands.dt_s, t),
+                ),
+            };
             [
                 t_meas,
-                sample(&x.pos_m, commands.dt_s, t) + noise.sample(&mut rng),
-                sample(&y.pos_m, commands.dt_s, t) + noise.sample(&mut rng),
-                sample(&commands.x.pos_m, commands.dt_s, t),
-                sample(&commands.y.pos_m, commands.dt_s, t),
+                read(sample(&x, commands.dt_s, t) + noise.sample(&mut rng)),
+                read(sample(&y, commands.dt_s, t) + noise.sample(&mut rng)),
+                xc,
+                yc,
             ]
         })
         .collect();

@@ -434,3 +434,108 @@ fn time_at_a_drive_limit_is_reported() {
     let o = run(&["check", sample("square.nc").to_str().unwrap()]);
     assert!(!text(&o.stdout).contains("drive is at"));
 }
+
+/// Another interpolator's commands drive `synth` (a record at 5 kHz in 0.1 µm motor-encoder
+/// counts), and `diagnose` reads it at the motor: the hidden gain error is named, the
+/// causes a motor encoder cannot see are listed as not tried, and the user steers the
+/// search.
+#[test]
+fn a_foreign_command_stream_at_the_motor_is_diagnosed_and_the_user_steers() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("small-circle.nc");
+    std::fs::write(
+        &program,
+        "G21 G17 G90 G94\nG0 X10 Y-5\nG1 Y0 F3000\nG3 X10 Y0 I-10 J0\nG1 Y5\nM30\n",
+    )
+    .unwrap();
+    let program = program.to_str().unwrap();
+    // Our plan's commands, re-timed 25 % slower on a 1 kHz clock: the same path at
+    // another speed, as another control would run it.
+    let planned = dir.path().join("planned.csv");
+    let o = run(&[
+        "synth",
+        program,
+        "--out",
+        planned.to_str().unwrap(),
+        "--with-commands",
+        "--sample-ms",
+        "1",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let mut stream = String::from("time_ms,X_Traj,Y_Traj\n");
+    for line in std::fs::read_to_string(&planned).unwrap().lines().skip(1) {
+        let f: Vec<f64> = line.split(',').map(|v| v.parse().unwrap()).collect();
+        stream.push_str(&format!("{:.3},{:.7},{:.7}\n", f[0] * 1.25e3, f[3], f[4]));
+    }
+    let commands = dir.path().join("commands.csv");
+    std::fs::write(&commands, stream).unwrap();
+    let record = dir.path().join("record.csv");
+    let o = run(&[
+        "synth",
+        program,
+        "--out",
+        record.to_str().unwrap(),
+        "--commands",
+        commands.to_str().unwrap(),
+        "--columns",
+        "t=time_ms[ms],x=X_Traj[mm],y=Y_Traj[mm]",
+        "--rate-hz",
+        "5000",
+        "--quantization-um",
+        "0.1",
+        "--measured-at",
+        "motor",
+        "--noise-um",
+        "0.02",
+        "--effect",
+        "kv_gain",
+        "--axis",
+        "y",
+        "--values",
+        "0.9",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+
+    let diagnose = |extra: &[&str]| {
+        let mut args = vec!["diagnose", program, "--measured", record.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+        text(&o.stdout)
+    };
+    let at_motor = diagnose(&["--measured-at", "motor"]);
+    assert!(
+        at_motor.contains("1 significant cause: kv_gain on Y."),
+        "{at_motor}"
+    );
+    assert!(at_motor.contains("held out:"), "{at_motor}");
+    assert!(
+        at_motor.contains("not tried: backlash on X, Y (measured at the motor"),
+        "{at_motor}"
+    );
+    let none = diagnose(&["--measured-at", "motor", "--max-causes", "0"]);
+    assert!(none.contains("No cause tried"), "{none}");
+    let excluded = diagnose(&["--measured-at", "motor", "--exclude", "kv_gain,dead_time"]);
+    assert!(
+        !excluded.contains("significant cause: kv_gain"),
+        "{excluded}"
+    );
+    assert!(
+        excluded.contains("not tried: kv_gain on X, Y (left out"),
+        "{excluded}"
+    );
+    let o = run(&[
+        "diagnose",
+        program,
+        "--measured",
+        record.to_str().unwrap(),
+        "--causes",
+        "lost_motion",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o.stderr).contains("unknown cause 'lost_motion'"),
+        "{}",
+        text(&o.stderr)
+    );
+}

@@ -83,7 +83,15 @@ fn measure(cause: CauseId, r: &AxisResidual) -> f64 {
 fn assert_found(name: &str, cause: CauseId, axis: AxisName, hidden: &[f64], seed: u64) {
     let d = diagnose_hidden(name, Some((cause, axis, hidden.to_vec())), seed);
     let named: Vec<(CauseId, AxisName)> = d.causes.iter().map(|c| (c.id, c.axis)).collect();
-    assert_eq!(named, vec![(cause, axis)], "{name}: {cause:?} on {axis}");
+    assert_eq!(
+        named,
+        vec![(cause, axis)],
+        "{name}: {cause:?} on {axis}; not named: {:?}",
+        d.rejected
+            .iter()
+            .map(|r| (r.id, r.axis, r.reason.as_str()))
+            .collect::<Vec<_>>()
+    );
     let found = &d.causes[0];
     for (p, &truth) in found.params.iter().zip(hidden) {
         assert!(

@@ -8,13 +8,15 @@ use clap::Args;
 
 use super::Outcome;
 use super::common::{CliError, MachineArgs, PlanningArgs, TraceArgs, load_program, spinner};
+use crate::diagnose::causes::{CauseId, CauseSet};
 use crate::diagnose::report::{DiagnoseReport, machine_file};
 use crate::diagnose::table::diagnose_table;
 use crate::diagnose::{DiagnoseSettings, Diagnosis, diagnose};
 use crate::measured::read_table;
 use crate::output::OutputBatch;
 use crate::plot::panels::{Curve, Panel, PanelsPlot};
-use crate::units::{mm_from_m, um_from_m};
+use crate::sim::MeasuredAt;
+use crate::units::{m_from_um, mm_from_m, um_from_m};
 
 /// Arguments of `diagnose`.
 #[derive(Debug, Args)]
@@ -59,6 +61,20 @@ pub struct DiagnoseArgs {
     /// recorded commands (the free offsets absorb part of any gain error or lag).
     #[arg(long)]
     pub align_stretches: bool,
+    /// Where the measurement read the positions: a linear scale on the table, the motor's
+    /// encoder, or at the tool (laser, ballbar). Causes the point cannot see are not tried.
+    #[arg(long, value_enum, default_value_t = MeasuredAt::Table)]
+    pub measured_at: MeasuredAt,
+    /// Try only these causes (comma-separated ids, e.g. backlash,kv_gain).
+    #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = CauseId::parse)]
+    pub causes: Vec<CauseId>,
+    /// Never try these causes (comma-separated ids).
+    #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = CauseId::parse)]
+    pub exclude: Vec<CauseId>,
+    /// How far recorded commands may lie from the programmed geometry (µm): corner blending
+    /// and another interpolator's chords stay within it.
+    #[arg(long, default_value_t = 25.0, value_name = "UM")]
+    pub command_tolerance_um: f64,
 }
 
 pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
@@ -89,6 +105,20 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
     settings.max_causes = args.max_causes;
     settings.evidence = args.evidence;
     settings.align_stretches = args.align_stretches;
+    settings.measured_at = args.measured_at;
+    settings.causes = if args.causes.is_empty() {
+        CauseSet::ALL
+    } else {
+        CauseSet::of(&args.causes)
+    }
+    .without(&args.exclude);
+    if !(args.command_tolerance_um.is_finite() && args.command_tolerance_um > 0.0) {
+        return Err(CliError::Usage(format!(
+            "--command-tolerance-um {}: must be a number > 0",
+            args.command_tolerance_um
+        )));
+    }
+    settings.command_tolerance_m = m_from_um(args.command_tolerance_um);
     let bar = spinner("fitting causes");
     let d = diagnose(&program, &machine, &measured, &settings)?;
     bar.finish_and_clear();

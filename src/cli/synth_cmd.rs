@@ -7,11 +7,13 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::Outcome;
-use super::common::{CliError, MachineArgs, load_program};
+use super::common::{CliError, MachineArgs, TraceArgs, load_program};
 use crate::diagnose::causes::CauseId;
 use crate::machine::AxisName;
+use crate::measured::MeasuredTrace;
 use crate::output::OutputBatch;
-use crate::synth::{SynthSpec, synthesize};
+use crate::sim::MeasuredAt;
+use crate::synth::{CommandStream, SynthSpec, synthesize};
 use crate::units::{m_from_um, s_from_ms};
 
 /// Arguments of `synth`.
@@ -43,8 +45,29 @@ pub struct SynthArgs {
     #[arg(long, default_value_t = 0.5, value_name = "S")]
     pub offset_s: f64,
     /// Sampling step (ms).
-    #[arg(long, default_value_t = 2.0, value_name = "MS")]
+    #[arg(
+        long,
+        default_value_t = 2.0,
+        value_name = "MS",
+        conflicts_with = "rate_hz"
+    )]
     pub sample_ms: f64,
+    /// Sampling rate (Hz), instead of --sample-ms.
+    #[arg(long, value_name = "HZ")]
+    pub rate_hz: Option<f64>,
+    /// Step of the measuring system's counts (µm), e.g. 0.1 for an encoder's 0.1 µm.
+    #[arg(long, default_value_t = 0.0, value_name = "UM")]
+    pub quantization_um: f64,
+    /// Where the positions are read: table (linear scale), motor (encoder) or tool.
+    #[arg(long, value_enum, default_value_t = MeasuredAt::Table)]
+    pub measured_at: MeasuredAt,
+    /// Run an external command stream instead of our plan of the program: a trace whose
+    /// commanded columns (x_cmd, y_cmd — or x, y when it has no others) hold another
+    /// interpolator's output. Read with --columns/--trace-profile like any trace.
+    #[arg(long, value_name = "FILE")]
+    pub commands: Option<PathBuf>,
+    #[command(flatten)]
+    pub trace: TraceArgs,
     /// Record the commanded positions too, as a CNC servo trace does.
     #[arg(long)]
     pub with_commands: bool,
@@ -92,10 +115,24 @@ pub fn run(args: &SynthArgs) -> Result<Outcome, CliError> {
             args.noise_um
         )));
     }
-    if !(args.sample_ms.is_finite() && (0.05..=100.0).contains(&args.sample_ms)) {
+    let sample_ms = match args.rate_hz {
+        Some(hz) if hz.is_finite() && (10.0..=20_000.0).contains(&hz) => 1e3 / hz,
+        Some(hz) => {
+            return Err(CliError::Usage(format!(
+                "--rate-hz {hz}: must lie between 10 and 20000"
+            )));
+        }
+        None => args.sample_ms,
+    };
+    if !(sample_ms.is_finite() && (0.05..=100.0).contains(&sample_ms)) {
         return Err(CliError::Usage(format!(
-            "--sample-ms {}: must lie between 0.05 and 100",
-            args.sample_ms
+            "--sample-ms {sample_ms}: must lie between 0.05 and 100"
+        )));
+    }
+    if !(args.quantization_um.is_finite() && (0.0..=100.0).contains(&args.quantization_um)) {
+        return Err(CliError::Usage(format!(
+            "--quantization-um {}: must lie between 0 and 100",
+            args.quantization_um
         )));
     }
     if !(args.offset_s.is_finite() && args.offset_s >= 0.0) {
@@ -106,13 +143,20 @@ pub fn run(args: &SynthArgs) -> Result<Outcome, CliError> {
     }
     let machine = args.machine.load()?;
     let program = load_program(&args.program, &machine)?;
+    let commands = match &args.commands {
+        Some(path) => Some(command_stream(&args.trace.read(path)?)),
+        None => None,
+    };
     let spec = SynthSpec {
         effect,
         noise_m: m_from_um(args.noise_um),
         offset_s: args.offset_s,
-        sample_s: s_from_ms(args.sample_ms),
-        with_commands: args.with_commands,
+        sample_s: s_from_ms(sample_ms),
+        with_commands: args.with_commands || commands.is_some(),
         seed: args.seed,
+        commands,
+        quantization_m: m_from_um(args.quantization_um),
+        measured_at: args.measured_at,
     };
     let synthetic = synthesize(&program, &machine, &spec)?;
     let mut batch = OutputBatch::new();
@@ -134,9 +178,22 @@ pub fn run(args: &SynthArgs) -> Result<Outcome, CliError> {
         "wrote {}: {} samples every {} ms, noise {} µm, clock offset {} s; {hidden}",
         args.out.display(),
         synthetic.rows.len(),
-        args.sample_ms,
+        sample_ms,
         args.noise_um,
         args.offset_s
     );
     Ok(Outcome::Ok)
+}
+
+/// The commanded positions of a trace (its measured ones when it recorded no others).
+fn command_stream(trace: &MeasuredTrace) -> CommandStream {
+    let [x, y] = trace
+        .commands
+        .clone()
+        .unwrap_or_else(|| [trace.x_m.clone(), trace.y_m.clone()]);
+    CommandStream {
+        dt_s: trace.dt_s,
+        x_m: x,
+        y_m: y,
+    }
 }

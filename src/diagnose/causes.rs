@@ -5,7 +5,8 @@
 
 use serde::Serialize;
 
-use crate::machine::AxisConfig;
+use crate::machine::{AxisConfig, Feedback};
+use crate::sim::MeasuredAt;
 
 /// The fixed vocabulary of causes.
 #[derive(
@@ -147,12 +148,77 @@ impl CauseId {
         }
     }
 
+    /// Why a measurement at `point` cannot see the cause on an axis with `feedback`, or
+    /// `None` when it can.
+    pub fn unseen_at(self, point: MeasuredAt, feedback: Feedback) -> Option<&'static str> {
+        match (point, self) {
+            (MeasuredAt::Motor, CauseId::Backlash) => {
+                Some("the gap lies between the motor and the table, beyond the motor encoder")
+            }
+            (MeasuredAt::Motor, CauseId::Resonance) => {
+                Some("the structural mode lies between the table and the measured point")
+            }
+            (MeasuredAt::Motor, CauseId::CyclicError | CauseId::ScaleError)
+                if feedback == Feedback::MotorEncoder =>
+            {
+                Some("a lead error moves the table, not the motor the loop closes on")
+            }
+            _ => None,
+        }
+    }
+
+    /// Parses a cause id as written on the command line.
+    pub fn parse(text: &str) -> Result<CauseId, String> {
+        CauseId::ALL
+            .into_iter()
+            .find(|c| c.as_str() == text.trim())
+            .ok_or_else(|| {
+                let names: Vec<&str> = CauseId::ALL.iter().map(|c| c.as_str()).collect();
+                format!("unknown cause '{text}' (one of {})", names.join(", "))
+            })
+    }
+
     /// Whether the cause acts at reversals only (its residual lives in windows around them).
     pub fn is_local(self) -> bool {
         matches!(
             self,
             CauseId::Backlash | CauseId::CoulombFriction | CauseId::Stribeck | CauseId::Resonance
         )
+    }
+}
+
+/// A set of causes (the ones a diagnosis may try).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CauseSet(u16);
+
+impl CauseSet {
+    /// Every cause of the catalogue.
+    pub const ALL: CauseSet = CauseSet((1 << CauseId::ALL.len()) - 1);
+    /// No cause.
+    pub const NONE: CauseSet = CauseSet(0);
+
+    fn bit(cause: CauseId) -> u16 {
+        1 << CauseId::ALL.iter().position(|&c| c == cause).unwrap_or(0)
+    }
+
+    /// The set holding `causes`.
+    pub fn of(causes: &[CauseId]) -> CauseSet {
+        CauseSet(causes.iter().fold(0, |m, &c| m | CauseSet::bit(c)))
+    }
+
+    /// Whether `cause` is in the set.
+    pub fn contains(self, cause: CauseId) -> bool {
+        self.0 & CauseSet::bit(cause) != 0
+    }
+
+    /// The set without `causes`.
+    pub fn without(self, causes: &[CauseId]) -> CauseSet {
+        CauseSet(self.0 & !CauseSet::of(causes).0)
+    }
+
+    /// Whether the set is empty.
+    pub fn is_empty(self) -> bool {
+        self.0 == 0
     }
 }
 

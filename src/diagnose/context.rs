@@ -14,13 +14,15 @@ use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
 use crate::measured::MeasuredTrace;
 use crate::path::Motion;
-use crate::plan::{AxisCommands, Commands, InPosition, Plan};
-use crate::sim::{AxisModel, SimConfig, simulate};
+use crate::plan::{Commands, InPosition, Plan};
+use crate::recorded::{commands_from_record, place_on_path};
+use crate::sim::{AxisModel, MeasuredAt, SimConfig, simulate};
 use crate::synth::sample;
 use crate::units::{per_s_from_kv_m_per_min_per_mm, um_from_m};
 
 /// The timeline everything is compared on: the program's clock, with the simulation's
 /// commands, and the measured samples the residual uses.
+#[derive(Clone)]
 pub struct Context<'a> {
     /// The measurement.
     pub measured: &'a MeasuredTrace,
@@ -28,10 +30,12 @@ pub struct Context<'a> {
     pub commands: Commands,
     /// The program's plan, for geometry and source lines.
     pub plan: Plan,
-    /// The planned commands (for where in the program a time lies).
+    /// The commands placed on the program (each sample's segment): the plan's, or the
+    /// recorded ones — for where in the program a time lies.
     pub plan_commands: Commands,
-    /// Offset of the plan within the simulation's timeline (s): plan time = t − this.
-    pub plan_shift_s: f64,
+    /// With recorded commands, how much later than in our plan they start to move (s), on
+    /// the simulation's timeline: where the program starts.
+    pub program_start_s: f64,
     /// Command period (s).
     pub dt: f64,
     /// The clock offset when it is known (the measurement recorded its commands).
@@ -45,10 +49,14 @@ pub struct Context<'a> {
     pub sim: SimConfig,
     /// Standing time after the program (s), as the commands were built.
     pub settle_s: f64,
-    /// Measured samples the residual uses.
+    /// Measured samples the residual uses, one per command period at most.
     pub samples: Vec<usize>,
+    /// Time between the samples the residual uses (s).
+    pub sample_dt_s: f64,
     /// The measurement's noise floor (m), once estimated.
     pub noise_sigma: f64,
+    /// Where the measurement read the positions: the simulated quantity compared.
+    pub measured_at: MeasuredAt,
 }
 
 impl Context<'_> {
@@ -58,11 +66,11 @@ impl Context<'_> {
         match self.replanned(machine) {
             None => simulate(&model, self.commands.axis(axis), self.dt, &self.sim)
                 .ok()
-                .map(|t| t.pos_m),
+                .map(|t| t.into_read_at(self.measured_at)),
             // The machine runs on its own plan's clock.
             Some(commands) => simulate(&model, commands.axis(axis), self.dt, &self.sim)
                 .ok()
-                .map(|t| t.pos_m),
+                .map(|t| t.into_read_at(self.measured_at)),
         }
     }
 
@@ -185,8 +193,8 @@ impl Context<'_> {
         let sigma = self.noise_sigma;
         let meas = self.measured_at_samples(axis);
         let model = self.at_samples(trace, offset_s);
-        let noise_power = chatter_noise_power(sigma, self.measured.dt_s);
-        chatter_windows(&meas, &model, self.measured.dt_s, sigma)
+        let noise_power = chatter_noise_power(sigma, self.sample_dt_s);
+        chatter_windows(&meas, &model, self.sample_dt_s, sigma)
             .into_iter()
             .map(|w| {
                 let pmod = if no_model_chatter { 0.0 } else { w.model_power };
@@ -224,10 +232,51 @@ impl Context<'_> {
         (w.iter().map(|(_, p)| p * p).sum::<f64>() - m) / (2.0 * m).sqrt()
     }
 
+    /// Whether the measurement shows the axis sticking: stretches of 10 ms in which it
+    /// stands (its readings spread less than four noise deviations, or a fifth of the
+    /// command's travel) while the command moves on, in at least three places and a
+    /// fiftieth of the moving time. Stick-slip chatter is recognised by that, not by the
+    /// spread of positions about a running mean, which any servo oscillation has.
+    pub fn sticking_seen(&self, axis: AxisName, offset_s: f64) -> bool {
+        const WINDOW_S: f64 = 0.01;
+        let m = self.measured_axis(axis);
+        let span = ((WINDOW_S / self.measured.dt_s).round() as usize).max(2);
+        let sigma = self.noise_sigma;
+        let (mut moving, mut stuck, mut stretches, mut in_stretch) =
+            (0usize, 0usize, 0usize, false);
+        for &i in &self.samples {
+            if i + span >= m.len() {
+                break;
+            }
+            let t = self.prog_time(i, offset_s);
+            let travel = (self.command_at(axis, t + WINDOW_S).0 - self.command_at(axis, t).0).abs();
+            if travel < 6.0 * sigma {
+                in_stretch = false;
+                continue;
+            }
+            moving += 1;
+            let window = &m[i..=i + span];
+            let (lo, hi) = window
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                    (l.min(v), h.max(v))
+                });
+            let stands = hi - lo < (4.0 * sigma).max(0.2 * travel);
+            if stands {
+                stuck += 1;
+                if !in_stretch {
+                    stretches += 1;
+                }
+            }
+            in_stretch = stands;
+        }
+        stretches >= 3 && stuck as f64 >= 0.02 * moving as f64
+    }
+
     /// Whether the program is in a rapid (or the in-position wait after it) at time `t`.
     pub(crate) fn in_rapid(&self, t: f64) -> bool {
         let pc = &self.plan_commands;
-        let k = ((t - self.plan_shift_s) / pc.dt_s)
+        let k = (t / pc.dt_s)
             .round()
             .clamp(0.0, (pc.len().max(1) - 1) as f64) as usize;
         pc.segment
@@ -258,30 +307,43 @@ pub fn context<'a>(
         file: measured.file.clone(),
         reason,
     };
-    let (commands, fixed_offset, plan_shift_s) = match &measured.commands {
+    let (commands, plan_commands, fixed_offset, program_start_s) = match &measured.commands {
         Some([xc, yc]) => {
-            // The measurement's commands drive the simulation on its own clock.
-            let commands = commands_from_samples(xc, yc, measured.dt_s, dt);
-            let shift = align_plan(&plan_commands, &commands).ok_or_else(|| {
-                cannot("the recorded commands do not match the program's path".into())
-            })?;
-            (commands, Some(measured.t0_s), shift)
+            // The measurement's commands drive the simulation on its own clock, whatever
+            // timing our plan gives the program; the program gives geometry and lines.
+            let mut commands = commands_from_record(xc, yc, measured.dt_s, dt);
+            if let Some(worst) = place_on_path(&plan, &mut commands)
+                && worst.distance_m > settings.command_tolerance_m
+            {
+                return Err(DiagnoseError::OffPath {
+                    file: measured.file.clone(),
+                    t_s: measured.t0_s + worst.t_s,
+                    line: worst.line,
+                    distance_um: um_from_m(worst.distance_m),
+                    tolerance_um: um_from_m(settings.command_tolerance_m),
+                });
+            }
+            let start = first_motion(&commands) - first_motion(&plan_commands);
+            let located = commands.clone();
+            (commands, located, Some(measured.t0_s), start)
         }
-        None => (plan_commands.clone(), None, 0.0),
+        None => (plan_commands.clone(), plan_commands, None, 0.0),
     };
     let mut ctx = Context {
         measured,
         commands,
         plan,
         plan_commands,
-        plan_shift_s,
+        program_start_s,
         dt,
         fixed_offset,
         extra_wait_s: Vec::new(),
         sim: settings.check.sim,
         settle_s: settings.check.settle_s,
         samples: Vec::new(),
+        sample_dt_s: measured.dt_s,
         noise_sigma: 0.0,
+        measured_at: settings.measured_at,
     };
     let nominal = [AxisName::X, AxisName::Y].map(|a| ctx.simulate_axis(machine, a));
     let [Some(x), Some(y)] = nominal else {
@@ -304,16 +366,26 @@ pub fn context<'a>(
     // Rapids are left out: the axes run there at their current and voltage limits, where
     // a real drive departs most from any model, and their millimetres of lag would drown
     // the micrometres the causes leave. The standstill after each rapid goes with it.
+    //
+    // One sample per command period is compared: the model's input changes no faster, so
+    // finer samples add no evidence about it — only correlated copies of the same model
+    // error, which would count as independent proof at 10 kHz and not at 2 ms, and make the
+    // diagnosis depend on the sampling rate.
+    let stride = ((dt / measured.dt_s) * (1.0 + 1e-9)).floor().max(1.0) as usize;
+    ctx.sample_dt_s = stride as f64 * measured.dt_s;
     ctx.samples = (0..measured.len())
+        .step_by(stride)
         .filter(|&i| {
             let t = ctx.prog_time(i, offset);
             t >= margin && t <= duration - margin && !ctx.in_rapid(t)
         })
         .collect();
-    if (ctx.samples.len() as f64) < 0.5 * (duration / measured.dt_s).min(measured.len() as f64) {
+    let expected = (duration / measured.dt_s).min(measured.len() as f64) / stride as f64;
+    if (ctx.samples.len() as f64) < 0.5 * expected {
         return Err(cannot(format!(
-            "only {} of the measurement's samples fall within the program's {:.1} s",
+            "only {} of the {:.0} samples compared fall within the program's {:.1} s",
             ctx.samples.len(),
+            expected,
             duration
         )));
     }
@@ -351,66 +423,11 @@ pub fn context<'a>(
     Ok((ctx, offset))
 }
 
-/// Commands on the program's grid from recorded positions (velocity and acceleration by
-/// central differences).
-fn commands_from_samples(xc: &[f64], yc: &[f64], dt_in: f64, dt: f64) -> Commands {
-    let n = ((xc.len() - 1) as f64 * dt_in / dt).floor() as usize + 1;
-    let axis = |v: &[f64]| {
-        let pos: Vec<f64> = (0..n).map(|k| sample(v, dt_in, k as f64 * dt)).collect();
-        let d = |p: &[f64], k: usize| {
-            let (a, b) = (k.saturating_sub(1), (k + 1).min(p.len() - 1));
-            if b > a {
-                (p[b] - p[a]) / ((b - a) as f64 * dt)
-            } else {
-                0.0
-            }
-        };
-        let vel: Vec<f64> = (0..n).map(|k| d(&pos, k)).collect();
-        let acc: Vec<f64> = (0..n).map(|k| d(&vel, k)).collect();
-        AxisCommands {
-            pos_m: pos,
-            vel_m_per_s: vel,
-            acc_m_per_s2: acc,
-        }
-    };
-    Commands {
-        dt_s: dt,
-        x: axis(xc),
-        y: axis(yc),
-        z_m: vec![0.0; n],
-        segment: vec![0; n],
-    }
-}
-
-/// The shift between the planned commands and recorded ones (plan time = t − shift).
-fn align_plan(plan: &Commands, recorded: &Commands) -> Option<f64> {
-    let dt = plan.dt_s;
-    let needed = (0.5 * plan.duration_s().min(recorded.duration_s()) / (10.0 * dt)).max(10.0);
-    let cost = |shift: f64| -> f64 {
-        let mut s = 0.0;
-        let mut n = 0usize;
-        for k in (0..recorded.len()).step_by(10) {
-            let t = k as f64 * dt - shift;
-            if t < 0.0 || t > plan.duration_s() {
-                continue;
-            }
-            s += (recorded.x.pos_m[k] - sample(&plan.x.pos_m, dt, t)).powi(2)
-                + (recorded.y.pos_m[k] - sample(&plan.y.pos_m, dt, t)).powi(2);
-            n += 1;
-        }
-        // An overlap shorter than half the plan or the recording proves nothing (a program
-        // that ends where it started matches its own start at standstill).
-        if (n as f64) < needed {
-            f64::INFINITY
-        } else {
-            s / n as f64
-        }
-    };
-    let span = recorded.duration_s().max(plan.duration_s());
-    let best = (0..=((2.0 * span) / 0.02) as usize)
-        .map(|i| -span + i as f64 * 0.02)
-        .min_by(|a, b| cost(*a).total_cmp(&cost(*b)))?;
-    (cost(best) < (0.5e-3f64).powi(2)).then_some(best)
+/// When the commands first move (s; 0 when they never do).
+fn first_motion(c: &Commands) -> f64 {
+    (0..c.len())
+        .find(|&k| c.x.vel_m_per_s[k].hypot(c.y.vel_m_per_s[k]) > 1e-6)
+        .map_or(0.0, |k| k as f64 * c.dt_s)
 }
 
 /// The clock offset that best lines the measurement up with the simulated path, searched

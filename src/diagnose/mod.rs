@@ -17,6 +17,8 @@
 pub mod causes;
 pub mod context;
 pub mod fit;
+pub mod holdout;
+pub mod plausible;
 pub mod report;
 pub mod residual;
 pub mod search;
@@ -28,16 +30,17 @@ use crate::check::CheckSettings;
 use crate::contour::contour_errors;
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
-use crate::measured::{MeasuredError, MeasuredTrace};
+use crate::measured::{MeasuredError, MeasuredTrace, quantum};
 use crate::plan::Commands;
-use crate::sim::SimError;
+use crate::sim::{MeasuredAt, SimError};
 use crate::synth::sample;
 use crate::units::{mm_from_m, um_from_m};
-use causes::CauseId;
+use causes::{CauseId, CauseSet};
 pub use context::{Context, context};
+pub use holdout::HeldOut;
 use residual::axis_residual;
 pub use residual::{AxisResidual, ResidualStats, noise_floor};
-pub use search::Candidate;
+pub use search::{Candidate, Rejected};
 
 /// Settings of a diagnosis.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -60,6 +63,13 @@ pub struct DiagnoseSettings {
     /// gain error or dead time then passes in part for a longer wait; a measurement with
     /// recorded commands needs neither.
     pub align_stretches: bool,
+    /// How far recorded commands may lie from the programmed geometry (m): blending at
+    /// corners and chords of another interpolator stay within it.
+    pub command_tolerance_m: f64,
+    /// Where the measurement read the axes' positions.
+    pub measured_at: MeasuredAt,
+    /// The causes the search may try.
+    pub causes: CauseSet,
 }
 
 impl DiagnoseSettings {
@@ -72,6 +82,9 @@ impl DiagnoseSettings {
             max_causes: 3,
             event_window_s: 0.3,
             align_stretches: false,
+            command_tolerance_m: 25e-6,
+            measured_at: MeasuredAt::Table,
+            causes: CauseSet::ALL,
         }
     }
 }
@@ -89,6 +102,24 @@ pub enum DiagnoseError {
         file: String,
         /// Why.
         reason: String,
+    },
+    /// The recorded commands leave the program's geometry.
+    #[error(
+        "{file}: the recorded commands leave the program's path by {distance_um:.1} µm at \
+         t = {t_s:.4} s (line {line}); more than the {tolerance_um} µm allowed \
+         (--command-tolerance-um): is this a record of this program, in the same coordinates?"
+    )]
+    OffPath {
+        /// The measurement file.
+        file: String,
+        /// Time on the measurement's clock (s).
+        t_s: f64,
+        /// Source line of the nearest block.
+        line: u32,
+        /// Distance from the programmed geometry (µm).
+        distance_um: f64,
+        /// The tolerance (µm).
+        tolerance_um: f64,
     },
     /// The nominal model cannot be simulated.
     #[error("{0}")]
@@ -117,8 +148,10 @@ pub struct FoundCause {
     pub axis: AxisName,
     /// Fitted parameters.
     pub params: Vec<FittedParam>,
-    /// Evidence (BIC units) when it was added.
+    /// Evidence (BIC units) when it was added, fitted on the whole record.
     pub evidence: f64,
+    /// Fitted on half of the record and judged on the other half.
+    pub held_out: HeldOut,
     /// Whether it was fitted on the statistics of stick-slip chatter rather than point by
     /// point.
     pub statistical: bool,
@@ -139,6 +172,17 @@ pub struct Alternative {
     pub axis: AxisName,
     /// Its evidence.
     pub evidence: f64,
+}
+
+/// A cause the search did not try, and why.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Skipped {
+    /// The cause.
+    pub id: CauseId,
+    /// The axes it was not tried on.
+    pub axes: Vec<AxisName>,
+    /// Why.
+    pub reason: String,
 }
 
 /// A standstill the control held longer (or shorter) than planned.
@@ -214,6 +258,15 @@ pub struct Diagnosis {
     /// With stretches aligned on their own: how much longer than planned the control stood
     /// after a block (source line, extra ms).
     pub extra_waits: Vec<ExtraWait>,
+    /// Where the measurement read the positions.
+    pub measured_at: MeasuredAt,
+    /// Causes not tried, and why.
+    pub skipped: Vec<Skipped>,
+    /// Causes that fitted but are not named, and why.
+    pub rejected: Vec<Rejected>,
+    /// Whether any cause could be tried at all (`--max-causes 0`, or every cause excluded
+    /// or unseen, leaves none).
+    pub searched: bool,
 }
 
 /// Diagnoses a measurement of `program` on `machine`.
@@ -233,20 +286,48 @@ pub fn diagnose(
     };
     let nominal = [simulate(AxisName::X)?, simulate(AxisName::Y)?];
     let residuals = AxisName::BOTH.map(|a| ctx.residual(a, &nominal[a.index()], offset));
-    ctx.noise_sigma = noise_floor(&residuals).max(1e-12);
+    // Never below the rounding of the data's own counts: a record of an encoder's 0.1 µm
+    // steps is not known better than 0.029 µm, however still its residual stands.
+    let rounding = [&measured.x_m, &measured.y_m]
+        .map(|v| quantum(v).unwrap_or(0.0) / 12f64.sqrt())
+        .into_iter()
+        .fold(0.0, f64::max);
+    ctx.noise_sigma = noise_floor(&residuals).max(rounding).max(1e-12);
     let ctx = ctx;
-    let outcome = search::search(&ctx, machine, settings, nominal.clone(), offset);
-    let (before, after, places, series) = summarize(
-        &ctx,
-        &nominal,
-        &outcome.traces,
-        outcome.offset_s,
-        settings.event_window_s,
-    );
+    let mut outcome = search::search(&ctx, machine, settings, nominal.clone(), offset);
+    // The extended model must not predict the contour worse than the nominal one: the
+    // last causes go until it does not.
+    let (before, after, places, series) = loop {
+        let figures = summarize(
+            &ctx,
+            &nominal,
+            &outcome.traces,
+            outcome.offset_s,
+            settings.event_window_s,
+        );
+        // Averaged over a statistical window where a cause was fitted on stick-slip
+        // statistics (no model times the slips).
+        let half_s = if outcome.found.iter().any(|c| c.statistical) {
+            residual::CHATTER_AVERAGE_HALF_S
+        } else {
+            0.0
+        };
+        let contour_rms = |r: &[f64]| {
+            let finite: Vec<f64> = r.iter().copied().filter(|v| v.is_finite()).collect();
+            um_from_m(residual::averaged_rms(&finite, ctx.sample_dt_s, half_s))
+        };
+        let [before_r, after_r] = &figures.3.contour_residual;
+        let (b, a) = (contour_rms(before_r), contour_rms(after_r));
+        if a <= b * (1.0 + search::WORSE_TOLERANCE) || outcome.found.is_empty() {
+            break figures;
+        }
+        let reason = format!("fits, but makes the contour residual worse ({b:.3} → {a:.3} µm RMS)");
+        drop_last_cause(&ctx, machine, &mut outcome, &nominal, reason);
+    };
     // With recorded commands the simulation runs on the measurement's clock; the program
-    // starts where the recorded commands match its plan.
+    // starts where the recorded commands start to move, less the plan's standing start.
     let program_start = if ctx.fixed_offset.is_some() {
-        outcome.offset_s + ctx.plan_shift_s
+        outcome.offset_s + ctx.program_start_s
     } else {
         outcome.offset_s
     };
@@ -272,7 +353,96 @@ pub fn diagnose(
                 extra_ms: w * 1e3,
             })
             .collect(),
+        measured_at: settings.measured_at,
+        rejected: outcome.rejected,
+        skipped: skipped_causes(machine, settings),
+        searched: settings.max_causes > 0 && !tried_causes(machine, settings).is_empty(),
     })
+}
+
+/// Takes the last cause off the outcome (with `reason`), and rebuilds its machine and
+/// traces from the nominal one and the causes left.
+fn drop_last_cause(
+    ctx: &Context,
+    nominal_machine: &MachineConfig,
+    outcome: &mut search::Outcome,
+    nominal: &[Vec<f64>; 2],
+    reason: String,
+) {
+    let Some(last) = outcome.found.pop() else {
+        return;
+    };
+    let mut machine = nominal_machine.clone();
+    for c in &outcome.found {
+        let values: Vec<f64> = c.params.iter().map(|p| p.value).collect();
+        causes::apply(machine.axis_mut(c.axis), c.id, &values);
+    }
+    let traces = AxisName::BOTH.map(|a| ctx.simulate_axis(&machine, a));
+    outcome.traces = match traces {
+        [Some(x), Some(y)] => [x, y],
+        _ => nominal.clone(),
+    };
+    outcome.machine = machine;
+    outcome.rejected.push(Rejected {
+        id: last.id,
+        axis: last.axis,
+        params: last.params,
+        evidence: last.evidence,
+        reason,
+    });
+}
+
+/// The causes the search may try on `axis`: allowed, and seen where the measurement reads.
+pub(crate) fn tries_allowed(
+    machine: &MachineConfig,
+    settings: &DiagnoseSettings,
+    axis: AxisName,
+    cause: CauseId,
+) -> bool {
+    settings.causes.contains(cause)
+        && cause
+            .unseen_at(
+                settings.measured_at,
+                machine.axis(axis).position_loop.feedback,
+            )
+            .is_none()
+}
+
+/// Every (cause, axis) the search may try.
+fn tried_causes(machine: &MachineConfig, settings: &DiagnoseSettings) -> Vec<(CauseId, AxisName)> {
+    CauseId::ALL
+        .into_iter()
+        .flat_map(|c| AxisName::BOTH.map(|a| (c, a)))
+        .filter(|&(c, a)| tries_allowed(machine, settings, a, c))
+        .collect()
+}
+
+/// The causes not tried, with the reason, axes merged where the reason is the same.
+fn skipped_causes(machine: &MachineConfig, settings: &DiagnoseSettings) -> Vec<Skipped> {
+    let mut out: Vec<Skipped> = Vec::new();
+    for cause in CauseId::ALL {
+        for axis in AxisName::BOTH {
+            let reason = if !settings.causes.contains(cause) {
+                "left out by --causes/--exclude".to_string()
+            } else if let Some(r) = cause.unseen_at(
+                settings.measured_at,
+                machine.axis(axis).position_loop.feedback,
+            ) {
+                format!("measured at the {}: {r}", settings.measured_at.as_str())
+            } else {
+                continue;
+            };
+            match out.iter_mut().find(|s| s.id == cause && s.reason == reason) {
+                Some(s) => s.axes.push(axis),
+                None => out.push(Skipped {
+                    id: cause,
+                    axes: vec![axis],
+                    reason,
+                }),
+            }
+        }
+    }
+    out
 }
 
 /// Residual statistics before and after, the places of the largest residuals, and the
@@ -317,7 +487,7 @@ fn summarize(
         .zip(&events[1])
         .map(|(a, b)| *a || *b)
         .collect();
-    let (dt, sigma) = (ctx.measured.dt_s, ctx.noise_sigma);
+    let (dt, sigma) = (ctx.sample_dt_s, ctx.noise_sigma);
     let stats = |model: &[Vec<f64>; 2], contour_model: &[f64]| {
         let axis = |a: usize| axis_residual(&s.measured[a], &model[a], &events[a], dt, sigma);
         // The contour error where both are defined (rapids have none).
@@ -393,7 +563,7 @@ fn plan_view(ctx: &Context, times: &[f64]) -> Commands {
         ..Default::default()
     };
     for &t in times {
-        let tp = t - ctx.plan_shift_s;
+        let tp = t;
         let k = (tp / pc.dt_s).round().clamp(0.0, (pc.len() - 1) as f64) as usize;
         v.x.pos_m.push(sample(&pc.x.pos_m, pc.dt_s, tp));
         v.y.pos_m.push(sample(&pc.y.pos_m, pc.dt_s, tp));

@@ -9,10 +9,12 @@ use serde::Serialize;
 
 use super::causes::CauseId;
 use super::{
-    Alternative, AxisResidual, Candidate, Diagnosis, ExtraWait, FittedParam, Place, ResidualStats,
+    Alternative, AxisResidual, Candidate, Diagnosis, ExtraWait, FittedParam, HeldOut, Place,
+    Rejected, ResidualStats, Skipped,
 };
 use crate::machine::{AxisName, MachineConfig};
 use crate::measured::MeasuredTrace;
+use crate::sim::MeasuredAt;
 
 /// Schema id of the JSON report.
 pub const SCHEMA: &str = "contourcheck.diagnose/1";
@@ -45,6 +47,10 @@ pub struct DiagnoseReport {
     pub places: Vec<Place>,
     /// Every cause tried in the first round.
     pub candidates: Vec<Candidate>,
+    /// Causes not tried, and why.
+    pub skipped: Vec<Skipped>,
+    /// Causes that fitted with evidence but are not named, and why.
+    pub rejected: Vec<Rejected>,
 }
 
 /// The measurement, as read.
@@ -62,6 +68,8 @@ pub struct MeasuredInfo {
     pub commands_recorded: bool,
     /// Samples compared (rapids and the margins left out).
     pub samples_compared: usize,
+    /// Where the positions were read: `table`, `motor` or `tool`.
+    pub measured_at: MeasuredAt,
 }
 
 /// A cause as reported.
@@ -91,6 +99,8 @@ pub struct CauseReport {
     pub gain_percent: Gains,
     /// Causes that explain the data almost as well.
     pub alternatives: Vec<Alternative>,
+    /// Fitted on half of the record, judged on the other half.
+    pub held_out: HeldOut,
 }
 
 /// Relative fall of each residual measure (%; negative: it grew).
@@ -167,6 +177,7 @@ impl DiagnoseReport {
                 after: c.after,
                 gain_percent: Gains::between(&c.before, &c.after),
                 alternatives: c.alternatives.clone(),
+                held_out: c.held_out,
             })
             .collect();
         DiagnoseReport {
@@ -179,6 +190,7 @@ impl DiagnoseReport {
                 resampled: measured.resampled,
                 commands_recorded: measured.commands.is_some(),
                 samples_compared: d.samples,
+                measured_at: d.measured_at,
             },
             machine: machine.name.clone(),
             clock_offset_s: d.offset_s,
@@ -197,6 +209,8 @@ impl DiagnoseReport {
             },
             places: d.places.clone(),
             candidates: d.candidates.clone(),
+            skipped: d.skipped.clone(),
+            rejected: d.rejected.clone(),
         }
     }
 
@@ -279,6 +293,12 @@ impl DiagnoseReport {
                 a.chatter_um,
                 -g.chatter
             );
+            let h = &c.held_out;
+            let _ = writeln!(
+                s,
+                "     held out: fitted on half of the record, the other half's {} RMS {:.3} → {:.3} µm (evidence {:.0})",
+                c.axis, h.rms_before_um, h.rms_after_um, h.evidence
+            );
             if !c.alternatives.is_empty() {
                 let alt: Vec<String> = c
                     .alternatives
@@ -298,6 +318,25 @@ impl DiagnoseReport {
                     alt.join(", ")
                 );
             }
+        }
+        for r in &self.rejected {
+            let _ = writeln!(
+                s,
+                "  not named: {} on {} ({})",
+                r.id.as_str(),
+                r.axis,
+                r.reason
+            );
+        }
+        for k in &self.skipped {
+            let axes: Vec<String> = k.axes.iter().map(|a| a.to_string()).collect();
+            let _ = writeln!(
+                s,
+                "  not tried: {} on {} ({})",
+                k.id.as_str(),
+                axes.join(", "),
+                k.reason
+            );
         }
         let _ = writeln!(
             s,
@@ -354,6 +393,11 @@ fn sig(v: f64) -> String {
 
 /// The one-sentence outcome.
 fn verdict(d: &Diagnosis) -> String {
+    if !d.searched {
+        return "No cause tried (none allowed by --max-causes, --causes, --exclude or the \
+                measuring point); the residuals below are the nominal model's."
+            .into();
+    }
     if !d.causes.is_empty() {
         let names: Vec<String> = d
             .causes

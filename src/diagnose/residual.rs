@@ -166,3 +166,26 @@ pub(crate) fn chatter_mismatch(meas: &[f64], model: &[f64], dt_s: f64, sigma: f6
         .collect();
     rms(&d)
 }
+
+/// The share of a residual's samples that count as independent: (1 − ρ)/(1 + ρ) for its
+/// lag-one autocorrelation ρ > 0 (the variance inflation of a first-order autoregression),
+/// 1 for a white residual. A fit that leaves a smooth residual has explained noise-sized
+/// wiggles of a larger model error, and its sum-of-squares gain proves that much less.
+pub(crate) fn independent_share(r: &[f64]) -> f64 {
+    let power: f64 = r.iter().map(|v| v * v).sum();
+    if power <= 0.0 {
+        return 1.0;
+    }
+    let lag: f64 = r.windows(2).map(|w| w[0] * w[1]).sum();
+    let rho = (lag / power).clamp(0.0, 1.0);
+    (1.0 - rho) / (1.0 + rho)
+}
+
+/// Half-width of the average a stick-slip axis's residual is judged on (s): a window of the
+/// statistical fit, long enough to hold a dozen slips whose timing no model predicts.
+pub(crate) const CHATTER_AVERAGE_HALF_S: f64 = 0.125;
+
+/// RMS of a residual (samples `dt_s` apart) averaged over ±`half_s` (m); plain RMS for 0.
+pub(crate) fn averaged_rms(r: &[f64], dt_s: f64, half_s: f64) -> f64 {
+    rms(&moving_average(r, (half_s / dt_s).round() as usize))
+}

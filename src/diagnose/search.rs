@@ -15,7 +15,9 @@ use serde::Serialize;
 use super::causes::{self, CauseId, Kinematics};
 use super::context::Context;
 use super::fit::{self, Fitted};
-use super::residual::axis_residual;
+use super::holdout::{HeldOut, held_out};
+use super::plausible::{Observed, implausible};
+use super::residual::{axis_residual, chatter_mismatch, independent_share, rms};
 use super::{Alternative, DiagnoseSettings, FittedParam, FoundCause};
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::synth::sample;
@@ -49,6 +51,24 @@ pub struct Outcome {
     pub found: Vec<FoundCause>,
     /// Every cause tried in the first round.
     pub candidates: Vec<Candidate>,
+    /// Causes that fitted with enough evidence but were not named, and why.
+    pub rejected: Vec<Rejected>,
+}
+
+/// A cause that fitted with evidence but is not named.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Rejected {
+    /// The cause.
+    pub id: CauseId,
+    /// The axis.
+    pub axis: AxisName,
+    /// Its fitted parameters.
+    pub params: Vec<FittedParam>,
+    /// Its in-sample evidence.
+    pub evidence: f64,
+    /// Why it is not named: implausible values, a worse fit somewhere, or no gain on data
+    /// it was not fitted on.
+    pub reason: String,
 }
 
 /// A cause to fit on an axis, from these starting points.
@@ -80,8 +100,13 @@ pub fn search(
     let mut current = machine.clone();
     let mut found: Vec<FoundCause> = Vec::new();
     let mut candidates = Vec::new();
+    let mut rejected: Vec<Rejected> = Vec::new();
+    let observed = AxisName::BOTH.map(|a| observed_on(ctx, a, offset_s));
     // Axes whose measurement chatters are compared on statistics throughout.
-    let mut stick_slip = AxisName::BOTH.map(|a| ctx.measured_chatter_excess(a, offset_s) > 5.0);
+    // Only an axis seen to stick is compared on statistics.
+    let sticking = AxisName::BOTH.map(|a| ctx.sticking_seen(a, offset_s));
+    let mut stick_slip = AxisName::BOTH
+        .map(|a| sticking[a.index()] && ctx.measured_chatter_excess(a, offset_s) > 5.0);
     for round in 0..settings.max_causes {
         let mut tries = Vec::new();
         for axis in AxisName::BOTH {
@@ -89,10 +114,12 @@ pub fn search(
                 continue;
             }
             let statistical = stick_slip[axis.index()]
-                || ctx.chatter_excess(axis, &traces[axis.index()], offset_s) > 5.0;
+                || (sticking[axis.index()]
+                    && ctx.chatter_excess(axis, &traces[axis.index()], offset_s) > 5.0);
             stick_slip[axis.index()] = statistical;
             let skip = |cause: CauseId| {
-                found.iter().any(|f| f.axis == axis && f.id == cause)
+                !super::tries_allowed(machine, settings, axis, cause)
+                    || found.iter().any(|f| f.axis == axis && f.id == cause)
                     || (statistical && !cause.is_local())
             };
             tries.extend(tries_on_axis(
@@ -129,7 +156,35 @@ pub fn search(
             .collect();
         eligible.sort_by(|a, b| b.evidence.total_cmp(&a.evidence));
         let mut eligible = eligible.into_iter();
-        let Some(best) = eligible.next() else {
+        // The strongest candidate that can exist on the machine, does not make either axis
+        // worse and holds on data it was not fitted on.
+        let mut chosen = None;
+        for s in eligible.by_ref() {
+            match judge(ctx, &current, settings, &traces, offset_s, &observed, &s) {
+                Ok(held_out) => {
+                    chosen = Some((s, held_out));
+                    break;
+                }
+                Err(reason) => {
+                    if !rejected
+                        .iter()
+                        .any(|r: &Rejected| r.id == s.try_.cause && r.axis == s.try_.axis)
+                    {
+                        rejected.push(Rejected {
+                            id: s.try_.cause,
+                            axis: s.try_.axis,
+                            params: fitted_params(
+                                s.try_.cause,
+                                s.fitted.as_ref().expect("filtered on a fit"),
+                            ),
+                            evidence: s.evidence,
+                            reason,
+                        });
+                    }
+                }
+            }
+        }
+        let Some((best, held_out)) = chosen else {
             break;
         };
         // Causes that explain the data almost as well: within 1 % of the evidence (at least
@@ -152,7 +207,7 @@ pub fn search(
                 &meas,
                 &ctx.at_samples(trace, offset),
                 &event,
-                ctx.measured.dt_s,
+                ctx.sample_dt_s,
                 sigma,
             )
         };
@@ -164,18 +219,9 @@ pub fn search(
         found.push(FoundCause {
             id: cause,
             axis,
-            params: cause
-                .params()
-                .iter()
-                .zip(fitted.values.iter().zip(&fitted.sigma))
-                .map(|(p, (v, s))| FittedParam {
-                    key: p.key.to_string(),
-                    unit: p.unit.to_string(),
-                    value: *v,
-                    uncertainty: *s,
-                })
-                .collect(),
+            params: fitted_params(cause, &fitted),
             evidence: best.evidence,
+            held_out,
             statistical: best.try_.statistical,
             before,
             after: residual_of(&traces[axis.index()], offset_s),
@@ -188,7 +234,124 @@ pub fn search(
         offset_s,
         found,
         candidates,
+        rejected,
     }
+}
+
+/// The fitted values as reported parameters.
+fn fitted_params(cause: CauseId, fitted: &Fitted) -> Vec<FittedParam> {
+    cause
+        .params()
+        .iter()
+        .zip(fitted.values.iter().zip(&fitted.sigma))
+        .map(|(p, (v, s))| FittedParam {
+            key: p.key.to_string(),
+            unit: p.unit.to_string(),
+            value: *v,
+            uncertainty: *s,
+        })
+        .collect()
+}
+
+/// What the measurement shows of an axis: its largest following error.
+fn observed_on(ctx: &Context, axis: AxisName, offset_s: f64) -> Observed {
+    let meas = ctx.measured_at_samples(axis);
+    let following_error_max_m = ctx
+        .samples
+        .iter()
+        .zip(&meas)
+        .map(|(&i, m)| (ctx.command_at(axis, ctx.prog_time(i, offset_s)).0 - m).abs())
+        .fold(0.0, f64::max);
+    Observed {
+        following_error_max_m,
+    }
+}
+
+/// How much a residual RMS may grow before it counts as worse: a cause on one axis moves
+/// the shared clock offset, and the other axis's residual with it, by a hair.
+pub(crate) const WORSE_TOLERANCE: f64 = 0.005;
+
+/// Whether a candidate may be named: its values plausible on the machine, neither axis's
+/// whole-record RMS worse, and a gain on the half of the record it was not fitted on. The
+/// held-out figures when it may; the reason when not.
+fn judge(
+    ctx: &Context,
+    current: &MachineConfig,
+    settings: &DiagnoseSettings,
+    traces: &[Vec<f64>; 2],
+    offset_s: f64,
+    observed: &[Observed; 2],
+    s: &Scored,
+) -> Result<HeldOut, String> {
+    let (axis, cause) = (s.try_.axis, s.try_.cause);
+    let fitted = s.fitted.as_ref().ok_or("no fit")?;
+    if let Some(why) = implausible(
+        cause,
+        &fitted.values,
+        current.axis(axis),
+        &observed[axis.index()],
+    ) {
+        return Err(format!("fits, but implausible: {why}"));
+    }
+    for a in AxisName::BOTH {
+        let new = if a == axis {
+            &fitted.trace
+        } else {
+            &fitted.other
+        };
+        // On an axis in stick-slip no model times the slips, and point by point a model
+        // that chatters as the machine does scores worse than one that does not chatter
+        // at all: there the measure is the mismatch of chatter amplitude per window.
+        let chatter = s.try_.statistical && a == axis;
+        let what = if chatter {
+            "chatter amplitude mismatch"
+        } else {
+            "residual RMS"
+        };
+        let measure = |trace: &[f64], offset: f64| {
+            if chatter {
+                chatter_mismatch(
+                    &ctx.measured_at_samples(a),
+                    &ctx.at_samples(trace, offset),
+                    ctx.sample_dt_s,
+                    ctx.noise_sigma,
+                )
+            } else {
+                rms(&ctx.residual(a, trace, offset))
+            }
+        };
+        let (before, after) = (
+            measure(&traces[a.index()], offset_s),
+            measure(new, fitted.offset_s),
+        );
+        if after > before * (1.0 + WORSE_TOLERANCE) {
+            return Err(format!(
+                "fits, but makes the {a} {what} worse ({:.3} → {:.3} µm)",
+                um_from_m(before),
+                um_from_m(after),
+            ));
+        }
+    }
+    let held = held_out(
+        ctx,
+        current,
+        traces,
+        offset_s,
+        axis,
+        cause,
+        &fitted.values,
+        s.try_.statistical,
+        settings.event_window_s,
+    )
+    .ok_or("the fit on half of the record failed")?;
+    if held.evidence < settings.evidence {
+        return Err(format!(
+            "fits, but does not hold on the half of the record it was not fitted on (held-out \
+             evidence {:.1}, RMS {:.3} → {:.3} µm)",
+            held.evidence, held.rms_before_um, held.rms_after_um
+        ));
+    }
+    Ok(held)
 }
 
 /// How far an axis's residual exceeds the noise: its sum of squares beyond n σ², in
@@ -235,7 +398,7 @@ fn tries_on_axis(
         pos_m: &pos,
         vel_m_per_s: &vel,
         near_reversal: &reversal,
-        dt_s: ctx.measured.dt_s,
+        dt_s: ctx.sample_dt_s,
         cyclic_period_m: period_mm * 1e-3,
     };
     CauseId::ALL
@@ -302,9 +465,12 @@ fn score(
             } else {
                 let fitted =
                     fit::fit_cause(ctx, current, t.axis, t.cause, &t.starts, offset_s, other);
-                let gain = fitted
-                    .as_ref()
-                    .map_or(f64::NEG_INFINITY, |f| (rss_now - f.rss) / sigma2);
+                // Counted on independent samples: a fit that leaves a smooth residual has
+                // only bent towards a larger model error.
+                let gain = fitted.as_ref().map_or(f64::NEG_INFINITY, |f| {
+                    let after = ctx.residual(t.axis, &f.trace, f.offset_s);
+                    (rss_now - f.rss) / sigma2 * independent_share(&after)
+                });
                 (fitted, gain, rss_now / sigma2 - n_total, n_total.ln())
             };
             Scored {

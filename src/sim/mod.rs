@@ -14,7 +14,7 @@ pub mod stickslip;
 pub use model::{AxisModel, FrictionMode, Mode};
 pub use simulate::{AxisRun, simulate, simulate_with_progress};
 
-use model::{Aug, I, W_M, X2, XR};
+use model::{Aug, I, TH_M, W_M, X2, XR};
 
 /// Simulation settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -146,13 +146,41 @@ pub struct FrictionEvent {
     pub to: FrictionMode,
 }
 
+/// Where along an axis's drive train a measurement reads its position.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MeasuredAt {
+    /// A linear scale on the table (the model's table position, with its structural mode).
+    #[default]
+    Table,
+    /// The motor's encoder: the screw, nut and their backlash lie beyond it.
+    Motor,
+    /// At the tool (a laser or ballbar between spindle and table). The model has no
+    /// structure between table and tool beyond the structural mode, so it reads as `Table`.
+    Tool,
+}
+
+impl MeasuredAt {
+    /// The name as written on the command line and in reports.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            MeasuredAt::Table => "table",
+            MeasuredAt::Motor => "motor",
+            MeasuredAt::Tool => "tool",
+        }
+    }
+}
+
 /// What one axis did, sampled at the command period.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct AxisTrace {
     /// Sample period (s).
     pub dt_s: f64,
-    /// Table position X2 (m).
+    /// Table position X2 (m), with the structural mode at the measured point when the
+    /// model has one.
     pub pos_m: Vec<f64>,
+    /// The motor's angle as table travel, r·i_t·θ_m (m): what a motor encoder reads.
+    pub motor_pos_m: Vec<f64>,
     /// Reference position x_ref (m).
     pub ref_m: Vec<f64>,
     /// Motor speed (rad/s).
@@ -170,6 +198,7 @@ impl AxisTrace {
         AxisTrace {
             dt_s,
             pos_m: Vec::with_capacity(n),
+            motor_pos_m: Vec::with_capacity(n),
             ref_m: Vec::with_capacity(n),
             motor_speed_rad_per_s: Vec::with_capacity(n),
             current_a: Vec::with_capacity(n),
@@ -180,14 +209,16 @@ impl AxisTrace {
 
     fn reserve(&mut self, more: usize) {
         self.pos_m.reserve(more);
+        self.motor_pos_m.reserve(more);
         self.ref_m.reserve(more);
         self.motor_speed_rad_per_s.reserve(more);
         self.current_a.reserve(more);
         self.mode.reserve(more);
     }
 
-    fn push(&mut self, x: &Aug, mode: Mode) {
+    fn push(&mut self, x: &Aug, mode: Mode, travel_per_motor_rad_m: f64) {
         self.pos_m.push(x[X2]);
+        self.motor_pos_m.push(travel_per_motor_rad_m * x[TH_M]);
         self.ref_m.push(x[XR]);
         self.motor_speed_rad_per_s.push(x[W_M]);
         self.current_a.push(x[I]);
@@ -202,6 +233,22 @@ impl AxisTrace {
     /// True when empty.
     pub fn is_empty(&self) -> bool {
         self.pos_m.is_empty()
+    }
+
+    /// The position series a measurement at `point` reads (m).
+    pub fn read_at(&self, point: MeasuredAt) -> &[f64] {
+        match point {
+            MeasuredAt::Table | MeasuredAt::Tool => &self.pos_m,
+            MeasuredAt::Motor => &self.motor_pos_m,
+        }
+    }
+
+    /// Takes the series a measurement at `point` reads, dropping the rest.
+    pub fn into_read_at(self, point: MeasuredAt) -> Vec<f64> {
+        match point {
+            MeasuredAt::Table | MeasuredAt::Tool => self.pos_m,
+            MeasuredAt::Motor => self.motor_pos_m,
+        }
     }
 
     /// Following error x_ref − x_table at sample k (m).

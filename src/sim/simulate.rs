@@ -755,7 +755,8 @@ impl<'a> AxisRun<'a> {
             self.lateral_dl = (lat.k_lambda(self.x[X2]) - 1.0) * self.model.r * self.x[TH_S];
             self.x[DL] = self.lateral_dl;
         }
-        self.trace.push(&self.x, self.mode);
+        self.trace
+            .push(&self.x, self.mode, self.model.r * self.model.it);
         for sub in 0..self.substeps {
             if self.per_substep_inputs {
                 substep_inputs(self.model, &mut self.x, self.mode, self.lateral_dl);

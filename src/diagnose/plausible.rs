@@ -1,0 +1,130 @@
+//! Whether a fitted cause could exist on the machine. A fit always finds the values that
+//! best bend the model towards the data; when the data hold an effect the catalogue lacks
+//! (another controller, a measuring point the model does not describe), those values can
+//! be ones no machine has — two kilonewtons of low-speed friction on an axis with two
+//! hundred newtons of Coulomb friction, or a "resonance" at the servo loop's own
+//! crossover. Such a cause is reported as fitting but implausible, never as found.
+
+use super::causes::CauseId;
+use crate::machine::AxisConfig;
+use crate::sim::AxisModel;
+use crate::sim::linear::{Loop, closed_loop_modes, loop_figures};
+use crate::units::{m_from_um, per_s_from_kv_m_per_min_per_mm};
+
+/// What a measurement shows about an axis, for judging fitted values.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Observed {
+    /// Largest |commanded − measured| position over the compared samples (m).
+    pub following_error_max_m: f64,
+}
+
+/// Largest Stribeck excess relative to the Coulomb force: guideway and screw friction
+/// rises towards standstill by tens of percent, not by multiples.
+const STRIBECK_OVER_COULOMB_MAX: f64 = 2.0;
+/// Largest Coulomb coefficient of a machine-tool guideway (plain slideways reach 0.2).
+const COULOMB_COEFFICIENT_MAX: f64 = 0.3;
+/// Largest delay between interpolator and position loop (s): a few interpolation cycles.
+const DEAD_TIME_MAX_S: f64 = 0.05;
+/// Largest cyclic error of a screw or scale (m).
+const CYCLIC_AMPLITUDE_MAX_M: f64 = 50e-6;
+/// Largest scale or lead error (ppm): a screw's lead class, a scale's expansion.
+const SCALE_ERROR_MAX_PPM: f64 = 1000.0;
+/// A position gain this far from the set one is a wrong machine file, not a cause.
+const KV_RATIO_MAX: f64 = 5.0;
+/// How near (relative) a fitted resonance may lie to a loop's crossover before it is taken
+/// for the loop's own overshoot rather than the structure.
+const CROSSOVER_MARGIN: f64 = 0.1;
+/// How near (relative) it may lie to a lightly damped closed-loop mode the model already
+/// has: there it is that mode with another damping, not an extra structure.
+const MODE_MARGIN: f64 = 0.025;
+
+/// Why fitted `values` of `cause` are implausible on `axis` (its nominal settings), or
+/// `None` when they are not.
+pub fn implausible(
+    cause: CauseId,
+    values: &[f64],
+    axis: &AxisConfig,
+    observed: &Observed,
+) -> Option<String> {
+    let model = AxisModel::from_config(axis);
+    match cause {
+        CauseId::Stribeck => {
+            let level = values[0];
+            (level > STRIBECK_OVER_COULOMB_MAX * model.f_c).then(|| {
+                format!(
+                    "a low-speed friction excess of {level:.0} N is more than {STRIBECK_OVER_COULOMB_MAX} × \
+                     the axis's Coulomb friction ({:.0} N)",
+                    model.f_c
+                )
+            })
+        }
+        CauseId::CoulombFriction => (values[0] > COULOMB_COEFFICIENT_MAX).then(|| {
+            format!(
+                "a friction coefficient of {:.3} exceeds any guideway's ({COULOMB_COEFFICIENT_MAX})",
+                values[0]
+            )
+        }),
+        CauseId::Backlash => {
+            let gap = m_from_um(values[0]);
+            (gap > observed.following_error_max_m).then(|| {
+                format!(
+                    "{:.1} µm of lost motion exceed the largest following error measured ({:.1} µm)",
+                    values[0],
+                    observed.following_error_max_m * 1e6
+                )
+            })
+        }
+        CauseId::DeadTime => (values[0] * 1e-3 > DEAD_TIME_MAX_S).then(|| {
+            format!(
+                "a delay of {:.1} ms is longer than any control's ({:.0} ms)",
+                values[0],
+                DEAD_TIME_MAX_S * 1e3
+            )
+        }),
+        CauseId::CyclicError => (m_from_um(values[0].abs()) > CYCLIC_AMPLITUDE_MAX_M).then(|| {
+            format!(
+                "a cyclic error of {:.1} µm exceeds any screw's or scale's ({:.0} µm)",
+                values[0],
+                CYCLIC_AMPLITUDE_MAX_M * 1e6
+            )
+        }),
+        CauseId::ScaleError => (values[0].abs() > SCALE_ERROR_MAX_PPM).then(|| {
+            format!(
+                "a scale error of {:.0} ppm exceeds any screw's or scale's ({SCALE_ERROR_MAX_PPM:.0} ppm)",
+                values[0]
+            )
+        }),
+        CauseId::KvGain => {
+            let set = per_s_from_kv_m_per_min_per_mm(axis.position_loop.kv_m_per_min_per_mm);
+            let ratio = per_s_from_kv_m_per_min_per_mm(values[0]) / set;
+            (!(1.0 / KV_RATIO_MAX..=KV_RATIO_MAX).contains(&ratio)).then(|| {
+                format!(
+                    "a position gain {ratio:.2} × the set one is a different machine file, not a \
+                     mismatch"
+                )
+            })
+        }
+        CauseId::Resonance => loop_frequency_near(&model, values[0]).map(|(what, f)| {
+            format!(
+                "{:.1} Hz lies at the model's own {what} ({f:.1} Hz): the loop, not the structure",
+                values[0]
+            )
+        }),
+    }
+}
+
+/// A frequency of the model's own loops within the margin of `freq_hz`: the loops'
+/// crossovers and the lightly damped closed-loop modes.
+fn loop_frequency_near(model: &AxisModel, freq_hz: f64) -> Option<(String, f64)> {
+    let near = |f: f64, margin: f64| f.is_finite() && (freq_hz / f - 1.0).abs() <= margin;
+    for which in [Loop::Position, Loop::Velocity, Loop::Current] {
+        let f = loop_figures(model, which).crossover_hz;
+        if near(f, CROSSOVER_MARGIN) {
+            return Some((format!("{} loop's crossover", which.name()), f));
+        }
+    }
+    closed_loop_modes(model)
+        .into_iter()
+        .find(|m| m.damping < 0.3 && near(m.frequency_hz, MODE_MARGIN))
+        .map(|m| ("closed-loop mode".to_string(), m.frequency_hz))
+}
