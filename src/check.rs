@@ -5,6 +5,7 @@
 //! axes) → contour error → hotspots. Pure: no I/O,
 //! so that sweeps can run it many times in parallel.
 
+use crate::circular::{CircularTest, circles, circular_test, radial_points};
 use serde::Serialize;
 
 use crate::contour::{ContourSeries, contour_errors};
@@ -12,7 +13,7 @@ use crate::execute::{ExecConfig, Execution, execute};
 use crate::gcode::Program;
 use crate::hotspot::{Hotspot, HotspotConfig, RunView, find_hotspots};
 use crate::machine::MachineConfig;
-use crate::path::{Geometry, Motion};
+use crate::path::Motion;
 use crate::plan::{Commands, KinematicLimits, Plan, PlanConfig, plan};
 use crate::sim::{AxisModel, AxisTrace, SimConfig, SimError};
 
@@ -88,6 +89,8 @@ pub struct CheckRun {
     pub hotspots: Vec<Hotspot>,
     /// Figures.
     pub summary: Summary,
+    /// Circular-test figures (ISO 230-4) of every full circle in the program.
+    pub circular: CircularTest,
     /// The settings the run used.
     pub settings: CheckSettings,
 }
@@ -157,6 +160,12 @@ pub fn analyse(run: Execution, machine: &MachineConfig, settings: &CheckSettings
     let kv = mx.kv_per_s().min(my.kv_per_s());
     let hotspots = find_hotspots(&view, &HotspotConfig::for_kv(kv), settings.max_hotspots);
     let summary = summarize(&planned, &commands, [&x, &y], &contour);
+    let circular = circular_test(
+        &circles(&planned.segments),
+        &contour.segment,
+        &x.pos_m,
+        &y.pos_m,
+    );
     CheckRun {
         plan: planned,
         commands,
@@ -165,6 +174,7 @@ pub fn analyse(run: Execution, machine: &MachineConfig, settings: &CheckSettings
         contour,
         hotspots,
         summary,
+        circular,
         settings: *settings,
     }
 }
@@ -269,34 +279,18 @@ pub struct CircleTest {
 
 /// The full circles of a run with the radial deviation measured around them.
 pub fn circle_tests(run: &CheckRun) -> Vec<CircleTest> {
-    let mut out = Vec::new();
-    for (i, seg) in run.plan.segments.iter().enumerate() {
-        let Geometry::Arc(arc) = seg.geometry else {
-            continue;
-        };
-        if arc.sweep_rad.abs() < std::f64::consts::TAU - 1e-9 {
-            continue;
-        }
-        let points: Vec<(f64, f64)> = (0..run.contour.segment.len())
-            .filter(|&k| {
-                run.contour.segment[k] as usize == i && run.contour.radial_m[k].is_finite()
-            })
-            .map(|k| {
-                let (x, y) = (
-                    run.x.pos_m[k] - arc.center_m[0],
-                    run.y.pos_m[k] - arc.center_m[1],
-                );
-                (y.atan2(x), run.contour.radial_m[k])
-            })
-            .collect();
-        out.push(CircleTest {
-            segment: i,
-            line: seg.line,
-            center_m: arc.center_m,
-            radius_m: arc.r_start_m,
-            ccw: arc.sweep_rad > 0.0,
-            points,
-        });
-    }
-    out
+    circles(&run.plan.segments)
+        .into_iter()
+        .map(|c| {
+            let points = radial_points(&c, &run.contour.segment, &run.x.pos_m, &run.y.pos_m);
+            CircleTest {
+                segment: c.segment,
+                line: c.line,
+                center_m: c.center_m,
+                radius_m: c.radius_m,
+                ccw: c.ccw,
+                points,
+            }
+        })
+        .collect()
 }

@@ -7,6 +7,7 @@
 #![deny(missing_docs)]
 
 pub mod check;
+pub mod circular;
 pub mod cli;
 pub mod contour;
 pub mod diagnose;

@@ -4,6 +4,7 @@
 //! documented field by field in `docs/report-schema.md`; a field is never removed or
 //! changed in meaning without a new version. Lengths are in mm, errors in µm, times in s.
 
+use crate::circular::CircularTest;
 use std::io::Write;
 
 use serde::Serialize;
@@ -44,6 +45,8 @@ pub struct CheckReport {
     pub within_tolerance: Option<bool>,
     /// Hotspots, ranked by |error|.
     pub hotspots: Vec<HotspotInfo>,
+    /// Circular-test figures (ISO 230-4) of the program's full circles, predicted.
+    pub circular_test: CircularTest,
     /// Warnings from the interpreter and the planner.
     pub warnings: Vec<Warning>,
     /// Codes accepted without effect on the XY path.
@@ -206,6 +209,7 @@ impl CheckReport {
                 .cloned()
                 .collect(),
             accepted_codes: program.notes.clone(),
+            circular_test: run.circular.clone(),
         }
     }
 
@@ -301,6 +305,10 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
     if let (Some(t), Some(ok)) = (r.tolerance_um, r.within_tolerance) {
         let verdict = if ok { "within" } else { "EXCEEDS" };
         let _ = writeln!(s, "tolerance {t} µm: the predicted maximum {verdict} it");
+    }
+    if !r.circular_test.circles.is_empty() {
+        let _ = writeln!(s, "\ncircular test (ISO 230-4 figures, predicted)");
+        s.push_str(&r.circular_test.text());
     }
     if !r.hotspots.is_empty() {
         let _ = writeln!(s, "\nhotspots (largest first)");

@@ -122,6 +122,12 @@ fn circle_radius_loss_matches_the_closed_loop_frequency_response() {
     for d in steady {
         assert!((d - expected).abs() < 0.05e-6, "{d} vs {expected}");
     }
+    // The ISO 230-4 radial deviation F reads the same loss at its most inward point.
+    let figures = &run.circular.circles[0];
+    assert!(
+        (figures.f_min_um - expected * 1e6).abs() < 0.02 * expected.abs() * 1e6,
+        "{figures:?} vs {expected}"
+    );
 }
 
 fn circle_test(machine: &MachineConfig) -> CheckRun {
@@ -171,6 +177,17 @@ fn backlash_on_x_shows_at_the_x_reversals_in_both_directions() {
     // prevent is of the order of the backlash.
     for h in &backlash {
         assert!(h.excess_um > 0.4 * b_um && h.excess_um <= b_um, "{h:?}");
+    }
+    // The circular-test figures show it as ballbar spikes at X's reversals (0°, 180°) in
+    // both directions, and none of that size where Y reverses (90°, 270°).
+    for c in &r.circular.circles {
+        let [s0, s90, s180, s270] = c.reversal_spikes_um;
+        for s in [s0, s180] {
+            assert!(s > 0.4 * b_um && s <= b_um, "{c:?}");
+        }
+        for s in [s90, s270] {
+            assert!(s.abs() < 0.25 * b_um, "{c:?}");
+        }
     }
     // And none on the same machine without backlash.
     let clean = circle_test(&MachineConfig::default_preset());

@@ -80,7 +80,13 @@ fn measure(cause: CauseId, r: &AxisResidual) -> f64 {
     }
 }
 
-fn assert_found(name: &str, cause: CauseId, axis: AxisName, hidden: &[f64], seed: u64) {
+fn assert_found(
+    name: &str,
+    cause: CauseId,
+    axis: AxisName,
+    hidden: &[f64],
+    seed: u64,
+) -> Diagnosis {
     let d = diagnose_hidden(name, Some((cause, axis, hidden.to_vec())), seed);
     let named: Vec<(CauseId, AxisName)> = d.causes.iter().map(|c| (c.id, c.axis)).collect();
     assert_eq!(
@@ -128,11 +134,25 @@ fn assert_found(name: &str, cause: CauseId, axis: AxisName, hidden: &[f64], seed
         "noise floor {}",
         d.noise_floor_um
     );
+    d
 }
 
 #[test]
 fn backlash_on_either_axis() {
-    assert_found("circle-test.nc", CauseId::Backlash, AxisName::X, &[10.0], 1);
+    let d = assert_found("circle-test.nc", CauseId::Backlash, AxisName::X, &[10.0], 1);
+    // The ballbar figures: the measured spikes at X's reversals (0°, 180°) stand well above
+    // the nominal model's and the extended model reproduces them to a micrometre.
+    let c = &d.circular;
+    for k in 0..c.measured.circles.len() {
+        for q in [0, 2] {
+            let (m, n, e) = (
+                c.measured.circles[k].reversal_spikes_um[q],
+                c.nominal.circles[k].reversal_spikes_um[q],
+                c.extended.circles[k].reversal_spikes_um[q],
+            );
+            assert!(m > n + 2.0 && (m - e).abs() < 1.0, "{m} {n} {e}");
+        }
+    }
     assert_found("circle-test.nc", CauseId::Backlash, AxisName::Y, &[6.0], 2);
 }
 
@@ -370,6 +390,40 @@ fn a_measurement_of_another_program_is_rejected_with_the_reason() {
     );
 }
 
+/// A control that interpolates 0.2 % slower than the plan, recorded without its commands:
+/// one clock offset cannot fit both ends, and the refusal measures how far the timing
+/// departs — the halves' centres lie 40 s apart, so 80 ms.
+#[test]
+fn a_record_whose_timing_departs_from_the_plan_is_refused_with_the_drift() {
+    let nominal = MachineConfig::default_preset();
+    let spec = SynthSpec {
+        offset_s: 0.4,
+        ..SynthSpec::default()
+    };
+    let mut csv = Vec::new();
+    let mut truth = synthesize(&program("circle-test.nc"), &nominal, &spec).unwrap();
+    for row in &mut truth.rows {
+        row[0] *= 1.002;
+    }
+    truth.write_csv(&mut csv).unwrap();
+    let measured = parse_trace(std::str::from_utf8(&csv).unwrap(), "slow.csv").unwrap();
+    let message = diagnose(
+        &program("circle-test.nc"),
+        &nominal,
+        &measured,
+        &DiagnoseSettings::for_machine(&nominal),
+    )
+    .unwrap_err()
+    .to_string();
+    let drift: f64 = message
+        .split("second half runs ")
+        .nth(1)
+        .and_then(|rest| rest.split(" ms").next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("{message}"));
+    assert!((drift - 80.0).abs() < 5.0, "{message}");
+}
+
 #[test]
 fn a_table_with_a_hidden_gain_error_is_diagnosed_and_the_paper_tables_are_not() {
     let machine = MachineConfig::default_preset();
@@ -486,10 +540,23 @@ fn the_command_line_round_trip_synth_diagnose_check() {
         report["causes"][0]["rms_after_um"].as_f64().unwrap()
             < report["causes"][0]["rms_before_um"].as_f64().unwrap()
     );
+    // The ballbar figures, measured and by both models, in the JSON; a polar plot a circle.
+    let measured_circles = report["circular_test"]["measured"]["circles"]
+        .as_array()
+        .unwrap();
+    assert_eq!(measured_circles.len(), 2);
+    assert!(
+        report["circular_test"]["extended"]["pairs"][0]["h_um"]
+            .as_f64()
+            .unwrap()
+            > 0.0
+    );
     for plot in [
         "diagnose-fit.png",
         "diagnose-residual-time.svg",
         "diagnose-residual-path.png",
+        "diagnose-polar-line13.png",
+        "diagnose-polar-line16.svg",
     ] {
         assert!(
             dir.path()

@@ -266,6 +266,7 @@ fn polar_figures(run: &CheckRun, name: &str) -> Vec<PolarPlot> {
                             c.line
                         ),
                         points: c.points.iter().map(|&(a, d)| (a, um_from_m(d))).collect(),
+                        width: 2,
                     })
                     .collect(),
             }

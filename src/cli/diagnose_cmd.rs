@@ -8,6 +8,7 @@ use clap::Args;
 
 use super::Outcome;
 use super::common::{CliError, MachineArgs, PlanningArgs, TraceArgs, load_program, spinner};
+use crate::circular::radial_points;
 use crate::diagnose::causes::{CauseId, CauseSet};
 use crate::diagnose::report::{DiagnoseReport, machine_file};
 use crate::diagnose::table::diagnose_table;
@@ -15,6 +16,7 @@ use crate::diagnose::{DiagnoseSettings, Diagnosis, diagnose};
 use crate::measured::read_table;
 use crate::output::OutputBatch;
 use crate::plot::panels::{Curve, Panel, PanelsPlot};
+use crate::plot::polar::{PolarPlot, PolarTrace};
 use crate::sim::MeasuredAt;
 use crate::units::{m_from_um, mm_from_m, um_from_m};
 
@@ -336,7 +338,46 @@ fn stage_plots(
             &path_mm,
         )],
     };
+    // Ballbar-style: each full circle's radial deviation, measured and by both models.
+    let polar: Vec<PolarPlot> = d
+        .circles
+        .iter()
+        .map(|c| {
+            let trace = |label: &str, xy: &[Vec<f64>; 2], width: u32| PolarTrace {
+                label: label.to_string(),
+                width,
+                points: radial_points(c, &s.segment, &xy[0], &xy[1])
+                    .into_iter()
+                    .map(|(a, r)| (a, um_from_m(r)))
+                    .collect(),
+            };
+            PolarPlot {
+                title: format!(
+                    "{name}: line {} ({}) R{:.1} mm — radial deviation",
+                    c.line,
+                    if c.ccw {
+                        "counter-clockwise"
+                    } else {
+                        "clockwise"
+                    },
+                    mm_from_m(c.radius_m)
+                ),
+                radius_mm: mm_from_m(c.radius_m),
+                traces: vec![
+                    trace("measured", &s.measured, 1),
+                    trace("nominal model", &s.nominal, 2),
+                    trace(&extended_name, &s.extended, 2),
+                ],
+            }
+        })
+        .collect();
     for ext in ["png", "svg"] {
+        for (c, figure) in d.circles.iter().zip(&polar) {
+            batch.stage_with_path(
+                &dir.join(format!("diagnose-polar-line{}.{ext}", c.line)),
+                |p| crate::plot::render(p, figure),
+            )?;
+        }
         batch.stage_with_path(&dir.join(format!("diagnose-fit.{ext}")), |p| {
             crate::plot::render(p, &fit)
         })?;

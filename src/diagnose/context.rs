@@ -57,6 +57,9 @@ pub struct Context<'a> {
     pub noise_sigma: f64,
     /// Where the measurement read the positions: the simulated quantity compared.
     pub measured_at: MeasuredAt,
+    /// On the plan's timeline: how much later the record's second half runs than its first
+    /// half under one clock offset (s) — how far the machine's timing departs from our plan.
+    pub timing_drift_s: Option<f64>,
 }
 
 impl Context<'_> {
@@ -344,6 +347,7 @@ pub fn context<'a>(
         sample_dt_s: measured.dt_s,
         noise_sigma: 0.0,
         measured_at: settings.measured_at,
+        timing_drift_s: None,
     };
     let nominal = [AxisName::X, AxisName::Y].map(|a| ctx.simulate_axis(machine, a));
     let [Some(x), Some(y)] = nominal else {
@@ -394,6 +398,9 @@ pub fn context<'a>(
     } else {
         refine_offset(&ctx, &x, &y, offset)
     };
+    if fixed_offset.is_none() {
+        ctx.timing_drift_s = Some(timing_drift(&ctx, &x, &y, offset));
+    }
     let (offset, x, y) = if fixed_offset.is_some() || !settings.align_stretches {
         (offset, x, y)
     } else {
@@ -414,9 +421,17 @@ pub fn context<'a>(
         } else {
             ""
         };
+        let drift = match ctx.timing_drift_s {
+            Some(d) if d.abs() >= 0.005 => format!(
+                " Its second half runs {:+.0} ms against its first: the control's timing \
+                 departs from the plan.",
+                d * 1e3
+            ),
+            _ => String::new(),
+        };
         return Err(cannot(format!(
             "the best clock offset ({offset:.3} s) leaves {:.0} µm RMS between measurement and \
-             prediction: is this a measurement of this program, in the same coordinates?{hint}",
+             prediction: is this a measurement of this program, in the same coordinates?{drift}{hint}",
             um_from_m(rms)
         )));
     }
@@ -466,15 +481,46 @@ fn coarse_offset(ctx: &Context, x: &[f64], y: &[f64]) -> Option<f64> {
 
 /// Golden-section refinement of the offset within ±2 coarse steps, at full resolution.
 fn refine_offset(ctx: &Context, x: &[f64], y: &[f64], start: f64) -> f64 {
-    let cost = |o: f64| {
-        let r = [
-            ctx.residual(AxisName::X, x, o),
-            ctx.residual(AxisName::Y, y, o),
+    golden_section(start - 0.04, start + 0.04, 1e-6, &|o| {
+        ctx.offset_cost(x, y, o)
+    })
+}
+
+impl Context<'_> {
+    /// Both axes' residual sum of squares at a clock offset, for traces `x`, `y`.
+    fn offset_cost(&self, x: &[f64], y: &[f64], offset_s: f64) -> f64 {
+        [
+            self.residual(AxisName::X, x, offset_s),
+            self.residual(AxisName::Y, y, offset_s),
         ]
-        .concat();
-        r.iter().map(|v| v * v).sum::<f64>()
+        .iter()
+        .flatten()
+        .map(|v| v * v)
+        .sum()
+    }
+}
+
+/// The offsets that best align the first and the second half of the compared samples, each
+/// on its own: their difference (second − first, s). Zero when the plan keeps the machine's
+/// time; a control that interpolates slower or waits longer makes it grow.
+fn timing_drift(ctx: &Context, x: &[f64], y: &[f64], offset: f64) -> f64 {
+    /// How far either half may lie from the whole record's offset (s).
+    const REACH_S: f64 = 0.5;
+    let half = ctx.samples.len() / 2;
+    let (first, second) = ctx.samples.split_at(half);
+    let best = |part: &[usize]| {
+        let mut sub = ctx.clone();
+        sub.samples = part.iter().step_by(4).copied().collect();
+        let cost = |o: f64| sub.offset_cost(x, y, o);
+        // A 5 ms scan, then golden section about its best: over half a second the
+        // mismatch need not be unimodal.
+        let start = (0..=200)
+            .map(|i| offset - REACH_S + i as f64 * 0.005)
+            .min_by(|a, b| cost(*a).total_cmp(&cost(*b)))
+            .unwrap_or(offset);
+        golden_section(start - 0.005, start + 0.005, 1e-6, &cost)
     };
-    golden_section(start - 0.04, start + 0.04, 1e-6, &cost)
+    best(second) - best(first)
 }
 
 /// The standstills inside the commands (both axes still for at least 10 ms, neither at the

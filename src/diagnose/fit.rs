@@ -125,9 +125,9 @@ pub fn fit_cause(
         cache: RefCell::new(None),
     };
     let lm = LevenbergMarquardt::new()
-        .with_patience(40)
-        .with_ftol(1e-12)
-        .with_xtol(1e-10);
+        .with_patience(20)
+        .with_ftol(1e-9)
+        .with_xtol(1e-8);
     let (problem, _report) = lm.minimize(problem);
     let (residual, lm_trace, lm_other) = problem.evaluate(&problem.p)?;
     let lm_rss = residual.norm_squared();

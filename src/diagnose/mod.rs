@@ -27,6 +27,7 @@ pub mod table;
 use serde::Serialize;
 
 use crate::check::CheckSettings;
+use crate::circular::{Circle, CircularTest, circles, circular_test};
 use crate::contour::contour_errors;
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
@@ -228,6 +229,8 @@ pub struct Series {
     pub extended: [Vec<f64>; 2],
     /// Contour error residual before and after (m).
     pub contour_residual: [Vec<f64>; 2],
+    /// The plan segment nearest each measured sample.
+    pub segment: Vec<u32>,
 }
 
 /// The outcome of a diagnosis.
@@ -264,9 +267,28 @@ pub struct Diagnosis {
     pub skipped: Vec<Skipped>,
     /// Causes that fitted but are not named, and why.
     pub rejected: Vec<Rejected>,
+    /// Without recorded commands: how much later the record's second half runs than its
+    /// first under one clock offset (ms) — the plan's timing error against the machine.
+    pub timing_drift_ms: Option<f64>,
     /// Whether any cause could be tried at all (`--max-causes 0`, or every cause excluded
     /// or unseen, leaves none).
     pub searched: bool,
+    /// Circular-test figures (ISO 230-4) of the program's full circles: measured, by the
+    /// nominal model and by the extended one.
+    pub circular: CircularComparison,
+    /// The program's full circles (for polar plots of the series).
+    pub circles: Vec<Circle>,
+}
+
+/// Circular-test figures of the same circles three ways.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct CircularComparison {
+    /// From the measured path.
+    pub measured: CircularTest,
+    /// Predicted by the nominal model.
+    pub nominal: CircularTest,
+    /// Predicted by the extended model.
+    pub extended: CircularTest,
 }
 
 /// Diagnoses a measurement of `program` on `machine`.
@@ -331,6 +353,7 @@ pub fn diagnose(
     } else {
         outcome.offset_s
     };
+    let circular = circular_comparison(&ctx, &series);
     Ok(Diagnosis {
         offset_s: program_start,
         noise_floor_um: um_from_m(ctx.noise_sigma),
@@ -355,9 +378,24 @@ pub fn diagnose(
             .collect(),
         measured_at: settings.measured_at,
         rejected: outcome.rejected,
+        timing_drift_ms: ctx.timing_drift_s.map(|s| s * 1e3),
+        circular,
+        circles: circles(&ctx.plan.segments),
         skipped: skipped_causes(machine, settings),
         searched: settings.max_causes > 0 && !tried_causes(machine, settings).is_empty(),
     })
+}
+
+/// The circular-test figures of the measured, nominal and extended paths, on the samples
+/// the measured path assigns to each circle.
+fn circular_comparison(ctx: &Context, s: &Series) -> CircularComparison {
+    let circles = circles(&ctx.plan.segments);
+    let of = |xy: &[Vec<f64>; 2]| circular_test(&circles, &s.segment, &xy[0], &xy[1]);
+    CircularComparison {
+        measured: of(&s.measured),
+        nominal: of(&s.nominal),
+        extended: of(&s.extended),
+    }
 }
 
 /// Takes the last cause off the outcome (with `reason`), and rebuilds its machine and
@@ -476,6 +514,7 @@ fn summarize(
         contour_of(&s.extended),
     );
     s.path_s_m = cm.path_s_m.clone();
+    s.segment = cm.segment.clone();
     let diff = |a: &[f64], b: &[f64]| -> Vec<f64> { a.iter().zip(b).map(|(x, y)| x - y).collect() };
     s.contour_residual = [
         diff(&cm.error_m, &cn.error_m),

@@ -9,8 +9,8 @@ use serde::Serialize;
 
 use super::causes::CauseId;
 use super::{
-    Alternative, AxisResidual, Candidate, Diagnosis, ExtraWait, FittedParam, HeldOut, Place,
-    Rejected, ResidualStats, Skipped,
+    Alternative, AxisResidual, Candidate, CircularComparison, Diagnosis, ExtraWait, FittedParam,
+    HeldOut, Place, Rejected, ResidualStats, Skipped,
 };
 use crate::machine::{AxisName, MachineConfig};
 use crate::measured::MeasuredTrace;
@@ -51,6 +51,11 @@ pub struct DiagnoseReport {
     pub skipped: Vec<Skipped>,
     /// Causes that fitted with evidence but are not named, and why.
     pub rejected: Vec<Rejected>,
+    /// Without recorded commands: how much later the record's second half runs than its
+    /// first under one clock offset (ms); `null` with recorded commands.
+    pub timing_drift_ms: Option<f64>,
+    /// Circular-test figures (ISO 230-4): measured, nominal model, extended model.
+    pub circular_test: CircularComparison,
 }
 
 /// The measurement, as read.
@@ -211,6 +216,8 @@ impl DiagnoseReport {
             candidates: d.candidates.clone(),
             skipped: d.skipped.clone(),
             rejected: d.rejected.clone(),
+            timing_drift_ms: d.timing_drift_ms,
+            circular_test: d.circular.clone(),
         }
     }
 
@@ -243,6 +250,16 @@ impl DiagnoseReport {
             "machine {}; clock offset {:.4} s; noise floor {:.3} µm; {} samples compared per axis",
             self.machine, self.clock_offset_s, self.noise_floor_um, m.samples_compared
         );
+        if let Some(drift) = self.timing_drift_ms
+            && drift.abs() >= 2.0
+        {
+            let _ = writeln!(
+                s,
+                "timing: the record's second half runs {drift:+.1} ms against its first under one \
+                 clock offset — the control's timing departs from the plan; record the commanded \
+                 positions (x_cmd, y_cmd) to take the timing from the machine"
+            );
+        }
         if !self.extra_waits.is_empty() {
             let waits: Vec<String> = self
                 .extra_waits
@@ -337,6 +354,18 @@ impl DiagnoseReport {
                 axes.join(", "),
                 k.reason
             );
+        }
+        let c = &self.circular_test;
+        if !c.measured.circles.is_empty() {
+            let _ = writeln!(s, "\nCircular test (ISO 230-4 figures)");
+            for (label, t) in [
+                ("measured", &c.measured),
+                ("nominal model", &c.nominal),
+                ("extended model", &c.extended),
+            ] {
+                let _ = writeln!(s, " {label}");
+                s.push_str(&t.text());
+            }
         }
         let _ = writeln!(
             s,

@@ -133,6 +133,20 @@ pub fn search(
                 &skip,
             ));
         }
+        // The longest fits first, so that two cores finish together: a gain re-plans the
+        // waits and moves both axes; Stribeck starts from a grid of 64.
+        tries.sort_by_key(|t| {
+            CauseId::ALL.len()
+                - [
+                    CauseId::KvGain,
+                    CauseId::Stribeck,
+                    CauseId::DeadTime,
+                    CauseId::Resonance,
+                ]
+                .iter()
+                .position(|&c| c == t.cause)
+                .map_or(0, |p| CauseId::ALL.len() - p)
+        });
         let scored = score(ctx, &current, tries, &traces, offset_s);
         if round == 0 {
             candidates = scored

@@ -12,6 +12,9 @@ pub struct PolarTrace {
     pub label: String,
     /// (angle rad, radial deviation µm).
     pub points: Vec<(f64, f64)>,
+    /// Line width (px): 1 for noisy measured data, whose zig-zags a wider line's joins
+    /// would draw as spikes.
+    pub width: u32,
 }
 
 /// The figure.
@@ -109,7 +112,7 @@ impl Figure for PolarPlot {
                 (r * a.cos(), r * a.sin())
             });
             chart
-                .draw_series(LineSeries::new(pts, series_color(i).stroke_width(2)))
+                .draw_series(LineSeries::new(pts, series_color(i).stroke_width(t.width)))
                 .map_err(err)?;
         }
         let mut y = 40;

@@ -1,0 +1,394 @@
+//! Circular-test figures in the manner of ISO 230-4 (the ballbar or grid-encoder test of two
+//! interpolating axes), for every full circle a program contains — from any XY path: a
+//! prediction, a measurement, or a fitted model.
+//!
+//! Per circle and direction:
+//! - **G, circular deviation**: the radial width of the band holding the path, about the
+//!   path's own least-squares centre (the standard's minimum zone is at most this wide);
+//! - **F, radial deviation**: the largest and smallest radius minus the nominal one, about the
+//!   programmed centre;
+//! - **reversal spikes**: at each quadrant point (0°, 90°, 180°, 270°, where one axis
+//!   reverses), how far the path bulges beyond its neighbourhood (±5°–15°).
+//!
+//! For a pair of circles on the same centre and radius run in opposite directions:
+//! - **H, circular hysteresis**: the largest radial difference between the two paths at the
+//!   same angle (1° bins), about their common least-squares centre.
+
+use nalgebra::{Matrix3, Vector3};
+use serde::Serialize;
+
+use crate::path::{Geometry, Motion, Segment};
+use crate::units::{mm_from_m, um_from_m};
+
+/// A full circle of the program.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Circle {
+    /// Index into the plan's segments.
+    pub segment: usize,
+    /// Source line.
+    pub line: u32,
+    /// Programmed centre (m).
+    pub center_m: [f64; 2],
+    /// Programmed radius (m).
+    pub radius_m: f64,
+    /// Counter-clockwise (G3).
+    pub ccw: bool,
+}
+
+/// The full circles among `segments`: feed arcs of constant radius that sweep at least one
+/// whole turn.
+pub fn circles(segments: &[Segment]) -> Vec<Circle> {
+    segments
+        .iter()
+        .enumerate()
+        .filter_map(|(i, s)| match s.geometry {
+            Geometry::Arc(a)
+                if s.motion == Motion::Feed
+                    && a.sweep_rad.abs() >= std::f64::consts::TAU * (1.0 - 1e-9)
+                    && (a.r_end_m - a.r_start_m).abs() <= 1e-9 =>
+            {
+                Some(Circle {
+                    segment: i,
+                    line: s.line,
+                    center_m: a.center_m,
+                    radius_m: a.r_start_m,
+                    ccw: a.sweep_rad > 0.0,
+                })
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+/// The samples of a path on circle `c` (`segment[k]` the plan segment sample `k` lies
+/// nearest): each one's polar angle about the programmed centre (rad) and radial deviation
+/// from the programmed radius (m, outward positive).
+pub fn radial_points(c: &Circle, segment: &[u32], x_m: &[f64], y_m: &[f64]) -> Vec<(f64, f64)> {
+    (0..segment.len().min(x_m.len()).min(y_m.len()))
+        .filter(|&k| segment[k] as usize == c.segment && x_m[k].is_finite() && y_m[k].is_finite())
+        .map(|k| {
+            let (dx, dy) = (x_m[k] - c.center_m[0], y_m[k] - c.center_m[1]);
+            (dy.atan2(dx), dx.hypot(dy) - c.radius_m)
+        })
+        .collect()
+}
+
+/// One circle's figures (µm).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CircleFigures {
+    /// Source line of the circle.
+    pub line: u32,
+    /// `ccw` or `cw`.
+    pub direction: &'static str,
+    /// Programmed radius (mm).
+    pub radius_mm: f64,
+    /// Circular deviation G about the least-squares centre.
+    pub g_um: f64,
+    /// Largest radial deviation F from the programmed circle.
+    pub f_max_um: f64,
+    /// Smallest (most inward) radial deviation.
+    pub f_min_um: f64,
+    /// Reversal spike heights at 0°, 90°, 180° and 270° (outward positive); NaN where the
+    /// path has too few samples there.
+    pub reversal_spikes_um: [f64; 4],
+    /// Samples the figures come from.
+    pub samples: usize,
+}
+
+/// The hysteresis of a pair of circles run in opposite directions (µm).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Hysteresis {
+    /// Line of the counter-clockwise circle.
+    pub ccw_line: u32,
+    /// Line of the clockwise circle.
+    pub cw_line: u32,
+    /// Circular hysteresis H.
+    pub h_um: f64,
+    /// Bidirectional circular deviation: the band holding both paths about their common
+    /// least-squares centre.
+    pub g_both_um: f64,
+}
+
+/// The figures of every circle, and of every opposite pair.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct CircularTest {
+    /// Per circle.
+    pub circles: Vec<CircleFigures>,
+    /// Per pair of circles on the same centre and radius in opposite directions.
+    pub pairs: Vec<Hysteresis>,
+}
+
+/// Fewest samples on a circle for figures worth stating.
+const MIN_SAMPLES: usize = 36;
+
+/// The circular-test figures of an XY path: `segment[k]` is the plan segment sample `k`
+/// lies nearest to (as the contour search found it), `x_m`, `y_m` its position.
+pub fn circular_test(
+    circles: &[Circle],
+    segment: &[u32],
+    x_m: &[f64],
+    y_m: &[f64],
+) -> CircularTest {
+    let points = |c: &Circle| -> Vec<[f64; 2]> {
+        (0..segment.len().min(x_m.len()).min(y_m.len()))
+            .filter(|&k| {
+                segment[k] as usize == c.segment && x_m[k].is_finite() && y_m[k].is_finite()
+            })
+            .map(|k| [x_m[k], y_m[k]])
+            .collect()
+    };
+    let mut out = CircularTest::default();
+    let mut kept: Vec<(Circle, Vec<[f64; 2]>)> = Vec::new();
+    for c in circles {
+        let p = points(c);
+        if p.len() < MIN_SAMPLES {
+            continue;
+        }
+        out.circles.push(figures(c, &p));
+        kept.push((*c, p));
+    }
+    for (i, (a, pa)) in kept.iter().enumerate() {
+        let partner = kept[i + 1..].iter().find(|(b, _)| {
+            b.ccw != a.ccw
+                && (b.radius_m - a.radius_m).abs() < 1e-9
+                && (b.center_m[0] - a.center_m[0]).hypot(b.center_m[1] - a.center_m[1]) < 1e-9
+        });
+        if let Some((b, pb)) = partner {
+            let (ccw, cw) = if a.ccw {
+                ((a, pa), (b, pb))
+            } else {
+                ((b, pb), (a, pa))
+            };
+            out.pairs.push(hysteresis(ccw, cw));
+        }
+    }
+    out
+}
+
+/// G, F and the reversal spikes of one circle's points.
+fn figures(c: &Circle, p: &[[f64; 2]]) -> CircleFigures {
+    let center = least_squares_center(p).unwrap_or(c.center_m);
+    let (lo, hi) = radial_range(p, center, 0.0);
+    let (f_min, f_max) = radial_range(p, c.center_m, c.radius_m);
+    CircleFigures {
+        line: c.line,
+        direction: if c.ccw { "ccw" } else { "cw" },
+        radius_mm: mm_from_m(c.radius_m),
+        g_um: um_from_m(hi - lo),
+        f_max_um: um_from_m(f_max),
+        f_min_um: um_from_m(f_min),
+        reversal_spikes_um: reversal_spikes(c, p),
+        samples: p.len(),
+    }
+}
+
+/// The smallest and largest distance from `center`, less `radius` (m).
+fn radial_range(p: &[[f64; 2]], center: [f64; 2], radius: f64) -> (f64, f64) {
+    p.iter()
+        .map(|q| (q[0] - center[0]).hypot(q[1] - center[1]) - radius)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), r| {
+            (l.min(r), h.max(r))
+        })
+}
+
+/// The centre of the circle that fits the points best (algebraic least squares: the
+/// circle x² + y² + D x + E y + F = 0 with the smallest squared residual, which for a
+/// path within micrometres of a circle is the geometric best fit to far below them).
+/// Coordinates are taken about the points' mean, for conditioning.
+fn least_squares_center(p: &[[f64; 2]]) -> Option<[f64; 2]> {
+    let n = p.len() as f64;
+    let mean = [
+        p.iter().map(|q| q[0]).sum::<f64>() / n,
+        p.iter().map(|q| q[1]).sum::<f64>() / n,
+    ];
+    let mut ata = Matrix3::<f64>::zeros();
+    let mut atb = Vector3::<f64>::zeros();
+    for q in p {
+        let (x, y) = (q[0] - mean[0], q[1] - mean[1]);
+        let row = Vector3::new(x, y, 1.0);
+        ata += row * row.transpose();
+        atb += row * -(x * x + y * y);
+    }
+    let s = ata.lu().solve(&atb)?;
+    Some([mean[0] - 0.5 * s[0], mean[1] - 0.5 * s[1]])
+}
+
+/// How far the path bulges at each quadrant point beyond its neighbourhood: the largest
+/// |radial deviation − the median of the ±5°–15° ring| within ±3°, signed.
+fn reversal_spikes(c: &Circle, p: &[[f64; 2]]) -> [f64; 4] {
+    let polar: Vec<(f64, f64)> = p
+        .iter()
+        .map(|q| {
+            let (dx, dy) = (q[0] - c.center_m[0], q[1] - c.center_m[1]);
+            (dy.atan2(dx).to_degrees(), dx.hypot(dy) - c.radius_m)
+        })
+        .collect();
+    let offset_from = |angle: f64, quadrant: f64| {
+        let d = (angle - quadrant).rem_euclid(360.0);
+        if d > 180.0 { d - 360.0 } else { d }
+    };
+    [0.0, 90.0, 180.0, 270.0].map(|quadrant| {
+        let mut ring: Vec<f64> = polar
+            .iter()
+            .filter(|(a, _)| (5.0..=15.0).contains(&offset_from(*a, quadrant).abs()))
+            .map(|(_, r)| *r)
+            .collect();
+        let near: Vec<f64> = polar
+            .iter()
+            .filter(|(a, _)| offset_from(*a, quadrant).abs() <= 3.0)
+            .map(|(_, r)| *r)
+            .collect();
+        if ring.len() < 4 || near.is_empty() {
+            return f64::NAN;
+        }
+        ring.sort_by(f64::total_cmp);
+        let base = ring[ring.len() / 2];
+        let peak = near
+            .iter()
+            .map(|r| r - base)
+            .max_by(|a, b| a.abs().total_cmp(&b.abs()))
+            .unwrap_or(0.0);
+        um_from_m(peak)
+    })
+}
+
+/// H and the bidirectional G of two opposite circles.
+fn hysteresis(ccw: (&Circle, &Vec<[f64; 2]>), cw: (&Circle, &Vec<[f64; 2]>)) -> Hysteresis {
+    let both: Vec<[f64; 2]> = ccw.1.iter().chain(cw.1.iter()).copied().collect();
+    let center = least_squares_center(&both).unwrap_or(ccw.0.center_m);
+    let (lo, hi) = radial_range(&both, center, 0.0);
+    // Mean radius per 1° bin of each direction.
+    let bins = |p: &[[f64; 2]]| {
+        let mut sum = vec![(0.0, 0usize); 360];
+        for q in p {
+            let (dx, dy) = (q[0] - center[0], q[1] - center[1]);
+            let bin = (dy.atan2(dx).to_degrees().rem_euclid(360.0) as usize).min(359);
+            sum[bin].0 += dx.hypot(dy);
+            sum[bin].1 += 1;
+        }
+        sum
+    };
+    let (a, b) = (bins(ccw.1), bins(cw.1));
+    let h = a
+        .iter()
+        .zip(&b)
+        .filter(|(x, y)| x.1 > 0 && y.1 > 0)
+        .map(|(x, y)| (x.0 / x.1 as f64 - y.0 / y.1 as f64).abs())
+        .fold(0.0, f64::max);
+    Hysteresis {
+        ccw_line: ccw.0.line,
+        cw_line: cw.0.line,
+        h_um: um_from_m(h),
+        g_both_um: um_from_m(hi - lo),
+    }
+}
+
+impl CircularTest {
+    /// The figures as text, one circle a line, prefixed with `label` (e.g. "predicted").
+    pub fn text(&self) -> String {
+        let mut s = String::new();
+        for c in &self.circles {
+            let spikes: Vec<String> = c
+                .reversal_spikes_um
+                .iter()
+                .map(|v| {
+                    if v.is_finite() {
+                        format!("{v:+.1}")
+                    } else {
+                        "—".into()
+                    }
+                })
+                .collect();
+            s.push_str(&format!(
+                "  line {:>4} {:<3} R{:<8} G {:>7.2} µm   F {:+.2} / {:+.2} µm   reversal spikes 0/90/180/270°: {} µm\n",
+                c.line,
+                c.direction,
+                c.radius_mm,
+                c.g_um,
+                c.f_max_um,
+                c.f_min_um,
+                spikes.join(" ")
+            ));
+        }
+        for p in &self.pairs {
+            s.push_str(&format!(
+                "  lines {} and {}: hysteresis H {:.2} µm, both directions G {:.2} µm\n",
+                p.ccw_line, p.cw_line, p.h_um, p.g_both_um
+            ));
+        }
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn circle(ccw: bool, segment: usize) -> Circle {
+        Circle {
+            segment,
+            line: 10 + segment as u32,
+            center_m: [0.0, 0.0],
+            radius_m: 0.1,
+            ccw,
+        }
+    }
+
+    /// Points of a circle of `radius` about `center`, one per degree (mid-degree, off the
+    /// 1° bins' edges).
+    fn ring(center: [f64; 2], radius: impl Fn(f64) -> f64) -> (Vec<f64>, Vec<f64>) {
+        (0..360)
+            .map(|d| {
+                let a = (d as f64 + 0.5).to_radians();
+                let r = radius(a);
+                (center[0] + r * a.cos(), center[1] + r * a.sin())
+            })
+            .unzip()
+    }
+
+    #[test]
+    fn an_off_centre_circle_has_no_circular_deviation_but_a_radial_one() {
+        // 5 µm off centre in X, 2 µm too small: G 0, F from −7 to +3 µm.
+        let (x, y) = ring([5e-6, 0.0], |_| 0.1 - 2e-6);
+        let t = circular_test(&[circle(true, 0)], &vec![0; 360], &x, &y);
+        let c = t.circles[0];
+        assert!(c.g_um < 1e-3, "{c:?}");
+        assert!(
+            (c.f_max_um - 3.0).abs() < 1e-3 && (c.f_min_um + 7.0).abs() < 1e-3,
+            "{c:?}"
+        );
+    }
+
+    #[test]
+    fn an_ellipse_shows_its_axes_difference_as_g_and_opposite_paths_their_hysteresis() {
+        // r = R + 4 µm·cos 2θ: G = 8 µm. The clockwise path lies 3 µm further out: H = 3 µm.
+        let (x1, y1) = ring([0.0, 0.0], |a| 0.1 + 4e-6 * (2.0 * a).cos());
+        let (x2, y2) = ring([0.0, 0.0], |a| 0.1 + 3e-6 + 4e-6 * (2.0 * a).cos());
+        let segment: Vec<u32> = [vec![0; 360], vec![1; 360]].concat();
+        let t = circular_test(
+            &[circle(true, 0), circle(false, 1)],
+            &segment,
+            &[x1, x2].concat(),
+            &[y1, y2].concat(),
+        );
+        assert!((t.circles[0].g_um - 8.0).abs() < 0.01, "{:?}", t.circles[0]);
+        assert!((t.pairs[0].h_um - 3.0).abs() < 0.01, "{:?}", t.pairs[0]);
+        assert!(
+            (t.pairs[0].g_both_um - 11.0).abs() < 0.02,
+            "{:?}",
+            t.pairs[0]
+        );
+    }
+
+    #[test]
+    fn a_spike_at_a_quadrant_point_is_measured_against_its_neighbourhood() {
+        // A 6 µm outward bump within ±2° of 90°.
+        let (x, y) = ring([0.0, 0.0], |a| {
+            let d = (a.to_degrees() - 90.5).abs();
+            0.1 + if d <= 2.0 { 6e-6 } else { 0.0 }
+        });
+        let t = circular_test(&[circle(true, 0)], &vec![0; 360], &x, &y);
+        let s = t.circles[0].reversal_spikes_um;
+        assert!((s[1] - 6.0).abs() < 1e-6 && s[0].abs() < 1e-6, "{s:?}");
+    }
+}
