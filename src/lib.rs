@@ -28,5 +28,6 @@ pub mod sim;
 pub mod sweep;
 pub mod synth;
 pub mod trace_format;
+pub mod trace_mat;
 pub mod units;
 pub mod validate;

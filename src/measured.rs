@@ -11,6 +11,7 @@
 use std::path::Path;
 
 use crate::trace_format::{self, ColumnMap, Dialect, Mapped, Signal};
+use crate::trace_mat;
 
 /// A measured trace on a uniform time grid, in SI units.
 #[derive(Debug, Clone, PartialEq)]
@@ -134,8 +135,147 @@ pub fn read_trace_with(
         file: file.clone(),
         message: e.to_string(),
     })?;
+    if trace_mat::is_mat_file(&bytes) {
+        return parse_mat_trace(&bytes, &file, map);
+    }
     // Lab exports are not always UTF-8 (a µ in Latin-1); only numbers matter here.
     parse_trace_with(&String::from_utf8_lossy(&bytes), &file, map)
+}
+
+/// Parses a MAT-file trace (see [`trace_mat`]): its variables are the columns.
+pub fn parse_mat_trace(
+    bytes: &[u8],
+    file: &str,
+    map: Option<&ColumnMap>,
+) -> Result<MeasuredTrace, MeasuredError> {
+    let data_error = |problem: String| MeasuredError::Data {
+        file: file.into(),
+        problem,
+    };
+    let columns = trace_mat::mat_columns(bytes, file)?;
+    let names: Vec<&str> = columns.iter().map(|(n, _)| n.as_str()).collect();
+    let mapped = trace_format::map_columns(&names, map)
+        .map_err(|e| data_error(format!("variables: {e}")))?;
+    let n = columns[mapped[0].index].1.len();
+    let mut table = Table::default();
+    for m in &mapped {
+        let (name, values) = &columns[m.index];
+        if values.len() != n {
+            return Err(data_error(format!(
+                "variable '{name}' has {} values, the time '{}' {n}",
+                values.len(),
+                mapped[0].header
+            )));
+        }
+        if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+            return Err(MeasuredError::Row {
+                file: file.into(),
+                row: i as u64 + 1,
+                problem: format!(
+                    "variable '{name}' ({}): not a finite number",
+                    m.signal.key()
+                ),
+            });
+        }
+        let si: Vec<f64> = values.iter().map(|v| v * m.unit.to_si).collect();
+        match slot(m.signal) {
+            None => table.t = si,
+            Some(k) => table.cols[k] = si,
+        }
+    }
+    table.rows = (1..=n as u64).collect();
+    let layout = TraceLayout {
+        source: Source::MatFile {
+            variables: columns.len(),
+        },
+        mapped,
+        trailer_rows: 0,
+    };
+    assemble(file, table, layout)
+}
+
+/// Where a mapped signal goes: `None` for time, else its slot in [`Table::cols`].
+fn slot(signal: Signal) -> Option<usize> {
+    match signal {
+        Signal::Time => None,
+        Signal::X => Some(0),
+        Signal::Y => Some(1),
+        Signal::XCmd => Some(2),
+        Signal::YCmd => Some(3),
+    }
+}
+
+/// Samples as read, in SI units, before any check: time; X, Y, commanded X, Y (empty when
+/// absent); each sample's row (line in a text file, index in a MAT variable) for messages.
+#[derive(Default)]
+struct Table {
+    t: Vec<f64>,
+    cols: [Vec<f64>; 4],
+    rows: Vec<u64>,
+}
+
+/// A trace from samples read: time increasing, enough rows, a plausible step, no gaps;
+/// irregular sampling resampled to the median step.
+fn assemble(file: &str, table: Table, layout: TraceLayout) -> Result<MeasuredTrace, MeasuredError> {
+    let data_error = |problem: String| MeasuredError::Data {
+        file: file.into(),
+        problem,
+    };
+    let Table { t, cols, rows } = table;
+    if let Some(i) = (1..t.len()).find(|&i| t[i] <= t[i - 1]) {
+        return Err(MeasuredError::Row {
+            file: file.into(),
+            row: rows[i],
+            problem: format!(
+                "time {} s does not increase (previous row: {} s)",
+                t[i],
+                t[i - 1]
+            ),
+        });
+    }
+    if t.len() < 10 {
+        return Err(data_error(format!(
+            "{} rows: too few to diagnose anything",
+            t.len()
+        )));
+    }
+    let dt = median_step(&t);
+    check_time_plausible(dt, &t, &layout.mapped[0]).map_err(data_error)?;
+    if let Some(i) = (1..t.len()).find(|&i| t[i] - t[i - 1] > 5.0 * dt) {
+        return Err(MeasuredError::Row {
+            file: file.into(),
+            row: rows[i],
+            problem: format!(
+                "a gap of {:.6} s before this row (the median step is {:.6} s)",
+                t[i] - t[i - 1],
+                dt
+            ),
+        });
+    }
+    let irregular = (1..t.len()).any(|i| ((t[i] - t[i - 1]) / dt - 1.0).abs() > 0.01);
+    let has_commands = !cols[2].is_empty();
+    let [x, y, xc, yc] = if irregular {
+        cols.map(|c| {
+            if c.is_empty() {
+                c
+            } else {
+                resample(&t, &c, dt)
+            }
+        })
+    } else {
+        cols
+    };
+    Ok(MeasuredTrace {
+        file: file.into(),
+        t0_s: t[0],
+        dt_s: dt,
+        x_m: x,
+        y_m: y,
+        commands: has_commands.then_some([xc, yc]),
+        resampled: irregular,
+        layout,
+        steps: StepStats::of(&t, dt),
+    })
 }
 
 /// A CSV reader over `text` (fields trimmed, lines starting with `#` comments) and its
@@ -213,13 +353,15 @@ pub fn parse_trace_with(
         .rposition(|(_, l)| time_of(l).is_some())
         .map_or(0, |i| i + 1);
     let trailer_rows = data.len() - data_end;
-    let mut t = Vec::with_capacity(data_end);
-    let mut cols: [Vec<f64>; 4] = Default::default();
+    let mut table = Table {
+        rows: Vec::with_capacity(data_end),
+        ..Table::default()
+    };
     for &(row, line) in &data[..data_end] {
         let f = trace_format::fields(line, dialect.delimiter);
-        let get = |m: &Mapped| -> Result<f64, MeasuredError> {
+        for m in &mapped {
             let text = f.get(m.index).map_or("", |v| v.trim_matches('"'));
-            trace_format::number(text, &dialect)
+            let value = trace_format::number(text, &dialect)
                 .map(|v| v * m.unit.to_si)
                 .ok_or_else(|| MeasuredError::Row {
                     file: file.into(),
@@ -230,75 +372,20 @@ pub fn parse_trace_with(
                         m.header,
                         m.signal.key()
                     ),
-                })
-        };
-        let ti = get(&mapped[0])?;
-        if let Some(&prev) = t.last().filter(|&&prev| ti <= prev) {
-            return Err(MeasuredError::Row {
-                file: file.into(),
-                row,
-                problem: format!("time {ti} s does not increase (previous row: {prev} s)"),
-            });
-        }
-        t.push(ti);
-        for m in &mapped[1..] {
-            let slot = match m.signal {
-                Signal::X => 0,
-                Signal::Y => 1,
-                Signal::XCmd => 2,
-                Signal::YCmd => 3,
-                Signal::Time => unreachable!("time is the first mapping"),
-            };
-            cols[slot].push(get(m)?);
-        }
-    }
-    if t.len() < 10 {
-        return Err(data_error(format!(
-            "{} rows: too few to diagnose anything",
-            t.len()
-        )));
-    }
-    let dt = median_step(&t);
-    check_time_plausible(dt, &t, &mapped[0]).map_err(data_error)?;
-    if let Some(i) = (1..t.len()).find(|&i| t[i] - t[i - 1] > 5.0 * dt) {
-        return Err(MeasuredError::Row {
-            file: file.into(),
-            row: data[i].0,
-            problem: format!(
-                "a gap of {:.6} s before this row (the median step is {:.6} s)",
-                t[i] - t[i - 1],
-                dt
-            ),
-        });
-    }
-    let irregular = (1..t.len()).any(|i| ((t[i] - t[i - 1]) / dt - 1.0).abs() > 0.01);
-    let has_commands = !cols[2].is_empty();
-    let [x, y, xc, yc] = if irregular {
-        cols.map(|c| {
-            if c.is_empty() {
-                c
-            } else {
-                resample(&t, &c, dt)
+                })?;
+            match slot(m.signal) {
+                None => table.t.push(value),
+                Some(k) => table.cols[k].push(value),
             }
-        })
-    } else {
-        cols
+        }
+        table.rows.push(row);
+    }
+    let layout = TraceLayout {
+        source: Source::Text(dialect),
+        mapped,
+        trailer_rows,
     };
-    Ok(MeasuredTrace {
-        file: file.into(),
-        t0_s: t[0],
-        dt_s: dt,
-        x_m: x,
-        y_m: y,
-        commands: has_commands.then_some([xc, yc]),
-        resampled: irregular,
-        layout: TraceLayout {
-            dialect,
-            mapped,
-            trailer_rows,
-        },
-        steps: StepStats::of(&t, dt),
-    })
+    assemble(file, table, layout)
 }
 
 /// A sampling step no measuring system has is a time column read in the wrong unit.
@@ -323,12 +410,24 @@ fn check_time_plausible(dt: f64, t: &[f64], time: &Mapped) -> Result<(), String>
     ))
 }
 
-/// How a trace file was read: its dialect, which column became what, and how many trailer
+/// What kind of file a trace came from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Source {
+    /// A text table in this dialect.
+    Text(Dialect),
+    /// A MATLAB MAT-file (level 5) with this many columns among its variables.
+    MatFile {
+        /// Columns found (a matrix gives one per column).
+        variables: usize,
+    },
+}
+
+/// How a trace file was read: its format, which column became what, and how many trailer
 /// rows were skipped.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TraceLayout {
-    /// Delimiter and decimal mark.
-    pub dialect: Dialect,
+    /// Text dialect or MAT-file.
+    pub source: Source,
     /// Time, X, Y (and commands) as mapped.
     pub mapped: Vec<Mapped>,
     /// Lines after the data that were not data (skipped).
@@ -338,20 +437,26 @@ pub struct TraceLayout {
 impl TraceLayout {
     /// Lines for the user: the dialect, then one per mapped column.
     pub fn describe(&self) -> Vec<String> {
-        let mut lines = vec![format!(
-            "{}-separated{}{}",
-            self.dialect.delimiter,
-            if self.dialect.decimal_comma {
-                ", decimal comma"
-            } else {
-                ""
-            },
-            if self.trailer_rows > 0 {
-                format!(", {} trailer rows skipped", self.trailer_rows)
-            } else {
-                String::new()
+        let first = match self.source {
+            Source::Text(dialect) => format!(
+                "{}-separated{}{}",
+                dialect.delimiter,
+                if dialect.decimal_comma {
+                    ", decimal comma"
+                } else {
+                    ""
+                },
+                if self.trailer_rows > 0 {
+                    format!(", {} trailer rows skipped", self.trailer_rows)
+                } else {
+                    String::new()
+                }
+            ),
+            Source::MatFile { variables } => {
+                format!("MATLAB MAT-file (level 5), {variables} numeric columns")
             }
-        )];
+        };
+        let mut lines = vec![first];
         lines.extend(trace_format::describe_mapping(&self.mapped));
         lines
     }
@@ -561,7 +666,7 @@ mod tests {
         let [xc, _] = m.commands.as_ref().unwrap();
         assert!((xc[10] - m.x_m[10] - 5e-7).abs() < 1e-15);
         assert_eq!(m.layout.trailer_rows, 1);
-        assert!(m.layout.dialect.decimal_comma);
+        assert!(matches!(m.layout.source, Source::Text(d) if d.decimal_comma));
         // Without the mapping the names are recognised, but counts read as mm are not
         // guessed: the time unit comes from the header, the positions default to mm.
         let m = parse_trace(&text, "v.csv").unwrap();

@@ -340,7 +340,15 @@ pub fn diagnose(
         };
         let [before_r, after_r] = &figures.3.contour_residual;
         let (b, a) = (contour_rms(before_r), contour_rms(after_r));
-        if a <= b * (1.0 + search::WORSE_TOLERANCE) || outcome.found.is_empty() {
+        // Averaged, the residual keeps the noise of its window: a change within that is
+        // no change.
+        let averaged_noise_um = if half_s > 0.0 {
+            um_from_m(ctx.noise_sigma) / (2.0 * half_s / ctx.sample_dt_s + 1.0).sqrt()
+        } else {
+            0.0
+        };
+        if a <= b * (1.0 + search::WORSE_TOLERANCE) + averaged_noise_um || outcome.found.is_empty()
+        {
             break figures;
         }
         let reason = format!("fits, but makes the contour residual worse ({b:.3} → {a:.3} µm RMS)");
