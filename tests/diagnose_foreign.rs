@@ -3,8 +3,9 @@
 //! stop at every block end, sampled at 1 kHz on its own clock — and the records carry what
 //! real ones do: another sampling rate, encoder counts, a motor encoder as the measuring
 //! point. The diagnosis gets the program, the nominal machine and the CSV text, nothing
-//! else. Hidden causes must be found through those commands; with nothing hidden nothing
-//! may be named; a record decimated to other rates must give the same answer.
+//! else. Every catalogue cause, hidden on each axis in turn, must be found through those
+//! commands; with nothing hidden nothing may be named; a record decimated to other rates
+//! must give the same answer.
 
 use std::path::Path;
 
@@ -198,10 +199,24 @@ fn backlash_and_friction_found_through_another_interpolators_commands() {
     );
     assert_found_through_foreign_commands(
         "circle-test.nc",
+        CauseId::Backlash,
+        AxisName::Y,
+        &[6.0],
+        41,
+    );
+    assert_found_through_foreign_commands(
+        "circle-test.nc",
         CauseId::CoulombFriction,
         AxisName::Y,
         &[0.03],
         32,
+    );
+    assert_found_through_foreign_commands(
+        "circle-test.nc",
+        CauseId::CoulombFriction,
+        AxisName::X,
+        &[0.04],
+        42,
     );
 }
 
@@ -216,10 +231,24 @@ fn servo_causes_found_through_another_interpolators_commands() {
     );
     assert_found_through_foreign_commands(
         "circle-test.nc",
+        CauseId::KvGain,
+        AxisName::X,
+        &[0.85],
+        43,
+    );
+    assert_found_through_foreign_commands(
+        "circle-test.nc",
         CauseId::DeadTime,
         AxisName::X,
         &[4.0],
         34,
+    );
+    assert_found_through_foreign_commands(
+        "circle-test.nc",
+        CauseId::DeadTime,
+        AxisName::Y,
+        &[3.0],
+        44,
     );
 }
 
@@ -234,10 +263,24 @@ fn measuring_errors_found_through_another_interpolators_commands() {
     );
     assert_found_through_foreign_commands(
         "back-and-forth.nc",
+        CauseId::ScaleError,
+        AxisName::X,
+        &[20.0],
+        45,
+    );
+    assert_found_through_foreign_commands(
+        "back-and-forth.nc",
         CauseId::CyclicError,
         AxisName::X,
         &[3.0, 40.0],
         36,
+    );
+    assert_found_through_foreign_commands(
+        "back-and-forth.nc",
+        CauseId::CyclicError,
+        AxisName::Y,
+        &[2.0, 120.0],
+        46,
     );
 }
 
@@ -250,6 +293,13 @@ fn a_resonance_found_through_another_interpolators_commands() {
         &[25.0, 0.05],
         37,
     );
+    assert_found_through_foreign_commands(
+        "square.nc",
+        CauseId::Resonance,
+        AxisName::X,
+        &[40.0, 0.03],
+        47,
+    );
 }
 
 #[test]
@@ -260,6 +310,13 @@ fn stick_slip_found_through_another_interpolators_commands() {
         AxisName::X,
         &[300.0, 25.0],
         38,
+    );
+    assert_found_through_foreign_commands(
+        "slow-circle.nc",
+        CauseId::Stribeck,
+        AxisName::Y,
+        &[500.0, 12.0],
+        48,
     );
 }
 

@@ -71,6 +71,16 @@ pub struct Rejected {
     pub reason: String,
 }
 
+/// The causes whose fits take longest, longest first: a gain re-plans the waits and moves
+/// both axes; Stribeck starts from a grid of 64; a dead time re-plans too; a resonance
+/// starts from 25.
+const LONGEST_FITS: [CauseId; 4] = [
+    CauseId::KvGain,
+    CauseId::Stribeck,
+    CauseId::DeadTime,
+    CauseId::Resonance,
+];
+
 /// A cause to fit on an axis, from these starting points.
 struct Try {
     axis: AxisName,
@@ -133,19 +143,12 @@ pub fn search(
                 &skip,
             ));
         }
-        // The longest fits first, so that two cores finish together: a gain re-plans the
-        // waits and moves both axes; Stribeck starts from a grid of 64.
+        // The longest fits first, so that two cores finish together.
         tries.sort_by_key(|t| {
-            CauseId::ALL.len()
-                - [
-                    CauseId::KvGain,
-                    CauseId::Stribeck,
-                    CauseId::DeadTime,
-                    CauseId::Resonance,
-                ]
+            LONGEST_FITS
                 .iter()
                 .position(|&c| c == t.cause)
-                .map_or(0, |p| CauseId::ALL.len() - p)
+                .unwrap_or(LONGEST_FITS.len())
         });
         let scored = score(ctx, &current, tries, &traces, offset_s);
         if round == 0 {
