@@ -142,16 +142,21 @@ pub fn read_trace_with(
     parse_trace_with(&String::from_utf8_lossy(&bytes), &file, map)
 }
 
+/// A [`MeasuredError::Data`] about `file`.
+fn data_error_in(file: &str) -> impl Fn(String) -> MeasuredError + '_ {
+    move |problem| MeasuredError::Data {
+        file: file.into(),
+        problem,
+    }
+}
+
 /// Parses a MAT-file trace (see [`trace_mat`]): its variables are the columns.
 pub fn parse_mat_trace(
     bytes: &[u8],
     file: &str,
     map: Option<&ColumnMap>,
 ) -> Result<MeasuredTrace, MeasuredError> {
-    let data_error = |problem: String| MeasuredError::Data {
-        file: file.into(),
-        problem,
-    };
+    let data_error = data_error_in(file);
     let columns = trace_mat::mat_columns(bytes, file)?;
     let names: Vec<&str> = columns.iter().map(|(n, _)| n.as_str()).collect();
     let mapped = trace_format::map_columns(&names, map)
@@ -217,10 +222,7 @@ struct Table {
 /// A trace from samples read: time increasing, enough rows, a plausible step, no gaps;
 /// irregular sampling resampled to the median step.
 fn assemble(file: &str, table: Table, layout: TraceLayout) -> Result<MeasuredTrace, MeasuredError> {
-    let data_error = |problem: String| MeasuredError::Data {
-        file: file.into(),
-        problem,
-    };
+    let data_error = data_error_in(file);
     let Table { t, cols, rows } = table;
     if let Some(i) = (1..t.len()).find(|&i| t[i] <= t[i - 1]) {
         return Err(MeasuredError::Row {
@@ -317,10 +319,7 @@ pub fn parse_trace_with(
     file: &str,
     map: Option<&ColumnMap>,
 ) -> Result<MeasuredTrace, MeasuredError> {
-    let data_error = |problem: String| MeasuredError::Data {
-        file: file.into(),
-        problem,
-    };
+    let data_error = data_error_in(file);
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     // (1-based row, line) of every line that is neither blank nor a comment.
     let lines: Vec<(u64, &str)> = text
