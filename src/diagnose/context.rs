@@ -26,13 +26,11 @@ use crate::units::{per_s_from_kv_m_per_min_per_mm, um_from_m};
 pub struct Context<'a> {
     /// The measurement.
     pub measured: &'a MeasuredTrace,
-    /// Commands driving the simulation, on the program's clock (t = 0 at program start).
+    /// Commands driving the simulation, on the program's clock (t = 0 at program start),
+    /// each sample placed on its segment of the program: the plan's, or the recorded ones.
     pub commands: Commands,
     /// The program's plan, for geometry and source lines.
     pub plan: Plan,
-    /// The commands placed on the program (each sample's segment): the plan's, or the
-    /// recorded ones — for where in the program a time lies.
-    pub plan_commands: Commands,
     /// With recorded commands, how much later than in our plan they start to move (s), on
     /// the simulation's timeline: where the program starts.
     pub program_start_s: f64,
@@ -278,7 +276,7 @@ impl Context<'_> {
 
     /// Whether the program is in a rapid (or the in-position wait after it) at time `t`.
     pub(crate) fn in_rapid(&self, t: f64) -> bool {
-        let pc = &self.plan_commands;
+        let pc = &self.commands;
         let k = (t / pc.dt_s)
             .round()
             .clamp(0.0, (pc.len().max(1) - 1) as f64) as usize;
@@ -310,7 +308,7 @@ pub fn context<'a>(
         file: measured.file.clone(),
         reason,
     };
-    let (commands, plan_commands, fixed_offset, program_start_s) = match &measured.commands {
+    let (commands, fixed_offset, program_start_s) = match &measured.commands {
         Some([xc, yc]) => {
             // The measurement's commands drive the simulation on its own clock, whatever
             // timing our plan gives the program; the program gives geometry and lines.
@@ -327,16 +325,14 @@ pub fn context<'a>(
                 });
             }
             let start = first_motion(&commands) - first_motion(&plan_commands);
-            let located = commands.clone();
-            (commands, located, Some(measured.t0_s), start)
+            (commands, Some(measured.t0_s), start)
         }
-        None => (plan_commands.clone(), plan_commands, None, 0.0),
+        None => (plan_commands, None, 0.0),
     };
     let mut ctx = Context {
         measured,
         commands,
         plan,
-        plan_commands,
         program_start_s,
         dt,
         fixed_offset,
@@ -640,8 +636,7 @@ fn align_stretches(
         extra[ctx.commands.segment[sample] as usize] += offsets[k + 1] - offsets[k];
     }
     ctx.plan = ctx.plan.with_waits(ctx.plan.config.in_position, &extra);
-    ctx.plan_commands = commands_of(&ctx.plan, ctx.settle_s);
-    ctx.commands = ctx.plan_commands.clone();
+    ctx.commands = commands_of(&ctx.plan, ctx.settle_s);
     ctx.extra_wait_s = extra;
     let resimulate = |a| ctx.simulate_axis(machine, a);
     match (resimulate(AxisName::X), resimulate(AxisName::Y)) {

@@ -390,7 +390,12 @@ pub fn diagnose(
         circular,
         circles: circles(&ctx.plan.segments),
         skipped: skipped_causes(machine, settings),
-        searched: settings.max_causes > 0 && !tried_causes(machine, settings).is_empty(),
+        searched: settings.max_causes > 0
+            && CauseId::ALL.into_iter().any(|c| {
+                AxisName::BOTH
+                    .into_iter()
+                    .any(|a| tries_allowed(machine, settings, a, c))
+            }),
     })
 }
 
@@ -438,29 +443,33 @@ fn drop_last_cause(
     });
 }
 
-/// The causes the search may try on `axis`: allowed, and seen where the measurement reads.
+/// Why the search may not try `cause` on `axis` (left out by the user, or unseen where
+/// the record was measured); `None` when it may.
+fn skip_reason(
+    machine: &MachineConfig,
+    settings: &DiagnoseSettings,
+    axis: AxisName,
+    cause: CauseId,
+) -> Option<String> {
+    if !settings.causes.contains(cause) {
+        return Some("left out by --causes/--exclude".into());
+    }
+    cause
+        .unseen_at(
+            settings.measured_at,
+            machine.axis(axis).position_loop.feedback,
+        )
+        .map(|r| format!("measured at the {}: {r}", settings.measured_at.as_str()))
+}
+
+/// Whether the search may try `cause` on `axis`.
 pub(crate) fn tries_allowed(
     machine: &MachineConfig,
     settings: &DiagnoseSettings,
     axis: AxisName,
     cause: CauseId,
 ) -> bool {
-    settings.causes.contains(cause)
-        && cause
-            .unseen_at(
-                settings.measured_at,
-                machine.axis(axis).position_loop.feedback,
-            )
-            .is_none()
-}
-
-/// Every (cause, axis) the search may try.
-fn tried_causes(machine: &MachineConfig, settings: &DiagnoseSettings) -> Vec<(CauseId, AxisName)> {
-    CauseId::ALL
-        .into_iter()
-        .flat_map(|c| AxisName::BOTH.map(|a| (c, a)))
-        .filter(|&(c, a)| tries_allowed(machine, settings, a, c))
-        .collect()
+    skip_reason(machine, settings, axis, cause).is_none()
 }
 
 /// The causes not tried, with the reason, axes merged where the reason is the same.
@@ -468,14 +477,7 @@ fn skipped_causes(machine: &MachineConfig, settings: &DiagnoseSettings) -> Vec<S
     let mut out: Vec<Skipped> = Vec::new();
     for cause in CauseId::ALL {
         for axis in AxisName::BOTH {
-            let reason = if !settings.causes.contains(cause) {
-                "left out by --causes/--exclude".to_string()
-            } else if let Some(r) = cause.unseen_at(
-                settings.measured_at,
-                machine.axis(axis).position_loop.feedback,
-            ) {
-                format!("measured at the {}: {r}", settings.measured_at.as_str())
-            } else {
+            let Some(reason) = skip_reason(machine, settings, axis, cause) else {
                 continue;
             };
             match out.iter_mut().find(|s| s.id == cause && s.reason == reason) {
@@ -602,18 +604,17 @@ fn largest(v: &[f64], t_s: &[f64], count: usize, apart_s: f64) -> Vec<usize> {
     chosen
 }
 
-/// The planned commands sampled at the given simulation times (for the contour search).
+/// The commands sampled at the given simulation times (for the contour search).
 fn plan_view(ctx: &Context, times: &[f64]) -> Commands {
-    let pc = &ctx.plan_commands;
+    let pc = &ctx.commands;
     let mut v = Commands {
         dt_s: pc.dt_s,
         ..Default::default()
     };
     for &t in times {
-        let tp = t;
-        let k = (tp / pc.dt_s).round().clamp(0.0, (pc.len() - 1) as f64) as usize;
-        v.x.pos_m.push(sample(&pc.x.pos_m, pc.dt_s, tp));
-        v.y.pos_m.push(sample(&pc.y.pos_m, pc.dt_s, tp));
+        let k = (t / pc.dt_s).round().clamp(0.0, (pc.len() - 1) as f64) as usize;
+        v.x.pos_m.push(sample(&pc.x.pos_m, pc.dt_s, t));
+        v.y.pos_m.push(sample(&pc.y.pos_m, pc.dt_s, t));
         v.x.vel_m_per_s.push(pc.x.vel_m_per_s[k]);
         v.y.vel_m_per_s.push(pc.y.vel_m_per_s[k]);
         v.x.acc_m_per_s2.push(pc.x.acc_m_per_s2[k]);
