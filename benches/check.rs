@@ -1,11 +1,13 @@
-//! `check` end to end (parse, plan, simulate X and Y, contour error, hotspots) on a
-//! generated ten-minute program: a zig-zag pocket with arcs at the row ends, as CAM emits.
+//! `check` end to end (parse, plan, simulate X and Y, contour error, hotspots) as the command
+//! line runs it, the run streamed through in chunks: a generated ten-minute program (a
+//! zig-zag pocket with arcs at the row ends, as CAM emits) and an hour of squares.
 
 use std::hint::black_box;
 
-use contourcheck::check::{CheckSettings, check};
+use contourcheck::check::{CheckSettings, check_in_chunks};
 use contourcheck::gcode::{InterpretOptions, parse_program};
 use contourcheck::machine::MachineConfig;
+use contourcheck::sim::SimError;
 use criterion::{Criterion, criterion_group, criterion_main};
 
 /// About ten minutes at F1000: 50 rows of 196 mm joined by R2 half circles.
@@ -32,19 +34,36 @@ fn ten_minute_program() -> String {
     s
 }
 
+/// An hour at F1000: a 100 mm square traced 147 times (24.5 s each).
+fn one_hour_program() -> String {
+    let mut s = String::from("G21 G90 G64 P0.01\nG0 X0 Y0\nG1 X0 Y0 F1000\n");
+    for _ in 0..147 {
+        s.push_str("X100 Y0\nX100 Y100\nX0 Y100\nX0 Y0\n");
+    }
+    s.push_str("M2\n");
+    s
+}
+
 fn check_bench(c: &mut Criterion) {
-    let text = ten_minute_program();
     let machine = MachineConfig::default_preset();
     let settings = CheckSettings::for_machine(&machine);
     let mut g = c.benchmark_group("check");
     g.sample_size(10);
-    g.bench_function("10-minute program end to end", |b| {
-        b.iter(|| {
-            let program =
-                parse_program(black_box(&text), "pocket.nc", &InterpretOptions::default()).unwrap();
-            check(&program, &machine, &settings).unwrap()
-        })
-    });
+    for (name, text) in [
+        ("10-minute program end to end", ten_minute_program()),
+        ("1-hour program end to end", one_hour_program()),
+    ] {
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let program =
+                    parse_program(black_box(&text), "p.nc", &InterpretOptions::default()).unwrap();
+                check_in_chunks(&program, &machine, &settings, &|_| {}, &mut |_, _| {
+                    Ok::<(), SimError>(())
+                })
+                .unwrap()
+            })
+        });
+    }
     g.finish();
 }
 

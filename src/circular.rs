@@ -18,6 +18,7 @@ use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 
 use crate::path::{Geometry, Motion, Segment};
+use crate::thinning::PeakThinned;
 use crate::units::{mm_from_m, um_from_m};
 
 /// A full circle of the program.
@@ -66,11 +67,17 @@ pub fn circles(segments: &[Segment]) -> Vec<Circle> {
 pub fn radial_points(c: &Circle, segment: &[u32], x_m: &[f64], y_m: &[f64]) -> Vec<(f64, f64)> {
     (0..segment.len().min(x_m.len()).min(y_m.len()))
         .filter(|&k| segment[k] as usize == c.segment && x_m[k].is_finite() && y_m[k].is_finite())
-        .map(|k| {
-            let (dx, dy) = (x_m[k] - c.center_m[0], y_m[k] - c.center_m[1]);
-            (dy.atan2(dx), dx.hypot(dy) - c.radius_m)
-        })
+        .map(|k| c.polar([x_m[k], y_m[k]]))
         .collect()
+}
+
+impl Circle {
+    /// A point's polar angle about the programmed centre (rad) and its radial deviation from
+    /// the programmed radius (m, outward positive).
+    pub fn polar(&self, p: [f64; 2]) -> (f64, f64) {
+        let (dx, dy) = (p[0] - self.center_m[0], p[1] - self.center_m[1]);
+        (dy.atan2(dx), dx.hypot(dy) - self.radius_m)
+    }
 }
 
 /// One circle's figures (µm).
@@ -129,40 +136,105 @@ pub fn circular_test(
     x_m: &[f64],
     y_m: &[f64],
 ) -> CircularTest {
-    let points = |c: &Circle| -> Vec<[f64; 2]> {
-        (0..segment.len().min(x_m.len()).min(y_m.len()))
-            .filter(|&k| {
-                segment[k] as usize == c.segment && x_m[k].is_finite() && y_m[k].is_finite()
+    let mut gathered = CircleSamples::new(circles.to_vec());
+    for k in 0..segment.len().min(x_m.len()).min(y_m.len()) {
+        gathered.push(segment[k], [x_m[k], y_m[k]]);
+    }
+    gathered.test().0
+}
+
+/// Points kept per circle before a long one is thinned (each kept point then the farthest
+/// from the programmed radius among its neighbours, so that F and the spikes survive): two
+/// minutes of samples at a 2 ms cycle.
+const MAX_POINTS: usize = 1 << 16;
+
+/// A circle with the path's points on it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CirclePath {
+    /// The programmed circle.
+    pub circle: Circle,
+    /// The path's points on it (m), thinned when the circle is long.
+    pub points_m: Vec<[f64; 2]>,
+}
+
+/// The samples of a path on each full circle, gathered as they come.
+#[derive(Debug, Clone, Default)]
+pub struct CircleSamples {
+    circles: Vec<Circle>,
+    /// Index into `circles` by plan segment.
+    by_segment: std::collections::HashMap<usize, usize>,
+    /// Points kept per circle: (position m, radial deviation m).
+    points: Vec<PeakThinned<([f64; 2], f64)>>,
+}
+
+impl CircleSamples {
+    /// Gathers the samples on `circles`.
+    pub fn new(circles: Vec<Circle>) -> Self {
+        CircleSamples {
+            by_segment: circles
+                .iter()
+                .enumerate()
+                .map(|(i, c)| (c.segment, i))
+                .collect(),
+            points: circles
+                .iter()
+                .map(|_| PeakThinned::new(MAX_POINTS, |p: &([f64; 2], f64)| p.1.abs()))
+                .collect(),
+            circles,
+        }
+    }
+
+    /// Takes a sample at `pos_m` lying nearest plan segment `segment`.
+    pub fn push(&mut self, segment: u32, pos_m: [f64; 2]) {
+        let Some(&i) = self.by_segment.get(&(segment as usize)) else {
+            return;
+        };
+        if pos_m[0].is_finite() && pos_m[1].is_finite() {
+            let radial = self.circles[i].polar(pos_m).1;
+            self.points[i].push((pos_m, radial));
+        }
+    }
+
+    /// The figures of every circle with enough samples and of every opposite pair, and the
+    /// circles with the points they come from.
+    pub fn test(self) -> (CircularTest, Vec<CirclePath>) {
+        let mut out = CircularTest::default();
+        let kept: Vec<(Circle, Vec<[f64; 2]>)> = self
+            .circles
+            .into_iter()
+            .zip(self.points)
+            .map(|(c, p)| {
+                (
+                    c,
+                    p.into_points().into_iter().map(|p| p.0).collect::<Vec<_>>(),
+                )
             })
-            .map(|k| [x_m[k], y_m[k]])
-            .collect()
-    };
-    let mut out = CircularTest::default();
-    let mut kept: Vec<(Circle, Vec<[f64; 2]>)> = Vec::new();
-    for c in circles {
-        let p = points(c);
-        if p.len() < MIN_SAMPLES {
-            continue;
+            .filter(|(_, p)| p.len() >= MIN_SAMPLES)
+            .collect();
+        for (c, p) in &kept {
+            out.circles.push(figures(c, p));
         }
-        out.circles.push(figures(c, &p));
-        kept.push((*c, p));
-    }
-    for (i, (a, pa)) in kept.iter().enumerate() {
-        let partner = kept[i + 1..].iter().find(|(b, _)| {
-            b.ccw != a.ccw
-                && (b.radius_m - a.radius_m).abs() < 1e-9
-                && (b.center_m[0] - a.center_m[0]).hypot(b.center_m[1] - a.center_m[1]) < 1e-9
-        });
-        if let Some((b, pb)) = partner {
-            let (ccw, cw) = if a.ccw {
-                ((a, pa), (b, pb))
-            } else {
-                ((b, pb), (a, pa))
-            };
-            out.pairs.push(hysteresis(ccw, cw));
+        for (i, (a, pa)) in kept.iter().enumerate() {
+            let partner = kept[i + 1..].iter().find(|(b, _)| {
+                b.ccw != a.ccw
+                    && (b.radius_m - a.radius_m).abs() < 1e-9
+                    && (b.center_m[0] - a.center_m[0]).hypot(b.center_m[1] - a.center_m[1]) < 1e-9
+            });
+            if let Some((b, pb)) = partner {
+                let (ccw, cw) = if a.ccw {
+                    ((a, pa), (b, pb))
+                } else {
+                    ((b, pb), (a, pa))
+                };
+                out.pairs.push(hysteresis(ccw, cw));
+            }
         }
+        let paths = kept
+            .into_iter()
+            .map(|(circle, points_m)| CirclePath { circle, points_m })
+            .collect();
+        (out, paths)
     }
-    out
 }
 
 /// G, F and the reversal spikes of one circle's points.

@@ -55,14 +55,88 @@ fn is_contour(seg: &Segment) -> bool {
     seg.motion == Motion::Feed && !matches!(seg.geometry, Geometry::Dwell { .. })
 }
 
+/// One sample's contour error.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContourPoint {
+    /// Signed contour error (m); NaN while not cutting.
+    pub error_m: f64,
+    /// Radial deviation (m, outward) when the nearest geometry is an arc, else NaN.
+    pub radial_m: f64,
+    /// Index of the nearest segment (of the commanded one while not cutting).
+    pub segment: u32,
+    /// Path length of the foot point from the program start (m).
+    pub path_s_m: f64,
+}
+
+/// The contour search along one plan's path, sample by sample.
+#[derive(Debug, Clone)]
+pub struct ContourLocator {
+    /// Path length at the start of each segment, and at the end (m).
+    cum_m: Vec<f64>,
+}
+
+impl ContourLocator {
+    /// The search along `plan`'s path (its segment lengths; its timing does not matter).
+    pub fn new(plan: &Plan) -> Self {
+        let mut cum_m = Vec::with_capacity(plan.plans.len() + 1);
+        cum_m.push(0.0);
+        for p in &plan.plans {
+            cum_m.push(cum_m.last().copied().unwrap_or(0.0) + p.length_m);
+        }
+        ContourLocator { cum_m }
+    }
+
+    /// The contour error of the actual position `q` (m) while segment `c` is commanded at
+    /// `reference` (m).
+    pub fn locate(&self, plan: &Plan, c: usize, reference: [f64; 2], q: [f64; 2]) -> ContourPoint {
+        let (segs, cum) = (&plan.segments, &self.cum_m);
+        let ref_u = segs[c].project_xy(reference, 0.5).u;
+        let s_ref = cum[c] + ref_u * plan.plans[c].length_m;
+        let none = ContourPoint {
+            error_m: f64::NAN,
+            radial_m: f64::NAN,
+            segment: c as u32,
+            path_s_m: s_ref,
+        };
+        if !is_contour(&segs[c]) {
+            return none;
+        }
+        let window = (q[0] - reference[0]).hypot(q[1] - reference[1]) * 2.0 + SEARCH_MARGIN_M;
+        let mut best: Option<(f64, ContourPoint)> = None;
+        let mut consider = |j: usize, hint: f64| {
+            if !is_contour(&segs[j]) {
+                return;
+            }
+            let p = segs[j].project_xy(q, hint);
+            let d = p.signed_distance_m.abs();
+            if best.is_none_or(|b| d < b.0) {
+                let point = ContourPoint {
+                    error_m: p.signed_distance_m,
+                    radial_m: p.radial_m.unwrap_or(f64::NAN),
+                    segment: j as u32,
+                    path_s_m: cum[j] + p.u * plan.plans[j].length_m,
+                };
+                best = Some((d, point));
+            }
+        };
+        consider(c, ref_u);
+        let mut j = c;
+        while j > 0 && s_ref - cum[j] <= window {
+            j -= 1;
+            consider(j, 1.0);
+        }
+        let mut j = c + 1;
+        while j < segs.len() && cum[j] - s_ref <= window {
+            consider(j, 0.0);
+            j += 1;
+        }
+        best.map_or(none, |b| b.1)
+    }
+}
+
 /// Contour errors of the actual XY positions (`x_m`, `y_m`, one per command sample).
 pub fn contour_errors(plan: &Plan, commands: &Commands, x_m: &[f64], y_m: &[f64]) -> ContourSeries {
-    let segs = &plan.segments;
-    let mut cum = Vec::with_capacity(segs.len() + 1);
-    cum.push(0.0);
-    for p in &plan.plans {
-        cum.push(cum.last().copied().unwrap_or(0.0) + p.length_m);
-    }
+    let locator = ContourLocator::new(plan);
     let n = x_m.len().min(commands.len());
     let mut out = ContourSeries {
         error_m: Vec::with_capacity(n),
@@ -71,58 +145,19 @@ pub fn contour_errors(plan: &Plan, commands: &Commands, x_m: &[f64], y_m: &[f64]
         path_s_m: Vec::with_capacity(n),
     };
     for k in 0..n {
-        let c = commands.segment[k] as usize;
-        let q = [x_m[k], y_m[k]];
         let reference = [commands.x.pos_m[k], commands.y.pos_m[k]];
-        let ref_u = segs[c].project_xy(reference, 0.5).u;
-        if !is_contour(&segs[c]) {
-            out.push_none(c as u32, cum[c] + ref_u * plan.plans[c].length_m);
-            continue;
-        }
-        let s_ref = cum[c] + ref_u * plan.plans[c].length_m;
-        let window = (q[0] - reference[0]).hypot(q[1] - reference[1]) * 2.0 + SEARCH_MARGIN_M;
-        let mut best: Option<(f64, f64, usize, f64)> = None; // (|e|, e, segment, u)
-        let mut radial = f64::NAN;
-        let mut consider = |j: usize, hint: f64, best: &mut Option<(f64, f64, usize, f64)>| {
-            if !is_contour(&segs[j]) {
-                return;
-            }
-            let p = segs[j].project_xy(q, hint);
-            let d = p.signed_distance_m.abs();
-            if best.is_none_or(|b| d < b.0) {
-                *best = Some((d, p.signed_distance_m, j, p.u));
-                radial = p.radial_m.unwrap_or(f64::NAN);
-            }
-        };
-        consider(c, ref_u, &mut best);
-        let mut j = c;
-        while j > 0 && s_ref - cum[j] <= window {
-            j -= 1;
-            consider(j, 1.0, &mut best);
-        }
-        let mut j = c + 1;
-        while j < segs.len() && cum[j] - s_ref <= window {
-            consider(j, 0.0, &mut best);
-            j += 1;
-        }
-        match best {
-            Some((_, e, j, u)) => {
-                out.error_m.push(e);
-                out.radial_m.push(radial);
-                out.segment.push(j as u32);
-                out.path_s_m.push(cum[j] + u * plan.plans[j].length_m);
-            }
-            None => out.push_none(c as u32, s_ref),
-        }
+        let c = commands.segment[k] as usize;
+        out.push(locator.locate(plan, c, reference, [x_m[k], y_m[k]]));
     }
     out
 }
 
 impl ContourSeries {
-    fn push_none(&mut self, segment: u32, s: f64) {
-        self.error_m.push(f64::NAN);
-        self.radial_m.push(f64::NAN);
-        self.segment.push(segment);
-        self.path_s_m.push(s);
+    /// Appends one sample's contour error.
+    pub fn push(&mut self, p: ContourPoint) {
+        self.error_m.push(p.error_m);
+        self.radial_m.push(p.radial_m);
+        self.segment.push(p.segment);
+        self.path_s_m.push(p.path_s_m);
     }
 }

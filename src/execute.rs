@@ -42,17 +42,19 @@ impl Default for ExecConfig {
     }
 }
 
-/// A plan as the machine ran it.
-#[derive(Debug, Clone)]
-pub struct Execution {
-    /// The plan, re-timed with the simulated in-position waits (warnings added for checks
-    /// that timed out).
-    pub plan: Plan,
-    /// The commands (with the settling tail).
-    pub commands: Commands,
-    /// X trace, one sample per command.
+/// A piece of a run as [`execute_in_chunks`] hands it on: samples `first..first + n`.
+#[derive(Debug)]
+pub struct RunChunk<'a> {
+    /// Index of the chunk's first sample in the run.
+    pub first: usize,
+    /// The plan, timed up to the chunk's end (later blocks' times and waits are not yet
+    /// final).
+    pub plan: &'a Plan,
+    /// The chunk's commands.
+    pub commands: &'a Commands,
+    /// X trace of the chunk.
     pub x: AxisTrace,
-    /// Y trace, one sample per command.
+    /// Y trace of the chunk.
     pub y: AxisTrace,
 }
 
@@ -60,17 +62,34 @@ pub struct Execution {
 /// two costs more than it saves.
 const PARALLEL_FROM: usize = 256;
 
-/// The most interpolation cycles a run holds (some 2.5 GB of commands and traces; 11 h at
-/// a 2 ms cycle).
-const MAX_CYCLES: f64 = 2.0e7;
+/// Samples handed on together (about a minute at a 2 ms cycle): long enough that X and Y on
+/// two threads pay, short enough that a run's memory does not grow with its duration.
+pub const CHUNK_SAMPLES: usize = 1 << 15;
 
-/// Refuses a plan whose run would not fit in memory, naming the block that takes longest.
+/// The most interpolation cycles a run held whole holds (some 2.5 GB of commands and
+/// traces; 11 h at a 2 ms cycle).
+const MAX_CYCLES_HELD: f64 = 2.0e7;
+
+/// The most interpolation cycles a run handed on in chunks is simulated for (55 h at a
+/// 2 ms cycle, a few minutes of simulation).
+const MAX_CYCLES_STREAMED: f64 = 1.0e8;
+
+/// Refuses a plan whose run would be held whole and not fit in memory, naming the block that
+/// takes longest.
 pub fn check_run_length(plan: &Plan) -> Result<(), SimError> {
+    check_cycles(
+        plan,
+        MAX_CYCLES_HELD,
+        "(a run held whole must fit in memory)",
+    )
+}
+
+fn check_cycles(plan: &Plan, max_cycles: f64, why: &'static str) -> Result<(), SimError> {
     let dt = plan.config.cycle_s;
     // The waits and settling come on top; a 5 % margin keeps their share from mattering.
     let cycles = plan.total_time_s * 1.05 / dt;
     // A NaN cycle count (none should arise) is let through to fail loudly later.
-    if cycles.is_nan() || cycles <= MAX_CYCLES {
+    if cycles.is_nan() || cycles <= max_cycles {
         return Ok(());
     }
     let (longest_line, longest_s) = plan
@@ -84,33 +103,39 @@ pub fn check_run_length(plan: &Plan) -> Result<(), SimError> {
         hours: plan.total_time_s / 3600.0,
         longest_line,
         longest_hours: longest_s / 3600.0,
-        limit_hours: MAX_CYCLES * dt / 1.05 / 3600.0,
+        limit_hours: max_cycles * dt / 1.05 / 3600.0,
+        why,
     })
 }
 
-/// Runs a plan on a machine, the in-position waits decided by the simulated axes.
-/// `progress` is told how many samples of either axis are done, now and then.
-pub fn execute(
+/// Runs a plan on a machine, the in-position waits decided by the simulated axes, handing
+/// the run on to `sink` in chunks of about [`CHUNK_SAMPLES`] as it goes instead of keeping
+/// it: memory stays bounded however long the program runs. `progress` is told how many
+/// samples of either axis are done, now and then. Returns the plan re-timed with the
+/// simulated waits.
+pub fn execute_in_chunks<E: From<SimError>>(
     mut plan: Plan,
     machine: &MachineConfig,
     config: &ExecConfig,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<Execution, SimError> {
-    check_run_length(&plan)?;
+    sink: &mut dyn FnMut(RunChunk<'_>) -> Result<(), E>,
+) -> Result<Plan, E> {
+    check_cycles(
+        &plan,
+        MAX_CYCLES_STREAMED,
+        "(longer ones would take too long)",
+    )?;
     let models = [
         AxisModel::from_config(&machine.x),
         AxisModel::from_config(&machine.y),
     ];
     let dt = plan.config.cycle_s;
-    let mut commands = Commands {
-        dt_s: dt,
-        ..Default::default()
-    };
     let start = plan.segments.first().map_or([0.0; 3], |s| s.start_m);
     let mut runs = [
         AxisRun::new(&models[0], start[0], dt, &config.sim).map_err(|e| e.on_axis('X', None))?,
         AxisRun::new(&models[1], start[1], dt, &config.sim).map_err(|e| e.on_axis('Y', None))?,
     ];
+    let mut buffer = Buffer::new(dt);
     let n = plan.segments.len();
     let window_m = plan.config.in_position.map(|ip| ip.window_m);
     let mut first = 0;
@@ -122,20 +147,21 @@ pub fn execute(
         // Up to the first sample at or after the motion's end — included at the program
         // end, so that the end point is reached; otherwise the wait begins there.
         let k_end = (t_end / dt).ceil() as usize + usize::from(at_program_end);
-        let k_start = commands.len();
         let mut sampler = Sampler::new(&plan, first, last);
-        for k in k_start..k_end {
-            sampler.push(k as f64 * dt, &mut commands);
+        while buffer.next() < k_end {
+            let upto = (buffer.first + CHUNK_SAMPLES).clamp(buffer.next() + 1, k_end);
+            buffer.sample_and_follow(&mut sampler, upto, &mut runs, progress, &plan)?;
+            if buffer.is_full() {
+                buffer.hand_on(&mut runs, &plan, sink)?;
+            }
         }
-        follow_both(&mut runs, &commands, k_start..k_end, progress)
-            .map_err(|e| placed(e, &plan))?;
         // The program's end is an exact stop too: the control reports it done when the
         // axes are in position.
         let Some(window_m) = window_m else {
             debug_assert!(at_program_end, "a stretch ends early only at an exact stop");
             break;
         };
-        let waited = wait_in_position(&mut runs, &mut sampler, &mut commands, window_m, config)
+        let waited = wait_in_position(&mut runs, &mut sampler, &mut buffer, window_m, config)
             .map_err(|e| placed(e, &plan))?;
         if let Some(misses) = waited.timed_out {
             plan.warnings.push(in_position_warning(
@@ -145,7 +171,7 @@ pub fn execute(
                 config.in_position_timeout_s,
             ));
         }
-        t0 = commands.len() as f64 * dt;
+        t0 = buffer.next() as f64 * dt;
         plan.plans[last].wait_s = t0 - t_end;
         if at_program_end {
             break;
@@ -153,17 +179,95 @@ pub fn execute(
         first = last + 1;
     }
     plan.total_time_s = plan.plans.last().map_or(0.0, |p| p.t_start_s + p.span_s());
-    let k_settle = commands.len();
-    commands.hold(config.settle_s);
-    follow_both(&mut runs, &commands, k_settle..commands.len(), progress)
-        .map_err(|e| placed(e, &plan))?;
-    let [x, y] = runs.map(AxisRun::finish);
-    Ok(Execution {
-        plan,
-        commands,
-        x,
-        y,
-    })
+    if n > 0 {
+        // Standing at the end point (the interpolator holds it past the motion) while the
+        // axes settle.
+        let mut holder = Sampler::new(&plan, n - 1, n - 1);
+        let k_settle = buffer.next() + (config.settle_s / dt).ceil() as usize;
+        while buffer.next() < k_settle {
+            let upto = (buffer.first + CHUNK_SAMPLES).clamp(buffer.next() + 1, k_settle);
+            buffer.sample_and_follow(&mut holder, upto, &mut runs, progress, &plan)?;
+            if buffer.is_full() {
+                buffer.hand_on(&mut runs, &plan, sink)?;
+            }
+        }
+    }
+    buffer.hand_on(&mut runs, &plan, sink)?;
+    Ok(plan)
+}
+
+/// The commands of the chunk being run: samples `first..first + commands.len()`.
+struct Buffer {
+    first: usize,
+    commands: Commands,
+}
+
+impl Buffer {
+    fn new(dt_s: f64) -> Self {
+        Buffer {
+            first: 0,
+            commands: Commands {
+                dt_s,
+                ..Default::default()
+            },
+        }
+    }
+
+    /// Index of the next sample.
+    fn next(&self) -> usize {
+        self.first + self.commands.len()
+    }
+
+    fn is_full(&self) -> bool {
+        self.commands.len() >= CHUNK_SAMPLES
+    }
+
+    /// Samples the interpolator up to sample `upto` (exclusive) and advances both axes
+    /// through the new samples.
+    fn sample_and_follow(
+        &mut self,
+        sampler: &mut Sampler,
+        upto: usize,
+        runs: &mut [AxisRun; 2],
+        progress: &(dyn Fn(u64) + Sync),
+        plan: &Plan,
+    ) -> Result<(), SimError> {
+        let local_start = self.commands.len();
+        for k in self.next()..upto {
+            sampler.push(k as f64 * self.commands.dt_s, &mut self.commands);
+        }
+        follow_both(
+            runs,
+            &self.commands,
+            local_start..self.commands.len(),
+            progress,
+        )
+        .map_err(|e| placed(e, plan))
+    }
+
+    /// Hands the samples so far on to `sink` with the axes' traces of them, and starts
+    /// the next chunk empty.
+    fn hand_on<E>(
+        &mut self,
+        runs: &mut [AxisRun; 2],
+        plan: &Plan,
+        sink: &mut dyn FnMut(RunChunk<'_>) -> Result<(), E>,
+    ) -> Result<(), E> {
+        let [x, y] = [0, 1].map(|a| runs[a].take_trace());
+        if self.commands.is_empty() {
+            return Ok(());
+        }
+        sink(RunChunk {
+            first: self.first,
+            plan,
+            commands: &self.commands,
+            x,
+            y,
+        })?;
+        self.first = self.next();
+        self.commands.truncate(0);
+        Ok(())
+    }
 }
 
 /// The last segment of the stretch that starts at `first`: the first one the control
@@ -233,38 +337,31 @@ struct Waited {
 fn wait_in_position(
     runs: &mut [AxisRun; 2],
     sampler: &mut Sampler,
-    commands: &mut Commands,
+    buffer: &mut Buffer,
     window_m: f64,
     config: &ExecConfig,
 ) -> Result<Waited, SimError> {
-    let dt = commands.dt_s;
+    let dt = buffer.commands.dt_s;
     let max_cycles = (config.in_position_timeout_s / dt).ceil() as usize;
     for cycle in 0..=max_cycles {
-        let k = commands.len();
+        let k = buffer.commands.len();
         // The held end point, as the interpolator gives it past the motion.
-        sampler.push(k as f64 * dt, commands);
-        let target = [commands.x.pos_m[k], commands.y.pos_m[k]];
+        sampler.push(buffer.next() as f64 * dt, &mut buffer.commands);
+        let c = &buffer.commands;
+        let target = [c.x.pos_m[k], c.y.pos_m[k]];
         let misses = [0, 1].map(|a| (target[a] - runs[a].feedback_m()).abs());
         if misses.iter().all(|&m| m <= window_m) || cycle == max_cycles {
             // The next block starts at this sample: it is not the wait's.
-            commands.truncate(k);
+            buffer.commands.truncate(k);
             let timed_out =
                 (cycle == max_cycles && misses.iter().any(|&m| m > window_m)).then_some(misses);
             return Ok(Waited { timed_out });
         }
         let [rx, ry] = runs;
-        rx.advance(
-            commands.x.pos_m[k],
-            commands.x.vel_m_per_s[k],
-            commands.x.acc_m_per_s2[k],
-        )
-        .map_err(|e| e.on_axis('X', None))?;
-        ry.advance(
-            commands.y.pos_m[k],
-            commands.y.vel_m_per_s[k],
-            commands.y.acc_m_per_s2[k],
-        )
-        .map_err(|e| e.on_axis('Y', None))?;
+        rx.advance(c.x.pos_m[k], c.x.vel_m_per_s[k], c.x.acc_m_per_s2[k])
+            .map_err(|e| e.on_axis('X', None))?;
+        ry.advance(c.y.pos_m[k], c.y.vel_m_per_s[k], c.y.acc_m_per_s2[k])
+            .map_err(|e| e.on_axis('Y', None))?;
     }
     unreachable!("the loop returns at its last cycle")
 }

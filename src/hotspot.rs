@@ -9,14 +9,21 @@
 //! window — from just before it to a few position-loop time constants after — and the
 //! hotspot is the largest contour error in it. Overlapping windows merge into one hotspot;
 //! the global maximum is always reported; the list is ranked by magnitude.
+//!
+//! The finder takes a run sample by sample and keeps only the last couple of seconds: an
+//! event is known at most a little over a second after its sample (a reversal's backlash
+//! once the nut has had half a second to cross its gap, a stick-slip episode once its
+//! second of toggles is complete), so windows are opened, merged and closed that long
+//! behind the newest sample, whatever the run's length.
+
+use std::cmp::Reverse;
+use std::collections::{BinaryHeap, VecDeque};
 
 use serde::Serialize;
 
-use crate::contour::ContourSeries;
 use crate::machine::AxisName;
-use crate::path::{Motion, dot3};
-use crate::plan::{Commands, Plan};
-use crate::sim::AxisTrace;
+use crate::path::{Motion, Segment, dot3};
+use crate::plan::Plan;
 
 /// Why the contour error peaks here.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, PartialOrd, Ord)]
@@ -97,6 +104,9 @@ pub struct Hotspot {
     pub line: u32,
     /// Signed contour error at the peak (µm).
     pub error_um: f64,
+    /// Path length of the peak's foot point from the program start (mm).
+    #[serde(skip)]
+    pub path_mm: f64,
     /// How far the error departs from its level just before the event (µm): the size of
     /// the spike or jump, as opposed to the steady lag it sits on.
     pub excess_um: f64,
@@ -132,86 +142,409 @@ impl HotspotConfig {
     }
 }
 
-/// Everything the detector looks at.
-pub struct RunView<'a> {
-    /// The plan (segments and timing).
-    pub plan: &'a Plan,
-    /// The commands.
-    pub commands: &'a Commands,
-    /// X and Y traces.
-    pub traces: [&'a AxisTrace; 2],
-    /// Backlash of X and Y (m).
-    pub backlash_m: [f64; 2],
-    /// The contour error.
-    pub contour: &'a ContourSeries,
+/// What the finder is told about one sample of a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunSample {
+    /// Time (s).
+    pub t_s: f64,
+    /// Actual X and Y (m).
+    pub pos_m: [f64; 2],
+    /// Contour error (m), NaN while not cutting.
+    pub error_m: f64,
+    /// Path length of the contour error's foot point (m).
+    pub path_s_m: f64,
+    /// The plan segment being commanded.
+    pub segment: u32,
+    /// Commanded X and Y velocity (m/s).
+    pub cmd_vel_m_per_s: [f64; 2],
+    /// X and Y mode codes ([`crate::sim::Mode::code`]).
+    pub mode: [u8; 2],
 }
 
-struct Event {
-    sample: usize,
+/// A sample as the finder keeps it.
+#[derive(Debug, Clone, Copy)]
+struct Kept {
+    k: usize,
+    t_s: f64,
+    pos_m: [f64; 2],
+    error_m: f64,
+    path_s_m: f64,
+    line: u32,
+    mode: [u8; 2],
+}
+
+/// A reversal waiting to learn whether the nut crosses its gap.
+#[derive(Debug, Clone, Copy)]
+struct Reversal {
+    k: usize,
+    axis: AxisName,
+    gap_crossed: bool,
+}
+
+/// An event's window, while it may still grow.
+#[derive(Debug, Clone, Copy)]
+struct Window {
+    hi: usize,
     cause: Cause,
+    /// The contour error's level just before the window (m).
+    level_m: f64,
+    /// The largest |error| so far and where.
+    peak: Option<Kept>,
+    /// Samples before this one (from the window's start on) are in `peak`.
+    scanned_to: usize,
 }
 
-/// Finds the hotspots of a run, ranked by |error|, at most `max` of them.
-pub fn find_hotspots(run: &RunView, cfg: &HotspotConfig, max: usize) -> Vec<Hotspot> {
-    let mut events = reversal_events(run);
-    events.extend(junction_events(run, cfg));
-    events.extend(stick_slip_events(run, cfg));
-    events.sort_by_key(|e| e.sample);
-    let dt = run.commands.dt_s;
-    let (before, after) = (
-        (cfg.before_s / dt).ceil() as usize,
-        (cfg.after_s / dt).ceil() as usize,
-    );
-    let n = run.contour.error_m.len();
-    // Merge overlapping windows; the earliest event names the merged hotspot, except that
-    // backlash outranks a plain reversal at the same place.
-    let mut windows: Vec<(usize, usize, Cause)> = Vec::new();
-    for e in events {
-        let (lo, hi) = (
-            e.sample.saturating_sub(before),
-            (e.sample + after).min(n.saturating_sub(1)),
-        );
-        match windows.last_mut() {
-            Some(w) if lo <= w.1 => {
-                w.1 = w.1.max(hi);
-                if e.cause.priority() > w.2.priority() {
-                    w.2 = e.cause;
-                }
-            }
-            _ => windows.push((lo, hi, e.cause)),
+/// Stick-slip toggles of one axis waiting for their second to complete.
+#[derive(Debug, Clone, Default)]
+struct Toggles {
+    pending: VecDeque<usize>,
+    /// Toggles up to here belong to an episode already reported.
+    skip_until: Option<usize>,
+}
+
+/// Finds the hotspots of a run given sample by sample.
+#[derive(Debug, Clone)]
+pub struct HotspotFinder {
+    cfg: HotspotConfig,
+    max: usize,
+    backlash_m: [f64; 2],
+    /// Window before and after an event, the level's span, half a second, a second
+    /// (samples).
+    before: usize,
+    after: usize,
+    level_span: usize,
+    half_second: usize,
+    second: usize,
+    /// An event is known at most this many samples after its own.
+    delay: usize,
+    /// Samples taken so far.
+    n: usize,
+    recent: VecDeque<Kept>,
+    last_sign: [f64; 2],
+    reversals: Vec<Reversal>,
+    next_junction: usize,
+    toggles: [Toggles; 2],
+    events: BinaryHeap<Reverse<(usize, u64, Cause)>>,
+    event_seq: u64,
+    open: Option<Window>,
+    spots: Vec<Hotspot>,
+    largest: Option<Kept>,
+    largest_window_peak_m: f64,
+}
+
+impl HotspotFinder {
+    /// A finder keeping at most `max` hotspots, for a run sampled every `dt_s` on axes with
+    /// `backlash_m` (X, Y; m).
+    pub fn new(cfg: HotspotConfig, backlash_m: [f64; 2], dt_s: f64, max: usize) -> Self {
+        let samples = |s: f64| (s / dt_s).ceil() as usize;
+        let (before, after) = (samples(cfg.before_s), samples(cfg.after_s));
+        let (half_second, second) = ((0.5 / dt_s) as usize, (1.0 / dt_s) as usize);
+        HotspotFinder {
+            cfg,
+            max,
+            backlash_m,
+            before,
+            after,
+            level_span: before.max(1) * 5,
+            half_second,
+            second,
+            delay: (second + half_second + 3).max(after + 1),
+            n: 0,
+            recent: VecDeque::new(),
+            last_sign: [0.0; 2],
+            reversals: Vec::new(),
+            next_junction: 1,
+            toggles: Default::default(),
+            events: BinaryHeap::new(),
+            event_seq: 0,
+            open: None,
+            spots: Vec::new(),
+            largest: None,
+            largest_window_peak_m: 0.0,
         }
     }
-    let mut spots: Vec<Hotspot> = windows
-        .iter()
-        .filter_map(|&(lo, hi, cause)| {
-            let k = peak_in(run, lo, hi)?;
-            let mut h = hotspot(run, k, cause);
-            h.excess_um = (h.error_um - level_before(run, lo, before.max(1) * 5) * 1e6).abs();
-            // No spike above the local level: the place is flagged by an event, but its error
-            // is the axes' steady lag.
-            if h.excess_um < 0.1 * h.error_um.abs() && !matches!(cause, Cause::Backlash { .. }) {
-                h.cause = Cause::SteadyLag;
-            }
-            Some(h)
-        })
-        .collect();
-    if let Some((k, _)) = run.contour.max_abs()
-        && !windows.iter().any(|&(lo, hi, _)| (lo..=hi).contains(&k))
-    {
-        spots.push(hotspot(run, k, Cause::GlobalMaximum));
+
+    /// Takes the next sample of the run.
+    pub fn push(&mut self, plan: &Plan, s: &RunSample) {
+        let k = self.n;
+        let seg = s.segment as usize;
+        let cutting = plan.segments[seg].motion == Motion::Feed;
+        let prev_mode = self.recent.back().map(|p| p.mode);
+        let kept = Kept {
+            k,
+            t_s: s.t_s,
+            pos_m: s.pos_m,
+            error_m: s.error_m,
+            path_s_m: s.path_s_m,
+            line: plan.segments.get(seg).map_or(0, |g| g.line),
+            mode: s.mode,
+        };
+        self.recent.push_back(kept);
+        self.n += 1;
+        if s.error_m.is_finite()
+            && self
+                .largest
+                .is_none_or(|m| s.error_m.abs() > m.error_m.abs())
+        {
+            self.largest = Some(kept);
+        }
+        self.note_reversals(s, k, cutting);
+        self.note_junctions(&plan.segments, plan, seg, k);
+        if let Some(prev) = prev_mode {
+            self.note_toggles(s, prev, k, cutting);
+        }
+        self.settle(false);
     }
-    spots.retain(|h| h.error_um.is_finite());
-    spots.sort_by(|a, b| b.error_um.abs().total_cmp(&a.error_um.abs()));
-    spots.truncate(max);
-    spots
+
+    /// The hotspots of the whole run, ranked by |error|.
+    pub fn finish(mut self) -> Vec<Hotspot> {
+        self.settle(true);
+        if let Some(m) = self.largest
+            && m.error_m.abs() > self.largest_window_peak_m
+        {
+            self.spots.push(hotspot(&m, Cause::GlobalMaximum));
+        }
+        self.rank();
+        self.spots
+    }
+
+    /// Sign changes of an axis's commanded velocity during cuts — also across a standstill,
+    /// since the nut must cross its gap and static friction must break however long the axis
+    /// stood (where a reversal coincides with a corner, the corner names the place).
+    fn note_reversals(&mut self, s: &RunSample, k: usize, cutting: bool) {
+        for axis in AxisName::BOTH {
+            let v = s.cmd_vel_m_per_s[axis.index()];
+            // Ignore the speed noise of a standing axis.
+            if v.abs() < 1e-9 {
+                continue;
+            }
+            let sign = v.signum();
+            let last = self.last_sign[axis.index()];
+            if last != 0.0 && sign != last && cutting {
+                // Whether the nut is free in its gap from two samples before on.
+                let gap_crossed = self
+                    .recent
+                    .iter()
+                    .rev()
+                    .take(3)
+                    .any(|p| nut_free(p.mode[axis.index()]));
+                self.reversals.push(Reversal {
+                    k,
+                    axis,
+                    gap_crossed,
+                });
+            }
+            self.last_sign[axis.index()] = sign;
+        }
+    }
+
+    /// Corners, feed changes and settling at the junctions the run has just passed.
+    fn note_junctions(&mut self, segments: &[Segment], plan: &Plan, seg: usize, k: usize) {
+        while self.next_junction < segments.len() && seg >= self.next_junction {
+            let i = self.next_junction;
+            self.next_junction += 1;
+            if let Some(cause) = junction_cause(segments, plan, i, &self.cfg) {
+                self.event(k, cause);
+            }
+        }
+    }
+
+    /// Stick/slip toggles while an axis moves slowly in a cut.
+    fn note_toggles(&mut self, s: &RunSample, prev_mode: [u8; 2], k: usize, cutting: bool) {
+        for axis in AxisName::BOTH {
+            let a = axis.index();
+            let v = s.cmd_vel_m_per_s[a].abs();
+            let slow = v > 0.0 && v < self.cfg.slow_m_per_s;
+            if slow && cutting && stuck(s.mode[a]) != stuck(prev_mode[a]) {
+                self.toggles[a].pending.push_back(k);
+            }
+        }
+    }
+
+    fn event(&mut self, sample: usize, cause: Cause) {
+        self.events.push(Reverse((sample, self.event_seq, cause)));
+        self.event_seq += 1;
+    }
+
+    /// Decides what can be decided, opens and closes windows, and forgets old samples;
+    /// `at_end`: the run is complete.
+    fn settle(&mut self, at_end: bool) {
+        self.decide_reversals(at_end);
+        for axis in AxisName::BOTH {
+            self.decide_episodes(axis, at_end);
+        }
+        while let Some(&Reverse((sample, _, cause))) = self.events.peek() {
+            if !at_end && sample + self.delay >= self.n {
+                break;
+            }
+            self.events.pop();
+            self.window_for(sample, cause);
+        }
+        if let Some(w) = &mut self.open {
+            scan(w, &self.recent);
+        }
+        if at_end && let Some(w) = self.open.take() {
+            self.close(w);
+        }
+        self.forget_old();
+    }
+
+    /// A reversal is backlash when the nut was free in its gap within half a second.
+    fn decide_reversals(&mut self, at_end: bool) {
+        let newest = self.recent.back().map(|p| p.mode);
+        let (n, half) = (self.n, self.half_second);
+        let mut decided = Vec::new();
+        self.reversals.retain_mut(|r| {
+            if let Some(mode) = newest
+                && nut_free(mode[r.axis.index()])
+            {
+                r.gap_crossed = true;
+            }
+            let done = at_end || n >= r.k + half;
+            if done {
+                decided.push(*r);
+            }
+            !done
+        });
+        for r in decided {
+            let cause = if self.backlash_m[r.axis.index()] > 0.0 && r.gap_crossed {
+                Cause::Backlash { axis: r.axis }
+            } else {
+                Cause::AxisReversal { axis: r.axis }
+            };
+            self.event(r.k, cause);
+        }
+    }
+
+    /// An episode: enough toggles within one second; one event per episode.
+    fn decide_episodes(&mut self, axis: AxisName, at_end: bool) {
+        let (second, needed) = (self.second, self.cfg.stick_slip_toggles);
+        let newest = self.n.saturating_sub(1);
+        let mut found = Vec::new();
+        let t = &mut self.toggles[axis.index()];
+        while let Some(&t0) = t.pending.front() {
+            // Every toggle within the second after t0 must be known.
+            if !at_end && newest < t0 + second {
+                break;
+            }
+            t.pending.pop_front();
+            if t.skip_until.is_some_and(|u| t0 <= u) {
+                continue;
+            }
+            let within: Vec<usize> = std::iter::once(t0)
+                .chain(t.pending.iter().copied())
+                .take_while(|&k| k - t0 <= second)
+                .collect();
+            if within.len() >= needed {
+                found.push(t0);
+                t.skip_until = within.last().map(|&end| end + second);
+            }
+        }
+        for k in found {
+            self.event(k, Cause::StickSlip { axis });
+        }
+    }
+
+    /// Opens a window for an event, or merges it into the open one; the earliest event names
+    /// a merged window, except that a more specific cause outranks it.
+    fn window_for(&mut self, sample: usize, cause: Cause) {
+        let lo = sample.saturating_sub(self.before);
+        let hi = sample + self.after;
+        if let Some(w) = &mut self.open
+            && lo <= w.hi
+        {
+            w.hi = w.hi.max(hi);
+            if cause.priority() > w.cause.priority() {
+                w.cause = cause;
+            }
+            return;
+        }
+        if let Some(w) = self.open.take() {
+            self.close(w);
+        }
+        self.open = Some(Window {
+            hi,
+            cause,
+            level_m: level_before(&self.recent, lo, self.level_span),
+            peak: None,
+            scanned_to: lo,
+        });
+    }
+
+    /// A window whose extent is final becomes a hotspot at its largest error.
+    fn close(&mut self, mut w: Window) {
+        scan(&mut w, &self.recent);
+        let Some(peak) = w.peak else {
+            return;
+        };
+        self.largest_window_peak_m = self.largest_window_peak_m.max(peak.error_m.abs());
+        let mut h = hotspot(&peak, w.cause);
+        h.excess_um = (h.error_um - w.level_m * 1e6).abs();
+        // No spike above the local level: the place is flagged by an event, but its error
+        // is the axes' steady lag.
+        if h.excess_um < 0.1 * h.error_um.abs() && !matches!(w.cause, Cause::Backlash { .. }) {
+            h.cause = Cause::SteadyLag;
+        }
+        self.spots.push(h);
+        if self.spots.len() > 2 * self.max + 64 {
+            self.rank();
+        }
+    }
+
+    /// Keeps the largest `max` hotspots, ranked.
+    fn rank(&mut self) {
+        self.spots.retain(|h| h.error_um.is_finite());
+        self.spots
+            .sort_by(|a, b| b.error_um.abs().total_cmp(&a.error_um.abs()));
+        self.spots.truncate(self.max);
+    }
+
+    /// Drops samples no window, level or reversal can need any more.
+    fn forget_old(&mut self) {
+        // Events still to come lie at most `delay` samples back; their windows and levels
+        // reach `before + level_span` further.
+        let mut keep_from = self
+            .n
+            .saturating_sub(self.delay + self.before + self.level_span + 3);
+        if let Some(w) = &self.open {
+            keep_from = keep_from.min(w.scanned_to);
+        }
+        while self.recent.front().is_some_and(|p| p.k < keep_from) {
+            self.recent.pop_front();
+        }
+    }
+}
+
+/// Whether an axis's nut is free in its backlash gap in mode `code`.
+fn nut_free(code: u8) -> bool {
+    (code % 9) / 3 == 1
+}
+
+/// Whether an axis sticks in mode `code`.
+fn stuck(code: u8) -> bool {
+    code % 3 == 2
+}
+
+/// Advances a window's peak over the samples kept up to its end.
+fn scan(w: &mut Window, recent: &VecDeque<Kept>) {
+    let Some(front) = recent.front() else {
+        return;
+    };
+    let from = w.scanned_to.max(front.k);
+    for p in recent.range(from - front.k..).take_while(|p| p.k <= w.hi) {
+        if p.error_m.is_finite() && w.peak.is_none_or(|m| p.error_m.abs() > m.error_m.abs()) {
+            w.peak = Some(*p);
+        }
+        w.scanned_to = p.k + 1;
+    }
 }
 
 /// Median contour error over the `span` cutting samples before `k` (m); 0 when none.
-fn level_before(run: &RunView, k: usize, span: usize) -> f64 {
-    let mut v: Vec<f64> = run.contour.error_m[k.saturating_sub(span)..k]
+fn level_before(recent: &VecDeque<Kept>, k: usize, span: usize) -> f64 {
+    let mut v: Vec<f64> = recent
         .iter()
-        .copied()
-        .filter(|e| e.is_finite())
+        .filter(|p| p.k + span >= k && p.k < k && p.error_m.is_finite())
+        .map(|p| p.error_m)
         .collect();
     if v.is_empty() {
         return 0.0;
@@ -220,173 +553,46 @@ fn level_before(run: &RunView, k: usize, span: usize) -> f64 {
     *v.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
-fn peak_in(run: &RunView, lo: usize, hi: usize) -> Option<usize> {
-    (lo..=hi)
-        .filter(|&k| run.contour.error_m[k].is_finite())
-        .max_by(|&a, &b| {
-            run.contour.error_m[a]
-                .abs()
-                .total_cmp(&run.contour.error_m[b].abs())
-        })
-}
-
-fn hotspot(run: &RunView, k: usize, cause: Cause) -> Hotspot {
-    // The block being executed when the error peaks.
-    let seg = run.commands.segment[k] as usize;
+fn hotspot(p: &Kept, cause: Cause) -> Hotspot {
     Hotspot {
-        sample: k,
-        t_s: run.commands.time_s(k),
-        x_mm: run.traces[0].pos_m[k] * 1e3,
-        y_mm: run.traces[1].pos_m[k] * 1e3,
-        line: run.plan.segments.get(seg).map_or(0, |s| s.line),
-        error_um: run.contour.error_m[k] * 1e6,
-        excess_um: (run.contour.error_m[k] * 1e6).abs(),
+        sample: p.k,
+        t_s: p.t_s,
+        x_mm: p.pos_m[0] * 1e3,
+        y_mm: p.pos_m[1] * 1e3,
+        // The block being executed when the error peaks.
+        line: p.line,
+        error_um: p.error_m * 1e6,
+        path_mm: p.path_s_m * 1e3,
+        excess_um: (p.error_m * 1e6).abs(),
         cause,
     }
 }
 
-fn cutting(run: &RunView, k: usize) -> bool {
-    run.plan.segments[run.commands.segment[k] as usize].motion == Motion::Feed
-}
-
-/// Sign changes of an axis's commanded velocity during cuts — also across a standstill,
-/// since the nut must cross its gap and static friction must break however long the axis
-/// stood (where a reversal coincides with a corner, the corner names the place).
-fn reversal_events(run: &RunView) -> Vec<Event> {
-    let mut out = Vec::new();
-    let c = run.commands;
-    for axis in AxisName::BOTH {
-        let v = if axis == AxisName::X {
-            &c.x.vel_m_per_s
-        } else {
-            &c.y.vel_m_per_s
-        };
-        let mut last_sign = 0.0;
-        for (k, &vk) in v.iter().enumerate() {
-            // Ignore the speed noise of a standing axis.
-            if vk.abs() < 1e-9 {
-                continue;
-            }
-            let sign = vk.signum();
-            if last_sign != 0.0 && sign != last_sign && cutting(run, k) {
-                let cause = if run.backlash_m[axis.index()] > 0.0
-                    && gap_crossed(run.traces[axis.index()], k, run)
-                {
-                    Cause::Backlash { axis }
-                } else {
-                    Cause::AxisReversal { axis }
-                };
-                out.push(Event { sample: k, cause });
-            }
-            last_sign = sign;
-        }
+/// What the junction before segment `i` is: settling after an exact stop, a corner, a feed
+/// change, or nothing worth a window.
+fn junction_cause(segs: &[Segment], plan: &Plan, i: usize, cfg: &HotspotConfig) -> Option<Cause> {
+    let (a, b) = (&segs[i - 1], &segs[i]);
+    if b.motion == Motion::Feed && !b.is_dwell() && plan.plans[i - 1].wait_s > 0.0 {
+        return Some(Cause::Settling);
     }
-    out
-}
-
-/// Whether the nut was free in its gap shortly after sample `k`.
-fn gap_crossed(trace: &AxisTrace, k: usize, run: &RunView) -> bool {
-    let until = (k + (0.5 / run.commands.dt_s) as usize).min(trace.mode.len());
-    trace.mode[k.saturating_sub(2)..until]
-        .iter()
-        .any(|&m| (m % 9) / 3 == 1)
-}
-
-/// Corners and feed changes at segment junctions.
-fn junction_events(run: &RunView, cfg: &HotspotConfig) -> Vec<Event> {
-    let segs = &run.plan.segments;
+    if a.motion != Motion::Feed || b.motion != Motion::Feed || a.is_dwell() || b.is_dwell() {
+        return None;
+    }
+    let xy = |t: [f64; 3]| {
+        let n = t[0].hypot(t[1]);
+        if n > 1e-9 {
+            [t[0] / n, t[1] / n, 0.0]
+        } else {
+            [0.0; 3]
+        }
+    };
+    let (ta, tb) = (xy(a.end_tangent()), xy(b.start_tangent()));
     let cos_limit = cfg.corner_deg.to_radians().cos();
-    let mut out = Vec::new();
-    let mut k = 0;
-    let c = run.commands;
-    for i in 1..segs.len() {
-        let (a, b) = (&segs[i - 1], &segs[i]);
-        // First sample on segment i.
-        while k < c.len() && (c.segment[k] as usize) < i {
-            k += 1;
-        }
-        if k >= c.len() {
-            break;
-        }
-        if b.motion == Motion::Feed && !b.is_dwell() && run.plan.plans[i - 1].wait_s > 0.0 {
-            out.push(Event {
-                sample: k,
-                cause: Cause::Settling,
-            });
-            continue;
-        }
-        if a.motion != Motion::Feed || b.motion != Motion::Feed || a.is_dwell() || b.is_dwell() {
-            continue;
-        }
-        let (ta, tb) = (a.end_tangent(), b.start_tangent());
-        let xy = |t: [f64; 3]| {
-            let n = t[0].hypot(t[1]);
-            if n > 1e-9 {
-                [t[0] / n, t[1] / n, 0.0]
-            } else {
-                [0.0; 3]
-            }
-        };
-        let (ta, tb) = (xy(ta), xy(tb));
-        let turned = ta != [0.0; 3] && tb != [0.0; 3] && dot3(ta, tb) < cos_limit;
-        if turned {
-            out.push(Event {
-                sample: k,
-                cause: Cause::Corner,
-            });
-        } else if (a.feed_m_per_s - b.feed_m_per_s).abs()
-            > 0.05 * a.feed_m_per_s.max(b.feed_m_per_s)
-        {
-            out.push(Event {
-                sample: k,
-                cause: Cause::SpeedChange,
-            });
-        }
+    if ta != [0.0; 3] && tb != [0.0; 3] && dot3(ta, tb) < cos_limit {
+        Some(Cause::Corner)
+    } else if (a.feed_m_per_s - b.feed_m_per_s).abs() > 0.05 * a.feed_m_per_s.max(b.feed_m_per_s) {
+        Some(Cause::SpeedChange)
+    } else {
+        None
     }
-    out
-}
-
-/// Episodes of repeated stick/slip toggles while an axis moves slowly.
-fn stick_slip_events(run: &RunView, cfg: &HotspotConfig) -> Vec<Event> {
-    let mut out = Vec::new();
-    let dt = run.commands.dt_s;
-    let second = (1.0 / dt) as usize;
-    for axis in AxisName::BOTH {
-        let trace = run.traces[axis.index()];
-        let v = if axis == AxisName::X {
-            &run.commands.x.vel_m_per_s
-        } else {
-            &run.commands.y.vel_m_per_s
-        };
-        let stuck = |k: usize| trace.mode[k] % 3 == 2;
-        let mut toggles: Vec<usize> = Vec::new();
-        for (k, vk) in v.iter().enumerate().take(trace.mode.len()).skip(1) {
-            let slow = vk.abs() > 0.0 && vk.abs() < cfg.slow_m_per_s;
-            if slow && cutting(run, k) && stuck(k) != stuck(k - 1) {
-                toggles.push(k);
-            }
-        }
-        // An episode: enough toggles within one second; one event per episode.
-        let mut i = 0;
-        while i < toggles.len() {
-            let j = toggles[i..]
-                .iter()
-                .take_while(|&&t| t - toggles[i] <= second)
-                .count();
-            if j >= cfg.stick_slip_toggles {
-                out.push(Event {
-                    sample: toggles[i],
-                    cause: Cause::StickSlip { axis },
-                });
-                // Skip the rest of this episode.
-                let end = toggles[i + j - 1];
-                while i < toggles.len() && toggles[i] <= end + second {
-                    i += 1;
-                }
-            } else {
-                i += 1;
-            }
-        }
-    }
-    out
 }

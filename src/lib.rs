@@ -6,6 +6,7 @@
 
 #![deny(missing_docs)]
 
+pub mod analysis;
 pub mod check;
 pub mod circular;
 pub mod cli;
@@ -27,6 +28,7 @@ pub mod report;
 pub mod sim;
 pub mod sweep;
 pub mod synth;
+pub mod thinning;
 pub mod trace_format;
 pub mod trace_mat;
 pub mod units;

@@ -127,6 +127,18 @@ impl OutputBatch {
         Ok(())
     }
 
+    /// Stages `dest` to be written piece by piece (a run's trace as it is simulated): the
+    /// returned writer must be finished before the batch is committed.
+    pub fn stage_writer(&mut self, dest: &Path) -> Result<StagedWriter, OutputError> {
+        let tmp = self.temp_path(dest)?;
+        let file = std::fs::File::create(&tmp).map_err(|e| OutputError::new(dest, e))?;
+        self.staged.push((tmp, dest.to_path_buf()));
+        Ok(StagedWriter {
+            dest: dest.to_path_buf(),
+            w: std::io::BufWriter::new(file),
+        })
+    }
+
     /// Stages a file that a library writes by path itself (e.g. an image encoder): `write` is
     /// given the temporary path to write to.
     pub fn stage_with_path(
@@ -170,6 +182,28 @@ impl OutputBatch {
             renamed.map_err(|e| OutputError::new(&dest, e))?;
         }
         Ok(())
+    }
+}
+
+/// A staged output being written piece by piece.
+#[derive(Debug)]
+pub struct StagedWriter {
+    dest: PathBuf,
+    w: std::io::BufWriter<std::fs::File>,
+}
+
+impl StagedWriter {
+    /// Writes the next piece.
+    pub fn write(
+        &mut self,
+        write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+    ) -> Result<(), OutputError> {
+        write(&mut self.w).map_err(|e| OutputError::new(&self.dest, e))
+    }
+
+    /// Completes the file (its batch still decides whether it appears).
+    pub fn finish(mut self) -> Result<(), OutputError> {
+        self.w.flush().map_err(|e| OutputError::new(&self.dest, e))
     }
 }
 

@@ -9,7 +9,9 @@ use std::io::Write;
 
 use serde::Serialize;
 
-use crate::check::CheckRun;
+use crate::check::{CheckResult, CheckSettings};
+use crate::contour::ContourPoint;
+use crate::execute::RunChunk;
 use crate::gcode::{CodeNote, Program, Warning};
 use crate::hotspot::Hotspot;
 use crate::machine::MachineConfig;
@@ -143,18 +145,19 @@ pub struct HotspotInfo {
 impl CheckReport {
     /// Assembles the report of a run.
     pub fn new(
-        run: &CheckRun,
+        run: &CheckResult,
+        settings: &CheckSettings,
         program: &Program,
         machine: &MachineConfig,
         tolerance_um: Option<f64>,
     ) -> Self {
         let s = &run.summary;
         let max_um = um_from_m(s.max_contour_error_m);
-        let max_at = s.max_contour_sample.map(|k| Location {
-            t_s: run.commands.time_s(k),
-            x_mm: mm_from_m(run.x.pos_m[k]),
-            y_mm: mm_from_m(run.y.pos_m[k]),
-            line: run.plan.segments[run.commands.segment[k] as usize].line,
+        let max_at = run.max_at.map(|p| Location {
+            t_s: p.t_s,
+            x_mm: mm_from_m(p.pos_m[0]),
+            y_mm: mm_from_m(p.pos_m[1]),
+            line: p.line,
         });
         let axis = |i: usize| AxisFollowing {
             max_cutting: um_from_m(s.max_following_error_cutting_m[i]),
@@ -175,8 +178,7 @@ impl CheckReport {
             settings: SettingsInfo {
                 profile: run.plan.config.profile,
                 interpolation_cycle_ms: run.plan.config.cycle_s * 1e3,
-                simulation_step_ms: run.commands.dt_s * 1e3
-                    / f64::from(run.settings.sim.substeps.max(1)),
+                simulation_step_ms: run.dt_s * 1e3 / f64::from(settings.sim.substeps.max(1)),
             },
             cycle_time_s: s.cycle_time_s,
             path_length_mm: mm_from_m(s.path_length_m),
@@ -220,41 +222,68 @@ impl CheckReport {
     }
 }
 
-/// Writes the run as CSV, one row every `every` samples: time, line, commanded and actual
-/// X/Y (mm), following errors and contour error (µm; empty while not cutting).
-pub fn write_trace_csv(w: &mut dyn Write, run: &CheckRun, every: usize) -> std::io::Result<()> {
-    let mut out = csv::Writer::from_writer(w);
-    out.write_record([
-        "t_s",
-        "line",
-        "x_ref_mm",
-        "y_ref_mm",
-        "x_mm",
-        "y_mm",
-        "fe_x_um",
-        "fe_y_um",
-        "contour_um",
-    ])?;
-    let c = &run.commands;
-    for k in (0..run.x.len()).step_by(every.max(1)) {
-        let e = run.contour.error_m[k];
-        out.write_record(&[
-            format!("{:.4}", c.time_s(k)),
-            run.plan.segments[c.segment[k] as usize].line.to_string(),
-            format!("{:.6}", mm_from_m(c.x.pos_m[k])),
-            format!("{:.6}", mm_from_m(c.y.pos_m[k])),
-            format!("{:.6}", mm_from_m(run.x.pos_m[k])),
-            format!("{:.6}", mm_from_m(run.y.pos_m[k])),
-            format!("{:.4}", um_from_m(run.x.following_error_m(k))),
-            format!("{:.4}", um_from_m(run.y.following_error_m(k))),
-            if e.is_finite() {
-                format!("{:.4}", um_from_m(e))
-            } else {
-                String::new()
-            },
-        ])?;
+/// A run written as CSV chunk by chunk as it is simulated, one row every `every` samples:
+/// time, line, commanded and actual X/Y (mm), following errors and contour error (µm; empty
+/// while not cutting).
+#[derive(Debug, Clone, Copy)]
+pub struct TraceCsv {
+    every: usize,
+    started: bool,
+}
+
+impl TraceCsv {
+    /// A trace keeping every `every`-th sample.
+    pub fn new(every: usize) -> Self {
+        TraceCsv {
+            every: every.max(1),
+            started: false,
+        }
     }
-    out.flush()
+
+    /// Writes the rows of the next chunk (with the header before the first).
+    pub fn write_chunk(
+        &mut self,
+        w: &mut dyn Write,
+        chunk: &RunChunk,
+        points: &[ContourPoint],
+    ) -> std::io::Result<()> {
+        let mut out = csv::Writer::from_writer(w);
+        if !self.started {
+            out.write_record([
+                "t_s",
+                "line",
+                "x_ref_mm",
+                "y_ref_mm",
+                "x_mm",
+                "y_mm",
+                "fe_x_um",
+                "fe_y_um",
+                "contour_um",
+            ])?;
+            self.started = true;
+        }
+        let c = chunk.commands;
+        let first_kept = chunk.first.next_multiple_of(self.every) - chunk.first;
+        for i in (first_kept..points.len().min(chunk.x.len())).step_by(self.every) {
+            let e = points[i].error_m;
+            out.write_record(&[
+                format!("{:.4}", c.time_s(chunk.first + i)),
+                chunk.plan.segments[c.segment[i] as usize].line.to_string(),
+                format!("{:.6}", mm_from_m(c.x.pos_m[i])),
+                format!("{:.6}", mm_from_m(c.y.pos_m[i])),
+                format!("{:.6}", mm_from_m(chunk.x.pos_m[i])),
+                format!("{:.6}", mm_from_m(chunk.y.pos_m[i])),
+                format!("{:.4}", um_from_m(chunk.x.following_error_m(i))),
+                format!("{:.4}", um_from_m(chunk.y.following_error_m(i))),
+                if e.is_finite() {
+                    format!("{:.4}", um_from_m(e))
+                } else {
+                    String::new()
+                },
+            ])?;
+        }
+        out.flush()
+    }
 }
 
 /// The human-readable summary.

@@ -295,7 +295,7 @@ fn run_point(
 
 /// The figures of a run.
 pub fn metrics(run: &CheckRun, kv_per_s: f64) -> Metrics {
-    let s = &run.summary;
+    let s = &run.result.summary;
     Metrics {
         max_contour_um: um_from_m(s.max_contour_error_m),
         rms_contour_um: um_from_m(s.rms_contour_error_m),

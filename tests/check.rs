@@ -102,7 +102,7 @@ fn circle_radius_loss_matches_the_closed_loop_frequency_response() {
     let expected = -r_mm * 1e-3 * (1.0 - t.norm());
     // A first-order position loop alone would give −v²/(2 R Kv²) ≈ −5.0 µm.
     assert!((expected + 5.0e-6).abs() < 0.3e-6, "{expected}");
-    let circle = &circle_tests(&run)[0];
+    let circle = &circle_tests(&run.result)[0];
     // Steady part: from 90° to 315° of the quarter-circle-entered circle.
     let steady: Vec<f64> = circle
         .points
@@ -123,7 +123,7 @@ fn circle_radius_loss_matches_the_closed_loop_frequency_response() {
         assert!((d - expected).abs() < 0.05e-6, "{d} vs {expected}");
     }
     // The ISO 230-4 radial deviation F reads the same loss at its most inward point.
-    let figures = &run.circular.circles[0];
+    let figures = &run.result.circular.circles[0];
     assert!(
         (figures.f_min_um - expected * 1e6).abs() < 0.02 * expected.abs() * 1e6,
         "{figures:?} vs {expected}"
@@ -151,12 +151,13 @@ fn backlash_on_x_shows_at_the_x_reversals_in_both_directions() {
     machine.x.drive.backlash_um = b_um;
     let r = circle_test(&machine);
     let backlash: Vec<_> = r
+        .result
         .hotspots
         .iter()
         .filter(|h| h.cause == Cause::Backlash { axis: AxisName::X })
         .collect();
     // X reverses at 0° and 180° on each circle: four places, two per direction.
-    assert_eq!(backlash.len(), 4, "{:#?}", r.hotspots);
+    assert_eq!(backlash.len(), 4, "{:#?}", r.result.hotspots);
     let (ccw_line, cw_line) = (13, 16);
     for line in [ccw_line, cw_line] {
         let mut angles: Vec<f64> = backlash
@@ -180,7 +181,7 @@ fn backlash_on_x_shows_at_the_x_reversals_in_both_directions() {
     }
     // The circular-test figures show it as ballbar spikes at X's reversals (0°, 180°) in
     // both directions, and none of that size where Y reverses (90°, 270°).
-    for c in &r.circular.circles {
+    for c in &r.result.circular.circles {
         let [s0, s90, s180, s270] = c.reversal_spikes_um;
         for s in [s0, s180] {
             assert!(s > 0.4 * b_um && s <= b_um, "{c:?}");
@@ -193,6 +194,7 @@ fn backlash_on_x_shows_at_the_x_reversals_in_both_directions() {
     let clean = circle_test(&MachineConfig::default_preset());
     assert!(
         clean
+            .result
             .hotspots
             .iter()
             .all(|h| !matches!(h.cause, Cause::Backlash { .. }))
@@ -211,7 +213,7 @@ fn semi_closed_backlash_steps_the_radius_by_the_whole_gap() {
     let r = circle_test(&machine);
     let f_c = 0.01 * 6000.0 * 9.81;
     let expected_um = b_um + 2.0 * f_c / 3.6e8 * 1e6;
-    let circle = circle_tests(&r).into_iter().find(|c| c.ccw).unwrap();
+    let circle = circle_tests(&r.result).into_iter().find(|c| c.ccw).unwrap();
     let mean_near = |deg: f64| {
         let v: Vec<f64> = circle
             .points
@@ -242,7 +244,7 @@ fn every_sample_program_checks_end_to_end() {
         n += 1;
         let src = std::fs::read_to_string(&path).unwrap();
         let r = run(&src, &machine, ProfileKind::SCurve);
-        let s = &r.summary;
+        let s = &r.result.summary;
         assert!(s.cycle_time_s > 0.0 && s.cut_length_m > 0.0, "{path:?}");
         // Within cutting the error stays below the steady lag of the fastest feed (F/Kv =
         // 1 mm at 1000 mm/min): a sanity bound, not a prediction.
@@ -251,7 +253,7 @@ fn every_sample_program_checks_end_to_end() {
             "{path:?}: {}",
             s.max_contour_error_m
         );
-        assert!(!r.hotspots.is_empty(), "{path:?}");
+        assert!(!r.result.hotspots.is_empty(), "{path:?}");
     }
     assert!(n >= 6, "{n} samples");
 }
@@ -278,14 +280,14 @@ fn the_next_block_starts_at_the_first_cycle_in_the_window() {
                 .fold(0.0, f64::max)
         };
         let mut stops = 0;
-        for i in 0..r.plan.plans.len() - 1 {
-            let p = &r.plan.plans[i];
+        for i in 0..r.result.plan.plans.len() - 1 {
+            let p = &r.result.plan.plans[i];
             if p.wait_s == 0.0 {
                 continue;
             }
             stops += 1;
             let t_stop = p.t_start_s + p.duration_s;
-            let t_next = r.plan.plans[i + 1].t_start_s;
+            let t_next = r.result.plan.plans[i + 1].t_start_s;
             assert!((t_stop + p.wait_s - t_next).abs() < 1e-9);
             // The next block starts on the cycle grid.
             let k = (t_next / dt).round() as usize;
@@ -330,7 +332,7 @@ fn exact_stops_last_as_long_as_the_simulated_axes_take() {
         let r = check(&program, &machine, &settings).unwrap();
         let cycle_ms = settings.plan.cycle_s * 1e3;
         let mut longer_ms = 0.0;
-        for (est, sim) in estimate.plans.iter().zip(&r.plan.plans) {
+        for (est, sim) in estimate.plans.iter().zip(&r.result.plan.plans) {
             if sim.wait_s == 0.0 {
                 continue;
             }
@@ -342,7 +344,7 @@ fn exact_stops_last_as_long_as_the_simulated_axes_take() {
             longer_ms += extra_ms;
         }
         // The cycle time grows by exactly the waits' growth.
-        let grown_ms = (r.plan.total_time_s - estimate.total_time_s) * 1e3;
+        let grown_ms = (r.result.plan.total_time_s - estimate.total_time_s) * 1e3;
         assert!(
             (grown_ms - longer_ms).abs() < 1e-6,
             "{grown_ms} vs {longer_ms}"
@@ -371,7 +373,7 @@ fn a_circle_of_short_chords_errs_as_the_arc_does() {
     let machine = MachineConfig::default_preset();
     let arc = run(&circle(false), &machine, ProfileKind::SCurve);
     let chords = run(&circle(true), &machine, ProfileKind::SCurve);
-    let (a, c) = (&arc.summary, &chords.summary);
+    let (a, c) = (&arc.result.summary, &chords.result.summary);
     assert!(
         (c.cycle_time_s / a.cycle_time_s - 1.0).abs() < 0.02,
         "{} vs {}",
@@ -391,4 +393,69 @@ fn a_circle_of_short_chords_errs_as_the_arc_does() {
         c.rms_contour_error_m * 1e6,
         expected * 1e6
     );
+}
+
+/// A run longer than the pieces it is simulated and analysed in (`CHUNK_SAMPLES`, about a
+/// minute) reads exactly as one simulated in a single piece: the axes (a structural mode and
+/// dead time included, whose state crosses every seam), the contour error and the figures.
+#[test]
+fn a_run_in_chunks_is_the_run_in_one_piece() {
+    use contourcheck::contour::contour_errors;
+    use contourcheck::execute::CHUNK_SAMPLES;
+    use contourcheck::sim::{SimConfig, simulate};
+    let mut machine = MachineConfig::default_preset();
+    machine.x.errors.resonance_hz = 35.0;
+    machine.x.errors.resonance_damping = 0.05;
+    machine.y.position_loop.dead_time_ms = 3.0;
+    // Blended blocks only (no exact stop before the end), so that the commands of the whole
+    // program can drive a single simulation.
+    let mut src = String::from("G21 G90 G64 P0.01\nG1 X0 Y0 F1000\n");
+    for i in 0..30 {
+        let y = if i % 2 == 0 { 40.0 } else { 0.0 };
+        src += &format!("G1 X{} Y{y}\nG2 X{} Y{y} I20 J0\n", 40 * i, 40 * i + 40);
+    }
+    src += "M2\n";
+    let r = run(&src, &machine, ProfileKind::SCurve);
+    let n = r.commands.len();
+    assert!(
+        n > 2 * CHUNK_SAMPLES,
+        "{n} samples: the run spans several chunks"
+    );
+    let whole = |c: &contourcheck::plan::AxisCommands, m: &contourcheck::machine::AxisConfig| {
+        simulate(
+            &AxisModel::from_config(m),
+            c,
+            r.commands.dt_s,
+            &SimConfig::default(),
+        )
+        .unwrap()
+    };
+    let (x, y) = (
+        whole(&r.commands.x, &machine.x),
+        whole(&r.commands.y, &machine.y),
+    );
+    assert_eq!(x.pos_m, r.x.pos_m, "X, with its structural mode");
+    assert_eq!(y.pos_m, r.y.pos_m, "Y, behind its dead time");
+    assert_eq!(x.mode, r.x.mode);
+    let contour = contour_errors(&r.result.plan, &r.commands, &x.pos_m, &y.pos_m);
+    assert_eq!(contour.error_m.len(), n);
+    let same = |a: f64, b: f64| a == b || (a.is_nan() && b.is_nan());
+    assert!(
+        contour
+            .error_m
+            .iter()
+            .zip(&r.contour.error_m)
+            .all(|(a, b)| same(*a, *b))
+    );
+    let s = &r.result.summary;
+    let (k, max) = contour.max_abs().unwrap();
+    assert_eq!(
+        (s.max_contour_sample, s.max_contour_error_m),
+        (Some(k), max)
+    );
+    assert!((s.rms_contour_error_m - contour.rms()).abs() <= 1e-12 * contour.rms());
+    // Every hotspot lies at the largest error near it, wherever the seams fall.
+    for h in &r.result.hotspots {
+        assert_eq!(h.error_um, contour.error_m[h.sample] * 1e6, "{h:?}");
+    }
 }

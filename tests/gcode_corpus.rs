@@ -162,14 +162,14 @@ fn ends_where_the_program_ends(
     run: &contourcheck::check::CheckRun,
     machine: &MachineConfig,
 ) -> Result<(), String> {
-    let s = &run.summary;
+    let s = &run.result.summary;
     if !(s.max_contour_error_m.is_finite() && s.cycle_time_s > 0.0) {
         return Err(format!(
             "figures: contour {} m, cycle {} s",
             s.max_contour_error_m, s.cycle_time_s
         ));
     }
-    let end = run.plan.segments.last().expect("a path").end_m;
+    let end = run.result.plan.segments.last().expect("a path").end_m;
     let window_m = machine.interpolation.in_position_window_mm * 1e-3;
     for (axis, trace, target) in [("X", &run.x, end[0]), ("Y", &run.y, end[1])] {
         let last = *trace.pos_m.last().expect("samples");

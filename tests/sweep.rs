@@ -120,7 +120,7 @@ fn mismatched_gains_distort_a_circle_by_the_analytic_amount() {
     let steady_max = |m: &MachineConfig| {
         let run = check(&p, m, &CheckSettings::for_machine(m)).unwrap();
         // The second circle: long past the entry transient.
-        circle_tests(&run)[1]
+        circle_tests(&run.result)[1]
             .points
             .iter()
             .map(|q| q.1.abs())

@@ -6,15 +6,14 @@ use clap::Args;
 
 use super::Outcome;
 use super::common::{CliError, MachineArgs, PlanningArgs, group_warnings, load_program, progress};
-use crate::check::{CheckRun, CheckSettings, analyse, circle_tests};
-use crate::execute::execute;
+use crate::check::{CheckResult, CheckSettings, check_planned, circle_tests};
 use crate::output::OutputBatch;
 use crate::path::{Geometry, Motion};
-use crate::plan::{KinematicLimits, plan};
+use crate::plan::{KinematicLimits, plan_segments};
 use crate::plot::along_path::AlongPathPlot;
 use crate::plot::polar::{PolarPlot, PolarTrace};
 use crate::plot::toolpath::{Marker, PathPoint, ToolpathPlot};
-use crate::report::{CheckReport, summary_text, write_trace_csv};
+use crate::report::{CheckReport, TraceCsv, summary_text};
 use crate::units::{mm_from_m, um_from_m};
 
 /// Arguments of `check`.
@@ -58,16 +57,38 @@ pub fn run(args: &CheckArgs) -> Result<Outcome, CliError> {
     let machine = args.machine.load()?;
     let mut settings = CheckSettings::for_machine(&machine);
     settings.plan = args.planning.config(&machine)?;
-    let program = load_program(&args.program, &machine)?;
-    let planned = plan(&program, &KinematicLimits::of(&machine), &settings.plan);
+    let mut program = load_program(&args.program, &machine)?;
+    // The plan takes the segments over: a long program is not held twice.
+    let segments = std::mem::take(&mut program.segments);
+    let planned = plan_segments(segments, &KinematicLimits::of(&machine), &settings.plan);
     // The waits at exact stops come out of the simulation: the plan's estimate sizes the bar.
     let samples = (planned.total_time_s + settings.settle_s) / planned.config.cycle_s;
     let bar = progress(2 * samples.ceil() as u64, "simulating X and Y");
-    let run = execute(planned, &machine, &settings.exec(), &|n| bar.inc(n))?;
+    // Outputs are staged as the run goes (the trace row by row) and appear together at the
+    // end, or not at all.
+    let mut batch = OutputBatch::new();
+    let mut trace = match &args.trace {
+        Some(path) => Some((batch.stage_writer(path)?, TraceCsv::new(args.trace_every))),
+        None => None,
+    };
+    let result = check_planned(
+        planned,
+        &machine,
+        &settings,
+        &|n| bar.inc(n),
+        &mut |chunk, points| {
+            if let Some((file, csv)) = &mut trace {
+                file.write(|w| csv.write_chunk(w, chunk, points))?;
+            }
+            Ok::<(), CliError>(())
+        },
+    )?;
     bar.finish_and_clear();
-    let run = analyse(run, &machine, &settings);
-    let report = CheckReport::new(&run, &program, &machine, args.tolerance);
-    write_outputs(args, &run, &report)?;
+    if let Some((file, _)) = trace {
+        file.finish()?;
+    }
+    let report = CheckReport::new(&result, &settings, &program, &machine, args.tolerance);
+    write_outputs(args, batch, &result, &report)?;
     print!("{}", summary_text(&report, args.hotspots));
     let warnings = group_warnings(&report.warnings);
     if !warnings.is_empty() {
@@ -82,14 +103,16 @@ pub fn run(args: &CheckArgs) -> Result<Outcome, CliError> {
     })
 }
 
-/// Stages every output, then makes them all visible together.
-fn write_outputs(args: &CheckArgs, run: &CheckRun, report: &CheckReport) -> Result<(), CliError> {
-    let mut batch = OutputBatch::new();
+/// Stages the report and plots beside what the run staged, then makes them all visible
+/// together.
+fn write_outputs(
+    args: &CheckArgs,
+    mut batch: OutputBatch,
+    run: &CheckResult,
+    report: &CheckReport,
+) -> Result<(), CliError> {
     if let Some(path) = &args.json {
         batch.stage(path, |w| report.write_json(w))?;
-    }
-    if let Some(path) = &args.trace {
-        batch.stage(path, |w| write_trace_csv(w, run, args.trace_every))?;
     }
     if let Some(dir) = &args.plot {
         std::fs::create_dir_all(dir).map_err(|e| CliError::Read {
@@ -105,7 +128,7 @@ fn write_outputs(args: &CheckArgs, run: &CheckRun, report: &CheckReport) -> Resu
 fn stage_plots(
     batch: &mut OutputBatch,
     dir: &Path,
-    run: &CheckRun,
+    run: &CheckResult,
     report: &CheckReport,
 ) -> Result<(), CliError> {
     let name = Path::new(&report.program.file)
@@ -131,7 +154,7 @@ fn stage_plots(
 }
 
 /// Programmed feed moves as polylines (mm).
-fn programmed_polylines(run: &CheckRun) -> Vec<Vec<(f64, f64)>> {
+fn programmed_polylines(run: &CheckResult) -> Vec<Vec<(f64, f64)>> {
     run.plan
         .segments
         .iter()
@@ -152,25 +175,14 @@ fn programmed_polylines(run: &CheckRun) -> Vec<Vec<(f64, f64)>> {
         .collect()
 }
 
-/// Most points a plot draws (the run is decimated evenly, keeping the hotspots' peaks).
-const PLOT_POINTS: usize = 40_000;
-
-fn decimation(n: usize) -> usize {
-    n.div_ceil(PLOT_POINTS).max(1)
-}
-
-fn toolpath_figure(run: &CheckRun, name: &str, report: &CheckReport) -> ToolpathPlot {
-    let every = decimation(run.x.len());
-    let mut keep: Vec<usize> = (0..run.x.len()).step_by(every).collect();
-    keep.extend(run.hotspots.iter().map(|h| h.sample));
-    keep.sort_unstable();
-    keep.dedup();
-    let actual = keep
+fn toolpath_figure(run: &CheckResult, name: &str, report: &CheckReport) -> ToolpathPlot {
+    let actual = run
+        .plot
         .iter()
-        .map(|&k| PathPoint {
-            x_mm: mm_from_m(run.x.pos_m[k]),
-            y_mm: mm_from_m(run.y.pos_m[k]),
-            error_um: um_from_m(run.contour.error_m[k].abs()),
+        .map(|p| PathPoint {
+            x_mm: mm_from_m(p.pos_m[0]),
+            y_mm: mm_from_m(p.pos_m[1]),
+            error_um: um_from_m(p.error_m.abs()),
         })
         .collect();
     let markers = run
@@ -195,29 +207,18 @@ fn toolpath_figure(run: &CheckRun, name: &str, report: &CheckReport) -> Toolpath
     }
 }
 
-fn along_path_figure(run: &CheckRun, name: &str) -> AlongPathPlot {
-    let every = decimation(run.x.len());
-    let points = (0..run.x.len())
-        .step_by(every)
-        .map(|k| {
-            (
-                mm_from_m(run.contour.path_s_m[k]),
-                um_from_m(run.contour.error_m[k]),
-            )
-        })
+fn along_path_figure(run: &CheckResult, name: &str) -> AlongPathPlot {
+    let points = run
+        .plot
+        .iter()
+        .map(|p| (mm_from_m(p.path_s_m), um_from_m(p.error_m)))
         .collect();
     let markers = run
         .hotspots
         .iter()
         .take(10)
         .enumerate()
-        .map(|(i, h)| {
-            (
-                mm_from_m(run.contour.path_s_m[h.sample]),
-                h.error_um,
-                format!(" {}: L{}", i + 1, h.line),
-            )
-        })
+        .map(|(i, h)| (h.path_mm, h.error_um, format!(" {}: L{}", i + 1, h.line)))
         .collect();
     AlongPathPlot {
         title: format!("{name}: contour error along the path"),
@@ -228,7 +229,7 @@ fn along_path_figure(run: &CheckRun, name: &str) -> AlongPathPlot {
 
 /// One polar plot per circle, both directions together when the program runs the same
 /// circle both ways.
-fn polar_figures(run: &CheckRun, name: &str) -> Vec<PolarPlot> {
+fn polar_figures(run: &CheckResult, name: &str) -> Vec<PolarPlot> {
     let mut groups: Vec<Vec<crate::check::CircleTest>> = Vec::new();
     for c in circle_tests(run) {
         let same = |g: &Vec<crate::check::CircleTest>| {

@@ -27,6 +27,13 @@ impl AxisCommands {
         self.pos_m.is_empty()
     }
 
+    /// Appends the samples of `next`.
+    pub fn append(&mut self, next: &AxisCommands) {
+        self.pos_m.extend_from_slice(&next.pos_m);
+        self.vel_m_per_s.extend_from_slice(&next.vel_m_per_s);
+        self.acc_m_per_s2.extend_from_slice(&next.acc_m_per_s2);
+    }
+
     /// Appends one sample: position (m), velocity (m/s), acceleration (m/s²).
     pub fn push(&mut self, p: f64, v: f64, a: f64) {
         self.pos_m.push(p);
@@ -98,6 +105,14 @@ impl Commands {
         }
         self.z_m.truncate(len);
         self.segment.truncate(len);
+    }
+
+    /// Appends the samples of the commands that follow these.
+    pub fn append(&mut self, next: &Commands) {
+        self.x.append(&next.x);
+        self.y.append(&next.y);
+        self.z_m.extend_from_slice(&next.z_m);
+        self.segment.extend_from_slice(&next.segment);
     }
 
     /// Appends `seconds` of standing still at the last position, so that the axes can settle

@@ -74,12 +74,12 @@ pub enum SimError {
         /// The modes it kept switching between, in words.
         modes: String,
     },
-    /// The run would not fit in memory: a run is held whole, one sample per interpolation
-    /// cycle.
+    /// The run is longer than is simulated: held whole, it would not fit in memory; streamed,
+    /// it would take too long.
     #[error(
         "the program runs {hours:.1} h on this machine (line {longest_line} alone takes \
-         {longest_hours:.1} h); a run is held in memory whole, so runs of at most {limit_hours:.0} h \
-         at this interpolation cycle are simulated"
+         {longest_hours:.1} h); runs of at most {limit_hours:.0} h at this interpolation cycle \
+         are simulated {why}"
     )]
     TooLong {
         /// The planned cycle time (h).
@@ -90,6 +90,8 @@ pub enum SimError {
         longest_hours: f64,
         /// The longest run simulated (h).
         limit_hours: f64,
+        /// Why the limit is there.
+        why: &'static str,
     },
     /// A failure of one axis, placed in the program.
     #[error("{axis} axis{}: {source}", near_line(*.line))]
@@ -194,7 +196,7 @@ pub struct AxisTrace {
 }
 
 impl AxisTrace {
-    fn with_capacity(dt_s: f64, n: usize) -> Self {
+    pub(crate) fn with_capacity(dt_s: f64, n: usize) -> Self {
         AxisTrace {
             dt_s,
             pos_m: Vec::with_capacity(n),
@@ -228,6 +230,18 @@ impl AxisTrace {
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.pos_m.len()
+    }
+
+    /// Appends the samples (and friction switches) of the trace that follows this one.
+    pub fn append(&mut self, mut next: AxisTrace) {
+        self.pos_m.append(&mut next.pos_m);
+        self.motor_pos_m.append(&mut next.motor_pos_m);
+        self.ref_m.append(&mut next.ref_m);
+        self.motor_speed_rad_per_s
+            .append(&mut next.motor_speed_rad_per_s);
+        self.current_a.append(&mut next.current_a);
+        self.mode.append(&mut next.mode);
+        self.friction_events.append(&mut next.friction_events);
     }
 
     /// True when empty.

@@ -690,6 +690,10 @@ pub struct AxisRun<'a> {
     delay: Option<DelayLine>,
     /// The control's position reading as a row on the state.
     feedback: Row,
+    /// The structural mode seen at the measured point, when the model has one.
+    structure: Option<StructuralFilter>,
+    /// Cycles whose samples were taken out with [`AxisRun::take_trace`].
+    taken: usize,
 }
 
 impl<'a> AxisRun<'a> {
@@ -718,12 +722,16 @@ impl<'a> AxisRun<'a> {
             lateral_dl: 0.0,
             delay: (model.dead_time_s > 0.0).then(|| DelayLine::new(model.dead_time_s, dt_s, x0_m)),
             feedback: model.signals().x_fb,
+            structure: model
+                .resonance
+                .map(|(omega, zeta)| StructuralFilter::new(omega, zeta, dt_s)),
+            taken: 0,
         })
     }
 
-    /// Cycles done so far (= samples recorded).
+    /// Cycles done so far (= samples recorded, taken out or not).
     pub fn cycles(&self) -> usize {
-        self.trace.len()
+        self.taken + self.trace.len()
     }
 
     /// Where the control reads the axis now (m): its position feedback — the linear scale,
@@ -740,7 +748,7 @@ impl<'a> AxisRun<'a> {
         vel_m_per_s: f64,
         acc_m_per_s2: f64,
     ) -> Result<(), SimError> {
-        let k = self.trace.len();
+        let k = self.cycles();
         let (p, v, a) = match &mut self.delay {
             Some(line) => line.push_and_read(pos_m, vel_m_per_s, acc_m_per_s2),
             None => (pos_m, vel_m_per_s, acc_m_per_s2),
@@ -757,6 +765,11 @@ impl<'a> AxisRun<'a> {
         }
         self.trace
             .push(&self.x, self.mode, self.model.r * self.model.it);
+        if let Some(filter) = &mut self.structure
+            && let Some(p) = self.trace.pos_m.last_mut()
+        {
+            *p = filter.seen_at(*p);
+        }
         for sub in 0..self.substeps {
             if self.per_substep_inputs {
                 substep_inputs(self.model, &mut self.x, self.mode, self.lateral_dl);
@@ -803,14 +816,73 @@ impl<'a> AxisRun<'a> {
         Ok(())
     }
 
-    /// The recorded trace (one sample per cycle advanced), with the structural mode at the
-    /// measured point added when the model has one.
-    pub fn finish(mut self) -> AxisTrace {
-        self.trace.friction_events = self.friction_events.take().unwrap_or_default();
-        if let Some((omega, zeta)) = self.model.resonance {
-            add_structural_mode(&mut self.trace.pos_m, self.dt_s, omega, zeta);
+    /// The samples recorded since the last call (all of them at first), with the friction
+    /// switches among them: a long run is taken out piece by piece, so that memory does not
+    /// grow with its duration.
+    pub fn take_trace(&mut self) -> AxisTrace {
+        let mut taken = std::mem::replace(&mut self.trace, AxisTrace::with_capacity(self.dt_s, 0));
+        self.taken += taken.len();
+        if let Some(events) = &mut self.friction_events {
+            taken.friction_events = std::mem::take(events);
         }
-        self.trace
+        taken
+    }
+
+    /// The recorded trace (one sample per cycle advanced since the last
+    /// [`AxisRun::take_trace`]).
+    pub fn finish(mut self) -> AxisTrace {
+        self.take_trace()
+    }
+}
+
+/// The structural mode (a resonance, MODEL.md §5) as the measured point sees it: a second-order
+/// oscillator excited by the table's acceleration, added to the table position. Applied as
+/// the samples come, so that a run taken out piece by piece reads the same as a whole one;
+/// the acceleration is the centred second difference, so each sample's offset uses the
+/// samples up to its own.
+struct StructuralFilter {
+    /// Exact discretisation of (q, q̇) driven by a constant acceleration over one cycle.
+    step: nalgebra::Matrix3<f64>,
+    dt_s: f64,
+    /// Modal displacement and velocity at the latest sample.
+    q: f64,
+    qd: f64,
+    /// The two latest table positions as simulated (m), the older first.
+    recent: Option<[f64; 2]>,
+}
+
+impl StructuralFilter {
+    fn new(omega: f64, zeta: f64, dt_s: f64) -> Self {
+        #[rustfmt::skip]
+        let a = nalgebra::Matrix3::new(
+            0.0, 1.0, 0.0,
+            -omega * omega, -2.0 * zeta * omega, -1.0,
+            0.0, 0.0, 0.0,
+        );
+        StructuralFilter {
+            step: (a * dt_s).exp(),
+            dt_s,
+            q: 0.0,
+            qd: 0.0,
+            recent: None,
+        }
+    }
+
+    /// The measured point's position for the next simulated table position `p` (m).
+    fn seen_at(&mut self, p: f64) -> f64 {
+        // Before the first sample the axis stood where it starts.
+        let [older, prev] = self.recent.unwrap_or([p, p]);
+        if self.recent.is_some() {
+            // The acceleration at the previous sample moves the mode on to this one.
+            let acc = (p - 2.0 * prev + older) / (self.dt_s * self.dt_s);
+            let e = &self.step;
+            (self.q, self.qd) = (
+                e[(0, 0)] * self.q + e[(0, 1)] * self.qd + e[(0, 2)] * acc,
+                e[(1, 0)] * self.q + e[(1, 1)] * self.qd + e[(1, 2)] * acc,
+            );
+        }
+        self.recent = Some([prev, p]);
+        p + self.q
     }
 }
 
@@ -873,43 +945,6 @@ fn substep_inputs(model: &AxisModel, x: &mut Aug, mode: Mode, lateral_dl: f64) {
             Feedback::LinearScale => x[FB] = model.measuring.at(x[X2]),
             Feedback::MotorEncoder => x[DL] = lateral_dl + model.measuring.at(model.r * x[TH_S]),
         }
-    }
-}
-
-/// Adds the response q of a structural mode (ω, ζ) at the measured point to the table's
-/// positions: q̈ + 2ζω q̇ + ω² q = −ẍ_table, integrated exactly with the table acceleration
-/// (second differences of the positions) held over each sample.
-fn add_structural_mode(pos: &mut [f64], dt: f64, omega: f64, zeta: f64) {
-    let n = pos.len();
-    if n < 3 {
-        return;
-    }
-    let a = nalgebra::Matrix3::new(
-        0.0,
-        1.0,
-        0.0,
-        -omega * omega,
-        -2.0 * zeta * omega,
-        -1.0,
-        0.0,
-        0.0,
-        0.0,
-    );
-    let e = (a * dt).exp();
-    let accel: Vec<f64> = (0..n)
-        .map(|k| {
-            let k = k.clamp(1, n - 2);
-            (pos[k + 1] - 2.0 * pos[k] + pos[k - 1]) / (dt * dt)
-        })
-        .collect();
-    let (mut q, mut qd) = (0.0, 0.0);
-    for (p, acc) in pos.iter_mut().zip(accel) {
-        *p += q;
-        let (nq, nqd) = (
-            e[(0, 0)] * q + e[(0, 1)] * qd + e[(0, 2)] * acc,
-            e[(1, 0)] * q + e[(1, 1)] * qd + e[(1, 2)] * acc,
-        );
-        (q, qd) = (nq, nqd);
     }
 }
 

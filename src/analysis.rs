@@ -1,0 +1,313 @@
+//! The figures of an executed run, gathered chunk by chunk as the simulation hands the run
+//! on: contour error, summary figures, hotspots, circular tests, drive-limit warnings and a
+//! thinned copy for plots. What is kept is bounded by the report (a few seconds of recent
+//! samples, the hotspots, the circles' points, the plot's points), not by the run's duration,
+//! so an eight-hour program is checked in the memory of a one-minute one.
+
+use serde::Serialize;
+
+use crate::circular::{CirclePath, CircleSamples, CircularTest, circles};
+use crate::contour::{ContourLocator, ContourPoint};
+use crate::execute::RunChunk;
+use crate::gcode::Warning;
+use crate::hotspot::{Hotspot, HotspotConfig, HotspotFinder, RunSample};
+use crate::machine::{AxisConfig, MachineConfig};
+use crate::path::Motion;
+use crate::plan::Plan;
+use crate::sim::{AxisModel, AxisTrace, Mode};
+use crate::thinning::PeakThinned;
+
+/// Figures of a run.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Summary {
+    /// Planned cycle time (s).
+    pub cycle_time_s: f64,
+    /// Path length, rapids included (m).
+    pub path_length_m: f64,
+    /// Length of the cutting moves (m).
+    pub cut_length_m: f64,
+    /// Largest |contour error| while cutting (m).
+    pub max_contour_error_m: f64,
+    /// Sample of that maximum.
+    pub max_contour_sample: Option<usize>,
+    /// RMS contour error while cutting (m).
+    pub rms_contour_error_m: f64,
+    /// Largest |following error| of X and Y while cutting (m).
+    pub max_following_error_cutting_m: [f64; 2],
+    /// Largest |following error| of X and Y over the whole run, rapids included (m).
+    pub max_following_error_m: [f64; 2],
+}
+
+/// A place in a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunPlace {
+    /// Sample index.
+    pub sample: usize,
+    /// Time (s).
+    pub t_s: f64,
+    /// Actual X and Y (m).
+    pub pos_m: [f64; 2],
+    /// Source line of the block being executed.
+    pub line: u32,
+}
+
+/// One point of the run kept for plots.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PlotPoint {
+    /// Actual X and Y (m).
+    pub pos_m: [f64; 2],
+    /// Path length of the contour error's foot point (m).
+    pub path_s_m: f64,
+    /// Contour error (m), NaN while not cutting.
+    pub error_m: f64,
+}
+
+/// Points kept for plots (up to twice as many while a run grows): each the largest contour
+/// error of its stretch of the run, so that every spike survives the thinning.
+const PLOT_POINTS: usize = 20_000;
+
+/// Everything a check reports, none of it growing with the run's duration.
+#[derive(Debug, Clone)]
+pub struct CheckResult {
+    /// The plan, re-timed with the simulated in-position waits.
+    pub plan: Plan,
+    /// Hotspots, ranked.
+    pub hotspots: Vec<Hotspot>,
+    /// Figures.
+    pub summary: Summary,
+    /// Where the largest contour error occurs.
+    pub max_at: Option<RunPlace>,
+    /// Circular-test figures (ISO 230-4) of every full circle in the program.
+    pub circular: CircularTest,
+    /// The circles with figures and the actual points on them (m), thinned when long.
+    pub circle_paths: Vec<CirclePath>,
+    /// The run thinned for plots.
+    pub plot: Vec<PlotPoint>,
+    /// Samples in the run.
+    pub samples: usize,
+    /// Sample period (s).
+    pub dt_s: f64,
+}
+
+/// A drive's time at its current or voltage limit.
+#[derive(Debug, Clone, Copy, Default)]
+struct LimitTally {
+    limited: usize,
+    at_current_limit: usize,
+    stretches: usize,
+    first: Option<(f64, u32)>,
+    was_limited: bool,
+}
+
+/// Gathers a run's figures chunk by chunk.
+#[derive(Debug, Clone)]
+pub struct RunAnalyser {
+    locator: ContourLocator,
+    hotspots: HotspotFinder,
+    circles: CircleSamples,
+    plot: PeakThinned<PlotPoint>,
+    limits: [LimitTally; 2],
+    i_max_a: [f64; 2],
+    largest: Option<(f64, RunPlace)>,
+    squares_m2: f64,
+    cutting_samples: usize,
+    fe_cut_m: [f64; 2],
+    fe_all_m: [f64; 2],
+    samples: usize,
+}
+
+impl RunAnalyser {
+    /// An analyser for the run of `plan` on `machine`, keeping at most `max_hotspots`.
+    pub fn new(plan: &Plan, machine: &MachineConfig, max_hotspots: usize) -> Self {
+        let [mx, my] = [&machine.x, &machine.y].map(AxisModel::from_config);
+        let kv = mx.kv_per_s().min(my.kv_per_s());
+        RunAnalyser {
+            locator: ContourLocator::new(plan),
+            hotspots: HotspotFinder::new(
+                HotspotConfig::for_kv(kv),
+                [2.0 * mx.half_gap, 2.0 * my.half_gap],
+                plan.config.cycle_s,
+                max_hotspots,
+            ),
+            circles: CircleSamples::new(circles(&plan.segments)),
+            plot: PeakThinned::new(PLOT_POINTS, |p| {
+                if p.error_m.is_finite() {
+                    p.error_m.abs()
+                } else {
+                    -1.0
+                }
+            }),
+            limits: Default::default(),
+            i_max_a: [&machine.x, &machine.y].map(|a| a.velocity_loop.i_max_a),
+            largest: None,
+            squares_m2: 0.0,
+            cutting_samples: 0,
+            fe_cut_m: [0.0; 2],
+            fe_all_m: [0.0; 2],
+            samples: 0,
+        }
+    }
+
+    /// Takes the next chunk of the run; returns its samples' contour errors.
+    pub fn take(&mut self, chunk: &RunChunk) -> Vec<ContourPoint> {
+        let (plan, c) = (chunk.plan, chunk.commands);
+        let traces = [&chunk.x, &chunk.y];
+        let n = c.len().min(chunk.x.len()).min(chunk.y.len());
+        let mut points = Vec::with_capacity(n);
+        for i in 0..n {
+            let k = chunk.first + i;
+            let seg = c.segment[i] as usize;
+            let t_s = c.time_s(k);
+            let pos_m = [chunk.x.pos_m[i], chunk.y.pos_m[i]];
+            let reference = [c.x.pos_m[i], c.y.pos_m[i]];
+            let point = self.locator.locate(plan, seg, reference, pos_m);
+            let cutting = plan.segments[seg].motion == Motion::Feed;
+            let line = plan.segments[seg].line;
+            self.tally_errors(traces, i, cutting);
+            self.tally_limits(traces, i, t_s, line);
+            if point.error_m.is_finite() {
+                self.squares_m2 += point.error_m * point.error_m;
+                self.cutting_samples += 1;
+                if self.largest.is_none_or(|(e, _)| point.error_m.abs() > e) {
+                    let place = RunPlace {
+                        sample: k,
+                        t_s,
+                        pos_m,
+                        line,
+                    };
+                    self.largest = Some((point.error_m.abs(), place));
+                }
+            }
+            self.hotspots.push(
+                plan,
+                &RunSample {
+                    t_s,
+                    pos_m,
+                    error_m: point.error_m,
+                    path_s_m: point.path_s_m,
+                    segment: c.segment[i],
+                    cmd_vel_m_per_s: [c.x.vel_m_per_s[i], c.y.vel_m_per_s[i]],
+                    mode: [chunk.x.mode[i], chunk.y.mode[i]],
+                },
+            );
+            self.circles.push(point.segment, pos_m);
+            self.plot.push(PlotPoint {
+                pos_m,
+                path_s_m: point.path_s_m,
+                error_m: point.error_m,
+            });
+            points.push(point);
+        }
+        self.samples += n;
+        points
+    }
+
+    fn tally_errors(&mut self, traces: [&AxisTrace; 2], i: usize, cutting: bool) {
+        for (a, t) in traces.iter().enumerate() {
+            let e = t.following_error_m(i).abs();
+            self.fe_all_m[a] = self.fe_all_m[a].max(e);
+            if cutting {
+                self.fe_cut_m[a] = self.fe_cut_m[a].max(e);
+            }
+        }
+    }
+
+    fn tally_limits(&mut self, traces: [&AxisTrace; 2], i: usize, t_s: f64, line: u32) {
+        for (a, t) in traces.iter().enumerate() {
+            let tally = &mut self.limits[a];
+            let limited = Mode::code_is_limited(t.mode[i]);
+            if limited {
+                tally.limited += 1;
+                if !tally.was_limited {
+                    tally.stretches += 1;
+                }
+                if t.current_a[i].abs() >= 0.95 * self.i_max_a[a] {
+                    tally.at_current_limit += 1;
+                }
+                tally.first.get_or_insert((t_s, line));
+            }
+            tally.was_limited = limited;
+        }
+    }
+
+    /// The figures of the whole run, `plan` as the execution re-timed it.
+    pub fn finish(self, mut plan: Plan, machine: &MachineConfig) -> CheckResult {
+        let dt_s = plan.config.cycle_s;
+        for ((axis, config), tally) in [('X', &machine.x), ('Y', &machine.y)]
+            .into_iter()
+            .zip(self.limits)
+        {
+            if let Some(w) = limit_warning(axis, &tally, config, dt_s) {
+                plan.warnings.push(w);
+            }
+        }
+        let (circular, circle_paths) = self.circles.test();
+        let summary = Summary {
+            cycle_time_s: plan.total_time_s,
+            path_length_m: plan.path_length_m(),
+            cut_length_m: cut_length_m(&plan),
+            max_contour_error_m: self.largest.map_or(0.0, |m| m.0),
+            max_contour_sample: self.largest.map(|m| m.1.sample),
+            rms_contour_error_m: if self.cutting_samples == 0 {
+                0.0
+            } else {
+                (self.squares_m2 / self.cutting_samples as f64).sqrt()
+            },
+            max_following_error_cutting_m: self.fe_cut_m,
+            max_following_error_m: self.fe_all_m,
+        };
+        CheckResult {
+            hotspots: self.hotspots.finish(),
+            summary,
+            max_at: self.largest.map(|m| m.1),
+            circular,
+            circle_paths,
+            plot: self.plot.into_points(),
+            samples: self.samples,
+            dt_s,
+            plan,
+        }
+    }
+}
+
+fn cut_length_m(plan: &Plan) -> f64 {
+    plan.segments
+        .iter()
+        .zip(&plan.plans)
+        .filter(|(s, _)| s.motion == Motion::Feed)
+        .map(|(_, p)| p.length_m)
+        .sum()
+}
+
+/// A drive that spends time at its current or voltage limit cannot follow its command
+/// there: the prediction includes it, but a wrong limit in the machine file (a 3 A current
+/// limit on a 60 A drive) would show as a large error at every reversal with no other hint.
+/// Says where (the first stretch's line), how long in all and which limit.
+fn limit_warning(
+    axis: char,
+    tally: &LimitTally,
+    config: &AxisConfig,
+    dt_s: f64,
+) -> Option<Warning> {
+    let (first_t_s, line) = tally.first?;
+    let i_max = config.velocity_loop.i_max_a;
+    let which = if 2 * tally.at_current_limit >= tally.limited {
+        format!("current limit (velocity_loop.i_max_a = {i_max} A)")
+    } else {
+        format!(
+            "voltage limit (current_loop.u_max_v = {} V)",
+            config.current_loop.u_max_v
+        )
+    };
+    Some(Warning {
+        line,
+        message: format!(
+            "the {axis} drive is at its {which} for {:.1} ms in {} stretch{}, the \
+             first at t = {first_t_s:.3} s: it cannot follow the command there (included in \
+             the prediction; check the limit if this is unexpected)",
+            tally.limited as f64 * dt_s * 1e3,
+            tally.stretches,
+            if tally.stretches == 1 { "" } else { "es" },
+        ),
+    })
+}
