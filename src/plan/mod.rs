@@ -598,7 +598,7 @@ fn junction_limits(
         } else {
             // A smooth junction between runs whose limits differ: the curve's own limit;
             // otherwise a corner.
-            let through = runs::smooth_junction_speed(a, b, limits, config)
+            let through = runs::smooth_junction_speed(segments, runs[k].first, limits, config)
                 .unwrap_or_else(|| corner_speed(a, b, limits, config));
             cap.min(through)
         };

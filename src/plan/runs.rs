@@ -8,16 +8,17 @@
 //! vertex lies within the blend tolerance of a smooth curve through the neighbouring
 //! vertices (sagitta min(L)·θ/8 ≤ tolerance: a chord vertex, or a tangent junction) joins
 //! its segments into a run. The run is one profile over its whole length, its speed limited
-//! as an arc's would be by the curvature the vertices stand for (radius min(L)/θ: the
-//! circle the chords were cut from), and a run ends where the segments' own limits change
-//! markedly, so that one tight spot does not slow a long run.
+//! as an arc's would be by the curvature the vertices stand for (radius min(L)/θ, or, where
+//! the rounding of very short chords makes one vertex's turn meaningless, the circle through
+//! the vertices around it: the circle the chords were cut from), and a run ends where the
+//! segments' own limits change markedly, so that one tight spot does not slow a long run.
 //!
 //! Runs are a planning notion only: every segment keeps its own geometry, and the commands
 //! follow the polygon exactly.
 
 use super::profile::Dynamics;
 use super::{KinematicLimits, PlanConfig, ProfileKind, SegmentLimits};
-use crate::path::{Blend, Motion, Segment, dot3};
+use crate::path::{Blend, Geometry, Motion, Segment, dot3};
 
 /// A run of segments `first..=last` and the limits of its common profile.
 #[derive(Debug, Clone, Copy)]
@@ -49,10 +50,8 @@ pub(super) fn form_runs(
     let mut runs: Vec<Run> = Vec::new();
     for (i, lim) in seg_limits.iter().enumerate() {
         let joined = match runs.last_mut() {
-            Some(run) if run.last + 1 == i => {
-                smooth_junction_speed(&segments[i - 1], &segments[i], limits, config)
-                    .and_then(|v_junction| extend(run, lim, v_junction, config, limits))
-            }
+            Some(run) if run.last + 1 == i => smooth_junction_speed(segments, i, limits, config)
+                .and_then(|v_junction| extend(run, lim, v_junction, config, limits)),
             _ => None,
         };
         match joined {
@@ -120,15 +119,16 @@ fn curved(d: Dynamics, limits: &KinematicLimits, config: &PlanConfig) -> Dynamic
     }
 }
 
-/// The speed limit through the junction between `a` and `b` when it is smooth enough to be
+/// The speed limit through the junction before segment `i` when it is smooth enough to be
 /// planned through (infinite when the path does not turn there); `None` for a corner, and
 /// wherever the control stops or the profile kind has no look-ahead to speak of.
 pub(super) fn smooth_junction_speed(
-    a: &Segment,
-    b: &Segment,
+    segments: &[Segment],
+    i: usize,
     limits: &KinematicLimits,
     config: &PlanConfig,
 ) -> Option<f64> {
+    let (a, b) = (&segments[i - 1], &segments[i]);
     let continuous = matches!(a.blend, Blend::Continuous { .. });
     let feeds = a.motion == Motion::Feed && b.motion == Motion::Feed;
     if config.profile == ProfileKind::Ideal || a.is_dwell() || b.is_dwell() || !continuous || !feeds
@@ -155,7 +155,13 @@ pub(super) fn smooth_junction_speed(
         if shorter * theta / 8.0 > tolerance {
             return None;
         }
-        v = v.min(arc_speed(shorter / theta, limits, config));
+        let mut radius = shorter / theta;
+        if arc_speed(radius, limits, config) < a.feed_m_per_s.max(b.feed_m_per_s) {
+            // The vertex alone would slow the feed: see whether it is only the rounding of
+            // short chords' end points.
+            radius = chord_radius(segments, i, tolerance).unwrap_or(radius);
+        }
+        v = v.min(arc_speed(radius, limits, config));
         // The commands turn at the vertex within one cycle: each axis's velocity step there
         // stays within what its acceleration gives in a cycle. (A corner under S-curves is
         // held to a cycle's jerk, j·T²; at a chord vertex that would stop a CAM polygon to
@@ -168,6 +174,101 @@ pub(super) fn smooth_junction_speed(
         }
     }
     Some(v)
+}
+
+/// Chord vertices followed on each side of a vertex to find the curve it lies on, at most.
+const CURVE_CHORDS: usize = 64;
+/// Path length followed on each side (m): enough that the rounding of the vertices (0.1 µm
+/// or 1 µm, as a CAM system writes them) tilts the chords over it by less than the curve
+/// turns.
+const CURVE_SPAN_M: f64 = 0.5e-3;
+
+/// The radius of the curve that the chords around vertex `i` (the start of segment `i`) were
+/// cut from: the circle through the vertices up to [`CURVE_SPAN_M`] before and after it, as
+/// long as every vertex between lies on that circle within the blend `tolerance_m` (m). On
+/// chords of a few µm the rounding of the end points turns each vertex by more than the
+/// curve does, so a single vertex's turn says little about the curve — the run would crawl
+/// where a control, which fits its path through many blocks (a compressor, G64 blending),
+/// moves at the feed. `None` when the neighbours are not planar line chords.
+fn chord_radius(segments: &[Segment], i: usize, tolerance_m: f64) -> Option<f64> {
+    let is_chord = |s: &Segment| {
+        matches!(s.geometry, Geometry::Line)
+            && s.motion == Motion::Feed
+            && (s.end_m[2] - s.start_m[2]).abs() < 1e-12
+    };
+    let joined = |s: &Segment| matches!(s.blend, Blend::Continuous { .. });
+    let vertex = |j: usize| [segments[j].start_m[0], segments[j].start_m[1]];
+    let end_of = |j: usize| [segments[j].end_m[0], segments[j].end_m[1]];
+    // Vertices reachable backward (segments i-1, i-2, … chords joined at their ends) and
+    // forward (segments i, i+1, …), within the span.
+    let (mut back, mut span) = (0, 0.0);
+    while back < CURVE_CHORDS && i > back && span < CURVE_SPAN_M {
+        let s = &segments[i - back - 1];
+        if !is_chord(s) || !joined(s) {
+            break;
+        }
+        span += s.length_m();
+        back += 1;
+    }
+    let (mut ahead, mut span) = (0, 0.0);
+    while ahead < CURVE_CHORDS && i + ahead < segments.len() && span < CURVE_SPAN_M {
+        let s = &segments[i + ahead];
+        if !is_chord(s) || (ahead > 0 && !joined(&segments[i + ahead - 1])) {
+            break;
+        }
+        span += s.length_m();
+        ahead += 1;
+    }
+    if back == 0 || ahead == 0 {
+        return None;
+    }
+    // Point k of the window: -back..=ahead around the vertex.
+    let point = |k: isize| {
+        if k <= 0 {
+            vertex((i as isize + k) as usize)
+        } else {
+            end_of(i + k as usize - 1)
+        }
+    };
+    // Widen the window by doubling while its vertices stay on one circle (or line).
+    let mut radius = None;
+    let mut reach = 1usize;
+    loop {
+        let (lo, hi) = (-(reach.min(back) as isize), reach.min(ahead) as isize);
+        let (first, last) = (point(lo), point(hi));
+        let circle = circumcircle(first, point(0), last);
+        let off_curve = |p: [f64; 2]| match circle {
+            Some((c, r)) => ((p[0] - c[0]).hypot(p[1] - c[1]) - r).abs(),
+            None => {
+                let (dx, dy) = (last[0] - first[0], last[1] - first[1]);
+                ((p[0] - first[0]) * dy - (p[1] - first[1]) * dx).abs() / dx.hypot(dy)
+            }
+        };
+        if (lo + 1..hi).any(|k| off_curve(point(k)) > tolerance_m) {
+            break;
+        }
+        radius = Some(circle.map_or(f64::INFINITY, |c| c.1));
+        if reach >= back.max(ahead) {
+            break;
+        }
+        reach *= 2;
+    }
+    radius
+}
+
+/// The circle through three points: centre and radius (m); `None` when they are collinear.
+fn circumcircle(p: [f64; 2], q: [f64; 2], r: [f64; 2]) -> Option<([f64; 2], f64)> {
+    let (bx, by) = (q[0] - p[0], q[1] - p[1]);
+    let (cx, cy) = (r[0] - p[0], r[1] - p[1]);
+    let d = 2.0 * (bx * cy - by * cx);
+    let scale = (bx * bx + by * by).max(cx * cx + cy * cy);
+    if d.abs() <= 1e-12 * scale {
+        return None;
+    }
+    let (b2, c2) = (bx * bx + by * by, cx * cx + cy * cy);
+    let ux = (cy * b2 - by * c2) / d;
+    let uy = (bx * c2 - cx * b2) / d;
+    Some(([p[0] + ux, p[1] + uy], ux.hypot(uy)))
 }
 
 /// The speed limit of a circle of radius `r` (m) in XY: centripetal acceleration within η·a
