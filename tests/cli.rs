@@ -629,3 +629,22 @@ fn a_program_of_days_is_refused_before_it_runs() {
         "{err}"
     );
 }
+
+/// `--measured` names one record to fit on and at most one to judge on.
+#[test]
+fn diagnose_takes_at_most_two_records() {
+    let square = sample("square.nc");
+    let o = run(&[
+        "diagnose",
+        square.to_str().unwrap(),
+        "--measured",
+        "a.csv",
+        "--measured",
+        "b.csv",
+        "--measured",
+        "c.csv",
+    ]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("at most one to judge on"), "{err}");
+}

@@ -627,3 +627,65 @@ fn bad_measured_data_names_the_row_and_writes_nothing() {
     assert!(err.contains("bad.csv: row 32"), "{err}");
     assert!(!json.exists());
 }
+
+/// A second record of the program (`--measured` twice) is the unseen data every cause is
+/// judged on: backlash hidden in two runs of the machine is found and holds on the second
+/// run; hidden in the first run only (the second machine has none), it fits the first run
+/// as well as ever but is not named, because it does not hold on the second.
+#[test]
+fn a_second_record_judges_what_the_first_fitted() {
+    use contourcheck::diagnose::{JudgedOn, diagnose_validated};
+    let nominal = MachineConfig::default_preset();
+    let prog = program("square.nc");
+    let record = |backlash_um: f64, seed: u64| {
+        let spec = SynthSpec {
+            effect: (backlash_um > 0.0)
+                .then(|| (CauseId::Backlash, AxisName::X, vec![backlash_um])),
+            offset_s: 0.2 + 0.011 * seed as f64,
+            seed,
+            ..SynthSpec::default()
+        };
+        let mut csv = Vec::new();
+        synthesize(&prog, &nominal, &spec)
+            .unwrap()
+            .write_csv(&mut csv)
+            .unwrap();
+        parse_trace(
+            std::str::from_utf8(&csv).unwrap(),
+            &format!("run{seed}.csv"),
+        )
+        .unwrap()
+    };
+    let settings = DiagnoseSettings::for_machine(&nominal);
+    let first = record(12.0, 31);
+    let named = |d: &Diagnosis| d.causes.iter().map(|c| (c.id, c.axis)).collect::<Vec<_>>();
+
+    let second = record(12.0, 32);
+    let d = diagnose_validated(&prog, &nominal, &first, Some(&second), &settings).unwrap();
+    assert_eq!(
+        named(&d),
+        vec![(CauseId::Backlash, AxisName::X)],
+        "{:?}",
+        d.rejected
+    );
+    let held = d.causes[0].held_out;
+    assert_eq!(held.judged_on, JudgedOn::SecondRecord);
+    assert!(held.rms_after_um < 0.5 * held.rms_before_um, "{held:?}");
+    assert!((d.causes[0].params[0].value - 12.0).abs() < 2.0);
+
+    let without = record(0.0, 33);
+    let d = diagnose_validated(&prog, &nominal, &first, Some(&without), &settings).unwrap();
+    assert!(named(&d).is_empty(), "named {:?}", named(&d));
+    let backlash = d
+        .rejected
+        .iter()
+        .find(|r| r.id == CauseId::Backlash && r.axis == AxisName::X)
+        .expect("backlash fits the first record");
+    assert!(
+        backlash
+            .reason
+            .contains("does not hold on the second record"),
+        "{}",
+        backlash.reason
+    );
+}

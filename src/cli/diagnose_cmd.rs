@@ -12,7 +12,7 @@ use crate::circular::radial_points;
 use crate::diagnose::causes::{CauseId, CauseSet};
 use crate::diagnose::report::{DiagnoseReport, machine_file};
 use crate::diagnose::table::diagnose_table;
-use crate::diagnose::{DiagnoseSettings, Diagnosis, diagnose};
+use crate::diagnose::{DiagnoseSettings, Diagnosis, diagnose_validated};
 use crate::measured::read_table;
 use crate::output::OutputBatch;
 use crate::plot::panels::{Curve, Panel, PanelsPlot};
@@ -27,9 +27,10 @@ pub struct DiagnoseArgs {
     pub program: Option<PathBuf>,
     /// Measured trace: a table of time, measured X and Y and optionally the commanded X
     /// and Y — `t_s,x_mm,y_mm,x_cmd_mm,y_cmd_mm`, or a control's or lab's export (see
-    /// --columns).
+    /// --columns). Given twice, the causes are fitted on the first record and judged on
+    /// the second (another run of the same program), instead of on a held-out half.
     #[arg(long, value_name = "FILE", conflicts_with = "table")]
-    pub measured: Option<PathBuf>,
+    pub measured: Vec<PathBuf>,
     #[command(flatten)]
     pub trace: TraceArgs,
     /// Table of steady following errors instead of a trace: CSV with `table, axis,
@@ -90,18 +91,25 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
     if let Some(table) = &args.table {
         return run_table(args, table, &machine);
     }
-    let (Some(program_path), Some(measured_path)) = (&args.program, &args.measured) else {
+    let (Some(program_path), [measured_path, second @ ..]) = (&args.program, &args.measured[..])
+    else {
         return Err(CliError::Usage(
             "diagnose needs a program and --measured TRACE.csv, or --table TABLE.csv".into(),
         ));
     };
+    if second.len() > 1 {
+        return Err(CliError::Usage(
+            "--measured: one record to fit on and at most one to judge on".into(),
+        ));
+    }
     let program = load_program(program_path, &machine)?;
-    let measured = args.trace.read(measured_path)?;
-    eprintln!(
-        "{}: {}",
-        measured.file,
-        measured.layout.describe().join("\n  ")
-    );
+    let read = |path: &PathBuf| -> Result<_, CliError> {
+        let m = args.trace.read(path)?;
+        eprintln!("{}: {}", m.file, m.layout.describe().join("\n  "));
+        Ok(m)
+    };
+    let measured = read(measured_path)?;
+    let validation = second.first().map(read).transpose()?;
     let mut settings = DiagnoseSettings::for_machine(&machine);
     settings.check.plan = args.planning.config(&machine)?;
     settings.max_causes = args.max_causes;
@@ -122,7 +130,13 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
     }
     settings.command_tolerance_m = m_from_um(args.command_tolerance_um);
     let bar = spinner("fitting causes");
-    let d = diagnose(&program, &machine, &measured, &settings)?;
+    let d = diagnose_validated(
+        &program,
+        &machine,
+        &measured,
+        validation.as_ref(),
+        &settings,
+    )?;
     bar.finish_and_clear();
     let program_file = program_path.display().to_string();
     let report = DiagnoseReport::new(&d, &program_file, &measured, &machine);

@@ -3,19 +3,37 @@
 //! lacks. Before a cause is named it is fitted again on half of the record (alternate
 //! blocks of it) and judged on the other half: an extension that describes the machine
 //! predicts the unseen half better; one that only absorbs model error does not.
+//!
+//! Given a second record of the program ([`Validation`]), that record is the unseen data
+//! instead: every cause is fitted on the whole first record and judged on the second, which
+//! the fits never see.
 
-use super::causes::CauseId;
-use super::context::Context;
-use super::fit;
-use super::residual::independent_share;
+use super::causes::{self, CauseId};
+use super::context::{Context, context, golden_section};
+use super::residual::{independent_share, record_noise};
+use super::{DiagnoseError, DiagnoseSettings, fit};
+use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
+use crate::measured::MeasuredTrace;
 
 /// Pieces the quiet time is cut into at most: long against a servo's transients.
 const BLOCKS: usize = 8;
 
-/// How a cause fitted on one half predicts the other.
+/// The data a cause was judged on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum JudgedOn {
+    /// The half of the record the cause was not refitted on.
+    OtherHalf,
+    /// A second record of the program, never fitted on.
+    SecondRecord,
+}
+
+/// How a cause fitted on one half predicts the other (or on one record, a second).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct HeldOut {
+    /// What it was judged on.
+    pub judged_on: JudgedOn,
     /// The fall in the held-out half's residual sum of squares, in noise variances, counted
     /// on independent samples (for a stick-slip axis: the fall of its statistics' χ²).
     pub evidence: f64,
@@ -79,23 +97,152 @@ pub fn held_out(
     } else {
         fit::fit_cause(&train, current, axis, cause, &starts, offset_s, other)
     }?;
+    Some(judged(
+        &test,
+        JudgedOn::OtherHalf,
+        axis,
+        statistical,
+        (traces, offset_s),
+        ([&fitted.trace, &fitted.other], fitted.offset_s),
+    ))
+}
+
+/// How much better `after` (this axis's and the other's traces, clock offset) predicts
+/// `test`'s samples than `before`: the fall of the residual sum of squares over both axes
+/// in noise variances, counted on independent samples (for a stick-slip axis, the fall of
+/// its statistics' χ²), with the axis's RMS before and after.
+fn judged(
+    test: &Context,
+    judged_on: JudgedOn,
+    axis: AxisName,
+    statistical: bool,
+    before: (&[Vec<f64>; 2], f64),
+    after: ([&[f64]; 2], f64),
+) -> HeldOut {
     let sum_sq = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>();
-    let before = test.residual(axis, &traces[axis.index()], offset_s);
-    let after = test.residual(axis, &fitted.trace, fitted.offset_s);
+    let (this, other) = (axis.index(), axis.other().index());
+    let (b_traces, b_offset) = before;
+    let ([a_this, a_other], a_offset) = after;
+    let res_before = test.residual(axis, &b_traces[this], b_offset);
+    let res_after = test.residual(axis, a_this, a_offset);
     let evidence = if statistical {
         let chi2 =
             |trace: &[f64], offset: f64| sum_sq(&test.statistical_residual(axis, trace, offset));
-        chi2(&traces[axis.index()], offset_s) - chi2(&fitted.trace, fitted.offset_s)
+        chi2(&b_traces[this], b_offset) - chi2(a_this, a_offset)
     } else {
-        let other_before = test.residual(axis.other(), other, offset_s);
-        let other_after = test.residual(axis.other(), &fitted.other, fitted.offset_s);
-        let gain = sum_sq(&before) + sum_sq(&other_before) - sum_sq(&after) - sum_sq(&other_after);
-        gain / (ctx.noise_sigma * ctx.noise_sigma) * independent_share(&after)
+        let other_before = test.residual(axis.other(), &b_traces[other], b_offset);
+        let other_after = test.residual(axis.other(), a_other, a_offset);
+        let gain =
+            sum_sq(&res_before) + sum_sq(&other_before) - sum_sq(&res_after) - sum_sq(&other_after);
+        gain / (test.noise_sigma * test.noise_sigma) * independent_share(&res_after)
     };
     let rms = |v: &[f64]| (sum_sq(v) / v.len().max(1) as f64).sqrt() * 1e6;
-    Some(HeldOut {
+    HeldOut {
+        judged_on,
         evidence,
-        rms_before_um: rms(&before),
-        rms_after_um: rms(&after),
-    })
+        rms_before_um: rms(&res_before),
+        rms_after_um: rms(&res_after),
+    }
+}
+
+/// How far the clock offset of a record without its commands is searched around its
+/// alignment when a cause is judged on it (s): a dead time or a gain shifts the best one.
+const OFFSET_SEARCH_S: f64 = 0.02;
+
+/// A second record of the program, on which every cause fitted on the first is judged.
+#[derive(Clone)]
+pub struct Validation<'a> {
+    ctx: Context<'a>,
+    /// Both axes under the model found so far, and the record's clock offset.
+    traces: [Vec<f64>; 2],
+    offset_s: f64,
+}
+
+impl<'a> Validation<'a> {
+    /// Aligns the second record with the program and simulates the nominal machine on it.
+    pub fn new(
+        program: &Program,
+        machine: &MachineConfig,
+        measured: &'a MeasuredTrace,
+        settings: &DiagnoseSettings,
+    ) -> Result<Self, DiagnoseError> {
+        let (mut ctx, offset_s) = context(program, machine, measured, settings)?;
+        let traces = AxisName::BOTH
+            .map(|a| ctx.simulate_axis(machine, a))
+            .map(|t| {
+                t.ok_or_else(|| DiagnoseError::CannotAlign {
+                    file: measured.file.clone(),
+                    reason: "the nominal machine cannot be simulated".into(),
+                })
+            });
+        let [x, y] = traces;
+        let traces = [x?, y?];
+        let residuals = AxisName::BOTH.map(|a| ctx.residual(a, &traces[a.index()], offset_s));
+        ctx.noise_sigma = record_noise(&residuals, measured);
+        let mut v = Validation {
+            ctx,
+            traces,
+            offset_s,
+        };
+        v.offset_s = v.best_offset(&v.traces.clone());
+        Ok(v)
+    }
+
+    /// The record's clock offset that fits `traces` best (fixed when it recorded its
+    /// commands).
+    fn best_offset(&self, traces: &[Vec<f64>; 2]) -> f64 {
+        if self.ctx.fixed_offset.is_some() {
+            return self.offset_s;
+        }
+        let sum_sq = |offset: f64| {
+            AxisName::BOTH
+                .iter()
+                .map(|&a| {
+                    let r = self.ctx.residual(a, &traces[a.index()], offset);
+                    r.iter().map(|x| x * x).sum::<f64>()
+                })
+                .sum::<f64>()
+        };
+        let o = self.offset_s;
+        golden_section(o - OFFSET_SEARCH_S, o + OFFSET_SEARCH_S, 1e-5, &sum_sq)
+    }
+
+    /// Judges `cause` with `values` on `axis` of `current` on this record; `None` when the
+    /// extended machine cannot be simulated on it.
+    pub fn judge(
+        &self,
+        current: &MachineConfig,
+        axis: AxisName,
+        cause: CauseId,
+        values: &[f64],
+        statistical: bool,
+    ) -> Option<HeldOut> {
+        let mut extended = current.clone();
+        causes::apply(extended.axis_mut(axis), cause, values);
+        let (this, other) =
+            self.ctx
+                .simulate_pair(&extended, axis, &self.traces[axis.other().index()])?;
+        let mut after = self.traces.clone();
+        after[axis.index()] = this;
+        after[axis.other().index()] = other.into_owned();
+        let offset = self.best_offset(&after);
+        Some(judged(
+            &self.ctx,
+            JudgedOn::SecondRecord,
+            axis,
+            statistical,
+            (&self.traces, self.offset_s),
+            ([&after[0], &after[1]], offset),
+        ))
+    }
+
+    /// Takes the machine found so far as the model to judge the next cause against.
+    pub fn accept(&mut self, current: &MachineConfig) {
+        for a in AxisName::BOTH {
+            if let Some(t) = self.ctx.simulate_axis(current, a) {
+                self.traces[a.index()] = t;
+            }
+        }
+        self.offset_s = self.best_offset(&self.traces.clone());
+    }
 }

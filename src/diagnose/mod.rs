@@ -31,14 +31,14 @@ use crate::circular::{Circle, CircularTest, circles, circular_test};
 use crate::contour::contour_errors;
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
-use crate::measured::{MeasuredError, MeasuredTrace, quantum};
+use crate::measured::{MeasuredError, MeasuredTrace};
 use crate::plan::Commands;
 use crate::sim::{MeasuredAt, SimError};
 use crate::synth::sample;
 use crate::units::{mm_from_m, um_from_m};
 use causes::{CauseId, CauseSet};
 pub use context::{Context, context};
-pub use holdout::HeldOut;
+pub use holdout::{HeldOut, JudgedOn};
 use residual::axis_residual;
 pub use residual::{AxisResidual, ResidualStats, noise_floor};
 pub use search::{Candidate, Rejected};
@@ -298,6 +298,21 @@ pub fn diagnose(
     measured: &MeasuredTrace,
     settings: &DiagnoseSettings,
 ) -> Result<Diagnosis, DiagnoseError> {
+    diagnose_validated(program, machine, measured, None, settings)
+}
+
+/// [`diagnose`] with a second record of the program, `validation`, on which every cause
+/// fitted on `measured` is judged instead of on a held-out half of `measured` itself.
+pub fn diagnose_validated(
+    program: &Program,
+    machine: &MachineConfig,
+    measured: &MeasuredTrace,
+    validation: Option<&MeasuredTrace>,
+    settings: &DiagnoseSettings,
+) -> Result<Diagnosis, DiagnoseError> {
+    let mut validation = validation
+        .map(|v| holdout::Validation::new(program, machine, v, settings))
+        .transpose()?;
     let (mut ctx, offset) = context::context(program, machine, measured, settings)?;
     let simulate = |a| {
         ctx.simulate_axis(machine, a)
@@ -308,15 +323,16 @@ pub fn diagnose(
     };
     let nominal = [simulate(AxisName::X)?, simulate(AxisName::Y)?];
     let residuals = AxisName::BOTH.map(|a| ctx.residual(a, &nominal[a.index()], offset));
-    // Never below the rounding of the data's own counts: a record of an encoder's 0.1 µm
-    // steps is not known better than 0.029 µm, however still its residual stands.
-    let rounding = [&measured.x_m, &measured.y_m]
-        .map(|v| quantum(v).unwrap_or(0.0) / 12f64.sqrt())
-        .into_iter()
-        .fold(0.0, f64::max);
-    ctx.noise_sigma = noise_floor(&residuals).max(rounding).max(1e-12);
+    ctx.noise_sigma = residual::record_noise(&residuals, measured);
     let ctx = ctx;
-    let mut outcome = search::search(&ctx, machine, settings, nominal.clone(), offset);
+    let mut outcome = search::search(
+        &ctx,
+        machine,
+        settings,
+        nominal.clone(),
+        offset,
+        validation.as_mut(),
+    );
     // The extended model must not predict the contour worse than the nominal one: the
     // last causes go until it does not.
     let (before, after, places, series) = loop {

@@ -10,7 +10,7 @@ use serde::Serialize;
 use super::causes::CauseId;
 use super::{
     Alternative, AxisResidual, Candidate, CircularComparison, Diagnosis, ExtraWait, FittedParam,
-    HeldOut, Place, Rejected, ResidualStats, Skipped,
+    HeldOut, JudgedOn, Place, Rejected, ResidualStats, Skipped,
 };
 use crate::machine::{AxisName, MachineConfig};
 use crate::measured::MeasuredTrace;
@@ -311,9 +311,13 @@ impl DiagnoseReport {
                 -g.chatter
             );
             let h = &c.held_out;
+            let unseen = match h.judged_on {
+                JudgedOn::OtherHalf => "fitted on half of the record, the other half's",
+                JudgedOn::SecondRecord => "fitted on this record, the second record's",
+            };
             let _ = writeln!(
                 s,
-                "     held out: fitted on half of the record, the other half's {} RMS {:.3} → {:.3} µm (evidence {:.0})",
+                "     held out: {unseen} {} RMS {:.3} → {:.3} µm (evidence {:.0})",
                 c.axis, h.rms_before_um, h.rms_after_um, h.evidence
             );
             if !c.alternatives.is_empty() {

@@ -15,7 +15,7 @@ use serde::Serialize;
 use super::causes::{self, CauseId, Kinematics};
 use super::context::Context;
 use super::fit::{self, Fitted};
-use super::holdout::{HeldOut, held_out};
+use super::holdout::{HeldOut, JudgedOn, Validation, held_out};
 use super::plausible::{Observed, implausible};
 use super::residual::{axis_residual, chatter_mismatch, independent_share, rms};
 use super::{Alternative, DiagnoseSettings, FittedParam, FoundCause};
@@ -105,6 +105,7 @@ pub fn search(
     settings: &DiagnoseSettings,
     mut traces: [Vec<f64>; 2],
     mut offset_s: f64,
+    mut validation: Option<&mut Validation>,
 ) -> Outcome {
     let sigma = ctx.noise_sigma;
     let mut current = machine.clone();
@@ -177,7 +178,10 @@ pub fn search(
         // worse and holds on data it was not fitted on.
         let mut chosen = None;
         for s in eligible.by_ref() {
-            match judge(ctx, &current, settings, &traces, offset_s, &observed, &s) {
+            let on_record = validation.as_deref();
+            match judge(
+                ctx, &current, settings, &traces, offset_s, &observed, &s, on_record,
+            ) {
                 Ok(held_out) => {
                     chosen = Some((s, held_out));
                     break;
@@ -230,6 +234,9 @@ pub fn search(
         };
         let before = residual_of(&traces[axis.index()], offset_s);
         causes::apply(current.axis_mut(axis), cause, &fitted.values);
+        if let Some(v) = validation.as_deref_mut() {
+            v.accept(&current);
+        }
         traces[axis.index()] = fitted.trace.clone();
         traces[axis.other().index()] = fitted.other.clone();
         offset_s = fitted.offset_s;
@@ -289,8 +296,10 @@ fn observed_on(ctx: &Context, axis: AxisName, offset_s: f64) -> Observed {
 pub(crate) const WORSE_TOLERANCE: f64 = 0.005;
 
 /// Whether a candidate may be named: its values plausible on the machine, neither axis's
-/// whole-record RMS worse, and a gain on the half of the record it was not fitted on. The
-/// held-out figures when it may; the reason when not.
+/// whole-record RMS worse, and a gain on data it was not fitted on (the second record when
+/// there is one, else the half of the record it was not refitted on). The held-out figures
+/// when it may; the reason when not.
+#[allow(clippy::too_many_arguments)]
 fn judge(
     ctx: &Context,
     current: &MachineConfig,
@@ -299,6 +308,7 @@ fn judge(
     offset_s: f64,
     observed: &[Observed; 2],
     s: &Scored,
+    validation: Option<&Validation>,
 ) -> Result<HeldOut, String> {
     let (axis, cause) = (s.try_.axis, s.try_.cause);
     let fitted = s.fitted.as_ref().ok_or("no fit")?;
@@ -349,22 +359,30 @@ fn judge(
             ));
         }
     }
-    let held = held_out(
-        ctx,
-        current,
-        traces,
-        offset_s,
-        axis,
-        cause,
-        &fitted.values,
-        s.try_.statistical,
-        settings.event_window_s,
-    )
-    .ok_or("the fit on half of the record failed")?;
+    let held = match validation {
+        Some(v) => v
+            .judge(current, axis, cause, &fitted.values, s.try_.statistical)
+            .ok_or("the extended machine cannot run the second record")?,
+        None => held_out(
+            ctx,
+            current,
+            traces,
+            offset_s,
+            axis,
+            cause,
+            &fitted.values,
+            s.try_.statistical,
+            settings.event_window_s,
+        )
+        .ok_or("the fit on half of the record failed")?,
+    };
     if held.evidence < settings.evidence {
+        let unseen = match held.judged_on {
+            JudgedOn::OtherHalf => "the half of the record it was not fitted on",
+            JudgedOn::SecondRecord => "the second record",
+        };
         return Err(format!(
-            "fits, but does not hold on the half of the record it was not fitted on (held-out \
-             evidence {:.1}, RMS {:.3} → {:.3} µm)",
+            "fits, but does not hold on {unseen} (held-out evidence {:.1}, RMS {:.3} → {:.3} µm)",
             held.evidence, held.rms_before_um, held.rms_after_um
         ));
     }
