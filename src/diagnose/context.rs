@@ -407,7 +407,10 @@ pub fn context<'a>(
         ctx.residual(AxisName::Y, &y, offset),
     ]
     .concat());
-    if rms > 0.5e-3 {
+    // With recorded commands the record has shown itself to be of this program (its
+    // commands lie on the path) and its clock is its own: a model far from it is for the
+    // diagnosis to explain, or to say it cannot.
+    if rms > 0.5e-3 && fixed_offset.is_none() {
         let hint = if fixed_offset.is_none()
             && !settings.align_stretches
             && !standstills(&ctx.commands).is_empty()

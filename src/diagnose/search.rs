@@ -480,7 +480,7 @@ fn score(
         .map(|t| {
             let other = &traces[t.axis.other().index()];
             let k = t.cause.params().len() as f64;
-            let (fitted, gain, excess, ln_n) = if t.statistical {
+            let (fitted, evidence, share) = if t.statistical {
                 let chi2 = |trace: &[f64]| {
                     ctx.statistical_residual(t.axis, trace, offset_s)
                         .iter()
@@ -496,23 +496,27 @@ fn score(
                 let gain = fitted
                     .as_ref()
                     .map_or(f64::NEG_INFINITY, |f| before - f.chi2_stat);
-                (fitted, gain, before - m, m.ln())
+                (fitted, gain - k * m.ln(), gain / (before - m))
             } else {
                 let fitted =
                     fit::fit_cause(ctx, current, t.axis, t.cause, &t.starts, offset_s, other);
-                // Counted on independent samples: a fit that leaves a smooth residual has
-                // only bent towards a larger model error.
-                let gain = fitted.as_ref().map_or(f64::NEG_INFINITY, |f| {
-                    let after = ctx.residual(t.axis, &f.trace, f.offset_s);
-                    (rss_now - f.rss) / sigma2 * independent_share(&after)
+                let gain = fitted
+                    .as_ref()
+                    .map_or(f64::NEG_INFINITY, |f| (rss_now - f.rss) / sigma2);
+                // Evidence is counted on independent samples: a fit that leaves a smooth
+                // residual has only bent towards a larger model error. Its share is what it
+                // explains of the residual beyond the noise, however smooth the rest.
+                let independent = fitted.as_ref().map_or(0.0, |f| {
+                    independent_share(&ctx.residual(t.axis, &f.trace, f.offset_s))
                 });
-                (fitted, gain, rss_now / sigma2 - n_total, n_total.ln())
+                let excess = rss_now / sigma2 - n_total;
+                (fitted, gain * independent - k * n_total.ln(), gain / excess)
             };
             Scored {
                 try_: t,
                 fitted,
-                evidence: gain - k * ln_n,
-                share: gain / excess,
+                evidence,
+                share,
             }
         })
         .collect()
