@@ -289,6 +289,44 @@ fn halving_the_step_changes_nothing_that_matters() {
     }
 }
 
+/// Where the model's inputs do not vary within an interpolation cycle (no Stribeck friction,
+/// no measuring error), one simulation step per cycle gives the trace of four: every mode
+/// is integrated exactly over the cycle's input polynomial and mode switches are located
+/// inside the step. The diagnosis's search relies on it. Reversals with backlash and
+/// Coulomb friction, where the modes switch, included.
+#[test]
+fn one_step_per_cycle_is_exact_without_inputs_varying_within_it() {
+    let mut config = preset().x;
+    config.drive.backlash_um = 10.0;
+    let model = AxisModel::from_config(&config);
+    assert!(!model.inputs_vary_within_cycle());
+    let (dt, n) = (0.002, 3000);
+    // 20 mm amplitude at 0.5 Hz: four reversals.
+    let mut commands = AxisCommands::default();
+    let w = std::f64::consts::PI;
+    for k in 0..n {
+        let t = k as f64 * dt;
+        commands.push(
+            0.02 * (w * t).sin(),
+            0.02 * w * (w * t).cos(),
+            -0.02 * w * w * (w * t).sin(),
+        );
+    }
+    let run = |substeps| {
+        let cfg = SimConfig {
+            substeps,
+            ..Default::default()
+        };
+        simulate(&model, &commands, dt, &cfg).unwrap()
+    };
+    let (one, four) = (run(1), run(4));
+    assert_eq!(one.mode, four.mode, "the same modes at every cycle");
+    let worst = (0..n)
+        .map(|k| (one.pos_m[k] - four.pos_m[k]).abs())
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-9, "{worst} m");
+}
+
 /// e^{M} by balancing, scaling and squaring, and a Taylor series: written here so that the
 /// check does not share the simulator's (Padé) matrix exponential.
 fn expm_taylor(m: &nalgebra::DMatrix<f64>) -> nalgebra::DMatrix<f64> {

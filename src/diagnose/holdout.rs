@@ -167,6 +167,8 @@ impl<'a> Validation<'a> {
         settings: &DiagnoseSettings,
     ) -> Result<Self, DiagnoseError> {
         let (mut ctx, offset_s) = context(program, machine, measured, settings)?;
+        // Used during the search only, at its resolution.
+        ctx.stepping = super::Stepping::PerCycleWhereExact;
         let traces = AxisName::BOTH
             .map(|a| ctx.simulate_axis(machine, a))
             .map(|t| {

@@ -37,7 +37,7 @@ use crate::sim::{MeasuredAt, SimError};
 use crate::synth::sample;
 use crate::units::{mm_from_m, um_from_m};
 use causes::{CauseId, CauseSet};
-pub use context::{Context, context};
+pub use context::{Context, Stepping, context};
 pub use holdout::{HeldOut, JudgedOn};
 use residual::axis_residual;
 pub use residual::{AxisResidual, ResidualStats, noise_floor};
@@ -325,14 +325,27 @@ pub fn diagnose_validated(
     let residuals = AxisName::BOTH.map(|a| ctx.residual(a, &nominal[a.index()], offset));
     ctx.noise_sigma = residual::record_noise(&residuals, measured);
     let ctx = ctx;
+    // The search's many fits simulate one step per cycle where that gives the same trace;
+    // what it finds is confirmed at full resolution.
+    let search_ctx = Context {
+        stepping: Stepping::PerCycleWhereExact,
+        ..ctx.clone()
+    };
     let mut outcome = search::search(
-        &ctx,
+        &search_ctx,
         machine,
         settings,
         nominal.clone(),
         offset,
         validation.as_mut(),
     );
+    if !outcome.found.is_empty() {
+        for a in AxisName::BOTH {
+            if let Some(t) = ctx.simulate_axis(&outcome.machine, a) {
+                outcome.traces[a.index()] = t;
+            }
+        }
+    }
     // The extended model must not predict the contour worse than the nominal one: the
     // last causes go until it does not.
     let (before, after, places, series) = loop {

@@ -192,6 +192,15 @@ impl LateralShiftModel {
 }
 
 impl AxisModel {
+    /// Whether the axis's inputs change within an interpolation cycle (Stribeck friction
+    /// and measuring errors are evaluated at every simulation step). Without them every
+    /// mode's dynamics is linear with inputs known in closed form over the cycle, integrated
+    /// exactly, and mode switches are located inside a step: one step per cycle gives the
+    /// same trace as finer ones.
+    pub fn inputs_vary_within_cycle(&self) -> bool {
+        self.stribeck.is_some() || self.measuring.is_active()
+    }
+
     /// Derives the SI model from an axis configuration (all conversions happen here).
     pub fn from_config(c: &AxisConfig) -> AxisModel {
         let d = &c.drive;

@@ -718,7 +718,7 @@ impl<'a> AxisRun<'a> {
             divergence_limit_m: config.divergence_limit_m,
             trace: AxisTrace::with_capacity(dt_s, 0),
             friction_events: config.record_friction_events.then(Vec::new),
-            per_substep_inputs: model.stribeck.is_some() || model.measuring.is_active(),
+            per_substep_inputs: model.inputs_vary_within_cycle(),
             lateral_dl: 0.0,
             delay: (model.dead_time_s > 0.0).then(|| DelayLine::new(model.dead_time_s, dt_s, x0_m)),
             feedback: model.signals().x_fb,
