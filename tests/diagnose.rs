@@ -37,6 +37,22 @@ fn program(name: &str) -> Program {
 }
 
 /// Hides `effect` in the nominal machine, runs `name`, measures it and diagnoses the CSV.
+/// What a user would hand over: `program` run on `machine` with `spec`, written as CSV and
+/// read back as the trace file `name`.
+fn recorded(
+    program: &Program,
+    machine: &MachineConfig,
+    spec: &SynthSpec,
+    name: &str,
+) -> contourcheck::measured::MeasuredTrace {
+    let mut csv = Vec::new();
+    synthesize(program, machine, spec)
+        .unwrap()
+        .write_csv(&mut csv)
+        .unwrap();
+    parse_trace(std::str::from_utf8(&csv).unwrap(), name).unwrap()
+}
+
 fn diagnose_hidden(
     name: &str,
     effect: Option<(CauseId, AxisName, Vec<f64>)>,
@@ -51,10 +67,7 @@ fn diagnose_hidden(
         seed,
         ..SynthSpec::default()
     };
-    let truth = synthesize(&prog, &nominal, &spec).unwrap();
-    let mut csv = Vec::new();
-    truth.write_csv(&mut csv).unwrap();
-    let measured = parse_trace(std::str::from_utf8(&csv).unwrap(), "measured.csv").unwrap();
+    let measured = recorded(&prog, &nominal, &spec, "measured.csv");
     let d = diagnose(
         &prog,
         &nominal,
@@ -301,12 +314,7 @@ fn recorded_commands_drive_the_simulation_and_fix_the_clock() {
         with_commands: true,
         ..SynthSpec::default()
     };
-    let mut csv = Vec::new();
-    synthesize(&prog, &nominal, &spec)
-        .unwrap()
-        .write_csv(&mut csv)
-        .unwrap();
-    let measured = parse_trace(std::str::from_utf8(&csv).unwrap(), "trace.csv").unwrap();
+    let measured = recorded(&prog, &nominal, &spec, "trace.csv");
     assert!(measured.commands.is_some());
     let d = diagnose(
         &prog,
@@ -337,12 +345,7 @@ fn waits_longer_than_planned_are_measured_when_stretches_align_on_their_own() {
         offset_s: 0.37,
         ..SynthSpec::default()
     };
-    let mut csv = Vec::new();
-    synthesize(&prog, &real, &spec)
-        .unwrap()
-        .write_csv(&mut csv)
-        .unwrap();
-    let measured = parse_trace(std::str::from_utf8(&csv).unwrap(), "strokes.csv").unwrap();
+    let measured = recorded(&prog, &real, &spec, "strokes.csv");
     // On the planned timeline the strokes drift away by 72 ms each: refused, with the way out.
     let mut settings = DiagnoseSettings::for_machine(&nominal);
     let e = diagnose(&prog, &nominal, &measured, &settings)
@@ -370,12 +373,12 @@ fn waits_longer_than_planned_are_measured_when_stretches_align_on_their_own() {
 #[test]
 fn a_measurement_of_another_program_is_rejected_with_the_reason() {
     let nominal = MachineConfig::default_preset();
-    let mut csv = Vec::new();
-    synthesize(&program("square.nc"), &nominal, &SynthSpec::default())
-        .unwrap()
-        .write_csv(&mut csv)
-        .unwrap();
-    let measured = parse_trace(std::str::from_utf8(&csv).unwrap(), "square-trace.csv").unwrap();
+    let measured = recorded(
+        &program("square.nc"),
+        &nominal,
+        &SynthSpec::default(),
+        "square-trace.csv",
+    );
     let e = diagnose(
         &program("circle-test.nc"),
         &nominal,
@@ -645,16 +648,7 @@ fn a_second_record_judges_what_the_first_fitted() {
             seed,
             ..SynthSpec::default()
         };
-        let mut csv = Vec::new();
-        synthesize(&prog, &nominal, &spec)
-            .unwrap()
-            .write_csv(&mut csv)
-            .unwrap();
-        parse_trace(
-            std::str::from_utf8(&csv).unwrap(),
-            &format!("run{seed}.csv"),
-        )
-        .unwrap()
+        recorded(&prog, &nominal, &spec, &format!("run{seed}.csv"))
     };
     let settings = DiagnoseSettings::for_machine(&nominal);
     let first = record(12.0, 31);
