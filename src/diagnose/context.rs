@@ -78,6 +78,42 @@ pub struct Context<'a> {
 impl Context<'_> {
     /// Simulates one axis of a machine on the context's commands; `None` if it cannot run.
     pub fn simulate_axis(&self, machine: &MachineConfig, axis: AxisName) -> Option<Vec<f64>> {
+        match self.replanned(machine) {
+            None => self.simulate_on(machine, axis, &self.commands),
+            // The machine runs on its own plan's clock.
+            Some(commands) => self.simulate_on(machine, axis, &commands),
+        }
+    }
+
+    /// Simulates `axis` of `machine`, and the other axis too when `machine` changes the
+    /// program's timing (a gain changes the in-position waits, which both axes keep);
+    /// otherwise the other axis keeps `other`.
+    pub fn simulate_pair<'b>(
+        &self,
+        machine: &MachineConfig,
+        axis: AxisName,
+        other: &'b [f64],
+    ) -> Option<(Vec<f64>, std::borrow::Cow<'b, [f64]>)> {
+        Some(match self.replanned(machine) {
+            None => (
+                self.simulate_on(machine, axis, &self.commands)?,
+                std::borrow::Cow::Borrowed(other),
+            ),
+            Some(commands) => (
+                self.simulate_on(machine, axis, &commands)?,
+                std::borrow::Cow::Owned(self.simulate_on(machine, axis.other(), &commands)?),
+            ),
+        })
+    }
+
+    /// One axis of `machine` on `commands`, read where the measurement was taken, stepped as
+    /// the context says.
+    fn simulate_on(
+        &self,
+        machine: &MachineConfig,
+        axis: AxisName,
+        commands: &Commands,
+    ) -> Option<Vec<f64>> {
         let model = AxisModel::from_config(machine.axis(axis));
         let per_cycle = match self.stepping {
             Stepping::Full => false,
@@ -92,34 +128,9 @@ impl Context<'_> {
         } else {
             self.sim
         };
-        let run = |commands: &Commands| {
-            simulate(&model, commands.axis(axis), self.dt, &sim)
-                .ok()
-                .map(|t| t.into_read_at(self.measured_at))
-        };
-        match self.replanned(machine) {
-            None => run(&self.commands),
-            // The machine runs on its own plan's clock.
-            Some(commands) => run(&commands),
-        }
-    }
-
-    /// Simulates `axis` of `machine`, and the other axis too when `machine` changes the
-    /// program's timing (a gain changes the in-position waits, which both axes keep);
-    /// otherwise the other axis keeps `other`.
-    pub fn simulate_pair<'b>(
-        &self,
-        machine: &MachineConfig,
-        axis: AxisName,
-        other: &'b [f64],
-    ) -> Option<(Vec<f64>, std::borrow::Cow<'b, [f64]>)> {
-        let this = self.simulate_axis(machine, axis)?;
-        let other = if self.replanned(machine).is_some() {
-            std::borrow::Cow::Owned(self.simulate_axis(machine, axis.other())?)
-        } else {
-            std::borrow::Cow::Borrowed(other)
-        };
-        Some((this, other))
+        simulate(&model, commands.axis(axis), self.dt, &sim)
+            .ok()
+            .map(|t| t.into_read_at(self.measured_at))
     }
 
     /// The commands of `machine` when its in-position waits differ from those of the plan
