@@ -10,6 +10,7 @@ use crate::circular::{CirclePath, CircleSamples, CircularTest, circles};
 use crate::contour::{ContourLocator, ContourPoint};
 use crate::execute::RunChunk;
 use crate::gcode::Warning;
+pub use crate::hotspot::RunPlace;
 use crate::hotspot::{Hotspot, HotspotConfig, HotspotFinder, RunSample};
 use crate::machine::{AxisConfig, MachineConfig};
 use crate::path::Motion;
@@ -36,19 +37,6 @@ pub struct Summary {
     pub max_following_error_cutting_m: [f64; 2],
     /// Largest |following error| of X and Y over the whole run, rapids included (m).
     pub max_following_error_m: [f64; 2],
-}
-
-/// A place in a run.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RunPlace {
-    /// Sample index.
-    pub sample: usize,
-    /// Time (s).
-    pub t_s: f64,
-    /// Actual X and Y (m).
-    pub pos_m: [f64; 2],
-    /// Source line of the block being executed.
-    pub line: u32,
 }
 
 /// One point of the run kept for plots.
@@ -108,7 +96,6 @@ pub struct RunAnalyser {
     plot: PeakThinned<PlotPoint>,
     limits: [LimitTally; 2],
     i_max_a: [f64; 2],
-    largest: Option<(f64, RunPlace)>,
     squares_m2: f64,
     cutting_samples: usize,
     fe_cut_m: [f64; 2],
@@ -139,7 +126,6 @@ impl RunAnalyser {
             }),
             limits: Default::default(),
             i_max_a: [&machine.x, &machine.y].map(|a| a.velocity_loop.i_max_a),
-            largest: None,
             squares_m2: 0.0,
             cutting_samples: 0,
             fe_cut_m: [0.0; 2],
@@ -168,15 +154,6 @@ impl RunAnalyser {
             if point.error_m.is_finite() {
                 self.squares_m2 += point.error_m * point.error_m;
                 self.cutting_samples += 1;
-                if self.largest.is_none_or(|(e, _)| point.error_m.abs() > e) {
-                    let place = RunPlace {
-                        sample: k,
-                        t_s,
-                        pos_m,
-                        line,
-                    };
-                    self.largest = Some((point.error_m.abs(), place));
-                }
             }
             self.hotspots.push(
                 plan,
@@ -242,12 +219,13 @@ impl RunAnalyser {
             }
         }
         let (circular, circle_paths) = self.circles.test();
+        let largest = self.hotspots.largest();
         let summary = Summary {
             cycle_time_s: plan.total_time_s,
             path_length_m: plan.path_length_m(),
             cut_length_m: cut_length_m(&plan),
-            max_contour_error_m: self.largest.map_or(0.0, |m| m.0),
-            max_contour_sample: self.largest.map(|m| m.1.sample),
+            max_contour_error_m: largest.map_or(0.0, |m| m.0),
+            max_contour_sample: largest.map(|m| m.1.sample),
             rms_contour_error_m: if self.cutting_samples == 0 {
                 0.0
             } else {
@@ -259,7 +237,7 @@ impl RunAnalyser {
         CheckResult {
             hotspots: self.hotspots.finish(),
             summary,
-            max_at: self.largest.map(|m| m.1),
+            max_at: largest.map(|m| m.1),
             circular,
             circle_paths,
             plot: self.plot.into_points(),

@@ -161,6 +161,19 @@ pub struct RunSample {
     pub mode: [u8; 2],
 }
 
+/// A place in a run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunPlace {
+    /// Sample index.
+    pub sample: usize,
+    /// Time (s).
+    pub t_s: f64,
+    /// Actual X and Y (m).
+    pub pos_m: [f64; 2],
+    /// Source line of the block being executed.
+    pub line: u32,
+}
+
 /// A sample as the finder keeps it.
 #[derive(Debug, Clone, Copy)]
 struct Kept {
@@ -294,6 +307,19 @@ impl HotspotFinder {
             self.note_toggles(s, prev, k, cutting);
         }
         self.settle(false);
+    }
+
+    /// The largest |contour error| so far (m), and where it is (the first such place).
+    pub fn largest(&self) -> Option<(f64, RunPlace)> {
+        self.largest.map(|m| {
+            let place = RunPlace {
+                sample: m.k,
+                t_s: m.t_s,
+                pos_m: m.pos_m,
+                line: m.line,
+            };
+            (m.error_m.abs(), place)
+        })
     }
 
     /// The hotspots of the whole run, ranked by |error|.

@@ -85,18 +85,16 @@ pub fn fit_cause(
     // Both axes' residual at parameter values and an offset: the offset belongs to the
     // search, or parameters would bend to make up for a first alignment that a lag (a gain
     // error, a dead time) has pulled off.
-    let total_rss = |values: &[f64], offset: f64| {
-        simulate(values).map_or(f64::INFINITY, |(t, o)| {
-            sum_sq(ctx.residual(axis, &t, offset)) + sum_sq(ctx.residual(axis.other(), &o, offset))
-        })
-    };
-    let start = best_start(ctx, starts, &|screen: &Context, s: &[f64]| {
-        screen
-            .simulate_pair(&with_cause(machine, axis, cause, s), axis, other)
+    let rss_on = |on: &Context, values: &[f64], offset: f64| {
+        on.simulate_pair(&with_cause(machine, axis, cause, values), axis, other)
             .map_or(f64::INFINITY, |(t, o)| {
-                sum_sq(screen.residual(axis, &t, offset_s))
-                    + sum_sq(screen.residual(axis.other(), &o, offset_s))
+                sum_sq(on.residual(axis, &t, offset))
+                    + sum_sq(on.residual(axis.other(), &o, offset))
             })
+    };
+    let total_rss = |values: &[f64], offset: f64| rss_on(ctx, values, offset);
+    let start = best_start(ctx, starts, &|screen: &Context, s: &[f64]| {
+        rss_on(screen, s, offset_s)
     })?;
     let start_cost = total_rss(start, offset_s);
     // The offset rides along as one more parameter, in units of 2 ms.
