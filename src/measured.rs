@@ -34,6 +34,21 @@ pub struct MeasuredTrace {
     pub layout: TraceLayout,
     /// The recorded time steps before any resampling.
     pub steps: StepStats,
+    /// Where the logger held each reading for several rows, the rows that carried new
+    /// readings; only those were kept, and `dt_s` is their step.
+    pub held: Option<HeldRows>,
+}
+
+/// A logger that writes rows faster than it reads the positions repeats each reading until
+/// the next: new values arrive only on rows `phase + k·period`. The repeats are not
+/// measurements — kept, they would read as an axis standing still for the hold and then
+/// jumping, which is what stick-slip looks like.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeldRows {
+    /// Rows per reading.
+    pub period: usize,
+    /// The first row that carried a reading.
+    pub phase: usize,
 }
 
 /// The recorded sampling steps (s).
@@ -256,6 +271,15 @@ fn assemble(file: &str, table: Table, layout: TraceLayout) -> Result<MeasuredTra
     }
     let irregular = (1..t.len()).any(|i| ((t[i] - t[i - 1]) / dt - 1.0).abs() > 0.01);
     let has_commands = !cols[2].is_empty();
+    let held = if irregular { None } else { held_rows(&cols) };
+    let (t, cols, dt) = match held {
+        Some(h) => (
+            keep_readings(&t, h),
+            cols.map(|c| keep_readings(&c, h)),
+            dt * h.period as f64,
+        ),
+        None => (t, cols, dt),
+    };
     let [x, y, xc, yc] = if irregular {
         cols.map(|c| {
             if c.is_empty() {
@@ -277,7 +301,62 @@ fn assemble(file: &str, table: Table, layout: TraceLayout) -> Result<MeasuredTra
         resampled: irregular,
         layout,
         steps: StepStats::of(&t, dt),
+        held,
     })
+}
+
+/// The rows of a logger that holds its readings, if the record is one: the rows whose
+/// positions (all columns, bit for bit) differ from the row before lie, all but one in a
+/// hundred, on one grid of `period` ≥ 2 rows, and there are enough of them to tell — at
+/// least 50 new readings and a tenth of the grid's slots. Two axes moving at their own
+/// speeds change on the same grid of rows only when the logger holds them; a record in
+/// which nothing changes is no evidence either way. (The stray hundredth allows for a
+/// logger that once reads a row late.)
+fn held_rows(cols: &[Vec<f64>; 4]) -> Option<HeldRows> {
+    const FEWEST_READINGS: usize = 50;
+    let n = cols[0].len();
+    let differs = |i: usize| {
+        cols.iter()
+            .filter(|c| !c.is_empty())
+            .any(|c| c[i].to_bits() != c[i - 1].to_bits())
+    };
+    let fresh: Vec<usize> = (1..n).filter(|&i| differs(i)).collect();
+    if fresh.len() < FEWEST_READINGS {
+        return None;
+    }
+    let period = most_common(fresh.windows(2).map(|w| w[1] - w[0]))?;
+    if period < 2 {
+        return None;
+    }
+    let phase = most_common(fresh.iter().map(|i| i % period))?;
+    let on_grid = fresh.iter().filter(|&&i| i % period == phase).count();
+    let slots = (n - phase) / period;
+    (on_grid * 100 >= fresh.len() * 99 && on_grid * 10 >= slots)
+        .then_some(HeldRows { period, phase })
+}
+
+/// The value met most often (the smallest among equals).
+fn most_common(values: impl Iterator<Item = usize>) -> Option<usize> {
+    let mut counts = std::collections::BTreeMap::new();
+    for v in values {
+        *counts.entry(v).or_insert(0usize) += 1;
+    }
+    counts
+        .into_iter()
+        .max_by(|a, b| a.1.cmp(&b.1).then(b.0.cmp(&a.0)))
+        .map(|(v, _)| v)
+}
+
+/// The rows of `v` that carry readings.
+fn keep_readings(v: &[f64], held: HeldRows) -> Vec<f64> {
+    if v.is_empty() {
+        return Vec::new();
+    }
+    v.iter()
+        .skip(held.phase)
+        .step_by(held.period)
+        .copied()
+        .collect()
 }
 
 /// A CSV reader over `text` (fields trimmed, lines starting with `#` comments) and its
@@ -731,5 +810,64 @@ mod tests {
         for k in 0..m.len() {
             assert!((m.x_m[k] - m.time_s(k)).abs() < 1e-12, "{k}");
         }
+    }
+
+    /// Rows of 1 ms of two axes moving at their own speeds, each value read at row
+    /// `phase + k·period` and repeated until the next reading.
+    fn held_csv(rows: usize, period: usize, phase: usize) -> String {
+        let reading = |i: usize| {
+            if i < phase {
+                0
+            } else {
+                phase + (i - phase) / period * period
+            }
+        };
+        let mut s = String::from("t_s,x_mm,y_mm\n");
+        for i in 0..rows {
+            let r = reading(i) as f64;
+            s.push_str(&format!(
+                "{},{},{}\n",
+                i as f64 * 1e-3,
+                0.013 * r,
+                2.0 - 0.0071 * r
+            ));
+        }
+        s
+    }
+
+    #[test]
+    fn a_logger_that_holds_its_readings_is_read_at_its_own_rate() {
+        let m = parse_trace(&held_csv(2000, 15, 7), "held.csv").unwrap();
+        assert_eq!(
+            m.held,
+            Some(HeldRows {
+                period: 15,
+                phase: 7
+            })
+        );
+        assert!((m.dt_s - 0.015).abs() < 1e-15 && (m.t0_s - 0.007).abs() < 1e-15);
+        assert_eq!(m.len(), (2000usize - 7).div_ceil(15));
+        // Each kept row is a new reading.
+        assert!(m.x_m.windows(2).all(|w| w[1] > w[0]));
+        // A reading once taken a row late leaves the grid as it was.
+        let text = held_csv(2000, 15, 7);
+        let mut lines: Vec<String> = text.lines().map(String::from).collect();
+        let grid_row = 1 + 7 + 15 * 33;
+        let (_, old) = lines[grid_row - 1].split_once(',').unwrap();
+        let (time, _) = lines[grid_row].split_once(',').unwrap();
+        lines[grid_row] = format!("{time},{old}");
+        let late = parse_trace(&(lines.join("\n") + "\n"), "late.csv").unwrap();
+        assert_eq!(
+            late.held,
+            Some(HeldRows {
+                period: 15,
+                phase: 7
+            })
+        );
+        // Every row a reading, or too few readings to tell: read as written.
+        let every_row = parse_trace(&held_csv(2000, 1, 0), "rows.csv").unwrap();
+        assert_eq!((every_row.held, every_row.len()), (None, 2000));
+        let few = parse_trace(&held_csv(600, 15, 7), "few.csv").unwrap();
+        assert_eq!((few.held, few.len()), (None, 600));
     }
 }

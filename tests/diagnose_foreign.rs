@@ -565,3 +565,101 @@ fn records_of_other_controllers_are_read_as_the_model_can_and_never_worse() {
         d.after
     );
 }
+
+/// The record as a logger writes it that reads the positions every `rows` rows and repeats
+/// each reading until the next (all columns held alike, time running on).
+fn hold_readings(csv: &str, rows: usize, phase: usize) -> String {
+    let lines: Vec<&str> = csv.lines().collect();
+    let mut out = format!("{}\n", lines[0]);
+    let data = &lines[1..];
+    for (i, line) in data.iter().enumerate() {
+        let (time, _) = line.split_once(',').unwrap();
+        // Rows before the first reading repeat the one taken before the record began.
+        let held = if i < phase {
+            0
+        } else {
+            phase + (i - phase) / rows * rows
+        };
+        let (_, values) = data[held].split_once(',').unwrap();
+        out.push_str(&format!("{time},{values}\n"));
+    }
+    out
+}
+
+#[test]
+fn a_logger_that_holds_its_readings_is_read_at_its_own_rate_and_not_taken_for_stick_slip() {
+    // A slow circle, where a real stick-slip would show, on the nominal machine: positions
+    // and commands read every 15 ms and written every millisecond. Each hold stands the
+    // record still and ends in a jump — stick-slip's own shape, at the logger's rhythm;
+    // read row by row, the rhythm passes for a 67 Hz resonance.
+    let program = sample_program("slow-circle.nc");
+    let spec = SynthSpec {
+        sample_s: 1e-3,
+        offset_s: 0.29,
+        seed: 61,
+        ..SynthSpec::default()
+    };
+    let csv = hold_readings(&foreign_record(&program, None, spec), 15, 7);
+    let trace = parse_trace(&csv, "record.csv").unwrap();
+    assert_eq!(
+        trace.held,
+        Some(contourcheck::measured::HeldRows {
+            period: 15,
+            phase: 7
+        })
+    );
+    assert!((trace.dt_s - 0.015).abs() < 1e-12, "{}", trace.dt_s);
+    let d = diagnose_text(&program, &csv, MeasuredAt::Table).unwrap();
+    assert!(
+        d.causes.is_empty(),
+        "named {:?}; not named: {:?}",
+        named(&d),
+        d.rejected
+            .iter()
+            .map(|r| (r.id, r.axis, r.reason.as_str()))
+            .collect::<Vec<_>>()
+    );
+}
+
+/// Whether the diagnosis sees each axis sticking in `csv`.
+fn sticking_seen(program: &Program, csv: &str, at: MeasuredAt) -> [bool; 2] {
+    let nominal = MachineConfig::default_preset();
+    let measured = parse_trace(csv, "record.csv").unwrap();
+    let mut settings = DiagnoseSettings::for_machine(&nominal);
+    settings.measured_at = at;
+    let (mut ctx, offset) =
+        contourcheck::diagnose::context(program, &nominal, &measured, &settings).unwrap();
+    let residuals = AxisName::BOTH.map(|a| {
+        let trace = ctx.simulate_axis(&nominal, a).unwrap();
+        ctx.residual(a, &trace, offset)
+    });
+    ctx.noise_sigma = contourcheck::diagnose::residual::record_noise(&residuals, &measured);
+    AxisName::BOTH.map(|a| ctx.sticking_seen(a, offset))
+}
+
+#[test]
+fn sticking_is_seen_only_where_a_slip_follows_the_standstill() {
+    // The foreign interpolator stops at every block end; at each start the motor stands
+    // for a while as its command moves off (on Y, three times over 4 % of the moving time),
+    // but never catches up faster than it follows: no slip, no stick-slip.
+    let (program, csv) = motor_record(None);
+    for step in [1, 10, 20] {
+        let seen = sticking_seen(&program, &decimate(&csv, step), MeasuredAt::Motor);
+        assert_eq!(seen, [false, false], "every {step}th row");
+    }
+    // Stribeck friction on X: the table stands, breaks loose and catches up, hundreds of
+    // times around the slow circle.
+    let program = sample_program("slow-circle.nc");
+    let spec = SynthSpec {
+        sample_s: 1e-3,
+        offset_s: 0.33,
+        seed: 62,
+        ..SynthSpec::default()
+    };
+    let effect = Some((CauseId::Stribeck, AxisName::X, vec![300.0, 25.0]));
+    let csv = foreign_record(&program, effect, spec);
+    assert_eq!(
+        sticking_seen(&program, &csv, MeasuredAt::Table),
+        [true, false]
+    );
+}

@@ -38,6 +38,13 @@ pub fn run(args: &InspectArgs) -> Result<Outcome, CliError> {
             trace.steps.median_s * 1e3
         );
     }
+    if let Some(held) = trace.held {
+        println!(
+            "  the logger repeats each reading for {} rows: read at its own step of {:.4} ms",
+            held.period,
+            trace.dt_s * 1e3
+        );
+    }
     print!("{}", summarise(&trace).text());
     if let Some(path) = &args.plot {
         write_plot(path, &overview(&trace))?;

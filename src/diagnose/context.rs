@@ -275,43 +275,70 @@ impl Context<'_> {
 
     /// Whether the measurement shows the axis sticking: stretches of 10 ms in which it
     /// stands (its readings spread less than four noise deviations, or a fifth of the
-    /// command's travel) while the command moves on, in at least three places and a
-    /// fiftieth of the moving time. Stick-slip chatter is recognised by that, not by the
-    /// spread of positions about a running mean, which any servo oscillation has.
+    /// command's travel) while the command moves on, each ended by a slip, in at least three
+    /// places and a fiftieth of the moving time. Stick-slip chatter is recognised by that,
+    /// not by the spread of positions about a running mean, which any servo oscillation
+    /// has. (A logger that holds each value for several rows also looks like this; the
+    /// trace reader has already read such a record at its true rate.)
     pub fn sticking_seen(&self, axis: AxisName, offset_s: f64) -> bool {
+        let seen = self.standstills_while_commanded(axis, offset_s);
+        let slipped = seen
+            .stretches
+            .iter()
+            .filter(|s| self.slip_follows(axis, s, offset_s))
+            .count();
+        slipped >= 3 && seen.stuck_samples as f64 >= 0.02 * seen.moving_samples as f64
+    }
+
+    /// The stretches in which the measured axis stands while its command moves.
+    fn standstills_while_commanded(&self, axis: AxisName, offset_s: f64) -> Standstills {
         const WINDOW_S: f64 = 0.01;
         let m = self.measured_axis(axis);
         let span = ((WINDOW_S / self.measured.dt_s).round() as usize).max(2);
         let sigma = self.noise_sigma;
-        let (mut moving, mut stuck, mut stretches, mut in_stretch) =
-            (0usize, 0usize, 0usize, false);
+        let mut seen = Standstills::default();
+        let mut open: Option<(usize, usize)> = None;
         for &i in &self.samples {
             if i + span >= m.len() {
                 break;
             }
             let t = self.prog_time(i, offset_s);
             let travel = (self.command_at(axis, t + WINDOW_S).0 - self.command_at(axis, t).0).abs();
-            if travel < 6.0 * sigma {
-                in_stretch = false;
-                continue;
-            }
-            moving += 1;
-            let window = &m[i..=i + span];
-            let (lo, hi) = window
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
-                    (l.min(v), h.max(v))
-                });
-            let stands = hi - lo < (4.0 * sigma).max(0.2 * travel);
+            let stands = travel >= 6.0 * sigma && {
+                seen.moving_samples += 1;
+                let (lo, hi) = m[i..=i + span]
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                        (l.min(v), h.max(v))
+                    });
+                hi - lo < (4.0 * sigma).max(0.2 * travel)
+            };
             if stands {
-                stuck += 1;
-                if !in_stretch {
-                    stretches += 1;
-                }
+                seen.stuck_samples += 1;
+                open = Some(open.map_or((i, i + span), |(first, _)| (first, i + span)));
+            } else if let Some(stretch) = open.take() {
+                seen.stretches.push(stretch);
             }
-            in_stretch = stands;
         }
-        stretches >= 3 && stuck as f64 >= 0.02 * moving as f64
+        seen.stretches.extend(open);
+        seen
+    }
+
+    /// Whether a standstill `(first, last)` (measured samples) ends in a slip: within as
+    /// long again (at least 20 ms) the axis gains on its command at least half the lag the
+    /// standstill built — it catches up, as a table does when it breaks loose. Lost motion
+    /// (backlash, a dead time) also stands the axis while the command moves, but the lag it
+    /// builds stays.
+    fn slip_follows(&self, axis: AxisName, &(first, last): &(usize, usize), offset_s: f64) -> bool {
+        let m = self.measured_axis(axis);
+        let dt = self.measured.dt_s;
+        let end = (last + (last - first).max((0.02 / dt).round() as usize)).min(m.len() - 1);
+        let command = |i: usize| self.command_at(axis, self.prog_time(i, offset_s));
+        let direction = command(first).1.signum();
+        let lag = |i: usize| (command(i).0 - m[i]) * direction;
+        let built = lag(last) - lag(first);
+        let recovered = lag(last) - (last..=end).map(lag).fold(f64::INFINITY, f64::min);
+        recovered >= 0.5 * built && recovered > 4.0 * std::f64::consts::SQRT_2 * self.noise_sigma
     }
 
     /// Whether the program is in a rapid (or the in-position wait after it) at time `t`.
@@ -333,6 +360,17 @@ impl Context<'_> {
             sample(&c.vel_m_per_s, self.dt, t),
         )
     }
+}
+
+/// Where a measured axis stood while its command moved.
+#[derive(Default)]
+struct Standstills {
+    /// Compared samples at which the command moved.
+    moving_samples: usize,
+    /// Those at which the axis stood.
+    stuck_samples: usize,
+    /// Each run of standing, as (first, last) measured sample.
+    stretches: Vec<(usize, usize)>,
 }
 
 /// Builds the comparison timeline: commands, plan, samples, and a first clock offset.

@@ -69,6 +69,9 @@ pub struct MeasuredInfo {
     pub sample_step_s: f64,
     /// Whether irregular sampling was resampled.
     pub resampled: bool,
+    /// Rows the logger repeated each reading for (1: every row a reading); only the rows
+    /// that carried readings were used.
+    pub rows_per_reading: usize,
     /// Whether the simulation ran on the commands the measurement recorded.
     pub commands_recorded: bool,
     /// Samples compared (rapids and the margins left out).
@@ -193,6 +196,7 @@ impl DiagnoseReport {
                 samples: measured.len(),
                 sample_step_s: measured.dt_s,
                 resampled: measured.resampled,
+                rows_per_reading: measured.held.map_or(1, |h| h.period),
                 commands_recorded: measured.commands.is_some(),
                 samples_compared: d.samples,
                 measured_at: d.measured_at,
@@ -233,12 +237,17 @@ impl DiagnoseReport {
         let m = &self.measured;
         let _ = writeln!(
             s,
-            "Diagnosis of {} against {} ({} samples every {:.3} ms{}{})",
+            "Diagnosis of {} against {} ({} samples every {:.3} ms{}{}{})",
             self.program,
             m.file,
             m.samples,
             m.sample_step_s * 1e3,
             if m.resampled { ", resampled" } else { "" },
+            if m.rows_per_reading > 1 {
+                format!(", each reading held for {} rows", m.rows_per_reading)
+            } else {
+                String::new()
+            },
             if m.commands_recorded {
                 ", simulated on its recorded commands"
             } else {
