@@ -30,6 +30,7 @@ pub mod sweep;
 pub mod synth;
 pub mod thinning;
 pub mod trace_format;
+pub mod trace_halscope;
 pub mod trace_mat;
 pub mod units;
 pub mod validate;

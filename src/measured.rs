@@ -11,6 +11,7 @@
 use std::path::Path;
 
 use crate::trace_format::{self, ColumnMap, Dialect, Mapped, Signal};
+use crate::trace_halscope;
 use crate::trace_mat;
 
 /// A measured trace on a uniform time grid, in SI units.
@@ -153,8 +154,36 @@ pub fn read_trace_with(
     if trace_mat::is_mat_file(&bytes) {
         return parse_mat_trace(&bytes, &file, map);
     }
+    if let Some(problem) = unreadable_kind(&bytes) {
+        return Err(data_error_in(&file)(problem));
+    }
     // Lab exports are not always UTF-8 (a µ in Latin-1); only numbers matter here.
     parse_trace_with(&String::from_utf8_lossy(&bytes), &file, map)
+}
+
+/// Why a file that is neither a MAT-file nor a text table cannot be read, if it is so: a
+/// binary file (TNCscope's own files, a control's binary trace) or XML (SINUMERIK Operate
+/// saves its servo traces so). Neither layout is publicly documented; both tools export
+/// their signals as text tables, which are read.
+fn unreadable_kind(bytes: &[u8]) -> Option<String> {
+    let head = &bytes[..bytes.len().min(512)];
+    let text = String::from_utf8_lossy(head);
+    let text = text.trim_start_matches('\u{feff}').trim_start();
+    if text.starts_with("<?xml") || text.starts_with('<') {
+        return Some(
+            "an XML file, not a table of samples: a control's XML trace (as SINUMERIK \
+             Operate saves servo traces) has no published layout; export the signals as a \
+             text table (CSV) and read that"
+                .into(),
+        );
+    }
+    let binary = head.contains(&0);
+    binary.then(|| {
+        "a binary file that is not a MATLAB MAT-file: binary trace formats (TNCscope's own \
+         files, other controls' captures) have no published layout; export the signals as \
+         a text table (CSV) or a MAT-file and read that"
+            .into()
+    })
 }
 
 /// A [`MeasuredError::Data`] about `file`.
@@ -171,18 +200,52 @@ pub fn parse_mat_trace(
     file: &str,
     map: Option<&ColumnMap>,
 ) -> Result<MeasuredTrace, MeasuredError> {
-    let data_error = data_error_in(file);
     let columns = trace_mat::mat_columns(bytes, file)?;
+    let n = columns.iter().map(|(_, v)| v.len()).max().unwrap_or(0);
+    let source = Source::MatFile {
+        variables: columns.len(),
+    };
+    assemble_named(file, &columns, (1..=n as u64).collect(), map, source)
+}
+
+/// Parses a LinuxCNC halscope log (see [`trace_halscope`]): its channels are the columns,
+/// time comes from its sampling period.
+pub fn parse_halscope_trace(
+    text: &str,
+    file: &str,
+    map: Option<&ColumnMap>,
+) -> Result<MeasuredTrace, MeasuredError> {
+    let log = trace_halscope::halscope_columns(text, file)?;
+    let source = Source::Halscope {
+        channels: log.columns.len() - 1,
+    };
+    assemble_named(file, &log.columns, log.rows, map, source)
+}
+
+/// A trace from named columns of equal length (a MAT-file's variables, a halscope log's
+/// channels), mapped like a text header; `rows` gives each sample's place for messages.
+fn assemble_named(
+    file: &str,
+    columns: &[(String, Vec<f64>)],
+    rows: Vec<u64>,
+    map: Option<&ColumnMap>,
+    source: Source,
+) -> Result<MeasuredTrace, MeasuredError> {
+    let data_error = data_error_in(file);
+    let what = match source {
+        Source::Halscope { .. } => "channel",
+        _ => "variable",
+    };
     let names: Vec<&str> = columns.iter().map(|(n, _)| n.as_str()).collect();
-    let mapped = trace_format::map_columns(&names, map)
-        .map_err(|e| data_error(format!("variables: {e}")))?;
+    let mapped =
+        trace_format::map_columns(&names, map).map_err(|e| data_error(format!("{what}s: {e}")))?;
     let n = columns[mapped[0].index].1.len();
     let mut table = Table::default();
     for m in &mapped {
         let (name, values) = &columns[m.index];
         if values.len() != n {
             return Err(data_error(format!(
-                "variable '{name}' has {} values, the time '{}' {n}",
+                "{what} '{name}' has {} values, the time '{}' {n}",
                 values.len(),
                 mapped[0].header
             )));
@@ -190,11 +253,8 @@ pub fn parse_mat_trace(
         if let Some(i) = values.iter().position(|v| !v.is_finite()) {
             return Err(MeasuredError::Row {
                 file: file.into(),
-                row: i as u64 + 1,
-                problem: format!(
-                    "variable '{name}' ({}): not a finite number",
-                    m.signal.key()
-                ),
+                row: rows.get(i).copied().unwrap_or(i as u64 + 1),
+                problem: format!("{what} '{name}' ({}): not a finite number", m.signal.key()),
             });
         }
         let si: Vec<f64> = values.iter().map(|v| v * m.unit.to_si).collect();
@@ -203,11 +263,9 @@ pub fn parse_mat_trace(
             Some(k) => table.cols[k] = si,
         }
     }
-    table.rows = (1..=n as u64).collect();
+    table.rows = rows;
     let layout = TraceLayout {
-        source: Source::MatFile {
-            variables: columns.len(),
-        },
+        source,
         mapped,
         trailer_rows: 0,
     };
@@ -398,6 +456,9 @@ pub fn parse_trace_with(
     file: &str,
     map: Option<&ColumnMap>,
 ) -> Result<MeasuredTrace, MeasuredError> {
+    if trace_halscope::is_halscope_log(text) {
+        return parse_halscope_trace(text, file, map);
+    }
     let data_error = data_error_in(file);
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     // (1-based row, line) of every line that is neither blank nor a comment.
@@ -498,6 +559,11 @@ pub enum Source {
         /// Columns found (a matrix gives one per column).
         variables: usize,
     },
+    /// A LinuxCNC halscope log with this many channels.
+    Halscope {
+        /// Channels in the log.
+        channels: usize,
+    },
 }
 
 /// How a trace file was read: its format, which column became what, and how many trailer
@@ -532,6 +598,9 @@ impl TraceLayout {
             ),
             Source::MatFile { variables } => {
                 format!("MATLAB MAT-file (level 5), {variables} numeric columns")
+            }
+            Source::Halscope { channels } => {
+                format!("LinuxCNC halscope log, {channels} channels, time from its sampling period")
             }
         };
         let mut lines = vec![first];

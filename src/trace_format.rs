@@ -186,11 +186,14 @@ impl ColumnMap {
             .map(|(_, c)| c)
     }
 
+    /// x and y must be mapped; time may be left to recognition (a halscope log's time is
+    /// made from its period).
     fn check_complete(&self) -> Result<(), String> {
-        for s in [Signal::Time, Signal::X, Signal::Y] {
+        for s in [Signal::X, Signal::Y] {
             if self.get(s).is_none() {
                 return Err(format!(
-                    "the mapping needs {}= (t, x and y are required)",
+                    "the mapping needs {}= (x and y are required, t where the time column \
+                     is not recognised)",
                     s.key()
                 ));
             }
@@ -361,6 +364,7 @@ pub fn map_columns(headers: &[&str], map: Option<&ColumnMap>) -> Result<Vec<Mapp
         let found = match map {
             Some(m) => match m.get(signal) {
                 Some(spec) => Some(find_named(headers, spec, signal)?),
+                None if signal == Signal::Time => recognise(headers, signal)?,
                 None => None,
             },
             None => recognise(headers, signal)?,
@@ -546,11 +550,19 @@ fn normalised(header: &str) -> String {
     name.chars().filter(|c| c.is_alphanumeric()).collect()
 }
 
+/// The columns whose name is a spelling of `signal`; where none is, those whose last part
+/// after a `.` is (a MAT-file's field path, `ScopeData.time`).
 fn recognise(headers: &[&str], signal: Signal) -> Result<Option<Mapped>, String> {
     let names = spellings(signal);
-    let hits: Vec<usize> = (0..headers.len())
-        .filter(|&i| names.contains(&normalised(headers[i]).as_str()))
-        .collect();
+    let matching = |name: &dyn Fn(&str) -> Option<String>| -> Vec<usize> {
+        (0..headers.len())
+            .filter(|&i| name(headers[i]).is_some_and(|n| names.contains(&n.as_str())))
+            .collect()
+    };
+    let mut hits = matching(&|h| Some(normalised(h)));
+    if hits.is_empty() {
+        hits = matching(&|h| h.rsplit_once('.').map(|(_, leaf)| normalised(leaf)));
+    }
     match hits.as_slice() {
         [] => Ok(None),
         [i] => mapped(headers[*i], *i, signal, None).map(Some),

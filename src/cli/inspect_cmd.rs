@@ -9,6 +9,7 @@ use super::common::{CliError, TraceArgs, write_plot};
 use crate::inspect::summarise;
 use crate::measured::MeasuredTrace;
 use crate::plot::panels::{Curve, Panel, PanelsPlot};
+use crate::plot::xy::{Beside, XyPlot};
 use crate::units::{mm_from_m, um_from_m};
 
 /// Arguments of `inspect`.
@@ -19,7 +20,7 @@ pub struct InspectArgs {
     #[command(flatten)]
     pub columns: TraceArgs,
     /// Write a one-page plot (PNG or SVG): positions over time, following errors when the
-    /// commands were recorded.
+    /// commands were recorded, and the path in XY.
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
 }
@@ -56,8 +57,9 @@ pub fn run(args: &InspectArgs) -> Result<Outcome, CliError> {
 /// Samples drawn per curve: enough for a page, however long the record.
 const POINTS: usize = 4000;
 
-/// Positions (measured, and commanded where recorded) and following errors over time.
-fn overview(trace: &MeasuredTrace) -> PanelsPlot {
+/// Positions (measured, and commanded where recorded) and following errors over time,
+/// beside the path in XY.
+fn overview(trace: &MeasuredTrace) -> Beside<PanelsPlot, XyPlot> {
     let every = trace.len().div_ceil(POINTS).max(1);
     let curve = |name: &str, color: Option<usize>, value: &dyn Fn(usize) -> f64| Curve {
         name: name.into(),
@@ -93,9 +95,35 @@ fn overview(trace: &MeasuredTrace) -> PanelsPlot {
             curves: positions,
         },
     );
-    PanelsPlot {
-        title: format!("{}: what the trace holds", trace.file),
-        x_label: "trace time (s)".into(),
-        panels,
+    Beside {
+        left: PanelsPlot {
+            title: format!("{}: what the trace holds", trace.file),
+            x_label: "trace time (s)".into(),
+            panels,
+        },
+        right: xy_path(trace, every),
+        left_share: 0.62,
+    }
+}
+
+/// The measured path in XY over the commanded one where recorded.
+fn xy_path(trace: &MeasuredTrace, every: usize) -> XyPlot {
+    let path = |name: &str, color: Option<usize>, x: &[f64], y: &[f64]| Curve {
+        name: name.into(),
+        points: (0..trace.len())
+            .step_by(every)
+            .map(|k| (mm_from_m(x[k]), mm_from_m(y[k])))
+            .collect(),
+        color,
+        width: if color.is_some() { 1 } else { 3 },
+    };
+    let mut curves = Vec::new();
+    if let Some([xc, yc]) = &trace.commands {
+        curves.push(path("commanded", None, xc, yc));
+    }
+    curves.push(path("measured", Some(0), &trace.x_m, &trace.y_m));
+    XyPlot {
+        caption: "path".into(),
+        curves,
     }
 }

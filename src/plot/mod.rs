@@ -8,6 +8,7 @@ pub mod polar;
 pub mod stickslip;
 pub mod sweep;
 pub mod toolpath;
+pub mod xy;
 
 use std::path::Path;
 use std::sync::Once;

@@ -74,7 +74,13 @@ impl Figure for ToolpathPlot {
             .filter(|e| e.is_finite())
             .fold(0.0, f64::max)
             .max(1e-3);
-        let (x0, x1, y0, y1) = equal_aspect_bounds(self, &main);
+        let points = self.programmed.iter().flatten().copied().chain(
+            self.actual
+                .iter()
+                .filter(|q| q.error_um.is_finite())
+                .map(|q| (q.x_mm, q.y_mm)),
+        );
+        let (x0, x1, y0, y1) = equal_aspect_bounds(points, &main);
         let mut chart = ChartBuilder::on(&main)
             .margin(15)
             .x_label_area_size(45)
@@ -136,19 +142,14 @@ impl Figure for ToolpathPlot {
     }
 }
 
-/// Axis ranges with equal mm per pixel on X and Y, covering the path with a margin.
-fn equal_aspect_bounds<DB: DrawingBackend>(
-    p: &ToolpathPlot,
+/// Axis ranges with equal mm per pixel on X and Y, covering `points` with a margin, for a
+/// chart on `area` with the label areas the plots here give it.
+pub fn equal_aspect_bounds<DB: DrawingBackend>(
+    points: impl Iterator<Item = (f64, f64)>,
     area: &DrawingArea<DB, Shift>,
 ) -> (f64, f64, f64, f64) {
-    let pts = p.programmed.iter().flatten().copied().chain(
-        p.actual
-            .iter()
-            .filter(|q| q.error_um.is_finite())
-            .map(|q| (q.x_mm, q.y_mm)),
-    );
     let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for (x, y) in pts {
+    for (x, y) in points.filter(|(x, y)| x.is_finite() && y.is_finite()) {
         x0 = x0.min(x);
         x1 = x1.max(x);
         y0 = y0.min(y);

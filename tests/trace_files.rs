@@ -1,5 +1,8 @@
-//! Traces in MATLAB MAT-files (level 5): the tests write the files themselves, as MATLAB's
-//! `save` lays them out, from a synthetic record, and read them back.
+//! Trace files as controls and labs write them, other than text tables: MATLAB MAT-files
+//! (level 5; plain variables, matrices, and the capture structures Simulink and dSPACE
+//! save), LinuxCNC halscope logs, and the formats that are refused with a reason. The tests
+//! write the files themselves, laid out as those tools lay them out, from a synthetic
+//! record, and read them back.
 
 use contourcheck::machine::MachineConfig;
 use contourcheck::measured::{MeasuredTrace, parse_trace, read_trace_with};
@@ -229,4 +232,143 @@ fn record_small() -> (String, ()) {
         ));
     }
     (csv, ())
+}
+
+/// `file` written with the MAT-file writer of the reading crate, as MATLAB's `save` would
+/// (compressed: the default of `-v7`), read back as a trace.
+fn saved(file: matrw::MatFile, compress: bool, map: Option<&str>) -> Result<MeasuredTrace, String> {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("capture.mat");
+    matrw::save_matfile_v7(path.to_str().unwrap(), file, compress).unwrap();
+    read(&std::fs::read(&path).unwrap(), map)
+}
+
+#[test]
+fn a_simulink_structure_with_time_reads_by_its_signal_labels() {
+    use matrw::{matfile, matvar};
+    let (csv, expected) = record();
+    let [t, x, y, xc, yc] = columns(&csv);
+    // What a Scope block saves as "Structure with time": the time vector and a structure
+    // array of signals, each with its values and label.
+    let file = matfile!(
+        ScopeData: matvar!({
+            time: t,
+            signals: matvar!([
+                { values: x, label: "X_ActPos", dimensions: 1.0 },
+                { values: y, label: "Y_ActPos", dimensions: 1.0 },
+                { values: xc, label: "X_Traj", dimensions: 1.0 },
+                { values: yc, label: "Y_Traj", dimensions: 1.0 },
+            ]),
+            blockName: "servo/Scope",
+        })
+    );
+    // No mapping: `ScopeData.time` is recognised by its last part, the signals by label.
+    let trace = saved(file, true, None).unwrap();
+    assert_same(&trace, &expected);
+}
+
+#[test]
+fn a_capture_struct_with_block_paths_reads_by_mapping_or_field_path() {
+    use matrw::{matfile, matvar};
+    let (csv, expected) = record();
+    let [t, x, y, xc, yc] = columns(&csv);
+    let ms: Vec<f64> = t.iter().map(|v| v * 1e3).collect();
+    let um = |v: &[f64]| v.iter().map(|p| p * 1e3).collect::<Vec<f64>>();
+    let (x_um, y_um) = (um(&x), um(&y));
+    // A capture laid out as dSPACE tools save one: the time axis under X, the signals under
+    // Y, each named by its block path.
+    let capture = |with_commands: bool| {
+        let mut signals = vec![
+            matvar!({ Name: "Model Root/Axis X/pos_act", Data: x_um.clone() }),
+            matvar!({ Name: "Model Root/Axis Y/pos_act", Data: y_um.clone() }),
+        ];
+        if with_commands {
+            signals.push(matvar!({ Name: "Model Root/Axis X/pos_set", Data: xc.clone() }));
+            signals.push(matvar!({ Name: "Model Root/Axis Y/pos_set", Data: yc.clone() }));
+        }
+        matfile!(capture: matvar!({
+            X: matvar!({ Name: "Time", Data: ms.clone() }),
+            Y: matrw::MatVariable::from(signals),
+        }))
+    };
+    // The two axes' blocks share a name; their field paths tell them apart.
+    let trace = saved(
+        capture(true),
+        false,
+        Some(
+            "t=Time[ms],x=capture.Y(1).Data[um],y=capture.Y(2).Data[um],\
+             x_cmd=capture.Y(3).Data[mm],y_cmd=capture.Y(4).Data[mm]",
+        ),
+    )
+    .unwrap();
+    assert_same(&trace, &expected);
+    // Unmapped, the error lists what the file holds, paths and signal names alike.
+    let e = saved(capture(false), false, None).unwrap_err();
+    assert!(
+        e.contains("capture.Y(2).Data") && e.contains("pos_act"),
+        "{e}"
+    );
+}
+
+/// The record as halscope's "Save log" writes it: the period line, then per sample each
+/// channel's HAL name and value, and one sample more than the capture (see
+/// `trace_halscope`). Positions in inch when `inch`.
+fn halscope_log(csv: &str, inch: bool) -> String {
+    let [t, x, y, xc, yc] = columns(csv);
+    let period_ns = ((t[1] - t[0]) * 1e9).round();
+    let scale = if inch { 1.0 / 25.4 } else { 1.0 };
+    let mut log = format!("Sampling period is {period_ns} ns \n");
+    let channels = [
+        ("joint.0.pos-fb", &x),
+        ("joint.1.pos-fb", &y),
+        ("joint.0.pos-cmd", &xc),
+        ("joint.1.pos-cmd", &yc),
+    ];
+    for k in 0..=t.len() {
+        log.push('\n');
+        for (name, values) in channels {
+            // One past the capture: whatever the buffer held.
+            let v = values.get(k).map_or(1234.5, |v| v * scale);
+            log.push_str(&format!("{name} {v:+.14} "));
+        }
+    }
+    log.push('\n');
+    log
+}
+
+#[test]
+fn a_halscope_log_reads_by_channel_names_in_the_machines_units() {
+    let (csv, expected) = record();
+    let map = "x=joint.0.pos-fb[in],y=joint.1.pos-fb[in],\
+               x_cmd=joint.0.pos-cmd[in],y_cmd=joint.1.pos-cmd[in]";
+    let trace = read(halscope_log(&csv, true).as_bytes(), Some(map)).unwrap();
+    // Time starts at the first sample; the rest is the record, the sample past the capture
+    // left out.
+    assert_eq!(trace.len(), expected.len());
+    assert!((trace.dt_s - expected.dt_s).abs() < 1e-12 && trace.t0_s == 0.0);
+    let close = |u: &[f64], v: &[f64]| u.iter().zip(v).all(|(p, q)| (p - q).abs() < 1e-12);
+    assert!(close(&trace.x_m, &expected.x_m) && close(&trace.y_m, &expected.y_m));
+    let (c, e) = (trace.commands.unwrap(), expected.commands.unwrap());
+    assert!(close(&c[0], &e[0]) && close(&c[1], &e[1]));
+    assert!(trace.layout.describe()[0].starts_with("LinuxCNC halscope log, 4 channels"));
+    // Unmapped, the error lists the channels the log holds.
+    let e = read(halscope_log(&csv, false).as_bytes(), None).unwrap_err();
+    assert!(
+        e.contains("channels:") && e.contains("joint.1.pos-fb"),
+        "{e}"
+    );
+}
+
+#[test]
+fn undocumented_control_formats_are_refused_with_what_to_export_instead() {
+    let xml = read(
+        b"<?xml version=\"1.0\"?>\n<traceData><signal name=\"X\"/></traceData>\n",
+        None,
+    )
+    .unwrap_err();
+    assert!(xml.contains("XML") && xml.contains("CSV"), "{xml}");
+    let mut binary = b"DTA\x00\x01\x02".to_vec();
+    binary.extend([0u8; 64]);
+    let dta = read(&binary, None).unwrap_err();
+    assert!(dta.contains("binary") && dta.contains("CSV"), "{dta}");
 }

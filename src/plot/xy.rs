@@ -1,0 +1,84 @@
+//! Curves in the XY plane at equal scale — a measured path over its commanded one — and a
+//! page of two figures side by side.
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::panels::Curve;
+use super::toolpath::equal_aspect_bounds;
+use super::{FONT, Figure, PlotResult, err, series_color};
+
+/// Paths in XY (mm), equal scale on both axes.
+pub struct XyPlot {
+    /// Caption above the chart.
+    pub caption: String,
+    /// Curves of (x mm, y mm), drawn in order (later on top).
+    pub curves: Vec<Curve>,
+}
+
+impl Figure for XyPlot {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> PlotResult {
+        let area = root.margin(40, 10, 10, 10);
+        let points = self.curves.iter().flat_map(|c| c.points.iter().copied());
+        let (x0, x1, y0, y1) = equal_aspect_bounds(points, &area);
+        let mut chart = ChartBuilder::on(&area)
+            .caption(&self.caption, (FONT, 18))
+            .margin(15)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_labels(5)
+            .y_labels(9)
+            .x_desc("X (mm)")
+            .y_desc("Y (mm)")
+            .label_style((FONT, 14))
+            .axis_desc_style((FONT, 15))
+            .draw()
+            .map_err(err)?;
+        for curve in &self.curves {
+            let style = match curve.color {
+                Some(i) => series_color(i).stroke_width(curve.width),
+                None => RGBColor(150, 150, 150).stroke_width(curve.width),
+            };
+            let drawn = chart
+                .draw_series(LineSeries::new(curve.points.iter().copied(), style))
+                .map_err(err)?;
+            if !curve.name.is_empty() {
+                drawn
+                    .label(curve.name.clone())
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], style));
+            }
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .label_font((FONT, 13))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(err)
+    }
+}
+
+/// Two figures on one page, the left taking `left_share` of the width.
+pub struct Beside<A, B> {
+    /// Left figure.
+    pub left: A,
+    /// Right figure.
+    pub right: B,
+    /// Share of the width for the left figure (0–1).
+    pub left_share: f64,
+}
+
+impl<A: Figure, B: Figure> Figure for Beside<A, B> {
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> PlotResult {
+        let (w, _) = root.dim_in_pixel();
+        let split = (w as f64 * self.left_share.clamp(0.1, 0.9)).round() as u32;
+        let (left, right) = root.split_horizontally(split);
+        self.left.draw(&left)?;
+        self.right.draw(&right)
+    }
+}
