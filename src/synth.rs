@@ -20,7 +20,7 @@ use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
 use crate::recorded::commands_from_record;
 use crate::sim::{AxisModel, MeasuredAt, SimError, simulate};
-use crate::units::mm_from_m;
+use crate::trace_format::{ColumnMap, Signal, Unit};
 
 /// What to hide and how to measure it.
 #[derive(Debug, Clone, PartialEq)]
@@ -187,24 +187,54 @@ impl Synthetic {
     /// Writes the measurement as CSV (`t_s,x_mm,y_mm`, and `x_cmd_mm,y_cmd_mm` when the
     /// commands are recorded).
     pub fn write_csv(&self, w: &mut dyn Write) -> std::io::Result<()> {
+        let ours = ColumnMap::parse(
+            "t=t_s[s],x=x_mm[mm],y=y_mm[mm],x_cmd=x_cmd_mm[mm],y_cmd=y_cmd_mm[mm]",
+        )
+        .expect("the tool's own layout is a valid mapping");
+        self.write_csv_as(w, &ours)
+    }
+
+    /// Writes the measurement as CSV with the columns of `layout` — header names and units
+    /// as a control or lab system would write them (`t=Time[ms],x=X_ActPos[counts:0.1um]…`);
+    /// signals the layout leaves out are not written, nor the commands when they are not
+    /// recorded. Values carry 0.1 nm (positions) and 1 µs (time) in any unit; counts are
+    /// whole numbers.
+    pub fn write_csv_as(&self, w: &mut dyn Write, layout: &ColumnMap) -> std::io::Result<()> {
+        let columns: Vec<(usize, &str, Unit)> = Signal::ALL
+            .into_iter()
+            .enumerate()
+            .filter(|(k, _)| self.with_commands || *k < 3)
+            .filter_map(|(k, signal)| {
+                let spec = layout.get(signal)?;
+                let unit = spec.unit.unwrap_or(Unit {
+                    to_si: if signal.is_time() { 1.0 } else { 1e-3 },
+                    label: "",
+                });
+                Some((k, spec.name.as_str(), unit))
+            })
+            .collect();
         let mut out = csv::Writer::from_writer(w);
-        if self.with_commands {
-            out.write_record(["t_s", "x_mm", "y_mm", "x_cmd_mm", "y_cmd_mm"])?;
-        } else {
-            out.write_record(["t_s", "x_mm", "y_mm"])?;
-        }
+        out.write_record(columns.iter().map(|c| c.1))?;
         for r in &self.rows {
-            let mut rec = vec![
-                format!("{:.6}", r[0]),
-                format!("{:.7}", mm_from_m(r[1])),
-                format!("{:.7}", mm_from_m(r[2])),
-            ];
-            if self.with_commands {
-                rec.push(format!("{:.7}", mm_from_m(r[3])));
-                rec.push(format!("{:.7}", mm_from_m(r[4])));
-            }
-            out.write_record(&rec)?;
+            out.write_record(columns.iter().map(|&(k, _, unit)| {
+                let resolution_si = if k == 0 { 1e-6 } else { 1e-10 };
+                in_unit(r[k], unit, resolution_si)
+            }))?;
         }
         out.flush()
     }
+}
+
+/// `value_si` in `unit` to `resolution_si` (whole counts for a count unit).
+fn in_unit(value_si: f64, unit: Unit, resolution_si: f64) -> String {
+    let v = value_si / unit.to_si;
+    if unit.label == "counts" {
+        // Adding zero turns a rounded -0 into 0, as a counter would show it.
+        return format!("{}", v.round() + 0.0);
+    }
+    // The margin keeps an exact power of ten (1 s / 1 µs) from rounding up a place.
+    let decimals = ((unit.to_si / resolution_si).log10() - 1e-9)
+        .ceil()
+        .max(0.0) as usize;
+    format!("{v:.decimals$}")
 }

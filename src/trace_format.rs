@@ -28,7 +28,8 @@ pub enum Signal {
 }
 
 impl Signal {
-    const ALL: [Signal; 5] = [
+    /// Every signal, time first.
+    pub const ALL: [Signal; 5] = [
         Signal::Time,
         Signal::X,
         Signal::Y,
@@ -51,7 +52,8 @@ impl Signal {
         Signal::ALL.into_iter().find(|s| s.key() == key)
     }
 
-    fn is_time(self) -> bool {
+    /// Whether this is the time.
+    pub fn is_time(self) -> bool {
         self == Signal::Time
     }
 }
@@ -179,7 +181,8 @@ impl ColumnMap {
         Ok(())
     }
 
-    fn get(&self, signal: Signal) -> Option<&ColumnSpec> {
+    /// The column mapped to `signal`, if any.
+    pub fn get(&self, signal: Signal) -> Option<&ColumnSpec> {
         self.specs
             .iter()
             .find(|(s, _)| *s == signal)

@@ -372,3 +372,52 @@ fn undocumented_control_formats_are_refused_with_what_to_export_instead() {
     let dta = read(&binary, None).unwrap_err();
     assert!(dta.contains("binary") && dta.contains("CSV"), "{dta}");
 }
+
+#[test]
+fn a_record_written_in_a_vendor_layout_reads_back_with_that_layout() {
+    let (_, expected) = record();
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/gcode-samples/square.nc"
+    ))
+    .unwrap();
+    let program = contourcheck::gcode::parse_program(
+        &text,
+        "square.nc",
+        &contourcheck::gcode::InterpretOptions::default(),
+    )
+    .unwrap();
+    let spec = SynthSpec {
+        with_commands: true,
+        ..SynthSpec::default()
+    };
+    let layout = ColumnMap::parse(
+        "t=Time[ms],x=X_ActPos[counts:0.1um],y=Y_ActPos[counts:0.1um],x_cmd=X_Traj[in],\
+         y_cmd=Y_Traj[in]",
+    )
+    .unwrap();
+    let mut csv = Vec::new();
+    synthesize(&program, &MachineConfig::default_preset(), &spec)
+        .unwrap()
+        .write_csv_as(&mut csv, &layout)
+        .unwrap();
+    let csv = String::from_utf8(csv).unwrap();
+    assert!(
+        csv.starts_with("Time,X_ActPos,Y_ActPos,X_Traj,Y_Traj\n"),
+        "{}",
+        &csv[..80]
+    );
+    // Counts are whole numbers.
+    let second = csv.lines().nth(2).unwrap();
+    assert!(!second.split(',').nth(1).unwrap().contains('.'), "{second}");
+    let read = contourcheck::measured::parse_trace_with(&csv, "export.csv", Some(&layout)).unwrap();
+    assert_eq!(read.len(), expected.len());
+    assert!((read.dt_s - expected.dt_s).abs() < 1e-12);
+    // Within half a count of the record written the tool's own way.
+    let within =
+        |u: &[f64], v: &[f64], tol: f64| u.iter().zip(v).all(|(p, q)| (p - q).abs() <= tol);
+    assert!(within(&read.x_m, &expected.x_m, 0.05e-6 + 1e-12));
+    assert!(within(&read.y_m, &expected.y_m, 0.05e-6 + 1e-12));
+    let (c, e) = (read.commands.unwrap(), expected.commands.unwrap());
+    assert!(within(&c[0], &e[0], 1e-10) && within(&c[1], &e[1], 1e-10));
+}

@@ -14,6 +14,7 @@ use crate::measured::MeasuredTrace;
 use crate::output::OutputBatch;
 use crate::sim::MeasuredAt;
 use crate::synth::{CommandStream, SynthSpec, synthesize};
+use crate::trace_format::ColumnMap;
 use crate::units::{m_from_um, s_from_ms};
 
 /// Arguments of `synth`.
@@ -71,6 +72,11 @@ pub struct SynthArgs {
     /// Record the commanded positions too, as a CNC servo trace does.
     #[arg(long)]
     pub with_commands: bool,
+    /// Write the record with these column names and units, as a control or lab system
+    /// would: `t=Time[ms],x=X_ActPos[counts:0.1um],y=Y_ActPos[counts:0.1um],x_cmd=X_Traj,
+    /// y_cmd=Y_Traj` (default: t_s, x_mm, y_mm, x_cmd_mm, y_cmd_mm).
+    #[arg(long, value_name = "MAP")]
+    pub out_columns: Option<String>,
     /// Seed of the noise.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -141,6 +147,12 @@ pub fn run(args: &SynthArgs) -> Result<Outcome, CliError> {
             args.offset_s
         )));
     }
+    let layout = args
+        .out_columns
+        .as_deref()
+        .map(ColumnMap::parse)
+        .transpose()
+        .map_err(|e| CliError::Usage(format!("--out-columns: {e}")))?;
     let machine = args.machine.load()?;
     let program = load_program(&args.program, &machine)?;
     let commands = match &args.commands {
@@ -160,7 +172,10 @@ pub fn run(args: &SynthArgs) -> Result<Outcome, CliError> {
     };
     let synthetic = synthesize(&program, &machine, &spec)?;
     let mut batch = OutputBatch::new();
-    batch.stage(&args.out, |w| synthetic.write_csv(w))?;
+    batch.stage(&args.out, |w| match &layout {
+        Some(layout) => synthetic.write_csv_as(w, layout),
+        None => synthetic.write_csv(w),
+    })?;
     batch.commit()?;
     let hidden = match &spec.effect {
         None => "nothing hidden (the nominal machine)".to_string(),
