@@ -53,28 +53,34 @@ fn mat_file(variables: &[(&str, usize, usize, Vec<f64>)]) -> Vec<u8> {
     out
 }
 
-/// A synthetic record of the square with commands, as the CSV the tool writes.
-fn record() -> (String, MeasuredTrace) {
+/// The square sample program.
+fn square() -> contourcheck::gcode::Program {
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/gcode-samples/square.nc"
     ))
     .unwrap();
-    let program = contourcheck::gcode::parse_program(
+    contourcheck::gcode::parse_program(
         &text,
         "square.nc",
         &contourcheck::gcode::InterpretOptions::default(),
     )
-    .unwrap();
+    .unwrap()
+}
+
+/// The square on the nominal machine with its commands recorded.
+fn synthetic_square() -> contourcheck::synth::Synthetic {
     let spec = SynthSpec {
         with_commands: true,
         ..SynthSpec::default()
     };
+    synthesize(&square(), &MachineConfig::default_preset(), &spec).unwrap()
+}
+
+/// A synthetic record of the square with commands, as the CSV the tool writes.
+fn record() -> (String, MeasuredTrace) {
     let mut csv = Vec::new();
-    synthesize(&program, &MachineConfig::default_preset(), &spec)
-        .unwrap()
-        .write_csv(&mut csv)
-        .unwrap();
+    synthetic_square().write_csv(&mut csv).unwrap();
     let csv = String::from_utf8(csv).unwrap();
     let trace = parse_trace(&csv, "record.csv").unwrap();
     (csv, trace)
@@ -376,31 +382,13 @@ fn undocumented_control_formats_are_refused_with_what_to_export_instead() {
 #[test]
 fn a_record_written_in_a_vendor_layout_reads_back_with_that_layout() {
     let (_, expected) = record();
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/gcode-samples/square.nc"
-    ))
-    .unwrap();
-    let program = contourcheck::gcode::parse_program(
-        &text,
-        "square.nc",
-        &contourcheck::gcode::InterpretOptions::default(),
-    )
-    .unwrap();
-    let spec = SynthSpec {
-        with_commands: true,
-        ..SynthSpec::default()
-    };
     let layout = ColumnMap::parse(
         "t=Time[ms],x=X_ActPos[counts:0.1um],y=Y_ActPos[counts:0.1um],x_cmd=X_Traj[in],\
          y_cmd=Y_Traj[in]",
     )
     .unwrap();
     let mut csv = Vec::new();
-    synthesize(&program, &MachineConfig::default_preset(), &spec)
-        .unwrap()
-        .write_csv_as(&mut csv, &layout)
-        .unwrap();
+    synthetic_square().write_csv_as(&mut csv, &layout).unwrap();
     let csv = String::from_utf8(csv).unwrap();
     assert!(
         csv.starts_with("Time,X_ActPos,Y_ActPos,X_Traj,Y_Traj\n"),

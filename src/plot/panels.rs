@@ -2,6 +2,7 @@
 //! with its own range, ordinate and legend: measured against modelled traces, residuals before and after.
 
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 use super::{FONT, Figure, PlotResult, err, series_color};
@@ -85,7 +86,15 @@ fn draw_panel<DB: DrawingBackend>(
         .axis_desc_style((FONT, 15))
         .draw()
         .map_err(err)?;
-    for curve in &panel.curves {
+    draw_curves(&mut chart, &panel.curves)
+}
+
+/// Draws `curves` on `chart`, each broken where its ordinate is NaN, and then the legend.
+pub(super) fn draw_curves<'a, DB: DrawingBackend + 'a>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    curves: &[Curve],
+) -> PlotResult {
+    for curve in curves {
         let style = match curve.color {
             Some(i) => series_color(i).stroke_width(curve.width),
             None => RGBColor(150, 150, 150).stroke_width(curve.width),

@@ -4,9 +4,9 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::panels::Curve;
+use super::panels::{Curve, draw_curves};
 use super::toolpath::equal_aspect_bounds;
-use super::{FONT, Figure, PlotResult, err, series_color};
+use super::{FONT, Figure, PlotResult, err};
 
 /// Paths in XY (mm), equal scale on both axes.
 pub struct XyPlot {
@@ -38,28 +38,7 @@ impl Figure for XyPlot {
             .axis_desc_style((FONT, 15))
             .draw()
             .map_err(err)?;
-        for curve in &self.curves {
-            let style = match curve.color {
-                Some(i) => series_color(i).stroke_width(curve.width),
-                None => RGBColor(150, 150, 150).stroke_width(curve.width),
-            };
-            let drawn = chart
-                .draw_series(LineSeries::new(curve.points.iter().copied(), style))
-                .map_err(err)?;
-            if !curve.name.is_empty() {
-                drawn
-                    .label(curve.name.clone())
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], style));
-            }
-        }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .label_font((FONT, 13))
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .draw()
-            .map_err(err)
+        draw_curves(&mut chart, &self.curves)
     }
 }
 
