@@ -7,6 +7,7 @@
 //! before anything runs: a missing, negative, non-finite or inconsistent value is an error
 //! naming the key and the file.
 
+mod alternatives;
 mod validate;
 
 use std::path::Path;
@@ -395,8 +396,10 @@ impl MachineConfig {
         } else {
             preset_table(&base, file)?
         };
-        merge(&mut table, over);
-        from_table(table, file)
+        let base_table = table.clone();
+        merge(&mut table, over.clone());
+        alternatives::resolve(&over, &mut table, file)?;
+        from_table(table, file).map_err(|e| explain_missing(e, &base, &base_table))
     }
 
     /// The machine as TOML (the full set of keys, no `base`).
@@ -425,12 +428,14 @@ pub enum ConfigError {
         message: String,
     },
     /// A key that must be present is not.
-    #[error("{file}: missing key `{key}`")]
+    #[error("{file}: missing key `{key}`{why}")]
     Missing {
         /// File.
         file: String,
         /// Dotted key path.
         key: String,
+        /// Why it was not taken from the base, when that is the reason (else empty).
+        why: String,
     },
     /// A key the machine does not have (a typo, usually).
     #[error("{file}: unknown key `{key}`")]
@@ -489,6 +494,29 @@ fn merge(base: &mut toml::Table, over: toml::Table) {
     }
 }
 
+/// A missing key in a section the base does not have: the file gave part of a section
+/// (an optional one, as `[y.lateral_shift]` on `hvmc`) that has nothing to be laid over.
+fn explain_missing(e: ConfigError, base: &str, base_table: &toml::Table) -> ConfigError {
+    let ConfigError::Missing { file, key, why } = e else {
+        return e;
+    };
+    let Some((section, _)) = key.rsplit_once('.') else {
+        return ConfigError::Missing { file, key, why };
+    };
+    let mut at = Some(base_table);
+    for part in section.split('.') {
+        at = at.and_then(|t| t.get(part)).and_then(|v| v.as_table());
+    }
+    let why = if at.is_none() && base != "none" {
+        format!(
+            " (the base `{base}` has no [{section}], so a file that adds it gives all its keys)"
+        )
+    } else {
+        why
+    };
+    ConfigError::Missing { file, key, why }
+}
+
 fn from_table(table: toml::Table, file: &str) -> Result<MachineConfig, ConfigError> {
     let value = toml::Value::Table(table);
     let machine: MachineConfig = serde_path_to_error::deserialize(value).map_err(|e| {
@@ -517,6 +545,7 @@ fn classify_serde_error(file: &str, path: &str, message: &str) -> ConfigError {
         ConfigError::Missing {
             file: file.into(),
             key: join(&quoted),
+            why: String::new(),
         }
     } else if message.starts_with("unknown field") {
         ConfigError::UnknownKey {
@@ -588,6 +617,66 @@ mod tests {
             e.unwrap_err()
                 .to_string()
                 .starts_with("m.toml: line 1, column")
+        );
+    }
+
+    /// Friction force at the table (N) as the model will use it.
+    fn coulomb_force_n(a: &AxisConfig) -> f64 {
+        a.friction.coulomb_coefficient * a.drive.table_mass_kg * crate::units::GRAVITY_M_PER_S2
+    }
+
+    #[test]
+    fn friction_in_absolute_units_is_the_same_force_whatever_the_mass() {
+        let light =
+            "[x.drive]\ntable_mass_kg = 80.0\n[x.friction]\ncoulomb_n = 150.0\nstatic_n = 200.0\n";
+        let m = MachineConfig::from_toml_str(light, "m.toml").unwrap();
+        assert!((coulomb_force_n(&m.x) - 150.0).abs() < 1e-9);
+        assert!((m.x.friction.static_to_coulomb - 200.0 / 150.0).abs() < 1e-12);
+        // The other axis keeps the base's coefficient.
+        assert_eq!(m.y.friction.coulomb_coefficient, 0.010);
+        let heavy = light.replace("80.0", "6000.0");
+        let m = MachineConfig::from_toml_str(&heavy, "m.toml").unwrap();
+        assert!((coulomb_force_n(&m.x) - 150.0).abs() < 1e-9);
+        // At the motor: 2 N·m through a 16 mm lead at 1:4 pushes with 2·2π/(0.25·0.016) N.
+        let motor =
+            "[x.friction]\ncoulomb_nm_at_motor = 2.0\nviscous_nm_s_per_rad_at_motor = 0.01\n";
+        let m = MachineConfig::from_toml_str(motor, "m.toml").unwrap();
+        let travel_per_rad = 0.25 * 0.016 / std::f64::consts::TAU;
+        assert!((coulomb_force_n(&m.x) - 2.0 / travel_per_rad).abs() < 1e-6);
+        assert!((m.x.friction.viscous_n_s_per_m - 0.01 / travel_per_rad.powi(2)).abs() < 1e-6);
+        // Written out, the machine carries the model's keys and reads back the same.
+        let again = MachineConfig::from_toml_str(&format!("base = \"none\"\n{}", m.to_toml()), "t")
+            .unwrap();
+        assert_eq!(again, m);
+    }
+
+    #[test]
+    fn friction_said_twice_or_a_partial_new_section_is_refused_with_the_key() {
+        let both = "[x.friction]\ncoulomb_coefficient = 0.01\ncoulomb_n = 150.0\n";
+        let e = MachineConfig::from_toml_str(both, "m.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("x.friction.coulomb_n") && e.contains("give one"),
+            "{e}"
+        );
+        let negative = "[y.friction]\ncoulomb_n = -3.0\n";
+        let e = MachineConfig::from_toml_str(negative, "m.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("y.friction.coulomb_n") && e.contains("≥ 0"),
+            "{e}"
+        );
+        // The preset has no beam on Y: part of one cannot be laid over anything.
+        let partial = "[y.lateral_shift]\nbeam_length_m = 3.0\n";
+        let e = MachineConfig::from_toml_str(partial, "m.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("missing key `y.lateral_shift.")
+                && e.contains("the base `hvmc` has no [y.lateral_shift]"),
+            "{e}"
         );
     }
 }
