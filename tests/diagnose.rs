@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use contourcheck::diagnose::causes::CauseId;
+use contourcheck::diagnose::locate::Variable;
 use contourcheck::diagnose::table::diagnose_table;
 use contourcheck::diagnose::{AxisResidual, DiagnoseSettings, Diagnosis, diagnose};
 use contourcheck::gcode::{InterpretOptions, Program, parse_program};
@@ -682,4 +683,77 @@ fn a_second_record_judges_what_the_first_fitted() {
         "{}",
         backlash.reason
     );
+}
+
+/// The circle test's record of the nominal machine with a bump on the X scale — a raised
+/// cosine of `peak_um` between X = 20 and 40 mm, as a damaged or dirty scale reads — added
+/// to the measured X column of the CSV a user would hand over.
+fn record_with_a_bump_on_x(peak_um: f64) -> contourcheck::measured::MeasuredTrace {
+    let prog = program("circle-test.nc");
+    let spec = SynthSpec {
+        offset_s: 0.37,
+        seed: 31,
+        ..SynthSpec::default()
+    };
+    let mut csv = Vec::new();
+    synthesize(&prog, &MachineConfig::default_preset(), &spec)
+        .unwrap()
+        .write_csv(&mut csv)
+        .unwrap();
+    let text = String::from_utf8(csv).unwrap();
+    let mut lines = text.lines();
+    let mut out = format!("{}\n", lines.next().unwrap());
+    for line in lines {
+        let f: Vec<&str> = line.split(',').collect();
+        let mut x: f64 = f[1].parse().unwrap();
+        if (20.0..=40.0).contains(&x) {
+            let phase = std::f64::consts::TAU * (x - 20.0) / 20.0;
+            x += 1e-3 * peak_um * 0.5 * (1.0 - phase.cos());
+        }
+        out.push_str(&format!("{},{x:.7},{}\n", f[0], f[2]));
+    }
+    parse_trace(&out, "bumped.csv").unwrap()
+}
+
+#[test]
+fn an_effect_outside_the_catalogue_is_placed_by_the_variable_it_follows() {
+    let nominal = MachineConfig::default_preset();
+    let prog = program("circle-test.nc");
+    let settings = DiagnoseSettings::for_machine(&nominal);
+    let d = diagnose(&prog, &nominal, &record_with_a_bump_on_x(6.0), &settings).unwrap();
+    // X's residual follows position on X, where the bump is; Y's is noise.
+    assert_eq!(d.unexplained.len(), 1, "{:?}", d.unexplained);
+    let u = &d.unexplained[0];
+    assert_eq!(u.axis, AxisName::X);
+    assert_eq!(u.variable, Some(Variable::Position(AxisName::X)), "{u:?}");
+    assert!(u.share > 0.6, "{u:?}");
+    let (lo, hi) = u.interval.unwrap();
+    assert!(
+        lo >= 18.0 && hi <= 42.0 && lo <= 28.0 && hi >= 32.0,
+        "{u:?}"
+    );
+    assert!((u.peak_um - 6.0).abs() < 1.5, "{u:?}");
+    // A gain error the search may not use is placed by velocity, the following error's own
+    // variable.
+    let spec = SynthSpec {
+        effect: Some((CauseId::KvGain, AxisName::X, vec![0.97])),
+        offset_s: 0.41,
+        seed: 32,
+        ..SynthSpec::default()
+    };
+    let measured = recorded(&prog, &nominal, &spec, "gain.csv");
+    let mut steered = settings;
+    steered.max_causes = 0;
+    let d = diagnose(&prog, &nominal, &measured, &steered).unwrap();
+    let x = d
+        .unexplained
+        .iter()
+        .find(|u| u.axis == AxisName::X)
+        .unwrap();
+    assert_eq!(x.variable, Some(Variable::Velocity), "{x:?}");
+    assert!(x.share > 0.9, "{x:?}");
+    // Nothing hidden: nothing stands out to be placed.
+    let clean = recorded(&prog, &nominal, &SynthSpec::default(), "clean.csv");
+    let d = diagnose(&prog, &nominal, &clean, &settings).unwrap();
+    assert!(d.unexplained.is_empty(), "{:?}", d.unexplained);
 }

@@ -18,6 +18,7 @@ pub mod causes;
 pub mod context;
 pub mod fit;
 pub mod holdout;
+pub mod locate;
 pub mod plausible;
 pub mod report;
 pub mod residual;
@@ -278,6 +279,9 @@ pub struct Diagnosis {
     pub circular: CircularComparison,
     /// The program's full circles (for polar plots of the series).
     pub circles: Vec<Circle>,
+    /// Where the residual the extended model leaves lives, per axis whose residual still
+    /// stands out from the noise.
+    pub unexplained: Vec<locate::Located>,
 }
 
 /// Circular-test figures of the same circles three ways.
@@ -391,6 +395,7 @@ pub fn diagnose_validated(
         outcome.offset_s
     };
     let circular = circular_comparison(&ctx, &series);
+    let unexplained = locate::locate(&ctx, &outcome.traces, outcome.offset_s);
     Ok(Diagnosis {
         offset_s: program_start,
         noise_floor_um: um_from_m(ctx.noise_sigma),
@@ -418,6 +423,7 @@ pub fn diagnose_validated(
         timing_drift_ms: ctx.timing_drift_s.map(|s| s * 1e3),
         circular,
         circles: circles(&ctx.plan.segments),
+        unexplained,
         skipped: skipped_causes(machine, settings),
         searched: settings.max_causes > 0
             && CauseId::ALL.into_iter().any(|c| {

@@ -7,6 +7,8 @@ use std::io::Write;
 
 use serde::Serialize;
 
+use super::locate::{Located, Variable};
+
 use super::causes::CauseId;
 use super::{
     Alternative, AxisResidual, Candidate, CircularComparison, Diagnosis, ExtraWait, FittedParam,
@@ -56,6 +58,9 @@ pub struct DiagnoseReport {
     pub timing_drift_ms: Option<f64>,
     /// Circular-test figures (ISO 230-4): measured, nominal model, extended model.
     pub circular_test: CircularComparison,
+    /// Where the residual left by the extended model lives, per axis where it stands out
+    /// from the noise.
+    pub unexplained: Vec<Located>,
 }
 
 /// The measurement, as read.
@@ -222,6 +227,7 @@ impl DiagnoseReport {
             rejected: d.rejected.clone(),
             timing_drift_ms: d.timing_drift_ms,
             circular_test: d.circular.clone(),
+            unexplained: d.unexplained.clone(),
         }
     }
 
@@ -358,6 +364,9 @@ impl DiagnoseReport {
                 r.reason
             );
         }
+        for u in &self.unexplained {
+            let _ = writeln!(s, "  {}", unexplained_line(u));
+        }
         for k in &self.skipped {
             let axes: Vec<String> = k.axes.iter().map(|a| a.to_string()).collect();
             let _ = writeln!(
@@ -466,6 +475,38 @@ fn verdict(d: &Diagnosis) -> String {
             d.noise_floor_um
         )
     }
+}
+
+/// Where an axis's unexplained residual lives, in a line.
+fn unexplained_line(u: &Located) -> String {
+    let Some(variable) = u.variable else {
+        return format!(
+            "unexplained on {}: {:.3} µm RMS left, following none of position, velocity, \
+             acceleration, direction, time or a period in position",
+            u.axis, u.residual_rms_um
+        );
+    };
+    let unit = variable.unit();
+    let place = match (variable, u.interval) {
+        (Variable::Period, Some((p, _))) => format!(" of {p:.2} mm, amplitude {:.2} µm", u.peak_um),
+        (Variable::Direction, _) => format!(", {:+.2} µm one way", u.peak_um),
+        (_, Some((lo, hi))) => {
+            let d = variable.decimals();
+            format!(
+                ", largest between {lo:.d$} and {hi:.d$} {unit}: {:+.2} µm",
+                u.peak_um
+            )
+        }
+        (_, None) => String::new(),
+    };
+    format!(
+        "unexplained on {}: {:.0} % of the {:.3} µm RMS left follows {}{place} (share predicted \
+         on the half of the record not fitted)",
+        u.axis,
+        100.0 * u.share,
+        u.residual_rms_um,
+        variable.describe()
+    )
 }
 
 /// The extended machine as a machine file that `check`, `sweep` and `diagnose` load.

@@ -1,0 +1,430 @@
+//! Where a residual that no catalogue cause explains lives.
+//!
+//! A real machine always has some effect nobody listed. Rather than force a catalogue cause
+//! onto it, the residual left after the search is tested against the variables an effect
+//! can hang on: the position of either axis (a guideway's bump, a straightness error of one
+//! axis seen on the other), the axis's velocity and acceleration, the direction of travel,
+//! the time (a drift), and a period in position other than the screw lead. Each variable
+//! gets a piecewise-constant model — the residual's mean in bins of the variable, or a sine
+//! and cosine for a period — fitted on half of the record and scored on the other half
+//! (alternate seconds, and then the other way round): the share of the residual's variance
+//! it predicts there. Only a share found on data the bins were not fitted on counts, so a
+//! variable with many bins cannot explain noise by fitting it.
+//!
+//! The variable with the largest share names where the residual lives, with the interval
+//! where its binned mean is largest — "position on X between 20 and 40 mm, +6 µm".
+
+use super::Context;
+use crate::machine::AxisName;
+use crate::units::um_from_m;
+
+/// A variable a residual can hang on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Variable {
+    /// The commanded position of an axis.
+    Position(AxisName),
+    /// The axis's commanded velocity (signed).
+    Velocity,
+    /// The axis's commanded acceleration.
+    Acceleration,
+    /// The direction the axis travels.
+    Direction,
+    /// The time into the program.
+    Time,
+    /// A period in the axis's position.
+    Period,
+}
+
+impl Variable {
+    /// Its name for a report.
+    pub fn describe(self) -> String {
+        match self {
+            Variable::Position(a) => format!("position on {a}"),
+            Variable::Velocity => "velocity".into(),
+            Variable::Acceleration => "acceleration".into(),
+            Variable::Direction => "direction of travel".into(),
+            Variable::Time => "time".into(),
+            Variable::Period => "a period in position".into(),
+        }
+    }
+
+    /// Decimals its interval is shown with.
+    pub fn decimals(self) -> usize {
+        match self {
+            Variable::Position(_) | Variable::Period | Variable::Time => 1,
+            Variable::Velocity | Variable::Direction => 0,
+            Variable::Acceleration => 4,
+        }
+    }
+
+    /// The unit its interval is given in.
+    pub fn unit(self) -> &'static str {
+        match self {
+            Variable::Position(_) | Variable::Period => "mm",
+            Variable::Velocity => "mm/min",
+            Variable::Acceleration => "m/s²",
+            Variable::Direction => "",
+            Variable::Time => "s",
+        }
+    }
+}
+
+/// Where one axis's unexplained residual lives.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Located {
+    /// The axis whose residual it is.
+    pub axis: AxisName,
+    /// The residual's RMS (µm).
+    pub residual_rms_um: f64,
+    /// The variable that predicts most of it on held-out data, if any predicts a quarter.
+    pub variable: Option<Variable>,
+    /// The share of the residual's variance it predicts there (0–1).
+    pub share: f64,
+    /// Where the residual's binned mean is largest, in the variable's unit: the bins around
+    /// the largest that reach half of it (for a period: the period itself, twice).
+    pub interval: Option<(f64, f64)>,
+    /// The binned mean there, signed (µm); for a period, its amplitude.
+    pub peak_um: f64,
+}
+
+/// Bins of a continuous variable.
+const BINS: usize = 64;
+/// Held-out share below which a variable is not named.
+const SMALLEST_SHARE: f64 = 0.25;
+/// Length of the alternating blocks the record is cut into for fitting and scoring (s):
+/// long against the residual's own correlation (a servo's transients last tens of ms),
+/// short against how often the axis comes back to a place, so that each bin is fitted on
+/// some passes and scored on others.
+const BLOCK_S: f64 = 0.2;
+/// Bins of the time: only a slow drift (warm-up, a clock) is looked for; finer bins would
+/// fit every event of the program as a moment of its own.
+const TIME_BINS: usize = 8;
+
+/// Locates the residual of each axis whose residual stands out from the noise (χ² excess
+/// over five standard deviations) with `traces` the model's final traces.
+pub fn locate(ctx: &Context, traces: &[Vec<f64>; 2], offset_s: f64) -> Vec<Located> {
+    AxisName::BOTH
+        .into_iter()
+        .filter_map(|axis| {
+            let residual = ctx.residual(axis, &traces[axis.index()], offset_s);
+            stands_out(&residual, ctx.noise_sigma)
+                .then(|| locate_axis(ctx, axis, &residual, offset_s))
+        })
+        .collect()
+}
+
+/// Whether a residual's χ² over the noise exceeds its expectation by five deviations.
+fn stands_out(residual: &[f64], sigma: f64) -> bool {
+    let n = residual.len() as f64;
+    let chi2 = residual.iter().map(|v| v * v).sum::<f64>() / (sigma * sigma).max(1e-30);
+    n > 0.0 && (chi2 - n) / (2.0 * n).sqrt() > 5.0
+}
+
+/// The samples' values of every candidate variable, then the best of them.
+fn locate_axis(ctx: &Context, axis: AxisName, residual: &[f64], offset_s: f64) -> Located {
+    let times: Vec<f64> = ctx
+        .samples
+        .iter()
+        .map(|&i| ctx.prog_time(i, offset_s))
+        .collect();
+    let command = |a: AxisName| -> Vec<(f64, f64, f64)> {
+        let c = ctx.commands.axis(a);
+        times
+            .iter()
+            .map(|&t| {
+                let k =
+                    ((t / ctx.dt).round().max(0.0) as usize).min(c.pos_m.len().saturating_sub(1));
+                (c.pos_m[k], c.vel_m_per_s[k], c.acc_m_per_s2[k])
+            })
+            .collect()
+    };
+    let own = command(axis);
+    let other = command(axis.other());
+    let fold: Vec<bool> = times
+        .iter()
+        .map(|t| (t / BLOCK_S).floor().rem_euclid(2.0) == 0.0)
+        .collect();
+    let mm = |v: f64| v * 1e3;
+    let continuous: Vec<(Variable, Vec<f64>)> = vec![
+        (
+            Variable::Position(axis),
+            own.iter().map(|c| mm(c.0)).collect(),
+        ),
+        (
+            Variable::Position(axis.other()),
+            other.iter().map(|c| mm(c.0)).collect(),
+        ),
+        (Variable::Velocity, own.iter().map(|c| c.1 * 6e4).collect()),
+        (Variable::Acceleration, own.iter().map(|c| c.2).collect()),
+        (Variable::Time, times.clone()),
+    ];
+    let mut best = Located {
+        axis,
+        residual_rms_um: um_from_m(rms(residual)),
+        variable: None,
+        share: 0.0,
+        interval: None,
+        peak_um: 0.0,
+    };
+    let mut consider =
+        |variable: Variable, share: f64, interval: Option<(f64, f64)>, peak_m: f64| {
+            // A variable must do clearly better to displace an earlier one: on a circle the
+            // acceleration is the position over again, and position is the plainer answer.
+            if share > best.share + 0.02 {
+                best.share = share;
+                best.variable = (share >= SMALLEST_SHARE).then_some(variable);
+                best.interval = interval;
+                best.peak_um = um_from_m(peak_m);
+            }
+        };
+    for (variable, z) in &continuous {
+        let count = if *variable == Variable::Time {
+            TIME_BINS
+        } else {
+            BINS
+        };
+        let bins = Bins::over(z, count);
+        let share = held_out_share(residual, &fold, |train| bins.fit(z, residual, train));
+        let (interval, peak) = bins.fit(z, residual, &|_| true).largest();
+        consider(*variable, share, interval, peak);
+    }
+    // Direction: two bins by the sign of a velocity clearly off zero.
+    let moving = own.iter().map(|c| c.1.abs()).fold(0.0, f64::max) * 0.02;
+    let direction: Vec<f64> = own
+        .iter()
+        .map(|c| {
+            if c.1 > moving {
+                1.0
+            } else if c.1 < -moving {
+                -1.0
+            } else {
+                f64::NAN
+            }
+        })
+        .collect();
+    let bins = Bins::fixed(-1.5, 1.5, 2);
+    let share = held_out_share(residual, &fold, |train| {
+        bins.fit(&direction, residual, train)
+    });
+    let (_, peak) = bins.fit(&direction, residual, &|_| true).largest();
+    consider(Variable::Direction, share, None, peak);
+    // A period in position: sine and cosine of 2πx/p over a logarithmic grid of periods.
+    let x: Vec<f64> = own.iter().map(|c| mm(c.0)).collect();
+    let span = x.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
+        - x.iter().fold(f64::INFINITY, |a, &b| a.min(b));
+    if span > 4.0 {
+        for k in 0..48 {
+            let period = 1.0 * (span / 2.0).powf(k as f64 / 47.0);
+            let share = held_out_share(residual, &fold, |train| {
+                Sinusoid::fit(&x, residual, period, train)
+            });
+            let amplitude = Sinusoid::fit(&x, residual, period, &|_| true).amplitude();
+            consider(Variable::Period, share, Some((period, period)), amplitude);
+        }
+    }
+    best
+}
+
+/// A model of the residual fitted on some samples that predicts any sample.
+trait Predictor {
+    fn predict(&self, i: usize) -> Option<f64>;
+}
+
+/// The share of variance a model predicts on each half when fitted on the other, both
+/// ways. `fit` gets which samples it may use.
+fn held_out_share<P: Predictor>(
+    residual: &[f64],
+    fold: &[bool],
+    fit: impl Fn(&dyn Fn(usize) -> bool) -> P,
+) -> f64 {
+    let (mut unexplained, mut total) = (0.0, 0.0);
+    for side in [true, false] {
+        let model = fit(&|i| fold[i] == side);
+        let scored: Vec<usize> = (0..residual.len()).filter(|&i| fold[i] != side).collect();
+        let mean = scored.iter().map(|&i| residual[i]).sum::<f64>() / scored.len().max(1) as f64;
+        for &i in &scored {
+            let r = residual[i] - mean;
+            let e = model.predict(i).map_or(r, |p| residual[i] - p);
+            unexplained += e * e;
+            total += r * r;
+        }
+    }
+    if total > 0.0 {
+        (1.0 - unexplained / total).max(0.0)
+    } else {
+        0.0
+    }
+}
+
+/// Equal-width bins of a variable.
+struct Bins {
+    lo: f64,
+    width: f64,
+    count: usize,
+}
+
+impl Bins {
+    /// `count` bins over the finite values of `z`.
+    fn over(z: &[f64], count: usize) -> Bins {
+        let (lo, hi) = z
+            .iter()
+            .filter(|v| v.is_finite())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                (l.min(v), h.max(v))
+            });
+        if lo < hi {
+            Bins::fixed(lo, hi, count)
+        } else {
+            Bins::fixed(0.0, 1.0, 1)
+        }
+    }
+
+    fn fixed(lo: f64, hi: f64, count: usize) -> Bins {
+        Bins {
+            lo,
+            width: (hi - lo) / count as f64,
+            count,
+        }
+    }
+
+    fn index(&self, v: f64) -> Option<usize> {
+        v.is_finite()
+            .then(|| (((v - self.lo) / self.width).floor().max(0.0) as usize).min(self.count - 1))
+    }
+
+    /// The residual's mean per bin over the samples `use_sample` allows.
+    fn fit<'z>(
+        &'z self,
+        z: &'z [f64],
+        residual: &[f64],
+        use_sample: &dyn Fn(usize) -> bool,
+    ) -> BinnedMeans<'z> {
+        let mut sum = vec![0.0; self.count];
+        let mut n = vec![0usize; self.count];
+        for (i, (&v, &r)) in z.iter().zip(residual).enumerate() {
+            if let Some(b) = self.index(v).filter(|_| use_sample(i)) {
+                sum[b] += r;
+                n[b] += 1;
+            }
+        }
+        // A bin needs a few samples to say anything.
+        let means = sum
+            .iter()
+            .zip(&n)
+            .map(|(s, &k)| (k >= 5).then(|| s / k as f64))
+            .collect();
+        BinnedMeans {
+            bins: self,
+            z,
+            means,
+        }
+    }
+}
+
+/// The residual's mean per bin.
+struct BinnedMeans<'z> {
+    bins: &'z Bins,
+    z: &'z [f64],
+    means: Vec<Option<f64>>,
+}
+
+impl Predictor for BinnedMeans<'_> {
+    /// Linear between the means at the bins' centres (where both neighbours have one), so
+    /// that a smooth effect is not cut into steps.
+    fn predict(&self, i: usize) -> Option<f64> {
+        let v = self.z[i];
+        let b = self.bins.index(v)?;
+        let own = self.means[b]?;
+        let centre = self.bins.lo + (b as f64 + 0.5) * self.bins.width;
+        let toward = if v >= centre {
+            b + 1
+        } else {
+            b.wrapping_sub(1)
+        };
+        match self.means.get(toward).copied().flatten() {
+            Some(next) => Some(own + (next - own) * (v - centre).abs() / self.bins.width),
+            None => Some(own),
+        }
+    }
+}
+
+impl BinnedMeans<'_> {
+    /// The bins around the one of largest |mean| whose means keep its sign and reach half
+    /// of it, as an interval of the variable, and that largest mean.
+    fn largest(&self) -> (Option<(f64, f64)>, f64) {
+        let Some((peak_bin, peak)) = self
+            .means
+            .iter()
+            .enumerate()
+            .filter_map(|(b, m)| m.map(|m| (b, m)))
+            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+        else {
+            return (None, 0.0);
+        };
+        let strong =
+            |b: usize| self.means[b].is_some_and(|m| m * peak > 0.0 && m.abs() >= 0.5 * peak.abs());
+        let (mut first, mut last) = (peak_bin, peak_bin);
+        while first > 0 && strong(first - 1) {
+            first -= 1;
+        }
+        while last + 1 < self.bins.count && strong(last + 1) {
+            last += 1;
+        }
+        let edge = |b: usize| self.bins.lo + b as f64 * self.bins.width;
+        (Some((edge(first), edge(last + 1))), peak)
+    }
+}
+
+/// a·sin(2πx/p) + b·cos(2πx/p) fitted by least squares.
+struct Sinusoid<'x> {
+    x: &'x [f64],
+    period: f64,
+    a: f64,
+    b: f64,
+}
+
+impl<'x> Sinusoid<'x> {
+    fn fit(
+        x: &'x [f64],
+        residual: &[f64],
+        period: f64,
+        use_sample: &dyn Fn(usize) -> bool,
+    ) -> Sinusoid<'x> {
+        let w = std::f64::consts::TAU / period;
+        let (mut ss, mut cc, mut sc, mut sr, mut cr) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for (i, (&xi, &r)) in x.iter().zip(residual).enumerate() {
+            if !use_sample(i) {
+                continue;
+            }
+            let (s, c) = (w * xi).sin_cos();
+            ss += s * s;
+            cc += c * c;
+            sc += s * c;
+            sr += s * r;
+            cr += c * r;
+        }
+        let det = ss * cc - sc * sc;
+        let (a, b) = if det.abs() > 1e-12 * (ss * cc).max(1e-300) {
+            ((sr * cc - cr * sc) / det, (cr * ss - sr * sc) / det)
+        } else {
+            (0.0, 0.0)
+        };
+        Sinusoid { x, period, a, b }
+    }
+
+    fn amplitude(&self) -> f64 {
+        self.a.hypot(self.b)
+    }
+}
+
+impl Predictor for Sinusoid<'_> {
+    fn predict(&self, i: usize) -> Option<f64> {
+        let (s, c) = (std::f64::consts::TAU / self.period * self.x[i]).sin_cos();
+        Some(self.a * s + self.b * c)
+    }
+}
+
+fn rms(v: &[f64]) -> f64 {
+    (v.iter().map(|x| x * x).sum::<f64>() / v.len().max(1) as f64).sqrt()
+}
