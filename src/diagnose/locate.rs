@@ -121,30 +121,48 @@ fn stands_out(residual: &[f64], sigma: f64) -> bool {
     n > 0.0 && (chi2 - n) / (2.0 * n).sqrt() > 5.0
 }
 
-/// The samples' values of every candidate variable, then the best of them.
-fn locate_axis(ctx: &Context, axis: AxisName, residual: &[f64], offset_s: f64) -> Located {
-    let times: Vec<f64> = ctx
-        .samples
+/// Program time of each compared sample (s).
+fn sample_times(ctx: &Context, offset_s: f64) -> Vec<f64> {
+    ctx.samples
         .iter()
         .map(|&i| ctx.prog_time(i, offset_s))
-        .collect();
-    let command = |a: AxisName| -> Vec<(f64, f64, f64)> {
-        let c = ctx.commands.axis(a);
-        times
-            .iter()
-            .map(|&t| {
-                let k =
-                    ((t / ctx.dt).round().max(0.0) as usize).min(c.pos_m.len().saturating_sub(1));
-                (c.pos_m[k], c.vel_m_per_s[k], c.acc_m_per_s2[k])
-            })
-            .collect()
-    };
-    let own = command(axis);
-    let other = command(axis.other());
-    let fold: Vec<bool> = times
+        .collect()
+}
+
+/// An axis's commanded position, velocity and acceleration at each compared sample (SI).
+fn commands_at_samples(ctx: &Context, axis: AxisName, times: &[f64]) -> Vec<(f64, f64, f64)> {
+    let c = ctx.commands.axis(axis);
+    times
+        .iter()
+        .map(|&t| {
+            let k = ((t / ctx.dt).round().max(0.0) as usize).min(c.pos_m.len().saturating_sub(1));
+            (c.pos_m[k], c.vel_m_per_s[k], c.acc_m_per_s2[k])
+        })
+        .collect()
+}
+
+/// An axis's commanded position at each compared sample (mm).
+pub(super) fn positions_mm(ctx: &Context, axis: AxisName, offset_s: f64) -> Vec<f64> {
+    commands_at_samples(ctx, axis, &sample_times(ctx, offset_s))
+        .iter()
+        .map(|c| c.0 * 1e3)
+        .collect()
+}
+
+/// Which half each compared sample belongs to: alternate blocks of `BLOCK_S`.
+pub(super) fn halves(ctx: &Context, offset_s: f64) -> Vec<bool> {
+    sample_times(ctx, offset_s)
         .iter()
         .map(|t| (t / BLOCK_S).floor().rem_euclid(2.0) == 0.0)
-        .collect();
+        .collect()
+}
+
+/// The samples' values of every candidate variable, then the best of them.
+fn locate_axis(ctx: &Context, axis: AxisName, residual: &[f64], offset_s: f64) -> Located {
+    let times = sample_times(ctx, offset_s);
+    let own = commands_at_samples(ctx, axis, &times);
+    let other = commands_at_samples(ctx, axis.other(), &times);
+    let fold = halves(ctx, offset_s);
     let mm = |v: f64| v * 1e3;
     let continuous: Vec<(Variable, Vec<f64>)> = vec![
         (
@@ -227,13 +245,13 @@ fn locate_axis(ctx: &Context, axis: AxisName, residual: &[f64], offset_s: f64) -
 }
 
 /// A model of the residual fitted on some samples that predicts any sample.
-trait Predictor {
+pub(super) trait Predictor {
     fn predict(&self, i: usize) -> Option<f64>;
 }
 
 /// The share of variance a model predicts on each half when fitted on the other, both
 /// ways. `fit` gets which samples it may use.
-fn held_out_share<P: Predictor>(
+pub(super) fn held_out_share<P: Predictor>(
     residual: &[f64],
     fold: &[bool],
     fit: impl Fn(&dyn Fn(usize) -> bool) -> P,
@@ -258,7 +276,7 @@ fn held_out_share<P: Predictor>(
 }
 
 /// Equal-width bins of a variable.
-struct Bins {
+pub(super) struct Bins {
     lo: f64,
     width: f64,
     count: usize,
@@ -266,7 +284,7 @@ struct Bins {
 
 impl Bins {
     /// `count` bins over the finite values of `z`.
-    fn over(z: &[f64], count: usize) -> Bins {
+    pub(super) fn over(z: &[f64], count: usize) -> Bins {
         let (lo, hi) = z
             .iter()
             .filter(|v| v.is_finite())
@@ -294,7 +312,7 @@ impl Bins {
     }
 
     /// The residual's mean per bin over the samples `use_sample` allows.
-    fn fit<'z>(
+    pub(super) fn fit<'z>(
         &'z self,
         z: &'z [f64],
         residual: &[f64],
@@ -323,7 +341,7 @@ impl Bins {
 }
 
 /// The residual's mean per bin.
-struct BinnedMeans<'z> {
+pub(super) struct BinnedMeans<'z> {
     bins: &'z Bins,
     z: &'z [f64],
     means: Vec<Option<f64>>,
@@ -350,6 +368,15 @@ impl Predictor for BinnedMeans<'_> {
 }
 
 impl BinnedMeans<'_> {
+    /// (bin centre, mean) of every bin with a mean.
+    pub(super) fn centres(&self) -> Vec<(f64, f64)> {
+        self.means
+            .iter()
+            .enumerate()
+            .filter_map(|(b, m)| m.map(|m| (self.bins.lo + (b as f64 + 0.5) * self.bins.width, m)))
+            .collect()
+    }
+
     /// The bins around the one of largest |mean| whose means keep its sign and reach half
     /// of it, as an interval of the variable, and that largest mean.
     fn largest(&self) -> (Option<(f64, f64)>, f64) {

@@ -18,6 +18,7 @@ pub mod causes;
 pub mod context;
 pub mod fit;
 pub mod holdout;
+pub mod learn;
 pub mod locate;
 pub mod plausible;
 pub mod report;
@@ -282,6 +283,9 @@ pub struct Diagnosis {
     /// Where the residual the extended model leaves lives, per axis whose residual still
     /// stands out from the noise.
     pub unexplained: Vec<locate::Located>,
+    /// Terms learned from the residual where no catalogue cause explained it (position
+    /// maps), part of `machine`.
+    pub learned: Vec<learn::Learned>,
 }
 
 /// Circular-test figures of the same circles three ways.
@@ -352,7 +356,7 @@ pub fn diagnose_validated(
     }
     // The extended model must not predict the contour worse than the nominal one: the
     // last causes go until it does not.
-    let (before, after, places, series) = loop {
+    let (mut before, mut after, mut places, mut series) = loop {
         let figures = summarize(
             &ctx,
             &nominal,
@@ -394,8 +398,32 @@ pub fn diagnose_validated(
     } else {
         outcome.offset_s
     };
+    // What no cause explains: where it lives, and, where that is the axis's own position,
+    // a compensation table learned from it.
+    let mut unexplained = locate::locate(&ctx, &outcome.traces, outcome.offset_s);
+    let mut learned = Vec::new();
+    if settings.max_causes > 0 {
+        for u in &unexplained {
+            if let Some((extended, traces, l)) =
+                learn::position_map(&ctx, &outcome.machine, &outcome.traces, outcome.offset_s, u)
+            {
+                outcome.machine = extended;
+                outcome.traces = traces;
+                learned.push(l);
+            }
+        }
+    }
+    if !learned.is_empty() {
+        (before, after, places, series) = summarize(
+            &ctx,
+            &nominal,
+            &outcome.traces,
+            outcome.offset_s,
+            settings.event_window_s,
+        );
+        unexplained = locate::locate(&ctx, &outcome.traces, outcome.offset_s);
+    }
     let circular = circular_comparison(&ctx, &series);
-    let unexplained = locate::locate(&ctx, &outcome.traces, outcome.offset_s);
     Ok(Diagnosis {
         offset_s: program_start,
         noise_floor_um: um_from_m(ctx.noise_sigma),
@@ -424,6 +452,7 @@ pub fn diagnose_validated(
         circular,
         circles: circles(&ctx.plan.segments),
         unexplained,
+        learned,
         skipped: skipped_causes(machine, settings),
         searched: settings.max_causes > 0
             && CauseId::ALL.into_iter().any(|c| {

@@ -7,6 +7,7 @@ use std::io::Write;
 
 use serde::Serialize;
 
+use super::learn::Learned;
 use super::locate::{Located, Variable};
 
 use super::causes::CauseId;
@@ -61,6 +62,9 @@ pub struct DiagnoseReport {
     /// Where the residual left by the extended model lives, per axis where it stands out
     /// from the noise.
     pub unexplained: Vec<Located>,
+    /// Position maps learned from the residual where no catalogue cause explained it (in
+    /// the extended machine as `errors.position_map_mm/um`).
+    pub learned: Vec<Learned>,
 }
 
 /// The measurement, as read.
@@ -228,6 +232,7 @@ impl DiagnoseReport {
             timing_drift_ms: d.timing_drift_ms,
             circular_test: d.circular.clone(),
             unexplained: d.unexplained.clone(),
+            learned: d.learned.clone(),
         }
     }
 
@@ -364,6 +369,9 @@ impl DiagnoseReport {
                 r.reason
             );
         }
+        for l in &self.learned {
+            let _ = writeln!(s, "  {}", learned_line(l));
+        }
         for u in &self.unexplained {
             let _ = writeln!(s, "  {}", unexplained_line(u));
         }
@@ -462,6 +470,13 @@ fn verdict(d: &Diagnosis) -> String {
             names.join(", ")
         );
     }
+    if !d.learned.is_empty() {
+        let axes: Vec<String> = d.learned.iter().map(|l| l.axis.to_string()).collect();
+        return format!(
+            "No catalogue cause; an unlisted position-dependent error learned on {}.",
+            axes.join(", ")
+        );
+    }
     let worst = d.before.x.rms_um.max(d.before.y.rms_um);
     if worst <= 1.2 * d.noise_floor_um {
         format!(
@@ -475,6 +490,25 @@ fn verdict(d: &Diagnosis) -> String {
             d.noise_floor_um
         )
     }
+}
+
+/// A learned position map, in a line.
+fn learned_line(l: &Learned) -> String {
+    let place = l.interval_mm.map_or(String::new(), |(lo, hi)| {
+        format!(" between {lo:.1} and {hi:.1} mm")
+    });
+    format!(
+        "unlisted effect learned: position-dependent error on {}{place}, peak {:+.2} µm, as a \
+         {}-point map (errors.position_map_*): {} RMS {:.3} → {:.3} µm; held out {:.3} → {:.3} µm",
+        l.axis,
+        l.peak_um,
+        l.points,
+        l.axis,
+        l.rms_before_um,
+        l.rms_after_um,
+        l.held_out_before_um,
+        l.held_out_after_um
+    )
 }
 
 /// Where an axis's unexplained residual lives, in a line.

@@ -17,6 +17,9 @@ use serde::{Deserialize, Serialize};
 /// The embedded presets: name and TOML text.
 pub const PRESETS: [(&str, &str); 1] = [("hvmc", include_str!("hvmc.toml"))];
 
+/// The most points a position map may have.
+pub const POSITION_MAP_POINTS: usize = 256;
+
 /// The default preset's name.
 pub const DEFAULT_PRESET: &str = "hvmc";
 
@@ -110,6 +113,15 @@ pub struct Errors {
     pub resonance_hz: f64,
     /// Its damping ratio.
     pub resonance_damping: f64,
+    /// A position-dependent error of the measuring system, as a compensation table holds
+    /// it: positions (mm, increasing) …
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub position_map_mm: Vec<f64>,
+    /// … and the error there (µm), linear in between and held beyond the ends. Learned by
+    /// `diagnose` where a residual follows the axis's position and no catalogue cause
+    /// explains it.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub position_map_um: Vec<f64>,
 }
 
 /// An axis that is planned but not simulated.

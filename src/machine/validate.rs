@@ -239,6 +239,7 @@ fn validate_axis(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigEr
             "must be positive when errors.resonance_hz is set".into(),
         ));
     }
+    validate_position_map(c, &k, e)?;
     if let Some(ls) = &a.lateral_shift {
         c.check(
             &k("lateral_shift.beam_length_m"),
@@ -296,6 +297,47 @@ fn validate_limits(c: &Checker, prefix: &str, l: &Limits) -> Result<(), ConfigEr
                 "is {} mm/min, below the maximum cutting feed {} mm/min",
                 l.rapid_mm_per_min, l.max_feed_mm_per_min
             ),
+        ));
+    }
+    Ok(())
+}
+
+/// A position map: as many errors as positions, at most `POSITION_MAP_POINTS`, positions
+/// increasing, every value finite and within a millimetre.
+fn validate_position_map(
+    c: &Checker,
+    k: &dyn Fn(&str) -> String,
+    e: &crate::machine::Errors,
+) -> Result<(), ConfigError> {
+    let (at, err) = (&e.position_map_mm, &e.position_map_um);
+    if at.len() != err.len() {
+        return Err(c.inconsistent(
+            &k("errors.position_map_um"),
+            format!(
+                "has {} values for {} positions in errors.position_map_mm",
+                err.len(),
+                at.len()
+            ),
+        ));
+    }
+    if at.len() > crate::machine::POSITION_MAP_POINTS {
+        return Err(c.inconsistent(
+            &k("errors.position_map_mm"),
+            format!(
+                "has {} points; at most {} are kept",
+                at.len(),
+                crate::machine::POSITION_MAP_POINTS
+            ),
+        ));
+    }
+    for (&p, &v) in at.iter().zip(err) {
+        c.check(&k("errors.position_map_mm"), p, Rule::Range(-1e6, 1e6))?;
+        c.check(&k("errors.position_map_um"), v, Rule::Range(-1e3, 1e3))?;
+    }
+    if at.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(c.inconsistent(
+            &k("errors.position_map_mm"),
+            "must increase from point to point".into(),
         ));
     }
     Ok(())

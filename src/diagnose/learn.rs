@@ -1,0 +1,176 @@
+//! Extending the model from the data where no catalogue cause explains the residual.
+//!
+//! When the residual left on an axis follows that axis's own position ([`super::locate`]),
+//! it is what a compensation table corrects: an error of the measuring system (or of the
+//! guideway seen by it) as a function of position. That error is learned as a table — the
+//! residual's mean in bins of the position, linear in between — and becomes the machine
+//! keys `errors.position_map_mm` / `errors.position_map_um`, which `check` and `diagnose`
+//! simulate like any other measuring error.
+//!
+//! How smooth the table is (how many bins) is chosen on held-out data: the bins are fitted
+//! on alternate blocks of the record and scored on the others, and the count that predicts
+//! best wins. Its gain is then measured like a cause's, by re-simulating: in sample, and on
+//! each half of the record with the table fitted on the other half.
+//!
+//! Whether a map entry moves the reading up or down depends on where the loop closes and
+//! where the record was measured (a linear scale reading too long holds the table short);
+//! the direction is found by simulating the map once and seeing which way the reading
+//! moves, not assumed.
+
+use super::Context;
+use super::locate::{Bins, Located, Predictor, Variable, halves, held_out_share, positions_mm};
+use crate::machine::{AxisName, MachineConfig};
+use crate::sim::model::MeasuringError;
+use crate::units::{m_from_mm, m_from_um, um_from_m};
+
+/// Bin counts the table's smoothness is chosen from.
+const BIN_COUNTS: [usize; 5] = [8, 16, 32, 64, 128];
+/// Held-out share of the residual a table must predict to be learned.
+const SMALLEST_SHARE: f64 = 0.5;
+
+/// A position map learned on one axis.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Learned {
+    /// The axis.
+    pub axis: AxisName,
+    /// Points in the table.
+    pub points: usize,
+    /// Where its error is largest (mm), as the residual's location gave it.
+    pub interval_mm: Option<(f64, f64)>,
+    /// The largest error in the table (µm, signed as the residual).
+    pub peak_um: f64,
+    /// The axis's residual RMS before and after, over the whole record (µm).
+    pub rms_before_um: f64,
+    /// After.
+    pub rms_after_um: f64,
+    /// The same on each half of the record with the table fitted on the other half (µm).
+    pub held_out_before_um: f64,
+    /// After.
+    pub held_out_after_um: f64,
+}
+
+/// The machine extended by a position map on the located axis, its traces, and what was
+/// learned — when the residual follows that axis's own position and a table fitted on half
+/// the record predicts the other half.
+pub fn position_map(
+    ctx: &Context,
+    machine: &MachineConfig,
+    traces: &[Vec<f64>; 2],
+    offset_s: f64,
+    located: &Located,
+) -> Option<(MachineConfig, [Vec<f64>; 2], Learned)> {
+    let axis = located.axis;
+    if located.variable != Some(Variable::Position(axis)) || located.share < SMALLEST_SHARE {
+        return None;
+    }
+    let residual = ctx.residual(axis, &traces[axis.index()], offset_s);
+    let z = positions_mm(ctx, axis, offset_s);
+    let fold = halves(ctx, offset_s);
+    // Smoothness: the bin count that predicts the held-out blocks best.
+    let count = BIN_COUNTS.into_iter().max_by(|&a, &b| {
+        let share = |n: usize| {
+            let bins = Bins::over(&z, n);
+            held_out_share(&residual, &fold, |train| bins.fit(&z, &residual, train))
+        };
+        share(a).total_cmp(&share(b))
+    })?;
+    let bins = Bins::over(&z, count);
+    let table = |use_sample: &dyn Fn(usize) -> bool| bins.fit(&z, &residual, use_sample).centres();
+    // Which way a map entry moves the reading here.
+    let whole = table(&|_| true);
+    let probe = with_map(machine, axis, &whole, 1.0);
+    let moved = ctx.simulate_axis(&probe, axis)?;
+    let fitted = bins.fit(&z, &residual, &|_| true);
+    let (mut along, mut norm) = (0.0, 0.0);
+    let before = ctx.at_samples(&traces[axis.index()], offset_s);
+    for (i, (now, was)) in ctx
+        .at_samples(&moved, offset_s)
+        .iter()
+        .zip(&before)
+        .enumerate()
+    {
+        let wanted = fitted.predict(i).unwrap_or(0.0);
+        along += (now - was) * wanted;
+        norm += wanted * wanted;
+    }
+    let sign = along / norm.max(1e-300);
+    if sign.abs() < 0.5 {
+        // The measuring point does not see the measuring system's error.
+        return None;
+    }
+    let sign = sign.signum();
+    let extended = with_map(machine, axis, &whole, sign);
+    let trace = ctx.simulate_axis(&extended, axis)?;
+    let rms = |r: &[f64], keep: &dyn Fn(usize) -> bool| {
+        let (s, n) = r
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| keep(*i))
+            .fold((0.0, 0usize), |(s, n), (_, v)| (s + v * v, n + 1));
+        (s / n.max(1) as f64).sqrt()
+    };
+    let after = ctx.residual(axis, &trace, offset_s);
+    // Held out: the table fitted on one half, re-simulated, scored on the other.
+    let (mut before_ss, mut after_ss, mut n) = (0.0, 0.0, 0usize);
+    for side in [true, false] {
+        let half_table = table(&|i| fold[i] == side);
+        let half_machine = with_map(machine, axis, &half_table, sign);
+        let half_trace = ctx.simulate_axis(&half_machine, axis)?;
+        let half_after = ctx.residual(axis, &half_trace, offset_s);
+        for i in (0..residual.len()).filter(|&i| fold[i] != side) {
+            before_ss += residual[i] * residual[i];
+            after_ss += half_after[i] * half_after[i];
+            n += 1;
+        }
+    }
+    let held_out_before = (before_ss / n.max(1) as f64).sqrt();
+    let held_out_after = (after_ss / n.max(1) as f64).sqrt();
+    if held_out_after >= held_out_before || rms(&after, &|_| true) >= rms(&residual, &|_| true) {
+        return None;
+    }
+    let peak = whole
+        .iter()
+        .map(|p| p.1)
+        .max_by(|a, b| a.abs().total_cmp(&b.abs()))
+        .unwrap_or(0.0);
+    let learned = Learned {
+        axis,
+        points: whole.len(),
+        interval_mm: located.interval,
+        peak_um: um_from_m(peak),
+        rms_before_um: um_from_m(rms(&residual, &|_| true)),
+        rms_after_um: um_from_m(rms(&after, &|_| true)),
+        held_out_before_um: um_from_m(held_out_before),
+        held_out_after_um: um_from_m(held_out_after),
+    };
+    let mut traces = traces.clone();
+    traces[axis.index()] = trace;
+    Some((extended, traces, learned))
+}
+
+/// `machine` with the table `points` ((mm, m) of the residual), times `sign`, added to the
+/// measuring error of `axis` (to a map it already has, taken at the new points).
+fn with_map(
+    machine: &MachineConfig,
+    axis: AxisName,
+    points: &[(f64, f64)],
+    sign: f64,
+) -> MachineConfig {
+    let mut m = machine.clone();
+    let errors = &mut m.axis_mut(axis).errors;
+    let existing = MeasuringError {
+        map: errors
+            .position_map_mm
+            .iter()
+            .zip(&errors.position_map_um)
+            .map(|(&p, &e)| (m_from_mm(p), m_from_um(e)))
+            .collect(),
+        ..MeasuringError::default()
+    };
+    errors.position_map_um = points
+        .iter()
+        .map(|&(p, e)| um_from_m(existing.at(m_from_mm(p)) + sign * e))
+        .collect();
+    errors.position_map_mm = points.iter().map(|p| p.0).collect();
+    m
+}
