@@ -10,6 +10,7 @@ pub mod analysis;
 pub mod check;
 pub mod circular;
 pub mod cli;
+pub mod compensation;
 pub mod contour;
 pub mod diagnose;
 pub mod envelope;

@@ -752,6 +752,19 @@ fn an_effect_outside_the_catalogue_is_placed_learned_and_measured() {
         at(30.0)
     );
     assert!(at(-50.0).abs() < 0.5 && at(80.0).abs() < 0.5);
+    // As a compensation table: the table stands 6 µm beyond where it is told to at 30 mm —
+    // the direction the record was bumped — whichever way it travels.
+    let tables = contourcheck::compensation::compensation(&d.machine);
+    assert_eq!(tables.len(), 1);
+    let (_, forward, reverse) = *tables[0]
+        .points
+        .iter()
+        .min_by(|a, b| (a.0 - 30.0).abs().total_cmp(&(b.0 - 30.0).abs()))
+        .unwrap();
+    assert!(
+        (forward - 6.0).abs() < 1.5 && forward == reverse,
+        "{forward} {reverse}"
+    );
     // What is left follows nothing in particular.
     assert!(
         d.unexplained

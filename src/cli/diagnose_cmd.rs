@@ -49,6 +49,12 @@ pub struct DiagnoseArgs {
     /// Write the extended machine as a machine file for check, sweep and diagnose.
     #[arg(long, value_name = "FILE")]
     pub write_machine: Option<PathBuf>,
+    /// Write the extended machine's static errors (measuring errors, a learned position
+    /// map, backlash) as compensation tables into this directory: `compensation.csv`
+    /// (axis, position, offsets forward and reverse) and LinuxCNC compensation files
+    /// `x.comp`, `y.comp` (COMP_FILE_TYPE = 1, mm).
+    #[arg(long, value_name = "DIR")]
+    pub write_compensation: Option<PathBuf>,
     /// Write plots (PNG and SVG) into this directory: measured vs nominal vs extended, and
     /// the residual before and after over time and along the path.
     #[arg(long, value_name = "DIR")]
@@ -148,6 +154,10 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
         let text = machine_file(&d.machine, &d, &program_file, &measured.file);
         batch.stage(path, |w| w.write_all(text.as_bytes()))?;
     }
+    let mut compensation_note = None;
+    if let Some(dir) = &args.write_compensation {
+        compensation_note = Some(stage_compensation(&mut batch, dir, &d.machine)?);
+    }
     if let Some(dir) = &args.plot {
         std::fs::create_dir_all(dir).map_err(|e| CliError::Read {
             path: dir.display().to_string(),
@@ -157,7 +167,45 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
     }
     batch.commit()?;
     print!("{}", report.summary_text());
+    if let Some(note) = compensation_note {
+        println!("{note}");
+    }
     Ok(Outcome::Ok)
+}
+
+/// Stages the compensation tables of `machine` into `dir`; says what was written.
+fn stage_compensation(
+    batch: &mut OutputBatch,
+    dir: &Path,
+    machine: &crate::machine::MachineConfig,
+) -> Result<String, CliError> {
+    use crate::compensation::{compensation, linuxcnc_file, neutral_csv};
+    let tables = compensation(machine);
+    if tables.is_empty() {
+        return Ok(
+            "compensation: nothing to compensate (no measuring error, map or backlash)".into(),
+        );
+    }
+    std::fs::create_dir_all(dir).map_err(|e| CliError::Read {
+        path: dir.display().to_string(),
+        message: e.to_string(),
+    })?;
+    let csv = neutral_csv(&tables);
+    batch.stage(&dir.join("compensation.csv"), |w| {
+        w.write_all(csv.as_bytes())
+    })?;
+    let mut written = vec!["compensation.csv".to_string()];
+    for t in &tables {
+        let name = format!("{}.comp", t.axis.to_string().to_lowercase());
+        let text = linuxcnc_file(t);
+        batch.stage(&dir.join(&name), |w| w.write_all(text.as_bytes()))?;
+        written.push(name);
+    }
+    Ok(format!(
+        "compensation: {} in {}",
+        written.join(", "),
+        dir.display()
+    ))
 }
 
 fn run_table(
@@ -165,9 +213,10 @@ fn run_table(
     path: &Path,
     machine: &crate::machine::MachineConfig,
 ) -> Result<Outcome, CliError> {
-    if args.write_machine.is_some() || args.plot.is_some() {
+    if args.write_machine.is_some() || args.plot.is_some() || args.write_compensation.is_some() {
         return Err(CliError::Usage(
-            "--write-machine and --plot apply to traces, not to --table".into(),
+            "--write-machine, --write-compensation and --plot apply to traces, not to --table"
+                .into(),
         ));
     }
     let rows = read_table(path)?;

@@ -1,0 +1,137 @@
+//! Compensation tables a control can load: the static errors of a machine's axes — its
+//! measuring-system errors (scale, cyclic, a learned position map) and its backlash — as
+//! offsets of the actual position from the commanded one, per direction of travel.
+//!
+//! The offset at a position is found from the model rather than by reasoning about signs:
+//! the axis is put at rest where its feedback reads the position (as the control holds it),
+//! and the table's place there, less the position, is the error (a linear scale reading too
+//! long leaves the table short; a lead error on a motor encoder moves it along). Backlash
+//! adds half the gap against the direction of travel.
+//!
+//! Two layouts are written:
+//! - a control-neutral CSV, `axis,position_mm,forward_um,reverse_um` (documented in
+//!   docs/report-schema.md);
+//! - LinuxCNC's joint compensation file, `COMP_FILE_TYPE = 1`: one line per point, the
+//!   nominal position, the offset travelling in the positive and in the negative direction,
+//!   in machine units (mm here), ascending, at most 256 lines — as LinuxCNC's INI
+//!   documentation (`[JOINT_n] COMP_FILE`) describes it. A joint with a compensation file
+//!   ignores its `BACKLASH`, so the backlash is in the file.
+
+use std::fmt::Write as _;
+
+use crate::machine::{AxisName, MachineConfig};
+use crate::sim::AxisModel;
+use crate::sim::model::X2;
+use crate::sim::simulate::rest_state;
+use crate::units::{m_from_mm, um_from_m};
+
+/// Points of a table over the travel when the errors are smooth (scale, cyclic).
+const GRID_POINTS: usize = 101;
+/// Most lines LinuxCNC keeps per joint.
+pub const LINUXCNC_MOST_POINTS: usize = 256;
+
+/// One axis's table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AxisCompensation {
+    /// The axis.
+    pub axis: AxisName,
+    /// (position mm, offset travelling forward µm, offset travelling in reverse µm),
+    /// ascending.
+    pub points: Vec<(f64, f64, f64)>,
+}
+
+/// The tables of the axes that have anything to compensate; none when nothing has.
+pub fn compensation(machine: &MachineConfig) -> Vec<AxisCompensation> {
+    AxisName::BOTH
+        .into_iter()
+        .filter_map(|axis| axis_compensation(machine, axis))
+        .collect()
+}
+
+fn axis_compensation(machine: &MachineConfig, axis: AxisName) -> Option<AxisCompensation> {
+    let config = machine.axis(axis);
+    let model = AxisModel::from_config(config);
+    let half_gap_um = 0.5 * config.drive.backlash_um;
+    if !model.measuring.is_active() && half_gap_um == 0.0 {
+        return None;
+    }
+    let positions = positions_mm(machine, axis);
+    let points = positions
+        .into_iter()
+        .map(|p| {
+            let (state, _) = rest_state(&model, m_from_mm(p));
+            let offset_um = um_from_m(state[X2] - m_from_mm(p));
+            (p, offset_um - half_gap_um, offset_um + half_gap_um)
+        })
+        .collect();
+    Some(AxisCompensation { axis, points })
+}
+
+/// Where the table has points: those of a learned position map (within LinuxCNC's limit),
+/// else an even grid over the axis's travel, or ±500 mm without one.
+fn positions_mm(machine: &MachineConfig, axis: AxisName) -> Vec<f64> {
+    let config = machine.axis(axis);
+    let map = &config.errors.position_map_mm;
+    if !map.is_empty() {
+        let every = map.len().div_ceil(LINUXCNC_MOST_POINTS);
+        let mut kept: Vec<f64> = map.iter().step_by(every).copied().collect();
+        if kept.last() != map.last() {
+            kept.push(map[map.len() - 1]);
+        }
+        kept.truncate(LINUXCNC_MOST_POINTS);
+        return kept;
+    }
+    let [lo, hi] = config.limits.travel_mm.unwrap_or([-500.0, 500.0]);
+    (0..GRID_POINTS)
+        .map(|k| lo + (hi - lo) * k as f64 / (GRID_POINTS - 1) as f64)
+        .collect()
+}
+
+/// The tables as the control-neutral CSV.
+pub fn neutral_csv(tables: &[AxisCompensation]) -> String {
+    let mut s = String::from("axis,position_mm,forward_um,reverse_um\n");
+    for t in tables {
+        for (p, f, r) in &t.points {
+            let _ = writeln!(s, "{},{p:.4},{f:.3},{r:.3}", t.axis);
+        }
+    }
+    s
+}
+
+/// One axis's table as a LinuxCNC compensation file (type 1, mm).
+pub fn linuxcnc_file(table: &AxisCompensation) -> String {
+    let mut s = String::new();
+    for (p, f, r) in &table.points {
+        let _ = writeln!(s, "{p:.4} {:.6} {:.6}", f * 1e-3, r * 1e-3);
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_scale_error_and_backlash_become_offsets_by_direction() {
+        let mut m = MachineConfig::default_preset();
+        // The X scale reads 100 ppm long: the control holds the table 100 ppm short.
+        m.x.errors.scale_error_ppm = 100.0;
+        m.x.drive.backlash_um = 8.0;
+        let tables = compensation(&m);
+        assert_eq!(tables.len(), 1);
+        let x = &tables[0];
+        assert_eq!(x.axis, AxisName::X);
+        let at = |p: f64| *x.points.iter().find(|q| (q.0 - p).abs() < 1e-9).unwrap();
+        let (_, forward, reverse) = at(1000.0);
+        // Held where the scale reads 1000 mm, the table stands at 1000/(1 + 10⁻⁴) mm:
+        // 99.990 µm short; the gap puts it 4 µm behind the direction of travel.
+        let short_um = -1e6 * 1e-4 / (1.0 + 1e-4);
+        assert!((forward - (short_um - 4.0)).abs() < 1e-6, "{forward}");
+        assert!((reverse - (short_um + 4.0)).abs() < 1e-6, "{reverse}");
+        let text = linuxcnc_file(x);
+        assert_eq!(text.lines().count(), x.points.len());
+        assert!(text.contains("\n1000.0000 -0.103990 -0.095990\n"), "{text}");
+        // Nothing to compensate on the nominal machine.
+        assert!(compensation(&MachineConfig::default_preset()).is_empty());
+    }
+}
