@@ -549,6 +549,13 @@ fn records_of_other_controllers_are_read_as_the_model_can_and_never_worse() {
         MeasuredAt::Table,
     )
     .unwrap();
+    // What the cascade cannot be made to do (follow without lag) is placed where it lives:
+    // the residual is the model's lag, proportional to velocity; nothing is learned from it.
+    assert!(d.learned.is_empty(), "{:?}", d.learned);
+    assert_eq!(d.unexplained.len(), 2, "{:?}", d.unexplained);
+    for u in &d.unexplained {
+        assert_eq!(u.variable, Some(contourcheck::diagnose::locate::Variable::Velocity), "{u:?}");
+    }
     for c in &d.causes {
         let [before, after] = [&c.before, &c.after];
         assert!(
