@@ -295,6 +295,13 @@ fn controls_with_nothing_hidden_name_nothing() {
             "{name}: named {:?}",
             d.causes.iter().map(|c| (c.id, c.axis)).collect::<Vec<_>>()
         );
+        // Nor is anything learned or placed: there is nothing left to place.
+        assert!(
+            d.learned.is_empty() && d.unexplained.is_empty(),
+            "{name}: {:?} {:?}",
+            d.learned,
+            d.unexplained
+        );
         // The nominal model is the truth: its residual is the noise.
         assert!(
             d.before.x.rms_um < 1.1 * d.noise_floor_um

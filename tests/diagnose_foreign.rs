@@ -361,6 +361,7 @@ fn a_motor_encoder_record_at_10_khz_names_nothing_at_any_rate() {
     for (step, rate) in [(1, "10 kHz"), (10, "1 ms"), (20, "2 ms")] {
         let d = diagnose_text(&program, &decimate(&csv, step), MeasuredAt::Motor).unwrap();
         assert!(d.causes.is_empty(), "{rate}: named {:?}", named(&d));
+        assert!(d.learned.is_empty(), "{rate}: learned {:?}", d.learned);
         // The noise floor is not the encoder count's rounding alone, and never below it.
         assert!(
             d.noise_floor_um >= 0.1 / 12f64.sqrt() - 1e-9,
