@@ -34,6 +34,8 @@ pub struct Circle {
     pub radius_m: f64,
     /// Counter-clockwise (G3).
     pub ccw: bool,
+    /// Programmed feed (m/s).
+    pub feed_m_per_s: f64,
 }
 
 /// The full circles among `segments`: feed arcs of constant radius that sweep at least one
@@ -54,6 +56,7 @@ pub fn circles(segments: &[Segment]) -> Vec<Circle> {
                     center_m: a.center_m,
                     radius_m: a.r_start_m,
                     ccw: a.sweep_rad > 0.0,
+                    feed_m_per_s: s.feed_m_per_s,
                 })
             }
             _ => None,
@@ -98,6 +101,13 @@ pub struct CircleFigures {
     /// Reversal spike heights at 0°, 90°, 180° and 270° (outward positive); NaN where the
     /// path has too few samples there.
     pub reversal_spikes_um: [f64; 4],
+    /// The path's ellipse along the diagonals, as an angle (µrad): the radial deviation's
+    /// sin 2θ term b as 2b/R. A squareness error α of Y to X (X reading α·y more) gives α;
+    /// a lag of Y behind X gives one whose sign turns with the direction of travel.
+    pub diagonal_ellipse_urad: f64,
+    /// The path's ellipse along the axes (ppm): the cos 2θ term a as 2a/R, the X scale
+    /// reading longer than the Y scale by that much.
+    pub scale_mismatch_ppm: f64,
     /// Samples the figures come from.
     pub samples: usize,
 }
@@ -114,6 +124,15 @@ pub struct Hysteresis {
     /// Bidirectional circular deviation: the band holding both paths about their common
     /// least-squares centre.
     pub g_both_um: f64,
+    /// Squareness of Y to X (µrad, X reading α·y more): the diagonal ellipse both
+    /// directions share.
+    pub squareness_urad: f64,
+    /// Servo mismatch (ms, Y lagging X positive): the diagonal ellipse that turns with the
+    /// direction, over the circle's angular speed — the difference of the axes' lags, as
+    /// from different position gains.
+    pub servo_mismatch_ms: f64,
+    /// Scale mismatch (ppm, X reading longer): the ellipse along the axes both share.
+    pub scale_mismatch_ppm: f64,
 }
 
 /// The figures of every circle, and of every opposite pair.
@@ -237,11 +256,12 @@ impl CircleSamples {
     }
 }
 
-/// G, F and the reversal spikes of one circle's points.
+/// G, F, the reversal spikes and the ellipses of one circle's points.
 fn figures(c: &Circle, p: &[[f64; 2]]) -> CircleFigures {
     let center = least_squares_center(p).unwrap_or(c.center_m);
     let (lo, hi) = radial_range(p, center, 0.0);
     let (f_min, f_max) = radial_range(p, c.center_m, c.radius_m);
+    let (along_axes, along_diagonals) = ellipse_terms(p, center);
     CircleFigures {
         line: c.line,
         direction: if c.ccw { "ccw" } else { "cw" },
@@ -250,7 +270,34 @@ fn figures(c: &Circle, p: &[[f64; 2]]) -> CircleFigures {
         f_max_um: um_from_m(f_max),
         f_min_um: um_from_m(f_min),
         reversal_spikes_um: reversal_spikes(c, p),
+        diagonal_ellipse_urad: 2.0 * along_diagonals / c.radius_m * 1e6,
+        scale_mismatch_ppm: 2.0 * along_axes / c.radius_m * 1e6,
         samples: p.len(),
+    }
+}
+
+/// The cos 2θ and sin 2θ terms (m) of the radial deviation about `center`, fitted by least
+/// squares together with a constant and the once-per-turn terms (which a centre slightly
+/// off leaves).
+fn ellipse_terms(p: &[[f64; 2]], center: [f64; 2]) -> (f64, f64) {
+    let mut ata = nalgebra::SMatrix::<f64, 5, 5>::zeros();
+    let mut atb = nalgebra::SVector::<f64, 5>::zeros();
+    for q in p {
+        let (dx, dy) = (q[0] - center[0], q[1] - center[1]);
+        let theta = dy.atan2(dx);
+        let row = nalgebra::SVector::<f64, 5>::new(
+            1.0,
+            theta.cos(),
+            theta.sin(),
+            (2.0 * theta).cos(),
+            (2.0 * theta).sin(),
+        );
+        ata += row * row.transpose();
+        atb += row * dx.hypot(dy);
+    }
+    match ata.lu().solve(&atb) {
+        Some(c) => (c[3], c[4]),
+        None => (0.0, 0.0),
     }
 }
 
@@ -324,8 +371,18 @@ fn reversal_spikes(c: &Circle, p: &[[f64; 2]]) -> [f64; 4] {
     })
 }
 
-/// H and the bidirectional G of two opposite circles.
+/// H, the bidirectional G, squareness and servo mismatch of two opposite circles.
 fn hysteresis(ccw: (&Circle, &Vec<[f64; 2]>), cw: (&Circle, &Vec<[f64; 2]>)) -> Hysteresis {
+    // Each ellipse as 2·term/R: (along the axes, along the diagonals).
+    let ellipse = |c: &Circle, p: &[[f64; 2]]| {
+        let center = least_squares_center(p).unwrap_or(c.center_m);
+        let (a, b) = ellipse_terms(p, center);
+        (2.0 * a / c.radius_m, 2.0 * b / c.radius_m)
+    };
+    let ((s_ccw, t_ccw), (s_cw, t_cw)) = (ellipse(ccw.0, ccw.1), ellipse(cw.0, cw.1));
+    // A lag Δτ of Y behind X tilts the ellipse by −ω·Δτ counter-clockwise and +ω·Δτ
+    // clockwise (ω = feed/R); a squareness error tilts both alike.
+    let omega = ccw.0.feed_m_per_s / ccw.0.radius_m;
     let both: Vec<[f64; 2]> = ccw.1.iter().chain(cw.1.iter()).copied().collect();
     let center = least_squares_center(&both).unwrap_or(ccw.0.center_m);
     let (lo, hi) = radial_range(&both, center, 0.0);
@@ -352,6 +409,13 @@ fn hysteresis(ccw: (&Circle, &Vec<[f64; 2]>), cw: (&Circle, &Vec<[f64; 2]>)) -> 
         cw_line: cw.0.line,
         h_um: um_from_m(h),
         g_both_um: um_from_m(hi - lo),
+        squareness_urad: 0.5 * (t_ccw + t_cw) * 1e6,
+        scale_mismatch_ppm: 0.5 * (s_ccw + s_cw) * 1e6,
+        servo_mismatch_ms: if omega > 0.0 {
+            (t_cw - t_ccw) / (2.0 * omega) * 1e3
+        } else {
+            f64::NAN
+        },
     }
 }
 
@@ -384,8 +448,15 @@ impl CircularTest {
         }
         for p in &self.pairs {
             s.push_str(&format!(
-                "  lines {} and {}: hysteresis H {:.2} µm, both directions G {:.2} µm\n",
-                p.ccw_line, p.cw_line, p.h_um, p.g_both_um
+                "  lines {} and {}: hysteresis H {:.2} µm, both directions G {:.2} µm, squareness \
+                 {:+.1} µrad, servo mismatch {:+.2} ms, scale mismatch {:+.1} ppm\n",
+                p.ccw_line,
+                p.cw_line,
+                p.h_um,
+                p.g_both_um,
+                p.squareness_urad,
+                p.servo_mismatch_ms,
+                p.scale_mismatch_ppm
             ));
         }
         s
@@ -403,6 +474,7 @@ mod tests {
             center_m: [0.0, 0.0],
             radius_m: 0.1,
             ccw,
+            feed_m_per_s: 1000.0 / 60_000.0,
         }
     }
 
@@ -462,5 +534,58 @@ mod tests {
         let t = circular_test(&[circle(true, 0)], &vec![0; 360], &x, &y);
         let s = t.circles[0].reversal_spikes_um;
         assert!((s[1] - 6.0).abs() < 1e-6 && s[0].abs() < 1e-6, "{s:?}");
+    }
+
+    /// Both directions of the R100 circle at F1000 as axes with lags `tau_s` ([X, Y]) and
+    /// the X reading `alpha`·y more and (1 + `scale`)·x, from the commanded point at
+    /// `theta` — what a ballbar would record.
+    fn pair_of(tau_s: [f64; 2], alpha: f64, scale: f64) -> CircularTest {
+        let omega = (1000.0 / 60_000.0) / 0.1;
+        let path = |ccw: bool| -> (Vec<f64>, Vec<f64>) {
+            let w = if ccw { omega } else { -omega };
+            (0..720)
+                .map(|k| {
+                    let theta = (k as f64 + 0.5).to_radians() * 0.5;
+                    let x = 0.1 * (theta - w * tau_s[0]).cos();
+                    let y = 0.1 * (theta - w * tau_s[1]).sin();
+                    ((1.0 + scale) * x + alpha * y, y)
+                })
+                .unzip()
+        };
+        let ((x1, y1), (x2, y2)) = (path(true), path(false));
+        let segment: Vec<u32> = [vec![0; 720], vec![1; 720]].concat();
+        circular_test(
+            &[circle(true, 0), circle(false, 1)],
+            &segment,
+            &[x1, x2].concat(),
+            &[y1, y2].concat(),
+        )
+    }
+
+    #[test]
+    fn squareness_servo_and_scale_mismatch_are_told_apart_by_direction() {
+        // Squareness 50 µrad: the same diagonal ellipse both ways.
+        let t = pair_of([0.0, 0.0], 50e-6, 0.0);
+        let p = t.pairs[0];
+        assert!((p.squareness_urad - 50.0).abs() < 0.5, "{p:?}");
+        assert!(
+            p.servo_mismatch_ms.abs() < 0.05 && p.scale_mismatch_ppm.abs() < 0.5,
+            "{p:?}"
+        );
+        // Y lagging X by 6.67 ms (Kv 0.9 against 1.0 m/min/mm): an ellipse that turns
+        // with the direction.
+        let t = pair_of([0.060, 0.060 + 0.0066667], 0.0, 0.0);
+        let p = t.pairs[0];
+        assert!((p.servo_mismatch_ms - 6.6667).abs() < 0.07, "{p:?}");
+        assert!(p.squareness_urad.abs() < 0.5, "{p:?}");
+        // The X scale 30 ppm long: an ellipse along the axes.
+        let t = pair_of([0.0, 0.0], 0.0, 30e-6);
+        let p = t.pairs[0];
+        assert!((p.scale_mismatch_ppm - 30.0).abs() < 0.3, "{p:?}");
+        assert!(
+            p.squareness_urad.abs() < 0.5 && p.servo_mismatch_ms.abs() < 0.05,
+            "{p:?}"
+        );
+        assert!((t.circles[0].diagonal_ellipse_urad).abs() < 0.5);
     }
 }

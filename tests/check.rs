@@ -459,3 +459,29 @@ fn a_run_in_chunks_is_the_run_in_one_piece() {
         assert_eq!(h.error_um, contour.error_m[h.sample] * 1e6, "{h:?}");
     }
 }
+
+#[test]
+fn a_gain_mismatch_shows_on_the_circle_test_as_the_lag_difference() {
+    // Kv 0.9 on Y against 1.0 on X: each axis lags its command by 1/Kv in steady state,
+    // so Y runs 1/(0.9·16.67 s⁻¹) − 1/(16.67 s⁻¹) = 6.67 ms behind X — the ballbar's servo
+    // mismatch — with no squareness.
+    let mut machine = MachineConfig::default_preset();
+    machine.y.position_loop.kv_m_per_min_per_mm = 0.9;
+    let r = circle_test(&machine);
+    let expected_ms = 1e3 * (1.0 / kv_per_s(0.9) - 1.0 / kv_per_s(1.0));
+    let pair = r.result.circular.pairs[0];
+    assert!(
+        (pair.servo_mismatch_ms - expected_ms).abs() < 0.01 * expected_ms,
+        "{pair:?} against {expected_ms} ms"
+    );
+    assert!(pair.squareness_urad.abs() < 1.0, "{pair:?}");
+    // Matched gains: none.
+    let pair = circle_test(&MachineConfig::default_preset())
+        .result
+        .circular
+        .pairs[0];
+    assert!(
+        pair.servo_mismatch_ms.abs() < 0.05 && pair.squareness_urad.abs() < 1.0,
+        "{pair:?}"
+    );
+}

@@ -555,7 +555,11 @@ fn records_of_other_controllers_are_read_as_the_model_can_and_never_worse() {
     assert!(d.learned.is_empty(), "{:?}", d.learned);
     assert_eq!(d.unexplained.len(), 2, "{:?}", d.unexplained);
     for u in &d.unexplained {
-        assert_eq!(u.variable, Some(contourcheck::diagnose::locate::Variable::Velocity), "{u:?}");
+        assert_eq!(
+            u.variable,
+            Some(contourcheck::diagnose::locate::Variable::Velocity),
+            "{u:?}"
+        );
     }
     for c in &d.causes {
         let [before, after] = [&c.before, &c.after];
