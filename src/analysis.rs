@@ -12,7 +12,7 @@ use crate::execute::RunChunk;
 use crate::gcode::Warning;
 pub use crate::hotspot::RunPlace;
 use crate::hotspot::{Hotspot, HotspotConfig, HotspotFinder, RunSample};
-use crate::machine::{AxisConfig, MachineConfig};
+use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::path::Motion;
 use crate::plan::Plan;
 use crate::sim::{AxisModel, AxisTrace, Mode};
@@ -96,6 +96,8 @@ pub struct RunAnalyser {
     plot: PeakThinned<PlotPoint>,
     limits: [LimitTally; 2],
     i_max_a: [f64; 2],
+    /// Each axis's squareness term (rad), applied to the positions at the tool.
+    squareness_rad: [f64; 2],
     squares_m2: f64,
     cutting_samples: usize,
     fe_cut_m: [f64; 2],
@@ -126,6 +128,7 @@ impl RunAnalyser {
             }),
             limits: Default::default(),
             i_max_a: [&machine.x, &machine.y].map(|a| a.velocity_loop.i_max_a),
+            squareness_rad: AxisName::BOTH.map(|a| crate::geometry::squareness_rad(machine, a)),
             squares_m2: 0.0,
             cutting_samples: 0,
             fe_cut_m: [0.0; 2],
@@ -144,7 +147,10 @@ impl RunAnalyser {
             let k = chunk.first + i;
             let seg = c.segment[i] as usize;
             let t_s = c.time_s(k);
-            let pos_m = [chunk.x.pos_m[i], chunk.y.pos_m[i]];
+            // At the tool: the axes' squareness lies beyond the scales the loops close on.
+            let scale = [chunk.x.pos_m[i], chunk.y.pos_m[i]];
+            let [ax, ay] = self.squareness_rad;
+            let pos_m = [scale[0] + ax * scale[1], scale[1] + ay * scale[0]];
             let reference = [c.x.pos_m[i], c.y.pos_m[i]];
             let point = self.locator.locate(plan, seg, reference, pos_m);
             let cutting = plan.segments[seg].motion == Motion::Feed;

@@ -16,6 +16,7 @@ pub mod diagnose;
 pub mod envelope;
 pub mod execute;
 pub mod gcode;
+pub mod geometry;
 pub mod hotspot;
 pub mod inspect;
 pub mod machine;

@@ -116,10 +116,15 @@ pub fn synthesize(
         )
     });
     let [x, y] = traces;
-    let (x, y) = (
+    let (mut x, mut y) = (
         x?.into_read_at(spec.measured_at),
         y?.into_read_at(spec.measured_at),
     );
+    // The axes' squareness lies beyond the scales: the tool and the table see it, a motor
+    // encoder does not.
+    if spec.measured_at != MeasuredAt::Motor {
+        crate::geometry::to_tool(&machine, &mut x, &mut y);
+    }
     let read = |v: f64| {
         if spec.quantization_m > 0.0 {
             (v / spec.quantization_m).round() * spec.quantization_m

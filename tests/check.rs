@@ -485,3 +485,14 @@ fn a_gain_mismatch_shows_on_the_circle_test_as_the_lag_difference() {
         "{pair:?}"
     );
 }
+
+#[test]
+fn squareness_tilts_the_circle_at_the_tool_not_the_servo() {
+    // X reading 50 µrad of Y more: a diagonal ellipse both directions share, and the same
+    // lags on both axes.
+    let mut machine = MachineConfig::default_preset();
+    machine.x.errors.squareness_urad = 50.0;
+    let pair = circle_test(&machine).result.circular.pairs[0];
+    assert!((pair.squareness_urad - 50.0).abs() < 0.5, "{pair:?}");
+    assert!(pair.servo_mismatch_ms.abs() < 0.05, "{pair:?}");
+}

@@ -804,3 +804,21 @@ fn an_effect_outside_the_catalogue_is_placed_learned_and_measured() {
     let d = diagnose(&prog, &nominal, &clean, &settings).unwrap();
     assert!(d.unexplained.is_empty(), "{:?}", d.unexplained);
 }
+
+#[test]
+fn the_axes_out_of_square_are_found_and_read_like_a_ballbar() {
+    // 30 µrad: X reads 3 µm more at Y = 100 mm, against 0.3 µm of noise.
+    let d = assert_found(
+        "circle-test.nc",
+        CauseId::Squareness,
+        AxisName::X,
+        &[30.0],
+        41,
+    );
+    // The circle test's figures say the same, measured and by the extended model.
+    for test in [&d.circular.measured, &d.circular.extended] {
+        let pair = test.pairs[0];
+        assert!((pair.squareness_urad - 30.0).abs() < 3.0, "{pair:?}");
+    }
+    assert!(d.circular.nominal.pairs[0].squareness_urad.abs() < 1.0);
+}

@@ -282,6 +282,13 @@ fn measuring_errors_found_through_another_interpolators_commands() {
         &[2.0, 120.0],
         46,
     );
+    assert_found_through_foreign_commands(
+        "circle-test.nc",
+        CauseId::Squareness,
+        AxisName::X,
+        &[40.0],
+        56,
+    );
 }
 
 #[test]

@@ -30,11 +30,13 @@ pub enum CauseId {
     ScaleError,
     /// A structural mode ringing after accelerations.
     Resonance,
+    /// The axes out of square: X reads a share of Y's position more.
+    Squareness,
 }
 
 impl CauseId {
     /// Every cause.
-    pub const ALL: [CauseId; 8] = [
+    pub const ALL: [CauseId; 9] = [
         CauseId::Backlash,
         CauseId::CoulombFriction,
         CauseId::Stribeck,
@@ -43,6 +45,7 @@ impl CauseId {
         CauseId::CyclicError,
         CauseId::ScaleError,
         CauseId::Resonance,
+        CauseId::Squareness,
     ];
 
     /// The id as written in reports and on the command line.
@@ -56,6 +59,7 @@ impl CauseId {
             CauseId::CyclicError => "cyclic_error",
             CauseId::ScaleError => "scale_error",
             CauseId::Resonance => "resonance",
+            CauseId::Squareness => "squareness",
         }
     }
 
@@ -145,6 +149,13 @@ impl CauseId {
                     max: 1.0,
                 },
             ],
+            CauseId::Squareness => &[Param {
+                key: "errors.squareness_urad",
+                unit: "µrad",
+                scale: 20.0,
+                min: -1e5,
+                max: 1e5,
+            }],
         }
     }
 
@@ -162,6 +173,9 @@ impl CauseId {
                 if feedback == Feedback::MotorEncoder =>
             {
                 Some("a lead error moves the table, not the motor the loop closes on")
+            }
+            (MeasuredAt::Motor, CauseId::Squareness) => {
+                Some("the axes' squareness lies between the scales and the tool")
             }
             _ => None,
         }
@@ -252,6 +266,7 @@ pub fn get(axis: &AxisConfig, key: &str) -> f64 {
         "errors.scale_error_ppm" => axis.errors.scale_error_ppm,
         "errors.resonance_hz" => axis.errors.resonance_hz,
         "errors.resonance_damping" => axis.errors.resonance_damping,
+        "errors.squareness_urad" => axis.errors.squareness_urad,
         other => unreachable!("not a cause parameter: {other}"),
     }
 }
@@ -270,6 +285,7 @@ pub fn set(axis: &mut AxisConfig, key: &str, v: f64) {
         "errors.scale_error_ppm" => &mut axis.errors.scale_error_ppm,
         "errors.resonance_hz" => &mut axis.errors.resonance_hz,
         "errors.resonance_damping" => &mut axis.errors.resonance_damping,
+        "errors.squareness_urad" => &mut axis.errors.squareness_urad,
         other => unreachable!("not a cause parameter: {other}"),
     };
     *slot = v;
@@ -294,6 +310,8 @@ pub struct Kinematics<'a> {
     pub dt_s: f64,
     /// The cyclic error's period (m).
     pub cyclic_period_m: f64,
+    /// The other axis's position (m).
+    pub other_pos_m: &'a [f64],
 }
 
 /// How strongly the residual `r` shows a cause's signature: the share of its variance
@@ -333,6 +351,12 @@ pub fn signature(cause: CauseId, r: &[f64], k: &Kinematics) -> f64 {
             ((near - far) / (near + far)).max(0.0)
         }
         CauseId::Resonance => spectral_peak(r, k.dt_s),
+        CauseId::Squareness => explained(
+            r,
+            n.min(k.other_pos_m.len()),
+            &[&|i| k.other_pos_m[i]],
+            &all,
+        ),
     }
 }
 

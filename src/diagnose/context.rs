@@ -11,6 +11,7 @@ use super::residual::{chatter_noise_power, chatter_windows, rms};
 use super::{DiagnoseError, DiagnoseSettings};
 use crate::check::plan_commands;
 use crate::gcode::Program;
+use crate::geometry;
 use crate::machine::{AxisName, MachineConfig};
 use crate::measured::MeasuredTrace;
 use crate::path::Motion;
@@ -79,10 +80,36 @@ impl Context<'_> {
     /// Simulates one axis of a machine on the context's commands; `None` if it cannot run.
     pub fn simulate_axis(&self, machine: &MachineConfig, axis: AxisName) -> Option<Vec<f64>> {
         match self.replanned(machine) {
-            None => self.simulate_on(machine, axis, &self.commands),
+            None => self.read_on(machine, axis, &self.commands, None),
             // The machine runs on its own plan's clock.
-            Some(commands) => self.simulate_on(machine, axis, &commands),
+            Some(commands) => self.read_on(machine, axis, &commands, None),
         }
+    }
+
+    /// `axis` of `machine` on `commands` as the measurement sees it: with the axes'
+    /// squareness, from `other` (the other axis on the same commands) or, when not given
+    /// and needed, a simulation of it.
+    fn read_on(
+        &self,
+        machine: &MachineConfig,
+        axis: AxisName,
+        commands: &Commands,
+        other: Option<&[f64]>,
+    ) -> Option<Vec<f64>> {
+        let mut own = self.simulate_on(machine, axis, commands)?;
+        let alpha = geometry::squareness_rad(machine, axis);
+        if alpha != 0.0 && self.measured_at != MeasuredAt::Motor {
+            let simulated;
+            let other = match other {
+                Some(o) => o,
+                None => {
+                    simulated = self.simulate_on(machine, axis.other(), commands)?;
+                    &simulated
+                }
+            };
+            geometry::add_squareness(alpha, &mut own, other);
+        }
+        Some(own)
     }
 
     /// Simulates `axis` of `machine`, and the other axis too when `machine` changes the
@@ -96,13 +123,24 @@ impl Context<'_> {
     ) -> Option<(Vec<f64>, std::borrow::Cow<'b, [f64]>)> {
         Some(match self.replanned(machine) {
             None => (
-                self.simulate_on(machine, axis, &self.commands)?,
+                self.read_on(machine, axis, &self.commands, Some(other))?,
                 std::borrow::Cow::Borrowed(other),
             ),
-            Some(commands) => (
-                self.simulate_on(machine, axis, &commands)?,
-                std::borrow::Cow::Owned(self.simulate_on(machine, axis.other(), &commands)?),
-            ),
+            Some(commands) => {
+                let raw_own = self.simulate_on(machine, axis, &commands)?;
+                let mut other = self.simulate_on(machine, axis.other(), &commands)?;
+                let mut own = raw_own.clone();
+                if self.measured_at != MeasuredAt::Motor {
+                    geometry::add_squareness(
+                        geometry::squareness_rad(machine, axis),
+                        &mut own,
+                        &other,
+                    );
+                    let alpha_other = geometry::squareness_rad(machine, axis.other());
+                    geometry::add_squareness(alpha_other, &mut other, &raw_own);
+                }
+                (own, std::borrow::Cow::Owned(other))
+            }
         })
     }
 

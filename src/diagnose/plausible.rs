@@ -29,6 +29,8 @@ const DEAD_TIME_MAX_S: f64 = 0.05;
 const CYCLIC_AMPLITUDE_MAX_M: f64 = 50e-6;
 /// Largest scale or lead error (ppm): a screw's lead class, a scale's expansion.
 const SCALE_ERROR_MAX_PPM: f64 = 1000.0;
+/// Out-of-squareness beyond which a machine would not have left assembly (µrad): 1 mm per metre.
+const SQUARENESS_MAX_URAD: f64 = 1000.0;
 /// A position gain this far from the set one is a wrong machine file, not a cause.
 const KV_RATIO_MAX: f64 = 5.0;
 /// How near (relative) a fitted resonance may lie to a loop's crossover before it is taken
@@ -104,6 +106,14 @@ pub fn implausible(
                 )
             })
         }
+        CauseId::Squareness => (values[0].abs() > SQUARENESS_MAX_URAD).then(|| {
+            format!(
+                "axes {:.0} µrad out of square ({:.2} mm per metre) would have been seen at \
+                 assembly",
+                values[0],
+                values[0] * 1e-3
+            )
+        }),
         CauseId::Resonance => loop_frequency_near(&model, values[0]).map(|(what, f)| {
             format!(
                 "{:.1} Hz lies at the model's own {what} ({f:.1} Hz): the loop, not the structure",

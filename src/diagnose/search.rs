@@ -422,6 +422,17 @@ fn tries_on_axis(
             (sample(trace, ctx.dt, t), ctx.command_at(axis, t).1)
         })
         .unzip();
+    let other_pos: Vec<f64> = ctx
+        .samples
+        .iter()
+        .map(|&i| {
+            sample(
+                &traces[axis.other().index()],
+                ctx.dt,
+                ctx.prog_time(i, offset_s),
+            )
+        })
+        .collect();
     let (reversal, _) = ctx.event_masks(axis, offset_s, settings.event_window_s);
     let ax = current.axis(axis);
     let period_mm = if ax.errors.cyclic_period_mm > 0.0 {
@@ -435,6 +446,7 @@ fn tries_on_axis(
         near_reversal: &reversal,
         dt_s: ctx.sample_dt_s,
         cyclic_period_m: period_mm * 1e-3,
+        other_pos_m: &other_pos,
     };
     CauseId::ALL
         .into_iter()
@@ -577,6 +589,8 @@ fn initial_guess(cause: CauseId, axis: &AxisConfig, r: &[f64], k: &Kinematics) -
         CauseId::CoulombFriction => vec![axis.friction.coulomb_coefficient * 3.0],
         CauseId::Stribeck => vec![300.0, 20.0],
         CauseId::Resonance => vec![dominant_frequency(r, k.dt_s), 0.05],
+        // r = α·y: µrad = slope.
+        CauseId::Squareness => vec![slope(&|i| k.other_pos_m[i]) * 1e6],
     }
 }
 

@@ -113,6 +113,10 @@ pub struct Errors {
     pub resonance_hz: f64,
     /// Its damping ratio.
     pub resonance_damping: f64,
+    /// Squareness of the other axis to this one (µrad): this axis reads α times the other
+    /// axis's position more (on X: the Y axis leans towards +X). Geometric, between the
+    /// scales and the tool: the servo loops do not see it.
+    pub squareness_urad: f64,
     /// A position-dependent error of the measuring system, as a compensation table holds
     /// it: positions (mm, increasing) …
     #[serde(skip_serializing_if = "Vec::is_empty")]

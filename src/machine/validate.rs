@@ -239,6 +239,11 @@ fn validate_axis(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigEr
             "must be positive when errors.resonance_hz is set".into(),
         ));
     }
+    c.check(
+        &k("errors.squareness_urad"),
+        e.squareness_urad,
+        Rule::Range(-1e5, 1e5),
+    )?;
     validate_position_map(c, &k, e)?;
     if let Some(ls) = &a.lateral_shift {
         c.check(
