@@ -120,7 +120,7 @@ pub fn synthesize(
         x?.into_read_at(spec.measured_at),
         y?.into_read_at(spec.measured_at),
     );
-    // The axes' squareness lies beyond the scales: the tool and the table see it, a motor
+    // The axes' geometry lies beyond the scales: the tool and the table see it, a motor
     // encoder does not.
     if spec.measured_at != MeasuredAt::Motor {
         crate::geometry::to_tool(&machine, &mut x, &mut y);

@@ -822,3 +822,16 @@ fn the_axes_out_of_square_are_found_and_read_like_a_ballbar() {
     }
     assert!(d.circular.nominal.pairs[0].squareness_urad.abs() < 1.0);
 }
+
+#[test]
+fn a_bowed_travel_is_found_on_the_axis_that_sees_it() {
+    // X's travel bowed 60 µm over the metre the preset gives the bow: Y reads up to 2.4 µm
+    // less at X = ±100 mm.
+    assert_found(
+        "circle-test.nc",
+        CauseId::Straightness,
+        AxisName::Y,
+        &[60.0],
+        43,
+    );
+}

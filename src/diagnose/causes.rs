@@ -32,11 +32,13 @@ pub enum CauseId {
     Resonance,
     /// The axes out of square: X reads a share of Y's position more.
     Squareness,
+    /// The other axis's travel bowed as seen on this one.
+    Straightness,
 }
 
 impl CauseId {
     /// Every cause.
-    pub const ALL: [CauseId; 9] = [
+    pub const ALL: [CauseId; 10] = [
         CauseId::Backlash,
         CauseId::CoulombFriction,
         CauseId::Stribeck,
@@ -46,6 +48,7 @@ impl CauseId {
         CauseId::ScaleError,
         CauseId::Resonance,
         CauseId::Squareness,
+        CauseId::Straightness,
     ];
 
     /// The id as written in reports and on the command line.
@@ -60,6 +63,7 @@ impl CauseId {
             CauseId::ScaleError => "scale_error",
             CauseId::Resonance => "resonance",
             CauseId::Squareness => "squareness",
+            CauseId::Straightness => "straightness",
         }
     }
 
@@ -156,6 +160,13 @@ impl CauseId {
                 min: -1e5,
                 max: 1e5,
             }],
+            CauseId::Straightness => &[Param {
+                key: "errors.straightness_bow_um",
+                unit: "µm",
+                scale: 5.0,
+                min: -1e4,
+                max: 1e4,
+            }],
         }
     }
 
@@ -174,8 +185,8 @@ impl CauseId {
             {
                 Some("a lead error moves the table, not the motor the loop closes on")
             }
-            (MeasuredAt::Motor, CauseId::Squareness) => {
-                Some("the axes' squareness lies between the scales and the tool")
+            (MeasuredAt::Motor, CauseId::Squareness | CauseId::Straightness) => {
+                Some("the axes' geometry lies between the scales and the tool")
             }
             _ => None,
         }
@@ -267,6 +278,7 @@ pub fn get(axis: &AxisConfig, key: &str) -> f64 {
         "errors.resonance_hz" => axis.errors.resonance_hz,
         "errors.resonance_damping" => axis.errors.resonance_damping,
         "errors.squareness_urad" => axis.errors.squareness_urad,
+        "errors.straightness_bow_um" => axis.errors.straightness_bow_um,
         other => unreachable!("not a cause parameter: {other}"),
     }
 }
@@ -286,6 +298,7 @@ pub fn set(axis: &mut AxisConfig, key: &str, v: f64) {
         "errors.resonance_hz" => &mut axis.errors.resonance_hz,
         "errors.resonance_damping" => &mut axis.errors.resonance_damping,
         "errors.squareness_urad" => &mut axis.errors.squareness_urad,
+        "errors.straightness_bow_um" => &mut axis.errors.straightness_bow_um,
         other => unreachable!("not a cause parameter: {other}"),
     };
     *slot = v;
@@ -355,6 +368,12 @@ pub fn signature(cause: CauseId, r: &[f64], k: &Kinematics) -> f64 {
             r,
             n.min(k.other_pos_m.len()),
             &[&|i| k.other_pos_m[i]],
+            &all,
+        ),
+        CauseId::Straightness => explained(
+            r,
+            n.min(k.other_pos_m.len()),
+            &[&|i| k.other_pos_m[i] * k.other_pos_m[i]],
             &all,
         ),
     }

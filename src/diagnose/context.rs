@@ -97,8 +97,8 @@ impl Context<'_> {
         other: Option<&[f64]>,
     ) -> Option<Vec<f64>> {
         let mut own = self.simulate_on(machine, axis, commands)?;
-        let alpha = geometry::squareness_rad(machine, axis);
-        if alpha != 0.0 && self.measured_at != MeasuredAt::Motor {
+        let cross = geometry::CrossTerms::of(machine, axis);
+        if !cross.is_zero() && self.measured_at != MeasuredAt::Motor {
             let simulated;
             let other = match other {
                 Some(o) => o,
@@ -107,7 +107,7 @@ impl Context<'_> {
                     &simulated
                 }
             };
-            geometry::add_squareness(alpha, &mut own, other);
+            cross.add(&mut own, other);
         }
         Some(own)
     }
@@ -131,13 +131,8 @@ impl Context<'_> {
                 let mut other = self.simulate_on(machine, axis.other(), &commands)?;
                 let mut own = raw_own.clone();
                 if self.measured_at != MeasuredAt::Motor {
-                    geometry::add_squareness(
-                        geometry::squareness_rad(machine, axis),
-                        &mut own,
-                        &other,
-                    );
-                    let alpha_other = geometry::squareness_rad(machine, axis.other());
-                    geometry::add_squareness(alpha_other, &mut other, &raw_own);
+                    geometry::CrossTerms::of(machine, axis).add(&mut own, &other);
+                    geometry::CrossTerms::of(machine, axis.other()).add(&mut other, &raw_own);
                 }
                 (own, std::borrow::Cow::Owned(other))
             }

@@ -31,6 +31,8 @@ const CYCLIC_AMPLITUDE_MAX_M: f64 = 50e-6;
 const SCALE_ERROR_MAX_PPM: f64 = 1000.0;
 /// Out-of-squareness beyond which a machine would not have left assembly (µrad): 1 mm per metre.
 const SQUARENESS_MAX_URAD: f64 = 1000.0;
+/// Largest bow of a guideway over its span (µm).
+const STRAIGHTNESS_MAX_UM: f64 = 200.0;
 /// A position gain this far from the set one is a wrong machine file, not a cause.
 const KV_RATIO_MAX: f64 = 5.0;
 /// How near (relative) a fitted resonance may lie to a loop's crossover before it is taken
@@ -112,6 +114,12 @@ pub fn implausible(
                  assembly",
                 values[0],
                 values[0] * 1e-3
+            )
+        }),
+        CauseId::Straightness => (values[0].abs() > STRAIGHTNESS_MAX_UM).then(|| {
+            format!(
+                "a guideway bowed {:.0} µm over {:.0} mm is beyond any machine's ({STRAIGHTNESS_MAX_UM:.0} µm)",
+                values[0], axis.errors.straightness_span_mm
             )
         }),
         CauseId::Resonance => loop_frequency_near(&model, values[0]).map(|(what, f)| {

@@ -591,6 +591,11 @@ fn initial_guess(cause: CauseId, axis: &AxisConfig, r: &[f64], k: &Kinematics) -
         CauseId::Resonance => vec![dominant_frequency(r, k.dt_s), 0.05],
         // r = α·y: µrad = slope.
         CauseId::Squareness => vec![slope(&|i| k.other_pos_m[i]) * 1e6],
+        // r = −b·(2q/L)²: b = −slope on (2q/L)².
+        CauseId::Straightness => {
+            let half_span_m = 0.5e-3 * axis.errors.straightness_span_mm;
+            vec![-slope(&|i| (k.other_pos_m[i] / half_span_m).powi(2)) * 1e6]
+        }
     }
 }
 

@@ -95,8 +95,12 @@ pub struct AxisConfig {
     pub errors: Errors,
 }
 
+fn default_straightness_span_mm() -> f64 {
+    1000.0
+}
+
 /// Effects outside the nominal model (MODEL.md §5), each off at zero.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Errors {
     /// Scale (full closed loop) or lead (semi-closed loop) error proportional to position
@@ -117,6 +121,13 @@ pub struct Errors {
     /// axis's position more (on X: the Y axis leans towards +X). Geometric, between the
     /// scales and the tool: the servo loops do not see it.
     pub squareness_urad: f64,
+    /// Straightness of the other axis's travel seen on this one: the bow (µm) of its middle
+    /// towards + this axis from the line through the ends of the span below; this axis
+    /// reads −bow·(2q/span)² more with the other axis at q.
+    pub straightness_bow_um: f64,
+    /// The span the bow is given over (mm), centred on the other axis's zero.
+    #[serde(default = "default_straightness_span_mm")]
+    pub straightness_span_mm: f64,
     /// A position-dependent error of the measuring system, as a compensation table holds
     /// it: positions (mm, increasing) …
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -126,6 +137,24 @@ pub struct Errors {
     /// explains it.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub position_map_um: Vec<f64>,
+}
+
+impl Default for Errors {
+    fn default() -> Self {
+        Errors {
+            scale_error_ppm: 0.0,
+            cyclic_amplitude_um: 0.0,
+            cyclic_period_mm: 0.0,
+            cyclic_phase_deg: 0.0,
+            resonance_hz: 0.0,
+            resonance_damping: 0.0,
+            squareness_urad: 0.0,
+            straightness_bow_um: 0.0,
+            straightness_span_mm: default_straightness_span_mm(),
+            position_map_mm: Vec::new(),
+            position_map_um: Vec::new(),
+        }
+    }
 }
 
 /// An axis that is planned but not simulated.

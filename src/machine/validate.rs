@@ -244,6 +244,16 @@ fn validate_axis(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigEr
         e.squareness_urad,
         Rule::Range(-1e5, 1e5),
     )?;
+    c.check(
+        &k("errors.straightness_bow_um"),
+        e.straightness_bow_um,
+        Rule::Range(-1e4, 1e4),
+    )?;
+    c.check(
+        &k("errors.straightness_span_mm"),
+        e.straightness_span_mm,
+        Rule::Range(1.0, 1e5),
+    )?;
     validate_position_map(c, &k, e)?;
     if let Some(ls) = &a.lateral_shift {
         c.check(
