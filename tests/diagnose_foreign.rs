@@ -585,6 +585,23 @@ fn records_of_other_controllers_are_read_as_the_model_can_and_never_worse() {
     );
 }
 
+/// The slow circle through the foreign interpolator, recorded at 1 kHz with `effect`.
+fn slow_circle_at_1_khz(
+    effect: Option<(CauseId, AxisName, Vec<f64>)>,
+    offset_s: f64,
+    seed: u64,
+) -> (Program, String) {
+    let program = sample_program("slow-circle.nc");
+    let spec = SynthSpec {
+        sample_s: 1e-3,
+        offset_s,
+        seed,
+        ..SynthSpec::default()
+    };
+    let csv = foreign_record(&program, effect, spec);
+    (program, csv)
+}
+
 /// The record as a logger writes it that reads the positions every `rows` rows and repeats
 /// each reading until the next (all columns held alike, time running on).
 fn hold_readings(csv: &str, rows: usize, phase: usize) -> String {
@@ -611,14 +628,8 @@ fn a_logger_that_holds_its_readings_is_read_at_its_own_rate_and_not_taken_for_st
     // and commands read every 15 ms and written every millisecond. Each hold stands the
     // record still and ends in a jump — stick-slip's own shape, at the logger's rhythm;
     // read row by row, the rhythm passes for a 67 Hz resonance.
-    let program = sample_program("slow-circle.nc");
-    let spec = SynthSpec {
-        sample_s: 1e-3,
-        offset_s: 0.29,
-        seed: 61,
-        ..SynthSpec::default()
-    };
-    let csv = hold_readings(&foreign_record(&program, None, spec), 15, 7);
+    let (program, record) = slow_circle_at_1_khz(None, 0.29, 61);
+    let csv = hold_readings(&record, 15, 7);
     let trace = parse_trace(&csv, "record.csv").unwrap();
     assert_eq!(
         trace.held,
@@ -668,15 +679,8 @@ fn sticking_is_seen_only_where_a_slip_follows_the_standstill() {
     }
     // Stribeck friction on X: the table stands, breaks loose and catches up, hundreds of
     // times around the slow circle.
-    let program = sample_program("slow-circle.nc");
-    let spec = SynthSpec {
-        sample_s: 1e-3,
-        offset_s: 0.33,
-        seed: 62,
-        ..SynthSpec::default()
-    };
     let effect = Some((CauseId::Stribeck, AxisName::X, vec![300.0, 25.0]));
-    let csv = foreign_record(&program, effect, spec);
+    let (program, csv) = slow_circle_at_1_khz(effect, 0.33, 62);
     assert_eq!(
         sticking_seen(&program, &csv, MeasuredAt::Table),
         [true, false]
