@@ -152,7 +152,10 @@ impl RunAnalyser {
             // At the tool: the axes' geometry lies beyond the scales the loops close on.
             let scale = [chunk.x.pos_m[i], chunk.y.pos_m[i]];
             let [cx, cy] = &self.cross;
-            let pos_m = [scale[0] + cx.at(scale[1]), scale[1] + cy.at(scale[0])];
+            let pos_m = [
+                scale[0] + cx.at(scale[0], scale[1]),
+                scale[1] + cy.at(scale[1], scale[0]),
+            ];
             let reference = [c.x.pos_m[i], c.y.pos_m[i]];
             let point = self.locator.locate(plan, seg, reference, pos_m);
             let cutting = plan.segments[seg].motion == Motion::Feed;

@@ -19,6 +19,7 @@
 
 use std::fmt::Write as _;
 
+use crate::geometry::CrossTerms;
 use crate::machine::{AxisName, MachineConfig};
 use crate::sim::AxisModel;
 use crate::sim::model::X2;
@@ -51,8 +52,9 @@ pub fn compensation(machine: &MachineConfig) -> Vec<AxisCompensation> {
 fn axis_compensation(machine: &MachineConfig, axis: AxisName) -> Option<AxisCompensation> {
     let config = machine.axis(axis);
     let model = AxisModel::from_config(config);
+    let map = CrossTerms::of(machine, axis);
     let half_gap_um = 0.5 * config.drive.backlash_um;
-    if !model.measuring.is_active() && half_gap_um == 0.0 {
+    if !model.measuring.is_active() && map.map.is_empty() && half_gap_um == 0.0 {
         return None;
     }
     let positions = positions_mm(machine, axis);
@@ -60,7 +62,8 @@ fn axis_compensation(machine: &MachineConfig, axis: AxisName) -> Option<AxisComp
         .into_iter()
         .map(|p| {
             let (state, _) = rest_state(&model, m_from_mm(p));
-            let offset_um = um_from_m(state[X2] - m_from_mm(p));
+            // Where the table stands, and the position map beyond the scale.
+            let offset_um = um_from_m(state[X2] - m_from_mm(p) + map.map_at(state[X2]));
             (p, offset_um - half_gap_um, offset_um + half_gap_um)
         })
         .collect();

@@ -696,6 +696,18 @@ fn a_second_record_judges_what_the_first_fitted() {
 /// cosine of `peak_um` between X = 20 and 40 mm, as a damaged or dirty scale reads — added
 /// to the measured X column of the CSV a user would hand over.
 fn record_with_a_bump_on_x(peak_um: f64) -> contourcheck::measured::MeasuredTrace {
+    record_with_x_reading(|x| {
+        if (20.0..=40.0).contains(&x) {
+            let phase = std::f64::consts::TAU * (x - 20.0) / 20.0;
+            peak_um * 0.5 * (1.0 - phase.cos())
+        } else {
+            0.0
+        }
+    })
+}
+
+/// The circle test's record of the nominal machine with X reading `error_um(x_mm)` more.
+fn record_with_x_reading(error_um: impl Fn(f64) -> f64) -> contourcheck::measured::MeasuredTrace {
     let prog = program("circle-test.nc");
     let spec = SynthSpec {
         offset_s: 0.37,
@@ -713,10 +725,7 @@ fn record_with_a_bump_on_x(peak_um: f64) -> contourcheck::measured::MeasuredTrac
     for line in lines {
         let f: Vec<&str> = line.split(',').collect();
         let mut x: f64 = f[1].parse().unwrap();
-        if (20.0..=40.0).contains(&x) {
-            let phase = std::f64::consts::TAU * (x - 20.0) / 20.0;
-            x += 1e-3 * peak_um * 0.5 * (1.0 - phase.cos());
-        }
+        x += 1e-3 * error_um(x);
         out.push_str(&format!("{},{x:.7},{}\n", f[0], f[2]));
     }
     parse_trace(&out, "bumped.csv").unwrap()
@@ -834,4 +843,27 @@ fn a_bowed_travel_is_found_on_the_axis_that_sees_it() {
         &[60.0],
         43,
     );
+}
+
+#[test]
+fn a_periodic_error_off_the_lead_is_placed_by_its_period_and_learned() {
+    // 3 µm every 7 mm on X — not the 16 mm lead the catalogue's cyclic error has.
+    let nominal = MachineConfig::default_preset();
+    let prog = program("circle-test.nc");
+    let measured = record_with_x_reading(|x| 3.0 * (std::f64::consts::TAU * x / 7.0 + 0.4).sin());
+    let d = diagnose(
+        &prog,
+        &nominal,
+        &measured,
+        &DiagnoseSettings::for_machine(&nominal),
+    )
+    .unwrap();
+    assert!(d.causes.is_empty(), "{:?}", d.causes);
+    assert_eq!(d.learned.len(), 1, "{:?}", d.learned);
+    let l = &d.learned[0];
+    assert_eq!(l.axis, AxisName::X);
+    assert!((l.period_mm.unwrap() - 7.0).abs() < 0.05, "{l:?}");
+    // Learned, it takes the residual down to the noise on the half it was not fitted on.
+    assert!(l.held_out_after_um <= 0.5 * l.held_out_before_um, "{l:?}");
+    assert!(l.held_out_after_um < 0.4, "{l:?}");
 }

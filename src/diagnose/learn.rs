@@ -1,30 +1,30 @@
 //! Extending the model from the data where no catalogue cause explains the residual.
 //!
-//! When the residual left on an axis follows that axis's own position ([`super::locate`]),
-//! it is what a compensation table corrects: an error of the measuring system (or of the
-//! guideway seen by it) as a function of position. That error is learned as a table — the
+//! When the residual left on an axis follows that axis's own position, in one place or
+//! periodically ([`super::locate`]), it is what a compensation table corrects: the tool
+//! standing off where the axis's scale says it is. That error is learned as a table — the
 //! residual's mean in bins of the position, linear in between — and becomes the machine
-//! keys `errors.position_map_mm` / `errors.position_map_um`, which `check` and `diagnose`
-//! simulate like any other measuring error.
+//! keys `errors.position_map_mm` / `errors.position_map_um`, which `check`, `diagnose` and
+//! `synth` add beyond the scales like the axes' squareness (see [`crate::geometry`]): the
+//! loops do not see it, so it does not lag.
 //!
 //! How smooth the table is (how many bins) is chosen on held-out data: the bins are fitted
 //! on alternate blocks of the record and scored on the others, and the count that predicts
 //! best wins. Its gain is then measured like a cause's, by re-simulating: in sample, and on
 //! each half of the record with the table fitted on the other half.
 //!
-//! Whether a map entry moves the reading up or down depends on where the loop closes and
-//! where the record was measured (a linear scale reading too long holds the table short);
-//! the direction is found by simulating the map once and seeing which way the reading
-//! moves, not assumed.
+//! Whether a map entry moves the reading up or down is found by simulating the map once and
+//! seeing which way the reading moves (at a motor encoder it does not move at all, and
+//! nothing is learned), not assumed.
 
 use super::Context;
 use super::locate::{Bins, Located, Predictor, Variable, halves, held_out_share, positions_mm};
+use crate::geometry::CrossTerms;
 use crate::machine::{AxisName, MachineConfig};
-use crate::sim::model::MeasuringError;
-use crate::units::{m_from_mm, m_from_um, um_from_m};
+use crate::units::{m_from_mm, um_from_m};
 
 /// Bin counts the table's smoothness is chosen from.
-const BIN_COUNTS: [usize; 5] = [8, 16, 32, 64, 128];
+const BIN_COUNTS: [usize; 6] = [8, 16, 32, 64, 128, 256];
 /// Held-out share of the residual a table must predict to be learned.
 const SMALLEST_SHARE: f64 = 0.5;
 
@@ -35,8 +35,11 @@ pub struct Learned {
     pub axis: AxisName,
     /// Points in the table.
     pub points: usize,
-    /// Where its error is largest (mm), as the residual's location gave it.
+    /// Where its error is largest (mm), as the residual's location gave it (for an error
+    /// in one place).
     pub interval_mm: Option<(f64, f64)>,
+    /// Its period (mm), for a periodic error.
+    pub period_mm: Option<f64>,
     /// The largest error in the table (µm, signed as the residual).
     pub peak_um: f64,
     /// The axis's residual RMS before and after, over the whole record (µm).
@@ -60,11 +63,16 @@ pub fn position_map(
     located: &Located,
 ) -> Option<(MachineConfig, [Vec<f64>; 2], Learned)> {
     let axis = located.axis;
-    if located.variable != Some(Variable::Position(axis)) || located.share < SMALLEST_SHARE {
+    // A residual that follows the axis's own position, in one place or periodically.
+    let follows_own_position = matches!(
+        located.variable,
+        Some(Variable::Position(a)) if a == axis
+    ) || located.variable == Some(Variable::Period);
+    if !follows_own_position || located.share < SMALLEST_SHARE {
         return None;
     }
     let residual = ctx.residual(axis, &traces[axis.index()], offset_s);
-    let z = positions_mm(ctx, axis, offset_s);
+    let z = positions_mm(ctx, &traces[axis.index()], offset_s);
     let fold = halves(ctx, offset_s);
     // Smoothness: the bin count that predicts the held-out blocks best.
     let count = BIN_COUNTS.into_iter().max_by(|&a, &b| {
@@ -136,7 +144,12 @@ pub fn position_map(
     let learned = Learned {
         axis,
         points: whole.len(),
-        interval_mm: located.interval,
+        interval_mm: (located.variable != Some(Variable::Period))
+            .then_some(located.interval)
+            .flatten(),
+        period_mm: (located.variable == Some(Variable::Period))
+            .then(|| located.interval.map(|i| i.0))
+            .flatten(),
         peak_um: um_from_m(peak),
         rms_before_um: um_from_m(rms(&residual, &|_| true)),
         rms_after_um: um_from_m(rms(&after, &|_| true)),
@@ -157,19 +170,11 @@ fn with_map(
     sign: f64,
 ) -> MachineConfig {
     let mut m = machine.clone();
+    let existing = CrossTerms::of(&m, axis);
     let errors = &mut m.axis_mut(axis).errors;
-    let existing = MeasuringError {
-        map: errors
-            .position_map_mm
-            .iter()
-            .zip(&errors.position_map_um)
-            .map(|(&p, &e)| (m_from_mm(p), m_from_um(e)))
-            .collect(),
-        ..MeasuringError::default()
-    };
     errors.position_map_um = points
         .iter()
-        .map(|&(p, e)| um_from_m(existing.at(m_from_mm(p)) + sign * e))
+        .map(|&(p, e)| um_from_m(existing.map_at(m_from_mm(p)) + sign * e))
         .collect();
     errors.position_map_mm = points.iter().map(|p| p.0).collect();
     m

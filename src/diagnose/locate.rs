@@ -16,6 +16,7 @@
 
 use super::Context;
 use crate::machine::AxisName;
+use crate::synth::sample;
 use crate::units::um_from_m;
 
 /// A variable a residual can hang on.
@@ -109,7 +110,7 @@ pub fn locate(ctx: &Context, traces: &[Vec<f64>; 2], offset_s: f64) -> Vec<Locat
         .filter_map(|axis| {
             let residual = ctx.residual(axis, &traces[axis.index()], offset_s);
             stands_out(&residual, ctx.noise_sigma)
-                .then(|| locate_axis(ctx, axis, &residual, offset_s))
+                .then(|| locate_axis(ctx, axis, traces, &residual, offset_s))
         })
         .collect()
 }
@@ -141,11 +142,13 @@ fn commands_at_samples(ctx: &Context, axis: AxisName, times: &[f64]) -> Vec<(f64
         .collect()
 }
 
-/// An axis's commanded position at each compared sample (mm).
-pub(super) fn positions_mm(ctx: &Context, axis: AxisName, offset_s: f64) -> Vec<f64> {
-    commands_at_samples(ctx, axis, &sample_times(ctx, offset_s))
+/// Where an axis is at each compared sample by its simulated `trace` (mm): errors of
+/// position follow the axis, not its command, which leads it by the following error — a
+/// millimetre at 1 m/min, as much as a short period.
+pub(super) fn positions_mm(ctx: &Context, trace: &[f64], offset_s: f64) -> Vec<f64> {
+    sample_times(ctx, offset_s)
         .iter()
-        .map(|c| c.0 * 1e3)
+        .map(|&t| sample(trace, ctx.dt, t) * 1e3)
         .collect()
 }
 
@@ -158,20 +161,22 @@ pub(super) fn halves(ctx: &Context, offset_s: f64) -> Vec<bool> {
 }
 
 /// The samples' values of every candidate variable, then the best of them.
-fn locate_axis(ctx: &Context, axis: AxisName, residual: &[f64], offset_s: f64) -> Located {
+fn locate_axis(
+    ctx: &Context,
+    axis: AxisName,
+    traces: &[Vec<f64>; 2],
+    residual: &[f64],
+    offset_s: f64,
+) -> Located {
     let times = sample_times(ctx, offset_s);
     let own = commands_at_samples(ctx, axis, &times);
-    let other = commands_at_samples(ctx, axis.other(), &times);
     let fold = halves(ctx, offset_s);
-    let mm = |v: f64| v * 1e3;
+    let x = positions_mm(ctx, &traces[axis.index()], offset_s);
     let continuous: Vec<(Variable, Vec<f64>)> = vec![
-        (
-            Variable::Position(axis),
-            own.iter().map(|c| mm(c.0)).collect(),
-        ),
+        (Variable::Position(axis), x.clone()),
         (
             Variable::Position(axis.other()),
-            other.iter().map(|c| mm(c.0)).collect(),
+            positions_mm(ctx, &traces[axis.other().index()], offset_s),
         ),
         (Variable::Velocity, own.iter().map(|c| c.1 * 6e4).collect()),
         (Variable::Acceleration, own.iter().map(|c| c.2).collect()),
@@ -227,19 +232,29 @@ fn locate_axis(ctx: &Context, axis: AxisName, residual: &[f64], offset_s: f64) -
     });
     let (_, peak) = bins.fit(&direction, residual, &|_| true).largest();
     consider(Variable::Direction, share, None, peak);
-    // A period in position: sine and cosine of 2πx/p over a logarithmic grid of periods.
-    let x: Vec<f64> = own.iter().map(|c| mm(c.0)).collect();
+    // A period in position: sine and cosine of 2πx/p, over a logarithmic grid of periods
+    // and then finely around the best of it — over a long travel a period a per cent off
+    // drifts out of phase.
     let span = x.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
         - x.iter().fold(f64::INFINITY, |a, &b| a.min(b));
     if span > 4.0 {
-        for k in 0..48 {
-            let period = 1.0 * (span / 2.0).powf(k as f64 / 47.0);
-            let share = held_out_share(residual, &fold, |train| {
+        let share_at = |period: f64| {
+            held_out_share(residual, &fold, |train| {
                 Sinusoid::fit(&x, residual, period, train)
-            });
-            let amplitude = Sinusoid::fit(&x, residual, period, &|_| true).amplitude();
-            consider(Variable::Period, share, Some((period, period)), amplitude);
-        }
+            })
+        };
+        let grid = (0..48).map(|k| (span / 2.0).powf(k as f64 / 47.0));
+        let coarse = grid
+            .map(|p| (p, share_at(p)))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .map_or(1.0, |(p, _)| p);
+        let (period, share) = (0..=60)
+            .map(|k| coarse * (0.94 + 0.002 * k as f64))
+            .map(|p| (p, share_at(p)))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap_or((coarse, 0.0));
+        let amplitude = Sinusoid::fit(&x, residual, period, &|_| true).amplitude();
+        consider(Variable::Period, share, Some((period, period)), amplitude);
     }
     best
 }

@@ -494,9 +494,11 @@ fn verdict(d: &Diagnosis) -> String {
 
 /// A learned position map, in a line.
 fn learned_line(l: &Learned) -> String {
-    let place = l.interval_mm.map_or(String::new(), |(lo, hi)| {
-        format!(" between {lo:.1} and {hi:.1} mm")
-    });
+    let place = match (l.interval_mm, l.period_mm) {
+        (_, Some(p)) => format!(" with a period of {p:.2} mm"),
+        (Some((lo, hi)), None) => format!(" between {lo:.1} and {hi:.1} mm"),
+        (None, None) => String::new(),
+    };
     format!(
         "unlisted effect learned: position-dependent error on {}{place}, peak {:+.2} µm, as a \
          {}-point map (errors.position_map_*): {} RMS {:.3} → {:.3} µm; held out {:.3} → {:.3} µm",

@@ -128,8 +128,8 @@ pub struct Errors {
     /// The span the bow is given over (mm), centred on the other axis's zero.
     #[serde(default = "default_straightness_span_mm")]
     pub straightness_span_mm: f64,
-    /// A position-dependent error of the measuring system, as a compensation table holds
-    /// it: positions (mm, increasing) …
+    /// A position-dependent error beyond the scale (the tool standing off where the scale
+    /// says the axis is), as a compensation table holds it: positions (mm, increasing) …
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub position_map_mm: Vec<f64>,
     /// … and the error there (µm), linear in between and held beyond the ends. Learned by

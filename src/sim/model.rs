@@ -139,9 +139,8 @@ pub struct AxisModel {
     pub resonance: Option<(f64, f64)>,
 }
 
-/// Error of the measuring system as a function of position: e(x) = s·x + A·sin(k·x + φ)
-/// + m(x), m a table linear between its points and held beyond them.
-#[derive(Debug, Clone, Default, PartialEq)]
+/// Error of the measuring system as a function of position: e(x) = s·x + A·sin(k·x + φ).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct MeasuringError {
     /// Scale factor error s.
     pub scale: f64,
@@ -151,35 +150,17 @@ pub struct MeasuringError {
     pub wavenumber_per_m: f64,
     /// Phase φ (rad).
     pub phase_rad: f64,
-    /// The table m: (position m, error m), positions increasing.
-    pub map: Vec<(f64, f64)>,
 }
 
 impl MeasuringError {
     /// True when there is any error.
     pub fn is_active(&self) -> bool {
-        self.scale != 0.0 || self.amplitude_m != 0.0 || !self.map.is_empty()
+        self.scale != 0.0 || self.amplitude_m != 0.0
     }
 
     /// e(x) (m).
     pub fn at(&self, x: f64) -> f64 {
-        self.scale * x
-            + self.amplitude_m * (self.wavenumber_per_m * x + self.phase_rad).sin()
-            + self.map_at(x)
-    }
-
-    /// m(x) (m).
-    fn map_at(&self, x: f64) -> f64 {
-        let m = &self.map;
-        match m.partition_point(|&(p, _)| p <= x) {
-            _ if m.is_empty() => 0.0,
-            0 => m[0].1,
-            i if i == m.len() => m[i - 1].1,
-            i => {
-                let ((p0, e0), (p1, e1)) = (m[i - 1], m[i]);
-                e0 + (e1 - e0) * (x - p0) / (p1 - p0)
-            }
-        }
+        self.scale * x + self.amplitude_m * (self.wavenumber_per_m * x + self.phase_rad).sin()
     }
 }
 
@@ -287,13 +268,6 @@ impl AxisModel {
                         d.lead_mm
                     }),
                 phase_rad: c.errors.cyclic_phase_deg.to_radians(),
-                map: c
-                    .errors
-                    .position_map_mm
-                    .iter()
-                    .zip(&c.errors.position_map_um)
-                    .map(|(&p, &e)| (m_from_mm(p), m_from_um(e)))
-                    .collect(),
             },
             resonance: (c.errors.resonance_hz > 0.0).then_some({
                 (
