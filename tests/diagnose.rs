@@ -37,6 +37,18 @@ fn program(name: &str) -> Program {
     .unwrap()
 }
 
+/// `measured` of `prog` diagnosed against the nominal machine with the default settings.
+fn diagnose_nominal(prog: &Program, measured: &contourcheck::measured::MeasuredTrace) -> Diagnosis {
+    let nominal = MachineConfig::default_preset();
+    diagnose(
+        prog,
+        &nominal,
+        measured,
+        &DiagnoseSettings::for_machine(&nominal),
+    )
+    .unwrap()
+}
+
 /// Hides `effect` in the nominal machine, runs `name`, measures it and diagnoses the CSV.
 /// What a user would hand over: `program` run on `machine` with `spec`, written as CSV and
 /// read back as the trace file `name`.
@@ -69,13 +81,7 @@ fn diagnose_hidden(
         ..SynthSpec::default()
     };
     let measured = recorded(&prog, &nominal, &spec, "measured.csv");
-    let d = diagnose(
-        &prog,
-        &nominal,
-        &measured,
-        &DiagnoseSettings::for_machine(&nominal),
-    )
-    .unwrap();
+    let d = diagnose_nominal(&prog, &measured);
     assert!(
         (d.offset_s - spec.offset_s).abs() < 1e-3,
         "clock offset {} vs {}",
@@ -736,7 +742,7 @@ fn an_effect_outside_the_catalogue_is_placed_learned_and_measured() {
     let nominal = MachineConfig::default_preset();
     let prog = program("circle-test.nc");
     let settings = DiagnoseSettings::for_machine(&nominal);
-    let d = diagnose(&prog, &nominal, &record_with_a_bump_on_x(6.0), &settings).unwrap();
+    let d = diagnose_nominal(&prog, &record_with_a_bump_on_x(6.0));
     // No catalogue cause describes a bump; X's residual follows position on X, where the
     // bump is, and is learned as a map of the X measuring system. Y's residual is noise.
     assert!(d.causes.is_empty(), "{:?}", d.causes);
@@ -810,7 +816,7 @@ fn an_effect_outside_the_catalogue_is_placed_learned_and_measured() {
     assert!(x.share > 0.9, "{x:?}");
     // Nothing hidden: nothing stands out to be placed.
     let clean = recorded(&prog, &nominal, &SynthSpec::default(), "clean.csv");
-    let d = diagnose(&prog, &nominal, &clean, &settings).unwrap();
+    let d = diagnose_nominal(&prog, &clean);
     assert!(d.unexplained.is_empty(), "{:?}", d.unexplained);
 }
 
@@ -848,16 +854,9 @@ fn a_bowed_travel_is_found_on_the_axis_that_sees_it() {
 #[test]
 fn a_periodic_error_off_the_lead_is_placed_by_its_period_and_learned() {
     // 3 µm every 7 mm on X — not the 16 mm lead the catalogue's cyclic error has.
-    let nominal = MachineConfig::default_preset();
     let prog = program("circle-test.nc");
     let measured = record_with_x_reading(|x| 3.0 * (std::f64::consts::TAU * x / 7.0 + 0.4).sin());
-    let d = diagnose(
-        &prog,
-        &nominal,
-        &measured,
-        &DiagnoseSettings::for_machine(&nominal),
-    )
-    .unwrap();
+    let d = diagnose_nominal(&prog, &measured);
     assert!(d.causes.is_empty(), "{:?}", d.causes);
     assert_eq!(d.learned.len(), 1, "{:?}", d.learned);
     let l = &d.learned[0];

@@ -686,3 +686,38 @@ fn sticking_is_seen_only_where_a_slip_follows_the_standstill() {
         [true, false]
     );
 }
+
+#[test]
+fn an_unlisted_bump_is_learned_through_another_interpolators_commands() {
+    // The foreign interpolator runs the circle test at 1 kHz; the X scale reads a 6 µm
+    // raised-cosine bump between X = 20 and 40 mm more, which no catalogue cause describes.
+    let program = sample_program("circle-test.nc");
+    let spec = SynthSpec {
+        sample_s: 1e-3,
+        offset_s: 0.27,
+        seed: 63,
+        ..SynthSpec::default()
+    };
+    let csv = foreign_record(&program, None, spec);
+    let mut lines = csv.lines();
+    let mut bumped = format!("{}\n", lines.next().unwrap());
+    for line in lines {
+        let mut f: Vec<String> = line.split(',').map(String::from).collect();
+        let x: f64 = f[1].parse().unwrap();
+        let bump = if (20.0..=40.0).contains(&x) {
+            3e-3 * (1.0 - (std::f64::consts::TAU * (x - 20.0) / 20.0).cos())
+        } else {
+            0.0
+        };
+        f[1] = format!("{:.7}", x + bump);
+        bumped.push_str(&(f.join(",") + "\n"));
+    }
+    let d = diagnose_text(&program, &bumped, MeasuredAt::Table).unwrap();
+    assert!(d.causes.is_empty(), "named {:?}", named(&d));
+    assert_eq!(d.learned.len(), 1, "{:?}", d.learned);
+    let l = &d.learned[0];
+    let (lo, hi) = l.interval_mm.unwrap();
+    assert!(l.axis == AxisName::X && lo >= 18.0 && hi <= 42.0, "{l:?}");
+    assert!((l.peak_um - 6.0).abs() < 1.5, "{l:?}");
+    assert!(l.held_out_after_um <= 0.5 * l.held_out_before_um, "{l:?}");
+}

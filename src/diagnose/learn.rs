@@ -13,12 +13,11 @@
 //! best wins. Its gain is then measured like a cause's, by re-simulating: in sample, and on
 //! each half of the record with the table fitted on the other half.
 //!
-//! Whether a map entry moves the reading up or down is found by simulating the map once and
-//! seeing which way the reading moves (at a motor encoder it does not move at all, and
-//! nothing is learned), not assumed.
+//! The map adds to the reading at the tool or table just what it holds, so the residual's
+//! binned mean is the map; behind a motor encoder it reads nothing, and nothing is learned.
 
 use super::Context;
-use super::locate::{Bins, Located, Predictor, Variable, halves, held_out_share, positions_mm};
+use super::locate::{Bins, Located, Variable, halves, held_out_share, positions_mm};
 use crate::geometry::CrossTerms;
 use crate::machine::{AxisName, MachineConfig};
 use crate::units::{m_from_mm, um_from_m};
@@ -68,7 +67,11 @@ pub fn position_map(
         located.variable,
         Some(Variable::Position(a)) if a == axis
     ) || located.variable == Some(Variable::Period);
-    if !follows_own_position || located.share < SMALLEST_SHARE {
+    // The map lies beyond the scale, and beyond a motor encoder: there it reads nothing.
+    if !follows_own_position
+        || located.share < SMALLEST_SHARE
+        || ctx.measured_at == crate::sim::MeasuredAt::Motor
+    {
         return None;
     }
     let residual = ctx.residual(axis, &traces[axis.index()], offset_s);
@@ -84,45 +87,16 @@ pub fn position_map(
     })?;
     let bins = Bins::over(&z, count);
     let table = |use_sample: &dyn Fn(usize) -> bool| bins.fit(&z, &residual, use_sample).centres();
-    // Which way a map entry moves the reading here.
     let whole = table(&|_| true);
-    let probe = with_map(machine, axis, &whole, 1.0);
-    let moved = ctx.simulate_axis(&probe, axis)?;
-    let fitted = bins.fit(&z, &residual, &|_| true);
-    let (mut along, mut norm) = (0.0, 0.0);
-    let before = ctx.at_samples(&traces[axis.index()], offset_s);
-    for (i, (now, was)) in ctx
-        .at_samples(&moved, offset_s)
-        .iter()
-        .zip(&before)
-        .enumerate()
-    {
-        let wanted = fitted.predict(i).unwrap_or(0.0);
-        along += (now - was) * wanted;
-        norm += wanted * wanted;
-    }
-    let sign = along / norm.max(1e-300);
-    if sign.abs() < 0.5 {
-        // The measuring point does not see the measuring system's error.
-        return None;
-    }
-    let sign = sign.signum();
-    let extended = with_map(machine, axis, &whole, sign);
+    let extended = with_map(machine, axis, &whole);
     let trace = ctx.simulate_axis(&extended, axis)?;
-    let rms = |r: &[f64], keep: &dyn Fn(usize) -> bool| {
-        let (s, n) = r
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| keep(*i))
-            .fold((0.0, 0usize), |(s, n), (_, v)| (s + v * v, n + 1));
-        (s / n.max(1) as f64).sqrt()
-    };
+    let rms = |r: &[f64]| (r.iter().map(|v| v * v).sum::<f64>() / r.len().max(1) as f64).sqrt();
     let after = ctx.residual(axis, &trace, offset_s);
     // Held out: the table fitted on one half, re-simulated, scored on the other.
     let (mut before_ss, mut after_ss, mut n) = (0.0, 0.0, 0usize);
     for side in [true, false] {
         let half_table = table(&|i| fold[i] == side);
-        let half_machine = with_map(machine, axis, &half_table, sign);
+        let half_machine = with_map(machine, axis, &half_table);
         let half_trace = ctx.simulate_axis(&half_machine, axis)?;
         let half_after = ctx.residual(axis, &half_trace, offset_s);
         for i in (0..residual.len()).filter(|&i| fold[i] != side) {
@@ -133,7 +107,7 @@ pub fn position_map(
     }
     let held_out_before = (before_ss / n.max(1) as f64).sqrt();
     let held_out_after = (after_ss / n.max(1) as f64).sqrt();
-    if held_out_after >= held_out_before || rms(&after, &|_| true) >= rms(&residual, &|_| true) {
+    if held_out_after >= held_out_before || rms(&after) >= rms(&residual) {
         return None;
     }
     let peak = whole
@@ -151,8 +125,8 @@ pub fn position_map(
             .then(|| located.interval.map(|i| i.0))
             .flatten(),
         peak_um: um_from_m(peak),
-        rms_before_um: um_from_m(rms(&residual, &|_| true)),
-        rms_after_um: um_from_m(rms(&after, &|_| true)),
+        rms_before_um: um_from_m(rms(&residual)),
+        rms_after_um: um_from_m(rms(&after)),
         held_out_before_um: um_from_m(held_out_before),
         held_out_after_um: um_from_m(held_out_after),
     };
@@ -161,20 +135,15 @@ pub fn position_map(
     Some((extended, traces, learned))
 }
 
-/// `machine` with the table `points` ((mm, m) of the residual), times `sign`, added to the
-/// measuring error of `axis` (to a map it already has, taken at the new points).
-fn with_map(
-    machine: &MachineConfig,
-    axis: AxisName,
-    points: &[(f64, f64)],
-    sign: f64,
-) -> MachineConfig {
+/// `machine` with the table `points` ((mm, m) of the residual) added to the position map of
+/// `axis` (to a map it already has, taken at the new points).
+fn with_map(machine: &MachineConfig, axis: AxisName, points: &[(f64, f64)]) -> MachineConfig {
     let mut m = machine.clone();
     let existing = CrossTerms::of(&m, axis);
     let errors = &mut m.axis_mut(axis).errors;
     errors.position_map_um = points
         .iter()
-        .map(|&(p, e)| um_from_m(existing.map_at(m_from_mm(p)) + sign * e))
+        .map(|&(p, e)| um_from_m(existing.map_at(m_from_mm(p)) + e))
         .collect();
     errors.position_map_mm = points.iter().map(|p| p.0).collect();
     m

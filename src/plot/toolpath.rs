@@ -2,6 +2,7 @@
 //! marked by rank and G-code line. Equal scales on X and Y.
 
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 use super::{FONT, Figure, PlotResult, err};
@@ -80,13 +81,7 @@ impl Figure for ToolpathPlot {
                 .filter(|q| q.error_um.is_finite())
                 .map(|q| (q.x_mm, q.y_mm)),
         );
-        let (x0, x1, y0, y1) = equal_aspect_bounds(points, &main);
-        let mut chart = ChartBuilder::on(&main)
-            .margin(15)
-            .x_label_area_size(45)
-            .y_label_area_size(70)
-            .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(err)?;
+        let mut chart = xy_chart(&main, points, None)?;
         chart
             .configure_mesh()
             .x_desc("X (mm)")
@@ -142,9 +137,29 @@ impl Figure for ToolpathPlot {
     }
 }
 
+/// A chart in XY (mm) on `area`, equal scale on both axes, covering `points`, with
+/// `caption` above it if given.
+pub fn xy_chart<'a, DB: DrawingBackend + 'a>(
+    area: &'a DrawingArea<DB, Shift>,
+    points: impl Iterator<Item = (f64, f64)>,
+    caption: Option<&str>,
+) -> Result<ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>, String> {
+    let (x0, x1, y0, y1) = equal_aspect_bounds(points, area);
+    let mut builder = ChartBuilder::on(area);
+    if let Some(text) = caption {
+        builder.caption(text, (FONT, 18));
+    }
+    builder
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x0..x1, y0..y1)
+        .map_err(err)
+}
+
 /// Axis ranges with equal mm per pixel on X and Y, covering `points` with a margin, for a
 /// chart on `area` with the label areas the plots here give it.
-pub fn equal_aspect_bounds<DB: DrawingBackend>(
+fn equal_aspect_bounds<DB: DrawingBackend>(
     points: impl Iterator<Item = (f64, f64)>,
     area: &DrawingArea<DB, Shift>,
 ) -> (f64, f64, f64, f64) {

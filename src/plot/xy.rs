@@ -5,7 +5,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::panels::{Curve, draw_curves};
-use super::toolpath::equal_aspect_bounds;
+use super::toolpath::xy_chart;
 use super::{FONT, Figure, PlotResult, err};
 
 /// Paths in XY (mm), equal scale on both axes.
@@ -20,14 +20,7 @@ impl Figure for XyPlot {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> PlotResult {
         let area = root.margin(40, 10, 10, 10);
         let points = self.curves.iter().flat_map(|c| c.points.iter().copied());
-        let (x0, x1, y0, y1) = equal_aspect_bounds(points, &area);
-        let mut chart = ChartBuilder::on(&area)
-            .caption(&self.caption, (FONT, 18))
-            .margin(15)
-            .x_label_area_size(45)
-            .y_label_area_size(70)
-            .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(err)?;
+        let mut chart = xy_chart(&area, points, Some(&self.caption))?;
         chart
             .configure_mesh()
             .x_labels(5)
