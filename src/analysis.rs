@@ -10,10 +10,10 @@ use crate::circular::{CirclePath, CircleSamples, CircularTest, circles};
 use crate::contour::{ContourLocator, ContourPoint};
 use crate::execute::RunChunk;
 use crate::gcode::Warning;
-use crate::geometry::CrossTerms;
+use crate::geometry::ToolReader;
 pub use crate::hotspot::RunPlace;
 use crate::hotspot::{Hotspot, HotspotConfig, HotspotFinder, RunSample};
-use crate::machine::{AxisConfig, AxisName, MachineConfig};
+use crate::machine::{AxisConfig, MachineConfig};
 use crate::path::Motion;
 use crate::plan::Plan;
 use crate::sim::{AxisModel, AxisTrace, Mode};
@@ -97,9 +97,9 @@ pub struct RunAnalyser {
     plot: PeakThinned<PlotPoint>,
     limits: [LimitTally; 2],
     i_max_a: [f64; 2],
-    /// What each axis reads of the other beyond the scales (squareness, straightness),
-    /// applied to the positions at the tool.
-    cross: [CrossTerms; 2],
+    /// What lies beyond the scales (squareness, straightness, maps, play), applied to the
+    /// positions at the tool sample by sample.
+    tool: ToolReader,
     squares_m2: f64,
     cutting_samples: usize,
     fe_cut_m: [f64; 2],
@@ -130,7 +130,7 @@ impl RunAnalyser {
             }),
             limits: Default::default(),
             i_max_a: [&machine.x, &machine.y].map(|a| a.velocity_loop.i_max_a),
-            cross: AxisName::BOTH.map(|a| CrossTerms::of(machine, a)),
+            tool: ToolReader::new(machine),
             squares_m2: 0.0,
             cutting_samples: 0,
             fe_cut_m: [0.0; 2],
@@ -150,12 +150,7 @@ impl RunAnalyser {
             let seg = c.segment[i] as usize;
             let t_s = c.time_s(k);
             // At the tool: the axes' geometry lies beyond the scales the loops close on.
-            let scale = [chunk.x.pos_m[i], chunk.y.pos_m[i]];
-            let [cx, cy] = &self.cross;
-            let pos_m = [
-                scale[0] + cx.at(scale[0], scale[1]),
-                scale[1] + cy.at(scale[1], scale[0]),
-            ];
+            let pos_m = self.tool.read([chunk.x.pos_m[i], chunk.y.pos_m[i]]);
             let reference = [c.x.pos_m[i], c.y.pos_m[i]];
             let point = self.locator.locate(plan, seg, reference, pos_m);
             let cutting = plan.segments[seg].motion == Motion::Feed;

@@ -12,7 +12,13 @@
 //!
 //! For a pair of circles on the same centre and radius run in opposite directions:
 //! - **H, circular hysteresis**: the largest radial difference between the two paths at the
-//!   same angle (1° bins), about their common least-squares centre.
+//!   same angle (1° bins), about their common least-squares centre;
+//! - the ballbar diagnoses, each from the shape its cause leaves on the radial deviation:
+//!   squareness and scale mismatch (the ellipses both directions share, 2θ terms), servo
+//!   mismatch (the diagonal ellipse that turns with the direction), straightness (the 3θ
+//!   terms both share: a bow of one axis's travel seen on the other), lateral play (a step
+//!   of one axis at the other's reversals, |cos θ| or |sin θ| turning sign with the
+//!   direction) and lost motion (the radial step across an axis's own reversal points).
 
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
@@ -133,6 +139,24 @@ pub struct Hysteresis {
     pub servo_mismatch_ms: f64,
     /// Scale mismatch (ppm, X reading longer): the ellipse along the axes both share.
     pub scale_mismatch_ppm: f64,
+    /// Straightness of Y's travel seen on X, as `[x.errors] straightness_bow_um` over the
+    /// circle's diameter (µm): the cos 3θ term both directions share, times 4.
+    pub straightness_x_um: f64,
+    /// Straightness of X's travel seen on Y over the diameter (µm): the sin 3θ term, times −4.
+    pub straightness_y_um: f64,
+    /// Lateral play of X across Y's reversals, as `[x.errors] lateral_play_um` (µm): the
+    /// |cos θ| term of the counter-clockwise less the clockwise path.
+    pub lateral_play_x_um: f64,
+    /// Lateral play of Y across X's reversals (µm): the |sin θ| term of that difference,
+    /// negated.
+    pub lateral_play_y_um: f64,
+    /// Lost motion of X (µm, lagging positive): the radial step across X's reversal points
+    /// (0°, 180°) in the direction of travel, outside ±3° of them (where the reversal spike
+    /// stands) and within 20°, less the path's local slope; the mean of both points and
+    /// directions.
+    pub backlash_x_um: f64,
+    /// Lost motion of Y across its reversal points (90°, 270°) (µm).
+    pub backlash_y_um: f64,
 }
 
 /// The figures of every circle, and of every opposite pair.
@@ -261,7 +285,8 @@ fn figures(c: &Circle, p: &[[f64; 2]]) -> CircleFigures {
     let center = least_squares_center(p).unwrap_or(c.center_m);
     let (lo, hi) = radial_range(p, center, 0.0);
     let (f_min, f_max) = radial_range(p, c.center_m, c.radius_m);
-    let (along_axes, along_diagonals) = ellipse_terms(p, center);
+    let h = harmonics(p, center);
+    let (along_axes, along_diagonals) = (h.cos2(), h.sin2());
     CircleFigures {
         line: c.line,
         direction: if c.ccw { "ccw" } else { "cw" },
@@ -276,28 +301,62 @@ fn figures(c: &Circle, p: &[[f64; 2]]) -> CircleFigures {
     }
 }
 
-/// The cos 2θ and sin 2θ terms (m) of the radial deviation about `center`, fitted by least
-/// squares together with a constant and the once-per-turn terms (which a centre slightly
-/// off leaves).
-fn ellipse_terms(p: &[[f64; 2]], center: [f64; 2]) -> (f64, f64) {
-    let mut ata = nalgebra::SMatrix::<f64, 5, 5>::zeros();
-    let mut atb = nalgebra::SVector::<f64, 5>::zeros();
-    for q in p {
-        let (dx, dy) = (q[0] - center[0], q[1] - center[1]);
-        let theta = dy.atan2(dx);
-        let row = nalgebra::SVector::<f64, 5>::new(
+/// The radial deviation's 2θ and 3θ terms (m).
+#[derive(Debug, Clone, Copy, Default)]
+struct Harmonics {
+    /// Constant, cos θ, sin θ, cos 2θ, sin 2θ, cos 3θ, sin 3θ.
+    coef: [f64; 7],
+}
+
+impl Harmonics {
+    fn basis(theta: f64) -> nalgebra::SVector<f64, 7> {
+        nalgebra::SVector::<f64, 7>::from([
             1.0,
             theta.cos(),
             theta.sin(),
             (2.0 * theta).cos(),
             (2.0 * theta).sin(),
-        );
+            (3.0 * theta).cos(),
+            (3.0 * theta).sin(),
+        ])
+    }
+
+    /// The fitted radius (or radial deviation) at angle `theta`.
+    fn at(&self, theta: f64) -> f64 {
+        Harmonics::basis(theta)
+            .iter()
+            .zip(&self.coef)
+            .map(|(b, c)| b * c)
+            .sum()
+    }
+
+    fn cos2(&self) -> f64 {
+        self.coef[3]
+    }
+    fn sin2(&self) -> f64 {
+        self.coef[4]
+    }
+    fn cos3(&self) -> f64 {
+        self.coef[5]
+    }
+    fn sin3(&self) -> f64 {
+        self.coef[6]
+    }
+}
+
+/// The radius about `center` up to its 3θ terms, fitted by least squares (the once-per-turn
+/// terms take up a centre slightly off).
+fn harmonics(p: &[[f64; 2]], center: [f64; 2]) -> Harmonics {
+    let mut ata = nalgebra::SMatrix::<f64, 7, 7>::zeros();
+    let mut atb = nalgebra::SVector::<f64, 7>::zeros();
+    for q in p {
+        let (dx, dy) = (q[0] - center[0], q[1] - center[1]);
+        let row = Harmonics::basis(dy.atan2(dx));
         ata += row * row.transpose();
         atb += row * dx.hypot(dy);
     }
-    match ata.lu().solve(&atb) {
-        Some(c) => (c[3], c[4]),
-        None => (0.0, 0.0),
+    Harmonics {
+        coef: ata.lu().solve(&atb).map_or([0.0; 7], |c| c.into()),
     }
 }
 
@@ -373,13 +432,13 @@ fn reversal_spikes(c: &Circle, p: &[[f64; 2]]) -> [f64; 4] {
 
 /// H, the bidirectional G, squareness and servo mismatch of two opposite circles.
 fn hysteresis(ccw: (&Circle, &Vec<[f64; 2]>), cw: (&Circle, &Vec<[f64; 2]>)) -> Hysteresis {
-    // Each ellipse as 2·term/R: (along the axes, along the diagonals).
-    let ellipse = |c: &Circle, p: &[[f64; 2]]| {
-        let center = least_squares_center(p).unwrap_or(c.center_m);
-        let (a, b) = ellipse_terms(p, center);
-        (2.0 * a / c.radius_m, 2.0 * b / c.radius_m)
-    };
-    let ((s_ccw, t_ccw), (s_cw, t_cw)) = (ellipse(ccw.0, ccw.1), ellipse(cw.0, cw.1));
+    let terms =
+        |c: &Circle, p: &[[f64; 2]]| harmonics(p, least_squares_center(p).unwrap_or(c.center_m));
+    let (h_ccw, h_cw) = (terms(ccw.0, ccw.1), terms(cw.0, cw.1));
+    // Each ellipse as 2·term/R: along the axes, along the diagonals.
+    let r = ccw.0.radius_m;
+    let (s_ccw, t_ccw) = (2.0 * h_ccw.cos2() / r, 2.0 * h_ccw.sin2() / r);
+    let (s_cw, t_cw) = (2.0 * h_cw.cos2() / r, 2.0 * h_cw.sin2() / r);
     // A lag Δτ of Y behind X tilts the ellipse by −ω·Δτ counter-clockwise and +ω·Δτ
     // clockwise (ω = feed/R); a squareness error tilts both alike.
     let omega = ccw.0.feed_m_per_s / ccw.0.radius_m;
@@ -398,12 +457,27 @@ fn hysteresis(ccw: (&Circle, &Vec<[f64; 2]>), cw: (&Circle, &Vec<[f64; 2]>)) -> 
         sum
     };
     let (a, b) = (bins(ccw.1), bins(cw.1));
-    let h = a
+    // The counter-clockwise path's radius less the clockwise one's, per degree.
+    let difference: Vec<(f64, f64)> = a
         .iter()
         .zip(&b)
-        .filter(|(x, y)| x.1 > 0 && y.1 > 0)
-        .map(|(x, y)| (x.0 / x.1 as f64 - y.0 / y.1 as f64).abs())
-        .fold(0.0, f64::max);
+        .enumerate()
+        .filter(|(_, (x, y))| x.1 > 0 && y.1 > 0)
+        .map(|(deg, (x, y))| {
+            let theta = (deg as f64 + 0.5).to_radians();
+            (theta, x.0 / x.1 as f64 - y.0 / y.1 as f64)
+        })
+        .collect();
+    let h = difference.iter().map(|d| d.1.abs()).fold(0.0, f64::max);
+    let (play_x, play_y) = lateral_play(&difference);
+    let lost_motion = |quadrants: [f64; 2]| {
+        let steps: Vec<f64> = [(ccw.0, ccw.1), (cw.0, cw.1)]
+            .into_iter()
+            .flat_map(|(c, p)| quadrants.map(|q| step_across(c, p, q)))
+            .flatten()
+            .collect();
+        steps.iter().sum::<f64>() / steps.len().max(1) as f64
+    };
     Hysteresis {
         ccw_line: ccw.0.line,
         cw_line: cw.0.line,
@@ -416,7 +490,67 @@ fn hysteresis(ccw: (&Circle, &Vec<[f64; 2]>), cw: (&Circle, &Vec<[f64; 2]>)) -> 
         } else {
             f64::NAN
         },
+        straightness_x_um: um_from_m(2.0 * (h_ccw.cos3() + h_cw.cos3())),
+        straightness_y_um: um_from_m(-2.0 * (h_ccw.sin3() + h_cw.sin3())),
+        lateral_play_x_um: um_from_m(play_x),
+        lateral_play_y_um: um_from_m(play_y),
+        backlash_x_um: um_from_m(lost_motion([0.0, 180.0])),
+        backlash_y_um: um_from_m(lost_motion([90.0, 270.0])),
     }
+}
+
+/// Lateral play of X and of Y (m) from the counter-clockwise less the clockwise radius
+/// (angle rad, m): X's play p adds p·|cos θ| to it and Y's play q takes q·|sin θ| from it,
+/// fitted together with a constant and the sin 2θ term a servo mismatch leaves.
+fn lateral_play(difference: &[(f64, f64)]) -> (f64, f64) {
+    let mut ata = nalgebra::SMatrix::<f64, 4, 4>::zeros();
+    let mut atb = nalgebra::SVector::<f64, 4>::zeros();
+    for &(theta, d) in difference {
+        let row = nalgebra::SVector::<f64, 4>::new(
+            1.0,
+            (2.0 * theta).sin(),
+            theta.cos().abs(),
+            theta.sin().abs(),
+        );
+        ata += row * row.transpose();
+        atb += row * d;
+    }
+    match ata.lu().solve(&atb) {
+        Some(c) if difference.len() >= 90 => (c[2], -c[3]),
+        _ => (f64::NAN, f64::NAN),
+    }
+}
+
+/// The radial step (m) across the quadrant point `quadrant` (degrees) of circle `c`'s path
+/// `p`, in its direction of travel: r = a + b·δ + step·[δ > 0] fitted over 3° ≤ |δ| ≤ 20°
+/// (δ the angle past the point as the path travels) on what the path's smooth shape (its
+/// terms up to 3θ) leaves — a large servo ellipse bends too much over 20° for a line to
+/// follow; `None` with too few samples a side.
+fn step_across(c: &Circle, p: &[[f64; 2]], quadrant: f64) -> Option<f64> {
+    let travel = if c.ccw { 1.0 } else { -1.0 };
+    let smooth = harmonics(p, c.center_m);
+    let mut ata = Matrix3::<f64>::zeros();
+    let mut atb = Vector3::<f64>::zeros();
+    let (mut before, mut after) = (0usize, 0usize);
+    for &q in p {
+        let (angle, radial) = c.polar(q);
+        let r = radial + c.radius_m - smooth.at(angle);
+        let d = (angle.to_degrees() - quadrant).rem_euclid(360.0);
+        let delta = travel * if d > 180.0 { d - 360.0 } else { d };
+        if !(3.0..=20.0).contains(&delta.abs()) {
+            continue;
+        }
+        let past = if delta > 0.0 { 1.0 } else { 0.0 };
+        before += (past == 0.0) as usize;
+        after += (past == 1.0) as usize;
+        let row = Vector3::new(1.0, delta, past);
+        ata += row * row.transpose();
+        atb += row * r;
+    }
+    if before < 3 || after < 3 {
+        return None;
+    }
+    ata.lu().solve(&atb).map(|s| s[2])
 }
 
 impl CircularTest {
@@ -449,14 +583,22 @@ impl CircularTest {
         for p in &self.pairs {
             s.push_str(&format!(
                 "  lines {} and {}: hysteresis H {:.2} µm, both directions G {:.2} µm, squareness \
-                 {:+.1} µrad, servo mismatch {:+.2} ms, scale mismatch {:+.1} ppm\n",
+                 {:+.1} µrad, servo mismatch {:+.2} ms, scale mismatch {:+.1} ppm\n    \
+                 straightness X/Y {:+.2} / {:+.2} µm, lateral play X/Y {:+.2} / {:+.2} µm, \
+                 backlash X/Y {:+.2} / {:+.2} µm\n",
                 p.ccw_line,
                 p.cw_line,
                 p.h_um,
                 p.g_both_um,
                 p.squareness_urad,
                 p.servo_mismatch_ms,
-                p.scale_mismatch_ppm
+                p.scale_mismatch_ppm,
+                p.straightness_x_um,
+                p.straightness_y_um,
+                p.lateral_play_x_um,
+                p.lateral_play_y_um,
+                p.backlash_x_um,
+                p.backlash_y_um
             ));
         }
         s
@@ -578,6 +720,17 @@ mod tests {
         let p = t.pairs[0];
         assert!((p.servo_mismatch_ms - 6.6667).abs() < 0.07, "{p:?}");
         assert!(p.squareness_urad.abs() < 0.5, "{p:?}");
+        // Its ellipse, 111 µm across, is no lost motion, play or bow.
+        for v in [
+            p.backlash_x_um,
+            p.backlash_y_um,
+            p.lateral_play_x_um,
+            p.lateral_play_y_um,
+            p.straightness_x_um,
+            p.straightness_y_um,
+        ] {
+            assert!(v.abs() < 0.3, "{p:?}");
+        }
         // The X scale 30 ppm long: an ellipse along the axes.
         let t = pair_of([0.0, 0.0], 0.0, 30e-6);
         let p = t.pairs[0];
@@ -587,5 +740,74 @@ mod tests {
             "{p:?}"
         );
         assert!((t.circles[0].diagonal_ellipse_urad).abs() < 0.5);
+    }
+
+    /// Both directions of the R100 circle, the tool off the commanded point by
+    /// `off(θ, direction of X, direction of Y)` (m).
+    fn pair_reading(off: impl Fn(f64, f64, f64) -> [f64; 2]) -> CircularTest {
+        let path = |ccw: bool| -> (Vec<f64>, Vec<f64>) {
+            let turn = if ccw { 1.0 } else { -1.0 };
+            (0..1440)
+                .map(|k| {
+                    let theta = (k as f64 + 0.5).to_radians() * 0.25;
+                    // Counter-clockwise, X travels −sin θ and Y cos θ.
+                    let (dir_x, dir_y) =
+                        (-turn * theta.sin().signum(), turn * theta.cos().signum());
+                    let [dx, dy] = off(theta, dir_x, dir_y);
+                    (0.1 * theta.cos() + dx, 0.1 * theta.sin() + dy)
+                })
+                .unzip()
+        };
+        let ((x1, y1), (x2, y2)) = (path(true), path(false));
+        let segment: Vec<u32> = [vec![0; 1440], vec![1; 1440]].concat();
+        circular_test(
+            &[circle(true, 0), circle(false, 1)],
+            &segment,
+            &[x1, x2].concat(),
+            &[y1, y2].concat(),
+        )
+    }
+
+    #[test]
+    fn straightness_lateral_play_and_lost_motion_are_read_from_their_shapes() {
+        // Y's travel bowed 5 µm over the diameter as X sees it, X shifting 4 µm across Y's
+        // reversals, Y lagging 3 µm behind its direction of travel.
+        let t = pair_reading(|theta, _dir_x, dir_y| {
+            let bow = -5e-6 * theta.sin().powi(2);
+            [bow + 2e-6 * dir_y, -1.5e-6 * dir_y]
+        });
+        let p = t.pairs[0];
+        let near = |v: f64, want: f64| (v - want).abs() < 0.25;
+        assert!(
+            near(p.straightness_x_um, 5.0) && near(p.straightness_y_um, 0.0),
+            "{p:?}"
+        );
+        assert!(
+            near(p.lateral_play_x_um, 4.0) && near(p.lateral_play_y_um, 0.0),
+            "{p:?}"
+        );
+        assert!(
+            near(p.backlash_y_um, 3.0) && near(p.backlash_x_um, 0.0),
+            "{p:?}"
+        );
+        assert!(p.squareness_urad.abs() < 1.0, "{p:?}");
+        // The same on the other axes.
+        let t = pair_reading(|theta, dir_x, _dir_y| {
+            let bow = -5e-6 * theta.cos().powi(2);
+            [-1.5e-6 * dir_x, bow + 2e-6 * dir_x]
+        });
+        let p = t.pairs[0];
+        assert!(
+            near(p.straightness_y_um, 5.0) && near(p.straightness_x_um, 0.0),
+            "{p:?}"
+        );
+        assert!(
+            near(p.lateral_play_y_um, 4.0) && near(p.lateral_play_x_um, 0.0),
+            "{p:?}"
+        );
+        assert!(
+            near(p.backlash_x_um, 3.0) && near(p.backlash_y_um, 0.0),
+            "{p:?}"
+        );
     }
 }

@@ -1,6 +1,7 @@
 //! Compensation tables a control can load: the static errors of a machine's axes — its
-//! measuring-system errors (scale, cyclic, a learned position map) and its backlash — as
-//! offsets of the actual position from the commanded one, per direction of travel.
+//! measuring-system errors (scale, cyclic, a learned position map), its backlash and lost
+//! motion beyond its scale — as offsets of the actual position from the commanded one, per
+//! direction of travel.
 //!
 //! The offset at a position is found from the model rather than by reasoning about signs:
 //! the axis is put at rest where its feedback reads the position (as the control holds it),
@@ -54,7 +55,13 @@ fn axis_compensation(machine: &MachineConfig, axis: AxisName) -> Option<AxisComp
     let model = AxisModel::from_config(config);
     let map = CrossTerms::of(machine, axis);
     let half_gap_um = 0.5 * config.drive.backlash_um;
-    if !model.measuring.is_active() && map.map.is_empty() && half_gap_um == 0.0 {
+    // Beyond the scale the axis reads half the offset more travelling forward.
+    let half_offset_um = 0.5 * config.errors.direction_offset_um;
+    if !model.measuring.is_active()
+        && map.map.is_empty()
+        && half_gap_um == 0.0
+        && half_offset_um == 0.0
+    {
         return None;
     }
     let positions = positions_mm(machine, axis);
@@ -64,7 +71,8 @@ fn axis_compensation(machine: &MachineConfig, axis: AxisName) -> Option<AxisComp
             let (state, _) = rest_state(&model, m_from_mm(p));
             // Where the table stands, and the position map beyond the scale.
             let offset_um = um_from_m(state[X2] - m_from_mm(p) + map.map_at(state[X2]));
-            (p, offset_um - half_gap_um, offset_um + half_gap_um)
+            let forward = half_offset_um - half_gap_um;
+            (p, offset_um + forward, offset_um - forward)
         })
         .collect();
     Some(AxisCompensation { axis, points })
@@ -136,5 +144,18 @@ mod tests {
         assert!(text.contains("\n1000.0000 -0.103990 -0.095990\n"), "{text}");
         // Nothing to compensate on the nominal machine.
         assert!(compensation(&MachineConfig::default_preset()).is_empty());
+    }
+
+    #[test]
+    fn lost_motion_beyond_the_scale_is_an_offset_by_direction() {
+        // Y reads 6 µm more travelling + than travelling −: +3 µm forward, −3 µm back.
+        let mut m = MachineConfig::default_preset();
+        m.y.errors.direction_offset_um = 6.0;
+        let tables = compensation(&m);
+        assert_eq!(tables.len(), 1);
+        assert_eq!(tables[0].axis, AxisName::Y);
+        for &(_, forward, reverse) in &tables[0].points {
+            assert!((forward - 3.0).abs() < 1e-6 && (reverse + 3.0).abs() < 1e-6);
+        }
     }
 }

@@ -26,6 +26,10 @@ pub struct ContourSeries {
     pub segment: Vec<u32>,
     /// Path length of the foot point from the program start (m).
     pub path_s_m: Vec<f64>,
+    /// Whether the foot point is a segment's end, the tool beyond it: there the error's
+    /// side is not defined (past a reversal it is along the path, and its sign is the
+    /// noise's), only its size.
+    pub at_vertex: Vec<bool>,
 }
 
 impl ContourSeries {
@@ -66,6 +70,8 @@ pub struct ContourPoint {
     pub segment: u32,
     /// Path length of the foot point from the program start (m).
     pub path_s_m: f64,
+    /// Whether the foot point is the segment's end (see [`ContourSeries::at_vertex`]).
+    pub at_vertex: bool,
 }
 
 /// The contour search along one plan's path, sample by sample.
@@ -97,6 +103,7 @@ impl ContourLocator {
             radial_m: f64::NAN,
             segment: c as u32,
             path_s_m: s_ref,
+            at_vertex: false,
         };
         if !is_contour(&segs[c]) {
             return none;
@@ -115,6 +122,7 @@ impl ContourLocator {
                     radial_m: p.radial_m.unwrap_or(f64::NAN),
                     segment: j as u32,
                     path_s_m: cum[j] + p.u * plan.plans[j].length_m,
+                    at_vertex: p.u <= 0.0 || p.u >= 1.0,
                 };
                 best = Some((d, point));
             }
@@ -143,6 +151,7 @@ pub fn contour_errors(plan: &Plan, commands: &Commands, x_m: &[f64], y_m: &[f64]
         radial_m: Vec::with_capacity(n),
         segment: Vec::with_capacity(n),
         path_s_m: Vec::with_capacity(n),
+        at_vertex: Vec::with_capacity(n),
     };
     for k in 0..n {
         let reference = [commands.x.pos_m[k], commands.y.pos_m[k]];
@@ -159,5 +168,6 @@ impl ContourSeries {
         self.radial_m.push(p.radial_m);
         self.segment.push(p.segment);
         self.path_s_m.push(p.path_s_m);
+        self.at_vertex.push(p.at_vertex);
     }
 }

@@ -19,6 +19,7 @@ pub mod gcode;
 pub mod geometry;
 pub mod hotspot;
 pub mod inspect;
+pub mod lookup;
 pub mod machine;
 pub mod measured;
 pub mod output;

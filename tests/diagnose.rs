@@ -12,6 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use contourcheck::diagnose::causes::CauseId;
+use contourcheck::diagnose::learn::Term;
 use contourcheck::diagnose::locate::Variable;
 use contourcheck::diagnose::table::diagnose_table;
 use contourcheck::diagnose::{AxisResidual, DiagnoseSettings, Diagnosis, diagnose};
@@ -749,12 +750,12 @@ fn an_effect_outside_the_catalogue_is_placed_learned_and_measured() {
     assert_eq!(d.learned.len(), 1, "{:?}", d.learned);
     let l = &d.learned[0];
     assert_eq!(l.axis, AxisName::X);
-    let (lo, hi) = l.interval_mm.unwrap();
+    let (lo, hi) = l.interval.unwrap();
     assert!(
         lo >= 18.0 && hi <= 42.0 && lo <= 28.0 && hi >= 32.0,
         "{l:?}"
     );
-    assert!((l.peak_um.abs() - 6.0).abs() < 1.5, "{l:?}");
+    assert!((l.peak.abs() - 6.0).abs() < 1.5, "{l:?}");
     // It halves the residual on the half of the record it was not fitted on, down to near
     // the noise (0.3 µm).
     assert!(l.held_out_after_um <= 0.5 * l.held_out_before_um, "{l:?}");
@@ -865,4 +866,91 @@ fn a_periodic_error_off_the_lead_is_placed_by_its_period_and_learned() {
     // Learned, it takes the residual down to the noise on the half it was not fitted on.
     assert!(l.held_out_after_um <= 0.5 * l.held_out_before_um, "{l:?}");
     assert!(l.held_out_after_um < 0.4, "{l:?}");
+}
+
+/// X back and forth over 150 mm four times at the preset's largest feed, 1000 mm/min, Y
+/// standing: a guideway travelled often enough for an effect of position to show on data
+/// it was not fitted on.
+fn shuttle_program() -> Program {
+    let text = "G21 G17 G90 G94\nG0 X0 Y0\n\
+                G1 X150 F1000\nX0\nX150\nX0\nX150\nX0\nX150\nX0\nM2\n";
+    parse_program(text, "shuttle.nc", &InterpretOptions::default()).unwrap()
+}
+
+/// The shuttle on `truth`, measured as a laser interferometer or a fine scale does (0.05 µm
+/// of noise, 0.1 µm counts): the quiet a tight spot on this heavy table needs, whose ±0.5 µm
+/// transients a 0.3 µm noise would bury.
+fn quiet_shuttle_record(truth: &MachineConfig, seed: u64) -> contourcheck::measured::MeasuredTrace {
+    let spec = SynthSpec {
+        offset_s: 0.29,
+        seed,
+        noise_m: 0.05e-6,
+        quantization_m: 0.1e-6,
+        ..SynthSpec::default()
+    };
+    recorded(&shuttle_program(), truth, &spec, "shuttle.csv")
+}
+
+#[test]
+fn a_tight_spot_on_a_guideway_is_placed_and_learned_as_friction() {
+    // Friction doubled (589 N more, the preset's Coulomb friction again) over 20 mm of X.
+    let mut truth = MachineConfig::default_preset();
+    truth.x.errors.friction_map_mm = vec![59.0, 60.0, 80.0, 81.0];
+    truth.x.errors.friction_map_n = vec![0.0, 589.0, 589.0, 0.0];
+    let d = diagnose_nominal(&shuttle_program(), &quiet_shuttle_record(&truth, 61));
+    assert!(d.causes.is_empty(), "{:?}", d.causes);
+    assert_eq!(d.learned.len(), 1, "{:?}", d.learned);
+    let l = &d.learned[0];
+    assert_eq!((l.axis, l.term), (AxisName::X, Term::FrictionMap), "{l:?}");
+    // Placed where it is, at about the friction it adds.
+    let (lo, hi) = l.interval.unwrap();
+    assert!(
+        (55.0..=63.0).contains(&lo) && (77.0..=85.0).contains(&hi),
+        "{l:?}"
+    );
+    assert!((l.peak - 589.0).abs() < 0.25 * 589.0, "{l:?}");
+    // Learned on one half, it takes the other half's residual down by more than half.
+    assert!(l.held_out_after_um <= 0.5 * l.held_out_before_um, "{l:?}");
+    // The same guideway without the spot: nothing named, nothing learned.
+    let clean = diagnose_nominal(
+        &shuttle_program(),
+        &quiet_shuttle_record(&MachineConfig::default_preset(), 62),
+    );
+    assert!(
+        clean.causes.is_empty() && clean.learned.is_empty(),
+        "{:?} {:?}",
+        clean.causes,
+        clean.learned
+    );
+}
+
+#[test]
+fn lost_motion_beyond_the_scale_is_found_in_a_trace_with_its_commands() {
+    // X reads 4 µm more travelling + than −: play between the scale and the tool, which the
+    // loop never sees. Without the commands in the record a clock offset would take most
+    // of it (at one feed v·Δt has the direction's sign too); a CNC trace with them fixes
+    // the clock.
+    let spec = SynthSpec {
+        effect: Some((CauseId::DirectionOffset, AxisName::X, vec![4.0])),
+        offset_s: 0.31,
+        seed: 63,
+        with_commands: true,
+        ..SynthSpec::default()
+    };
+    let prog = shuttle_program();
+    let measured = recorded(&prog, &MachineConfig::default_preset(), &spec, "trace.csv");
+    let d = diagnose_nominal(&prog, &measured);
+    let named: Vec<(CauseId, AxisName)> = d.causes.iter().map(|c| (c.id, c.axis)).collect();
+    assert_eq!(
+        named,
+        vec![(CauseId::DirectionOffset, AxisName::X)],
+        "{:?}",
+        d.rejected
+    );
+    let p = &d.causes[0].params[0];
+    assert!(
+        (p.value - 4.0).abs() <= 4.0 * p.uncertainty.max(0.05),
+        "{p:?}"
+    );
+    assert!(d.after.x.rms_um < 0.5, "{:?}", d.after.x);
 }

@@ -149,7 +149,7 @@ fn assert_found_through_foreign_commands(
     axis: AxisName,
     hidden: &[f64],
     seed: u64,
-) {
+) -> Diagnosis {
     let program = sample_program(name);
     let spec = SynthSpec {
         sample_s: 1e-3,
@@ -186,6 +186,7 @@ fn assert_found_through_foreign_commands(
     } else {
         assert!(h.rms_after_um < h.rms_before_um, "{h:?}");
     }
+    d
 }
 
 #[test]
@@ -289,6 +290,25 @@ fn measuring_errors_found_through_another_interpolators_commands() {
         &[40.0],
         56,
     );
+}
+
+#[test]
+fn lateral_play_found_through_another_interpolators_commands() {
+    // X steps 6 µm at each reversal of Y (at the circle's ±Y points), against 0.3 µm of noise.
+    let d = assert_found_through_foreign_commands(
+        "circle-test.nc",
+        CauseId::LateralPlay,
+        AxisName::X,
+        &[6.0],
+        57,
+    );
+    // The circle test reads it as a ballbar does, measured and by the extended model.
+    for test in [&d.circular.measured, &d.circular.extended] {
+        let pair = test.pairs[0];
+        assert!((pair.lateral_play_x_um - 6.0).abs() < 1.0, "{pair:?}");
+        assert!(pair.lateral_play_y_um.abs() < 1.0, "{pair:?}");
+    }
+    assert!(d.circular.nominal.pairs[0].lateral_play_x_um.abs() < 1.0);
 }
 
 #[test]
@@ -716,8 +736,8 @@ fn an_unlisted_bump_is_learned_through_another_interpolators_commands() {
     assert!(d.causes.is_empty(), "named {:?}", named(&d));
     assert_eq!(d.learned.len(), 1, "{:?}", d.learned);
     let l = &d.learned[0];
-    let (lo, hi) = l.interval_mm.unwrap();
+    let (lo, hi) = l.interval.unwrap();
     assert!(l.axis == AxisName::X && lo >= 18.0 && hi <= 42.0, "{l:?}");
-    assert!((l.peak_um - 6.0).abs() < 1.5, "{l:?}");
+    assert!((l.peak - 6.0).abs() < 1.5, "{l:?}");
     assert!(l.held_out_after_um <= 0.5 * l.held_out_before_um, "{l:?}");
 }

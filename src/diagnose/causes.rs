@@ -34,11 +34,15 @@ pub enum CauseId {
     Squareness,
     /// The other axis's travel bowed as seen on this one.
     Straightness,
+    /// Play across the guides: a step on this axis at each reversal of the other.
+    LateralPlay,
+    /// Lost motion beyond the scale: this axis reads more travelling one way than the other.
+    DirectionOffset,
 }
 
 impl CauseId {
     /// Every cause.
-    pub const ALL: [CauseId; 10] = [
+    pub const ALL: [CauseId; 12] = [
         CauseId::Backlash,
         CauseId::CoulombFriction,
         CauseId::Stribeck,
@@ -49,6 +53,8 @@ impl CauseId {
         CauseId::Resonance,
         CauseId::Squareness,
         CauseId::Straightness,
+        CauseId::LateralPlay,
+        CauseId::DirectionOffset,
     ];
 
     /// The id as written in reports and on the command line.
@@ -64,6 +70,8 @@ impl CauseId {
             CauseId::Resonance => "resonance",
             CauseId::Squareness => "squareness",
             CauseId::Straightness => "straightness",
+            CauseId::LateralPlay => "lateral_play",
+            CauseId::DirectionOffset => "direction_offset",
         }
     }
 
@@ -167,6 +175,20 @@ impl CauseId {
                 min: -1e4,
                 max: 1e4,
             }],
+            CauseId::LateralPlay => &[Param {
+                key: "errors.lateral_play_um",
+                unit: "µm",
+                scale: 5.0,
+                min: -1e4,
+                max: 1e4,
+            }],
+            CauseId::DirectionOffset => &[Param {
+                key: "errors.direction_offset_um",
+                unit: "µm",
+                scale: 5.0,
+                min: -1e4,
+                max: 1e4,
+            }],
         }
     }
 
@@ -185,9 +207,13 @@ impl CauseId {
             {
                 Some("a lead error moves the table, not the motor the loop closes on")
             }
-            (MeasuredAt::Motor, CauseId::Squareness | CauseId::Straightness) => {
-                Some("the axes' geometry lies between the scales and the tool")
-            }
+            (
+                MeasuredAt::Motor,
+                CauseId::Squareness
+                | CauseId::Straightness
+                | CauseId::LateralPlay
+                | CauseId::DirectionOffset,
+            ) => Some("the axes' geometry lies between the scales and the tool"),
             _ => None,
         }
     }
@@ -279,6 +305,8 @@ pub fn get(axis: &AxisConfig, key: &str) -> f64 {
         "errors.resonance_damping" => axis.errors.resonance_damping,
         "errors.squareness_urad" => axis.errors.squareness_urad,
         "errors.straightness_bow_um" => axis.errors.straightness_bow_um,
+        "errors.lateral_play_um" => axis.errors.lateral_play_um,
+        "errors.direction_offset_um" => axis.errors.direction_offset_um,
         other => unreachable!("not a cause parameter: {other}"),
     }
 }
@@ -299,6 +327,8 @@ pub fn set(axis: &mut AxisConfig, key: &str, v: f64) {
         "errors.resonance_damping" => &mut axis.errors.resonance_damping,
         "errors.squareness_urad" => &mut axis.errors.squareness_urad,
         "errors.straightness_bow_um" => &mut axis.errors.straightness_bow_um,
+        "errors.lateral_play_um" => &mut axis.errors.lateral_play_um,
+        "errors.direction_offset_um" => &mut axis.errors.direction_offset_um,
         other => unreachable!("not a cause parameter: {other}"),
     };
     *slot = v;
@@ -325,6 +355,24 @@ pub struct Kinematics<'a> {
     pub cyclic_period_m: f64,
     /// The other axis's position (m).
     pub other_pos_m: &'a [f64],
+}
+
+impl Kinematics<'_> {
+    /// The direction the other axis last travelled (±1, 0 before it moved), per sample.
+    pub fn other_direction(&self) -> Vec<f64> {
+        travel_directions(self.other_pos_m)
+    }
+
+    /// The direction this axis last travelled, per sample.
+    pub fn own_direction(&self) -> Vec<f64> {
+        travel_directions(self.pos_m)
+    }
+}
+
+/// The direction last travelled at each of a series of positions (m) in time order.
+fn travel_directions(positions_m: &[f64]) -> Vec<f64> {
+    let mut travel = crate::geometry::Travel::default();
+    positions_m.iter().map(|&q| travel.direction(q)).collect()
 }
 
 /// How strongly the residual `r` shows a cause's signature: the share of its variance
@@ -376,6 +424,14 @@ pub fn signature(cause: CauseId, r: &[f64], k: &Kinematics) -> f64 {
             &[&|i| k.other_pos_m[i] * k.other_pos_m[i]],
             &all,
         ),
+        CauseId::LateralPlay | CauseId::DirectionOffset => {
+            let dir = if cause == CauseId::LateralPlay {
+                k.other_direction()
+            } else {
+                k.own_direction()
+            };
+            explained(r, n.min(dir.len()), &[&|i| dir[i]], &all)
+        }
     }
 }
 

@@ -25,6 +25,9 @@ use crate::units::um_from_m;
 pub enum Variable {
     /// The commanded position of an axis.
     Position(AxisName),
+    /// The axis's own position, each direction of travel on its own: an effect that acts
+    /// against the motion where the axis is (friction at a tight spot).
+    PositionByDirection(AxisName),
     /// The axis's commanded velocity (signed).
     Velocity,
     /// The axis's commanded acceleration.
@@ -42,6 +45,7 @@ impl Variable {
     pub fn describe(self) -> String {
         match self {
             Variable::Position(a) => format!("position on {a}"),
+            Variable::PositionByDirection(a) => format!("position on {a} by direction of travel"),
             Variable::Velocity => "velocity".into(),
             Variable::Acceleration => "acceleration".into(),
             Variable::Direction => "direction of travel".into(),
@@ -53,7 +57,10 @@ impl Variable {
     /// Decimals its interval is shown with.
     pub fn decimals(self) -> usize {
         match self {
-            Variable::Position(_) | Variable::Period | Variable::Time => 1,
+            Variable::Position(_)
+            | Variable::PositionByDirection(_)
+            | Variable::Period
+            | Variable::Time => 1,
             Variable::Velocity | Variable::Direction => 0,
             Variable::Acceleration => 4,
         }
@@ -62,7 +69,7 @@ impl Variable {
     /// The unit its interval is given in.
     pub fn unit(self) -> &'static str {
         match self {
-            Variable::Position(_) | Variable::Period => "mm",
+            Variable::Position(_) | Variable::PositionByDirection(_) | Variable::Period => "mm",
             Variable::Velocity => "mm/min",
             Variable::Acceleration => "m/s²",
             Variable::Direction => "",
@@ -212,26 +219,37 @@ fn locate_axis(
         let (interval, peak) = bins.fit(z, residual, &|_| true).largest();
         consider(*variable, share, interval, peak);
     }
-    // Direction: two bins by the sign of a velocity clearly off zero.
-    let moving = own.iter().map(|c| c.1.abs()).fold(0.0, f64::max) * 0.02;
-    let direction: Vec<f64> = own
-        .iter()
-        .map(|c| {
-            if c.1 > moving {
-                1.0
-            } else if c.1 < -moving {
-                -1.0
-            } else {
-                f64::NAN
-            }
-        })
-        .collect();
+    // Direction: two bins by the sign of a velocity clearly off zero. After velocity, which
+    // at one feed says the same: a lag proportional to velocity is the likelier cause.
+    let direction = directions(&own);
     let bins = Bins::fixed(-1.5, 1.5, 2);
     let share = held_out_share(residual, &fold, |train| {
         bins.fit(&direction, residual, train)
     });
     let (_, peak) = bins.fit(&direction, residual, &|_| true).largest();
     consider(Variable::Direction, share, None, peak);
+    // Position by direction: the positions travelled towards − are shifted past those
+    // travelled towards +, so that one set of bins holds both ways apart.
+    let (lo, hi) = finite_range(&x);
+    let shift = 2.0 * (hi - lo) + 1.0;
+    let by_direction: Vec<f64> = x
+        .iter()
+        .zip(&direction)
+        .map(|(&p, &d)| if d > 0.0 { p } else { p + shift * d.abs() })
+        .collect();
+    let bins = Bins::fixed(lo, lo + 2.0 * shift, 4 * BINS);
+    let share = held_out_share(residual, &fold, |train| {
+        bins.fit(&by_direction, residual, train)
+    });
+    let (interval, peak) = bins.fit(&by_direction, residual, &|_| true).largest();
+    let unshifted = interval.map(|(a, b)| {
+        if a >= lo + shift {
+            (a - shift, b - shift)
+        } else {
+            (a, b)
+        }
+    });
+    consider(Variable::PositionByDirection(axis), share, unshifted, peak);
     // A period in position: sine and cosine of 2πx/p, over a logarithmic grid of periods
     // and then finely around the best of it — over a long travel a period a per cent off
     // drifts out of phase.
@@ -257,6 +275,31 @@ fn locate_axis(
         consider(Variable::Period, share, Some((period, period)), amplitude);
     }
     best
+}
+
+/// The direction each sample's command travels (±1), NaN where it is not clearly moving.
+pub(super) fn directions(own: &[(f64, f64, f64)]) -> Vec<f64> {
+    let moving = own.iter().map(|c| c.1.abs()).fold(0.0, f64::max) * 0.02;
+    own.iter()
+        .map(|c| {
+            if c.1 > moving {
+                1.0
+            } else if c.1 < -moving {
+                -1.0
+            } else {
+                f64::NAN
+            }
+        })
+        .collect()
+}
+
+/// The least and largest finite values.
+pub(super) fn finite_range(z: &[f64]) -> (f64, f64) {
+    z.iter()
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+            (l.min(v), h.max(v))
+        })
 }
 
 /// A model of the residual fitted on some samples that predicts any sample.
@@ -300,12 +343,7 @@ pub(super) struct Bins {
 impl Bins {
     /// `count` bins over the finite values of `z`.
     pub(super) fn over(z: &[f64], count: usize) -> Bins {
-        let (lo, hi) = z
-            .iter()
-            .filter(|v| v.is_finite())
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
-                (l.min(v), h.max(v))
-            });
+        let (lo, hi) = finite_range(z);
         if lo < hi {
             Bins::fixed(lo, hi, count)
         } else {

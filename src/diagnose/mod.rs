@@ -30,7 +30,7 @@ use serde::Serialize;
 
 use crate::check::CheckSettings;
 use crate::circular::{Circle, CircularTest, circles, circular_test};
-use crate::contour::contour_errors;
+use crate::contour::{ContourSeries, contour_errors};
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
 use crate::measured::{MeasuredError, MeasuredTrace};
@@ -398,14 +398,14 @@ pub fn diagnose_validated(
     } else {
         outcome.offset_s
     };
-    // What no cause explains: where it lives, and, where that is the axis's own position,
-    // a compensation table learned from it.
+    // What no cause explains: where it lives, and, where a term of the model can stand for
+    // that variable, the term learned from it.
     let mut unexplained = locate::locate(&ctx, &outcome.traces, outcome.offset_s);
     let mut learned = Vec::new();
     if settings.max_causes > 0 {
         for u in &unexplained {
             if let Some((extended, traces, l)) =
-                learn::position_map(&ctx, &outcome.machine, &outcome.traces, outcome.offset_s, u)
+                learn::learn(&ctx, &outcome.machine, &outcome.traces, outcome.offset_s, u)
             {
                 outcome.machine = extended;
                 outcome.traces = traces;
@@ -557,6 +557,24 @@ fn skipped_causes(machine: &MachineConfig, settings: &DiagnoseSettings) -> Vec<S
     out
 }
 
+/// The measured contour error and a model's, sample by sample, as they can be compared: in
+/// size alone where either lies beyond a segment's end, where the error has no side.
+fn comparable_contours(measured: &ContourSeries, model: &ContourSeries) -> [Vec<f64>; 2] {
+    let n = measured.error_m.len().min(model.error_m.len());
+    let (mut a, mut b) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for k in 0..n {
+        let (m, p) = (measured.error_m[k], model.error_m[k]);
+        if measured.at_vertex[k] || model.at_vertex[k] {
+            a.push(m.abs());
+            b.push(p.abs());
+        } else {
+            a.push(m);
+            b.push(p);
+        }
+    }
+    [a, b]
+}
+
 /// Residual statistics before and after, the places of the largest residuals, and the
 /// series for plots.
 fn summarize(
@@ -589,10 +607,11 @@ fn summarize(
     );
     s.path_s_m = cm.path_s_m.clone();
     s.segment = cm.segment.clone();
+    let (vs_nominal, vs_extended) = (comparable_contours(&cm, &cn), comparable_contours(&cm, &ce));
     let diff = |a: &[f64], b: &[f64]| -> Vec<f64> { a.iter().zip(b).map(|(x, y)| x - y).collect() };
     s.contour_residual = [
-        diff(&cm.error_m, &cn.error_m),
-        diff(&cm.error_m, &ce.error_m),
+        diff(&vs_nominal[0], &vs_nominal[1]),
+        diff(&vs_extended[0], &vs_extended[1]),
     ];
     let events = AxisName::BOTH.map(|a| ctx.event_masks(a, offset, window_s).1);
     let either_event: Vec<bool> = events[0]
@@ -601,23 +620,29 @@ fn summarize(
         .map(|(a, b)| *a || *b)
         .collect();
     let (dt, sigma) = (ctx.sample_dt_s, ctx.noise_sigma);
-    let stats = |model: &[Vec<f64>; 2], contour_model: &[f64]| {
+    let stats = |model: &[Vec<f64>; 2], [contour_measured, contour_model]: &[Vec<f64>; 2]| {
         let axis = |a: usize| axis_residual(&s.measured[a], &model[a], &events[a], dt, sigma);
         // The contour error where both are defined (rapids have none).
-        let keep: Vec<usize> = (0..cm.error_m.len())
-            .filter(|&k| cm.error_m[k].is_finite() && contour_model[k].is_finite())
+        let keep: Vec<usize> = (0..contour_measured.len())
+            .filter(|&k| contour_measured[k].is_finite() && contour_model[k].is_finite())
             .collect();
         let pick = |v: &[f64]| -> Vec<f64> { keep.iter().map(|&k| v[k]).collect() };
         let event: Vec<bool> = keep.iter().map(|&k| either_event[k]).collect();
-        let contour = axis_residual(&pick(&cm.error_m), &pick(contour_model), &event, dt, sigma);
+        let contour = axis_residual(
+            &pick(contour_measured),
+            &pick(contour_model),
+            &event,
+            dt,
+            sigma,
+        );
         ResidualStats {
             x: axis(0),
             y: axis(1),
             contour,
         }
     };
-    let before = stats(&s.nominal, &cn.error_m);
-    let after = stats(&s.extended, &ce.error_m);
+    let before = stats(&s.nominal, &vs_nominal);
+    let after = stats(&s.extended, &vs_extended);
     let mut places = Vec::new();
     for (what, r) in [
         ("x", diff(&s.measured[0], &s.nominal[0])),

@@ -33,6 +33,10 @@ const SCALE_ERROR_MAX_PPM: f64 = 1000.0;
 const SQUARENESS_MAX_URAD: f64 = 1000.0;
 /// Largest bow of a guideway over its span (µm).
 const STRAIGHTNESS_MAX_UM: f64 = 200.0;
+/// Largest play of a carriage across its guides (µm): a worn plain slideway's clearance.
+const LATERAL_PLAY_MAX_UM: f64 = 100.0;
+/// Largest lost motion beyond a scale (µm): a worn holder's or head's play.
+const DIRECTION_OFFSET_MAX_UM: f64 = 100.0;
 /// A position gain this far from the set one is a wrong machine file, not a cause.
 const KV_RATIO_MAX: f64 = 5.0;
 /// How near (relative) a fitted resonance may lie to a loop's crossover before it is taken
@@ -120,6 +124,18 @@ pub fn implausible(
             format!(
                 "a guideway bowed {:.0} µm over {:.0} mm is beyond any machine's ({STRAIGHTNESS_MAX_UM:.0} µm)",
                 values[0], axis.errors.straightness_span_mm
+            )
+        }),
+        CauseId::LateralPlay => (values[0].abs() > LATERAL_PLAY_MAX_UM).then(|| {
+            format!(
+                "{:.0} µm of play across the guides is beyond any guideway's ({LATERAL_PLAY_MAX_UM:.0} µm)",
+                values[0]
+            )
+        }),
+        CauseId::DirectionOffset => (values[0].abs() > DIRECTION_OFFSET_MAX_UM).then(|| {
+            format!(
+                "{:.0} µm of lost motion beyond the scale is beyond any machine's ({DIRECTION_OFFSET_MAX_UM:.0} µm)",
+                values[0]
             )
         }),
         CauseId::Resonance => loop_frequency_near(&model, values[0]).map(|(what, f)| {

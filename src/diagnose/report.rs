@@ -471,10 +471,14 @@ fn verdict(d: &Diagnosis) -> String {
         );
     }
     if !d.learned.is_empty() {
-        let axes: Vec<String> = d.learned.iter().map(|l| l.axis.to_string()).collect();
+        let terms: Vec<String> = d
+            .learned
+            .iter()
+            .map(|l| format!("{} on {}", l.term.describe(), l.axis))
+            .collect();
         return format!(
-            "No catalogue cause; an unlisted position-dependent error learned on {}.",
-            axes.join(", ")
+            "No catalogue cause; unlisted effect learned: {}.",
+            terms.join(", ")
         );
     }
     let worst = d.before.x.rms_um.max(d.before.y.rms_um);
@@ -492,19 +496,24 @@ fn verdict(d: &Diagnosis) -> String {
     }
 }
 
-/// A learned position map, in a line.
+/// A learned term, in a line.
 fn learned_line(l: &Learned) -> String {
-    let place = match (l.interval_mm, l.period_mm) {
+    let unit = l.term.variable_unit();
+    let decimals = if unit == "mm" { 1 } else { 0 };
+    let place = match (l.interval, l.period_mm) {
         (_, Some(p)) => format!(" with a period of {p:.2} mm"),
-        (Some((lo, hi)), None) => format!(" between {lo:.1} and {hi:.1} mm"),
+        (Some((lo, hi)), None) => format!(" between {lo:.decimals$} and {hi:.decimals$} {unit}"),
         (None, None) => String::new(),
     };
     format!(
-        "unlisted effect learned: position-dependent error on {}{place}, peak {:+.2} µm, as a \
-         {}-point map (errors.position_map_*): {} RMS {:.3} → {:.3} µm; held out {:.3} → {:.3} µm",
+        "unlisted effect learned: {} on {}{place}, peak {:+.2} {}, as a {}-point table ({}): {} RMS \
+         {:.3} → {:.3} µm; held out {:.3} → {:.3} µm",
+        l.term.describe(),
         l.axis,
-        l.peak_um,
+        l.peak,
+        l.term.value_unit(),
         l.points,
+        l.term.keys(),
         l.axis,
         l.rms_before_um,
         l.rms_after_um,

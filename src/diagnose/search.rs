@@ -596,6 +596,15 @@ fn initial_guess(cause: CauseId, axis: &AxisConfig, r: &[f64], k: &Kinematics) -
             let half_span_m = 0.5e-3 * axis.errors.straightness_span_mm;
             vec![-slope(&|i| (k.other_pos_m[i] / half_span_m).powi(2)) * 1e6]
         }
+        // r = ±p/2 with the other axis's direction (or its own): p = 2·slope.
+        CauseId::LateralPlay => {
+            let dir = k.other_direction();
+            vec![2.0 * slope(&|i| dir[i]) * 1e6]
+        }
+        CauseId::DirectionOffset => {
+            let dir = k.own_direction();
+            vec![2.0 * slope(&|i| dir[i]) * 1e6]
+        }
     }
 }
 

@@ -137,6 +137,28 @@ pub struct Errors {
     /// explains it.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub position_map_um: Vec<f64>,
+    /// Play across the other axis's reversals (µm): this axis reads +½ of it while the other
+    /// axis last travelled towards its +, −½ towards its − (a step at each of its reversals).
+    /// Geometric, beyond the scales.
+    pub lateral_play_um: f64,
+    /// Lost motion beyond the scale (µm): this axis reads +½ of it while it last travelled
+    /// towards +, −½ towards −. The loop, closed on the scale, cannot take it out.
+    pub direction_offset_um: f64,
+    /// Friction that depends on where the table is (a tight spot on a guideway): positions
+    /// (mm, increasing) …
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub friction_map_mm: Vec<f64>,
+    /// … and the Coulomb friction added there (N at the table, linear in between, held
+    /// beyond the ends); the static friction rises by as much.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub friction_map_n: Vec<f64>,
+    /// Friction that depends on the table's speed beyond the Coulomb, viscous and Stribeck
+    /// terms: speeds (mm/min, increasing, from 0) …
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub friction_speed_mm_per_min: Vec<f64>,
+    /// … and the sliding friction added there (N at the table, against the motion).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub friction_speed_n: Vec<f64>,
 }
 
 impl Default for Errors {
@@ -153,6 +175,12 @@ impl Default for Errors {
             straightness_span_mm: default_straightness_span_mm(),
             position_map_mm: Vec::new(),
             position_map_um: Vec::new(),
+            lateral_play_um: 0.0,
+            direction_offset_um: 0.0,
+            friction_map_mm: Vec::new(),
+            friction_map_n: Vec::new(),
+            friction_speed_mm_per_min: Vec::new(),
+            friction_speed_n: Vec::new(),
         }
     }
 }

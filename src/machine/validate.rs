@@ -254,7 +254,17 @@ fn validate_axis(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigEr
         e.straightness_span_mm,
         Rule::Range(1.0, 1e5),
     )?;
-    validate_position_map(c, &k, e)?;
+    validate_tables(c, &k, e)?;
+    c.check(
+        &k("errors.lateral_play_um"),
+        e.lateral_play_um,
+        Rule::Range(-1e4, 1e4),
+    )?;
+    c.check(
+        &k("errors.direction_offset_um"),
+        e.direction_offset_um,
+        Rule::Range(-1e4, 1e4),
+    )?;
     if let Some(ls) = &a.lateral_shift {
         c.check(
             &k("lateral_shift.beam_length_m"),
@@ -317,27 +327,30 @@ fn validate_limits(c: &Checker, prefix: &str, l: &Limits) -> Result<(), ConfigEr
     Ok(())
 }
 
-/// A position map: as many errors as positions, at most `POSITION_MAP_POINTS`, positions
-/// increasing, every value finite and within a millimetre.
-fn validate_position_map(
+/// A table of the machine file (`at` keys, `values` keys, the range of a value): as many
+/// values as points, at most `POSITION_MAP_POINTS`, points increasing, every number finite
+/// and within its range.
+fn validate_table(
     c: &Checker,
-    k: &dyn Fn(&str) -> String,
-    e: &crate::machine::Errors,
+    (at_key, at): (&str, &[f64]),
+    (value_key, values): (&str, &[f64]),
+    value_range: (f64, f64),
 ) -> Result<(), ConfigError> {
-    let (at, err) = (&e.position_map_mm, &e.position_map_um);
-    if at.len() != err.len() {
+    if at.len() != values.len() {
+        let short = |k: &str| k.rsplit('.').next().unwrap_or(k).to_string();
         return Err(c.inconsistent(
-            &k("errors.position_map_um"),
+            value_key,
             format!(
-                "has {} values for {} positions in errors.position_map_mm",
-                err.len(),
-                at.len()
+                "has {} values for {} points in {}",
+                values.len(),
+                at.len(),
+                short(at_key)
             ),
         ));
     }
     if at.len() > crate::machine::POSITION_MAP_POINTS {
         return Err(c.inconsistent(
-            &k("errors.position_map_mm"),
+            at_key,
             format!(
                 "has {} points; at most {} are kept",
                 at.len(),
@@ -345,15 +358,47 @@ fn validate_position_map(
             ),
         ));
     }
-    for (&p, &v) in at.iter().zip(err) {
-        c.check(&k("errors.position_map_mm"), p, Rule::Range(-1e6, 1e6))?;
-        c.check(&k("errors.position_map_um"), v, Rule::Range(-1e3, 1e3))?;
+    for (&p, &v) in at.iter().zip(values) {
+        c.check(at_key, p, Rule::Range(-1e6, 1e6))?;
+        c.check(value_key, v, Rule::Range(value_range.0, value_range.1))?;
     }
     if at.windows(2).any(|w| w[1] <= w[0]) {
-        return Err(c.inconsistent(
-            &k("errors.position_map_mm"),
-            "must increase from point to point".into(),
-        ));
+        return Err(c.inconsistent(at_key, "must increase from point to point".into()));
+    }
+    Ok(())
+}
+
+/// The tables in `[axis.errors]`: the position map (µm within a millimetre), the friction
+/// map and the friction curve over speed (N, from speed 0 up).
+fn validate_tables(
+    c: &Checker,
+    k: &dyn Fn(&str) -> String,
+    e: &crate::machine::Errors,
+) -> Result<(), ConfigError> {
+    let keys = |a: &str, b: &str| (k(&format!("errors.{a}")), k(&format!("errors.{b}")));
+    let (pa, pv) = keys("position_map_mm", "position_map_um");
+    validate_table(
+        c,
+        (&pa, &e.position_map_mm),
+        (&pv, &e.position_map_um),
+        (-1e3, 1e3),
+    )?;
+    let (fa, fv) = keys("friction_map_mm", "friction_map_n");
+    validate_table(
+        c,
+        (&fa, &e.friction_map_mm),
+        (&fv, &e.friction_map_n),
+        (-1e6, 1e6),
+    )?;
+    let (sa, sv) = keys("friction_speed_mm_per_min", "friction_speed_n");
+    validate_table(
+        c,
+        (&sa, &e.friction_speed_mm_per_min),
+        (&sv, &e.friction_speed_n),
+        (-1e6, 1e6),
+    )?;
+    if let Some(&first) = e.friction_speed_mm_per_min.first() {
+        c.check(&sa, first, Rule::Range(0.0, 1e6))?;
     }
     Ok(())
 }

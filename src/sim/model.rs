@@ -3,14 +3,15 @@
 //!
 //! State (13): current-command filter, current-feedback filter, current PI integral,
 //! armature current, velocity PI integral, motor angle and speed, screw angle and speed,
-//! table position and speed, reference position and velocity. Inputs held over a step (5):
+//! table position and speed, reference position and velocity. Inputs held over a step (6):
 //! reference acceleration, the constant 1 (for friction, backlash and limits), a feedback
-//! offset, a nut-travel offset and an external table force. The reference is part of the
+//! offset, a nut-travel offset, an external table force and extra static friction. The reference is part of the
 //! state so that a step's polynomial reference x_ref + v_ref·t + a_ref·t²/2 is integrated
 //! exactly, and so that a step can be split at an event without re-sampling it.
 
 use nalgebra::{SMatrix, SVector};
 
+use crate::lookup::Lookup;
 use crate::machine::{AxisConfig, Feedback};
 use crate::units::{
     GRAVITY_M_PER_S2, h_from_mh, m_from_mm, m_from_um, m_per_s_from_mm_per_min,
@@ -20,7 +21,7 @@ use crate::units::{
 /// Number of states.
 pub const N: usize = 13;
 /// Number of states plus held inputs.
-pub const NA: usize = 18;
+pub const NA: usize = 19;
 
 /// Filtered current command (A).
 pub const FC: usize = 0;
@@ -58,6 +59,8 @@ pub const FB: usize = 15;
 pub const DL: usize = 16;
 /// Input: external force against the table (N) — Stribeck excess, disturbances.
 pub const FX: usize = 17;
+/// Input: static friction beyond `f_s` where the table stands (N) — a friction map.
+pub const FSX: usize = 18;
 
 /// Augmented state vector: states then held inputs.
 pub type Aug = SVector<f64, NA>;
@@ -133,6 +136,10 @@ pub struct AxisModel {
     pub dead_time_s: f64,
     /// Stribeck friction: extra level (N) and velocity (m/s); `None` when off.
     pub stribeck: Option<(f64, f64)>,
+    /// Coulomb (and static) friction added by the table's position: N by m.
+    pub friction_map: Lookup,
+    /// Sliding friction added by the table's speed: N by m/s.
+    pub friction_speed: Lookup,
     /// Error of the measuring system (scale, or lead in semi-closed loop).
     pub measuring: MeasuringError,
     /// Structural mode between the table and the measured point: ω (rad/s) and ζ.
@@ -198,7 +205,18 @@ impl AxisModel {
     /// exactly, and mode switches are located inside a step: one step per cycle gives the
     /// same trace as finer ones.
     pub fn inputs_vary_within_cycle(&self) -> bool {
-        self.stribeck.is_some() || self.measuring.is_active()
+        self.stribeck.is_some()
+            || self.measuring.is_active()
+            || !self.friction_map.is_empty()
+            || !self.friction_speed.is_empty()
+    }
+
+    /// The friction the maps add (N, ≥ −f_c in all: friction never pulls) with the table
+    /// at `x` m: (sliding at `|v|` m/s, static).
+    pub fn friction_added_n(&self, x: f64, v: f64) -> (f64, f64) {
+        let here = self.friction_map.at(x).max(-self.f_c);
+        let sliding = (here + self.friction_speed.at(v.abs())).max(-self.f_c);
+        (sliding, here)
     }
 
     /// Derives the SI model from an axis configuration (all conversions happen here).
@@ -258,6 +276,18 @@ impl AxisModel {
                     m_per_s_from_mm_per_min(c.friction.stribeck_velocity_mm_per_min),
                 )
             }),
+            friction_map: Lookup::scaled(
+                &c.errors.friction_map_mm,
+                &c.errors.friction_map_n,
+                1e-3,
+                1.0,
+            ),
+            friction_speed: Lookup::scaled(
+                &c.errors.friction_speed_mm_per_min,
+                &c.errors.friction_speed_n,
+                m_per_s_from_mm_per_min(1.0),
+                1.0,
+            ),
             measuring: MeasuringError {
                 scale: c.errors.scale_error_ppm * 1e-6,
                 amplitude_m: m_from_um(c.errors.cyclic_amplitude_um),

@@ -10,8 +10,8 @@
 
 use super::discrete::{LEVELS, MapCache};
 use super::model::{
-    AR, Aug, AxisModel, ClampMode, ContactMode, DL, FB, FX, FrictionMode, Mode, N, NA, ONE, Row,
-    Signals, TH_S, V2, VR, X2, XR, ZI, ZW,
+    AR, Aug, AxisModel, ClampMode, ContactMode, DL, FB, FSX, FX, FrictionMode, Mode, N, NA, ONE,
+    Row, Signals, TH_S, V2, VR, X2, XR, ZI, ZW,
 };
 use super::{AxisTrace, FrictionEvent, SimConfig, SimError};
 use crate::machine::Feedback;
@@ -176,12 +176,13 @@ impl<'a> AxisSim<'a> {
             }),
             FrictionMode::Stick => {
                 let f_e = m.nut_force(s, mode.contact) - unit(FX);
+                let f_s = one * m.f_s + unit(FSX);
                 g.push(Guard {
-                    row: one * m.f_s - f_e,
+                    row: f_s - f_e,
                     tol: TOL_FORCE,
                 });
                 g.push(Guard {
-                    row: one * m.f_s + f_e,
+                    row: f_s + f_e,
                     tol: TOL_FORCE,
                 });
             }
@@ -357,10 +358,11 @@ impl<'a> AxisSim<'a> {
         let m = self.model;
         let f_e = ((m.nut_force(&self.signals, mode.contact) - unit(FX)) * *x)[0];
         let v = x[V2];
+        let f_s = m.f_s + x[FSX];
         let want = match mode.friction {
-            FrictionMode::SlipPos if v < 0.0 => self.at_zero_speed(f_e),
-            FrictionMode::SlipNeg if v > 0.0 => self.at_zero_speed(f_e),
-            FrictionMode::Stick if f_e.abs() > m.f_s - breakaway_margin_n(m) => {
+            FrictionMode::SlipPos if v < 0.0 => Self::at_zero_speed(f_e, f_s),
+            FrictionMode::SlipNeg if v > 0.0 => Self::at_zero_speed(f_e, f_s),
+            FrictionMode::Stick if f_e.abs() > f_s - breakaway_margin_n(m) => {
                 if f_e > 0.0 {
                     FrictionMode::SlipPos
                 } else {
@@ -380,9 +382,9 @@ impl<'a> AxisSim<'a> {
         true
     }
 
-    /// At a speed zero crossing: stick if static friction can hold the net force.
-    fn at_zero_speed(&self, f_e: f64) -> FrictionMode {
-        if f_e.abs() < self.model.f_s {
+    /// At a speed zero crossing: stick if static friction `f_s` can hold the net force `f_e`.
+    fn at_zero_speed(f_e: f64, f_s: f64) -> FrictionMode {
+        if f_e.abs() < f_s {
             FrictionMode::Stick
         } else if f_e > 0.0 {
             FrictionMode::SlipPos
@@ -931,15 +933,20 @@ impl DelayLine {
     }
 }
 
-/// Inputs held over one sub-step that depend on the state: the Stribeck excess while
-/// sliding (against the motion), and the measuring system's error — on the feedback (linear
-/// scale) or on the nut's travel (motor encoder).
+/// Inputs held over one sub-step that depend on the state: the friction beyond Coulomb's
+/// while sliding (the Stribeck excess and what the friction maps add, against the motion),
+/// the static friction a friction map adds where the table stands, and the measuring
+/// system's error — on the feedback (linear scale) or on the nut's travel (motor encoder).
 fn substep_inputs(model: &AxisModel, x: &mut Aug, mode: Mode, lateral_dl: f64) {
-    x[FX] = match (model.stribeck, mode.friction) {
-        (Some((level, v_s)), FrictionMode::SlipPos) => level * (-(x[V2] / v_s).powi(2)).exp(),
-        (Some((level, v_s)), FrictionMode::SlipNeg) => -level * (-(x[V2] / v_s).powi(2)).exp(),
-        _ => 0.0,
+    let (v, stribeck) = (x[V2], model.stribeck);
+    let excess = stribeck.map_or(0.0, |(level, v_s)| level * (-(v / v_s).powi(2)).exp());
+    let (added_sliding, added_static) = model.friction_added_n(x[X2], v);
+    x[FX] = match mode.friction {
+        FrictionMode::SlipPos => excess + added_sliding,
+        FrictionMode::SlipNeg => -(excess + added_sliding),
+        FrictionMode::Stick => 0.0,
     };
+    x[FSX] = added_static;
     if model.measuring.is_active() {
         match model.feedback {
             Feedback::LinearScale => x[FB] = model.measuring.at(x[X2]),
