@@ -293,6 +293,42 @@ fn measuring_errors_found_through_another_interpolators_commands() {
 }
 
 #[test]
+fn lost_motion_beyond_the_scale_found_through_another_interpolators_commands() {
+    // Y reads 5 µm more travelling + than −, beyond its scale; the record's commands fix
+    // the clock, which would otherwise take it for an offset (v·Δt at one feed).
+    let d = assert_found_through_foreign_commands(
+        "circle-test.nc",
+        CauseId::DirectionOffset,
+        AxisName::Y,
+        &[5.0],
+        58,
+    );
+    // A ballbar reads it as lost motion of the other sign (the tool leads), measured and by
+    // the extended model alike.
+    for test in [&d.circular.measured, &d.circular.extended] {
+        let pair = test.pairs[0];
+        assert!((pair.backlash_y_um + 5.0).abs() < 1.0, "{pair:?}");
+    }
+}
+
+#[test]
+fn a_bowed_travel_found_through_another_interpolators_commands() {
+    // X's travel bowed 80 µm over the preset's metre: Y reads up to 3.2 µm less at X = ±100 mm.
+    let d = assert_found_through_foreign_commands(
+        "circle-test.nc",
+        CauseId::Straightness,
+        AxisName::Y,
+        &[80.0],
+        59,
+    );
+    // The ballbar reads the bow over the circle's diameter: 80 µm·(200/1000)² = 3.2 µm.
+    for test in [&d.circular.measured, &d.circular.extended] {
+        let pair = test.pairs[0];
+        assert!((pair.straightness_y_um - 3.2).abs() < 0.5, "{pair:?}");
+    }
+}
+
+#[test]
 fn lateral_play_found_through_another_interpolators_commands() {
     // X steps 6 µm at each reversal of Y (at the circle's ±Y points), against 0.3 µm of noise.
     let d = assert_found_through_foreign_commands(
