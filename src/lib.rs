@@ -7,6 +7,7 @@
 #![deny(missing_docs)]
 
 pub mod analysis;
+pub mod causes;
 pub mod check;
 pub mod circular;
 pub mod cli;

@@ -14,8 +14,8 @@ use std::io::Write;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 
+use crate::causes::{self, CauseId};
 use crate::check::{CheckSettings, plan_commands};
-use crate::diagnose::causes::{self, CauseId};
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
 use crate::recorded::commands_from_record;

@@ -8,8 +8,8 @@ use clap::Args;
 
 use super::Outcome;
 use super::common::{CliError, MachineArgs, PlanningArgs, TraceArgs, load_program, spinner};
+use crate::causes::{CauseId, CauseSet};
 use crate::circular::radial_points;
-use crate::diagnose::causes::{CauseId, CauseSet};
 use crate::diagnose::report::{DiagnoseReport, machine_file};
 use crate::diagnose::table::diagnose_table;
 use crate::diagnose::{DiagnoseSettings, Diagnosis, diagnose_validated};

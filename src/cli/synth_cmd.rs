@@ -8,7 +8,7 @@ use clap::Args;
 
 use super::Outcome;
 use super::common::{CliError, MachineArgs, TraceArgs, load_program};
-use crate::diagnose::causes::CauseId;
+use crate::causes::CauseId;
 use crate::machine::AxisName;
 use crate::measured::MeasuredTrace;
 use crate::output::OutputBatch;

@@ -23,8 +23,8 @@ use std::cell::RefCell;
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::{DMatrix, DVector, Dyn, Owned};
 
-use super::causes::{self, CauseId, Param};
 use super::{Context, Stepping};
+use crate::causes::{self, CauseId, Param};
 use crate::machine::{AxisName, MachineConfig};
 
 /// A fitted cause.

@@ -8,10 +8,10 @@
 //! instead: every cause is fitted on the whole first record and judged on the second, which
 //! the fits never see.
 
-use super::causes::{self, CauseId};
 use super::context::{Context, context, golden_section};
 use super::residual::{independent_share, record_noise};
 use super::{DiagnoseError, DiagnoseSettings, fit};
+use crate::causes::{self, CauseId};
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
 use crate::measured::MeasuredTrace;

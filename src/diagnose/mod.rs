@@ -14,7 +14,8 @@
 //!    [`DiagnoseSettings::evidence`]; the strongest is kept first, then the search repeats
 //!    on the extended model.
 
-pub mod causes;
+/// The catalogue of causes, which sits below `diagnose` and `synth` both.
+pub use crate::causes;
 pub mod context;
 pub mod fit;
 pub mod holdout;

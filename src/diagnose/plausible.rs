@@ -5,7 +5,7 @@
 //! hundred newtons of Coulomb friction, or a "resonance" at the servo loop's own
 //! crossover. Such a cause is reported as fitting but implausible, never as found.
 
-use super::causes::CauseId;
+use crate::causes::CauseId;
 use crate::machine::AxisConfig;
 use crate::sim::AxisModel;
 use crate::sim::linear::{Loop, closed_loop_modes, loop_figures};

@@ -10,11 +10,11 @@ use serde::Serialize;
 use super::learn::Learned;
 use super::locate::{Located, Variable};
 
-use super::causes::CauseId;
 use super::{
     Alternative, AxisResidual, Candidate, CircularComparison, Diagnosis, ExtraWait, FittedParam,
     HeldOut, JudgedOn, Place, Rejected, ResidualStats, Skipped,
 };
+use crate::causes::CauseId;
 use crate::machine::{AxisName, MachineConfig};
 use crate::measured::MeasuredTrace;
 use crate::sim::MeasuredAt;

@@ -12,13 +12,13 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::causes::{self, CauseId, Kinematics};
 use super::context::Context;
 use super::fit::{self, Fitted};
 use super::holdout::{HeldOut, JudgedOn, Validation, held_out};
 use super::plausible::{Observed, implausible};
 use super::residual::{axis_residual, chatter_mismatch, independent_share, rms};
 use super::{Alternative, DiagnoseSettings, FittedParam, FoundCause};
+use crate::causes::{self, CauseId, Kinematics};
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::synth::sample;
 use crate::units::{kv_m_per_min_per_mm_from_per_s, per_s_from_kv_m_per_min_per_mm, um_from_m};

@@ -13,8 +13,8 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::causes::CauseId;
 use super::context::golden_section;
+use crate::causes::CauseId;
 use crate::machine::MachineConfig;
 use crate::measured::TableRow;
 use crate::sim::{SimConfig, SimError};
