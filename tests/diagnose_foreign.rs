@@ -688,3 +688,54 @@ fn an_unlisted_bump_is_learned_through_another_interpolators_commands() {
     assert!((l.peak - 6.0).abs() < 1.5, "{l:?}");
     assert!(l.held_out_after_um <= 0.5 * l.held_out_before_um, "{l:?}");
 }
+
+#[test]
+fn a_tight_spot_is_learned_through_another_interpolators_commands() {
+    // Friction doubled (589 N more) over X 60–80 mm; X shuttles over 150 mm four times,
+    // commanded by the foreign interpolator (a stop at every block end), recorded at 1 kHz
+    // with 0.05 µm of noise in 0.1 µm counts and its commands.
+    let program = program_text(
+        "G21 G17 G90 G94\nG0 X0 Y0\nG1 X150 F1000\nX0\nX150\nX0\nX150\nX0\nX150\nX0\nM2\n",
+    );
+    let mut truth = MachineConfig::default_preset();
+    truth.x.errors.friction_map_mm = vec![59.0, 60.0, 80.0, 81.0];
+    truth.x.errors.friction_map_n = vec![0.0, 589.0, 589.0, 0.0];
+    let spec = SynthSpec {
+        commands: Some(foreign_commands(&program, 0.5, 1e-3, 0.37)),
+        with_commands: true,
+        sample_s: 1e-3,
+        noise_m: 0.05e-6,
+        quantization_m: 0.1e-6,
+        offset_s: 0.23,
+        seed: 91,
+        ..SynthSpec::default()
+    };
+    let mut csv = Vec::new();
+    synthesize(&program, &truth, &spec)
+        .unwrap()
+        .write_csv(&mut csv)
+        .unwrap();
+    let d = diagnose_text(
+        &program,
+        std::str::from_utf8(&csv).unwrap(),
+        MeasuredAt::Table,
+    )
+    .unwrap();
+    assert!(d.causes.is_empty(), "{:?}", named(&d));
+    assert_eq!(d.learned.len(), 1, "{:?}", d.learned);
+    let l = &d.learned[0];
+    assert_eq!(
+        (l.axis, l.term),
+        (
+            AxisName::X,
+            contourcheck::diagnose::learn::Term::FrictionMap
+        )
+    );
+    let (lo, hi) = l.interval.unwrap();
+    assert!(
+        (55.0..=63.0).contains(&lo) && (77.0..=85.0).contains(&hi),
+        "{l:?}"
+    );
+    assert!((l.peak - 589.0).abs() < 0.25 * 589.0, "{l:?}");
+    assert!(l.held_out_after_um <= 0.5 * l.held_out_before_um, "{l:?}");
+}
