@@ -309,24 +309,26 @@ struct Harmonics {
 }
 
 impl Harmonics {
-    fn basis(theta: f64) -> nalgebra::SVector<f64, 7> {
+    /// The basis at the angle whose cosine and sine are `c`, `s` (multiple angles by their
+    /// identities: no trigonometry per point).
+    fn basis(c: f64, s: f64) -> nalgebra::SVector<f64, 7> {
         nalgebra::SVector::<f64, 7>::from([
             1.0,
-            theta.cos(),
-            theta.sin(),
-            (2.0 * theta).cos(),
-            (2.0 * theta).sin(),
-            (3.0 * theta).cos(),
-            (3.0 * theta).sin(),
+            c,
+            s,
+            c * c - s * s,
+            2.0 * c * s,
+            c * (4.0 * c * c - 3.0),
+            s * (3.0 - 4.0 * s * s),
         ])
     }
 
-    /// The fitted radius (or radial deviation) at angle `theta`.
-    fn at(&self, theta: f64) -> f64 {
-        Harmonics::basis(theta)
+    /// The fitted radius at the angle whose cosine and sine are `c`, `s`.
+    fn at(&self, c: f64, s: f64) -> f64 {
+        Harmonics::basis(c, s)
             .iter()
             .zip(&self.coef)
-            .map(|(b, c)| b * c)
+            .map(|(b, k)| b * k)
             .sum()
     }
 
@@ -351,9 +353,13 @@ fn harmonics(p: &[[f64; 2]], center: [f64; 2]) -> Harmonics {
     let mut atb = nalgebra::SVector::<f64, 7>::zeros();
     for q in p {
         let (dx, dy) = (q[0] - center[0], q[1] - center[1]);
-        let row = Harmonics::basis(dy.atan2(dx));
+        let r = dx.hypot(dy);
+        if r == 0.0 {
+            continue;
+        }
+        let row = Harmonics::basis(dx / r, dy / r);
         ata += row * row.transpose();
-        atb += row * dx.hypot(dy);
+        atb += row * r;
     }
     Harmonics {
         coef: ata.lu().solve(&atb).map_or([0.0; 7], |c| c.into()),
@@ -470,10 +476,12 @@ fn hysteresis(ccw: (&Circle, &Vec<[f64; 2]>), cw: (&Circle, &Vec<[f64; 2]>)) -> 
         .collect();
     let h = difference.iter().map(|d| d.1.abs()).fold(0.0, f64::max);
     let (play_x, play_y) = lateral_play(&difference);
+    // Each path's smooth shape about the programmed centre, which the steps are taken on.
+    let paths = [ccw, cw].map(|(c, p)| (c, p, harmonics(p, c.center_m)));
     let lost_motion = |quadrants: [f64; 2]| {
-        let steps: Vec<f64> = [(ccw.0, ccw.1), (cw.0, cw.1)]
-            .into_iter()
-            .flat_map(|(c, p)| quadrants.map(|q| step_across(c, p, q)))
+        let steps: Vec<f64> = paths
+            .iter()
+            .flat_map(|(c, p, smooth)| quadrants.map(|q| step_across(c, p, smooth, q)))
             .flatten()
             .collect();
         steps.iter().sum::<f64>() / steps.len().max(1) as f64
@@ -526,20 +534,19 @@ fn lateral_play(difference: &[(f64, f64)]) -> (f64, f64) {
 /// (δ the angle past the point as the path travels) on what the path's smooth shape (its
 /// terms up to 3θ) leaves — a large servo ellipse bends too much over 20° for a line to
 /// follow; `None` with too few samples a side.
-fn step_across(c: &Circle, p: &[[f64; 2]], quadrant: f64) -> Option<f64> {
+fn step_across(c: &Circle, p: &[[f64; 2]], smooth: &Harmonics, quadrant: f64) -> Option<f64> {
     let travel = if c.ccw { 1.0 } else { -1.0 };
-    let smooth = harmonics(p, c.center_m);
     let mut ata = Matrix3::<f64>::zeros();
     let mut atb = Vector3::<f64>::zeros();
     let (mut before, mut after) = (0usize, 0usize);
     for &q in p {
         let (angle, radial) = c.polar(q);
-        let r = radial + c.radius_m - smooth.at(angle);
         let d = (angle.to_degrees() - quadrant).rem_euclid(360.0);
         let delta = travel * if d > 180.0 { d - 360.0 } else { d };
         if !(3.0..=20.0).contains(&delta.abs()) {
             continue;
         }
+        let r = radial + c.radius_m - smooth.at(angle.cos(), angle.sin());
         let past = if delta > 0.0 { 1.0 } else { 0.0 };
         before += (past == 0.0) as usize;
         after += (past == 1.0) as usize;
