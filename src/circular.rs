@@ -701,14 +701,7 @@ mod tests {
                 })
                 .unzip()
         };
-        let ((x1, y1), (x2, y2)) = (path(true), path(false));
-        let segment: Vec<u32> = [vec![0; 720], vec![1; 720]].concat();
-        circular_test(
-            &[circle(true, 0), circle(false, 1)],
-            &segment,
-            &[x1, x2].concat(),
-            &[y1, y2].concat(),
-        )
+        opposite_pair(path)
     }
 
     #[test]
@@ -765,8 +758,14 @@ mod tests {
                 })
                 .unzip()
         };
+        opposite_pair(path)
+    }
+
+    /// The figures of the R100 circle run counter-clockwise (segment 0) and clockwise
+    /// (segment 1) along the paths `path(ccw)` gives.
+    fn opposite_pair(path: impl Fn(bool) -> (Vec<f64>, Vec<f64>)) -> CircularTest {
         let ((x1, y1), (x2, y2)) = (path(true), path(false));
-        let segment: Vec<u32> = [vec![0; 1440], vec![1; 1440]].concat();
+        let segment: Vec<u32> = [vec![0; x1.len()], vec![1; x2.len()]].concat();
         circular_test(
             &[circle(true, 0), circle(false, 1)],
             &segment,

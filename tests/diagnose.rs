@@ -8,15 +8,17 @@
 //! whole-record RMS for causes that act everywhere, the RMS in windows around events for
 //! local ones, the mismatch of chatter amplitude for stick-slip. With nothing hidden it must name nothing.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use common::{program_text, sample_program as program};
 use contourcheck::diagnose::causes::CauseId;
-use contourcheck::diagnose::learn::Term;
 use contourcheck::diagnose::locate::Variable;
 use contourcheck::diagnose::table::diagnose_table;
 use contourcheck::diagnose::{AxisResidual, DiagnoseSettings, Diagnosis, diagnose};
-use contourcheck::gcode::{InterpretOptions, Program, parse_program};
+use contourcheck::gcode::Program;
 use contourcheck::machine::{AxisName, MachineConfig};
 use contourcheck::measured::{parse_table, parse_trace};
 use contourcheck::sim::SimConfig;
@@ -26,16 +28,6 @@ fn sample_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("gcode-samples")
         .join(name)
-}
-
-fn program(name: &str) -> Program {
-    let path = sample_path(name);
-    parse_program(
-        &std::fs::read_to_string(&path).unwrap(),
-        name,
-        &InterpretOptions::default(),
-    )
-    .unwrap()
 }
 
 /// `measured` of `prog` diagnosed against the nominal machine with the default settings.
@@ -874,7 +866,7 @@ fn a_periodic_error_off_the_lead_is_placed_by_its_period_and_learned() {
 fn shuttle_program() -> Program {
     let text = "G21 G17 G90 G94\nG0 X0 Y0\n\
                 G1 X150 F1000\nX0\nX150\nX0\nX150\nX0\nX150\nX0\nM2\n";
-    parse_program(text, "shuttle.nc", &InterpretOptions::default()).unwrap()
+    program_text(text)
 }
 
 /// The shuttle on `truth`, measured as a laser interferometer or a fine scale does (0.05 µm
@@ -898,19 +890,7 @@ fn a_tight_spot_on_a_guideway_is_placed_and_learned_as_friction() {
     truth.x.errors.friction_map_mm = vec![59.0, 60.0, 80.0, 81.0];
     truth.x.errors.friction_map_n = vec![0.0, 589.0, 589.0, 0.0];
     let d = diagnose_nominal(&shuttle_program(), &quiet_shuttle_record(&truth, 61));
-    assert!(d.causes.is_empty(), "{:?}", d.causes);
-    assert_eq!(d.learned.len(), 1, "{:?}", d.learned);
-    let l = &d.learned[0];
-    assert_eq!((l.axis, l.term), (AxisName::X, Term::FrictionMap), "{l:?}");
-    // Placed where it is, at about the friction it adds.
-    let (lo, hi) = l.interval.unwrap();
-    assert!(
-        (55.0..=63.0).contains(&lo) && (77.0..=85.0).contains(&hi),
-        "{l:?}"
-    );
-    assert!((l.peak - 589.0).abs() < 0.25 * 589.0, "{l:?}");
-    // Learned on one half, it takes the other half's residual down by more than half.
-    assert!(l.held_out_after_um <= 0.5 * l.held_out_before_um, "{l:?}");
+    common::assert_tight_spot_learned(&d);
     // The same guideway without the spot: nothing named, nothing learned.
     let clean = diagnose_nominal(
         &shuttle_program(),

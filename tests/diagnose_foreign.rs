@@ -721,21 +721,5 @@ fn a_tight_spot_is_learned_through_another_interpolators_commands() {
         MeasuredAt::Table,
     )
     .unwrap();
-    assert!(d.causes.is_empty(), "{:?}", named(&d));
-    assert_eq!(d.learned.len(), 1, "{:?}", d.learned);
-    let l = &d.learned[0];
-    assert_eq!(
-        (l.axis, l.term),
-        (
-            AxisName::X,
-            contourcheck::diagnose::learn::Term::FrictionMap
-        )
-    );
-    let (lo, hi) = l.interval.unwrap();
-    assert!(
-        (55.0..=63.0).contains(&lo) && (77.0..=85.0).contains(&hi),
-        "{l:?}"
-    );
-    assert!((l.peak - 589.0).abs() < 0.25 * 589.0, "{l:?}");
-    assert!(l.held_out_after_um <= 0.5 * l.held_out_before_um, "{l:?}");
+    common::assert_tight_spot_learned(&d);
 }

@@ -160,3 +160,79 @@ fn a_stribeck_excess_raises_the_start_up_error_and_nothing_at_speed() {
         steady(&b) - steady(&a)
     );
 }
+
+#[test]
+fn friction_added_everywhere_is_coulomb_friction_and_a_local_map_converges() {
+    // A friction map that adds 300 N over the whole travel, with as much static friction,
+    // is the Coulomb friction raised by 300 N: the same trace through a move, its reversal
+    // and the standstill after (with the static friction the nominal ratio above it).
+    let nominal = x_axis();
+    let mut mapped = nominal.clone();
+    mapped.errors.friction_map_mm = vec![-1000.0, 1000.0];
+    mapped.errors.friction_map_n = vec![300.0, 300.0];
+    let mut raised = nominal.clone();
+    let g_m = nominal.drive.table_mass_kg * 9.80665;
+    let f_c = nominal.friction.coulomb_coefficient * g_m;
+    raised.friction.coulomb_coefficient = (f_c + 300.0) / g_m;
+    // f_s + 300 N over the raised Coulomb friction.
+    raised.friction.static_to_coulomb =
+        (nominal.friction.static_to_coulomb * f_c + 300.0) / (f_c + 300.0);
+    let mut c = move_and_hold(0.01, 1.0, 0.3);
+    let back = move_and_hold(-0.01, 1.0, 0.5);
+    for k in 1..back.len() {
+        c.push(
+            0.01 + back.pos_m[k],
+            back.vel_m_per_s[k],
+            back.acc_m_per_s2[k],
+        );
+    }
+    let (a, b) = (run(&mapped, &c), run(&raised, &c));
+    let worst = a
+        .pos_m
+        .iter()
+        .zip(&b.pos_m)
+        .map(|(p, q)| (p - q).abs())
+        .fold(0.0, f64::max);
+    // Alike to the nanometre the event location leaves (a friction held with the old sign
+    // past a switch until the next sub-step was 35 nm off).
+    assert!(worst < 1e-8, "{worst:e} m");
+    // And the extra friction shows: the following error differs from the nominal run's.
+    let plain = run(&nominal, &c);
+    let apart = plain
+        .pos_m
+        .iter()
+        .zip(&a.pos_m)
+        .map(|(p, q)| (p - q).abs())
+        .fold(0.0, f64::max);
+    assert!(apart > 1e-7, "{apart:e} m");
+    // A tight spot (600 N over 2 mm) is met inside a step at whatever sub-step the friction is
+    // held for: halving the sub-step changes the trace by far less than the spot's effect.
+    let mut spot = nominal.clone();
+    spot.errors.friction_map_mm = vec![4.0, 4.5, 6.0, 6.5];
+    spot.errors.friction_map_n = vec![0.0, 600.0, 600.0, 0.0];
+    let model = AxisModel::from_config(&spot);
+    let at = |substeps: u32| {
+        let config = SimConfig {
+            substeps,
+            ..SimConfig::default()
+        };
+        simulate(&model, &c, DT, &config).unwrap()
+    };
+    let (coarse, fine) = (at(4), at(8));
+    let effect = plain
+        .pos_m
+        .iter()
+        .zip(&coarse.pos_m)
+        .map(|(p, q)| (p - q).abs())
+        .fold(0.0, f64::max);
+    let change = coarse
+        .pos_m
+        .iter()
+        .zip(&fine.pos_m)
+        .map(|(p, q)| (p - q).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        effect > 1e-7 && change < 0.02 * effect,
+        "effect {effect:e}, change {change:e}"
+    );
+}

@@ -5,9 +5,10 @@
 //! armature current, velocity PI integral, motor angle and speed, screw angle and speed,
 //! table position and speed, reference position and velocity. Inputs held over a step (6):
 //! reference acceleration, the constant 1 (for friction, backlash and limits), a feedback
-//! offset, a nut-travel offset, an external table force and extra static friction. The reference is part of the
-//! state so that a step's polynomial reference x_ref + v_ref·t + a_ref·t²/2 is integrated
-//! exactly, and so that a step can be split at an event without re-sampling it.
+//! offset, a nut-travel offset, an external table force and extra static friction. The
+//! reference is part of the state so that a step's polynomial reference x_ref + v_ref·t +
+//! a_ref·t²/2 is integrated exactly, and so that a step can be split at an event without
+//! re-sampling it.
 
 use nalgebra::{SMatrix, SVector};
 
@@ -205,10 +206,18 @@ impl AxisModel {
     /// exactly, and mode switches are located inside a step: one step per cycle gives the
     /// same trace as finer ones.
     pub fn inputs_vary_within_cycle(&self) -> bool {
-        self.stribeck.is_some()
-            || self.measuring.is_active()
-            || !self.friction_map.is_empty()
-            || !self.friction_speed.is_empty()
+        self.has_friction_inputs() || self.measuring.is_active()
+    }
+
+    /// Whether friction beyond Coulomb's and the viscous term is held per sub-step
+    /// (Stribeck, friction maps).
+    pub fn has_friction_inputs(&self) -> bool {
+        self.stribeck.is_some() || self.has_friction_maps()
+    }
+
+    /// Whether friction maps (by position or speed) add to the friction.
+    pub fn has_friction_maps(&self) -> bool {
+        !self.friction_map.is_empty() || !self.friction_speed.is_empty()
     }
 
     /// The friction the maps add (N, ≥ −f_c in all: friction never pulls) with the table

@@ -379,6 +379,12 @@ impl<'a> AxisSim<'a> {
             x[V2] = 0.0;
         }
         mode.friction = want;
+        // A friction map's force held over the sub-step turns with the mode, from the
+        // switch on. (The Stribeck excess alone keeps the sign it was held with until the
+        // next sub-step, as the stick-slip figures were validated with.)
+        if m.has_friction_maps() {
+            friction_inputs(m, x, *mode);
+        }
         true
     }
 
@@ -938,6 +944,19 @@ impl DelayLine {
 /// the static friction a friction map adds where the table stands, and the measuring
 /// system's error — on the feedback (linear scale) or on the nut's travel (motor encoder).
 fn substep_inputs(model: &AxisModel, x: &mut Aug, mode: Mode, lateral_dl: f64) {
+    friction_inputs(model, x, mode);
+    if model.measuring.is_active() {
+        match model.feedback {
+            Feedback::LinearScale => x[FB] = model.measuring.at(x[X2]),
+            Feedback::MotorEncoder => x[DL] = lateral_dl + model.measuring.at(model.r * x[TH_S]),
+        }
+    }
+}
+
+/// The friction inputs for `mode` at the state `x`: beyond Coulomb's while sliding (the
+/// Stribeck excess and what the maps add, against the motion), none while stuck, and the
+/// static friction the map adds where the table is.
+fn friction_inputs(model: &AxisModel, x: &mut Aug, mode: Mode) {
     let (v, stribeck) = (x[V2], model.stribeck);
     let excess = stribeck.map_or(0.0, |(level, v_s)| level * (-(v / v_s).powi(2)).exp());
     let (added_sliding, added_static) = model.friction_added_n(x[X2], v);
@@ -947,12 +966,6 @@ fn substep_inputs(model: &AxisModel, x: &mut Aug, mode: Mode, lateral_dl: f64) {
         FrictionMode::Stick => 0.0,
     };
     x[FSX] = added_static;
-    if model.measuring.is_active() {
-        match model.feedback {
-            Feedback::LinearScale => x[FB] = model.measuring.at(x[X2]),
-            Feedback::MotorEncoder => x[DL] = lateral_dl + model.measuring.at(model.r * x[TH_S]),
-        }
-    }
 }
 
 #[cfg(test)]

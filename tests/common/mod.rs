@@ -5,7 +5,10 @@
 
 use std::path::Path;
 
+use contourcheck::diagnose::Diagnosis;
+use contourcheck::diagnose::learn::Term;
 use contourcheck::gcode::{InterpretOptions, Program, parse_program};
+use contourcheck::machine::AxisName;
 use contourcheck::path::{Geometry, Motion};
 use contourcheck::synth::CommandStream;
 
@@ -96,4 +99,21 @@ pub fn foreign_commands(program: &Program, accel: f64, dt_s: f64, pre_s: f64) ->
         x_m: x,
         y_m: y,
     }
+}
+
+/// That `d` names no catalogue cause and learns the tight spot hidden on X — friction
+/// 589 N higher between 60 and 80 mm — where it is, at about its size, and so that the
+/// half of the record it was not fitted on loses more than half of its residual.
+pub fn assert_tight_spot_learned(d: &Diagnosis) {
+    assert!(d.causes.is_empty(), "{:?}", d.causes);
+    assert_eq!(d.learned.len(), 1, "{:?}", d.learned);
+    let l = &d.learned[0];
+    assert_eq!((l.axis, l.term), (AxisName::X, Term::FrictionMap), "{l:?}");
+    let (lo, hi) = l.interval.unwrap();
+    assert!(
+        (55.0..=63.0).contains(&lo) && (77.0..=85.0).contains(&hi),
+        "{l:?}"
+    );
+    assert!((l.peak - 589.0).abs() < 0.25 * 589.0, "{l:?}");
+    assert!(l.held_out_after_um <= 0.5 * l.held_out_before_um, "{l:?}");
 }
