@@ -187,23 +187,13 @@ fn friction_added_everywhere_is_coulomb_friction_and_a_local_map_converges() {
         );
     }
     let (a, b) = (run(&mapped, &c), run(&raised, &c));
-    let worst = a
-        .pos_m
-        .iter()
-        .zip(&b.pos_m)
-        .map(|(p, q)| (p - q).abs())
-        .fold(0.0, f64::max);
+    let worst = largest_gap(&a, &b);
     // Alike to the nanometre the event location leaves (a friction held with the old sign
     // past a switch until the next sub-step was 35 nm off).
     assert!(worst < 1e-8, "{worst:e} m");
     // And the extra friction shows: the following error differs from the nominal run's.
     let plain = run(&nominal, &c);
-    let apart = plain
-        .pos_m
-        .iter()
-        .zip(&a.pos_m)
-        .map(|(p, q)| (p - q).abs())
-        .fold(0.0, f64::max);
+    let apart = largest_gap(&plain, &a);
     assert!(apart > 1e-7, "{apart:e} m");
     // A tight spot (600 N over 2 mm) is met inside a step at whatever sub-step the friction is
     // held for: halving the sub-step changes the trace by far less than the spot's effect.
@@ -219,20 +209,19 @@ fn friction_added_everywhere_is_coulomb_friction_and_a_local_map_converges() {
         simulate(&model, &c, DT, &config).unwrap()
     };
     let (coarse, fine) = (at(4), at(8));
-    let effect = plain
-        .pos_m
-        .iter()
-        .zip(&coarse.pos_m)
-        .map(|(p, q)| (p - q).abs())
-        .fold(0.0, f64::max);
-    let change = coarse
-        .pos_m
-        .iter()
-        .zip(&fine.pos_m)
-        .map(|(p, q)| (p - q).abs())
-        .fold(0.0, f64::max);
+    let effect = largest_gap(&plain, &coarse);
+    let change = largest_gap(&coarse, &fine);
     assert!(
         effect > 1e-7 && change < 0.02 * effect,
         "effect {effect:e}, change {change:e}"
     );
+}
+
+/// The largest difference between two runs' positions (m).
+fn largest_gap(a: &AxisTrace, b: &AxisTrace) -> f64 {
+    a.pos_m
+        .iter()
+        .zip(&b.pos_m)
+        .map(|(p, q)| (p - q).abs())
+        .fold(0.0, f64::max)
 }
