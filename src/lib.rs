@@ -29,6 +29,7 @@ pub mod plan;
 pub mod plot;
 pub mod recorded;
 pub mod report;
+pub mod signal;
 pub mod sim;
 pub mod sweep;
 pub mod synth;

@@ -17,8 +17,8 @@ use crate::measured::MeasuredTrace;
 use crate::path::Motion;
 use crate::plan::{Commands, InPosition, Plan};
 use crate::recorded::{commands_from_record, place_on_path};
+use crate::signal::sample;
 use crate::sim::{AxisModel, MeasuredAt, SimConfig, simulate};
-use crate::synth::sample;
 use crate::units::{per_s_from_kv_m_per_min_per_mm, um_from_m};
 
 /// How finely a context's simulations step.

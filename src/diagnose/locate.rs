@@ -16,7 +16,7 @@
 
 use super::Context;
 use crate::machine::AxisName;
-use crate::synth::sample;
+use crate::signal::sample;
 use crate::units::um_from_m;
 
 /// A variable a residual can hang on.
