@@ -1,5 +1,6 @@
 //! One axis following 60 s of the circle test's command stream with the full nonlinear
-//! model (friction, backlash, limits, lateral shift). Throughput is in simulation steps, so
+//! model (friction, backlash, limits, lateral shift), on the paper's machine and on the
+//! small table (a PID position controller on a current amplifier, 1 ms cycle). Throughput is in simulation steps, so
 //! criterion reports steps per second; simulated seconds per second follow by dividing by
 //! the steps per simulated second (`substeps` / interpolation cycle).
 
@@ -11,18 +12,17 @@ use contourcheck::plan::{KinematicLimits, PlanConfig, plan, sample};
 use contourcheck::sim::{AxisModel, SimConfig, simulate};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
-fn circle_commands(seconds: f64) -> contourcheck::plan::Commands {
+fn circle_commands(machine: &MachineConfig, seconds: f64) -> contourcheck::plan::Commands {
     let src = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/gcode-samples/circle-test.nc"
     ))
     .unwrap();
-    let machine = MachineConfig::default_preset();
     let program = parse_program(&src, "circle-test.nc", &InterpretOptions::default()).unwrap();
     let p = plan(
         &program,
-        &KinematicLimits::of(&machine),
-        &PlanConfig::for_machine(&machine),
+        &KinematicLimits::of(machine),
+        &PlanConfig::for_machine(machine),
     );
     let mut c = sample(&p);
     let n = (seconds / c.dt_s) as usize + 1;
@@ -32,9 +32,8 @@ fn circle_commands(seconds: f64) -> contourcheck::plan::Commands {
     c
 }
 
-fn simulate_axis(c: &mut Criterion) {
-    let commands = circle_commands(60.0);
-    let mut machine = MachineConfig::default_preset();
+fn bench_axis(c: &mut Criterion, name: &str, mut machine: MachineConfig) {
+    let commands = circle_commands(&machine, 60.0);
     machine.x.drive.backlash_um = 10.0; // the full nonlinear model: every mode in play
     let model = AxisModel::from_config(&machine.x);
     let config = SimConfig::default();
@@ -42,10 +41,23 @@ fn simulate_axis(c: &mut Criterion) {
     let mut g = c.benchmark_group("simulator");
     g.sample_size(20);
     g.throughput(Throughput::Elements(steps));
-    g.bench_function("one axis, 60 s circle test", |b| {
+    g.bench_function(name, |b| {
         b.iter(|| simulate(black_box(&model), &commands.x, commands.dt_s, &config).unwrap())
     });
     g.finish();
+}
+
+fn simulate_axis(c: &mut Criterion) {
+    bench_axis(
+        c,
+        "one axis, 60 s circle test",
+        MachineConfig::default_preset(),
+    );
+    bench_axis(
+        c,
+        "small table, one axis, 60 s circle test",
+        MachineConfig::preset("small-table").unwrap(),
+    );
 }
 
 criterion_group!(benches, simulate_axis);

@@ -16,6 +16,7 @@ use crate::hotspot::{Hotspot, HotspotConfig, HotspotFinder, RunSample};
 use crate::machine::{AxisConfig, MachineConfig};
 use crate::path::Motion;
 use crate::plan::Plan;
+use crate::sim::linear::equivalent_kv_per_s;
 use crate::sim::{AxisModel, AxisTrace, Mode};
 use crate::thinning::PeakThinned;
 
@@ -111,7 +112,7 @@ impl RunAnalyser {
     /// An analyser for the run of `plan` on `machine`, keeping at most `max_hotspots`.
     pub fn new(plan: &Plan, machine: &MachineConfig, max_hotspots: usize) -> Self {
         let [mx, my] = [&machine.x, &machine.y].map(AxisModel::from_config);
-        let kv = mx.kv_per_s().min(my.kv_per_s());
+        let kv = equivalent_kv_per_s(&mx).min(equivalent_kv_per_s(&my));
         RunAnalyser {
             locator: ContourLocator::new(plan),
             hotspots: HotspotFinder::new(
@@ -129,7 +130,7 @@ impl RunAnalyser {
                 }
             }),
             limits: Default::default(),
-            i_max_a: [&machine.x, &machine.y].map(|a| a.velocity_loop.i_max_a),
+            i_max_a: [&mx, &my].map(|m| m.i_max),
             tool: ToolReader::new(machine),
             squares_m2: 0.0,
             cutting_samples: 0,
@@ -274,14 +275,22 @@ fn limit_warning(
     dt_s: f64,
 ) -> Option<Warning> {
     let (first_t_s, line) = tally.first?;
-    let i_max = config.velocity_loop.i_max_a;
-    let which = if 2 * tally.at_current_limit >= tally.limited {
-        format!("current limit (velocity_loop.i_max_a = {i_max} A)")
-    } else {
-        format!(
-            "voltage limit (current_loop.u_max_v = {} V)",
-            config.current_loop.u_max_v
-        )
+    let which = match (
+        &config.velocity_loop,
+        &config.current_loop,
+        &config.amplifier,
+    ) {
+        (_, Some(i), _) if 2 * tally.at_current_limit < tally.limited => {
+            format!("voltage limit (current_loop.u_max_v = {} V)", i.u_max_v)
+        }
+        (Some(v), ..) if config.controller.uses_velocity_loop() => {
+            format!("current limit (velocity_loop.i_max_a = {} A)", v.i_max_a)
+        }
+        (.., Some(amp)) => format!(
+            "current limit (amplifier.i_max_a = {} A)",
+            amp.i_max_a.unwrap_or(f64::INFINITY)
+        ),
+        _ => "current limit".to_string(),
     };
     Some(Warning {
         line,

@@ -192,6 +192,18 @@ impl CauseId {
         }
     }
 
+    /// Why the cause has no meaning on `axis`'s controller, or `None` when it has: a gain
+    /// error is the cascade's Kv scaled, and another structure has no Kv.
+    pub fn inapplicable_to(self, axis: &AxisConfig) -> Option<&'static str> {
+        match self {
+            CauseId::KvGain if !axis.controller.is_cascade() => Some(
+                "the axis's controller is not the cascade: it has no Kv (its gains are in \
+                 [axis.controller])",
+            ),
+            _ => None,
+        }
+    }
+
     /// Why a measurement at `point` cannot see the cause on an axis with `feedback`, or
     /// `None` when it can.
     pub fn unseen_at(self, point: MeasuredAt, feedback: Feedback) -> Option<&'static str> {
@@ -507,4 +519,20 @@ fn spectral_peak(r: &[f64], dt: f64) -> f64 {
         f *= 1.02;
     }
     best.min(1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::machine::MachineConfig;
+
+    #[test]
+    fn a_gain_error_is_the_cascades_alone() {
+        let small = MachineConfig::preset("small-table").unwrap();
+        let why = CauseId::KvGain.inapplicable_to(&small.x).unwrap();
+        assert!(why.contains("no Kv"), "{why}");
+        assert!(CauseId::Backlash.inapplicable_to(&small.x).is_none());
+        let hvmc = MachineConfig::default_preset();
+        assert!(CauseId::KvGain.inapplicable_to(&hvmc.x).is_none());
+    }
 }

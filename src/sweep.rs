@@ -274,7 +274,10 @@ fn run_point(
     };
     match check(program, &machine, &settings) {
         Ok(run) => PointResult::Ok {
-            metrics: metrics(&run, AxisModel::from_config(&machine.x).kv_per_s()),
+            metrics: metrics(
+                &run,
+                linear::equivalent_kv_per_s(&AxisModel::from_config(&machine.x)),
+            ),
             least_damping,
             poorly_damped: least_damping < POOR_DAMPING,
         },

@@ -135,7 +135,9 @@ fn table_setup(base: &AxisConfig, parameter: Parameter, value: f64) -> (AxisConf
             TABLE_FEED_MM_PER_MIN
         }
         Parameter::KsNmSPerRad => {
-            axis.velocity_loop.ks_nm_s_per_rad = value;
+            if let Some(v) = axis.velocity_loop.as_mut() {
+                v.ks_nm_s_per_rad = value;
+            }
             TABLE_FEED_MM_PER_MIN
         }
     };

@@ -435,6 +435,38 @@ fn time_at_a_drive_limit_is_reported() {
     assert!(!text(&o.stdout).contains("drive is at"));
 }
 
+/// The second preset by name, and its amplifier's current limit named in the warning when a
+/// file sets it too low (0.05 A on an axis whose friction alone takes 0.12 A at F1000).
+#[test]
+fn the_small_table_preset_runs_by_name_and_its_amplifier_limit_is_reported() {
+    let o = run(&[
+        "check",
+        sample("square.nc").to_str().unwrap(),
+        "--machine",
+        "small-table",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    assert!(out.contains("machine   small-table"), "{out}");
+    assert!(!out.contains("drive is at"), "{out}");
+    let o = check_square_on_machine(
+        "weak.toml",
+        "base = \"small-table\"\n[x.amplifier]\ncurrent_bandwidth_hz = 1000.0\ni_max_a = 0.05\n",
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    assert!(
+        out.contains("the X drive is at its current limit (amplifier.i_max_a = 0.05 A)"),
+        "{out}"
+    );
+    let o = run(&["bode", "--machine", "small-table"]);
+    let out = text(&o.stdout);
+    assert!(
+        out.contains("current ") && out.contains("position ") && !out.contains("velocity "),
+        "{out}"
+    );
+}
+
 /// Another interpolator's commands drive `synth` (a record at 5 kHz in 0.1 µm motor-encoder
 /// counts), and `diagnose` reads it at the motor: the hidden gain error is named, the
 /// causes a motor encoder cannot see are listed as not tried, and the user steers the

@@ -107,7 +107,10 @@ fn table_5_following_error_against_ks() {
         .iter()
         .map(|&ks| {
             let mut x = preset().x;
-            x.velocity_loop.ks_nm_s_per_rad = ks;
+            x.velocity_loop
+                .as_mut()
+                .expect("the cascade has a velocity loop")
+                .ks_nm_s_per_rad = ks;
             steady_mm(&x, 500.0)
         })
         .collect();

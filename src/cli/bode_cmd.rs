@@ -8,7 +8,7 @@ use super::Outcome;
 use super::common::{AxisArg, CliError, MachineArgs, write_plot};
 use crate::plot::bode::{BodeCurve, BodePlot};
 use crate::sim::AxisModel;
-use crate::sim::linear::{self, Loop};
+use crate::sim::linear;
 
 /// Arguments of `bode`.
 #[derive(Debug, Args)]
@@ -33,7 +33,7 @@ pub fn run(args: &BodeArgs) -> Result<Outcome, CliError> {
         "loop       crossover  phase margin  closed −3 dB  closed −10°  gain at crossover/100"
     );
     let mut missing = false;
-    for l in Loop::ALL {
+    for l in linear::loops(&model) {
         let f = linear::loop_figures(&model, l);
         let low = linear::closed_loop(&model, l, f.crossover_hz / 100.0);
         let mut cell = |v: f64, width: usize, decimals: usize, unit: &str| {
@@ -71,9 +71,9 @@ pub fn run(args: &BodeArgs) -> Result<Outcome, CliError> {
     linear::check_stable(&model).map_err(|e| e.on_axis(args.axis.axis.letter(), None))?;
     if let Some(path) = &args.plot {
         let freqs = linear::log_space(0.1, 10_000.0, 60);
-        let curves = Loop::ALL
-            .iter()
-            .map(|&l| BodeCurve {
+        let curves = linear::loops(&model)
+            .into_iter()
+            .map(|l| BodeCurve {
                 label: format!("{} loop", l.name()),
                 points: linear::bode(&model, l, &freqs, false),
             })

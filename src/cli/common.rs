@@ -48,22 +48,31 @@ pub enum CliError {
     Usage(String),
 }
 
-/// `--machine FILE`.
+/// `--machine FILE|PRESET`.
 #[derive(Debug, Args)]
 pub struct MachineArgs {
-    /// Machine file (TOML); default: the embedded `hvmc` preset.
-    #[arg(long, value_name = "FILE")]
+    /// Machine file (TOML), or an embedded preset's name (`hvmc`, `small-table`); default:
+    /// the `hvmc` preset.
+    #[arg(long, value_name = "FILE|PRESET")]
     pub machine: Option<PathBuf>,
 }
 
 impl MachineArgs {
-    /// The machine to use.
+    /// The machine to use: a file where one exists by that name, else a preset.
     pub fn load(&self) -> Result<MachineConfig, CliError> {
         match &self.machine {
+            Some(path) if !path.exists() && is_preset_name(path) => {
+                Ok(MachineConfig::preset(&path.to_string_lossy())?)
+            }
             Some(path) => Ok(MachineConfig::load(path)?),
             None => Ok(MachineConfig::default_preset()),
         }
     }
+}
+
+fn is_preset_name(path: &std::path::Path) -> bool {
+    let name = path.to_string_lossy();
+    crate::machine::PRESETS.iter().any(|(n, _)| *n == name)
 }
 
 /// Planner flags.

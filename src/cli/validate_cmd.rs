@@ -145,7 +145,9 @@ fn print_trends(machine: &crate::machine::MachineConfig, sim: &SimConfig) -> Res
     println!("\nVelocity gain Ks at 500 mm/min (paper Fig. 24): steady mean and start-up ripple");
     for ks in [12.0, 14.0, 16.0, 18.0, 20.0] {
         let mut axis = machine.x.clone();
-        axis.velocity_loop.ks_nm_s_per_rad = ks;
+        if let Some(v) = axis.velocity_loop.as_mut() {
+            v.ks_nm_s_per_rad = ks;
+        }
         let (mean, ripple) = validate::mean_and_ripple_m(&axis, feed, sim)?;
         println!(
             "  Ks {ks:>4.0}: mean {:.5} mm, ripple {:.3} µm",

@@ -519,6 +519,9 @@ fn skip_reason(
     if !settings.causes.contains(cause) {
         return Some("left out by --causes/--exclude".into());
     }
+    if let Some(why) = cause.inapplicable_to(machine.axis(axis)) {
+        return Some(why.into());
+    }
     cause
         .unseen_at(
             settings.measured_at,

@@ -91,7 +91,9 @@ fn predict(
 ) -> Result<f64, SimError> {
     let mut axis = machine.axis(row.axis).clone();
     axis.position_loop.kv_m_per_min_per_mm = row.kv_m_per_min_per_mm * gain;
-    axis.velocity_loop.ks_nm_s_per_rad = row.ks_nm_s_per_rad;
+    if let Some(v) = axis.velocity_loop.as_mut() {
+        v.ks_nm_s_per_rad = row.ks_nm_s_per_rad;
+    }
     Ok(mm_from_m(steady_following_error_m(
         &axis,
         m_per_s_from_mm_per_min(row.feed_mm_per_min),

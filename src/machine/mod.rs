@@ -8,14 +8,21 @@
 //! naming the key and the file.
 
 mod alternatives;
+mod controller;
+mod sections;
 mod validate;
+
+pub use controller::{Amplifier, Controller, ControllerOutput, StateFeedback, TransferFunction};
 
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
 /// The embedded presets: name and TOML text.
-pub const PRESETS: [(&str, &str); 1] = [("hvmc", include_str!("hvmc.toml"))];
+pub const PRESETS: [(&str, &str); 2] = [
+    ("hvmc", include_str!("hvmc.toml")),
+    ("small-table", include_str!("small-table.toml")),
+];
 
 /// The most points a position map may have.
 pub const POSITION_MAP_POINTS: usize = 256;
@@ -71,12 +78,21 @@ fn default_arc_normal_share() -> f64 {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AxisConfig {
-    /// Position loop (P + feed-forward).
+    /// The controller's structure; the cascade when not given.
+    #[serde(default, skip_serializing_if = "Controller::is_cascade")]
+    pub controller: Controller,
+    /// Position loop (P + feed-forward); its feedback and dead time hold for every
+    /// controller structure.
     pub position_loop: PositionLoop,
-    /// Velocity loop (PI).
-    pub velocity_loop: VelocityLoop,
-    /// Current loop (PI with filters).
-    pub current_loop: CurrentLoop,
+    /// Velocity loop (PI): the cascade's, or a velocity-mode drive's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub velocity_loop: Option<VelocityLoop>,
+    /// Current loop (PI with filters), with the motor's electrical data; or …
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub current_loop: Option<CurrentLoop>,
+    /// … a current amplifier taken as ideal up to its bandwidth.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub amplifier: Option<Amplifier>,
     /// Servo motor.
     pub motor: Motor,
     /// Coupling, ball screw, nut and table.
@@ -207,11 +223,14 @@ pub enum Feedback {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PositionLoop {
-    /// Position gain Kv (m/min/mm; 1 m/min/mm = 16.667 1/s).
+    /// Position gain Kv (m/min/mm; 1 m/min/mm = 16.667 1/s); the cascade's.
+    #[serde(default)]
     pub kv_m_per_min_per_mm: f64,
-    /// Velocity feed-forward factor k_f (0 = off, 1 = full).
+    /// Velocity feed-forward factor k_f (0 = off, 1 = full); the cascade's.
+    #[serde(default)]
     pub velocity_feedforward: f64,
-    /// Acceleration feed-forward factor k_a (0 = off, 1 = full).
+    /// Acceleration feed-forward factor k_a (0 = off, 1 = full); the cascade's.
+    #[serde(default)]
     pub accel_feedforward: f64,
     /// Position feedback.
     pub feedback: Feedback,
@@ -251,14 +270,17 @@ pub struct CurrentLoop {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Motor {
-    /// Armature resistance R_a (Ω).
-    pub ra_ohm: f64,
-    /// Armature inductance L_a (mH).
-    pub la_mh: f64,
+    /// Armature resistance R_a (Ω); needed with a current loop.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ra_ohm: Option<f64>,
+    /// Armature inductance L_a (mH); needed with a current loop.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub la_mh: Option<f64>,
     /// Torque constant K_t (N·m/A).
     pub kt_nm_per_a: f64,
-    /// Back-EMF constant K_e (V·s/rad).
-    pub ke_v_s_per_rad: f64,
+    /// Back-EMF constant K_e (V·s/rad); needed with a current loop.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ke_v_s_per_rad: Option<f64>,
     /// Rotor (+ sleeve) inertia J_m (kg·m²).
     pub jm_kg_m2: f64,
 }
@@ -472,6 +494,7 @@ impl MachineConfig {
         let base_table = table.clone();
         merge(&mut table, over.clone());
         alternatives::resolve(&over, &mut table, file)?;
+        sections::resolve(&over, &mut table, file)?;
         from_table(table, file).map_err(|e| explain_missing(e, &base, &base_table))
     }
 

@@ -1,7 +1,9 @@
 //! Validation of a whole machine: every number finite and in range, and the values that
 //! must agree with each other (static ≥ Coulomb friction, rapid ≥ cutting feed) agreeing.
 
-use super::{AxisConfig, ConfigError, Limits, MachineConfig};
+use super::{
+    AxisConfig, ConfigError, Controller, ControllerOutput, Limits, MachineConfig, TransferFunction,
+};
 
 /// What a value must satisfy. The upper bounds are generous — beyond anything from a desktop
 /// table to the heaviest machine — and there so that a slip of the exponent (a table of
@@ -101,12 +103,15 @@ pub fn validate(m: &MachineConfig, file: &str) -> Result<(), ConfigError> {
 fn validate_axis(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigError> {
     use Rule::{NonNegative, Positive, Range};
     let k = |s: &str| format!("{axis}.{s}");
+    validate_control(c, axis, a)?;
     let p = &a.position_loop;
-    c.check(
-        &k("position_loop.kv_m_per_min_per_mm"),
-        p.kv_m_per_min_per_mm,
-        Positive(100.0),
-    )?;
+    if a.controller.is_cascade() {
+        c.check(
+            &k("position_loop.kv_m_per_min_per_mm"),
+            p.kv_m_per_min_per_mm,
+            Positive(100.0),
+        )?;
+    }
     c.check(
         &k("position_loop.velocity_feedforward"),
         p.velocity_feedforward,
@@ -117,29 +122,7 @@ fn validate_axis(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigEr
         p.accel_feedforward,
         Range(0.0, 2.0),
     )?;
-    let v = &a.velocity_loop;
-    c.check(
-        &k("velocity_loop.ks_nm_s_per_rad"),
-        v.ks_nm_s_per_rad,
-        Positive(1e5),
-    )?;
-    c.check(&k("velocity_loop.ts_ms"), v.ts_ms, Positive(1e6))?;
-    c.check(&k("velocity_loop.i_max_a"), v.i_max_a, Positive(1e5))?;
-    let i = &a.current_loop;
-    c.check(&k("current_loop.ki_v_per_a"), i.ki_v_per_a, Positive(1e5))?;
-    c.check(&k("current_loop.ti_ms"), i.ti_ms, Positive(1e6))?;
-    c.check(&k("current_loop.tcf_ms"), i.tcf_ms, Positive(1e3))?;
-    c.check(&k("current_loop.u_max_v"), i.u_max_v, Positive(1e5))?;
-    let mo = &a.motor;
-    c.check(&k("motor.ra_ohm"), mo.ra_ohm, Positive(1e3))?;
-    c.check(&k("motor.la_mh"), mo.la_mh, Positive(1e4))?;
-    c.check(&k("motor.kt_nm_per_a"), mo.kt_nm_per_a, Positive(1e3))?;
-    c.check(
-        &k("motor.ke_v_s_per_rad"),
-        mo.ke_v_s_per_rad,
-        NonNegative(1e3),
-    )?;
-    c.check(&k("motor.jm_kg_m2"), mo.jm_kg_m2, Positive(1e3))?;
+    c.check(&k("motor.jm_kg_m2"), a.motor.jm_kg_m2, Positive(1e3))?;
     let d = &a.drive;
     c.check(&k("drive.js_kg_m2"), d.js_kg_m2, Positive(1e3))?;
     c.check(
@@ -288,6 +271,174 @@ fn validate_axis(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigEr
         )?;
     }
     validate_limits(c, &k("limits"), &a.limits)
+}
+
+/// The controller, the velocity loop, the current loop or amplifier and the motor's
+/// electrical data: each present where the structure needs it, and in range.
+fn validate_control(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigError> {
+    use Rule::{NonNegative, Positive};
+    let k = |s: &str| format!("{axis}.{s}");
+    let missing = |key: &str, why: &str| ConfigError::Missing {
+        file: c.file.to_string(),
+        key: k(key),
+        why: format!(" ({why})"),
+    };
+    match (&a.velocity_loop, a.controller.uses_velocity_loop()) {
+        (Some(v), true) => {
+            c.check(
+                &k("velocity_loop.ks_nm_s_per_rad"),
+                v.ks_nm_s_per_rad,
+                Positive(1e5),
+            )?;
+            c.check(&k("velocity_loop.ts_ms"), v.ts_ms, Positive(1e6))?;
+            c.check(&k("velocity_loop.i_max_a"), v.i_max_a, Positive(1e5))?;
+        }
+        (None, true) => {
+            return Err(missing(
+                "velocity_loop",
+                &format!(
+                    "the {} controller commands a velocity loop",
+                    a.controller.name()
+                ),
+            ));
+        }
+        (_, false) => {}
+    }
+    match (&a.current_loop, &a.amplifier) {
+        (Some(i), None) => {
+            c.check(&k("current_loop.ki_v_per_a"), i.ki_v_per_a, Positive(1e5))?;
+            c.check(&k("current_loop.ti_ms"), i.ti_ms, Positive(1e6))?;
+            c.check(&k("current_loop.tcf_ms"), i.tcf_ms, Positive(1e3))?;
+            c.check(&k("current_loop.u_max_v"), i.u_max_v, Positive(1e5))?;
+            let mo = &a.motor;
+            let electrical = "a modelled current loop needs the motor's electrical data";
+            let ra = mo
+                .ra_ohm
+                .ok_or_else(|| missing("motor.ra_ohm", electrical))?;
+            let la = mo.la_mh.ok_or_else(|| missing("motor.la_mh", electrical))?;
+            let ke = mo
+                .ke_v_s_per_rad
+                .ok_or_else(|| missing("motor.ke_v_s_per_rad", electrical))?;
+            c.check(&k("motor.ra_ohm"), ra, Positive(1e3))?;
+            c.check(&k("motor.la_mh"), la, Positive(1e4))?;
+            c.check(&k("motor.ke_v_s_per_rad"), ke, NonNegative(1e3))?;
+            if !a.controller.is_cascade() {
+                return Err(c.inconsistent(
+                    &k("controller.structure"),
+                    format!(
+                        "= \"{}\" drives a current amplifier: give [{axis}.amplifier] \
+                         (current_bandwidth_hz, i_max_a) instead of [{axis}.current_loop]",
+                        a.controller.name()
+                    ),
+                ));
+            }
+        }
+        (None, Some(amp)) => {
+            c.check(
+                &k("amplifier.current_bandwidth_hz"),
+                amp.current_bandwidth_hz,
+                Positive(1e5),
+            )?;
+            match (amp.i_max_a, a.controller.uses_velocity_loop()) {
+                (Some(i_max), _) => c.check(&k("amplifier.i_max_a"), i_max, Positive(1e5))?,
+                (None, false) => {
+                    return Err(missing(
+                        "amplifier.i_max_a",
+                        "no velocity loop limits the current command",
+                    ));
+                }
+                (None, true) => {}
+            }
+        }
+        (None, None) => {
+            return Err(missing(
+                "current_loop",
+                &format!("or [{axis}.amplifier]: the axis needs one or the other"),
+            ));
+        }
+        (Some(_), Some(_)) => {
+            return Err(c.inconsistent(
+                &k("amplifier"),
+                format!("and [{axis}.current_loop] both describe the current control: give one"),
+            ));
+        }
+    }
+    c.check(&k("motor.kt_nm_per_a"), a.motor.kt_nm_per_a, Positive(1e3))?;
+    match &a.controller {
+        Controller::Cascade => Ok(()),
+        Controller::TransferFunction(tf) => validate_transfer_function(c, axis, tf),
+        Controller::StateFeedback(sf) => {
+            c.check(
+                &k("controller.position_gain_a_per_mm"),
+                sf.position_gain_a_per_mm,
+                Positive(1e6),
+            )?;
+            c.check(
+                &k("controller.integral_gain_a_per_mm_s"),
+                sf.integral_gain_a_per_mm_s,
+                NonNegative(1e9),
+            )?;
+            c.check(
+                &k("controller.velocity_gain_a_s_per_mm"),
+                sf.velocity_gain_a_s_per_mm,
+                NonNegative(1e6),
+            )?;
+            c.check(
+                &k("controller.velocity_feedforward"),
+                sf.velocity_feedforward,
+                Rule::Range(0.0, 2.0),
+            )?;
+            c.check(
+                &k("controller.accel_feedforward"),
+                sf.accel_feedforward,
+                Rule::Range(0.0, 2.0),
+            )
+        }
+    }
+}
+
+/// A transfer function the simulation can realise: finite coefficients, a denominator that
+/// is not zero, proper, of an order the axis has room for, and (given in z) without a pole at
+/// z = −1, which has no continuous equivalent.
+fn validate_transfer_function(
+    c: &Checker,
+    axis: &str,
+    tf: &TransferFunction,
+) -> Result<(), ConfigError> {
+    let k = |s: &str| format!("{axis}.controller.{s}");
+    for (key, coefficients) in [
+        ("numerator", &tf.numerator),
+        ("denominator", &tf.denominator),
+    ] {
+        if coefficients.is_empty() {
+            return Err(c.inconsistent(&k(key), "has no coefficients".into()));
+        }
+        for &v in coefficients.iter() {
+            c.check(&k(key), v, Rule::Range(-1e15, 1e15))?;
+        }
+    }
+    c.check(&k("sample_ms"), tf.sample_ms, Rule::Range(0.0, 100.0))?;
+    c.check(
+        &k("velocity_feedforward"),
+        tf.velocity_feedforward,
+        Rule::Range(0.0, 2.0),
+    )?;
+    c.check(
+        &k("accel_feedforward"),
+        tf.accel_feedforward,
+        Rule::Range(0.0, 2.0),
+    )?;
+    if tf.output == ControllerOutput::Current && tf.velocity_feedforward != 0.0 {
+        return Err(c.inconsistent(
+            &k("velocity_feedforward"),
+            "feeds a velocity command forward, and this controller commands current (use \
+             accel_feedforward)"
+                .into(),
+        ));
+    }
+    crate::sim::control::realise(tf)
+        .map(|_| ())
+        .map_err(|problem| c.inconsistent(&k("denominator"), problem))
 }
 
 fn validate_limits(c: &Checker, prefix: &str, l: &Limits) -> Result<(), ConfigError> {

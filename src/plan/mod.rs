@@ -26,10 +26,7 @@ pub mod sample;
 use crate::gcode::{Program, Warning};
 use crate::machine::{Limits, MachineConfig};
 use crate::path::{Blend, Geometry, Motion, Segment, dot3};
-use crate::units::{
-    m_from_mm, m_per_s_from_mm_per_min, mm_per_min_from_m_per_s, per_s_from_kv_m_per_min_per_mm,
-    s_from_ms,
-};
+use crate::units::{m_from_mm, m_per_s_from_mm_per_min, mm_per_min_from_m_per_s, s_from_ms};
 use profile::{Dynamics, SegmentProfile, reachable_speed};
 
 pub use sample::{AxisCommands, AxisPeaks, Commands, Sampler, sample};
@@ -121,8 +118,11 @@ impl PlanConfig {
             },
             in_position: Some(InPosition {
                 window_m: m_from_mm(machine.interpolation.in_position_window_mm),
-                kv_per_s: [&machine.x, &machine.y]
-                    .map(|a| per_s_from_kv_m_per_min_per_mm(a.position_loop.kv_m_per_min_per_mm)),
+                // The wait estimate needs the loop's time scale: the cascade's Kv, or another
+                // controller's closed-loop bandwidth (the simulated waits re-time it).
+                kv_per_s: [&machine.x, &machine.y].map(|a| {
+                    crate::sim::linear::equivalent_kv_per_s(&crate::sim::AxisModel::from_config(a))
+                }),
             }),
         }
     }

@@ -10,12 +10,7 @@ use nalgebra::{Complex, DMatrix, DVector};
 use serde::Serialize;
 
 use super::SimError;
-use super::model::{
-    AR, AxisModel, ClampMode, ContactMode, FC, FrictionMode, Mode, Row, VR, XR, ZW,
-};
-
-/// Number of physical states (the reference states are inputs here).
-const NS: usize = 11;
+use super::model::{AR, AxisModel, ClampMode, ContactMode, FrictionMode, Mode, Row, VR, XR, ZW};
 
 /// The loops of the cascade.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -43,6 +38,33 @@ impl Loop {
     }
 }
 
+/// The loops an axis has, inner first: a drive without a velocity loop of its own (a
+/// position controller on a current amplifier) has the current and position loops only.
+pub fn loops(model: &AxisModel) -> Vec<Loop> {
+    Loop::ALL
+        .into_iter()
+        .filter(|&l| l != Loop::Velocity || model.has_velocity_loop())
+        .collect()
+}
+
+/// The position gain an axis behaves with, in 1/s: the cascade's Kv, or for another
+/// controller the closed position loop's −3 dB bandwidth in rad/s (which a P loop on a fast
+/// velocity loop has as its Kv). Used where a time scale of the loop is wanted (how long a
+/// following error lasts), not for the lag F/Kv of a controller with integral action.
+pub fn equivalent_kv_per_s(model: &AxisModel) -> f64 {
+    match model.control {
+        super::model::ControlModel::Cascade => model.kv_per_s(),
+        _ => {
+            let f = loop_figures(model, Loop::Position).bandwidth_3db_hz;
+            if f.is_finite() {
+                std::f64::consts::TAU * f
+            } else {
+                1.0
+            }
+        }
+    }
+}
+
 /// The linear mode used for analysis.
 pub fn nominal_mode() -> Mode {
     Mode {
@@ -60,35 +82,88 @@ struct Siso {
     c: DVector<f64>,
 }
 
-fn restrict_row(row: &Row) -> DVector<f64> {
-    DVector::from_fn(NS, |i, _| row[i])
+/// The states the axis uses, as indices into the model's state: the mechanics and the
+/// current always, the current loop's filters and integral where it is modelled, the
+/// velocity integral where there is one, and a transfer function's states. The reference
+/// states are inputs here, and states a structure leaves unused (which would only add
+/// eigenvalues at zero) are left out.
+struct Restriction {
+    states: Vec<usize>,
 }
 
-fn loop_system(model: &AxisModel, which: Loop) -> Siso {
+impl Restriction {
+    fn of(model: &AxisModel) -> Self {
+        Restriction {
+            states: model.active_states(),
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.states.len()
+    }
+
+    /// Where model state `i` sits here.
+    fn at(&self, i: usize) -> usize {
+        self.states
+            .iter()
+            .position(|&s| s == i)
+            .expect("the state is one the model uses")
+    }
+
+    fn row(&self, row: &Row) -> DVector<f64> {
+        DVector::from_fn(self.len(), |k, _| row[self.states[k]])
+    }
+
+    fn matrix(&self, full: &super::model::AugMatrix) -> DMatrix<f64> {
+        DMatrix::from_fn(self.len(), self.len(), |i, j| {
+            full[(self.states[i], self.states[j])]
+        })
+    }
+
+    fn column(&self, full: &super::model::AugMatrix, j: usize) -> DVector<f64> {
+        DVector::from_fn(self.len(), |i, _| full[(self.states[i], j)])
+    }
+}
+
+/// The loop's system. The position loop's closed response includes the feed-forward (the
+/// reference enters with its velocity and acceleration); its open loop, read as T/(1 − T),
+/// is only the feedback's, so `feedback_only` leaves the feed-forward out.
+fn loop_system(model: &AxisModel, which: Loop, feedback_only: bool) -> Siso {
     let full = model.dynamics(nominal_mode());
     let s = model.signals();
-    let mut a = DMatrix::from_fn(NS, NS, |i, j| full[(i, j)]);
-    let zero = DVector::zeros(NS);
-    let column = |j: usize| DVector::from_fn(NS, |i, _| full[(i, j)]);
+    let r = Restriction::of(model);
+    let n = r.len();
+    let mut a = r.matrix(&full);
+    let zero = DVector::zeros(n);
     match which {
         Loop::Position => Siso {
             a,
-            b: [column(XR), column(VR), column(AR)],
-            c: restrict_row(&s.x_fb),
+            b: if feedback_only {
+                [r.column(&full, XR), zero.clone(), zero]
+            } else {
+                [
+                    r.column(&full, XR),
+                    r.column(&full, VR),
+                    r.column(&full, AR),
+                ]
+            },
+            c: r.row(&s.x_fb),
         },
         Loop::Velocity => {
             // ω_cmd becomes the input: remove its dependence on the states.
-            let w = restrict_row(&s.w_cmd);
-            let k = model.ks / model.tcf;
-            for j in 0..NS {
-                a[(FC, j)] -= k * w[j];
-                a[(ZW, j)] -= w[j];
+            let w = r.row(&s.w_cmd);
+            let (target, rate) = model.current_command_target();
+            let (target, zw) = (r.at(target), r.at(ZW));
+            let k = model.ks * rate;
+            for j in 0..n {
+                a[(target, j)] -= k * w[j];
+                a[(zw, j)] -= w[j];
             }
-            let mut b = DVector::zeros(NS);
-            b[FC] = k;
-            b[ZW] = 1.0;
-            let mut c = DVector::zeros(NS);
-            c[super::model::W_M] = 1.0;
+            let mut b = DVector::zeros(n);
+            b[target] = k;
+            b[zw] = 1.0;
+            let mut c = DVector::zeros(n);
+            c[r.at(super::model::W_M)] = 1.0;
             Siso {
                 a,
                 b: [b, zero.clone(), zero],
@@ -96,15 +171,18 @@ fn loop_system(model: &AxisModel, which: Loop) -> Siso {
             }
         }
         Loop::Current => {
-            // i_cmd becomes the input: the command filter sees it instead of the speed loop.
-            for j in 0..NS {
-                a[(FC, j)] = 0.0;
+            // i_cmd becomes the input: the command filter (or the amplifier) sees it instead
+            // of the controller.
+            let (target, rate) = model.current_command_target();
+            let target = r.at(target);
+            for j in 0..n {
+                a[(target, j)] = 0.0;
             }
-            a[(FC, FC)] = -1.0 / model.tcf;
-            let mut b = DVector::zeros(NS);
-            b[FC] = 1.0 / model.tcf;
-            let mut c = DVector::zeros(NS);
-            c[super::model::I] = 1.0;
+            a[(target, target)] = -rate;
+            let mut b = DVector::zeros(n);
+            b[target] = rate;
+            let mut c = DVector::zeros(n);
+            c[r.at(super::model::I)] = 1.0;
             Siso {
                 a,
                 b: [b, zero.clone(), zero],
@@ -116,34 +194,36 @@ fn loop_system(model: &AxisModel, which: Loop) -> Siso {
 
 impl Siso {
     fn response(&self, freq_hz: f64) -> Complex<f64> {
+        let n = self.c.len();
         let s = Complex::new(0.0, std::f64::consts::TAU * freq_hz);
-        let m = DMatrix::from_fn(NS, NS, |i, j| {
+        let m = DMatrix::from_fn(n, n, |i, j| {
             let diag = if i == j { s } else { Complex::new(0.0, 0.0) };
             diag - Complex::new(self.a[(i, j)], 0.0)
         });
-        let b = DVector::from_fn(NS, |i, _| {
+        let b = DVector::from_fn(n, |i, _| {
             Complex::new(self.b[0][i], 0.0) + s * self.b[1][i] + s * s * self.b[2][i]
         });
-        let x = m.lu().solve(&b).unwrap_or_else(|| DVector::zeros(NS));
-        (0..NS).map(|i| x[i] * self.c[i]).sum()
+        let x = m.lu().solve(&b).unwrap_or_else(|| DVector::zeros(n));
+        (0..n).map(|i| x[i] * self.c[i]).sum()
     }
 }
 
 /// Closed-loop frequency response of a loop at `freq_hz`.
 pub fn closed_loop(model: &AxisModel, which: Loop, freq_hz: f64) -> Complex<f64> {
-    loop_system(model, which).response(freq_hz)
+    loop_system(model, which, false).response(freq_hz)
 }
 
-/// Open-loop frequency response, L = T/(1 − T).
+/// Open-loop frequency response of the feedback, L = T/(1 − T) with T the closed loop
+/// without feed-forward.
 pub fn open_loop(model: &AxisModel, which: Loop, freq_hz: f64) -> Complex<f64> {
-    let t = closed_loop(model, which, freq_hz);
+    let t = loop_system(model, which, true).response(freq_hz);
     t / (Complex::new(1.0, 0.0) - t)
 }
 
 /// Magnitude (dB) and phase (degrees, unwrapped from 0 at low frequency) over a frequency
 /// list.
 pub fn bode(model: &AxisModel, which: Loop, freqs_hz: &[f64], open: bool) -> Vec<(f64, f64, f64)> {
-    let sys = loop_system(model, which);
+    let sys = loop_system(model, which, open);
     let mut out = Vec::with_capacity(freqs_hz.len());
     let mut prev_phase: Option<f64> = None;
     for &f in freqs_hz {
@@ -196,17 +276,25 @@ pub struct LoopFigures {
 
 /// Crossover, phase margin, −3 dB and −10° frequencies of a loop.
 pub fn loop_figures(model: &AxisModel, which: Loop) -> LoopFigures {
-    let sys = loop_system(model, which);
+    let sys = loop_system(model, which, false);
+    let feedback = loop_system(model, which, true);
     let grid = log_space(1e-4, 100_000.0, 360);
     let closed: Vec<Complex<f64>> = grid.iter().map(|&f| sys.response(f)).collect();
+    let closed_feedback: Vec<Complex<f64>> = if sys.b == feedback.b {
+        closed.clone()
+    } else {
+        grid.iter().map(|&f| feedback.response(f)).collect()
+    };
     let open_mag = |t: Complex<f64>| (t / (Complex::new(1.0, 0.0) - t)).norm();
     let crossover_hz = first_crossing(
         &grid,
-        |f| open_mag(sys.response(f)) - 1.0,
-        &closed,
+        |f| open_mag(feedback.response(f)) - 1.0,
+        &closed_feedback,
         |t| open_mag(t) - 1.0,
     );
-    let phase_margin_deg = 180.0 + unwrapped_phase(&sys, crossover_hz);
+    // A loop with several integrators starts below −180°: the margin is read modulo a turn.
+    let phase_margin_deg =
+        (180.0 + unwrapped_phase(&feedback, crossover_hz) + 180.0).rem_euclid(360.0) - 180.0;
     let gain_3db = 1.0 / 2f64.sqrt();
     let bandwidth_3db_hz = first_crossing(
         &grid,
@@ -314,8 +402,7 @@ pub struct ModalFigure {
 
 /// Eigenvalues of the closed position loop (the whole linearised axis).
 pub fn closed_loop_modes(model: &AxisModel) -> Vec<ModalFigure> {
-    let full = model.dynamics(nominal_mode());
-    let a = DMatrix::from_fn(NS, NS, |i, j| full[(i, j)]);
+    let a = Restriction::of(model).matrix(&model.dynamics(nominal_mode()));
     a.complex_eigenvalues()
         .iter()
         .map(|l| {

@@ -1,10 +1,12 @@
-//! The servo-feed axis simulator (MODEL.md §1): three-loop control, ball-screw mechanics,
+//! The servo-feed axis simulator (MODEL.md §1): three-loop control (or another controller
+//! structure, `control`), ball-screw mechanics,
 //! hybrid stick/slip friction, backlash, lateral shift, current and voltage limits.
 //!
 //! [`simulate`] is pure: model and commands in, trace out, no I/O and no shared state, so
 //! axes and sweeps run in parallel. [`linear`] gives the linearised loops (Bode, stability)
 //! and [`stickslip`] the paper's stick-slip criterion.
 
+pub mod control;
 pub mod discrete;
 pub mod linear;
 pub mod model;
@@ -47,7 +49,8 @@ pub enum SimError {
     #[error(
         "unstable gain setting: a closed-loop mode at {frequency_hz:.1} Hz grows at \
          {growth_per_s:.3} 1/s — the loop gains are the keys position_loop.kv_m_per_min_per_mm, \
-         velocity_loop.ks_nm_s_per_rad and ts_ms, current_loop.ki_v_per_a and ti_ms"
+         velocity_loop.ks_nm_s_per_rad and ts_ms, current_loop.ki_v_per_a and ti_ms, or those \
+         of [axis.controller]"
     )]
     Unstable {
         /// Frequency of the growing mode.

@@ -1,5 +1,8 @@
 //! One axis as MODEL.md §1 specifies it, in SI units: the parameters derived once from the
-//! user's configuration, and the piecewise-linear state-space matrices of each mode.
+//! user's configuration, and the piecewise-linear state-space matrices of each mode — for
+//! the paper's cascade, and for the other controller structures of `machine::controller`
+//! (a transfer function or state feedback on an ideal current amplifier, whose states take
+//! the places the current loop leaves free).
 //!
 //! State (13): current-command filter, current-feedback filter, current PI integral,
 //! armature current, velocity PI integral, motor angle and speed, screw angle and speed,
@@ -12,8 +15,9 @@
 
 use nalgebra::{SMatrix, SVector};
 
+use super::control::{Realisation, realise};
 use crate::lookup::Lookup;
-use crate::machine::{AxisConfig, Feedback};
+use crate::machine::{AxisConfig, Controller, ControllerOutput, Feedback};
 use crate::units::{
     GRAVITY_M_PER_S2, h_from_mh, m_from_mm, m_from_um, m_per_s_from_mm_per_min,
     per_s_from_kv_m_per_min_per_mm, s_from_ms,
@@ -24,7 +28,9 @@ pub const N: usize = 13;
 /// Number of states plus held inputs.
 pub const NA: usize = 19;
 
-/// Filtered current command (A).
+/// Filtered current command (A). With a current amplifier the current loop's states (`FC`,
+/// `FF`, `ZI`) are not needed: a transfer-function controller keeps its states there (and
+/// in `ZW` when no velocity loop needs it), see [`CONTROLLER_SLOTS`].
 pub const FC: usize = 0;
 /// Filtered current feedback (A).
 pub const FF: usize = 1;
@@ -63,6 +69,9 @@ pub const FX: usize = 17;
 /// Input: static friction beyond `f_s` where the table stands (N) — a friction map.
 pub const FSX: usize = 18;
 
+/// Where a transfer-function controller's states live, in order.
+pub const CONTROLLER_SLOTS: [usize; 4] = [FC, FF, ZI, ZW];
+
 /// Augmented state vector: states then held inputs.
 pub type Aug = SVector<f64, NA>;
 /// A linear functional on the augmented state.
@@ -81,11 +90,16 @@ pub struct AxisModel {
     pub ka: f64,
     /// Position feedback.
     pub feedback: Feedback,
+    /// The controller's structure (the cascade uses `kp`, `ks`, `ts`).
+    pub control: ControlModel,
+    /// Time constant of an ideal current amplifier (s); `None`: the current loop and the
+    /// armature are modelled (`ki`, `ti`, `tcf`, `u_max`, `ra`, `la`, `ke`).
+    pub amplifier_tau: Option<f64>,
     /// Velocity P gain (A·s/rad).
     pub ks: f64,
     /// Velocity integral time (s).
     pub ts: f64,
-    /// Current limit (A).
+    /// Limit of the current command (A): the velocity loop's, or the amplifier's peak.
     pub i_max: f64,
     /// Current P gain (V/A).
     pub ki: f64,
@@ -145,6 +159,67 @@ pub struct AxisModel {
     pub measuring: MeasuringError,
     /// Structural mode between the table and the measured point: ω (rad/s) and ζ.
     pub resonance: Option<(f64, f64)>,
+}
+
+/// How the axis is controlled, in SI units.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ControlModel {
+    /// P position, PI velocity (`kp`, `kf`, `ks`, `ts`).
+    Cascade,
+    /// A position controller C(s) from the error (mm) to current (A) or table speed (m/min),
+    /// its states in [`CONTROLLER_SLOTS`].
+    Transfer {
+        /// The controller's states.
+        realisation: Realisation,
+        /// What it commands.
+        output: ControllerOutput,
+    },
+    /// Current = kx·e + kz·∫e + kd·(kf·v_ref − v), in SI (A/m, A/(m·s), A·s/m); ∫e in `ZW`.
+    StateFeedback {
+        /// On the position error.
+        kx: f64,
+        /// On its integral.
+        kz: f64,
+        /// On the speed error.
+        kd: f64,
+    },
+}
+
+impl ControlModel {
+    fn from_config(c: &Controller) -> ControlModel {
+        match c {
+            Controller::Cascade => ControlModel::Cascade,
+            Controller::TransferFunction(tf) => ControlModel::Transfer {
+                realisation: realise(tf).expect("validated with the machine"),
+                output: tf.output,
+            },
+            Controller::StateFeedback(sf) => ControlModel::StateFeedback {
+                kx: sf.position_gain_a_per_mm * 1e3,
+                kz: sf.integral_gain_a_per_mm_s * 1e3,
+                kd: sf.velocity_gain_a_s_per_mm * 1e3,
+            },
+        }
+    }
+}
+
+/// An integrator behind a limited output y = … + g·z: its state, what it integrates and g.
+pub struct Integrator {
+    /// Its index in the state.
+    pub slot: usize,
+    /// What it integrates.
+    pub integrand: Row,
+    /// ∂y/∂z.
+    pub gain: f64,
+}
+
+/// A limited controller output: the unclamped value, the limit and the integrator to hold.
+pub struct Limited {
+    /// The output before the limit.
+    pub output: Row,
+    /// Its limit (±).
+    pub limit: f64,
+    /// The integrator stopped at the limit (anti-windup), where the output has one.
+    pub integrator: Option<Integrator>,
 }
 
 /// Error of the measuring system as a function of position: e(x) = s·x + A·sin(k·x + φ).
@@ -240,22 +315,51 @@ impl AxisModel {
         let j_theta = reduced(jm / (it * it), js);
         let m_axial = reduced((jm / (it * it) + js) / (r * r), mt);
         let f_c = c.friction.coulomb_coefficient * mt * GRAVITY_M_PER_S2;
+        let (kf, ka) = match &c.controller {
+            Controller::Cascade => (
+                c.position_loop.velocity_feedforward,
+                c.position_loop.accel_feedforward,
+            ),
+            Controller::TransferFunction(tf) => (tf.velocity_feedforward, tf.accel_feedforward),
+            Controller::StateFeedback(sf) => (sf.velocity_feedforward, sf.accel_feedforward),
+        };
+        // Unused parts of the model are left at values that keep its matrices finite.
+        let velocity = c
+            .velocity_loop
+            .as_ref()
+            .filter(|_| c.controller.uses_velocity_loop());
+        let current = c.current_loop.as_ref().filter(|_| c.amplifier.is_none());
+        let i_max = match (velocity, &c.amplifier) {
+            (Some(v), _) => v.i_max_a,
+            (None, Some(amp)) => amp.i_max_a.unwrap_or(f64::INFINITY),
+            (None, None) => f64::INFINITY,
+        };
         AxisModel {
-            kp: per_s_from_kv_m_per_min_per_mm(c.position_loop.kv_m_per_min_per_mm) / (r * it),
-            kf: c.position_loop.velocity_feedforward,
-            ka: c.position_loop.accel_feedforward,
+            kp: match c.controller {
+                Controller::Cascade => {
+                    per_s_from_kv_m_per_min_per_mm(c.position_loop.kv_m_per_min_per_mm) / (r * it)
+                }
+                _ => 0.0,
+            },
+            kf,
+            ka,
             feedback: c.position_loop.feedback,
-            ks: c.velocity_loop.ks_nm_s_per_rad / kt,
-            ts: s_from_ms(c.velocity_loop.ts_ms),
-            i_max: c.velocity_loop.i_max_a,
-            ki: c.current_loop.ki_v_per_a,
-            ti: s_from_ms(c.current_loop.ti_ms),
-            tcf: s_from_ms(c.current_loop.tcf_ms),
-            u_max: c.current_loop.u_max_v,
-            ra: c.motor.ra_ohm,
-            la: h_from_mh(c.motor.la_mh),
+            control: ControlModel::from_config(&c.controller),
+            amplifier_tau: c
+                .amplifier
+                .as_ref()
+                .map(|amp| 1.0 / (std::f64::consts::TAU * amp.current_bandwidth_hz)),
+            ks: velocity.map_or(0.0, |v| v.ks_nm_s_per_rad / kt),
+            ts: velocity.map_or(1.0, |v| s_from_ms(v.ts_ms)),
+            i_max,
+            ki: current.map_or(0.0, |i| i.ki_v_per_a),
+            ti: current.map_or(1.0, |i| s_from_ms(i.ti_ms)),
+            tcf: current.map_or(1.0, |i| s_from_ms(i.tcf_ms)),
+            u_max: current.map_or(f64::INFINITY, |i| i.u_max_v),
+            ra: c.motor.ra_ohm.unwrap_or(0.0),
+            la: h_from_mh(c.motor.la_mh.unwrap_or(1.0)),
             kt,
-            ke: c.motor.ke_v_s_per_rad,
+            ke: c.motor.ke_v_s_per_rad.unwrap_or(0.0),
             jm,
             js,
             k_theta: d.k_theta_nm_per_rad,
@@ -460,9 +564,11 @@ fn unit(i: usize) -> Row {
 pub struct Signals {
     /// Position feedback x_fb.
     pub x_fb: Row,
-    /// Speed command ω_cmd.
+    /// Position error x_ref − x_fb.
+    pub e: Row,
+    /// Speed command ω_cmd (zero without a velocity loop).
     pub w_cmd: Row,
-    /// Speed error e_ω.
+    /// Speed error e_ω (zero without a velocity loop).
     pub e_w: Row,
     /// Unclamped current command.
     pub i_cmd_raw: Row,
@@ -478,18 +584,122 @@ pub struct Signals {
     pub t_c: Row,
 }
 
+/// Millimetres per metre: transfer functions and state-feedback gains take the error in mm.
+const MM_PER_M: f64 = 1e3;
+
 impl AxisModel {
+    /// Whether the drive closes a velocity loop (the cascade, a velocity-mode drive).
+    pub fn has_velocity_loop(&self) -> bool {
+        match &self.control {
+            ControlModel::Cascade => true,
+            ControlModel::Transfer { output, .. } => *output == ControllerOutput::Velocity,
+            ControlModel::StateFeedback { .. } => false,
+        }
+    }
+
+    /// Whether the current loop and the armature are modelled (else an ideal amplifier).
+    pub fn has_current_loop(&self) -> bool {
+        self.amplifier_tau.is_none()
+    }
+
+    /// The states the axis uses (indices below `XR`): the mechanics and the current always;
+    /// the current loop's filters and integral, the velocity (or error) integral and a
+    /// transfer function's states where the structure has them.
+    pub fn active_states(&self) -> Vec<usize> {
+        let mut states = vec![I, TH_M, W_M, TH_S, W_S, X2, V2];
+        if self.has_current_loop() {
+            states.extend([FC, FF, ZI]);
+        }
+        let integral = match &self.control {
+            ControlModel::StateFeedback { kz, .. } => *kz > 0.0,
+            _ => self.has_velocity_loop(),
+        };
+        if integral {
+            states.push(ZW);
+        }
+        if let Some((_, slots)) = self.transfer_states() {
+            states.extend(
+                slots
+                    .iter()
+                    .filter(|s| !states.contains(s))
+                    .collect::<Vec<_>>(),
+            );
+        }
+        states.sort_unstable();
+        states
+    }
+
+    /// The state the current command drives and the rate it does so with: the command
+    /// filter of a current loop, or the current of an ideal amplifier.
+    pub fn current_command_target(&self) -> (usize, f64) {
+        match self.amplifier_tau {
+            None => (FC, 1.0 / self.tcf),
+            Some(tau) => (I, 1.0 / tau),
+        }
+    }
+
+    /// A transfer-function controller's states (slot, realisation).
+    fn transfer_states(&self) -> Option<(&Realisation, &[usize])> {
+        match &self.control {
+            ControlModel::Transfer { realisation, .. } => {
+                Some((realisation, &CONTROLLER_SLOTS[..realisation.order()]))
+            }
+            _ => None,
+        }
+    }
+
     /// The model's signals as functionals of the augmented state.
     pub fn signals(&self) -> Signals {
         let x_fb = match self.feedback {
             Feedback::LinearScale => unit(X2) + unit(FB),
             Feedback::MotorEncoder => unit(TH_S) * self.r + unit(FB),
         };
+        let e = unit(XR) - x_fb;
         let rit = self.r * self.it;
-        let w_cmd = (unit(XR) - x_fb) * self.kp + unit(VR) * (self.kf / rit);
-        let e_w = w_cmd - unit(W_M);
+        let velocity_ff = unit(VR) * (self.kf / rit);
         let i_ff = unit(AR) * (self.ka * self.j_tot() / (rit * self.kt));
-        let i_cmd_raw = (e_w + unit(ZW) / self.ts) * self.ks + i_ff;
+        // The transfer function's output in its own unit (A or m/min).
+        let transfer_output = self.transfer_states().map(|(r, slots)| {
+            slots
+                .iter()
+                .zip(&r.c)
+                .fold(e * (MM_PER_M * r.d), |acc, (&slot, &c)| {
+                    acc + unit(slot) * c
+                })
+        });
+        let w_cmd = match (&self.control, &transfer_output) {
+            (ControlModel::Cascade, _) => e * self.kp + velocity_ff,
+            (
+                ControlModel::Transfer {
+                    output: ControllerOutput::Velocity,
+                    ..
+                },
+                Some(y),
+            ) => {
+                // m/min of table speed → rad/s at the motor.
+                *y * (1.0 / (60.0 * rit)) + velocity_ff
+            }
+            _ => Row::zeros(),
+        };
+        let e_w = if self.has_velocity_loop() {
+            w_cmd - unit(W_M)
+        } else {
+            Row::zeros()
+        };
+        let i_cmd_raw = i_ff
+            + match (&self.control, transfer_output) {
+                (
+                    ControlModel::Transfer {
+                        output: ControllerOutput::Current,
+                        ..
+                    },
+                    Some(y),
+                ) => y,
+                (ControlModel::StateFeedback { kx, kz, kd }, _) => {
+                    e * *kx + unit(ZW) * *kz + (unit(VR) * self.kf - unit(W_M) * rit) * *kd
+                }
+                _ => (e_w + unit(ZW) / self.ts) * self.ks,
+            };
         let e_i = unit(FC) - unit(FF);
         let u_raw = (e_i + unit(ZI) / self.ti) * self.ki;
         let delta = unit(TH_S) * self.r - unit(X2) + unit(DL);
@@ -498,6 +708,7 @@ impl AxisModel {
             + (unit(W_M) * self.it - unit(W_S)) * self.c_theta;
         Signals {
             x_fb,
+            e,
             w_cmd,
             e_w,
             i_cmd_raw,
@@ -507,6 +718,44 @@ impl AxisModel {
             delta_rate,
             t_c,
         }
+    }
+
+    /// The current command with its limit and the integrator that stops at it: the velocity
+    /// loop's (cascade, velocity-mode drive), state feedback's error integral, or none (a
+    /// transfer function's states run on at the limit).
+    pub fn current_command(&self, s: &Signals) -> Limited {
+        let integrator = match &self.control {
+            ControlModel::StateFeedback { kz, .. } => (*kz > 0.0).then_some(Integrator {
+                slot: ZW,
+                integrand: s.e,
+                gain: *kz,
+            }),
+            _ if self.has_velocity_loop() => Some(Integrator {
+                slot: ZW,
+                integrand: s.e_w,
+                gain: self.ks / self.ts,
+            }),
+            _ => None,
+        };
+        Limited {
+            output: s.i_cmd_raw,
+            limit: self.i_max,
+            integrator,
+        }
+    }
+
+    /// The voltage with its limit and the current integral, where the current loop is
+    /// modelled.
+    pub fn voltage_command(&self, s: &Signals) -> Option<Limited> {
+        self.has_current_loop().then(|| Limited {
+            output: s.u_raw,
+            limit: self.u_max,
+            integrator: Some(Integrator {
+                slot: ZI,
+                integrand: s.e_i,
+                gain: self.ki / self.ti,
+            }),
+        })
     }
 
     /// Nut force in a contact mode (N).
@@ -530,11 +779,27 @@ impl AxisModel {
             None => raw,
         };
         let i_cmd = clamped(mode.current, s.i_cmd_raw, self.i_max);
-        let u = clamped(mode.voltage, s.u_raw, self.u_max);
+        match self.amplifier_tau {
+            None => {
+                let u = clamped(mode.voltage, s.u_raw, self.u_max);
+                set(FC, (i_cmd - unit(FC)) / self.tcf);
+                set(FF, (unit(I) - unit(FF)) / self.tcf);
+                set(I, (u - unit(I) * self.ra - unit(W_M) * self.ke) / self.la);
+            }
+            Some(tau) => set(I, (i_cmd - unit(I)) / tau),
+        }
+        if let Some((r, slots)) = self.transfer_states() {
+            for (k, &slot) in slots.iter().enumerate() {
+                let row = r
+                    .a_row(k)
+                    .into_iter()
+                    .fold(s.e * (MM_PER_M * r.b(k)), |acc, (j, c)| {
+                        acc + unit(slots[j]) * c
+                    });
+                set(slot, row);
+            }
+        }
         let f_n = self.nut_force(&s, mode.contact);
-        set(FC, (i_cmd - unit(FC)) / self.tcf);
-        set(FF, (unit(I) - unit(FF)) / self.tcf);
-        set(I, (u - unit(I) * self.ra - unit(W_M) * self.ke) / self.la);
         set(TH_M, unit(W_M));
         set(W_M, (unit(I) * self.kt - s.t_c * self.it) / self.jm);
         set(TH_S, unit(W_S));
@@ -558,21 +823,32 @@ impl AxisModel {
         set(XR, unit(VR));
         set(VR, unit(AR));
         // Integrators last: a sliding one follows its limit, which needs the other rows.
-        let zi_row = integrator_row(mode.voltage, s.e_i, self.ti, &a);
-        let zw_row = integrator_row(mode.current, s.e_w, self.ts, &a);
-        a.set_row(ZI, &zi_row);
-        a.set_row(ZW, &zw_row);
+        let rows: Vec<(usize, Row)> = [
+            (mode.voltage, self.voltage_command(&s)),
+            (mode.current, Some(self.current_command(&s))),
+        ]
+        .into_iter()
+        .filter_map(|(m, limited)| {
+            let limited = limited?;
+            let z = limited.integrator.as_ref()?;
+            Some((z.slot, integrator_row(m, &limited, z, &a)))
+        })
+        .collect();
+        for (slot, row) in rows {
+            a.set_row(slot, &row);
+        }
         a
     }
 }
 
-/// Row of an integrator z of a PI output y = K(e + z/T): running (dz = e), held (dz = 0), or
-/// following the limit (dz = −T·de/dt, which keeps y constant).
-fn integrator_row(mode: ClampMode, e: Row, t: f64, a: &AugMatrix) -> Row {
+/// Row of the integrator z behind a limited output y = … + g·z: running (dz = its
+/// integrand), held (dz = 0), or following the limit (dz = −(dy/dt with z held)/g, which keeps
+/// y constant). `a` has the integrators' rows still zero.
+fn integrator_row(mode: ClampMode, limited: &Limited, z: &Integrator, a: &AugMatrix) -> Row {
     match mode {
-        ClampMode::Linear => e,
+        ClampMode::Linear => z.integrand,
         ClampMode::HeldHi | ClampMode::HeldLo => Row::zeros(),
-        ClampMode::SlideHi | ClampMode::SlideLo => (e * a) * -t,
+        ClampMode::SlideHi | ClampMode::SlideLo => (limited.output * a) * (-1.0 / z.gain),
     }
 }
 

@@ -11,7 +11,7 @@
 use super::discrete::{LEVELS, MapCache};
 use super::model::{
     AR, Aug, AxisModel, ClampMode, ContactMode, DL, FB, FSX, FX, FrictionMode, Mode, N, NA, ONE,
-    Row, Signals, TH_S, V2, VR, X2, XR, ZI, ZW,
+    Row, Signals, TH_S, V2, VR, X2, XR,
 };
 use super::{AxisTrace, FrictionEvent, SimConfig, SimError};
 use crate::machine::Feedback;
@@ -210,10 +210,12 @@ impl<'a> AxisSim<'a> {
                 }
             }
         }
-        let current = ClampSignals::current(m, s, &a);
-        let voltage = ClampSignals::voltage(m, s, &a);
-        clamp_guards(&mut g, mode.current, &current, TOL_CURRENT);
-        clamp_guards(&mut g, mode.voltage, &voltage, TOL_VOLTAGE);
+        if let Some(current) = ClampSignals::of(Limit::Current, m, s, &a) {
+            clamp_guards(&mut g, mode.current, &current, TOL_CURRENT);
+        }
+        if let Some(voltage) = ClampSignals::of(Limit::Voltage, m, s, &a) {
+            clamp_guards(&mut g, mode.voltage, &voltage, TOL_VOLTAGE);
+        }
         g
     }
 
@@ -401,9 +403,8 @@ impl<'a> AxisSim<'a> {
 
     fn switch_clamp(&mut self, x: &mut Aug, mode: &mut Mode, which: Limit) -> bool {
         let a = *self.cache.dynamics(self.model, *mode);
-        let c = match which {
-            Limit::Current => ClampSignals::current(self.model, &self.signals, &a),
-            Limit::Voltage => ClampSignals::voltage(self.model, &self.signals, &a),
+        let Some(c) = ClampSignals::of(which, self.model, &self.signals, &a) else {
+            return false;
         };
         let current = match which {
             Limit::Current => mode.current,
@@ -414,53 +415,61 @@ impl<'a> AxisSim<'a> {
         let natural_rate = (c.natural_rate * *x)[0];
         let l = c.limit;
         use ClampMode::*;
-        let want = match current {
-            Linear if y > l => {
-                if held_rate > 0.0 {
-                    HeldHi
-                } else {
-                    SlideHi
+        let want = match (current, c.integrator) {
+            // Without an integrator to hold, the output is clamped while beyond its limit.
+            (_, None) if y > l => HeldHi,
+            (_, None) if y < -l => HeldLo,
+            (_, None) => Linear,
+            (current, Some(_)) => match current {
+                Linear if y > l => {
+                    if held_rate > 0.0 {
+                        HeldHi
+                    } else {
+                        SlideHi
+                    }
                 }
-            }
-            Linear if y < -l => {
-                if held_rate < 0.0 {
-                    HeldLo
-                } else {
-                    SlideLo
+                Linear if y < -l => {
+                    if held_rate < 0.0 {
+                        HeldLo
+                    } else {
+                        SlideLo
+                    }
                 }
-            }
-            HeldHi if y < l => {
-                if natural_rate > 0.0 {
-                    SlideHi
-                } else {
-                    Linear
+                HeldHi if y < l => {
+                    if natural_rate > 0.0 {
+                        SlideHi
+                    } else {
+                        Linear
+                    }
                 }
-            }
-            HeldLo if y > -l => {
-                if natural_rate < 0.0 {
-                    SlideLo
-                } else {
-                    Linear
+                HeldLo if y > -l => {
+                    if natural_rate < 0.0 {
+                        SlideLo
+                    } else {
+                        Linear
+                    }
                 }
-            }
-            SlideHi if natural_rate < 0.0 => Linear,
-            SlideHi if held_rate > 0.0 => HeldHi,
-            SlideLo if natural_rate > 0.0 => Linear,
-            SlideLo if held_rate < 0.0 => HeldLo,
-            m => m,
+                SlideHi if natural_rate < 0.0 => Linear,
+                SlideHi if held_rate > 0.0 => HeldHi,
+                SlideLo if natural_rate > 0.0 => Linear,
+                SlideLo if held_rate < 0.0 => HeldLo,
+                m => m,
+            },
         };
         if want == current {
             return false;
         }
         // A sliding integrator sits exactly where the output equals the limit.
-        if let Some(side) = match want {
-            SlideHi => Some(1.0),
-            SlideLo => Some(-1.0),
-            _ => None,
-        } {
-            let z_idx = c.integrator;
-            let without_z = y - c.z_gain * x[z_idx];
-            x[z_idx] = (side * l - without_z) / c.z_gain;
+        if let (Some(side), Some((z_idx, z_gain))) = (
+            match want {
+                SlideHi => Some(1.0),
+                SlideLo => Some(-1.0),
+                _ => None,
+            },
+            c.integrator,
+        ) {
+            let without_z = y - z_gain * x[z_idx];
+            x[z_idx] = (side * l - without_z) / z_gain;
         }
         match which {
             Limit::Current => mode.current = want,
@@ -488,42 +497,47 @@ enum Limit {
     Voltage,
 }
 
-/// A limited PI output y = K(e + z/T) (+ feed-forward) and its rates.
+/// A limited output y (+ feed-forward) and its rates, for the guards and the switching
+/// decisions.
 struct ClampSignals {
     output: Row,
-    /// dy/dt with the integrator held: K·de/dt.
+    /// dy/dt with the integrator held.
     held_rate: Row,
-    /// dy/dt with the integrator running: K·(de/dt + e/T).
+    /// dy/dt with the integrator running (the same without an integrator).
     natural_rate: Row,
     limit: f64,
-    integrator: usize,
-    /// ∂y/∂z = K/T.
-    z_gain: f64,
+    /// The integrator's index and ∂y/∂z; none: the output saturates with its states running.
+    integrator: Option<(usize, f64)>,
 }
 
 impl ClampSignals {
-    fn current(m: &AxisModel, s: &Signals, a: &super::model::AugMatrix) -> Self {
-        let de = s.e_w * a;
+    fn new(limited: super::model::Limited, a: &super::model::AugMatrix) -> Self {
+        let rate = limited.output * a;
+        let (held_rate, natural_rate, integrator) = match limited.integrator {
+            Some(z) => {
+                // `a` holds the mode's own integrator row: take it out for the held rate.
+                let held = rate - a.row(z.slot) * z.gain;
+                (held, held + z.integrand * z.gain, Some((z.slot, z.gain)))
+            }
+            None => (rate, rate, None),
+        };
         ClampSignals {
-            output: s.i_cmd_raw,
-            held_rate: de * m.ks,
-            natural_rate: (de + s.e_w / m.ts) * m.ks,
-            limit: m.i_max,
-            integrator: ZW,
-            z_gain: m.ks / m.ts,
+            output: limited.output,
+            held_rate,
+            natural_rate,
+            limit: limited.limit,
+            integrator,
         }
     }
 
-    fn voltage(m: &AxisModel, s: &Signals, a: &super::model::AugMatrix) -> Self {
-        let de = s.e_i * a;
-        ClampSignals {
-            output: s.u_raw,
-            held_rate: de * m.ki,
-            natural_rate: (de + s.e_i / m.ti) * m.ki,
-            limit: m.u_max,
-            integrator: ZI,
-            z_gain: m.ki / m.ti,
-        }
+    fn of(which: Limit, m: &AxisModel, s: &Signals, a: &super::model::AugMatrix) -> Option<Self> {
+        let limited = match which {
+            Limit::Current => Some(m.current_command(s)),
+            Limit::Voltage => m.voltage_command(s),
+        };
+        limited
+            .filter(|l| l.limit.is_finite())
+            .map(|l| ClampSignals::new(l, a))
     }
 }
 
