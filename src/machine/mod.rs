@@ -494,7 +494,7 @@ impl MachineConfig {
         let base_table = table.clone();
         merge(&mut table, over.clone());
         alternatives::resolve(&over, &mut table, file)?;
-        sections::resolve(&over, &mut table, file)?;
+        sections::resolve(&over, &base_table, &mut table, file)?;
         from_table(table, file).map_err(|e| explain_missing(e, &base, &base_table))
     }
 
@@ -747,6 +747,18 @@ mod tests {
     }
 
     #[test]
+    fn a_partial_section_the_base_has_on_the_other_axis_is_completed_from_it() {
+        // hvmc has a beam on X only: a partial one on Y takes the rest from X's.
+        let m = MachineConfig::from_toml_str("[y.lateral_shift]\nbeam_length_m = 3.0\n", "m.toml")
+            .unwrap();
+        let (x, y) = (m.x.lateral_shift.unwrap(), m.y.lateral_shift.unwrap());
+        assert_eq!(y.beam_length_m, 3.0);
+        assert_eq!(y.bending_stiffness_n_m2, x.bending_stiffness_n_m2);
+        assert_eq!(y.holder_at_zero_m, x.holder_at_zero_m);
+        assert_eq!(x.beam_length_m, 4.0);
+    }
+
+    #[test]
     fn friction_said_twice_or_a_partial_new_section_is_refused_with_the_key() {
         let both = "[x.friction]\ncoulomb_coefficient = 0.01\ncoulomb_n = 150.0\n";
         let e = MachineConfig::from_toml_str(both, "m.toml")
@@ -764,14 +776,14 @@ mod tests {
             e.contains("y.friction.coulomb_n") && e.contains("≥ 0"),
             "{e}"
         );
-        // The preset has no beam on Y: part of one cannot be laid over anything.
-        let partial = "[y.lateral_shift]\nbeam_length_m = 3.0\n";
+        // The small table has no beam at all: part of one cannot be laid over anything.
+        let partial = "base = \"small-table\"\n[y.lateral_shift]\nbeam_length_m = 3.0\n";
         let e = MachineConfig::from_toml_str(partial, "m.toml")
             .unwrap_err()
             .to_string();
         assert!(
             e.contains("missing key `y.lateral_shift.")
-                && e.contains("the base `hvmc` has no [y.lateral_shift]"),
+                && e.contains("the base `small-table` has no [y.lateral_shift]"),
             "{e}"
         );
     }

@@ -8,16 +8,27 @@
 //!   transfer function's coefficients do not mix with state-feedback gains), and a structure
 //!   without a velocity loop of its own drops the base's `velocity_loop` unless the file
 //!   gives one.
+//!
+//! And a section the base has on one axis only (`hvmc`'s beam, `[x.lateral_shift]`) may be
+//! given in part on the other: the keys it leaves out come from the base's other axis, so a
+//! file says only how this axis differs.
 
 use super::ConfigError;
 
-/// Applies the rules above to `merged` (the file laid over its base), from what `user` (the
+/// Optional sections a partial one of which is completed from the base's other axis.
+const COMPLETED_FROM_OTHER_AXIS: [&str; 2] = ["lateral_shift", "amplifier"];
+
+/// Applies the rules above to `merged` (the file laid over `base`), from what `user` (the
 /// file as written) gives.
 pub fn resolve(
     user: &toml::Table,
+    base: &toml::Table,
     merged: &mut toml::Table,
     file: &str,
 ) -> Result<(), ConfigError> {
+    for (axis, other) in [("x", "y"), ("y", "x")] {
+        complete_from_other_axis(user, base, merged, axis, other);
+    }
     for axis in ["x", "y"] {
         let Some(given) = user.get(axis).and_then(|v| v.as_table()) else {
             continue;
@@ -49,6 +60,39 @@ pub fn resolve(
         }
     }
     Ok(())
+}
+
+/// Fills the keys a partial section leaves out from the base's other axis, where the base
+/// has no such section on this axis.
+fn complete_from_other_axis(
+    user: &toml::Table,
+    base: &toml::Table,
+    merged: &mut toml::Table,
+    axis: &str,
+    other: &str,
+) {
+    let section_of = |t: &toml::Table, a: &str, name: &str| -> Option<toml::Table> {
+        t.get(a)?.as_table()?.get(name)?.as_table().cloned()
+    };
+    for name in COMPLETED_FROM_OTHER_AXIS {
+        if section_of(user, axis, name).is_none() || section_of(base, axis, name).is_some() {
+            continue;
+        }
+        let Some(template) = section_of(base, other, name) else {
+            continue;
+        };
+        let Some(section) = merged
+            .get_mut(axis)
+            .and_then(|v| v.as_table_mut())
+            .and_then(|t| t.get_mut(name))
+            .and_then(|v| v.as_table_mut())
+        else {
+            continue;
+        };
+        for (key, value) in template {
+            section.entry(key).or_insert(value);
+        }
+    }
 }
 
 /// Of two sections saying one thing, keeps the one the file gives.
