@@ -19,6 +19,7 @@ pub mod execute;
 pub mod gcode;
 pub mod geometry;
 pub mod hotspot;
+pub mod identify;
 pub mod inspect;
 pub mod lookup;
 pub mod machine;

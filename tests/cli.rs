@@ -680,3 +680,104 @@ fn diagnose_takes_at_most_two_records() {
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("at most one to judge on"), "{err}");
 }
+
+/// From a record to a machine file in one command: a small table with heavier tables and
+/// other friction than the preset's is recorded at 10 kHz with its commands; `identify`
+/// from the `small-table` template writes a machine file that `check` takes, with the
+/// values in its header. A record without commands says what it lacks.
+#[test]
+fn identify_writes_a_machine_file_check_takes_and_a_record_without_commands_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    // Both without acceleration feed-forward (README: feed-forward of a record's
+    // reconstructed acceleration biases the mass).
+    let no_ff =
+        "[x.controller]\naccel_feedforward = 0.0\n[y.controller]\naccel_feedforward = 0.0\n";
+    std::fs::write(
+        path("hidden.toml"),
+        format!(
+            "base = \"small-table\"\n{no_ff}[x.drive]\ntable_mass_kg = 45.0\n\
+             [x.friction]\ncoulomb_n = 35.0\n[y.drive]\ntable_mass_kg = 70.0\n"
+        ),
+    )
+    .unwrap();
+    std::fs::write(
+        path("template.toml"),
+        format!("base = \"small-table\"\n{no_ff}"),
+    )
+    .unwrap();
+    let program = sample("identify-moves.nc");
+    let program = program.to_str().unwrap();
+    let o = run(&[
+        "synth",
+        program,
+        "--machine",
+        &path("hidden.toml"),
+        "--out",
+        &path("rec.csv"),
+        "--with-commands",
+        "--rate-hz",
+        "10000",
+        "--quantization-um",
+        "0.1",
+        "--noise-um",
+        "0.05",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let o = run(&[
+        "identify",
+        program,
+        "--measured",
+        &path("rec.csv"),
+        "--template",
+        &path("template.toml"),
+        "--out",
+        &path("id.toml"),
+        "--json",
+        &path("id.json"),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    assert!(
+        out.contains("drive.table_mass_kg") && out.contains("machine written to"),
+        "{out}"
+    );
+    let id = contourcheck::machine::MachineConfig::load(Path::new(&path("id.toml"))).unwrap();
+    let masses = (id.x.drive.table_mass_kg, id.y.drive.table_mass_kg);
+    assert!(
+        (masses.0 - 45.0).abs() < 0.5 && (masses.1 - 70.0).abs() < 0.7,
+        "{masses:?}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path("id.json")).unwrap()).unwrap();
+    assert_eq!(json["axes"][0]["axis"], "x");
+    let o = run(&["check", program, "--machine", &path("id.toml")]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    // Without the commands.
+    let o = run(&[
+        "synth",
+        program,
+        "--machine",
+        &path("hidden.toml"),
+        "--out",
+        &path("bare.csv"),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let o = run(&[
+        "identify",
+        program,
+        "--measured",
+        &path("bare.csv"),
+        "--template",
+        "small-table",
+        "--out",
+        &path("never.toml"),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o.stderr).contains("no commanded positions"),
+        "{}",
+        text(&o.stderr)
+    );
+    assert!(!dir.path().join("never.toml").exists());
+}

@@ -43,6 +43,9 @@ pub enum CliError {
     /// A diagnosis could not be made.
     #[error("{0}")]
     Diagnose(#[from] crate::diagnose::DiagnoseError),
+    /// A machine could not be identified.
+    #[error("{0}")]
+    Identify(#[from] crate::identify::IdentifyError),
     /// Arguments that make no sense together.
     #[error("{0}")]
     Usage(String),

@@ -6,6 +6,7 @@ mod bode_cmd;
 mod check_cmd;
 mod common;
 mod diagnose_cmd;
+mod identify_cmd;
 mod inspect_cmd;
 mod plan_cmd;
 mod stickslip_cmd;
@@ -19,7 +20,7 @@ use clap::{ArgMatches, CommandFactory, FromArgMatches, Parser, Subcommand};
 
 pub use common::CliError;
 
-/// contourcheck: predicts a heavy CNC machining centre's contour error from a part program.
+/// contourcheck: predicts a CNC machine's contour error from a part program.
 #[derive(Debug, Parser)]
 #[command(name = "contourcheck", version, about, long_about = None)]
 pub struct Cli {
@@ -43,6 +44,8 @@ enum Command {
     Validate(validate_cmd::ValidateArgs),
     /// Learn from a measurement: where the model is wrong, the cause, the fitted extension.
     Diagnose(diagnose_cmd::DiagnoseArgs),
+    /// Fit a machine file to a record with its commands, from a template.
+    Identify(identify_cmd::IdentifyArgs),
     /// A synthetic measurement of a machine with one hidden effect.
     Synth(synth_cmd::SynthArgs),
     /// What a measured trace holds: columns found, sampling, motion, quantisation, lag.
@@ -86,6 +89,7 @@ fn run(cli: Cli, matches: &ArgMatches) -> Result<Outcome, CliError> {
         Command::Stickslip(args) => stickslip_cmd::run(&args),
         Command::Validate(args) => validate_cmd::run(&args),
         Command::Diagnose(args) => diagnose_cmd::run(&args),
+        Command::Identify(args) => identify_cmd::run(&args),
         Command::Synth(args) => synth_cmd::run(&args),
         Command::Inspect(args) => inspect_cmd::run(&args),
     }

@@ -160,7 +160,7 @@ pub(super) fn positions_mm(ctx: &Context, trace: &[f64], offset_s: f64) -> Vec<f
 }
 
 /// Which half each compared sample belongs to: alternate blocks of `BLOCK_S`.
-pub(super) fn halves(ctx: &Context, offset_s: f64) -> Vec<bool> {
+pub(crate) fn halves(ctx: &Context, offset_s: f64) -> Vec<bool> {
     sample_times(ctx, offset_s)
         .iter()
         .map(|t| (t / BLOCK_S).floor().rem_euclid(2.0) == 0.0)

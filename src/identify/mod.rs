@@ -1,0 +1,546 @@
+//! Identifying a machine from a record: the nominal model's own values fitted to a trace
+//! that holds both what the axes were told (the commands) and what they did.
+//!
+//! Where `diagnose` keeps the machine file and asks what effect beyond it explains the
+//! record, `identify` starts from a template (a preset or a file) and fits the values a user
+//! would otherwise guess (`knobs`): on the cascade the position gain, the velocity
+//! feed-forward and integral time, and on every structure the moving mass, Coulomb and
+//! viscous friction and a dead time — each by re-simulating the axis on the record's
+//! commands (`solve`). The controller's other settings come from the template: they are
+//! what the user set on the control, and the velocity loop's gain and the mass act almost
+//! only through their ratio.
+//!
+//! The search is staged (`staged_start`): the gain first, which sets the lag and hides the
+//! rest; then a coarse grid over the values that trade with each other through the
+//! standstills and reversals (Coulomb friction, the velocity integral time, the mass), whose
+//! residual has valleys a local search would stay in; then everything from the grid's best
+//! points. Each value gets a standard uncertainty, the larger of the Jacobian's and half the
+//! difference between fits on the two halves of the record (alternate blocks); a value whose
+//! uncertainty exceeds half of itself (or of its scale) is not determined by the record — it
+//! is put back to the template's, said so, and the rest fitted again. Each half's fit is
+//! then scored on the other half, which it was not fitted on.
+
+mod interpolator;
+mod knobs;
+mod solve;
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+pub use interpolator::Interpolator;
+
+use crate::diagnose::context::{Context, Stepping, context};
+use crate::diagnose::locate::halves;
+use crate::diagnose::residual::record_noise;
+use crate::diagnose::{DiagnoseError, DiagnoseSettings};
+use crate::gcode::Program;
+use crate::machine::{AxisConfig, AxisName, MachineConfig};
+use crate::measured::MeasuredTrace;
+use crate::units::um_from_m;
+use knobs::{COULOMB_KEY, INTEGRAL_TIME_KEY, KV_KEY, Knob, MASS_KEY, VISCOUS_KEY, get, set_all};
+use solve::{Fit, Fitted};
+
+/// Relative (or, for increments, scaled) uncertainty beyond which a value counts as not
+/// determined by the record.
+const UNDETERMINED: f64 = 0.5;
+/// Least travel an axis's commands must have to identify it (m).
+const LEAST_TRAVEL_M: f64 = 1e-3;
+/// Factors on the values so far that the grid tries, and how many of its best points the
+/// local fit starts from.
+const GRID_FACTORS: [f64; 5] = [0.5, 0.7, 1.0, 1.4, 2.0];
+const GRID_STARTS: usize = 3;
+/// Coulomb friction's steps on the grid: geometric, from 1/span to span times the value so
+/// far.
+const FRICTION_STEPS: usize = 13;
+const FRICTION_SPAN: f64 = 2.0;
+/// How long after a standstill the record is compared, and the speed (a share of the
+/// axis's peak) below which a command counts as standing.
+const SETTLE_S: f64 = 0.1;
+const MOVING_SHARE: f64 = 0.01;
+/// A fit on every sample that leaves the residual above this many times the noise is tried
+/// again away from the standstills.
+const HUNTING_EXCESS: f64 = 2.0;
+
+/// One identified value.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct IdentifiedValue {
+    /// Key below the axis (`friction.coulomb_n`: the Coulomb force, written to the machine
+    /// file as the coefficient).
+    pub key: &'static str,
+    /// Unit.
+    pub unit: &'static str,
+    /// The template's value.
+    pub template: f64,
+    /// The value written: fitted, or the template's where the record does not determine it.
+    pub value: f64,
+    /// Its standard uncertainty (NaN where not determined).
+    pub uncertainty: f64,
+    /// Whether the record determines it.
+    pub determined: bool,
+}
+
+/// One axis identified.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AxisIdentification {
+    /// The axis.
+    pub axis: AxisName,
+    /// Its values.
+    pub values: Vec<IdentifiedValue>,
+    /// What is taken from the template as the user's setting, not fitted.
+    pub kept: &'static str,
+    /// Compared only while moving (away from standstills, where the axis hunts): the
+    /// residuals below are over those samples.
+    pub moving_only: bool,
+    /// Whether the fit reached the record's noise. Where it did not, no value is reported
+    /// as found and the template's are kept: the residuals below say how far it stayed.
+    pub reached: bool,
+    /// RMS of the following error in the record (µm): the yardstick of the residuals.
+    pub following_error_rms_um: f64,
+    /// The residual RMS with the template, whole record (µm).
+    pub rms_template_um: f64,
+    /// With the identified values.
+    pub rms_identified_um: f64,
+    /// On each half of the record, the template's residual …
+    pub held_out_template_um: f64,
+    /// … and that of the values fitted on the other half (µm).
+    pub held_out_identified_um: f64,
+}
+
+/// The identification of a machine from a record.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Identification {
+    /// The record's file.
+    pub file: String,
+    /// The identified machine (the template with the values and the interpolator's limits
+    /// written).
+    #[serde(skip)]
+    pub machine: MachineConfig,
+    /// Per axis.
+    pub axes: Vec<AxisIdentification>,
+    /// The interpolator's peaks in the record.
+    pub interpolator: Interpolator,
+    /// The record's noise floor (µm).
+    pub noise_um: f64,
+}
+
+/// Why a record cannot identify a machine.
+#[derive(Debug, thiserror::Error)]
+pub enum IdentifyError {
+    /// The record has no commanded positions.
+    #[error(
+        "{file}: the record holds no commanded positions (x_cmd, y_cmd columns): identification \
+         compares what the axes did with what they were told — record the control's setpoints \
+         too, or map them with --columns"
+    )]
+    NoCommands {
+        /// The record.
+        file: String,
+    },
+    /// An axis does not move in the record's commands.
+    #[error(
+        "{file}: {axis} is commanded to move {travel_um:.1} µm in the record: there is nothing to \
+         identify it from — record a program that moves both axes"
+    )]
+    StillAxis {
+        /// The record.
+        file: String,
+        /// The axis.
+        axis: AxisName,
+        /// How far it was commanded (µm).
+        travel_um: f64,
+    },
+    /// The record could not be placed on the program.
+    #[error(transparent)]
+    Diagnose(#[from] DiagnoseError),
+    /// The template cannot be simulated on the record's commands.
+    #[error(
+        "{file}: the template machine cannot follow the record's commands on {axis} (its loop is \
+         unstable or diverges): start from a template closer to the machine"
+    )]
+    CannotSimulate {
+        /// The record.
+        file: String,
+        /// The axis.
+        axis: AxisName,
+    },
+}
+
+/// Identifies `template`'s values from `measured`, a record of `program` with its commands.
+pub fn identify(
+    program: &Program,
+    template: &MachineConfig,
+    measured: &MeasuredTrace,
+    settings: &DiagnoseSettings,
+) -> Result<Identification, IdentifyError> {
+    let file = measured.file.clone();
+    let Some(commands) = &measured.commands else {
+        return Err(IdentifyError::NoCommands { file });
+    };
+    for axis in AxisName::BOTH {
+        let travel = commands[axis.index()]
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                (l.min(v), h.max(v))
+            });
+        let travel = travel.1 - travel.0;
+        if travel.is_nan() || travel < LEAST_TRAVEL_M {
+            return Err(IdentifyError::StillAxis {
+                file,
+                axis,
+                travel_um: um_from_m(travel.max(0.0)),
+            });
+        }
+    }
+    let (mut ctx, offset) = context(program, template, measured, settings)?;
+    ctx.stepping = Stepping::Full;
+    let residuals: Vec<Vec<f64>> = AxisName::BOTH
+        .iter()
+        .map(|&a| {
+            ctx.simulate_axis(template, a)
+                .map_or_else(Vec::new, |t| ctx.residual(a, &t, offset))
+        })
+        .collect();
+    ctx.noise_sigma = record_noise(&residuals, measured);
+    let ctx = ctx;
+    let (x, y) = rayon::join(
+        || identify_axis(&ctx, template, AxisName::X, offset),
+        || identify_axis(&ctx, template, AxisName::Y, offset),
+    );
+    let mut machine = template.clone();
+    let mut axes = Vec::new();
+    for (axis, result) in [(AxisName::X, x), (AxisName::Y, y)] {
+        let (config, identified) = result.ok_or_else(|| IdentifyError::CannotSimulate {
+            file: file.clone(),
+            axis,
+        })?;
+        *machine.axis_mut(axis) = config;
+        axes.push(identified);
+    }
+    let interpolator = interpolator::read(&ctx);
+    interpolator::write_limits(&mut machine, &interpolator);
+    Ok(Identification {
+        file,
+        machine,
+        axes,
+        interpolator,
+        noise_um: um_from_m(ctx.noise_sigma),
+    })
+}
+
+/// One axis: identified on every compared sample; where that leaves the residual well
+/// above the record's noise and the samples away from the standstills can be fitted to it,
+/// identified on those instead (the axis hunts about its target when it stands: integral
+/// action and friction on a limit cycle whose phase no model times).
+fn identify_axis(
+    ctx: &Context,
+    template: &MachineConfig,
+    axis: AxisName,
+    offset: f64,
+) -> Option<(AxisConfig, AxisIdentification)> {
+    let everywhere = identify_on(Fit::new(ctx, template, axis, offset), template, false)?;
+    let noise_um = um_from_m(ctx.noise_sigma);
+    if everywhere.1.rms_identified_um <= HUNTING_EXCESS * noise_um {
+        return Some(everywhere);
+    }
+    let moving = moving_samples(ctx, axis, offset);
+    let fit = Fit::new(ctx, template, axis, offset).masked(moving);
+    match identify_on(fit, template, true) {
+        Some(m) if m.1.rms_identified_um <= HUNTING_EXCESS * noise_um => Some(m),
+        _ => Some(not_reached(everywhere, template.axis(axis))),
+    }
+}
+
+/// An axis whose best fit stays well above the record's noise: the template cannot be made
+/// into this machine by the values fitted (its controller's structure or settings differ, or
+/// the machine has effects the model lacks — `diagnose` looks for those). Its values are not
+/// reported as found: the template's stay in the machine written.
+fn not_reached(
+    (_, mut identified): (AxisConfig, AxisIdentification),
+    template: &AxisConfig,
+) -> (AxisConfig, AxisIdentification) {
+    identified.reached = false;
+    for v in &mut identified.values {
+        v.determined = false;
+        v.uncertainty = f64::NAN;
+        v.value = v.template;
+    }
+    (template.clone(), identified)
+}
+
+/// One axis on the samples `fit` uses: a staged start, the fit on the whole record and each
+/// half, undetermined values put back and the rest fitted again, each half's fit scored on
+/// the other half.
+fn identify_on(
+    fit: Fit,
+    template: &MachineConfig,
+    moving_only: bool,
+) -> Option<(AxisConfig, AxisIdentification)> {
+    let (ctx, axis, offset) = (fit.ctx(), fit.axis(), fit.offset());
+    let fold = halves(ctx, offset);
+    let template_axis = template.axis(axis).clone();
+    let knobs = knobs::for_controller(&template_axis.controller);
+    let start = staged_start(&fit, &knobs, &template_axis);
+    let (round, base) = Round::fit_determined(&fit, &knobs, &start, &template_axis, &fold)?;
+    let config = round.config(&base, &round.whole);
+    let mask = fit.mask();
+    let rms = |r: &[f64]| {
+        let (ss, n) = r
+            .iter()
+            .zip(mask)
+            .filter(|(_, m)| **m)
+            .fold((0.0, 0usize), |(s, n), (v, _)| (s + v * v, n + 1));
+        um_from_m((ss / n.max(1) as f64).sqrt())
+    };
+    let template_residual = fit.residual(&template_axis)?;
+    let identified_residual = fit.residual(&config)?;
+    let (mut before_ss, mut after_ss, mut n) = (0.0, 0.0, 0usize);
+    for (k, side) in [true, false].into_iter().enumerate() {
+        let r = fit.residual(&round.config(&base, &round.halves[k]))?;
+        for i in (0..r.len()).filter(|&i| fold[i] != side && mask[i]) {
+            before_ss += template_residual[i] * template_residual[i];
+            after_ss += r[i] * r[i];
+            n += 1;
+        }
+    }
+    let values = knobs
+        .iter()
+        .map(|k| {
+            let sigma = round
+                .knobs
+                .iter()
+                .position(|q| q.key == k.key)
+                .map(|p| round.sigma[p]);
+            IdentifiedValue {
+                key: k.key,
+                unit: k.unit,
+                template: get(&template_axis, k.key),
+                value: get(&config, k.key),
+                uncertainty: sigma.unwrap_or(f64::NAN),
+                determined: sigma.is_some(),
+            }
+        })
+        .collect();
+    let kept = if template_axis.controller.is_cascade() {
+        "velocity_loop.ks_nm_s_per_rad (mass and friction are found relative to it)"
+    } else {
+        "the controller's gains (mass and friction are found relative to them)"
+    };
+    Some((
+        config,
+        AxisIdentification {
+            axis,
+            values,
+            kept,
+            moving_only,
+            reached: true,
+            following_error_rms_um: um_from_m(following_error_rms(ctx, axis, offset)),
+            rms_template_um: rms(&template_residual),
+            rms_identified_um: rms(&identified_residual),
+            held_out_template_um: um_from_m((before_ss / n.max(1) as f64).sqrt()),
+            held_out_identified_um: um_from_m((after_ss / n.max(1) as f64).sqrt()),
+        },
+    ))
+}
+
+/// Where the final fit starts: the gain fitted first (on the cascade: the lag dominates the
+/// residual and hides the rest; a feed-forward and a dead time give the same steady lag, and
+/// only the transients fitted later tell them apart); then a coarse grid over the values that
+/// trade with each other through the standstills and reversals; then a local fit of the loop
+/// and friction from the grid's best few points.
+fn staged_start(fit: &Fit, knobs: &[Knob], template: &AxisConfig) -> AxisConfig {
+    let pick = |keys: &[&str]| -> Vec<Knob> {
+        knobs
+            .iter()
+            .copied()
+            .filter(|k| keys.contains(&k.key))
+            .collect()
+    };
+    let fitted_from = |from: &AxisConfig, staged: &[Knob]| -> Option<(f64, AxisConfig)> {
+        let f = fit.run(staged, from, &|_| true)?;
+        let c = Fit::config(staged, from, &f.values);
+        Some((f.cost, c))
+    };
+    let gain = pick(&[KV_KEY]);
+    let after_gain = if gain.is_empty() {
+        template.clone()
+    } else {
+        fitted_from(template, &gain).map_or_else(|| template.clone(), |(_, c)| c)
+    };
+    let grid_keys: Vec<&str> = [COULOMB_KEY, INTEGRAL_TIME_KEY, MASS_KEY]
+        .into_iter()
+        .filter(|k| knobs.iter().any(|q| q.key == *k))
+        .collect();
+    let centre: Vec<f64> = grid_keys.iter().map(|k| get(&after_gain, k)).collect();
+    let mut points: Vec<Vec<f64>> = vec![Vec::new()];
+    for key in &grid_keys {
+        // Friction's valley is narrow (a tenth off, and the breakaways come at other
+        // times): it gets the finer steps.
+        let factors: Vec<f64> = if *key == COULOMB_KEY {
+            (0..FRICTION_STEPS)
+                .map(|i| FRICTION_SPAN.powf(2.0 * i as f64 / (FRICTION_STEPS - 1) as f64 - 1.0))
+                .collect()
+        } else {
+            GRID_FACTORS.to_vec()
+        };
+        points = points
+            .into_iter()
+            .flat_map(|p| {
+                factors.iter().map(move |&f| {
+                    let mut q = p.clone();
+                    q.push(f);
+                    q
+                })
+            })
+            .collect();
+    }
+    let mut scored: Vec<(f64, AxisConfig)> = points
+        .par_iter()
+        .filter_map(|factors| {
+            let mut c = after_gain.clone();
+            let values: Vec<f64> = centre.iter().zip(factors).map(|(v, f)| v * f).collect();
+            set_all(&mut c, &grid_keys, &values);
+            Some((fit.cost(&c)?, c))
+        })
+        .collect();
+    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let dynamics = pick(&[
+        KV_KEY,
+        INTEGRAL_TIME_KEY,
+        MASS_KEY,
+        COULOMB_KEY,
+        VISCOUS_KEY,
+    ]);
+    scored
+        .into_iter()
+        .take(GRID_STARTS)
+        .collect::<Vec<_>>()
+        .par_iter()
+        .filter_map(|(_, from)| fitted_from(from, &dynamics))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map_or(after_gain, |(_, c)| c)
+}
+
+/// The fits of some knobs on the whole record and on each half.
+struct Round {
+    knobs: Vec<Knob>,
+    whole: Fitted,
+    halves: [Fitted; 2],
+    /// Standard uncertainties: the Jacobian's, widened to half the halves' disagreement —
+    /// a fit that lands elsewhere on each half (a valley of the hybrid model's residual,
+    /// a value traded against another) is not known better than that, however sharp the
+    /// local curvature.
+    sigma: Vec<f64>,
+}
+
+impl Round {
+    fn fit(fit: &Fit, knobs: Vec<Knob>, base: &AxisConfig, fold: &[bool]) -> Option<Round> {
+        let whole = fit.run(&knobs, base, &|_| true)?;
+        let (a, b) = rayon::join(
+            || fit.run(&knobs, base, &|i| fold[i]),
+            || fit.run(&knobs, base, &|i| !fold[i]),
+        );
+        let (a, b) = (a?, b?);
+        let sigma = (0..knobs.len())
+            .map(|j| whole.sigma[j].max(0.5 * (a.values[j] - b.values[j]).abs()))
+            .collect();
+        Some(Round {
+            knobs,
+            whole,
+            halves: [a, b],
+            sigma,
+        })
+    }
+
+    /// `knobs` fitted from `start`, then those the record does not determine put back to
+    /// the template's values and the rest fitted again (until all left are determined).
+    /// Returns the last round and the values it was fitted about.
+    fn fit_determined(
+        fit: &Fit,
+        knobs: &[Knob],
+        start: &AxisConfig,
+        template: &AxisConfig,
+        fold: &[bool],
+    ) -> Option<(Round, AxisConfig)> {
+        let mut base = start.clone();
+        let mut round = Round::fit(fit, knobs.to_vec(), &base, fold)?;
+        loop {
+            let undetermined = round.undetermined();
+            if undetermined.is_empty() || round.knobs.is_empty() {
+                return Some((round, base));
+            }
+            let values: Vec<f64> = undetermined.iter().map(|k| get(template, k)).collect();
+            set_all(&mut base, &undetermined, &values);
+            let kept = round
+                .knobs
+                .iter()
+                .copied()
+                .filter(|k| !undetermined.contains(&k.key))
+                .collect();
+            round = Round::fit(fit, kept, &base, fold)?;
+        }
+    }
+
+    /// The knobs whose uncertainty leaves them undetermined.
+    fn undetermined(&self) -> Vec<&'static str> {
+        self.knobs
+            .iter()
+            .zip(&self.sigma)
+            .zip(&self.whole.values)
+            .filter(|((k, s), v)| {
+                let size = if k.logarithmic {
+                    v.abs()
+                } else {
+                    k.scale_at(**v)
+                };
+                !(s.is_finite() && **s <= UNDETERMINED * size)
+            })
+            .map(|((k, _), _)| k.key)
+            .collect()
+    }
+
+    /// `base` with the values of one of the fits.
+    fn config(&self, base: &AxisConfig, fitted: &Fitted) -> AxisConfig {
+        Fit::config(&self.knobs, base, &fitted.values)
+    }
+}
+
+/// Samples at which the axis's command has been moving for `SETTLE_S` and still moves:
+/// away from the standstills, where an axis with integral action and friction hunts about
+/// its target on a limit cycle whose phase no model times (as stick-slip), and from the
+/// breakaways that follow them, which inherit that phase.
+fn moving_samples(ctx: &Context, axis: AxisName, offset: f64) -> Vec<bool> {
+    let c = ctx.commands.axis(axis);
+    let peak = c.vel_m_per_s.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let settle = (SETTLE_S / ctx.dt).ceil() as usize;
+    let mut since = vec![false; c.len()];
+    let mut run = 0usize;
+    for (k, v) in c.vel_m_per_s.iter().enumerate() {
+        run = if v.abs() > MOVING_SHARE * peak {
+            run + 1
+        } else {
+            0
+        };
+        since[k] = run > settle;
+    }
+    ctx.samples
+        .iter()
+        .map(|&i| {
+            let k = (ctx.prog_time(i, offset) / ctx.dt).round();
+            k >= 0.0 && since.get(k as usize).copied().unwrap_or(false)
+        })
+        .collect()
+}
+
+/// RMS of commanded − measured over the compared samples (m).
+fn following_error_rms(ctx: &Context, axis: AxisName, offset: f64) -> f64 {
+    let measured = ctx.measured_at_samples(axis);
+    let (mut ss, mut n) = (0.0, 0usize);
+    for (&i, m) in ctx.samples.iter().zip(measured) {
+        let e = ctx.command_at(axis, ctx.prog_time(i, offset)).0 - m;
+        if e.is_finite() {
+            ss += e * e;
+            n += 1;
+        }
+    }
+    (ss / n.max(1) as f64).sqrt()
+}
