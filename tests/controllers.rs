@@ -275,3 +275,83 @@ fn the_small_table_round_trips_and_a_file_changes_only_its_controller() {
     assert_eq!(sf.x.controller.name(), "state_feedback");
     assert_eq!(sf.y.controller, m.y.controller);
 }
+
+/// A linear motor (25 kg moving, 60 N/A) with no screw: the axis is the rigid body the
+/// design formulas assume, so state feedback's poles land where pole placement put them
+/// (only the 100 kHz amplifier moves them, by under half a percent), and the cascade on it
+/// lags by exactly F/Kv.
+const LINEAR_MOTOR: &str = r#"
+base = "small-table"
+[x.drive]
+kind = "linear_motor"
+table_mass_kg = 25.0
+[x.motor]
+kt_nm_per_a = 60.0
+[x.friction]
+viscous_n_s_per_m = 0.0
+[x.amplifier]
+current_bandwidth_hz = 100000.0
+i_max_a = 20.0
+"#;
+
+#[test]
+fn a_linear_motor_is_the_rigid_body_pole_placement_assumes() {
+    // g = K_f/m, no screw in between.
+    let g = 60.0 / 25.0;
+    let omega = std::f64::consts::TAU * 30.0;
+    let (kd, kx, kz) = (
+        6.0 * omega / g,
+        11.0 * omega.powi(2) / g,
+        6.0 * omega.powi(3) / g,
+    );
+    let m = machine(&format!(
+        "{LINEAR_MOTOR}\n[x.controller]\nstructure = \"state_feedback\"\n\
+         position_gain_a_per_mm = {}\nintegral_gain_a_per_mm_s = {}\n\
+         velocity_gain_a_s_per_mm = {}\n",
+        kx / 1e3,
+        kz / 1e3,
+        kd / 1e3
+    ));
+    let model = AxisModel::from_config(&m.x);
+    assert_eq!(accel_per_amp(&model), g);
+    let mut poles: Vec<f64> = linear::closed_loop_modes(&model)
+        .into_iter()
+        .filter(|p| p.frequency_hz < 1000.0)
+        .map(|p| -p.real_per_s / omega)
+        .collect();
+    poles.sort_by(f64::total_cmp);
+    assert_eq!(poles.len(), 3, "{poles:?}");
+    for (got, want) in poles.iter().zip([1.0, 2.0, 3.0]) {
+        assert!((got / want - 1.0).abs() < 0.005, "poles at {poles:?} × ω");
+    }
+}
+
+#[test]
+fn the_cascade_on_a_linear_motor_lags_by_f_over_kv_and_backlash_is_refused() {
+    let m = machine(&format!(
+        "{LINEAR_MOTOR}\n[x.controller]\nstructure = \"cascade\"\n\
+         [x.position_loop]\nkv_m_per_min_per_mm = 3.0\n\
+         [x.velocity_loop]\nks_nm_s_per_rad = 4000.0\nts_ms = 5.0\ni_max_a = 20.0\n"
+    ));
+    let feed_mm_per_min = 3000.0;
+    let kv_per_s = 3.0 * 1000.0 / 60.0;
+    let want = feed_mm_per_min / 60_000.0 / kv_per_s;
+    let got = steady_lag_m(&m, feed_mm_per_min);
+    assert!(
+        (got / want - 1.0).abs() < 1e-6,
+        "{got:e} against F/Kv {want:e}"
+    );
+    let e = MachineConfig::from_toml_str(
+        &LINEAR_MOTOR.replace(
+            "kind = \"linear_motor\"",
+            "kind = \"linear_motor\"\nbacklash_um = 5.0",
+        ),
+        "m.toml",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("x.drive.backlash_um") && e.contains("linear motor"),
+        "{e}"
+    );
+}

@@ -289,6 +289,12 @@ pub struct Motor {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Drive {
+    /// What moves the table: a ball screw (the model's coupling, screw and nut), or a linear
+    /// motor pushing it directly (the screw's keys are then not used, `motor.kt_nm_per_a` is
+    /// the force constant in N/A, `table_mass_kg` the whole moving mass with the forcer, and
+    /// the position is read at the table).
+    #[serde(default, skip_serializing_if = "DriveKind::is_ball_screw")]
+    pub kind: DriveKind,
     /// Screw (+ sleeve) inertia J_s (kg·m²).
     pub js_kg_m2: f64,
     /// Torsional stiffness at the coupling K_θ (N·m/rad).
@@ -309,6 +315,24 @@ pub struct Drive {
     pub screw_viscous_nm_s_per_rad: f64,
     /// Total free play of the screw–nut b (µm).
     pub backlash_um: f64,
+}
+
+/// What moves the table.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DriveKind {
+    /// A motor turning a ball screw through a coupling (MODEL.md §1).
+    #[default]
+    BallScrew,
+    /// A linear motor: its force acts on the table itself.
+    LinearMotor,
+}
+
+impl DriveKind {
+    /// Whether this is the default ball screw (which the machine file need not name).
+    pub fn is_ball_screw(&self) -> bool {
+        *self == DriveKind::BallScrew
+    }
 }
 
 /// Guideway friction (static, Coulomb, viscous).

@@ -142,6 +142,23 @@ fn validate_axis(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigEr
         NonNegative(1e6),
     )?;
     c.check(&k("drive.backlash_um"), d.backlash_um, NonNegative(1e4))?;
+    if d.kind == super::DriveKind::LinearMotor {
+        if d.backlash_um != 0.0 {
+            return Err(c.inconsistent(
+                &k("drive.backlash_um"),
+                format!(
+                    "is {} µm on a linear motor, which has no screw and nut to leave play",
+                    d.backlash_um
+                ),
+            ));
+        }
+        if a.lateral_shift.is_some() {
+            return Err(c.inconsistent(
+                &k("lateral_shift"),
+                "tilts a ball screw: a linear motor has none".into(),
+            ));
+        }
+    }
     let f = &a.friction;
     c.check(
         &k("friction.coulomb_coefficient"),

@@ -163,7 +163,8 @@ fn loop_system(model: &AxisModel, which: Loop, feedback_only: bool) -> Siso {
             b[target] = k;
             b[zw] = 1.0;
             let mut c = DVector::zeros(n);
-            c[r.at(super::model::W_M)] = 1.0;
+            let speed = r.row(&model.motor_speed_row());
+            c.copy_from(&speed);
             Siso {
                 a,
                 b: [b, zero.clone(), zero],

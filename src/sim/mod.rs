@@ -16,7 +16,7 @@ pub mod stickslip;
 pub use model::{AxisModel, FrictionMode, Mode};
 pub use simulate::{AxisRun, simulate, simulate_with_progress};
 
-use model::{Aug, I, TH_M, W_M, X2, XR};
+use model::{Aug, I, X2, XR};
 
 /// Simulation settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -221,11 +221,12 @@ impl AxisTrace {
         self.mode.reserve(more);
     }
 
-    fn push(&mut self, x: &Aug, mode: Mode, travel_per_motor_rad_m: f64) {
+    fn push(&mut self, x: &Aug, mode: Mode, model: &AxisModel) {
+        let (motor_pos_m, motor_speed) = model.motor_reading(x);
         self.pos_m.push(x[X2]);
-        self.motor_pos_m.push(travel_per_motor_rad_m * x[TH_M]);
+        self.motor_pos_m.push(motor_pos_m);
         self.ref_m.push(x[XR]);
-        self.motor_speed_rad_per_s.push(x[W_M]);
+        self.motor_speed_rad_per_s.push(motor_speed);
         self.current_a.push(x[I]);
         self.mode.push(mode.code());
     }

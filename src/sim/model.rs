@@ -17,7 +17,7 @@ use nalgebra::{SMatrix, SVector};
 
 use super::control::{Realisation, realise};
 use crate::lookup::Lookup;
-use crate::machine::{AxisConfig, Controller, ControllerOutput, Feedback};
+use crate::machine::{AxisConfig, Controller, ControllerOutput, DriveKind, Feedback};
 use crate::units::{
     GRAVITY_M_PER_S2, h_from_mh, m_from_mm, m_from_um, m_per_s_from_mm_per_min,
     per_s_from_kv_m_per_min_per_mm, s_from_ms,
@@ -133,8 +133,10 @@ pub struct AxisModel {
     pub r: f64,
     /// Gear ratio i_t (screw angle per motor angle).
     pub it: f64,
-    /// Table mass (kg).
+    /// Table mass (kg); with a linear motor, the whole moving mass.
     pub mt: f64,
+    /// A linear motor drives the table directly: no motor, coupling, screw or nut states.
+    pub linear_motor: bool,
     /// Screw bearing damping (N·m·s/rad).
     pub b_screw: f64,
     /// Half of the backlash gap e = b/2 (m).
@@ -306,14 +308,34 @@ impl AxisModel {
     /// Derives the SI model from an axis configuration (all conversions happen here).
     pub fn from_config(c: &AxisConfig) -> AxisModel {
         let d = &c.drive;
-        let r = m_from_mm(d.lead_mm) / std::f64::consts::TAU;
-        let it = d.gear_ratio;
+        let linear_motor = d.kind == DriveKind::LinearMotor;
+        // A linear motor is its own table: a "motor radian" is a metre, its force constant
+        // the torque constant, and there is no screw, coupling or nut.
+        let (r, it) = if linear_motor {
+            (1.0, 1.0)
+        } else {
+            (m_from_mm(d.lead_mm) / std::f64::consts::TAU, d.gear_ratio)
+        };
         let kt = c.motor.kt_nm_per_a;
-        let (jm, js, mt) = (c.motor.jm_kg_m2, d.js_kg_m2, d.table_mass_kg);
+        let (jm, js, mt) = if linear_motor {
+            (0.0, 0.0, d.table_mass_kg)
+        } else {
+            (c.motor.jm_kg_m2, d.js_kg_m2, d.table_mass_kg)
+        };
         // Damping of each spring from its two sides' reduced inertia: C = 2ζ√(K·m_eq).
         let reduced = |a: f64, b: f64| a * b / (a + b);
-        let j_theta = reduced(jm / (it * it), js);
-        let m_axial = reduced((jm / (it * it) + js) / (r * r), mt);
+        let (k_theta, c_theta, k_m, c_m) = if linear_motor {
+            (0.0, 0.0, 0.0, 0.0)
+        } else {
+            let j_theta = reduced(jm / (it * it), js);
+            let m_axial = reduced((jm / (it * it) + js) / (r * r), mt);
+            (
+                d.k_theta_nm_per_rad,
+                2.0 * d.zeta_theta * (d.k_theta_nm_per_rad * j_theta).sqrt(),
+                d.k_m_n_per_m,
+                2.0 * d.zeta_m * (d.k_m_n_per_m * m_axial).sqrt(),
+            )
+        };
         let f_c = c.friction.coulomb_coefficient * mt * GRAVITY_M_PER_S2;
         let (kf, ka) = match &c.controller {
             Controller::Cascade => (
@@ -343,7 +365,12 @@ impl AxisModel {
             },
             kf,
             ka,
-            feedback: c.position_loop.feedback,
+            // A linear motor's position is read where it pushes: at the table.
+            feedback: if linear_motor {
+                Feedback::LinearScale
+            } else {
+                c.position_loop.feedback
+            },
             control: ControlModel::from_config(&c.controller),
             amplifier_tau: c
                 .amplifier
@@ -362,14 +389,19 @@ impl AxisModel {
             ke: c.motor.ke_v_s_per_rad.unwrap_or(0.0),
             jm,
             js,
-            k_theta: d.k_theta_nm_per_rad,
-            c_theta: 2.0 * d.zeta_theta * (d.k_theta_nm_per_rad * j_theta).sqrt(),
-            k_m: d.k_m_n_per_m,
-            c_m: 2.0 * d.zeta_m * (d.k_m_n_per_m * m_axial).sqrt(),
+            k_theta,
+            c_theta,
+            k_m,
+            c_m,
             r,
             it,
             mt,
-            b_screw: d.screw_viscous_nm_s_per_rad,
+            linear_motor,
+            b_screw: if linear_motor {
+                0.0
+            } else {
+                d.screw_viscous_nm_s_per_rad
+            },
             half_gap: 0.5 * m_from_um(d.backlash_um),
             f_c,
             // With a Stribeck excess the friction at rest is f_c + level: the break-away
@@ -606,7 +638,11 @@ impl AxisModel {
     /// the current loop's filters and integral, the velocity (or error) integral and a
     /// transfer function's states where the structure has them.
     pub fn active_states(&self) -> Vec<usize> {
-        let mut states = vec![I, TH_M, W_M, TH_S, W_S, X2, V2];
+        let mut states = if self.linear_motor {
+            vec![I, X2, V2]
+        } else {
+            vec![I, TH_M, W_M, TH_S, W_S, X2, V2]
+        };
         if self.has_current_loop() {
             states.extend([FC, FF, ZI]);
         }
@@ -656,6 +692,7 @@ impl AxisModel {
         };
         let e = unit(XR) - x_fb;
         let rit = self.r * self.it;
+        let speed = self.motor_speed_row();
         let velocity_ff = unit(VR) * (self.kf / rit);
         let i_ff = unit(AR) * (self.ka * self.j_tot() / (rit * self.kt));
         // The transfer function's output in its own unit (A or m/min).
@@ -682,7 +719,7 @@ impl AxisModel {
             _ => Row::zeros(),
         };
         let e_w = if self.has_velocity_loop() {
-            w_cmd - unit(W_M)
+            w_cmd - speed
         } else {
             Row::zeros()
         };
@@ -696,7 +733,7 @@ impl AxisModel {
                     Some(y),
                 ) => y,
                 (ControlModel::StateFeedback { kx, kz, kd }, _) => {
-                    e * *kx + unit(ZW) * *kz + (unit(VR) * self.kf - unit(W_M) * rit) * *kd
+                    e * *kx + unit(ZW) * *kz + (unit(VR) * self.kf - speed * rit) * *kd
                 }
                 _ => (e_w + unit(ZW) / self.ts) * self.ks,
             };
@@ -758,8 +795,30 @@ impl AxisModel {
         })
     }
 
-    /// Nut force in a contact mode (N).
+    /// The motor's speed (rad/s; a linear motor's in m/s, its table's).
+    pub fn motor_speed_row(&self) -> Row {
+        if self.linear_motor {
+            unit(V2)
+        } else {
+            unit(W_M)
+        }
+    }
+
+    /// What a motor encoder reads (m of table travel) and the motor's speed (rad/s) in the
+    /// state `x`.
+    pub fn motor_reading(&self, x: &Aug) -> (f64, f64) {
+        if self.linear_motor {
+            (x[X2], x[V2])
+        } else {
+            (self.r * self.it * x[TH_M], x[W_M])
+        }
+    }
+
+    /// The force that drives the table (N): the nut's in a contact mode, or a linear motor's.
     pub fn nut_force(&self, s: &Signals, contact: ContactMode) -> Row {
+        if self.linear_motor {
+            return unit(I) * self.kt;
+        }
         let spring =
             |offset: f64| (s.delta + unit(ONE) * offset) * self.k_m + s.delta_rate * self.c_m;
         match contact {
@@ -784,7 +843,8 @@ impl AxisModel {
                 let u = clamped(mode.voltage, s.u_raw, self.u_max);
                 set(FC, (i_cmd - unit(FC)) / self.tcf);
                 set(FF, (unit(I) - unit(FF)) / self.tcf);
-                set(I, (u - unit(I) * self.ra - unit(W_M) * self.ke) / self.la);
+                let back_emf = self.motor_speed_row() * self.ke;
+                set(I, (u - unit(I) * self.ra - back_emf) / self.la);
             }
             Some(tau) => set(I, (i_cmd - unit(I)) / tau),
         }
@@ -800,13 +860,15 @@ impl AxisModel {
             }
         }
         let f_n = self.nut_force(&s, mode.contact);
-        set(TH_M, unit(W_M));
-        set(W_M, (unit(I) * self.kt - s.t_c * self.it) / self.jm);
-        set(TH_S, unit(W_S));
-        set(
-            W_S,
-            (s.t_c - unit(W_S) * self.b_screw - f_n * self.r) / self.js,
-        );
+        if !self.linear_motor {
+            set(TH_M, unit(W_M));
+            set(W_M, (unit(I) * self.kt - s.t_c * self.it) / self.jm);
+            set(TH_S, unit(W_S));
+            set(
+                W_S,
+                (s.t_c - unit(W_S) * self.b_screw - f_n * self.r) / self.js,
+            );
+        }
         match mode.friction {
             FrictionMode::Stick => {}
             slip => {

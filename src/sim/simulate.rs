@@ -785,8 +785,7 @@ impl<'a> AxisRun<'a> {
             self.lateral_dl = (lat.k_lambda(self.x[X2]) - 1.0) * self.model.r * self.x[TH_S];
             self.x[DL] = self.lateral_dl;
         }
-        self.trace
-            .push(&self.x, self.mode, self.model.r * self.model.it);
+        self.trace.push(&self.x, self.mode, self.model);
         if let Some(filter) = &mut self.structure
             && let Some(p) = self.trace.pos_m.last_mut()
         {
