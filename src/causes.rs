@@ -195,11 +195,15 @@ impl CauseId {
     /// Why the cause has no meaning on `axis`'s controller, or `None` when it has: a gain
     /// error is the cascade's Kv scaled, and another structure has no Kv.
     pub fn inapplicable_to(self, axis: &AxisConfig) -> Option<&'static str> {
+        let linear_motor = axis.drive.kind == crate::machine::DriveKind::LinearMotor;
         match self {
             CauseId::KvGain if !axis.controller.is_cascade() => Some(
                 "the axis's controller is not the cascade: it has no Kv (its gains are in \
                  [axis.controller])",
             ),
+            CauseId::Backlash if linear_motor => {
+                Some("a linear motor has no screw and nut to leave play")
+            }
             _ => None,
         }
     }
@@ -527,12 +531,16 @@ mod tests {
     use crate::machine::MachineConfig;
 
     #[test]
-    fn a_gain_error_is_the_cascades_alone() {
+    fn a_gain_error_is_the_cascades_alone_and_backlash_the_screws() {
         let small = MachineConfig::preset("small-table").unwrap();
         let why = CauseId::KvGain.inapplicable_to(&small.x).unwrap();
         assert!(why.contains("no Kv"), "{why}");
         assert!(CauseId::Backlash.inapplicable_to(&small.x).is_none());
         let hvmc = MachineConfig::default_preset();
         assert!(CauseId::KvGain.inapplicable_to(&hvmc.x).is_none());
+        let mut linear = hvmc.x.clone();
+        linear.drive.kind = crate::machine::DriveKind::LinearMotor;
+        assert!(CauseId::Backlash.inapplicable_to(&linear).is_some());
+        assert!(CauseId::Backlash.inapplicable_to(&hvmc.x).is_none());
     }
 }
