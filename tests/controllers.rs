@@ -355,3 +355,43 @@ fn the_cascade_on_a_linear_motor_lags_by_f_over_kv_and_backlash_is_refused() {
         "{e}"
     );
 }
+
+/// `diagnose` re-plans a program's exact-stop waits for each machine it tries, from the
+/// loops' time scales. On a controller without a Kv that scale was read as the (absent) Kv
+/// of 0, every tried machine ran on endless waits, and 5 µm of backlash hidden on the small
+/// table's X went unnamed ("no significant cause", the residual "following time"). Named
+/// now; its size is not asserted — through the motor encoder's semi-closed loop it comes
+/// out near 3 µm beside a dead time (see the closing note of this change).
+#[test]
+fn backlash_on_another_controller_is_named_on_a_planned_record() {
+    use contourcheck::causes::CauseId;
+    use contourcheck::diagnose::{DiagnoseSettings, diagnose};
+    use contourcheck::machine::AxisName;
+    use contourcheck::measured::parse_trace;
+    use contourcheck::synth::{SynthSpec, synthesize};
+    let table = MachineConfig::preset("small-table").unwrap();
+    let program = common::sample_program("square.nc");
+    let spec = SynthSpec {
+        effect: Some((CauseId::Backlash, AxisName::X, vec![5.0])),
+        ..SynthSpec::default()
+    };
+    let mut csv = Vec::new();
+    synthesize(&program, &table, &spec)
+        .unwrap()
+        .write_csv(&mut csv)
+        .unwrap();
+    let measured = parse_trace(std::str::from_utf8(&csv).unwrap(), "square.csv").unwrap();
+    let d = diagnose(
+        &program,
+        &table,
+        &measured,
+        &DiagnoseSettings::for_machine(&table),
+    )
+    .unwrap();
+    let named: Vec<(CauseId, AxisName)> = d.causes.iter().map(|c| (c.id, c.axis)).collect();
+    assert_eq!(
+        named.first(),
+        Some(&(CauseId::Backlash, AxisName::X)),
+        "{named:?}"
+    );
+}

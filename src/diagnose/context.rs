@@ -19,7 +19,7 @@ use crate::plan::{Commands, InPosition, Plan};
 use crate::recorded::{commands_from_record, place_on_path};
 use crate::signal::sample;
 use crate::sim::{AxisModel, MeasuredAt, SimConfig, simulate};
-use crate::units::{per_s_from_kv_m_per_min_per_mm, um_from_m};
+use crate::units::um_from_m;
 
 /// How finely a context's simulations step.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -176,10 +176,15 @@ impl Context<'_> {
             return None;
         }
         let nominal = self.plan.config.in_position;
-        let in_position = nominal.map(|ip| InPosition {
-            kv_per_s: [&machine.x, &machine.y]
-                .map(|a| per_s_from_kv_m_per_min_per_mm(a.position_loop.kv_m_per_min_per_mm)),
-            ..ip
+        // Another controller's time scale (its closed loop's bandwidth, costly to find) does
+        // not change with any cause's values — none touches its gains or the mass — so the
+        // nominal plan's serves; a cascade's is its Kv, which a gain error changes.
+        let in_position = nominal.map(|ip| {
+            let computed = InPosition::kv_per_s_of_cascades(machine);
+            InPosition {
+                kv_per_s: [0, 1].map(|i| computed[i].unwrap_or(ip.kv_per_s[i])),
+                ..ip
+            }
         });
         if in_position == nominal {
             return None;

@@ -77,6 +77,25 @@ pub struct InPosition {
     pub kv_per_s: [f64; 2],
 }
 
+impl InPosition {
+    /// The loops' time scales the wait estimate uses, X and Y (1/s): the cascade's Kv, or
+    /// another controller's closed-loop bandwidth (the simulated waits re-time it).
+    pub fn kv_per_s_of(machine: &MachineConfig) -> [f64; 2] {
+        [&machine.x, &machine.y].map(|a| {
+            crate::sim::linear::equivalent_kv_per_s(&crate::sim::AxisModel::from_config(a))
+        })
+    }
+
+    /// The same for the axes controlled by the cascade (their Kv, cheap); none for others.
+    pub fn kv_per_s_of_cascades(machine: &MachineConfig) -> [Option<f64>; 2] {
+        [&machine.x, &machine.y].map(|a| {
+            a.controller
+                .is_cascade()
+                .then(|| crate::sim::AxisModel::from_config(a).kv_per_s())
+        })
+    }
+}
+
 /// Planner settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PlanConfig {
@@ -118,11 +137,7 @@ impl PlanConfig {
             },
             in_position: Some(InPosition {
                 window_m: m_from_mm(machine.interpolation.in_position_window_mm),
-                // The wait estimate needs the loop's time scale: the cascade's Kv, or another
-                // controller's closed-loop bandwidth (the simulated waits re-time it).
-                kv_per_s: [&machine.x, &machine.y].map(|a| {
-                    crate::sim::linear::equivalent_kv_per_s(&crate::sim::AxisModel::from_config(a))
-                }),
+                kv_per_s: InPosition::kv_per_s_of(machine),
             }),
         }
     }
