@@ -1,4 +1,4 @@
-//! The catalogue of effects outside the nominal model (MODEL.md §5): what each one's
+//! The catalogue of effects outside the nominal model (docs/model.md §5): what each one's
 //! parameters are (as machine keys, in the machine file's units), how it extends an axis,
 //! and its signature — a cheap test on the residual that says whether fitting it is worth
 //! a try.

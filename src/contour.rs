@@ -1,4 +1,4 @@
-//! Contour error (MODEL.md §3): the signed shortest distance from the actual tool position
+//! Contour error (docs/model.md §3): the signed shortest distance from the actual tool position
 //! to the programmed geometry — the G-code's lines and true arcs, not the time-parametrised
 //! reference point. Positive to the left of the direction of travel; on arcs the radial
 //! deviation (positive outward) is kept as well.

@@ -23,6 +23,7 @@ pub mod identify;
 pub mod inspect;
 pub mod lookup;
 pub mod machine;
+pub mod mat5;
 pub mod measured;
 pub mod output;
 pub mod path;

@@ -3,23 +3,7 @@
 
 fn main() -> std::process::ExitCode {
     restore_broken_pipe_default();
-    quiet_mat_reader_panics();
     contourcheck::cli::main()
-}
-
-/// The MAT-file reader asserts on some damaged files; the trace reader catches that and
-/// reports the file as damaged, so the assertion's own message would only add noise in
-/// front of the real error. Every other panic is reported as usual.
-fn quiet_mat_reader_panics() {
-    let report = std::panic::take_hook();
-    std::panic::set_hook(Box::new(move |info| {
-        let in_mat_reader = info
-            .location()
-            .is_some_and(|at| at.file().contains("/matrw-"));
-        if !in_mat_reader {
-            report(info);
-        }
-    }));
 }
 
 /// Piped into `head`, a command-line tool should stop quietly when the reader goes away, as

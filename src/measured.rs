@@ -79,6 +79,21 @@ impl StepStats {
 }
 
 impl MeasuredTrace {
+    /// The trace in the program's coordinates: `offset_m` (the program origin's place in
+    /// the trace's, as a work offset G54… gives it) subtracted from every measured and
+    /// commanded position.
+    pub fn in_work_coordinates(mut self, offset_m: [f64; 2]) -> MeasuredTrace {
+        for (values, offset) in [(&mut self.x_m, offset_m[0]), (&mut self.y_m, offset_m[1])] {
+            values.iter_mut().for_each(|v| *v -= offset);
+        }
+        if let Some([xc, yc]) = &mut self.commands {
+            xc.iter_mut().for_each(|v| *v -= offset_m[0]);
+            yc.iter_mut().for_each(|v| *v -= offset_m[1]);
+        }
+        self.layout.work_offset_m = Some(offset_m);
+        self
+    }
+
     /// Number of samples.
     pub fn len(&self) -> usize {
         self.x_m.len()
@@ -268,6 +283,7 @@ fn assemble_named(
         source,
         mapped,
         trailer_rows: 0,
+        work_offset_m: None,
     };
     assemble(file, table, layout)
 }
@@ -314,8 +330,8 @@ fn assemble(file: &str, table: Table, layout: TraceLayout) -> Result<MeasuredTra
             t.len()
         )));
     }
-    let dt = median_step(&t);
-    check_time_plausible(dt, &t, &layout.mapped[0]).map_err(data_error)?;
+    let mut layout = layout;
+    let (t, dt) = plausible_clock(t, &mut layout.mapped[0]).map_err(data_error)?;
     if let Some(i) = (1..t.len()).find(|&i| t[i] - t[i - 1] > 5.0 * dt) {
         return Err(MeasuredError::Row {
             file: file.into(),
@@ -523,8 +539,44 @@ pub fn parse_trace_with(
         source: Source::Text(dialect),
         mapped,
         trailer_rows,
+        work_offset_m: None,
     };
     assemble(file, table, layout)
+}
+
+/// The steps a clock of unknown unit is taken to count in only when exactly one unit gives
+/// one of them (s): 10 µs (100 kHz) to 50 ms. Narrower than [`PLAUSIBLE_STEP_S`], so that an
+/// integer millisecond clock at 1 kHz is not also read as a 1 MHz one in µs.
+const INFERRED_STEP_S: (f64, f64) = (1e-5, 0.05);
+
+/// The time column in seconds and its median step. A clock whose header states no unit and
+/// whose step is implausible in seconds is read in the one unit that makes it plausible
+/// (a lab's `Time` in ms at 10 kHz steps by 0.1), and the mapping says so; where no unit or
+/// several would do, the error asks for the unit.
+fn plausible_clock(t: Vec<f64>, time: &mut Mapped) -> Result<(Vec<f64>, f64), String> {
+    let dt = median_step(&t);
+    let why = match check_time_plausible(dt, &t, time) {
+        Ok(()) => return Ok((t, dt)),
+        Err(why) => why,
+    };
+    if time.unit_from != "default" {
+        return Err(why);
+    }
+    let duration = t[t.len() - 1] - t[0];
+    let (lo, hi) = INFERRED_STEP_S;
+    let candidates: Vec<trace_format::Unit> = trace_format::time_units()
+        .filter(|u| {
+            let scale = u.to_si / time.unit.to_si;
+            (lo..hi).contains(&(dt * scale)) && duration * scale <= PLAUSIBLE_DURATION_S
+        })
+        .collect();
+    let [unit] = candidates.as_slice() else {
+        return Err(why);
+    };
+    let scale = unit.to_si / time.unit.to_si;
+    time.unit = *unit;
+    time.unit_from = "sampling step: the only unit giving a plausible one";
+    Ok((t.into_iter().map(|v| v * scale).collect(), dt * scale))
 }
 
 /// A sampling step no measuring system has is a time column read in the wrong unit.
@@ -576,6 +628,9 @@ pub struct TraceLayout {
     pub mapped: Vec<Mapped>,
     /// Lines after the data that were not data (skipped).
     pub trailer_rows: usize,
+    /// The program origin's place in the trace's coordinates (m), subtracted from every
+    /// position read (a trace in machine coordinates), when one was given.
+    pub work_offset_m: Option<[f64; 2]>,
 }
 
 impl TraceLayout {
@@ -605,6 +660,14 @@ impl TraceLayout {
         };
         let mut lines = vec![first];
         lines.extend(trace_format::describe_mapping(&self.mapped));
+        if let Some([x, y]) = self.work_offset_m {
+            lines.push(format!(
+                "work offset X {:.3} mm, Y {:.3} mm subtracted from every position (machine \
+                 to program coordinates)",
+                x * 1e3,
+                y * 1e3
+            ));
+        }
         lines
     }
 }
@@ -822,19 +885,35 @@ mod tests {
     }
 
     #[test]
-    fn a_millisecond_clock_read_as_seconds_is_refused() {
-        let text: String = std::iter::once("time,x,y\n".to_string())
-            .chain((0..100).map(|k| format!("{},{},0\n", 2 * k, k)))
-            .collect();
-        let e = parse_trace(&text, "ms.csv").unwrap_err().to_string();
-        assert!(e.contains("implausible") && e.contains("t=time[ms]"), "{e}");
+    fn a_clock_without_unit_is_read_in_the_only_plausible_unit() {
+        let clock = |step: f64| -> String {
+            std::iter::once("Time,x,y\n".to_string())
+                .chain((0..100).map(|k| format!("{},{},0\n", step * k as f64, k)))
+                .collect()
+        };
+        // A lab's 10 kHz record in ms: 0.1 s steps are implausible, 0.1 µs too; only ms fits.
+        for (step, dt_s) in [(0.1, 1e-4), (2.0, 2e-3)] {
+            let m = parse_trace(&clock(step), "lab.csv").unwrap();
+            assert!((m.dt_s - dt_s).abs() < 1e-15 * dt_s.max(1.0), "{}", m.dt_s);
+            let said = m.layout.describe().join("\n");
+            assert!(
+                said.contains("in ms (unit from the sampling step"),
+                "{said}"
+            );
+        }
+        // Steps of 20 are 20 ms (50 Hz) or 20 µs (50 kHz): the user must say which.
+        let e = parse_trace(&clock(20.0), "ms.csv").unwrap_err().to_string();
+        assert!(e.contains("implausible") && e.contains("t=Time[ms]"), "{e}");
         let m = parse_trace_with(
-            &text,
+            &clock(20.0),
             "ms.csv",
-            Some(&ColumnMap::parse("t=time[ms],x=x,y=y").unwrap()),
+            Some(&ColumnMap::parse("t=Time[ms],x=x,y=y").unwrap()),
         )
         .unwrap();
-        assert!((m.dt_s - 2e-3).abs() < 1e-15);
+        assert!((m.dt_s - 20e-3).abs() < 1e-15);
+        // A unit the header states is never second-guessed.
+        let stated = clock(2.0).replacen("Time", "Time [s]", 1);
+        assert!(parse_trace(&stated, "s.csv").is_err());
     }
 
     #[test]

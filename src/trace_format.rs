@@ -74,6 +74,14 @@ const TIME_UNITS: [(&str, f64); 5] = [
     ("µs", 1e-6),
     ("min", 60.0),
 ];
+/// The time units a clock may count in, one per scale (no spelling twice).
+pub fn time_units() -> impl Iterator<Item = Unit> {
+    TIME_UNITS
+        .iter()
+        .filter(|(label, _)| *label != "µs")
+        .map(|&(label, to_si)| Unit { to_si, label })
+}
+
 const LENGTH_UNITS: [(&str, f64); 6] = [
     ("m", 1.0),
     ("mm", 1e-3),
@@ -566,6 +574,16 @@ fn recognise(headers: &[&str], signal: Signal) -> Result<Option<Mapped>, String>
     if hits.is_empty() {
         hits = matching(&|h| h.rsplit_once('.').map(|(_, leaf)| normalised(leaf)));
     }
+    if hits.is_empty() {
+        // Descriptive names, as capture tools give signals ("Encoder Feedback X", "Feed
+        // Reference DataX/RefCommand"): taken only where exactly one column reads so.
+        let described: Vec<usize> = (0..headers.len())
+            .filter(|&i| described_signal(headers[i]) == Some(signal))
+            .collect();
+        if let [one] = described.as_slice() {
+            hits = vec![*one];
+        }
+    }
     match hits.as_slice() {
         [] => Ok(None),
         [i] => mapped(headers[*i], *i, signal, None).map(Some),
@@ -575,6 +593,99 @@ fn recognise(headers: &[&str], signal: Signal) -> Result<Option<Mapped>, String>
             many.iter().map(|&i| headers[i]).collect::<Vec<_>>()
         )),
     }
+}
+
+/// Words that make a name a commanded position, a measured one, or something else.
+const COMMAND_WORDS: [&str; 12] = [
+    "ref",
+    "reference",
+    "cmd",
+    "command",
+    "commanded",
+    "set",
+    "setpoint",
+    "soll",
+    "demand",
+    "target",
+    "desired",
+    "traj",
+];
+const MEASURED_WORDS: [&str; 11] = [
+    "encoder", "feedback", "fb", "act", "actual", "measured", "meas", "ist", "pos", "position",
+    "scale",
+];
+const OTHER_QUANTITY_WORDS: [&str; 20] = [
+    "vel",
+    "velocity",
+    "speed",
+    "rate",
+    "acc",
+    "accel",
+    "acceleration",
+    "jerk",
+    "current",
+    "torque",
+    "force",
+    "voltage",
+    "error",
+    "err",
+    "deviation",
+    "following",
+    "lag",
+    "diff",
+    "temperature",
+    "temp",
+];
+
+/// The signal a descriptive name stands for: one axis letter among its words (`DataX` and
+/// `posX` split at the case change), a word of command or of measurement (not both), and no
+/// word of another quantity (speed, current, error …).
+fn described_signal(header: &str) -> Option<Signal> {
+    let words = words(split_unit(header).0);
+    let has = |list: &[&str]| words.iter().any(|w| list.contains(&w.as_str()));
+    if has(&OTHER_QUANTITY_WORDS) {
+        return None;
+    }
+    let x = words.iter().any(|w| w == "x");
+    let y = words.iter().any(|w| w == "y");
+    let (command, measured) = (has(&COMMAND_WORDS), has(&MEASURED_WORDS));
+    match (x, y, command, measured) {
+        (true, false, true, false) => Some(Signal::XCmd),
+        (false, true, true, false) => Some(Signal::YCmd),
+        (true, false, false, true) => Some(Signal::X),
+        (false, true, false, true) => Some(Signal::Y),
+        _ => None,
+    }
+}
+
+/// A name's words, lower-cased: split at anything not a letter or digit, where a lower-case
+/// letter meets a capital (`DataX`, `posX`), and where capitals meet a word (`XIndex`).
+fn words(name: &str) -> Vec<String> {
+    let chars: Vec<char> = name.chars().collect();
+    let mut out = Vec::new();
+    let mut word = String::new();
+    for (i, &c) in chars.iter().enumerate() {
+        if !c.is_alphanumeric() {
+            if !word.is_empty() {
+                out.push(std::mem::take(&mut word).to_lowercase());
+            }
+            continue;
+        }
+        let previous = i.checked_sub(1).map(|p| chars[p]);
+        let next = chars.get(i + 1);
+        let boundary = c.is_uppercase()
+            && previous.is_some_and(|p| {
+                p.is_lowercase() || (p.is_uppercase() && next.is_some_and(|n| n.is_lowercase()))
+            });
+        if boundary && !word.is_empty() {
+            out.push(std::mem::take(&mut word).to_lowercase());
+        }
+        word.push(c);
+    }
+    if !word.is_empty() {
+        out.push(word.to_lowercase());
+    }
+    out
 }
 
 /// One line per mapped signal, for the user: `t ← Time [ms] (unit from the header)`.
@@ -626,6 +737,48 @@ mod tests {
         assert_eq!(m.len(), 3);
         let e = map_columns(&["a", "b"], None).unwrap_err();
         assert!(e.contains("no column for time"), "{e}");
+    }
+
+    #[test]
+    fn descriptive_capture_names_are_recognised() {
+        let headers = [
+            "time [s]",
+            "Encoder Feedback X/x [mm]",
+            "Encoder Feedback Y/y [mm]",
+            "Feed Reference DataX/RefCommand",
+            "Feed Reference DataY/RefCommand",
+            "Velocity Reference X",
+        ];
+        let mapped = map_columns(&headers, None).unwrap();
+        let index_of = |s: Signal| mapped.iter().find(|m| m.signal == s).map(|m| m.index);
+        assert_eq!(index_of(Signal::X), Some(1));
+        assert_eq!(index_of(Signal::Y), Some(2));
+        assert_eq!(index_of(Signal::XCmd), Some(3));
+        assert_eq!(index_of(Signal::YCmd), Some(4));
+        assert_eq!(
+            words("XIndex posX DataY"),
+            ["x", "index", "pos", "x", "data", "y"]
+        );
+        // A speed, a following error or a name with both axes is never a position.
+        for other in [
+            "X set velocity",
+            "Following error X",
+            "XY reference",
+            "Current X",
+        ] {
+            assert_eq!(described_signal(other), None, "{other}");
+        }
+        // Two columns that read alike are left to the user, never picked between.
+        let twice = [
+            "t",
+            "x",
+            "y",
+            "X reference A",
+            "X reference B",
+            "Y reference",
+        ];
+        let mapped = map_columns(&twice, None);
+        assert!(mapped.is_err() || mapped.unwrap().iter().all(|m| m.signal != Signal::XCmd));
     }
 
     #[test]

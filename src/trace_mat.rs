@@ -1,26 +1,25 @@
 //! Traces in MATLAB's MAT-file format, level 5 (what `save` writes by default up to
-//! `-v7`, compressed or not), read with the `matrw` crate: pure Rust, so no C library
-//! (libmatio, and HDF5 for `-v7.3`) has to be installed on every machine, and — unlike the
-//! older `matfile` crate — it reads structures and cells, the form capture tools save in.
+//! `-v7`, compressed or not, and what capture tools write), decoded by [`crate::mat5`].
 //!
 //! Every numeric vector becomes a column named by where it sits: a variable `t`, a
 //! structure field `ScopeData.time`, an element of a structure array
 //! `ScopeData.signals(2).values`, a cell `log{3}`. A matrix of several columns gives one
 //! column each, `data(1)`, `data(2)` … as MATLAB indexes them. A structure that describes
 //! one signal — a name (`label`, `Name`, `name`, `title`) beside one numeric vector
-//! (`values`, `Data`, `data`) — also gives that vector under its own name, the last part of
-//! a block path: Simulink's structure-with-time and dSPACE captures name their signals so.
-//! Columns are then mapped exactly as a text trace's headers are: recognised spellings, the
-//! last part of a field path, or `--columns`.
+//! (`values`, `Data`, `data`) — also gives that vector under its own name: the last part of
+//! its block path (`"Model Root"/"Encoder Feedback X"/"x [mm]"` gives `x [mm]`), or as many
+//! parts as it takes to tell it from the other signals (two signals ending in `RefCommand`
+//! become `Feed Reference DataX/RefCommand` and `…DataY/RefCommand`); a unit the structure
+//! gives separately (`Unit`) is added in brackets. Simulink's structure-with-time and dSPACE
+//! ControlDesk captures name their signals so; a ControlDesk capture's time axis (the
+//! structure `X` beside the signal array `Y`) becomes the column `time`. Columns are then
+//! mapped exactly as a text trace's headers are: recognised spellings, the last part of a
+//! field path, or `--columns`.
 //!
 //! `-v7.3` (HDF5) files are refused with what to do instead.
 
-use matrw::{MatVariable, MatlabType};
-
+use crate::mat5::{self, Value};
 use crate::measured::MeasuredError;
-
-/// The signature every level-5 MAT file starts with.
-const LEVEL5_SIGNATURE: &[u8] = b"MATLAB 5.0 MAT-file";
 
 /// How deep structures may nest before the rest is ignored (a capture is two or three
 /// levels; a file deeper than this is not a trace).
@@ -29,7 +28,7 @@ const DEEPEST: usize = 8;
 /// Whether `bytes` are a MAT file (level 5, or the HDF5-based 7.3, which carries the same
 /// text header).
 pub fn is_mat_file(bytes: &[u8]) -> bool {
-    bytes.starts_with(LEVEL5_SIGNATURE)
+    bytes.starts_with(mat5::SIGNATURE)
 }
 
 /// The columns of a MAT file: (name, values), in the file's order.
@@ -46,15 +45,13 @@ pub fn mat_columns(bytes: &[u8], file: &str) -> Result<Vec<(String, Vec<f64>)>, 
                 .into(),
         ));
     }
-    // The reader is young and asserts on some malformed input; a damaged file must be an
-    // error like any other, not the end of the program.
-    let parsed = std::panic::catch_unwind(|| matrw::load_matfile_from_u8(bytes))
-        .map_err(|_| error("not a readable MAT-file (level 5): its contents are damaged".into()))?
-        .map_err(|e| error(format!("not a readable MAT-file (level 5): {e}")))?;
-    let mut out = Vec::new();
-    for (name, variable) in parsed.iter() {
-        collect(name, variable, 0, &mut out);
+    let variables = mat5::read(bytes).map_err(|e| error(e.to_string()))?;
+    let mut found = Found::default();
+    for variable in &variables {
+        collect(&variable.name, &variable.value, 0, &mut found);
     }
+    let mut out = found.columns;
+    out.extend(distinct_names(found.named));
     if out.is_empty() {
         return Err(error(
             "no numeric vectors or matrices in the MAT-file, in its variables or in the \
@@ -65,40 +62,52 @@ pub fn mat_columns(bytes: &[u8], file: &str) -> Result<Vec<(String, Vec<f64>)>, 
     Ok(out)
 }
 
-/// The columns held in `variable` at `path`, appended to `out`.
-fn collect(path: &str, variable: &MatVariable, depth: usize, out: &mut Vec<(String, Vec<f64>)>) {
+/// What a file holds: columns named by their place, and signals named by their own label
+/// (its block path's parts), to be told apart once all are known.
+#[derive(Default)]
+struct Found {
+    columns: Vec<(String, Vec<f64>)>,
+    named: Vec<(Vec<String>, Vec<f64>)>,
+}
+
+/// The columns held in `value` at `path`.
+fn collect(path: &str, value: &Value, depth: usize, found: &mut Found) {
     if depth > DEEPEST {
         return;
     }
-    match variable {
-        MatVariable::NumericArray(array) => {
-            if array.dim.len() == 2
-                && let Some(values) = real_values(&array.value)
-            {
-                push_matrix(path, array.dim[0], array.dim[1], values, out);
+    match value {
+        Value::Numeric {
+            dims,
+            real,
+            complex: false,
+        } if dims.len() == 2 => push_matrix(path, dims[0], dims[1], real, &mut found.columns),
+        Value::Struct {
+            fields, elements, ..
+        } => {
+            for (k, element) in elements.iter().enumerate() {
+                let at = if elements.len() == 1 {
+                    path.to_string()
+                } else {
+                    format!("{path}({})", k + 1)
+                };
+                for (field, value) in fields.iter().zip(element) {
+                    collect(&format!("{at}.{field}"), value, depth + 1, found);
+                }
+                if let Some(named) = named_signal(fields, element) {
+                    found.named.push(named);
+                }
+            }
+            if let Some(time) = capture_time(value) {
+                found.columns.push(time);
             }
         }
-        MatVariable::Structure(s) => {
-            for (field, value) in &s.value {
-                collect(&format!("{path}.{field}"), value, depth + 1, out);
-            }
-            if let Some(named) = named_signal(variable) {
-                out.push(named);
+        Value::Cell(cells) => {
+            for (k, element) in cells.iter().enumerate() {
+                collect(&format!("{path}{{{}}}", k + 1), element, depth + 1, found);
             }
         }
-        MatVariable::StructureArray(array) => {
-            for (k, element) in array.value.iter().enumerate() {
-                collect(&format!("{path}({})", k + 1), element, depth + 1, out);
-            }
-        }
-        MatVariable::CellArray(cells) => {
-            for (k, element) in cells.value.iter().enumerate() {
-                collect(&format!("{path}{{{}}}", k + 1), element, depth + 1, out);
-            }
-        }
-        MatVariable::Compressed(c) => collect(path, &c.value, depth, out),
-        // Sparse matrices, empty values and objects hold no signals.
-        MatVariable::SparseArray(_) | MatVariable::Null | MatVariable::Unsupported => {}
+        // Complex values, text, empty values, sparse matrices and objects hold no signals.
+        _ => {}
     }
 }
 
@@ -107,14 +116,14 @@ fn push_matrix(
     name: &str,
     rows: usize,
     columns: usize,
-    values: Vec<f64>,
+    values: &[f64],
     out: &mut Vec<(String, Vec<f64>)>,
 ) {
     if values.len() != rows * columns || values.is_empty() {
         return;
     }
     if rows == 1 || columns == 1 {
-        out.push((name.to_string(), values));
+        out.push((name.to_string(), values.to_vec()));
     } else {
         for j in 0..columns {
             out.push((
@@ -125,58 +134,111 @@ fn push_matrix(
     }
 }
 
-/// A structure describing one signal — a text name and one numeric vector — as the column
-/// (name, values), the name being the last part of a block path.
-fn named_signal(variable: &MatVariable) -> Option<(String, Vec<f64>)> {
-    const NAMES: [&str; 5] = ["label", "Name", "name", "title", "signalName"];
-    const DATA: [&str; 4] = ["values", "Data", "data", "Values"];
-    let MatVariable::Structure(s) = variable else {
+const LABEL_FIELDS: [&str; 5] = ["label", "Name", "name", "title", "signalName"];
+const DATA_FIELDS: [&str; 4] = ["values", "Data", "data", "Values"];
+
+/// A structure describing one signal — a text name and one numeric vector — as its label's
+/// parts (the block path, quotes removed; a separate unit added in brackets) and values.
+fn named_signal(fields: &[String], element: &[Value]) -> Option<(Vec<String>, Vec<f64>)> {
+    let field = |name: &str| element.get(fields.iter().position(|f| f == name)?);
+    let label = LABEL_FIELDS.iter().find_map(|f| field(f)?.text())?;
+    let mut parts = label_parts(label);
+    let mut data = DATA_FIELDS.iter().filter_map(|f| vector(field(f)?));
+    let values = data.next().filter(|v| !v.is_empty())?;
+    if parts.is_empty() || data.next().is_some() {
+        return None;
+    }
+    if let Some(unit) = field("Unit").and_then(Value::text)
+        && !unit.trim().is_empty()
+        && let Some(last) = parts.last_mut()
+        && !last.contains('[')
+    {
+        *last = format!("{last} [{}]", unit.trim());
+    }
+    Some((parts, values))
+}
+
+/// A label's block-path parts: `"Model Root"/"Encoder Feedback X"/"x [mm]"` (quoted parts,
+/// which may hold a `/` of their own, as in a unit `[m/s]`) or `Model/Scope/x`.
+fn label_parts(label: &str) -> Vec<String> {
+    let label = label.trim();
+    let parts: Vec<&str> = if label.starts_with('"') && label.contains("\"/\"") {
+        label.split("\"/\"").collect()
+    } else {
+        label.split(['/', '\\']).collect()
+    };
+    parts
+        .into_iter()
+        .map(|p| p.trim().trim_matches('"').trim().to_string())
+        .filter(|p| !p.is_empty())
+        .collect()
+}
+
+/// Each named signal under the shortest tail of its block path that no other signal ends
+/// with (the whole path where even that is shared).
+fn distinct_names(named: Vec<(Vec<String>, Vec<f64>)>) -> Vec<(String, Vec<f64>)> {
+    let tail = |parts: &[String], n: usize| parts[parts.len().saturating_sub(n)..].join("/");
+    let names: Vec<String> = named
+        .iter()
+        .map(|(parts, _)| {
+            (1..=parts.len())
+                .map(|n| tail(parts, n))
+                .find(|name| {
+                    named
+                        .iter()
+                        .filter(|(other, _)| (1..=other.len()).any(|m| tail(other, m) == *name))
+                        .count()
+                        == 1
+                })
+                .unwrap_or_else(|| parts.join("/"))
+        })
+        .collect();
+    names
+        .into_iter()
+        .zip(named)
+        .map(|(name, (_, values))| (name, values))
+        .collect()
+}
+
+/// A ControlDesk capture's unnamed time axis: a structure whose field `X` holds the time
+/// (`Data`, with an optional `Unit`, seconds by default) beside the signal array `Y`, as the column
+/// `time [unit]`. Of several time axes (signals captured at several rates) the first is
+/// taken; signals on another axis then differ from it in length, which the trace reader
+/// reports.
+fn capture_time(capture: &Value) -> Option<(String, Vec<f64>)> {
+    let x = capture.field("X")?;
+    let signals = capture.field("Y")?;
+    let Value::Struct { fields, .. } = signals else {
         return None;
     };
-    let label = NAMES.iter().find_map(|f| match uncompressed(s.get(f)?) {
-        MatVariable::NumericArray(a) => text(&a.value),
-        _ => None,
-    })?;
-    let label = label.rsplit(['/', '\\']).next()?.trim().trim_matches('"');
-    let mut data = DATA.iter().filter_map(|f| match uncompressed(s.get(f)?) {
-        MatVariable::NumericArray(a) if a.dim.len() == 2 && a.dim.contains(&1) => {
-            real_values(&a.value)
-        }
-        _ => None,
-    });
-    let values = data.next().filter(|v| !v.is_empty())?;
-    (!label.is_empty() && data.next().is_none()).then(|| (label.to_string(), values))
-}
-
-fn uncompressed(variable: &MatVariable) -> &MatVariable {
-    match variable {
-        MatVariable::Compressed(c) => uncompressed(&c.value),
-        other => other,
+    if !fields.iter().any(|f| f == "Name") || !fields.iter().any(|f| f == "Data") {
+        return None;
     }
+    // A time axis with a name of its own is a named signal like the others.
+    if x.field("Name")
+        .and_then(Value::text)
+        .is_some_and(|n| !n.trim().is_empty())
+    {
+        return None;
+    }
+    let data = vector(x.field("Data")?)?;
+    let unit = x
+        .field("Unit")
+        .and_then(Value::text)
+        .map(str::trim)
+        .filter(|u| !u.is_empty())
+        .unwrap_or("s");
+    Some((format!("time [{unit}]"), data))
 }
 
-/// A character array as text.
-fn text(value: &MatlabType) -> Option<String> {
+/// A real numeric vector's values.
+fn vector(value: &Value) -> Option<Vec<f64>> {
     match value {
-        MatlabType::UTF8(chars) | MatlabType::UTF16(chars) => Some(chars.iter().collect()),
+        Value::Numeric {
+            dims,
+            real,
+            complex: false,
+        } if dims.len() == 2 && dims.contains(&1) => Some(real.clone()),
         _ => None,
     }
-}
-
-/// The real values of a numeric array as f64; `None` for text and logicals.
-fn real_values(value: &MatlabType) -> Option<Vec<f64>> {
-    use MatlabType as T;
-    Some(match value {
-        T::F64(v) => v.clone(),
-        T::F32(v) => v.iter().map(|&x| f64::from(x)).collect(),
-        T::I8(v) => v.iter().map(|&x| f64::from(x)).collect(),
-        T::U8(v) => v.iter().map(|&x| f64::from(x)).collect(),
-        T::I16(v) => v.iter().map(|&x| f64::from(x)).collect(),
-        T::U16(v) => v.iter().map(|&x| f64::from(x)).collect(),
-        T::I32(v) => v.iter().map(|&x| f64::from(x)).collect(),
-        T::U32(v) => v.iter().map(|&x| f64::from(x)).collect(),
-        T::I64(v) => v.iter().map(|&x| x as f64).collect(),
-        T::U64(v) => v.iter().map(|&x| x as f64).collect(),
-        T::UTF8(_) | T::UTF16(_) | T::BOOL(_) => return None,
-    })
 }

@@ -1,4 +1,4 @@
-//! Side-by-side comparison with the paper (Wang et al., §4; MODEL.md §4): its measured and
+//! Side-by-side comparison with the paper (Wang et al., §4; docs/model.md §4): its measured and
 //! simulated following errors (Tables 3–5), its loops' Bode figures, its critical
 //! stick-slip velocity, and the parameter trends of its §3.2 — each against this model.
 
@@ -206,7 +206,7 @@ pub fn compare_table(
     })
 }
 
-/// MODEL.md §2's figures for the three loops of the preset: crossover (Hz), phase margin
+/// docs/model.md §2's figures for the three loops of the preset: crossover (Hz), phase margin
 /// (°), closed-loop −3 dB (Hz), phase at −10° (Hz).
 pub const MODEL_LOOP_FIGURES: [(Loop, f64, f64, f64, f64); 3] = [
     (Loop::Current, 593.0, 62.6, 931.0, 142.0),

@@ -314,7 +314,7 @@ fn the_next_block_starts_at_the_first_cycle_in_the_window() {
 
 /// The planner alone estimates each wait from a first-order position loop, which ignores
 /// the lag of the inner loops and everything nonlinear. An independent implementation of
-/// MODEL.md measured the simulated entry into the 10 µm window 2–4.5 ms after that estimate
+/// docs/model.md measured the simulated entry into the 10 µm window 2–4.5 ms after that estimate
 /// on the nominal machine and 5–12.5 ms after it with 10 µm of backlash. The executed waits
 /// end at the first whole cycle after that entry (up to one 2 ms cycle more).
 #[test]

@@ -400,6 +400,57 @@ fn a_measurement_of_another_program_is_rejected_with_the_reason() {
     );
 }
 
+/// A CNC trace in machine coordinates of a program run under a work offset: the commands
+/// run beside the program by the offset, which the refusal measures and names; given with
+/// the offset, the same record is diagnosed, and nothing is named on a nominal machine.
+#[test]
+fn a_trace_in_machine_coordinates_names_its_work_offset_and_is_diagnosed_with_it() {
+    let nominal = MachineConfig::default_preset();
+    let prog = program("square.nc");
+    let spec = SynthSpec {
+        offset_s: 0.2,
+        with_commands: true,
+        ..SynthSpec::default()
+    };
+    let work = recorded(&prog, &nominal, &spec, "machine.csv");
+    let offset_m = [0.471103, -0.25];
+    let mut machine = work.clone();
+    for (values, o) in [
+        (&mut machine.x_m, offset_m[0]),
+        (&mut machine.y_m, offset_m[1]),
+    ] {
+        values.iter_mut().for_each(|v| *v += o);
+    }
+    let [xc, yc] = machine.commands.as_mut().unwrap();
+    xc.iter_mut().for_each(|v| *v += offset_m[0]);
+    yc.iter_mut().for_each(|v| *v += offset_m[1]);
+    let settings = DiagnoseSettings::for_machine(&nominal);
+    let e = diagnose(&prog, &nominal, &machine, &settings)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("offset by X 471.103 mm, Y -250.000 mm")
+            && e.contains("--work-offset 471.103,-250.000"),
+        "{e}"
+    );
+    let shifted = machine.in_work_coordinates(offset_m);
+    assert!(
+        shifted
+            .layout
+            .describe()
+            .join("\n")
+            .contains("work offset X 471.103 mm")
+    );
+    let d = diagnose(&prog, &nominal, &shifted, &settings).unwrap();
+    assert!(d.causes.is_empty(), "{:?}", d.causes);
+    // A record of another program is not mistaken for a shifted one.
+    let other = recorded(&program("circle-test.nc"), &nominal, &spec, "other.csv");
+    let e = diagnose(&prog, &nominal, &other, &settings)
+        .unwrap_err()
+        .to_string();
+    assert!(!e.contains("--work-offset"), "{e}");
+}
+
 /// A control that interpolates 0.2 % slower than the plan, recorded without its commands:
 /// one clock offset cannot fit both ends, and the refusal measures how far the timing
 /// departs — the halves' centres lie 40 s apart, so 80 ms.

@@ -1,5 +1,8 @@
-//! The real-program corpus in `../shared/gcode-corpus/` (programs written by others, with a
-//! manifest of where each came from and whether LinuxCNC's interpreter accepts it): every
+//! A corpus of real programs written by others (with a manifest `MANIFEST.tsv` of where each
+//! came from and whether LinuxCNC's interpreter accepts it), found in the folder that the
+//! environment variable `CONTOURCHECK_GCODE_CORPUS` names. The files are not part of the
+//! repository: without the variable each test says "skipped: corpus not present" and passes.
+//! With it, every
 //! XY program LinuxCNC accepts must interpret, and every program in `reject/` must be refused
 //! with an error that names its line and column; and every such program must check under
 //! every speed profile and at neighbouring gains.
@@ -12,8 +15,22 @@ use contourcheck::machine::MachineConfig;
 use contourcheck::plan::ProfileKind;
 use rayon::prelude::*;
 
-fn corpus_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/gcode-corpus")
+const CORPUS_VARIABLE: &str = "CONTOURCHECK_GCODE_CORPUS";
+
+/// The corpus folder, or `None` (after saying so) when this machine has none. A variable that
+/// names a folder without a manifest is a broken setup, not an absent corpus: that fails.
+fn corpus_dir() -> Option<PathBuf> {
+    let Some(dir) = std::env::var_os(CORPUS_VARIABLE) else {
+        eprintln!("skipped: corpus not present ({CORPUS_VARIABLE} is not set)");
+        return None;
+    };
+    let dir = PathBuf::from(dir);
+    assert!(
+        dir.join("MANIFEST.tsv").is_file(),
+        "{CORPUS_VARIABLE}={} has no MANIFEST.tsv",
+        dir.display()
+    );
+    Some(dir)
 }
 
 struct Entry {
@@ -22,9 +39,8 @@ struct Entry {
     linuxcnc_accepts: bool,
 }
 
-fn manifest() -> Vec<Entry> {
-    let text = std::fs::read_to_string(corpus_dir().join("MANIFEST.tsv"))
-        .expect("the G-code corpus manifest ../shared/gcode-corpus/MANIFEST.tsv");
+fn manifest(dir: &Path) -> Vec<Entry> {
+    let text = std::fs::read_to_string(dir.join("MANIFEST.tsv")).expect("the corpus manifest");
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split('\t').collect();
     let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
@@ -42,21 +58,22 @@ fn manifest() -> Vec<Entry> {
         .collect()
 }
 
-fn read(entry: &Entry) -> String {
-    let bytes = std::fs::read(corpus_dir().join(&entry.file)).unwrap();
+fn read(dir: &Path, entry: &Entry) -> String {
+    let bytes = std::fs::read(dir.join(&entry.file)).unwrap();
     String::from_utf8_lossy(&bytes).into_owned()
 }
 
 #[test]
 fn every_xy_program_linuxcnc_accepts_interprets() {
+    let Some(dir) = corpus_dir() else { return };
     let mut failures = Vec::new();
     let mut count = 0;
-    for e in manifest()
+    for e in manifest(&dir)
         .iter()
         .filter(|e| e.category != "reject" && e.linuxcnc_accepts)
     {
         count += 1;
-        match parse_program(&read(e), &e.file, &InterpretOptions::default()) {
+        match parse_program(&read(&dir, e), &e.file, &InterpretOptions::default()) {
             Ok(p) => assert!(!p.segments.is_empty(), "{}: no path", e.file),
             Err(err) => failures.push(format!("{err}")),
         }
@@ -75,11 +92,12 @@ fn every_xy_program_linuxcnc_accepts_interprets() {
 
 #[test]
 fn every_reject_program_is_refused_with_line_and_column() {
+    let Some(dir) = corpus_dir() else { return };
     let mut accepted = Vec::new();
     let mut count = 0;
-    for e in manifest().iter().filter(|e| e.category == "reject") {
+    for e in manifest(&dir).iter().filter(|e| e.category == "reject") {
         count += 1;
-        let src = read(e);
+        let src = read(&dir, e);
         match parse_program(&src, &e.file, &InterpretOptions::default()) {
             Ok(_) => accepted.push(e.file.clone()),
             Err(errs) => {
@@ -111,11 +129,12 @@ fn every_reject_program_is_refused_with_line_and_column() {
 /// both axes where the program ends, within the exact-stop window, and give finite figures.
 #[test]
 fn every_xy_program_linuxcnc_accepts_checks_under_every_profile_and_gain() {
-    let programs: Vec<_> = manifest()
+    let Some(dir) = corpus_dir() else { return };
+    let programs: Vec<_> = manifest(&dir)
         .into_iter()
         .filter(|e| e.category != "reject" && e.linuxcnc_accepts)
         .map(|e| {
-            let p = parse_program(&read(&e), &e.file, &InterpretOptions::default())
+            let p = parse_program(&read(&dir, &e), &e.file, &InterpretOptions::default())
                 .unwrap_or_else(|err| panic!("{err}"));
             (e.file, p)
         })

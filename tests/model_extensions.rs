@@ -1,4 +1,4 @@
-//! The model's extensions for effects outside the nominal model (MODEL.md §5), each against
+//! The model's extensions for effects outside the nominal model (docs/model.md §5), each against
 //! what it must do by construction: a dead time delays the response exactly, a scale or
 //! cyclic error moves where a closed loop holds the table, a structural mode rings at its
 //! own frequency, a Stribeck excess raises the start-up error and nothing at speed.

@@ -1,6 +1,6 @@
 //! The axis model against the paper (Wang et al., "Modelling and Analysis of Dynamic Servo
 //! Error of Heavy Vertical Machining Centre Considering Nonlinear Factors", §4) and against
-//! MODEL.md's reference figures. The paper's numbers are written here, in the test source.
+//! docs/model.md's reference figures. The paper's numbers are written here, in the test source.
 
 use contourcheck::machine::{Feedback, MachineConfig};
 use contourcheck::plan::AxisCommands;
@@ -126,7 +126,7 @@ fn table_5_following_error_against_ks() {
 
 #[test]
 fn bode_figures_match_the_reference_within_five_percent() {
-    // MODEL.md §2: crossover Hz, phase margin °, closed −3 dB Hz, closed −10° Hz.
+    // docs/model.md §2: crossover Hz, phase margin °, closed −3 dB Hz, closed −10° Hz.
     let reference = [
         (Loop::Current, 593.0, 62.6, 931.0, 142.0),
         (Loop::Velocity, 127.0, 74.8, 175.0, 22.8),
@@ -189,7 +189,7 @@ fn critical_stick_slip_velocity_is_four_and_a_half_mm_per_min() {
     let (s3, s4) = (slip(3.0), slip(4.0));
     assert!((s3 - 1.37).abs() < 0.1, "slip at 3 mm/min: {s3} µm");
     assert!((s4 - 1.77).abs() < 0.1, "slip at 4 mm/min: {s4} µm");
-    // Below ≈ 2 mm/min the model's slips stay under 1 µm (MODEL.md §4, first caveat).
+    // Below ≈ 2 mm/min the model's slips stay under 1 µm (docs/model.md §4, first caveat).
     assert!(slip(0.5) < 1.0);
 }
 
@@ -442,7 +442,7 @@ fn linear_step_and_ramp_responses_match_the_closed_form() {
 /// two sign changes inside one step — went unseen, because the friction guard was only
 /// checked at step ends. At 4.51 mm/min the axis then slid for ever, where steps of
 /// 0.125 ms and less stuck after a slip of about 1.8 µm, and the critical velocity
-/// depended on the step. The switch belongs at the zero crossing (MODEL.md §1.6), so the
+/// depended on the step. The switch belongs at the zero crossing (docs/model.md §1.6), so the
 /// stick-slip verdict and the critical velocity must not depend on the step.
 #[test]
 fn a_speed_dip_through_zero_inside_one_step_sticks() {

@@ -308,10 +308,30 @@ fn a_capture_struct_with_block_paths_reads_by_mapping_or_field_path() {
     )
     .unwrap();
     assert_same(&trace, &expected);
-    // Unmapped, the error lists what the file holds, paths and signal names alike.
-    let e = saved(capture(false), false, None).unwrap_err();
+    // Unmapped, the signals are read by their block names (the shared `pos_act` told apart
+    // by the block before it) and the clock in its only plausible unit; the positions'
+    // unit, which nothing in the file states, is the default and is said to be.
+    let said = saved(capture(false), false, None)
+        .unwrap()
+        .layout
+        .describe()
+        .join("\n");
+    for expected in [
+        "'Time' in ms (unit from the sampling step",
+        "'Axis X/pos_act' in mm (unit from the default)",
+        "'Axis Y/pos_act' in mm (unit from the default)",
+    ] {
+        assert!(said.contains(expected), "{expected} in:\n{said}");
+    }
+    // With a column missing, the error lists what the file holds, paths and names alike.
+    let e = saved(
+        capture(false),
+        false,
+        Some("t=Time[ms],x=capture.Y(1).Data[um],y=nothing"),
+    )
+    .unwrap_err();
     assert!(
-        e.contains("capture.Y(2).Data") && e.contains("pos_act"),
+        e.contains("capture.Y(2).Data") && e.contains("Axis Y/pos_act"),
         "{e}"
     );
 }

@@ -216,6 +216,11 @@ pub struct TraceArgs {
     /// A TOML trace profile holding `columns = "…"`, written once per control or lab system.
     #[arg(long, value_name = "FILE")]
     pub trace_profile: Option<PathBuf>,
+    /// The program origin in the trace's coordinates, `X,Y` in mm (a trace in machine
+    /// coordinates of a program run under a work offset G54…): subtracted from every
+    /// measured and commanded position.
+    #[arg(long, value_name = "X,Y", allow_hyphen_values = true)]
+    pub work_offset: Option<String>,
 }
 
 impl TraceArgs {
@@ -229,7 +234,25 @@ impl TraceArgs {
             (None, Some(profile)) => Some(TraceProfile::load(profile).map_err(CliError::Usage)?),
             (None, None) => None,
         };
-        Ok(crate::measured::read_trace_with(path, map.as_ref())?)
+        let trace = crate::measured::read_trace_with(path, map.as_ref())?;
+        Ok(match &self.work_offset {
+            Some(text) => trace.in_work_coordinates(work_offset_m(text)?),
+            None => trace,
+        })
+    }
+}
+
+/// `--work-offset X,Y` (mm) in metres.
+fn work_offset_m(text: &str) -> Result<[f64; 2], CliError> {
+    let values: Vec<Option<f64>> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
+        .collect();
+    match values.as_slice() {
+        [Some(x), Some(y)] => Ok([x * 1e-3, y * 1e-3]),
+        _ => Err(CliError::Usage(format!(
+            "--work-offset '{text}': give X,Y in mm, e.g. --work-offset 471.103,-250"
+        ))),
     }
 }
 

@@ -21,7 +21,7 @@ pub fn run(args: &ValidateArgs) -> Result<Outcome, CliError> {
     let machine = args.machine.load()?;
     let sim = SimConfig::default();
     println!(
-        "Validation of the {} preset against Wang et al. (paper §4, MODEL.md §4), X axis\n",
+        "Validation of the {} preset against Wang et al. (paper §4, docs/model.md §4), X axis\n",
         machine.name
     );
     let tables = PAPER_TABLES
@@ -54,7 +54,7 @@ pub fn run(args: &ValidateArgs) -> Result<Outcome, CliError> {
             100.0 * t.max_rel_dev_from_f_over_kv
         );
     }
-    println!("Bode figures of the linearised loops (reference: MODEL.md §2)");
+    println!("Bode figures of the linearised loops (reference: docs/model.md §2)");
     println!(
         "  loop       crossover Hz (ref)   phase margin ° (ref)   −3 dB Hz (ref)    −10° Hz (ref)"
     );

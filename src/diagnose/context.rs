@@ -411,6 +411,45 @@ struct Standstills {
     stretches: Vec<(usize, usize)>,
 }
 
+/// The constant offset (m) by which a record's commands run beside the program, if shifting
+/// them back by it puts them on the program's path: the centres of the two ranges of travel,
+/// confirmed by placing the shifted commands on the path within the tolerance.
+fn parallel_offset(
+    plan: &Plan,
+    planned: &Commands,
+    measured: &MeasuredTrace,
+    dt: f64,
+    settings: &DiagnoseSettings,
+) -> Option<[f64; 2]> {
+    let [xc, yc] = measured.commands.as_ref()?;
+    let centre = |v: &[f64]| {
+        let (lo, hi) = v
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                (l.min(x), h.max(x))
+            });
+        0.5 * (lo + hi)
+    };
+    let offset = [
+        centre(xc) - centre(&planned.x.pos_m),
+        centre(yc) - centre(&planned.y.pos_m),
+    ];
+    if !offset.iter().all(|o| o.is_finite()) {
+        return None;
+    }
+    let shift = |v: &[f64], o: f64| v.iter().map(|p| p - o).collect::<Vec<f64>>();
+    let mut shifted = commands_from_record(
+        &shift(xc, offset[0]),
+        &shift(yc, offset[1]),
+        measured.dt_s,
+        dt,
+    );
+    match place_on_path(plan, &mut shifted) {
+        Some(worst) if worst.distance_m > settings.command_tolerance_m => None,
+        _ => Some(offset),
+    }
+}
+
 /// Builds the comparison timeline: commands, plan, samples, and a first clock offset.
 pub fn context<'a>(
     program: &Program,
@@ -432,12 +471,24 @@ pub fn context<'a>(
             if let Some(worst) = place_on_path(&plan, &mut commands)
                 && worst.distance_m > settings.command_tolerance_m
             {
+                let hint = match parallel_offset(&plan, &plan_commands, measured, dt, settings) {
+                    Some([x, y]) => format!(
+                        "the commands run parallel to the program, offset by X {:.3} mm, Y {:.3} \
+                         mm — a work offset; give it with --work-offset {:.3},{:.3}",
+                        x * 1e3,
+                        y * 1e3,
+                        x * 1e3,
+                        y * 1e3
+                    ),
+                    None => "is this a record of this program, in the same coordinates?".into(),
+                };
                 return Err(DiagnoseError::OffPath {
                     file: measured.file.clone(),
                     t_s: measured.t0_s + worst.t_s,
                     line: worst.line,
                     distance_um: um_from_m(worst.distance_m),
                     tolerance_um: um_from_m(settings.command_tolerance_m),
+                    hint,
                 });
             }
             let start = first_motion(&commands) - first_motion(&plan_commands);

@@ -111,7 +111,7 @@ pub enum DiagnoseError {
     #[error(
         "{file}: the recorded commands leave the program's path by {distance_um:.1} µm at \
          t = {t_s:.4} s (line {line}); more than the {tolerance_um} µm allowed \
-         (--command-tolerance-um): is this a record of this program, in the same coordinates?"
+         (--command-tolerance-um): {hint}"
     )]
     OffPath {
         /// The measurement file.
@@ -124,6 +124,8 @@ pub enum DiagnoseError {
         distance_um: f64,
         /// The tolerance (µm).
         tolerance_um: f64,
+        /// What the user may try: a work offset the commands show, or a question.
+        hint: String,
     },
     /// The nominal model cannot be simulated.
     #[error("{0}")]

@@ -237,6 +237,15 @@ impl Problem<'_, '_, '_> {
         let mut p = DVector::zeros(n);
         let mut r = self.evaluate(&p);
         let mut cost = r.norm_squared();
+        // Nothing to fit, or no sample to fit it on (a half of a record that is all
+        // standstill): the values stay, and with no sample they are undetermined.
+        if n == 0 || self.keep.is_empty() {
+            return Some(Fitted {
+                values: values_at(self.knobs, self.base, &p),
+                sigma: vec![f64::INFINITY; n],
+                cost,
+            });
+        }
         let mut lambda = 1e-3;
         let mut jac = self.jacobian_at(&p)?;
         for _ in 0..ITERATIONS {

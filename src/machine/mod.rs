@@ -115,7 +115,7 @@ fn default_straightness_span_mm() -> f64 {
     1000.0
 }
 
-/// Effects outside the nominal model (MODEL.md §5), each off at zero.
+/// Effects outside the nominal model (docs/model.md §5), each off at zero.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Errors {
@@ -321,7 +321,7 @@ pub struct Drive {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum DriveKind {
-    /// A motor turning a ball screw through a coupling (MODEL.md §1).
+    /// A motor turning a ball screw through a coupling (docs/model.md §1).
     #[default]
     BallScrew,
     /// A linear motor: its force acts on the table itself.
@@ -354,7 +354,7 @@ pub struct Friction {
     pub stribeck_velocity_mm_per_min: f64,
 }
 
-/// Beam sag that tilts the screw and scales its lead (MODEL.md §1.7).
+/// Beam sag that tilts the screw and scales its lead (docs/model.md §1.7).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LateralShift {

@@ -1,4 +1,4 @@
-//! The servo-feed axis simulator (MODEL.md §1): three-loop control (or another controller
+//! The servo-feed axis simulator (docs/model.md §1): three-loop control (or another controller
 //! structure, `control`), ball-screw mechanics,
 //! hybrid stick/slip friction, backlash, lateral shift, current and voltage limits.
 //!

@@ -1,4 +1,4 @@
-//! One axis as MODEL.md §1 specifies it, in SI units: the parameters derived once from the
+//! One axis as docs/model.md §1 specifies it, in SI units: the parameters derived once from the
 //! user's configuration, and the piecewise-linear state-space matrices of each mode — for
 //! the paper's cascade, and for the other controller structures of `machine::controller`
 //! (a transfer function or state feedback on an ideal current amplifier, whose states take
@@ -79,7 +79,7 @@ pub type Row = SMatrix<f64, 1, NA>;
 /// Augmented dynamics matrix (the input rows are zero).
 pub type AugMatrix = SMatrix<f64, NA, NA>;
 
-/// One axis in SI units (see MODEL.md §1 for the symbols).
+/// One axis in SI units (see docs/model.md §1 for the symbols).
 #[derive(Debug, Clone, PartialEq)]
 pub struct AxisModel {
     /// Position gain Kp (rad/s per m of error, at the motor).
@@ -249,7 +249,7 @@ impl MeasuringError {
     }
 }
 
-/// Beam sag that scales the lead (MODEL.md §1.7).
+/// Beam sag that scales the lead (docs/model.md §1.7).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LateralShiftModel {
     /// Beam length l (m).
@@ -932,7 +932,7 @@ mod tests {
         assert!((m.ks - 16.0 / 2.34).abs() < 1e-12);
         assert!((m.f_c - 588.6).abs() < 1e-9);
         assert!((m.f_s - m.f_c - 76.518).abs() < 1e-9);
-        // K_λ − 1 at the beam centre ≈ −5.6e-10 (MODEL.md §2).
+        // K_λ − 1 at the beam centre ≈ −5.6e-10 (docs/model.md §2).
         let k = m.lateral.unwrap().k_lambda(0.0) - 1.0;
         assert!((k + 5.6e-10).abs() < 0.1e-10, "{k:e}");
     }

@@ -40,7 +40,7 @@ struct Guard {
 const ROWS: usize = 24;
 
 /// A sliding table's speed may dip through zero and come back within one step: both ends
-/// satisfy the guard, yet the table should have stuck in between (MODEL.md §1.6 puts the
+/// satisfy the guard, yet the table should have stuck in between (docs/model.md §1.6 puts the
 /// switch at the zero crossing). The table's acceleration is a linear functional of the
 /// state too, so a kernel of a sliding mode also yields it at the chunk's end; when it turns
 /// from against the motion to with it inside the chunk, the speed has a minimum there,
@@ -856,7 +856,7 @@ impl<'a> AxisRun<'a> {
     }
 }
 
-/// The structural mode (a resonance, MODEL.md §5) as the measured point sees it: a second-order
+/// The structural mode (a resonance, docs/model.md §5) as the measured point sees it: a second-order
 /// oscillator excited by the table's acceleration, added to the table position. Applied as
 /// the samples come, so that a run taken out piece by piece reads the same as a whole one;
 /// the acceleration is the centred second difference, so each sample's offset uses the

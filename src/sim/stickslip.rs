@@ -1,4 +1,4 @@
-//! Stick-slip by the paper's criterion (§4.2.2, MODEL.md §4): from rest, a constant
+//! Stick-slip by the paper's criterion (§4.2.2, docs/model.md §4): from rest, a constant
 //! commanded feed (a velocity step) for 30 s; a slip is the table's travel from a break-away
 //! to the next stick; slips that break away in the second half of the run count; stick-slip
 //! is present when one of them reaches 1 µm. The critical velocity is the lowest feed above

@@ -1,0 +1,102 @@
+//! Records no machine run should give, and some real ones do: a handful of samples, an axis
+//! that never moves, a record that is all jumps (rapids sampled at 50 Hz), commands far from
+//! the program (machine coordinates), a constant record, a clock that stalls. Reading,
+//! inspecting, diagnosing and identifying each may refuse it, but only with an error: none
+//! may panic.
+
+mod common;
+
+use common::program_text;
+use contourcheck::diagnose::report::DiagnoseReport;
+use contourcheck::diagnose::{DiagnoseSettings, diagnose};
+use contourcheck::identify::identify;
+use contourcheck::inspect::summarise;
+use contourcheck::machine::MachineConfig;
+use contourcheck::measured::parse_trace;
+use proptest::prelude::*;
+
+/// How one axis moves in an odd record.
+#[derive(Debug, Clone, Copy)]
+enum Motion {
+    Still,
+    Ramp,
+    /// Jumps between a few positions, as rapids look at a low sampling rate.
+    Jumps,
+    /// Alternates between two positions every sample.
+    Chatter,
+}
+
+fn motion() -> impl Strategy<Value = Motion> {
+    prop_oneof![
+        Just(Motion::Still),
+        Just(Motion::Ramp),
+        Just(Motion::Jumps),
+        Just(Motion::Chatter),
+    ]
+}
+
+/// Position (mm) of an axis moving so at sample `k` of `n`.
+fn position_mm(m: Motion, k: usize, n: usize) -> f64 {
+    let s = k as f64 / n.max(1) as f64;
+    match m {
+        Motion::Still => 5.0,
+        Motion::Ramp => 20.0 * s,
+        Motion::Jumps => [0.0, 20.0, 20.0, 7.5, 0.0][(5 * k / n.max(1)).min(4)],
+        Motion::Chatter => (k % 2) as f64 * 0.001,
+    }
+}
+
+/// A CSV record: `n` samples `step_s` apart, each axis moving so, with commands (offset by
+/// `command_offset_mm`, a work offset the program does not know) or without.
+fn record_csv(
+    n: usize,
+    step_s: f64,
+    x: Motion,
+    y: Motion,
+    commands: Option<f64>,
+    lag_samples: usize,
+) -> String {
+    let mut csv = String::from(if commands.is_some() {
+        "t_s,x_mm,y_mm,x_cmd_mm,y_cmd_mm\n"
+    } else {
+        "t_s,x_mm,y_mm\n"
+    });
+    for k in 0..n {
+        let behind = k.saturating_sub(lag_samples);
+        let (xm, ym) = (position_mm(x, behind, n), position_mm(y, behind, n));
+        csv.push_str(&format!("{},{xm},{ym}", k as f64 * step_s));
+        if let Some(offset) = commands {
+            let (xc, yc) = (position_mm(x, k, n), position_mm(y, k, n));
+            csv.push_str(&format!(",{},{}", xc + offset, yc + offset));
+        }
+        csv.push('\n');
+    }
+    csv
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+    #[test]
+    fn no_odd_record_makes_inspect_diagnose_or_identify_panic(
+        n in prop_oneof![Just(10usize), Just(40), 150usize..400],
+        step_s in prop_oneof![Just(1e-3), Just(0.02)],
+        x in motion(),
+        y in motion(),
+        commands in prop_oneof![Just(None), Just(Some(0.0)), Just(Some(471.103))],
+        lag_samples in 0usize..4,
+    ) {
+        let csv = record_csv(n, step_s, x, y, commands, lag_samples);
+        let Ok(trace) = parse_trace(&csv, "odd.csv") else { return Ok(()) };
+        let _ = summarise(&trace).text();
+        let program = program_text(
+            "G21 G17 G90 G94\nG0 X0 Y0\nG1 X20 F1200\nY7.5\nG0 X0 Y0\nM2\n",
+        );
+        let machine = MachineConfig::default_preset();
+        let settings = DiagnoseSettings::for_machine(&machine);
+        if let Ok(d) = diagnose(&program, &machine, &trace, &settings) {
+            let _ = DiagnoseReport::new(&d, "odd.nc", &trace, &machine).summary_text();
+        }
+        let _ = identify(&program, &machine, &trace, &settings);
+    }
+}
