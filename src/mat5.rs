@@ -475,6 +475,15 @@ impl<'a> SubCursor<'a> {
                 String::from_utf8_lossy(&c[..end]).into_owned()
             })
             .collect();
+        // Elements without fields take no bytes: their number is the dimensions' word alone,
+        // and no storage is spent on what a file did not pay for.
+        if fields.is_empty() {
+            return Ok(Value::Struct {
+                dims,
+                fields,
+                elements: Vec::new(),
+            });
+        }
         let mut elements = Vec::new();
         for _ in 0..count {
             let mut element = Vec::with_capacity(fields.len());

@@ -348,6 +348,33 @@ fn damage_is_named_with_its_byte_offset() {
     );
 }
 
+/// Dimensions a file claims but does not pay for in bytes cost it nothing: a structure of
+/// 2³¹×2³¹ elements without fields, a cell of as many cells.
+#[test]
+fn claimed_dimensions_cost_only_the_bytes_there() {
+    let w = Writer { big_endian: false };
+    let huge = [i32::MAX, i32::MAX];
+    let no_fields = {
+        let parts = vec![
+            w.element(MI_INT32, &w.int32s(&[32]), true),
+            w.element(MI_INT8, &[], false),
+        ];
+        w.array(MX_STRUCT, &huge, "s", &parts)
+    };
+    let mut file = w.header();
+    file.extend(no_fields);
+    let vars = mat5::read(&file).unwrap();
+    assert!(matches!(&vars[0].value, Value::Struct { elements, .. } if elements.is_empty()));
+    let mut file = w.header();
+    file.extend(w.array(1, &huge, "c", &[]));
+    assert!(
+        mat5::read(&file)
+            .unwrap_err()
+            .to_string()
+            .contains("damaged")
+    );
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
 
