@@ -4,7 +4,7 @@
 /// Millimetres per inch (exact).
 pub const MM_PER_INCH: f64 = 25.4;
 /// Gravity used to turn friction coefficients into forces (m/s²). 9.81 rather than the
-/// standard 9.80665: it is the value behind docs/model.md's f_c = 589 N and f_s − f_c = 76.5 N.
+/// standard 9.80665: it is the value behind docs/model.md's f_c = 588.4 N and f_s − f_c = 76.5 N.
 pub const GRAVITY_M_PER_S2: f64 = 9.81;
 
 /// mm → m.
