@@ -32,11 +32,7 @@ struct Writer {
 
 impl Writer {
     fn u32(self, v: u32) -> [u8; 4] {
-        if self.big_endian {
-            v.to_be_bytes()
-        } else {
-            v.to_le_bytes()
-        }
+        self.ordered(v.to_le_bytes(), v.to_be_bytes())
     }
 
     /// A data element: a small one (type and size in one word, data in the next) where the
@@ -57,27 +53,20 @@ impl Writer {
         out
     }
 
+    /// A number's bytes in this writer's order.
+    fn ordered<const N: usize>(self, little: [u8; N], big: [u8; N]) -> [u8; N] {
+        if self.big_endian { big } else { little }
+    }
+
     fn doubles(self, v: &[f64]) -> Vec<u8> {
         v.iter()
-            .flat_map(|x| {
-                if self.big_endian {
-                    x.to_be_bytes()
-                } else {
-                    x.to_le_bytes()
-                }
-            })
+            .flat_map(|x| self.ordered(x.to_le_bytes(), x.to_be_bytes()))
             .collect()
     }
 
     fn int32s(self, v: &[i32]) -> Vec<u8> {
         v.iter()
-            .flat_map(|x| {
-                if self.big_endian {
-                    x.to_be_bytes()
-                } else {
-                    x.to_le_bytes()
-                }
-            })
+            .flat_map(|x| self.ordered(x.to_le_bytes(), x.to_be_bytes()))
             .collect()
     }
 
@@ -116,13 +105,7 @@ impl Writer {
     fn text(self, s: &str) -> Vec<u8> {
         let units: Vec<u8> = s
             .encode_utf16()
-            .flat_map(|u| {
-                if self.big_endian {
-                    u.to_be_bytes()
-                } else {
-                    u.to_le_bytes()
-                }
-            })
+            .flat_map(|u| self.ordered(u.to_le_bytes(), u.to_be_bytes()))
             .collect();
         let dims = if s.is_empty() {
             [0, 0]
