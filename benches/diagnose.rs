@@ -12,9 +12,9 @@ use contourcheck::diagnose::causes::CauseId;
 use contourcheck::diagnose::{DiagnoseSettings, diagnose};
 use contourcheck::gcode::{InterpretOptions, Program, parse_program};
 use contourcheck::machine::{AxisName, MachineConfig};
-use contourcheck::measured::{MeasuredTrace, parse_trace};
 use contourcheck::sim::MeasuredAt;
 use contourcheck::synth::{SynthSpec, synthesize};
+use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 use criterion::{Criterion, criterion_group, criterion_main};
 
 fn program(name: &str, text: &str) -> Program {

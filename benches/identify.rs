@@ -8,8 +8,8 @@ use contourcheck::diagnose::DiagnoseSettings;
 use contourcheck::gcode::{InterpretOptions, Program, parse_program};
 use contourcheck::identify::identify;
 use contourcheck::machine::MachineConfig;
-use contourcheck::measured::{MeasuredTrace, parse_trace};
 use contourcheck::synth::{SynthSpec, synthesize};
+use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 use criterion::{Criterion, criterion_group, criterion_main};
 
 fn program() -> Program {

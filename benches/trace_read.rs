@@ -3,8 +3,8 @@
 
 use std::hint::black_box;
 
-use contourcheck::measured::parse_trace_with;
-use contourcheck::trace_format::ColumnMap;
+use contourcheck::trace::format::ColumnMap;
+use contourcheck::trace::measured::parse_trace_with;
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 
 fn export(rows: usize) -> String {

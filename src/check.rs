@@ -10,9 +10,9 @@
 use serde::Serialize;
 
 use crate::analysis::RunAnalyser;
+use crate::analysis::circular::CirclePath;
+use crate::analysis::contour::{ContourPoint, ContourSeries};
 pub use crate::analysis::{CheckResult, RunPlace, Summary};
-use crate::circular::CirclePath;
-use crate::contour::{ContourPoint, ContourSeries};
 use crate::execute::{ExecConfig, RunChunk, execute_in_chunks};
 use crate::gcode::Program;
 use crate::machine::MachineConfig;

@@ -4,16 +4,16 @@
 //! documented field by field in `docs/report-schema.md`; a field is never removed or
 //! changed in meaning without a new version. Lengths are in mm, errors in µm, times in s.
 
-use crate::circular::CircularTest;
+use crate::analysis::circular::CircularTest;
 use std::io::Write;
 
 use serde::Serialize;
 
+use crate::analysis::contour::ContourPoint;
+use crate::analysis::hotspot::Hotspot;
 use crate::check::{CheckResult, CheckSettings};
-use crate::contour::ContourPoint;
 use crate::execute::RunChunk;
 use crate::gcode::{CodeNote, Program, Warning};
-use crate::hotspot::Hotspot;
 use crate::machine::MachineConfig;
 use crate::units::{mm_from_m, um_from_m};
 

@@ -18,10 +18,10 @@ use crate::causes::{self, CauseId};
 use crate::check::{CheckSettings, plan_commands};
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
-use crate::recorded::commands_from_record;
-use crate::signal::sample;
 use crate::sim::{AxisModel, MeasuredAt, SimError, simulate};
-use crate::trace_format::{ColumnMap, Signal, Unit};
+use crate::trace::format::{ColumnMap, Signal, Unit};
+use crate::trace::recorded::commands_from_record;
+use crate::trace::signal::sample;
 
 /// What to hide and how to measure it.
 #[derive(Debug, Clone, PartialEq)]

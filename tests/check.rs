@@ -3,9 +3,9 @@
 
 use std::f64::consts::PI;
 
+use contourcheck::analysis::hotspot::Cause;
 use contourcheck::check::{CheckRun, CheckSettings, check, circle_tests};
 use contourcheck::gcode::{InterpretOptions, parse_program};
-use contourcheck::hotspot::Cause;
 use contourcheck::machine::{AxisName, Feedback, MachineConfig};
 use contourcheck::plan::ProfileKind;
 use contourcheck::sim::AxisModel;
@@ -140,7 +140,7 @@ fn circle_test(machine: &MachineConfig) -> CheckRun {
 }
 
 /// Angle of a hotspot on the test circle (degrees, 0..360).
-fn angle_deg(h: &contourcheck::hotspot::Hotspot) -> f64 {
+fn angle_deg(h: &contourcheck::analysis::hotspot::Hotspot) -> f64 {
     h.y_mm.atan2(h.x_mm).to_degrees().rem_euclid(360.0)
 }
 
@@ -400,7 +400,7 @@ fn a_circle_of_short_chords_errs_as_the_arc_does() {
 /// dead time included, whose state crosses every seam), the contour error and the figures.
 #[test]
 fn a_run_in_chunks_is_the_run_in_one_piece() {
-    use contourcheck::contour::contour_errors;
+    use contourcheck::analysis::contour::contour_errors;
     use contourcheck::execute::CHUNK_SAMPLES;
     use contourcheck::sim::{SimConfig, simulate};
     let mut machine = MachineConfig::default_preset();

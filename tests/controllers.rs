@@ -367,8 +367,8 @@ fn backlash_on_another_controller_is_named_on_a_planned_record() {
     use contourcheck::causes::CauseId;
     use contourcheck::diagnose::{DiagnoseSettings, diagnose};
     use contourcheck::machine::AxisName;
-    use contourcheck::measured::parse_trace;
     use contourcheck::synth::{SynthSpec, synthesize};
+    use contourcheck::trace::measured::parse_trace;
     let table = MachineConfig::preset("small-table").unwrap();
     let program = common::sample_program("square.nc");
     let spec = SynthSpec {

@@ -20,9 +20,9 @@ use contourcheck::diagnose::table::diagnose_table;
 use contourcheck::diagnose::{AxisResidual, DiagnoseSettings, Diagnosis, diagnose};
 use contourcheck::gcode::Program;
 use contourcheck::machine::{AxisName, MachineConfig};
-use contourcheck::measured::{parse_table, parse_trace};
 use contourcheck::sim::SimConfig;
 use contourcheck::synth::{SynthSpec, synthesize};
+use contourcheck::trace::measured::{parse_table, parse_trace};
 
 fn sample_path(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -31,7 +31,10 @@ fn sample_path(name: &str) -> PathBuf {
 }
 
 /// `measured` of `prog` diagnosed against the nominal machine with the default settings.
-fn diagnose_nominal(prog: &Program, measured: &contourcheck::measured::MeasuredTrace) -> Diagnosis {
+fn diagnose_nominal(
+    prog: &Program,
+    measured: &contourcheck::trace::measured::MeasuredTrace,
+) -> Diagnosis {
     let nominal = MachineConfig::default_preset();
     diagnose(
         prog,
@@ -50,7 +53,7 @@ fn recorded(
     machine: &MachineConfig,
     spec: &SynthSpec,
     name: &str,
-) -> contourcheck::measured::MeasuredTrace {
+) -> contourcheck::trace::measured::MeasuredTrace {
     let mut csv = Vec::new();
     synthesize(program, machine, spec)
         .unwrap()
@@ -745,7 +748,7 @@ fn a_second_record_judges_what_the_first_fitted() {
 /// The circle test's record of the nominal machine with a bump on the X scale — a raised
 /// cosine of `peak_um` between X = 20 and 40 mm, as a damaged or dirty scale reads — added
 /// to the measured X column of the CSV a user would hand over.
-fn record_with_a_bump_on_x(peak_um: f64) -> contourcheck::measured::MeasuredTrace {
+fn record_with_a_bump_on_x(peak_um: f64) -> contourcheck::trace::measured::MeasuredTrace {
     record_with_x_reading(|x| {
         if (20.0..=40.0).contains(&x) {
             let phase = std::f64::consts::TAU * (x - 20.0) / 20.0;
@@ -757,7 +760,9 @@ fn record_with_a_bump_on_x(peak_um: f64) -> contourcheck::measured::MeasuredTrac
 }
 
 /// The circle test's record of the nominal machine with X reading `error_um(x_mm)` more.
-fn record_with_x_reading(error_um: impl Fn(f64) -> f64) -> contourcheck::measured::MeasuredTrace {
+fn record_with_x_reading(
+    error_um: impl Fn(f64) -> f64,
+) -> contourcheck::trace::measured::MeasuredTrace {
     let prog = program("circle-test.nc");
     let spec = SynthSpec {
         offset_s: 0.37,
@@ -923,7 +928,10 @@ fn shuttle_program() -> Program {
 /// The shuttle on `truth`, measured as a laser interferometer or a fine scale does (0.05 µm
 /// of noise, 0.1 µm counts): the quiet a tight spot on this heavy table needs, whose ±0.5 µm
 /// transients a 0.3 µm noise would bury.
-fn quiet_shuttle_record(truth: &MachineConfig, seed: u64) -> contourcheck::measured::MeasuredTrace {
+fn quiet_shuttle_record(
+    truth: &MachineConfig,
+    seed: u64,
+) -> contourcheck::trace::measured::MeasuredTrace {
     let spec = SynthSpec {
         offset_s: 0.29,
         seed,

@@ -14,9 +14,9 @@ use contourcheck::diagnose::causes::CauseId;
 use contourcheck::diagnose::{DiagnoseError, DiagnoseSettings, Diagnosis, diagnose};
 use contourcheck::gcode::Program;
 use contourcheck::machine::{AxisName, MachineConfig};
-use contourcheck::measured::parse_trace;
 use contourcheck::sim::MeasuredAt;
 use contourcheck::synth::{SynthSpec, synthesize};
+use contourcheck::trace::measured::parse_trace;
 
 /// A record of `program` on the nominal machine with `effect` hidden, driven by the foreign
 /// interpolator's commands, as CSV text.
@@ -614,7 +614,7 @@ fn a_logger_that_holds_its_readings_is_read_at_its_own_rate_and_not_taken_for_st
     let trace = parse_trace(&csv, "record.csv").unwrap();
     assert_eq!(
         trace.held,
-        Some(contourcheck::measured::HeldRows {
+        Some(contourcheck::trace::measured::HeldRows {
             period: 15,
             phase: 7
         })

@@ -14,8 +14,8 @@ use contourcheck::diagnose::{DiagnoseSettings, diagnose};
 use contourcheck::gcode::Program;
 use contourcheck::identify::{Identification, IdentifyError, identify};
 use contourcheck::machine::{AxisConfig, AxisName, MachineConfig};
-use contourcheck::measured::{MeasuredTrace, parse_trace};
 use contourcheck::synth::{SynthSpec, synthesize};
+use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 
 /// A 5 s program moving both axes both ways at several feeds, with an arc.
 fn fitted_program() -> Program {

@@ -10,9 +10,9 @@ use common::program_text;
 use contourcheck::diagnose::report::DiagnoseReport;
 use contourcheck::diagnose::{DiagnoseSettings, diagnose};
 use contourcheck::identify::identify;
-use contourcheck::inspect::summarise;
 use contourcheck::machine::MachineConfig;
-use contourcheck::measured::parse_trace;
+use contourcheck::trace::inspect::summarise;
+use contourcheck::trace::measured::parse_trace;
 use proptest::prelude::*;
 
 /// How one axis moves in an odd record.

@@ -5,9 +5,9 @@
 //! record, and read them back.
 
 use contourcheck::machine::MachineConfig;
-use contourcheck::measured::{MeasuredTrace, parse_trace, read_trace_with};
 use contourcheck::synth::{SynthSpec, synthesize};
-use contourcheck::trace_format::ColumnMap;
+use contourcheck::trace::format::ColumnMap;
+use contourcheck::trace::measured::{MeasuredTrace, parse_trace, read_trace_with};
 
 /// A level-5 MAT-file holding real double matrices `(name, rows, columns, column-major
 /// values)`.
@@ -418,7 +418,8 @@ fn a_record_written_in_a_vendor_layout_reads_back_with_that_layout() {
     // Counts are whole numbers.
     let second = csv.lines().nth(2).unwrap();
     assert!(!second.split(',').nth(1).unwrap().contains('.'), "{second}");
-    let read = contourcheck::measured::parse_trace_with(&csv, "export.csv", Some(&layout)).unwrap();
+    let read =
+        contourcheck::trace::measured::parse_trace_with(&csv, "export.csv", Some(&layout)).unwrap();
     assert_eq!(read.len(), expected.len());
     assert!((read.dt_s - expected.dt_s).abs() < 1e-12);
     // Within half a count of the record written the tool's own way.
@@ -428,4 +429,118 @@ fn a_record_written_in_a_vendor_layout_reads_back_with_that_layout() {
     assert!(within(&read.y_m, &expected.y_m, 0.05e-6 + 1e-12));
     let (c, e) = (read.commands.unwrap(), expected.commands.unwrap());
     assert!(within(&c[0], &e[0], 1e-10) && within(&c[1], &e[1], 1e-10));
+}
+
+/// The record as SINUMERIK Operate saves a trace (see `trace::sinumerik`): ISO-8859-1 XML,
+/// signals listed by key with their plain names in the display setup, the actual positions
+/// in every `rec` (the position controller's clock) and the setpoints in every second one
+/// (the interpolator's), a no-value marker or nothing in between, and a signal the mapping
+/// does not need (with a µ in its name).
+fn sinumerik_trace(csv: &str) -> Vec<u8> {
+    let [t, x, y, xc, yc] = columns(csv);
+    let mut xml = String::from(
+        "<?xml version=\"1.0\" encoding=\"ISO-8859-1\"?>\n<traceSession version=\"2\">\n\
+         <traceDisplaySetup>\n<signals>\n\
+         <signal key=\"k1\" name=\"/Nck/ServoData/X1/actPos\" description=\"X1 Position actual value measuring system 1\"/>\n\
+         <signal key=\"k2\" name=\"/Nck/ServoData/Y1/actPos\" description=\"Y1 Position actual value measuring system 1\"/>\n\
+         </signals>\n</traceDisplaySetup>\n<traceData>\n<dataFrame>\n\
+         <dataSignal key=\"k1\" name=\"/Nck/ServoData/X1/actPos\"/>\n\
+         <dataSignal key=\"k2\" name=\"/Nck/ServoData/Y1/actPos\"/>\n\
+         <dataSignal key=\"k3\" name=\"/Nck/IpoData/X1/setPos\" description=\"X1 Position setpoint (64 bit)\"/>\n\
+         <dataSignal key=\"k4\" name=\"/Nck/IpoData/Y1/setPos\" description=\"Y1 Position setpoint (64 bit)\"/>\n\
+         <dataSignal key=\"k5\" name=\"/Nck/ServoData/X1/contDev\" description=\"X1 Contour deviation \u{b5}m\"/>\n",
+    );
+    for k in 0..t.len() {
+        let mut rec = format!(
+            "<rec time=\"{:.6}\" f1=\"{:.9}\" f2=\"{:.9}\"",
+            t[k], x[k], y[k]
+        );
+        if k % 2 == 0 {
+            rec.push_str(&format!(" f3=\"{:.9}\" f4=\"{:.9}\"", xc[k], yc[k]));
+        } else if k % 4 == 1 {
+            rec.push_str(" f3=\"9223372036854775807\" f4=\"9223372036854775807\"");
+        }
+        rec.push_str(&format!(" f5=\"{:.3}\"/>\n", (x[k] - xc[k]) * 1e3));
+        xml.push_str(&rec);
+    }
+    xml.push_str("</dataFrame>\n</traceData>\n</traceSession>\n");
+    // ISO-8859-1: every character here is below U+0100, one byte each.
+    xml.chars()
+        .map(|c| u8::try_from(u32::from(c)).unwrap())
+        .collect()
+}
+
+#[test]
+fn a_sinumerik_operate_trace_reads_without_a_mapping() {
+    let (csv, expected) = record();
+    let n = expected.len();
+    // The setpoints end on an odd sample when the record's length is even: the columns
+    // share the span every signal covers.
+    let last_even = if n % 2 == 0 { n - 1 } else { n };
+    let trace = read(&sinumerik_trace(&csv), None).unwrap();
+    assert_eq!(trace.len(), last_even);
+    assert!((trace.dt_s - expected.dt_s).abs() < 1e-9);
+    let near = |u: &[f64], v: &[f64], tol: f64| u.iter().zip(v).all(|(p, q)| (p - q).abs() < tol);
+    assert!(near(&trace.x_m, &expected.x_m, 1e-11) && near(&trace.y_m, &expected.y_m, 1e-11));
+    // Setpoints interpolated midway between the interpolator's samples: exact where it
+    // sampled, within a·Δt²/8 of the commands elsewhere (under 1 µm).
+    let (c, e) = (trace.commands.unwrap(), expected.commands.unwrap());
+    for axis in 0..2 {
+        for k in 0..trace.x_m.len() {
+            let tol = if k % 2 == 0 { 1e-11 } else { 1e-6 };
+            assert!(
+                (c[axis][k] - e[axis][k]).abs() < tol,
+                "axis {axis} sample {k}: {} vs {}",
+                c[axis][k],
+                e[axis][k]
+            );
+        }
+    }
+    let described = trace.layout.describe();
+    assert!(
+        described[0].starts_with("SINUMERIK Operate trace (XML), 5 signals"),
+        "{described:?}"
+    );
+    assert!(
+        described
+            .iter()
+            .any(|l| l.contains("x_cmd") && l.contains("X1 Position setpoint")),
+        "{described:?}"
+    );
+}
+
+#[test]
+fn damaged_sinumerik_traces_are_refused_with_the_line() {
+    let (csv, _) = record();
+    let good = String::from_utf8_lossy(&sinumerik_trace(&csv)).into_owned();
+    let cut = &good[..good.len() / 2];
+    let e = read(cut.as_bytes(), None).unwrap_err();
+    assert!(e.contains("not well-formed XML at line"), "{e}");
+    let bad = good.replacen("f1=\"", "f1=\"x", 3);
+    let e = read(bad.as_bytes(), None).unwrap_err();
+    assert!(e.contains("f1 = 'x") && e.contains("row 1"), "{e}");
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(300))]
+    /// A SINUMERIK trace cut anywhere, with any text spliced in, is an error or a trace,
+    /// never a panic.
+    #[test]
+    fn damaged_sinumerik_traces_never_panic(
+        splice in "[<>=\"/a-z0-9. f]{0,40}",
+        at in 0usize..4000,
+        cut in 0usize..4000,
+    ) {
+        static XML: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+        let whole = XML.get_or_init(|| {
+            let (csv, _) = record();
+            let short: String = csv.lines().take(60).flat_map(|l| [l, "\n"]).collect();
+            String::from_utf8_lossy(&sinumerik_trace(&short)).into_owned()
+        });
+        let mut xml = whole.clone();
+        let at = xml.floor_char_boundary(at.min(xml.len()));
+        xml.insert_str(at, &splice);
+        let cut = xml.floor_char_boundary(cut.min(xml.len()));
+        let _ = read(xml[..xml.len() - cut].as_bytes(), None);
+    }
 }

@@ -7,7 +7,7 @@ use clap::Args;
 use super::Outcome;
 use super::common::{CliError, MachineArgs, PlanningArgs, group_warnings, load_program, progress};
 use crate::check::{CheckResult, CheckSettings, check_planned, circle_tests};
-use crate::output::OutputBatch;
+use crate::cli::output::OutputBatch;
 use crate::path::{Geometry, Motion};
 use crate::plan::{KinematicLimits, plan_segments};
 use crate::plot::along_path::AlongPathPlot;

@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 
+use crate::cli::output::OutputError;
 use crate::gcode::{GcodeErrors, InterpretOptions, Program, parse_program};
 use crate::machine::{ConfigError, MachineConfig};
-use crate::output::OutputError;
 use crate::plan::{PlanConfig, ProfileKind};
 use crate::units::{m_from_mm, s_from_ms};
 
@@ -39,7 +39,7 @@ pub enum CliError {
     Envelope(#[from] crate::envelope::EnvelopeError),
     /// Measured data is unreadable or malformed.
     #[error("{0}")]
-    Measured(#[from] crate::measured::MeasuredError),
+    Measured(#[from] crate::trace::measured::MeasuredError),
     /// A diagnosis could not be made.
     #[error("{0}")]
     Diagnose(#[from] crate::diagnose::DiagnoseError),
@@ -225,8 +225,8 @@ pub struct TraceArgs {
 
 impl TraceArgs {
     /// Reads the trace at `path` as these arguments say.
-    pub fn read(&self, path: &Path) -> Result<crate::measured::MeasuredTrace, CliError> {
-        use crate::trace_format::{ColumnMap, TraceProfile};
+    pub fn read(&self, path: &Path) -> Result<crate::trace::measured::MeasuredTrace, CliError> {
+        use crate::trace::format::{ColumnMap, TraceProfile};
         let map = match (&self.columns, &self.trace_profile) {
             (Some(text), _) => Some(
                 ColumnMap::parse(text).map_err(|e| CliError::Usage(format!("--columns: {e}")))?,
@@ -234,7 +234,7 @@ impl TraceArgs {
             (None, Some(profile)) => Some(TraceProfile::load(profile).map_err(CliError::Usage)?),
             (None, None) => None,
         };
-        let trace = crate::measured::read_trace_with(path, map.as_ref())?;
+        let trace = crate::trace::measured::read_trace_with(path, map.as_ref())?;
         Ok(match &self.work_offset {
             Some(text) => trace.in_work_coordinates(work_offset_m(text)?),
             None => trace,
@@ -266,7 +266,7 @@ pub struct AxisArg {
 
 /// Writes a plot whole or not at all.
 pub fn write_plot(path: &Path, figure: &impl crate::plot::Figure) -> Result<(), CliError> {
-    let mut batch = crate::output::OutputBatch::new();
+    let mut batch = crate::cli::output::OutputBatch::new();
     batch.stage_with_path(path, |tmp| crate::plot::render(tmp, figure))?;
     batch.commit()?;
     Ok(())

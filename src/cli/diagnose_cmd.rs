@@ -8,16 +8,16 @@ use clap::Args;
 
 use super::Outcome;
 use super::common::{CliError, MachineArgs, PlanningArgs, TraceArgs, load_program, spinner};
+use crate::analysis::circular::radial_points;
 use crate::causes::{CauseId, CauseSet};
-use crate::circular::radial_points;
+use crate::cli::output::OutputBatch;
 use crate::diagnose::report::{DiagnoseReport, machine_file};
 use crate::diagnose::table::diagnose_table;
 use crate::diagnose::{DiagnoseSettings, Diagnosis, diagnose_validated};
-use crate::measured::read_table;
-use crate::output::OutputBatch;
 use crate::plot::panels::{Curve, Panel, PanelsPlot};
 use crate::plot::polar::{PolarPlot, PolarTrace};
 use crate::sim::MeasuredAt;
+use crate::trace::measured::read_table;
 use crate::units::{m_from_um, mm_from_m, um_from_m};
 
 /// Arguments of `diagnose`.

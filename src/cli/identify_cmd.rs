@@ -8,10 +8,10 @@ use clap::Args;
 
 use super::Outcome;
 use super::common::{CliError, PlanningArgs, TraceArgs, load_program, spinner};
+use crate::cli::output::OutputBatch;
 use crate::diagnose::DiagnoseSettings;
 use crate::identify::{Identification, IdentifiedValue, identify};
 use crate::machine::MachineConfig;
-use crate::output::OutputBatch;
 use crate::units::m_from_um;
 
 /// Arguments of `identify`.

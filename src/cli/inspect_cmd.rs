@@ -6,10 +6,10 @@ use clap::Args;
 
 use super::Outcome;
 use super::common::{CliError, TraceArgs, write_plot};
-use crate::inspect::summarise;
-use crate::measured::MeasuredTrace;
 use crate::plot::panels::{Curve, Panel, PanelsPlot};
 use crate::plot::xy::{Beside, XyPlot};
+use crate::trace::inspect::summarise;
+use crate::trace::measured::MeasuredTrace;
 use crate::units::{mm_from_m, um_from_m};
 
 /// Arguments of `inspect`.

@@ -8,6 +8,7 @@ mod common;
 mod diagnose_cmd;
 mod identify_cmd;
 mod inspect_cmd;
+pub(crate) mod output;
 mod plan_cmd;
 mod stickslip_cmd;
 mod sweep_cmd;
@@ -62,7 +63,7 @@ pub enum Outcome {
 
 /// Parses the process arguments, runs the command and returns the exit status.
 pub fn main() -> ExitCode {
-    crate::output::remove_staged_on_interrupt();
+    crate::cli::output::remove_staged_on_interrupt();
     let matches = Cli::command().get_matches();
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     match run(cli, &matches) {

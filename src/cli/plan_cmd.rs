@@ -7,7 +7,7 @@ use clap::Args;
 
 use super::Outcome;
 use super::common::{CliError, MachineArgs, PlanningArgs, format_duration, load_program};
-use crate::output::OutputBatch;
+use crate::cli::output::OutputBatch;
 use crate::path::Motion;
 use crate::plan::{Commands, KinematicLimits, plan, sample};
 use crate::units::{mm_from_m, mm_per_min_from_m_per_s};

@@ -9,8 +9,8 @@ use serde::Serialize;
 
 use super::Outcome;
 use super::common::{CliError, MachineArgs, PlanningArgs, load_program, progress, write_plot};
+use crate::cli::output::OutputBatch;
 use crate::machine::MachineConfig;
-use crate::output::OutputBatch;
 use crate::plot::sweep::{SweepHeatMap, SweepLinePlot};
 use crate::sweep::{self, Dimension, PointResult, SweepPoint};
 

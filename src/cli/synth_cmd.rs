@@ -9,12 +9,12 @@ use clap::Args;
 use super::Outcome;
 use super::common::{CliError, MachineArgs, TraceArgs, load_program};
 use crate::causes::CauseId;
+use crate::cli::output::OutputBatch;
 use crate::machine::AxisName;
-use crate::measured::MeasuredTrace;
-use crate::output::OutputBatch;
 use crate::sim::MeasuredAt;
 use crate::synth::{CommandStream, SynthSpec, synthesize};
-use crate::trace_format::ColumnMap;
+use crate::trace::format::ColumnMap;
+use crate::trace::measured::MeasuredTrace;
 use crate::units::{m_from_um, s_from_ms};
 
 /// Arguments of `synth`.

@@ -13,12 +13,12 @@ use crate::check::plan_commands;
 use crate::gcode::Program;
 use crate::geometry;
 use crate::machine::{AxisName, MachineConfig};
-use crate::measured::MeasuredTrace;
 use crate::path::Motion;
 use crate::plan::{Commands, InPosition, Plan};
-use crate::recorded::{commands_from_record, place_on_path};
-use crate::signal::sample;
 use crate::sim::{AxisModel, MeasuredAt, SimConfig, simulate};
+use crate::trace::measured::MeasuredTrace;
+use crate::trace::recorded::{commands_from_record, place_on_path};
+use crate::trace::signal::sample;
 use crate::units::um_from_m;
 
 /// How finely a context's simulations step.

@@ -14,7 +14,7 @@ use super::{DiagnoseError, DiagnoseSettings, fit};
 use crate::causes::{self, CauseId};
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
-use crate::measured::MeasuredTrace;
+use crate::trace::measured::MeasuredTrace;
 
 /// Pieces the quiet time is cut into at most: long against a servo's transients.
 const BLOCKS: usize = 8;

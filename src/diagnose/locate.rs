@@ -16,7 +16,7 @@
 
 use super::Context;
 use crate::machine::AxisName;
-use crate::signal::sample;
+use crate::trace::signal::sample;
 use crate::units::um_from_m;
 
 /// A variable a residual can hang on.

@@ -29,15 +29,15 @@ pub mod table;
 
 use serde::Serialize;
 
+use crate::analysis::circular::{Circle, CircularTest, circles, circular_test};
+use crate::analysis::contour::{ContourSeries, contour_errors};
 use crate::check::CheckSettings;
-use crate::circular::{Circle, CircularTest, circles, circular_test};
-use crate::contour::{ContourSeries, contour_errors};
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
-use crate::measured::{MeasuredError, MeasuredTrace};
 use crate::plan::Commands;
-use crate::signal::sample;
 use crate::sim::{MeasuredAt, SimError};
+use crate::trace::measured::{MeasuredError, MeasuredTrace};
+use crate::trace::signal::sample;
 use crate::units::{mm_from_m, um_from_m};
 use causes::{CauseId, CauseSet};
 pub use context::{Context, Stepping, context};

@@ -16,8 +16,8 @@ use super::{
 };
 use crate::causes::CauseId;
 use crate::machine::{AxisName, MachineConfig};
-use crate::measured::MeasuredTrace;
 use crate::sim::MeasuredAt;
+use crate::trace::measured::MeasuredTrace;
 
 /// Schema id of the JSON report.
 pub const SCHEMA: &str = "contourcheck.diagnose/1";

@@ -45,9 +45,12 @@ pub(crate) fn rms(v: &[f64]) -> f64 {
 /// The noise floor of a record (m): from its residuals against the nominal model, and never
 /// below the rounding of its own counts — a record of an encoder's 0.1 µm steps is not known
 /// better than 0.029 µm, however still its residual stands.
-pub fn record_noise(residuals: &[Vec<f64>], measured: &crate::measured::MeasuredTrace) -> f64 {
+pub fn record_noise(
+    residuals: &[Vec<f64>],
+    measured: &crate::trace::measured::MeasuredTrace,
+) -> f64 {
     let rounding = [&measured.x_m, &measured.y_m]
-        .map(|v| crate::measured::quantum(v).unwrap_or(0.0) / 12f64.sqrt())
+        .map(|v| crate::trace::measured::quantum(v).unwrap_or(0.0) / 12f64.sqrt())
         .into_iter()
         .fold(0.0, f64::max);
     noise_floor(residuals).max(rounding).max(1e-12)

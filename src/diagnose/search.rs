@@ -20,7 +20,7 @@ use super::residual::{axis_residual, chatter_mismatch, independent_share, rms};
 use super::{Alternative, DiagnoseSettings, FittedParam, FoundCause};
 use crate::causes::{self, CauseId, Kinematics};
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
-use crate::signal::sample;
+use crate::trace::signal::sample;
 use crate::units::{kv_m_per_min_per_mm_from_per_s, per_s_from_kv_m_per_min_per_mm, um_from_m};
 
 /// A cause tried on an axis in the first round.

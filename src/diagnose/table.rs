@@ -16,8 +16,8 @@ use serde::Serialize;
 use super::context::golden_section;
 use crate::causes::CauseId;
 use crate::machine::MachineConfig;
-use crate::measured::TableRow;
 use crate::sim::{SimConfig, SimError};
+use crate::trace::measured::TableRow;
 use crate::units::{m_per_s_from_mm_per_min, mm_from_m};
 use crate::validate::steady_following_error_m;
 

@@ -35,7 +35,7 @@ use crate::diagnose::residual::record_noise;
 use crate::diagnose::{DiagnoseError, DiagnoseSettings};
 use crate::gcode::Program;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
-use crate::measured::MeasuredTrace;
+use crate::trace::measured::MeasuredTrace;
 use crate::units::um_from_m;
 use knobs::{COULOMB_KEY, INTEGRAL_TIME_KEY, KV_KEY, Knob, MASS_KEY, VISCOUS_KEY, get, set_all};
 use solve::{Fit, Fitted};

@@ -9,6 +9,7 @@
 
 mod alternatives;
 mod controller;
+pub mod realise;
 mod sections;
 mod validate;
 

@@ -453,7 +453,7 @@ fn validate_transfer_function(
                 .into(),
         ));
     }
-    crate::sim::control::realise(tf)
+    crate::machine::realise::realise(tf)
         .map(|_| ())
         .map_err(|problem| c.inconsistent(&k("denominator"), problem))
 }

@@ -29,7 +29,8 @@ use crate::path::{Blend, Geometry, Motion, Segment, dot3};
 use crate::units::{m_from_mm, m_per_s_from_mm_per_min, mm_per_min_from_m_per_s, s_from_ms};
 use profile::{Dynamics, SegmentProfile, reachable_speed};
 
-pub use sample::{AxisCommands, AxisPeaks, Commands, Sampler, sample};
+pub use crate::sim::AxisCommands;
+pub use sample::{AxisPeaks, Commands, Sampler, sample};
 
 /// The shape of the speed profile.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

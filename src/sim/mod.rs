@@ -1,18 +1,19 @@
 //! The servo-feed axis simulator (docs/model.md §1): three-loop control (or another controller
-//! structure, `control`), ball-screw mechanics,
+//! structure, realised by `machine::realise`), ball-screw mechanics,
 //! hybrid stick/slip friction, backlash, lateral shift, current and voltage limits.
 //!
 //! [`simulate`] is pure: model and commands in, trace out, no I/O and no shared state, so
 //! axes and sweeps run in parallel. [`linear`] gives the linearised loops (Bode, stability)
 //! and [`stickslip`] the paper's stick-slip criterion.
 
-pub mod control;
+pub mod commands;
 pub mod discrete;
 pub mod linear;
 pub mod model;
 pub mod simulate;
 pub mod stickslip;
 
+pub use commands::AxisCommands;
 pub use model::{AxisModel, FrictionMode, Mode};
 pub use simulate::{AxisRun, simulate, simulate_with_progress};
 
@@ -152,7 +153,8 @@ pub struct FrictionEvent {
 }
 
 /// Where along an axis's drive train a measurement reads its position.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, clap::ValueEnum, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "snake_case")]
 pub enum MeasuredAt {
     /// A linear scale on the table (the model's table position, with its structural mode).

@@ -15,8 +15,8 @@
 
 use nalgebra::{SMatrix, SVector};
 
-use super::control::{Realisation, realise};
 use crate::lookup::Lookup;
+use crate::machine::realise::{Realisation, realise};
 use crate::machine::{AxisConfig, Controller, ControllerOutput, DriveKind, Feedback};
 use crate::units::{
     GRAVITY_M_PER_S2, h_from_mh, m_from_mm, m_from_um, m_per_s_from_mm_per_min,

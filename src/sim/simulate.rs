@@ -15,7 +15,7 @@ use super::model::{
 };
 use super::{AxisTrace, FrictionEvent, SimConfig, SimError};
 use crate::machine::Feedback;
-use crate::plan::AxisCommands;
+use crate::sim::AxisCommands;
 
 /// Guard tolerances: a guard counts as violated only below −tolerance, so that a state just
 /// placed on a switching surface does not trigger again.

@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use super::model::AxisModel;
 use super::{FrictionEvent, FrictionMode, SimConfig, SimError, simulate};
-use crate::plan::AxisCommands;
+use crate::sim::AxisCommands;
 
 /// Settings of the criterion.
 #[derive(Debug, Clone, Copy, PartialEq)]

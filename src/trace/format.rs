@@ -610,10 +610,15 @@ const COMMAND_WORDS: [&str; 12] = [
     "desired",
     "traj",
 ];
-const MEASURED_WORDS: [&str; 11] = [
-    "encoder", "feedback", "fb", "act", "actual", "measured", "meas", "ist", "pos", "position",
-    "scale",
+const MEASURED_WORDS: [&str; 9] = [
+    "encoder", "feedback", "fb", "act", "actual", "measured", "meas", "ist", "scale",
 ];
+/// Words naming the quantity, not where it came from: a position is measured unless a
+/// command word says it is the setpoint ("Position setpoint").
+const POSITION_WORDS: [&str; 2] = ["pos", "position"];
+/// How an axis is named among a name's words: its letter, or SINUMERIK's machine-axis name.
+const X_WORDS: [&str; 2] = ["x", "x1"];
+const Y_WORDS: [&str; 2] = ["y", "y1"];
 const OTHER_QUANTITY_WORDS: [&str; 20] = [
     "vel",
     "velocity",
@@ -638,17 +643,18 @@ const OTHER_QUANTITY_WORDS: [&str; 20] = [
 ];
 
 /// The signal a descriptive name stands for: one axis letter among its words (`DataX` and
-/// `posX` split at the case change), a word of command or of measurement (not both), and no
-/// word of another quantity (speed, current, error …).
+/// `posX` split at the case change; `X1` as SINUMERIK names machine axes), a word of command
+/// or of measurement (not both; "position" alone counts as measured), and no word of another
+/// quantity (speed, current, error …).
 fn described_signal(header: &str) -> Option<Signal> {
     let words = words(split_unit(header).0);
     let has = |list: &[&str]| words.iter().any(|w| list.contains(&w.as_str()));
     if has(&OTHER_QUANTITY_WORDS) {
         return None;
     }
-    let x = words.iter().any(|w| w == "x");
-    let y = words.iter().any(|w| w == "y");
-    let (command, measured) = (has(&COMMAND_WORDS), has(&MEASURED_WORDS));
+    let (x, y) = (has(&X_WORDS), has(&Y_WORDS));
+    let command = has(&COMMAND_WORDS);
+    let measured = has(&MEASURED_WORDS) || (has(&POSITION_WORDS) && !command);
     match (x, y, command, measured) {
         (true, false, true, false) => Some(Signal::XCmd),
         (false, true, true, false) => Some(Signal::YCmd),

@@ -10,9 +10,10 @@
 
 use std::path::Path;
 
-use crate::trace_format::{self, ColumnMap, Dialect, Mapped, Signal};
-use crate::trace_halscope;
-use crate::trace_mat;
+use crate::trace::format::{self, ColumnMap, Dialect, Mapped, Signal};
+use crate::trace::halscope;
+use crate::trace::mat;
+use crate::trace::sinumerik;
 
 /// A measured trace on a uniform time grid, in SI units.
 #[derive(Debug, Clone, PartialEq)]
@@ -166,29 +167,32 @@ pub fn read_trace_with(
         file: file.clone(),
         message: e.to_string(),
     })?;
-    if trace_mat::is_mat_file(&bytes) {
+    if mat::is_mat_file(&bytes) {
         return parse_mat_trace(&bytes, &file, map);
+    }
+    let text = sinumerik::decode(&bytes);
+    if sinumerik::is_sinumerik_trace(&text) {
+        return parse_sinumerik_trace(&text, &file, map);
     }
     if let Some(problem) = unreadable_kind(&bytes) {
         return Err(data_error_in(&file)(problem));
     }
     // Lab exports are not always UTF-8 (a µ in Latin-1); only numbers matter here.
-    parse_trace_with(&String::from_utf8_lossy(&bytes), &file, map)
+    parse_trace_with(&text, &file, map)
 }
 
-/// Why a file that is neither a MAT-file nor a text table cannot be read, if it is so: a
-/// binary file (TNCscope's own files, a control's binary trace) or XML (SINUMERIK Operate
-/// saves its servo traces so). Neither layout is publicly documented; both tools export
-/// their signals as text tables, which are read.
+/// Why a file that is neither a MAT-file, a SINUMERIK trace nor a text table cannot be read,
+/// if it is so: a binary file (TNCscope's own files, a control's binary trace) or another
+/// XML. Neither has a published layout; such tools export their signals as text tables.
 fn unreadable_kind(bytes: &[u8]) -> Option<String> {
     let head = &bytes[..bytes.len().min(512)];
     let text = String::from_utf8_lossy(head);
     let text = text.trim_start_matches('\u{feff}').trim_start();
     if text.starts_with("<?xml") || text.starts_with('<') {
         return Some(
-            "an XML file, not a table of samples: a control's XML trace (as SINUMERIK \
-             Operate saves servo traces) has no published layout; export the signals as a \
-             text table (CSV) and read that"
+            "an XML file that is not a SINUMERIK Operate trace (no traceData/dataFrame \
+             element) nor a table of samples: export the signals as a text table (CSV) and \
+             read that"
                 .into(),
         );
     }
@@ -215,7 +219,7 @@ pub fn parse_mat_trace(
     file: &str,
     map: Option<&ColumnMap>,
 ) -> Result<MeasuredTrace, MeasuredError> {
-    let columns = trace_mat::mat_columns(bytes, file)?;
+    let columns = mat::mat_columns(bytes, file)?;
     let n = columns.iter().map(|(_, v)| v.len()).max().unwrap_or(0);
     let source = Source::MatFile {
         variables: columns.len(),
@@ -230,11 +234,25 @@ pub fn parse_halscope_trace(
     file: &str,
     map: Option<&ColumnMap>,
 ) -> Result<MeasuredTrace, MeasuredError> {
-    let log = trace_halscope::halscope_columns(text, file)?;
+    let log = halscope::halscope_columns(text, file)?;
     let source = Source::Halscope {
         channels: log.columns.len() - 1,
     };
     assemble_named(file, &log.columns, log.rows, map, source)
+}
+
+/// Parses a SINUMERIK Operate trace (see [`sinumerik`]): its signals are the columns, on
+/// the clock of the most densely sampled one.
+pub fn parse_sinumerik_trace(
+    text: &str,
+    file: &str,
+    map: Option<&ColumnMap>,
+) -> Result<MeasuredTrace, MeasuredError> {
+    let trace = sinumerik::sinumerik_columns(text, file)?;
+    let source = Source::Sinumerik {
+        signals: trace.columns.len() - 1,
+    };
+    assemble_named(file, &trace.columns, trace.rows, map, source)
 }
 
 /// A trace from named columns of equal length (a MAT-file's variables, a halscope log's
@@ -249,11 +267,12 @@ fn assemble_named(
     let data_error = data_error_in(file);
     let what = match source {
         Source::Halscope { .. } => "channel",
+        Source::Sinumerik { .. } => "signal",
         _ => "variable",
     };
     let names: Vec<&str> = columns.iter().map(|(n, _)| n.as_str()).collect();
     let mapped =
-        trace_format::map_columns(&names, map).map_err(|e| data_error(format!("{what}s: {e}")))?;
+        format::map_columns(&names, map).map_err(|e| data_error(format!("{what}s: {e}")))?;
     let n = columns[mapped[0].index].1.len();
     let mut table = Table::default();
     for m in &mapped {
@@ -472,7 +491,7 @@ pub fn parse_trace_with(
     file: &str,
     map: Option<&ColumnMap>,
 ) -> Result<MeasuredTrace, MeasuredError> {
-    if trace_halscope::is_halscope_log(text) {
+    if halscope::is_halscope_log(text) {
         return parse_halscope_trace(text, file, map);
     }
     let data_error = data_error_in(file);
@@ -482,26 +501,26 @@ pub fn parse_trace_with(
         .lines()
         .enumerate()
         .map(|(i, l)| (i as u64 + 1, l.trim_end_matches('\r')))
-        .filter(|(_, l)| !l.trim().is_empty() && !trace_format::is_comment(l))
+        .filter(|(_, l)| !l.trim().is_empty() && !format::is_comment(l))
         .collect();
     let Some(((header_row, header), data)) = lines.split_first() else {
         return Err(data_error("no header line".into()));
     };
     let sample: Vec<&str> = data.iter().take(20).map(|(_, l)| *l).collect();
-    let dialect = trace_format::sniff(header, &sample);
-    let headers: Vec<&str> = trace_format::fields(header, dialect.delimiter)
+    let dialect = format::sniff(header, &sample);
+    let headers: Vec<&str> = format::fields(header, dialect.delimiter)
         .into_iter()
         .map(|h| h.trim_matches('"'))
         .collect();
-    let mapped = trace_format::map_columns(&headers, map)
+    let mapped = format::map_columns(&headers, map)
         .map_err(|e| data_error(format!("row {header_row} (header): {e}")))?;
     let time_col = mapped[0].index;
     // Lines after the last one whose time field is a number are a trailer (`EOF,,,`, a
     // checksum) — skipped; anything unreadable before that is an error at its row.
     let time_of = |line: &str| {
-        trace_format::fields(line, dialect.delimiter)
+        format::fields(line, dialect.delimiter)
             .get(time_col)
-            .and_then(|f| trace_format::number(f.trim_matches('"'), &dialect))
+            .and_then(|f| format::number(f.trim_matches('"'), &dialect))
     };
     let data_end = data
         .iter()
@@ -513,10 +532,10 @@ pub fn parse_trace_with(
         ..Table::default()
     };
     for &(row, line) in &data[..data_end] {
-        let f = trace_format::fields(line, dialect.delimiter);
+        let f = format::fields(line, dialect.delimiter);
         for m in &mapped {
             let text = f.get(m.index).map_or("", |v| v.trim_matches('"'));
-            let value = trace_format::number(text, &dialect)
+            let value = format::number(text, &dialect)
                 .map(|v| v * m.unit.to_si)
                 .ok_or_else(|| MeasuredError::Row {
                     file: file.into(),
@@ -564,7 +583,7 @@ fn plausible_clock(t: Vec<f64>, time: &mut Mapped) -> Result<(Vec<f64>, f64), St
     }
     let duration = t[t.len() - 1] - t[0];
     let (lo, hi) = INFERRED_STEP_S;
-    let candidates: Vec<trace_format::Unit> = trace_format::time_units()
+    let candidates: Vec<format::Unit> = format::time_units()
         .filter(|u| {
             let scale = u.to_si / time.unit.to_si;
             (lo..hi).contains(&(dt * scale)) && duration * scale <= PLAUSIBLE_DURATION_S
@@ -616,6 +635,11 @@ pub enum Source {
         /// Channels in the log.
         channels: usize,
     },
+    /// A SINUMERIK Operate trace (XML) with this many sampled signals.
+    Sinumerik {
+        /// Signals with samples.
+        signals: usize,
+    },
 }
 
 /// How a trace file was read: its format, which column became what, and how many trailer
@@ -657,9 +681,13 @@ impl TraceLayout {
             Source::Halscope { channels } => {
                 format!("LinuxCNC halscope log, {channels} channels, time from its sampling period")
             }
+            Source::Sinumerik { signals } => format!(
+                "SINUMERIK Operate trace (XML), {signals} signals on the clock of the most \
+                 densely sampled one"
+            ),
         };
         let mut lines = vec![first];
-        lines.extend(trace_format::describe_mapping(&self.mapped));
+        lines.extend(format::describe_mapping(&self.mapped));
         if let Some([x, y]) = self.work_offset_m {
             lines.push(format!(
                 "work offset X {:.3} mm, Y {:.3} mm subtracted from every position (machine \

@@ -23,8 +23,8 @@
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 
+use crate::analysis::thinning::PeakThinned;
 use crate::path::{Geometry, Motion, Segment};
-use crate::thinning::PeakThinned;
 use crate::units::{mm_from_m, um_from_m};
 
 /// A full circle of the program.

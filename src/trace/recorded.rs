@@ -15,7 +15,7 @@
 
 use crate::path::{Motion, Segment};
 use crate::plan::{AxisCommands, Commands, Plan};
-use crate::signal::sample;
+use crate::trace::signal::sample;
 
 /// Half-width of the derivative fit (s): wide enough to average a 10 kHz record's
 /// quantisation, short against any feed change a servo follows.

@@ -4,21 +4,26 @@
 //! samples, the hotspots, the circles' points, the plot's points), not by the run's duration,
 //! so an eight-hour program is checked in the memory of a one-minute one.
 
+pub mod circular;
+pub mod contour;
+pub mod hotspot;
+pub mod thinning;
+
 use serde::Serialize;
 
-use crate::circular::{CirclePath, CircleSamples, CircularTest, circles};
-use crate::contour::{ContourLocator, ContourPoint};
+use crate::analysis::circular::{CirclePath, CircleSamples, CircularTest, circles};
+use crate::analysis::contour::{ContourLocator, ContourPoint};
+pub use crate::analysis::hotspot::RunPlace;
+use crate::analysis::hotspot::{Hotspot, HotspotConfig, HotspotFinder, RunSample};
+use crate::analysis::thinning::PeakThinned;
 use crate::execute::RunChunk;
 use crate::gcode::Warning;
 use crate::geometry::ToolReader;
-pub use crate::hotspot::RunPlace;
-use crate::hotspot::{Hotspot, HotspotConfig, HotspotFinder, RunSample};
 use crate::machine::{AxisConfig, MachineConfig};
 use crate::path::Motion;
 use crate::plan::Plan;
 use crate::sim::linear::equivalent_kv_per_s;
 use crate::sim::{AxisModel, AxisTrace, Mode};
-use crate::thinning::PeakThinned;
 
 /// Figures of a run.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

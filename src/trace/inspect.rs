@@ -3,7 +3,7 @@
 //! the commands were recorded — the largest following error. The first thing to look at on
 //! a record from an unfamiliar machine.
 
-use crate::measured::{MeasuredTrace, quantum};
+use crate::trace::measured::{MeasuredTrace, quantum};
 use crate::units::um_from_m;
 
 /// An axis moves where its position changes by more than this over the window (m).
@@ -149,7 +149,7 @@ impl TraceSummary {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::measured::parse_trace;
+    use crate::trace::measured::parse_trace;
 
     /// 1 kHz, X moving 50 mm/min for 0.5 s on 0.1 µm counts, lagging its command by 5 µm.
     #[test]

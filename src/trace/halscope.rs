@@ -10,7 +10,7 @@
 //! Values are in the machine's own units (mm or inch, as its INI file says): state them in
 //! the mapping when they are not millimetres, `x=joint.0.pos-fb[in]`.
 
-use crate::measured::MeasuredError;
+use crate::trace::measured::MeasuredError;
 
 /// The text every halscope log starts with.
 const SIGNATURE: &str = "Sampling period is";

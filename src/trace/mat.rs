@@ -1,5 +1,5 @@
 //! Traces in MATLAB's MAT-file format, level 5 (what `save` writes by default up to
-//! `-v7`, compressed or not, and what capture tools write), decoded by [`crate::mat5`].
+//! `-v7`, compressed or not, and what capture tools write), decoded by [`crate::trace::mat5`].
 //!
 //! Every numeric vector becomes a column named by where it sits: a variable `t`, a
 //! structure field `ScopeData.time`, an element of a structure array
@@ -18,8 +18,8 @@
 //!
 //! `-v7.3` (HDF5) files are refused with what to do instead.
 
-use crate::mat5::{self, Value};
-use crate::measured::MeasuredError;
+use crate::trace::mat5::{self, Value};
+use crate::trace::measured::MeasuredError;
 
 /// How deep structures may nest before the rest is ignored (a capture is two or three
 /// levels; a file deeper than this is not a trace).

@@ -1,0 +1,14 @@
+//! Measured records from outside: every reader of trace files (delimited text, MAT-files,
+//! halscope logs, SINUMERIK traces) and the layouts that tell their columns apart, what a record holds before
+//! anything is fitted to it, and the commands a control recorded made into the simulator's
+//! input. Nothing here simulates or fits: `diagnose` and `identify` build on it.
+
+pub mod format;
+pub mod halscope;
+pub mod inspect;
+pub mod mat;
+pub mod mat5;
+pub mod measured;
+pub mod recorded;
+pub mod signal;
+pub mod sinumerik;

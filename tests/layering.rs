@@ -1,0 +1,140 @@
+//! The modules form layers along the pipeline, and every `crate::` path in the code points
+//! to a lower layer: a program's path never depends on the planner, the simulator never on
+//! the diagnosis. This test reads the sources and fails on any arrow that points up or
+//! sideways, and on a top-level module that has not been given a layer.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::fs;
+use std::path::{Path, PathBuf};
+
+/// Lowest first. A module may use modules of lower layers only.
+const LAYERS: &[&[&str]] = &[
+    &["units", "lookup", "plot"],
+    &["path"],
+    &["gcode"],
+    &["machine"],
+    &["geometry", "sim"],
+    &["plan"],
+    &["causes", "execute", "envelope", "compensation"],
+    &["analysis", "trace"],
+    &["check", "validate"],
+    &["report", "sweep", "synth"],
+    &["diagnose"],
+    &["identify"],
+    &["cli"],
+];
+
+fn layer_of(module: &str) -> Option<usize> {
+    LAYERS.iter().position(|layer| layer.contains(&module))
+}
+
+fn rust_files(dir: &Path, found: &mut Vec<PathBuf>) {
+    for entry in fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            rust_files(&path, found);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            found.push(path);
+        }
+    }
+}
+
+/// The top-level module a source file belongs to (`None` for the crate root and binary).
+fn top_module(src: &Path, file: &Path) -> Option<String> {
+    let relative = file.strip_prefix(src).unwrap();
+    let first = relative.components().next()?.as_os_str().to_str()?;
+    let name = first.strip_suffix(".rs").unwrap_or(first);
+    (!matches!(name, "lib" | "main")).then(|| name.to_string())
+}
+
+/// The top-level modules named by `crate::name` in the code of one file (comments left out:
+/// a doc link is not a dependency).
+fn used_modules(text: &str) -> BTreeSet<String> {
+    let mut used = BTreeSet::new();
+    for line in text.lines() {
+        let code = line.split("//").next().unwrap_or("");
+        let mut rest = code;
+        while let Some(at) = rest.find("crate::") {
+            let preceded_by_ident = rest[..at]
+                .chars()
+                .last()
+                .is_some_and(|c| c.is_alphanumeric() || c == '_');
+            rest = &rest[at + "crate::".len()..];
+            if preceded_by_ident {
+                continue; // `contourcheck::…` or similar, not this crate's root
+            }
+            let name: String = rest
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_')
+                .collect();
+            if !name.is_empty() {
+                used.insert(name);
+            }
+        }
+    }
+    used
+}
+
+/// Every module → the modules it uses, over the whole `src/` tree.
+fn dependencies() -> BTreeMap<String, BTreeSet<String>> {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    let mut deps: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    for file in files {
+        let Some(module) = top_module(&src, &file) else {
+            continue;
+        };
+        let used = used_modules(&fs::read_to_string(&file).unwrap());
+        let entry = deps.entry(module.clone()).or_default();
+        entry.extend(used.into_iter().filter(|u| *u != module));
+    }
+    deps
+}
+
+#[test]
+fn every_top_level_module_has_a_layer() {
+    let unplaced: Vec<String> = dependencies()
+        .into_keys()
+        .filter(|m| layer_of(m).is_none())
+        .collect();
+    assert!(
+        unplaced.is_empty(),
+        "modules without a layer in tests/layering.rs: {unplaced:?}"
+    );
+}
+
+#[test]
+fn dependencies_point_down_the_layers() {
+    let deps = dependencies();
+    // The reader must see the arrows that are there, or the test below passes vacuously.
+    assert!(deps["check"].contains("analysis"));
+    assert!(deps["diagnose"].contains("trace"));
+    assert!(deps["sim"].contains("machine"));
+
+    let mut upward = Vec::new();
+    for (module, used) in &deps {
+        let Some(own) = layer_of(module) else {
+            continue;
+        };
+        for target in used {
+            match layer_of(target) {
+                Some(theirs) if theirs < own => {}
+                Some(_) => upward.push(format!("{module} → {target}")),
+                None => {} // a crate-root item (e.g. a re-export), not a module
+            }
+        }
+    }
+    assert!(
+        upward.is_empty(),
+        "dependencies that do not point down the layers: {upward:?}"
+    );
+}
+
+#[test]
+fn the_reader_skips_comments_and_other_crates() {
+    let text =
+        "use crate::sim::AxisModel;\n// see crate::cli\nlet x = contourcheck::diagnose::run;\n";
+    let used = used_modules(text);
+    assert_eq!(used, BTreeSet::from(["sim".to_string()]));
+}
