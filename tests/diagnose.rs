@@ -454,6 +454,48 @@ fn a_trace_in_machine_coordinates_names_its_work_offset_and_is_diagnosed_with_it
     assert!(!e.contains("--work-offset"), "{e}");
 }
 
+/// A 50 Hz servo trace in machine coordinates of a program that is mostly rapids (two
+/// rapids of 200 mm around a 20 mm cut): with the work offset, it is diagnosed rapids and
+/// all — left out, they would leave too little of the record — and on the nominal machine
+/// nothing is named.
+#[test]
+fn a_mostly_rapid_50_hz_trace_in_machine_coordinates_is_diagnosed() {
+    let nominal = MachineConfig::default_preset();
+    let text = "G21 G90 G17 G94\nG0 X0 Y0\nG0 X200 Y100\nG1 X220 F1000\nG0 X0 Y0\nM2\n";
+    let prog = program_text(text);
+    let spec = SynthSpec {
+        offset_s: 0.2,
+        sample_s: 0.02,
+        with_commands: true,
+        ..SynthSpec::default()
+    };
+    let offset_m = [0.471103, -0.25];
+    let mut machine = recorded(&prog, &nominal, &spec, "machine.csv");
+    for (values, o) in [
+        (&mut machine.x_m, offset_m[0]),
+        (&mut machine.y_m, offset_m[1]),
+    ] {
+        values.iter_mut().for_each(|v| *v += o);
+    }
+    for (values, o) in machine.commands.as_mut().unwrap().iter_mut().zip(offset_m) {
+        values.iter_mut().for_each(|v| *v += o);
+    }
+    let settings = DiagnoseSettings::for_machine(&nominal);
+    let shifted = machine.in_work_coordinates(offset_m);
+    let d = diagnose(&prog, &nominal, &shifted, &settings).unwrap();
+    assert!(d.rapids_compared);
+    assert!(d.causes.is_empty(), "{:?}", d.causes);
+    // Most of the record is compared: its rapids are.
+    assert!(
+        d.samples as f64 > 0.8 * shifted.len() as f64,
+        "{} of {}",
+        d.samples,
+        shifted.len()
+    );
+    // The machine's own plan stays within its file's limits: nothing is beyond it.
+    assert!(d.beyond_machine.is_empty(), "{:?}", d.beyond_machine);
+}
+
 /// A control that interpolates 0.2 % slower than the plan, recorded without its commands:
 /// one clock offset cannot fit both ends, and the refusal measures how far the timing
 /// departs — the halves' centres lie 40 s apart, so 80 ms.

@@ -271,3 +271,14 @@ pub fn write_plot(path: &Path, figure: &impl crate::plot::Figure) -> Result<(), 
     batch.commit()?;
     Ok(())
 }
+
+/// Says, before any fitting, where a record's commands ask more of the machine than its file
+/// allows: the fit that follows cannot make the model follow there.
+pub(crate) fn warn_beyond_machine(
+    measured: &crate::trace::measured::MeasuredTrace,
+    machine: &crate::machine::MachineConfig,
+) {
+    for beyond in measured.beyond_machine(machine) {
+        eprintln!("warning: {beyond}");
+    }
+}

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::Outcome;
+use super::common::warn_beyond_machine;
 use super::common::{CliError, MachineArgs, PlanningArgs, TraceArgs, load_program, spinner};
 use crate::analysis::circular::radial_points;
 use crate::causes::{CauseId, CauseSet};
@@ -115,6 +116,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
         Ok(m)
     };
     let measured = read(measured_path)?;
+    warn_beyond_machine(&measured, &machine);
     let validation = second.first().map(read).transpose()?;
     let mut settings = DiagnoseSettings::for_machine(&machine);
     settings.check.plan = args.planning.config(&machine)?;

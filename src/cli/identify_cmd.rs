@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::Outcome;
+use super::common::warn_beyond_machine;
 use super::common::{CliError, PlanningArgs, TraceArgs, load_program, spinner};
 use crate::cli::output::OutputBatch;
 use crate::diagnose::DiagnoseSettings;
@@ -55,6 +56,7 @@ pub fn run(args: &IdentifyArgs) -> Result<Outcome, CliError> {
         measured.file,
         measured.layout.describe().join("\n  ")
     );
+    warn_beyond_machine(&measured, &template);
     if !(args.command_tolerance_um.is_finite() && args.command_tolerance_um > 0.0) {
         return Err(CliError::Usage(format!(
             "--command-tolerance-um {}: must be a number > 0",

@@ -5,7 +5,7 @@
 //! Without recorded commands the program's plan is the timeline, so the machine's own
 //! in-position waits matter: a model with another gain is re-planned with its waits
 //! ([`Context::simulate_axis`]). Rapids and the waits after them are left out of the
-//! residual.
+//! residual, except in a record with its commands that is mostly rapids.
 
 use super::residual::{chatter_noise_power, chatter_windows, rms};
 use super::{DiagnoseError, DiagnoseSettings};
@@ -74,6 +74,9 @@ pub struct Context<'a> {
     /// On the plan's timeline: how much later the record's second half runs than its first
     /// half under one clock offset (s) — how far the machine's timing departs from our plan.
     pub timing_drift_s: Option<f64>,
+    /// Whether the rapids are among the samples compared (a record with its commands that
+    /// is mostly rapids).
+    pub rapids_compared: bool,
 }
 
 impl Context<'_> {
@@ -512,6 +515,7 @@ pub fn context<'a>(
         noise_sigma: 0.0,
         measured_at: settings.measured_at,
         timing_drift_s: None,
+        rapids_compared: false,
     };
     let nominal = [AxisName::X, AxisName::Y].map(|a| ctx.simulate_axis(machine, a));
     let [Some(x), Some(y)] = nominal else {
@@ -531,9 +535,13 @@ pub fn context<'a>(
     // so that the offset can move during the fits.
     let duration = ctx.commands.duration_s();
     let margin = if fixed_offset.is_some() { 0.0 } else { 0.2 };
-    // Rapids are left out: the axes run there at their current and voltage limits, where
-    // a real drive departs most from any model, and their millimetres of lag would drown
-    // the micrometres the causes leave. The standstill after each rapid goes with it.
+    // Rapids are left out: we cannot know how a control ran the rapids we planned (each axis
+    // on its own, blended or not, at which rate), their millimetres of lag would drown the
+    // micrometres the causes leave, and even recorded, a rapid's acceleration steps are
+    // read back from sparse samples only roughly (a 15 ms logger's rapids pass for
+    // friction). The standstill after each rapid goes with it. A record with its commands
+    // that is mostly rapids is compared rapids and all rather than refused: the commands
+    // say what the control did there.
     //
     // One sample per command period is compared: the model's input changes no faster, so
     // finer samples add no evidence about it — only correlated copies of the same model
@@ -541,14 +549,21 @@ pub fn context<'a>(
     // diagnosis depend on the sampling rate.
     let stride = ((dt / measured.dt_s) * (1.0 + 1e-9)).floor().max(1.0) as usize;
     ctx.sample_dt_s = stride as f64 * measured.dt_s;
-    ctx.samples = (0..measured.len())
-        .step_by(stride)
-        .filter(|&i| {
-            let t = ctx.prog_time(i, offset);
-            t >= margin && t <= duration - margin && !ctx.in_rapid(t)
-        })
-        .collect();
     let expected = (duration / measured.dt_s).min(measured.len() as f64) / stride as f64;
+    let compared = |ctx: &Context, with_rapids: bool| -> Vec<usize> {
+        (0..measured.len())
+            .step_by(stride)
+            .filter(|&i| {
+                let t = ctx.prog_time(i, offset);
+                t >= margin && t <= duration - margin && (with_rapids || !ctx.in_rapid(t))
+            })
+            .collect()
+    };
+    ctx.samples = compared(&ctx, false);
+    if (ctx.samples.len() as f64) < 0.5 * expected && fixed_offset.is_some() {
+        ctx.samples = compared(&ctx, true);
+        ctx.rapids_compared = true;
+    }
     if (ctx.samples.len() as f64) < 0.5 * expected {
         return Err(cannot(format!(
             "only {} of the {:.0} samples compared fall within the program's {:.1} s",

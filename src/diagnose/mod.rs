@@ -37,6 +37,7 @@ use crate::machine::{AxisName, MachineConfig};
 use crate::plan::Commands;
 use crate::sim::{MeasuredAt, SimError};
 use crate::trace::measured::{MeasuredError, MeasuredTrace};
+use crate::trace::recorded::BeyondMachine;
 use crate::trace::signal::sample;
 use crate::units::{mm_from_m, um_from_m};
 use causes::{CauseId, CauseSet};
@@ -275,6 +276,12 @@ pub struct Diagnosis {
     /// Without recorded commands: how much later the record's second half runs than its
     /// first under one clock offset (ms) — the plan's timing error against the machine.
     pub timing_drift_ms: Option<f64>,
+    /// Where the recorded commands ask more of an axis than the machine file allows (its
+    /// rapid rate, acceleration limit or drive current): there the model cannot follow.
+    pub beyond_machine: Vec<BeyondMachine>,
+    /// Whether the rapids were compared too (a record with its commands that is mostly
+    /// rapids; otherwise they are left out).
+    pub rapids_compared: bool,
     /// Whether any cause could be tried at all (`--max-causes 0`, or every cause excluded
     /// or unseen, leaves none).
     pub searched: bool,
@@ -452,6 +459,8 @@ pub fn diagnose_validated(
         measured_at: settings.measured_at,
         rejected: outcome.rejected,
         timing_drift_ms: ctx.timing_drift_s.map(|s| s * 1e3),
+        beyond_machine: measured.beyond_machine(machine),
+        rapids_compared: ctx.rapids_compared,
         circular,
         circles: circles(&ctx.plan.segments),
         unexplained,

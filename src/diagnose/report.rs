@@ -18,6 +18,7 @@ use crate::causes::CauseId;
 use crate::machine::{AxisName, MachineConfig};
 use crate::sim::MeasuredAt;
 use crate::trace::measured::MeasuredTrace;
+use crate::trace::recorded::BeyondMachine;
 
 /// Schema id of the JSON report.
 pub const SCHEMA: &str = "contourcheck.diagnose/1";
@@ -57,6 +58,11 @@ pub struct DiagnoseReport {
     /// Without recorded commands: how much later the record's second half runs than its
     /// first under one clock offset (ms); `null` with recorded commands.
     pub timing_drift_ms: Option<f64>,
+    /// Where the recorded commands ask more of an axis than the machine file allows.
+    pub beyond_machine: Vec<BeyondMachine>,
+    /// Whether the rapids were compared too (a record with its commands that is mostly
+    /// rapids).
+    pub rapids_compared: bool,
     /// Circular-test figures (ISO 230-4): measured, nominal model, extended model.
     pub circular_test: CircularComparison,
     /// Where the residual left by the extended model lives, per axis where it stands out
@@ -230,6 +236,8 @@ impl DiagnoseReport {
             skipped: d.skipped.clone(),
             rejected: d.rejected.clone(),
             timing_drift_ms: d.timing_drift_ms,
+            beyond_machine: d.beyond_machine.clone(),
+            rapids_compared: d.rapids_compared,
             circular_test: d.circular.clone(),
             unexplained: d.unexplained.clone(),
             learned: d.learned.clone(),
@@ -270,6 +278,16 @@ impl DiagnoseReport {
             "machine {}; clock offset {:.4} s; noise floor {:.3} µm; {} samples compared per axis",
             self.machine, self.clock_offset_s, self.noise_floor_um, m.samples_compared
         );
+        for beyond in &self.beyond_machine {
+            let _ = writeln!(s, "warning: {beyond}");
+        }
+        if self.rapids_compared {
+            let _ = writeln!(
+                s,
+                "rapids compared too: the record is mostly rapids, and its commands say how the \
+                 control ran them"
+            );
+        }
         if let Some(drift) = self.timing_drift_ms
             && drift.abs() >= 2.0
         {

@@ -80,6 +80,17 @@ impl StepStats {
 }
 
 impl MeasuredTrace {
+    /// Where the recorded commands (if any) ask more of an axis than the machine file says
+    /// it can give: speed, acceleration, the drive's current.
+    pub fn beyond_machine(
+        &self,
+        machine: &crate::machine::MachineConfig,
+    ) -> Vec<crate::trace::recorded::BeyondMachine> {
+        self.commands.as_ref().map_or_else(Vec::new, |c| {
+            crate::trace::recorded::beyond_machine(c, self.dt_s, machine)
+        })
+    }
+
     /// The trace in the program's coordinates: `offset_m` (the program origin's place in
     /// the trace's, as a work offset G54… gives it) subtracted from every measured and
     /// commanded position.

@@ -13,13 +13,146 @@
 //!    that only moves forward, so that the report can name source lines and rapids; the
 //!    largest distance from the programmed geometry is checked against a tolerance.
 
+use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::path::{Motion, Segment};
 use crate::plan::{AxisCommands, Commands, Plan};
+use crate::sim::AxisModel;
 use crate::trace::signal::sample;
+use crate::units::{m_per_s_from_mm_per_min, mm_per_min_from_m_per_s};
 
 /// Half-width of the derivative fit (s): wide enough to average a 10 kHz record's
 /// quantisation, short against any feed change a servo follows.
 const DERIVATIVE_HALF_WIDTH_S: f64 = 3e-3;
+
+/// What recorded commands ask of an axis beyond what the machine file says it can do.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct BeyondMachine {
+    /// The axis.
+    pub axis: AxisName,
+    /// What is exceeded, in words.
+    pub what: &'static str,
+    /// The machine-file key that holds the limit, below the axis (`limits.rapid_mm_per_min`).
+    pub key: &'static str,
+    /// The commands' peak, in the key's unit.
+    pub recorded: f64,
+    /// The limit, in the key's unit.
+    pub limit: f64,
+    /// The unit of both.
+    pub unit: &'static str,
+    /// Time of the peak on the record's clock (s).
+    pub t_s: f64,
+}
+
+impl std::fmt::Display for BeyondMachine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        // Speeds to the mm/min, accelerations to the cm/s².
+        let digits = if self.unit == "mm/min" { 0 } else { 2 };
+        write!(
+            f,
+            "{} axis: the recorded commands reach {:.digits$} {} at t = {:.3} s, beyond the {} \
+             of {:.digits$} {} ({}.{}); the model cannot follow them there",
+            self.axis.letter(),
+            self.recorded,
+            self.unit,
+            self.t_s,
+            self.what,
+            self.limit,
+            self.unit,
+            self.axis.as_str(),
+            self.key
+        )
+    }
+}
+
+/// Share by which a peak may exceed a limit before it is reported: the derivative fit and a
+/// control's own rounding of its limits stay within it.
+const BEYOND_MARGIN: f64 = 1.05;
+
+/// The recorded commands' peak speed and acceleration on each axis against the machine
+/// file's rapid rate, acceleration limit and the acceleration its drive's current limit can
+/// give (friction left aside, so this errs towards silence). Positions in m every `dt_s`.
+pub fn beyond_machine(
+    commands_m: &[Vec<f64>; 2],
+    dt_s: f64,
+    machine: &MachineConfig,
+) -> Vec<BeyondMachine> {
+    if commands_m[0].len() < 3 || !(dt_s > 0.0) {
+        return Vec::new();
+    }
+    let c = commands_from_record(&commands_m[0], &commands_m[1], dt_s, dt_s);
+    let mut found = Vec::new();
+    for (axis, commands) in [(AxisName::X, &c.x), (AxisName::Y, &c.y)] {
+        found.extend(axis_beyond(axis, machine.axis(axis), commands, dt_s));
+    }
+    found
+}
+
+/// One axis's peaks against its limits.
+fn axis_beyond(
+    axis: AxisName,
+    config: &AxisConfig,
+    c: &AxisCommands,
+    dt_s: f64,
+) -> Vec<BeyondMachine> {
+    let peak = |v: &[f64]| {
+        v.iter()
+            .enumerate()
+            .fold((0.0f64, 0usize), |(m, at), (k, x)| {
+                if x.abs() > m { (x.abs(), k) } else { (m, at) }
+            })
+    };
+    let (v_peak, v_at) = peak(&c.vel_m_per_s);
+    let (a_peak, a_at) = peak(&c.acc_m_per_s2);
+    let model = AxisModel::from_config(config);
+    let drive_accel = model.kt * model.i_max * model.travel_per_motor_rad() / model.j_tot();
+    let current_key = if config.velocity_loop.is_some() && config.controller.uses_velocity_loop() {
+        "velocity_loop.i_max_a"
+    } else {
+        "amplifier.i_max_a"
+    };
+    let checks = [
+        (
+            "rapid rate",
+            "limits.rapid_mm_per_min",
+            mm_per_min_from_m_per_s(v_peak),
+            config.limits.rapid_mm_per_min,
+            "mm/min",
+            v_at,
+            v_peak > BEYOND_MARGIN * m_per_s_from_mm_per_min(config.limits.rapid_mm_per_min),
+        ),
+        (
+            "acceleration limit",
+            "limits.max_accel_m_per_s2",
+            a_peak,
+            config.limits.max_accel_m_per_s2,
+            "m/s²",
+            a_at,
+            a_peak > BEYOND_MARGIN * config.limits.max_accel_m_per_s2,
+        ),
+        (
+            "acceleration its drive's current limit gives",
+            current_key,
+            a_peak,
+            drive_accel,
+            "m/s²",
+            a_at,
+            drive_accel.is_finite() && a_peak > BEYOND_MARGIN * drive_accel,
+        ),
+    ];
+    checks
+        .into_iter()
+        .filter(|c| c.6)
+        .map(|(what, key, recorded, limit, unit, at, _)| BeyondMachine {
+            axis,
+            what,
+            key,
+            recorded,
+            limit,
+            unit,
+            t_s: at as f64 * dt_s,
+        })
+        .collect()
+}
 
 /// Commands on a uniform step `dt_out_s` from positions recorded every `dt_in_s` (the first
 /// sample at t = 0).
@@ -186,6 +319,55 @@ fn best_ahead(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// X accelerates at `accel` to `speed` (m/s) and cruises, Y stands; sampled at 50 Hz for
+    /// 1.5 s, as a control's 50 Hz trace of a rapid.
+    fn rapid_at_50_hz(accel: f64, speed: f64) -> [Vec<f64>; 2] {
+        let dt = 0.02;
+        let t_ramp = speed / accel;
+        let x = (0..75)
+            .map(|k| {
+                let t = k as f64 * dt;
+                if t < t_ramp {
+                    0.5 * accel * t * t
+                } else {
+                    0.5 * accel * t_ramp * t_ramp + speed * (t - t_ramp)
+                }
+            })
+            .collect();
+        [x, vec![0.1; 75]]
+    }
+
+    #[test]
+    fn commands_beyond_the_machine_file_are_named_with_their_numbers() {
+        let hvmc = MachineConfig::default_preset();
+        // 36 m/min at 3 m/s²: beyond the preset's 6 m/min rapid and 0.5 m/s², within the
+        // ≈5 m/s² its 60 A and 2.34 N·m/A give the 6 t table.
+        let found = beyond_machine(&rapid_at_50_hz(3.0, 0.6), 0.02, &hvmc);
+        let keys: Vec<(AxisName, &str)> = found.iter().map(|b| (b.axis, b.key)).collect();
+        assert_eq!(
+            keys,
+            [
+                (AxisName::X, "limits.rapid_mm_per_min"),
+                (AxisName::X, "limits.max_accel_m_per_s2")
+            ]
+        );
+        assert!((found[0].recorded - 36000.0).abs() < 50.0, "{}", found[0]);
+        assert!((found[1].recorded - 3.0).abs() < 0.3, "{}", found[1]);
+        let said = found[0].to_string();
+        assert!(
+            said.contains("X axis") && said.contains("36000") && said.contains("x.limits.rapid"),
+            "{said}"
+        );
+        // 10 m/s² needs more current than the drive has.
+        let found = beyond_machine(&rapid_at_50_hz(10.0, 1.0), 0.02, &hvmc);
+        assert!(
+            found.iter().any(|b| b.key == "velocity_loop.i_max_a"),
+            "{found:?}"
+        );
+        // Within every limit: nothing.
+        assert!(beyond_machine(&rapid_at_50_hz(0.2, 0.015), 0.02, &hvmc).is_empty());
+    }
 
     #[test]
     fn derivatives_of_a_quantised_parabola_are_close_to_the_truth() {
