@@ -586,6 +586,70 @@ fn a_table_with_a_hidden_gain_error_is_diagnosed_and_the_paper_tables_are_not() 
     );
 }
 
+/// A record with its commands and no program (a lab's own trajectory): compared with the
+/// path its commands drew, the hidden backlash is found as with the program; without
+/// commands there is no path, and the refusal says what to give.
+#[test]
+fn a_record_with_its_commands_is_diagnosed_without_its_program() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let circle = sample_path("circle-test.nc");
+    let run = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_contourcheck"))
+            .args(args)
+            .env("CI", "1")
+            .output()
+            .unwrap()
+    };
+    let synth = |out: &str, commands: bool| {
+        let mut args = vec![
+            "synth",
+            circle.to_str().unwrap(),
+            "--out",
+            out,
+            "--effect",
+            "backlash",
+            "--axis",
+            "y",
+            "--values",
+            "12",
+        ];
+        if commands {
+            args.push("--with-commands");
+        }
+        let o = run(&args);
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    };
+    synth(&p("with.csv"), true);
+    let o = run(&[
+        "diagnose",
+        "--measured",
+        &p("with.csv"),
+        "--json",
+        &p("d.json"),
+    ]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{stderr}");
+    assert!(stderr.contains("no program given: compared with the path its commands drew"));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(p("d.json")).unwrap()).unwrap();
+    assert_eq!(report["causes"][0]["id"], "backlash", "{report}");
+    assert_eq!(report["causes"][0]["axis"], "y");
+    let backlash = report["causes"][0]["params"][0]["value"].as_f64().unwrap();
+    assert!((backlash - 12.0).abs() < 1.0, "{backlash}");
+    synth(&p("without.csv"), false);
+    let o = run(&["diagnose", "--measured", &p("without.csv")]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("no program given and no commands recorded")
+    );
+}
+
 #[test]
 fn the_command_line_round_trip_synth_diagnose_check() {
     let dir = tempfile::tempdir().unwrap();

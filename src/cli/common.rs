@@ -282,3 +282,39 @@ pub(crate) fn warn_beyond_machine(
         eprintln!("warning: {beyond}");
     }
 }
+
+/// The program a record ran, read from `path`; or, without one, the path the record's
+/// commands drew (see [`crate::trace::recorded::program_from_commands`]), said on stderr.
+pub(crate) fn program_or_commands_path(
+    path: Option<&Path>,
+    measured: &crate::trace::measured::MeasuredTrace,
+    machine: &MachineConfig,
+) -> Result<Program, CliError> {
+    if let Some(path) = path {
+        return load_program(path, machine);
+    }
+    let Some(commands) = &measured.commands else {
+        return Err(CliError::Usage(format!(
+            "{}: no program given and no commands recorded (x_cmd, y_cmd): give the program \
+             the record ran, or a record with its commands",
+            measured.file
+        )));
+    };
+    let program =
+        crate::trace::recorded::program_from_commands(commands, measured.dt_s, &measured.file)
+            .ok_or_else(|| {
+                CliError::Usage(format!(
+                    "{}: no program given, and the recorded commands do not move: there is no \
+                     path to compare with",
+                    measured.file
+                ))
+            })?;
+    eprintln!(
+        "{}: no program given: compared with the path its commands drew, {} lines within \
+         {:.1} µm of them (places are named by the record's sample where a line starts)",
+        measured.file,
+        program.segments.len(),
+        crate::trace::recorded::COMMANDS_PATH_TOLERANCE_M * 1e6
+    );
+    Ok(program)
+}

@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::Outcome;
-use super::common::warn_beyond_machine;
-use super::common::{CliError, MachineArgs, PlanningArgs, TraceArgs, load_program, spinner};
+use super::common::{CliError, MachineArgs, PlanningArgs, TraceArgs, spinner};
+use super::common::{program_or_commands_path, warn_beyond_machine};
 use crate::analysis::circular::radial_points;
 use crate::causes::{CauseId, CauseSet};
 use crate::cli::output::OutputBatch;
@@ -24,7 +24,8 @@ use crate::units::{m_from_um, mm_from_m, um_from_m};
 /// Arguments of `diagnose`.
 #[derive(Debug, Args)]
 pub struct DiagnoseArgs {
-    /// The part program the measurement ran (not needed with --table).
+    /// The part program the measurement ran (not needed with --table; without it, a record
+    /// with its commands is compared with the path those commands drew).
     pub program: Option<PathBuf>,
     /// Measured trace: a table of time, measured X and Y and optionally the commanded X
     /// and Y — `t_s,x_mm,y_mm,x_cmd_mm,y_cmd_mm`, or a control's or lab's export (see
@@ -98,10 +99,10 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
     if let Some(table) = &args.table {
         return run_table(args, table, &machine);
     }
-    let (Some(program_path), [measured_path, second @ ..]) = (&args.program, &args.measured[..])
-    else {
+    let [measured_path, second @ ..] = &args.measured[..] else {
         return Err(CliError::Usage(
-            "diagnose needs a program and --measured TRACE.csv, or --table TABLE.csv".into(),
+            "diagnose needs --measured TRACE.csv (and the program it ran), or --table TABLE.csv"
+                .into(),
         ));
     };
     if second.len() > 1 {
@@ -109,13 +110,13 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
             "--measured: one record to fit on and at most one to judge on".into(),
         ));
     }
-    let program = load_program(program_path, &machine)?;
     let read = |path: &PathBuf| -> Result<_, CliError> {
         let m = args.trace.read(path)?;
         eprintln!("{}: {}", m.file, m.layout.describe().join("\n  "));
         Ok(m)
     };
     let measured = read(measured_path)?;
+    let program = program_or_commands_path(args.program.as_deref(), &measured, &machine)?;
     warn_beyond_machine(&measured, &machine);
     let validation = second.first().map(read).transpose()?;
     let mut settings = DiagnoseSettings::for_machine(&machine);
@@ -146,7 +147,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
         &settings,
     )?;
     bar.finish_and_clear();
-    let program_file = program_path.display().to_string();
+    let program_file = program.file.clone();
     let report = DiagnoseReport::new(&d, &program_file, &measured, &machine);
     let mut batch = OutputBatch::new();
     if let Some(path) = &args.json {

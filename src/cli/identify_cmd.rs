@@ -7,8 +7,8 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::Outcome;
-use super::common::warn_beyond_machine;
-use super::common::{CliError, PlanningArgs, TraceArgs, load_program, spinner};
+use super::common::{CliError, PlanningArgs, TraceArgs, spinner};
+use super::common::{program_or_commands_path, warn_beyond_machine};
 use crate::cli::output::OutputBatch;
 use crate::diagnose::DiagnoseSettings;
 use crate::identify::{Identification, IdentifiedValue, identify};
@@ -18,8 +18,8 @@ use crate::units::m_from_um;
 /// Arguments of `identify`.
 #[derive(Debug, Args)]
 pub struct IdentifyArgs {
-    /// The part program the record ran.
-    pub program: PathBuf,
+    /// The part program the record ran (without it, the path the record's commands drew).
+    pub program: Option<PathBuf>,
     /// The record: time, measured X and Y and the commanded X and Y (the commands are
     /// required: identification compares what the axes did with what they were told).
     #[arg(long, value_name = "FILE")]
@@ -49,13 +49,13 @@ pub fn run(args: &IdentifyArgs) -> Result<Outcome, CliError> {
         machine: Some(args.template.clone()),
     }
     .load()?;
-    let program = load_program(&args.program, &template)?;
     let measured = args.trace.read(&args.measured)?;
     eprintln!(
         "{}: {}",
         measured.file,
         measured.layout.describe().join("\n  ")
     );
+    let program = program_or_commands_path(args.program.as_deref(), &measured, &template)?;
     warn_beyond_machine(&measured, &template);
     if !(args.command_tolerance_um.is_finite() && args.command_tolerance_um > 0.0) {
         return Err(CliError::Usage(format!(
@@ -69,7 +69,7 @@ pub fn run(args: &IdentifyArgs) -> Result<Outcome, CliError> {
     let bar = spinner("identifying");
     let id = identify(&program, &template, &measured, &settings)?;
     bar.finish_and_clear();
-    let program_file = args.program.display().to_string();
+    let program_file = program.file.clone();
     let mut batch = OutputBatch::new();
     let machine_text = machine_file(&id, &template, &program_file);
     batch.stage(&args.out, |w| w.write_all(machine_text.as_bytes()))?;

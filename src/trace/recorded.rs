@@ -13,8 +13,9 @@
 //!    that only moves forward, so that the report can name source lines and rapids; the
 //!    largest distance from the programmed geometry is checked against a tolerance.
 
+use crate::gcode::Program;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
-use crate::path::{Motion, Segment};
+use crate::path::{Blend, Geometry, Motion, Segment};
 use crate::plan::{AxisCommands, Commands, Plan};
 use crate::sim::AxisModel;
 use crate::trace::signal::sample;
@@ -62,6 +63,100 @@ impl std::fmt::Display for BeyondMachine {
             self.key
         )
     }
+}
+
+/// How far the path drawn from a record's commands may lie from them (m): far below what a
+/// servo's contour error is, far above a 0.1 µm count.
+pub const COMMANDS_PATH_TOLERANCE_M: f64 = 0.2e-6;
+
+/// The path a record's commands drew, as a program of straight lines (a polygon within
+/// [`COMMANDS_PATH_TOLERANCE_M`] of every command sample), for a record whose program is not
+/// at hand — a lab's own trajectory, a capture of an unknown part. The commands still drive
+/// the simulation; this only gives the contour error a path to be measured from. Each
+/// line's "source line" is the record's sample (1-based) where it starts. `None` without
+/// commands or without motion.
+pub fn program_from_commands(commands_m: &[Vec<f64>; 2], dt_s: f64, file: &str) -> Option<Program> {
+    let [xs, ys] = commands_m;
+    let n = xs.len().min(ys.len());
+    // Standing samples add nothing to a path: keep the first of each run.
+    let moving: Vec<usize> = (0..n)
+        .filter(|&i| i == 0 || xs[i] != xs[i - 1] || ys[i] != ys[i - 1])
+        .collect();
+    if moving.len() < 2 {
+        return None;
+    }
+    let point = |i: usize| [xs[i], ys[i]];
+    let vertices = simplified(&moving, &point, COMMANDS_PATH_TOLERANCE_M);
+    let speed_between = |a: usize, b: usize| {
+        let length = distance(point(a), point(b));
+        (length / ((b - a).max(1) as f64 * dt_s)).max(1e-6)
+    };
+    let segments: Vec<Segment> = vertices
+        .windows(2)
+        .map(|w| Segment {
+            geometry: Geometry::Line,
+            start_m: [xs[w[0]], ys[w[0]], 0.0],
+            end_m: [xs[w[1]], ys[w[1]], 0.0],
+            motion: Motion::Feed,
+            feed_m_per_s: speed_between(w[0], w[1]),
+            blend: Blend::Continuous {
+                tolerance_m: Some(COMMANDS_PATH_TOLERANCE_M),
+                naive_cam_m: None,
+            },
+            line: u32::try_from(w[0] + 1).unwrap_or(u32::MAX),
+        })
+        .collect();
+    Some(Program {
+        file: format!("{file} (the path of its recorded commands)"),
+        blocks: segments.len(),
+        segments,
+        events: Vec::new(),
+        notes: Vec::new(),
+        warnings: Vec::new(),
+        lines: n,
+    })
+}
+
+fn distance(a: [f64; 2], b: [f64; 2]) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1])
+}
+
+/// Distance of `p` from the segment a–b.
+fn distance_to_segment(p: [f64; 2], a: [f64; 2], b: [f64; 2]) -> f64 {
+    let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+    let len2 = dx * dx + dy * dy;
+    if len2 == 0.0 {
+        return distance(p, a);
+    }
+    let f = (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2).clamp(0.0, 1.0);
+    distance(p, [a[0] + f * dx, a[1] + f * dy])
+}
+
+/// The indices (among `kept`) of a polygon through the first and last points that stays
+/// within `tolerance` of every point (Douglas–Peucker, on an explicit stack).
+fn simplified(kept: &[usize], point: &dyn Fn(usize) -> [f64; 2], tolerance: f64) -> Vec<usize> {
+    let mut keep = vec![false; kept.len()];
+    keep[0] = true;
+    keep[kept.len() - 1] = true;
+    let mut stack = vec![(0usize, kept.len() - 1)];
+    while let Some((first, last)) = stack.pop() {
+        let (a, b) = (point(kept[first]), point(kept[last]));
+        let farthest = (first + 1..last)
+            .map(|k| (k, distance_to_segment(point(kept[k]), a, b)))
+            .fold(
+                (first, 0.0f64),
+                |best, c| if c.1 > best.1 { c } else { best },
+            );
+        if farthest.1 > tolerance {
+            keep[farthest.0] = true;
+            stack.push((first, farthest.0));
+            stack.push((farthest.0, last));
+        }
+    }
+    kept.iter()
+        .zip(keep)
+        .filter_map(|(&i, k)| k.then_some(i))
+        .collect()
 }
 
 /// Share by which a peak may exceed a limit before it is reported: the derivative fit and a
@@ -336,6 +431,47 @@ mod tests {
             })
             .collect();
         [x, vec![0.1; 75]]
+    }
+
+    #[test]
+    fn the_path_of_recorded_commands_stays_within_its_tolerance_with_few_lines() {
+        // A 10 kHz record of a 20 mm line, a stop, and a quarter circle of radius 10 mm,
+        // in 0.1 µm counts.
+        let count = |v: f64| (v / 1e-7).round() * 1e-7;
+        let (mut x, mut y) = (Vec::new(), Vec::new());
+        for k in 0..=2000 {
+            x.push(count(k as f64 * 1e-5));
+            y.push(0.0);
+        }
+        for _ in 0..500 {
+            x.push(0.02);
+            y.push(0.0);
+        }
+        for k in 0..=3000 {
+            let a = std::f64::consts::FRAC_PI_2 * k as f64 / 3000.0;
+            x.push(count(0.01 + 0.01 * a.cos()));
+            y.push(count(0.01 * a.sin()));
+        }
+        let program = program_from_commands(&[x.clone(), y.clone()], 1e-4, "r.csv").unwrap();
+        let segs = &program.segments;
+        // The line is one line; the arc needs chords of about √(8·R·tol) = 0.13 mm.
+        assert_eq!(segs[0].end_m[..2], [0.02, 0.0]);
+        assert!(segs.len() > 50 && segs.len() < 400, "{}", segs.len());
+        assert_eq!(
+            segs[1].line, 2001,
+            "the arc starts where the line ended (sample 2001)"
+        );
+        for (px, py) in x.iter().zip(&y) {
+            let nearest = segs
+                .iter()
+                .map(|s| {
+                    let (a, b) = ([s.start_m[0], s.start_m[1]], [s.end_m[0], s.end_m[1]]);
+                    distance_to_segment([*px, *py], a, b)
+                })
+                .fold(f64::INFINITY, f64::min);
+            assert!(nearest <= COMMANDS_PATH_TOLERANCE_M + 1e-12, "{nearest}");
+        }
+        assert!(program_from_commands(&[vec![0.1; 10], vec![0.2; 10]], 1e-3, "still").is_none());
     }
 
     #[test]
