@@ -544,3 +544,101 @@ proptest::proptest! {
         let _ = read(xml[..xml.len() - cut].as_bytes(), None);
     }
 }
+
+/// The record as TwinCAT 3's Scope View exports it (see `trace::twincat`): the scope's
+/// lines, the channels' properties (NC axis variables, units "mm (Millimeter)"), a time
+/// column per channel in ms with a decimal comma, the set positions at half the actual
+/// positions' rate (so their columns end early), and the `EOF` line the export can append.
+fn twincat_export(csv: &str) -> String {
+    let [t, x, y, xc, yc] = columns(csv);
+    let ms = |v: f64| format!("{:.6}", v * 1e3).replace('.', ",");
+    let mm = |v: f64| format!("{v:.9}").replace('.', ",");
+    let channels = [
+        ("MAIN.Axis_X.NcToPlc.ActPos", &x, 1),
+        ("MAIN.Axis_Y.NcToPlc.ActPos", &y, 1),
+        ("MAIN.Axis_X.NcToPlc.SetPos", &xc, 2),
+        ("MAIN.Axis_Y.NcToPlc.SetPos", &yc, 2),
+    ];
+    let row = |key: &str, cell: &dyn Fn(usize) -> String| {
+        let cells: Vec<String> = (0..channels.len())
+            .map(|c| format!("{key}\t{}", cell(c)))
+            .collect();
+        cells.join("\t") + "\n"
+    };
+    let period_ms = (t[1] - t[0]) * 1e3;
+    let mut out = String::from(
+        "Name\trecord\nFile\tC:\\TwinCAT\\record.csv\nStarttime of export\t133000000000000000\t\
+         Montag, 2. Mai 2022\t15:56:24.376\nEndtime of export\t133000000010000000\t\
+         Montag, 2. Mai 2022\t15:56:25.375\n\n\n",
+    );
+    out += &row("Name", &|c| channels[c].0.to_string());
+    out += &row("SymbolComment", &|_| String::new());
+    out += &row("Data-Type", &|_| "REAL64".into());
+    out += &row("SampleTime[ms]", &|c| {
+        ms(period_ms * channels[c].2 as f64 * 1e-3)
+    });
+    out += &row("Unit", &|_| "mm (Millimeter)".into());
+    out += &row("Unit ScaleFactor", &|_| "1".into());
+    out += "\n";
+    for k in 0..t.len() {
+        let cells: Vec<String> = channels
+            .iter()
+            .map(|(_, values, every)| {
+                let j = k * every;
+                if j < t.len() {
+                    format!("{}\t{}", ms(t[j] - t[0]), mm(values[j]))
+                } else {
+                    "\t".into()
+                }
+            })
+            .collect();
+        out += &(cells.join("\t") + "\n");
+    }
+    out + "EOF\n"
+}
+
+#[test]
+fn a_twincat_scope_export_reads_without_a_mapping() {
+    let (csv, expected) = record();
+    let trace = read(twincat_export(&csv).as_bytes(), None).unwrap();
+    // The set positions end at the last even sample: the columns share their span.
+    let n = expected.len();
+    assert_eq!(trace.len(), if n % 2 == 0 { n - 1 } else { n });
+    assert!((trace.dt_s - expected.dt_s).abs() < 1e-9);
+    let near = |u: &[f64], v: &[f64], tol: f64| u.iter().zip(v).all(|(p, q)| (p - q).abs() < tol);
+    assert!(near(&trace.x_m, &expected.x_m, 1e-11) && near(&trace.y_m, &expected.y_m, 1e-11));
+    let (c, e) = (trace.commands.unwrap(), expected.commands.unwrap());
+    for axis in 0..2 {
+        assert!(near(&c[axis], &e[axis], 1e-6), "axis {axis}");
+    }
+    let described = trace.layout.describe().join("\n");
+    assert!(
+        described.starts_with("TwinCAT Scope export, 4 channels")
+            && described.contains("x_cmd ← column 4 'MAIN.Axis_X.NcToPlc.SetPos [mm]'"),
+        "{described}"
+    );
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(300))]
+    /// A TwinCAT export cut anywhere, with any cells spliced in, is an error or a trace,
+    /// never a panic.
+    #[test]
+    fn damaged_twincat_exports_never_panic(
+        splice in "[\t\n;,0-9a-zA-Z.()\\[\\] -]{0,40}",
+        at in 0usize..6000,
+        cut in 0usize..6000,
+    ) {
+        static EXPORT: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+        let whole = EXPORT.get_or_init(|| {
+            let (csv, _) = record();
+            let short: String = csv.lines().take(60).flat_map(|l| [l, "\n"]).collect();
+            twincat_export(&short)
+        });
+        let mut text = whole.clone();
+        let at = text.floor_char_boundary(at.min(text.len()));
+        text.insert_str(at, &splice);
+        let cut = text.floor_char_boundary(cut.min(text.len()));
+        let _ = read(text[..text.len() - cut].as_bytes(), None);
+    }
+}

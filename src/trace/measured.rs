@@ -14,6 +14,7 @@ use crate::trace::format::{self, ColumnMap, Dialect, Mapped, Signal};
 use crate::trace::halscope;
 use crate::trace::mat;
 use crate::trace::sinumerik;
+use crate::trace::twincat;
 
 /// A measured trace on a uniform time grid, in SI units.
 #[derive(Debug, Clone, PartialEq)]
@@ -266,6 +267,20 @@ pub fn parse_sinumerik_trace(
     assemble_named(file, &trace.columns, trace.rows, map, source)
 }
 
+/// Parses a TwinCAT Scope export (see [`twincat`]): its channels are the columns, on the
+/// clock of the most densely sampled one.
+pub fn parse_twincat_trace(
+    text: &str,
+    file: &str,
+    map: Option<&ColumnMap>,
+) -> Result<MeasuredTrace, MeasuredError> {
+    let export = twincat::twincat_columns(text, file)?;
+    let source = Source::Twincat {
+        channels: export.columns.len() - 1,
+    };
+    assemble_named(file, &export.columns, export.rows, map, source)
+}
+
 /// A trace from named columns of equal length (a MAT-file's variables, a halscope log's
 /// channels), mapped like a text header; `rows` gives each sample's place for messages.
 fn assemble_named(
@@ -279,6 +294,7 @@ fn assemble_named(
     let what = match source {
         Source::Halscope { .. } => "channel",
         Source::Sinumerik { .. } => "signal",
+        Source::Twincat { .. } => "channel",
         _ => "variable",
     };
     let names: Vec<&str> = columns.iter().map(|(n, _)| n.as_str()).collect();
@@ -505,6 +521,9 @@ pub fn parse_trace_with(
     if halscope::is_halscope_log(text) {
         return parse_halscope_trace(text, file, map);
     }
+    if twincat::is_twincat_export(text) {
+        return parse_twincat_trace(text, file, map);
+    }
     let data_error = data_error_in(file);
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     // (1-based row, line) of every line that is neither blank nor a comment.
@@ -651,6 +670,11 @@ pub enum Source {
         /// Signals with samples.
         signals: usize,
     },
+    /// A TwinCAT Scope export with this many channels.
+    Twincat {
+        /// Channels in the export.
+        channels: usize,
+    },
 }
 
 /// How a trace file was read: its format, which column became what, and how many trailer
@@ -692,6 +716,10 @@ impl TraceLayout {
             Source::Halscope { channels } => {
                 format!("LinuxCNC halscope log, {channels} channels, time from its sampling period")
             }
+            Source::Twincat { channels } => format!(
+                "TwinCAT Scope export, {channels} channels on the clock of the most densely \
+                 sampled one"
+            ),
             Source::Sinumerik { signals } => format!(
                 "SINUMERIK Operate trace (XML), {signals} signals on the clock of the most \
                  densely sampled one"

@@ -1,8 +1,9 @@
 //! Measured records from outside: every reader of trace files (delimited text, MAT-files,
-//! halscope logs, SINUMERIK traces) and the layouts that tell their columns apart, what a record holds before
+//! halscope logs, SINUMERIK traces, TwinCAT Scope exports) and the layouts that tell their columns apart, what a record holds before
 //! anything is fitted to it, and the commands a control recorded made into the simulator's
 //! input. Nothing here simulates or fits: `diagnose` and `identify` build on it.
 
+pub mod clock;
 pub mod format;
 pub mod halscope;
 pub mod inspect;
@@ -12,3 +13,4 @@ pub mod measured;
 pub mod recorded;
 pub mod signal;
 pub mod sinumerik;
+pub mod twincat;

@@ -21,6 +21,7 @@
 
 use std::collections::HashMap;
 
+use crate::trace::clock::{Sampled, on_one_clock};
 use crate::trace::measured::MeasuredError;
 
 /// The name given to the shared clock.
@@ -59,14 +60,6 @@ pub struct SinumerikColumns {
     pub empty_signals: Vec<String>,
 }
 
-/// One signal as sampled: its name and its own (time, value, line) samples.
-struct Sampled {
-    name: String,
-    t: Vec<f64>,
-    v: Vec<f64>,
-    line: Vec<u64>,
-}
-
 /// Reads a SINUMERIK Operate trace; `file` names it in errors.
 pub fn sinumerik_columns(text: &str, file: &str) -> Result<SinumerikColumns, MeasuredError> {
     let data_error = |problem: String| MeasuredError::Data {
@@ -102,7 +95,7 @@ pub fn sinumerik_columns(text: &str, file: &str) -> Result<SinumerikColumns, Mea
             "the trace holds no samples (no rec with a value)".into(),
         ));
     }
-    let (columns, rows) = on_one_clock(&sampled);
+    let (columns, rows) = on_one_clock(&sampled, TIME_COLUMN, 1.0);
     if rows.len() < 2 {
         return Err(data_error(
             "the signals' samples do not overlap in time: no instant has them all".into(),
@@ -228,49 +221,6 @@ fn read_records(
 fn signal_index(attribute: &str) -> Option<usize> {
     let n: usize = attribute.strip_prefix('f')?.parse().ok()?;
     n.checked_sub(1)
-}
-
-/// The signals on the clock of the most densely sampled one, within the span all cover;
-/// the others interpolated linearly between their own samples.
-fn on_one_clock(signals: &[Sampled]) -> (Vec<(String, Vec<f64>)>, Vec<u64>) {
-    let base = signals
-        .iter()
-        .enumerate()
-        .max_by_key(|(i, s)| (s.t.len(), std::cmp::Reverse(*i)))
-        .map(|(_, s)| s)
-        .expect("at least one signal");
-    let start = signals.iter().map(|s| s.t[0]).fold(f64::MIN, f64::max);
-    let end = signals
-        .iter()
-        .map(|s| s.t[s.t.len() - 1])
-        .fold(f64::MAX, f64::min);
-    let keep: Vec<usize> = (0..base.t.len())
-        .filter(|&k| base.t[k] >= start && base.t[k] <= end)
-        .collect();
-    let clock: Vec<f64> = keep.iter().map(|&k| base.t[k]).collect();
-    let rows = keep.iter().map(|&k| base.line[k]).collect();
-    let mut columns = vec![(TIME_COLUMN.to_string(), clock.clone())];
-    for s in signals {
-        columns.push((s.name.clone(), interpolated(&s.t, &s.v, &clock)));
-    }
-    (columns, rows)
-}
-
-/// Linear interpolation of (t, v) at increasing instants inside [t₀, tₙ].
-fn interpolated(t: &[f64], v: &[f64], at: &[f64]) -> Vec<f64> {
-    let mut j = 0;
-    at.iter()
-        .map(|&x| {
-            while j + 1 < t.len() && t[j + 1] <= x {
-                j += 1;
-            }
-            if j + 1 >= t.len() || t[j] == x {
-                return v[j];
-            }
-            let f = (x - t[j]) / (t[j + 1] - t[j]);
-            v[j] + (v[j + 1] - v[j]) * f
-        })
-        .collect()
 }
 
 #[cfg(test)]
