@@ -100,3 +100,56 @@ proptest! {
         let _ = identify(&program, &machine, &trace, &settings);
     }
 }
+
+/// The program's own path (X to 20 mm, Y to 7.5 mm, a rapid back), at sample `k` of `n`:
+/// standing for a fifth of the record at each end.
+fn along_program_mm(k: usize, n: usize) -> [f64; 2] {
+    let s = k as f64 / n.max(1) as f64;
+    let f = |a: f64, b: f64| ((s - a) / (b - a)).clamp(0.0, 1.0);
+    match s {
+        s if s < 0.5 => [20.0 * f(0.2, 0.5), 0.0],
+        s if s < 0.7 => [20.0, 7.5 * f(0.5, 0.7)],
+        _ => [20.0 * (1.0 - f(0.7, 0.8)), 7.5 * (1.0 - f(0.7, 0.8))],
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 8, ..ProptestConfig::default() })]
+
+    /// Records that do follow the program, with their commands, at 1 kHz and 50 Hz, the
+    /// axes lagging by a few samples: far enough along for `identify` to fit, and then its
+    /// values, determined or not, are numbers and nothing panics.
+    #[test]
+    fn records_along_the_program_get_identify_past_its_checks(
+        seconds in 2.0f64..4.0,
+        step_s in prop_oneof![Just(1e-3), Just(0.02)],
+        lag_samples in 1usize..4,
+    ) {
+        let n = (seconds / step_s) as usize;
+        let mut csv = String::from("t_s,x_mm,y_mm,x_cmd_mm,y_cmd_mm\n");
+        for k in 0..n {
+            let [xm, ym] = along_program_mm(k.saturating_sub(lag_samples), n);
+            let [xc, yc] = along_program_mm(k, n);
+            csv.push_str(&format!("{},{xm},{ym},{xc},{yc}\n", k as f64 * step_s));
+        }
+        let trace = parse_trace(&csv, "along.csv").unwrap();
+        let program = program_text(
+            "G21 G17 G90 G94\nG0 X0 Y0\nG1 X20 F1200\nY7.5\nG0 X0 Y0\nM2\n",
+        );
+        let machine = MachineConfig::default_preset();
+        let settings = DiagnoseSettings::for_machine(&machine);
+        let _ = diagnose(&program, &machine, &trace, &settings);
+        match identify(&program, &machine, &trace, &settings) {
+            Ok(id) => {
+                let text = format!("{id:?}");
+                prop_assert!(!text.contains("NaN"), "{text}");
+            }
+            Err(e) => {
+                // Refusals are allowed only for what the record is (its kinked commands can
+                // be beyond what the 6 t table follows), never for its shape.
+                let e = e.to_string();
+                prop_assert!(!e.contains("no commands") && !e.contains("still"), "{e}");
+            }
+        }
+    }
+}
