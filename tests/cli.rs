@@ -691,7 +691,7 @@ fn diagnose_takes_at_most_two_records() {
 fn identify_writes_a_machine_file_check_takes_and_a_record_without_commands_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
-    // Both without acceleration feed-forward (README: feed-forward of a record's
+    // Both without acceleration feed-forward (docs/identify.md: feed-forward of a record's
     // reconstructed acceleration biases the mass).
     let no_ff =
         "[x.controller]\naccel_feedforward = 0.0\n[y.controller]\naccel_feedforward = 0.0\n";

@@ -172,7 +172,7 @@ fn a_hidden_cascade_is_identified_from_the_heavy_template_and_predicts_another_p
 fn a_small_table_with_a_pid_and_with_state_feedback_is_identified() {
     // X without acceleration feed-forward: fed the acceleration the record's commands are
     // read back to (the foreign interpolator's steps, smoothed over the reconstruction's
-    // window), a fit of the preset's X came out 13 % heavy (z 5) — see README.
+    // window), a fit of the preset's X came out 13 % heavy (z 5) — see docs/identify.md.
     let template = MachineConfig::from_toml_str(
         "base = \"small-table\"\n[x.controller]\naccel_feedforward = 0.0\n\
          [y.controller]\nstructure = \"state_feedback\"\nposition_gain_a_per_mm = 40.0\n\
