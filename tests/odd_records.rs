@@ -141,8 +141,13 @@ proptest! {
         let _ = diagnose(&program, &machine, &trace, &settings);
         match identify(&program, &machine, &trace, &settings) {
             Ok(id) => {
-                let text = format!("{id:?}");
-                prop_assert!(!text.contains("NaN"), "{text}");
+                // Every value written is a number; a value the record determines has a finite
+                // uncertainty (one it does not is the template's, its uncertainty NaN).
+                for v in id.axes.iter().flat_map(|a| &a.values) {
+                    prop_assert!(v.value.is_finite(), "{v:?}");
+                    prop_assert!(!v.determined || v.uncertainty.is_finite(), "{v:?}");
+                    prop_assert!(v.determined || v.value == v.template, "{v:?}");
+                }
             }
             Err(e) => {
                 // Refusals are allowed only for what the record is (its kinked commands can

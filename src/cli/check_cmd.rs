@@ -54,7 +54,7 @@ pub fn run(args: &CheckArgs) -> Result<Outcome, CliError> {
             "--tolerance {t}: must be a positive number of µm"
         )));
     }
-    let machine = args.machine.load()?;
+    let machine = args.machine.load_stable()?;
     let mut settings = CheckSettings::for_machine(&machine);
     settings.plan = args.planning.config(&machine)?;
     let mut program = load_program(&args.program, &machine)?;

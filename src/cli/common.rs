@@ -67,10 +67,90 @@ impl MachineArgs {
             Some(path) if !path.exists() && is_preset_name(path) => {
                 Ok(MachineConfig::preset(&path.to_string_lossy())?)
             }
-            Some(path) => Ok(MachineConfig::load(path)?),
+            Some(path) if !path.exists() => Err(CliError::Usage(no_such_machine(path))),
+            Some(path) => {
+                let (machine, warnings) = MachineConfig::load_with_warnings(path)?;
+                for w in warnings {
+                    eprintln!("warning: {w}");
+                }
+                Ok(machine)
+            }
             None => Ok(MachineConfig::default_preset()),
         }
     }
+}
+
+/// A `--machine` that is neither a file nor a preset: the presets there are, and the one
+/// meant where the name is close to one.
+fn no_such_machine(path: &std::path::Path) -> String {
+    let name = path.to_string_lossy();
+    let presets: Vec<&str> = crate::machine::PRESETS.iter().map(|(n, _)| *n).collect();
+    let nearest = presets
+        .iter()
+        .map(|p| (strsim::levenshtein(&name, p), *p))
+        .min_by_key(|(d, _)| *d)
+        .filter(|(d, _)| *d <= 2)
+        .map_or(String::new(), |(_, p)| format!("; did you mean `{p}`?"));
+    format!(
+        "--machine {name}: no such file, and no embedded preset of that name (presets: {}){nearest}",
+        presets.join(", ")
+    )
+}
+
+impl MachineArgs {
+    /// The machine, refused when an axis's loops are unstable, with the setting that makes
+    /// them so and the range in which it is stable (for commands that simulate; `bode` and
+    /// `sweep` show unstable settings instead).
+    pub fn load_stable(&self) -> Result<MachineConfig, CliError> {
+        let machine = self.load()?;
+        let file = self
+            .machine
+            .as_ref()
+            .map_or("the hvmc preset".to_string(), |p| p.display().to_string());
+        for axis in crate::machine::AxisName::BOTH {
+            let config = machine.axis(axis);
+            let model = crate::sim::AxisModel::from_config(config);
+            if let Err(e) = crate::sim::linear::check_stable(&model) {
+                return Err(CliError::Usage(unstable_advice(&file, axis, config, &e)));
+            }
+        }
+        Ok(machine)
+    }
+}
+
+/// What to change where when an axis's loops are unstable.
+fn unstable_advice(
+    file: &str,
+    axis: crate::machine::AxisName,
+    config: &crate::machine::AxisConfig,
+    e: &crate::sim::SimError,
+) -> String {
+    let growing = match e {
+        crate::sim::SimError::Unstable {
+            frequency_hz,
+            growth_per_s,
+        } => format!("a closed-loop mode at {frequency_hz:.1} Hz grows at {growth_per_s:.3} 1/s"),
+        other => other.to_string(),
+    };
+    let key = format!("{}.position_loop.kv_m_per_min_per_mm", axis.as_str());
+    let what_to_do = match crate::sim::linear::largest_stable_kv(config) {
+        Some(kv_max) => format!(
+            "with its other settings held, {key} (here {}) is stable below {kv_max:.3} m/min/mm",
+            config.position_loop.kv_m_per_min_per_mm
+        ),
+        None if config.controller.is_cascade() => format!(
+            "no position gain {key} makes it stable: the velocity loop's \
+             (velocity_loop.ks_nm_s_per_rad, ts_ms) or the current loop's settings are"
+        ),
+        None => format!(
+            "its controller's gains in [{}.controller] are",
+            axis.as_str()
+        ),
+    };
+    format!(
+        "{file}: the {} axis is unstable with these settings: {growing}; {what_to_do}",
+        axis.letter()
+    )
 }
 
 fn is_preset_name(path: &std::path::Path) -> bool {

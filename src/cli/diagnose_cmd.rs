@@ -95,7 +95,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
             args.evidence
         )));
     }
-    let machine = args.machine.load()?;
+    let machine = args.machine.load_stable()?;
     if let Some(table) = &args.table {
         return run_table(args, table, &machine);
     }

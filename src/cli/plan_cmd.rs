@@ -27,7 +27,7 @@ pub struct PlanArgs {
 }
 
 pub fn run(args: &PlanArgs) -> Result<Outcome, CliError> {
-    let machine = args.machine.load()?;
+    let machine = args.machine.load_stable()?;
     let config = args.planning.config(&machine)?;
     let program = load_program(&args.program, &machine)?;
     let planned = plan(&program, &KinematicLimits::of(&machine), &config);

@@ -56,6 +56,10 @@ pub struct SweepArgs {
     /// Settings listed on the terminal.
     #[arg(long, default_value_t = 20, value_name = "N")]
     pub rows: usize,
+    /// Least closed-loop damping ratio of a healthy setting: below it a setting is flagged
+    /// "poorly damped" and ranked after every healthy one, whatever its contour error.
+    #[arg(long, default_value_t = crate::sweep::POOR_DAMPING, value_name = "ZETA")]
+    pub min_damping: f64,
 }
 
 /// The axis an occurrence of `arg` belongs to: the last --axis given before it.
@@ -163,7 +167,13 @@ pub fn run(args: &SweepArgs, m: &ArgMatches) -> Result<Outcome, CliError> {
         bar.inc(1)
     });
     bar.finish_and_clear();
-    points.sort_by(|a, b| a.rank_key().total_cmp(&b.rank_key()));
+    if !(args.min_damping.is_finite() && (0.0..1.0).contains(&args.min_damping)) {
+        return Err(CliError::Usage(format!(
+            "--min-damping {}: a damping ratio from 0 up to 1",
+            args.min_damping
+        )));
+    }
+    crate::sweep::rank(&mut points, args.min_damping);
     let mut batch = OutputBatch::new();
     if let Some(path) = &args.csv {
         batch.stage(path, |w| write_csv(w, &dims, &points))?;
@@ -185,7 +195,14 @@ pub fn run(args: &SweepArgs, m: &ArgMatches) -> Result<Outcome, CliError> {
     if let Some(dir) = &args.plot {
         plot(dir, &program.file, &dims, &points)?;
     }
-    print_table(&program.file, &machine.name, &dims, &points, args.rows);
+    print_table(
+        &program.file,
+        &machine.name,
+        &dims,
+        &points,
+        args.rows,
+        args.min_damping,
+    );
     Ok(Outcome::Ok)
 }
 
@@ -204,9 +221,12 @@ fn print_table(
     dims: &[Dimension],
     points: &[SweepPoint],
     rows: usize,
+    min_damping: f64,
 ) {
     println!(
-        "sweep of {program} on {machine}: {} settings, ranked by the largest contour error",
+        "sweep of {program} on {machine}: {} settings, ranked by the largest contour error; \
+         settings whose loops leave a mode damped below ζ {min_damping} and below the \
+         mechanics' own ranked after the healthy ones",
         points.len()
     );
     let head: Vec<String> = dims.iter().map(|d| format!("{:>10}", d.name)).collect();
@@ -221,6 +241,7 @@ fn print_table(
                 metrics: m,
                 least_damping,
                 poorly_damped,
+                ..
             } => format!(
                 "{:>14.2}  {:>6.2}  {:>7.1}  {:>7.1}  {:>12.2}  {:>9.3}  {:>7.4}{}",
                 m.max_contour_um,
@@ -231,7 +252,7 @@ fn print_table(
                 m.ripple_um,
                 least_damping,
                 if *poorly_damped {
-                    "  poorly damped"
+                    "  poorly damped: ranked after the healthy settings"
                 } else {
                     ""
                 }
@@ -241,7 +262,14 @@ fn print_table(
             }
             PointResult::Invalid { reason } => format!("  invalid: {reason}"),
         };
-        let best = if i == 0 && matches!(p.result, PointResult::Ok { .. }) {
+        let best = if i == 0
+            && matches!(
+                p.result,
+                PointResult::Ok {
+                    poorly_damped: false,
+                    ..
+                }
+            ) {
             "  ◀ best"
         } else {
             ""
@@ -277,6 +305,7 @@ fn write_csv(w: &mut dyn Write, dims: &[Dimension], points: &[SweepPoint]) -> st
                 metrics: m,
                 least_damping,
                 poorly_damped,
+                ..
             } => {
                 row.push(
                     if *poorly_damped {

@@ -153,7 +153,7 @@ pub fn run(args: &SynthArgs) -> Result<Outcome, CliError> {
         .map(ColumnMap::parse)
         .transpose()
         .map_err(|e| CliError::Usage(format!("--out-columns: {e}")))?;
-    let machine = args.machine.load()?;
+    let machine = args.machine.load_stable()?;
     let program = load_program(&args.program, &machine)?;
     let commands = match &args.commands {
         Some(path) => Some(command_stream(&args.trace.read(path)?)),

@@ -9,6 +9,7 @@
 
 mod alternatives;
 mod controller;
+pub mod locate;
 pub mod realise;
 mod sections;
 mod validate;
@@ -492,6 +493,16 @@ impl MachineConfig {
         Self::from_toml_str(&text, &file)
     }
 
+    /// Loads a machine file as [`MachineConfig::load`] does, with warnings about values the
+    /// file gives that look like a unit mixed up (0.005 µm of backlash: mm meant?).
+    pub fn load_with_warnings(path: &Path) -> Result<(MachineConfig, Vec<String>), ConfigError> {
+        let machine = Self::load(path)?;
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).unwrap_or_default();
+        let over: toml::Table = text.parse().unwrap_or_default();
+        Ok((machine, suspicious_values(&over, &text, &file)))
+    }
+
     /// Parses a machine from TOML text; `file` names it in errors.
     pub fn from_toml_str(text: &str, file: &str) -> Result<MachineConfig, ConfigError> {
         let mut over: toml::Table =
@@ -518,14 +529,40 @@ impl MachineConfig {
         };
         let base_table = table.clone();
         merge(&mut table, over.clone());
-        alternatives::resolve(&over, &mut table, file)?;
-        sections::resolve(&over, &base_table, &mut table, file)?;
-        from_table(table, file).map_err(|e| explain_missing(e, &base, &base_table))
+        let located = |e: ConfigError| locate::located(e, text);
+        alternatives::resolve(&over, &mut table, file).map_err(located)?;
+        sections::resolve(&over, &base_table, &mut table, file).map_err(located)?;
+        refuse_unused_keys(&over, &table, file).map_err(located)?;
+        from_table(table, file)
+            .map_err(|e| explain_missing(e, &base, &base_table))
+            .map_err(located)
     }
 
-    /// The machine as TOML (the full set of keys, no `base`).
+    /// The machine as TOML (every key its controllers read, no `base`): the cascade's gains
+    /// are left out of an axis with another controller, and a velocity loop's of an axis
+    /// whose drive closes none, as a file that gave them would be refused.
     pub fn to_toml(&self) -> String {
-        toml::to_string_pretty(self).expect("a machine always serialises")
+        let mut table = toml::Table::try_from(self).expect("a machine always serialises");
+        for (axis, config) in [("x", &self.x), ("y", &self.y)] {
+            let Some(toml::Value::Table(section)) = table.get_mut(axis) else {
+                continue;
+            };
+            if !config.controller.is_cascade()
+                && let Some(toml::Value::Table(position)) = section.get_mut("position_loop")
+            {
+                for key in [
+                    "kv_m_per_min_per_mm",
+                    "velocity_feedforward",
+                    "accel_feedforward",
+                ] {
+                    position.remove(key);
+                }
+            }
+            if !config.controller.uses_velocity_loop() {
+                section.remove("velocity_loop");
+            }
+        }
+        toml::to_string_pretty(&table).expect("a machine always serialises")
     }
 }
 
@@ -559,12 +596,22 @@ pub enum ConfigError {
         why: String,
     },
     /// A key the machine does not have (a typo, usually).
-    #[error("{file}: unknown key `{key}`")]
+    #[error("{file}: unknown key `{key}`{hint}")]
     UnknownKey {
-        /// File.
+        /// File (with the key's line and column where the file's text shows them).
         file: String,
         /// Dotted key path.
         key: String,
+        /// " — did you mean `…`?", or empty.
+        hint: String,
+    },
+    /// Several unknown keys: all of them, each where it is.
+    #[error("{file}: {} unknown keys:{}", .keys.len(), .keys.iter().map(|k| format!("\n  {k}")).collect::<String>())]
+    UnknownKeys {
+        /// File.
+        file: String,
+        /// Each with where it is and what was likely meant.
+        keys: Vec<locate::UnknownKeyAt>,
     },
     /// A value of the wrong type, out of range or inconsistent with another.
     #[error("{file}: key `{key}` {problem}")]
@@ -603,6 +650,125 @@ fn preset_table(name: &str, file: &str) -> Result<toml::Table, ConfigError> {
     Ok(text.parse().expect("embedded presets are valid TOML"))
 }
 
+/// A key the file gives that the axis's controller structure does not read is refused, so
+/// that no setting is silently without effect: the cascade's gains on another controller, a
+/// velocity loop's on a drive that has none.
+fn refuse_unused_keys(
+    over: &toml::Table,
+    merged: &toml::Table,
+    file: &str,
+) -> Result<(), ConfigError> {
+    for axis in ["x", "y"] {
+        let given = |section: &str| {
+            over.get(axis)
+                .and_then(|a| a.get(section))
+                .and_then(toml::Value::as_table)
+                .map(|t| t.keys().cloned().collect::<Vec<_>>())
+                .unwrap_or_default()
+        };
+        // The structure as the merged file names it (its own check comes later).
+        let controller = merged
+            .get(axis)
+            .and_then(|a| a.get("controller"))
+            .and_then(toml::Value::as_table);
+        let field = |key: &str| {
+            controller
+                .and_then(|c| c.get(key))
+                .and_then(toml::Value::as_str)
+        };
+        let structure = field("structure").unwrap_or("cascade");
+        let velocity_loop = match structure {
+            "cascade" => true,
+            "transfer_function" => field("output") == Some("velocity"),
+            _ => false,
+        };
+        let unused = |key: String, why: String| ConfigError::Invalid {
+            file: file.into(),
+            key,
+            problem: format!("is not used: {why}"),
+        };
+        let upper = axis.to_uppercase();
+        if structure != "cascade" {
+            let cascade_gains = [
+                "kv_m_per_min_per_mm",
+                "velocity_feedforward",
+                "accel_feedforward",
+            ];
+            if let Some(key) = given("position_loop")
+                .into_iter()
+                .find(|k| cascade_gains.contains(&k.as_str()))
+            {
+                return Err(unused(
+                    format!("{axis}.position_loop.{key}"),
+                    format!(
+                        "the {upper} axis's controller is `{structure}`, whose gains and \
+                         feed-forward are set in [{axis}.controller]; [{axis}.position_loop] \
+                         gives only `feedback` and `dead_time_ms` to it"
+                    ),
+                ));
+            }
+        }
+        if !velocity_loop && let Some(key) = given("velocity_loop").into_iter().next() {
+            return Err(unused(
+                format!("{axis}.velocity_loop.{key}"),
+                format!(
+                    "the {upper} axis's controller (`{structure}`) commands current, so its \
+                     drive closes no velocity loop"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Values the file gives that are possible but far more likely a unit mixed up: each with
+/// its place and what it would be in the unit probably meant.
+fn suspicious_values(over: &toml::Table, text: &str, file: &str) -> Vec<String> {
+    let mut warnings = Vec::new();
+    for axis in ["x", "y"] {
+        let value = |section: &str, key: &str| {
+            over.get(axis)
+                .and_then(|a| a.get(section))
+                .and_then(|s| s.get(key))
+                .and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)))
+        };
+        let mut warn = |section: &str, key: &str, why: String| {
+            let dotted = format!("{axis}.{section}.{key}");
+            let at =
+                locate::find_key(text, &dotted).map_or(String::new(), |(l, c)| format!(":{l}:{c}"));
+            warnings.push(format!("{file}{at}: {dotted} {why}"));
+        };
+        if let Some(b) = value("drive", "backlash_um")
+            && b > 0.0
+            && b < 0.1
+        {
+            warn(
+                "drive",
+                "backlash_um",
+                format!(
+                    "= {b} µm is below any machine's backlash: if mm were meant, write \
+                     backlash_um = {}",
+                    b * 1e3
+                ),
+            );
+        }
+        if let Some(kv) = value("position_loop", "kv_m_per_min_per_mm")
+            && kv > 10.0
+        {
+            warn(
+                "position_loop",
+                "kv_m_per_min_per_mm",
+                format!(
+                    "= {kv} m/min/mm is far above a machine tool's position gain (0.3–5): if \
+                     1/s were meant, write kv_m_per_min_per_mm = {:.3}",
+                    kv / (1000.0 / 60.0)
+                ),
+            );
+        }
+    }
+    warnings
+}
+
 /// Lays `over` onto `base`, table by table; values in `over` win.
 fn merge(base: &mut toml::Table, over: toml::Table) {
     for (key, value) in over {
@@ -638,15 +804,50 @@ fn explain_missing(e: ConfigError, base: &str, base_table: &toml::Table) -> Conf
     ConfigError::Missing { file, key, why }
 }
 
-fn from_table(table: toml::Table, file: &str) -> Result<MachineConfig, ConfigError> {
-    let value = toml::Value::Table(table);
-    let machine: MachineConfig = serde_path_to_error::deserialize(value).map_err(|e| {
-        let key = e.path().to_string();
-        let message = e.inner().to_string();
-        classify_serde_error(file, &key, &message)
-    })?;
-    validate::validate(&machine, file)?;
-    Ok(machine)
+fn from_table(mut table: toml::Table, file: &str) -> Result<MachineConfig, ConfigError> {
+    // Every unknown key is reported at once: each is taken out and the rest read again.
+    let mut unknown = Vec::new();
+    let machine = loop {
+        match serde_path_to_error::deserialize::<_, MachineConfig>(toml::Value::Table(
+            table.clone(),
+        )) {
+            Ok(machine) => break Some(machine),
+            Err(e) => {
+                let error =
+                    classify_serde_error(file, &e.path().to_string(), &e.inner().to_string());
+                if let ConfigError::UnknownKey { key, hint, .. } = &error
+                    && unknown.len() < 100
+                    && locate::remove_key(&mut table, key)
+                {
+                    unknown.push(locate::UnknownKeyAt::new(key, hint));
+                    continue;
+                }
+                if unknown.is_empty() {
+                    return Err(error);
+                }
+                // What else is wrong may follow from the unknown keys: they come first.
+                break None;
+            }
+        }
+    };
+    match (machine, unknown.len()) {
+        (Some(machine), 0) => {
+            validate::validate(&machine, file)?;
+            Ok(machine)
+        }
+        (_, 1) => {
+            let only = unknown.remove(0);
+            Err(ConfigError::UnknownKey {
+                file: file.into(),
+                key: only.key,
+                hint: only.hint,
+            })
+        }
+        _ => Err(ConfigError::UnknownKeys {
+            file: file.into(),
+            keys: unknown,
+        }),
+    }
 }
 
 fn classify_serde_error(file: &str, path: &str, message: &str) -> ConfigError {
@@ -672,12 +873,13 @@ fn classify_serde_error(file: &str, path: &str, message: &str) -> ConfigError {
         ConfigError::UnknownKey {
             file: file.into(),
             key: join(&quoted),
+            hint: locate::did_you_mean(&quoted, message),
         }
     } else {
         ConfigError::Invalid {
             file: file.into(),
             key: path.to_string(),
-            problem: message.to_string(),
+            problem: locate::plain_words(path, message),
         }
     }
 }
@@ -710,6 +912,71 @@ mod tests {
     }
 
     #[test]
+    fn every_preset_round_trips_and_refuses_keys_its_controller_does_not_read() {
+        for (name, _) in PRESETS {
+            let m = MachineConfig::preset(name).unwrap();
+            let again =
+                MachineConfig::from_toml_str(&format!("base = \"none\"\n{}", m.to_toml()), "t")
+                    .unwrap();
+            assert_eq!(again, m, "{name}");
+        }
+        let e = MachineConfig::from_toml_str(
+            "base = \"small-table\"\n[x.position_loop]\nkv_m_per_min_per_mm = 2.0\n",
+            "m.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.starts_with("m.toml:3:1: key `x.position_loop.kv_m_per_min_per_mm` is not used"),
+            "{e}"
+        );
+        let e = MachineConfig::from_toml_str(
+            "base = \"small-table\"\n[y.velocity_loop]\nts_ms = 5.0\n",
+            "m.toml",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("closes no velocity loop"), "{e}");
+    }
+
+    #[test]
+    fn a_unit_mixed_up_is_warned_about_with_the_likely_value() {
+        let text =
+            "[x.drive]\nbacklash_um = 0.005\n[y.position_loop]\nkv_m_per_min_per_mm = 16.7\n";
+        let warnings = suspicious_values(&text.parse().unwrap(), text, "m.toml");
+        assert_eq!(warnings.len(), 2, "{warnings:?}");
+        assert!(warnings[0].starts_with("m.toml:2:1: x.drive.backlash_um = 0.005 µm"));
+        assert!(warnings[0].ends_with("backlash_um = 5"), "{}", warnings[0]);
+        assert!(
+            warnings[1].ends_with("kv_m_per_min_per_mm = 1.002"),
+            "{}",
+            warnings[1]
+        );
+    }
+
+    #[test]
+    fn every_unknown_key_is_reported_at_once_with_its_line() {
+        let text = "base = \"hvmc\"\n[x.drive]\nbacklsh_um = 5.0\n[y.position_loop]\n\
+                    kv_m_per_mim_per_mm = 1.0\n";
+        let e = MachineConfig::from_toml_str(text, "m.toml")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e,
+            "m.toml: 2 unknown keys:\n  line 3, column 1: `x.drive.backlsh_um` — did you mean \
+             `backlash_um`?\n  line 5, column 1: `y.position_loop.kv_m_per_mim_per_mm` — did \
+             you mean `kv_m_per_min_per_mm`?"
+        );
+        let e = MachineConfig::from_toml_str("[x.drive]\nbacklash_um = \"5 um\"\n", "m.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("m.toml:2:1:") && e.contains("write `backlash_um = 5`"),
+            "{e}"
+        );
+    }
+
+    #[test]
     fn a_file_overrides_only_what_it_names() {
         let m = MachineConfig::from_toml_str("[x.drive]\nbacklash_um = 12.5\n", "m.toml").unwrap();
         assert_eq!(m.x.drive.backlash_um, 12.5);
@@ -722,12 +989,12 @@ mod tests {
         let e = MachineConfig::from_toml_str("[x.drive]\nbacklash_um = -1.0\n", "m.toml");
         assert_eq!(
             e.unwrap_err().to_string(),
-            "m.toml: key `x.drive.backlash_um` must not be negative (got -1)"
+            "m.toml:2:1: key `x.drive.backlash_um` must not be negative (got -1)"
         );
         let e = MachineConfig::from_toml_str("[x.drive]\nbaklash_um = 1.0\n", "m.toml");
         assert_eq!(
             e.unwrap_err().to_string(),
-            "m.toml: unknown key `x.drive.baklash_um`"
+            "m.toml:2:1: unknown key `x.drive.baklash_um` — did you mean `backlash_um`?"
         );
         let e = MachineConfig::from_toml_str("base = \"none\"\nname = \"a\"\n", "m.toml");
         assert!(matches!(e.unwrap_err(), ConfigError::Missing { .. }));

@@ -439,3 +439,53 @@ pub fn check_stable(model: &AxisModel) -> Result<(), SimError> {
         _ => Ok(()),
     }
 }
+
+/// For a cascade axis whose setting is unstable: the largest position gain Kv (m/min/mm)
+/// that is stable with every other setting held, found by bisection on the linear model
+/// between a hundredth of a m/min/mm and the gain given; `None` for another controller, or
+/// when even the smallest gain is unstable (the velocity or current loop is).
+pub fn largest_stable_kv(config: &crate::machine::AxisConfig) -> Option<f64> {
+    if !config.controller.is_cascade() {
+        return None;
+    }
+    let stable_at = |kv: f64| {
+        let mut c = config.clone();
+        c.position_loop.kv_m_per_min_per_mm = kv;
+        check_stable(&AxisModel::from_config(&c)).is_ok()
+    };
+    let (mut lo, mut hi) = (0.01, config.position_loop.kv_m_per_min_per_mm);
+    if !stable_at(lo) || stable_at(hi) {
+        return None;
+    }
+    for _ in 0..40 {
+        let mid = 0.5 * (lo + hi);
+        if stable_at(mid) {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Some(lo)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::machine::MachineConfig;
+
+    #[test]
+    fn the_largest_stable_kv_is_the_edge_of_stability() {
+        let mut x = MachineConfig::default_preset().x;
+        x.position_loop.kv_m_per_min_per_mm = 2.0;
+        let edge = largest_stable_kv(&x).unwrap();
+        let stable = |kv: f64| {
+            let mut c = x.clone();
+            c.position_loop.kv_m_per_min_per_mm = kv;
+            check_stable(&AxisModel::from_config(&c)).is_ok()
+        };
+        assert!(stable(0.999 * edge) && !stable(1.001 * edge), "{edge}");
+        // The preset's Kv of 1 lies well inside; a stable setting has no edge to report.
+        assert!(edge > 1.2 && edge < 2.0, "{edge}");
+        assert_eq!(largest_stable_kv(&MachineConfig::default_preset().x), None);
+    }
+}
