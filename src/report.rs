@@ -41,6 +41,9 @@ pub struct CheckReport {
     pub contour_error_um: ContourInfo,
     /// Following error per axis.
     pub following_error_um: FollowingInfo,
+    /// XY positioning error while a feed block moves Z alone or dwells (the axes settling
+    /// after they arrived; not part of the contour).
+    pub positioning_error_um: PositioningInfo,
     /// The tolerance given, if any (µm).
     pub tolerance_um: Option<f64>,
     /// Whether the largest contour error is within it (absent without a tolerance).
@@ -97,6 +100,17 @@ pub struct ContourInfo {
     pub rms: f64,
     /// Where the largest occurs.
     pub max_at: Option<Location>,
+}
+
+/// The largest XY positioning error while only Z moves or the program dwells.
+#[derive(Debug, Clone, Serialize)]
+pub struct PositioningInfo {
+    /// Largest distance from the commanded point (µm).
+    pub max: f64,
+    /// Its source line, if any.
+    pub line: Option<u32>,
+    /// Its time (s), if any.
+    pub t_s: Option<f64>,
 }
 
 /// A place in the run.
@@ -191,6 +205,11 @@ impl CheckReport {
             following_error_um: FollowingInfo {
                 x: axis(0),
                 y: axis(1),
+            },
+            positioning_error_um: PositioningInfo {
+                max: um_from_m(s.max_positioning_error_m),
+                line: s.max_positioning_at.map(|a| a.0),
+                t_s: s.max_positioning_at.map(|a| a.1),
             },
             tolerance_um,
             within_tolerance: tolerance_um.map(|t| max_um <= t),
@@ -325,6 +344,22 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
         "contour   max {:.2} µm{at}, RMS {:.2} µm",
         r.contour_error_um.max, r.contour_error_um.rms
     );
+    let _ = writeln!(
+        s,
+        "          (XY feed moves only; signed + to the left of the direction of travel: \
+         inside a ccw circle, outside a cw one)"
+    );
+    let p = &r.positioning_error_um;
+    if let (Some(line), Some(t)) = (p.line, p.t_s)
+        && p.max >= 0.005
+    {
+        let _ = writeln!(
+            s,
+            "settling max {:.2} µm at line {line} (t {t:.3} s): XY still arriving while only Z \
+             moves or the program dwells",
+            p.max
+        );
+    }
     let fe = &r.following_error_um;
     let _ = writeln!(
         s,
@@ -356,7 +391,7 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
         if r.hotspots.len() > max_hotspots {
             let _ = writeln!(
                 s,
-                "  … {} more in the JSON report",
+                "  … {} more (--json lists them all)",
                 r.hotspots.len() - max_hotspots
             );
         }

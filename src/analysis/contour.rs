@@ -55,8 +55,18 @@ impl ContourSeries {
 }
 
 /// Whether a segment is part of the cutting contour.
-fn is_contour(seg: &Segment) -> bool {
-    seg.motion == Motion::Feed && !matches!(seg.geometry, Geometry::Dwell { .. })
+/// Whether a segment is part of the XY contour: a feed move that moves X or Y. A dwell, or
+/// a move of Z alone (a plunge), has no contour: the XY error there is a positioning error,
+/// reported apart.
+pub fn is_contour(seg: &Segment) -> bool {
+    let moves_xy = match seg.geometry {
+        Geometry::Dwell { .. } => false,
+        Geometry::Arc(_) => true,
+        Geometry::Line => {
+            (seg.end_m[0] - seg.start_m[0]).hypot(seg.end_m[1] - seg.start_m[1]) > 1e-12
+        }
+    };
+    seg.motion == Motion::Feed && moves_xy
 }
 
 /// One sample's contour error.

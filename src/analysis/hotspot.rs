@@ -114,6 +114,10 @@ pub struct Hotspot {
     pub cause: Cause,
 }
 
+/// The smallest contour error a hotspot can have (µm): below it the report would list
+/// places whose error rounds to nothing.
+pub const HOTSPOT_FLOOR_UM: f64 = 0.05;
+
 /// Hotspot detection settings.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HotspotConfig {
@@ -519,7 +523,17 @@ impl HotspotFinder {
 
     /// Keeps the largest `max` hotspots, ranked.
     fn rank(&mut self) {
-        self.spots.retain(|h| h.error_um.is_finite());
+        // A place worth naming stands out: not below 0.05 µm (the report's resolution is
+        // 0.01 µm) nor below 1 % of the largest error.
+        let largest = self
+            .spots
+            .iter()
+            .map(|h| h.error_um.abs())
+            .filter(|e| e.is_finite())
+            .fold(0.0, f64::max);
+        let floor_um = HOTSPOT_FLOOR_UM.max(0.01 * largest);
+        self.spots
+            .retain(|h| h.error_um.is_finite() && h.error_um.abs() >= floor_um);
         self.spots
             .sort_by(|a, b| b.error_um.abs().total_cmp(&a.error_um.abs()));
         self.spots.truncate(self.max);

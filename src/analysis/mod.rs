@@ -42,6 +42,12 @@ pub struct Summary {
     pub rms_contour_error_m: f64,
     /// Largest |following error| of X and Y while cutting (m).
     pub max_following_error_cutting_m: [f64; 2],
+    /// Largest XY distance from the commanded point while a feed block moves Z alone or
+    /// dwells (m): the axes still settling after they arrived — a positioning error at that
+    /// point, not part of the contour.
+    pub max_positioning_error_m: f64,
+    /// Where that is: source line and time (s).
+    pub max_positioning_at: Option<(u32, f64)>,
     /// Largest |following error| of X and Y over the whole run, rapids included (m).
     pub max_following_error_m: [f64; 2],
 }
@@ -108,6 +114,8 @@ pub struct RunAnalyser {
     tool: ToolReader,
     squares_m2: f64,
     cutting_samples: usize,
+    /// Largest XY positioning error while Z moves alone or the program dwells, and where.
+    positioning: (f64, Option<(u32, f64)>),
     fe_cut_m: [f64; 2],
     fe_all_m: [f64; 2],
     samples: usize,
@@ -139,6 +147,7 @@ impl RunAnalyser {
             tool: ToolReader::new(machine),
             squares_m2: 0.0,
             cutting_samples: 0,
+            positioning: (0.0, None),
             fe_cut_m: [0.0; 2],
             fe_all_m: [0.0; 2],
             samples: 0,
@@ -162,6 +171,12 @@ impl RunAnalyser {
             let cutting = plan.segments[seg].motion == Motion::Feed;
             let line = plan.segments[seg].line;
             self.tally_errors(traces, i, cutting);
+            if cutting && !contour::is_contour(&plan.segments[seg]) {
+                let off = (pos_m[0] - reference[0]).hypot(pos_m[1] - reference[1]);
+                if off > self.positioning.0 {
+                    self.positioning = (off, Some((line, t_s)));
+                }
+            }
             self.tally_limits(traces, i, t_s, line);
             if point.error_m.is_finite() {
                 self.squares_m2 += point.error_m * point.error_m;
@@ -244,6 +259,8 @@ impl RunAnalyser {
                 (self.squares_m2 / self.cutting_samples as f64).sqrt()
             },
             max_following_error_cutting_m: self.fe_cut_m,
+            max_positioning_error_m: self.positioning.0,
+            max_positioning_at: self.positioning.1,
             max_following_error_m: self.fe_all_m,
         };
         CheckResult {

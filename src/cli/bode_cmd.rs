@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::Outcome;
-use super::common::{AxisArg, CliError, MachineArgs, write_plot};
+use super::common::{AxisArg, CliError, MachineArgs, write_plots_into};
 use crate::plot::bode::{BodeCurve, BodePlot};
 use crate::sim::AxisModel;
 use crate::sim::linear;
@@ -17,8 +17,9 @@ pub struct BodeArgs {
     pub machine: MachineArgs,
     #[command(flatten)]
     pub axis: AxisArg,
-    /// Write magnitude and phase of the closed loops to this PNG or SVG.
-    #[arg(long, value_name = "FILE")]
+    /// Write magnitude and phase of the closed loops into this directory, as
+    /// bode-<axis>.png and .svg.
+    #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
 }
 
@@ -79,8 +80,8 @@ pub fn run(args: &BodeArgs) -> Result<Outcome, CliError> {
             })
             .collect();
         let title = format!("Closed loops, {} axis of {}", args.axis.axis, machine.name);
-        write_plot(path, &BodePlot { title, curves })?;
-        println!("plot: {}", path.display());
+        let stem = format!("bode-{}", args.axis.axis.as_str());
+        write_plots_into(path, &stem, &BodePlot { title, curves })?;
     }
     Ok(Outcome::Ok)
 }

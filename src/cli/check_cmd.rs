@@ -114,14 +114,21 @@ fn write_outputs(
     if let Some(path) = &args.json {
         batch.stage(path, |w| report.write_json(w))?;
     }
+    let mut plots = Vec::new();
     if let Some(dir) = &args.plot {
         std::fs::create_dir_all(dir).map_err(|e| CliError::Read {
             path: dir.display().to_string(),
             message: e.to_string(),
         })?;
-        stage_plots(&mut batch, dir, run, report)?;
+        plots = stage_plots(&mut batch, dir, run, report)?;
     }
     batch.commit()?;
+    if let Some(path) = &args.json {
+        println!("report: {}", path.display());
+    }
+    for path in plots {
+        println!("plot: {}", path.display());
+    }
     Ok(())
 }
 
@@ -130,27 +137,28 @@ fn stage_plots(
     dir: &Path,
     run: &CheckResult,
     report: &CheckReport,
-) -> Result<(), CliError> {
+) -> Result<Vec<std::path::PathBuf>, CliError> {
     let name = Path::new(&report.program.file)
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
     let toolpath = toolpath_figure(run, &name, report);
     let along = along_path_figure(run, &name);
     let circles = polar_figures(run, &name);
+    let mut written = Vec::new();
     for ext in ["png", "svg"] {
-        batch.stage_with_path(&dir.join(format!("toolpath.{ext}")), |p| {
-            crate::plot::render(p, &toolpath)
-        })?;
-        batch.stage_with_path(&dir.join(format!("contour-along-path.{ext}")), |p| {
-            crate::plot::render(p, &along)
-        })?;
+        let path = dir.join(format!("toolpath.{ext}"));
+        batch.stage_with_path(&path, |p| crate::plot::render(p, &toolpath))?;
+        written.push(path);
+        let path = dir.join(format!("contour-along-path.{ext}"));
+        batch.stage_with_path(&path, |p| crate::plot::render(p, &along))?;
+        written.push(path);
         for (i, c) in circles.iter().enumerate() {
-            batch.stage_with_path(&dir.join(format!("circle-{}.{ext}", i + 1)), |p| {
-                crate::plot::render(p, c)
-            })?;
+            let path = dir.join(format!("circle-{}.{ext}", i + 1));
+            batch.stage_with_path(&path, |p| crate::plot::render(p, c))?;
+            written.push(path);
         }
     }
-    Ok(())
+    Ok(written)
 }
 
 /// Programmed feed moves as polylines (mm).

@@ -161,8 +161,8 @@ fn is_preset_name(path: &std::path::Path) -> bool {
 /// Planner flags.
 #[derive(Debug, Args)]
 pub struct PlanningArgs {
-    /// Speed profile: s-curve (jerk-limited), trapezoid, or ideal (the programmed feed from the
-    /// first instant, as in the paper's experiments).
+    /// Speed profile (`ideal`: the programmed feed from the first instant, as in the paper's
+    /// experiments).
     #[arg(long, default_value = "s-curve", value_name = "KIND")]
     pub profile: ProfileKind,
     /// Interpolation cycle in ms (default: the machine's).
@@ -344,11 +344,29 @@ pub struct AxisArg {
     pub axis: crate::machine::AxisName,
 }
 
-/// Writes a plot whole or not at all.
-pub fn write_plot(path: &Path, figure: &impl crate::plot::Figure) -> Result<(), CliError> {
+/// Writes a figure into the `--plot` directory (made if missing) as `<stem>.png` and
+/// `<stem>.svg`, whole or not at all, and says so on stdout — as every command's `--plot DIR`
+/// does.
+pub fn write_plots_into(
+    dir: &Path,
+    stem: &str,
+    figure: &impl crate::plot::Figure,
+) -> Result<(), CliError> {
+    std::fs::create_dir_all(dir).map_err(|e| CliError::Read {
+        path: dir.display().to_string(),
+        message: e.to_string(),
+    })?;
     let mut batch = crate::cli::output::OutputBatch::new();
-    batch.stage_with_path(path, |tmp| crate::plot::render(tmp, figure))?;
+    let paths: Vec<std::path::PathBuf> = ["png", "svg"]
+        .map(|ext| dir.join(format!("{stem}.{ext}")))
+        .into();
+    for path in &paths {
+        batch.stage_with_path(path, |tmp| crate::plot::render(tmp, figure))?;
+    }
     batch.commit()?;
+    for path in &paths {
+        println!("plot: {}", path.display());
+    }
     Ok(())
 }
 
@@ -397,4 +415,48 @@ pub(crate) fn program_or_commands_path(
         crate::trace::recorded::COMMANDS_PATH_TOLERANCE_M * 1e6
     );
     Ok(program)
+}
+
+/// The values the command line accepts for the library's enumerations, each listed in
+/// `--help` as the machine file and the reports spell it.
+impl clap::ValueEnum for crate::diagnose::causes::CauseId {
+    fn value_variants<'a>() -> &'a [Self] {
+        &crate::diagnose::causes::CauseId::ALL
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        Some(clap::builder::PossibleValue::new(self.as_str()))
+    }
+}
+
+impl clap::ValueEnum for crate::plan::ProfileKind {
+    fn value_variants<'a>() -> &'a [Self] {
+        use crate::plan::ProfileKind;
+        &[
+            ProfileKind::SCurve,
+            ProfileKind::Trapezoid,
+            ProfileKind::Ideal,
+        ]
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        let (name, help) = match self {
+            crate::plan::ProfileKind::SCurve => ("s-curve", "jerk-limited"),
+            crate::plan::ProfileKind::Trapezoid => ("trapezoid", "acceleration-limited, as BRISK"),
+            crate::plan::ProfileKind::Ideal => {
+                ("ideal", "the programmed feed from the first instant")
+            }
+        };
+        Some(clap::builder::PossibleValue::new(name).help(help))
+    }
+}
+
+impl clap::ValueEnum for crate::machine::AxisName {
+    fn value_variants<'a>() -> &'a [Self] {
+        &crate::machine::AxisName::BOTH
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        Some(clap::builder::PossibleValue::new(self.as_str()))
+    }
 }

@@ -77,10 +77,10 @@ pub struct DiagnoseArgs {
     #[arg(long, value_enum, default_value_t = MeasuredAt::Table)]
     pub measured_at: MeasuredAt,
     /// Try only these causes (comma-separated ids, e.g. backlash,kv_gain).
-    #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = CauseId::parse)]
+    #[arg(long, value_name = "LIST", value_delimiter = ',')]
     pub causes: Vec<CauseId>,
     /// Never try these causes (comma-separated ids).
-    #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = CauseId::parse)]
+    #[arg(long, value_name = "LIST", value_delimiter = ',')]
     pub exclude: Vec<CauseId>,
     /// How far recorded commands may lie from the programmed geometry (µm): corner blending
     /// and another interpolator's chords stay within it.

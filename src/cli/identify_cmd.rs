@@ -32,7 +32,7 @@ pub struct IdentifyArgs {
     #[arg(long, value_name = "FILE|PRESET", default_value = "hvmc")]
     pub template: PathBuf,
     /// Write the identified machine here (a machine file `check` and `diagnose` take).
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, short, value_name = "FILE")]
     pub out: PathBuf,
     /// Write the identification as JSON.
     #[arg(long, value_name = "FILE")]

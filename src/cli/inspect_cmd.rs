@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use super::Outcome;
-use super::common::{CliError, TraceArgs, write_plot};
+use super::common::{CliError, TraceArgs, write_plots_into};
 use crate::plot::panels::{Curve, Panel, PanelsPlot};
 use crate::plot::xy::{Beside, XyPlot};
 use crate::trace::inspect::summarise;
@@ -19,9 +19,9 @@ pub struct InspectArgs {
     pub trace: PathBuf,
     #[command(flatten)]
     pub columns: TraceArgs,
-    /// Write a one-page plot (PNG or SVG): positions over time, following errors when the
-    /// commands were recorded, and the path in XY.
-    #[arg(long, value_name = "FILE")]
+    /// Write a one-page plot into this directory, as inspect.png and .svg: positions over
+    /// time, following errors when the commands were recorded, and the path in XY.
+    #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
 }
 
@@ -48,8 +48,7 @@ pub fn run(args: &InspectArgs) -> Result<Outcome, CliError> {
     }
     print!("{}", summarise(&trace).text());
     if let Some(path) = &args.plot {
-        write_plot(path, &overview(&trace))?;
-        println!("plot: {}", path.display());
+        write_plots_into(path, "inspect", &overview(&trace))?;
     }
     Ok(Outcome::Ok)
 }

@@ -55,7 +55,7 @@ pub fn run(args: &PlanArgs) -> Result<Outcome, CliError> {
     );
     println!("machine   {} — {}", machine.name, machine.description);
     println!(
-        "profile   {:?}, interpolation cycle {} ms",
+        "profile   {}, interpolation cycle {} ms",
         config.profile,
         config.cycle_s * 1e3
     );

@@ -7,7 +7,7 @@ use clap::Args;
 use rayon::prelude::*;
 
 use super::Outcome;
-use super::common::{AxisArg, CliError, MachineArgs, progress, write_plot};
+use super::common::{AxisArg, CliError, MachineArgs, progress, write_plots_into};
 use crate::plot::stickslip::{StickSlipCurve, StickSlipPlot};
 use crate::sim::{AxisModel, stickslip};
 use crate::units::{m_per_s_from_mm_per_min, mm_per_min_from_m_per_s, um_from_m};
@@ -30,8 +30,9 @@ pub struct StickSlipArgs {
     /// Length of each run (s).
     #[arg(long, default_value_t = 30.0, value_name = "S")]
     pub duration: f64,
-    /// Write time–displacement curves to this PNG or SVG.
-    #[arg(long, value_name = "FILE")]
+    /// Write time–displacement curves into this directory, as stickslip-<axis>.png and
+    /// .svg.
+    #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
 }
 
@@ -115,8 +116,8 @@ pub fn run(args: &StickSlipArgs) -> Result<Outcome, CliError> {
             "Stick-slip, {} axis of {}: displacement over {window_s} s of the run's last third",
             args.axis.axis, machine.name
         );
-        write_plot(path, &StickSlipPlot { title, curves })?;
-        println!("plot: {}", path.display());
+        let stem = format!("stickslip-{}", args.axis.axis.as_str());
+        write_plots_into(path, &stem, &StickSlipPlot { title, curves })?;
     }
     Ok(Outcome::Ok)
 }

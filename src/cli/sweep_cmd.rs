@@ -8,7 +8,9 @@ use clap::{ArgAction, ArgMatches, Args};
 use serde::Serialize;
 
 use super::Outcome;
-use super::common::{CliError, MachineArgs, PlanningArgs, load_program, progress, write_plot};
+use super::common::{
+    CliError, MachineArgs, PlanningArgs, load_program, progress, write_plots_into,
+};
 use crate::cli::output::OutputBatch;
 use crate::machine::MachineConfig;
 use crate::plot::sweep::{SweepHeatMap, SweepLinePlot};
@@ -353,10 +355,6 @@ fn plot(
     dims: &[Dimension],
     points: &[SweepPoint],
 ) -> Result<(), CliError> {
-    std::fs::create_dir_all(dir).map_err(|e| CliError::Read {
-        path: dir.display().to_string(),
-        message: e.to_string(),
-    })?;
     let name = Path::new(program)
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
@@ -401,9 +399,7 @@ fn plot(
                     .map(|p| p.values[0])
                     .collect(),
             };
-            for ext in ["png", "svg"] {
-                write_plot(&dir.join(format!("sweep.{ext}")), &fig)?;
-            }
+            write_plots_into(dir, "sweep", &fig)?;
         }
         [a, b] => {
             let cells = a
@@ -430,9 +426,7 @@ fn plot(
                 axes: (a.values.clone(), b.values.clone()),
                 cells,
             };
-            for ext in ["png", "svg"] {
-                write_plot(&dir.join(format!("sweep.{ext}")), &fig)?;
-            }
+            write_plots_into(dir, "sweep", &fig)?;
         }
         _ => println!("(no plot for {} swept dimensions: use --csv)", dims.len()),
     }

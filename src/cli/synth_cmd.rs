@@ -27,10 +27,10 @@ pub struct SynthArgs {
     pub out: PathBuf,
     #[command(flatten)]
     pub machine: MachineArgs,
-    /// The hidden effect: backlash, coulomb_friction, stribeck, kv_gain, dead_time,
-    /// cyclic_error, scale_error, resonance (default: none, the nominal machine).
+    /// The hidden effect (default: none, the nominal machine); --values gives its
+    /// parameters in the order `diagnose` reports them.
     #[arg(long, value_name = "CAUSE", requires = "values")]
-    pub effect: Option<String>,
+    pub effect: Option<CauseId>,
     /// The axis it acts on.
     #[arg(long, default_value = "x", value_name = "AXIS")]
     pub axis: AxisName,
@@ -83,24 +83,15 @@ pub struct SynthArgs {
 }
 
 pub fn run(args: &SynthArgs) -> Result<Outcome, CliError> {
-    let effect = match &args.effect {
+    let effect = match args.effect {
         None => None,
-        Some(name) => {
-            let cause = CauseId::ALL
-                .into_iter()
-                .find(|c| c.as_str() == name)
-                .ok_or_else(|| {
-                    let names: Vec<&str> = CauseId::ALL.iter().map(|c| c.as_str()).collect();
-                    CliError::Usage(format!(
-                        "--effect {name}: not a cause ({})",
-                        names.join(", ")
-                    ))
-                })?;
+        Some(cause) => {
             let wanted = cause.params().len();
             if args.values.len() != wanted {
                 let keys: Vec<&str> = cause.params().iter().map(|p| p.key).collect();
                 return Err(CliError::Usage(format!(
-                    "--values: {name} takes {wanted} value(s): {}",
+                    "--values: {} takes {wanted} value(s): {}",
+                    cause.as_str(),
                     keys.join(", ")
                 )));
             }
