@@ -168,10 +168,14 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
         })?;
         stage_plots(&mut batch, dir, &d, &program_file)?;
     }
+    let written = batch.destinations();
     batch.commit()?;
     print!("{}", report.summary_text());
     if let Some(note) = compensation_note {
         println!("{note}");
+    }
+    for path in written {
+        println!("wrote {}", path.display());
     }
     Ok(Outcome::Ok)
 }

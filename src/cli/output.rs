@@ -139,6 +139,11 @@ impl OutputBatch {
         })
     }
 
+    /// Where the staged outputs will appear, in the order they were staged.
+    pub fn destinations(&self) -> Vec<PathBuf> {
+        self.staged.iter().map(|(_, dest)| dest.clone()).collect()
+    }
+
     /// Stages a file that a library writes by path itself (e.g. an image encoder): `write` is
     /// given the temporary path to write to.
     pub fn stage_with_path(

@@ -313,26 +313,29 @@ impl DiagnoseReport {
                 .iter()
                 .map(|p| {
                     format!(
-                        "{} = {} ± {} {}",
+                        "{} = {} {}",
                         p.key,
-                        sig(p.value),
-                        sig(p.uncertainty),
+                        with_uncertainty(p.value, p.uncertainty),
                         p.unit
                     )
                     .trim_end()
                     .to_string()
                 })
                 .collect();
+            let statistical = if c.fitted_on == "points" {
+                String::new()
+            } else {
+                format!(", fitted on the {}", c.fitted_on)
+            };
             let _ = writeln!(
                 s,
-                "  {}. {} on {}: {}  (evidence {:.0}, fitted on {})",
+                "  {}. {} on {}: {}{statistical}",
                 i + 1,
                 c.id.as_str(),
                 c.axis,
                 params.join(", "),
-                c.evidence,
-                c.fitted_on
             );
+            let _ = writeln!(s, "     {}", strength(c));
             let (b, a, g) = (&c.before, &c.after, &c.gain_percent);
             let _ = writeln!(
                 s,
@@ -355,21 +358,15 @@ impl DiagnoseReport {
             };
             let _ = writeln!(
                 s,
-                "     held out: {unseen} {} RMS {:.3} → {:.3} µm (evidence {:.0})",
-                c.axis, h.rms_before_um, h.rms_after_um, h.evidence
+                "     held out: {unseen} {} RMS {:.3} → {:.3} µm",
+                c.axis, h.rms_before_um, h.rms_after_um
             );
+            let _ = writeln!(s, "     what to do: {}", next_step(c));
             if !c.alternatives.is_empty() {
                 let alt: Vec<String> = c
                     .alternatives
                     .iter()
-                    .map(|a| {
-                        format!(
-                            "{} on {} (evidence {:.0})",
-                            a.id.as_str(),
-                            a.axis,
-                            a.evidence
-                        )
-                    })
+                    .map(|a| format!("{} on {}", a.id.as_str(), a.axis))
                     .collect();
                 let _ = writeln!(
                     s,
@@ -440,6 +437,12 @@ impl DiagnoseReport {
                 a.peak_um
             );
         }
+        let _ = writeln!(
+            s,
+            "  (near events: within ±0.3 s of each axis's reversals and accelerations; smoothed: \
+             averaged over ±20 ms, noise removed; chatter: the mismatch of stick-slip amplitude \
+             per 0.25 s)"
+        );
         if !self.places.is_empty() {
             let _ = writeln!(s, "\nLargest residuals of the nominal model:");
             let _ = writeln!(
@@ -460,6 +463,89 @@ impl DiagnoseReport {
 }
 
 /// A value with about four significant digits.
+/// A value with its standard uncertainty in two significant digits, the value to the same
+/// decimal place: `7.989 ± 0.019`.
+fn with_uncertainty(value: f64, uncertainty: f64) -> String {
+    if !(uncertainty.is_finite() && uncertainty > 0.0) {
+        return format!("{} (uncertainty not determined)", sig(value));
+    }
+    let decimals = (1 - uncertainty.log10().floor() as i32).clamp(0, 12) as usize;
+    format!("{value:.decimals$} ± {uncertainty:.decimals$}")
+}
+
+/// How strongly the record supports a cause, in words a user can weigh: by how much the
+/// residual falls on data the fit did not see, against what chance would give.
+fn strength(c: &CauseReport) -> String {
+    let h = &c.held_out;
+    let fall = if h.rms_before_um > 0.0 {
+        100.0 * (1.0 - h.rms_after_um / h.rms_before_um)
+    } else {
+        0.0
+    };
+    let word = match h.evidence {
+        e if e >= 100.0 => "strong",
+        e if e >= 20.0 => "clear",
+        _ => "moderate",
+    };
+    let near = c.gain_percent.event_rms;
+    let where_ = if near > 1.5 * c.gain_percent.rms && near > 0.0 {
+        format!(
+            " (on the whole record, near the reversals and accelerations where it acts: by \
+             {near:.0} %)"
+        )
+    } else {
+        String::new()
+    };
+    let unseen = match h.judged_on {
+        JudgedOn::OtherHalf => "the half of the record it was not fitted on",
+        JudgedOn::SecondRecord => "the second record, which it was not fitted on",
+    };
+    format!(
+        "{word}: on {unseen}, {}'s residual falls by {fall:.0} % — beyond what the noise alone \
+         would give{where_}",
+        c.axis
+    )
+}
+
+/// What a user does about a cause once it is named: where the value goes, or what to check.
+fn next_step(c: &CauseReport) -> String {
+    let axis = c.axis;
+    let value = c.params.first().map_or(f64::NAN, |p| p.value);
+    match c.id {
+        CauseId::Backlash => format!(
+            "enter {:.4} mm as the {axis} axis's backlash compensation (LinuxCNC: BACKLASH in \
+             its [JOINT_n] section; SINUMERIK: MD32450 $MA_BACKLASH); behind a linear scale the \
+             loop takes most of it out, and what shows is the reversal spikes",
+            value * 1e-3
+        ),
+        CauseId::KvGain => format!(
+            "the {axis} axis's position gain is not the machine file's: check it on the control \
+             (SINUMERIK MD32200 $MA_POS_CTRLGAIN; LinuxCNC: the position PID's P gain) and keep \
+             the fitted Kv in the machine file for predictions"
+        ),
+        CauseId::DeadTime => format!(
+            "the {axis} loop reacts {value:.2} ms late: check the measuring system's and the \
+             drive's delays and filters; keep the fitted dead time for predictions"
+        ),
+        CauseId::CoulombFriction | CauseId::Stribeck => format!(
+            "the {axis} axis's friction differs from the model: check lubrication and the gibs \
+             or preload; the fitted machine file (--write-machine) predicts with it"
+        ),
+        CauseId::ScaleError | CauseId::CyclicError | CauseId::DirectionOffset => format!(
+            "a static error of the {axis} axis's measurement: --write-compensation DIR writes the \
+             table a control loads (LinuxCNC comp file; SINUMERIK leadscrew error compensation)"
+        ),
+        CauseId::Squareness | CauseId::Straightness | CauseId::LateralPlay => format!(
+            "a geometric error between the axes, seen on {axis}: compensate it \
+             (--write-compensation DIR) or realign the axes"
+        ),
+        CauseId::Resonance => format!(
+            "a structural mode at {value:.1} Hz shows on {axis}: check the velocity loop's filters \
+             and the machine's mounting; the fitted machine file predicts with it"
+        ),
+    }
+}
+
 fn sig(v: f64) -> String {
     if v == 0.0 || !v.is_finite() {
         return format!("{v}");
@@ -595,17 +681,25 @@ pub fn machine_file(
         for p in &c.params {
             let _ = writeln!(
                 s,
-                "#   {}.{} = {} ± {} {}  ({})",
+                "#   {}.{} = {} {}  ({})",
                 c.axis,
                 p.key,
-                sig(p.value),
-                sig(p.uncertainty),
+                with_uncertainty(p.value, p.uncertainty),
                 p.unit,
                 c.id.as_str()
             );
         }
     }
     let _ = writeln!(s, "base = \"none\"\n");
-    s.push_str(&machine.to_toml());
+    // The written machine is not the preset any more: it says so in its name.
+    let mut fitted = machine.clone();
+    if !d.causes.is_empty() || !d.learned.is_empty() {
+        fitted.name = format!("{}-fitted", machine.name);
+        fitted.description = format!(
+            "{}, extended by diagnosis against {measured_file}",
+            machine.description
+        );
+    }
+    s.push_str(&fitted.to_toml());
     s
 }
