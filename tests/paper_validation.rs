@@ -483,3 +483,23 @@ fn the_critical_velocity_does_not_depend_on_the_step() {
         "critical velocity {coarse} mm/min at 0.5 ms, {finest} at 50 µs"
     );
 }
+
+/// The verdict follows the criterion its plot shows: below the critical velocity the table
+/// sticks and slips, by less than the paper's 1 µm at the slowest feeds — said so, not called
+/// smooth — by 1 µm and more near 3 mm/min (stick-slip), and above it slides steadily.
+#[test]
+fn the_stick_slip_verdict_says_what_the_table_does() {
+    let model = AxisModel::from_config(&MachineConfig::default_preset().x);
+    let cfg = stickslip::StickSlipConfig::default();
+    let at = |feed: f64| stickslip::run(&model, mm_per_min(feed), &cfg).unwrap();
+    let creeping = at(0.1);
+    assert!(!creeping.stick_slip && creeping.counted_slips() > 10);
+    assert!(creeping.max_counted_slip_m < 1e-6);
+    assert_eq!(
+        creeping.verdict(),
+        "sticks and slips, below the 1 µm criterion"
+    );
+    assert_eq!(at(3.0).verdict(), "stick-slip");
+    let sliding = at(6.0);
+    assert_eq!((sliding.counted_slips(), sliding.verdict()), (0, "smooth"));
+}

@@ -276,6 +276,12 @@ fn polar_figures(run: &CheckResult, name: &str) -> Vec<PolarPlot> {
                         ),
                         points: c.points.iter().map(|&(a, d)| (a, um_from_m(d))).collect(),
                         width: 2,
+                        g_um: run
+                            .circular
+                            .circles
+                            .iter()
+                            .find(|f| f.line == c.line)
+                            .map(|f| f.g_um),
                     })
                     .collect(),
             }

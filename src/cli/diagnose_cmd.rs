@@ -413,9 +413,16 @@ fn stage_plots(
         .circles
         .iter()
         .map(|c| {
-            let trace = |label: &str, xy: &[Vec<f64>; 2], width: u32| PolarTrace {
+            let g_of = |test: &crate::analysis::circular::CircularTest| {
+                test.circles
+                    .iter()
+                    .find(|f| f.line == c.line)
+                    .map(|f| f.g_um)
+            };
+            let trace = |label: &str, xy: &[Vec<f64>; 2], width: u32, g_um| PolarTrace {
                 label: label.to_string(),
                 width,
+                g_um,
                 points: radial_points(c, &s.segment, &xy[0], &xy[1])
                     .into_iter()
                     .map(|(a, r)| (a, um_from_m(r)))
@@ -434,9 +441,9 @@ fn stage_plots(
                 ),
                 radius_mm: mm_from_m(c.radius_m),
                 traces: vec![
-                    trace("measured", &s.measured, 1),
-                    trace("nominal model", &s.nominal, 2),
-                    trace(&extended_name, &s.extended, 2),
+                    trace("measured", &s.measured, 1, g_of(&d.circular.measured)),
+                    trace("nominal model", &s.nominal, 2, g_of(&d.circular.nominal)),
+                    trace(&extended_name, &s.extended, 2, g_of(&d.circular.extended)),
                 ],
             }
         })

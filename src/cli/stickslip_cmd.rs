@@ -65,14 +65,15 @@ pub fn run(args: &StickSlipArgs) -> Result<Outcome, CliError> {
         "{} axis of {}: from rest, {} s per feed; a slip ≥ 1 µm breaking away in the second half is stick-slip",
         args.axis.axis, machine.name, args.duration
     );
-    println!("feed (mm/min)  slips  largest counted slip  verdict");
+    println!("feed (mm/min)  slips  counted  largest counted slip  verdict");
     for r in &runs {
         println!(
-            "{:>12.2} {:>6} {:>17.3} µm  {}",
+            "{:>12.2} {:>6} {:>8} {:>17.3} µm  {}",
             mm_per_min_from_m_per_s(r.feed_m_per_s),
             r.slips.len(),
+            r.counted_slips(),
             um_from_m(r.max_counted_slip_m),
-            if r.stick_slip { "stick-slip" } else { "smooth" }
+            r.verdict()
         );
     }
     let scan: Vec<f64> = feeds.iter().map(|&f| m_per_s_from_mm_per_min(f)).collect();
@@ -104,7 +105,7 @@ pub fn run(args: &StickSlipArgs) -> Result<Outcome, CliError> {
                     label: format!(
                         "{:.2} mm/min — {} (largest slip {:.2} µm)",
                         mm_per_min_from_m_per_s(r.feed_m_per_s),
-                        if r.stick_slip { "stick-slip" } else { "smooth" },
+                        r.verdict(),
                         um_from_m(r.max_counted_slip_m)
                     ),
                     table_um: pts(&|k| um_from_m(r.position_m[k])),

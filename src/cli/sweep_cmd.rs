@@ -349,6 +349,38 @@ fn figure(p: &SweepPoint, pick: impl Fn(&crate::sweep::Metrics) -> f64) -> f64 {
     }
 }
 
+/// A swept dimension's name with the unit its machine key carries, for a plot's axis:
+/// `x.kv (m/min/mm)`.
+fn labelled(d: &Dimension) -> String {
+    let key = d.keys.first().map_or("", String::as_str);
+    let unit = [
+        ("_m_per_min_per_mm", "m/min/mm"),
+        ("_nm_s_per_rad", "N·m·s/rad"),
+        ("_n_s_per_m", "N·s/m"),
+        ("_mm_per_min", "mm/min"),
+        ("_m_per_s2", "m/s²"),
+        ("_um", "µm"),
+        ("_mm", "mm"),
+        ("_ms", "ms"),
+        ("_kg", "kg"),
+        ("_hz", "Hz"),
+        ("_ppm", "ppm"),
+        ("_urad", "µrad"),
+        ("_deg", "°"),
+        ("_n", "N"),
+        ("_a", "A"),
+        ("feedforward", "share"),
+        ("coefficient", "share of the weight"),
+    ]
+    .iter()
+    .find(|(suffix, _)| key.ends_with(suffix))
+    .map(|(_, unit)| *unit);
+    match unit {
+        Some(unit) => format!("{} ({unit})", d.name),
+        None => d.name.clone(),
+    }
+}
+
 fn plot(
     dir: &Path,
     program: &str,
@@ -370,7 +402,7 @@ fn plot(
             };
             let fig = SweepLinePlot {
                 title: format!("{name}: error against {}", d.name),
-                x_label: d.name.clone(),
+                x_label: labelled(d),
                 panels: vec![
                     (
                         "contour error (µm)".into(),
@@ -422,7 +454,7 @@ fn plot(
                     "{name}: largest contour error over {} and {}",
                     a.name, b.name
                 ),
-                labels: (a.name.clone(), b.name.clone()),
+                labels: (labelled(a), labelled(b)),
                 axes: (a.values.clone(), b.values.clone()),
                 cells,
             };

@@ -72,19 +72,40 @@ impl Figure for BodePlot {
                 .map_err(err)?;
             for (i, c) in self.curves.iter().enumerate() {
                 let color = series_color(i);
-                let series = chart
-                    .draw_series(LineSeries::new(
-                        c.points
-                            .iter()
-                            .map(|p| (p.0, if pick == 1 { p.1 } else { p.2 })),
-                        color.stroke_width(2),
-                    ))
-                    .map_err(err)?;
-                if pick == 1 {
-                    series.label(c.label.clone()).legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(3))
-                    });
+                // Values beyond the axis are left out, not drawn along its edge where they
+                // would read as data: each stretch inside the range is its own line.
+                let values: Vec<(f64, f64)> = c
+                    .points
+                    .iter()
+                    .map(|p| (p.0, if pick == 1 { p.1 } else { p.2 }))
+                    .collect();
+                let mut stretches: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+                for &(f, v) in &values {
+                    if (lo..=hi).contains(&v) {
+                        stretches.last_mut().expect("one stretch").push((f, v));
+                    } else if !stretches.last().expect("one stretch").is_empty() {
+                        stretches.push(Vec::new());
+                    }
                 }
+                for (k, stretch) in stretches.into_iter().filter(|s| !s.is_empty()).enumerate() {
+                    let series = chart
+                        .draw_series(LineSeries::new(stretch, color.stroke_width(2)))
+                        .map_err(err)?;
+                    if pick == 1 && k == 0 {
+                        series.label(c.label.clone()).legend(move |(x, y)| {
+                            PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(3))
+                        });
+                    }
+                }
+            }
+            if pick == 1 && mag_lo <= -60.0 {
+                chart
+                    .draw_series(std::iter::once(Text::new(
+                        "below −60 dB: not drawn",
+                        (f_max / 30.0, mag_lo + 0.04 * (mag_hi - mag_lo)),
+                        (FONT, 15).into_font(),
+                    )))
+                    .map_err(err)?;
             }
             if pick == 1 {
                 chart

@@ -15,6 +15,8 @@ pub struct PolarTrace {
     /// Line width (px): 1 for noisy measured data, whose zig-zags a wider line's joins
     /// would draw as spikes.
     pub width: u32,
+    /// The circle's G (µm), as the report gives it, for the legend.
+    pub g_um: Option<f64>,
 }
 
 /// The figure.
@@ -127,13 +129,12 @@ impl Figure for PolarPlot {
                         .points
                         .iter()
                         .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
+                    // The report's figures: F about the programmed centre, G about the
+                    // path's own, so that legend and text agree.
+                    let g = t.g_um.map_or(String::new(), |g| format!(", G {g:.2} µm"));
                     [
                         (t.label.clone(), series_color(i)),
-                        (
-                            format!("  deviation {lo:+.2} … {hi:+.2} µm"),
-                            series_color(i),
-                        ),
-                        (format!("  circularity {:.2} µm", hi - lo), series_color(i)),
+                        (format!("  F {hi:+.2} / {lo:+.2} µm{g}"), series_color(i)),
                     ]
                 }))
                 .collect();

@@ -69,6 +69,27 @@ pub struct StickSlipRun {
     pub dt_s: f64,
 }
 
+impl StickSlipRun {
+    /// The slips that broke away in the run's second half (the ones the criterion counts).
+    pub fn counted_slips(&self) -> usize {
+        let half = 0.5 * self.position_m.len().saturating_sub(1) as f64 * self.dt_s;
+        self.slips.iter().filter(|s| s.start_s >= half).count()
+    }
+
+    /// The verdict in the criterion's own terms: stick-slip (a counted slip reaches the
+    /// threshold), stand-and-jump below it (the table still sticks and slips, by less), or
+    /// smooth (it slides steadily: no counted slip at all).
+    pub fn verdict(&self) -> &'static str {
+        if self.stick_slip {
+            "stick-slip"
+        } else if self.counted_slips() > 0 {
+            "sticks and slips, below the 1 µm criterion"
+        } else {
+            "smooth"
+        }
+    }
+}
+
 /// Runs the criterion at one feed.
 pub fn run(
     model: &AxisModel,
