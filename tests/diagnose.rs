@@ -699,7 +699,18 @@ fn the_command_line_round_trip_synth_diagnose_check() {
         "{}",
         String::from_utf8_lossy(&o.stderr)
     );
-    assert!(String::from_utf8_lossy(&o.stdout).contains("backlash on Y"));
+    let shown = String::from_utf8_lossy(&o.stdout);
+    assert!(shown.contains("backlash on Y"));
+    // One story: the ballbar's small backlash step beside the 12 µm named is explained.
+    assert!(
+        shown.contains("The ballbar's backlash figure for Y") && shown.contains("reversal spikes"),
+        "{shown}"
+    );
+    // Every file written is said.
+    assert!(
+        shown.contains(&format!("wrote {}", p("fitted.toml"))),
+        "{shown}"
+    );
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(p("d.json")).unwrap()).unwrap();
     assert_eq!(report["schema"], "contourcheck.diagnose/1");

@@ -411,6 +411,9 @@ impl DiagnoseReport {
                 let _ = writeln!(s, " {label}");
                 s.push_str(&t.text());
             }
+            if let Some(sentence) = ballbar_and_causes(self) {
+                let _ = writeln!(s, " {sentence}");
+            }
         }
         let _ = writeln!(
             s,
@@ -505,6 +508,41 @@ fn strength(c: &CauseReport) -> String {
          would give{where_}",
         c.axis
     )
+}
+
+/// Where the ballbar's figures and a named cause seem to disagree, the one sentence that
+/// tells why: a screw's backlash behind a linear scale is taken out by the loop, so the
+/// ballbar sees reversal spikes, not the step its backlash figure measures.
+fn ballbar_and_causes(r: &DiagnoseReport) -> Option<String> {
+    let pair = r.circular_test.measured.pairs.first()?;
+    let backlash = r.causes.iter().find(|c| c.id == CauseId::Backlash)?;
+    let gap_um = backlash.params.first()?.value;
+    let (step_um, spikes) = match backlash.axis {
+        AxisName::X => (pair.backlash_x_um, [0usize, 2]),
+        AxisName::Y => (pair.backlash_y_um, [1, 3]),
+    };
+    if step_um.abs() >= 0.5 * gap_um {
+        return None;
+    }
+    let spike_um = r
+        .circular_test
+        .measured
+        .circles
+        .iter()
+        .flat_map(|c| spikes.map(|i| c.reversal_spikes_um[i]))
+        .filter(|v| v.is_finite())
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    let behind = if r.measured.measured_at == MeasuredAt::Table {
+        "behind the linear scale the loop takes the screw's gap out at each reversal"
+    } else {
+        "the loop closes on the motor, beyond which the gap lies"
+    };
+    Some(format!(
+        "The ballbar's backlash figure for {} ({step_um:+.2} µm, a step across the reversal) \
+         is not the {gap_um:.2} µm named above: {behind}, and what the circle shows of it is the \
+         reversal spikes (up to {spike_um:.1} µm at {}'s reversals).",
+        backlash.axis, backlash.axis
+    ))
 }
 
 /// What a user does about a cause once it is named: where the value goes, or what to check.
