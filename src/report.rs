@@ -111,6 +111,8 @@ pub struct PositioningInfo {
     pub line: Option<u32>,
     /// Its time (s), if any.
     pub t_s: Option<f64>,
+    /// The block number (N word) of its line, where the program gives one.
+    pub block_number: Option<u32>,
 }
 
 /// A place in the run.
@@ -124,6 +126,8 @@ pub struct Location {
     pub y_mm: f64,
     /// Source line of the block being executed.
     pub line: u32,
+    /// Its block number (N word), where the program gives one.
+    pub block_number: Option<u32>,
 }
 
 /// Following error figures.
@@ -154,6 +158,8 @@ pub struct HotspotInfo {
     pub hotspot: Hotspot,
     /// Human-readable cause.
     pub label: String,
+    /// The block number (N word) of its line, where the program gives one.
+    pub block_number: Option<u32>,
 }
 
 impl CheckReport {
@@ -172,6 +178,7 @@ impl CheckReport {
             x_mm: mm_from_m(p.pos_m[0]),
             y_mm: mm_from_m(p.pos_m[1]),
             line: p.line,
+            block_number: program.block_number(p.line),
         });
         let axis = |i: usize| AxisFollowing {
             max_cutting: um_from_m(s.max_following_error_cutting_m[i]),
@@ -210,6 +217,7 @@ impl CheckReport {
                 max: um_from_m(s.max_positioning_error_m),
                 line: s.max_positioning_at.map(|a| a.0),
                 t_s: s.max_positioning_at.map(|a| a.1),
+                block_number: s.max_positioning_at.and_then(|a| program.block_number(a.0)),
             },
             tolerance_um,
             within_tolerance: tolerance_um.map(|t| max_um <= t),
@@ -221,6 +229,7 @@ impl CheckReport {
                     rank: i + 1,
                     hotspot: h.clone(),
                     label: h.cause.label(),
+                    block_number: program.block_number(h.line),
                 })
                 .collect(),
             warnings: program
@@ -335,8 +344,12 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
         .as_ref()
         .map_or(String::new(), |l| {
             format!(
-                " at line {} (X {:.3}, Y {:.3} mm, t {:.3} s)",
-                l.line, l.x_mm, l.y_mm, l.t_s
+                " at line {}{} (X {:.3}, Y {:.3} mm, t {:.3} s)",
+                l.line,
+                l.block_number.map_or(String::new(), |n| format!(" N{n}")),
+                l.x_mm,
+                l.y_mm,
+                l.t_s
             )
         });
     let _ = writeln!(
@@ -353,10 +366,11 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
     if let (Some(line), Some(t)) = (p.line, p.t_s)
         && p.max >= 0.005
     {
+        let block = p.block_number.map_or(String::new(), |n| format!(" N{n}"));
         let _ = writeln!(
             s,
-            "settling max {:.2} µm at line {line} (t {t:.3} s): XY still arriving while only Z \
-             moves or the program dwells",
+            "settling max {:.2} µm at line {line}{block} (t {t:.3} s): XY still arriving while \
+             only Z moves or the program dwells",
             p.max
         );
     }
@@ -376,15 +390,23 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
     }
     if !r.hotspots.is_empty() {
         let _ = writeln!(s, "\nhotspots (largest first)");
+        // The program's own block numbers beside the file's lines, where it gives them.
+        let numbered = r.hotspots.iter().any(|h| h.block_number.is_some());
         let _ = writeln!(
             s,
-            "  rank  line   time (s)     X (mm)     Y (mm)   error (µm)  spike (µm)  cause"
+            "  rank  line{}   time (s)     X (mm)     Y (mm)   error (µm)  spike (µm)  cause",
+            if numbered { "  block" } else { "" }
         );
         for h in r.hotspots.iter().take(max_hotspots) {
             let hs = &h.hotspot;
+            let block = match (numbered, h.block_number) {
+                (false, _) => String::new(),
+                (true, Some(n)) => format!("  {:>5}", format!("N{n}")),
+                (true, None) => format!("  {:>5}", ""),
+            };
             let _ = writeln!(
                 s,
-                "  {:>4}  {:>4}  {:>9.3}  {:>9.3}  {:>9.3}  {:>11.2}  {:>10.2}  {}",
+                "  {:>4}  {:>4}{block}  {:>9.3}  {:>9.3}  {:>9.3}  {:>11.2}  {:>10.2}  {}",
                 h.rank, hs.line, hs.t_s, hs.x_mm, hs.y_mm, hs.error_um, hs.excess_um, h.label
             );
         }

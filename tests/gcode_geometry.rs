@@ -246,3 +246,13 @@ fn warnings_for_badly_conditioned_and_nearly_closed_arcs() {
     assert_eq!(p.warnings[1].line, 5);
     assert!(p.warnings[1].message.contains("nearly coincide"));
 }
+
+/// Block numbers are kept by source line, so that reports can show N40 beside line 4.
+#[test]
+fn block_numbers_are_kept_by_line() {
+    let p = run("G21 G90 G17\nN10 G0 X0 Y0\n\nN40 G1 X10 F600\nG1 Y10\nN60 M2\n");
+    assert_eq!(p.block_number(2), Some(10));
+    assert_eq!(p.block_number(4), Some(40));
+    assert_eq!(p.block_number(5), None);
+    assert_eq!(p.block_number(6), Some(60));
+}

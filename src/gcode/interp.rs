@@ -79,8 +79,21 @@ pub struct Program {
     pub warnings: Vec<Warning>,
     /// Number of blocks that held at least one word.
     pub blocks: usize,
+    /// The block numbers (N words) the program gives, as (source line, N), by line: reports
+    /// show them beside the file's line, as the control's display does.
+    pub block_numbers: Vec<(u32, u32)>,
     /// Number of source lines.
     pub lines: usize,
+}
+
+impl Program {
+    /// The block number (N word) of the block on source line `line`, if it has one.
+    pub fn block_number(&self, line: u32) -> Option<u32> {
+        self.block_numbers
+            .binary_search_by_key(&line, |&(l, _)| l)
+            .ok()
+            .map(|i| self.block_numbers[i].1)
+    }
 }
 
 /// An interpretation error at a byte offset of the current line.
@@ -166,6 +179,7 @@ pub struct Interpreter {
     notes: BTreeMap<String, CodeNote>,
     warnings: Vec<Warning>,
     blocks: usize,
+    block_numbers: Vec<(u32, u32)>,
     lines_after_end: usize,
 }
 
@@ -213,6 +227,7 @@ impl Interpreter {
             notes: BTreeMap::new(),
             warnings: Vec::new(),
             blocks: 0,
+            block_numbers: Vec::new(),
             lines_after_end: 0,
             opts,
         }
@@ -260,6 +275,7 @@ impl Interpreter {
             notes: self.notes.into_values().collect(),
             warnings: self.warnings,
             blocks: self.blocks,
+            block_numbers: self.block_numbers,
             lines,
         }
     }
@@ -280,7 +296,11 @@ impl Interpreter {
                     let list = if w.letter == b'G' { &mut b.g } else { &mut b.m };
                     list.push((code10 as u16, w.offset));
                 }
-                b'N' => {}
+                b'N' => {
+                    if w.value >= 0.0 && w.value.fract() == 0.0 && w.value < u32::MAX as f64 {
+                        self.block_numbers.push((self.line, w.value as u32));
+                    }
+                }
                 letter => {
                     let slot = &mut b.values[(letter - b'A') as usize];
                     if slot.is_some() {

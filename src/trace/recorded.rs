@@ -109,6 +109,7 @@ pub fn program_from_commands(commands_m: &[Vec<f64>; 2], dt_s: f64, file: &str) 
     Some(Program {
         file: format!("{file} (the path of its recorded commands)"),
         blocks: segments.len(),
+        block_numbers: Vec::new(),
         segments,
         events: Vec::new(),
         notes: Vec::new(),
