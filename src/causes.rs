@@ -305,49 +305,15 @@ pub struct Param {
     pub max: f64,
 }
 
-/// Reads a parameter's value from an axis.
+/// Reads a parameter's value from an axis (every cause parameter is in the machine's key
+/// table: `tests::every_parameter_is_a_machine_key`).
 pub fn get(axis: &AxisConfig, key: &str) -> f64 {
-    match key {
-        "drive.backlash_um" => axis.drive.backlash_um,
-        "friction.coulomb_coefficient" => axis.friction.coulomb_coefficient,
-        "friction.stribeck_level_n" => axis.friction.stribeck_level_n,
-        "friction.stribeck_velocity_mm_per_min" => axis.friction.stribeck_velocity_mm_per_min,
-        "position_loop.kv_m_per_min_per_mm" => axis.position_loop.kv_m_per_min_per_mm,
-        "position_loop.dead_time_ms" => axis.position_loop.dead_time_ms,
-        "errors.cyclic_amplitude_um" => axis.errors.cyclic_amplitude_um,
-        "errors.cyclic_phase_deg" => axis.errors.cyclic_phase_deg,
-        "errors.scale_error_ppm" => axis.errors.scale_error_ppm,
-        "errors.resonance_hz" => axis.errors.resonance_hz,
-        "errors.resonance_damping" => axis.errors.resonance_damping,
-        "errors.squareness_urad" => axis.errors.squareness_urad,
-        "errors.straightness_bow_um" => axis.errors.straightness_bow_um,
-        "errors.lateral_play_um" => axis.errors.lateral_play_um,
-        "errors.direction_offset_um" => axis.errors.direction_offset_um,
-        other => unreachable!("not a cause parameter: {other}"),
-    }
+    crate::machine::keys::get(axis, key).unwrap_or(f64::NAN)
 }
 
 /// Sets a parameter on an axis.
 pub fn set(axis: &mut AxisConfig, key: &str, v: f64) {
-    let slot = match key {
-        "drive.backlash_um" => &mut axis.drive.backlash_um,
-        "friction.coulomb_coefficient" => &mut axis.friction.coulomb_coefficient,
-        "friction.stribeck_level_n" => &mut axis.friction.stribeck_level_n,
-        "friction.stribeck_velocity_mm_per_min" => &mut axis.friction.stribeck_velocity_mm_per_min,
-        "position_loop.kv_m_per_min_per_mm" => &mut axis.position_loop.kv_m_per_min_per_mm,
-        "position_loop.dead_time_ms" => &mut axis.position_loop.dead_time_ms,
-        "errors.cyclic_amplitude_um" => &mut axis.errors.cyclic_amplitude_um,
-        "errors.cyclic_phase_deg" => &mut axis.errors.cyclic_phase_deg,
-        "errors.scale_error_ppm" => &mut axis.errors.scale_error_ppm,
-        "errors.resonance_hz" => &mut axis.errors.resonance_hz,
-        "errors.resonance_damping" => &mut axis.errors.resonance_damping,
-        "errors.squareness_urad" => &mut axis.errors.squareness_urad,
-        "errors.straightness_bow_um" => &mut axis.errors.straightness_bow_um,
-        "errors.lateral_play_um" => &mut axis.errors.lateral_play_um,
-        "errors.direction_offset_um" => &mut axis.errors.direction_offset_um,
-        other => unreachable!("not a cause parameter: {other}"),
-    };
-    *slot = v;
+    crate::machine::keys::set(axis, key, v);
 }
 
 /// Applies a cause with parameter values (clamped to their ranges) to an axis.
@@ -529,6 +495,23 @@ fn spectral_peak(r: &[f64], dt: f64) -> f64 {
 mod tests {
     use super::*;
     use crate::machine::MachineConfig;
+
+    #[test]
+    fn every_parameter_is_a_machine_key() {
+        let x = MachineConfig::default_preset().x;
+        for id in CauseId::ALL {
+            for p in id.params() {
+                let key = crate::machine::keys::axis_key(p.key);
+                assert!(
+                    key.is_some(),
+                    "{}: {} is not in the key table",
+                    id.as_str(),
+                    p.key
+                );
+                assert!(crate::machine::keys::get(&x, p.key).is_some(), "{}", p.key);
+            }
+        }
+    }
 
     #[test]
     fn a_gain_error_is_the_cascades_alone_and_backlash_the_screws() {

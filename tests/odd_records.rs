@@ -114,14 +114,14 @@ fn along_program_mm(k: usize, n: usize) -> [f64; 2] {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 8, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 4, ..ProptestConfig::default() })]
 
     /// Records that do follow the program, with their commands, at 1 kHz and 50 Hz, the
     /// axes lagging by a few samples: far enough along for `identify` to fit, and then its
     /// values, determined or not, are numbers and nothing panics.
     #[test]
     fn records_along_the_program_get_identify_past_its_checks(
-        seconds in 2.0f64..4.0,
+        seconds in 2.0f64..3.0,
         step_s in prop_oneof![Just(1e-3), Just(0.02)],
         lag_samples in 1usize..4,
     ) {

@@ -117,19 +117,14 @@ pub fn for_controller(controller: &Controller) -> Vec<Knob> {
     }
 }
 
-/// A knob's value on an axis (the Coulomb friction as a force at the table).
+/// A knob's value on an axis (the Coulomb friction as a force at the table; the others
+/// through the machine's key table).
 pub fn get(axis: &AxisConfig, key: &str) -> f64 {
     match key {
-        "position_loop.kv_m_per_min_per_mm" => axis.position_loop.kv_m_per_min_per_mm,
-        "position_loop.velocity_feedforward" => axis.position_loop.velocity_feedforward,
-        "velocity_loop.ts_ms" => axis.velocity_loop.as_ref().map_or(f64::NAN, |v| v.ts_ms),
-        "drive.table_mass_kg" => axis.drive.table_mass_kg,
         "friction.coulomb_n" => {
             axis.friction.coulomb_coefficient * axis.drive.table_mass_kg * GRAVITY_M_PER_S2
         }
-        "friction.viscous_n_s_per_m" => axis.friction.viscous_n_s_per_m,
-        "position_loop.dead_time_ms" => axis.position_loop.dead_time_ms,
-        other => unreachable!("not an identified key: {other}"),
+        other => crate::machine::keys::get(axis, other).unwrap_or(f64::NAN),
     }
 }
 
@@ -138,19 +133,10 @@ pub fn get(axis: &AxisConfig, key: &str) -> f64 {
 pub fn set_all(axis: &mut AxisConfig, keys: &[&str], values: &[f64]) {
     let mut coulomb_n = get(axis, "friction.coulomb_n");
     for (&key, &v) in keys.iter().zip(values) {
-        match key {
-            "position_loop.kv_m_per_min_per_mm" => axis.position_loop.kv_m_per_min_per_mm = v,
-            "position_loop.velocity_feedforward" => axis.position_loop.velocity_feedforward = v,
-            "velocity_loop.ts_ms" => {
-                if let Some(l) = axis.velocity_loop.as_mut() {
-                    l.ts_ms = v;
-                }
-            }
-            "drive.table_mass_kg" => axis.drive.table_mass_kg = v,
-            "friction.coulomb_n" => coulomb_n = v,
-            "friction.viscous_n_s_per_m" => axis.friction.viscous_n_s_per_m = v,
-            "position_loop.dead_time_ms" => axis.position_loop.dead_time_ms = v,
-            other => unreachable!("not an identified key: {other}"),
+        if key == "friction.coulomb_n" {
+            coulomb_n = v;
+        } else {
+            crate::machine::keys::set(axis, key, v);
         }
     }
     axis.friction.coulomb_coefficient = coulomb_n / (axis.drive.table_mass_kg * GRAVITY_M_PER_S2);
@@ -160,6 +146,25 @@ pub fn set_all(axis: &mut AxisConfig, keys: &[&str], values: &[f64]) {
 mod tests {
     use super::*;
     use crate::machine::MachineConfig;
+
+    #[test]
+    fn every_knob_is_a_machine_key_or_the_coulomb_force() {
+        let x = MachineConfig::default_preset().x;
+        for controller in [
+            Controller::Cascade,
+            MachineConfig::preset("small-table").unwrap().x.controller,
+        ] {
+            for k in for_controller(&controller) {
+                assert!(
+                    k.key == "friction.coulomb_n"
+                        || crate::machine::keys::axis_key(k.key).is_some(),
+                    "{}",
+                    k.key
+                );
+                assert!(get(&x, k.key).is_finite(), "{}", k.key);
+            }
+        }
+    }
 
     #[test]
     fn a_fitted_mass_keeps_the_coulomb_force() {

@@ -9,6 +9,7 @@
 
 mod alternatives;
 mod controller;
+pub mod keys;
 pub mod locate;
 pub mod realise;
 mod sections;
