@@ -205,6 +205,12 @@ fn bode_shows_no_nan_and_refuses_an_unstable_setting() {
     let o = bode_at_kv("hot.toml", 60.0);
     assert_eq!(o.status.code(), Some(2));
     assert!(!text(&o.stdout).to_lowercase().contains("nan"));
+    // The growing mode is named beside the margins, with the gain that would be stable.
+    let shown = text(&o.stdout);
+    assert!(
+        shown.contains("UNSTABLE: this mode grows") && shown.contains("is stable below 1.775"),
+        "{shown}"
+    );
     let err = text(&o.stderr);
     assert!(err.contains("X axis: unstable"), "{err}");
     // A plot directory that cannot be made says why as any other file would.

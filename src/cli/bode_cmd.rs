@@ -25,7 +25,8 @@ pub struct BodeArgs {
 
 pub fn run(args: &BodeArgs) -> Result<Outcome, CliError> {
     let machine = args.machine.load()?;
-    let model = AxisModel::from_config(machine.axis(args.axis.axis));
+    let config = machine.axis(args.axis.axis);
+    let model = AxisModel::from_config(config);
     println!(
         "{} axis of {} — linearised (friction as viscous only, nut in contact)",
         args.axis.axis, machine.name
@@ -66,6 +67,24 @@ pub fn run(args: &BodeArgs) -> Result<Outcome, CliError> {
             "least damped closed-loop mode: {:.1} Hz, damping ratio {:.3}",
             m.frequency_hz, m.damping
         );
+        if m.damping < 0.0 {
+            // The margins are read where each loop's gain first crosses 0 dB; a mode far
+            // above that crossing grows unseen by them — say so beside them.
+            println!(
+                "  UNSTABLE: this mode grows. The phase margins above are read at each loop's \
+                 crossover; a mode at {:.1} Hz lies beyond them (the closed loops' magnitude peaks \
+                 there).",
+                m.frequency_hz
+            );
+            if let Some(kv_max) = linear::largest_stable_kv(config) {
+                println!(
+                    "  With the other settings held, {}.position_loop.kv_m_per_min_per_mm (here \
+                     {}) is stable below {kv_max:.3} m/min/mm.",
+                    args.axis.axis.as_str(),
+                    config.position_loop.kv_m_per_min_per_mm
+                );
+            }
+        }
     }
     // The figures of an unstable loop are shown (they tell where it went wrong), but the
     // setting is an error.
