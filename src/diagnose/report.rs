@@ -308,72 +308,7 @@ impl DiagnoseReport {
         }
         let _ = writeln!(s, "\n{}", self.verdict);
         for (i, c) in self.causes.iter().enumerate() {
-            let params: Vec<String> = c
-                .params
-                .iter()
-                .map(|p| {
-                    format!(
-                        "{} = {} {}",
-                        p.key,
-                        with_uncertainty(p.value, p.uncertainty),
-                        p.unit
-                    )
-                    .trim_end()
-                    .to_string()
-                })
-                .collect();
-            let statistical = if c.fitted_on == "points" {
-                String::new()
-            } else {
-                format!(", fitted on the {}", c.fitted_on)
-            };
-            let _ = writeln!(
-                s,
-                "  {}. {} on {}: {}{statistical}",
-                i + 1,
-                c.id.as_str(),
-                c.axis,
-                params.join(", "),
-            );
-            let _ = writeln!(s, "     {}", strength(c));
-            let (b, a, g) = (&c.before, &c.after, &c.gain_percent);
-            let _ = writeln!(
-                s,
-                "     {} residual: RMS {:.3} → {:.3} µm ({:+.0} %), near events {:.3} → {:.3} µm ({:+.0} %), chatter {:.3} → {:.3} µm ({:+.0} %)",
-                c.axis,
-                b.rms_um,
-                a.rms_um,
-                -g.rms,
-                b.event_rms_um,
-                a.event_rms_um,
-                -g.event_rms,
-                b.chatter_um,
-                a.chatter_um,
-                -g.chatter
-            );
-            let h = &c.held_out;
-            let unseen = match h.judged_on {
-                JudgedOn::OtherHalf => "fitted on half of the record, the other half's",
-                JudgedOn::SecondRecord => "fitted on this record, the second record's",
-            };
-            let _ = writeln!(
-                s,
-                "     held out: {unseen} {} RMS {:.3} → {:.3} µm",
-                c.axis, h.rms_before_um, h.rms_after_um
-            );
-            let _ = writeln!(s, "     what to do: {}", next_step(c));
-            if !c.alternatives.is_empty() {
-                let alt: Vec<String> = c
-                    .alternatives
-                    .iter()
-                    .map(|a| format!("{} on {}", a.id.as_str(), a.axis))
-                    .collect();
-                let _ = writeln!(
-                    s,
-                    "     almost as good: {} — a program with other speeds or reversals would tell them apart",
-                    alt.join(", ")
-                );
-            }
+            write_cause(&mut s, i, c);
         }
         for r in &self.rejected {
             let _ = writeln!(
@@ -400,6 +335,14 @@ impl DiagnoseReport {
                 k.reason
             );
         }
+        self.write_circular(&mut s);
+        self.write_residuals(&mut s);
+        self.write_places(&mut s);
+        s
+    }
+
+    /// The circular-test figures measured and by both models, and where they and a named cause seem to disagree, why.
+    fn write_circular(&self, s: &mut String) {
         let c = &self.circular_test;
         if !c.measured.circles.is_empty() {
             let _ = writeln!(s, "\nCircular test (ISO 230-4 figures)");
@@ -415,6 +358,10 @@ impl DiagnoseReport {
                 let _ = writeln!(s, " {sentence}");
             }
         }
+    }
+
+    /// The residual table, nominal against extended, with its columns explained.
+    fn write_residuals(&self, s: &mut String) {
         let _ = writeln!(
             s,
             "\nResidual, measured − model (µm):      nominal → extended"
@@ -446,6 +393,10 @@ impl DiagnoseReport {
              averaged over ±20 ms, noise removed; chatter: the mismatch of stick-slip amplitude \
              per 0.25 s)"
         );
+    }
+
+    /// Where the nominal model's residual is largest.
+    fn write_places(&self, s: &mut String) {
         if !self.places.is_empty() {
             let _ = writeln!(s, "\nLargest residuals of the nominal model:");
             let _ = writeln!(
@@ -461,11 +412,80 @@ impl DiagnoseReport {
                 );
             }
         }
-        s
     }
 }
 
-/// A value with about four significant digits.
+/// One named cause: its values, how strongly the record supports it, the residual it
+/// explains, on the data it was not fitted on, what to do, and what else fits almost as well.
+fn write_cause(s: &mut String, i: usize, c: &CauseReport) {
+    let params: Vec<String> = c
+        .params
+        .iter()
+        .map(|p| {
+            format!(
+                "{} = {} {}",
+                p.key,
+                with_uncertainty(p.value, p.uncertainty),
+                p.unit
+            )
+            .trim_end()
+            .to_string()
+        })
+        .collect();
+    let statistical = if c.fitted_on == "points" {
+        String::new()
+    } else {
+        format!(", fitted on the {}", c.fitted_on)
+    };
+    let _ = writeln!(
+        s,
+        "  {}. {} on {}: {}{statistical}",
+        i + 1,
+        c.id.as_str(),
+        c.axis,
+        params.join(", "),
+    );
+    let _ = writeln!(s, "     {}", strength(c));
+    let (b, a, g) = (&c.before, &c.after, &c.gain_percent);
+    let _ = writeln!(
+        s,
+        "     {} residual: RMS {:.3} → {:.3} µm ({:+.0} %), near events {:.3} → {:.3} µm ({:+.0} %), chatter {:.3} → {:.3} µm ({:+.0} %)",
+        c.axis,
+        b.rms_um,
+        a.rms_um,
+        -g.rms,
+        b.event_rms_um,
+        a.event_rms_um,
+        -g.event_rms,
+        b.chatter_um,
+        a.chatter_um,
+        -g.chatter
+    );
+    let h = &c.held_out;
+    let unseen = match h.judged_on {
+        JudgedOn::OtherHalf => "fitted on half of the record, the other half's",
+        JudgedOn::SecondRecord => "fitted on this record, the second record's",
+    };
+    let _ = writeln!(
+        s,
+        "     held out: {unseen} {} RMS {:.3} → {:.3} µm",
+        c.axis, h.rms_before_um, h.rms_after_um
+    );
+    let _ = writeln!(s, "     what to do: {}", next_step(c));
+    if !c.alternatives.is_empty() {
+        let alt: Vec<String> = c
+            .alternatives
+            .iter()
+            .map(|a| format!("{} on {}", a.id.as_str(), a.axis))
+            .collect();
+        let _ = writeln!(
+            s,
+            "     almost as good: {} — a program with other speeds or reversals would tell them apart",
+            alt.join(", ")
+        );
+    }
+}
+
 /// A value with its standard uncertainty in two significant digits, the value to the same
 /// decimal place: `7.989 ± 0.019`.
 fn with_uncertainty(value: f64, uncertainty: f64) -> String {
@@ -584,6 +604,7 @@ fn next_step(c: &CauseReport) -> String {
     }
 }
 
+/// A value with about four significant digits.
 fn sig(v: f64) -> String {
     if v == 0.0 || !v.is_finite() {
         return format!("{v}");
