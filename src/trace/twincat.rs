@@ -58,88 +58,8 @@ pub fn twincat_columns(text: &str, file: &str) -> Result<TwincatColumns, Measure
         problem,
     };
     let lines: Vec<&str> = text.lines().collect();
-    let sample_time_line = lines
-        .iter()
-        .position(|l| l.trim_start().starts_with(SAMPLE_TIME_KEY))
-        .ok_or_else(|| {
-            data_error(format!(
-                "no {SAMPLE_TIME_KEY} line: not a TwinCAT Scope export"
-            ))
-        })?;
-    // Only the sampling period line is sure to hold a delimiter right after its key.
-    let delimiter = lines[sample_time_line]
-        .trim_start()
-        .chars()
-        .nth(SAMPLE_TIME_KEY.chars().count())
-        .ok_or_else(|| data_error(format!("{SAMPLE_TIME_KEY} holds no value")))?;
-    let cells = |line: &str| -> Vec<String> {
-        line.split(delimiter)
-            .map(|c| c.trim().to_string())
-            .collect()
-    };
-    let name_line = (0..sample_time_line)
-        .rev()
-        .find(|&i| cells(lines[i]).first().is_some_and(|c| c == "Name"))
-        .ok_or_else(|| data_error("no Name line above the channels' properties".into()))?;
-    let names = cells(lines[name_line]);
-    let units = (name_line..lines.len())
-        .take_while(|&i| !lines[i].trim().is_empty())
-        .map(|i| cells(lines[i]))
-        .find(|c| c.first().is_some_and(|k| k == "Unit"));
-    let channels = channels_of(&names, units.as_deref());
-    if channels.is_empty() {
-        return Err(data_error("the Name line names no channel".into()));
-    }
-    let first_data = (name_line..lines.len())
-        .find(|&i| lines[i].trim().is_empty())
-        .map(|i| i + 1)
-        .ok_or_else(|| data_error("no samples after the channels' properties".into()))?;
-    let decimal_comma = delimiter != ',';
-    let mut sampled: Vec<Sampled> = channels
-        .iter()
-        .map(|c| Sampled {
-            name: c.name.clone(),
-            t: Vec::new(),
-            v: Vec::new(),
-            line: Vec::new(),
-        })
-        .collect();
-    let data_end = data_end(&lines, first_data, delimiter);
-    for (i, line) in lines.iter().enumerate().take(data_end).skip(first_data) {
-        let row = i as u64 + 1;
-        let row_cells = cells(line);
-        for (channel, series) in channels.iter().zip(sampled.iter_mut()) {
-            let cell = |col: usize| row_cells.get(col).map_or("", String::as_str);
-            let (t, v) = (cell(channel.time_col), cell(channel.value_col));
-            if t.is_empty() && v.is_empty() {
-                continue; // this channel's samples have ended
-            }
-            let number = |text: &str, what: &str| {
-                parse_number(text, decimal_comma).ok_or_else(|| MeasuredError::Row {
-                    file: file.into(),
-                    row,
-                    problem: format!(
-                        "{what} of channel '{}': '{text}' is not a number",
-                        channel.name
-                    ),
-                })
-            };
-            let (t, v) = (number(t, "time")?, number(v, "value")?);
-            if series.t.last().is_some_and(|&last| t <= last) {
-                return Err(MeasuredError::Row {
-                    file: file.into(),
-                    row,
-                    problem: format!(
-                        "time {t} ms of channel '{}' does not follow the previous row's",
-                        channel.name
-                    ),
-                });
-            }
-            series.t.push(t);
-            series.v.push(v);
-            series.line.push(row);
-        }
-    }
+    let layout = layout_of(&lines).map_err(data_error)?;
+    let sampled = read_samples(&lines, &layout, file)?;
     if let Some(empty) = sampled.iter().find(|s| s.t.is_empty()) {
         return Err(data_error(format!(
             "channel '{}' holds no samples",
@@ -153,6 +73,122 @@ pub fn twincat_columns(text: &str, file: &str) -> Result<TwincatColumns, Measure
         ));
     }
     Ok(TwincatColumns { columns, rows })
+}
+
+/// How an export is laid out: its delimiter, its channels, and where its samples start.
+struct Layout {
+    delimiter: char,
+    channels: Vec<Channel>,
+    first_data: usize,
+}
+
+/// The layout from the property block; why not, where it is not one.
+fn layout_of(lines: &[&str]) -> Result<Layout, String> {
+    let sample_time_line = lines
+        .iter()
+        .position(|l| l.trim_start().starts_with(SAMPLE_TIME_KEY))
+        .ok_or_else(|| format!("no {SAMPLE_TIME_KEY} line: not a TwinCAT Scope export"))?;
+    // Only the sampling period line is sure to hold a delimiter right after its key.
+    let delimiter = lines[sample_time_line]
+        .trim_start()
+        .chars()
+        .nth(SAMPLE_TIME_KEY.chars().count())
+        .ok_or_else(|| format!("{SAMPLE_TIME_KEY} holds no value"))?;
+    let name_line = (0..sample_time_line)
+        .rev()
+        .find(|&i| {
+            cells(lines[i], delimiter)
+                .first()
+                .is_some_and(|c| c == "Name")
+        })
+        .ok_or("no Name line above the channels' properties")?;
+    let names = cells(lines[name_line], delimiter);
+    let units = (name_line..lines.len())
+        .take_while(|&i| !lines[i].trim().is_empty())
+        .map(|i| cells(lines[i], delimiter))
+        .find(|c| c.first().is_some_and(|k| k == "Unit"));
+    let channels = channels_of(&names, units.as_deref());
+    if channels.is_empty() {
+        return Err("the Name line names no channel".into());
+    }
+    let first_data = (name_line..lines.len())
+        .find(|&i| lines[i].trim().is_empty())
+        .map(|i| i + 1)
+        .ok_or("no samples after the channels' properties")?;
+    Ok(Layout {
+        delimiter,
+        channels,
+        first_data,
+    })
+}
+
+/// A line's cells, trimmed.
+fn cells(line: &str, delimiter: char) -> Vec<String> {
+    line.split(delimiter)
+        .map(|c| c.trim().to_string())
+        .collect()
+}
+
+/// Each channel's samples on its own instants; a cell that is not a number, or a time that
+/// does not increase, is an error naming the row.
+fn read_samples(
+    lines: &[&str],
+    layout: &Layout,
+    file: &str,
+) -> Result<Vec<Sampled>, MeasuredError> {
+    let decimal_comma = layout.delimiter != ',';
+    let row_error = |row: u64, problem: String| MeasuredError::Row {
+        file: file.into(),
+        row,
+        problem,
+    };
+    let mut sampled: Vec<Sampled> = layout
+        .channels
+        .iter()
+        .map(|c| Sampled {
+            name: c.name.clone(),
+            t: Vec::new(),
+            v: Vec::new(),
+            line: Vec::new(),
+        })
+        .collect();
+    let end = data_end(lines, layout.first_data, layout.delimiter);
+    for (i, line) in lines.iter().enumerate().take(end).skip(layout.first_data) {
+        let row = i as u64 + 1;
+        let row_cells = cells(line, layout.delimiter);
+        for (channel, series) in layout.channels.iter().zip(sampled.iter_mut()) {
+            let cell = |col: usize| row_cells.get(col).map_or("", String::as_str);
+            let (t, v) = (cell(channel.time_col), cell(channel.value_col));
+            if t.is_empty() && v.is_empty() {
+                continue; // this channel's samples have ended
+            }
+            let number = |text: &str, what: &str| {
+                parse_number(text, decimal_comma).ok_or_else(|| {
+                    row_error(
+                        row,
+                        format!(
+                            "{what} of channel '{}': '{text}' is not a number",
+                            channel.name
+                        ),
+                    )
+                })
+            };
+            let (t, v) = (number(t, "time")?, number(v, "value")?);
+            if series.t.last().is_some_and(|&last| t <= last) {
+                return Err(row_error(
+                    row,
+                    format!(
+                        "time {t} ms of channel '{}' does not follow the previous row's",
+                        channel.name
+                    ),
+                ));
+            }
+            series.t.push(t);
+            series.v.push(v);
+            series.line.push(row);
+        }
+    }
+    Ok(sampled)
 }
 
 /// The channels the `Name` line lists, each with the time column of the `Name` cell it
