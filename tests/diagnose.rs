@@ -1110,3 +1110,29 @@ fn lost_motion_beyond_the_scale_is_found_in_a_trace_with_its_commands() {
     );
     assert!(d.after.x.rms_um < 0.5, "{:?}", d.after.x);
 }
+
+/// A record of another program, without its commands: the refusal says the path is not this
+/// program's, and does not send the user to align waits that cannot mend it.
+#[test]
+fn a_record_of_another_program_is_not_sent_to_align_its_waits() {
+    let nominal = MachineConfig::default_preset();
+    let other = recorded(
+        &program("square.nc"),
+        &nominal,
+        &SynthSpec::default(),
+        "square.csv",
+    );
+    let e = diagnose(
+        &program("circle-test.nc"),
+        &nominal,
+        &other,
+        &DiagnoseSettings::for_machine(&nominal),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("no timing can mend that"), "{e}");
+    assert!(
+        !e.contains("--align-stretches") && !e.contains("timing departs"),
+        "{e}"
+    );
+}

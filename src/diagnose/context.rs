@@ -453,6 +453,32 @@ fn parallel_offset(
     }
 }
 
+/// The share of the record (at 500 samples spread over it) whose measured XY position lies
+/// more than 1 mm from every segment of the program: a record of another program, or in
+/// other coordinates, whatever its timing — which no alignment of waits can mend.
+fn share_off_path(ctx: &Context) -> f64 {
+    let m = ctx.measured;
+    let n = m.x_m.len().min(m.y_m.len());
+    if n == 0 || ctx.plan.segments.is_empty() {
+        return 0.0;
+    }
+    let picks = 500.min(n);
+    let off = (0..picks)
+        .map(|k| k * (n - 1) / picks.saturating_sub(1).max(1))
+        .filter(|&i| {
+            let q = [m.x_m[i], m.y_m[i]];
+            let nearest = ctx
+                .plan
+                .segments
+                .iter()
+                .map(|seg| seg.project_xy(q, 0.5).signed_distance_m.abs())
+                .fold(f64::INFINITY, f64::min);
+            nearest > 1e-3
+        })
+        .count();
+    off as f64 / picks as f64
+}
+
 /// Builds the comparison timeline: commands, plan, samples, and a first clock offset.
 pub fn context<'a>(
     program: &Program,
@@ -594,17 +620,22 @@ pub fn context<'a>(
     // commands lie on the path) and its clock is its own: a model far from it is for the
     // diagnosis to explain, or to say it cannot.
     if rms > 0.5e-3 && fixed_offset.is_none() {
-        let hint = if fixed_offset.is_none()
-            && !settings.align_stretches
-            && !standstills(&ctx.commands).is_empty()
-        {
+        let off_path = share_off_path(&ctx);
+        let hint = if off_path > 0.2 {
+            format!(
+                " Its measured path lies more than 1 mm from every block of the program over \
+                 {:.0} % of the record: no timing can mend that.",
+                100.0 * off_path
+            )
+        } else if !settings.align_stretches && !standstills(&ctx.commands).is_empty() {
             " If the control's waits at exact stops differ from the plan's, align each stretch \
              between standstills on its own (--align-stretches) or record the commanded positions."
+                .to_string()
         } else {
-            ""
+            String::new()
         };
         let drift = match ctx.timing_drift_s {
-            Some(d) if d.abs() >= 0.005 => format!(
+            Some(d) if d.abs() >= 0.005 && off_path <= 0.2 => format!(
                 " Its second half runs {:+.0} ms against its first: the control's timing \
                  departs from the plan.",
                 d * 1e3
