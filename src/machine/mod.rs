@@ -486,20 +486,19 @@ impl MachineConfig {
     /// Loads a machine file: its `base` preset (default `hvmc`, or `"none"`) with the file's
     /// keys laid over it, then validated.
     pub fn load(path: &Path) -> Result<MachineConfig, ConfigError> {
-        let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| ConfigError::Io {
-            file: file.clone(),
-            message: e.to_string(),
-        })?;
-        Self::from_toml_str(&text, &file)
+        Self::load_with_warnings(path).map(|(machine, _)| machine)
     }
 
     /// Loads a machine file as [`MachineConfig::load`] does, with warnings about values the
     /// file gives that look like a unit mixed up (0.005 µm of backlash: mm meant?).
     pub fn load_with_warnings(path: &Path) -> Result<(MachineConfig, Vec<String>), ConfigError> {
-        let machine = Self::load(path)?;
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).unwrap_or_default();
+        let text = std::fs::read_to_string(path).map_err(|e| ConfigError::Io {
+            file: file.clone(),
+            message: e.to_string(),
+        })?;
+        let machine = Self::from_toml_str(&text, &file)?;
+        // The text parsed once already; read as a table again for the keys the file gave.
         let over: toml::Table = text.parse().unwrap_or_default();
         Ok((machine, suspicious_values(&over, &text, &file)))
     }
