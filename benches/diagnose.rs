@@ -95,7 +95,7 @@ fn diagnose_bench(c: &mut Criterion) {
     for (name, program, spec, at) in &cases {
         let measured = record(program, spec);
         let mut settings = DiagnoseSettings::for_machine(&machine);
-        settings.measured_at = *at;
+        settings.compare.measured_at = *at;
         g.bench_function(*name, |b| {
             b.iter(|| diagnose(black_box(program), &machine, &measured, &settings).unwrap())
         });

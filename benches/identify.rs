@@ -4,7 +4,7 @@
 
 use std::hint::black_box;
 
-use contourcheck::diagnose::DiagnoseSettings;
+use contourcheck::compare::CompareSettings;
 use contourcheck::gcode::{InterpretOptions, Program, parse_program};
 use contourcheck::identify::identify;
 use contourcheck::machine::MachineConfig;
@@ -65,7 +65,7 @@ fn identify_bench(c: &mut Criterion) {
         ("small table, 5 s at 10 kHz", &small, &small_truth),
     ] {
         let measured = record(&program, truth);
-        let settings = DiagnoseSettings::for_machine(template);
+        let settings = CompareSettings::for_machine(template);
         g.bench_function(name, |b| {
             b.iter(|| identify(black_box(&program), template, &measured, &settings).unwrap())
         });

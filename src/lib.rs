@@ -52,6 +52,7 @@ pub mod causes;
 pub mod check;
 #[cfg(feature = "cli")]
 pub mod cli;
+pub mod compare;
 pub mod compensation;
 pub mod diagnose;
 pub mod envelope;
@@ -61,6 +62,7 @@ pub mod geometry;
 pub mod identify;
 pub mod lookup;
 pub mod machine;
+pub mod numeric;
 pub mod path;
 pub mod plan;
 #[cfg(feature = "cli")]

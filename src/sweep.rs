@@ -2,8 +2,8 @@
 //! of each — ranked, with unstable and poorly damped settings flagged rather than measured.
 //!
 //! Any numeric machine key can be swept by name (`x.drive.backlash_um`, or its leaf
-//! `x.backlash_um`); values are applied through the machine's TOML form, so each setting is
-//! validated exactly as a machine file would be. Every grid point is an independent, pure
+//! `x.backlash_um`); values are set through the machine's key table and each setting is
+//! validated as a machine file is. Every grid point is an independent, pure
 //! run of [`crate::check`], so the grid runs in parallel and gives the same results as a
 //! serial run.
 
@@ -12,7 +12,7 @@ use serde::Serialize;
 
 use crate::check::{CheckRun, CheckSettings, check};
 use crate::gcode::Program;
-use crate::machine::{AxisName, ConfigError, MachineConfig};
+use crate::machine::{AxisName, ConfigError, MachineConfig, keys};
 use crate::plan::PlanConfig;
 use crate::sim::linear;
 use crate::sim::{AxisModel, SimError};
@@ -71,44 +71,52 @@ pub fn parse_range(text: &str) -> Result<Vec<f64>, String> {
     Ok(values)
 }
 
-/// Resolves `axis.key` to a full dotted key of the machine: either already full
-/// (`x.drive.backlash_um`) or a leaf unique within the axis (`x.backlash_um`).
+/// Resolves `axis.key` to a full dotted key of the machine's key table
+/// ([`crate::machine::keys`]): either already full (`x.drive.backlash_um`) or a leaf unique
+/// within the axis (`x.backlash_um`). A key the machine does not have, or whose axis's
+/// controller does not read it, is refused with what was likely meant.
 pub fn resolve_key(machine: &MachineConfig, key: &str) -> Result<String, String> {
-    let table: toml::Table = machine.to_toml().parse().map_err(|e| format!("{e}"))?;
-    if lookup(&table, key).is_some_and(toml::Value::is_float) {
-        return Ok(key.to_string());
-    }
-    let (axis, leaf) = key
+    let paths = keys::machine_paths();
+    let (part, leaf) = key
         .split_once('.')
         .ok_or_else(|| format!("'{key}': name a key as axis.key, e.g. x.backlash_um"))?;
-    let Some(toml::Value::Table(section)) = table.get(axis) else {
-        return Err(format!("'{key}': no axis '{axis}' in the machine"));
-    };
-    let found: Vec<String> = section
-        .iter()
-        .filter_map(|(group, v)| match v {
-            toml::Value::Table(t) if t.get(leaf).is_some_and(toml::Value::is_float) => {
-                Some(format!("{axis}.{group}.{leaf}"))
+    let full = if paths.iter().any(|p| p == key) {
+        key.to_string()
+    } else {
+        let found: Vec<&String> = paths
+            .iter()
+            .filter(|p| {
+                p.strip_prefix(part)
+                    .and_then(|r| r.strip_prefix('.'))
+                    .is_some_and(|r| r.rsplit('.').next() == Some(leaf))
+            })
+            .collect();
+        match found.as_slice() {
+            [one] => one.to_string(),
+            [] => {
+                let near = paths
+                    .iter()
+                    .map(|p| (strsim::jaro_winkler(p, key), p))
+                    .max_by(|a, b| a.0.total_cmp(&b.0))
+                    .filter(|(score, _)| *score > 0.85)
+                    .map(|(_, p)| format!(" — did you mean `{p}`?"))
+                    .unwrap_or_default();
+                return Err(format!(
+                    "'{key}': no numeric key of that name in a machine (docs/machine-keys.md \
+                     lists them){near}"
+                ));
             }
-            _ => None,
-        })
-        .collect();
-    match found.as_slice() {
-        [one] => Ok(one.clone()),
-        [] => Err(format!(
-            "'{key}': no numeric key of that name in the machine"
-        )),
-        many => Err(format!("'{key}' is ambiguous: {}", many.join(", "))),
-    }
-}
-
-fn lookup<'a>(table: &'a toml::Table, key: &str) -> Option<&'a toml::Value> {
-    let mut parts = key.split('.');
-    let mut v = table.get(parts.next()?)?;
-    for p in parts {
-        v = v.as_table()?.get(p)?;
-    }
-    Some(v)
+            many => {
+                let names: Vec<&str> = many.iter().map(|s| s.as_str()).collect();
+                return Err(format!("'{key}' is ambiguous: {}", names.join(", ")));
+            }
+        }
+    };
+    // Refused here rather than at every grid point.
+    let mut probe = machine.clone();
+    let value = keys::get_on_machine(machine, &full).unwrap_or(1.0);
+    keys::set_on_machine(&mut probe, &full, value).map_err(|e| format!("'{full}' {e}"))?;
+    Ok(full)
 }
 
 /// The machine with `keys` set to `value`, validated as a machine file is.
@@ -116,30 +124,18 @@ pub fn with_values(
     machine: &MachineConfig,
     settings: &[(&[String], f64)],
 ) -> Result<MachineConfig, ConfigError> {
-    let mut table: toml::Table = machine
-        .to_toml()
-        .parse()
-        .expect("a machine serialises to valid TOML");
+    let mut m = machine.clone();
     for (keys, value) in settings {
         for key in keys.iter() {
-            let mut parts: Vec<&str> = key.split('.').collect();
-            let leaf = parts.pop().unwrap_or_default();
-            let mut t = &mut table;
-            for p in parts {
-                t = t
-                    .entry(p.to_string())
-                    .or_insert_with(|| toml::Value::Table(toml::Table::new()))
-                    .as_table_mut()
-                    .ok_or_else(|| ConfigError::Invalid {
-                        file: "<sweep>".into(),
-                        key: key.clone(),
-                        problem: "is not a table".into(),
-                    })?;
-            }
-            t.insert(leaf.to_string(), toml::Value::Float(*value));
+            keys::set_on_machine(&mut m, key, *value).map_err(|e| ConfigError::Invalid {
+                file: "<sweep>".into(),
+                key: key.clone(),
+                problem: e.to_string(),
+            })?;
         }
     }
-    MachineConfig::from_toml_str(&format!("base = \"none\"\n{table}"), "<sweep>")
+    m.validate("<sweep>")?;
+    Ok(m)
 }
 
 /// What one setting gave.

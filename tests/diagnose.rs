@@ -362,7 +362,7 @@ fn waits_longer_than_planned_are_measured_when_stretches_align_on_their_own() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("--align-stretches"), "{e}");
-    settings.align_stretches = true;
+    settings.compare.align_stretches = true;
     let d = diagnose(&prog, &nominal, &measured, &settings).unwrap();
     let expected_ms = (10.0f64 / 3.0).ln() / (1000.0 / 60.0) * 1e3;
     assert_eq!(d.extra_waits.len(), 3, "{:?}", d.extra_waits);

@@ -44,7 +44,7 @@ fn diagnose_text(program: &Program, csv: &str, at: MeasuredAt) -> Result<Diagnos
     let nominal = MachineConfig::default_preset();
     let measured = parse_trace(csv, "record.csv").unwrap();
     let mut settings = DiagnoseSettings::for_machine(&nominal);
-    settings.measured_at = at;
+    settings.compare.measured_at = at;
     diagnose(program, &nominal, &measured, &settings)
 }
 
@@ -637,15 +637,16 @@ fn sticking_seen(program: &Program, csv: &str, at: MeasuredAt) -> [bool; 2] {
     let nominal = MachineConfig::default_preset();
     let measured = parse_trace(csv, "record.csv").unwrap();
     let mut settings = DiagnoseSettings::for_machine(&nominal);
-    settings.measured_at = at;
-    let (mut ctx, offset) =
-        contourcheck::diagnose::context(program, &nominal, &measured, &settings).unwrap();
-    let residuals = AxisName::BOTH.map(|a| {
-        let trace = ctx.simulate_axis(&nominal, a).unwrap();
-        ctx.residual(a, &trace, offset)
-    });
-    ctx.noise_sigma = contourcheck::diagnose::residual::record_noise(&residuals, &measured);
-    AxisName::BOTH.map(|a| ctx.sticking_seen(a, offset))
+    settings.compare.measured_at = at;
+    let c = contourcheck::compare::compare(
+        program,
+        &nominal,
+        &measured,
+        &settings.compare,
+        contourcheck::compare::Stepping::Full,
+    )
+    .unwrap();
+    AxisName::BOTH.map(|a| c.ctx.sticking_seen(a, c.offset_s))
 }
 
 #[test]

@@ -10,6 +10,7 @@
 mod common;
 
 use common::{foreign_commands, program_text};
+use contourcheck::compare::CompareSettings;
 use contourcheck::diagnose::{DiagnoseSettings, diagnose};
 use contourcheck::gcode::Program;
 use contourcheck::identify::{Identification, IdentifyError, identify};
@@ -77,7 +78,7 @@ fn identified_and_predicting(
     must_see: &[&str],
     seed: u64,
 ) -> Identification {
-    let settings = DiagnoseSettings::for_machine(template);
+    let settings = CompareSettings::for_machine(template);
     let program = fitted_program();
     let id = identify(
         &program,
@@ -206,7 +207,7 @@ fn a_small_table_with_a_pid_and_with_state_feedback_is_identified() {
 #[test]
 fn a_record_without_commands_or_with_a_still_axis_says_what_it_lacks() {
     let template = MachineConfig::default_preset();
-    let settings = DiagnoseSettings::for_machine(&template);
+    let settings = CompareSettings::for_machine(&template);
     let program = fitted_program();
     let mut no_commands = record(&program, &template, 83);
     no_commands.commands = None;
@@ -247,7 +248,7 @@ fn a_template_with_another_controller_identifies_nothing() {
     .unwrap();
     let template = MachineConfig::preset("small-table").unwrap();
     let program = fitted_program();
-    let settings = DiagnoseSettings::for_machine(&template);
+    let settings = CompareSettings::for_machine(&template);
     let id = identify(
         &program,
         &template,

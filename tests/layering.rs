@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 /// Lowest first. A module may use modules of lower layers only.
 const LAYERS: &[&[&str]] = &[
-    &["units", "lookup", "plot"],
+    &["units", "lookup", "numeric", "plot"],
     &["path"],
     &["gcode"],
     &["machine"],
@@ -18,9 +18,8 @@ const LAYERS: &[&[&str]] = &[
     &["causes", "execute", "envelope", "compensation"],
     &["analysis", "trace"],
     &["check", "validate"],
-    &["report", "sweep", "synth"],
-    &["diagnose"],
-    &["identify"],
+    &["compare", "report", "sweep", "synth"],
+    &["diagnose", "identify"],
     &["cli"],
 ];
 

@@ -97,7 +97,7 @@ proptest! {
         if let Ok(d) = diagnose(&program, &machine, &trace, &settings) {
             let _ = DiagnoseReport::new(&d, "odd.nc", &trace, &machine).summary_text();
         }
-        let _ = identify(&program, &machine, &trace, &settings);
+        let _ = identify(&program, &machine, &trace, &settings.compare);
     }
 }
 
@@ -139,7 +139,7 @@ proptest! {
         let machine = MachineConfig::default_preset();
         let settings = DiagnoseSettings::for_machine(&machine);
         let _ = diagnose(&program, &machine, &trace, &settings);
-        match identify(&program, &machine, &trace, &settings) {
+        match identify(&program, &machine, &trace, &settings.compare) {
             Ok(id) => {
                 // Every value written is a number; a value the record determines has a finite
                 // uncertainty (one it does not is the template's, its uncertainty NaN).

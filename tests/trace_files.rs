@@ -541,7 +541,7 @@ proptest::proptest! {
         let at = xml.floor_char_boundary(at.min(xml.len()));
         xml.insert_str(at, &splice);
         let cut = xml.floor_char_boundary(cut.min(xml.len()));
-        let _ = read(xml[..xml.len() - cut].as_bytes(), None);
+        let _ = read(&xml.as_bytes()[..xml.len() - cut], None);
     }
 }
 
@@ -639,6 +639,6 @@ proptest::proptest! {
         let at = text.floor_char_boundary(at.min(text.len()));
         text.insert_str(at, &splice);
         let cut = text.floor_char_boundary(cut.min(text.len()));
-        let _ = read(text[..text.len() - cut].as_bytes(), None);
+        let _ = read(&text.as_bytes()[..text.len() - cut], None);
     }
 }

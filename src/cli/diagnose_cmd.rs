@@ -120,11 +120,11 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
     warn_beyond_machine(&measured, &machine);
     let validation = second.first().map(read).transpose()?;
     let mut settings = DiagnoseSettings::for_machine(&machine);
-    settings.check.plan = args.planning.config(&machine)?;
+    settings.compare.check.plan = args.planning.config(&machine)?;
     settings.max_causes = args.max_causes;
     settings.evidence = args.evidence;
-    settings.align_stretches = args.align_stretches;
-    settings.measured_at = args.measured_at;
+    settings.compare.align_stretches = args.align_stretches;
+    settings.compare.measured_at = args.measured_at;
     settings.causes = if args.causes.is_empty() {
         CauseSet::ALL
     } else {
@@ -137,7 +137,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
             args.command_tolerance_um
         )));
     }
-    settings.command_tolerance_m = m_from_um(args.command_tolerance_um);
+    settings.compare.command_tolerance_m = m_from_um(args.command_tolerance_um);
     let bar = spinner("fitting causes");
     let d = diagnose_validated(
         &program,
@@ -281,8 +281,6 @@ fn stage_plots(
     let name = Path::new(program_file)
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    let s = &d.series;
-    let t = &s.t_s;
     let found: Vec<String> = d
         .causes
         .iter()
@@ -293,6 +291,33 @@ fn stage_plots(
     } else {
         format!("extended: {}", found.join(", "))
     };
+    let fit = fit_plot(d, &name, &extended_name);
+    let [over_time, along_path] = residual_plots(d, &name);
+    let polar = polar_plots(d, &name, &extended_name);
+    for ext in ["png", "svg"] {
+        for (c, figure) in d.circles.iter().zip(&polar) {
+            batch.stage_with_path(
+                &dir.join(format!("diagnose-polar-line{}.{ext}", c.line)),
+                |p| crate::plot::render(p, figure),
+            )?;
+        }
+        batch.stage_with_path(&dir.join(format!("diagnose-fit.{ext}")), |p| {
+            crate::plot::render(p, &fit)
+        })?;
+        batch.stage_with_path(&dir.join(format!("diagnose-residual-time.{ext}")), |p| {
+            crate::plot::render(p, &over_time)
+        })?;
+        batch.stage_with_path(&dir.join(format!("diagnose-residual-path.{ext}")), |p| {
+            crate::plot::render(p, &along_path)
+        })?;
+    }
+    Ok(())
+}
+
+/// Each axis's deviation from the command, measured and by both models.
+fn fit_plot(d: &Diagnosis, name: &str, extended_name: &str) -> PanelsPlot {
+    let s = &d.series;
+    let t = &s.t_s;
     // Each axis's deviation from the command, measured and by both models, around where
     // the nominal model misses most (the whole record when it misses nowhere).
     let deviation = |a: usize| {
@@ -335,7 +360,7 @@ fn stage_plots(
                     width: 2,
                 },
                 Curve {
-                    name: extended_name.clone(),
+                    name: extended_name.to_string(),
                     points: dev(&s.extended[a]),
                     color: Some(0),
                     width: 2,
@@ -343,11 +368,17 @@ fn stage_plots(
             ],
         }
     };
-    let fit = PanelsPlot {
+    PanelsPlot {
         title: format!("{name}: measured against the nominal and the extended model"),
         x_label: "program time (s)".into(),
         panels: vec![deviation(0), deviation(1)],
-    };
+    }
+}
+
+/// The residual of both models over time (X, Y, contour) and along the path (contour).
+fn residual_plots(d: &Diagnosis, name: &str) -> [PanelsPlot; 2] {
+    let s = &d.series;
+    let t = &s.t_s;
     let residual_panel = |caption: String,
                           before: &dyn Fn(usize) -> f64,
                           after: &dyn Fn(usize) -> f64,
@@ -408,9 +439,13 @@ fn stage_plots(
             &path_mm,
         )],
     };
-    // Ballbar-style: each full circle's radial deviation, measured and by both models.
-    let polar: Vec<PolarPlot> = d
-        .circles
+    [over_time, along_path]
+}
+
+/// Ballbar-style: each full circle's radial deviation, measured and by both models.
+fn polar_plots(d: &Diagnosis, name: &str, extended_name: &str) -> Vec<PolarPlot> {
+    let s = &d.series;
+    d.circles
         .iter()
         .map(|c| {
             let g_of = |test: &crate::analysis::circular::CircularTest| {
@@ -443,27 +478,9 @@ fn stage_plots(
                 traces: vec![
                     trace("measured", &s.measured, 1, g_of(&d.circular.measured)),
                     trace("nominal model", &s.nominal, 2, g_of(&d.circular.nominal)),
-                    trace(&extended_name, &s.extended, 2, g_of(&d.circular.extended)),
+                    trace(extended_name, &s.extended, 2, g_of(&d.circular.extended)),
                 ],
             }
         })
-        .collect();
-    for ext in ["png", "svg"] {
-        for (c, figure) in d.circles.iter().zip(&polar) {
-            batch.stage_with_path(
-                &dir.join(format!("diagnose-polar-line{}.{ext}", c.line)),
-                |p| crate::plot::render(p, figure),
-            )?;
-        }
-        batch.stage_with_path(&dir.join(format!("diagnose-fit.{ext}")), |p| {
-            crate::plot::render(p, &fit)
-        })?;
-        batch.stage_with_path(&dir.join(format!("diagnose-residual-time.{ext}")), |p| {
-            crate::plot::render(p, &over_time)
-        })?;
-        batch.stage_with_path(&dir.join(format!("diagnose-residual-path.{ext}")), |p| {
-            crate::plot::render(p, &along_path)
-        })?;
-    }
-    Ok(())
+        .collect()
 }

@@ -10,7 +10,7 @@ use super::Outcome;
 use super::common::{CliError, PlanningArgs, TraceArgs, spinner};
 use super::common::{program_or_commands_path, warn_beyond_machine};
 use crate::cli::output::OutputBatch;
-use crate::diagnose::DiagnoseSettings;
+use crate::compare::CompareSettings;
 use crate::identify::{Identification, IdentifiedValue, identify};
 use crate::machine::MachineConfig;
 use crate::units::m_from_um;
@@ -63,7 +63,7 @@ pub fn run(args: &IdentifyArgs) -> Result<Outcome, CliError> {
             args.command_tolerance_um
         )));
     }
-    let mut settings = DiagnoseSettings::for_machine(&template);
+    let mut settings = CompareSettings::for_machine(&template);
     settings.check.plan = args.planning.config(&template)?;
     settings.command_tolerance_m = m_from_um(args.command_tolerance_um);
     let bar = spinner("identifying");

@@ -6,10 +6,10 @@
 //! 2. Nelder–Mead from there with the clock offset held: the hybrid model's residual is
 //!    continuous in a cause's parameters but has kinks (a backlash's is V-shaped at its
 //!    minimum), where a derivative-free search does not stall;
-//! 3. Levenberg–Marquardt over the parameters (scaled to their typical magnitudes) and,
-//!    unless the measurement recorded its commands, the clock offset, for the polish and
-//!    the Jacobian the uncertainties come from. Step 2's values stand when it does not
-//!    improve on them.
+//! 3. Levenberg–Marquardt ([`crate::numeric::lsq`]) over the parameters (scaled to their
+//!    typical magnitudes, inside their ranges) and, unless the measurement recorded its
+//!    commands, the clock offset, for the polish and the Jacobian the uncertainties come
+//!    from. Step 2's values stand when it does not improve on them.
 //!
 //! On statistics ([`fit_statistical`]), for an axis in stick-slip: steps 1 and 2 on the χ²
 //! of [`Context::statistical_residual`], the offset held; uncertainties from its curvature.
@@ -20,12 +20,12 @@
 
 use std::cell::RefCell;
 
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use nalgebra::{DMatrix, DVector, Dyn, Owned};
+use nalgebra::{DMatrix, DVector};
 
 use super::{Context, Stepping};
 use crate::causes::{self, CauseId, Param};
 use crate::machine::{AxisName, MachineConfig};
+use crate::numeric::lsq::{self, forward_jacobian, uncertainties};
 
 /// A fitted cause.
 #[derive(Debug, Clone, PartialEq)]
@@ -77,107 +77,43 @@ pub fn fit_cause(
     offset_s: f64,
     other: &[f64],
 ) -> Option<Fitted> {
-    let params = cause.params();
-    let simulate =
-        |values: &[f64]| ctx.simulate_pair(&with_cause(machine, axis, cause, values), axis, other);
-    let sum_sq = |v: Vec<f64>| v.iter().map(|x| x * x).sum::<f64>();
-    let fit_offset = ctx.fixed_offset.is_none();
-    // Both axes' residual at parameter values and an offset: the offset belongs to the
-    // search, or parameters would bend to make up for a first alignment that a lag (a gain
-    // error, a dead time) has pulled off.
-    let rss_on = |on: &Context, values: &[f64], offset: f64| {
-        on.simulate_pair(&with_cause(machine, axis, cause, values), axis, other)
-            .map_or(f64::INFINITY, |(t, o)| {
-                sum_sq(on.residual(axis, &t, offset))
-                    + sum_sq(on.residual(axis.other(), &o, offset))
-            })
-    };
-    let total_rss = |values: &[f64], offset: f64| rss_on(ctx, values, offset);
-    let start = best_start(ctx, starts, &|screen: &Context, s: &[f64]| {
-        rss_on(screen, s, offset_s)
-    })?;
-    let start_cost = total_rss(start, offset_s);
-    // The offset rides along as one more parameter, in units of 2 ms.
-    let offset_param = Param {
-        key: "offset",
-        unit: "s",
-        scale: 2e-3,
-        min: -1e6,
-        max: 1e6,
-    };
-    let mut search: Vec<Param> = params.to_vec();
-    let mut start_point = start.to_vec();
-    if fit_offset {
-        search.push(offset_param);
-        start_point.push(offset_s);
-    }
-    let cost = |v: &[f64]| {
-        let offset = if fit_offset {
-            v[params.len()]
-        } else {
-            offset_s
-        };
-        total_rss(&v[..params.len()], offset)
-    };
-    let (point, best) = nelder_mead(&start_point, start_cost, &search, &cost);
-    let (values, nm_offset) = (
-        point[..params.len()].to_vec(),
-        if fit_offset {
-            point[params.len()]
-        } else {
-            offset_s
-        },
-    );
-    let mut p0: Vec<f64> = params
-        .iter()
-        .zip(&values)
-        .map(|(p, v)| v / p.scale)
-        .collect();
-    if fit_offset {
-        p0.push(nm_offset / ctx.dt);
-    }
-    let problem = Problem {
+    let model = Model {
         ctx,
         machine,
         axis,
         cause,
         other,
-        fit_offset,
-        p: DVector::from_vec(p0),
+    };
+    let start = best_start(ctx, starts, &|screen: &Context, s: &[f64]| {
+        model.rss_on(screen, s, offset_s)
+    })?;
+    let (values, nm_offset, best) = model.nelder_mead_from(start, offset_s);
+    let problem = Problem {
+        model,
         cache: RefCell::new(None),
     };
-    let lm = LevenbergMarquardt::new()
-        .with_patience(20)
-        .with_ftol(1e-9)
-        .with_xtol(1e-8);
-    let (problem, _report) = lm.minimize(problem);
-    let (residual, lm_trace, lm_other) = problem.evaluate(&problem.p)?;
-    let lm_rss = residual.norm_squared();
-    if lm_rss < best {
-        let (values, offset) = problem.unscale(&problem.p);
-        let sigma = problem.uncertainties(&problem.p, lm_rss);
-        let fitted = Fitted {
-            values,
-            sigma,
-            offset_s: offset,
-            rss: lm_rss,
-            chi2_stat: f64::NAN,
-            trace: lm_trace,
-            other: lm_other,
-        };
-        return accept(params, fitted);
-    }
-    let at = problem.scaled(&values, nm_offset);
-    let sigma = problem.uncertainties(&at, best);
-    let (trace, other) = simulate(&values)?;
-    let other = other.into_owned();
+    let p0 = problem.model.scaled(&values, nm_offset);
+    let end = lsq::minimise(&problem, p0.clone(), &problem.model.settings());
+    // Nelder–Mead's values stand where Levenberg–Marquardt does not improve on them.
+    let (p, rss, jacobian) = match end.filter(|e| e.cost < best) {
+        Some(e) => (e.p, e.cost, Some(e.jacobian)),
+        None => (p0, best, None),
+    };
+    let (r0, trace, other) = problem.evaluate(&p)?;
+    let jacobian = jacobian.or_else(|| lsq::Problem::jacobian(&problem, &p, &r0));
+    let params = cause.params();
+    let sigma = jacobian.map_or_else(
+        || vec![f64::NAN; params.len()],
+        |j| problem.model.uncertainties(&j, rss),
+    );
+    let (values, offset_s) = problem.model.unscale(&p);
     accept(
         params,
         Fitted {
             values,
             sigma,
-            offset_s: nm_offset,
-            rss: best,
+            offset_s,
+            rss,
             chi2_stat: f64::NAN,
             trace,
             other,
@@ -423,21 +359,86 @@ fn nelder_mead(
     }
 }
 
-struct Problem<'a> {
+/// The fit's model: `cause` on `axis` of `machine`, the other axis's trace `other` kept
+/// unless the cause changes the program's timing. Shared between the Jacobian's threads.
+struct Model<'a> {
     ctx: &'a Context<'a>,
     machine: &'a MachineConfig,
     axis: AxisName,
     cause: CauseId,
     other: &'a [f64],
-    fit_offset: bool,
-    p: DVector<f64>,
+}
+
+/// The fit as a least-squares problem, with the last evaluation kept: the solver asks for
+/// the residuals and then the Jacobian at the same point.
+struct Problem<'a> {
+    model: Model<'a>,
     cache: RefCell<Option<(DVector<f64>, Evaluation)>>,
 }
 
 /// Residuals, this axis's trace, the other axis's trace.
 type Evaluation = (DVector<f64>, Vec<f64>, Vec<f64>);
 
-impl Problem<'_> {
+/// Step of the Jacobian's differences in scaled parameters: 1 % of each one's scale.
+const STEP: f64 = 1e-2;
+
+impl Model<'_> {
+    /// Both axes' residual sum of squares on `on` at parameter values and an offset.
+    fn rss_on(&self, on: &Context, values: &[f64], offset: f64) -> f64 {
+        let sum_sq = |v: Vec<f64>| v.iter().map(|x| x * x).sum::<f64>();
+        let m = with_cause(self.machine, self.axis, self.cause, values);
+        on.simulate_pair(&m, self.axis, self.other)
+            .map_or(f64::INFINITY, |(t, o)| {
+                sum_sq(on.residual(self.axis, &t, offset))
+                    + sum_sq(on.residual(self.axis.other(), &o, offset))
+            })
+    }
+
+    /// Nelder–Mead from `start` and `offset_s`: the values, the offset and their residual
+    /// sum of squares. The offset belongs to the search (in units of 2 ms) unless the record
+    /// fixed it, or parameters would bend to make up for a first alignment that a lag (a
+    /// gain error, a dead time) has pulled off.
+    fn nelder_mead_from(&self, start: &[f64], offset_s: f64) -> (Vec<f64>, f64, f64) {
+        let params = self.cause.params();
+        let n = params.len();
+        let mut search: Vec<Param> = params.to_vec();
+        let mut start_point = start.to_vec();
+        if self.fits_offset() {
+            search.push(Param {
+                key: "offset",
+                unit: "s",
+                scale: 2e-3,
+                min: -1e6,
+                max: 1e6,
+            });
+            start_point.push(offset_s);
+        }
+        let offset_of = |v: &[f64]| if self.fits_offset() { v[n] } else { offset_s };
+        let cost = |v: &[f64]| self.rss_on(self.ctx, &v[..n], offset_of(v));
+        let start_cost = self.rss_on(self.ctx, start, offset_s);
+        let (point, best) = nelder_mead(&start_point, start_cost, &search, &cost);
+        (point[..n].to_vec(), offset_of(&point), best)
+    }
+
+    /// Whether the clock offset is fitted (it is known when the record has its commands).
+    fn fits_offset(&self) -> bool {
+        self.ctx.fixed_offset.is_none()
+    }
+
+    /// The parameters' box in scaled units; the offset is free.
+    fn settings(&self) -> lsq::Settings {
+        let mut bounds: Vec<(f64, f64)> = self
+            .cause
+            .params()
+            .iter()
+            .map(|q| (q.min / q.scale, q.max / q.scale))
+            .collect();
+        if self.fits_offset() {
+            bounds.push((f64::NEG_INFINITY, f64::INFINITY));
+        }
+        lsq::Settings::with_bounds(bounds)
+    }
+
     fn scaled(&self, values: &[f64], offset: f64) -> DVector<f64> {
         let mut p: Vec<f64> = self
             .cause
@@ -446,7 +447,7 @@ impl Problem<'_> {
             .zip(values)
             .map(|(q, v)| v / q.scale)
             .collect();
-        if self.fit_offset {
+        if self.fits_offset() {
             p.push(offset / self.ctx.dt);
         }
         DVector::from_vec(p)
@@ -476,15 +477,10 @@ impl Problem<'_> {
 
     /// Residuals (both axes), this axis's trace and the other's at scaled parameters `p`.
     fn evaluate(&self, p: &DVector<f64>) -> Option<Evaluation> {
-        if let Some((_, e)) = self.cache.borrow().as_ref().filter(|(q, _)| q == p) {
-            return Some(e.clone());
-        }
         let (values, offset) = self.unscale(p);
         let (trace, other) = self.simulate(&values)?;
         let r = self.residual_with(&trace, &other, offset);
-        let e = (r, trace, other);
-        *self.cache.borrow_mut() = Some((p.clone(), e.clone()));
-        Some(e)
+        Some((r, trace, other))
     }
 
     fn traces<'b>(&self, trace: &'b [f64], other: &'b [f64]) -> [&'b [f64]; 2] {
@@ -501,78 +497,57 @@ impl Problem<'_> {
         DVector::from_iterator(rx.len() + ry.len(), rx.into_iter().chain(ry))
     }
 
-    fn jacobian_at(&self, p: &DVector<f64>) -> Option<DMatrix<f64>> {
-        let (r0, trace, other) = self.evaluate(p)?;
-        let n = self.cause.params().len();
-        let mut jac = DMatrix::zeros(r0.len(), p.len());
-        for j in 0..n {
-            let q = self.cause.params()[j];
-            // Step inward at an upper bound.
-            let step = if (p[j] + 1e-2) * q.scale > q.max {
-                -1e-2
-            } else {
-                1e-2
-            };
-            let mut pp = p.clone();
-            pp[j] += step;
-            let (values, offset) = self.unscale(&pp);
-            let (t, o) = self.simulate(&values)?;
-            let r = self.residual_with(&t, &o, offset);
-            jac.set_column(j, &((r - &r0) / step));
-        }
-        if self.fit_offset {
-            let (_, offset) = self.unscale(p);
-            let [x, y] = self.traces(&trace, &other);
-            // r = measured − sim(t − offset): ∂r/∂offset = sim'(t − offset), per unit dt.
-            let dx = self.ctx.residual_rate(x, offset);
-            let dy = self.ctx.residual_rate(y, offset);
-            let col = DVector::from_iterator(
-                dx.len() + dy.len(),
-                dx.into_iter().chain(dy).map(|v| v * self.ctx.dt),
-            );
-            jac.set_column(n, &col);
-        }
-        Some(jac)
+    /// The offset's column, analytic: r = measured − sim(t − offset), so ∂r/∂offset =
+    /// sim'(t − offset), per command period.
+    fn offset_column(&self, p: &DVector<f64>, trace: &[f64], other: &[f64]) -> DVector<f64> {
+        let (_, offset) = self.unscale(p);
+        let [x, y] = self.traces(trace, other);
+        let dx = self.ctx.residual_rate(x, offset);
+        let dy = self.ctx.residual_rate(y, offset);
+        DVector::from_iterator(
+            dx.len() + dy.len(),
+            dx.into_iter().chain(dy).map(|v| v * self.ctx.dt),
+        )
     }
 
-    /// Standard uncertainties from the Jacobian, s² (JᵀJ)⁻¹ with s² the residual's variance
-    /// per degree of freedom, in machine units.
-    fn uncertainties(&self, p: &DVector<f64>, rss: f64) -> Vec<f64> {
-        let params = self.cause.params();
-        let Some(jac) = self.jacobian_at(p) else {
-            return vec![f64::NAN; params.len()];
-        };
-        let s2 = rss / (jac.nrows() as f64 - jac.ncols() as f64).max(1.0);
-        let cov = (jac.transpose() * &jac).try_inverse().map(|m| m * s2);
-        params
-            .iter()
-            .enumerate()
-            .map(|(i, q)| {
-                cov.as_ref()
-                    .map_or(f64::NAN, |c| c[(i, i)].max(0.0).sqrt() * q.scale)
-            })
+    /// Standard uncertainties of the cause's parameters from the Jacobian `jac`, with the
+    /// residual's variance per degree of freedom, in machine units.
+    fn uncertainties(&self, jac: &DMatrix<f64>, rss: f64) -> Vec<f64> {
+        uncertainties(jac, rss, 0.0)
+            .into_iter()
+            .zip(self.cause.params())
+            .map(|(s, q)| s * q.scale)
             .collect()
     }
 }
 
-impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
-    type ResidualStorage = Owned<f64, Dyn>;
-    type JacobianStorage = Owned<f64, Dyn, Dyn>;
-    type ParameterStorage = Owned<f64, Dyn>;
+impl Problem<'_> {
+    fn evaluate(&self, p: &DVector<f64>) -> Option<Evaluation> {
+        if let Some((_, e)) = self.cache.borrow().as_ref().filter(|(q, _)| q == p) {
+            return Some(e.clone());
+        }
+        let e = self.model.evaluate(p)?;
+        *self.cache.borrow_mut() = Some((p.clone(), e.clone()));
+        Some(e)
+    }
+}
 
-    fn set_params(&mut self, x: &DVector<f64>) {
-        self.p.copy_from(x);
+impl lsq::Problem for Problem<'_> {
+    fn residuals(&self, p: &DVector<f64>) -> Option<DVector<f64>> {
+        self.evaluate(p).map(|(r, _, _)| r)
     }
 
-    fn params(&self) -> DVector<f64> {
-        self.p.clone()
-    }
-
-    fn residuals(&self) -> Option<DVector<f64>> {
-        self.evaluate(&self.p).map(|(r, _, _)| r)
-    }
-
-    fn jacobian(&self) -> Option<DMatrix<f64>> {
-        self.jacobian_at(&self.p)
+    fn jacobian(&self, p: &DVector<f64>, r0: &DVector<f64>) -> Option<DMatrix<f64>> {
+        let model = &self.model;
+        let n = model.cause.params().len();
+        let bounds = model.settings().bounds;
+        let mut jac = forward_jacobian(p, r0, &bounds, STEP, n, &|q| {
+            model.evaluate(q).map(|(r, _, _)| r)
+        })?;
+        if model.fits_offset() {
+            let (_, trace, other) = self.evaluate(p)?;
+            jac.set_column(n, &model.offset_column(p, &trace, &other));
+        }
+        Some(jac)
     }
 }

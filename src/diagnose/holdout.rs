@@ -8,12 +8,14 @@
 //! instead: every cause is fitted on the whole first record and judged on the second, which
 //! the fits never see.
 
-use super::context::{Context, context, golden_section};
-use super::residual::{independent_share, record_noise};
-use super::{DiagnoseError, DiagnoseSettings, fit};
+use super::search::Current;
+use super::{DiagnoseError, fit};
 use crate::causes::{self, CauseId};
+use crate::compare::residual::independent_share;
+use crate::compare::{CompareSettings, Comparison, Context, Stepping, compare};
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
+use crate::numeric::golden_section;
 use crate::trace::measured::MeasuredTrace;
 
 /// Pieces the quiet time is cut into at most: long against a servo's transients.
@@ -72,18 +74,20 @@ fn halves(ctx: &Context, near_event: &[bool]) -> (Vec<usize>, Vec<usize>) {
 
 /// Fits `cause` on `axis` on half of the record, starting from the whole record's values
 /// `values`, and scores it on the other half against the current traces.
-#[allow(clippy::too_many_arguments)]
-pub fn held_out(
+pub(crate) fn held_out(
     ctx: &Context,
-    current: &MachineConfig,
-    traces: &[Vec<f64>; 2],
-    offset_s: f64,
+    now: Current,
     axis: AxisName,
     cause: CauseId,
     values: &[f64],
     statistical: bool,
     event_window_s: f64,
 ) -> Option<HeldOut> {
+    let Current {
+        machine: current,
+        traces,
+        offset_s,
+    } = now;
     let (_, near_event) = ctx.event_masks(axis, offset_s, event_window_s);
     let (fit_on, judge_on) = halves(ctx, &near_event);
     let mut train = ctx.clone();
@@ -164,23 +168,20 @@ impl<'a> Validation<'a> {
         program: &Program,
         machine: &MachineConfig,
         measured: &'a MeasuredTrace,
-        settings: &DiagnoseSettings,
+        settings: &CompareSettings,
     ) -> Result<Self, DiagnoseError> {
-        let (mut ctx, offset_s) = context(program, machine, measured, settings)?;
         // Used during the search only, at its resolution.
-        ctx.stepping = super::Stepping::PerCycleWhereExact;
-        let traces = AxisName::BOTH
-            .map(|a| ctx.simulate_axis(machine, a))
-            .map(|t| {
-                t.ok_or_else(|| DiagnoseError::CannotAlign {
-                    file: measured.file.clone(),
-                    reason: "the nominal machine cannot be simulated".into(),
-                })
-            });
-        let [x, y] = traces;
-        let traces = [x?, y?];
-        let residuals = AxisName::BOTH.map(|a| ctx.residual(a, &traces[a.index()], offset_s));
-        ctx.noise_sigma = record_noise(&residuals, measured);
+        let Comparison {
+            ctx,
+            offset_s,
+            nominal: traces,
+        } = compare(
+            program,
+            machine,
+            measured,
+            settings,
+            Stepping::PerCycleWhereExact,
+        )?;
         let mut v = Validation {
             ctx,
             traces,

@@ -32,7 +32,7 @@ use rayon::prelude::*;
 
 use super::Context;
 use super::locate::{
-    Bins, Located, Predictor, Variable, finite_range, halves, held_out_share, positions_mm,
+    Bins, Located, Predictor, Variable, finite_range, held_out_share, positions_mm,
 };
 use crate::geometry::CrossTerms;
 use crate::machine::{AxisName, MachineConfig};
@@ -149,7 +149,7 @@ pub fn learn(
         offset_s,
         axis,
         residual: ctx.residual(axis, &traces[axis.index()], offset_s),
-        fold: halves(ctx, offset_s),
+        fold: ctx.halves(offset_s),
     };
     // Terms beyond the scale read nothing behind a motor encoder.
     let beyond_scale_seen = ctx.measured_at != MeasuredAt::Motor;

@@ -100,11 +100,6 @@ pub struct Located {
 const BINS: usize = 64;
 /// Held-out share below which a variable is not named.
 const SMALLEST_SHARE: f64 = 0.25;
-/// Length of the alternating blocks the record is cut into for fitting and scoring (s):
-/// long against the residual's own correlation (a servo's transients last tens of ms),
-/// short against how often the axis comes back to a place, so that each bin is fitted on
-/// some passes and scored on others.
-const BLOCK_S: f64 = 0.2;
 /// Bins of the time: only a slow drift (warm-up, a clock) is looked for; finer bins would
 /// fit every event of the program as a moment of its own.
 const TIME_BINS: usize = 8;
@@ -129,14 +124,6 @@ fn stands_out(residual: &[f64], sigma: f64) -> bool {
     n > 0.0 && (chi2 - n) / (2.0 * n).sqrt() > 5.0
 }
 
-/// Program time of each compared sample (s).
-fn sample_times(ctx: &Context, offset_s: f64) -> Vec<f64> {
-    ctx.samples
-        .iter()
-        .map(|&i| ctx.prog_time(i, offset_s))
-        .collect()
-}
-
 /// An axis's commanded position, velocity and acceleration at each compared sample (SI).
 fn commands_at_samples(ctx: &Context, axis: AxisName, times: &[f64]) -> Vec<(f64, f64, f64)> {
     let c = ctx.commands.axis(axis);
@@ -153,17 +140,9 @@ fn commands_at_samples(ctx: &Context, axis: AxisName, times: &[f64]) -> Vec<(f64
 /// position follow the axis, not its command, which leads it by the following error — a
 /// millimetre at 1 m/min, as much as a short period.
 pub(super) fn positions_mm(ctx: &Context, trace: &[f64], offset_s: f64) -> Vec<f64> {
-    sample_times(ctx, offset_s)
+    ctx.sample_times(offset_s)
         .iter()
         .map(|&t| sample(trace, ctx.dt, t) * 1e3)
-        .collect()
-}
-
-/// Which half each compared sample belongs to: alternate blocks of `BLOCK_S`.
-pub(crate) fn halves(ctx: &Context, offset_s: f64) -> Vec<bool> {
-    sample_times(ctx, offset_s)
-        .iter()
-        .map(|t| (t / BLOCK_S).floor().rem_euclid(2.0) == 0.0)
         .collect()
 }
 
@@ -175,9 +154,9 @@ fn locate_axis(
     residual: &[f64],
     offset_s: f64,
 ) -> Located {
-    let times = sample_times(ctx, offset_s);
+    let times = ctx.sample_times(offset_s);
     let own = commands_at_samples(ctx, axis, &times);
-    let fold = halves(ctx, offset_s);
+    let fold = ctx.halves(offset_s);
     let x = positions_mm(ctx, &traces[axis.index()], offset_s);
     let continuous: Vec<(Variable, Vec<f64>)> = vec![
         (Variable::Position(axis), x.clone()),

@@ -16,14 +16,12 @@
 
 /// The catalogue of causes, which sits below `diagnose` and `synth` both.
 pub use crate::causes;
-pub mod context;
 pub mod fit;
 pub mod holdout;
 pub mod learn;
 pub mod locate;
 pub mod plausible;
 pub mod report;
-pub mod residual;
 pub mod search;
 pub mod table;
 
@@ -31,27 +29,27 @@ use serde::Serialize;
 
 use crate::analysis::circular::{Circle, CircularTest, circles, circular_test};
 use crate::analysis::contour::{ContourSeries, contour_errors};
-use crate::check::CheckSettings;
+use crate::compare::residual::{self, axis_residual};
+pub use crate::compare::residual::{AxisResidual, ResidualStats, noise_floor};
+pub use crate::compare::{CompareError, CompareSettings, Context, Stepping};
+use crate::compare::{Comparison, compare};
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
 use crate::plan::Commands;
-use crate::sim::{MeasuredAt, SimError};
-use crate::trace::measured::{MeasuredError, MeasuredTrace};
+use crate::sim::MeasuredAt;
+use crate::trace::measured::MeasuredTrace;
 use crate::trace::recorded::BeyondMachine;
 use crate::trace::signal::sample;
 use crate::units::{mm_from_m, um_from_m};
 use causes::{CauseId, CauseSet};
-pub use context::{Context, Stepping, context};
 pub use holdout::{HeldOut, JudgedOn};
-use residual::axis_residual;
-pub use residual::{AxisResidual, ResidualStats, noise_floor};
 pub use search::{Candidate, Rejected};
 
 /// Settings of a diagnosis.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DiagnoseSettings {
-    /// Planner and simulator settings.
-    pub check: CheckSettings,
+    /// How the record is placed on the program and compared with the model.
+    pub compare: CompareSettings,
     /// Evidence a cause needs to be kept (BIC units; 10 is "very strong").
     pub evidence: f64,
     /// Share of the residual beyond the noise a further cause must explain (0–1): a model
@@ -62,17 +60,6 @@ pub struct DiagnoseSettings {
     pub max_causes: usize,
     /// Half-width of the event windows (s).
     pub event_window_s: f64,
-    /// Measure the control's waits at standstills from the measurement (each stretch between
-    /// standstills matched on its own) and plan with them, for a control whose in-position
-    /// waits or dwells differ from the plan's. On straight strokes between exact stops a
-    /// gain error or dead time then passes in part for a longer wait; a measurement with
-    /// recorded commands needs neither.
-    pub align_stretches: bool,
-    /// How far recorded commands may lie from the programmed geometry (m): blending at
-    /// corners and chords of another interpolator stay within it.
-    pub command_tolerance_m: f64,
-    /// Where the measurement read the axes' positions.
-    pub measured_at: MeasuredAt,
     /// The causes the search may try.
     pub causes: CauseSet,
 }
@@ -81,57 +68,19 @@ impl DiagnoseSettings {
     /// Defaults for a machine.
     pub fn for_machine(machine: &MachineConfig) -> Self {
         DiagnoseSettings {
-            check: CheckSettings::for_machine(machine),
+            compare: CompareSettings::for_machine(machine),
             evidence: 10.0,
             min_share: 0.1,
             max_causes: 3,
             event_window_s: 0.3,
-            align_stretches: false,
-            command_tolerance_m: 25e-6,
-            measured_at: MeasuredAt::Table,
             causes: CauseSet::ALL,
         }
     }
 }
 
-/// Why a diagnosis could not be made.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum DiagnoseError {
-    /// The measured data is unreadable or malformed.
-    #[error("{0}")]
-    Measured(#[from] MeasuredError),
-    /// The measurement does not line up with the program.
-    #[error("{file}: cannot align the measurement with the program: {reason}")]
-    CannotAlign {
-        /// The measurement file.
-        file: String,
-        /// Why.
-        reason: String,
-    },
-    /// The recorded commands leave the program's geometry.
-    #[error(
-        "{file}: the recorded commands leave the program's path by {distance_um:.1} µm at \
-         t = {t_s:.4} s (line {line}); more than the {tolerance_um} µm allowed \
-         (--command-tolerance-um): {hint}"
-    )]
-    OffPath {
-        /// The measurement file.
-        file: String,
-        /// Time on the measurement's clock (s).
-        t_s: f64,
-        /// Source line of the nearest block.
-        line: u32,
-        /// Distance from the programmed geometry (µm).
-        distance_um: f64,
-        /// The tolerance (µm).
-        tolerance_um: f64,
-        /// What the user may try: a work offset the commands show, or a question.
-        hint: String,
-    },
-    /// The nominal model cannot be simulated.
-    #[error("{0}")]
-    Sim(#[from] SimError),
-}
+/// Why a diagnosis could not be made: only where the record cannot be compared with the
+/// program — once it can, a diagnosis always has an answer, if only "nothing found".
+pub type DiagnoseError = CompareError;
 
 /// A fitted parameter as reported.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -329,20 +278,19 @@ pub fn diagnose_validated(
     settings: &DiagnoseSettings,
 ) -> Result<Diagnosis, DiagnoseError> {
     let mut validation = validation
-        .map(|v| holdout::Validation::new(program, machine, v, settings))
+        .map(|v| holdout::Validation::new(program, machine, v, &settings.compare))
         .transpose()?;
-    let (mut ctx, offset) = context::context(program, machine, measured, settings)?;
-    let simulate = |a| {
-        ctx.simulate_axis(machine, a)
-            .ok_or_else(|| DiagnoseError::CannotAlign {
-                file: measured.file.clone(),
-                reason: "the nominal machine cannot be simulated".into(),
-            })
-    };
-    let nominal = [simulate(AxisName::X)?, simulate(AxisName::Y)?];
-    let residuals = AxisName::BOTH.map(|a| ctx.residual(a, &nominal[a.index()], offset));
-    ctx.noise_sigma = residual::record_noise(&residuals, measured);
-    let ctx = ctx;
+    let Comparison {
+        ctx,
+        offset_s: offset,
+        nominal,
+    } = compare(
+        program,
+        machine,
+        measured,
+        &settings.compare,
+        Stepping::Full,
+    )?;
     // The search's many fits simulate one step per cycle where that gives the same trace;
     // what it finds is confirmed at full resolution.
     let search_ctx = Context {
@@ -364,16 +312,46 @@ pub fn diagnose_validated(
             }
         }
     }
-    // The extended model must not predict the contour worse than the nominal one: the
-    // last causes go until it does not.
-    let (mut before, mut after, mut places, mut series) = loop {
-        let figures = summarize(
-            &ctx,
-            &nominal,
-            &outcome.traces,
-            outcome.offset_s,
-            settings.event_window_s,
-        );
+    let window_s = settings.event_window_s;
+    let mut summary = keep_contour_no_worse(&ctx, machine, &mut outcome, &nominal, window_s);
+    // What no cause explains: where it lives, and, where a term of the model can stand for
+    // that variable, the term learned from it.
+    let mut unexplained = locate::locate(&ctx, &outcome.traces, outcome.offset_s);
+    let learned = if settings.max_causes > 0 {
+        learn_unexplained(&ctx, &mut outcome, &unexplained)
+    } else {
+        Vec::new()
+    };
+    if !learned.is_empty() {
+        summary = summarize(&ctx, &nominal, &outcome.traces, outcome.offset_s, window_s);
+        unexplained = locate::locate(&ctx, &outcome.traces, outcome.offset_s);
+    }
+    Ok(Diagnosis {
+        unexplained,
+        learned,
+        skipped: skipped_causes(machine, settings),
+        searched: settings.max_causes > 0
+            && CauseId::ALL.into_iter().any(|c| {
+                AxisName::BOTH
+                    .into_iter()
+                    .any(|a| tries_allowed(machine, settings, a, c))
+            }),
+        beyond_machine: measured.beyond_machine(machine),
+        ..assemble(&ctx, outcome, summary)
+    })
+}
+
+/// The extended model must not predict the contour worse than the nominal one: the last
+/// causes go until it does not. The figures of what stays.
+fn keep_contour_no_worse(
+    ctx: &Context,
+    machine: &MachineConfig,
+    outcome: &mut search::Outcome,
+    nominal: &[Vec<f64>; 2],
+    window_s: f64,
+) -> Summary {
+    loop {
+        let summary = summarize(ctx, nominal, &outcome.traces, outcome.offset_s, window_s);
         // Averaged over a statistical window where a cause was fitted on stick-slip
         // statistics (no model times the slips).
         let half_s = if outcome.found.iter().any(|c| c.statistical) {
@@ -385,7 +363,7 @@ pub fn diagnose_validated(
             let finite: Vec<f64> = r.iter().copied().filter(|v| v.is_finite()).collect();
             um_from_m(residual::averaged_rms(&finite, ctx.sample_dt_s, half_s))
         };
-        let [before_r, after_r] = &figures.3.contour_residual;
+        let [before_r, after_r] = &summary.series.contour_residual;
         let (b, a) = (contour_rms(before_r), contour_rms(after_r));
         // Averaged, the residual keeps the noise of its window: a change within that is
         // no change.
@@ -396,11 +374,36 @@ pub fn diagnose_validated(
         };
         if a <= b * (1.0 + search::WORSE_TOLERANCE) + averaged_noise_um || outcome.found.is_empty()
         {
-            break figures;
+            return summary;
         }
         let reason = format!("fits, but makes the contour residual worse ({b:.3} → {a:.3} µm RMS)");
-        drop_last_cause(&ctx, machine, &mut outcome, &nominal, reason);
-    };
+        drop_last_cause(ctx, machine, outcome, nominal, reason);
+    }
+}
+
+/// Extends the outcome's model with a term learned from each unexplained residual that one
+/// can stand for; what was learned.
+fn learn_unexplained(
+    ctx: &Context,
+    outcome: &mut search::Outcome,
+    unexplained: &[locate::Located],
+) -> Vec<learn::Learned> {
+    let mut learned = Vec::new();
+    for u in unexplained {
+        if let Some((extended, traces, l)) =
+            learn::learn(ctx, &outcome.machine, &outcome.traces, outcome.offset_s, u)
+        {
+            outcome.machine = extended;
+            outcome.traces = traces;
+            learned.push(l);
+        }
+    }
+    learned
+}
+
+/// The diagnosis of a finished search and its figures; the caller adds what needs the
+/// settings and the nominal machine.
+fn assemble(ctx: &Context, outcome: search::Outcome, summary: Summary) -> Diagnosis {
     // With recorded commands the simulation runs on the measurement's clock; the program
     // starts where the recorded commands start to move, less the plan's standing start.
     let program_start = if ctx.fixed_offset.is_some() {
@@ -408,44 +411,19 @@ pub fn diagnose_validated(
     } else {
         outcome.offset_s
     };
-    // What no cause explains: where it lives, and, where a term of the model can stand for
-    // that variable, the term learned from it.
-    let mut unexplained = locate::locate(&ctx, &outcome.traces, outcome.offset_s);
-    let mut learned = Vec::new();
-    if settings.max_causes > 0 {
-        for u in &unexplained {
-            if let Some((extended, traces, l)) =
-                learn::learn(&ctx, &outcome.machine, &outcome.traces, outcome.offset_s, u)
-            {
-                outcome.machine = extended;
-                outcome.traces = traces;
-                learned.push(l);
-            }
-        }
-    }
-    if !learned.is_empty() {
-        (before, after, places, series) = summarize(
-            &ctx,
-            &nominal,
-            &outcome.traces,
-            outcome.offset_s,
-            settings.event_window_s,
-        );
-        unexplained = locate::locate(&ctx, &outcome.traces, outcome.offset_s);
-    }
-    let circular = circular_comparison(&ctx, &series);
-    Ok(Diagnosis {
+    Diagnosis {
         offset_s: program_start,
         noise_floor_um: um_from_m(ctx.noise_sigma),
         causes: outcome.found,
         candidates: outcome.candidates,
-        before,
-        after,
-        places,
+        before: summary.before,
+        after: summary.after,
+        places: summary.places,
         machine: outcome.machine,
-        series,
+        circular: circular_comparison(ctx, &summary.series),
+        series: summary.series,
         samples: ctx.samples.len(),
-        sample_step_s: measured.dt_s,
+        sample_step_s: ctx.measured.dt_s,
         extra_waits: ctx
             .extra_wait_s
             .iter()
@@ -456,23 +434,17 @@ pub fn diagnose_validated(
                 extra_ms: w * 1e3,
             })
             .collect(),
-        measured_at: settings.measured_at,
+        measured_at: ctx.measured_at,
         rejected: outcome.rejected,
         timing_drift_ms: ctx.timing_drift_s.map(|s| s * 1e3),
-        beyond_machine: measured.beyond_machine(machine),
+        beyond_machine: Vec::new(),
         rapids_compared: ctx.rapids_compared,
-        circular,
         circles: circles(&ctx.plan.segments),
-        unexplained,
-        learned,
-        skipped: skipped_causes(machine, settings),
-        searched: settings.max_causes > 0
-            && CauseId::ALL.into_iter().any(|c| {
-                AxisName::BOTH
-                    .into_iter()
-                    .any(|a| tries_allowed(machine, settings, a, c))
-            }),
-    })
+        unexplained: Vec::new(),
+        learned: Vec::new(),
+        skipped: Vec::new(),
+        searched: false,
+    }
 }
 
 /// The circular-test figures of the measured, nominal and extended paths, on the samples
@@ -535,10 +507,15 @@ fn skip_reason(
     }
     cause
         .unseen_at(
-            settings.measured_at,
+            settings.compare.measured_at,
             machine.axis(axis).position_loop.feedback,
         )
-        .map(|r| format!("measured at the {}: {r}", settings.measured_at.as_str()))
+        .map(|r| {
+            format!(
+                "measured at the {}: {r}",
+                settings.compare.measured_at.as_str()
+            )
+        })
 }
 
 /// Whether the search may try `cause` on `axis`.
@@ -590,6 +567,18 @@ fn comparable_contours(measured: &ContourSeries, model: &ContourSeries) -> [Vec<
     [a, b]
 }
 
+/// A model's figures against the record.
+struct Summary {
+    /// The nominal model's residual statistics.
+    before: ResidualStats,
+    /// The extended model's.
+    after: ResidualStats,
+    /// Where the nominal model's residual is largest.
+    places: Vec<Place>,
+    /// The series for plots.
+    series: Series,
+}
+
 /// Residual statistics before and after, the places of the largest residuals, and the
 /// series for plots.
 fn summarize(
@@ -598,7 +587,7 @@ fn summarize(
     extended: &[Vec<f64>; 2],
     offset: f64,
     window_s: f64,
-) -> (ResidualStats, ResidualStats, Vec<Place>, Series) {
+) -> Summary {
     let m = ctx.measured;
     let mut s = Series::default();
     for &i in &ctx.samples {
@@ -658,6 +647,19 @@ fn summarize(
     };
     let before = stats(&s.nominal, &vs_nominal);
     let after = stats(&s.extended, &vs_extended);
+    let places = places_of(ctx, &s, &view.segment);
+    Summary {
+        before,
+        after,
+        places,
+        series: s,
+    }
+}
+
+/// Where the nominal model's residual on X, on Y and on the contour is largest and clear
+/// of the noise; `segment` gives each sample's plan segment.
+fn places_of(ctx: &Context, s: &Series, segment: &[u32]) -> Vec<Place> {
+    let diff = |a: &[f64], b: &[f64]| -> Vec<f64> { a.iter().zip(b).map(|(x, y)| x - y).collect() };
     let mut places = Vec::new();
     for (what, r) in [
         ("x", diff(&s.measured[0], &s.nominal[0])),
@@ -681,12 +683,12 @@ fn summarize(
                 t_s: s.t_s[k],
                 x_mm: mm_from_m(s.measured[0][k]),
                 y_mm: mm_from_m(s.measured[1][k]),
-                line: ctx.plan.segments[view.segment[k] as usize].line,
+                line: ctx.plan.segments[segment[k] as usize].line,
                 residual_um: um_from_m(r[k]),
             });
         }
     }
-    (before, after, places, s)
+    places
 }
 
 /// Places listed per residual series.

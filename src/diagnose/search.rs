@@ -12,13 +12,13 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::context::Context;
 use super::fit::{self, Fitted};
 use super::holdout::{HeldOut, JudgedOn, Validation, held_out};
 use super::plausible::{Observed, implausible};
-use super::residual::{axis_residual, chatter_mismatch, independent_share, rms};
 use super::{Alternative, DiagnoseSettings, FittedParam, FoundCause};
 use crate::causes::{self, CauseId, Kinematics};
+use crate::compare::context::Context;
+use crate::compare::residual::{axis_residual, chatter_mismatch, independent_share, rms};
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::trace::signal::sample;
 use crate::units::{kv_m_per_min_per_mm_from_per_s, per_s_from_kv_m_per_min_per_mm, um_from_m};
@@ -98,51 +98,76 @@ struct Scored {
     share: f64,
 }
 
+/// The model found so far, as the search's steps read it: the machine with the causes named,
+/// its traces (X, Y) on the context's clock, and the clock offset.
+#[derive(Clone, Copy)]
+pub(crate) struct Current<'a> {
+    pub(crate) machine: &'a MachineConfig,
+    pub(crate) traces: &'a [Vec<f64>; 2],
+    pub(crate) offset_s: f64,
+}
+
+impl Outcome {
+    fn current(&self) -> Current<'_> {
+        Current {
+            machine: &self.machine,
+            traces: &self.traces,
+            offset_s: self.offset_s,
+        }
+    }
+}
+
+/// The candidate a round names, with its held-out figures and the causes that explain the
+/// data almost as well.
+struct Chosen {
+    best: Scored,
+    held_out: HeldOut,
+    alternatives: Vec<Alternative>,
+}
+
 /// Searches for causes from the nominal traces `traces` at clock offset `offset_s`.
 pub fn search(
     ctx: &Context,
     machine: &MachineConfig,
     settings: &DiagnoseSettings,
-    mut traces: [Vec<f64>; 2],
-    mut offset_s: f64,
+    traces: [Vec<f64>; 2],
+    offset_s: f64,
     mut validation: Option<&mut Validation>,
 ) -> Outcome {
-    let sigma = ctx.noise_sigma;
-    let mut current = machine.clone();
-    let mut found: Vec<FoundCause> = Vec::new();
-    let mut candidates = Vec::new();
-    let mut rejected: Vec<Rejected> = Vec::new();
+    let mut outcome = Outcome {
+        machine: machine.clone(),
+        traces,
+        offset_s,
+        found: Vec::new(),
+        candidates: Vec::new(),
+        rejected: Vec::new(),
+    };
     let observed = AxisName::BOTH.map(|a| observed_on(ctx, a, offset_s));
-    // Axes whose measurement chatters are compared on statistics throughout.
-    // Only an axis seen to stick is compared on statistics.
+    // Only an axis seen to stick is compared on statistics; one whose measurement chatters
+    // is compared on them throughout.
     let sticking = AxisName::BOTH.map(|a| ctx.sticking_seen(a, offset_s));
     let mut stick_slip = AxisName::BOTH
         .map(|a| sticking[a.index()] && ctx.measured_chatter_excess(a, offset_s) > 5.0);
     for round in 0..settings.max_causes {
         let mut tries = Vec::new();
         for axis in AxisName::BOTH {
-            if excess_over_noise(ctx, axis, &traces[axis.index()], offset_s) < 5.0 {
+            let now = outcome.current();
+            if excess_over_noise(ctx, axis, &now.traces[axis.index()], now.offset_s) < 5.0 {
                 continue;
             }
             let statistical = stick_slip[axis.index()]
                 || (sticking[axis.index()]
-                    && ctx.chatter_excess(axis, &traces[axis.index()], offset_s) > 5.0);
+                    && ctx.chatter_excess(axis, &now.traces[axis.index()], now.offset_s) > 5.0);
             stick_slip[axis.index()] = statistical;
             let skip = |cause: CauseId| {
                 !super::tries_allowed(machine, settings, axis, cause)
-                    || found.iter().any(|f| f.axis == axis && f.id == cause)
+                    || outcome
+                        .found
+                        .iter()
+                        .any(|f| f.axis == axis && f.id == cause)
                     || (statistical && !cause.is_local())
             };
-            tries.extend(tries_on_axis(
-                ctx,
-                &current,
-                axis,
-                &traces,
-                offset_s,
-                settings,
-                statistical,
-                &skip,
-            ));
+            tries.extend(tries_on_axis(ctx, now, axis, settings, statistical, &skip));
         }
         // The longest fits first, so that two cores finish together.
         tries.sort_by_key(|t| {
@@ -151,115 +176,153 @@ pub fn search(
                 .position(|&c| c == t.cause)
                 .unwrap_or(LONGEST_FITS.len())
         });
-        let scored = score(ctx, &current, tries, &traces, offset_s);
+        let scored = score(ctx, outcome.current(), tries);
         if round == 0 {
-            candidates = scored
-                .iter()
-                .map(|s| Candidate {
-                    id: s.try_.cause,
-                    axis: s.try_.axis,
-                    signature: s.try_.signature,
-                    evidence: s.evidence,
-                    share: s.share,
-                })
-                .collect();
+            outcome.candidates = scored.iter().map(Scored::candidate).collect();
         }
-        let mut eligible: Vec<Scored> = scored
-            .into_iter()
-            .filter(|s| {
-                s.fitted.is_some()
-                    && s.evidence >= settings.evidence
-                    && s.share >= settings.min_share
-            })
-            .collect();
-        eligible.sort_by(|a, b| b.evidence.total_cmp(&a.evidence));
-        let mut eligible = eligible.into_iter();
-        // The strongest candidate that can exist on the machine, does not make either axis
-        // worse and holds on data it was not fitted on.
-        let mut chosen = None;
-        for s in eligible.by_ref() {
-            let on_record = validation.as_deref();
-            match judge(
-                ctx, &current, settings, &traces, offset_s, &observed, &s, on_record,
-            ) {
-                Ok(held_out) => {
-                    chosen = Some((s, held_out));
-                    break;
-                }
-                Err(reason) => {
-                    if !rejected
-                        .iter()
-                        .any(|r: &Rejected| r.id == s.try_.cause && r.axis == s.try_.axis)
-                    {
-                        rejected.push(Rejected {
-                            id: s.try_.cause,
-                            axis: s.try_.axis,
-                            params: fitted_params(
-                                s.try_.cause,
-                                s.fitted.as_ref().expect("filtered on a fit"),
-                            ),
-                            evidence: s.evidence,
-                            reason,
-                        });
-                    }
+        let Some(chosen) = choose(
+            ctx,
+            settings,
+            &mut outcome,
+            &observed,
+            scored,
+            validation.as_deref(),
+        ) else {
+            break;
+        };
+        name(
+            ctx,
+            settings,
+            &mut outcome,
+            chosen,
+            validation.as_deref_mut(),
+        );
+    }
+    outcome
+}
+
+impl Scored {
+    fn candidate(&self) -> Candidate {
+        Candidate {
+            id: self.try_.cause,
+            axis: self.try_.axis,
+            signature: self.try_.signature,
+            evidence: self.evidence,
+            share: self.share,
+        }
+    }
+}
+
+/// The strongest of the `scored` candidates with enough evidence and share that can exist
+/// on the machine, does not make either axis worse and holds on data it was not fitted on;
+/// those passed over are added to the outcome's rejected with the reason.
+fn choose(
+    ctx: &Context,
+    settings: &DiagnoseSettings,
+    outcome: &mut Outcome,
+    observed: &[Observed; 2],
+    scored: Vec<Scored>,
+    validation: Option<&Validation>,
+) -> Option<Chosen> {
+    let mut eligible: Vec<Scored> = scored
+        .into_iter()
+        .filter(|s| {
+            s.fitted.is_some() && s.evidence >= settings.evidence && s.share >= settings.min_share
+        })
+        .collect();
+    eligible.sort_by(|a, b| b.evidence.total_cmp(&a.evidence));
+    let mut eligible = eligible.into_iter();
+    let mut chosen = None;
+    for s in eligible.by_ref() {
+        match judge(ctx, settings, outcome.current(), observed, &s, validation) {
+            Ok(held_out) => {
+                chosen = Some((s, held_out));
+                break;
+            }
+            Err(reason) => {
+                let (id, axis) = (s.try_.cause, s.try_.axis);
+                if !outcome
+                    .rejected
+                    .iter()
+                    .any(|r| r.id == id && r.axis == axis)
+                {
+                    let fitted = s.fitted.as_ref().expect("filtered on a fit");
+                    outcome.rejected.push(Rejected {
+                        id,
+                        axis,
+                        params: fitted_params(id, fitted),
+                        evidence: s.evidence,
+                        reason,
+                    });
                 }
             }
         }
-        let Some((best, held_out)) = chosen else {
-            break;
-        };
-        // Causes that explain the data almost as well: within 1 % of the evidence (at least
-        // the threshold's worth), the data barely tell them apart.
-        let margin = (0.01 * best.evidence).max(settings.evidence);
-        let alternatives = eligible
-            .filter(|s| s.evidence >= best.evidence - margin)
-            .map(|s| Alternative {
-                id: s.try_.cause,
-                axis: s.try_.axis,
-                evidence: s.evidence,
-            })
-            .collect();
-        let (axis, cause) = (best.try_.axis, best.try_.cause);
-        let fitted = best.fitted.expect("filtered on a fit");
-        let (_, event) = ctx.event_masks(axis, offset_s, settings.event_window_s);
-        let meas = ctx.measured_at_samples(axis);
-        let residual_of = |trace: &[f64], offset: f64| {
-            axis_residual(
-                &meas,
-                &ctx.at_samples(trace, offset),
-                &event,
-                ctx.sample_dt_s,
-                sigma,
-            )
-        };
-        let before = residual_of(&traces[axis.index()], offset_s);
-        causes::apply(current.axis_mut(axis), cause, &fitted.values);
-        if let Some(v) = validation.as_deref_mut() {
-            v.accept(&current);
-        }
-        traces[axis.index()] = fitted.trace.clone();
-        traces[axis.other().index()] = fitted.other.clone();
-        offset_s = fitted.offset_s;
-        found.push(FoundCause {
-            id: cause,
-            axis,
-            params: fitted_params(cause, &fitted),
-            evidence: best.evidence,
-            held_out,
-            statistical: best.try_.statistical,
-            before,
-            after: residual_of(&traces[axis.index()], offset_s),
-            alternatives,
-        });
     }
-    Outcome {
-        machine: current,
-        traces,
-        offset_s,
-        found,
-        candidates,
-        rejected,
+    let (best, held_out) = chosen?;
+    // Causes that explain the data almost as well: within 1 % of the evidence (at least
+    // the threshold's worth), the data barely tell them apart.
+    let margin = (0.01 * best.evidence).max(settings.evidence);
+    let alternatives = eligible
+        .filter(|s| s.evidence >= best.evidence - margin)
+        .map(|s| Alternative {
+            id: s.try_.cause,
+            axis: s.try_.axis,
+            evidence: s.evidence,
+        })
+        .collect();
+    Some(Chosen {
+        best,
+        held_out,
+        alternatives,
+    })
+}
+
+/// Names the chosen cause: the outcome's machine, traces and offset take it on, with the
+/// axis's residual figures before and after.
+fn name(
+    ctx: &Context,
+    settings: &DiagnoseSettings,
+    outcome: &mut Outcome,
+    chosen: Chosen,
+    validation: Option<&mut Validation>,
+) {
+    let Chosen {
+        best,
+        held_out,
+        alternatives,
+    } = chosen;
+    let (axis, cause) = (best.try_.axis, best.try_.cause);
+    let fitted = best.fitted.expect("filtered on a fit");
+    let (_, event) = ctx.event_masks(axis, outcome.offset_s, settings.event_window_s);
+    let meas = ctx.measured_at_samples(axis);
+    let residual_of = |trace: &[f64], offset: f64| {
+        axis_residual(
+            &meas,
+            &ctx.at_samples(trace, offset),
+            &event,
+            ctx.sample_dt_s,
+            ctx.noise_sigma,
+        )
+    };
+    let before = residual_of(&outcome.traces[axis.index()], outcome.offset_s);
+    causes::apply(outcome.machine.axis_mut(axis), cause, &fitted.values);
+    if let Some(v) = validation {
+        v.accept(&outcome.machine);
     }
+    outcome.traces[axis.index()] = fitted.trace.clone();
+    outcome.traces[axis.other().index()] = fitted.other.clone();
+    outcome.offset_s = fitted.offset_s;
+    outcome.found.push(FoundCause {
+        id: cause,
+        axis,
+        params: fitted_params(cause, &fitted),
+        evidence: best.evidence,
+        held_out,
+        statistical: best.try_.statistical,
+        before,
+        after: residual_of(&outcome.traces[axis.index()], outcome.offset_s),
+        alternatives,
+    });
 }
 
 /// The fitted values as reported parameters.
@@ -299,17 +362,19 @@ pub(crate) const WORSE_TOLERANCE: f64 = 0.005;
 /// whole-record RMS worse, and a gain on data it was not fitted on (the second record when
 /// there is one, else the half of the record it was not refitted on). The held-out figures
 /// when it may; the reason when not.
-#[allow(clippy::too_many_arguments)]
 fn judge(
     ctx: &Context,
-    current: &MachineConfig,
     settings: &DiagnoseSettings,
-    traces: &[Vec<f64>; 2],
-    offset_s: f64,
+    now: Current,
     observed: &[Observed; 2],
     s: &Scored,
     validation: Option<&Validation>,
 ) -> Result<HeldOut, String> {
+    let Current {
+        machine: current,
+        traces,
+        offset_s,
+    } = now;
     let (axis, cause) = (s.try_.axis, s.try_.cause);
     let fitted = s.fitted.as_ref().ok_or("no fit")?;
     if let Some(why) = implausible(
@@ -365,9 +430,7 @@ fn judge(
             .ok_or("the extended machine cannot run the second record")?,
         None => held_out(
             ctx,
-            current,
-            traces,
-            offset_s,
+            now,
             axis,
             cause,
             &fitted.values,
@@ -399,17 +462,19 @@ fn excess_over_noise(ctx: &Context, axis: AxisName, trace: &[f64], offset_s: f64
 }
 
 /// The causes worth trying on one axis, with their starting points and signatures.
-#[allow(clippy::too_many_arguments)]
 fn tries_on_axis(
     ctx: &Context,
-    current: &MachineConfig,
+    now: Current,
     axis: AxisName,
-    traces: &[Vec<f64>; 2],
-    offset_s: f64,
     settings: &DiagnoseSettings,
     statistical: bool,
     skip: &dyn Fn(CauseId) -> bool,
 ) -> Vec<Try> {
+    let Current {
+        machine: current,
+        traces,
+        offset_s,
+    } = now;
     let trace = &traces[axis.index()];
     let r = ctx.residual(axis, trace, offset_s);
     // Where the axis actually is (the current model): position-dependent errors follow it,
@@ -469,13 +534,12 @@ fn tries_on_axis(
 }
 
 /// Fits every try in parallel and scores it against the current traces.
-fn score(
-    ctx: &Context,
-    current: &MachineConfig,
-    tries: Vec<Try>,
-    traces: &[Vec<f64>; 2],
-    offset_s: f64,
-) -> Vec<Scored> {
+fn score(ctx: &Context, now: Current, tries: Vec<Try>) -> Vec<Scored> {
+    let Current {
+        machine: current,
+        traces,
+        offset_s,
+    } = now;
     let sigma2 = ctx.noise_sigma * ctx.noise_sigma;
     let rss_now: f64 = AxisName::BOTH
         .iter()

@@ -13,9 +13,9 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::context::golden_section;
 use crate::causes::CauseId;
 use crate::machine::MachineConfig;
+use crate::numeric::golden_section;
 use crate::sim::{SimConfig, SimError};
 use crate::trace::measured::TableRow;
 use crate::units::{m_per_s_from_mm_per_min, mm_from_m};

@@ -5,7 +5,7 @@
 
 use serde::Serialize;
 
-use crate::diagnose::context::Context;
+use crate::compare::Context;
 use crate::machine::{AxisName, MachineConfig};
 use crate::units::mm_per_min_from_m_per_s;
 

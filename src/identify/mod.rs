@@ -29,10 +29,7 @@ use serde::Serialize;
 
 pub use interpolator::Interpolator;
 
-use crate::diagnose::context::{Context, Stepping, context};
-use crate::diagnose::locate::halves;
-use crate::diagnose::residual::record_noise;
-use crate::diagnose::{DiagnoseError, DiagnoseSettings};
+use crate::compare::{CompareError, CompareSettings, Comparison, Context, Stepping, compare};
 use crate::gcode::Program;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::trace::measured::MeasuredTrace;
@@ -154,7 +151,7 @@ pub enum IdentifyError {
     },
     /// The record could not be placed on the program.
     #[error(transparent)]
-    Diagnose(#[from] DiagnoseError),
+    Compare(#[from] CompareError),
     /// The template cannot be simulated on the record's commands.
     #[error(
         "{file}: the template machine cannot follow the record's commands on {axis} (its loop is \
@@ -173,7 +170,7 @@ pub fn identify(
     program: &Program,
     template: &MachineConfig,
     measured: &MeasuredTrace,
-    settings: &DiagnoseSettings,
+    settings: &CompareSettings,
 ) -> Result<Identification, IdentifyError> {
     let file = measured.file.clone();
     let Some(commands) = &measured.commands else {
@@ -194,17 +191,11 @@ pub fn identify(
             });
         }
     }
-    let (mut ctx, offset) = context(program, template, measured, settings)?;
-    ctx.stepping = Stepping::Full;
-    let residuals: Vec<Vec<f64>> = AxisName::BOTH
-        .iter()
-        .map(|&a| {
-            ctx.simulate_axis(template, a)
-                .map_or_else(Vec::new, |t| ctx.residual(a, &t, offset))
-        })
-        .collect();
-    ctx.noise_sigma = record_noise(&residuals, measured);
-    let ctx = ctx;
+    let Comparison {
+        ctx,
+        offset_s: offset,
+        ..
+    } = compare(program, template, measured, settings, Stepping::Full)?;
     let (x, y) = rayon::join(
         || identify_axis(&ctx, template, AxisName::X, offset),
         || identify_axis(&ctx, template, AxisName::Y, offset),
@@ -279,7 +270,7 @@ fn identify_on(
     moving_only: bool,
 ) -> Option<(AxisConfig, AxisIdentification)> {
     let (ctx, axis, offset) = (fit.ctx(), fit.axis(), fit.offset());
-    let fold = halves(ctx, offset);
+    let fold = ctx.halves(offset);
     let template_axis = template.axis(axis).clone();
     let knobs = knobs::for_controller(&template_axis.controller);
     let start = staged_start(&fit, &knobs, &template_axis);

@@ -1,16 +1,15 @@
 //! One least-squares fit of some knobs of one axis to the record: the axis re-simulated on
-//! the record's commands, Levenberg–Marquardt in scaled parameters kept inside their box, a
-//! forward-difference Jacobian (its columns in parallel), and standard uncertainties from
-//! the Jacobian's singular values.
+//! the record's commands, solved by [`crate::numeric::lsq`] in scaled parameters (log-factors
+//! or increments) kept inside their box.
 
 use std::cell::RefCell;
 
 use nalgebra::{DMatrix, DVector};
-use rayon::prelude::*;
 
 use super::knobs::{Knob, get, set_all};
-use crate::diagnose::context::Context;
+use crate::compare::Context;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
+use crate::numeric::lsq::{self, correlation_time, forward_jacobian, uncertainties};
 
 /// How far a positive value is searched from where the fit starts, as a factor either way:
 /// a template is a machine of the same kind, and a flat valley must not carry the search
@@ -19,9 +18,6 @@ const FACTOR_RANGE: f64 = 10.0;
 /// The residual of a simulation that failed (m): values the model cannot run with (an
 /// unstable loop) cost far more than any fit, so that the search steps back from them.
 const FAILED_M: f64 = 1.0;
-/// Most iterations of one fit, and damping tries per iteration.
-const ITERATIONS: usize = 40;
-const TRIES: usize = 10;
 /// The least relative uncertainty of any value: the commands the model is driven with are
 /// read back from the record (resampled, their velocity and acceleration fitted over a few
 /// milliseconds), not the control's own, and on records of known machines that alone moved
@@ -204,92 +200,29 @@ impl Problem<'_, '_, '_> {
         r
     }
 
-    fn jacobian_at(&self, p: &DVector<f64>) -> Option<DMatrix<f64>> {
-        let r0 = self.evaluate(p);
-        // Only what is shared between threads (not the cache).
-        let (fit, knobs, base, keep) = (self.fit, self.knobs, self.base, self.keep);
-        let columns: Vec<Option<DVector<f64>>> = (0..p.len())
-            .into_par_iter()
-            .map(|j| {
-                let mut q = p.clone();
-                q[j] += STEP;
-                let config = Fit::config(knobs, base, &values_at(knobs, base, &q));
-                let full = fit.residual(&config)?;
-                Some(DVector::from_iterator(
-                    keep.len(),
-                    keep.iter()
-                        .zip(r0.iter())
-                        .map(|(&i, r)| (full[i] - r) / STEP),
-                ))
-            })
-            .collect();
-        let mut jac = DMatrix::zeros(r0.len(), p.len());
-        for (j, c) in columns.into_iter().enumerate() {
-            jac.set_column(j, &c?);
-        }
-        Some(jac)
-    }
-
-    /// Levenberg–Marquardt inside the box: a step that would leave it is cut at its wall
-    /// rather than followed into a clamped, flat region.
+    /// Levenberg–Marquardt inside the box, then the uncertainties in machine units.
     fn solve(&self) -> Option<Fitted> {
         let n = self.knobs.len();
-        let mut p = DVector::zeros(n);
-        let mut r = self.evaluate(&p);
-        let mut cost = r.norm_squared();
+        let settings = lsq::Settings::with_bounds((0..n).map(|j| self.bounds(j)).collect());
+        let end = lsq::minimise(self, DVector::zeros(n), &settings)?;
+        let values = values_at(self.knobs, self.base, &end.p);
         // Nothing to fit, or no sample to fit it on (a half of a record that is all
         // standstill): the values stay, and with no sample they are undetermined.
         if n == 0 || self.keep.is_empty() {
             return Some(Fitted {
-                values: values_at(self.knobs, self.base, &p),
+                values,
                 sigma: vec![f64::INFINITY; n],
-                cost,
+                cost: end.cost,
             });
         }
-        let mut lambda = 1e-3;
-        let mut jac = self.jacobian_at(&p)?;
-        for _ in 0..ITERATIONS {
-            let jtj = jac.transpose() * &jac;
-            let g = jac.transpose() * &r;
-            let floor = 1e-12 * jtj.diagonal().max();
-            let mut improved = false;
-            for _ in 0..TRIES {
-                let mut a = jtj.clone();
-                for j in 0..n {
-                    a[(j, j)] += lambda * jtj[(j, j)].max(floor);
-                }
-                let Some(delta) = a.lu().solve(&(-&g)) else {
-                    lambda *= 10.0;
-                    continue;
-                };
-                let mut q = &p + delta;
-                for j in 0..n {
-                    let (lo, hi) = self.bounds(j);
-                    q[j] = q[j].clamp(lo, hi);
-                }
-                let rq = self.evaluate(&q);
-                let c = rq.norm_squared();
-                if c < cost {
-                    improved = (cost - c) / cost > 1e-7;
-                    (p, r, cost) = (q, rq, c);
-                    lambda = (lambda / 3.0).max(1e-9);
-                    break;
-                }
-                lambda *= 4.0;
-            }
-            if !improved {
-                break;
-            }
-            jac = self.jacobian_at(&p)?;
-        }
-        let values = values_at(self.knobs, self.base, &p);
         // Residuals that are not white (what the model misses, in stretches) carry fewer
         // independent samples than they number.
-        let correlation = correlation_time(&r).sqrt();
-        let sigma_scaled: Vec<f64> = scaled_uncertainties(&jac, cost, self.fit.ctx.noise_sigma)
-            .into_iter()
-            .map(|s| s * correlation)
-            .collect();
+        let correlation = correlation_time(&end.residuals).sqrt();
+        let sigma_scaled: Vec<f64> =
+            uncertainties(&end.jacobian, end.cost, self.fit.ctx.noise_sigma)
+                .into_iter()
+                .map(|s| s * correlation)
+                .collect();
         let sigma = self
             .knobs
             .iter()
@@ -312,97 +245,26 @@ impl Problem<'_, '_, '_> {
         Some(Fitted {
             values,
             sigma,
-            cost,
+            cost: end.cost,
         })
     }
 }
 
-/// The residual's integrated correlation time in samples, 1 + 2 Σ ρₖ over the lags until
-/// the correlation first falls below a twentieth: 1 for white noise, the length of the
-/// stretches over which it keeps its sign where the model misses something.
-fn correlation_time(r: &DVector<f64>) -> f64 {
-    const LONGEST_LAG: usize = 500;
-    let n = r.len();
-    let mean = r.mean();
-    let var = r.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n.max(1) as f64;
-    if var.is_nan() || var <= 0.0 {
-        return 1.0;
+impl lsq::Problem for Problem<'_, '_, '_> {
+    fn residuals(&self, p: &DVector<f64>) -> Option<DVector<f64>> {
+        Some(self.evaluate(p))
     }
-    let mut tau = 1.0;
-    for lag in 1..LONGEST_LAG.min(n / 4) {
-        let rho = (0..n - lag)
-            .map(|i| (r[i] - mean) * (r[i + lag] - mean))
-            .sum::<f64>()
-            / (n as f64 * var);
-        if rho < 0.05 {
-            break;
-        }
-        tau += 2.0 * rho;
-    }
-    tau
-}
 
-/// Standard uncertainties of the scaled parameters: the diagonal of s²(JᵀJ)⁺ through the
-/// Jacobian's singular values, over every direction (one the record barely sees makes the
-/// values along it uncertain, as it should), with s the residual's spread per degree of
-/// freedom and never below the record's noise.
-fn scaled_uncertainties(jac: &DMatrix<f64>, cost: f64, noise: f64) -> Vec<f64> {
-    let (rows, n) = jac.shape();
-    let spread = (cost / (rows as f64 - n as f64).max(1.0)).sqrt().max(noise);
-    let svd = jac.clone().svd(false, true);
-    let Some(vt) = svd.v_t else {
-        return vec![f64::INFINITY; n];
-    };
-    (0..n)
-        .map(|j| {
-            svd.singular_values
-                .iter()
-                .enumerate()
-                .map(|(k, &s)| {
-                    if s > 0.0 {
-                        (vt[(k, j)] * spread / s).powi(2)
-                    } else if vt[(k, j)] != 0.0 {
-                        f64::INFINITY
-                    } else {
-                        0.0
-                    }
-                })
-                .sum::<f64>()
-                .sqrt()
+    fn jacobian(&self, p: &DVector<f64>, r0: &DVector<f64>) -> Option<DMatrix<f64>> {
+        // Only what is shared between threads (not the cache).
+        let (fit, knobs, base, keep) = (self.fit, self.knobs, self.base, self.keep);
+        let bounds: Vec<(f64, f64)> = (0..p.len()).map(|j| self.bounds(j)).collect();
+        forward_jacobian(p, r0, &bounds, STEP, p.len(), &|q| {
+            let full = fit.residual(&Fit::config(knobs, base, &values_at(knobs, base, q)))?;
+            Some(DVector::from_iterator(
+                keep.len(),
+                keep.iter().map(|&i| full[i]),
+            ))
         })
-        .collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn white_noise_has_no_correlation_time_and_a_drift_has_a_long_one() {
-        // A fixed pseudo-random sequence (a linear congruential generator), and a slow sine.
-        let mut state = 12345u64;
-        let white = DVector::from_fn(4000, |_, _| {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        });
-        assert!((correlation_time(&white) - 1.0).abs() < 0.2);
-        let slow = DVector::from_fn(4000, |i, _| (i as f64 / 200.0).sin());
-        assert!(correlation_time(&slow) > 50.0);
-    }
-
-    #[test]
-    fn uncertainties_follow_the_singular_values() {
-        // Two columns: one seen strongly, one barely; the noise 1.
-        let jac = DMatrix::from_row_slice(3, 2, &[10.0, 0.0, 0.0, 0.001, 0.0, 0.0]);
-        let s = scaled_uncertainties(&jac, 0.0, 1.0);
-        assert!(
-            (s[0] - 0.1).abs() < 1e-12 && (s[1] - 1000.0).abs() < 1e-6,
-            "{s:?}"
-        );
-        // A column of zeros: not seen at all.
-        let jac = DMatrix::from_row_slice(3, 2, &[1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
-        assert!(scaled_uncertainties(&jac, 0.0, 1.0)[1].is_infinite());
     }
 }

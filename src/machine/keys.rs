@@ -1,27 +1,144 @@
-//! The numeric keys of an axis that the rest of the tool reads and writes by name — what the
-//! cause catalogue fits, what identification fits — in one table: each key's path below the
-//! axis, its unit, and how to read and set it. A key spelt wrong anywhere is found by the
-//! tests that run every name through this table, not by a panic in a fit.
+//! Every scalar number of a machine file in one table: each key's path, unit, meaning,
+//! the range a machine can have, and how to read and set it. The table is what validation
+//! checks ranges by, what the cause catalogue and identification fit by name, what a sweep
+//! sets, and what `docs/machine-keys.md` is generated from (a test keeps that file equal to
+//! [`reference_markdown`]). A key spelt wrong anywhere is found by the tests that run every
+//! name through this table, not by a panic in a fit.
+//!
+//! Lists (tables of the errors, a transfer function's coefficients, travel ranges) and
+//! words (the controller's structure, the feedback) are not in it: validation checks those
+//! on their own.
 
-use super::AxisConfig;
+use super::{AxisConfig, Controller, Interpolation, Limits, MachineConfig};
 
-/// One numeric key of an axis.
-pub struct AxisKey {
-    /// Path below the axis, as in the machine file: `drive.backlash_um`.
+/// What a value must satisfy. The upper bounds are generous — beyond anything from a desktop
+/// table to the heaviest machine — and there so that a slip of the exponent (a table of
+/// 1e300 kg, 1e12 µm of backlash) is caught by validation rather than turned into silent
+/// nonsense by the simulation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Rule {
+    /// In (0, hi].
+    Positive(f64),
+    /// In [0, hi].
+    NonNegative(f64),
+    /// Within [lo, hi].
+    Range(f64, f64),
+}
+
+/// A number as a reader takes it in: exponent form when it is huge or tiny.
+pub(crate) fn number(v: f64) -> String {
+    if v != 0.0 && !(1e-4..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+impl Rule {
+    /// What is wrong with `value` under this rule, if anything.
+    pub fn problem(self, value: f64) -> Option<String> {
+        if !value.is_finite() {
+            return Some("must be a finite number".to_string());
+        }
+        match self {
+            Rule::Positive(_) if value <= 0.0 => Some("must be positive".to_string()),
+            Rule::NonNegative(_) if value < 0.0 => Some("must not be negative".to_string()),
+            Rule::Positive(hi) | Rule::NonNegative(hi) if value > hi => Some(format!(
+                "must be at most {}: no machine axis has more",
+                number(hi)
+            )),
+            Rule::Range(lo, hi) if !(lo..=hi).contains(&value) => Some(format!(
+                "must lie between {} and {}",
+                number(lo),
+                number(hi)
+            )),
+            _ => None,
+        }
+    }
+
+    /// The rule in a few symbols, for the reference: `> 0, ≤ 100`.
+    pub fn describe(self) -> String {
+        match self {
+            Rule::Positive(hi) => format!("> 0, ≤ {}", number(hi)),
+            Rule::NonNegative(hi) => format!("≥ 0, ≤ {}", number(hi)),
+            Rule::Range(lo, hi) => format!("{} … {}", number(lo), number(hi)),
+        }
+    }
+}
+
+/// Which axes a key means something on, beyond its section being there.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Needs {
+    /// Every axis.
+    Always,
+    /// An axis with the cascade controller (its position-loop gains).
+    Cascade,
+    /// An axis whose controller commands a velocity loop.
+    VelocityLoop,
+}
+
+impl Needs {
+    /// Whether `axis` reads the key.
+    pub fn holds(self, axis: &AxisConfig) -> bool {
+        match self {
+            Needs::Always => true,
+            Needs::Cascade => axis.controller.is_cascade(),
+            Needs::VelocityLoop => axis.controller.uses_velocity_loop(),
+        }
+    }
+
+    fn describe(self) -> &'static str {
+        match self {
+            Needs::Always => "",
+            Needs::Cascade => "the cascade controller",
+            Needs::VelocityLoop => "a controller that commands a velocity loop",
+        }
+    }
+}
+
+/// One numeric key of a part of the machine (`T`: an axis, its limits, the interpolation).
+pub struct Key<T> {
+    /// Path below the part, as in the machine file: `drive.backlash_um`.
     pub path: &'static str,
     /// Its unit, as the machine file gives it (empty for a ratio).
     pub unit: &'static str,
-    get: fn(&AxisConfig) -> Option<f64>,
-    set: fn(&mut AxisConfig, f64) -> bool,
+    /// The values a machine can have.
+    pub rule: Rule,
+    /// Which axes read it.
+    pub needs: Needs,
+    /// What it is, in a few words.
+    pub meaning: &'static str,
+    get: fn(&T) -> Option<f64>,
+    set: fn(&mut T, f64) -> bool,
 }
 
+/// A key of an axis.
+pub type AxisKey = Key<AxisConfig>;
+
+impl<T> Key<T> {
+    /// Its value; `None` where the part does not have its section (no velocity loop on a
+    /// current amplifier, no state-feedback gains on the cascade).
+    pub fn get(&self, on: &T) -> Option<f64> {
+        (self.get)(on)
+    }
+
+    /// Sets it; whether it could (its section is there).
+    pub fn set(&self, on: &mut T, value: f64) -> bool {
+        (self.set)(on, value)
+    }
+}
+
+/// A key of a section every part has.
 macro_rules! key {
-    ($path:literal, $unit:literal, |$a:ident| $field:expr) => {
-        AxisKey {
+    ($path:literal, $unit:literal, $rule:expr, $needs:expr, $meaning:literal, |$a:ident| $field:expr) => {
+        Key {
             path: $path,
             unit: $unit,
-            get: |$a: &AxisConfig| Some($field),
-            set: |$a: &mut AxisConfig, v: f64| {
+            rule: $rule,
+            needs: $needs,
+            meaning: $meaning,
+            get: |$a| Some($field),
+            set: |$a, v: f64| {
                 $field = v;
                 true
             },
@@ -29,72 +146,475 @@ macro_rules! key {
     };
 }
 
-/// Every key the tool reads and writes by name.
+/// A key of an optional section, or an optional value.
+macro_rules! optional {
+    ($path:literal, $unit:literal, $rule:expr, $needs:expr, $meaning:literal, |$a:ident| $section:expr, $s:ident => $field:expr) => {
+        Key {
+            path: $path,
+            unit: $unit,
+            rule: $rule,
+            needs: $needs,
+            meaning: $meaning,
+            get: |$a| $section.as_ref().map(|$s| $field),
+            set: |$a, value: f64| match $section.as_mut() {
+                Some($s) => {
+                    *(&mut $field) = value;
+                    true
+                }
+                None => false,
+            },
+        }
+    };
+}
+
+/// A key of the state-feedback and transfer-function controllers, read from whichever the
+/// axis has.
+macro_rules! controller {
+    ($path:literal, $unit:literal, $rule:expr, $meaning:literal, $($variant:ident)|+ => $field:ident) => {
+        Key {
+            path: $path,
+            unit: $unit,
+            rule: $rule,
+            needs: Needs::Always,
+            meaning: $meaning,
+            get: |a| match &a.controller {
+                $(Controller::$variant(c) => Some(c.$field),)+
+                #[allow(unreachable_patterns)]
+                _ => None,
+            },
+            set: |a, v: f64| match &mut a.controller {
+                $(Controller::$variant(c) => {
+                    c.$field = v;
+                    true
+                })+
+                #[allow(unreachable_patterns)]
+                _ => false,
+            },
+        }
+    };
+}
+
+use Needs::{Always, Cascade, VelocityLoop};
+use Rule::{NonNegative, Positive, Range};
+
+/// Every scalar key of an axis (`[x]`, `[y]`), in the machine file's order.
 pub const AXIS_KEYS: &[AxisKey] = &[
-    key!("drive.backlash_um", "µm", |a| a.drive.backlash_um),
-    key!("drive.table_mass_kg", "kg", |a| a.drive.table_mass_kg),
-    key!("friction.coulomb_coefficient", "", |a| a
-        .friction
-        .coulomb_coefficient),
-    key!("friction.viscous_n_s_per_m", "N·s/m", |a| a
-        .friction
-        .viscous_n_s_per_m),
-    key!("friction.stribeck_level_n", "N", |a| a
-        .friction
-        .stribeck_level_n),
-    key!("friction.stribeck_velocity_mm_per_min", "mm/min", |a| a
-        .friction
-        .stribeck_velocity_mm_per_min),
-    key!("position_loop.kv_m_per_min_per_mm", "m/min/mm", |a| a
-        .position_loop
-        .kv_m_per_min_per_mm),
-    key!("position_loop.velocity_feedforward", "", |a| a
-        .position_loop
-        .velocity_feedforward),
-    key!("position_loop.dead_time_ms", "ms", |a| a
-        .position_loop
-        .dead_time_ms),
-    key!("errors.cyclic_amplitude_um", "µm", |a| a
-        .errors
-        .cyclic_amplitude_um),
-    key!("errors.cyclic_phase_deg", "°", |a| a
-        .errors
-        .cyclic_phase_deg),
-    key!("errors.scale_error_ppm", "ppm", |a| a
-        .errors
-        .scale_error_ppm),
-    key!("errors.resonance_hz", "Hz", |a| a.errors.resonance_hz),
-    key!("errors.resonance_damping", "", |a| a
-        .errors
-        .resonance_damping),
-    key!("errors.squareness_urad", "µrad", |a| a
-        .errors
-        .squareness_urad),
-    key!("errors.straightness_bow_um", "µm", |a| a
-        .errors
-        .straightness_bow_um),
-    key!("errors.lateral_play_um", "µm", |a| a
-        .errors
-        .lateral_play_um),
-    key!("errors.direction_offset_um", "µm", |a| a
-        .errors
-        .direction_offset_um),
-    // The velocity loop is optional (a current amplifier has none): read as absent there.
-    AxisKey {
-        path: "velocity_loop.ts_ms",
-        unit: "ms",
-        get: |a| a.velocity_loop.as_ref().map(|v| v.ts_ms),
-        set: |a, v| match a.velocity_loop.as_mut() {
+    key!(
+        "position_loop.kv_m_per_min_per_mm",
+        "m/min/mm",
+        Positive(100.0),
+        Cascade,
+        "position-loop gain K_v (1 m/min/mm = 16.667 1/s)",
+        |a| a.position_loop.kv_m_per_min_per_mm
+    ),
+    key!(
+        "position_loop.velocity_feedforward",
+        "",
+        Range(0.0, 2.0),
+        Cascade,
+        "velocity feed-forward share (0 off, 1 full)",
+        |a| a.position_loop.velocity_feedforward
+    ),
+    key!(
+        "position_loop.accel_feedforward",
+        "",
+        Range(0.0, 2.0),
+        Cascade,
+        "acceleration feed-forward share (0 off, 1 full)",
+        |a| a.position_loop.accel_feedforward
+    ),
+    key!(
+        "position_loop.dead_time_ms",
+        "ms",
+        Range(0.0, 1000.0),
+        Always,
+        "delay between the interpolator and the position controller",
+        |a| a.position_loop.dead_time_ms
+    ),
+    controller!("controller.position_gain_a_per_mm", "A/mm", Positive(1e6),
+        "state feedback: current per millimetre of position error", StateFeedback => position_gain_a_per_mm),
+    controller!("controller.integral_gain_a_per_mm_s", "A/(mm·s)", NonNegative(1e9),
+        "state feedback: current per integrated position error", StateFeedback => integral_gain_a_per_mm_s),
+    controller!("controller.velocity_gain_a_s_per_mm", "A·s/mm", NonNegative(1e6),
+        "state feedback: current per velocity", StateFeedback => velocity_gain_a_s_per_mm),
+    controller!("controller.velocity_feedforward", "", Range(0.0, 2.0),
+        "state feedback or transfer function: velocity feed-forward share", StateFeedback | TransferFunction => velocity_feedforward),
+    controller!("controller.accel_feedforward", "", Range(0.0, 2.0),
+        "state feedback or transfer function: acceleration feed-forward share", StateFeedback | TransferFunction => accel_feedforward),
+    controller!("controller.sample_ms", "ms", Range(0.0, 100.0),
+        "transfer function: sampling period in z (0: given in s)", TransferFunction => sample_ms),
+    optional!("velocity_loop.ks_nm_s_per_rad", "N·m·s/rad", Positive(1e5), VelocityLoop,
+        "velocity-loop proportional gain K_s as set on the control", |a| a.velocity_loop, l => l.ks_nm_s_per_rad),
+    optional!("velocity_loop.ts_ms", "ms", Positive(1e6), VelocityLoop,
+        "velocity-loop integral time T_s", |a| a.velocity_loop, l => l.ts_ms),
+    optional!("velocity_loop.i_max_a", "A", Positive(1e5), VelocityLoop,
+        "current command limit", |a| a.velocity_loop, l => l.i_max_a),
+    optional!("current_loop.ki_v_per_a", "V/A", Positive(1e5), Always,
+        "current-loop proportional gain K_i", |a| a.current_loop, l => l.ki_v_per_a),
+    optional!("current_loop.ti_ms", "ms", Positive(1e6), Always,
+        "current-loop integral time T_i", |a| a.current_loop, l => l.ti_ms),
+    optional!("current_loop.tcf_ms", "ms", Positive(1e3), Always,
+        "time constant of the current filters", |a| a.current_loop, l => l.tcf_ms),
+    optional!("current_loop.u_max_v", "V", Positive(1e5), Always,
+        "voltage limit", |a| a.current_loop, l => l.u_max_v),
+    optional!("amplifier.current_bandwidth_hz", "Hz", Positive(1e5), Always,
+        "current amplifier's bandwidth", |a| a.amplifier, l => l.current_bandwidth_hz),
+    Key {
+        path: "amplifier.i_max_a",
+        unit: "A",
+        rule: Positive(1e5),
+        needs: Always,
+        meaning: "current amplifier's current limit",
+        get: |a| a.amplifier.as_ref().and_then(|l| l.i_max_a),
+        set: |a, value| match a.amplifier.as_mut() {
             Some(l) => {
-                l.ts_ms = v;
+                l.i_max_a = Some(value);
                 true
             }
             None => false,
         },
     },
+    optional!("motor.ra_ohm", "Ω", Positive(1e3), Always,
+        "armature resistance R_a (with a current loop)", |a| a.motor.ra_ohm, r => *r),
+    optional!("motor.la_mh", "mH", Positive(1e4), Always,
+        "armature inductance L_a (with a current loop)", |a| a.motor.la_mh, l => *l),
+    key!(
+        "motor.kt_nm_per_a",
+        "N·m/A",
+        Positive(1e3),
+        Always,
+        "torque constant K_t (force constant in N/A on a linear motor)",
+        |a| a.motor.kt_nm_per_a
+    ),
+    optional!("motor.ke_v_s_per_rad", "V·s/rad", NonNegative(1e3), Always,
+        "back-EMF constant K_e (with a current loop)", |a| a.motor.ke_v_s_per_rad, k => *k),
+    key!(
+        "motor.jm_kg_m2",
+        "kg·m²",
+        Positive(1e3),
+        Always,
+        "rotor inertia J_m",
+        |a| a.motor.jm_kg_m2
+    ),
+    key!(
+        "drive.js_kg_m2",
+        "kg·m²",
+        Positive(1e3),
+        Always,
+        "screw inertia J_s",
+        |a| a.drive.js_kg_m2
+    ),
+    key!(
+        "drive.k_theta_nm_per_rad",
+        "N·m/rad",
+        Positive(1e12),
+        Always,
+        "torsional stiffness of coupling and screw",
+        |a| a.drive.k_theta_nm_per_rad
+    ),
+    key!(
+        "drive.k_m_n_per_m",
+        "N/m",
+        Positive(1e12),
+        Always,
+        "axial stiffness of screw, nut and bearings",
+        |a| a.drive.k_m_n_per_m
+    ),
+    key!(
+        "drive.zeta_theta",
+        "",
+        Range(0.0, 2.0),
+        Always,
+        "damping ratio of the torsional mode",
+        |a| a.drive.zeta_theta
+    ),
+    key!(
+        "drive.zeta_m",
+        "",
+        Range(0.0, 2.0),
+        Always,
+        "damping ratio of the axial mode",
+        |a| a.drive.zeta_m
+    ),
+    key!(
+        "drive.lead_mm",
+        "mm",
+        Positive(1e4),
+        Always,
+        "screw lead",
+        |a| a.drive.lead_mm
+    ),
+    key!(
+        "drive.gear_ratio",
+        "",
+        Positive(1e3),
+        Always,
+        "motor turns per screw turn",
+        |a| a.drive.gear_ratio
+    ),
+    key!(
+        "drive.table_mass_kg",
+        "kg",
+        Positive(1e6),
+        Always,
+        "moving mass (table and load)",
+        |a| a.drive.table_mass_kg
+    ),
+    key!(
+        "drive.screw_viscous_nm_s_per_rad",
+        "N·m·s/rad",
+        NonNegative(1e6),
+        Always,
+        "viscous damping in the screw's bearings",
+        |a| a.drive.screw_viscous_nm_s_per_rad
+    ),
+    key!(
+        "drive.backlash_um",
+        "µm",
+        NonNegative(1e4),
+        Always,
+        "lost motion at a reversal (ball screw only)",
+        |a| a.drive.backlash_um
+    ),
+    key!(
+        "friction.coulomb_coefficient",
+        "",
+        Range(0.0, 1.0),
+        Always,
+        "Coulomb friction as a share of the moving weight",
+        |a| a.friction.coulomb_coefficient
+    ),
+    key!(
+        "friction.static_to_coulomb",
+        "",
+        Positive(10.0),
+        Always,
+        "static friction over Coulomb friction (≥ 1)",
+        |a| a.friction.static_to_coulomb
+    ),
+    key!(
+        "friction.viscous_n_s_per_m",
+        "N·s/m",
+        NonNegative(1e8),
+        Always,
+        "viscous friction at the table",
+        |a| a.friction.viscous_n_s_per_m
+    ),
+    key!(
+        "friction.stribeck_level_n",
+        "N",
+        NonNegative(1e7),
+        Always,
+        "extra friction at rest that fades with speed (Stribeck)",
+        |a| a.friction.stribeck_level_n
+    ),
+    key!(
+        "friction.stribeck_velocity_mm_per_min",
+        "mm/min",
+        NonNegative(1e6),
+        Always,
+        "speed over which the Stribeck friction fades",
+        |a| a.friction.stribeck_velocity_mm_per_min
+    ),
+    optional!("lateral_shift.beam_length_m", "m", Positive(100.0), Always,
+        "length of the beam the holder moves along", |a| a.lateral_shift, l => l.beam_length_m),
+    optional!("lateral_shift.bending_stiffness_n_m2", "N·m²", Positive(1e13), Always,
+        "bending stiffness E·I of the beam", |a| a.lateral_shift, l => l.bending_stiffness_n_m2),
+    optional!("lateral_shift.holder_load_n", "N", NonNegative(1e8), Always,
+        "weight of the tool holder on the beam", |a| a.lateral_shift, l => l.holder_load_n),
+    optional!("lateral_shift.holder_at_zero_m", "m", Range(0.0, 100.0), Always,
+        "where the holder is on the beam at position 0 (within the beam)", |a| a.lateral_shift, l => l.holder_at_zero_m),
+    key!(
+        "limits.max_feed_mm_per_min",
+        "mm/min",
+        Positive(1e6),
+        Always,
+        "highest cutting feed",
+        |a| a.limits.max_feed_mm_per_min
+    ),
+    key!(
+        "limits.rapid_mm_per_min",
+        "mm/min",
+        Positive(1e6),
+        Always,
+        "rapid traverse rate (≥ the cutting feed)",
+        |a| a.limits.rapid_mm_per_min
+    ),
+    key!(
+        "limits.max_accel_m_per_s2",
+        "m/s²",
+        Positive(1e4),
+        Always,
+        "acceleration limit",
+        |a| a.limits.max_accel_m_per_s2
+    ),
+    key!(
+        "limits.max_jerk_m_per_s3",
+        "m/s³",
+        Positive(1e8),
+        Always,
+        "jerk limit",
+        |a| a.limits.max_jerk_m_per_s3
+    ),
+    key!(
+        "errors.scale_error_ppm",
+        "ppm",
+        Range(-1e5, 1e5),
+        Always,
+        "measuring-system scale error",
+        |a| a.errors.scale_error_ppm
+    ),
+    key!(
+        "errors.cyclic_amplitude_um",
+        "µm",
+        Range(0.0, 1e4),
+        Always,
+        "amplitude of a cyclic error over position",
+        |a| a.errors.cyclic_amplitude_um
+    ),
+    key!(
+        "errors.cyclic_period_mm",
+        "mm",
+        NonNegative(1e4),
+        Always,
+        "its period (a screw's lead, a scale's pitch)",
+        |a| a.errors.cyclic_period_mm
+    ),
+    key!(
+        "errors.cyclic_phase_deg",
+        "°",
+        Range(-1e6, 1e6),
+        Always,
+        "its phase at position 0",
+        |a| a.errors.cyclic_phase_deg
+    ),
+    key!(
+        "errors.resonance_hz",
+        "Hz",
+        Range(0.0, 1e4),
+        Always,
+        "a structural resonance between table and measuring point (0: none)",
+        |a| a.errors.resonance_hz
+    ),
+    key!(
+        "errors.resonance_damping",
+        "",
+        Range(0.0, 2.0),
+        Always,
+        "its damping ratio",
+        |a| a.errors.resonance_damping
+    ),
+    key!(
+        "errors.squareness_urad",
+        "µrad",
+        Range(-1e5, 1e5),
+        Always,
+        "out-of-squareness to the other axis",
+        |a| a.errors.squareness_urad
+    ),
+    key!(
+        "errors.straightness_bow_um",
+        "µm",
+        Range(-1e4, 1e4),
+        Always,
+        "straightness: bow at mid-span",
+        |a| a.errors.straightness_bow_um
+    ),
+    key!(
+        "errors.straightness_span_mm",
+        "mm",
+        Range(1.0, 1e5),
+        Always,
+        "span the bow is measured over",
+        |a| a.errors.straightness_span_mm
+    ),
+    key!(
+        "errors.lateral_play_um",
+        "µm",
+        Range(-1e4, 1e4),
+        Always,
+        "sideways play across this axis when the other reverses",
+        |a| a.errors.lateral_play_um
+    ),
+    key!(
+        "errors.direction_offset_um",
+        "µm",
+        Range(-1e4, 1e4),
+        Always,
+        "offset between the two directions of travel",
+        |a| a.errors.direction_offset_um
+    ),
 ];
 
-/// The key of that path, if the table has it.
+/// Every scalar key of a planned-only axis's limits (`[z.limits]`).
+pub const LIMIT_KEYS: &[Key<Limits>] = &[
+    key!(
+        "max_feed_mm_per_min",
+        "mm/min",
+        Positive(1e6),
+        Always,
+        "highest cutting feed",
+        |l| l.max_feed_mm_per_min
+    ),
+    key!(
+        "rapid_mm_per_min",
+        "mm/min",
+        Positive(1e6),
+        Always,
+        "rapid traverse rate",
+        |l| l.rapid_mm_per_min
+    ),
+    key!(
+        "max_accel_m_per_s2",
+        "m/s²",
+        Positive(1e4),
+        Always,
+        "acceleration limit",
+        |l| l.max_accel_m_per_s2
+    ),
+    key!(
+        "max_jerk_m_per_s3",
+        "m/s³",
+        Positive(1e8),
+        Always,
+        "jerk limit",
+        |l| l.max_jerk_m_per_s3
+    ),
+];
+
+/// Every scalar key of `[interpolation]`.
+pub const INTERPOLATION_KEYS: &[Key<Interpolation>] = &[
+    key!(
+        "cycle_ms",
+        "ms",
+        Range(0.05, 100.0),
+        Always,
+        "interpolation cycle",
+        |i| i.cycle_ms
+    ),
+    key!(
+        "in_position_window_mm",
+        "mm",
+        Positive(100.0),
+        Always,
+        "in-position window at exact stops",
+        |i| i.in_position_window_mm
+    ),
+    key!(
+        "arc_normal_share",
+        "",
+        Range(0.01, 0.99),
+        Always,
+        "share of the acceleration limit an arc may spend on its centripetal part",
+        |i| i.arc_normal_share
+    ),
+    optional!("path_accel_m_per_s2", "m/s²", Positive(1e4), Always,
+        "path acceleration limit (else the axes')", |i| i.path_accel_m_per_s2, v => *v),
+    optional!("path_jerk_m_per_s3", "m/s³", Positive(1e8), Always,
+        "path jerk limit (else the axes')", |i| i.path_jerk_m_per_s3, v => *v),
+];
+
+/// The axis key of that path, if the table has it.
 pub fn axis_key(path: &str) -> Option<&'static AxisKey> {
     AXIS_KEYS.iter().find(|k| k.path == path)
 }
@@ -102,12 +622,138 @@ pub fn axis_key(path: &str) -> Option<&'static AxisKey> {
 /// A key's value on an axis; `None` for a key not in the table or a section the axis does
 /// not have.
 pub fn get(axis: &AxisConfig, path: &str) -> Option<f64> {
-    axis_key(path).and_then(|k| (k.get)(axis))
+    axis_key(path).and_then(|k| k.get(axis))
 }
 
 /// Sets a key on an axis; whether it could (the key is in the table and its section there).
 pub fn set(axis: &mut AxisConfig, path: &str, value: f64) -> bool {
-    axis_key(path).is_some_and(|k| (k.set)(axis, value))
+    axis_key(path).is_some_and(|k| k.set(axis, value))
+}
+
+/// Every full dotted key of a machine's table: `x.drive.backlash_um`, `z.limits.…`,
+/// `interpolation.cycle_ms`.
+pub fn machine_paths() -> Vec<String> {
+    let axes = ["x", "y"]
+        .iter()
+        .flat_map(|a| AXIS_KEYS.iter().map(move |k| format!("{a}.{}", k.path)));
+    let z = LIMIT_KEYS.iter().map(|k| format!("z.limits.{}", k.path));
+    let interpolation = INTERPOLATION_KEYS
+        .iter()
+        .map(|k| format!("interpolation.{}", k.path));
+    axes.chain(z).chain(interpolation).collect()
+}
+
+/// Why a full dotted key cannot be set on a machine.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum SetError {
+    /// The table has no such key.
+    Unknown,
+    /// The machine does not have its section (no velocity loop on a current amplifier).
+    Absent,
+    /// The axis's controller does not read it.
+    Unused(Needs),
+}
+
+impl std::fmt::Display for SetError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            SetError::Unknown => write!(f, "is no numeric key of a machine"),
+            SetError::Absent => write!(f, "is in a section this machine does not have"),
+            SetError::Unused(needs) => {
+                write!(
+                    f,
+                    "is not used: only an axis with {} reads it",
+                    needs.describe()
+                )
+            }
+        }
+    }
+}
+
+/// Sets a full dotted key (`x.drive.backlash_um`) on a machine.
+pub fn set_on_machine(m: &mut MachineConfig, key: &str, value: f64) -> Result<(), SetError> {
+    let (part, rest) = key.split_once('.').ok_or(SetError::Unknown)?;
+    let done = match part {
+        "x" | "y" => {
+            let axis = if part == "x" { &mut m.x } else { &mut m.y };
+            let k = axis_key(rest).ok_or(SetError::Unknown)?;
+            if !k.needs.holds(axis) {
+                return Err(SetError::Unused(k.needs));
+            }
+            k.set(axis, value)
+        }
+        "z" => {
+            let leaf = rest.strip_prefix("limits.").ok_or(SetError::Unknown)?;
+            let k = LIMIT_KEYS
+                .iter()
+                .find(|k| k.path == leaf)
+                .ok_or(SetError::Unknown)?;
+            k.set(&mut m.z.limits, value)
+        }
+        "interpolation" => {
+            let k = INTERPOLATION_KEYS
+                .iter()
+                .find(|k| k.path == rest)
+                .ok_or(SetError::Unknown)?;
+            k.set(&mut m.interpolation, value)
+        }
+        _ => return Err(SetError::Unknown),
+    };
+    if done { Ok(()) } else { Err(SetError::Absent) }
+}
+
+/// A full dotted key's value on a machine; `None` for a key not in the table or a section
+/// the machine does not have.
+pub fn get_on_machine(m: &MachineConfig, key: &str) -> Option<f64> {
+    let (part, rest) = key.split_once('.')?;
+    match part {
+        "x" => get(&m.x, rest),
+        "y" => get(&m.y, rest),
+        "z" => {
+            let leaf = rest.strip_prefix("limits.")?;
+            LIMIT_KEYS.iter().find(|k| k.path == leaf)?.get(&m.z.limits)
+        }
+        "interpolation" => INTERPOLATION_KEYS
+            .iter()
+            .find(|k| k.path == rest)?
+            .get(&m.interpolation),
+        _ => None,
+    }
+}
+
+/// The reference of every key as Markdown: `docs/machine-keys.md` is this text.
+pub fn reference_markdown() -> String {
+    fn rows<T>(out: &mut String, prefix: &str, keys: &[Key<T>]) {
+        out.push_str("| key | unit | range | meaning |\n|---|---|---|---|\n");
+        for k in keys {
+            let needs = match k.needs {
+                Needs::Always => String::new(),
+                n => format!("; only with {}", n.describe()),
+            };
+            let unit = if k.unit.is_empty() { "—" } else { k.unit };
+            out.push_str(&format!(
+                "| `{prefix}{}` | {unit} | {} | {}{needs} |\n",
+                k.path,
+                k.rule.describe(),
+                k.meaning
+            ));
+        }
+    }
+    let mut out = String::from(
+        "# Machine file keys\n\n\
+         Generated from the key table in `src/machine/keys.rs` (a test keeps the two equal). \
+         Every number of a machine file, its unit and the range validation accepts; \
+         `docs/machine-file.md` explains the file and its sections. Lists (the error tables, \
+         a transfer function's coefficients, `limits.travel_mm`) and words (`controller.structure`, \
+         `position_loop.feedback`, `drive.kind`) are described there.\n\n\
+         ## `[interpolation]`\n\n",
+    );
+    rows(&mut out, "interpolation.", INTERPOLATION_KEYS);
+    out.push_str("\n## `[x]` and `[y]`\n\n");
+    rows(&mut out, "", AXIS_KEYS);
+    out.push_str("\n## `[z.limits]`\n\n");
+    rows(&mut out, "z.limits.", LIMIT_KEYS);
+    out
 }
 
 #[cfg(test)]
@@ -117,13 +763,52 @@ mod tests {
 
     #[test]
     fn every_key_reads_back_what_was_set() {
-        let mut x = MachineConfig::default_preset().x;
-        for (i, k) in AXIS_KEYS.iter().enumerate() {
-            let v = 1.0 + i as f64;
-            assert!(set(&mut x, k.path, v), "{}", k.path);
-            assert_eq!(get(&x, k.path), Some(v), "{}", k.path);
+        for preset in ["hvmc", "small-table"] {
+            let mut m = MachineConfig::preset(preset).unwrap();
+            for (i, k) in AXIS_KEYS.iter().enumerate() {
+                let v = 1.0 + i as f64;
+                if k.get(&m.x).is_some() {
+                    assert!(set(&mut m.x, k.path, v), "{}", k.path);
+                    assert_eq!(get(&m.x, k.path), Some(v), "{}", k.path);
+                } else {
+                    assert!(!set(&mut m.x, k.path, v), "{} set where absent", k.path);
+                }
+            }
         }
+        let mut x = MachineConfig::default_preset().x;
         assert_eq!(get(&x, "drive.backlsh_um"), None);
         assert!(!set(&mut x, "drive.backlsh_um", 1.0));
+    }
+
+    #[test]
+    fn paths_are_unique_and_every_machine_path_resolves() {
+        let paths = machine_paths();
+        let mut sorted = paths.clone();
+        sorted.sort();
+        sorted.dedup();
+        assert_eq!(sorted.len(), paths.len());
+        let mut m = MachineConfig::default_preset();
+        for p in &paths {
+            match set_on_machine(&mut m, p, 1.5) {
+                Ok(()) => assert_eq!(get_on_machine(&m, p), Some(1.5), "{p}"),
+                Err(e) => assert!(
+                    matches!(e, SetError::Absent | SetError::Unused(_)),
+                    "{p}: {e}"
+                ),
+            }
+        }
+        assert_eq!(
+            set_on_machine(&mut m, "x.drive.nope", 1.0),
+            Err(SetError::Unknown)
+        );
+    }
+
+    #[test]
+    fn a_cascade_gain_is_not_set_on_another_controller() {
+        let mut m = MachineConfig::preset("small-table").unwrap();
+        assert_eq!(
+            set_on_machine(&mut m, "x.position_loop.kv_m_per_min_per_mm", 2.0),
+            Err(SetError::Unused(Needs::Cascade))
+        );
     }
 }

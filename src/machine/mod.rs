@@ -538,6 +538,12 @@ impl MachineConfig {
             .map_err(located)
     }
 
+    /// Checks the machine as a machine file is checked: its sections, every number in range,
+    /// the values that must agree agreeing; errors name `file` and the key.
+    pub fn validate(&self, file: &str) -> Result<(), ConfigError> {
+        validate::validate(self, file)
+    }
+
     /// The machine as TOML (every key its controllers read, no `base`): the cascade's gains
     /// are left out of an axis with another controller, and a velocity loop's of an axis
     /// whose drive closes none, as a file that gave them would be refused.

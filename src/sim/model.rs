@@ -17,7 +17,7 @@ use nalgebra::{SMatrix, SVector};
 
 use crate::lookup::Lookup;
 use crate::machine::realise::{Realisation, realise};
-use crate::machine::{AxisConfig, Controller, ControllerOutput, DriveKind, Feedback};
+use crate::machine::{AxisConfig, Controller, ControllerOutput, Drive, DriveKind, Feedback};
 use crate::units::{
     GRAVITY_M_PER_S2, h_from_mh, m_from_mm, m_from_um, m_per_s_from_mm_per_min,
     per_s_from_kv_m_per_min_per_mm, s_from_ms,
@@ -322,29 +322,13 @@ impl AxisModel {
         } else {
             (c.motor.jm_kg_m2, d.js_kg_m2, d.table_mass_kg)
         };
-        // Damping of each spring from its two sides' reduced inertia: C = 2ζ√(K·m_eq).
-        let reduced = |a: f64, b: f64| a * b / (a + b);
         let (k_theta, c_theta, k_m, c_m) = if linear_motor {
             (0.0, 0.0, 0.0, 0.0)
         } else {
-            let j_theta = reduced(jm / (it * it), js);
-            let m_axial = reduced((jm / (it * it) + js) / (r * r), mt);
-            (
-                d.k_theta_nm_per_rad,
-                2.0 * d.zeta_theta * (d.k_theta_nm_per_rad * j_theta).sqrt(),
-                d.k_m_n_per_m,
-                2.0 * d.zeta_m * (d.k_m_n_per_m * m_axial).sqrt(),
-            )
+            springs(d, [jm, js, mt], r, it)
         };
         let f_c = c.friction.coulomb_coefficient * mt * GRAVITY_M_PER_S2;
-        let (kf, ka) = match &c.controller {
-            Controller::Cascade => (
-                c.position_loop.velocity_feedforward,
-                c.position_loop.accel_feedforward,
-            ),
-            Controller::TransferFunction(tf) => (tf.velocity_feedforward, tf.accel_feedforward),
-            Controller::StateFeedback(sf) => (sf.velocity_feedforward, sf.accel_feedforward),
-        };
+        let (kf, ka) = feedforward(c);
         // Unused parts of the model are left at values that keep its matrices finite.
         let velocity = c
             .velocity_loop
@@ -408,12 +392,7 @@ impl AxisModel {
             // force cannot be lower than that (the Stribeck curve starts at static friction).
             f_s: (c.friction.static_to_coulomb * f_c).max(f_c + c.friction.stribeck_level_n),
             f_v: c.friction.viscous_n_s_per_m,
-            lateral: c.lateral_shift.as_ref().map(|l| LateralShiftModel {
-                l: l.beam_length_m,
-                ei: l.bending_stiffness_n_m2,
-                load: l.holder_load_n,
-                a0: l.holder_at_zero_m,
-            }),
+            lateral: c.lateral_shift.as_ref().map(LateralShiftModel::from_config),
             dead_time_s: s_from_ms(c.position_loop.dead_time_ms),
             stribeck: (c.friction.stribeck_level_n > 0.0).then(|| {
                 (
@@ -433,17 +412,7 @@ impl AxisModel {
                 m_per_s_from_mm_per_min(1.0),
                 1.0,
             ),
-            measuring: MeasuringError {
-                scale: c.errors.scale_error_ppm * 1e-6,
-                amplitude_m: m_from_um(c.errors.cyclic_amplitude_um),
-                wavenumber_per_m: std::f64::consts::TAU
-                    / m_from_mm(if c.errors.cyclic_period_mm > 0.0 {
-                        c.errors.cyclic_period_mm
-                    } else {
-                        d.lead_mm
-                    }),
-                phase_rad: c.errors.cyclic_phase_deg.to_radians(),
-            },
+            measuring: MeasuringError::from_config(&c.errors, d.lead_mm),
             resonance: (c.errors.resonance_hz > 0.0).then_some({
                 (
                     std::f64::consts::TAU * c.errors.resonance_hz,
@@ -911,6 +880,62 @@ fn integrator_row(mode: ClampMode, limited: &Limited, z: &Integrator, a: &AugMat
         ClampMode::Linear => z.integrand,
         ClampMode::HeldHi | ClampMode::HeldLo => Row::zeros(),
         ClampMode::SlideHi | ClampMode::SlideLo => (limited.output * a) * (-1.0 / z.gain),
+    }
+}
+
+/// The torsional and axial springs and their damping, (K_θ, C_θ, K_M, C_M), from the
+/// drive and the inertias `[J_m, J_s, M_T]` at lead radius `r` and gear ratio `it`. Each
+/// damping comes from its spring's two sides' reduced inertia: C = 2ζ√(K·m_eq).
+fn springs(d: &Drive, [jm, js, mt]: [f64; 3], r: f64, it: f64) -> (f64, f64, f64, f64) {
+    let reduced = |a: f64, b: f64| a * b / (a + b);
+    let j_theta = reduced(jm / (it * it), js);
+    let m_axial = reduced((jm / (it * it) + js) / (r * r), mt);
+    (
+        d.k_theta_nm_per_rad,
+        2.0 * d.zeta_theta * (d.k_theta_nm_per_rad * j_theta).sqrt(),
+        d.k_m_n_per_m,
+        2.0 * d.zeta_m * (d.k_m_n_per_m * m_axial).sqrt(),
+    )
+}
+
+/// The velocity and acceleration feed-forward shares of the axis's controller.
+fn feedforward(c: &AxisConfig) -> (f64, f64) {
+    match &c.controller {
+        Controller::Cascade => (
+            c.position_loop.velocity_feedforward,
+            c.position_loop.accel_feedforward,
+        ),
+        Controller::TransferFunction(tf) => (tf.velocity_feedforward, tf.accel_feedforward),
+        Controller::StateFeedback(sf) => (sf.velocity_feedforward, sf.accel_feedforward),
+    }
+}
+
+impl MeasuringError {
+    /// From the machine file's error terms; a cyclic error without a period repeats with
+    /// the screw's lead.
+    fn from_config(e: &crate::machine::Errors, lead_mm: f64) -> MeasuringError {
+        MeasuringError {
+            scale: e.scale_error_ppm * 1e-6,
+            amplitude_m: m_from_um(e.cyclic_amplitude_um),
+            wavenumber_per_m: std::f64::consts::TAU
+                / m_from_mm(if e.cyclic_period_mm > 0.0 {
+                    e.cyclic_period_mm
+                } else {
+                    lead_mm
+                }),
+            phase_rad: e.cyclic_phase_deg.to_radians(),
+        }
+    }
+}
+
+impl LateralShiftModel {
+    fn from_config(l: &crate::machine::LateralShift) -> LateralShiftModel {
+        LateralShiftModel {
+            l: l.beam_length_m,
+            ei: l.bending_stiffness_n_m2,
+            load: l.holder_load_n,
+            a0: l.holder_at_zero_m,
+        }
     }
 }
 

@@ -172,7 +172,7 @@ pub fn beyond_machine(
     dt_s: f64,
     machine: &MachineConfig,
 ) -> Vec<BeyondMachine> {
-    if commands_m[0].len() < 3 || !(dt_s > 0.0) {
+    if commands_m[0].len() < 3 || dt_s.is_nan() || dt_s <= 0.0 {
         return Vec::new();
     }
     let c = commands_from_record(&commands_m[0], &commands_m[1], dt_s, dt_s);

@@ -1,0 +1,528 @@
+//! Building the timeline: the commands that drive the simulation (the program's plan or the
+//! record's own, placed on the program), and the record's clock aligned to the program's —
+//! one offset, or, for a control whose waits differ from the plan's, one per stretch
+//! between standstills.
+
+use super::context::{Context, Stepping};
+use super::residual::rms;
+use super::{CompareError, CompareSettings};
+use crate::check::plan_commands;
+use crate::gcode::Program;
+use crate::machine::{AxisName, MachineConfig};
+use crate::numeric::golden_section;
+use crate::plan::{Commands, Plan};
+use crate::sim::AxisModel;
+use crate::trace::measured::MeasuredTrace;
+use crate::trace::recorded::{commands_from_record, place_on_path};
+use crate::trace::signal::sample;
+use crate::units::um_from_m;
+
+/// The constant offset (m) by which a record's commands run beside the program, if shifting
+/// them back by it puts them on the program's path: the centres of the two ranges of travel,
+/// confirmed by placing the shifted commands on the path within the tolerance.
+fn parallel_offset(
+    plan: &Plan,
+    planned: &Commands,
+    measured: &MeasuredTrace,
+    dt: f64,
+    settings: &CompareSettings,
+) -> Option<[f64; 2]> {
+    let [xc, yc] = measured.commands.as_ref()?;
+    let centre = |v: &[f64]| {
+        let (lo, hi) = v
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                (l.min(x), h.max(x))
+            });
+        0.5 * (lo + hi)
+    };
+    let offset = [
+        centre(xc) - centre(&planned.x.pos_m),
+        centre(yc) - centre(&planned.y.pos_m),
+    ];
+    if !offset.iter().all(|o| o.is_finite()) {
+        return None;
+    }
+    let shift = |v: &[f64], o: f64| v.iter().map(|p| p - o).collect::<Vec<f64>>();
+    let mut shifted = commands_from_record(
+        &shift(xc, offset[0]),
+        &shift(yc, offset[1]),
+        measured.dt_s,
+        dt,
+    );
+    match place_on_path(plan, &mut shifted) {
+        Some(worst) if worst.distance_m > settings.command_tolerance_m => None,
+        _ => Some(offset),
+    }
+}
+
+/// The share of the record (at 500 samples spread over it) whose measured XY position lies
+/// more than 1 mm from every segment of the program: a record of another program, or in
+/// other coordinates, whatever its timing — which no alignment of waits can mend.
+fn share_off_path(ctx: &Context) -> f64 {
+    let m = ctx.measured;
+    let n = m.x_m.len().min(m.y_m.len());
+    if n == 0 || ctx.plan.segments.is_empty() {
+        return 0.0;
+    }
+    let picks = 500.min(n);
+    let off = (0..picks)
+        .map(|k| k * (n - 1) / picks.saturating_sub(1).max(1))
+        .filter(|&i| {
+            let q = [m.x_m[i], m.y_m[i]];
+            let nearest = ctx
+                .plan
+                .segments
+                .iter()
+                .map(|seg| seg.project_xy(q, 0.5).signed_distance_m.abs())
+                .fold(f64::INFINITY, f64::min);
+            nearest > 1e-3
+        })
+        .count();
+    off as f64 / picks as f64
+}
+
+/// Builds the comparison timeline: commands, plan, samples, and a first clock offset.
+pub fn context<'a>(
+    program: &Program,
+    machine: &MachineConfig,
+    measured: &'a MeasuredTrace,
+    settings: &CompareSettings,
+) -> Result<(Context<'a>, f64), CompareError> {
+    let (plan, plan_commands) = plan_commands(program, machine, &settings.check)?;
+    let dt = plan_commands.dt_s;
+    let (commands, fixed_offset, program_start_s) =
+        driving_commands(&plan, plan_commands, measured, settings)?;
+    let mut ctx = Context {
+        measured,
+        commands,
+        plan,
+        program_start_s,
+        dt,
+        fixed_offset,
+        extra_wait_s: Vec::new(),
+        sim: settings.check.sim,
+        stepping: Stepping::Full,
+        settle_s: settings.check.settle_s,
+        samples: Vec::new(),
+        sample_dt_s: measured.dt_s,
+        noise_sigma: 0.0,
+        measured_at: settings.measured_at,
+        timing_drift_s: None,
+        rapids_compared: false,
+    };
+    let nominal = [AxisName::X, AxisName::Y].map(|a| ctx.simulate_axis(machine, a));
+    let [Some(x), Some(y)] = nominal else {
+        let model = AxisModel::from_config(&machine.x);
+        crate::sim::linear::check_stable(&model)?;
+        return Err(cannot(
+            measured,
+            "the nominal machine cannot be simulated on these commands".into(),
+        ));
+    };
+    let offset = match fixed_offset {
+        Some(o) => o,
+        None => coarse_offset(&ctx, &x, &y).ok_or_else(|| {
+            cannot(
+                measured,
+                "the measurement and the program do not overlap in time".into(),
+            )
+        })?,
+    };
+    choose_samples(&mut ctx, offset)?;
+    let offset = if fixed_offset.is_some() {
+        offset
+    } else {
+        refine_offset(&ctx, &x, &y, offset)
+    };
+    if fixed_offset.is_none() {
+        ctx.timing_drift_s = Some(timing_drift(&ctx, &x, &y, offset));
+    }
+    let (offset, x, y) = if fixed_offset.is_some() || !settings.align_stretches {
+        (offset, x, y)
+    } else {
+        align_stretches(&mut ctx, machine, x, y, offset)
+    };
+    refuse_far_prediction(&ctx, settings, [&x, &y], offset)?;
+    Ok((ctx, offset))
+}
+
+fn cannot(measured: &MeasuredTrace, reason: String) -> CompareError {
+    CompareError::CannotAlign {
+        file: measured.file.clone(),
+        reason,
+    }
+}
+
+/// The commands that drive the simulation, the record's clock offset when it fixes it, and
+/// where the program starts on their timeline (s). The record's own commands, where it has
+/// them, drive the simulation on its own clock, whatever timing our plan gives the program —
+/// after they have shown that they lie on the program's path; the program gives geometry and
+/// lines.
+fn driving_commands(
+    plan: &Plan,
+    plan_commands: Commands,
+    measured: &MeasuredTrace,
+    settings: &CompareSettings,
+) -> Result<(Commands, Option<f64>, f64), CompareError> {
+    let dt = plan_commands.dt_s;
+    let Some([xc, yc]) = &measured.commands else {
+        return Ok((plan_commands, None, 0.0));
+    };
+    let mut commands = commands_from_record(xc, yc, measured.dt_s, dt);
+    if let Some(worst) = place_on_path(plan, &mut commands)
+        && worst.distance_m > settings.command_tolerance_m
+    {
+        let hint = match parallel_offset(plan, &plan_commands, measured, dt, settings) {
+            Some([x, y]) => format!(
+                "the commands run parallel to the program, offset by X {:.3} mm, Y {:.3} \
+                 mm — a work offset; give it with --work-offset {:.3},{:.3}",
+                x * 1e3,
+                y * 1e3,
+                x * 1e3,
+                y * 1e3
+            ),
+            None => "is this a record of this program, in the same coordinates?".into(),
+        };
+        return Err(CompareError::OffPath {
+            file: measured.file.clone(),
+            t_s: measured.t0_s + worst.t_s,
+            line: worst.line,
+            distance_um: um_from_m(worst.distance_m),
+            tolerance_um: um_from_m(settings.command_tolerance_m),
+            hint,
+        });
+    }
+    let start = first_motion(&commands) - first_motion(&plan_commands);
+    Ok((commands, Some(measured.t0_s), start))
+}
+
+/// The samples compared at clock offset `offset`: those whose program time lies within the
+/// simulation, with a margin so that the offset can move during the fits.
+///
+/// Rapids are left out: we cannot know how a control ran the rapids we planned (each axis
+/// on its own, blended or not, at which rate), their millimetres of lag would drown the
+/// micrometres the causes leave, and even recorded, a rapid's acceleration steps are read
+/// back from sparse samples only roughly (a 15 ms logger's rapids pass for friction). The
+/// standstill after each rapid goes with it. A record with its commands that is mostly
+/// rapids is compared rapids and all rather than refused: the commands say what the
+/// control did there.
+///
+/// One sample per command period is compared: the model's input changes no faster, so finer
+/// samples add no evidence about it — only correlated copies of the same model error, which
+/// would count as independent proof at 10 kHz and not at 2 ms, and make the diagnosis
+/// depend on the sampling rate.
+fn choose_samples(ctx: &mut Context, offset: f64) -> Result<(), CompareError> {
+    let measured = ctx.measured;
+    let duration = ctx.commands.duration_s();
+    let fixed = ctx.fixed_offset.is_some();
+    let margin = if fixed { 0.0 } else { 0.2 };
+    let stride = ((ctx.dt / measured.dt_s) * (1.0 + 1e-9)).floor().max(1.0) as usize;
+    ctx.sample_dt_s = stride as f64 * measured.dt_s;
+    let expected = (duration / measured.dt_s).min(measured.len() as f64) / stride as f64;
+    let compared = |ctx: &Context, with_rapids: bool| -> Vec<usize> {
+        (0..measured.len())
+            .step_by(stride)
+            .filter(|&i| {
+                let t = ctx.prog_time(i, offset);
+                t >= margin && t <= duration - margin && (with_rapids || !ctx.in_rapid(t))
+            })
+            .collect()
+    };
+    ctx.samples = compared(ctx, false);
+    if (ctx.samples.len() as f64) < 0.5 * expected && fixed {
+        ctx.samples = compared(ctx, true);
+        ctx.rapids_compared = true;
+    }
+    if (ctx.samples.len() as f64) < 0.5 * expected {
+        return Err(cannot(
+            measured,
+            format!(
+                "only {} of the {:.0} samples compared fall within the program's {:.1} s",
+                ctx.samples.len(),
+                expected,
+                duration
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// A record without its commands that the nominal prediction misses by more than half a
+/// millimetre is not taken to be of this program, with what may be wrong. With recorded
+/// commands the record has shown itself to be of this program (its commands lie on the
+/// path) and its clock is its own: a model far from it is for the diagnosis to explain,
+/// or to say it cannot.
+fn refuse_far_prediction(
+    ctx: &Context,
+    settings: &CompareSettings,
+    [x, y]: [&[f64]; 2],
+    offset: f64,
+) -> Result<(), CompareError> {
+    let rms = rms(&[
+        ctx.residual(AxisName::X, x, offset),
+        ctx.residual(AxisName::Y, y, offset),
+    ]
+    .concat());
+    if rms <= 0.5e-3 || ctx.fixed_offset.is_some() {
+        return Ok(());
+    }
+    let off_path = share_off_path(ctx);
+    let hint = if off_path > 0.2 {
+        format!(
+            " Its measured path lies more than 1 mm from every block of the program over \
+             {:.0} % of the record: no timing can mend that.",
+            100.0 * off_path
+        )
+    } else if !settings.align_stretches && !standstills(&ctx.commands).is_empty() {
+        " If the control's waits at exact stops differ from the plan's, align each stretch \
+         between standstills on its own (--align-stretches) or record the commanded positions."
+            .to_string()
+    } else {
+        String::new()
+    };
+    let drift = match ctx.timing_drift_s {
+        Some(d) if d.abs() >= 0.005 && off_path <= 0.2 => format!(
+            " Its second half runs {:+.0} ms against its first: the control's timing \
+             departs from the plan.",
+            d * 1e3
+        ),
+        _ => String::new(),
+    };
+    Err(cannot(
+        ctx.measured,
+        format!(
+            "the best clock offset ({offset:.3} s) leaves {:.0} µm RMS between measurement and \
+             prediction: is this a measurement of this program, in the same coordinates?{drift}{hint}",
+            um_from_m(rms)
+        ),
+    ))
+}
+
+/// When the commands first move (s; 0 when they never do).
+fn first_motion(c: &Commands) -> f64 {
+    (0..c.len())
+        .find(|&k| c.x.vel_m_per_s[k].hypot(c.y.vel_m_per_s[k]) > 1e-6)
+        .map_or(0.0, |k| k as f64 * c.dt_s)
+}
+
+/// The clock offset that best lines the measurement up with the simulated path, searched
+/// over every possible overlap: every 200 ms first, then every 20 ms around the best few.
+fn coarse_offset(ctx: &Context, x: &[f64], y: &[f64]) -> Option<f64> {
+    /// The first scan's step and sample spacing (s), and how many of its best offsets the
+    /// second scan looks around.
+    const FIRST_STEP_S: f64 = 0.2;
+    const CANDIDATES: usize = 5;
+    /// The second scan's step and sample spacing (s).
+    const STEP_S: f64 = 0.02;
+    let m = ctx.measured;
+    let scan = |from: f64, to: f64, step: f64| -> Vec<(f64, f64)> {
+        let n = ((to - from) / step).floor().max(0.0) as usize;
+        (0..=n)
+            .map(|k| from + k as f64 * step)
+            .filter_map(|o| mismatch(ctx, x, y, o, step).map(|c| (o, c)))
+            .collect()
+    };
+    let duration = ctx.commands.duration_s();
+    let mut first = scan(m.t0_s - duration, m.time_s(m.len() - 1), FIRST_STEP_S);
+    first.sort_by(|a, b| a.1.total_cmp(&b.1));
+    first
+        .iter()
+        .take(CANDIDATES)
+        .flat_map(|&(o, _)| scan(o - FIRST_STEP_S, o + FIRST_STEP_S, STEP_S))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|b| b.0)
+}
+
+/// The mean squared distance between the measurement and the nominal traces `x`, `y` at
+/// clock offset `offset`, on samples about `spacing_s` apart; `None` when they overlap for
+/// less than half the program or the measurement, which proves nothing.
+fn mismatch(ctx: &Context, x: &[f64], y: &[f64], offset: f64, spacing_s: f64) -> Option<f64> {
+    let m = ctx.measured;
+    let duration = ctx.commands.duration_s();
+    let stride = ((spacing_s / m.dt_s).round() as usize).max(1);
+    let (mut s, mut n) = (0.0, 0usize);
+    for i in (0..m.len()).step_by(stride) {
+        let t = m.time_s(i) - offset;
+        if (0.0..=duration).contains(&t) {
+            s += (m.x_m[i] - sample(x, ctx.dt, t)).powi(2)
+                + (m.y_m[i] - sample(y, ctx.dt, t)).powi(2);
+            n += 1;
+        }
+    }
+    let needed = 0.5 * (duration.min(m.dt_s * m.len() as f64)) / (stride as f64 * m.dt_s);
+    (n > 0 && n as f64 >= needed).then(|| s / n as f64)
+}
+
+/// Golden-section refinement of the offset within ±2 coarse steps, at full resolution.
+fn refine_offset(ctx: &Context, x: &[f64], y: &[f64], start: f64) -> f64 {
+    golden_section(start - 0.04, start + 0.04, 1e-6, &|o| {
+        ctx.offset_cost(x, y, o)
+    })
+}
+
+impl Context<'_> {
+    /// Both axes' residual sum of squares at a clock offset, for traces `x`, `y`.
+    fn offset_cost(&self, x: &[f64], y: &[f64], offset_s: f64) -> f64 {
+        [
+            self.residual(AxisName::X, x, offset_s),
+            self.residual(AxisName::Y, y, offset_s),
+        ]
+        .iter()
+        .flatten()
+        .map(|v| v * v)
+        .sum()
+    }
+}
+
+/// The offsets that best align the first and the second half of the compared samples, each
+/// on its own: their difference (second − first, s). Zero when the plan keeps the machine's
+/// time; a control that interpolates slower or waits longer makes it grow.
+fn timing_drift(ctx: &Context, x: &[f64], y: &[f64], offset: f64) -> f64 {
+    /// How far either half may lie from the whole record's offset (s).
+    const REACH_S: f64 = 0.5;
+    let half = ctx.samples.len() / 2;
+    let (first, second) = ctx.samples.split_at(half);
+    let best = |part: &[usize]| {
+        let mut sub = ctx.clone();
+        sub.samples = part.iter().step_by(4).copied().collect();
+        let cost = |o: f64| sub.offset_cost(x, y, o);
+        // A 5 ms scan, then golden section about its best: over half a second the
+        // mismatch need not be unimodal.
+        let start = (0..=200)
+            .map(|i| offset - REACH_S + i as f64 * 0.005)
+            .min_by(|a, b| cost(*a).total_cmp(&cost(*b)))
+            .unwrap_or(offset);
+        golden_section(start - 0.005, start + 0.005, 1e-6, &cost)
+    };
+    best(second) - best(first)
+}
+
+/// The standstills inside the commands (both axes still for at least 10 ms, neither at the
+/// start nor at the end): their start and end on the program's clock (s).
+fn standstills(c: &Commands) -> Vec<(f64, f64)> {
+    let still = |k: usize| c.x.vel_m_per_s[k].abs() < 1e-9 && c.y.vel_m_per_s[k].abs() < 1e-9;
+    let n = c.len();
+    let min_len = (0.01 / c.dt_s).ceil() as usize;
+    let mut out = Vec::new();
+    let mut k = 0;
+    // Skip the still start.
+    while k < n && still(k) {
+        k += 1;
+    }
+    while k < n {
+        if still(k) {
+            let from = k;
+            while k < n && still(k) {
+                k += 1;
+            }
+            if k < n && k - from >= min_len {
+                out.push((from as f64 * c.dt_s, (k - 1) as f64 * c.dt_s));
+            }
+        } else {
+            k += 1;
+        }
+    }
+    out
+}
+
+/// Each stretch of the program between standstills (`stops`) aligned on its own clock
+/// offset, in order: a stretch's offset is searched from the one before it, since waits that
+/// differ from the plan's add up. The search keeps the standstill between them of positive
+/// length. Stretches too short to align follow their neighbour.
+fn stretch_offsets(
+    ctx: &Context,
+    x: &[f64],
+    y: &[f64],
+    global: f64,
+    stops: &[(f64, f64)],
+) -> Vec<f64> {
+    /// How much longer than planned a wait may be (s); the first stretch may lie this far
+    /// either side of the whole record's offset.
+    const MAX_SLIP_S: f64 = 0.3;
+    let m = ctx.measured;
+    let mut bounds = vec![0.0];
+    for s in stops {
+        bounds.extend([s.0, s.1]);
+    }
+    bounds.push(ctx.commands.duration_s());
+    // Mean squared mismatch of the stretch [from, to) (program time) at clock offset o.
+    let cost = |from: f64, to: f64, o: f64| {
+        let (mut s, mut n) = (0.0, 0usize);
+        for &i in &ctx.samples {
+            let t = m.time_s(i) - o;
+            if (from..to).contains(&t) {
+                s += (m.x_m[i] - sample(x, ctx.dt, t)).powi(2)
+                    + (m.y_m[i] - sample(y, ctx.dt, t)).powi(2);
+                n += 1;
+            }
+        }
+        if n < 50 { f64::INFINITY } else { s / n as f64 }
+    };
+    // A 5 ms scan, then golden section about the best: a stretch's mismatch need not be
+    // unimodal over a few hundred ms.
+    let search = |from: f64, to: f64, lo: f64, hi: f64| -> Option<f64> {
+        let steps = ((hi - lo) / 0.005).ceil().max(1.0) as usize;
+        let (best, best_cost) = (0..=steps)
+            .map(|i| lo + (hi - lo) * i as f64 / steps as f64)
+            .map(|o| (o, cost(from, to, o)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))?;
+        best_cost
+            .is_finite()
+            .then(|| golden_section(best - 0.005, best + 0.005, 1e-6, &|o| cost(from, to, o)))
+    };
+    let mut own: Vec<Option<f64>> = vec![None; stops.len() + 1];
+    let mut previous: Option<f64> = None;
+    for (k, span) in bounds.chunks(2).enumerate() {
+        let (lo, hi) = match previous {
+            None => (global - MAX_SLIP_S, global + MAX_SLIP_S),
+            // The standstill before may be up to 90 % shorter, or longer, than planned.
+            Some(p) => (p - 0.9 * (stops[k - 1].1 - stops[k - 1].0), p + MAX_SLIP_S),
+        };
+        // Matched over the whole stretch: its start alone would date it to a fraction of a
+        // millisecond, micrometres at feed. The price: a lag the nominal model lacks (a gain
+        // error, a dead time) passes in part for a later start.
+        own[k] = search(span[0], span[1], lo, hi);
+        previous = own[k].or(previous);
+    }
+    let first = own.iter().flatten().next().copied().unwrap_or(global);
+    let mut filled: Vec<f64> = Vec::with_capacity(own.len());
+    for o in &own {
+        filled.push(o.unwrap_or(filled.last().copied().unwrap_or(first)));
+    }
+    filled
+}
+
+/// Measures how much longer than planned the control stood at each standstill (from each
+/// stretch's own clock offset), rebuilds the context's plan and commands with those waits,
+/// and returns the first stretch's offset with both axes simulated on the new commands.
+fn align_stretches(
+    ctx: &mut Context,
+    machine: &MachineConfig,
+    x: Vec<f64>,
+    y: Vec<f64>,
+    global: f64,
+) -> (f64, Vec<f64>, Vec<f64>) {
+    let stops = standstills(&ctx.commands);
+    if stops.is_empty() {
+        return (global, x, y);
+    }
+    let offsets = stretch_offsets(ctx, &x, &y, global, &stops);
+    let mut extra = vec![0.0; ctx.plan.segments.len()];
+    for (k, &(_, stop_end)) in stops.iter().enumerate() {
+        // The wait belongs to the segment the standstill ends in.
+        let sample = ((stop_end / ctx.dt).floor() as usize).min(ctx.commands.len() - 1);
+        extra[ctx.commands.segment[sample] as usize] += offsets[k + 1] - offsets[k];
+    }
+    ctx.plan = ctx.plan.with_waits(ctx.plan.config.in_position, &extra);
+    ctx.commands = super::context::commands_of(&ctx.plan, ctx.settle_s);
+    ctx.extra_wait_s = extra;
+    let resimulate = |a| ctx.simulate_axis(machine, a);
+    match (resimulate(AxisName::X), resimulate(AxisName::Y)) {
+        (Some(x), Some(y)) => {
+            let offset = refine_offset(ctx, &x, &y, offsets[0]);
+            (offset, x, y)
+        }
+        _ => (global, x, y),
+    }
+}

@@ -1,0 +1,497 @@
+//! The timeline a measurement is compared on: the commands that drive the simulation (the
+//! program's plan, or the commands the measurement recorded), the measurement's clock
+//! aligned to the program's, the samples the residual uses, and the residual itself.
+//!
+//! Without recorded commands the program's plan is the timeline, so the machine's own
+//! in-position waits matter: a model with another gain is re-planned with its waits
+//! ([`Context::simulate_axis`]). Rapids and the waits after them are left out of the
+//! residual, except in a record with its commands that is mostly rapids.
+
+use super::residual::{chatter_noise_power, chatter_windows};
+use crate::geometry;
+use crate::machine::{AxisName, MachineConfig};
+use crate::path::Motion;
+use crate::plan::{Commands, InPosition, Plan};
+use crate::sim::{AxisModel, MeasuredAt, SimConfig, simulate};
+use crate::trace::measured::MeasuredTrace;
+use crate::trace::signal::sample;
+
+/// How finely a context's simulations step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stepping {
+    /// The simulator settings' steps: what the diagnosis's figures are computed at.
+    Full,
+    /// One step per control cycle where that gives the same trace — a model whose inputs do
+    /// not vary within a cycle (see [`AxisModel::inputs_vary_within_cycle`]) — at a quarter
+    /// of the cost: the search's fits.
+    PerCycleWhereExact,
+    /// One step per control cycle always: a first look, to choose where a fit starts.
+    PerCycle,
+}
+
+/// The timeline everything is compared on: the program's clock, with the simulation's
+/// commands, and the measured samples the residual uses.
+#[derive(Clone)]
+pub struct Context<'a> {
+    /// The measurement.
+    pub(crate) measured: &'a MeasuredTrace,
+    /// Commands driving the simulation, on the program's clock (t = 0 at program start),
+    /// each sample placed on its segment of the program: the plan's, or the recorded ones.
+    pub(crate) commands: Commands,
+    /// The program's plan, for geometry and source lines.
+    pub(crate) plan: Plan,
+    /// With recorded commands, how much later than in our plan they start to move (s), on
+    /// the simulation's timeline: where the program starts.
+    pub(crate) program_start_s: f64,
+    /// Command period (s).
+    pub(crate) dt: f64,
+    /// The clock offset when it is known (the measurement recorded its commands).
+    pub(crate) fixed_offset: Option<f64>,
+    /// Per plan segment, how much longer than planned the control stood after it (s):
+    /// measured when stretches are aligned on their own, zero otherwise. A control holds a
+    /// standstill as long as its in-position check takes on the real machine, which the
+    /// plan can only estimate.
+    pub(crate) extra_wait_s: Vec<f64>,
+    /// Simulator settings.
+    pub(crate) sim: SimConfig,
+    /// How finely the simulation steps.
+    pub(crate) stepping: Stepping,
+    /// Standing time after the program (s), as the commands were built.
+    pub(crate) settle_s: f64,
+    /// Measured samples the residual uses, one per command period at most.
+    pub(crate) samples: Vec<usize>,
+    /// Time between the samples the residual uses (s).
+    pub(crate) sample_dt_s: f64,
+    /// The measurement's noise floor (m), once estimated.
+    pub(crate) noise_sigma: f64,
+    /// Where the measurement read the positions: the simulated quantity compared.
+    pub(crate) measured_at: MeasuredAt,
+    /// On the plan's timeline: how much later the record's second half runs than its first
+    /// half under one clock offset (s) — how far the machine's timing departs from our plan.
+    pub(crate) timing_drift_s: Option<f64>,
+    /// Whether the rapids are among the samples compared (a record with its commands that
+    /// is mostly rapids).
+    pub(crate) rapids_compared: bool,
+}
+
+/// Length of the alternate blocks of time a record is cut into for fitting on one half and
+/// judging on the other (s): long against a sample, short against the program's moves, so
+/// that both halves see every kind of move.
+const HALF_BLOCK_S: f64 = 0.2;
+
+impl Context<'_> {
+    /// The record's noise floor (m), as [`super::compare`] estimated it.
+    pub fn noise_m(&self) -> f64 {
+        self.noise_sigma
+    }
+
+    /// How many of the record's samples are compared (one per command period at most).
+    pub fn compared_samples(&self) -> usize {
+        self.samples.len()
+    }
+
+    /// Program time of each compared sample (s).
+    pub fn sample_times(&self, offset_s: f64) -> Vec<f64> {
+        self.samples
+            .iter()
+            .map(|&i| self.prog_time(i, offset_s))
+            .collect()
+    }
+
+    /// Which half each compared sample belongs to: alternate blocks of time.
+    pub fn halves(&self, offset_s: f64) -> Vec<bool> {
+        self.sample_times(offset_s)
+            .iter()
+            .map(|t| (t / HALF_BLOCK_S).floor().rem_euclid(2.0) == 0.0)
+            .collect()
+    }
+
+    /// Simulates one axis of a machine on the context's commands; `None` if it cannot run.
+    pub fn simulate_axis(&self, machine: &MachineConfig, axis: AxisName) -> Option<Vec<f64>> {
+        match self.replanned(machine) {
+            None => self.read_on(machine, axis, &self.commands, None),
+            // The machine runs on its own plan's clock.
+            Some(commands) => self.read_on(machine, axis, &commands, None),
+        }
+    }
+
+    /// `axis` of `machine` on `commands` as the measurement sees it: with the axes'
+    /// squareness, from `other` (the other axis on the same commands) or, when not given
+    /// and needed, a simulation of it.
+    fn read_on(
+        &self,
+        machine: &MachineConfig,
+        axis: AxisName,
+        commands: &Commands,
+        other: Option<&[f64]>,
+    ) -> Option<Vec<f64>> {
+        let mut own = self.simulate_on(machine, axis, commands)?;
+        let cross = geometry::CrossTerms::of(machine, axis);
+        if !cross.is_zero() && self.measured_at != MeasuredAt::Motor {
+            let simulated;
+            let other = match other {
+                Some(o) => o,
+                None => {
+                    simulated = self.simulate_on(machine, axis.other(), commands)?;
+                    &simulated
+                }
+            };
+            cross.add(&mut own, other);
+        }
+        Some(own)
+    }
+
+    /// Simulates `axis` of `machine`, and the other axis too when `machine` changes the
+    /// program's timing (a gain changes the in-position waits, which both axes keep);
+    /// otherwise the other axis keeps `other`.
+    pub fn simulate_pair<'b>(
+        &self,
+        machine: &MachineConfig,
+        axis: AxisName,
+        other: &'b [f64],
+    ) -> Option<(Vec<f64>, std::borrow::Cow<'b, [f64]>)> {
+        Some(match self.replanned(machine) {
+            None => (
+                self.read_on(machine, axis, &self.commands, Some(other))?,
+                std::borrow::Cow::Borrowed(other),
+            ),
+            Some(commands) => {
+                let raw_own = self.simulate_on(machine, axis, &commands)?;
+                let mut other = self.simulate_on(machine, axis.other(), &commands)?;
+                let mut own = raw_own.clone();
+                if self.measured_at != MeasuredAt::Motor {
+                    geometry::CrossTerms::of(machine, axis).add(&mut own, &other);
+                    geometry::CrossTerms::of(machine, axis.other()).add(&mut other, &raw_own);
+                }
+                (own, std::borrow::Cow::Owned(other))
+            }
+        })
+    }
+
+    /// One axis of `machine` on `commands`, read where the measurement was taken, stepped as
+    /// the context says.
+    fn simulate_on(
+        &self,
+        machine: &MachineConfig,
+        axis: AxisName,
+        commands: &Commands,
+    ) -> Option<Vec<f64>> {
+        let model = AxisModel::from_config(machine.axis(axis));
+        let per_cycle = match self.stepping {
+            Stepping::Full => false,
+            Stepping::PerCycleWhereExact => !model.inputs_vary_within_cycle(),
+            Stepping::PerCycle => true,
+        };
+        let sim = if per_cycle {
+            SimConfig {
+                substeps: 1,
+                ..self.sim
+            }
+        } else {
+            self.sim
+        };
+        simulate(&model, commands.axis(axis), self.dt, &sim)
+            .ok()
+            .map(|t| t.into_read_at(self.measured_at))
+    }
+
+    /// The commands of `machine` when its in-position waits differ from those of the plan
+    /// the context was built on (its gains differ); `None` when that plan serves, and always
+    /// when the timeline is measured (recorded commands, or waits measured stretch by
+    /// stretch).
+    fn replanned(&self, machine: &MachineConfig) -> Option<Commands> {
+        // Recorded commands, or waits measured stretch by stretch, fix the timeline.
+        if self.fixed_offset.is_some() || !self.extra_wait_s.is_empty() {
+            return None;
+        }
+        let nominal = self.plan.config.in_position;
+        // Another controller's time scale (its closed loop's bandwidth, costly to find) does
+        // not change with any cause's values — none touches its gains or the mass — so the
+        // nominal plan's serves; a cascade's is its Kv, which a gain error changes.
+        let in_position = nominal.map(|ip| {
+            let computed = InPosition::kv_per_s_of_cascades(machine);
+            InPosition {
+                kv_per_s: [0, 1].map(|i| computed[i].unwrap_or(ip.kv_per_s[i])),
+                ..ip
+            }
+        });
+        if in_position == nominal {
+            return None;
+        }
+        let plan = self.plan.with_waits(in_position, &self.extra_wait_s);
+        Some(commands_of(&plan, self.settle_s))
+    }
+
+    fn measured_axis(&self, axis: AxisName) -> &[f64] {
+        match axis {
+            AxisName::X => &self.measured.x_m,
+            AxisName::Y => &self.measured.y_m,
+        }
+    }
+
+    /// Time of measured sample `i` on the program's clock, for a clock offset.
+    pub fn prog_time(&self, i: usize, offset_s: f64) -> f64 {
+        self.measured.time_s(i) - offset_s
+    }
+
+    /// measured − simulated at the context's samples (what point-by-point fits minimise).
+    pub fn residual(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> Vec<f64> {
+        let m = self.measured_axis(axis);
+        self.samples
+            .iter()
+            .map(|&i| m[i] - sample(trace, self.dt, self.prog_time(i, offset_s)))
+            .collect()
+    }
+
+    /// The measured axis at the context's samples.
+    pub fn measured_at_samples(&self, axis: AxisName) -> Vec<f64> {
+        let m = self.measured_axis(axis);
+        self.samples.iter().map(|&i| m[i]).collect()
+    }
+
+    /// A trace at the context's samples.
+    pub fn at_samples(&self, trace: &[f64], offset_s: f64) -> Vec<f64> {
+        self.samples
+            .iter()
+            .map(|&i| sample(trace, self.dt, self.prog_time(i, offset_s)))
+            .collect()
+    }
+
+    /// d(simulated)/dt at the samples: how the residual changes with the offset.
+    pub fn residual_rate(&self, trace: &[f64], offset_s: f64) -> Vec<f64> {
+        let h = 0.25 * self.dt;
+        self.samples
+            .iter()
+            .map(|&i| {
+                let t = self.prog_time(i, offset_s);
+                (sample(trace, self.dt, t + h) - sample(trace, self.dt, t - h)) / (2.0 * h)
+            })
+            .collect()
+    }
+
+    /// The residual in the statistical domain, for an axis in stick-slip, whose chatter is
+    /// deterministic in its statistics but not in its phase. Per 0.25 s window, two values:
+    /// the mismatch of the mean position and the mismatch of the chatter power (the variance
+    /// about a ±10 ms running mean, the measurement's noise share removed). Each is in units
+    /// of its sampling spread, which counts the chatter itself as noise: a window holds
+    /// about a dozen slips whose timing no model predicts.
+    pub fn statistical_residual(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> Vec<f64> {
+        self.window_statistics(axis, trace, offset_s)
+            .into_iter()
+            .flat_map(|(mean, power)| [mean, power])
+            .collect()
+    }
+
+    /// Per window: the mean mismatch and the chatter-power mismatch, in spreads.
+    fn window_statistics(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> Vec<(f64, f64)> {
+        self.window_statistics_against(axis, trace, offset_s, false)
+    }
+
+    /// [`Context::window_statistics`]; with `no_model_chatter` the model is taken to have no
+    /// chatter at all (its trace then only matters for the means).
+    fn window_statistics_against(
+        &self,
+        axis: AxisName,
+        trace: &[f64],
+        offset_s: f64,
+        no_model_chatter: bool,
+    ) -> Vec<(f64, f64)> {
+        /// Independent slips in a window (a slip cycle lasts some 20 ms).
+        const SLIPS_PER_WINDOW: f64 = 12.0;
+        let sigma = self.noise_sigma;
+        let meas = self.measured_at_samples(axis);
+        let model = self.at_samples(trace, offset_s);
+        let noise_power = chatter_noise_power(sigma, self.sample_dt_s);
+        chatter_windows(&meas, &model, self.sample_dt_s, sigma)
+            .into_iter()
+            .map(|w| {
+                let pmod = if no_model_chatter { 0.0 } else { w.model_power };
+                let chatter = w.measured_power + pmod;
+                let mean_spread = (sigma * sigma / w.n + chatter / SLIPS_PER_WINDOW)
+                    .sqrt()
+                    .max(1e-30);
+                let power_spread = (chatter + noise_power)
+                    * (2.0 / SLIPS_PER_WINDOW.min(w.n)).sqrt()
+                    + noise_power * (2.0 / w.n).sqrt();
+                (
+                    w.mean_mismatch / mean_spread,
+                    (w.measured_power - pmod) / power_spread.max(1e-30),
+                )
+            })
+            .collect()
+    }
+
+    /// How far the measurement's chatter departs from the model's, in standard deviations
+    /// of its χ²: above a few, the axis is in stick-slip the model does not reproduce, and
+    /// point-by-point comparison means nothing there.
+    pub fn chatter_excess(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> f64 {
+        let w = self.window_statistics(axis, trace, offset_s);
+        let m = w.len() as f64;
+        (w.iter().map(|(_, p)| p * p).sum::<f64>() - m) / (2.0 * m).sqrt()
+    }
+
+    /// How far the measurement's own chatter exceeds its noise, in standard deviations of
+    /// that χ² (the model's chatter taken as none): an axis that chatters stays in the
+    /// statistical domain whatever the model does.
+    pub fn measured_chatter_excess(&self, axis: AxisName, offset_s: f64) -> f64 {
+        let flat: Vec<f64> = vec![0.0; self.commands.len()];
+        let w = self.window_statistics_against(axis, &flat, offset_s, true);
+        let m = w.len() as f64;
+        (w.iter().map(|(_, p)| p * p).sum::<f64>() - m) / (2.0 * m).sqrt()
+    }
+
+    /// Whether the measurement shows the axis sticking: stretches of 10 ms in which it
+    /// stands (its readings spread less than four noise deviations, or a fifth of the
+    /// command's travel) while the command moves on, each ended by a slip, in at least three
+    /// places and a fiftieth of the moving time. Stick-slip chatter is recognised by that,
+    /// not by the spread of positions about a running mean, which any servo oscillation
+    /// has. (A logger that holds each value for several rows also looks like this; the
+    /// trace reader has already read such a record at its true rate.)
+    pub fn sticking_seen(&self, axis: AxisName, offset_s: f64) -> bool {
+        let seen = self.standstills_while_commanded(axis, offset_s);
+        let slipped = seen
+            .stretches
+            .iter()
+            .filter(|s| self.slip_follows(axis, s, offset_s))
+            .count();
+        slipped >= 3 && seen.stuck_samples as f64 >= 0.02 * seen.moving_samples as f64
+    }
+
+    /// The stretches in which the measured axis stands while its command moves.
+    fn standstills_while_commanded(&self, axis: AxisName, offset_s: f64) -> Standstills {
+        const WINDOW_S: f64 = 0.01;
+        let m = self.measured_axis(axis);
+        let span = ((WINDOW_S / self.measured.dt_s).round() as usize).max(2);
+        let sigma = self.noise_sigma;
+        let mut seen = Standstills::default();
+        let mut open: Option<(usize, usize)> = None;
+        for &i in &self.samples {
+            if i + span >= m.len() {
+                break;
+            }
+            let t = self.prog_time(i, offset_s);
+            let travel = (self.command_at(axis, t + WINDOW_S).0 - self.command_at(axis, t).0).abs();
+            let stands = travel >= 6.0 * sigma && {
+                seen.moving_samples += 1;
+                let (lo, hi) = m[i..=i + span]
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                        (l.min(v), h.max(v))
+                    });
+                hi - lo < (4.0 * sigma).max(0.2 * travel)
+            };
+            if stands {
+                seen.stuck_samples += 1;
+                open = Some(open.map_or((i, i + span), |(first, _)| (first, i + span)));
+            } else if let Some(stretch) = open.take() {
+                seen.stretches.push(stretch);
+            }
+        }
+        seen.stretches.extend(open);
+        seen
+    }
+
+    /// Whether a standstill `(first, last)` (measured samples) ends in a slip: within as
+    /// long again (at least 20 ms) the axis gains on its command at least half the lag the
+    /// standstill built — it catches up, as a table does when it breaks loose. Lost motion
+    /// (backlash, a dead time) also stands the axis while the command moves, but the lag it
+    /// builds stays.
+    fn slip_follows(&self, axis: AxisName, &(first, last): &(usize, usize), offset_s: f64) -> bool {
+        let m = self.measured_axis(axis);
+        let dt = self.measured.dt_s;
+        let end = (last + (last - first).max((0.02 / dt).round() as usize)).min(m.len() - 1);
+        let command = |i: usize| self.command_at(axis, self.prog_time(i, offset_s));
+        let direction = command(first).1.signum();
+        let lag = |i: usize| (command(i).0 - m[i]) * direction;
+        let built = lag(last) - lag(first);
+        let recovered = lag(last) - (last..=end).map(lag).fold(f64::INFINITY, f64::min);
+        recovered >= 0.5 * built && recovered > 4.0 * std::f64::consts::SQRT_2 * self.noise_sigma
+    }
+
+    /// Whether the program is in a rapid (or the in-position wait after it) at time `t`.
+    pub(crate) fn in_rapid(&self, t: f64) -> bool {
+        let pc = &self.commands;
+        let k = (t / pc.dt_s)
+            .round()
+            .clamp(0.0, (pc.len().max(1) - 1) as f64) as usize;
+        pc.segment
+            .get(k)
+            .is_some_and(|&s| self.plan.segments[s as usize].motion == Motion::Rapid)
+    }
+
+    /// Commanded position and velocity of an axis at time `t`.
+    pub fn command_at(&self, axis: AxisName, t: f64) -> (f64, f64) {
+        let c = self.commands.axis(axis);
+        (
+            sample(&c.pos_m, self.dt, t),
+            sample(&c.vel_m_per_s, self.dt, t),
+        )
+    }
+}
+
+/// Where a measured axis stood while its command moved.
+#[derive(Default)]
+struct Standstills {
+    /// Compared samples at which the command moved.
+    moving_samples: usize,
+    /// Those at which the axis stood.
+    stuck_samples: usize,
+    /// Each run of standing, as (first, last) measured sample.
+    stretches: Vec<(usize, usize)>,
+}
+
+/// A plan's commands with the settling tail.
+pub(super) fn commands_of(plan: &Plan, settle_s: f64) -> Commands {
+    let mut commands = crate::plan::sample(plan);
+    commands.hold(settle_s);
+    commands
+}
+
+impl Context<'_> {
+    /// Per-axis masks at the residual samples: near a reversal, and near any event
+    /// (reversal or acceleration).
+    pub fn event_masks(
+        &self,
+        axis: AxisName,
+        offset: f64,
+        half_window_s: f64,
+    ) -> (Vec<bool>, Vec<bool>) {
+        let ctx = self;
+        let c = ctx.commands.axis(axis);
+        let n = c.len();
+        let w = (half_window_s / ctx.dt).ceil() as isize;
+        let mut reversal = vec![false; n];
+        let mut event = vec![false; n];
+        let mark = |mask: &mut Vec<bool>, k: usize| {
+            for j in (k as isize - w).max(0)..(k as isize + w).min(n as isize) {
+                mask[j as usize] = true;
+            }
+        };
+        let mut last_sign = 0.0;
+        for k in 0..n {
+            let v = c.vel_m_per_s[k];
+            if v.abs() > 1e-9 {
+                if last_sign != 0.0 && v.signum() != last_sign {
+                    mark(&mut reversal, k);
+                    mark(&mut event, k);
+                }
+                last_sign = v.signum();
+            }
+            if c.acc_m_per_s2[k].abs() > 0.02 {
+                mark(&mut event, k);
+            }
+        }
+        let at = |mask: &[bool]| -> Vec<bool> {
+            ctx.samples
+                .iter()
+                .map(|&i| {
+                    let k = (ctx.prog_time(i, offset) / ctx.dt)
+                        .round()
+                        .clamp(0.0, (n - 1) as f64) as usize;
+                    mask[k]
+                })
+                .collect()
+        };
+        (at(&reversal), at(&event))
+    }
+}

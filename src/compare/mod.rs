@@ -1,0 +1,129 @@
+//! What the diagnosis and the identification share: a measured record placed on the
+//! program's timeline and compared with a model driven by the same commands.
+//!
+//! [`compare`] builds the [`Context`] (the commands that drive the simulation — the
+//! program's plan or the ones the record holds — the record's clock aligned to the
+//! program's, and the samples compared), simulates the nominal machine on it, and
+//! measures the record's noise floor from the residual. [`residual`] holds the figures a
+//! residual is judged by.
+
+mod align;
+pub mod context;
+pub mod residual;
+
+use crate::check::CheckSettings;
+use crate::gcode::Program;
+use crate::machine::{AxisName, MachineConfig};
+use crate::sim::{MeasuredAt, SimError};
+use crate::trace::measured::{MeasuredError, MeasuredTrace};
+
+pub use align::context;
+pub use context::{Context, Stepping};
+
+/// How a record is placed on a program and compared with a model.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CompareSettings {
+    /// Planner and simulator settings.
+    pub check: CheckSettings,
+    /// Measure the control's waits at standstills from the measurement (each stretch between
+    /// standstills matched on its own) and plan with them, for a control whose in-position
+    /// waits or dwells differ from the plan's. On straight strokes between exact stops a
+    /// gain error or dead time then passes in part for a longer wait; a measurement with
+    /// recorded commands needs neither.
+    pub align_stretches: bool,
+    /// How far recorded commands may lie from the programmed geometry (m): blending at
+    /// corners and chords of another interpolator stay within it.
+    pub command_tolerance_m: f64,
+    /// Where the measurement read the axes' positions.
+    pub measured_at: MeasuredAt,
+}
+
+impl CompareSettings {
+    /// Defaults for a machine.
+    pub fn for_machine(machine: &MachineConfig) -> Self {
+        CompareSettings {
+            check: CheckSettings::for_machine(machine),
+            align_stretches: false,
+            command_tolerance_m: 25e-6,
+            measured_at: MeasuredAt::Table,
+        }
+    }
+}
+
+/// Why a record cannot be compared with a program.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CompareError {
+    /// The measured data is unreadable or malformed.
+    #[error("{0}")]
+    Measured(#[from] MeasuredError),
+    /// The measurement does not line up with the program.
+    #[error("{file}: cannot align the measurement with the program: {reason}")]
+    CannotAlign {
+        /// The measurement file.
+        file: String,
+        /// Why.
+        reason: String,
+    },
+    /// The recorded commands leave the program's geometry.
+    #[error(
+        "{file}: the recorded commands leave the program's path by {distance_um:.1} µm at \
+         t = {t_s:.4} s (line {line}); more than the {tolerance_um} µm allowed \
+         (--command-tolerance-um): {hint}"
+    )]
+    OffPath {
+        /// The measurement file.
+        file: String,
+        /// Time on the measurement's clock (s).
+        t_s: f64,
+        /// Source line of the nearest block.
+        line: u32,
+        /// Distance from the programmed geometry (µm).
+        distance_um: f64,
+        /// The tolerance (µm).
+        tolerance_um: f64,
+        /// What the user may try: a work offset the commands show, or a question.
+        hint: String,
+    },
+    /// The nominal model cannot be simulated.
+    #[error("{0}")]
+    Sim(#[from] SimError),
+}
+
+/// A record placed on a program, with the nominal machine's simulation on its timeline.
+#[derive(Clone)]
+pub struct Comparison<'a> {
+    /// The timeline, its samples and the record's noise floor.
+    pub ctx: Context<'a>,
+    /// The record's clock offset against the program's (s).
+    pub offset_s: f64,
+    /// The nominal machine's X and Y traces on the context's commands (m).
+    pub nominal: [Vec<f64>; 2],
+}
+
+/// Places `measured` on `program`, simulates `machine` on it at `stepping` and estimates the
+/// record's noise floor from the residual.
+pub fn compare<'a>(
+    program: &Program,
+    machine: &MachineConfig,
+    measured: &'a MeasuredTrace,
+    settings: &CompareSettings,
+    stepping: Stepping,
+) -> Result<Comparison<'a>, CompareError> {
+    let (mut ctx, offset_s) = context(program, machine, measured, settings)?;
+    ctx.stepping = stepping;
+    let simulate = |a| {
+        ctx.simulate_axis(machine, a)
+            .ok_or_else(|| CompareError::CannotAlign {
+                file: measured.file.clone(),
+                reason: "the nominal machine cannot be simulated".into(),
+            })
+    };
+    let nominal = [simulate(AxisName::X)?, simulate(AxisName::Y)?];
+    let residuals = AxisName::BOTH.map(|a| ctx.residual(a, &nominal[a.index()], offset_s));
+    ctx.noise_sigma = residual::record_noise(&residuals, measured);
+    Ok(Comparison {
+        ctx,
+        offset_s,
+        nominal,
+    })
+}

@@ -1,0 +1,8 @@
+//! The numerical methods the fits share: a bounded least-squares solver with its
+//! forward-difference Jacobian and the uncertainties that follow from it, and a
+//! one-dimensional minimum search. Each is tested here on problems with known answers.
+
+pub mod lsq;
+mod search;
+
+pub use search::golden_section;
