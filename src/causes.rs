@@ -194,7 +194,7 @@ impl CauseId {
 
     /// Why the cause has no meaning on `axis`'s controller, or `None` when it has: a gain
     /// error is the cascade's Kv scaled, and another structure has no Kv.
-    pub fn inapplicable_to(self, axis: &AxisConfig) -> Option<&'static str> {
+    pub(crate) fn inapplicable_to(self, axis: &AxisConfig) -> Option<&'static str> {
         let linear_motor = axis.drive.kind == crate::machine::DriveKind::LinearMotor;
         match self {
             CauseId::KvGain if !axis.controller.is_cascade() => Some(
@@ -210,7 +210,7 @@ impl CauseId {
 
     /// Why a measurement at `point` cannot see the cause on an axis with `feedback`, or
     /// `None` when it can.
-    pub fn unseen_at(self, point: MeasuredAt, feedback: Feedback) -> Option<&'static str> {
+    pub(crate) fn unseen_at(self, point: MeasuredAt, feedback: Feedback) -> Option<&'static str> {
         match (point, self) {
             (MeasuredAt::Motor, CauseId::Backlash) => {
                 Some("the gap lies between the motor and the table, beyond the motor encoder")
@@ -234,19 +234,8 @@ impl CauseId {
         }
     }
 
-    /// Parses a cause id as written on the command line.
-    pub fn parse(text: &str) -> Result<CauseId, String> {
-        CauseId::ALL
-            .into_iter()
-            .find(|c| c.as_str() == text.trim())
-            .ok_or_else(|| {
-                let names: Vec<&str> = CauseId::ALL.iter().map(|c| c.as_str()).collect();
-                format!("unknown cause '{text}' (one of {})", names.join(", "))
-            })
-    }
-
     /// Whether the cause acts at reversals only (its residual lives in windows around them).
-    pub fn is_local(self) -> bool {
+    pub(crate) fn is_local(self) -> bool {
         matches!(
             self,
             CauseId::Backlash | CauseId::CoulombFriction | CauseId::Stribeck | CauseId::Resonance
@@ -317,7 +306,7 @@ pub fn set(axis: &mut AxisConfig, key: &str, v: f64) {
 }
 
 /// Applies a cause with parameter values (clamped to their ranges) to an axis.
-pub fn apply(axis: &mut AxisConfig, cause: CauseId, values: &[f64]) {
+pub(crate) fn apply(axis: &mut AxisConfig, cause: CauseId, values: &[f64]) {
     for (p, &v) in cause.params().iter().zip(values) {
         set(axis, p.key, v.clamp(p.min, p.max));
     }
@@ -341,12 +330,12 @@ pub struct Kinematics<'a> {
 
 impl Kinematics<'_> {
     /// The direction the other axis last travelled (±1, 0 before it moved), per sample.
-    pub fn other_direction(&self) -> Vec<f64> {
+    pub(crate) fn other_direction(&self) -> Vec<f64> {
         travel_directions(self.other_pos_m)
     }
 
     /// The direction this axis last travelled, per sample.
-    pub fn own_direction(&self) -> Vec<f64> {
+    pub(crate) fn own_direction(&self) -> Vec<f64> {
         travel_directions(self.pos_m)
     }
 }

@@ -34,7 +34,7 @@ pub struct CheckSettings {
 
 impl CheckSettings {
     /// The execution settings within these.
-    pub fn exec(&self) -> ExecConfig {
+    pub(crate) fn exec(&self) -> ExecConfig {
         ExecConfig {
             sim: self.sim,
             settle_s: self.settle_s,
@@ -123,7 +123,7 @@ pub fn check_in_chunks<E: From<SimError>>(
 }
 
 /// [`check_in_chunks`] from the plan on.
-pub fn check_planned<E: From<SimError>>(
+pub(crate) fn check_planned<E: From<SimError>>(
     planned: Plan,
     machine: &MachineConfig,
     settings: &CheckSettings,
@@ -142,7 +142,7 @@ pub fn check_planned<E: From<SimError>>(
 /// as the planner estimates them (a first-order position loop). This is the timeline
 /// `diagnose` fits on: it moves continuously with the gains, where simulated waits move in
 /// whole interpolation cycles and would make a fit's objective a staircase.
-pub fn plan_commands(
+pub(crate) fn plan_commands(
     program: &Program,
     machine: &MachineConfig,
     settings: &CheckSettings,

@@ -76,7 +76,7 @@ const MAX_CYCLES_STREAMED: f64 = 1.0e8;
 
 /// Refuses a plan whose run would be held whole and not fit in memory, naming the block that
 /// takes longest.
-pub fn check_run_length(plan: &Plan) -> Result<(), SimError> {
+pub(crate) fn check_run_length(plan: &Plan) -> Result<(), SimError> {
     check_cycles(
         plan,
         MAX_CYCLES_HELD,
@@ -113,7 +113,7 @@ fn check_cycles(plan: &Plan, max_cycles: f64, why: &'static str) -> Result<(), S
 /// it: memory stays bounded however long the program runs. `progress` is told how many
 /// samples of either axis are done, now and then. Returns the plan re-timed with the
 /// simulated waits.
-pub fn execute_in_chunks<E: From<SimError>>(
+pub(crate) fn execute_in_chunks<E: From<SimError>>(
     mut plan: Plan,
     machine: &MachineConfig,
     config: &ExecConfig,
@@ -148,13 +148,11 @@ pub fn execute_in_chunks<E: From<SimError>>(
         // end, so that the end point is reached; otherwise the wait begins there.
         let k_end = (t_end / dt).ceil() as usize + usize::from(at_program_end);
         let mut sampler = Sampler::new(&plan, first, last);
-        while buffer.next() < k_end {
-            let upto = (buffer.first + CHUNK_SAMPLES).clamp(buffer.next() + 1, k_end);
-            buffer.sample_and_follow(&mut sampler, upto, &mut runs, progress, &plan)?;
-            if buffer.is_full() {
-                buffer.hand_on(&mut runs, &plan, sink)?;
-            }
-        }
+        let axes = Axes {
+            runs: &mut runs,
+            progress,
+        };
+        buffer.run_until(k_end, &mut sampler, axes, &plan, sink)?;
         // The program's end is an exact stop too: the control reports it done when the
         // axes are in position.
         let Some(window_m) = window_m else {
@@ -184,16 +182,20 @@ pub fn execute_in_chunks<E: From<SimError>>(
         // axes settle.
         let mut holder = Sampler::new(&plan, n - 1, n - 1);
         let k_settle = buffer.next() + (config.settle_s / dt).ceil() as usize;
-        while buffer.next() < k_settle {
-            let upto = (buffer.first + CHUNK_SAMPLES).clamp(buffer.next() + 1, k_settle);
-            buffer.sample_and_follow(&mut holder, upto, &mut runs, progress, &plan)?;
-            if buffer.is_full() {
-                buffer.hand_on(&mut runs, &plan, sink)?;
-            }
-        }
+        let axes = Axes {
+            runs: &mut runs,
+            progress,
+        };
+        buffer.run_until(k_settle, &mut holder, axes, &plan, sink)?;
     }
     buffer.hand_on(&mut runs, &plan, sink)?;
     Ok(plan)
+}
+
+/// The simulated axes and the progress callback they report to.
+struct Axes<'r, 'a, 'p> {
+    runs: &'r mut [AxisRun<'a>; 2],
+    progress: &'p (dyn Fn(u64) + Sync),
 }
 
 /// The commands of the chunk being run: samples `first..first + commands.len()`.
@@ -247,6 +249,26 @@ impl Buffer {
 
     /// Hands the samples so far on to `sink` with the axes' traces of them, and starts
     /// the next chunk empty.
+    /// Samples `sampler` and simulates the axes up to sample `k_end`, handing each full
+    /// chunk on to `sink`.
+    fn run_until<E: From<SimError>>(
+        &mut self,
+        k_end: usize,
+        sampler: &mut Sampler,
+        axes: Axes,
+        plan: &Plan,
+        sink: &mut dyn FnMut(RunChunk<'_>) -> Result<(), E>,
+    ) -> Result<(), E> {
+        while self.next() < k_end {
+            let upto = (self.first + CHUNK_SAMPLES).clamp(self.next() + 1, k_end);
+            self.sample_and_follow(sampler, upto, axes.runs, axes.progress, plan)?;
+            if self.is_full() {
+                self.hand_on(axes.runs, plan, sink)?;
+            }
+        }
+        Ok(())
+    }
+
     fn hand_on<E>(
         &mut self,
         runs: &mut [AxisRun; 2],

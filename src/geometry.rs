@@ -63,7 +63,7 @@ impl CrossTerms {
     }
 
     /// Whether there are none.
-    pub fn is_zero(&self) -> bool {
+    pub(crate) fn is_zero(&self) -> bool {
         self.squareness_rad == 0.0
             && self.bow_m == 0.0
             && self.map.is_empty()
@@ -81,7 +81,7 @@ impl CrossTerms {
     }
 
     /// The position map at `p` (m).
-    pub fn map_at(&self, p: f64) -> f64 {
+    pub(crate) fn map_at(&self, p: f64) -> f64 {
         self.map.at(p)
     }
 
@@ -141,7 +141,7 @@ impl ToolReader {
     }
 
     /// Whether the tool reads just what the scales do.
-    pub fn is_zero(&self) -> bool {
+    pub(crate) fn is_zero(&self) -> bool {
         self.terms.iter().all(CrossTerms::is_zero)
     }
 
@@ -160,7 +160,7 @@ impl ToolReader {
 }
 
 /// Both axes' positions at the tool from their positions at the scales.
-pub fn to_tool(machine: &MachineConfig, x: &mut [f64], y: &mut [f64]) {
+pub(crate) fn to_tool(machine: &MachineConfig, x: &mut [f64], y: &mut [f64]) {
     let mut reader = ToolReader::new(machine);
     if reader.is_zero() {
         return;

@@ -168,7 +168,7 @@ impl Arc {
     }
 
     /// XY point at parameter u.
-    pub fn xy_at(&self, u: f64) -> [f64; 2] {
+    pub(crate) fn xy_at(&self, u: f64) -> [f64; 2] {
         let r = self.r_start_m + self.dr() * u;
         let th = self.theta_start_rad + self.sweep_rad * u;
         [
@@ -178,17 +178,17 @@ impl Arc {
     }
 
     /// Radius at parameter u (m).
-    pub fn radius_at(&self, u: f64) -> f64 {
+    pub(crate) fn radius_at(&self, u: f64) -> f64 {
         self.r_start_m + self.dr() * u
     }
 
     /// Smallest radius along the arc (m).
-    pub fn min_radius_m(&self) -> f64 {
+    pub(crate) fn min_radius_m(&self) -> f64 {
         self.r_start_m.min(self.r_end_m)
     }
 
     /// Length of the XY projection (m).
-    pub fn xy_length_m(&self) -> f64 {
+    pub(crate) fn xy_length_m(&self) -> f64 {
         self.length_to(1.0, 0.0)
     }
 
@@ -253,7 +253,7 @@ impl Segment {
     }
 
     /// Length of the XY projection (m).
-    pub fn xy_length_m(&self) -> f64 {
+    pub(crate) fn xy_length_m(&self) -> f64 {
         match self.geometry {
             Geometry::Line => {
                 (self.end_m[0] - self.start_m[0]).hypot(self.end_m[1] - self.start_m[1])
@@ -264,7 +264,7 @@ impl Segment {
     }
 
     /// True for dwells.
-    pub fn is_dwell(&self) -> bool {
+    pub(crate) fn is_dwell(&self) -> bool {
         matches!(self.geometry, Geometry::Dwell { .. })
     }
 
@@ -353,23 +353,23 @@ impl Segment {
     }
 
     /// Unit tangent at the start (zero for dwells and null moves).
-    pub fn start_tangent(&self) -> [f64; 3] {
+    pub(crate) fn start_tangent(&self) -> [f64; 3] {
         self.eval(0.0, self.length_m()).tangent
     }
 
     /// Unit tangent at the end.
-    pub fn end_tangent(&self) -> [f64; 3] {
+    pub(crate) fn end_tangent(&self) -> [f64; 3] {
         let l = self.length_m();
         self.eval(l, l).tangent
     }
 
     /// Curvature vector at the start (1/m).
-    pub fn start_curvature(&self) -> [f64; 3] {
+    pub(crate) fn start_curvature(&self) -> [f64; 3] {
         self.eval(0.0, self.length_m()).curvature
     }
 
     /// Curvature vector at the end (1/m).
-    pub fn end_curvature(&self) -> [f64; 3] {
+    pub(crate) fn end_curvature(&self) -> [f64; 3] {
         let l = self.length_m();
         self.eval(l, l).curvature
     }
@@ -479,17 +479,17 @@ fn arc_param_near(a: &Arc, ang: f64, u_hint: f64) -> f64 {
 }
 
 /// Euclidean distance between two points.
-pub fn dist3(a: [f64; 3], b: [f64; 3]) -> f64 {
+pub(crate) fn dist3(a: [f64; 3], b: [f64; 3]) -> f64 {
     norm3([b[0] - a[0], b[1] - a[1], b[2] - a[2]])
 }
 
 /// Euclidean norm.
-pub fn norm3(v: [f64; 3]) -> f64 {
+pub(crate) fn norm3(v: [f64; 3]) -> f64 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
 /// Dot product.
-pub fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
+pub(crate) fn dot3(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 

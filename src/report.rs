@@ -389,34 +389,42 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
         s.push_str(&r.circular_test.text());
     }
     if !r.hotspots.is_empty() {
-        let _ = writeln!(s, "\nhotspots (largest first)");
-        // The program's own block numbers beside the file's lines, where it gives them.
-        let numbered = r.hotspots.iter().any(|h| h.block_number.is_some());
+        s.push_str(&hotspot_table(r, max_hotspots));
+    }
+    s
+}
+
+/// The hotspot table: the largest `max_hotspots`, with the program's own block numbers
+/// beside the file's lines where it gives them.
+fn hotspot_table(r: &CheckReport, max_hotspots: usize) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(s, "\nhotspots (largest first)");
+    let numbered = r.hotspots.iter().any(|h| h.block_number.is_some());
+    let _ = writeln!(
+        s,
+        "  rank  line{}   time (s)     X (mm)     Y (mm)   error (µm)  spike (µm)  cause",
+        if numbered { "  block" } else { "" }
+    );
+    for h in r.hotspots.iter().take(max_hotspots) {
+        let hs = &h.hotspot;
+        let block = match (numbered, h.block_number) {
+            (false, _) => String::new(),
+            (true, Some(n)) => format!("  {:>5}", format!("N{n}")),
+            (true, None) => format!("  {:>5}", ""),
+        };
         let _ = writeln!(
             s,
-            "  rank  line{}   time (s)     X (mm)     Y (mm)   error (µm)  spike (µm)  cause",
-            if numbered { "  block" } else { "" }
+            "  {:>4}  {:>4}{block}  {:>9.3}  {:>9.3}  {:>9.3}  {:>11.2}  {:>10.2}  {}",
+            h.rank, hs.line, hs.t_s, hs.x_mm, hs.y_mm, hs.error_um, hs.excess_um, h.label
         );
-        for h in r.hotspots.iter().take(max_hotspots) {
-            let hs = &h.hotspot;
-            let block = match (numbered, h.block_number) {
-                (false, _) => String::new(),
-                (true, Some(n)) => format!("  {:>5}", format!("N{n}")),
-                (true, None) => format!("  {:>5}", ""),
-            };
-            let _ = writeln!(
-                s,
-                "  {:>4}  {:>4}{block}  {:>9.3}  {:>9.3}  {:>9.3}  {:>11.2}  {:>10.2}  {}",
-                h.rank, hs.line, hs.t_s, hs.x_mm, hs.y_mm, hs.error_um, hs.excess_um, h.label
-            );
-        }
-        if r.hotspots.len() > max_hotspots {
-            let _ = writeln!(
-                s,
-                "  … {} more (--json lists them all)",
-                r.hotspots.len() - max_hotspots
-            );
-        }
+    }
+    if r.hotspots.len() > max_hotspots {
+        let _ = writeln!(
+            s,
+            "  … {} more (--json lists them all)",
+            r.hotspots.len() - max_hotspots
+        );
     }
     s
 }

@@ -38,24 +38,74 @@ pub struct Dimension {
     pub values: Vec<f64>,
 }
 
+/// What is wrong with a sweep's key or values as the user wrote them.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SweepInputError {
+    /// A value that does not read as a number.
+    #[error("'{0}' is not a number")]
+    NotANumber(String),
+    /// A range that is not `from:to:step` with from ≤ to and a positive step, or too long.
+    #[error("'{text}': {problem}")]
+    BadRange {
+        /// The range as written.
+        text: String,
+        /// What is wrong.
+        problem: &'static str,
+    },
+    /// A key without its axis.
+    #[error("'{0}': name a key as axis.key, e.g. x.backlash_um")]
+    NoAxis(String),
+    /// A key no machine has.
+    #[error(
+        "'{key}': no numeric key of that name in a machine (docs/machine-keys.md lists them){hint}"
+    )]
+    UnknownKey {
+        /// The key as written.
+        key: String,
+        /// " — did you mean `…`?", or empty.
+        hint: String,
+    },
+    /// A leaf that names several keys of the axis.
+    #[error("'{key}' is ambiguous: {}", .candidates.join(", "))]
+    Ambiguous {
+        /// The key as written.
+        key: String,
+        /// The full keys it could be.
+        candidates: Vec<String>,
+    },
+    /// A key this machine cannot take: its section is absent or its controller does not
+    /// read it.
+    #[error("'{key}' {reason}")]
+    NotSettable {
+        /// The full key.
+        key: String,
+        /// Why.
+        reason: keys::SetError,
+    },
+}
+
 /// Parses `a:b:step`, `a,b,c` or a single number.
-pub fn parse_range(text: &str) -> Result<Vec<f64>, String> {
+pub fn parse_range(text: &str) -> Result<Vec<f64>, SweepInputError> {
     let num = |s: &str| {
         s.trim()
             .parse::<f64>()
-            .map_err(|_| format!("'{s}' is not a number"))
+            .map_err(|_| SweepInputError::NotANumber(s.to_string()))
+    };
+    let bad = |problem| SweepInputError::BadRange {
+        text: text.to_string(),
+        problem,
     };
     let values = if let Some((from, rest)) = text.split_once(':') {
         let (to, step) = rest
             .split_once(':')
-            .ok_or_else(|| format!("'{text}': a range is from:to:step"))?;
+            .ok_or_else(|| bad("a range is from:to:step"))?;
         let (a, b, s) = (num(from)?, num(to)?, num(step)?);
         if !(s > 0.0 && s.is_finite()) || b < a {
-            return Err(format!("'{text}': needs from ≤ to and a positive step"));
+            return Err(bad("needs from ≤ to and a positive step"));
         }
         let n = ((b - a) / s + 1e-9).floor() as usize;
         if n > 10_000 {
-            return Err(format!("'{text}': more than 10000 values"));
+            return Err(bad("more than 10000 values"));
         }
         // Snapped to the step's decimals, so that 0.7 + 5 × 0.1 reads 1.2.
         let decimals = 10f64.powi(12 - s.abs().log10().floor() as i32).min(1e15);
@@ -66,7 +116,7 @@ pub fn parse_range(text: &str) -> Result<Vec<f64>, String> {
         text.split(',').map(num).collect::<Result<Vec<_>, _>>()?
     };
     if values.iter().any(|v| !v.is_finite()) {
-        return Err(format!("'{text}': values must be finite"));
+        return Err(bad("values must be finite"));
     }
     Ok(values)
 }
@@ -75,11 +125,11 @@ pub fn parse_range(text: &str) -> Result<Vec<f64>, String> {
 /// ([`crate::machine::keys`]): either already full (`x.drive.backlash_um`) or a leaf unique
 /// within the axis (`x.backlash_um`). A key the machine does not have, or whose axis's
 /// controller does not read it, is refused with what was likely meant.
-pub fn resolve_key(machine: &MachineConfig, key: &str) -> Result<String, String> {
+pub fn resolve_key(machine: &MachineConfig, key: &str) -> Result<String, SweepInputError> {
     let paths = keys::machine_paths();
     let (part, leaf) = key
         .split_once('.')
-        .ok_or_else(|| format!("'{key}': name a key as axis.key, e.g. x.backlash_um"))?;
+        .ok_or_else(|| SweepInputError::NoAxis(key.to_string()))?;
     let full = if paths.iter().any(|p| p == key) {
         key.to_string()
     } else {
@@ -94,33 +144,40 @@ pub fn resolve_key(machine: &MachineConfig, key: &str) -> Result<String, String>
         match found.as_slice() {
             [one] => one.to_string(),
             [] => {
-                let near = paths
+                let hint = paths
                     .iter()
                     .map(|p| (strsim::jaro_winkler(p, key), p))
                     .max_by(|a, b| a.0.total_cmp(&b.0))
                     .filter(|(score, _)| *score > 0.85)
                     .map(|(_, p)| format!(" — did you mean `{p}`?"))
                     .unwrap_or_default();
-                return Err(format!(
-                    "'{key}': no numeric key of that name in a machine (docs/machine-keys.md \
-                     lists them){near}"
-                ));
+                return Err(SweepInputError::UnknownKey {
+                    key: key.to_string(),
+                    hint,
+                });
             }
             many => {
-                let names: Vec<&str> = many.iter().map(|s| s.as_str()).collect();
-                return Err(format!("'{key}' is ambiguous: {}", names.join(", ")));
+                return Err(SweepInputError::Ambiguous {
+                    key: key.to_string(),
+                    candidates: many.iter().map(|s| s.to_string()).collect(),
+                });
             }
         }
     };
     // Refused here rather than at every grid point.
     let mut probe = machine.clone();
     let value = keys::get_on_machine(machine, &full).unwrap_or(1.0);
-    keys::set_on_machine(&mut probe, &full, value).map_err(|e| format!("'{full}' {e}"))?;
+    keys::set_on_machine(&mut probe, &full, value).map_err(|reason| {
+        SweepInputError::NotSettable {
+            key: full.clone(),
+            reason,
+        }
+    })?;
     Ok(full)
 }
 
 /// The machine with `keys` set to `value`, validated as a machine file is.
-pub fn with_values(
+pub(crate) fn with_values(
     machine: &MachineConfig,
     settings: &[(&[String], f64)],
 ) -> Result<MachineConfig, ConfigError> {
@@ -196,7 +253,7 @@ pub struct SweepPoint {
 impl SweepPoint {
     /// The ranking key: healthy settings by their largest contour error, then the poorly
     /// damped ones by theirs, then the unstable and invalid ones.
-    pub fn rank_key(&self) -> (u8, f64) {
+    pub(crate) fn rank_key(&self) -> (u8, f64) {
         match &self.result {
             PointResult::Ok {
                 metrics,

@@ -303,7 +303,7 @@ pub fn start_up(
 
 /// The paper's Fig. 20 input: x = R·sin(t/18 s) with R = 300 mm (a circle's axis at
 /// 1000 mm/min), reversing at t = 9π ≈ 28.3 s.
-pub fn fig20_commands(dt_s: f64, duration_s: f64) -> AxisCommands {
+pub(crate) fn fig20_commands(dt_s: f64, duration_s: f64) -> AxisCommands {
     let (r, w) = (0.3, 1.0 / 18.0);
     let n = (duration_s / dt_s).round() as usize + 1;
     let mut c = AxisCommands::default();

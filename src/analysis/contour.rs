@@ -58,7 +58,7 @@ impl ContourSeries {
 /// Whether a segment is part of the XY contour: a feed move that moves X or Y. A dwell, or
 /// a move of Z alone (a plunge), has no contour: the XY error there is a positioning error,
 /// reported apart.
-pub fn is_contour(seg: &Segment) -> bool {
+pub(crate) fn is_contour(seg: &Segment) -> bool {
     let moves_xy = match seg.geometry {
         Geometry::Dwell { .. } => false,
         Geometry::Arc(_) => true,

@@ -135,7 +135,7 @@ pub struct HotspotConfig {
 
 impl HotspotConfig {
     /// Defaults for a position-loop gain `kv_per_s` (1/s).
-    pub fn for_kv(kv_per_s: f64) -> Self {
+    pub(crate) fn for_kv(kv_per_s: f64) -> Self {
         HotspotConfig {
             before_s: 0.02,
             after_s: 5.0 / kv_per_s,

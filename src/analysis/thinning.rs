@@ -61,7 +61,7 @@ impl<T: Copy> PeakThinned<T> {
     }
 
     /// The kept points, the last stretch's included even if incomplete.
-    pub fn into_points(mut self) -> Vec<T> {
+    pub(crate) fn into_points(mut self) -> Vec<T> {
         self.points.extend(self.pending.take().map(|(p, _)| p));
         self.points
     }

@@ -6,6 +6,7 @@ use clap::Args;
 
 use super::Outcome;
 use super::common::{AxisArg, CliError, MachineArgs, write_plots_into};
+use crate::machine::{AxisConfig, AxisName};
 use crate::plot::bode::{BodeCurve, BodePlot};
 use crate::sim::AxisModel;
 use crate::sim::linear;
@@ -34,10 +35,33 @@ pub fn run(args: &BodeArgs) -> Result<Outcome, CliError> {
     println!(
         "loop       crossover  phase margin  closed −3 dB  closed −10°  gain at crossover/100"
     );
+    print_loop_table(&model);
+    print_least_damped(&model, config, args.axis.axis);
+    // The figures of an unstable loop are shown (they tell where it went wrong), but the
+    // setting is an error.
+    linear::check_stable(&model).map_err(|e| e.on_axis(args.axis.axis.letter(), None))?;
+    if let Some(path) = &args.plot {
+        let freqs = linear::log_space(0.1, 10_000.0, 60);
+        let curves = linear::loops(&model)
+            .into_iter()
+            .map(|l| BodeCurve {
+                label: format!("{} loop", l.name()),
+                points: linear::bode(&model, l, &freqs, false),
+            })
+            .collect();
+        let title = format!("Closed loops, {} axis of {}", args.axis.axis, machine.name);
+        let stem = format!("bode-{}", args.axis.axis.as_str());
+        write_plots_into(path, &stem, &BodePlot { title, curves })?;
+    }
+    Ok(Outcome::Ok)
+}
+
+/// Each loop's crossover, phase margin, closed-loop bandwidths and low-frequency gain.
+fn print_loop_table(model: &AxisModel) {
     let mut missing = false;
-    for l in linear::loops(&model) {
-        let f = linear::loop_figures(&model, l);
-        let low = linear::closed_loop(&model, l, f.crossover_hz / 100.0);
+    for l in linear::loops(model) {
+        let f = linear::loop_figures(model, l);
+        let low = linear::closed_loop(model, l, f.crossover_hz / 100.0);
         let mut cell = |v: f64, width: usize, decimals: usize, unit: &str| {
             if v.is_finite() {
                 // Slow loops (a tiny Kv) keep their significant digits.
@@ -62,7 +86,12 @@ pub fn run(args: &BodeArgs) -> Result<Outcome, CliError> {
     if missing {
         println!("— : the loop does not reach that point between 0.1 mHz and 100 kHz");
     }
-    if let Some(m) = linear::least_damped(&model) {
+}
+
+/// The least damped closed-loop mode and, where it grows, why the margins miss it and the
+/// gain that would be stable.
+fn print_least_damped(model: &AxisModel, config: &AxisConfig, axis: AxisName) {
+    if let Some(m) = linear::least_damped(model) {
         println!(
             "least damped closed-loop mode: {:.1} Hz, damping ratio {:.3}",
             m.frequency_hz, m.damping
@@ -80,27 +109,10 @@ pub fn run(args: &BodeArgs) -> Result<Outcome, CliError> {
                 println!(
                     "  With the other settings held, {}.position_loop.kv_m_per_min_per_mm (here \
                      {}) is stable below {kv_max:.3} m/min/mm.",
-                    args.axis.axis.as_str(),
+                    axis.as_str(),
                     config.position_loop.kv_m_per_min_per_mm
                 );
             }
         }
     }
-    // The figures of an unstable loop are shown (they tell where it went wrong), but the
-    // setting is an error.
-    linear::check_stable(&model).map_err(|e| e.on_axis(args.axis.axis.letter(), None))?;
-    if let Some(path) = &args.plot {
-        let freqs = linear::log_space(0.1, 10_000.0, 60);
-        let curves = linear::loops(&model)
-            .into_iter()
-            .map(|l| BodeCurve {
-                label: format!("{} loop", l.name()),
-                points: linear::bode(&model, l, &freqs, false),
-            })
-            .collect();
-        let title = format!("Closed loops, {} axis of {}", args.axis.axis, machine.name);
-        let stem = format!("bode-{}", args.axis.axis.as_str());
-        write_plots_into(path, &stem, &BodePlot { title, curves })?;
-    }
-    Ok(Outcome::Ok)
 }

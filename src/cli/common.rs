@@ -311,7 +311,9 @@ impl TraceArgs {
             (Some(text), _) => Some(
                 ColumnMap::parse(text).map_err(|e| CliError::Usage(format!("--columns: {e}")))?,
             ),
-            (None, Some(profile)) => Some(TraceProfile::load(profile).map_err(CliError::Usage)?),
+            (None, Some(profile)) => {
+                Some(TraceProfile::load(profile).map_err(|e| CliError::Usage(e.to_string()))?)
+            }
             (None, None) => None,
         };
         let trace = crate::trace::measured::read_trace_with(path, map.as_ref())?;

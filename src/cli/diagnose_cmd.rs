@@ -15,10 +15,11 @@ use crate::cli::output::OutputBatch;
 use crate::diagnose::report::{DiagnoseReport, machine_file};
 use crate::diagnose::table::diagnose_table;
 use crate::diagnose::{DiagnoseSettings, Diagnosis, diagnose_validated};
+use crate::machine::MachineConfig;
 use crate::plot::panels::{Curve, Panel, PanelsPlot};
 use crate::plot::polar::{PolarPlot, PolarTrace};
 use crate::sim::MeasuredAt;
-use crate::trace::measured::read_table;
+use crate::trace::measured::{MeasuredTrace, read_table};
 use crate::units::{m_from_um, mm_from_m, um_from_m};
 
 /// Arguments of `diagnose`.
@@ -119,8 +120,24 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
     let program = program_or_commands_path(args.program.as_deref(), &measured, &machine)?;
     warn_beyond_machine(&measured, &machine);
     let validation = second.first().map(read).transpose()?;
-    let mut settings = DiagnoseSettings::for_machine(&machine);
-    settings.compare.check.plan = args.planning.config(&machine)?;
+    let settings = settings_of(args, &machine)?;
+    let bar = spinner("fitting causes");
+    let d = diagnose_validated(
+        &program,
+        &machine,
+        &measured,
+        validation.as_ref(),
+        &settings,
+    )?;
+    bar.finish_and_clear();
+    write_outputs(args, &d, &program.file, &measured, &machine)?;
+    Ok(Outcome::Ok)
+}
+
+/// The diagnosis's settings from the flags.
+fn settings_of(args: &DiagnoseArgs, machine: &MachineConfig) -> Result<DiagnoseSettings, CliError> {
+    let mut settings = DiagnoseSettings::for_machine(machine);
+    settings.compare.check.plan = args.planning.config(machine)?;
     settings.max_causes = args.max_causes;
     settings.evidence = args.evidence;
     settings.compare.align_stretches = args.align_stretches;
@@ -138,23 +155,25 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
         )));
     }
     settings.compare.command_tolerance_m = m_from_um(args.command_tolerance_um);
-    let bar = spinner("fitting causes");
-    let d = diagnose_validated(
-        &program,
-        &machine,
-        &measured,
-        validation.as_ref(),
-        &settings,
-    )?;
-    bar.finish_and_clear();
-    let program_file = program.file.clone();
-    let report = DiagnoseReport::new(&d, &program_file, &measured, &machine);
+    Ok(settings)
+}
+
+/// Writes what the flags ask for (whole or not at all), then prints the summary and what
+/// was written.
+fn write_outputs(
+    args: &DiagnoseArgs,
+    d: &Diagnosis,
+    program_file: &str,
+    measured: &MeasuredTrace,
+    machine: &MachineConfig,
+) -> Result<(), CliError> {
+    let report = DiagnoseReport::new(d, program_file, measured, machine);
     let mut batch = OutputBatch::new();
     if let Some(path) = &args.json {
         batch.stage(path, |w| report.write_json(w))?;
     }
     if let Some(path) = &args.write_machine {
-        let text = machine_file(&d.machine, &d, &program_file, &measured.file);
+        let text = machine_file(&d.machine, d, program_file, &measured.file);
         batch.stage(path, |w| w.write_all(text.as_bytes()))?;
     }
     let mut compensation_note = None;
@@ -166,7 +185,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
             path: dir.display().to_string(),
             message: e.to_string(),
         })?;
-        stage_plots(&mut batch, dir, &d, &program_file)?;
+        stage_plots(&mut batch, dir, d, program_file)?;
     }
     let written = batch.destinations();
     batch.commit()?;
@@ -177,7 +196,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
     for path in written {
         println!("wrote {}", path.display());
     }
-    Ok(Outcome::Ok)
+    Ok(())
 }
 
 /// Stages the compensation tables of `machine` into `dir`; says what was written.

@@ -87,32 +87,7 @@ pub fn run(args: &StickSlipArgs) -> Result<Outcome, CliError> {
         None => println!("critical stick-slip velocity: not bracketed by these feeds"),
     }
     if let Some(path) = &args.plot {
-        // A short window from the second half, where the criterion counts slips: over the
-        // whole run µm steps would vanish in mm of travel.
-        let window_s = 0.5f64.min(0.5 * args.duration);
-        let curves = runs
-            .iter()
-            .map(|r| {
-                let first = ((2.0 / 3.0 * args.duration) / r.dt_s) as usize;
-                let last = (first + (window_s / r.dt_s) as usize).min(r.position_m.len() - 1);
-                let origin = r.feed_m_per_s * first as f64 * r.dt_s;
-                let pts = |f: &dyn Fn(usize) -> f64| -> Vec<(f64, f64)> {
-                    (first..=last)
-                        .map(|k| (k as f64 * r.dt_s, f(k) - um_from_m(origin)))
-                        .collect()
-                };
-                StickSlipCurve {
-                    label: format!(
-                        "{:.2} mm/min — {} (largest slip {:.2} µm)",
-                        mm_per_min_from_m_per_s(r.feed_m_per_s),
-                        r.verdict(),
-                        um_from_m(r.max_counted_slip_m)
-                    ),
-                    table_um: pts(&|k| um_from_m(r.position_m[k])),
-                    command_um: pts(&|k| um_from_m(r.feed_m_per_s * k as f64 * r.dt_s)),
-                }
-            })
-            .collect();
+        let (window_s, curves) = plot_curves(&runs, args.duration);
         let title = format!(
             "Stick-slip, {} axis of {}: displacement over {window_s} s of the run's last third",
             args.axis.axis, machine.name
@@ -121,4 +96,35 @@ pub fn run(args: &StickSlipArgs) -> Result<Outcome, CliError> {
         write_plots_into(path, &stem, &StickSlipPlot { title, curves })?;
     }
     Ok(Outcome::Ok)
+}
+
+/// A short window from each run's second half, where the criterion counts slips (over the
+/// whole run µm steps would vanish in mm of travel): its length (s) and each run's table and
+/// command displacement over it (µm).
+fn plot_curves(runs: &[stickslip::StickSlipRun], duration_s: f64) -> (f64, Vec<StickSlipCurve>) {
+    let window_s = 0.5f64.min(0.5 * duration_s);
+    let curves = runs
+        .iter()
+        .map(|r| {
+            let first = ((2.0 / 3.0 * duration_s) / r.dt_s) as usize;
+            let last = (first + (window_s / r.dt_s) as usize).min(r.position_m.len() - 1);
+            let origin = r.feed_m_per_s * first as f64 * r.dt_s;
+            let pts = |f: &dyn Fn(usize) -> f64| -> Vec<(f64, f64)> {
+                (first..=last)
+                    .map(|k| (k as f64 * r.dt_s, f(k) - um_from_m(origin)))
+                    .collect()
+            };
+            StickSlipCurve {
+                label: format!(
+                    "{:.2} mm/min — {} (largest slip {:.2} µm)",
+                    mm_per_min_from_m_per_s(r.feed_m_per_s),
+                    r.verdict(),
+                    um_from_m(r.max_counted_slip_m)
+                ),
+                table_um: pts(&|k| um_from_m(r.position_m[k])),
+                command_um: pts(&|k| um_from_m(r.feed_m_per_s * k as f64 * r.dt_s)),
+            }
+        })
+        .collect();
+    (window_s, curves)
 }

@@ -109,7 +109,7 @@ fn dimensions(
             let values = if name == "ff" {
                 on_off(range)?
             } else {
-                sweep::parse_range(range).map_err(usage)?
+                sweep::parse_range(range).map_err(|e| usage(e.to_string()))?
             };
             let prefixes = axis_prefixes(&axis)?;
             dims.push(Dimension {
@@ -128,12 +128,15 @@ fn dimensions(
             .ok_or_else(|| usage(format!("--set {item}: name the axis, e.g. x.{key}")))?;
         let keys = axis_prefixes(axis)?
             .iter()
-            .map(|p| sweep::resolve_key(machine, &format!("{p}.{rest}")).map_err(usage))
+            .map(|p| {
+                sweep::resolve_key(machine, &format!("{p}.{rest}"))
+                    .map_err(|e| usage(e.to_string()))
+            })
             .collect::<Result<Vec<_>, _>>()?;
         dims.push(Dimension {
             name: key.to_string(),
             keys,
-            values: sweep::parse_range(range).map_err(usage)?,
+            values: sweep::parse_range(range).map_err(|e| usage(e.to_string()))?,
         });
     }
     if dims.is_empty() {
@@ -391,76 +394,81 @@ fn plot(
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
     match dims {
-        [d] => {
-            let mut sorted: Vec<&SweepPoint> = points.iter().collect();
-            sorted.sort_by(|a, b| a.values[0].total_cmp(&b.values[0]));
-            let series = |f: &dyn Fn(&crate::sweep::Metrics) -> f64| {
-                sorted
-                    .iter()
-                    .map(|p| (p.values[0], figure(p, f)))
-                    .collect::<Vec<_>>()
-            };
-            let fig = SweepLinePlot {
-                title: format!("{name}: error against {}", d.name),
-                x_label: labelled(d),
-                panels: vec![
-                    (
-                        "contour error (µm)".into(),
-                        vec![
-                            ("max contour error".into(), series(&|m| m.max_contour_um)),
-                            ("RMS contour error".into(), series(&|m| m.rms_contour_um)),
-                        ],
-                    ),
-                    (
-                        "following error (µm)".into(),
-                        vec![
-                            (
-                                "max following error X".into(),
-                                series(&|m| m.max_following_um[0]),
-                            ),
-                            (
-                                "max following error Y".into(),
-                                series(&|m| m.max_following_um[1]),
-                            ),
-                        ],
-                    ),
-                ],
-                unstable: sorted
-                    .iter()
-                    .filter(|p| matches!(p.result, PointResult::Unstable { .. }))
-                    .map(|p| p.values[0])
-                    .collect(),
-            };
-            write_plots_into(dir, "sweep", &fig)?;
-        }
-        [a, b] => {
-            let cells = a
-                .values
-                .iter()
-                .map(|va| {
-                    b.values
-                        .iter()
-                        .map(|vb| {
-                            points
-                                .iter()
-                                .find(|p| p.values[0] == *va && p.values[1] == *vb)
-                                .map_or(f64::NAN, |p| figure(p, |m| m.max_contour_um))
-                        })
-                        .collect()
-                })
-                .collect();
-            let fig = SweepHeatMap {
-                title: format!(
-                    "{name}: largest contour error over {} and {}",
-                    a.name, b.name
-                ),
-                labels: (labelled(a), labelled(b)),
-                axes: (a.values.clone(), b.values.clone()),
-                cells,
-            };
-            write_plots_into(dir, "sweep", &fig)?;
-        }
+        [d] => write_plots_into(dir, "sweep", &line_plot(&name, d, points))?,
+        [a, b] => write_plots_into(dir, "sweep", &heat_map(&name, [a, b], points))?,
         _ => println!("(no plot for {} swept dimensions: use --csv)", dims.len()),
     }
     Ok(())
+}
+
+/// One swept dimension: the contour and following errors against it, unstable settings
+/// marked.
+fn line_plot(name: &str, d: &Dimension, points: &[SweepPoint]) -> SweepLinePlot {
+    let mut sorted: Vec<&SweepPoint> = points.iter().collect();
+    sorted.sort_by(|a, b| a.values[0].total_cmp(&b.values[0]));
+    let series = |f: &dyn Fn(&crate::sweep::Metrics) -> f64| {
+        sorted
+            .iter()
+            .map(|p| (p.values[0], figure(p, f)))
+            .collect::<Vec<_>>()
+    };
+    SweepLinePlot {
+        title: format!("{name}: error against {}", d.name),
+        x_label: labelled(d),
+        panels: vec![
+            (
+                "contour error (µm)".into(),
+                vec![
+                    ("max contour error".into(), series(&|m| m.max_contour_um)),
+                    ("RMS contour error".into(), series(&|m| m.rms_contour_um)),
+                ],
+            ),
+            (
+                "following error (µm)".into(),
+                vec![
+                    (
+                        "max following error X".into(),
+                        series(&|m| m.max_following_um[0]),
+                    ),
+                    (
+                        "max following error Y".into(),
+                        series(&|m| m.max_following_um[1]),
+                    ),
+                ],
+            ),
+        ],
+        unstable: sorted
+            .iter()
+            .filter(|p| matches!(p.result, PointResult::Unstable { .. }))
+            .map(|p| p.values[0])
+            .collect(),
+    }
+}
+
+/// Two swept dimensions: the largest contour error over both.
+fn heat_map(name: &str, [a, b]: [&Dimension; 2], points: &[SweepPoint]) -> SweepHeatMap {
+    let cells = a
+        .values
+        .iter()
+        .map(|va| {
+            b.values
+                .iter()
+                .map(|vb| {
+                    points
+                        .iter()
+                        .find(|p| p.values[0] == *va && p.values[1] == *vb)
+                        .map_or(f64::NAN, |p| figure(p, |m| m.max_contour_um))
+                })
+                .collect()
+        })
+        .collect();
+    SweepHeatMap {
+        title: format!(
+            "{name}: largest contour error over {} and {}",
+            a.name, b.name
+        ),
+        labels: (labelled(a), labelled(b)),
+        axes: (a.values.clone(), b.values.clone()),
+        cells,
+    }
 }

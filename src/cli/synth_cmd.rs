@@ -83,61 +83,8 @@ pub struct SynthArgs {
 }
 
 pub fn run(args: &SynthArgs) -> Result<Outcome, CliError> {
-    let effect = match args.effect {
-        None => None,
-        Some(cause) => {
-            let wanted = cause.params().len();
-            if args.values.len() != wanted {
-                let keys: Vec<&str> = cause.params().iter().map(|p| p.key).collect();
-                return Err(CliError::Usage(format!(
-                    "--values: {} takes {wanted} value(s): {}",
-                    cause.as_str(),
-                    keys.join(", ")
-                )));
-            }
-            for (p, v) in cause.params().iter().zip(&args.values) {
-                if !(v.is_finite() && (p.min..=p.max).contains(v)) {
-                    return Err(CliError::Usage(format!(
-                        "--values: {} = {v} lies outside {}..{}",
-                        p.key, p.min, p.max
-                    )));
-                }
-            }
-            Some((cause, args.axis, args.values.clone()))
-        }
-    };
-    if !(args.noise_um.is_finite() && args.noise_um >= 0.0) {
-        return Err(CliError::Usage(format!(
-            "--noise-um {}: must be ≥ 0",
-            args.noise_um
-        )));
-    }
-    let sample_ms = match args.rate_hz {
-        Some(hz) if hz.is_finite() && (10.0..=20_000.0).contains(&hz) => 1e3 / hz,
-        Some(hz) => {
-            return Err(CliError::Usage(format!(
-                "--rate-hz {hz}: must lie between 10 and 20000"
-            )));
-        }
-        None => args.sample_ms,
-    };
-    if !(sample_ms.is_finite() && (0.05..=100.0).contains(&sample_ms)) {
-        return Err(CliError::Usage(format!(
-            "--sample-ms {sample_ms}: must lie between 0.05 and 100"
-        )));
-    }
-    if !(args.quantization_um.is_finite() && (0.0..=100.0).contains(&args.quantization_um)) {
-        return Err(CliError::Usage(format!(
-            "--quantization-um {}: must lie between 0 and 100",
-            args.quantization_um
-        )));
-    }
-    if !(args.offset_s.is_finite() && args.offset_s >= 0.0) {
-        return Err(CliError::Usage(format!(
-            "--offset-s {}: must be ≥ 0",
-            args.offset_s
-        )));
-    }
+    let effect = hidden_effect(args)?;
+    let sample_ms = checked_measurement(args)?;
     let layout = args
         .out_columns
         .as_deref()
@@ -168,7 +115,74 @@ pub fn run(args: &SynthArgs) -> Result<Outcome, CliError> {
         None => synthetic.write_csv(w),
     })?;
     batch.commit()?;
-    let hidden = match &spec.effect {
+    println!(
+        "wrote {}: {} samples every {} ms, noise {} µm, clock offset {} s; {}",
+        args.out.display(),
+        synthetic.rows.len(),
+        sample_ms,
+        args.noise_um,
+        args.offset_s,
+        describe_hidden(&spec.effect)
+    );
+    Ok(Outcome::Ok)
+}
+
+/// The effect to hide, its values checked against the cause's parameters.
+fn hidden_effect(args: &SynthArgs) -> Result<Option<(CauseId, AxisName, Vec<f64>)>, CliError> {
+    let Some(cause) = args.effect else {
+        return Ok(None);
+    };
+    let wanted = cause.params().len();
+    if args.values.len() != wanted {
+        let keys: Vec<&str> = cause.params().iter().map(|p| p.key).collect();
+        return Err(CliError::Usage(format!(
+            "--values: {} takes {wanted} value(s): {}",
+            cause.as_str(),
+            keys.join(", ")
+        )));
+    }
+    for (p, v) in cause.params().iter().zip(&args.values) {
+        if !(v.is_finite() && (p.min..=p.max).contains(v)) {
+            return Err(CliError::Usage(format!(
+                "--values: {} = {v} lies outside {}..{}",
+                p.key, p.min, p.max
+            )));
+        }
+    }
+    Ok(Some((cause, args.axis, args.values.clone())))
+}
+
+/// The measurement's settings checked; its sampling period (ms).
+fn checked_measurement(args: &SynthArgs) -> Result<f64, CliError> {
+    let usage = |text: String| Err(CliError::Usage(text));
+    if !(args.noise_um.is_finite() && args.noise_um >= 0.0) {
+        return usage(format!("--noise-um {}: must be ≥ 0", args.noise_um));
+    }
+    let sample_ms = match args.rate_hz {
+        Some(hz) if hz.is_finite() && (10.0..=20_000.0).contains(&hz) => 1e3 / hz,
+        Some(hz) => return usage(format!("--rate-hz {hz}: must lie between 10 and 20000")),
+        None => args.sample_ms,
+    };
+    if !(sample_ms.is_finite() && (0.05..=100.0).contains(&sample_ms)) {
+        return usage(format!(
+            "--sample-ms {sample_ms}: must lie between 0.05 and 100"
+        ));
+    }
+    if !(args.quantization_um.is_finite() && (0.0..=100.0).contains(&args.quantization_um)) {
+        return usage(format!(
+            "--quantization-um {}: must lie between 0 and 100",
+            args.quantization_um
+        ));
+    }
+    if !(args.offset_s.is_finite() && args.offset_s >= 0.0) {
+        return usage(format!("--offset-s {}: must be ≥ 0", args.offset_s));
+    }
+    Ok(sample_ms)
+}
+
+/// What was hidden, in words.
+fn describe_hidden(effect: &Option<(CauseId, AxisName, Vec<f64>)>) -> String {
+    match effect {
         None => "nothing hidden (the nominal machine)".to_string(),
         Some((cause, axis, values)) => {
             let params: Vec<String> = cause
@@ -179,16 +193,7 @@ pub fn run(args: &SynthArgs) -> Result<Outcome, CliError> {
                 .collect();
             format!("{} on {axis}: {}", cause.as_str(), params.join(", "))
         }
-    };
-    println!(
-        "wrote {}: {} samples every {} ms, noise {} µm, clock offset {} s; {hidden}",
-        args.out.display(),
-        synthetic.rows.len(),
-        sample_ms,
-        args.noise_um,
-        args.offset_s
-    );
-    Ok(Outcome::Ok)
+    }
 }
 
 /// The commanded positions of a trace (its measured ones when it recorded no others).

@@ -83,7 +83,7 @@ fn share_off_path(ctx: &Context) -> f64 {
 }
 
 /// Builds the comparison timeline: commands, plan, samples, and a first clock offset.
-pub fn context<'a>(
+pub(crate) fn context<'a>(
     program: &Program,
     machine: &MachineConfig,
     measured: &'a MeasuredTrace,

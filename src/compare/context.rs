@@ -91,7 +91,7 @@ impl Context<'_> {
     }
 
     /// Program time of each compared sample (s).
-    pub fn sample_times(&self, offset_s: f64) -> Vec<f64> {
+    pub(crate) fn sample_times(&self, offset_s: f64) -> Vec<f64> {
         self.samples
             .iter()
             .map(|&i| self.prog_time(i, offset_s))
@@ -144,7 +144,7 @@ impl Context<'_> {
     /// Simulates `axis` of `machine`, and the other axis too when `machine` changes the
     /// program's timing (a gain changes the in-position waits, which both axes keep);
     /// otherwise the other axis keeps `other`.
-    pub fn simulate_pair<'b>(
+    pub(crate) fn simulate_pair<'b>(
         &self,
         machine: &MachineConfig,
         axis: AxisName,
@@ -230,7 +230,7 @@ impl Context<'_> {
     }
 
     /// Time of measured sample `i` on the program's clock, for a clock offset.
-    pub fn prog_time(&self, i: usize, offset_s: f64) -> f64 {
+    pub(crate) fn prog_time(&self, i: usize, offset_s: f64) -> f64 {
         self.measured.time_s(i) - offset_s
     }
 
@@ -244,13 +244,13 @@ impl Context<'_> {
     }
 
     /// The measured axis at the context's samples.
-    pub fn measured_at_samples(&self, axis: AxisName) -> Vec<f64> {
+    pub(crate) fn measured_at_samples(&self, axis: AxisName) -> Vec<f64> {
         let m = self.measured_axis(axis);
         self.samples.iter().map(|&i| m[i]).collect()
     }
 
     /// A trace at the context's samples.
-    pub fn at_samples(&self, trace: &[f64], offset_s: f64) -> Vec<f64> {
+    pub(crate) fn at_samples(&self, trace: &[f64], offset_s: f64) -> Vec<f64> {
         self.samples
             .iter()
             .map(|&i| sample(trace, self.dt, self.prog_time(i, offset_s)))
@@ -258,7 +258,7 @@ impl Context<'_> {
     }
 
     /// d(simulated)/dt at the samples: how the residual changes with the offset.
-    pub fn residual_rate(&self, trace: &[f64], offset_s: f64) -> Vec<f64> {
+    pub(crate) fn residual_rate(&self, trace: &[f64], offset_s: f64) -> Vec<f64> {
         let h = 0.25 * self.dt;
         self.samples
             .iter()
@@ -275,7 +275,12 @@ impl Context<'_> {
     /// about a ±10 ms running mean, the measurement's noise share removed). Each is in units
     /// of its sampling spread, which counts the chatter itself as noise: a window holds
     /// about a dozen slips whose timing no model predicts.
-    pub fn statistical_residual(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> Vec<f64> {
+    pub(crate) fn statistical_residual(
+        &self,
+        axis: AxisName,
+        trace: &[f64],
+        offset_s: f64,
+    ) -> Vec<f64> {
         self.window_statistics(axis, trace, offset_s)
             .into_iter()
             .flat_map(|(mean, power)| [mean, power])
@@ -324,7 +329,7 @@ impl Context<'_> {
     /// How far the measurement's chatter departs from the model's, in standard deviations
     /// of its χ²: above a few, the axis is in stick-slip the model does not reproduce, and
     /// point-by-point comparison means nothing there.
-    pub fn chatter_excess(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> f64 {
+    pub(crate) fn chatter_excess(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> f64 {
         let w = self.window_statistics(axis, trace, offset_s);
         let m = w.len() as f64;
         (w.iter().map(|(_, p)| p * p).sum::<f64>() - m) / (2.0 * m).sqrt()
@@ -333,7 +338,7 @@ impl Context<'_> {
     /// How far the measurement's own chatter exceeds its noise, in standard deviations of
     /// that χ² (the model's chatter taken as none): an axis that chatters stays in the
     /// statistical domain whatever the model does.
-    pub fn measured_chatter_excess(&self, axis: AxisName, offset_s: f64) -> f64 {
+    pub(crate) fn measured_chatter_excess(&self, axis: AxisName, offset_s: f64) -> f64 {
         let flat: Vec<f64> = vec![0.0; self.commands.len()];
         let w = self.window_statistics_against(axis, &flat, offset_s, true);
         let m = w.len() as f64;
@@ -420,7 +425,7 @@ impl Context<'_> {
     }
 
     /// Commanded position and velocity of an axis at time `t`.
-    pub fn command_at(&self, axis: AxisName, t: f64) -> (f64, f64) {
+    pub(crate) fn command_at(&self, axis: AxisName, t: f64) -> (f64, f64) {
         let c = self.commands.axis(axis);
         (
             sample(&c.pos_m, self.dt, t),
@@ -450,7 +455,7 @@ pub(super) fn commands_of(plan: &Plan, settle_s: f64) -> Commands {
 impl Context<'_> {
     /// Per-axis masks at the residual samples: near a reversal, and near any event
     /// (reversal or acceleration).
-    pub fn event_masks(
+    pub(crate) fn event_masks(
         &self,
         axis: AxisName,
         offset: f64,

@@ -17,7 +17,7 @@ use crate::machine::{AxisName, MachineConfig};
 use crate::sim::{MeasuredAt, SimError};
 use crate::trace::measured::{MeasuredError, MeasuredTrace};
 
-pub use align::context;
+pub(crate) use align::context;
 pub use context::{Context, Stepping};
 
 /// How a record is placed on a program and compared with a model.

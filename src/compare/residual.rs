@@ -45,7 +45,7 @@ pub(crate) fn rms(v: &[f64]) -> f64 {
 /// The noise floor of a record (m): from its residuals against the nominal model, and never
 /// below the rounding of its own counts — a record of an encoder's 0.1 µm steps is not known
 /// better than 0.029 µm, however still its residual stands.
-pub fn record_noise(
+pub(crate) fn record_noise(
     residuals: &[Vec<f64>],
     measured: &crate::trace::measured::MeasuredTrace,
 ) -> f64 {
@@ -58,7 +58,7 @@ pub fn record_noise(
 
 /// The noise floor: the robust spread of the residual's sample-to-sample differences over
 /// both axes, divided by √2 (model errors barely change between samples; noise does).
-pub fn noise_floor(residuals: &[Vec<f64>]) -> f64 {
+pub(crate) fn noise_floor(residuals: &[Vec<f64>]) -> f64 {
     let mut d: Vec<f64> = residuals
         .iter()
         .flat_map(|r| r.windows(2).map(|w| (w[1] - w[0]).abs()))

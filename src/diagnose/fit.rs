@@ -68,7 +68,7 @@ fn best_start<'s>(
 /// Fits `cause` on `axis` of `machine` point by point, from the best of `starts`
 /// (parameter values in machine units) and the offset `offset_s`; the other axis keeps its
 /// trace `other`.
-pub fn fit_cause(
+pub(crate) fn fit_cause(
     ctx: &Context,
     machine: &MachineConfig,
     axis: AxisName,
@@ -135,7 +135,7 @@ fn with_cause(
 
 /// Fits `cause` on `axis` on the statistics of its residual (see
 /// [`Context::statistical_residual`]), the offset held.
-pub fn fit_statistical(
+pub(crate) fn fit_statistical(
     ctx: &Context,
     machine: &MachineConfig,
     axis: AxisName,
@@ -218,65 +218,31 @@ fn curvature_sigma(
         .collect();
     // Five levels a parameter: 25 points for the catalogue's two-parameter causes.
     let levels = [-2.0, -1.0, 0.0, 1.0, 2.0];
-    let mut design = vec![Vec::new()];
-    for _ in 0..n {
-        design = design
-            .into_iter()
-            .flat_map(|d: Vec<f64>| {
-                levels.iter().map(move |&l| {
-                    let mut d = d.clone();
-                    d.push(l);
-                    d
-                })
-            })
-            .collect();
-    }
-    // The quadratic in steps u (units of h): c + Σ bⱼuⱼ + ½ Σⱼ Hⱼⱼuⱼ² + Σⱼ<ₖ Hⱼₖuⱼuₖ.
-    let quadratic_terms: Vec<(usize, usize)> =
-        (0..n).flat_map(|j| (0..=j).map(move |k| (j, k))).collect();
-    let columns = 1 + n + quadratic_terms.len();
-    let mut a = DMatrix::<f64>::zeros(design.len(), columns);
-    let mut y = DVector::<f64>::zeros(design.len());
-    for (row, u) in design.iter().enumerate() {
-        let v: Vec<f64> = values
-            .iter()
-            .zip(u)
-            .zip(&h)
-            .map(|((v, u), h)| v + u * h)
-            .collect();
-        y[row] = if u.iter().all(|&u| u == 0.0) {
-            best
-        } else {
-            objective(&v)
-        };
-        a[(row, 0)] = 1.0;
-        for j in 0..n {
-            a[(row, 1 + j)] = u[j];
-        }
-        for (c, &(j, k)) in quadratic_terms.iter().enumerate() {
-            a[(row, 1 + n + c)] = if j == k {
-                0.5 * u[j] * u[j]
+    let design = grid_of(n, &levels);
+    let chi2: Vec<f64> = design
+        .iter()
+        .map(|u| {
+            if u.iter().all(|&u| u == 0.0) {
+                best
             } else {
-                u[j] * u[k]
-            };
-        }
-    }
-    let Ok(coefficients) = a.clone().svd(true, true).solve(&y, 1e-12) else {
+                let v: Vec<f64> = values
+                    .iter()
+                    .zip(u)
+                    .zip(&h)
+                    .map(|((v, u), h)| v + u * h)
+                    .collect();
+                objective(&v)
+            }
+        })
+        .collect();
+    let Some((hessian, jitter)) = quadratic_fit(&design, &chi2) else {
         return vec![f64::NAN; n];
     };
-    // The Hessian in steps, and its principal directions.
-    let mut hessian = DMatrix::<f64>::zeros(n, n);
-    for (c, &(j, k)) in quadratic_terms.iter().enumerate() {
-        hessian[(j, k)] = coefficients[1 + n + c];
-        hessian[(k, j)] = coefficients[1 + n + c];
-    }
     let birge = (best / (n_terms as f64 - n as f64).max(1.0)).max(1.0);
     // The jitter: how far χ² scatters about the quadratic. Points whose smooth χ² differ by
     // less than that cannot be ranked, so the minimum found may lie anywhere the smooth χ²
     // rises by less than the jitter: its variance adds to the statistical one (2·jitter/H
     // beside 2·birge/H).
-    let jitter =
-        ((&y - &a * &coefficients).norm_squared() / (design.len() - columns).max(1) as f64).sqrt();
     let level = birge + jitter;
     let eigen = hessian.symmetric_eigen();
     // Along a direction in which χ² does not rise by 2·birge within the grid (flat, or
@@ -303,6 +269,58 @@ fn curvature_sigma(
             h[j] * steps_sq.sqrt()
         })
         .collect()
+}
+
+/// Every point of an `n`-dimensional grid with `levels` on each axis.
+fn grid_of(n: usize, levels: &[f64]) -> Vec<Vec<f64>> {
+    let mut design = vec![Vec::new()];
+    for _ in 0..n {
+        design = design
+            .into_iter()
+            .flat_map(|d: Vec<f64>| {
+                levels.iter().map(move |&l| {
+                    let mut d = d.clone();
+                    d.push(l);
+                    d
+                })
+            })
+            .collect();
+    }
+    design
+}
+
+/// The quadratic c + Σ bⱼuⱼ + ½ Σⱼ Hⱼⱼuⱼ² + Σⱼ<ₖ Hⱼₖuⱼuₖ fitted by least squares to the
+/// values `y` at the points `design`: its Hessian H, and the jitter — the spread of the
+/// values about it. None when it cannot be fitted.
+fn quadratic_fit(design: &[Vec<f64>], y: &[f64]) -> Option<(DMatrix<f64>, f64)> {
+    let n = design.first().map_or(0, Vec::len);
+    let quadratic_terms: Vec<(usize, usize)> =
+        (0..n).flat_map(|j| (0..=j).map(move |k| (j, k))).collect();
+    let columns = 1 + n + quadratic_terms.len();
+    let mut a = DMatrix::<f64>::zeros(design.len(), columns);
+    for (row, u) in design.iter().enumerate() {
+        a[(row, 0)] = 1.0;
+        for j in 0..n {
+            a[(row, 1 + j)] = u[j];
+        }
+        for (c, &(j, k)) in quadratic_terms.iter().enumerate() {
+            a[(row, 1 + n + c)] = if j == k {
+                0.5 * u[j] * u[j]
+            } else {
+                u[j] * u[k]
+            };
+        }
+    }
+    let y = DVector::from_column_slice(y);
+    let coefficients = a.clone().svd(true, true).solve(&y, 1e-12).ok()?;
+    let mut hessian = DMatrix::<f64>::zeros(n, n);
+    for (c, &(j, k)) in quadratic_terms.iter().enumerate() {
+        hessian[(j, k)] = coefficients[1 + n + c];
+        hessian[(k, j)] = coefficients[1 + n + c];
+    }
+    let jitter =
+        ((&y - &a * &coefficients).norm_squared() / (design.len() - columns).max(1) as f64).sqrt();
+    Some((hessian, jitter))
 }
 
 /// Nelder–Mead over the cause's parameters (scaled) from `start`; returns the best values

@@ -240,7 +240,7 @@ impl<'a> Validation<'a> {
     }
 
     /// Takes the machine found so far as the model to judge the next cause against.
-    pub fn accept(&mut self, current: &MachineConfig) {
+    pub(crate) fn accept(&mut self, current: &MachineConfig) {
         for a in AxisName::BOTH {
             if let Some(t) = self.ctx.simulate_axis(current, a) {
                 self.traces[a.index()] = t;

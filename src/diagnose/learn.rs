@@ -86,7 +86,7 @@ impl Term {
     }
 
     /// The unit of its values.
-    pub fn value_unit(self) -> &'static str {
+    pub(crate) fn value_unit(self) -> &'static str {
         match self {
             Term::PositionMap => "µm",
             Term::FrictionMap | Term::FrictionSpeed => "N",
@@ -94,7 +94,7 @@ impl Term {
     }
 
     /// The unit of the variable its table runs over.
-    pub fn variable_unit(self) -> &'static str {
+    pub(crate) fn variable_unit(self) -> &'static str {
         match self {
             Term::FrictionSpeed => "mm/min",
             _ => "mm",

@@ -55,7 +55,7 @@ impl Variable {
     }
 
     /// Decimals its interval is shown with.
-    pub fn decimals(self) -> usize {
+    pub(crate) fn decimals(self) -> usize {
         match self {
             Variable::Position(_)
             | Variable::PositionByDirection(_)
@@ -207,17 +207,32 @@ fn locate_axis(
     });
     let (_, peak) = bins.fit(&direction, residual, &|_| true).largest();
     consider(Variable::Direction, share, None, peak);
-    // Position by direction: the positions travelled towards − are shifted past those
-    // travelled towards +, so that one set of bins holds both ways apart.
-    let (lo, hi) = finite_range(&x);
+    let (share, interval, peak) = by_direction_fit(&x, &direction, residual, &fold);
+    consider(Variable::PositionByDirection(axis), share, interval, peak);
+    if let Some((share, period, amplitude)) = periodic_fit(&x, residual, &fold) {
+        consider(Variable::Period, share, Some((period, period)), amplitude);
+    }
+    best
+}
+
+/// Position by direction: the positions travelled towards − are shifted past those
+/// travelled towards +, so that one set of bins holds both ways apart. The held-out share,
+/// the interval of the largest bin (unshifted) and its value.
+fn by_direction_fit(
+    x: &[f64],
+    direction: &[f64],
+    residual: &[f64],
+    fold: &[bool],
+) -> (f64, Option<(f64, f64)>, f64) {
+    let (lo, hi) = finite_range(x);
     let shift = 2.0 * (hi - lo) + 1.0;
     let by_direction: Vec<f64> = x
         .iter()
-        .zip(&direction)
+        .zip(direction)
         .map(|(&p, &d)| if d > 0.0 { p } else { p + shift * d.abs() })
         .collect();
     let bins = Bins::fixed(lo, lo + 2.0 * shift, 4 * BINS);
-    let share = held_out_share(residual, &fold, |train| {
+    let share = held_out_share(residual, fold, |train| {
         bins.fit(&by_direction, residual, train)
     });
     let (interval, peak) = bins.fit(&by_direction, residual, &|_| true).largest();
@@ -228,32 +243,36 @@ fn locate_axis(
             (a, b)
         }
     });
-    consider(Variable::PositionByDirection(axis), share, unshifted, peak);
-    // A period in position: sine and cosine of 2πx/p, over a logarithmic grid of periods
-    // and then finely around the best of it — over a long travel a period a per cent off
-    // drifts out of phase.
+    (share, unshifted, peak)
+}
+
+/// A period in position: sine and cosine of 2πx/p, over a logarithmic grid of periods and
+/// then finely around the best of it — over a long travel a period a per cent off drifts
+/// out of phase. The held-out share, the period (mm) and the amplitude; none over less than
+/// 4 mm of travel.
+fn periodic_fit(x: &[f64], residual: &[f64], fold: &[bool]) -> Option<(f64, f64, f64)> {
     let span = x.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
         - x.iter().fold(f64::INFINITY, |a, &b| a.min(b));
-    if span > 4.0 {
-        let share_at = |period: f64| {
-            held_out_share(residual, &fold, |train| {
-                Sinusoid::fit(&x, residual, period, train)
-            })
-        };
-        let grid = (0..48).map(|k| (span / 2.0).powf(k as f64 / 47.0));
-        let coarse = grid
-            .map(|p| (p, share_at(p)))
-            .max_by(|a, b| a.1.total_cmp(&b.1))
-            .map_or(1.0, |(p, _)| p);
-        let (period, share) = (0..=60)
-            .map(|k| coarse * (0.94 + 0.002 * k as f64))
-            .map(|p| (p, share_at(p)))
-            .max_by(|a, b| a.1.total_cmp(&b.1))
-            .unwrap_or((coarse, 0.0));
-        let amplitude = Sinusoid::fit(&x, residual, period, &|_| true).amplitude();
-        consider(Variable::Period, share, Some((period, period)), amplitude);
+    if span <= 4.0 {
+        return None;
     }
-    best
+    let share_at = |period: f64| {
+        held_out_share(residual, fold, |train| {
+            Sinusoid::fit(x, residual, period, train)
+        })
+    };
+    let grid = (0..48).map(|k| (span / 2.0).powf(k as f64 / 47.0));
+    let coarse = grid
+        .map(|p| (p, share_at(p)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map_or(1.0, |(p, _)| p);
+    let (period, share) = (0..=60)
+        .map(|k| coarse * (0.94 + 0.002 * k as f64))
+        .map(|p| (p, share_at(p)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or((coarse, 0.0));
+    let amplitude = Sinusoid::fit(x, residual, period, &|_| true).amplitude();
+    Some((share, period, amplitude))
 }
 
 /// The direction each sample's command travels (±1), NaN where it is not clearly moving.

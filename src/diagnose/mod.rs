@@ -30,7 +30,7 @@ use serde::Serialize;
 use crate::analysis::circular::{Circle, CircularTest, circles, circular_test};
 use crate::analysis::contour::{ContourSeries, contour_errors};
 use crate::compare::residual::{self, axis_residual};
-pub use crate::compare::residual::{AxisResidual, ResidualStats, noise_floor};
+pub use crate::compare::residual::{AxisResidual, ResidualStats};
 pub use crate::compare::{CompareError, CompareSettings, Context, Stepping};
 use crate::compare::{Comparison, compare};
 use crate::gcode::Program;

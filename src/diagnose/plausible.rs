@@ -54,6 +54,18 @@ pub fn implausible(
     axis: &AxisConfig,
     observed: &Observed,
 ) -> Option<String> {
+    implausible_mechanics(cause, values, axis, observed)
+        .or_else(|| implausible_control(cause, values, axis))
+        .or_else(|| implausible_geometry(cause, values, axis))
+}
+
+/// Friction and lost motion beyond the machine and the record.
+fn implausible_mechanics(
+    cause: CauseId,
+    values: &[f64],
+    axis: &AxisConfig,
+    observed: &Observed,
+) -> Option<String> {
     let model = AxisModel::from_config(axis);
     match cause {
         CauseId::Stribeck => {
@@ -82,6 +94,14 @@ pub fn implausible(
                 )
             })
         }
+        _ => None,
+    }
+}
+
+/// Delays, gains and resonances no control or structure has.
+fn implausible_control(cause: CauseId, values: &[f64], axis: &AxisConfig) -> Option<String> {
+    let model = AxisModel::from_config(axis);
+    match cause {
         CauseId::DeadTime => (values[0] * 1e-3 > DEAD_TIME_MAX_S).then(|| {
             format!(
                 "a delay of {:.1} ms is longer than any control's ({:.0} ms)",
@@ -89,6 +109,29 @@ pub fn implausible(
                 DEAD_TIME_MAX_S * 1e3
             )
         }),
+        CauseId::KvGain => {
+            let set = per_s_from_kv_m_per_min_per_mm(axis.position_loop.kv_m_per_min_per_mm);
+            let ratio = per_s_from_kv_m_per_min_per_mm(values[0]) / set;
+            (!(1.0 / KV_RATIO_MAX..=KV_RATIO_MAX).contains(&ratio)).then(|| {
+                format!(
+                    "a position gain {ratio:.2} × the set one is a different machine file, not a \
+                     mismatch"
+                )
+            })
+        }
+        CauseId::Resonance => loop_frequency_near(&model, values[0]).map(|(what, f)| {
+            format!(
+                "{:.1} Hz lies at the model's own {what} ({f:.1} Hz): the loop, not the structure",
+                values[0]
+            )
+        }),
+        _ => None,
+    }
+}
+
+/// Measuring and geometric errors beyond any machine's.
+fn implausible_geometry(cause: CauseId, values: &[f64], axis: &AxisConfig) -> Option<String> {
+    match cause {
         CauseId::CyclicError => (m_from_um(values[0].abs()) > CYCLIC_AMPLITUDE_MAX_M).then(|| {
             format!(
                 "a cyclic error of {:.1} µm exceeds any screw's or scale's ({:.0} µm)",
@@ -102,16 +145,6 @@ pub fn implausible(
                 values[0]
             )
         }),
-        CauseId::KvGain => {
-            let set = per_s_from_kv_m_per_min_per_mm(axis.position_loop.kv_m_per_min_per_mm);
-            let ratio = per_s_from_kv_m_per_min_per_mm(values[0]) / set;
-            (!(1.0 / KV_RATIO_MAX..=KV_RATIO_MAX).contains(&ratio)).then(|| {
-                format!(
-                    "a position gain {ratio:.2} × the set one is a different machine file, not a \
-                     mismatch"
-                )
-            })
-        }
         CauseId::Squareness => (values[0].abs() > SQUARENESS_MAX_URAD).then(|| {
             format!(
                 "axes {:.0} µrad out of square ({:.2} mm per metre) would have been seen at \
@@ -138,12 +171,7 @@ pub fn implausible(
                 values[0]
             )
         }),
-        CauseId::Resonance => loop_frequency_near(&model, values[0]).map(|(what, f)| {
-            format!(
-                "{:.1} Hz lies at the model's own {what} ({f:.1} Hz): the loop, not the structure",
-                values[0]
-            )
-        }),
+        _ => None,
     }
 }
 

@@ -253,6 +253,44 @@ impl DiagnoseReport {
     /// The summary for the terminal.
     pub fn summary_text(&self) -> String {
         let mut s = String::new();
+        self.write_record(&mut s);
+        let _ = writeln!(s, "\n{}", self.verdict);
+        for (i, c) in self.causes.iter().enumerate() {
+            write_cause(&mut s, i, c);
+        }
+        for r in &self.rejected {
+            let _ = writeln!(
+                s,
+                "  not named: {} on {} ({})",
+                r.id.as_str(),
+                r.axis,
+                r.reason
+            );
+        }
+        for l in &self.learned {
+            let _ = writeln!(s, "  {}", learned_line(l));
+        }
+        for u in &self.unexplained {
+            let _ = writeln!(s, "  {}", unexplained_line(u));
+        }
+        for k in &self.skipped {
+            let axes: Vec<String> = k.axes.iter().map(|a| a.to_string()).collect();
+            let _ = writeln!(
+                s,
+                "  not tried: {} on {} ({})",
+                k.id.as_str(),
+                axes.join(", "),
+                k.reason
+            );
+        }
+        self.write_circular(&mut s);
+        self.write_residuals(&mut s);
+        self.write_places(&mut s);
+        s
+    }
+
+    /// The record, the machine, the alignment and the warnings about the record.
+    fn write_record(&self, s: &mut String) {
         let m = &self.measured;
         let _ = writeln!(
             s,
@@ -306,39 +344,6 @@ impl DiagnoseReport {
                 .collect();
             let _ = writeln!(s, "standstills longer than planned: {}", waits.join(", "));
         }
-        let _ = writeln!(s, "\n{}", self.verdict);
-        for (i, c) in self.causes.iter().enumerate() {
-            write_cause(&mut s, i, c);
-        }
-        for r in &self.rejected {
-            let _ = writeln!(
-                s,
-                "  not named: {} on {} ({})",
-                r.id.as_str(),
-                r.axis,
-                r.reason
-            );
-        }
-        for l in &self.learned {
-            let _ = writeln!(s, "  {}", learned_line(l));
-        }
-        for u in &self.unexplained {
-            let _ = writeln!(s, "  {}", unexplained_line(u));
-        }
-        for k in &self.skipped {
-            let axes: Vec<String> = k.axes.iter().map(|a| a.to_string()).collect();
-            let _ = writeln!(
-                s,
-                "  not tried: {} on {} ({})",
-                k.id.as_str(),
-                axes.join(", "),
-                k.reason
-            );
-        }
-        self.write_circular(&mut s);
-        self.write_residuals(&mut s);
-        self.write_places(&mut s);
-        s
     }
 
     /// The circular-test figures measured and by both models, and where they and a named cause seem to disagree, why.

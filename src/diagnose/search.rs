@@ -370,11 +370,7 @@ fn judge(
     s: &Scored,
     validation: Option<&Validation>,
 ) -> Result<HeldOut, String> {
-    let Current {
-        machine: current,
-        traces,
-        offset_s,
-    } = now;
+    let current = now.machine;
     let (axis, cause) = (s.try_.axis, s.try_.cause);
     let fitted = s.fitted.as_ref().ok_or("no fit")?;
     if let Some(why) = implausible(
@@ -385,44 +381,8 @@ fn judge(
     ) {
         return Err(format!("fits, but implausible: {why}"));
     }
-    for a in AxisName::BOTH {
-        let new = if a == axis {
-            &fitted.trace
-        } else {
-            &fitted.other
-        };
-        // On an axis in stick-slip no model times the slips, and point by point a model
-        // that chatters as the machine does scores worse than one that does not chatter
-        // at all: there the measure is the mismatch of chatter amplitude per window.
-        let chatter = s.try_.statistical && a == axis;
-        let what = if chatter {
-            "chatter amplitude mismatch"
-        } else {
-            "residual RMS"
-        };
-        let measure = |trace: &[f64], offset: f64| {
-            if chatter {
-                chatter_mismatch(
-                    &ctx.measured_at_samples(a),
-                    &ctx.at_samples(trace, offset),
-                    ctx.sample_dt_s,
-                    ctx.noise_sigma,
-                )
-            } else {
-                rms(&ctx.residual(a, trace, offset))
-            }
-        };
-        let (before, after) = (
-            measure(&traces[a.index()], offset_s),
-            measure(new, fitted.offset_s),
-        );
-        if after > before * (1.0 + WORSE_TOLERANCE) {
-            return Err(format!(
-                "fits, but makes the {a} {what} worse ({:.3} → {:.3} µm)",
-                um_from_m(before),
-                um_from_m(after),
-            ));
-        }
+    if let Some(why) = worse_somewhere(ctx, now, s.try_.statistical, axis, fitted) {
+        return Err(why);
     }
     let held = match validation {
         Some(v) => v
@@ -450,6 +410,60 @@ fn judge(
         ));
     }
     Ok(held)
+}
+
+/// Why the fit makes either axis worse than the current model, if it does: its whole-record
+/// residual RMS, or, on an axis in stick-slip fitted on statistics, its chatter mismatch.
+fn worse_somewhere(
+    ctx: &Context,
+    now: Current,
+    statistical: bool,
+    axis: AxisName,
+    fitted: &Fitted,
+) -> Option<String> {
+    let Current {
+        traces, offset_s, ..
+    } = now;
+    for a in AxisName::BOTH {
+        let new = if a == axis {
+            &fitted.trace
+        } else {
+            &fitted.other
+        };
+        // On an axis in stick-slip no model times the slips, and point by point a model
+        // that chatters as the machine does scores worse than one that does not chatter
+        // at all: there the measure is the mismatch of chatter amplitude per window.
+        let chatter = statistical && a == axis;
+        let what = if chatter {
+            "chatter amplitude mismatch"
+        } else {
+            "residual RMS"
+        };
+        let measure = |trace: &[f64], offset: f64| {
+            if chatter {
+                chatter_mismatch(
+                    &ctx.measured_at_samples(a),
+                    &ctx.at_samples(trace, offset),
+                    ctx.sample_dt_s,
+                    ctx.noise_sigma,
+                )
+            } else {
+                rms(&ctx.residual(a, trace, offset))
+            }
+        };
+        let (before, after) = (
+            measure(&traces[a.index()], offset_s),
+            measure(new, fitted.offset_s),
+        );
+        if after > before * (1.0 + WORSE_TOLERANCE) {
+            return Some(format!(
+                "fits, but makes the {a} {what} worse ({:.3} → {:.3} µm)",
+                um_from_m(before),
+                um_from_m(after),
+            ));
+        }
+    }
+    None
 }
 
 /// How far an axis's residual exceeds the noise: its sum of squares beyond n σ², in

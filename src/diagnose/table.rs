@@ -292,31 +292,40 @@ impl TableDiagnosis {
                 }
             );
         }
-        let _ = writeln!(
-            s,
-            "\n{}",
-            match self.kept {
-                Some(id) => format!("Significant cause: {}.", id.as_str()),
-                None => {
-                    let rms = (self
-                        .rows
-                        .iter()
-                        .map(|r| (r.row.measured_mm - r.nominal_mm).powi(2))
-                        .sum::<f64>()
-                        / self.rows.len().max(1) as f64)
-                        .sqrt();
-                    if self.noise_floor_mm.is_finite() && rms > 2.0 * self.noise_floor_mm {
-                        format!(
-                            "No significant cause: the residual ({rms:.4} mm RMS) exceeds the scatter of alike rows \
-                             ({:.4} mm), but a gain error does not explain it — the rows scatter about the model without a trend.",
-                            self.noise_floor_mm
-                        )
-                    } else {
-                        "No significant cause: the nominal model predicts the table to within its scatter.".into()
-                    }
-                }
-            }
-        );
+        let _ = writeln!(s, "\n{}", self.verdict());
+        s.push_str(&self.tables_text());
+        s.push_str(&self.rows_text());
+        s
+    }
+
+    /// The verdict: the cause kept, or why none is.
+    fn verdict(&self) -> String {
+        if let Some(id) = self.kept {
+            return format!("Significant cause: {}.", id.as_str());
+        }
+        let rms = (self
+            .rows
+            .iter()
+            .map(|r| (r.row.measured_mm - r.nominal_mm).powi(2))
+            .sum::<f64>()
+            / self.rows.len().max(1) as f64)
+            .sqrt();
+        if self.noise_floor_mm.is_finite() && rms > 2.0 * self.noise_floor_mm {
+            format!(
+                "No significant cause: the residual ({rms:.4} mm RMS) exceeds the scatter of alike rows \
+                 ({:.4} mm), but a gain error does not explain it — the rows scatter about the model without a trend.",
+                self.noise_floor_mm
+            )
+        } else {
+            "No significant cause: the nominal model predicts the table to within its scatter."
+                .into()
+        }
+    }
+
+    /// Each table's spread about both models.
+    fn tables_text(&self) -> String {
+        use std::fmt::Write as _;
+        let mut s = String::new();
         let _ = writeln!(
             s,
             "\n  {:<8} {:>5} {:>16} {:>16} {:>14} {:>14}",
@@ -334,6 +343,13 @@ impl TableDiagnosis {
                 t.rms_extended_mm
             );
         }
+        s
+    }
+
+    /// Every row: its settings, the measured error and both models'.
+    fn rows_text(&self) -> String {
+        use std::fmt::Write as _;
+        let mut s = String::new();
         let _ = writeln!(
             s,
             "\n  {:<8} {:>5} {:>9} {:>7} {:>6} {:>12} {:>12} {:>12}",

@@ -24,7 +24,7 @@ const THREAD: &str = "spindle-synchronised motion (threading) is not supported";
 const SPLINE: &str = "spline and NURBS moves are not supported";
 
 /// Classifies a G code (number × 10).
-pub fn classify_g(code10: u16) -> CodeClass {
+pub(crate) fn classify_g(code10: u16) -> CodeClass {
     use CodeClass::{Accepted, Refused, Unknown};
     match code10 {
         0 | 10 | 20 | 30 | 800 => Accepted { group: 1 },
@@ -66,7 +66,7 @@ pub fn classify_g(code10: u16) -> CodeClass {
 }
 
 /// Classifies an M code (number × 10; M codes are whole numbers).
-pub fn classify_m(code10: u16) -> CodeClass {
+pub(crate) fn classify_m(code10: u16) -> CodeClass {
     use CodeClass::{Accepted, Refused, Unknown};
     if !code10.is_multiple_of(10) {
         return Unknown;
@@ -87,7 +87,7 @@ pub fn classify_m(code10: u16) -> CodeClass {
 }
 
 /// Writes a code as the user would: `G90.1`, `M3`.
-pub fn code_name(letter: char, code10: u16) -> String {
+pub(crate) fn code_name(letter: char, code10: u16) -> String {
     if code10.is_multiple_of(10) {
         format!("{letter}{}", code10 / 10)
     } else {
@@ -97,7 +97,7 @@ pub fn code_name(letter: char, code10: u16) -> String {
 
 /// A short description of a code that is accepted but does not change the XY path, for the
 /// plan's summary.
-pub fn accepted_note(letter: char, code10: u16) -> Option<&'static str> {
+pub(crate) fn accepted_note(letter: char, code10: u16) -> Option<&'static str> {
     let note = match (letter, code10) {
         ('G', 400) => "cutter compensation off (no effect)",
         ('G', 430..=432) => "tool length offset (Z only; taken as zero)",

@@ -30,7 +30,7 @@ const UNARY_FUNCTIONS: [&str; 12] = [
 /// Parses a value that starts with an optional sign followed by `[` or a function name.
 /// Returns `Ok(None)` when `s` does not start with one (so the caller can report a missing
 /// value), and the remaining input with the value otherwise.
-pub fn signed_expression(s: &str) -> Result<Option<(&str, f64)>, ExprError> {
+pub(crate) fn signed_expression(s: &str) -> Result<Option<(&str, f64)>, ExprError> {
     let mut p = ExprParser { start: s, depth: 0 };
     let (body, negative) = match s.as_bytes().first() {
         Some(b'-') => (&s[1..], true),

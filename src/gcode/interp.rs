@@ -234,7 +234,7 @@ impl Interpreter {
     }
 
     /// Pre-sizes the output for a program of `bytes` bytes (one segment per ~25 bytes).
-    pub fn reserve_for(&mut self, bytes: usize) {
+    pub(crate) fn reserve_for(&mut self, bytes: usize) {
         self.segments.reserve(bytes / 25);
     }
 

@@ -180,7 +180,7 @@ fn missing_value_or_param(letter: u8, s: &str) -> GcodeErrorKind {
 ///
 /// `opt(digit1)` rather than `digit0`: inside `recognize`, nom 8's `digit0` at the end of the
 /// input makes `recognize` drop the digits it consumed (rust-bakery/nom#1876).
-pub fn number_lexeme(i: &str) -> IResult<&str, &str> {
+pub(crate) fn number_lexeme(i: &str) -> IResult<&str, &str> {
     recognize((
         opt(one_of("+-")),
         alt((

@@ -84,7 +84,7 @@ pub fn read(ctx: &Context) -> Interpolator {
 /// The peaks as the machine's acceleration and jerk limits where the record shows them held
 /// (rounded up to three significant digits); elsewhere the moves did not reach the control's
 /// limits and the template's stay.
-pub fn write_limits(machine: &mut MachineConfig, interpolator: &Interpolator) {
+pub(crate) fn write_limits(machine: &mut MachineConfig, interpolator: &Interpolator) {
     for axis in AxisName::BOTH {
         let i = axis.index();
         let limits = &mut machine.axis_mut(axis).limits;

@@ -26,7 +26,7 @@ pub struct Knob {
 
 impl Knob {
     /// The scale of an increment about `value`.
-    pub fn scale_at(&self, value: f64) -> f64 {
+    pub(crate) fn scale_at(&self, value: f64) -> f64 {
         value.abs().max(self.least_scale)
     }
 }
@@ -102,7 +102,7 @@ pub const VISCOUS_KEY: &str = VISCOUS.key;
 /// loop's gain K_s is never fitted: it and the mass act on the trace almost only through
 /// their ratio, so it is taken from the template (the control's setting) and the mass and
 /// friction are found relative to it.
-pub fn for_controller(controller: &Controller) -> Vec<Knob> {
+pub(crate) fn for_controller(controller: &Controller) -> Vec<Knob> {
     match controller {
         Controller::Cascade => vec![
             KV,
@@ -130,7 +130,7 @@ pub fn get(axis: &AxisConfig, key: &str) -> f64 {
 
 /// Sets `keys` on an axis to `values`. The Coulomb force stays the force it was (fitted or
 /// not) whatever mass is set with it: the machine file holds it as a share of the weight.
-pub fn set_all(axis: &mut AxisConfig, keys: &[&str], values: &[f64]) {
+pub(crate) fn set_all(axis: &mut AxisConfig, keys: &[&str], values: &[f64]) {
     let mut coulomb_n = get(axis, "friction.coulomb_n");
     for (&key, &v) in keys.iter().zip(values) {
         if key == "friction.coulomb_n" {

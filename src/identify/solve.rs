@@ -62,12 +62,12 @@ impl<'c, 'a> Fit<'c, 'a> {
     }
 
     /// The same fits on the samples `mask` allows only.
-    pub fn masked(self, mask: Vec<bool>) -> Self {
+    pub(crate) fn masked(self, mask: Vec<bool>) -> Self {
         Fit { mask, ..self }
     }
 
     /// The samples the fits use.
-    pub fn mask(&self) -> &[bool] {
+    pub(crate) fn mask(&self) -> &[bool] {
         &self.mask
     }
 

@@ -56,7 +56,7 @@ const GROUPS: [(&str, &[(&str, Spelling)]); 3] = [
 /// Resolves the friction keys `user` (the file as written) gives in absolute units in
 /// `merged` (the file laid over its base): each becomes the model's key, replacing the
 /// base's value of it. Two spellings of one quantity in the file are an error.
-pub fn resolve(
+pub(crate) fn resolve(
     user: &toml::Table,
     merged: &mut toml::Table,
     file: &str,

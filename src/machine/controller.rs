@@ -29,12 +29,12 @@ pub enum Controller {
 
 impl Controller {
     /// Whether this is the default cascade (which the machine file need not name).
-    pub fn is_cascade(&self) -> bool {
+    pub(crate) fn is_cascade(&self) -> bool {
         matches!(self, Controller::Cascade)
     }
 
     /// Whether the drive closes a velocity loop of its own (`velocity_loop` is used).
-    pub fn uses_velocity_loop(&self) -> bool {
+    pub(crate) fn uses_velocity_loop(&self) -> bool {
         match self {
             Controller::Cascade => true,
             Controller::TransferFunction(tf) => tf.output == ControllerOutput::Velocity,

@@ -670,6 +670,8 @@ impl std::fmt::Display for SetError {
     }
 }
 
+impl std::error::Error for SetError {}
+
 /// Sets a full dotted key (`x.drive.backlash_um`) on a machine.
 pub fn set_on_machine(m: &mut MachineConfig, key: &str, value: f64) -> Result<(), SetError> {
     let (part, rest) = key.split_once('.').ok_or(SetError::Unknown)?;

@@ -36,7 +36,7 @@ impl std::fmt::Display for UnknownKeyAt {
 }
 
 /// Takes a dotted key out of a table; whether it was there.
-pub fn remove_key(table: &mut toml::Table, dotted: &str) -> bool {
+pub(crate) fn remove_key(table: &mut toml::Table, dotted: &str) -> bool {
     let mut parts: Vec<&str> = dotted.split('.').collect();
     let Some(leaf) = parts.pop() else {
         return false;
@@ -53,7 +53,7 @@ pub fn remove_key(table: &mut toml::Table, dotted: &str) -> bool {
 
 /// " — did you mean `…`?" when one of the fields serde's message lists as expected is close
 /// to the unknown one; else empty.
-pub fn did_you_mean(unknown: &str, serde_message: &str) -> String {
+pub(crate) fn did_you_mean(unknown: &str, serde_message: &str) -> String {
     let Some((_, expected)) = serde_message.split_once("expected") else {
         return String::new();
     };
@@ -71,7 +71,7 @@ pub fn did_you_mean(unknown: &str, serde_message: &str) -> String {
 
 /// A deserialiser's message about a value in the machine file's own terms: a number written
 /// as text is shown how to write, and the key is not repeated.
-pub fn plain_words(path: &str, message: &str) -> String {
+pub(crate) fn plain_words(path: &str, message: &str) -> String {
     let message = message.split("\nin `").next().unwrap_or(message).trim_end();
     let leaf = path.rsplit('.').next().unwrap_or(path);
     let Some(rest) = message.strip_prefix("invalid type: string ") else {
@@ -123,7 +123,7 @@ pub fn located(e: ConfigError, text: &str) -> ConfigError {
 
 /// The 1-based line and column where `dotted` is set (or, for a table, opened) in a TOML
 /// text: keys under `[section]` headers, dotted keys, quoted keys.
-pub fn find_key(text: &str, dotted: &str) -> Option<(usize, usize)> {
+pub(crate) fn find_key(text: &str, dotted: &str) -> Option<(usize, usize)> {
     let unquote = |s: &str| -> String {
         s.split('.')
             .map(|p| p.trim().trim_matches('"').trim_matches('\''))

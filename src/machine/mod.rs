@@ -333,7 +333,7 @@ pub enum DriveKind {
 
 impl DriveKind {
     /// Whether this is the default ball screw (which the machine file need not name).
-    pub fn is_ball_screw(&self) -> bool {
+    pub(crate) fn is_ball_screw(&self) -> bool {
         *self == DriveKind::BallScrew
     }
 }
@@ -491,7 +491,9 @@ impl MachineConfig {
 
     /// Loads a machine file as [`MachineConfig::load`] does, with warnings about values the
     /// file gives that look like a unit mixed up (0.005 µm of backlash: mm meant?).
-    pub fn load_with_warnings(path: &Path) -> Result<(MachineConfig, Vec<String>), ConfigError> {
+    pub(crate) fn load_with_warnings(
+        path: &Path,
+    ) -> Result<(MachineConfig, Vec<String>), ConfigError> {
         let file = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|e| ConfigError::Io {
             file: file.clone(),

@@ -11,7 +11,7 @@ use crate::machine::{ControllerOutput, TransferFunction};
 
 /// The most controller states an axis has room for, by what the controller commands: a
 /// velocity-mode drive keeps its velocity integral.
-pub fn max_order(output: ControllerOutput) -> usize {
+pub(crate) fn max_order(output: ControllerOutput) -> usize {
     match output {
         ControllerOutput::Current => 4,
         ControllerOutput::Velocity => 3,
@@ -38,7 +38,7 @@ impl Realisation {
     }
 
     /// Row `i` of A as (state index, coefficient) pairs.
-    pub fn a_row(&self, i: usize) -> Vec<(usize, f64)> {
+    pub(crate) fn a_row(&self, i: usize) -> Vec<(usize, f64)> {
         let n = self.order();
         if i + 1 < n {
             vec![(i + 1, 1.0)]
@@ -73,7 +73,7 @@ impl Realisation {
 }
 
 /// The realisation of a machine file's transfer function, or what makes it impossible.
-pub fn realise(tf: &TransferFunction) -> Result<Realisation, String> {
+pub(crate) fn realise(tf: &TransferFunction) -> Result<Realisation, String> {
     let (mut num, mut den) = (trimmed(&tf.numerator), trimmed(&tf.denominator));
     if den.is_empty() {
         return Err("is zero: a controller divides by it".into());

@@ -20,7 +20,7 @@ const COMPLETED_FROM_OTHER_AXIS: [&str; 2] = ["lateral_shift", "amplifier"];
 
 /// Applies the rules above to `merged` (the file laid over `base`), from what `user` (the
 /// file as written) gives.
-pub fn resolve(
+pub(crate) fn resolve(
     user: &toml::Table,
     base: &toml::Table,
     merged: &mut toml::Table,

@@ -81,14 +81,14 @@ pub struct InPosition {
 impl InPosition {
     /// The loops' time scales the wait estimate uses, X and Y (1/s): the cascade's Kv, or
     /// another controller's closed-loop bandwidth (the simulated waits re-time it).
-    pub fn kv_per_s_of(machine: &MachineConfig) -> [f64; 2] {
+    pub(crate) fn kv_per_s_of(machine: &MachineConfig) -> [f64; 2] {
         [&machine.x, &machine.y].map(|a| {
             crate::sim::linear::equivalent_kv_per_s(&crate::sim::AxisModel::from_config(a))
         })
     }
 
     /// The same for the axes controlled by the cascade (their Kv, cheap); none for others.
-    pub fn kv_per_s_of_cascades(machine: &MachineConfig) -> [Option<f64>; 2] {
+    pub(crate) fn kv_per_s_of_cascades(machine: &MachineConfig) -> [Option<f64>; 2] {
         [&machine.x, &machine.y].map(|a| {
             a.controller
                 .is_cascade()
@@ -247,7 +247,7 @@ impl SegmentMotion {
 
 impl SegmentPlan {
     /// Time from this segment's start to the next one's (s).
-    pub fn span_s(&self) -> f64 {
+    pub(crate) fn span_s(&self) -> f64 {
         self.duration_s + self.wait_s
     }
 
@@ -269,7 +269,7 @@ impl SegmentPlan {
     /// The motion of this segment when `previous` is the one before it: the same profile
     /// seen from a later offset while both lie in one run (a run's members follow each
     /// other, and only its first starts at offset zero), else rebuilt.
-    pub fn motion_after(&self, previous: &SegmentMotion) -> SegmentMotion {
+    pub(crate) fn motion_after(&self, previous: &SegmentMotion) -> SegmentMotion {
         if self.slice.s_offset_m > 0.0 {
             SegmentMotion {
                 s_offset_m: self.slice.s_offset_m,
@@ -299,12 +299,12 @@ pub struct Plan {
 
 impl Plan {
     /// Total path length (m), rapids included.
-    pub fn path_length_m(&self) -> f64 {
+    pub(crate) fn path_length_m(&self) -> f64 {
         self.plans.iter().map(|p| p.length_m).sum()
     }
 
     /// The program line whose block runs (or waits) at `t_s`; the last one after the end.
-    pub fn line_at(&self, t_s: f64) -> Option<u32> {
+    pub(crate) fn line_at(&self, t_s: f64) -> Option<u32> {
         let after = self.plans.partition_point(|p| p.t_start_s <= t_s);
         self.segments.get(after.saturating_sub(1)).map(|s| s.line)
     }
@@ -313,7 +313,7 @@ impl Plan {
     /// each segment's estimated wait lengthened by `extra_wait_s[i]` (shortened when
     /// negative, never below zero; missing entries are zero): only the waits, and with them
     /// the start times, change.
-    pub fn with_waits(&self, in_position: Option<InPosition>, extra_wait_s: &[f64]) -> Plan {
+    pub(crate) fn with_waits(&self, in_position: Option<InPosition>, extra_wait_s: &[f64]) -> Plan {
         let mut p = self.clone();
         p.config.in_position = in_position;
         let mut t = 0.0;
@@ -347,7 +347,7 @@ pub fn plan(program: &Program, limits: &KinematicLimits, config: &PlanConfig) ->
 }
 
 /// Plans a list of segments.
-pub fn plan_segments(
+pub(crate) fn plan_segments(
     segments: Vec<Segment>,
     limits: &KinematicLimits,
     config: &PlanConfig,
@@ -413,7 +413,7 @@ pub fn plan_segments(
 /// A motion segment the control stops exactly after: before a next block that moves, when
 /// it is a rapid or in exact-stop mode, and always at the program's end (the program is done
 /// when the axes are in position).
-pub fn ends_in_exact_stop(segments: &[Segment], i: usize) -> bool {
+pub(crate) fn ends_in_exact_stop(segments: &[Segment], i: usize) -> bool {
     let seg = &segments[i];
     let next_moves = segments.get(i + 1).is_some_and(|n| !n.is_dwell());
     let program_end = i + 1 == segments.len();
@@ -509,69 +509,32 @@ fn segment_limits(
     warnings: &mut FeedWarnings,
 ) -> SegmentLimits {
     let length = seg.length_m();
-    let ideal = config.profile == ProfileKind::Ideal;
-    let jerk_limited = config.profile == ProfileKind::SCurve;
-    let axis_speed = |i: usize| match seg.motion {
-        Motion::Rapid => limits.axes[i].rapid_m_per_s,
-        Motion::Feed => limits.axes[i].max_feed_m_per_s,
-    };
-    let mut v_max = seg.feed_m_per_s;
-    let mut accel = f64::INFINITY;
-    let mut jerk = f64::INFINITY;
-    let mut clamp_speed = |cap: f64, axis: usize, v_max: &mut f64| {
-        if cap < *v_max {
-            if seg.motion == Motion::Feed && seg.feed_m_per_s > cap {
-                warnings.clamped(seg.line, seg.feed_m_per_s, cap, AXIS_NAMES[axis]);
-            }
-            *v_max = cap;
-        }
+    let mut caps = Caps {
+        seg,
+        limits,
+        warnings,
+        v_max: seg.feed_m_per_s,
+        accel: f64::INFINITY,
+        jerk: f64::INFINITY,
     };
     match seg.geometry {
         Geometry::Dwell { .. } => {}
         Geometry::Line => {
             for i in 0..3 {
                 let share = (seg.end_m[i] - seg.start_m[i]).abs() / length;
-                if share > 1e-12 {
-                    clamp_speed(axis_speed(i) / share, i, &mut v_max);
-                    accel = accel.min(limits.axes[i].accel_m_per_s2 / share);
-                    jerk = jerk.min(limits.axes[i].jerk_m_per_s3 / share);
-                }
+                caps.axis_share(i, share);
             }
         }
         Geometry::Arc(arc) => {
             let f_xy = arc.xy_length_m() / length;
-            let f_z = (seg.end_m[2] - seg.start_m[2]).abs() / length;
-            let [x, y, z] = limits.axes;
-            let a_xy = x.accel_m_per_s2.min(y.accel_m_per_s2);
-            let j_xy = x.jerk_m_per_s3.min(y.jerk_m_per_s3);
-            let r = arc.min_radius_m();
-            let eta = config.arc_normal_share;
             if f_xy > 1e-12 {
-                let (vx, vy) = (axis_speed(0), axis_speed(1));
-                let (axis, v_axis) = if vx <= vy { (0, vx) } else { (1, vy) };
-                clamp_speed(v_axis / f_xy, axis, &mut v_max);
-                if !ideal {
-                    // Centripetal acceleration (v f_xy)²/R within η·a.
-                    v_max = v_max.min((eta * a_xy * r).sqrt() / f_xy);
-                }
-                accel = accel.min((1.0 - eta * eta).sqrt() * a_xy / f_xy);
-                if jerk_limited {
-                    // The rotating centripetal acceleration's jerk v³/R² within j/4.
-                    v_max = v_max.min((0.25 * j_xy * r * r).cbrt() / f_xy);
-                    // The cross term 3·v·a_t/R within j/4, and the tangential jerk within j/2.
-                    accel = accel.min(0.25 * j_xy * r / (3.0 * v_max.max(1e-12) * f_xy * f_xy));
-                    jerk = jerk.min(0.5 * j_xy / f_xy);
-                }
+                caps.arc_plane(f_xy, arc.min_radius_m(), config);
             }
-            if f_z > 1e-12 {
-                clamp_speed(axis_speed(2) / f_z, 2, &mut v_max);
-                accel = accel.min(z.accel_m_per_s2 / f_z);
-                jerk = jerk.min(z.jerk_m_per_s3 / f_z);
-            }
+            caps.axis_share(2, (seg.end_m[2] - seg.start_m[2]).abs() / length);
         }
     }
-    accel = accel.min(config.path_dynamics.accel);
-    jerk = jerk.min(config.path_dynamics.jerk);
+    let accel = caps.accel.min(config.path_dynamics.accel);
+    let jerk = caps.jerk.min(config.path_dynamics.jerk);
     let dynamics = match config.profile {
         ProfileKind::Ideal => Dynamics {
             accel: f64::INFINITY,
@@ -585,8 +548,77 @@ fn segment_limits(
     };
     SegmentLimits {
         length,
-        v_max,
+        v_max: caps.v_max,
         dynamics,
+    }
+}
+
+/// A segment's speed, acceleration and jerk caps as the axes' limits lower them.
+struct Caps<'a> {
+    seg: &'a Segment,
+    limits: &'a KinematicLimits,
+    warnings: &'a mut FeedWarnings,
+    v_max: f64,
+    accel: f64,
+    jerk: f64,
+}
+
+impl Caps<'_> {
+    /// The axis's speed limit for the segment's motion (rapid or feed).
+    fn axis_speed(&self, i: usize) -> f64 {
+        match self.seg.motion {
+            Motion::Rapid => self.limits.axes[i].rapid_m_per_s,
+            Motion::Feed => self.limits.axes[i].max_feed_m_per_s,
+        }
+    }
+
+    /// Lowers the speed to `cap`, warning where that cuts the programmed feed.
+    fn clamp_speed(&mut self, cap: f64, axis: usize) {
+        if cap < self.v_max {
+            let seg = self.seg;
+            if seg.motion == Motion::Feed && seg.feed_m_per_s > cap {
+                self.warnings
+                    .clamped(seg.line, seg.feed_m_per_s, cap, AXIS_NAMES[axis]);
+            }
+            self.v_max = cap;
+        }
+    }
+
+    /// Axis `i` carries `share` of the path's motion: its limits over that share.
+    fn axis_share(&mut self, i: usize, share: f64) {
+        if share > 1e-12 {
+            let axis = self.limits.axes[i];
+            self.clamp_speed(self.axis_speed(i) / share, i);
+            self.accel = self.accel.min(axis.accel_m_per_s2 / share);
+            self.jerk = self.jerk.min(axis.jerk_m_per_s3 / share);
+        }
+    }
+
+    /// An arc's XY part, `f_xy` of the path's motion, on the smallest radius `r`: the
+    /// slower axis's speed, the centripetal acceleration within its share of the limit and,
+    /// with jerk limits, the rotating acceleration's jerk.
+    fn arc_plane(&mut self, f_xy: f64, r: f64, config: &PlanConfig) {
+        let [x, y, _] = self.limits.axes;
+        let a_xy = x.accel_m_per_s2.min(y.accel_m_per_s2);
+        let j_xy = x.jerk_m_per_s3.min(y.jerk_m_per_s3);
+        let eta = config.arc_normal_share;
+        let (vx, vy) = (self.axis_speed(0), self.axis_speed(1));
+        let (axis, v_axis) = if vx <= vy { (0, vx) } else { (1, vy) };
+        self.clamp_speed(v_axis / f_xy, axis);
+        if config.profile != ProfileKind::Ideal {
+            // Centripetal acceleration (v f_xy)²/R within η·a.
+            self.v_max = self.v_max.min((eta * a_xy * r).sqrt() / f_xy);
+        }
+        self.accel = self.accel.min((1.0 - eta * eta).sqrt() * a_xy / f_xy);
+        if config.profile == ProfileKind::SCurve {
+            // The rotating centripetal acceleration's jerk v³/R² within j/4.
+            self.v_max = self.v_max.min((0.25 * j_xy * r * r).cbrt() / f_xy);
+            // The cross term 3·v·a_t/R within j/4, and the tangential jerk within j/2.
+            self.accel = self
+                .accel
+                .min(0.25 * j_xy * r / (3.0 * self.v_max.max(1e-12) * f_xy * f_xy));
+            self.jerk = self.jerk.min(0.5 * j_xy / f_xy);
+        }
     }
 }
 

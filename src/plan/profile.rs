@@ -119,7 +119,7 @@ impl Ramp {
 }
 
 /// Distance needed to change speed from `v0` to `v1` (m).
-pub fn ramp_distance(v0: f64, v1: f64, d: Dynamics) -> f64 {
+pub(crate) fn ramp_distance(v0: f64, v1: f64, d: Dynamics) -> f64 {
     Ramp::new(v0, v1, d).distance()
 }
 
@@ -177,7 +177,7 @@ fn peak_speed(v_entry: f64, v_exit: f64, floor: f64, v_max: f64, length: f64, d:
 }
 
 /// The highest speed reachable from `v0` by accelerating over `length` (m).
-pub fn reachable_speed(v0: f64, length: f64, d: Dynamics) -> f64 {
+pub(crate) fn reachable_speed(v0: f64, length: f64, d: Dynamics) -> f64 {
     if d.accel.is_infinite() {
         return f64::INFINITY;
     }
@@ -255,7 +255,7 @@ impl SegmentProfile {
 
     /// When the profile has covered `distance` (m): the inverse of its distance, which never
     /// decreases (at the cruise in closed form, on the ramps by bisection).
-    pub fn time_at_distance(&self, distance: f64) -> f64 {
+    pub(crate) fn time_at_distance(&self, distance: f64) -> f64 {
         let (t_up, s_up) = (self.up.duration(), self.up.distance());
         let s_cruise_end = s_up + self.v_peak * self.cruise_s;
         if distance >= s_up && distance <= s_cruise_end && self.v_peak > 0.0 {

@@ -42,7 +42,7 @@ impl Commands {
     }
 
     /// Time of sample k (s).
-    pub fn time_s(&self, k: usize) -> f64 {
+    pub(crate) fn time_s(&self, k: usize) -> f64 {
         k as f64 * self.dt_s
     }
 
@@ -91,7 +91,7 @@ impl Commands {
     }
 
     /// Room for `more` samples.
-    pub fn reserve(&mut self, more: usize) {
+    pub(crate) fn reserve(&mut self, more: usize) {
         for c in [&mut self.x, &mut self.y] {
             c.pos_m.reserve(more);
             c.vel_m_per_s.reserve(more);

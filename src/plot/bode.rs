@@ -26,18 +26,10 @@ impl Figure for BodePlot {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> PlotResult {
         let root = root.titled(&self.title, (FONT, 28)).map_err(err)?;
         let (upper, lower) = root.split_vertically(root.dim_in_pixel().1 / 2);
-        let f_min = self
-            .curves
-            .iter()
-            .flat_map(|c| c.points.first())
-            .map(|p| p.0)
-            .fold(f64::MAX, f64::min);
-        let f_max = self
-            .curves
-            .iter()
-            .flat_map(|c| c.points.last())
-            .map(|p| p.0)
-            .fold(f64::MIN, f64::max);
+        let firsts = self.curves.iter().flat_map(|c| c.points.first());
+        let f_min = firsts.map(|p| p.0).fold(f64::MAX, f64::min);
+        let lasts = self.curves.iter().flat_map(|c| c.points.last());
+        let f_max = lasts.map(|p| p.0).fold(f64::MIN, f64::max);
         let (mag_lo, mag_hi) = bounds(
             self.curves
                 .iter()
@@ -72,22 +64,12 @@ impl Figure for BodePlot {
                 .map_err(err)?;
             for (i, c) in self.curves.iter().enumerate() {
                 let color = series_color(i);
-                // Values beyond the axis are left out, not drawn along its edge where they
-                // would read as data: each stretch inside the range is its own line.
-                let values: Vec<(f64, f64)> = c
+                let values = c
                     .points
                     .iter()
-                    .map(|p| (p.0, if pick == 1 { p.1 } else { p.2 }))
-                    .collect();
-                let mut stretches: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
-                for &(f, v) in &values {
-                    if (lo..=hi).contains(&v) {
-                        stretches.last_mut().expect("one stretch").push((f, v));
-                    } else if !stretches.last().expect("one stretch").is_empty() {
-                        stretches.push(Vec::new());
-                    }
-                }
-                for (k, stretch) in stretches.into_iter().filter(|s| !s.is_empty()).enumerate() {
+                    .map(|p| (p.0, if pick == 1 { p.1 } else { p.2 }));
+                let stretches = inside_stretches(values, lo, hi);
+                for (k, stretch) in stretches.into_iter().enumerate() {
                     let series = chart
                         .draw_series(LineSeries::new(stretch, color.stroke_width(2)))
                         .map_err(err)?;
@@ -120,6 +102,25 @@ impl Figure for BodePlot {
         }
         Ok(())
     }
+}
+
+/// The stretches of `values` (frequency, value) inside [lo, hi], each its own line: values
+/// beyond the axis are left out, not drawn along its edge where they would read as data.
+fn inside_stretches(
+    values: impl Iterator<Item = (f64, f64)>,
+    lo: f64,
+    hi: f64,
+) -> Vec<Vec<(f64, f64)>> {
+    let mut stretches: Vec<Vec<(f64, f64)>> = vec![Vec::new()];
+    for (f, v) in values {
+        if (lo..=hi).contains(&v) {
+            stretches.last_mut().expect("one stretch").push((f, v));
+        } else if !stretches.last().expect("one stretch").is_empty() {
+            stretches.push(Vec::new());
+        }
+    }
+    stretches.retain(|s| !s.is_empty());
+    stretches
 }
 
 /// Range of the values, widened a little and clamped to [floor, ceiling].

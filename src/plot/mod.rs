@@ -25,7 +25,7 @@ pub const FONT: &str = "sans-serif";
 static FONT_ONCE: Once = Once::new();
 
 /// Makes the embedded font available to the bitmap backend (once per process).
-pub fn register_font() {
+pub(crate) fn register_font() {
     FONT_ONCE.call_once(|| {
         // The embedded font is a valid TTF; failure would only mean text is not drawn.
         let _ = plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular());
@@ -43,7 +43,7 @@ pub trait Figure {
 }
 
 /// Draws a figure into a PNG or SVG at `path` (chosen by extension; none means PNG).
-pub fn render(path: &Path, figure: &impl Figure) -> PlotResult {
+pub(crate) fn render(path: &Path, figure: &impl Figure) -> PlotResult {
     register_font();
     let ext = path.extension().map(|e| e.to_string_lossy().to_lowercase());
     let svg = match ext.as_deref() {
@@ -77,7 +77,7 @@ pub fn err<E: std::fmt::Display>(e: E) -> String {
 }
 
 /// A distinguishable colour for series `i`.
-pub fn series_color(i: usize) -> RGBColor {
+pub(crate) fn series_color(i: usize) -> RGBColor {
     const COLORS: [RGBColor; 8] = [
         RGBColor(31, 119, 180),
         RGBColor(214, 39, 40),

@@ -2,6 +2,7 @@
 //! the nominal circle, magnified, for both directions of travel.
 
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
 use super::{FONT, Figure, PlotResult, err, series_color};
@@ -45,6 +46,95 @@ fn ring_step(max_um: f64) -> f64 {
         .unwrap_or(10.0 * mag)
 }
 
+/// The polar chart, in plot units.
+type PolarChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// The nominal circle and `rings` rings either side, `ring` plot units and `step_um` apart,
+/// labelled with their deviation.
+fn draw_rings<DB: DrawingBackend>(
+    chart: &mut PolarChart<'_, DB>,
+    rings: i64,
+    ring: f64,
+    step_um: f64,
+) -> PlotResult {
+    let circle = |r: f64| {
+        (0..=360).map(move |d| {
+            let a = (d as f64).to_radians();
+            (r * a.cos(), r * a.sin())
+        })
+    };
+    for i in -rings..=rings {
+        let r = NOMINAL + i as f64 * ring;
+        let style = if i == 0 {
+            BLACK.stroke_width(2)
+        } else {
+            BLACK.mix(0.2).stroke_width(1)
+        };
+        chart
+            .draw_series(LineSeries::new(circle(r), style))
+            .map_err(err)?;
+        if i != 0 {
+            let label = format!("{:+} µm", i as f64 * step_um);
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    label,
+                    (0.02, r),
+                    (FONT, 12).into_font().color(&BLACK.mix(0.6)),
+                )))
+                .map_err(err)?;
+        }
+    }
+    Ok(())
+}
+
+/// Spokes every 45°, labelled with their angle.
+fn draw_spokes<DB: DrawingBackend>(chart: &mut PolarChart<'_, DB>) -> PlotResult {
+    for d in (0..360).step_by(45) {
+        let a = (d as f64).to_radians();
+        let (r0, r1) = (NOMINAL - SPAN, NOMINAL + SPAN);
+        chart
+            .draw_series(LineSeries::new(
+                [(r0 * a.cos(), r0 * a.sin()), (r1 * a.cos(), r1 * a.sin())],
+                BLACK.mix(0.2),
+            ))
+            .map_err(err)?;
+        let (lx, ly) = ((r1 + 0.07) * a.cos(), (r1 + 0.07) * a.sin());
+        chart
+            .draw_series(std::iter::once(Text::new(
+                format!("{d}°"),
+                (lx - 0.05, ly),
+                (FONT, 14),
+            )))
+            .map_err(err)?;
+    }
+    Ok(())
+}
+
+impl PolarPlot {
+    /// The legend: the nominal radius, the grid, and each trace with its figures — F about
+    /// the programmed centre, G about the path's own, as the report gives them, so that
+    /// legend and text agree.
+    fn legend_lines(&self, step_um: f64) -> Vec<(String, RGBColor)> {
+        std::iter::once((format!("nominal radius {:.3} mm", self.radius_mm), BLACK))
+            .chain(std::iter::once((
+                format!("grid: {step_um} µm per ring"),
+                BLACK,
+            )))
+            .chain(self.traces.iter().enumerate().flat_map(|(i, t)| {
+                let (lo, hi) = t
+                    .points
+                    .iter()
+                    .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
+                let g = t.g_um.map_or(String::new(), |g| format!(", G {g:.2} µm"));
+                [
+                    (t.label.clone(), series_color(i)),
+                    (format!("  F {hi:+.2} / {lo:+.2} µm{g}"), series_color(i)),
+                ]
+            }))
+            .collect()
+    }
+}
+
 impl Figure for PolarPlot {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> PlotResult {
         let root = root.titled(&self.title, (FONT, 26)).map_err(err)?;
@@ -63,51 +153,8 @@ impl Figure for PolarPlot {
             .margin(20)
             .build_cartesian_2d(-lim..lim, -lim..lim)
             .map_err(err)?;
-        let circle = |r: f64| {
-            (0..=360).map(move |d| {
-                let a = (d as f64).to_radians();
-                (r * a.cos(), r * a.sin())
-            })
-        };
-        for i in -(rings as i64)..=(rings as i64) {
-            let r = NOMINAL + i as f64 * step * scale;
-            let style = if i == 0 {
-                BLACK.stroke_width(2)
-            } else {
-                BLACK.mix(0.2).stroke_width(1)
-            };
-            chart
-                .draw_series(LineSeries::new(circle(r), style))
-                .map_err(err)?;
-            if i != 0 {
-                let label = format!("{:+} µm", i as f64 * step);
-                chart
-                    .draw_series(std::iter::once(Text::new(
-                        label,
-                        (0.02, r),
-                        (FONT, 12).into_font().color(&BLACK.mix(0.6)),
-                    )))
-                    .map_err(err)?;
-            }
-        }
-        for d in (0..360).step_by(45) {
-            let a = (d as f64).to_radians();
-            let (r0, r1) = (NOMINAL - SPAN, NOMINAL + SPAN);
-            chart
-                .draw_series(LineSeries::new(
-                    [(r0 * a.cos(), r0 * a.sin()), (r1 * a.cos(), r1 * a.sin())],
-                    BLACK.mix(0.2),
-                ))
-                .map_err(err)?;
-            let (lx, ly) = ((r1 + 0.07) * a.cos(), (r1 + 0.07) * a.sin());
-            chart
-                .draw_series(std::iter::once(Text::new(
-                    format!("{d}°"),
-                    (lx - 0.05, ly),
-                    (FONT, 14),
-                )))
-                .map_err(err)?;
-        }
+        draw_rings(&mut chart, rings as i64, step * scale, step)?;
+        draw_spokes(&mut chart)?;
         for (i, t) in self.traces.iter().enumerate() {
             let pts = t.points.iter().map(|&(a, dev)| {
                 let r = NOMINAL + dev * scale;
@@ -118,26 +165,7 @@ impl Figure for PolarPlot {
                 .map_err(err)?;
         }
         let mut y = 40;
-        let lines: Vec<(String, RGBColor)> =
-            std::iter::once((format!("nominal radius {:.3} mm", self.radius_mm), BLACK))
-                .chain(std::iter::once((
-                    format!("grid: {step} µm per ring"),
-                    BLACK,
-                )))
-                .chain(self.traces.iter().enumerate().flat_map(|(i, t)| {
-                    let (lo, hi) = t
-                        .points
-                        .iter()
-                        .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.1), b.max(p.1)));
-                    // The report's figures: F about the programmed centre, G about the
-                    // path's own, so that legend and text agree.
-                    let g = t.g_um.map_or(String::new(), |g| format!(", G {g:.2} µm"));
-                    [
-                        (t.label.clone(), series_color(i)),
-                        (format!("  F {hi:+.2} / {lo:+.2} µm{g}"), series_color(i)),
-                    ]
-                }))
-                .collect();
+        let lines = self.legend_lines(step);
         for (text, color) in lines {
             legend
                 .draw(&Text::new(

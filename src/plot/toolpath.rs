@@ -42,7 +42,7 @@ pub struct ToolpathPlot {
 }
 
 /// A perceptually ordered colour map (viridis, five anchors) for t in [0, 1].
-pub fn colormap(t: f64) -> RGBColor {
+pub(crate) fn colormap(t: f64) -> RGBColor {
     const ANCHORS: [(f64, f64, f64); 5] = [
         (68.0, 1.0, 84.0),
         (59.0, 82.0, 139.0),
@@ -145,7 +145,7 @@ impl Figure for ToolpathPlot {
 
 /// A chart in XY (mm) on `area`, equal scale on both axes, covering `points`, with
 /// `caption` above it if given.
-pub fn xy_chart<'a, DB: DrawingBackend + 'a>(
+pub(crate) fn xy_chart<'a, DB: DrawingBackend + 'a>(
     area: &'a DrawingArea<DB, Shift>,
     points: impl Iterator<Item = (f64, f64)>,
     caption: Option<&str>,
@@ -195,7 +195,7 @@ fn equal_aspect_bounds<DB: DrawingBackend>(
 }
 
 /// A vertical colour bar from 0 to `max`.
-pub fn draw_colorbar<DB: DrawingBackend>(
+pub(crate) fn draw_colorbar<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     max: f64,
     label: &str,
@@ -251,7 +251,7 @@ fn overlap(a: (i32, i32, i32, i32), b: (i32, i32, i32, i32)) -> bool {
 /// the first of a few places around the marker that overlaps no label already placed and no
 /// marker; `None` where every place is taken — that label is left out (thinned), its marker
 /// stays.
-pub fn place_labels(at_px: &[(i32, i32)], labels: &[String]) -> Vec<Option<(i32, i32)>> {
+pub(crate) fn place_labels(at_px: &[(i32, i32)], labels: &[String]) -> Vec<Option<(i32, i32)>> {
     let marker_box = |p: (i32, i32)| (p.0 - 8, p.1 - 8, p.0 + 8, p.1 + 8);
     let mut taken: Vec<(i32, i32, i32, i32)> = Vec::new();
     at_px

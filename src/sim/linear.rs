@@ -51,7 +51,7 @@ pub fn loops(model: &AxisModel) -> Vec<Loop> {
 /// controller the closed position loop's −3 dB bandwidth in rad/s (which a P loop on a fast
 /// velocity loop has as its Kv). Used where a time scale of the loop is wanted (how long a
 /// following error lasts), not for the lag F/Kv of a controller with integral action.
-pub fn equivalent_kv_per_s(model: &AxisModel) -> f64 {
+pub(crate) fn equivalent_kv_per_s(model: &AxisModel) -> f64 {
     match model.control {
         super::model::ControlModel::Cascade => model.kv_per_s(),
         _ => {
@@ -250,7 +250,7 @@ pub fn bode(model: &AxisModel, which: Loop, freqs_hz: &[f64], open: bool) -> Vec
 }
 
 /// Logarithmically spaced frequencies.
-pub fn log_space(from_hz: f64, to_hz: f64, per_decade: usize) -> Vec<f64> {
+pub(crate) fn log_space(from_hz: f64, to_hz: f64, per_decade: usize) -> Vec<f64> {
     let decades = (to_hz / from_hz).log10();
     let n = (decades * per_decade as f64).ceil() as usize;
     (0..=n)
@@ -418,7 +418,7 @@ pub fn closed_loop_modes(model: &AxisModel) -> Vec<ModalFigure> {
 }
 
 /// The least damped oscillatory closed-loop mode (damping below 1).
-pub fn least_damped(model: &AxisModel) -> Option<ModalFigure> {
+pub(crate) fn least_damped(model: &AxisModel) -> Option<ModalFigure> {
     closed_loop_modes(model)
         .into_iter()
         .filter(|m| m.damping < 0.999 && m.frequency_hz > 0.0)

@@ -15,7 +15,7 @@ pub mod stickslip;
 
 pub use commands::AxisCommands;
 pub use model::{AxisModel, FrictionMode, Mode};
-pub use simulate::{AxisRun, simulate, simulate_with_progress};
+pub use simulate::{AxisRun, simulate};
 
 use model::{Aug, I, X2, XR};
 
@@ -124,7 +124,7 @@ impl SimError {
     }
 
     /// The failure itself, without the axis and line it was placed at.
-    pub fn innermost(&self) -> &SimError {
+    pub(crate) fn innermost(&self) -> &SimError {
         match self {
             SimError::OnAxis { source, .. } => source.innermost(),
             other => other,
@@ -132,7 +132,7 @@ impl SimError {
     }
 
     /// The failure placed on `axis` and, when known, the program line running then.
-    pub fn on_axis(self, axis: char, line: Option<u32>) -> SimError {
+    pub(crate) fn on_axis(self, axis: char, line: Option<u32>) -> SimError {
         SimError::OnAxis {
             axis,
             line,
@@ -255,16 +255,8 @@ impl AxisTrace {
         self.pos_m.is_empty()
     }
 
-    /// The position series a measurement at `point` reads (m).
-    pub fn read_at(&self, point: MeasuredAt) -> &[f64] {
-        match point {
-            MeasuredAt::Table | MeasuredAt::Tool => &self.pos_m,
-            MeasuredAt::Motor => &self.motor_pos_m,
-        }
-    }
-
     /// Takes the series a measurement at `point` reads, dropping the rest.
-    pub fn into_read_at(self, point: MeasuredAt) -> Vec<f64> {
+    pub(crate) fn into_read_at(self, point: MeasuredAt) -> Vec<f64> {
         match point {
             MeasuredAt::Table | MeasuredAt::Tool => self.pos_m,
             MeasuredAt::Motor => self.motor_pos_m,

@@ -239,7 +239,7 @@ pub struct MeasuringError {
 
 impl MeasuringError {
     /// True when there is any error.
-    pub fn is_active(&self) -> bool {
+    pub(crate) fn is_active(&self) -> bool {
         self.scale != 0.0 || self.amplitude_m != 0.0
     }
 
@@ -265,7 +265,7 @@ pub struct LateralShiftModel {
 impl LateralShiftModel {
     /// The lead scale K_λ = b/√(b² + y_a²) with the holder at axis position `x` (m), where
     /// y_a = F a² b² / (3 l EI) is the sag under the holder (a from the left end, b = l − a).
-    pub fn k_lambda(&self, x: f64) -> f64 {
+    pub(crate) fn k_lambda(&self, x: f64) -> f64 {
         let a = (self.a0 + x).clamp(0.0, self.l);
         let b = self.l - a;
         if b <= 0.0 {
@@ -288,18 +288,18 @@ impl AxisModel {
 
     /// Whether friction beyond Coulomb's and the viscous term is held per sub-step
     /// (Stribeck, friction maps).
-    pub fn has_friction_inputs(&self) -> bool {
+    pub(crate) fn has_friction_inputs(&self) -> bool {
         self.stribeck.is_some() || self.has_friction_maps()
     }
 
     /// Whether friction maps (by position or speed) add to the friction.
-    pub fn has_friction_maps(&self) -> bool {
+    pub(crate) fn has_friction_maps(&self) -> bool {
         !self.friction_map.is_empty() || !self.friction_speed.is_empty()
     }
 
     /// The friction the maps add (N, ≥ −f_c in all: friction never pulls) with the table
     /// at `x` m: (sliding at `|v|` m/s, static).
-    pub fn friction_added_n(&self, x: f64, v: f64) -> (f64, f64) {
+    pub(crate) fn friction_added_n(&self, x: f64, v: f64) -> (f64, f64) {
         let here = self.friction_map.at(x).max(-self.f_c);
         let sliding = (here + self.friction_speed.at(v.abs())).max(-self.f_c);
         (sliding, here)
@@ -438,7 +438,7 @@ impl AxisModel {
     }
 
     /// True when the axis has backlash (a gap to cross at reversals).
-    pub fn has_backlash(&self) -> bool {
+    pub(crate) fn has_backlash(&self) -> bool {
         self.half_gap > 0.0
     }
 }
@@ -550,7 +550,7 @@ impl Mode {
     }
 
     /// Whether a trace's mode code ([`Mode::code`]) has a current or voltage limit active.
-    pub fn code_is_limited(code: u8) -> bool {
+    pub(crate) fn code_is_limited(code: u8) -> bool {
         code >= 9
     }
 }
@@ -590,7 +590,7 @@ const MM_PER_M: f64 = 1e3;
 
 impl AxisModel {
     /// Whether the drive closes a velocity loop (the cascade, a velocity-mode drive).
-    pub fn has_velocity_loop(&self) -> bool {
+    pub(crate) fn has_velocity_loop(&self) -> bool {
         match &self.control {
             ControlModel::Cascade => true,
             ControlModel::Transfer { output, .. } => *output == ControllerOutput::Velocity,
@@ -599,14 +599,14 @@ impl AxisModel {
     }
 
     /// Whether the current loop and the armature are modelled (else an ideal amplifier).
-    pub fn has_current_loop(&self) -> bool {
+    pub(crate) fn has_current_loop(&self) -> bool {
         self.amplifier_tau.is_none()
     }
 
     /// The states the axis uses (indices below `XR`): the mechanics and the current always;
     /// the current loop's filters and integral, the velocity (or error) integral and a
     /// transfer function's states where the structure has them.
-    pub fn active_states(&self) -> Vec<usize> {
+    pub(crate) fn active_states(&self) -> Vec<usize> {
         let mut states = if self.linear_motor {
             vec![I, X2, V2]
         } else {
@@ -636,7 +636,7 @@ impl AxisModel {
 
     /// The state the current command drives and the rate it does so with: the command
     /// filter of a current loop, or the current of an ideal amplifier.
-    pub fn current_command_target(&self) -> (usize, f64) {
+    pub(crate) fn current_command_target(&self) -> (usize, f64) {
         match self.amplifier_tau {
             None => (FC, 1.0 / self.tcf),
             Some(tau) => (I, 1.0 / tau),
@@ -729,7 +729,7 @@ impl AxisModel {
     /// The current command with its limit and the integrator that stops at it: the velocity
     /// loop's (cascade, velocity-mode drive), state feedback's error integral, or none (a
     /// transfer function's states run on at the limit).
-    pub fn current_command(&self, s: &Signals) -> Limited {
+    pub(crate) fn current_command(&self, s: &Signals) -> Limited {
         let integrator = match &self.control {
             ControlModel::StateFeedback { kz, .. } => (*kz > 0.0).then_some(Integrator {
                 slot: ZW,
@@ -752,7 +752,7 @@ impl AxisModel {
 
     /// The voltage with its limit and the current integral, where the current loop is
     /// modelled.
-    pub fn voltage_command(&self, s: &Signals) -> Option<Limited> {
+    pub(crate) fn voltage_command(&self, s: &Signals) -> Option<Limited> {
         self.has_current_loop().then(|| Limited {
             output: s.u_raw,
             limit: self.u_max,
@@ -765,7 +765,7 @@ impl AxisModel {
     }
 
     /// The motor's speed (rad/s; a linear motor's in m/s, its table's).
-    pub fn motor_speed_row(&self) -> Row {
+    pub(crate) fn motor_speed_row(&self) -> Row {
         if self.linear_motor {
             unit(V2)
         } else {
@@ -775,7 +775,7 @@ impl AxisModel {
 
     /// What a motor encoder reads (m of table travel) and the motor's speed (rad/s) in the
     /// state `x`.
-    pub fn motor_reading(&self, x: &Aug) -> (f64, f64) {
+    pub(crate) fn motor_reading(&self, x: &Aug) -> (f64, f64) {
         if self.linear_motor {
             (x[X2], x[V2])
         } else {
@@ -784,7 +784,7 @@ impl AxisModel {
     }
 
     /// The force that drives the table (N): the nut's in a contact mode, or a linear motor's.
-    pub fn nut_force(&self, s: &Signals, contact: ContactMode) -> Row {
+    pub(crate) fn nut_force(&self, s: &Signals, contact: ContactMode) -> Row {
         if self.linear_motor {
             return unit(I) * self.kt;
         }

@@ -623,7 +623,7 @@ fn unit(i: usize) -> Row {
 /// error that is not where the table is — a scale reading e too long holds the table at
 /// x0 − e, a lead error puts it at x0 + e — and starting elsewhere would make the axis creep
 /// the difference out through static friction before anything else happens.
-pub fn rest_state(model: &AxisModel, x0: f64) -> (Aug, Mode) {
+pub(crate) fn rest_state(model: &AxisModel, x0: f64) -> (Aug, Mode) {
     let mut x = Aug::zeros();
     let (screw_travel, table) = match model.feedback {
         Feedback::LinearScale => {
@@ -680,7 +680,7 @@ pub fn simulate(
 const PROGRESS_EVERY: usize = 10_000;
 
 /// [`simulate`], calling `progress(samples done since the last call)` now and then.
-pub fn simulate_with_progress(
+pub(crate) fn simulate_with_progress(
     model: &AxisModel,
     commands: &AxisCommands,
     dt_s: f64,
@@ -758,13 +758,13 @@ impl<'a> AxisRun<'a> {
 
     /// Where the control reads the axis now (m): its position feedback — the linear scale,
     /// or the motor encoder through the nominal lead — as the in-position check sees it.
-    pub fn feedback_m(&self) -> f64 {
+    pub(crate) fn feedback_m(&self) -> f64 {
         (self.feedback * self.x)[0]
     }
 
     /// Records the sample at the start of this cycle with the command (position m,
     /// velocity m/s, acceleration m/s²), then integrates over the cycle.
-    pub fn advance(
+    pub(crate) fn advance(
         &mut self,
         pos_m: f64,
         vel_m_per_s: f64,
@@ -840,7 +840,7 @@ impl<'a> AxisRun<'a> {
     /// The samples recorded since the last call (all of them at first), with the friction
     /// switches among them: a long run is taken out piece by piece, so that memory does not
     /// grow with its duration.
-    pub fn take_trace(&mut self) -> AxisTrace {
+    pub(crate) fn take_trace(&mut self) -> AxisTrace {
         let mut taken = std::mem::replace(&mut self.trace, AxisTrace::with_capacity(self.dt_s, 0));
         self.taken += taken.len();
         if let Some(events) = &mut self.friction_events {

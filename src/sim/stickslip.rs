@@ -119,7 +119,7 @@ pub fn run(
 }
 
 /// Slips from the friction switches: each break-away paired with the next stick.
-pub fn slips_of(events: &[FrictionEvent]) -> Vec<Slip> {
+pub(crate) fn slips_of(events: &[FrictionEvent]) -> Vec<Slip> {
     let mut slips = Vec::new();
     let mut start: Option<&FrictionEvent> = None;
     for e in events {

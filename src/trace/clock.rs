@@ -19,7 +19,7 @@ pub struct Sampled {
 /// the others interpolated linearly between their own samples; the clock becomes the first
 /// column, `time_name`, its values times `to_seconds`. Each row's line is the line of the
 /// clock signal's sample. `signals` must each hold a sample.
-pub fn on_one_clock(
+pub(crate) fn on_one_clock(
     signals: &[Sampled],
     time_name: &str,
     to_seconds: f64,

@@ -53,7 +53,7 @@ impl Signal {
     }
 
     /// Whether this is the time.
-    pub fn is_time(self) -> bool {
+    pub(crate) fn is_time(self) -> bool {
         self == Signal::Time
     }
 }
@@ -75,7 +75,7 @@ const TIME_UNITS: [(&str, f64); 5] = [
     ("min", 60.0),
 ];
 /// The time units a clock may count in, one per scale (no spelling twice).
-pub fn time_units() -> impl Iterator<Item = Unit> {
+pub(crate) fn time_units() -> impl Iterator<Item = Unit> {
     TIME_UNITS
         .iter()
         .filter(|(label, _)| *label != "µs")
@@ -149,6 +149,12 @@ pub struct ColumnSpec {
     pub unit: Option<Unit>,
 }
 
+/// What is wrong with a column mapping (`--columns`, a trace profile), in words that name
+/// the key, the column or the file.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct MappingError(String);
+
 /// A user's mapping of signals to columns.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct ColumnMap {
@@ -157,26 +163,33 @@ pub struct ColumnMap {
 
 impl ColumnMap {
     /// Parses `t=Time[ms],x=X_ActPos[mm],y=Y_ActPos,x_cmd=X_Traj,y_cmd=Y_Traj`.
-    pub fn parse(text: &str) -> Result<ColumnMap, String> {
+    pub fn parse(text: &str) -> Result<ColumnMap, MappingError> {
         let mut map = ColumnMap::default();
         for item in split_mapping(text) {
-            let (key, column) = item
-                .split_once('=')
-                .ok_or_else(|| format!("'{item}': expected KEY=COLUMN, as t=Time[ms]"))?;
-            let signal = Signal::from_key(key.trim())
-                .ok_or_else(|| format!("'{key}': the keys are t, x, y, x_cmd, y_cmd"))?;
+            let (key, column) = item.split_once('=').ok_or_else(|| {
+                MappingError(format!("'{item}': expected KEY=COLUMN, as t=Time[ms]"))
+            })?;
+            let signal = Signal::from_key(key.trim()).ok_or_else(|| {
+                MappingError(format!("'{key}': the keys are t, x, y, x_cmd, y_cmd"))
+            })?;
             map.set(signal, column)?;
         }
-        map.check_complete()?;
+        map.check_complete().map_err(MappingError)?;
         Ok(map)
     }
 
     /// Sets one signal from `Name[unit]` or `Name`.
-    pub fn set(&mut self, signal: Signal, column: &str) -> Result<(), String> {
+    pub fn set(&mut self, signal: Signal, column: &str) -> Result<(), MappingError> {
         let (name, unit) = split_unit(column.trim());
-        let unit = unit.map(|u| parse_unit(u, signal)).transpose()?;
+        let unit = unit
+            .map(|u| parse_unit(u, signal))
+            .transpose()
+            .map_err(MappingError)?;
         if name.is_empty() {
-            return Err(format!("{}: the column name is empty", signal.key()));
+            return Err(MappingError(format!(
+                "{}: the column name is empty",
+                signal.key()
+            )));
         }
         self.specs.retain(|(s, _)| *s != signal);
         self.specs.push((
@@ -262,12 +275,12 @@ pub struct TraceProfile {
 
 impl TraceProfile {
     /// Reads a profile file into a mapping.
-    pub fn load(path: &std::path::Path) -> Result<ColumnMap, String> {
-        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    pub fn load(path: &std::path::Path) -> Result<ColumnMap, MappingError> {
+        let in_file = |problem: String| MappingError(format!("{}: {problem}", path.display()));
+        let text = std::fs::read_to_string(path).map_err(|e| in_file(e.to_string()))?;
         let profile: TraceProfile =
-            toml::from_str(&text).map_err(|e| format!("{}: {}", path.display(), e.message()))?;
-        ColumnMap::parse(&profile.columns)
-            .map_err(|e| format!("{}: key `columns`: {e}", path.display()))
+            toml::from_str(&text).map_err(|e| in_file(e.message().to_string()))?;
+        ColumnMap::parse(&profile.columns).map_err(|e| in_file(format!("key `columns`: {e}")))
     }
 }
 
@@ -303,13 +316,13 @@ pub struct Dialect {
 
 /// Whether a line is a comment: `#`, `//`, `%` or `;` first (`;` only when it is not the
 /// delimiter).
-pub fn is_comment(line: &str) -> bool {
+pub(crate) fn is_comment(line: &str) -> bool {
     let l = line.trim_start();
     l.starts_with('#') || l.starts_with("//") || l.starts_with('%')
 }
 
 /// Sniffs the dialect from the header line and the next few data lines.
-pub fn sniff(header: &str, data: &[&str]) -> Dialect {
+pub(crate) fn sniff(header: &str, data: &[&str]) -> Dialect {
     let count = |b: char| header.matches(b).count();
     let delimiter = if count('\t') > 0 {
         Delimiter::Byte(b'\t')
@@ -369,7 +382,10 @@ pub struct Mapped {
 
 /// Finds every signal's column in `headers`, from `map` when given, else by the usual
 /// spellings. Errors name what is missing and list the headers found.
-pub fn map_columns(headers: &[&str], map: Option<&ColumnMap>) -> Result<Vec<Mapped>, String> {
+pub(crate) fn map_columns(
+    headers: &[&str],
+    map: Option<&ColumnMap>,
+) -> Result<Vec<Mapped>, String> {
     let mut out = Vec::new();
     for signal in Signal::ALL {
         let found = match map {
@@ -695,7 +711,7 @@ fn words(name: &str) -> Vec<String> {
 }
 
 /// One line per mapped signal, for the user: `t ← Time [ms] (unit from the header)`.
-pub fn describe_mapping(mapped: &[Mapped]) -> Vec<String> {
+pub(crate) fn describe_mapping(mapped: &[Mapped]) -> Vec<String> {
     mapped
         .iter()
         .map(|m| {
@@ -724,7 +740,12 @@ mod tests {
         assert!((mapped[1].unit.to_si - 1e-7).abs() < 1e-22);
         assert_eq!(mapped[2].unit.to_si, 0.0254);
         assert!(ColumnMap::parse("t=Time[hours],x=a,y=b").is_err());
-        assert!(ColumnMap::parse("t=Time,x=a").unwrap_err().contains("y="));
+        assert!(
+            ColumnMap::parse("t=Time,x=a")
+                .unwrap_err()
+                .to_string()
+                .contains("y=")
+        );
         assert!(ColumnMap::parse("t=T,x=a,y=b,x_cmd=c").is_err());
     }
 

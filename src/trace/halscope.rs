@@ -19,7 +19,7 @@ const SIGNATURE: &str = "Sampling period is";
 pub const TIME_COLUMN: &str = "time";
 
 /// Whether `text` is a halscope log.
-pub fn is_halscope_log(text: &str) -> bool {
+pub(crate) fn is_halscope_log(text: &str) -> bool {
     text.trim_start_matches('\u{feff}')
         .trim_start()
         .starts_with(SIGNATURE)
@@ -36,7 +36,7 @@ pub struct HalscopeColumns {
 }
 
 /// Reads a halscope log; `file` names it in errors.
-pub fn halscope_columns(text: &str, file: &str) -> Result<HalscopeColumns, MeasuredError> {
+pub(crate) fn halscope_columns(text: &str, file: &str) -> Result<HalscopeColumns, MeasuredError> {
     let row_error = |row: u64, problem: String| MeasuredError::Row {
         file: file.into(),
         row,
@@ -84,32 +84,12 @@ pub fn halscope_columns(text: &str, file: &str) -> Result<HalscopeColumns, Measu
                 ),
             ));
         }
-        for (k, pair) in tokens.chunks(2).enumerate() {
-            if pair[0] != names[k] {
-                return Err(row_error(
-                    row,
-                    format!(
-                        "channel {} is '{}' where the first sample has '{}'",
-                        k + 1,
-                        pair[0],
-                        names[k]
-                    ),
-                ));
-            }
-            let v: f64 = pair[1]
-                .parse()
-                .ok()
-                .filter(|v: &f64| v.is_finite())
-                .ok_or_else(|| {
-                    row_error(
-                        row,
-                        format!(
-                            "channel '{}': '{}' is not a finite number",
-                            pair[0], pair[1]
-                        ),
-                    )
-                })?;
-            values[k].push(v);
+        for (k, value) in sample_values(&tokens, &names)
+            .map_err(|problem| row_error(row, problem))?
+            .into_iter()
+            .enumerate()
+        {
+            values[k].push(value);
         }
         rows.push(row);
     }
@@ -124,6 +104,35 @@ pub fn halscope_columns(text: &str, file: &str) -> Result<HalscopeColumns, Measu
     let mut columns = vec![(TIME_COLUMN.to_string(), time)];
     columns.extend(names.into_iter().zip(values));
     Ok(HalscopeColumns { columns, rows })
+}
+
+/// One sample's values from its `name value` pairs `tokens`, each channel in the first
+/// sample's order `names`; what is wrong otherwise.
+fn sample_values(tokens: &[&str], names: &[String]) -> Result<Vec<f64>, String> {
+    tokens
+        .chunks(2)
+        .zip(names)
+        .enumerate()
+        .map(|(k, (pair, name))| {
+            if pair[0] != name {
+                return Err(format!(
+                    "channel {} is '{}' where the first sample has '{name}'",
+                    k + 1,
+                    pair[0],
+                ));
+            }
+            pair[1]
+                .parse()
+                .ok()
+                .filter(|v: &f64| v.is_finite())
+                .ok_or_else(|| {
+                    format!(
+                        "channel '{}': '{}' is not a finite number",
+                        pair[0], pair[1]
+                    )
+                })
+        })
+        .collect()
 }
 
 /// The period of `Sampling period is <N> ns` (s).

@@ -27,12 +27,15 @@ const DEEPEST: usize = 8;
 
 /// Whether `bytes` are a MAT file (level 5, or the HDF5-based 7.3, which carries the same
 /// text header).
-pub fn is_mat_file(bytes: &[u8]) -> bool {
+pub(crate) fn is_mat_file(bytes: &[u8]) -> bool {
     bytes.starts_with(mat5::SIGNATURE)
 }
 
 /// The columns of a MAT file: (name, values), in the file's order.
-pub fn mat_columns(bytes: &[u8], file: &str) -> Result<Vec<(String, Vec<f64>)>, MeasuredError> {
+pub(crate) fn mat_columns(
+    bytes: &[u8],
+    file: &str,
+) -> Result<Vec<(String, Vec<f64>)>, MeasuredError> {
     let error = |problem: String| MeasuredError::Data {
         file: file.into(),
         problem,

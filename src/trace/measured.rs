@@ -118,7 +118,7 @@ impl MeasuredTrace {
     }
 
     /// Time of sample k on the measurement's clock (s).
-    pub fn time_s(&self, k: usize) -> f64 {
+    pub(crate) fn time_s(&self, k: usize) -> f64 {
         self.t0_s + k as f64 * self.dt_s
     }
 }
@@ -241,7 +241,7 @@ pub fn parse_mat_trace(
 
 /// Parses a LinuxCNC halscope log (see [`trace_halscope`]): its channels are the columns,
 /// time comes from its sampling period.
-pub fn parse_halscope_trace(
+pub(crate) fn parse_halscope_trace(
     text: &str,
     file: &str,
     map: Option<&ColumnMap>,
@@ -255,7 +255,7 @@ pub fn parse_halscope_trace(
 
 /// Parses a SINUMERIK Operate trace (see [`sinumerik`]): its signals are the columns, on
 /// the clock of the most densely sampled one.
-pub fn parse_sinumerik_trace(
+pub(crate) fn parse_sinumerik_trace(
     text: &str,
     file: &str,
     map: Option<&ColumnMap>,
@@ -269,7 +269,7 @@ pub fn parse_sinumerik_trace(
 
 /// Parses a TwinCAT Scope export (see [`twincat`]): its channels are the columns, on the
 /// clock of the most densely sampled one.
-pub fn parse_twincat_trace(
+pub(crate) fn parse_twincat_trace(
     text: &str,
     file: &str,
     map: Option<&ColumnMap>,
@@ -861,7 +861,7 @@ pub fn parse_table(text: &str, file: &str) -> Result<Vec<TableRow>, MeasuredErro
 /// The grid positions sit on, if they do (an encoder's count, a display's last digit): the
 /// greatest common divisor of the changes between samples, by Euclid's algorithm with a
 /// tolerance far below any real count. Positions off any grid drive it to nothing.
-pub fn quantum(x: &[f64]) -> Option<f64> {
+pub(crate) fn quantum(x: &[f64]) -> Option<f64> {
     const TOLERANCE_M: f64 = 1e-13;
     const FINEST_M: f64 = 1e-11;
     let gcd = |mut a: f64, mut b: f64| {

@@ -252,7 +252,12 @@ fn axis_beyond(
 
 /// Commands on a uniform step `dt_out_s` from positions recorded every `dt_in_s` (the first
 /// sample at t = 0).
-pub fn commands_from_record(x_m: &[f64], y_m: &[f64], dt_in_s: f64, dt_out_s: f64) -> Commands {
+pub(crate) fn commands_from_record(
+    x_m: &[f64],
+    y_m: &[f64],
+    dt_in_s: f64,
+    dt_out_s: f64,
+) -> Commands {
     let len = x_m.len().min(y_m.len());
     let n = if len == 0 {
         0
@@ -338,7 +343,7 @@ const LOOK_AHEAD_MARGIN_M: f64 = 0.2e-3;
 /// the program, and returns the sample where the stream lies furthest from the programmed
 /// geometry. Rapids are not held to their line (many controls move each axis on its own
 /// in G0); the stream is matched again where the feed motion begins.
-pub fn place_on_path(plan: &Plan, commands: &mut Commands) -> Option<Departure> {
+pub(crate) fn place_on_path(plan: &Plan, commands: &mut Commands) -> Option<Departure> {
     let segs = &plan.segments;
     if segs.is_empty() || commands.is_empty() {
         return None;

@@ -32,14 +32,14 @@ pub const TIME_COLUMN: &str = "time [s]";
 const NO_VALUE: f64 = 9.2e18;
 
 /// Whether `text` is a SINUMERIK Operate trace (XML holding a `traceData` frame).
-pub fn is_sinumerik_trace(text: &str) -> bool {
+pub(crate) fn is_sinumerik_trace(text: &str) -> bool {
     let head = text.trim_start_matches('\u{feff}').trim_start();
     head.starts_with('<') && text.contains("<traceData") && text.contains("<dataFrame")
 }
 
 /// The file's text: Operate declares ISO-8859-1 (a µ in a description is one byte), which
 /// is read as such; anything else as UTF-8.
-pub fn decode(bytes: &[u8]) -> String {
+pub(crate) fn decode(bytes: &[u8]) -> String {
     let head = String::from_utf8_lossy(&bytes[..bytes.len().min(200)]).to_ascii_lowercase();
     if head.contains("iso-8859-1") || head.contains("latin1") || head.contains("latin-1") {
         bytes.iter().map(|&b| char::from(b)).collect()
@@ -61,7 +61,7 @@ pub struct SinumerikColumns {
 }
 
 /// Reads a SINUMERIK Operate trace; `file` names it in errors.
-pub fn sinumerik_columns(text: &str, file: &str) -> Result<SinumerikColumns, MeasuredError> {
+pub(crate) fn sinumerik_columns(text: &str, file: &str) -> Result<SinumerikColumns, MeasuredError> {
     let data_error = |problem: String| MeasuredError::Data {
         file: file.into(),
         problem,

@@ -25,7 +25,7 @@ const SAMPLE_TIME_KEY: &str = "SampleTime[ms]";
 
 /// Whether `text` is a TwinCAT Scope export: it starts with `Name` and holds the channels'
 /// `SampleTime[ms]` among its first lines.
-pub fn is_twincat_export(text: &str) -> bool {
+pub(crate) fn is_twincat_export(text: &str) -> bool {
     let head = text.trim_start_matches('\u{feff}').trim_start();
     head.starts_with("Name")
         && head
@@ -52,7 +52,7 @@ struct Channel {
 }
 
 /// Reads a TwinCAT Scope export; `file` names it in errors.
-pub fn twincat_columns(text: &str, file: &str) -> Result<TwincatColumns, MeasuredError> {
+pub(crate) fn twincat_columns(text: &str, file: &str) -> Result<TwincatColumns, MeasuredError> {
     let data_error = |problem: String| MeasuredError::Data {
         file: file.into(),
         problem,
