@@ -57,6 +57,40 @@ impl CauseId {
         CauseId::DirectionOffset,
     ];
 
+    /// What kind of record would tell this cause from `other` where a record explains both
+    /// alike: where their signatures part.
+    pub fn told_apart_from(self, other: CauseId) -> &'static str {
+        use CauseId::*;
+        let pair = |a: CauseId, b: CauseId| (self == a && other == b) || (self == b && other == a);
+        if pair(KvGain, DeadTime) {
+            "a start or stop at another acceleration, or a step: a delay shifts the whole \
+             response in time, a gain changes how fast it settles"
+        } else if pair(KvGain, ScaleError) || pair(KvGain, DirectionOffset) {
+            "a record at another feed: a gain's lag grows with speed, the other does not"
+        } else if pair(CoulombFriction, Stribeck) {
+            "a record at several low feeds, below and above the Stribeck speed: Stribeck \
+             friction fades with speed, Coulomb friction does not"
+        } else if pair(Backlash, DirectionOffset) {
+            "a record at the motor as well as the table: backlash is lost between them, a \
+             direction offset lies beyond the scale"
+        } else if pair(Backlash, CoulombFriction) || pair(Backlash, Stribeck) {
+            "reversals at several feeds: a friction spike grows with the speed the axis \
+             reverses from, lost motion does not"
+        } else if pair(LateralPlay, DirectionOffset) {
+            "a stroke of this axis while the other holds or keeps its direction: a direction \
+             offset follows the axis's own direction of travel, lateral play the other's"
+        } else if pair(ScaleError, Squareness) {
+            "a stroke of this axis alone, or along another direction: a scale error follows \
+             the axis's own position, out-of-squareness the other axis's"
+        } else if pair(Squareness, Straightness) {
+            "a stroke over the whole travel: out-of-squareness grows along it, a bow returns"
+        } else if pair(ScaleError, CyclicError) {
+            "a stroke over many screw turns: a scale error grows along it, a cyclic error repeats"
+        } else {
+            "a record of another program, with other feeds, reversals and strokes"
+        }
+    }
+
     /// The id as written in reports and on the command line.
     pub fn as_str(self) -> &'static str {
         match self {

@@ -1136,3 +1136,63 @@ fn a_record_of_another_program_is_not_sent_to_align_its_waits() {
         "{e}"
     );
 }
+
+/// Two causes a record cannot tell apart are reported as alternatives, each with its value,
+/// and with what record would separate them. On a diagonal line X and Y move in proportion:
+/// a scale error on X (reading off by s·x) and X out of square to Y (off by θ·y) predict the
+/// same record, 40 ppm of the one being θ = −40 ppm × 30/52 of the other.
+#[test]
+fn two_causes_a_record_cannot_tell_apart_are_both_reported() {
+    let program = program_text("G21 G90 G17 G94\nG0 X0 Y0\nG1 X30 Y52 F500\nG1 X0 Y0\nM2\n");
+    let machine = MachineConfig::default_preset();
+    let spec = SynthSpec {
+        effect: Some((CauseId::ScaleError, AxisName::X, vec![40.0])),
+        with_commands: true,
+        ..SynthSpec::default()
+    };
+    let mut csv = Vec::new();
+    synthesize(&program, &machine, &spec)
+        .unwrap()
+        .write_csv(&mut csv)
+        .unwrap();
+    let measured = parse_trace(std::str::from_utf8(&csv).unwrap(), "line.csv").unwrap();
+    let d = diagnose(
+        &program,
+        &machine,
+        &measured,
+        &DiagnoseSettings::for_machine(&machine),
+    )
+    .unwrap();
+    assert_eq!(d.causes.len(), 1, "{:?}", d.causes);
+    let c = &d.causes[0];
+    let mut both: Vec<(CauseId, AxisName)> = vec![(c.id, c.axis)];
+    both.extend(c.alternatives.iter().map(|a| (a.id, a.axis)));
+    both.sort_by_key(|p| p.0.as_str());
+    assert_eq!(
+        both,
+        vec![
+            (CauseId::ScaleError, AxisName::X),
+            (CauseId::Squareness, AxisName::X)
+        ]
+    );
+    // Each with the value that explains the record: 40 ppm, or −40 ppm × 30/52 in µrad.
+    let value = |id: CauseId| {
+        if c.id == id {
+            c.params[0].value
+        } else {
+            c.alternatives.iter().find(|a| a.id == id).unwrap().params[0].value
+        }
+    };
+    assert!((value(CauseId::ScaleError) - 40.0).abs() < 1.0);
+    assert!((value(CauseId::Squareness) + 40.0 * 30.0 / 52.0).abs() < 1.0);
+    let told = &c.alternatives[0].told_apart_by;
+    assert!(told.contains("another direction"), "{told}");
+    // The report names them together and says what would separate them.
+    let text =
+        contourcheck::diagnose::report::DiagnoseReport::new(&d, "line.nc", &measured, &machine)
+            .summary_text();
+    assert!(
+        text.contains("this record cannot tell them apart"),
+        "{text}"
+    );
+}

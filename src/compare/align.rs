@@ -110,6 +110,7 @@ pub(crate) fn context<'a>(
         measured_at: settings.measured_at,
         timing_drift_s: None,
         rapids_compared: false,
+        holding: [Vec::new(), Vec::new()],
     };
     let nominal = [AxisName::X, AxisName::Y].map(|a| ctx.simulate_axis(machine, a));
     let [Some(x), Some(y)] = nominal else {

@@ -72,7 +72,24 @@ pub struct Context<'a> {
     /// Whether the rapids are among the samples compared (a record with its commands that
     /// is mostly rapids).
     pub(crate) rapids_compared: bool,
+    /// Per axis, the compared samples left out of its point-by-point residual: where it
+    /// holds still after settling and the nominal model hunts ([`Context::hunting_holds`]).
+    /// Empty for none.
+    pub(crate) holding: [Vec<bool>; 2],
 }
+
+/// A command slower than this stands (m/s): recorded commands' speeds are fitted and carry
+/// their rounding.
+const STILL_M_PER_S: f64 = 1e-7;
+/// How close to its command a holding axis must have come to count as settled (m): beyond
+/// the approach, which the comparison keeps, and wide enough for any hunting.
+const SETTLED_M: f64 = 2e-6;
+/// How far the model must move in a settled hold to count as hunting (m).
+const HUNTING_M: f64 = 0.02e-6;
+/// How long after a hunting hold the axis's start is left out too (s): three time constants
+/// of a position loop of Kv = 1 m/min/mm, where a difference in the state the hunting left
+/// has fallen to a twentieth.
+const START_AFTER_HUNTING_S: f64 = 0.2;
 
 /// Length of the alternate blocks of time a record is cut into for fitting on one half and
 /// judging on the other (s): long against a sample, short against the program's moves, so
@@ -95,6 +112,16 @@ impl Context<'_> {
         self.samples
             .iter()
             .map(|&i| self.prog_time(i, offset_s))
+            .collect()
+    }
+
+    /// Which half each compared sample of `axis` belongs to; none where the axis is not
+    /// compared (a hunting hold).
+    pub(crate) fn axis_halves(&self, axis: AxisName, offset_s: f64) -> Vec<Option<bool>> {
+        self.halves(offset_s)
+            .into_iter()
+            .enumerate()
+            .map(|(k, h)| self.compared(axis, k).then_some(h))
             .collect()
     }
 
@@ -235,12 +262,98 @@ impl Context<'_> {
     }
 
     /// measured − simulated at the context's samples (what point-by-point fits minimise).
+    ///
+    /// At the samples left out for hunting ([`Context::hunting_holds`]) it is zero for every
+    /// model: they weigh in no fit and no evidence.
     pub fn residual(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> Vec<f64> {
         let m = self.measured_axis(axis);
+        let held = &self.holding[axis.index()];
         self.samples
             .iter()
-            .map(|&i| m[i] - sample(trace, self.dt, self.prog_time(i, offset_s)))
+            .enumerate()
+            .map(|(k, &i)| {
+                if held.get(k).copied().unwrap_or(false) {
+                    0.0
+                } else {
+                    m[i] - sample(trace, self.dt, self.prog_time(i, offset_s))
+                }
+            })
             .collect()
+    }
+
+    /// How many samples of `axis` its point-by-point residual holds.
+    pub(crate) fn compared_count(&self, axis: AxisName) -> usize {
+        (0..self.samples.len())
+            .filter(|&k| self.compared(axis, k))
+            .count()
+    }
+
+    /// Whether compared sample `k` of `axis` is in its point-by-point residual.
+    pub(crate) fn compared(&self, axis: AxisName, k: usize) -> bool {
+        !self.holding[axis.index()].get(k).copied().unwrap_or(false)
+    }
+
+    /// The samples of `axis` at which it holds still and the model `trace` hunts: from where
+    /// the model has settled within [`SETTLED_M`] of the command until
+    /// [`START_AFTER_HUNTING_S`] after the command moves again, in every hold where the model
+    /// moves by more than [`HUNTING_M`] after settling.
+    ///
+    /// An axis held by a proportional-plus-integral loop against static friction above its
+    /// Coulomb friction does not rest: its integrator winds until the table breaks away, slips
+    /// past, sticks, and winds back — a limit cycle of a fraction of a micrometre whose phase
+    /// depends on every detail of the stop. Two models of the same machine, or a model and the
+    /// machine, hunt out of phase, and compared point by point that mismatch reads as a
+    /// systematic residual that friction causes bend to fit (independent records of squares,
+    /// where each axis holds while the other moves, named Stribeck and Coulomb friction that
+    /// way). So those samples are left out of the axis's residual; the settling before them,
+    /// and the other axis, are compared as ever.
+    pub(crate) fn hunting_holds(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> Vec<bool> {
+        let times = self.sample_times(offset_s);
+        let n = times.len();
+        let mut mask = vec![false; n];
+        let still = |t: f64| self.command_at(axis, t).1.abs() < STILL_M_PER_S;
+        let mut k = 0;
+        while k < n {
+            if !still(times[k]) {
+                k += 1;
+                continue;
+            }
+            let start = k;
+            while k < n && still(times[k]) {
+                k += 1;
+            }
+            let model: Vec<f64> = (start..k)
+                .map(|j| sample(trace, self.dt, times[j]))
+                .collect();
+            let command: Vec<f64> = (start..k)
+                .map(|j| self.command_at(axis, times[j]).0)
+                .collect();
+            // Settled from just after the last sample still outside the band.
+            let settled = (0..model.len())
+                .rposition(|i| (model[i] - command[i]).abs() >= SETTLED_M)
+                .map_or(0, |i| i + 1);
+            if settled + 2 > model.len() {
+                continue;
+            }
+            let (lo, hi) = model[settled..]
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                    (l.min(v), h.max(v))
+                });
+            if hi - lo > HUNTING_M {
+                // And the start that follows: when the table breaks away depends on where
+                // in its cycle the hunting left it, a difference the loop takes a few of its
+                // time constants to forget.
+                let t_start = times.get(k).copied().unwrap_or(f64::INFINITY);
+                let end = (k..n)
+                    .find(|&j| times[j] - t_start > START_AFTER_HUNTING_S)
+                    .unwrap_or(n);
+                mask[start + settled..end]
+                    .iter_mut()
+                    .for_each(|m| *m = true);
+            }
+        }
+        mask
     }
 
     /// The measured axis at the context's samples.

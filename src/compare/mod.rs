@@ -119,8 +119,11 @@ pub fn compare<'a>(
             })
     };
     let nominal = [simulate(AxisName::X)?, simulate(AxisName::Y)?];
+    // The noise from every sample, hunting holds too: it is read from the residual's
+    // sample-to-sample differences, which a slow limit cycle barely moves.
     let residuals = AxisName::BOTH.map(|a| ctx.residual(a, &nominal[a.index()], offset_s));
     ctx.noise_sigma = residual::record_noise(&residuals, measured);
+    ctx.holding = AxisName::BOTH.map(|a| ctx.hunting_holds(a, &nominal[a.index()], offset_s));
     Ok(Comparison {
         ctx,
         offset_s,

@@ -149,7 +149,7 @@ pub fn learn(
         offset_s,
         axis,
         residual: ctx.residual(axis, &traces[axis.index()], offset_s),
-        fold: ctx.halves(offset_s),
+        fold: ctx.axis_halves(axis, offset_s),
     };
     // Terms beyond the scale read nothing behind a motor encoder.
     let beyond_scale_seen = ctx.measured_at != MeasuredAt::Motor;
@@ -171,8 +171,8 @@ struct Learner<'c, 'a> {
     axis: AxisName,
     /// The axis's residual at the compared samples (m).
     residual: Vec<f64>,
-    /// Which half each compared sample belongs to.
-    fold: Vec<bool>,
+    /// Which half each compared sample belongs to; none where the axis is not compared.
+    fold: Vec<Option<bool>>,
 }
 
 /// The machine with a term fitted on the samples a predicate allows.
@@ -187,6 +187,15 @@ struct Gain {
 }
 
 impl Learner<'_, '_> {
+    /// The entries of a per-sample series at the samples the axis is compared at.
+    fn compared(&self, v: &[f64]) -> Vec<f64> {
+        v.iter()
+            .zip(&self.fold)
+            .filter(|(_, f)| f.is_some())
+            .map(|(v, _)| *v)
+            .collect()
+    }
+
     /// A position map: the residual's binned means over the axis's position.
     fn position_map(&self, located: &Located) -> Option<(MachineConfig, [Vec<f64>; 2], Learned)> {
         let z = positions_mm(self.ctx, &self.traces[self.axis.index()], self.offset_s);
@@ -363,18 +372,18 @@ impl Learner<'_, '_> {
         let after = self.ctx.residual(self.axis, &trace, self.offset_s);
         let (mut before_ss, mut after_ss, mut n) = (0.0, 0.0, 0usize);
         for side in [true, false] {
-            let half_machine = extended(&|i| self.fold[i] == side)?;
+            let half_machine = extended(&|i| self.fold[i] == Some(side))?;
             let half_trace = self.ctx.simulate_axis(&half_machine, self.axis)?;
             let half_after = self.ctx.residual(self.axis, &half_trace, self.offset_s);
-            for i in (0..self.residual.len()).filter(|&i| self.fold[i] != side) {
+            for i in (0..self.residual.len()).filter(|&i| self.fold[i] == Some(!side)) {
                 before_ss += self.residual[i] * self.residual[i];
                 after_ss += half_after[i] * half_after[i];
                 n += 1;
             }
         }
         let gain = Gain {
-            rms_before: rms(&self.residual),
-            rms_after: rms(&after),
+            rms_before: rms(&self.compared(&self.residual)),
+            rms_after: rms(&self.compared(&after)),
             held_out_before: (before_ss / n.max(1) as f64).sqrt(),
             held_out_after: (after_ss / n.max(1) as f64).sqrt(),
         };

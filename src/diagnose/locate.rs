@@ -100,6 +100,8 @@ pub struct Located {
 const BINS: usize = 64;
 /// Held-out share below which a variable is not named.
 const SMALLEST_SHARE: f64 = 0.25;
+/// How much more of the residual time must explain than the best variable before it.
+const TIME_MARGIN: f64 = 0.1;
 /// Bins of the time: only a slow drift (warm-up, a clock) is looked for; finer bins would
 /// fit every event of the program as a moment of its own.
 const TIME_BINS: usize = 8;
@@ -111,15 +113,16 @@ pub fn locate(ctx: &Context, traces: &[Vec<f64>; 2], offset_s: f64) -> Vec<Locat
         .into_iter()
         .filter_map(|axis| {
             let residual = ctx.residual(axis, &traces[axis.index()], offset_s);
-            stands_out(&residual, ctx.noise_sigma)
+            stands_out(&residual, ctx.compared_count(axis), ctx.noise_sigma)
                 .then(|| locate_axis(ctx, axis, traces, &residual, offset_s))
         })
         .collect()
 }
 
-/// Whether a residual's χ² over the noise exceeds its expectation by five deviations.
-fn stands_out(residual: &[f64], sigma: f64) -> bool {
-    let n = residual.len() as f64;
+/// Whether a residual's χ² over the noise exceeds its expectation (`compared` samples) by
+/// five deviations.
+fn stands_out(residual: &[f64], compared: usize, sigma: f64) -> bool {
+    let n = compared as f64;
     let chi2 = residual.iter().map(|v| v * v).sum::<f64>() / (sigma * sigma).max(1e-30);
     n > 0.0 && (chi2 - n) / (2.0 * n).sqrt() > 5.0
 }
@@ -156,7 +159,7 @@ fn locate_axis(
 ) -> Located {
     let times = ctx.sample_times(offset_s);
     let own = commands_at_samples(ctx, axis, &times);
-    let fold = ctx.halves(offset_s);
+    let fold = ctx.axis_halves(axis, offset_s);
     let x = positions_mm(ctx, &traces[axis.index()], offset_s);
     let continuous: Vec<(Variable, Vec<f64>)> = vec![
         (Variable::Position(axis), x.clone()),
@@ -170,7 +173,12 @@ fn locate_axis(
     ];
     let mut best = Located {
         axis,
-        residual_rms_um: um_from_m(rms(residual)),
+        residual_rms_um: um_from_m(rms(&residual
+            .iter()
+            .zip(&fold)
+            .filter(|(_, f)| f.is_some())
+            .map(|(r, _)| *r)
+            .collect::<Vec<f64>>())),
         variable: None,
         share: 0.0,
         interval: None,
@@ -180,7 +188,15 @@ fn locate_axis(
         |variable: Variable, share: f64, interval: Option<(f64, f64)>, peak_m: f64| {
             // A variable must do clearly better to displace an earlier one: on a circle the
             // acceleration is the position over again, and position is the plainer answer.
-            if share > best.share + 0.02 {
+            // Time most clearly of all: its few coarse bins line up with a short program's
+            // strokes and so stand in for whatever changes from stroke to stroke; only a
+            // drift no per-sample variable explains is one of time.
+            let margin = if variable == Variable::Time {
+                TIME_MARGIN
+            } else {
+                0.02
+            };
+            if share > best.share + margin {
                 best.share = share;
                 best.variable = (share >= SMALLEST_SHARE).then_some(variable);
                 best.interval = interval;
@@ -222,7 +238,7 @@ fn by_direction_fit(
     x: &[f64],
     direction: &[f64],
     residual: &[f64],
-    fold: &[bool],
+    fold: &[Option<bool>],
 ) -> (f64, Option<(f64, f64)>, f64) {
     let (lo, hi) = finite_range(x);
     let shift = 2.0 * (hi - lo) + 1.0;
@@ -250,7 +266,7 @@ fn by_direction_fit(
 /// then finely around the best of it — over a long travel a period a per cent off drifts
 /// out of phase. The held-out share, the period (mm) and the amplitude; none over less than
 /// 4 mm of travel.
-fn periodic_fit(x: &[f64], residual: &[f64], fold: &[bool]) -> Option<(f64, f64, f64)> {
+fn periodic_fit(x: &[f64], residual: &[f64], fold: &[Option<bool>]) -> Option<(f64, f64, f64)> {
     let span = x.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
         - x.iter().fold(f64::INFINITY, |a, &b| a.min(b));
     if span <= 4.0 {
@@ -309,13 +325,15 @@ pub(super) trait Predictor {
 /// ways. `fit` gets which samples it may use.
 pub(super) fn held_out_share<P: Predictor>(
     residual: &[f64],
-    fold: &[bool],
+    fold: &[Option<bool>],
     fit: impl Fn(&dyn Fn(usize) -> bool) -> P,
 ) -> f64 {
     let (mut unexplained, mut total) = (0.0, 0.0);
     for side in [true, false] {
-        let model = fit(&|i| fold[i] == side);
-        let scored: Vec<usize> = (0..residual.len()).filter(|&i| fold[i] != side).collect();
+        let model = fit(&|i| fold[i] == Some(side));
+        let scored: Vec<usize> = (0..residual.len())
+            .filter(|&i| fold[i] == Some(!side))
+            .collect();
         let mean = scored.iter().map(|&i| residual[i]).sum::<f64>() / scored.len().max(1) as f64;
         for &i in &scored {
             let r = residual[i] - mean;

@@ -119,8 +119,9 @@ pub struct FoundCause {
     pub alternatives: Vec<Alternative>,
 }
 
-/// A cause nearly as good as the one kept.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+/// A cause that explains the record almost as well as the one named: the record cannot
+/// tell them apart, and the named one is not more likely than this one.
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Alternative {
     /// The cause.
     pub id: CauseId,
@@ -128,6 +129,10 @@ pub struct Alternative {
     pub axis: AxisName,
     /// Its evidence.
     pub evidence: f64,
+    /// Its fitted parameters.
+    pub params: Vec<FittedParam>,
+    /// What record would tell it from the named cause.
+    pub told_apart_by: String,
 }
 
 /// A cause the search did not try, and why.
@@ -231,6 +236,9 @@ pub struct Diagnosis {
     /// Whether the rapids were compared too (a record with its commands that is mostly
     /// rapids; otherwise they are left out).
     pub rapids_compared: bool,
+    /// Per axis (X, Y), the time left out of its point-by-point residual because it held
+    /// still while the nominal model hunts there (s); see `Context::hunting_holds`.
+    pub hunting_left_out_s: [f64; 2],
     /// Whether any cause could be tried at all (`--max-causes 0`, or every cause excluded
     /// or unseen, leaves none).
     pub searched: bool,
@@ -439,6 +447,12 @@ fn assemble(ctx: &Context, outcome: search::Outcome, summary: Summary) -> Diagno
         timing_drift_ms: ctx.timing_drift_s.map(|s| s * 1e3),
         beyond_machine: Vec::new(),
         rapids_compared: ctx.rapids_compared,
+        hunting_left_out_s: AxisName::BOTH.map(|a| {
+            (0..ctx.samples.len())
+                .filter(|&k| !ctx.compared(a, k))
+                .count() as f64
+                * ctx.sample_dt_s
+        }),
         circles: circles(&ctx.plan.segments),
         unexplained: Vec::new(),
         learned: Vec::new(),
@@ -617,6 +631,14 @@ fn summarize(
         diff(&vs_nominal[0], &vs_nominal[1]),
         diff(&vs_extended[0], &vs_extended[1]),
     ];
+    // Where an axis holds and hunts the contour residual is no comparison either.
+    for r in &mut s.contour_residual {
+        for (k, v) in r.iter_mut().enumerate() {
+            if !AxisName::BOTH.iter().all(|&a| ctx.compared(a, k)) {
+                *v = f64::NAN;
+            }
+        }
+    }
     let events = AxisName::BOTH.map(|a| ctx.event_masks(a, offset, window_s).1);
     let either_event: Vec<bool> = events[0]
         .iter()
@@ -624,11 +646,31 @@ fn summarize(
         .map(|(a, b)| *a || *b)
         .collect();
     let (dt, sigma) = (ctx.sample_dt_s, ctx.noise_sigma);
+    // Each axis on the samples it is compared at (not where it holds and hunts), the
+    // contour where both are.
+    let compared = AxisName::BOTH.map(|a| {
+        (0..s.t_s.len())
+            .filter(|&k| ctx.compared(a, k))
+            .collect::<Vec<usize>>()
+    });
     let stats = |model: &[Vec<f64>; 2], [contour_measured, contour_model]: &[Vec<f64>; 2]| {
-        let axis = |a: usize| axis_residual(&s.measured[a], &model[a], &events[a], dt, sigma);
+        let axis = |a: usize| {
+            let pick = |v: &[f64]| -> Vec<f64> { compared[a].iter().map(|&k| v[k]).collect() };
+            axis_residual(
+                &pick(&s.measured[a]),
+                &pick(&model[a]),
+                &compared[a]
+                    .iter()
+                    .map(|&k| events[a][k])
+                    .collect::<Vec<_>>(),
+                dt,
+                sigma,
+            )
+        };
         // The contour error where both are defined (rapids have none).
         let keep: Vec<usize> = (0..contour_measured.len())
             .filter(|&k| contour_measured[k].is_finite() && contour_model[k].is_finite())
+            .filter(|&k| AxisName::BOTH.iter().all(|&a| ctx.compared(a, k)))
             .collect();
         let pick = |v: &[f64]| -> Vec<f64> { keep.iter().map(|&k| v[k]).collect() };
         let event: Vec<bool> = keep.iter().map(|&k| either_event[k]).collect();
@@ -659,11 +701,22 @@ fn summarize(
 /// Where the nominal model's residual on X, on Y and on the contour is largest and clear
 /// of the noise; `segment` gives each sample's plan segment.
 fn places_of(ctx: &Context, s: &Series, segment: &[u32]) -> Vec<Place> {
-    let diff = |a: &[f64], b: &[f64]| -> Vec<f64> { a.iter().zip(b).map(|(x, y)| x - y).collect() };
+    // An axis's residual where it is compared (not where it holds and hunts).
+    let diff = |a: AxisName| -> Vec<f64> {
+        (0..s.t_s.len())
+            .map(|k| {
+                if ctx.compared(a, k) {
+                    s.measured[a.index()][k] - s.nominal[a.index()][k]
+                } else {
+                    f64::NAN
+                }
+            })
+            .collect()
+    };
     let mut places = Vec::new();
     for (what, r) in [
-        ("x", diff(&s.measured[0], &s.nominal[0])),
-        ("y", diff(&s.measured[1], &s.nominal[1])),
+        ("x", diff(AxisName::X)),
+        ("y", diff(AxisName::Y)),
         ("contour", s.contour_residual[0].clone()),
     ] {
         // Only residuals well clear of the noise are places worth naming.

@@ -63,6 +63,9 @@ pub struct DiagnoseReport {
     /// Whether the rapids were compared too (a record with its commands that is mostly
     /// rapids).
     pub rapids_compared: bool,
+    /// Per axis (X, Y), the time left out of its residual because it held still and the
+    /// nominal model hunts there (s).
+    pub hunting_left_out_s: [f64; 2],
     /// Circular-test figures (ISO 230-4): measured, nominal model, extended model.
     pub circular_test: CircularComparison,
     /// Where the residual left by the extended model lives, per axis where it stands out
@@ -238,6 +241,7 @@ impl DiagnoseReport {
             timing_drift_ms: d.timing_drift_ms,
             beyond_machine: d.beyond_machine.clone(),
             rapids_compared: d.rapids_compared,
+            hunting_left_out_s: d.hunting_left_out_s,
             circular_test: d.circular.clone(),
             unexplained: d.unexplained.clone(),
             learned: d.learned.clone(),
@@ -324,6 +328,14 @@ impl DiagnoseReport {
                 s,
                 "rapids compared too: the record is mostly rapids, and its commands say how the \
                  control ran them"
+            );
+        }
+        let [hx, hy] = self.hunting_left_out_s;
+        if hx > 0.0 || hy > 0.0 {
+            let _ = writeln!(
+                s,
+                "left out: X {hx:.1} s, Y {hy:.1} s where the axis holds still and the model hunts \
+                 about its target (a limit cycle of static friction whose phase no model times)"
             );
         }
         if let Some(drift) = self.timing_drift_ms
@@ -477,16 +489,23 @@ fn write_cause(s: &mut String, i: usize, c: &CauseReport) {
         c.axis, h.rms_before_um, h.rms_after_um
     );
     let _ = writeln!(s, "     what to do: {}", next_step(c));
-    if !c.alternatives.is_empty() {
-        let alt: Vec<String> = c
-            .alternatives
+    for a in &c.alternatives {
+        let values: Vec<String> = a
+            .params
             .iter()
-            .map(|a| format!("{} on {}", a.id.as_str(), a.axis))
+            .map(|p| {
+                format!("{} = {} {}", p.key, sig(p.value), p.unit)
+                    .trim_end()
+                    .to_string()
+            })
             .collect();
         let _ = writeln!(
             s,
-            "     almost as good: {} — a program with other speeds or reversals would tell them apart",
-            alt.join(", ")
+            "     or {} on {} ({}): this record cannot tell them apart; {} would",
+            a.id.as_str(),
+            a.axis,
+            values.join(", "),
+            a.told_apart_by
         );
     }
 }
@@ -626,10 +645,20 @@ fn verdict(d: &Diagnosis) -> String {
             .into();
     }
     if !d.causes.is_empty() {
+        // A cause the record cannot tell from others is named with them.
         let names: Vec<String> = d
             .causes
             .iter()
-            .map(|c| format!("{} on {}", c.id.as_str(), c.axis))
+            .map(|c| {
+                let one = |id: CauseId, axis: AxisName| format!("{} on {axis}", id.as_str());
+                let mut all = vec![one(c.id, c.axis)];
+                all.extend(c.alternatives.iter().map(|a| one(a.id, a.axis)));
+                if all.len() > 1 {
+                    format!("{} (this record cannot tell them apart)", all.join(" or "))
+                } else {
+                    all.remove(0)
+                }
+            })
             .collect();
         return format!(
             "{} significant cause{}: {}.",

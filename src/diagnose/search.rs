@@ -268,6 +268,8 @@ fn choose(
             id: s.try_.cause,
             axis: s.try_.axis,
             evidence: s.evidence,
+            params: fitted_params(s.try_.cause, s.fitted.as_ref().expect("filtered on a fit")),
+            told_apart_by: s.try_.cause.told_apart_from(best.try_.cause).to_string(),
         })
         .collect();
     Some(Chosen {
@@ -294,11 +296,17 @@ fn name(
     let (axis, cause) = (best.try_.axis, best.try_.cause);
     let fitted = best.fitted.expect("filtered on a fit");
     let (_, event) = ctx.event_masks(axis, outcome.offset_s, settings.event_window_s);
-    let meas = ctx.measured_at_samples(axis);
+    // On the samples the axis is compared at.
+    let kept: Vec<usize> = (0..ctx.samples.len())
+        .filter(|&k| ctx.compared(axis, k))
+        .collect();
+    let pick = |v: &[f64]| -> Vec<f64> { kept.iter().map(|&k| v[k]).collect() };
+    let meas = pick(&ctx.measured_at_samples(axis));
+    let event: Vec<bool> = kept.iter().map(|&k| event[k]).collect();
     let residual_of = |trace: &[f64], offset: f64| {
         axis_residual(
             &meas,
-            &ctx.at_samples(trace, offset),
+            &pick(&ctx.at_samples(trace, offset)),
             &event,
             ctx.sample_dt_s,
             ctx.noise_sigma,
@@ -470,7 +478,7 @@ fn worse_somewhere(
 /// standard deviations of that χ². Only an axis above a few is worth fitting.
 fn excess_over_noise(ctx: &Context, axis: AxisName, trace: &[f64], offset_s: f64) -> f64 {
     let r = ctx.residual(axis, trace, offset_s);
-    let n = r.len() as f64;
+    let n = ctx.compared_count(axis) as f64;
     let sigma2 = ctx.noise_sigma * ctx.noise_sigma;
     (r.iter().map(|v| v * v).sum::<f64>() / sigma2 - n) / (2.0 * n).sqrt()
 }

@@ -1,0 +1,460 @@
+//! An independent reference for the diagnosis: the servo-feed axis of `docs/model.md` §1
+//! integrated here, apart from `contourcheck::sim` — classical fourth-order Runge–Kutta at a
+//! fixed step of a few microseconds, friction switched by a sticking test at each step rather
+//! than by the simulator's exact switching instants — and driven by a continuous trapezoidal
+//! interpolator that stops at every block end, evaluated at every step rather than once per
+//! interpolation cycle. Records made here share with the tool only the machine file's numbers
+//! and the model's equations; what the tool's own planner, command reconstruction and
+//! integrator do differently shows up as residual.
+
+use contourcheck::gcode::Program;
+use contourcheck::machine::AxisConfig;
+use contourcheck::path::{Geometry, Motion};
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+
+const GRAVITY: f64 = 9.80665;
+
+/// The axis's constants in SI, read from the machine file as `docs/model.md` §1 defines them.
+#[derive(Clone, Copy, Debug)]
+pub struct Plant {
+    kp: f64,
+    kf: f64,
+    ka: f64,
+    ks: f64,
+    ts: f64,
+    i_max: f64,
+    ki: f64,
+    ti: f64,
+    tcf: f64,
+    u_max: f64,
+    ra: f64,
+    la: f64,
+    kt: f64,
+    ke: f64,
+    jm: f64,
+    js: f64,
+    k_theta: f64,
+    c_theta: f64,
+    k_m: f64,
+    c_m: f64,
+    r: f64,
+    it: f64,
+    mt: f64,
+    b_screw: f64,
+    half_gap: f64,
+    f_c: f64,
+    f_s: f64,
+    f_v: f64,
+    /// Delay between the interpolator and the position controller (s).
+    dead_time: f64,
+}
+
+impl Plant {
+    /// The cascade axis of `c` (a current loop, the table's scale as feedback).
+    pub fn new(c: &AxisConfig) -> Plant {
+        let d = &c.drive;
+        let r = d.lead_mm * 1e-3 / std::f64::consts::TAU;
+        let it = d.gear_ratio;
+        let (jm, js, mt) = (c.motor.jm_kg_m2, d.js_kg_m2, d.table_mass_kg);
+        let kt = c.motor.kt_nm_per_a;
+        let v = c.velocity_loop.as_ref().expect("a cascade axis");
+        let i = c.current_loop.as_ref().expect("a modelled current loop");
+        // Each spring's damping from the reduced inertia of the two bodies it joins.
+        let reduced = |a: f64, b: f64| a * b / (a + b);
+        let j_theta = reduced(jm / (it * it), js);
+        let m_axial = reduced((jm / (it * it) + js) / (r * r), mt);
+        let f_c = c.friction.coulomb_coefficient * mt * GRAVITY;
+        Plant {
+            // Kv in 1/s over r·i_t: rad/s of motor speed per metre of error.
+            kp: c.position_loop.kv_m_per_min_per_mm * 1000.0 / 60.0 / (r * it),
+            kf: c.position_loop.velocity_feedforward,
+            ka: c.position_loop.accel_feedforward,
+            ks: v.ks_nm_s_per_rad / kt,
+            ts: v.ts_ms * 1e-3,
+            i_max: v.i_max_a,
+            ki: i.ki_v_per_a,
+            ti: i.ti_ms * 1e-3,
+            tcf: i.tcf_ms * 1e-3,
+            u_max: i.u_max_v,
+            ra: c.motor.ra_ohm.unwrap(),
+            la: c.motor.la_mh.unwrap() * 1e-3,
+            kt,
+            ke: c.motor.ke_v_s_per_rad.unwrap(),
+            jm,
+            js,
+            k_theta: d.k_theta_nm_per_rad,
+            c_theta: 2.0 * d.zeta_theta * (d.k_theta_nm_per_rad * j_theta).sqrt(),
+            k_m: d.k_m_n_per_m,
+            c_m: 2.0 * d.zeta_m * (d.k_m_n_per_m * m_axial).sqrt(),
+            r,
+            it,
+            mt,
+            b_screw: d.screw_viscous_nm_s_per_rad,
+            half_gap: 0.5e-6 * d.backlash_um,
+            f_c,
+            f_s: (c.friction.static_to_coulomb * f_c).max(f_c + c.friction.stribeck_level_n),
+            f_v: c.friction.viscous_n_s_per_m,
+            dead_time: c.position_loop.dead_time_ms * 1e-3,
+        }
+    }
+
+    /// The same plant with Coulomb friction `factor` times as high between `from_m` and
+    /// `to_m` of table travel (a tight spot on the guideway).
+    pub fn friction_at(&self, x2: f64, spot: Option<(f64, f64, f64)>) -> (f64, f64) {
+        match spot {
+            Some((from, to, factor)) if (from..=to).contains(&x2) => {
+                (self.f_c * factor, self.f_s + self.f_c * (factor - 1.0))
+            }
+            _ => (self.f_c, self.f_s),
+        }
+    }
+}
+
+/// Indices of the state.
+const TH_M: usize = 0;
+const W_M: usize = 1;
+const TH_S: usize = 2;
+const W_S: usize = 3;
+const X2: usize = 4;
+const V2: usize = 5;
+const I: usize = 6;
+const Z_V: usize = 7;
+const Z_I: usize = 8;
+const F_CMD: usize = 9;
+const F_I: usize = 10;
+const STATES: usize = 11;
+
+type State = [f64; STATES];
+
+/// The reference: position, speed and acceleration at a time.
+pub type Reference<'a> = &'a dyn Fn(f64) -> (f64, f64, f64);
+
+/// One axis integrated at `h` seconds a step from rest at the reference's start.
+pub struct Axis<'p> {
+    plant: &'p Plant,
+    x: State,
+    stuck: bool,
+    /// The direction the table slides in (±1): its speed's sign, or at the instant it
+    /// breaks away (speed still zero) the nut's push.
+    direction: f64,
+    /// A tight spot: (from m, to m, factor on Coulomb friction).
+    spot: Option<(f64, f64, f64)>,
+}
+
+impl<'p> Axis<'p> {
+    pub fn at_rest(plant: &'p Plant, x0: f64, spot: Option<(f64, f64, f64)>) -> Axis<'p> {
+        let mut x = [0.0; STATES];
+        x[X2] = x0;
+        x[TH_S] = x0 / plant.r;
+        x[TH_M] = x[TH_S] / plant.it;
+        Axis {
+            plant,
+            x,
+            stuck: true,
+            direction: 1.0,
+            spot,
+        }
+    }
+
+    /// The table's position (m).
+    pub fn table(&self) -> f64 {
+        self.x[X2]
+    }
+
+    /// The controller's outputs at state `x` and reference `(xr, vr, ar)`: the current
+    /// command (limited) and the voltage (limited), and whether each is at its limit.
+    fn controls(&self, x: &State, (xr, vr, ar): (f64, f64, f64)) -> (f64, bool, f64, bool) {
+        let p = self.plant;
+        let rit = p.r * p.it;
+        let w_cmd = p.kp * (xr - x[X2]) + p.kf * vr / rit;
+        let e_w = w_cmd - x[W_M];
+        let j_tot = p.jm + p.it * p.it * p.js + rit * rit * p.mt;
+        let i_ff = p.ka * j_tot * ar / (rit * p.kt);
+        let i_cmd = p.ks * (e_w + x[Z_V] / p.ts) + i_ff;
+        let i_limited = i_cmd.abs() > p.i_max;
+        let e_i = x[F_CMD] - x[F_I];
+        let u = p.ki * (e_i + x[Z_I] / p.ti);
+        let u_limited = u.abs() > p.u_max;
+        (
+            i_cmd.clamp(-p.i_max, p.i_max),
+            i_limited,
+            u.clamp(-p.u_max, p.u_max),
+            u_limited,
+        )
+    }
+
+    /// Whether the controller reads the reference's speed and acceleration (feed-forward).
+    pub fn feeds_forward(&self) -> bool {
+        self.plant.kf != 0.0 || self.plant.ka != 0.0
+    }
+
+    /// The nut's force on the table (N): the axial spring through the backlash gap, damped
+    /// only in contact.
+    fn nut_force(&self, x: &State) -> f64 {
+        let p = self.plant;
+        let delta = p.r * x[TH_S] - x[X2];
+        let e = p.half_gap;
+        let (d, contact) = if delta > e {
+            (delta - e, true)
+        } else if delta < -e {
+            (delta + e, true)
+        } else {
+            (0.0, false)
+        };
+        let damping = if contact {
+            p.c_m * (p.r * x[W_S] - x[V2])
+        } else {
+            0.0
+        };
+        p.k_m * d + damping
+    }
+
+    /// The state's rate of change; the table held while stuck.
+    fn rates(&self, x: &State, reference: (f64, f64, f64), stuck: bool) -> State {
+        let sliding_sign = if x[V2] != 0.0 {
+            x[V2].signum()
+        } else {
+            self.direction
+        };
+        let p = self.plant;
+        let (i_cmd, i_limited, u, u_limited) = self.controls(x, reference);
+        let rit = p.r * p.it;
+        let w_cmd = p.kp * (reference.0 - x[X2]) + p.kf * reference.1 / rit;
+        let e_w = w_cmd - x[W_M];
+        let e_i = x[F_CMD] - x[F_I];
+        let t_c = p.k_theta * (p.it * x[TH_M] - x[TH_S]) + p.c_theta * (p.it * x[W_M] - x[W_S]);
+        let f_n = self.nut_force(x);
+        let (f_c, _) = p.friction_at(x[X2], self.spot);
+        let mut dx = [0.0; STATES];
+        dx[TH_M] = x[W_M];
+        dx[W_M] = (p.kt * x[I] - p.it * t_c) / p.jm;
+        dx[TH_S] = x[W_S];
+        dx[W_S] = (t_c - p.b_screw * x[W_S] - p.r * f_n) / p.js;
+        if !stuck {
+            dx[X2] = x[V2];
+            let friction = p.f_v * x[V2] + f_c * sliding_sign;
+            dx[V2] = (f_n - friction) / p.mt;
+        }
+        dx[I] = (u - p.ra * x[I] - p.ke * x[W_M]) / p.la;
+        // An integrator stops while its output sits at the limit.
+        dx[Z_V] = if i_limited && e_w * i_cmd > 0.0 {
+            0.0
+        } else {
+            e_w
+        };
+        dx[Z_I] = if u_limited && e_i * u > 0.0 { 0.0 } else { e_i };
+        dx[F_CMD] = (i_cmd - x[F_CMD]) / p.tcf;
+        dx[F_I] = (x[I] - x[F_I]) / p.tcf;
+        dx
+    }
+
+    /// One Runge–Kutta step of `h` from time `t`, then the friction's switches: a table that
+    /// stands breaks away once the nut pushes beyond static friction; one that slides and
+    /// whose speed changes sign within the step stops there, and sticks if static friction
+    /// holds the nut's force.
+    pub fn step(&mut self, t: f64, h: f64, reference: Reference) {
+        let add = |a: &State, b: &State, k: f64| {
+            let mut c = *a;
+            for i in 0..STATES {
+                c[i] += k * b[i];
+            }
+            c
+        };
+        let stuck = self.stuck;
+        let x = self.x;
+        // The controller sees the interpolator's reference a dead time late.
+        let t = t - self.plant.dead_time;
+        let k1 = self.rates(&x, reference(t), stuck);
+        let k2 = self.rates(&add(&x, &k1, 0.5 * h), reference(t + 0.5 * h), stuck);
+        let k3 = self.rates(&add(&x, &k2, 0.5 * h), reference(t + 0.5 * h), stuck);
+        let k4 = self.rates(&add(&x, &k3, h), reference(t + h), stuck);
+        let mut next = x;
+        for i in 0..STATES {
+            next[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        }
+        let (_, f_s) = self.plant.friction_at(next[X2], self.spot);
+        let f_n = self.nut_force(&next);
+        if stuck {
+            next[V2] = 0.0;
+            if f_n.abs() >= f_s {
+                self.stuck = false;
+                self.direction = f_n.signum();
+            }
+        } else if next[V2] * x[V2] < 0.0 || next[V2] == 0.0 {
+            next[V2] = 0.0;
+            self.stuck = f_n.abs() < f_s;
+            self.direction = f_n.signum();
+        }
+        self.x = next;
+    }
+}
+
+/// A continuous trapezoidal interpolator: each block accelerates at `accel`, cruises at its
+/// feed and stops at its end (rapids at 10 m/min); a dwell stands. Positions are exact at any
+/// time, speed and acceleration along the path by differences over a microsecond.
+/// A block of the interpolator: its duration and its XY position at a time into it.
+type Block = (f64, Box<dyn Fn(f64) -> [f64; 2]>);
+
+pub struct Trapezoids {
+    blocks: Vec<Block>,
+    /// Total duration (s).
+    pub duration_s: f64,
+}
+
+impl Trapezoids {
+    pub fn new(program: &Program, accel: f64, pre_s: f64, post_s: f64) -> Trapezoids {
+        const RAPID_M_PER_S: f64 = 10.0 / 60.0;
+        let mut blocks: Vec<Block> = Vec::new();
+        let start = program.segments[0].start_m;
+        blocks.push((pre_s, Box::new(move |_| [start[0], start[1]])));
+        for seg in program.segments.iter().copied() {
+            if let Geometry::Dwell { seconds } = seg.geometry {
+                let p = seg.start_m;
+                blocks.push((seconds, Box::new(move |_| [p[0], p[1]])));
+                continue;
+            }
+            let length = seg.length_m();
+            if length <= 0.0 {
+                continue;
+            }
+            let v = if seg.motion == Motion::Rapid {
+                RAPID_M_PER_S
+            } else {
+                seg.feed_m_per_s.min(RAPID_M_PER_S)
+            };
+            let v = v.min((accel * length).sqrt());
+            let t_acc = v / accel;
+            let t_cruise = (length - v * t_acc) / v;
+            let total = 2.0 * t_acc + t_cruise;
+            let distance = move |t: f64| {
+                if t < t_acc {
+                    0.5 * accel * t * t
+                } else if t < t_acc + t_cruise {
+                    0.5 * v * t_acc + v * (t - t_acc)
+                } else {
+                    let r = (total - t).max(0.0);
+                    length - 0.5 * accel * r * r
+                }
+            };
+            blocks.push((
+                total,
+                Box::new(move |t| {
+                    let p = seg.eval(distance(t.clamp(0.0, total)), length).pos;
+                    [p[0], p[1]]
+                }),
+            ));
+        }
+        let end = program.segments.last().unwrap().end_m;
+        blocks.push((post_s, Box::new(move |_| [end[0], end[1]])));
+        let duration_s = blocks.iter().map(|b| b.0).sum();
+        Trapezoids { blocks, duration_s }
+    }
+
+    /// The commanded XY position at `t` (m).
+    pub fn position(&self, t: f64) -> [f64; 2] {
+        let mut start = 0.0;
+        for (k, (d, f)) in self.blocks.iter().enumerate() {
+            if t < start + d || k + 1 == self.blocks.len() {
+                return f((t - start).clamp(0.0, *d));
+            }
+            start += d;
+        }
+        unreachable!("the interpolator has blocks")
+    }
+
+    /// Axis `a`'s position, speed and acceleration at `t`.
+    pub fn axis(&self, a: usize, t: f64) -> (f64, f64, f64) {
+        const H: f64 = 1e-6;
+        let (p0, p1, p2) = (
+            self.position(t - H)[a],
+            self.position(t)[a],
+            self.position(t + H)[a],
+        );
+        (p1, (p2 - p0) / (2.0 * H), (p2 - 2.0 * p1 + p0) / (H * H))
+    }
+}
+
+/// How a reference record is taken.
+#[derive(Clone, Copy, Debug)]
+pub struct Recording {
+    /// Sampling period (s).
+    pub sample_s: f64,
+    /// Measurement noise, standard deviation (m).
+    pub noise_m: f64,
+    /// Encoder count (m), 0 for none.
+    pub count_m: f64,
+    /// Integration step (s).
+    pub step_s: f64,
+    /// Seed of the noise.
+    pub seed: u64,
+    /// The interpolator's path acceleration (m/s²).
+    pub accel: f64,
+    /// A tight spot on X: (from m, to m, factor on Coulomb friction).
+    pub tight_spot_x: Option<(f64, f64, f64)>,
+}
+
+impl Default for Recording {
+    fn default() -> Self {
+        Recording {
+            sample_s: 1e-3,
+            noise_m: 0.3e-6,
+            count_m: 0.0,
+            step_s: 5e-6,
+            seed: 1,
+            accel: 0.5,
+            tight_spot_x: None,
+        }
+    }
+}
+
+/// A record of `program` run by the reference on axes `x` and `y`: a CSV with the time (s),
+/// the measured table positions and the commanded positions (mm), as a control's trace
+/// would give them.
+pub fn record(program: &Program, x: &AxisConfig, y: &AxisConfig, rec: &Recording) -> String {
+    let interpolator = Trapezoids::new(program, rec.accel, 0.3, 0.5);
+    let plants = [Plant::new(x), Plant::new(y)];
+    let start = interpolator.position(0.0);
+    let mut axes = [
+        Axis::at_rest(&plants[0], start[0], rec.tight_spot_x),
+        Axis::at_rest(&plants[1], start[1], None),
+    ];
+    let mut rng = rand::rngs::StdRng::seed_from_u64(rec.seed);
+    let noise = Normal::new(0.0, rec.noise_m.max(1e-15)).unwrap();
+    let steps_per_sample = (rec.sample_s / rec.step_s).round() as usize;
+    let h = rec.sample_s / steps_per_sample as f64;
+    let samples = (interpolator.duration_s / rec.sample_s).floor() as usize;
+    let mut csv = String::from("t,x,y,x_cmd,y_cmd\n");
+    let read = |v: f64, rng: &mut rand::rngs::StdRng| {
+        let m = v + noise.sample(rng);
+        if rec.count_m > 0.0 {
+            (m / rec.count_m).round() * rec.count_m
+        } else {
+            m
+        }
+    };
+    for k in 0..samples {
+        let t = k as f64 * rec.sample_s;
+        let cmd = interpolator.position(t);
+        let mx = read(axes[0].table(), &mut rng);
+        let my = read(axes[1].table(), &mut rng);
+        csv.push_str(&format!(
+            "{t:.6},{:.7},{:.7},{:.7},{:.7}\n",
+            mx * 1e3,
+            my * 1e3,
+            cmd[0] * 1e3,
+            cmd[1] * 1e3
+        ));
+        for s in 0..steps_per_sample {
+            let ts = t + s as f64 * h;
+            for (a, axis) in axes.iter_mut().enumerate() {
+                if axis.feeds_forward() {
+                    axis.step(ts, h, &|tt| interpolator.axis(a, tt));
+                } else {
+                    axis.step(ts, h, &|tt| (interpolator.position(tt)[a], 0.0, 0.0));
+                }
+            }
+        }
+    }
+    csv
+}
