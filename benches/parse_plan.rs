@@ -1,5 +1,6 @@
 //! Parsing and planning a large generated program (over a million blocks), as CAM output
-//! for a big part looks: short lines and arcs under G64.
+//! for a big part looks: short lines and arcs under G64; and the same program in the
+//! SINUMERIK dialect, whose front end rewrites each line before the RS274/NGC one reads it.
 
 use std::hint::black_box;
 
@@ -31,6 +32,15 @@ fn big_program(blocks: usize) -> String {
     s
 }
 
+/// The RS274/NGC program `text` rewritten in the SINUMERIK dialect.
+fn sinumerik_program(text: &str) -> String {
+    text.replace(
+        "G21 G90 G17 G94 G64 P0.01",
+        "%_N_BIG_MPF\nG710 G90 G17 G94 G641 ADIS=0.01",
+    )
+    .replace(" I0 J1.", " CR=1")
+}
+
 fn parse_and_plan(c: &mut Criterion) {
     let blocks = 1_000_000;
     let text = big_program(blocks);
@@ -43,6 +53,18 @@ fn parse_and_plan(c: &mut Criterion) {
     g.throughput(Throughput::Bytes(text.len() as u64));
     g.bench_function("parse 1M blocks", |b| {
         b.iter(|| parse_program(black_box(&text), "big.nc", &InterpretOptions::default()).unwrap())
+    });
+    // The same blocks as an 840D program: `G710`, `G641 ADIS=`, arcs by `CR=`.
+    let sinumerik = sinumerik_program(&text);
+    g.bench_function("parse 1M blocks, SINUMERIK dialect", |b| {
+        b.iter(|| {
+            parse_program(
+                black_box(&sinumerik),
+                "big.mpf",
+                &InterpretOptions::default(),
+            )
+            .unwrap()
+        })
     });
     g.finish();
 

@@ -1196,3 +1196,68 @@ fn two_causes_a_record_cannot_tell_apart_are_both_reported() {
         "{text}"
     );
 }
+
+/// A cause fitted on stick-slip statistics is judged on what a model can predict there: the
+/// chatter's amplitude, and the residual averaged over the slips, neither of which may grow.
+/// Point by point its RMS grows — the model chatters as the machine does, out of phase — and
+/// the report says so rather than calling that a fall.
+#[test]
+fn a_stick_slip_fit_lowers_what_it_is_judged_on() {
+    use contourcheck::diagnose::HeldOutMeasure;
+    let program = program_text("G21 G17 G90 G94\nG0 X3.2 Y0\nG3 X3.2 Y0 I-3.2 J0 F20\nM30\n");
+    let machine = MachineConfig::default_preset();
+    let spec = SynthSpec {
+        effect: Some((CauseId::Stribeck, AxisName::X, vec![400.0, 20.0])),
+        offset_s: 0.3,
+        ..SynthSpec::default()
+    };
+    let mut csv = Vec::new();
+    synthesize(&program, &machine, &spec)
+        .unwrap()
+        .write_csv(&mut csv)
+        .unwrap();
+    let measured = parse_trace(std::str::from_utf8(&csv).unwrap(), "f20.csv").unwrap();
+    let d = diagnose(
+        &program,
+        &machine,
+        &measured,
+        &DiagnoseSettings::for_machine(&machine),
+    )
+    .unwrap();
+    let c = &d.causes[0];
+    assert_eq!(
+        (c.id, c.axis, c.statistical),
+        (CauseId::Stribeck, AxisName::X, true)
+    );
+    let h = &c.held_out;
+    assert_eq!(h.measure, HeldOutMeasure::ChatterMismatch);
+    assert!(h.rms_after_um < 0.5 * h.rms_before_um, "{h:?}");
+    // The residual averaged over ±0.125 s, where the slips' phase averages out.
+    let averaged = |model: &[f64]| {
+        let s = &d.series;
+        let r: Vec<f64> = (0..s.t_s.len())
+            .map(|k| s.measured[0][k] - model[k])
+            .collect();
+        let w = (0.125 / d.sample_step_s).round() as usize;
+        let means: Vec<f64> = (0..r.len())
+            .map(|i| {
+                let (a, b) = (i.saturating_sub(w), (i + w + 1).min(r.len()));
+                r[a..b].iter().sum::<f64>() / (b - a) as f64
+            })
+            .collect();
+        (means.iter().map(|m| m * m).sum::<f64>() / means.len() as f64).sqrt() * 1e6
+    };
+    let (before, after) = (
+        averaged(&d.series.nominal[0]),
+        averaged(&d.series.extended[0]),
+    );
+    assert!(after <= before, "averaged {before:.3} → {after:.3} µm");
+    let text =
+        contourcheck::diagnose::report::DiagnoseReport::new(&d, "f20.nc", &measured, &machine)
+            .summary_text();
+    assert!(
+        text.contains("chatter amplitude mismatch falls by"),
+        "{text}"
+    );
+    assert!(text.contains("out of phase"), "{text}");
+}

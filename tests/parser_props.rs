@@ -5,6 +5,66 @@ use contourcheck::gcode::lexer::{LexedLine, lex_line};
 use contourcheck::gcode::{InterpretOptions, parse_program};
 use proptest::prelude::*;
 
+/// Fragments real and broken SINUMERIK programs are made of.
+fn sinumerik_token() -> impl Strategy<Value = String> {
+    prop_oneof![
+        prop::sample::select(vec![
+            "%_N_P_MPF",
+            ";c",
+            "N10",
+            ":20",
+            "G710",
+            "G700",
+            "G641",
+            "G642",
+            "G9",
+            "G60",
+            "G64",
+            "G4",
+            "F",
+            "ADIS=",
+            "CTOL=",
+            "CR=",
+            "X=",
+            "Y=",
+            "I=",
+            "AC(",
+            "IC(",
+            ")",
+            "MSG(\"",
+            "\"",
+            "(",
+            "T=\"",
+            "R1=",
+            "DEF",
+            "GOTOF",
+            "LBL:",
+            "TRANS",
+            "CYCLE72",
+            "L12",
+            "$P_X",
+            "=",
+            " ",
+            "\n",
+            "-",
+            ".",
+            "G2",
+            "G3",
+            "G1",
+            "G0",
+            "G90",
+            "G91",
+            "M30",
+            "M17",
+            "RET",
+            "SOFT",
+            "D1",
+        ])
+        .prop_map(str::to_string),
+        (-1e4f64..1e4).prop_map(|v| format!("{v}")),
+    ]
+}
+
 /// Fragments real and broken programs are made of.
 fn token() -> impl Strategy<Value = String> {
     prop_oneof![
@@ -110,6 +170,12 @@ proptest! {
     fn token_soups_never_panic(tokens in prop::collection::vec(token(), 0..60)) {
         let text: String = tokens.concat();
         let _ = parse_program(&text, "soup.nc", &InterpretOptions::default());
+    }
+
+    #[test]
+    fn sinumerik_soups_never_panic(tokens in prop::collection::vec(sinumerik_token(), 0..60), bytes in prop::collection::vec(any::<u8>(), 0..40)) {
+        let text = format!("{}{}", tokens.concat(), String::from_utf8_lossy(&bytes));
+        let _ = parse_program(&text, "soup.mpf", &InterpretOptions::default());
     }
 
     #[test]

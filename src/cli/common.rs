@@ -205,11 +205,11 @@ pub fn load_program(path: &Path, machine: &MachineConfig) -> Result<Program, Cli
         message: e.to_string(),
     })?;
     let text = String::from_utf8_lossy(&bytes);
-    let program = parse_program(
-        &text,
-        &path.display().to_string(),
-        &InterpretOptions::default(),
-    )?;
+    let options = InterpretOptions {
+        dialect: DIALECT.get().copied(),
+        ..InterpretOptions::default()
+    };
+    let program = parse_program(&text, &path.display().to_string(), &options)?;
     crate::envelope::check_fits(&program, machine)?;
     Ok(program)
 }
@@ -421,6 +421,31 @@ pub(crate) fn program_or_commands_path(
 
 /// The values the command line accepts for the library's enumerations, each listed in
 /// `--help` as the machine file and the reports spell it.
+impl clap::ValueEnum for crate::gcode::Dialect {
+    fn value_variants<'a>() -> &'a [Self] {
+        &[
+            crate::gcode::Dialect::Rs274,
+            crate::gcode::Dialect::Sinumerik,
+        ]
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        Some(clap::builder::PossibleValue::new(match self {
+            crate::gcode::Dialect::Rs274 => "rs274",
+            crate::gcode::Dialect::Sinumerik => "sinumerik",
+        }))
+    }
+}
+
+/// The dialect `--dialect` names for every program read, once the arguments are parsed;
+/// unset, each program's dialect is told from its file.
+static DIALECT: std::sync::OnceLock<crate::gcode::Dialect> = std::sync::OnceLock::new();
+
+/// Sets the dialect of the programs this run reads (`--dialect`).
+pub fn set_dialect(dialect: crate::gcode::Dialect) {
+    let _ = DIALECT.set(dialect);
+}
+
 impl clap::ValueEnum for crate::diagnose::causes::CauseId {
     fn value_variants<'a>() -> &'a [Self] {
         &crate::diagnose::causes::CauseId::ALL

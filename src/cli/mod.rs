@@ -27,6 +27,10 @@ pub use common::CliError;
 pub struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// The part program's dialect; by default told from the file (`.mpf`/`.spf`, a
+    /// `%_N_…_MPF` header or SINUMERIK codes: sinumerik; else rs274).
+    #[arg(long, global = true, value_enum)]
+    dialect: Option<crate::gcode::Dialect>,
 }
 
 #[derive(Debug, Subcommand)]
@@ -77,6 +81,9 @@ pub fn main() -> ExitCode {
 }
 
 fn run(cli: Cli, matches: &ArgMatches) -> Result<Outcome, CliError> {
+    if let Some(dialect) = cli.dialect {
+        common::set_dialect(dialect);
+    }
     match cli.command {
         Command::Sweep(args) => {
             let sub = matches

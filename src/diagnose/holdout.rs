@@ -11,7 +11,7 @@
 use super::search::Current;
 use super::{DiagnoseError, fit};
 use crate::causes::{self, CauseId};
-use crate::compare::residual::independent_share;
+use crate::compare::residual::{chatter_mismatch, independent_share};
 use crate::compare::{CompareSettings, Comparison, Context, Stepping, compare};
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
@@ -39,10 +39,24 @@ pub struct HeldOut {
     /// The fall in the held-out half's residual sum of squares, in noise variances, counted
     /// on independent samples (for a stick-slip axis: the fall of its statistics' χ²).
     pub evidence: f64,
-    /// The axis's RMS residual on the held-out half before the cause (µm).
+    /// The axis's residual on the held-out half before the cause (µm), by `measure`.
     pub rms_before_um: f64,
     /// After, with the values fitted on the other half (µm).
     pub rms_after_um: f64,
+    /// What the two figures measure: the RMS residual, or for a cause fitted on stick-slip
+    /// statistics the RMS mismatch of chatter amplitude per window (point by point a model
+    /// that chatters as the machine does, out of phase, scores worse than one that does not).
+    pub measure: HeldOutMeasure,
+}
+
+/// The measure of [`HeldOut`]'s figures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum HeldOutMeasure {
+    /// The RMS residual.
+    Rms,
+    /// The RMS mismatch of chatter amplitude per 0.25 s window.
+    ChatterMismatch,
 }
 
 /// The compared samples in two halves. The record is cut into stretches — each window
@@ -141,11 +155,29 @@ fn judged(
         gain / (test.noise_sigma * test.noise_sigma) * independent_share(&res_after)
     };
     let rms = |v: &[f64]| (sum_sq(v) / v.len().max(1) as f64).sqrt() * 1e6;
+    let (rms_before_um, rms_after_um, measure) = if statistical {
+        let mismatch = |trace: &[f64], offset: f64| {
+            1e6 * chatter_mismatch(
+                &test.measured_at_samples(axis),
+                &test.at_samples(trace, offset),
+                test.sample_dt_s,
+                test.noise_sigma,
+            )
+        };
+        (
+            mismatch(&b_traces[this], b_offset),
+            mismatch(a_this, a_offset),
+            HeldOutMeasure::ChatterMismatch,
+        )
+    } else {
+        (rms(&res_before), rms(&res_after), HeldOutMeasure::Rms)
+    };
     HeldOut {
         judged_on,
         evidence,
-        rms_before_um: rms(&res_before),
-        rms_after_um: rms(&res_after),
+        rms_before_um,
+        rms_after_um,
+        measure,
     }
 }
 

@@ -42,7 +42,7 @@ use crate::trace::recorded::BeyondMachine;
 use crate::trace::signal::sample;
 use crate::units::{mm_from_m, um_from_m};
 use causes::{CauseId, CauseSet};
-pub use holdout::{HeldOut, JudgedOn};
+pub use holdout::{HeldOut, HeldOutMeasure, JudgedOn};
 pub use search::{Candidate, Rejected};
 
 /// Settings of a diagnosis.

@@ -12,7 +12,7 @@ use super::locate::{Located, Variable};
 
 use super::{
     Alternative, AxisResidual, Candidate, CircularComparison, Diagnosis, ExtraWait, FittedParam,
-    HeldOut, JudgedOn, Place, Rejected, ResidualStats, Skipped,
+    HeldOut, HeldOutMeasure, JudgedOn, Place, Rejected, ResidualStats, Skipped,
 };
 use crate::causes::CauseId;
 use crate::machine::{AxisName, MachineConfig};
@@ -483,11 +483,23 @@ fn write_cause(s: &mut String, i: usize, c: &CauseReport) {
         JudgedOn::OtherHalf => "fitted on half of the record, the other half's",
         JudgedOn::SecondRecord => "fitted on this record, the second record's",
     };
+    let measure = match h.measure {
+        HeldOutMeasure::Rms => "RMS",
+        HeldOutMeasure::ChatterMismatch => "chatter amplitude mismatch",
+    };
     let _ = writeln!(
         s,
-        "     held out: {unseen} {} RMS {:.3} → {:.3} µm",
+        "     held out: {unseen} {} {measure} {:.3} → {:.3} µm",
         c.axis, h.rms_before_um, h.rms_after_um
     );
+    if h.measure == HeldOutMeasure::ChatterMismatch && a.rms_um > b.rms_um {
+        let _ = writeln!(
+            s,
+            "     point by point the extended model chatters as the machine does, out of phase \
+             (no model times the slips), so its RMS is the larger; the chatter and the \
+             residual averaged over the slips are what it is judged on"
+        );
+    }
     let _ = writeln!(s, "     what to do: {}", next_step(c));
     for a in &c.alternatives {
         let values: Vec<String> = a
@@ -547,8 +559,12 @@ fn strength(c: &CauseReport) -> String {
         JudgedOn::OtherHalf => "the half of the record it was not fitted on",
         JudgedOn::SecondRecord => "the second record, which it was not fitted on",
     };
+    let what = match h.measure {
+        HeldOutMeasure::Rms => "residual",
+        HeldOutMeasure::ChatterMismatch => "chatter amplitude mismatch",
+    };
     format!(
-        "{word}: on {unseen}, {}'s residual falls by {fall:.0} % — beyond what the noise alone \
+        "{word}: on {unseen}, {}'s {what} falls by {fall:.0} % — beyond what the noise alone \
          would give{where_}",
         c.axis
     )

@@ -18,7 +18,9 @@ use super::plausible::{Observed, implausible};
 use super::{Alternative, DiagnoseSettings, FittedParam, FoundCause};
 use crate::causes::{self, CauseId, Kinematics};
 use crate::compare::context::Context;
-use crate::compare::residual::{axis_residual, chatter_mismatch, independent_share, rms};
+use crate::compare::residual::{
+    CHATTER_AVERAGE_HALF_S, averaged_rms, axis_residual, chatter_mismatch, independent_share, rms,
+};
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::trace::signal::sample;
 use crate::units::{kv_m_per_min_per_mm_from_per_s, per_s_from_kv_m_per_min_per_mm, um_from_m};
@@ -469,6 +471,30 @@ fn worse_somewhere(
                 um_from_m(before),
                 um_from_m(after),
             ));
+        }
+        // Nor may a chattering model's slower part drift from the machine: the residual
+        // averaged over a statistical window (the slips' phase averaged out) must not grow
+        // beyond what the noise left in that average moves it.
+        if chatter {
+            let averaged = |trace: &[f64], offset: f64| {
+                let r = ctx.residual(a, trace, offset);
+                averaged_rms(&r, ctx.sample_dt_s, CHATTER_AVERAGE_HALF_S)
+            };
+            let (before, after) = (
+                averaged(&traces[a.index()], offset_s),
+                averaged(new, fitted.offset_s),
+            );
+            let window = 2.0 * CHATTER_AVERAGE_HALF_S / ctx.sample_dt_s + 1.0;
+            let noise_left = ctx.noise_sigma / window.sqrt();
+            if after > before * (1.0 + WORSE_TOLERANCE) + noise_left {
+                return Some(format!(
+                    "fits the chatter, but makes the {a} residual averaged over {:.2} s worse \
+                     ({:.3} → {:.3} µm)",
+                    2.0 * CHATTER_AVERAGE_HALF_S,
+                    um_from_m(before),
+                    um_from_m(after),
+                ));
+            }
         }
     }
     None

@@ -26,6 +26,8 @@ pub struct InterpretOptions {
     pub start_mm: [f64; 3],
     /// Skip blocks that start with `/` (the block-delete switch).
     pub block_delete: bool,
+    /// The program's dialect; `None`: told from the file's name and text.
+    pub dialect: Option<super::Dialect>,
 }
 
 impl Default for InterpretOptions {
@@ -36,6 +38,7 @@ impl Default for InterpretOptions {
             g30_home_mm: [0.0; 3],
             start_mm: [0.0; 3],
             block_delete: false,
+            dialect: None,
         }
     }
 }
@@ -255,6 +258,11 @@ impl Interpreter {
         self.sort_words(words)?;
         self.check_codes()?;
         self.run_block()
+    }
+
+    /// Notes `message` about line `line` among the program's warnings.
+    pub(crate) fn warn(&mut self, line: u32, message: String) {
+        self.warnings.push(Warning { line, message });
     }
 
     /// The interpreted program.

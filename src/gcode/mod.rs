@@ -1,7 +1,9 @@
 //! The G-code front end: RS274/NGC-style milling programs in, an XY path out.
 //!
 //! [`parse_program`] lexes each line ([`lexer`]), evaluates constant expressions ([`expr`])
-//! and runs the modal interpreter ([`interp`]) over the blocks. Errors are collected per
+//! and runs the modal interpreter ([`interp`]) over the blocks. A SINUMERIK 840D program
+//! ([`Dialect`], told by its extension, header or codes) is read through [`sinumerik`], which
+//! rewrites each of its lines into the same words. Errors are collected per
 //! block — every wrong block is reported, up to [`MAX_REPORTED_ERRORS`] — each naming the
 //! file, line, column and the one problem there. No input makes it panic.
 
@@ -10,9 +12,11 @@ pub mod error;
 pub mod expr;
 pub mod interp;
 pub mod lexer;
+pub mod sinumerik;
 
 pub use error::{GcodeError, GcodeErrorKind, GcodeErrors, SourcePos, Warning};
 pub use interp::{CodeNote, Event, InterpretOptions, Program};
+pub use sinumerik::Dialect;
 
 use interp::Interpreter;
 use lexer::LexedLine;
@@ -31,14 +35,21 @@ pub fn parse_program(
     let mut lexed = LexedLine::default();
     let mut errors = Vec::new();
     let mut lines = 0usize;
+    let mut sinumerik = (opts.dialect.unwrap_or_else(|| Dialect::of(file, source))
+        == Dialect::Sinumerik)
+        .then(sinumerik::Translator::default);
     for (index, text) in source.split('\n').enumerate() {
         lines = index + 1;
         let line_no = u32::try_from(index + 1).unwrap_or(u32::MAX);
-        let result = match lexer::lex_line(text, &mut lexed) {
-            Ok(()) => interp
-                .execute(line_no, &lexed.words, lexed.block_delete)
-                .map_err(|e| (e.offset as usize, e.kind)),
-            Err(e) => Err((e.offset, e.kind)),
+        let result = match &mut sinumerik {
+            None => run_line(&mut interp, text, line_no, &mut lexed),
+            Some(translator) => translator.rewrite(text).and_then(|rewritten| {
+                for w in &rewritten.warnings {
+                    interp.warn(line_no, w.clone());
+                }
+                run_line(&mut interp, &rewritten.text, line_no, &mut lexed)
+                    .map_err(|(offset, kind)| (rewritten.original_offset(offset), kind))
+            }),
         };
         if let Err((offset, kind)) = result {
             errors.push(GcodeError {
@@ -69,6 +80,21 @@ pub fn parse_program(
         Ok(interp.finish(lines))
     } else {
         Err(GcodeErrors(errors))
+    }
+}
+
+/// Lexes and runs one RS274/NGC line; a failure's byte offset in it.
+fn run_line(
+    interp: &mut Interpreter,
+    text: &str,
+    line_no: u32,
+    lexed: &mut LexedLine,
+) -> Result<(), (usize, GcodeErrorKind)> {
+    match lexer::lex_line(text, lexed) {
+        Ok(()) => interp
+            .execute(line_no, &lexed.words, lexed.block_delete)
+            .map_err(|e| (e.offset as usize, e.kind)),
+        Err(e) => Err((e.offset, e.kind)),
     }
 }
 

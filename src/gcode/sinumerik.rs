@@ -1,0 +1,703 @@
+//! The SINUMERIK 840D dialect, read by rewriting each line into the words of the RS274/NGC
+//! front end, so that both dialects share one interpreter, one program model and one kind of
+//! error (file, line, column — the column of the SINUMERIK text).
+//!
+//! What is read (SINUMERIK 840D sl programming manual, *Fundamentals*, for the meaning of each
+//! command):
+//! - `;` comments, `%_N_NAME_MPF` / `_SPF` headers, `N` and `:` block numbers, labels;
+//! - addresses written `X10` or `X=10`, and `X=AC(…)` / `X=IC(…)` for one coordinate
+//!   absolute or incremental against the block's `G90`/`G91`;
+//! - `G710`/`G700` (metric or inch, feeds included) and `G71`/`G70` (positions only) as
+//!   `G21`/`G20`;
+//! - arcs by centre (`I`, `J`) or by radius (`CR=`, negative above 180°);
+//! - `G60` (exact stop, modal) and `G9` (exact stop in its block), `G64` (continuous path),
+//!   `G641` with `ADIS=` and `G642` with `CTOL=`: the corners rounded within the given
+//!   distance are planned with the planner's corner tolerance of that size (the 840D's
+//!   rounding inserts a blend; the planner passes the corner at the speed a blend of that
+//!   size allows, on the programmed path);
+//! - `G4 F…` (dwell in seconds), `G500`, `G54`–`G57`, `G153`, `M17`/`RET` (program end),
+//!   `D` (tool edge: lengths taken as zero), `MSG(…)`.
+//!
+//! `BRISK`/`SOFT` and `FFWON`/`FFWOF` are kept as warnings: the acceleration profile and
+//! the feed-forward are the planner's and the machine file's settings, not switched by the
+//! program. Refused, with the word and the reason: R-parameters and `DEF` variables, jumps,
+//! labels' targets and `IF`/`WHILE`/`FOR`/`REPEAT`/`LOOP`, subprogram calls, frames
+//! (`TRANS`, `ROT`, `SCALE`, `MIRROR` and their additive forms), cycles (`CYCLE…`,
+//! `POCKET…`), splines, the compressor, transformations (`TRAORI`, `TRANSMIT`, `TRACYL`)
+//! and cutter compensation — never a move skipped.
+
+use super::error::GcodeErrorKind;
+
+/// The dialect a program is written in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Dialect {
+    /// RS274/NGC as LinuxCNC reads it (and the Fanuc-like programs of most CAM posts).
+    Rs274,
+    /// SINUMERIK 840D.
+    Sinumerik,
+}
+
+impl Dialect {
+    /// The dialect a file is written in: SINUMERIK for the `.mpf`/`.spf` extensions, a
+    /// `%_N_…_MPF`/`_SPF` header, or `G710`/`G700`/`CR=` before any RS274-only construct;
+    /// RS274/NGC otherwise.
+    pub fn of(file: &str, source: &str) -> Dialect {
+        let lower = file.to_ascii_lowercase();
+        if lower.ends_with(".mpf") || lower.ends_with(".spf") {
+            return Dialect::Sinumerik;
+        }
+        for line in source.lines().take(200) {
+            let upper = line.trim_start().to_ascii_uppercase();
+            if upper.starts_with("%_N_") {
+                return Dialect::Sinumerik;
+            }
+            let code = upper.split(';').next().unwrap_or("");
+            if ["G710", "G700", "CR=", "ADIS=", "G641", "G642", "MSG("]
+                .iter()
+                .any(|k| code.contains(k))
+            {
+                return Dialect::Sinumerik;
+            }
+        }
+        Dialect::Rs274
+    }
+}
+
+/// One line rewritten: RS274/NGC text, and where each of its pieces came from.
+#[derive(Debug, Default)]
+pub(crate) struct Rewritten {
+    /// The RS274/NGC line.
+    pub text: String,
+    /// (offset in `text`, offset in the SINUMERIK line) at the start of each piece.
+    spans: Vec<(usize, usize)>,
+    /// Warnings about the line (words kept but not acted on).
+    pub warnings: Vec<String>,
+}
+
+impl Rewritten {
+    /// The SINUMERIK line's byte offset for an offset in the rewritten text.
+    pub fn original_offset(&self, rewritten: usize) -> usize {
+        self.spans
+            .iter()
+            .take_while(|(r, _)| *r <= rewritten)
+            .last()
+            .map_or(0, |&(_, o)| o)
+    }
+
+    fn push(&mut self, original: usize, piece: &str) {
+        if !self.text.is_empty() {
+            self.text.push(' ');
+        }
+        self.spans.push((self.text.len(), original));
+        self.text.push_str(piece);
+    }
+}
+
+/// The continuous-path mode a program set, which a `G9` block interrupts for itself.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum PathMode {
+    /// `G60`.
+    ExactStop,
+    /// `G64`, or `G641`/`G642` with their distance (mm or inch, as the program's unit).
+    Continuous(Option<f64>),
+}
+
+/// The dialect's state from line to line.
+#[derive(Debug)]
+pub(crate) struct Translator {
+    path_mode: PathMode,
+    /// Whether `G641` (else `G642`) is the rounding mode in force, when one is.
+    rounding: Option<bool>,
+    adis: Option<f64>,
+    ctol: Option<f64>,
+    absolute: bool,
+    /// Programmed X, Y, Z in the program's coordinates, where known.
+    position: [Option<f64>; 3],
+    /// The last block was a `G9` block: the next one restores the path mode.
+    restore_mode: bool,
+    /// No block yet: the first one sets the control's initial path mode.
+    first_block: bool,
+}
+
+impl Default for Translator {
+    fn default() -> Self {
+        Translator {
+            path_mode: PathMode::ExactStop,
+            rounding: None,
+            adis: None,
+            ctol: None,
+            absolute: true,
+            position: [None; 3],
+            restore_mode: false,
+            first_block: true,
+        }
+    }
+}
+
+/// A rewriting failure: byte offset in the SINUMERIK line and the problem.
+pub(crate) type Failure = (usize, GcodeErrorKind);
+
+fn refuse(offset: usize, word: &str, reason: &'static str) -> Failure {
+    (
+        offset,
+        GcodeErrorKind::Unsupported {
+            word: word.to_string(),
+            reason,
+        },
+    )
+}
+
+const CONTROL_FLOW: &str = "program control flow and variables are not supported yet: expand the program (the \
+     CAM post's linear output) before checking it";
+const SUBPROGRAM: &str =
+    "subprogram calls are not supported yet: expand the subprogram into the main program";
+const FRAME: &str = "programmable frames (TRANS, ROT, SCALE, MIRROR) are not supported yet: \
+     post the program in the workpiece's coordinates";
+const CYCLE: &str =
+    "cycles are not supported: expand the cycle into explicit moves (the CAM post can)";
+const SPLINE: &str = "spline and polynomial moves are not supported";
+const COMPRESSOR: &str = "the compressor replaces the programmed blocks by splines the \
+     predictor does not model: check the program without COMPCURV/COMPCAD/COMPON";
+const TRANSFORM: &str = "kinematic transformations (TRAORI, TRANSMIT, TRACYL) are not supported";
+const CENTRE_AC_IC: &str = "AC()/IC() applies to coordinates and arc centres only";
+
+/// Keywords that are refused whole, with why.
+fn refused_keyword(name: &str) -> Option<&'static str> {
+    let flow = [
+        "DEF", "GOTOF", "GOTOB", "GOTO", "GOTOC", "IF", "ELSE", "ENDIF", "WHILE", "ENDWHILE",
+        "FOR", "ENDFOR", "REPEAT", "UNTIL", "LOOP", "ENDLOOP", "CASE", "STOPRE",
+    ];
+    let frames = [
+        "TRANS", "ATRANS", "ROT", "AROT", "SCALE", "ASCALE", "MIRROR", "AMIRROR", "ROTS", "AROTS",
+        "CROTS",
+    ];
+    Some(if flow.contains(&name) {
+        CONTROL_FLOW
+    } else if frames.contains(&name) {
+        FRAME
+    } else if name == "CALL" || name == "PCALL" || name == "MCALL" {
+        SUBPROGRAM
+    } else if name.starts_with("CYCLE") || name.starts_with("POCKET") || name.starts_with("SLOT") {
+        CYCLE
+    } else if ["ASPLINE", "BSPLINE", "CSPLINE", "POLY", "BSPLINE"].contains(&name) {
+        SPLINE
+    } else if ["COMPON", "COMPCURV", "COMPCAD"].contains(&name) {
+        COMPRESSOR
+    } else if ["TRAORI", "TRANSMIT", "TRACYL"].contains(&name) {
+        TRANSFORM
+    } else {
+        return None;
+    })
+}
+
+/// A word's value as written after its address: a number, or `AC(n)` / `IC(n)`.
+enum Value {
+    Number(f64),
+    Absolute(f64),
+    Incremental(f64),
+}
+
+/// Scans a number at the start of `s`: its value and length.
+fn number(s: &str) -> Option<(f64, usize)> {
+    let bytes = s.as_bytes();
+    let mut end = 0;
+    if end < bytes.len() && (bytes[end] == b'+' || bytes[end] == b'-') {
+        end += 1;
+    }
+    let digits_start = end;
+    while end < bytes.len() && (bytes[end].is_ascii_digit() || bytes[end] == b'.') {
+        end += 1;
+    }
+    if end == digits_start {
+        return None;
+    }
+    s[..end].parse::<f64>().ok().map(|v| (v, end))
+}
+
+impl Translator {
+    /// Rewrites one SINUMERIK line into RS274/NGC words.
+    pub fn rewrite(&mut self, line: &str) -> Result<Rewritten, Failure> {
+        let mut out = Rewritten::default();
+        let upper = line.to_ascii_uppercase();
+        let start = upper.len() - upper.trim_start().len();
+        if upper[start..].starts_with('%') {
+            // `%_N_NAME_MPF` and `%MPF…` headers: no block.
+            return Ok(out);
+        }
+        let mut g_codes: Vec<(usize, u32)> = Vec::new();
+        let mut words: Vec<(usize, char, Value)> = Vec::new();
+        let mut i = start;
+        let b = upper.as_bytes();
+        if i < b.len() && b[i] == b'/' {
+            out.push(i, "/");
+            i += 1;
+        }
+        while i < b.len() {
+            let c = b[i];
+            if c == b' ' || c == b'\t' || c == b'\r' {
+                i += 1;
+                continue;
+            }
+            if c == b';' {
+                break;
+            }
+            if c == b':' {
+                // A main block number, `:10`: read as an N number.
+                i += 1;
+                let (v, n) = number(&upper[i..]).ok_or((i, GcodeErrorKind::MissingValue(':')))?;
+                words.push((i - 1, 'N', Value::Number(v)));
+                i += n;
+                continue;
+            }
+            if !(c.is_ascii_alphabetic() || c == b'_' || c == b'$') {
+                return Err((
+                    i,
+                    GcodeErrorKind::UnexpectedChar(line[i..].chars().next().unwrap_or('?')),
+                ));
+            }
+            let name_start = i;
+            while i < b.len() && (b[i].is_ascii_alphabetic() || b[i] == b'_' || b[i] == b'$') {
+                i += 1;
+            }
+            let name = &upper[name_start..i];
+            // A label: `NAME:` at the start of a block, a jump's target.
+            if i < b.len() && b[i] == b':' && name.len() > 1 {
+                i += 1;
+                continue;
+            }
+            i = self.word(
+                &upper,
+                name,
+                name_start,
+                i,
+                &mut g_codes,
+                &mut words,
+                &mut out,
+            )?;
+        }
+        self.emit(g_codes, words, &mut out)?;
+        Ok(out)
+    }
+
+    /// Reads the word whose name (letters) runs from `name_start` to `i`; the offset after
+    /// it.
+    #[allow(clippy::too_many_arguments)]
+    fn word(
+        &mut self,
+        upper: &str,
+        name: &str,
+        name_start: usize,
+        mut i: usize,
+        g_codes: &mut Vec<(usize, u32)>,
+        words: &mut Vec<(usize, char, Value)>,
+        out: &mut Rewritten,
+    ) -> Result<usize, Failure> {
+        let b = upper.as_bytes();
+        let rest_word = |i: usize| {
+            let end = upper[i..]
+                .find(|c: char| c.is_whitespace() || c == ';')
+                .map_or(upper.len(), |e| i + e);
+            &upper[name_start..end]
+        };
+        if let Some(reason) = refused_keyword(name) {
+            return Err(refuse(name_start, rest_word(i), reason));
+        }
+        if name.starts_with('$') {
+            return Err(refuse(name_start, rest_word(i), CONTROL_FLOW));
+        }
+        // A tool by its name, `T="MILL_10"`: a tool change, taken as instantaneous.
+        if name == "T" && upper[i..].starts_with("=\"") {
+            let close = upper[i + 2..].find('"').ok_or((
+                name_start,
+                GcodeErrorKind::Invalid("T=\" is not closed".into()),
+            ))?;
+            return Ok(i + 2 + close + 1);
+        }
+        match name {
+            "MSG" => return skip_parenthesised(upper, i, name_start),
+            "BRISK" | "BRISKA" | "SOFT" | "SOFTA" | "DRIVE" | "DRIVEA" => {
+                out.warnings.push(format!(
+                    "{name}: the acceleration profile is the planner's (--profile), not \
+                     switched by the program"
+                ));
+                return Ok(i);
+            }
+            "FFWON" | "FFWOF" => {
+                out.warnings.push(format!(
+                    "{name}: feed-forward is the machine file's setting, not switched by the \
+                     program"
+                ));
+                return Ok(i);
+            }
+            "COMPOF" | "TRAFOOF" | "CFC" | "CFTCP" | "CFIN" | "SUPA" => return Ok(i),
+            "RET" => {
+                words.push((name_start, 'M', Value::Number(2.0)));
+                return Ok(i);
+            }
+            _ => {}
+        }
+        // An assignment: `X=…`, `CR=…`, `ADIS=…`.
+        let assigned = i < b.len() && b[i] == b'=';
+        if assigned {
+            i += 1;
+        }
+        // A single letter followed by digits directly: `X10`, `G710`, `R1` …
+        if name.len() == 1 || assigned {
+            let letter = name.chars().next().unwrap_or('?');
+            if name.len() == 1 && letter == 'R' && !assigned {
+                // `R1=…` or a parameter read: variables are not supported.
+                return Err(refuse(name_start, rest_word(i), CONTROL_FLOW));
+            }
+            if name.len() == 1 && letter == 'L' {
+                return Err(refuse(name_start, rest_word(i), SUBPROGRAM));
+            }
+            let (value, n) = self.value(upper, i, name_start)?;
+            i += n;
+            match (name, value) {
+                ("G", Value::Number(v)) => g_codes.push((name_start, v.round() as u32)),
+                ("CR", v) => words.push((name_start, 'R', v)),
+                ("ADIS" | "ADISPOS", Value::Number(v)) => self.adis = Some(v),
+                ("CTOL" | "OTOL" | "CTOLG0", Value::Number(v)) => self.ctol = Some(v),
+                ("SPOS" | "SPOSA", _) => {}
+                (n, v) if n.len() == 1 => words.push((name_start, letter, v)),
+                _ => {
+                    return Err(refuse(
+                        name_start,
+                        rest_word(name_start + name.len()),
+                        "unknown SINUMERIK address",
+                    ));
+                }
+            }
+            return Ok(i);
+        }
+        // A word of several letters that is none of the above: a named subprogram or an
+        // unknown command.
+        Err(refuse(name_start, rest_word(i), SUBPROGRAM))
+    }
+
+    /// The value after an address at `i`: a number, `AC(n)` or `IC(n)`; and its length.
+    fn value(&self, upper: &str, i: usize, name_start: usize) -> Result<(Value, usize), Failure> {
+        let s = &upper[i..];
+        if let Some((v, n)) = number(s) {
+            return Ok((Value::Number(v), n));
+        }
+        for (prefix, absolute) in [("AC(", true), ("IC(", false)] {
+            if let Some(inner) = s.strip_prefix(prefix) {
+                let (v, n) = number(inner.trim_start())
+                    .ok_or_else(|| refuse(name_start, &upper[name_start..], CONTROL_FLOW))?;
+                let skipped = inner.len() - inner.trim_start().len();
+                let close = inner[skipped + n..].find(')').ok_or((
+                    i,
+                    GcodeErrorKind::Invalid(format!("{prefix}…) is not closed")),
+                ))?;
+                let len = prefix.len() + skipped + n + close + 1;
+                return Ok((
+                    if absolute {
+                        Value::Absolute(v)
+                    } else {
+                        Value::Incremental(v)
+                    },
+                    len,
+                ));
+            }
+        }
+        // Anything else — a variable, an expression — is the control flow not read yet.
+        let end = s
+            .find(|c: char| c.is_whitespace() || c == ';')
+            .unwrap_or(s.len());
+        if end == 0 {
+            let letter = upper[name_start..].chars().next().unwrap_or('?');
+            return Err((name_start, GcodeErrorKind::MissingValue(letter)));
+        }
+        Err(refuse(
+            name_start,
+            &upper[name_start..i + end],
+            CONTROL_FLOW,
+        ))
+    }
+
+    /// Writes the block's codes and words as RS274/NGC, in its order of meaning.
+    fn emit(
+        &mut self,
+        g_codes: Vec<(usize, u32)>,
+        words: Vec<(usize, char, Value)>,
+        out: &mut Rewritten,
+    ) -> Result<(), Failure> {
+        let mut pieces: Vec<(usize, String)> = Vec::new();
+        if g_codes.is_empty() && words.is_empty() {
+            return Ok(());
+        }
+        // The 840D starts in exact stop (G60) unless its machine data say otherwise.
+        if std::mem::take(&mut self.first_block) {
+            self.restore_mode = true;
+        }
+        let mut exact_here = false;
+        let mut mode_changed = false;
+        let mut dwell = false;
+        // Where the block's path-mode code was written (a restoring one goes with the
+        // block's first G code, or last).
+        let mut mode_offset = g_codes.first().map_or(usize::MAX, |g| g.0);
+        for &(offset, g) in &g_codes {
+            let rs = match g {
+                710 | 71 => Some("G21".to_string()),
+                700 | 70 => Some("G20".to_string()),
+                60 => {
+                    self.path_mode = PathMode::ExactStop;
+                    self.rounding = None;
+                    Some("G61".to_string())
+                }
+                9 => {
+                    exact_here = true;
+                    mode_offset = offset;
+                    None
+                }
+                64 => {
+                    self.path_mode = PathMode::Continuous(None);
+                    self.rounding = None;
+                    mode_changed = true;
+                    mode_offset = offset;
+                    None
+                }
+                641 | 642 => {
+                    self.rounding = Some(g == 641);
+                    mode_changed = true;
+                    mode_offset = offset;
+                    None
+                }
+                500 => None,
+                153 => Some("G53".to_string()),
+                4 => {
+                    dwell = true;
+                    Some("G4".to_string())
+                }
+                90 => {
+                    self.absolute = true;
+                    Some("G90".to_string())
+                }
+                91 => {
+                    self.absolute = false;
+                    Some("G91".to_string())
+                }
+                g => Some(format!("G{g}")),
+            };
+            if let Some(rs) = rs {
+                pieces.push((offset, rs));
+            }
+        }
+        // The rounding distance in force, should the block set one.
+        if let Some(is_641) = self.rounding {
+            let distance = if is_641 { self.adis } else { self.ctol };
+            if mode_changed || matches!(self.path_mode, PathMode::Continuous(d) if d != distance) {
+                mode_changed = true;
+            }
+            self.path_mode = PathMode::Continuous(distance);
+        }
+        if exact_here {
+            pieces.push((mode_offset, "G61".into()));
+            self.restore_mode = true;
+        } else if mode_changed || self.restore_mode {
+            self.restore_mode = false;
+            pieces.push((
+                mode_offset,
+                match self.path_mode {
+                    PathMode::ExactStop => "G61".into(),
+                    PathMode::Continuous(None) => "G64".into(),
+                    PathMode::Continuous(Some(d)) => format!("G64 P{d}"),
+                },
+            ));
+        }
+        // Where the block starts: an arc centre given absolute is taken from there.
+        let start = self.position;
+        for (offset, letter, value) in words {
+            let axis = match letter {
+                'X' => Some(0),
+                'Y' => Some(1),
+                'Z' => Some(2),
+                _ => None,
+            };
+            let centre = match letter {
+                'I' => Some(0),
+                'J' => Some(1),
+                'K' => Some(2),
+                _ => None,
+            };
+            let v = match (value, axis) {
+                (Value::Number(v), _) => v,
+                // A centre is incremental to the start already; `AC` gives it absolute.
+                (Value::Incremental(v), None) if centre.is_some() => v,
+                (Value::Absolute(v), None) if centre.is_some() => {
+                    let c = centre.unwrap_or(0);
+                    let at = start[c].ok_or_else(|| unknown_position(offset, letter))?;
+                    v - at
+                }
+                (Value::Absolute(_) | Value::Incremental(_), None) => {
+                    return Err(refuse(offset, &format!("{letter}=AC/IC"), CENTRE_AC_IC));
+                }
+                (Value::Absolute(v), Some(a)) if !self.absolute => {
+                    let at = self.position[a].ok_or_else(|| unknown_position(offset, letter))?;
+                    v - at
+                }
+                (Value::Incremental(v), Some(a)) if self.absolute => {
+                    let at = self.position[a].ok_or_else(|| unknown_position(offset, letter))?;
+                    at + v
+                }
+                (Value::Absolute(v) | Value::Incremental(v), Some(_)) => v,
+            };
+            if let Some(a) = axis {
+                self.position[a] = if self.absolute {
+                    Some(v)
+                } else {
+                    self.position[a].map(|p| p + v)
+                };
+            }
+            let (letter, v) = match (letter, dwell) {
+                // `G4 F2`: two seconds' dwell; RS274 gives it as P.
+                ('F', true) => ('P', v),
+                ('D', _) => continue,
+                ('M', _) if v == 17.0 => ('M', 2.0),
+                other => (other.0, v),
+            };
+            pieces.push((offset, format!("{letter}{v}")));
+        }
+        if g_codes.iter().any(|&(_, g)| g == 53 || g == 153) {
+            self.position = [None; 3];
+        }
+        // In the order written (a stable sort keeps a mode code after the code it follows).
+        pieces.sort_by_key(|p| p.0);
+        for (offset, piece) in pieces {
+            out.push(offset, &piece);
+        }
+        Ok(())
+    }
+}
+
+fn unknown_position(offset: usize, letter: char) -> Failure {
+    (
+        offset,
+        GcodeErrorKind::Invalid(format!(
+            "{letter}=AC()/IC() against a position the program has not set yet"
+        )),
+    )
+}
+
+/// Skips `( … )` after `MSG` (quotes may hold parentheses); the offset after it.
+fn skip_parenthesised(upper: &str, i: usize, name_start: usize) -> Result<usize, Failure> {
+    let b = upper.as_bytes();
+    let mut j = i;
+    while j < b.len() && b[j] == b' ' {
+        j += 1;
+    }
+    if j >= b.len() || b[j] != b'(' {
+        return Err((
+            name_start,
+            GcodeErrorKind::Invalid("MSG needs (\"text\")".into()),
+        ));
+    }
+    let (mut depth, mut quoted) = (0, false);
+    while j < b.len() {
+        match b[j] {
+            b'"' => quoted = !quoted,
+            b'(' if !quoted => depth += 1,
+            b')' if !quoted => {
+                depth -= 1;
+                if depth == 0 {
+                    return Ok(j + 1);
+                }
+            }
+            _ => {}
+        }
+        j += 1;
+    }
+    Err((
+        name_start,
+        GcodeErrorKind::Invalid("MSG( is not closed".into()),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rewrite(lines: &[&str]) -> Vec<String> {
+        let mut t = Translator::default();
+        lines.iter().map(|l| t.rewrite(l).unwrap().text).collect()
+    }
+
+    #[test]
+    fn the_dialect_is_told_by_extension_header_or_codes() {
+        assert_eq!(Dialect::of("part.MPF", ""), Dialect::Sinumerik);
+        assert_eq!(Dialect::of("p.nc", "%_N_PART_MPF\n"), Dialect::Sinumerik);
+        assert_eq!(Dialect::of("p.nc", "N10 G710 G90\n"), Dialect::Sinumerik);
+        assert_eq!(
+            Dialect::of("p.nc", "G21 G90 (a comment)\nG1 X1 F100\n"),
+            Dialect::Rs274
+        );
+    }
+
+    #[test]
+    fn words_codes_and_modes_are_rewritten() {
+        let out = rewrite(&[
+            "%_N_PART_MPF",
+            ";$PATH=/_N_WKS_DIR/_N_PART_WPD",
+            "N10 G710 G17 G90 G64 ; metric",
+            "N20 G0 X=0 Y0 MSG(\"roughing (1)\")",
+            "N30 G1 X=IC(10) Y=AC(5) F500",
+            "N40 G2 X20 Y15 CR=5 G9",
+            "N50 G641 ADIS=0.2 G3 X30 Y5 I0 J-10",
+            "N60 G4 F1.5",
+            "M30",
+        ]);
+        assert_eq!(
+            out,
+            vec![
+                "",
+                "",
+                "N10 G21 G17 G90 G64",
+                "N20 G0 X0 Y0",
+                "N30 G1 X10 Y5 F500",
+                "N40 G2 X20 Y15 R5 G61",
+                "N50 G64 P0.2 G3 X30 Y5 I0 J-10",
+                "N60 G4 P1.5",
+                "M30"
+            ]
+        );
+    }
+
+    #[test]
+    fn what_is_not_read_is_refused_at_its_column() {
+        for (line, column, word) in [
+            ("N10 R1=5", 4, "R1=5"),
+            ("N10 DEF REAL A", 4, "DEF"),
+            ("N10 GOTOF END", 4, "GOTOF"),
+            ("N10 TRANS X10", 4, "TRANS"),
+            ("N10 CYCLE72(\"C\")", 4, "CYCLE72(\"C\")"),
+            ("N10 L123 P3", 4, "L123"),
+            ("N10 X=R1", 4, "X=R1"),
+            ("N10 MYSUB", 4, "MYSUB"),
+            ("N10 G2 X1 F=AC(5)", 10, "F=AC/IC"),
+        ] {
+            let mut t = Translator {
+                position: [Some(0.0); 3],
+                ..Translator::default()
+            };
+            let (offset, kind) = t.rewrite(line).unwrap_err();
+            assert_eq!(offset, column, "{line}: {kind}");
+            let GcodeErrorKind::Unsupported { word: w, .. } = kind else {
+                panic!("{line}: {kind}");
+            };
+            assert_eq!(w, word, "{line}");
+        }
+    }
+
+    #[test]
+    fn an_incremental_coordinate_needs_a_known_position() {
+        let mut t = Translator::default();
+        assert!(t.rewrite("N10 G1 X=IC(5) F100").is_err());
+    }
+
+    #[test]
+    fn exact_stop_in_one_block_restores_the_path_mode_after_it() {
+        let out = rewrite(&["G64", "G1 X1 F100 G9", "G1 X2"]);
+        assert_eq!(out, vec!["G64", "G1 X1 F100 G61", "G1 G64 X2"]);
+    }
+}

@@ -1,0 +1,106 @@
+//! SINUMERIK 840D programs: the same contour written in both dialects gives the same path, and
+//! what the dialect front end does not read is refused at its line and column.
+
+use contourcheck::gcode::{Dialect, InterpretOptions, Program, parse_program};
+use contourcheck::path::Geometry;
+
+fn parse(text: &str, file: &str) -> Program {
+    parse_program(text, file, &InterpretOptions::default())
+        .unwrap_or_else(|e| panic!("{file}: {e}"))
+}
+
+/// A contour with lines and arcs both ways, by centre and by radius, absolute and
+/// incremental: RS274/NGC writes it one way, the SINUMERIK program the other wherever the
+/// dialect allows.
+const RS274: &str = "G21 G17 G90 G94 G64 P0.05
+G0 X0 Y0
+G1 X40 F1000
+G3 X50 Y10 I0 J10
+G1 Y30
+G2 X40 Y40 R-10
+G91 G1 X-30
+G90 G3 X0 Y30 I0 J-10
+G61 G1 Y0
+M2
+";
+
+const SINUMERIK: &str = "%_N_CONTOUR_MPF
+;$PATH=/_N_MPF_DIR
+N10 G710 G17 G90 G94 ; metric, feeds in mm/min
+N20 G641 ADIS=0.05
+N30 G0 X=0 Y0 MSG(\"contour\")
+N40 G1 X40 F1000
+N50 G3 X50 Y10 CR=10
+N60 G1 Y30
+N70 G2 X40 Y40 I=IC(-10) J0
+N80 G1 X=IC(-30)
+N90 G3 X0 Y30 I=AC(10) J=AC(30)
+N100 G60 G1 Y0
+N110 M30
+";
+
+#[test]
+fn the_same_contour_in_both_dialects_gives_the_same_path() {
+    let a = parse(RS274, "contour.ngc");
+    let b = parse(SINUMERIK, "contour.mpf");
+    assert_eq!(a.segments.len(), b.segments.len());
+    for (sa, sb) in a.segments.iter().zip(&b.segments) {
+        for k in 0..3 {
+            assert!(
+                (sa.start_m[k] - sb.start_m[k]).abs() < 1e-9,
+                "{sa:?}\n{sb:?}"
+            );
+            assert!((sa.end_m[k] - sb.end_m[k]).abs() < 1e-9, "{sa:?}\n{sb:?}");
+        }
+        assert_eq!(sa.motion, sb.motion);
+        assert_eq!(sa.blend, sb.blend, "line {}", sb.line);
+        assert!((sa.feed_m_per_s - sb.feed_m_per_s).abs() < 1e-12);
+        match (sa.geometry, sb.geometry) {
+            (Geometry::Arc(x), Geometry::Arc(y)) => {
+                assert!((x.center_m[0] - y.center_m[0]).abs() < 1e-9, "{x:?}\n{y:?}");
+                assert!((x.center_m[1] - y.center_m[1]).abs() < 1e-9, "{x:?}\n{y:?}");
+            }
+            (Geometry::Line, Geometry::Line) => {}
+            (x, y) => panic!("{x:?} against {y:?}"),
+        }
+    }
+}
+
+#[test]
+fn the_dialect_is_told_from_the_file_or_named() {
+    // `G710` alone marks a SINUMERIK program; named, the dialect holds whatever the file.
+    let text = "N10 G710 G90\nN20 G1 X10 F500\nM30\n";
+    assert_eq!(Dialect::of("part.nc", text), Dialect::Sinumerik);
+    assert_eq!(parse(text, "part.nc").segments.len(), 1);
+    let as_rs274 = InterpretOptions {
+        dialect: Some(Dialect::Rs274),
+        ..InterpretOptions::default()
+    };
+    let err = parse_program(text, "part.nc", &as_rs274)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("G710"), "{err}");
+}
+
+#[test]
+fn what_the_dialect_front_end_does_not_read_is_refused_at_its_line() {
+    let text = "%_N_P_MPF\nN10 G710 G90\nN20 R1=5\nN30 G1 X=R1 F100\nN40 TRANS X10\n\
+                N50 CYCLE72(\"C1\")\nN60 ASPLINE X1 Y2\nN70 G41 X5\nN80 L123 P2\nM30\n";
+    let err = parse_program(text, "p.mpf", &InterpretOptions::default())
+        .unwrap_err()
+        .to_string();
+    for (place, word) in [
+        ("p.mpf:3:5", "R1=5"),
+        ("p.mpf:4:8", "X=R1"),
+        ("p.mpf:5:5", "TRANS"),
+        ("p.mpf:6:5", "CYCLE72"),
+        ("p.mpf:7:5", "ASPLINE"),
+        ("p.mpf:8:5", "G41"),
+        ("p.mpf:9:5", "L123"),
+    ] {
+        assert!(
+            err.contains(&format!("{place}: {word}")),
+            "{place} {word}:\n{err}"
+        );
+    }
+}
