@@ -47,7 +47,7 @@ pub fn parse_program(
                 for w in &rewritten.warnings {
                     interp.warn(line_no, w.clone());
                 }
-                run_line(&mut interp, &rewritten.text, line_no, &mut lexed)
+                run_line(&mut interp, rewritten.text(text), line_no, &mut lexed)
                     .map_err(|(offset, kind)| (rewritten.original_offset(offset), kind))
             }),
         };

@@ -64,7 +64,7 @@ impl Dialect {
 }
 
 /// One line rewritten: RS274/NGC text, and where each of its pieces came from.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub(crate) struct Rewritten {
     /// The RS274/NGC line.
     pub text: String,
@@ -72,11 +72,33 @@ pub(crate) struct Rewritten {
     spans: Vec<(usize, usize)>,
     /// Warnings about the line (words kept but not acted on).
     pub warnings: Vec<String>,
+    /// Whether every word reads the same in RS274/NGC, so that the line is passed on as it
+    /// is (most of a CAM program's lines: `G1 X10.5 Y3`).
+    plain: bool,
+}
+
+impl Default for Rewritten {
+    fn default() -> Self {
+        Rewritten {
+            text: String::new(),
+            spans: Vec::new(),
+            warnings: Vec::new(),
+            plain: true,
+        }
+    }
 }
 
 impl Rewritten {
+    /// The RS274/NGC text of `line`: the line itself where it is plain.
+    pub fn text<'a>(&'a self, line: &'a str) -> &'a str {
+        if self.plain { line } else { &self.text }
+    }
+
     /// The SINUMERIK line's byte offset for an offset in the rewritten text.
     pub fn original_offset(&self, rewritten: usize) -> usize {
+        if self.plain {
+            return rewritten;
+        }
         self.spans
             .iter()
             .take_while(|(r, _)| *r <= rewritten)
@@ -117,6 +139,8 @@ pub(crate) struct Translator {
     restore_mode: bool,
     /// No block yet: the first one sets the control's initial path mode.
     first_block: bool,
+    /// The line upper-cased, a buffer reused from line to line.
+    upper: String,
 }
 
 impl Default for Translator {
@@ -130,6 +154,7 @@ impl Default for Translator {
             position: [None; 3],
             restore_mode: false,
             first_block: true,
+            upper: String::new(),
         }
     }
 }
@@ -190,6 +215,14 @@ fn refused_keyword(name: &str) -> Option<&'static str> {
     })
 }
 
+/// A piece of the rewritten line, written out only when the line is rewritten.
+enum Piece {
+    Text(&'static str),
+    G(u32),
+    Word(char, f64),
+    Blend(f64),
+}
+
 /// A word's value as written after its address: a number, or `AC(n)` / `IC(n)`.
 enum Value {
     Number(f64),
@@ -217,11 +250,22 @@ fn number(s: &str) -> Option<(f64, usize)> {
 impl Translator {
     /// Rewrites one SINUMERIK line into RS274/NGC words.
     pub fn rewrite(&mut self, line: &str) -> Result<Rewritten, Failure> {
+        let mut upper = std::mem::take(&mut self.upper);
+        upper.clear();
+        upper.push_str(line);
+        upper.make_ascii_uppercase();
+        let result = self.rewrite_upper(line, &upper);
+        self.upper = upper;
+        result
+    }
+
+    /// [`Translator::rewrite`] with the line upper-cased as `upper`.
+    fn rewrite_upper(&mut self, line: &str, upper: &str) -> Result<Rewritten, Failure> {
         let mut out = Rewritten::default();
-        let upper = line.to_ascii_uppercase();
         let start = upper.len() - upper.trim_start().len();
         if upper[start..].starts_with('%') {
             // `%_N_NAME_MPF` and `%MPF…` headers: no block.
+            out.plain = false;
             return Ok(out);
         }
         let mut g_codes: Vec<(usize, u32)> = Vec::new();
@@ -243,6 +287,7 @@ impl Translator {
             }
             if c == b':' {
                 // A main block number, `:10`: read as an N number.
+                out.plain = false;
                 i += 1;
                 let (v, n) = number(&upper[i..]).ok_or((i, GcodeErrorKind::MissingValue(':')))?;
                 words.push((i - 1, 'N', Value::Number(v)));
@@ -262,11 +307,16 @@ impl Translator {
             let name = &upper[name_start..i];
             // A label: `NAME:` at the start of a block, a jump's target.
             if i < b.len() && b[i] == b':' && name.len() > 1 {
+                out.plain = false;
                 i += 1;
                 continue;
             }
+            // Anything but a one-letter address directly followed by its number is rewritten.
+            if name.len() > 1 || b.get(i) == Some(&b'=') {
+                out.plain = false;
+            }
             i = self.word(
-                &upper,
+                upper,
                 name,
                 name_start,
                 i,
@@ -276,6 +326,7 @@ impl Translator {
             )?;
         }
         self.emit(g_codes, words, &mut out)?;
+        // Plain, the words mean in RS274/NGC what they mean here: the line is read as it is.
         Ok(out)
     }
 
@@ -423,7 +474,7 @@ impl Translator {
         words: Vec<(usize, char, Value)>,
         out: &mut Rewritten,
     ) -> Result<(), Failure> {
-        let mut pieces: Vec<(usize, String)> = Vec::new();
+        let mut pieces: Vec<(usize, Piece)> = Vec::new();
         if g_codes.is_empty() && words.is_empty() {
             return Ok(());
         }
@@ -437,14 +488,18 @@ impl Translator {
         // Where the block's path-mode code was written (a restoring one goes with the
         // block's first G code, or last).
         let mut mode_offset = g_codes.first().map_or(usize::MAX, |g| g.0);
+        const REWRITTEN: [u32; 12] = [710, 71, 700, 70, 60, 9, 64, 641, 642, 500, 153, 4];
+        if g_codes.iter().any(|(_, g)| REWRITTEN.contains(g)) {
+            out.plain = false;
+        }
         for &(offset, g) in &g_codes {
             let rs = match g {
-                710 | 71 => Some("G21".to_string()),
-                700 | 70 => Some("G20".to_string()),
+                710 | 71 => Some(Piece::Text("G21")),
+                700 | 70 => Some(Piece::Text("G20")),
                 60 => {
                     self.path_mode = PathMode::ExactStop;
                     self.rounding = None;
-                    Some("G61".to_string())
+                    Some(Piece::Text("G61"))
                 }
                 9 => {
                     exact_here = true;
@@ -465,20 +520,20 @@ impl Translator {
                     None
                 }
                 500 => None,
-                153 => Some("G53".to_string()),
+                153 => Some(Piece::Text("G53")),
                 4 => {
                     dwell = true;
-                    Some("G4".to_string())
+                    Some(Piece::Text("G4"))
                 }
                 90 => {
                     self.absolute = true;
-                    Some("G90".to_string())
+                    Some(Piece::G(90))
                 }
                 91 => {
                     self.absolute = false;
-                    Some("G91".to_string())
+                    Some(Piece::G(91))
                 }
-                g => Some(format!("G{g}")),
+                g => Some(Piece::G(g)),
             };
             if let Some(rs) = rs {
                 pieces.push((offset, rs));
@@ -492,19 +547,31 @@ impl Translator {
             }
             self.path_mode = PathMode::Continuous(distance);
         }
+        if exact_here || mode_changed || self.restore_mode {
+            out.plain = false;
+        }
         if exact_here {
-            pieces.push((mode_offset, "G61".into()));
+            pieces.push((mode_offset, Piece::Text("G61")));
             self.restore_mode = true;
         } else if mode_changed || self.restore_mode {
             self.restore_mode = false;
             pieces.push((
                 mode_offset,
                 match self.path_mode {
-                    PathMode::ExactStop => "G61".into(),
-                    PathMode::Continuous(None) => "G64".into(),
-                    PathMode::Continuous(Some(d)) => format!("G64 P{d}"),
+                    PathMode::ExactStop => Piece::Text("G61"),
+                    PathMode::Continuous(None) => Piece::Text("G64"),
+                    PathMode::Continuous(Some(d)) => Piece::Blend(d),
                 },
             ));
+        }
+        // Words RS274/NGC reads otherwise, or not at all: the line is rewritten.
+        let rewritten_word = |(_, l, v): &(usize, char, Value)| {
+            !matches!(v, Value::Number(_))
+                || *l == 'D'
+                || (*l == 'M' && matches!(v, Value::Number(x) if *x == 17.0))
+        };
+        if dwell || words.iter().any(rewritten_word) {
+            out.plain = false;
         }
         // Where the block starts: an arc centre given absolute is taken from there.
         let start = self.position;
@@ -557,15 +624,26 @@ impl Translator {
                 ('M', _) if v == 17.0 => ('M', 2.0),
                 other => (other.0, v),
             };
-            pieces.push((offset, format!("{letter}{v}")));
+            if !out.plain {
+                pieces.push((offset, Piece::Word(letter, v)));
+            }
         }
         if g_codes.iter().any(|&(_, g)| g == 53 || g == 153) {
             self.position = [None; 3];
         }
+        if out.plain {
+            return Ok(());
+        }
         // In the order written (a stable sort keeps a mode code after the code it follows).
         pieces.sort_by_key(|p| p.0);
         for (offset, piece) in pieces {
-            out.push(offset, &piece);
+            let text = match piece {
+                Piece::Text(t) => t.to_string(),
+                Piece::G(g) => format!("G{g}"),
+                Piece::Word(letter, v) => format!("{letter}{v}"),
+                Piece::Blend(d) => format!("G64 P{d}"),
+            };
+            out.push(offset, &text);
         }
         Ok(())
     }
@@ -620,7 +698,10 @@ mod tests {
 
     fn rewrite(lines: &[&str]) -> Vec<String> {
         let mut t = Translator::default();
-        lines.iter().map(|l| t.rewrite(l).unwrap().text).collect()
+        lines
+            .iter()
+            .map(|l| t.rewrite(l).unwrap().text(l).to_string())
+            .collect()
     }
 
     #[test]
@@ -651,7 +732,7 @@ mod tests {
             out,
             vec![
                 "",
-                "",
+                ";$PATH=/_N_WKS_DIR/_N_PART_WPD",
                 "N10 G21 G17 G90 G64",
                 "N20 G0 X0 Y0",
                 "N30 G1 X10 Y5 F500",
