@@ -27,10 +27,11 @@ M2
 const SINUMERIK: &str = "%_N_CONTOUR_MPF
 ;$PATH=/_N_MPF_DIR
 N10 G710 G17 G90 G94 ; metric, feeds in mm/min
-N20 G641 ADIS=0.05
+N20 G641 ADIS=0.05 DEF REAL SIDE=40
+N25 R1=10
 N30 G0 X=0 Y0 MSG(\"contour\")
-N40 G1 X40 F1000
-N50 G3 X50 Y10 CR=10
+N40 G1 X=SIDE F=100*R1
+N50 G3 X=SIDE+R1 Y=R1 CR=R1
 N60 G1 Y30
 N70 G2 X40 Y40 I=IC(-10) J0
 N80 G1 X=IC(-30)
@@ -84,15 +85,15 @@ fn the_dialect_is_told_from_the_file_or_named() {
 
 #[test]
 fn what_the_dialect_front_end_does_not_read_is_refused_at_its_line() {
-    let text = "%_N_P_MPF\nN10 G710 G90\nN20 R1=5\nN30 G1 X=R1 F100\nN40 TRANS X10\n\
+    let text = "%_N_P_MPF\nN10 G710 G90\nN20 GOTOF END\nN30 G1 X=$AA_IW[X] F100\nN40 MIRROR X0\n\
                 N50 CYCLE72(\"C1\")\nN60 ASPLINE X1 Y2\nN70 G41 X5\nN80 L123 P2\nM30\n";
     let err = parse_program(text, "p.mpf", &InterpretOptions::default())
         .unwrap_err()
         .to_string();
     for (place, word) in [
-        ("p.mpf:3:5", "R1=5"),
-        ("p.mpf:4:8", "X=R1"),
-        ("p.mpf:5:5", "TRANS"),
+        ("p.mpf:3:5", "GOTOF"),
+        ("p.mpf:4:10", "$AA_IW"),
+        ("p.mpf:5:5", "MIRROR"),
         ("p.mpf:6:5", "CYCLE72"),
         ("p.mpf:7:5", "ASPLINE"),
         ("p.mpf:8:5", "G41"),
@@ -102,5 +103,43 @@ fn what_the_dialect_front_end_does_not_read_is_refused_at_its_line() {
             err.contains(&format!("{place}: {word}")),
             "{place} {word}:\n{err}"
         );
+    }
+}
+
+#[test]
+fn a_frame_places_the_workpiece_as_the_program_would_place_it_by_hand() {
+    // A 40 × 20 rectangle and an arc, written in the workpiece's coordinates under
+    // TRANS X100 Y50 and AROT RPL=30; in RS274/NGC, the same corners turned and shifted.
+    let place = |x: f64, y: f64| {
+        let (s, c) = 30f64.to_radians().sin_cos();
+        (100.0 + c * x - s * y, 50.0 + s * x + c * y)
+    };
+    let sinumerik = "N10 G710 G17 G90 G94 G64\nN20 G0 X0 Y0 Z0\nN30 TRANS X100 Y50\n\
+                     N40 AROT RPL=30\nN50 G1 X40 Y0 F800\nN60 Y20\nN70 G3 X20 Y40 I-20 J0\n\
+                     N80 G1 X=IC(-20)\nN90 G91 Y-40\nN100 TRANS\nN110 G90 G1 X0 Y0\nN120 M30\n";
+    let corners = [
+        (40.0, 0.0),
+        (40.0, 20.0),
+        (20.0, 40.0),
+        (0.0, 40.0),
+        (0.0, 0.0),
+    ];
+    let p: Vec<(f64, f64)> = corners.iter().map(|&(x, y)| place(x, y)).collect();
+    let (ci, cj) = {
+        let (s, c) = 30f64.to_radians().sin_cos();
+        (c * -20.0, s * -20.0)
+    };
+    let rs274 = format!(
+        "G21 G17 G90 G94 G64\nG0 X0 Y0 Z0\nG1 X{:.9} Y{:.9} F800\nX{:.9} Y{:.9}\n\
+         G3 X{:.9} Y{:.9} I{ci:.9} J{cj:.9}\nG1 X{:.9} Y{:.9}\nX{:.9} Y{:.9}\nX0 Y0\nM2\n",
+        p[0].0, p[0].1, p[1].0, p[1].1, p[2].0, p[2].1, p[3].0, p[3].1, p[4].0, p[4].1
+    );
+    let a = parse(&rs274, "framed.ngc");
+    let b = parse(sinumerik, "framed.mpf");
+    assert_eq!(a.segments.len(), b.segments.len());
+    for (sa, sb) in a.segments.iter().zip(&b.segments) {
+        for k in 0..2 {
+            assert!((sa.end_m[k] - sb.end_m[k]).abs() < 1e-9, "{sa:?}\n{sb:?}");
+        }
     }
 }

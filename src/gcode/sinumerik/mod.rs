@@ -16,17 +16,27 @@
 //!   rounding inserts a blend; the planner passes the corner at the speed a blend of that
 //!   size allows, on the programmed path);
 //! - `G4 F…` (dwell in seconds), `G500`, `G54`–`G57`, `G153`, `M17`/`RET` (program end),
-//!   `D` (tool edge: lengths taken as zero), `MSG(…)`.
+//!   `D` (tool edge: lengths taken as zero), `MSG(…)`;
+//! - R-parameters and `DEF REAL`/`DEF INT` variables, set and used in arithmetic
+//!   ([`expr`]: `+ - * /`, brackets, `SIN`, `COS`, `TAN`, `ATAN2`, `SQRT`, `ABS`, `POT`, …),
+//!   evaluated as the lines are read — programs run straight through, so each value is the
+//!   one the control would have there;
+//! - the programmable frames `TRANS`/`ATRANS` (a shift) and `ROT`/`AROT` (a turn in the XY
+//!   plane, `RPL=` or `Z`): coordinates are tracked in the workpiece's frame and written
+//!   turned and shifted into the program's, arc centres turned with them.
 //!
 //! `BRISK`/`SOFT` and `FFWON`/`FFWOF` are kept as warnings: the acceleration profile and
 //! the feed-forward are the planner's and the machine file's settings, not switched by the
-//! program. Refused, with the word and the reason: R-parameters and `DEF` variables, jumps,
-//! labels' targets and `IF`/`WHILE`/`FOR`/`REPEAT`/`LOOP`, subprogram calls, frames
-//! (`TRANS`, `ROT`, `SCALE`, `MIRROR` and their additive forms), cycles (`CYCLE…`,
+//! program. Refused, with the word and the reason: system variables (`$…`), other `DEF`
+//! types, jumps and `IF`/`WHILE`/`FOR`/`REPEAT`/`LOOP`, subprogram calls, scaled, mirrored
+//! and solid-angle frames (`SCALE`, `MIRROR`, `ROTS`), cycles (`CYCLE…`,
 //! `POCKET…`), splines, the compressor, transformations (`TRAORI`, `TRANSMIT`, `TRACYL`)
 //! and cutter compensation — never a move skipped.
 
+mod expr;
+
 use super::error::GcodeErrorKind;
+use expr::{ExprError, Variables, evaluate};
 
 /// The dialect a program is written in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -141,6 +151,53 @@ pub(crate) struct Translator {
     first_block: bool,
     /// The line upper-cased, a buffer reused from line to line.
     upper: String,
+    /// R-parameters and `DEF` variables, with their values so far.
+    vars: Variables,
+    /// The programmable frame in force: the workpiece's coordinates turned and shifted
+    /// into the program's.
+    frame: Frame,
+    /// The frame instruction of the block being read, whose X, Y, Z (and `RPL=`) are its
+    /// arguments rather than a move.
+    frame_change: Option<FrameChange>,
+    /// `RPL=` of the block being read: a rotation in the working plane (degrees).
+    rpl: Option<f64>,
+}
+
+/// A programmable frame in the XY plane: a point p of the workpiece is at
+/// `shift + rotation(angle)·p` in the program's coordinates.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct Frame {
+    shift: [f64; 3],
+    angle_deg: f64,
+}
+
+impl Frame {
+    fn is_identity(&self) -> bool {
+        *self == Frame::default()
+    }
+
+    /// A vector of the workpiece (an increment, an arc's centre offset) in the program's
+    /// coordinates.
+    fn turn(&self, [x, y]: [f64; 2]) -> [f64; 2] {
+        let (s, c) = self.angle_deg.to_radians().sin_cos();
+        [c * x - s * y, s * x + c * y]
+    }
+
+    /// A point of the workpiece in the program's coordinates.
+    fn place(&self, p: [f64; 3]) -> [f64; 3] {
+        let [x, y] = self.turn([p[0], p[1]]);
+        [x + self.shift[0], y + self.shift[1], p[2] + self.shift[2]]
+    }
+}
+
+/// A frame instruction: `TRANS` and `ROT` replace the programmable frame, `ATRANS` and
+/// `AROT` add to it (in its own coordinates).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum FrameChange {
+    Trans,
+    ATrans,
+    Rot,
+    ARot,
 }
 
 impl Default for Translator {
@@ -155,6 +212,10 @@ impl Default for Translator {
             restore_mode: false,
             first_block: true,
             upper: String::new(),
+            vars: Variables::new(),
+            frame: Frame::default(),
+            frame_change: None,
+            rpl: None,
         }
     }
 }
@@ -176,8 +237,8 @@ const CONTROL_FLOW: &str = "program control flow and variables are not supported
      CAM post's linear output) before checking it";
 const SUBPROGRAM: &str =
     "subprogram calls are not supported yet: expand the subprogram into the main program";
-const FRAME: &str = "programmable frames (TRANS, ROT, SCALE, MIRROR) are not supported yet: \
-     post the program in the workpiece's coordinates";
+const FRAME: &str = "scaled, mirrored and solid-angle frames (SCALE, MIRROR, ROTS) are not \
+     supported yet: post the program in the workpiece's coordinates";
 const CYCLE: &str =
     "cycles are not supported: expand the cycle into explicit moves (the CAM post can)";
 const SPLINE: &str = "spline and polynomial moves are not supported";
@@ -189,12 +250,11 @@ const CENTRE_AC_IC: &str = "AC()/IC() applies to coordinates and arc centres onl
 /// Keywords that are refused whole, with why.
 fn refused_keyword(name: &str) -> Option<&'static str> {
     let flow = [
-        "DEF", "GOTOF", "GOTOB", "GOTO", "GOTOC", "IF", "ELSE", "ENDIF", "WHILE", "ENDWHILE",
-        "FOR", "ENDFOR", "REPEAT", "UNTIL", "LOOP", "ENDLOOP", "CASE", "STOPRE",
+        "GOTOF", "GOTOB", "GOTO", "GOTOC", "IF", "ELSE", "ENDIF", "WHILE", "ENDWHILE", "FOR",
+        "ENDFOR", "REPEAT", "UNTIL", "LOOP", "ENDLOOP", "CASE", "STOPRE",
     ];
     let frames = [
-        "TRANS", "ATRANS", "ROT", "AROT", "SCALE", "ASCALE", "MIRROR", "AMIRROR", "ROTS", "AROTS",
-        "CROTS",
+        "SCALE", "ASCALE", "MIRROR", "AMIRROR", "ROTS", "AROTS", "CROTS",
     ];
     Some(if flow.contains(&name) {
         CONTROL_FLOW
@@ -364,6 +424,47 @@ impl Translator {
             ))?;
             return Ok(i + 2 + close + 1);
         }
+        // `R1=…`: an R-parameter set; `DEF REAL A=…`: variables declared; `A=…`: one set.
+        if name == "R" && b.get(i).is_some_and(u8::is_ascii_digit) {
+            out.plain = false;
+            let digits = upper[i..]
+                .find(|c: char| !c.is_ascii_digit())
+                .map_or(upper.len(), |e| i + e);
+            let var = &upper[name_start..digits];
+            if b.get(digits) != Some(&b'=') {
+                return Err(refuse(name_start, rest_word(i), CONTROL_FLOW));
+            }
+            let (v, n) = self.expression(upper, digits + 1, name_start)?;
+            self.vars.insert(var.to_string(), v);
+            return Ok(digits + 1 + n);
+        }
+        if name == "DEF" {
+            out.plain = false;
+            return self.define(upper, i, name_start);
+        }
+        let ident_end = upper[name_start..]
+            .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+            .map_or(upper.len(), |e| name_start + e);
+        if self.vars.contains_key(&upper[name_start..ident_end]) && b.get(ident_end) == Some(&b'=')
+        {
+            out.plain = false;
+            let var = upper[name_start..ident_end].to_string();
+            let (v, n) = self.expression(upper, ident_end + 1, name_start)?;
+            self.vars.insert(var, v);
+            return Ok(ident_end + 1 + n);
+        }
+        let change = match name {
+            "TRANS" => Some(FrameChange::Trans),
+            "ATRANS" => Some(FrameChange::ATrans),
+            "ROT" => Some(FrameChange::Rot),
+            "AROT" => Some(FrameChange::ARot),
+            _ => None,
+        };
+        if let Some(change) = change {
+            out.plain = false;
+            self.frame_change = Some(change);
+            return Ok(i);
+        }
         match name {
             "MSG" => return skip_parenthesised(upper, i, name_start),
             "BRISK" | "BRISKA" | "SOFT" | "SOFTA" | "DRIVE" | "DRIVEA" => {
@@ -395,20 +496,17 @@ impl Translator {
         // A single letter followed by digits directly: `X10`, `G710`, `R1` …
         if name.len() == 1 || assigned {
             let letter = name.chars().next().unwrap_or('?');
-            if name.len() == 1 && letter == 'R' && !assigned {
-                // `R1=…` or a parameter read: variables are not supported.
-                return Err(refuse(name_start, rest_word(i), CONTROL_FLOW));
-            }
             if name.len() == 1 && letter == 'L' {
                 return Err(refuse(name_start, rest_word(i), SUBPROGRAM));
             }
-            let (value, n) = self.value(upper, i, name_start)?;
+            let (value, n) = self.value(upper, i, name_start, assigned)?;
             i += n;
             match (name, value) {
                 ("G", Value::Number(v)) => g_codes.push((name_start, v.round() as u32)),
                 ("CR", v) => words.push((name_start, 'R', v)),
                 ("ADIS" | "ADISPOS", Value::Number(v)) => self.adis = Some(v),
                 ("CTOL" | "OTOL" | "CTOLG0", Value::Number(v)) => self.ctol = Some(v),
+                ("RPL", Value::Number(v)) => self.rpl = Some(v),
                 ("SPOS" | "SPOSA", _) => {}
                 (n, v) if n.len() == 1 => words.push((name_start, letter, v)),
                 _ => {
@@ -426,45 +524,126 @@ impl Translator {
         Err(refuse(name_start, rest_word(i), SUBPROGRAM))
     }
 
-    /// The value after an address at `i`: a number, `AC(n)` or `IC(n)`; and its length.
-    fn value(&self, upper: &str, i: usize, name_start: usize) -> Result<(Value, usize), Failure> {
+    /// The value after an address at `i`: a number, or after `=` an expression, `AC(…)` or
+    /// `IC(…)`; and its length.
+    fn value(
+        &self,
+        upper: &str,
+        i: usize,
+        name_start: usize,
+        assigned: bool,
+    ) -> Result<(Value, usize), Failure> {
         let s = &upper[i..];
-        if let Some((v, n)) = number(s) {
-            return Ok((Value::Number(v), n));
+        if !assigned {
+            return number(s)
+                .map(|(v, n)| (Value::Number(v), n))
+                .ok_or_else(|| {
+                    let letter = upper[name_start..].chars().next().unwrap_or('?');
+                    (name_start, GcodeErrorKind::MissingValue(letter))
+                });
         }
         for (prefix, absolute) in [("AC(", true), ("IC(", false)] {
-            if let Some(inner) = s.strip_prefix(prefix) {
-                let (v, n) = number(inner.trim_start())
-                    .ok_or_else(|| refuse(name_start, &upper[name_start..], CONTROL_FLOW))?;
-                let skipped = inner.len() - inner.trim_start().len();
-                let close = inner[skipped + n..].find(')').ok_or((
-                    i,
-                    GcodeErrorKind::Invalid(format!("{prefix}…) is not closed")),
-                ))?;
-                let len = prefix.len() + skipped + n + close + 1;
-                return Ok((
-                    if absolute {
-                        Value::Absolute(v)
-                    } else {
-                        Value::Incremental(v)
-                    },
-                    len,
-                ));
+            if s.starts_with(prefix) {
+                let inner = i + prefix.len();
+                let (v, n) = self.expression(upper, inner, name_start)?;
+                if upper.as_bytes().get(inner + n) != Some(&b')') {
+                    return Err((
+                        inner + n,
+                        GcodeErrorKind::Invalid(format!("{prefix}…) is not closed")),
+                    ));
+                }
+                let value = if absolute {
+                    Value::Absolute(v)
+                } else {
+                    Value::Incremental(v)
+                };
+                return Ok((value, prefix.len() + n + 1));
             }
         }
-        // Anything else — a variable, an expression — is the control flow not read yet.
-        let end = s
-            .find(|c: char| c.is_whitespace() || c == ';')
-            .unwrap_or(s.len());
-        if end == 0 {
+        let (v, n) = self.expression(upper, i, name_start)?;
+        Ok((Value::Number(v), n))
+    }
+
+    /// The expression at `i`: its value and length. A name no `DEF` declared and no
+    /// R-parameter holds — a system variable, a typo — is an error at its place.
+    fn expression(
+        &self,
+        upper: &str,
+        i: usize,
+        name_start: usize,
+    ) -> Result<(f64, usize), Failure> {
+        if i >= upper.len() || upper[i..].starts_with([' ', '\t', ';']) {
             let letter = upper[name_start..].chars().next().unwrap_or('?');
             return Err((name_start, GcodeErrorKind::MissingValue(letter)));
         }
-        Err(refuse(
-            name_start,
-            &upper[name_start..i + end],
-            CONTROL_FLOW,
-        ))
+        evaluate(&upper[i..], &self.vars).map_err(|e| match e {
+            ExprError::Unknown(at, name) if name.starts_with('$') => {
+                refuse(i + at, &name, "system variables are not supported yet")
+            }
+            ExprError::Unknown(at, name) => (
+                i + at,
+                GcodeErrorKind::Invalid(format!(
+                    "{name}: no R-parameter or DEF variable of that name has a value here"
+                )),
+            ),
+            ExprError::Syntax(at, problem) => (i + at, GcodeErrorKind::Expression(problem)),
+        })
+    }
+
+    /// `DEF REAL A, B=2` / `DEF INT N=3`: the variables declared, with their values (zero
+    /// unless given); the offset after the declaration.
+    fn define(&mut self, upper: &str, mut i: usize, name_start: usize) -> Result<usize, Failure> {
+        let b = upper.as_bytes();
+        let skip_blanks = |mut j: usize| {
+            while j < b.len() && b[j] == b' ' {
+                j += 1;
+            }
+            j
+        };
+        i = skip_blanks(i);
+        let type_end = upper[i..]
+            .find(|c: char| !c.is_ascii_alphabetic())
+            .map_or(upper.len(), |e| i + e);
+        let integer = match &upper[i..type_end] {
+            "REAL" => false,
+            "INT" => true,
+            other => {
+                let word = format!("DEF {other}");
+                return Err(refuse(
+                    name_start,
+                    &word,
+                    "only DEF REAL and DEF INT variables are read",
+                ));
+            }
+        };
+        i = type_end;
+        loop {
+            i = skip_blanks(i);
+            let start = i;
+            while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == b'_') {
+                i += 1;
+            }
+            if i == start {
+                return Err((
+                    i,
+                    GcodeErrorKind::Invalid("DEF needs a variable name".into()),
+                ));
+            }
+            let var = upper[start..i].to_string();
+            let mut value = 0.0;
+            if b.get(i) == Some(&b'=') {
+                let (v, n) = self.expression(upper, i + 1, start)?;
+                value = if integer { v.round() } else { v };
+                i += 1 + n;
+            }
+            self.vars.insert(var, value);
+            i = skip_blanks(i);
+            if b.get(i) == Some(&b',') {
+                i += 1;
+            } else {
+                return Ok(i);
+            }
+        }
     }
 
     /// Writes the block's codes and words as RS274/NGC, in its order of meaning.
@@ -476,6 +655,9 @@ impl Translator {
     ) -> Result<(), Failure> {
         let mut pieces: Vec<(usize, Piece)> = Vec::new();
         if g_codes.is_empty() && words.is_empty() {
+            if let Some(change) = self.frame_change.take() {
+                self.change_frame(change, Vec::new())?;
+            }
             return Ok(());
         }
         // The 840D starts in exact stop (G60) unless its machine data say otherwise.
@@ -564,17 +746,30 @@ impl Translator {
                 },
             ));
         }
+        let mut words = words;
+        if let Some(change) = self.frame_change.take() {
+            words = self.change_frame(change, words)?;
+        }
+        let framed = !self.frame.is_identity();
         // Words RS274/NGC reads otherwise, or not at all: the line is rewritten.
         let rewritten_word = |(_, l, v): &(usize, char, Value)| {
             !matches!(v, Value::Number(_))
                 || *l == 'D'
                 || (*l == 'M' && matches!(v, Value::Number(x) if *x == 17.0))
+                || (framed && matches!(l, 'X' | 'Y' | 'Z' | 'I' | 'J'))
         };
         if dwell || words.iter().any(rewritten_word) {
             out.plain = false;
         }
+        // Under a frame the block's X, Y (both, once either is given) and I, J are written
+        // turned and shifted into the program's coordinates, after the loop below.
+        let mut framed_xy: Option<usize> = None;
+        let mut framed_z: Option<usize> = None;
+        let mut framed_ij: Option<(usize, [f64; 2])> = None;
         // Where the block starts: an arc centre given absolute is taken from there.
         let start = self.position;
+        // Under a frame in G91: the block's increments (workpiece coordinates).
+        let mut increment = [0.0f64; 3];
         for (offset, letter, value) in words {
             let axis = match letter {
                 'X' => Some(0),
@@ -616,6 +811,20 @@ impl Translator {
                 } else {
                     self.position[a].map(|p| p + v)
                 };
+                if framed {
+                    increment[a] = if self.absolute { 0.0 } else { v };
+                    if a == 2 {
+                        framed_z.get_or_insert(offset);
+                    } else {
+                        framed_xy.get_or_insert(offset);
+                    }
+                    continue;
+                }
+            }
+            if framed && (letter == 'I' || letter == 'J') {
+                let slot = framed_ij.get_or_insert((offset, [0.0; 2]));
+                slot.1[usize::from(letter == 'J')] = v;
+                continue;
             }
             let (letter, v) = match (letter, dwell) {
                 // `G4 F2`: two seconds' dwell; RS274 gives it as P.
@@ -627,6 +836,29 @@ impl Translator {
             if !out.plain {
                 pieces.push((offset, Piece::Word(letter, v)));
             }
+        }
+        if let Some(offset) = framed_xy {
+            let [x, y] = if self.absolute {
+                let p = self.framed_target(offset)?;
+                [p[0], p[1]]
+            } else {
+                self.frame.turn([increment[0], increment[1]])
+            };
+            pieces.push((offset, Piece::Word('X', x)));
+            pieces.push((offset, Piece::Word('Y', y)));
+        }
+        if let Some(offset) = framed_z {
+            let z = if self.absolute {
+                self.framed_target(offset)?[2]
+            } else {
+                increment[2]
+            };
+            pieces.push((offset, Piece::Word('Z', z)));
+        }
+        if let Some((offset, ij)) = framed_ij {
+            let [i, j] = self.frame.turn(ij);
+            pieces.push((offset, Piece::Word('I', i)));
+            pieces.push((offset, Piece::Word('J', j)));
         }
         if g_codes.iter().any(|&(_, g)| g == 53 || g == 153) {
             self.position = [None; 3];
@@ -640,12 +872,110 @@ impl Translator {
             let text = match piece {
                 Piece::Text(t) => t.to_string(),
                 Piece::G(g) => format!("G{g}"),
-                Piece::Word(letter, v) => format!("{letter}{v}"),
+                // Rounded to 0.1 nm: a turned coordinate's last bits are not the program's.
+                Piece::Word(letter, v) => format!("{letter}{}", (v * 1e7).round() / 1e7 + 0.0),
                 Piece::Blend(d) => format!("G64 P{d}"),
             };
             out.push(offset, &text);
         }
         Ok(())
+    }
+}
+
+impl Translator {
+    /// The block's target (workpiece coordinates, as tracked) in the program's.
+    fn framed_target(&self, offset: usize) -> Result<[f64; 3], Failure> {
+        let [Some(x), Some(y), Some(z)] = self.position else {
+            return Err((
+                offset,
+                GcodeErrorKind::Invalid(
+                    "a move under a frame needs X, Y and Z set before it (the frame turns \
+                     them together)"
+                        .into(),
+                ),
+            ));
+        };
+        Ok(self.frame.place([x, y, z]))
+    }
+
+    /// Applies a frame instruction whose arguments are the block's X, Y, Z and `RPL=`;
+    /// the block's other words.
+    fn change_frame(
+        &mut self,
+        change: FrameChange,
+        words: Vec<(usize, char, Value)>,
+    ) -> Result<Vec<(usize, char, Value)>, Failure> {
+        let mut args = [0.0f64; 3];
+        let mut rest = Vec::new();
+        for (offset, letter, value) in words {
+            let axis = match letter {
+                'X' => 0,
+                'Y' => 1,
+                'Z' => 2,
+                _ => {
+                    rest.push((offset, letter, value));
+                    continue;
+                }
+            };
+            let Value::Number(v) = value else {
+                return Err(refuse(
+                    offset,
+                    "AC/IC",
+                    "a frame's values are plain numbers",
+                ));
+            };
+            if matches!(change, FrameChange::Rot | FrameChange::ARot) && axis != 2 {
+                return Err(refuse(
+                    offset,
+                    &format!("{letter}{v}"),
+                    "a rotation about X or Y leaves the XY plane",
+                ));
+            }
+            args[axis] = v;
+        }
+        let angle = self.rpl.take().unwrap_or(args[2]);
+        // The workpiece position where the axes are, kept across the change.
+        let at = match self.position {
+            [Some(x), Some(y), Some(z)] => Some(self.frame.place([x, y, z])),
+            _ => None,
+        };
+        let old = self.frame;
+        self.frame = match change {
+            FrameChange::Trans => Frame {
+                shift: args,
+                angle_deg: 0.0,
+            },
+            FrameChange::ATrans => {
+                let [x, y] = old.turn([args[0], args[1]]);
+                Frame {
+                    shift: [old.shift[0] + x, old.shift[1] + y, old.shift[2] + args[2]],
+                    angle_deg: old.angle_deg,
+                }
+            }
+            FrameChange::Rot => Frame {
+                shift: [0.0; 3],
+                angle_deg: angle,
+            },
+            FrameChange::ARot => Frame {
+                angle_deg: old.angle_deg + angle,
+                ..old
+            },
+        };
+        if let Some(p) = at {
+            // The same point of the machine, in the new frame's workpiece coordinates.
+            let d = [p[0] - self.frame.shift[0], p[1] - self.frame.shift[1]];
+            let back = Frame {
+                shift: [0.0; 3],
+                angle_deg: -self.frame.angle_deg,
+            }
+            .turn(d);
+            self.position = [
+                Some(back[0]),
+                Some(back[1]),
+                Some(p[2] - self.frame.shift[2]),
+            ];
+        }
+        Ok(rest)
     }
 }
 
@@ -747,13 +1077,12 @@ mod tests {
     #[test]
     fn what_is_not_read_is_refused_at_its_column() {
         for (line, column, word) in [
-            ("N10 R1=5", 4, "R1=5"),
-            ("N10 DEF REAL A", 4, "DEF"),
+            ("N10 DEF STRING[8] A", 4, "DEF STRING"),
             ("N10 GOTOF END", 4, "GOTOF"),
-            ("N10 TRANS X10", 4, "TRANS"),
+            ("N10 MIRROR X0", 4, "MIRROR"),
             ("N10 CYCLE72(\"C\")", 4, "CYCLE72(\"C\")"),
             ("N10 L123 P3", 4, "L123"),
-            ("N10 X=R1", 4, "X=R1"),
+            ("N10 X=$P_EP[X]", 6, "$P_EP"),
             ("N10 MYSUB", 4, "MYSUB"),
             ("N10 G2 X1 F=AC(5)", 10, "F=AC/IC"),
         ] {
@@ -768,6 +1097,52 @@ mod tests {
             };
             assert_eq!(w, word, "{line}");
         }
+    }
+
+    #[test]
+    fn parameters_and_variables_are_evaluated_where_they_are_read() {
+        let out = rewrite(&[
+            "N10 DEF REAL SIDE=40, HALF",
+            "N20 R1=5 HALF=SIDE/2",
+            "N30 G1 X=SIDE Y=HALF+R1 F=R1*200",
+            "N40 R1=R1*2 G1 X=IC(-R1)",
+        ]);
+        assert_eq!(
+            out,
+            vec!["N10 G61", "N20", "N30 G1 X40 Y25 F1000", "N40 G1 X30"]
+        );
+        let mut t = Translator::default();
+        let (offset, kind) = t.rewrite("N10 G1 X=R7").unwrap_err();
+        assert_eq!(offset, 9, "{kind}");
+    }
+
+    #[test]
+    fn frames_turn_and_shift_the_workpiece_into_the_program() {
+        let out = rewrite(&[
+            "G90 G0 X0 Y0 Z0",
+            "TRANS X10 Y5",
+            "G1 X10 F100",
+            "AROT RPL=90",
+            "G1 X20",
+            "G91 G1 X5",
+            "G90 G2 X25 Y0 I0 J5",
+            "TRANS",
+            "G1 X0 Y0",
+        ]);
+        assert_eq!(
+            out,
+            vec![
+                "G90 G61 G0 X0 Y0 Z0",
+                "",
+                "G1 X20 Y0 F100",
+                "",
+                "G1 X20 Y25",
+                "G91 G1 X0 Y5",
+                "G90 G2 X10 Y30 I-5 J0",
+                "",
+                "G1 X0 Y0"
+            ]
+        );
     }
 
     #[test]
