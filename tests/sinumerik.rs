@@ -85,13 +85,13 @@ fn the_dialect_is_told_from_the_file_or_named() {
 
 #[test]
 fn what_the_dialect_front_end_does_not_read_is_refused_at_its_line() {
-    let text = "%_N_P_MPF\nN10 G710 G90\nN20 GOTOF END\nN30 G1 X=$AA_IW[X] F100\nN40 MIRROR X0\n\
+    let text = "%_N_P_MPF\nN10 G710 G90\nN20 CASE R1 OF 1 GOTOF A DEFAULT GOTOF B\nN30 G1 X=$AA_IW[X] F100\nN40 MIRROR X0\n\
                 N50 CYCLE72(\"C1\")\nN60 ASPLINE X1 Y2\nN70 G41 X5\nN80 L123 P2\nM30\n";
     let err = parse_program(text, "p.mpf", &InterpretOptions::default())
         .unwrap_err()
         .to_string();
     for (place, word) in [
-        ("p.mpf:3:5", "GOTOF"),
+        ("p.mpf:3:5", "CASE"),
         ("p.mpf:4:10", "$AA_IW"),
         ("p.mpf:5:5", "MIRROR"),
         ("p.mpf:6:5", "CYCLE72"),
@@ -142,4 +142,28 @@ fn a_frame_places_the_workpiece_as_the_program_would_place_it_by_hand() {
             assert!((sa.end_m[k] - sb.end_m[k]).abs() < 1e-9, "{sa:?}\n{sb:?}");
         }
     }
+}
+
+#[test]
+fn loops_jumps_and_conditions_run_as_the_control_runs_them() {
+    // Three strokes by FOR, a fourth by WHILE, one skipped by GOTOF, one chosen by IF/ELSE:
+    // the same six lines as written out by hand.
+    let sinumerik = "%_N_LOOPS_MPF\nN10 G710 G90 G17 G94 G64 DEF INT I\nN20 G0 X0 Y0 Z0\n\
+                     N30 FOR I=1 TO 3\nN40 G1 X=10*I Y=I F500\nN50 ENDFOR\nN60 R1=4\n\
+                     N70 WHILE R1<5\nN80 G1 X=10*R1 Y=R1\nN90 R1=R1+1\nN100 ENDWHILE\n\
+                     N110 GOTOF SKIP\nN120 G1 X999\nSKIP: IF R1==5\nN140 G1 X50 Y5\nN150 ELSE\n\
+                     N160 G1 X777\nN170 ENDIF\nN180 REPEAT\nN190 R1=R1+1\nN200 UNTIL R1>=7\n\
+                     N210 G1 X=10*R1 Y=R1\nN220 M30\n";
+    let rs274 = "G21 G90 G17 G94 G64\nG0 X0 Y0 Z0\nG1 X10 Y1 F500\nG1 X20 Y2\nG1 X30 Y3\n\
+                 G1 X40 Y4\nG1 X50 Y5\nG1 X70 Y7\nM2\n";
+    let a = parse(rs274, "loops.ngc");
+    let b = parse(sinumerik, "loops.mpf");
+    let ends = |p: &Program| p.segments.iter().map(|s| s.end_m).collect::<Vec<_>>();
+    assert_eq!(ends(&a), ends(&b));
+    // A loop that never ends is an error, not a hang.
+    let forever = "N10 G710 G90\nN20 LOOP\nN30 ENDLOOP\nM30\n";
+    let err = parse_program(forever, "forever.mpf", &InterpretOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("does not end"), "{err}");
 }

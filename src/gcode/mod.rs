@@ -32,54 +32,121 @@ pub fn parse_program(
 ) -> Result<Program, GcodeErrors> {
     let mut interp = Interpreter::new(file, opts.clone());
     interp.reserve_for(source.len());
-    let mut lexed = LexedLine::default();
-    let mut errors = Vec::new();
-    let mut lines = 0usize;
-    let mut sinumerik = (opts.dialect.unwrap_or_else(|| Dialect::of(file, source))
-        == Dialect::Sinumerik)
-        .then(sinumerik::Translator::default);
-    for (index, text) in source.split('\n').enumerate() {
-        lines = index + 1;
-        let line_no = u32::try_from(index + 1).unwrap_or(u32::MAX);
-        let result = match &mut sinumerik {
-            None => run_line(&mut interp, text, line_no, &mut lexed),
-            Some(translator) => translator.rewrite(text).and_then(|rewritten| {
-                for w in &rewritten.warnings {
-                    interp.warn(line_no, w.clone());
-                }
-                run_line(&mut interp, rewritten.text(text), line_no, &mut lexed)
-                    .map_err(|(offset, kind)| (rewritten.original_offset(offset), kind))
-            }),
-        };
-        if let Err((offset, kind)) = result {
-            errors.push(GcodeError {
-                file: file.to_string(),
-                pos: SourcePos {
-                    line: line_no,
-                    column: column_of(text, offset),
-                },
-                kind,
+    let mut errors = Errors {
+        file,
+        list: Vec::new(),
+    };
+    let lines: Vec<&str> = source.split('\n').collect();
+    match opts.dialect.unwrap_or_else(|| Dialect::of(file, source)) {
+        Dialect::Rs274 => run_rs274(&lines, &mut interp, &mut errors),
+        Dialect::Sinumerik => run_sinumerik(&lines, &mut interp, &mut errors),
+    }
+    let count = lines.len() - usize::from(source.ends_with('\n'));
+    if errors.list.is_empty() {
+        Ok(interp.finish(count))
+    } else {
+        Err(GcodeErrors(errors.list))
+    }
+}
+
+/// The errors of a program, each where it is, up to [`MAX_REPORTED_ERRORS`].
+struct Errors<'f> {
+    file: &'f str,
+    list: Vec<GcodeError>,
+}
+
+impl Errors<'_> {
+    /// Records `kind` at byte `offset` of line `index` (`text`); false once there are too
+    /// many to go on.
+    fn push(&mut self, index: usize, text: &str, offset: usize, kind: GcodeErrorKind) -> bool {
+        let line = u32::try_from(index + 1).unwrap_or(u32::MAX);
+        self.list.push(GcodeError {
+            file: self.file.to_string(),
+            pos: SourcePos {
+                line,
+                column: column_of(text, offset),
+            },
+            kind,
+        });
+        if self.list.len() == MAX_REPORTED_ERRORS {
+            self.list.push(GcodeError {
+                file: self.file.to_string(),
+                pos: SourcePos { line, column: 1 },
+                kind: GcodeErrorKind::TooMany(MAX_REPORTED_ERRORS),
             });
-            if errors.len() == MAX_REPORTED_ERRORS {
-                errors.push(GcodeError {
-                    file: file.to_string(),
-                    pos: SourcePos {
-                        line: line_no,
-                        column: 1,
-                    },
-                    kind: GcodeErrorKind::TooMany(MAX_REPORTED_ERRORS),
-                });
-                break;
-            }
+            return false;
+        }
+        true
+    }
+}
+
+/// Runs an RS274/NGC program line after line.
+fn run_rs274(lines: &[&str], interp: &mut Interpreter, errors: &mut Errors) {
+    let mut lexed = LexedLine::default();
+    for (index, text) in lines.iter().enumerate() {
+        let line_no = u32::try_from(index + 1).unwrap_or(u32::MAX);
+        if let Err((offset, kind)) = run_line(interp, text, line_no, &mut lexed)
+            && !errors.push(index, text, offset, kind)
+        {
+            return;
         }
     }
-    if source.ends_with('\n') {
-        lines -= 1;
-    }
-    if errors.is_empty() {
-        Ok(interp.finish(lines))
-    } else {
-        Err(GcodeErrors(errors))
+}
+
+/// Blocks a SINUMERIK program may run, loops and jumps included, before it is taken to
+/// run for ever.
+const MAX_RUN_BLOCKS: usize = 20_000_000;
+
+/// Runs a SINUMERIK program: each line rewritten into RS274/NGC words, its control
+/// statements choosing the next line.
+fn run_sinumerik(lines: &[&str], interp: &mut Interpreter, errors: &mut Errors) {
+    let structure = match sinumerik::flow::Structure::of(lines) {
+        Ok(s) => s,
+        Err((index, offset, kind)) => {
+            errors.push(index, lines[index], offset, kind);
+            return;
+        }
+    };
+    let mut translator = sinumerik::Translator::default();
+    let mut lexed = LexedLine::default();
+    let (mut k, mut run) = (0usize, 0usize);
+    while k < lines.len() {
+        let text = lines[k];
+        let line_no = u32::try_from(k + 1).unwrap_or(u32::MAX);
+        run += 1;
+        if run > MAX_RUN_BLOCKS {
+            let kind = GcodeErrorKind::Invalid(format!(
+                "the program's jumps and loops run more than {MAX_RUN_BLOCKS} blocks: it does \
+                 not end"
+            ));
+            errors.push(k, text, 0, kind);
+            return;
+        }
+        if let Some(c) = structure.control(k) {
+            match translator.control(c, k, &structure) {
+                Ok(next) => k = next,
+                Err(kind) => {
+                    if !errors.push(k, text, 0, kind) {
+                        return;
+                    }
+                    k += 1;
+                }
+            }
+            continue;
+        }
+        let result = translator.rewrite(text).and_then(|rewritten| {
+            for w in &rewritten.warnings {
+                interp.warn(line_no, w.clone());
+            }
+            run_line(interp, rewritten.text(text), line_no, &mut lexed)
+                .map_err(|(offset, kind)| (rewritten.original_offset(offset), kind))
+        });
+        if let Err((offset, kind)) = result
+            && !errors.push(k, text, offset, kind)
+        {
+            return;
+        }
+        k += 1;
     }
 }
 

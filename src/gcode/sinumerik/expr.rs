@@ -42,6 +42,70 @@ pub(crate) fn evaluate(text: &str, vars: &Variables) -> Result<(f64, usize), Exp
     Ok((v, p.i))
 }
 
+/// Evaluates a condition: comparisons (`==`, `<>`, `<`, `>`, `<=`, `>=`) of expressions,
+/// joined by `AND`, `OR` and `NOT`; the whole text must be the condition.
+pub(crate) fn condition(text: &str, vars: &Variables) -> Result<bool, ExprError> {
+    let text = text.trim();
+    if let Some(i) = find_word(text, " OR ") {
+        return Ok(condition(&text[..i], vars)? || condition(&text[i + 4..], vars)?);
+    }
+    if let Some(i) = find_word(text, " AND ") {
+        return Ok(condition(&text[..i], vars)? && condition(&text[i + 5..], vars)?);
+    }
+    if let Some(rest) = text.strip_prefix("NOT ") {
+        return Ok(!condition(rest, vars)?);
+    }
+    if text.starts_with('(')
+        && text.ends_with(')')
+        && find_word(text, " ").is_none()
+        && let Ok(v) = condition(&text[1..text.len() - 1], vars)
+    {
+        return Ok(v);
+    }
+    for op in ["==", "<>", "<=", ">=", "<", ">"] {
+        if let Some(i) = text.find(op) {
+            let left = value_of(text[..i].trim(), vars)?;
+            let right = value_of(text[i + op.len()..].trim(), vars)?;
+            return Ok(match op {
+                "==" => left == right,
+                "<>" => left != right,
+                "<=" => left <= right,
+                ">=" => left >= right,
+                "<" => left < right,
+                _ => left > right,
+            });
+        }
+    }
+    Ok(value_of(text, vars)? != 0.0)
+}
+
+/// The whole of `text` as one expression's value.
+fn value_of(text: &str, vars: &Variables) -> Result<f64, ExprError> {
+    let compact: String = text.chars().filter(|c| !c.is_whitespace()).collect();
+    let (v, n) = evaluate(&compact, vars)?;
+    if n != compact.len() {
+        return Err(ExprError::Syntax(
+            n,
+            format!("'{}' is not part of the value", &compact[n..]),
+        ));
+    }
+    Ok(v)
+}
+
+/// Where `word` stands in `text` outside brackets.
+fn find_word(text: &str, word: &str) -> Option<usize> {
+    let mut depth = 0i32;
+    for (i, c) in text.char_indices() {
+        match c {
+            '(' | '[' => depth += 1,
+            ')' | ']' => depth -= 1,
+            _ if depth == 0 && text[i..].starts_with(word) => return Some(i),
+            _ => {}
+        }
+    }
+    None
+}
+
 impl Parser<'_> {
     fn peek(&self) -> Option<u8> {
         self.s.get(self.i).copied()
@@ -208,5 +272,18 @@ mod tests {
         assert!(matches!(eval("$P_EP[X]"), Err(ExprError::Unknown(0, _))));
         assert!(matches!(eval("R1/0"), Err(ExprError::Syntax(..))));
         assert!(matches!(eval("(R1"), Err(ExprError::Syntax(..))));
+    }
+
+    #[test]
+    fn conditions_compare_and_combine() {
+        let mut vars = Variables::new();
+        vars.insert("R1".into(), 3.0);
+        let c = |t: &str| condition(t, &vars).unwrap();
+        assert!(c("R1==3"));
+        assert!(c("R1 < 5 AND R1 > 2"));
+        assert!(!c("R1<>3 OR R1>=4"));
+        assert!(c("NOT R1<=2"));
+        assert!(c("R1*2 == 6"));
+        assert!(condition("R9>1", &vars).is_err());
     }
 }

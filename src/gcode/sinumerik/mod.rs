@@ -23,20 +23,25 @@
 //!   one the control would have there;
 //! - the programmable frames `TRANS`/`ATRANS` (a shift) and `ROT`/`AROT` (a turn in the XY
 //!   plane, `RPL=` or `Z`): coordinates are tracked in the workpiece's frame and written
-//!   turned and shifted into the program's, arc centres turned with them.
+//!   turned and shifted into the program's, arc centres turned with them;
+//! - program control on lines of its own ([`flow`]): labels, `GOTOF`/`GOTOB`/`GOTO`/`GOTOC`,
+//!   `IF … GOTO…`, `IF`/`ELSE`/`ENDIF`, `WHILE`, `FOR`, `REPEAT`/`UNTIL`, `LOOP`, run as the
+//!   control runs them (a program that runs more than 20 million blocks is an error).
 //!
 //! `BRISK`/`SOFT` and `FFWON`/`FFWOF` are kept as warnings: the acceleration profile and
 //! the feed-forward are the planner's and the machine file's settings, not switched by the
 //! program. Refused, with the word and the reason: system variables (`$…`), other `DEF`
-//! types, jumps and `IF`/`WHILE`/`FOR`/`REPEAT`/`LOOP`, subprogram calls, scaled, mirrored
+//! types, `CASE` and control sharing a line with other words, subprogram calls, scaled, mirrored
 //! and solid-angle frames (`SCALE`, `MIRROR`, `ROTS`), cycles (`CYCLE…`,
 //! `POCKET…`), splines, the compressor, transformations (`TRAORI`, `TRANSMIT`, `TRACYL`)
 //! and cutter compensation — never a move skipped.
 
 mod expr;
+pub(crate) mod flow;
 
 use super::error::GcodeErrorKind;
-use expr::{ExprError, Variables, evaluate};
+use expr::{ExprError, Variables, condition, evaluate};
+use flow::{Control, Structure, Way};
 
 /// The dialect a program is written in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -161,6 +166,8 @@ pub(crate) struct Translator {
     frame_change: Option<FrameChange>,
     /// `RPL=` of the block being read: a rotation in the working plane (degrees).
     rpl: Option<f64>,
+    /// Each running `FOR`'s end value, by its line.
+    for_end: std::collections::HashMap<usize, f64>,
 }
 
 /// A programmable frame in the XY plane: a point p of the workpiece is at
@@ -216,12 +223,114 @@ impl Default for Translator {
             frame: Frame::default(),
             frame_change: None,
             rpl: None,
+            for_end: std::collections::HashMap::new(),
         }
     }
 }
 
 /// A rewriting failure: byte offset in the SINUMERIK line and the problem.
 pub(crate) type Failure = (usize, GcodeErrorKind);
+
+impl Translator {
+    /// Runs the control statement of line `k`; the line to run next.
+    pub fn control(
+        &mut self,
+        c: &Control,
+        k: usize,
+        structure: &Structure,
+    ) -> Result<usize, GcodeErrorKind> {
+        let test = |t: &Translator, text: &str| {
+            condition(text, &t.vars).map_err(|e| match e {
+                ExprError::Unknown(_, name) => GcodeErrorKind::Invalid(format!(
+                    "{name}: no R-parameter or DEF variable of that name has a value here"
+                )),
+                ExprError::Syntax(_, problem) => GcodeErrorKind::Expression(problem),
+            })
+        };
+        let jump = |target: &str, way: Way, quiet: bool| match structure.label(target, k, way) {
+            Some(line) => Ok(line),
+            None if quiet => Ok(k + 1),
+            None => Err(GcodeErrorKind::Invalid(format!(
+                "{target}: no label or block number of that name {}",
+                match way {
+                    Way::Forward => "after this block (GOTOF)",
+                    Way::Backward => "before this block (GOTOB)",
+                    Way::Both => "in the program",
+                }
+            ))),
+        };
+        let after = |line: Option<usize>| line.map_or(k + 1, |l| l + 1);
+        Ok(match c {
+            Control::Goto { target, way, quiet } => jump(target, *way, *quiet)?,
+            Control::IfGoto {
+                condition,
+                target,
+                way,
+            } => {
+                if test(self, condition)? {
+                    jump(target, *way, false)?
+                } else {
+                    k + 1
+                }
+            }
+            Control::If { condition } => {
+                if test(self, condition)? {
+                    k + 1
+                } else {
+                    after(structure.partner(k))
+                }
+            }
+            // Reached from the end of the IF's part: past the ENDIF.
+            Control::Else => after(structure.partner(k)),
+            Control::While { condition } => {
+                if test(self, condition)? {
+                    k + 1
+                } else {
+                    after(structure.partner(k))
+                }
+            }
+            Control::EndWhile => structure.partner(k).unwrap_or(k + 1),
+            Control::For { var, from, to } => {
+                let value = |t: &Translator, text: &str| {
+                    evaluate(&text.replace(' ', ""), &t.vars)
+                        .map(|(v, _)| v)
+                        .map_err(|_| GcodeErrorKind::Invalid(format!("FOR: '{text}' has no value")))
+                };
+                let (a, b) = (value(self, from)?, value(self, to)?);
+                self.vars.insert(var.clone(), a);
+                self.for_end.insert(k, b);
+                if a <= b {
+                    k + 1
+                } else {
+                    after(structure.partner(k))
+                }
+            }
+            Control::EndFor => {
+                let start = structure.partner(k).unwrap_or(k);
+                let Some(Control::For { var, .. }) = structure.control(start) else {
+                    return Ok(k + 1);
+                };
+                let v = self.vars.get(var).copied().unwrap_or(0.0) + 1.0;
+                self.vars.insert(var.clone(), v);
+                let end = self
+                    .for_end
+                    .get(&start)
+                    .copied()
+                    .unwrap_or(f64::NEG_INFINITY);
+                if v <= end { start + 1 } else { k + 1 }
+            }
+            Control::Until { condition } => {
+                if test(self, condition)? {
+                    k + 1
+                } else {
+                    after(structure.partner(k))
+                }
+            }
+            Control::EndLoop => after(structure.partner(k)),
+            Control::Repeat | Control::Loop | Control::EndIf => k + 1,
+        })
+    }
+}
 
 fn refuse(offset: usize, word: &str, reason: &'static str) -> Failure {
     (
@@ -233,8 +342,8 @@ fn refuse(offset: usize, word: &str, reason: &'static str) -> Failure {
     )
 }
 
-const CONTROL_FLOW: &str = "program control flow and variables are not supported yet: expand the program (the \
-     CAM post's linear output) before checking it";
+const CONTROL_FLOW: &str = "this form of program control is not read (jumps, IF, WHILE, FOR, \
+     REPEAT and LOOP on lines of their own are): expand the program before checking it";
 const SUBPROGRAM: &str =
     "subprogram calls are not supported yet: expand the subprogram into the main program";
 const FRAME: &str = "scaled, mirrored and solid-angle frames (SCALE, MIRROR, ROTS) are not \
