@@ -581,6 +581,30 @@ fn comparable_contours(measured: &ContourSeries, model: &ContourSeries) -> [Vec<
     [a, b]
 }
 
+/// The commands, the record and both models at the compared samples, on the program's
+/// clock.
+fn series_at_samples(
+    ctx: &Context,
+    nominal: &[Vec<f64>; 2],
+    extended: &[Vec<f64>; 2],
+    offset: f64,
+) -> Series {
+    let m = ctx.measured;
+    let mut s = Series::default();
+    for &i in &ctx.samples {
+        let t = ctx.prog_time(i, offset);
+        s.t_s.push(t);
+        for a in 0..2 {
+            let axis = AxisName::BOTH[a];
+            s.reference[a].push(ctx.command_at(axis, t).0);
+            s.measured[a].push(if a == 0 { m.x_m[i] } else { m.y_m[i] });
+            s.nominal[a].push(sample(&nominal[a], ctx.dt, t));
+            s.extended[a].push(sample(&extended[a], ctx.dt, t));
+        }
+    }
+    s
+}
+
 /// A model's figures against the record.
 struct Summary {
     /// The nominal model's residual statistics.
@@ -602,19 +626,7 @@ fn summarize(
     offset: f64,
     window_s: f64,
 ) -> Summary {
-    let m = ctx.measured;
-    let mut s = Series::default();
-    for &i in &ctx.samples {
-        let t = ctx.prog_time(i, offset);
-        s.t_s.push(t);
-        for a in 0..2 {
-            let axis = AxisName::BOTH[a];
-            s.reference[a].push(ctx.command_at(axis, t).0);
-            s.measured[a].push(if a == 0 { m.x_m[i] } else { m.y_m[i] });
-            s.nominal[a].push(sample(&nominal[a], ctx.dt, t));
-            s.extended[a].push(sample(&extended[a], ctx.dt, t));
-        }
-    }
+    let mut s = series_at_samples(ctx, nominal, extended, offset);
     // Contour errors of the three paths against the program's geometry, on the plan's clock.
     let view = plan_view(ctx, &s.t_s);
     let contour_of = |xy: &[Vec<f64>; 2]| contour_errors(&ctx.plan, &view, &xy[0], &xy[1]);

@@ -501,7 +501,13 @@ fn write_cause(s: &mut String, i: usize, c: &CauseReport) {
         );
     }
     let _ = writeln!(s, "     what to do: {}", next_step(c));
-    for a in &c.alternatives {
+    write_alternatives(s, &c.alternatives);
+}
+
+/// The causes a record cannot tell from the one named, each with its values and what
+/// would separate them.
+fn write_alternatives(s: &mut String, alternatives: &[Alternative]) {
+    for a in alternatives {
         let values: Vec<String> = a
             .params
             .iter()

@@ -232,6 +232,43 @@ impl Default for Translator {
 pub(crate) type Failure = (usize, GcodeErrorKind);
 
 impl Translator {
+    /// Enters the `FOR` of line `k`: its variable set to `from`, its end `to` kept; whether
+    /// the loop runs at all.
+    fn for_entry(
+        &mut self,
+        k: usize,
+        var: &str,
+        from: &str,
+        to: &str,
+    ) -> Result<bool, GcodeErrorKind> {
+        let value = |t: &Translator, text: &str| {
+            evaluate(&text.replace(' ', ""), &t.vars)
+                .map(|(v, _)| v)
+                .map_err(|_| GcodeErrorKind::Invalid(format!("FOR: '{text}' has no value")))
+        };
+        let (a, b) = (value(self, from)?, value(self, to)?);
+        self.vars.insert(var.to_string(), a);
+        self.for_end.insert(k, b);
+        Ok(a <= b)
+    }
+
+    /// The `ENDFOR` of line `k`: the variable stepped, and the line to run next (the
+    /// loop's first, or past its end).
+    fn for_next(&mut self, k: usize, structure: &Structure) -> usize {
+        let start = structure.partner(k).unwrap_or(k);
+        let Some(Control::For { var, .. }) = structure.control(start) else {
+            return k + 1;
+        };
+        let v = self.vars.get(var).copied().unwrap_or(0.0) + 1.0;
+        self.vars.insert(var.clone(), v);
+        let end = self
+            .for_end
+            .get(&start)
+            .copied()
+            .unwrap_or(f64::NEG_INFINITY);
+        if v <= end { start + 1 } else { k + 1 }
+    }
+
     /// Runs the control statement of line `k`; the line to run next.
     pub fn control(
         &mut self,
@@ -291,34 +328,13 @@ impl Translator {
             }
             Control::EndWhile => structure.partner(k).unwrap_or(k + 1),
             Control::For { var, from, to } => {
-                let value = |t: &Translator, text: &str| {
-                    evaluate(&text.replace(' ', ""), &t.vars)
-                        .map(|(v, _)| v)
-                        .map_err(|_| GcodeErrorKind::Invalid(format!("FOR: '{text}' has no value")))
-                };
-                let (a, b) = (value(self, from)?, value(self, to)?);
-                self.vars.insert(var.clone(), a);
-                self.for_end.insert(k, b);
-                if a <= b {
+                if self.for_entry(k, var, from, to)? {
                     k + 1
                 } else {
                     after(structure.partner(k))
                 }
             }
-            Control::EndFor => {
-                let start = structure.partner(k).unwrap_or(k);
-                let Some(Control::For { var, .. }) = structure.control(start) else {
-                    return Ok(k + 1);
-                };
-                let v = self.vars.get(var).copied().unwrap_or(0.0) + 1.0;
-                self.vars.insert(var.clone(), v);
-                let end = self
-                    .for_end
-                    .get(&start)
-                    .copied()
-                    .unwrap_or(f64::NEG_INFINITY);
-                if v <= end { start + 1 } else { k + 1 }
-            }
+            Control::EndFor => self.for_next(k, structure),
             Control::Until { condition } => {
                 if test(self, condition)? {
                     k + 1
@@ -533,69 +549,11 @@ impl Translator {
             ))?;
             return Ok(i + 2 + close + 1);
         }
-        // `R1=…`: an R-parameter set; `DEF REAL A=…`: variables declared; `A=…`: one set.
-        if name == "R" && b.get(i).is_some_and(u8::is_ascii_digit) {
-            out.plain = false;
-            let digits = upper[i..]
-                .find(|c: char| !c.is_ascii_digit())
-                .map_or(upper.len(), |e| i + e);
-            let var = &upper[name_start..digits];
-            if b.get(digits) != Some(&b'=') {
-                return Err(refuse(name_start, rest_word(i), CONTROL_FLOW));
-            }
-            let (v, n) = self.expression(upper, digits + 1, name_start)?;
-            self.vars.insert(var.to_string(), v);
-            return Ok(digits + 1 + n);
+        if let Some(end) = self.assignment(upper, name, name_start, i, out)? {
+            return Ok(end);
         }
-        if name == "DEF" {
-            out.plain = false;
-            return self.define(upper, i, name_start);
-        }
-        let ident_end = upper[name_start..]
-            .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
-            .map_or(upper.len(), |e| name_start + e);
-        if self.vars.contains_key(&upper[name_start..ident_end]) && b.get(ident_end) == Some(&b'=')
-        {
-            out.plain = false;
-            let var = upper[name_start..ident_end].to_string();
-            let (v, n) = self.expression(upper, ident_end + 1, name_start)?;
-            self.vars.insert(var, v);
-            return Ok(ident_end + 1 + n);
-        }
-        let change = match name {
-            "TRANS" => Some(FrameChange::Trans),
-            "ATRANS" => Some(FrameChange::ATrans),
-            "ROT" => Some(FrameChange::Rot),
-            "AROT" => Some(FrameChange::ARot),
-            _ => None,
-        };
-        if let Some(change) = change {
-            out.plain = false;
-            self.frame_change = Some(change);
-            return Ok(i);
-        }
-        match name {
-            "MSG" => return skip_parenthesised(upper, i, name_start),
-            "BRISK" | "BRISKA" | "SOFT" | "SOFTA" | "DRIVE" | "DRIVEA" => {
-                out.warnings.push(format!(
-                    "{name}: the acceleration profile is the planner's (--profile), not \
-                     switched by the program"
-                ));
-                return Ok(i);
-            }
-            "FFWON" | "FFWOF" => {
-                out.warnings.push(format!(
-                    "{name}: feed-forward is the machine file's setting, not switched by the \
-                     program"
-                ));
-                return Ok(i);
-            }
-            "COMPOF" | "TRAFOOF" | "CFC" | "CFTCP" | "CFIN" | "SUPA" => return Ok(i),
-            "RET" => {
-                words.push((name_start, 'M', Value::Number(2.0)));
-                return Ok(i);
-            }
-            _ => {}
+        if let Some(end) = self.keyword(upper, name, name_start, i, words, out)? {
+            return Ok(end);
         }
         // An assignment: `X=…`, `CR=…`, `ADIS=…`.
         let assigned = i < b.len() && b[i] == b'=';
@@ -631,6 +589,89 @@ impl Translator {
         // A word of several letters that is none of the above: a named subprogram or an
         // unknown command.
         Err(refuse(name_start, rest_word(i), SUBPROGRAM))
+    }
+
+    /// `R1=…` (an R-parameter set), `DEF REAL A=…` (variables declared) or `A=…` (one
+    /// set) at `name_start`: the offset after it; none when the word is none of these.
+    fn assignment(
+        &mut self,
+        upper: &str,
+        name: &str,
+        name_start: usize,
+        i: usize,
+        out: &mut Rewritten,
+    ) -> Result<Option<usize>, Failure> {
+        let b = upper.as_bytes();
+        if name == "R" && b.get(i).is_some_and(u8::is_ascii_digit) {
+            out.plain = false;
+            let digits = upper[i..]
+                .find(|c: char| !c.is_ascii_digit())
+                .map_or(upper.len(), |e| i + e);
+            if b.get(digits) != Some(&b'=') {
+                let word = &upper[name_start..digits];
+                return Err(refuse(name_start, word, CONTROL_FLOW));
+            }
+            let (v, n) = self.expression(upper, digits + 1, name_start)?;
+            self.vars.insert(upper[name_start..digits].to_string(), v);
+            return Ok(Some(digits + 1 + n));
+        }
+        if name == "DEF" {
+            out.plain = false;
+            return self.define(upper, i, name_start).map(Some);
+        }
+        let ident_end = upper[name_start..]
+            .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+            .map_or(upper.len(), |e| name_start + e);
+        if self.vars.contains_key(&upper[name_start..ident_end]) && b.get(ident_end) == Some(&b'=')
+        {
+            out.plain = false;
+            let var = upper[name_start..ident_end].to_string();
+            let (v, n) = self.expression(upper, ident_end + 1, name_start)?;
+            self.vars.insert(var, v);
+            return Ok(Some(ident_end + 1 + n));
+        }
+        Ok(None)
+    }
+
+    /// A command word of several letters (a frame, a message, a mode the program cannot
+    /// switch here, a program end): the offset after it; none for any other word.
+    fn keyword(
+        &mut self,
+        upper: &str,
+        name: &str,
+        name_start: usize,
+        i: usize,
+        words: &mut Vec<(usize, char, Value)>,
+        out: &mut Rewritten,
+    ) -> Result<Option<usize>, Failure> {
+        let change = match name {
+            "TRANS" => Some(FrameChange::Trans),
+            "ATRANS" => Some(FrameChange::ATrans),
+            "ROT" => Some(FrameChange::Rot),
+            "AROT" => Some(FrameChange::ARot),
+            _ => None,
+        };
+        if let Some(change) = change {
+            out.plain = false;
+            self.frame_change = Some(change);
+            return Ok(Some(i));
+        }
+        let warn = |what: &str| format!("{name}: {what}, not switched by the program");
+        match name {
+            "MSG" => return skip_parenthesised(upper, i, name_start).map(Some),
+            "BRISK" | "BRISKA" | "SOFT" | "SOFTA" | "DRIVE" | "DRIVEA" => {
+                out.warnings.push(warn(
+                    "the acceleration profile is the planner's (--profile)",
+                ));
+            }
+            "FFWON" | "FFWOF" => out
+                .warnings
+                .push(warn("feed-forward is the machine file's setting")),
+            "COMPOF" | "TRAFOOF" | "CFC" | "CFTCP" | "CFIN" | "SUPA" => {}
+            "RET" => words.push((name_start, 'M', Value::Number(2.0))),
+            _ => return Ok(None),
+        }
+        Ok(Some(i))
     }
 
     /// The value after an address at `i`: a number, or after `=` an expression, `AC(…)` or
@@ -762,7 +803,6 @@ impl Translator {
         words: Vec<(usize, char, Value)>,
         out: &mut Rewritten,
     ) -> Result<(), Failure> {
-        let mut pieces: Vec<(usize, Piece)> = Vec::new();
         if g_codes.is_empty() && words.is_empty() {
             if let Some(change) = self.frame_change.take() {
                 self.change_frame(change, Vec::new())?;
@@ -773,9 +813,42 @@ impl Translator {
         if std::mem::take(&mut self.first_block) {
             self.restore_mode = true;
         }
-        let mut exact_here = false;
-        let mut mode_changed = false;
-        let mut dwell = false;
+        let mut pieces: Vec<(usize, Piece)> = Vec::new();
+        let dwell = self.emit_codes(&g_codes, &mut pieces, out);
+        let mut words = words;
+        if let Some(change) = self.frame_change.take() {
+            words = self.change_frame(change, words)?;
+        }
+        let framed = !self.frame.is_identity();
+        // Words RS274/NGC reads otherwise, or not at all: the line is rewritten.
+        let rewritten_word = |(_, l, v): &(usize, char, Value)| {
+            !matches!(v, Value::Number(_))
+                || *l == 'D'
+                || (*l == 'M' && matches!(v, Value::Number(x) if *x == 17.0))
+                || (framed && matches!(l, 'X' | 'Y' | 'Z' | 'I' | 'J'))
+        };
+        if dwell || words.iter().any(rewritten_word) {
+            out.plain = false;
+        }
+        self.emit_words(words, dwell, &mut pieces, out)?;
+        if g_codes.iter().any(|&(_, g)| g == 53 || g == 153) {
+            self.position = [None; 3];
+        }
+        if !out.plain {
+            write_pieces(pieces, out);
+        }
+        Ok(())
+    }
+
+    /// The block's G codes as RS274/NGC and the path mode they leave; whether the block
+    /// dwells.
+    fn emit_codes(
+        &mut self,
+        g_codes: &[(usize, u32)],
+        pieces: &mut Vec<(usize, Piece)>,
+        out: &mut Rewritten,
+    ) -> bool {
+        let (mut exact_here, mut mode_changed, mut dwell) = (false, false, false);
         // Where the block's path-mode code was written (a restoring one goes with the
         // block's first G code, or last).
         let mut mode_offset = g_codes.first().map_or(usize::MAX, |g| g.0);
@@ -783,7 +856,7 @@ impl Translator {
         if g_codes.iter().any(|(_, g)| REWRITTEN.contains(g)) {
             out.plain = false;
         }
-        for &(offset, g) in &g_codes {
+        for &(offset, g) in g_codes {
             let rs = match g {
                 710 | 71 => Some(Piece::Text("G21")),
                 700 | 70 => Some(Piece::Text("G20")),
@@ -792,21 +865,16 @@ impl Translator {
                     self.rounding = None;
                     Some(Piece::Text("G61"))
                 }
-                9 => {
-                    exact_here = true;
-                    mode_offset = offset;
-                    None
-                }
-                64 => {
-                    self.path_mode = PathMode::Continuous(None);
-                    self.rounding = None;
-                    mode_changed = true;
-                    mode_offset = offset;
-                    None
-                }
-                641 | 642 => {
-                    self.rounding = Some(g == 641);
-                    mode_changed = true;
+                9 | 64 | 641 | 642 => {
+                    match g {
+                        9 => exact_here = true,
+                        64 => {
+                            self.path_mode = PathMode::Continuous(None);
+                            self.rounding = None;
+                        }
+                        _ => self.rounding = Some(g == 641),
+                    }
+                    mode_changed |= g != 9;
                     mode_offset = offset;
                     None
                 }
@@ -816,13 +884,9 @@ impl Translator {
                     dwell = true;
                     Some(Piece::Text("G4"))
                 }
-                90 => {
-                    self.absolute = true;
-                    Some(Piece::G(90))
-                }
-                91 => {
-                    self.absolute = false;
-                    Some(Piece::G(91))
+                90 | 91 => {
+                    self.absolute = g == 90;
+                    Some(Piece::G(g))
                 }
                 g => Some(Piece::G(g)),
             };
@@ -833,7 +897,7 @@ impl Translator {
         // The rounding distance in force, should the block set one.
         if let Some(is_641) = self.rounding {
             let distance = if is_641 { self.adis } else { self.ctol };
-            if mode_changed || matches!(self.path_mode, PathMode::Continuous(d) if d != distance) {
+            if matches!(self.path_mode, PathMode::Continuous(d) if d != distance) {
                 mode_changed = true;
             }
             self.path_mode = PathMode::Continuous(distance);
@@ -855,23 +919,20 @@ impl Translator {
                 },
             ));
         }
-        let mut words = words;
-        if let Some(change) = self.frame_change.take() {
-            words = self.change_frame(change, words)?;
-        }
+        dwell
+    }
+
+    /// The block's words as RS274/NGC: coordinates resolved against the position and, under
+    /// a frame, written turned and shifted (X and Y both, once either is given; I and J
+    /// turned) into the program's coordinates.
+    fn emit_words(
+        &mut self,
+        words: Vec<(usize, char, Value)>,
+        dwell: bool,
+        pieces: &mut Vec<(usize, Piece)>,
+        out: &Rewritten,
+    ) -> Result<(), Failure> {
         let framed = !self.frame.is_identity();
-        // Words RS274/NGC reads otherwise, or not at all: the line is rewritten.
-        let rewritten_word = |(_, l, v): &(usize, char, Value)| {
-            !matches!(v, Value::Number(_))
-                || *l == 'D'
-                || (*l == 'M' && matches!(v, Value::Number(x) if *x == 17.0))
-                || (framed && matches!(l, 'X' | 'Y' | 'Z' | 'I' | 'J'))
-        };
-        if dwell || words.iter().any(rewritten_word) {
-            out.plain = false;
-        }
-        // Under a frame the block's X, Y (both, once either is given) and I, J are written
-        // turned and shifted into the program's coordinates, after the loop below.
         let mut framed_xy: Option<usize> = None;
         let mut framed_z: Option<usize> = None;
         let mut framed_ij: Option<(usize, [f64; 2])> = None;
@@ -880,40 +941,8 @@ impl Translator {
         // Under a frame in G91: the block's increments (workpiece coordinates).
         let mut increment = [0.0f64; 3];
         for (offset, letter, value) in words {
-            let axis = match letter {
-                'X' => Some(0),
-                'Y' => Some(1),
-                'Z' => Some(2),
-                _ => None,
-            };
-            let centre = match letter {
-                'I' => Some(0),
-                'J' => Some(1),
-                'K' => Some(2),
-                _ => None,
-            };
-            let v = match (value, axis) {
-                (Value::Number(v), _) => v,
-                // A centre is incremental to the start already; `AC` gives it absolute.
-                (Value::Incremental(v), None) if centre.is_some() => v,
-                (Value::Absolute(v), None) if centre.is_some() => {
-                    let c = centre.unwrap_or(0);
-                    let at = start[c].ok_or_else(|| unknown_position(offset, letter))?;
-                    v - at
-                }
-                (Value::Absolute(_) | Value::Incremental(_), None) => {
-                    return Err(refuse(offset, &format!("{letter}=AC/IC"), CENTRE_AC_IC));
-                }
-                (Value::Absolute(v), Some(a)) if !self.absolute => {
-                    let at = self.position[a].ok_or_else(|| unknown_position(offset, letter))?;
-                    v - at
-                }
-                (Value::Incremental(v), Some(a)) if self.absolute => {
-                    let at = self.position[a].ok_or_else(|| unknown_position(offset, letter))?;
-                    at + v
-                }
-                (Value::Absolute(v) | Value::Incremental(v), Some(_)) => v,
-            };
+            let axis = "XYZ".find(letter);
+            let v = self.coordinate(offset, letter, value, &start)?;
             if let Some(a) = axis {
                 self.position[a] = if self.absolute {
                     Some(v)
@@ -922,11 +951,12 @@ impl Translator {
                 };
                 if framed {
                     increment[a] = if self.absolute { 0.0 } else { v };
-                    if a == 2 {
-                        framed_z.get_or_insert(offset);
+                    let first = if a == 2 {
+                        &mut framed_z
                     } else {
-                        framed_xy.get_or_insert(offset);
-                    }
+                        &mut framed_xy
+                    };
+                    first.get_or_insert(offset);
                     continue;
                 }
             }
@@ -969,25 +999,58 @@ impl Translator {
             pieces.push((offset, Piece::Word('I', i)));
             pieces.push((offset, Piece::Word('J', j)));
         }
-        if g_codes.iter().any(|&(_, g)| g == 53 || g == 153) {
-            self.position = [None; 3];
-        }
-        if out.plain {
-            return Ok(());
-        }
-        // In the order written (a stable sort keeps a mode code after the code it follows).
-        pieces.sort_by_key(|p| p.0);
-        for (offset, piece) in pieces {
-            let text = match piece {
-                Piece::Text(t) => t.to_string(),
-                Piece::G(g) => format!("G{g}"),
-                // Rounded to 0.1 nm: a turned coordinate's last bits are not the program's.
-                Piece::Word(letter, v) => format!("{letter}{}", (v * 1e7).round() / 1e7 + 0.0),
-                Piece::Blend(d) => format!("G64 P{d}"),
-            };
-            out.push(offset, &text);
-        }
         Ok(())
+    }
+
+    /// A word's value in the block's mode: `AC`/`IC` resolved against the position (or,
+    /// for an arc centre, the block's start `start`).
+    fn coordinate(
+        &self,
+        offset: usize,
+        letter: char,
+        value: Value,
+        start: &[Option<f64>; 3],
+    ) -> Result<f64, Failure> {
+        let axis = "XYZ".find(letter);
+        let centre = "IJK".find(letter);
+        Ok(match (value, axis) {
+            (Value::Number(v), _) => v,
+            // A centre is incremental to the start already; `AC` gives it absolute.
+            (Value::Incremental(v), None) if centre.is_some() => v,
+            (Value::Absolute(v), None) if centre.is_some() => {
+                let c = centre.unwrap_or(0);
+                let at = start[c].ok_or_else(|| unknown_position(offset, letter))?;
+                v - at
+            }
+            (Value::Absolute(_) | Value::Incremental(_), None) => {
+                return Err(refuse(offset, &format!("{letter}=AC/IC"), CENTRE_AC_IC));
+            }
+            (Value::Absolute(v), Some(a)) if !self.absolute => {
+                let at = self.position[a].ok_or_else(|| unknown_position(offset, letter))?;
+                v - at
+            }
+            (Value::Incremental(v), Some(a)) if self.absolute => {
+                let at = self.position[a].ok_or_else(|| unknown_position(offset, letter))?;
+                at + v
+            }
+            (Value::Absolute(v) | Value::Incremental(v), Some(_)) => v,
+        })
+    }
+}
+
+/// The pieces of a rewritten line, in the order written (a stable sort keeps a mode code
+/// after the code it follows).
+fn write_pieces(mut pieces: Vec<(usize, Piece)>, out: &mut Rewritten) {
+    pieces.sort_by_key(|p| p.0);
+    for (offset, piece) in pieces {
+        let text = match piece {
+            Piece::Text(t) => t.to_string(),
+            Piece::G(g) => format!("G{g}"),
+            // Rounded to 0.1 nm: a turned coordinate's last bits are not the program's.
+            Piece::Word(letter, v) => format!("{letter}{}", (v * 1e7).round() / 1e7 + 0.0),
+            Piece::Blend(d) => format!("G64 P{d}"),
+        };
+        out.push(offset, &text);
     }
 }
 
