@@ -66,7 +66,19 @@ impl Dialect {
             if upper.starts_with("%_N_") {
                 return Dialect::Sinumerik;
             }
-            let code = upper.split(';').next().unwrap_or("");
+            // The code before a `;` comment, without RS274's `( … )` comments, where CAM
+            // posts write a tool's `CR=`; `MSG(…)` is kept as the word it is.
+            let mut code = String::new();
+            let mut depth = 0;
+            for c in upper.split(';').next().unwrap_or("").chars() {
+                match c {
+                    '(' if depth == 0 && code.ends_with("MSG") => code.push(c),
+                    '(' => depth += 1,
+                    ')' if depth > 0 => depth -= 1,
+                    c if depth == 0 => code.push(c),
+                    _ => {}
+                }
+            }
             if ["G710", "G700", "CR=", "ADIS=", "G641", "G642", "MSG("]
                 .iter()
                 .any(|k| code.contains(k))
@@ -1214,6 +1226,15 @@ mod tests {
         assert_eq!(
             Dialect::of("p.nc", "G21 G90 (a comment)\nG1 X1 F100\n"),
             Dialect::Rs274
+        );
+        // A tool's corner radius in an RS274 comment is no SINUMERIK code.
+        assert_eq!(
+            Dialect::of("p.nc", "(T1 D=6 CR=0.5)\nG21 G1 X1 F100\n"),
+            Dialect::Rs274
+        );
+        assert_eq!(
+            Dialect::of("p.nc", "N10 MSG(\"hello\")\n"),
+            Dialect::Sinumerik
         );
     }
 
