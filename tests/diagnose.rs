@@ -1150,19 +1150,8 @@ fn two_causes_a_record_cannot_tell_apart_are_both_reported() {
         with_commands: true,
         ..SynthSpec::default()
     };
-    let mut csv = Vec::new();
-    synthesize(&program, &machine, &spec)
-        .unwrap()
-        .write_csv(&mut csv)
-        .unwrap();
-    let measured = parse_trace(std::str::from_utf8(&csv).unwrap(), "line.csv").unwrap();
-    let d = diagnose(
-        &program,
-        &machine,
-        &measured,
-        &DiagnoseSettings::for_machine(&machine),
-    )
-    .unwrap();
+    let measured = recorded(&program, &machine, &spec, "line.csv");
+    let d = diagnose_nominal(&program, &measured);
     assert_eq!(d.causes.len(), 1, "{:?}", d.causes);
     let c = &d.causes[0];
     let mut both: Vec<(CauseId, AxisName)> = vec![(c.id, c.axis)];
@@ -1211,19 +1200,8 @@ fn a_stick_slip_fit_lowers_what_it_is_judged_on() {
         offset_s: 0.3,
         ..SynthSpec::default()
     };
-    let mut csv = Vec::new();
-    synthesize(&program, &machine, &spec)
-        .unwrap()
-        .write_csv(&mut csv)
-        .unwrap();
-    let measured = parse_trace(std::str::from_utf8(&csv).unwrap(), "f20.csv").unwrap();
-    let d = diagnose(
-        &program,
-        &machine,
-        &measured,
-        &DiagnoseSettings::for_machine(&machine),
-    )
-    .unwrap();
+    let measured = recorded(&program, &machine, &spec, "f20.csv");
+    let d = diagnose_nominal(&program, &measured);
     let c = &d.causes[0];
     assert_eq!(
         (c.id, c.axis, c.statistical),
