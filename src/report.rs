@@ -109,6 +109,9 @@ pub struct PositioningInfo {
     pub max: f64,
     /// Its source line, if any.
     pub line: Option<u32>,
+    /// The subprogram's file the line is in, when it is not the program's own.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub file: Option<String>,
     /// Its time (s), if any.
     pub t_s: Option<f64>,
     /// The block number (N word) of its line, where the program gives one.
@@ -126,6 +129,9 @@ pub struct Location {
     pub y_mm: f64,
     /// Source line of the block being executed.
     pub line: u32,
+    /// The subprogram's file the line is in, when it is not the program's own.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub file: Option<String>,
     /// Its block number (N word), where the program gives one.
     pub block_number: Option<u32>,
 }
@@ -158,6 +164,9 @@ pub struct HotspotInfo {
     pub hotspot: Hotspot,
     /// Human-readable cause.
     pub label: String,
+    /// The subprogram's file the line is in, when it is not the program's own.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub file: Option<String>,
     /// The block number (N word) of its line, where the program gives one.
     pub block_number: Option<u32>,
 }
@@ -173,11 +182,17 @@ impl CheckReport {
     ) -> Self {
         let s = &run.summary;
         let max_um = um_from_m(s.max_contour_error_m);
+        // A line of a subprogram's file is given as its line there, with the file.
+        let placed = |line: u32| {
+            let at = program.source_line(line);
+            (at.file.map(str::to_string), at.line)
+        };
         let max_at = run.max_at.map(|p| Location {
             t_s: p.t_s,
             x_mm: mm_from_m(p.pos_m[0]),
             y_mm: mm_from_m(p.pos_m[1]),
-            line: p.line,
+            line: placed(p.line).1,
+            file: placed(p.line).0,
             block_number: program.block_number(p.line),
         });
         let axis = |i: usize| AxisFollowing {
@@ -215,7 +230,8 @@ impl CheckReport {
             },
             positioning_error_um: PositioningInfo {
                 max: um_from_m(s.max_positioning_error_m),
-                line: s.max_positioning_at.map(|a| a.0),
+                line: s.max_positioning_at.map(|a| placed(a.0).1),
+                file: s.max_positioning_at.and_then(|a| placed(a.0).0),
                 t_s: s.max_positioning_at.map(|a| a.1),
                 block_number: s.max_positioning_at.and_then(|a| program.block_number(a.0)),
             },
@@ -225,18 +241,22 @@ impl CheckReport {
                 .hotspots
                 .iter()
                 .enumerate()
-                .map(|(i, h)| HotspotInfo {
-                    rank: i + 1,
-                    hotspot: h.clone(),
-                    label: h.cause.label(),
-                    block_number: program.block_number(h.line),
+                .map(|(i, h)| {
+                    let (file, line) = placed(h.line);
+                    HotspotInfo {
+                        rank: i + 1,
+                        hotspot: Hotspot { line, ..h.clone() },
+                        label: h.cause.label(),
+                        file,
+                        block_number: program.block_number(h.line),
+                    }
                 })
                 .collect(),
             warnings: program
                 .warnings
                 .iter()
                 .chain(&run.plan.warnings)
-                .cloned()
+                .map(|w| program.placed(w.clone()))
                 .collect(),
             accepted_codes: program.notes.clone(),
             circular_test: run.circular.clone(),
@@ -344,8 +364,8 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
         .as_ref()
         .map_or(String::new(), |l| {
             format!(
-                " at line {}{} (X {:.3}, Y {:.3} mm, t {:.3} s)",
-                l.line,
+                " at {}{} (X {:.3}, Y {:.3} mm, t {:.3} s)",
+                in_file(l.file.as_deref(), l.line),
                 l.block_number.map_or(String::new(), |n| format!(" N{n}")),
                 l.x_mm,
                 l.y_mm,
@@ -369,9 +389,10 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
         let block = p.block_number.map_or(String::new(), |n| format!(" N{n}"));
         let _ = writeln!(
             s,
-            "settling max {:.2} µm at line {line}{block} (t {t:.3} s): XY still arriving while \
-             only Z moves or the program dwells",
-            p.max
+            "settling max {:.2} µm at {}{block} (t {t:.3} s): XY still arriving while only Z \
+             moves or the program dwells",
+            p.max,
+            in_file(p.file.as_deref(), line)
         );
     }
     let fe = &r.following_error_um;
@@ -394,6 +415,22 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
     s
 }
 
+/// "line 16", or "L1.SPF line 7" for a line of a subprogram's file.
+fn in_file(file: Option<&str>, line: u32) -> String {
+    match file {
+        Some(f) => format!("{} line {line}", file_name(f)),
+        None => format!("line {line}"),
+    }
+}
+
+/// A file's name without its folder.
+fn file_name(path: &str) -> &str {
+    std::path::Path::new(path)
+        .file_name()
+        .and_then(|n| n.to_str())
+        .unwrap_or(path)
+}
+
 /// The hotspot table: the largest `max_hotspots`, with the program's own block numbers
 /// beside the file's lines where it gives them.
 fn hotspot_table(r: &CheckReport, max_hotspots: usize) -> String {
@@ -401,22 +438,30 @@ fn hotspot_table(r: &CheckReport, max_hotspots: usize) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "\nhotspots (largest first)");
     let numbered = r.hotspots.iter().any(|h| h.block_number.is_some());
+    let line_of = |h: &HotspotInfo| match &h.file {
+        Some(file) => format!("{}:{}", file_name(file), h.hotspot.line),
+        None => h.hotspot.line.to_string(),
+    };
+    let shown = || r.hotspots.iter().take(max_hotspots);
+    let width = shown().map(|h| line_of(h).len()).max().unwrap_or(4).max(4);
     let _ = writeln!(
         s,
-        "  rank  line{}   time (s)     X (mm)     Y (mm)   error (µm)  spike (µm)  cause",
+        "  rank  {:>width$}{}   time (s)     X (mm)     Y (mm)   error (µm)  spike (µm)  cause",
+        "line",
         if numbered { "  block" } else { "" }
     );
-    for h in r.hotspots.iter().take(max_hotspots) {
+    for h in shown() {
         let hs = &h.hotspot;
         let block = match (numbered, h.block_number) {
             (false, _) => String::new(),
             (true, Some(n)) => format!("  {:>5}", format!("N{n}")),
             (true, None) => format!("  {:>5}", ""),
         };
+        let line = line_of(h);
         let _ = writeln!(
             s,
-            "  {:>4}  {:>4}{block}  {:>9.3}  {:>9.3}  {:>9.3}  {:>11.2}  {:>10.2}  {}",
-            h.rank, hs.line, hs.t_s, hs.x_mm, hs.y_mm, hs.error_um, hs.excess_um, h.label
+            "  {:>4}  {line:>width$}{block}  {:>9.3}  {:>9.3}  {:>9.3}  {:>11.2}  {:>10.2}  {}",
+            h.rank, hs.t_s, hs.x_mm, hs.y_mm, hs.error_um, hs.excess_um, h.label
         );
     }
     if r.hotspots.len() > max_hotspots {

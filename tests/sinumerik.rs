@@ -167,3 +167,156 @@ fn loops_jumps_and_conditions_run_as_the_control_runs_them() {
         .to_string();
     assert!(err.contains("does not end"), "{err}");
 }
+
+/// The segments' end points, rounded to the nanometre.
+fn ends_nm(p: &Program) -> Vec<[i64; 3]> {
+    p.segments
+        .iter()
+        .map(|s| s.end_m.map(|v| (v * 1e9).round() as i64))
+        .collect()
+}
+
+#[test]
+fn subprograms_of_the_same_file_run_with_their_parameters_and_repetitions() {
+    // An archive as the control writes it: the main program, then its subprograms, each
+    // under its own header. POCK takes a depth (defaulted) and an offset; L100 steps Y by
+    // an R-parameter it shares with the caller; its own DEF variable ends with it.
+    let archive = "%_N_MAIN_MPF\n;$PATH=/_N_WKS_DIR/_N_PART_WPD\nN10 G710 G90 G17 G94 G64\n\
+                   N20 G0 X0 Y0 Z5\nN30 R10=0\nN40 POCK(, 20)\nN50 L100 P3\nN60 POCK(4, 40)\n\
+                   N70 CALL \"POCK\"\nN80 G0 Z50\nN90 M30\n\
+                   %_N_POCK_SPF\n;$PATH=/_N_WKS_DIR/_N_PART_WPD\nPROC POCK(REAL DEPTH=2, REAL AT) SAVE\n\
+                   N10 G1 Z=-DEPTH F300\nN20 G1 X=AT+10 Y=R10\nN30 G0 Z5\nN40 RET\n\
+                   %_N_L100_SPF\nN10 DEF REAL STEP=5\nN20 R10=R10+STEP\nN30 G1 X=IC(1) Y=R10 F600\nN40 M17\n\
+                   %_N_MAIN_INI\nR1=5\n";
+    let written_out = "G21 G90 G17 G94 G64\nG0 X0 Y0 Z5\n\
+                       G1 Z-2 F300\nG1 X30 Y0\nG0 Z5\n\
+                       G1 X31 Y5 F600\nG1 X32 Y10\nG1 X33 Y15\n\
+                       G1 Z-4 F300\nG1 X50 Y15\nG0 Z5\n\
+                       G1 Z-2\nG1 X10 Y15\nG0 Z5\nG0 Z50\nM2\n";
+    let a = parse(written_out, "by-hand.ngc");
+    let b = parse(archive, "part.arc.mpf");
+    assert_eq!(ends_nm(&a), ends_nm(&b));
+    // Each move keeps the line it was written on: the subprogram's, in the same file.
+    assert_eq!(b.segments[1].line, 15, "POCK's first move");
+    assert_eq!(b.segments[4].line, 22, "L100's move");
+    // The INI section is not a program: said, not silently passed over.
+    assert!(
+        b.warnings
+            .iter()
+            .any(|w| w.line == 24 && w.message.contains("MAIN_INI is not a program")),
+        "{:?}",
+        b.warnings
+    );
+}
+
+#[test]
+fn subprograms_from_the_programs_folder_are_named_with_their_own_file_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let main = "N10 G710 G90 G17 G94\nN20 G0 X0 Y5\nN30 L1 P2\nN40 SIDE\nN50 M30\n";
+    std::fs::write(dir.path().join("MAIN.MPF"), main).unwrap();
+    std::fs::write(
+        dir.path().join("L1.SPF"),
+        "; one step\nG91 G1 X10 F500\nG90\nM17\n",
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("side.spf"), "G1 Y20 F500\nRET\n").unwrap();
+    let options = InterpretOptions {
+        subprogram_folder: Some(dir.path().to_path_buf()),
+        ..InterpretOptions::default()
+    };
+    let p = parse_program(main, "MAIN.MPF", &options).unwrap();
+    let ends: Vec<[i64; 3]> = ends_nm(&p);
+    let mm = |x: i64, y: i64| [x * 1_000_000, y * 1_000_000, 0];
+    assert_eq!(ends[1..], [mm(10, 5), mm(20, 5), mm(20, 20)]);
+    let l1 = p.source_line(p.segments[1].line);
+    assert!(l1.file.unwrap().ends_with("L1.SPF"), "{l1}");
+    assert_eq!(l1.line, 2);
+    let side = p.source_line(p.segments[3].line);
+    assert!(side.file.unwrap().ends_with("side.spf"), "{side}");
+    assert_eq!(side.line, 1);
+    assert_eq!(p.source_line(p.segments[0].line).file, None);
+
+    // An error in a subprogram's file names that file and line (once, though the
+    // subprogram runs twice); one in its structure also stops the call, named at the call;
+    // a call of one that is not there names the call.
+    std::fs::write(dir.path().join("L1.SPF"), "G1 X10 F500\nG1 X=Q7\nM17\n").unwrap();
+    let err = parse_program(main, "MAIN.MPF", &options).unwrap_err().to_string();
+    assert_eq!(err.matches("L1.SPF:2:6: Q7").count(), 1, "{err}");
+    std::fs::write(dir.path().join("L1.SPF"), "G1 X10 F500\nENDIF\nM17\n").unwrap();
+    let err = parse_program(main, "MAIN.MPF", &options).unwrap_err().to_string();
+    assert!(err.contains("L1.SPF:2:"), "{err}");
+    assert!(err.contains("MAIN.MPF:3:5: L1: the subprogram does not run"), "{err}");
+    let err = parse_program("G710\nN10 NOSUCH(1)\nM30\n", "m.mpf", &options)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("m.mpf:2:5: NOSUCH: neither a SINUMERIK command this reads nor a subprogram"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_subprogram_that_calls_itself_stops_at_the_controls_depth() {
+    let text = "%_N_M_MPF\nG710 G90\nDOWN\nM30\n%_N_DOWN_SPF\nG91 G1 X1 F100\nDOWN\nRET\n";
+    let err = parse_program(text, "m.mpf", &InterpretOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("program levels"), "{err}");
+    // With a condition the recursion ends: four levels, four moves.
+    let text = "%_N_M_MPF\nG710 G90 G0 X0 Y0\nR1=0\nDOWN\nM30\n%_N_DOWN_SPF\nG91 G1 X1 F100\n\
+                R1=R1+1\nIF R1<4 GOTOF AGAIN\nRET\nAGAIN:\nDOWN\nRET\n";
+    let p = parse(text, "m.mpf");
+    assert_eq!(p.segments.len(), 4);
+    assert!((p.segments[3].end_m[0] - 0.004).abs() < 1e-12);
+}
+
+#[test]
+fn cycle832_rounds_corners_within_its_tolerance_as_g642_does() {
+    let blends = |text: &str| {
+        parse(text, "hsc.mpf")
+            .segments
+            .iter()
+            .map(|s| s.blend)
+            .collect::<Vec<_>>()
+    };
+    let by_cycle = blends(
+        "G710 G90 G0 X0 Y0\nCYCLE832(0.02, _FINISH, 1)\nG1 X10 F900\nY10\nCYCLE832(0.1, _ROUGH)\n\
+         X0\nY0\nCYCLE832()\nX10\nY10\nM30\n",
+    );
+    let by_codes = blends(
+        "G710 G90 G0 X0 Y0\nG642 CTOL=0.02\nG1 X10 F900\nY10\nCTOL=0.1\nX0\nY0\nG64\nX10\nY10\nM30\n",
+    );
+    assert_eq!(by_cycle, by_codes);
+    let p = parse("G710\nCYCLE832(0.02, _FINISH, 1)\nG1 X1 F100\nM30\n", "w.mpf");
+    assert!(
+        p.warnings
+            .iter()
+            .any(|w| w.line == 2 && w.message.contains("compressor")),
+        "{:?}",
+        p.warnings
+    );
+}
+
+#[test]
+fn the_840d_sample_is_its_subprogram_written_out_twice() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/gcode-samples/boss-840d.mpf");
+    let sample = std::fs::read_to_string(path).unwrap();
+    let p = parse(&sample, "boss-840d.mpf");
+    // The same boss by hand: the frame's shift added, the two depths written out.
+    let mut by_hand = String::from("G21 G17 G90 G94 G54\nG64 P0.01\nG0 X15 Y20 Z5\n");
+    for depth in [-2, -4] {
+        by_hand += &format!(
+            "G0 X15 Y20\nG1 Z{depth} F300\nG1 X92 F800\nG3 X100 Y28 R8\nG1 Y62\n\
+             G3 X92 Y70 R8\nG1 X28\nG3 X20 Y62 R8\nG1 Y28\nG3 X28 Y20 R8\nG0 Z5\n"
+        );
+    }
+    by_hand += "G0 Z50\nM2\n";
+    let q = parse(&by_hand, "boss.ngc");
+    assert_eq!(ends_nm(&p), ends_nm(&q));
+    let blends = |p: &Program| p.segments.iter().map(|s| s.blend).collect::<Vec<_>>();
+    assert_eq!(blends(&p), blends(&q));
+    // Every cut is written in the subprogram (lines 22–33 of the file).
+    for s in p.segments.iter().filter(|s| s.motion == contourcheck::path::Motion::Feed) {
+        assert!((22..=33).contains(&s.line), "line {}", s.line);
+    }
+}

@@ -207,6 +207,9 @@ pub fn load_program(path: &Path, machine: &MachineConfig) -> Result<Program, Cli
     let text = String::from_utf8_lossy(&bytes);
     let options = InterpretOptions {
         dialect: DIALECT.get().copied(),
+        subprogram_folder: path.parent().map(|p| {
+            if p.as_os_str().is_empty() { Path::new(".") } else { p }.to_path_buf()
+        }),
         ..InterpretOptions::default()
     };
     let program = parse_program(&text, &path.display().to_string(), &options)?;
@@ -234,7 +237,12 @@ pub fn group_warnings(warnings: &[crate::gcode::Warning]) -> Vec<String> {
     let mut groups: Vec<(&str, Vec<u32>)> = Vec::new();
     for w in warnings {
         match groups.iter_mut().find(|(m, _)| *m == w.message) {
-            Some((_, lines)) => lines.push(w.line),
+            Some((_, lines)) => {
+                // A line run more than once (a loop, a subprogram) is named once.
+                if !lines.contains(&w.line) {
+                    lines.push(w.line);
+                }
+            }
             None => groups.push((&w.message, vec![w.line])),
         }
     }

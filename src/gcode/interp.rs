@@ -28,6 +28,9 @@ pub struct InterpretOptions {
     pub block_delete: bool,
     /// The program's dialect; `None`: told from the file's name and text.
     pub dialect: Option<super::Dialect>,
+    /// Where a SINUMERIK program's subprograms are looked for when its own file does not
+    /// hold them (the program's folder); `None`: only in its file.
+    pub subprogram_folder: Option<std::path::PathBuf>,
 }
 
 impl Default for InterpretOptions {
@@ -39,6 +42,7 @@ impl Default for InterpretOptions {
             start_mm: [0.0; 3],
             block_delete: false,
             dialect: None,
+            subprogram_folder: None,
         }
     }
 }
@@ -87,9 +91,59 @@ pub struct Program {
     pub block_numbers: Vec<(u32, u32)>,
     /// Number of source lines.
     pub lines: usize,
+    /// Files of subprograms the program called, whose lines are numbered after its own.
+    pub sources: Vec<super::SourceFile>,
+}
+
+/// A program line as the user knows it: the file it is in (none: the program's own) and
+/// its line there.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SourceLine<'p> {
+    /// The subprogram's file, for lines of another file than the program's.
+    pub file: Option<&'p str>,
+    /// 1-based line in that file.
+    pub line: u32,
+}
+
+impl std::fmt::Display for SourceLine<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.file {
+            Some(file) => write!(f, "{file} line {}", self.line),
+            None => write!(f, "line {}", self.line),
+        }
+    }
 }
 
 impl Program {
+    /// Where program line `line` (the numbering of segments, hotspots and warnings) is
+    /// written.
+    pub fn source_line(&self, line: u32) -> SourceLine<'_> {
+        let file = self
+            .sources
+            .iter()
+            .find(|s| line > s.first_line && line - s.first_line <= s.lines);
+        match file {
+            Some(s) => SourceLine {
+                file: Some(&s.file),
+                line: line - s.first_line,
+            },
+            None => SourceLine { file: None, line },
+        }
+    }
+
+    /// A warning about one of the program's lines, with the file and line named in its
+    /// text when the line is in a subprogram's file.
+    pub fn placed(&self, warning: Warning) -> Warning {
+        let at = self.source_line(warning.line);
+        match at.file {
+            Some(_) => Warning {
+                line: 0,
+                message: format!("{at}: {}", warning.message),
+            },
+            None => warning,
+        }
+    }
+
     /// The block number (N word) of the block on source line `line`, if it has one.
     pub fn block_number(&self, line: u32) -> Option<u32> {
         self.block_numbers
@@ -276,6 +330,9 @@ impl Interpreter {
                 ),
             });
         }
+        // Loops, jumps and calls run some lines more than once, and not in order.
+        self.block_numbers.sort_unstable();
+        self.block_numbers.dedup_by_key(|&mut (line, _)| line);
         Program {
             file: self.file,
             segments: self.segments,
@@ -285,6 +342,7 @@ impl Interpreter {
             blocks: self.blocks,
             block_numbers: self.block_numbers,
             lines,
+            sources: Vec::new(),
         }
     }
 

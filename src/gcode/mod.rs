@@ -17,6 +17,7 @@ pub mod sinumerik;
 pub use error::{GcodeError, GcodeErrorKind, GcodeErrors, SourcePos, Warning};
 pub use interp::{CodeNote, Event, InterpretOptions, Program};
 pub use sinumerik::Dialect;
+pub use sinumerik::run::SourceFile;
 
 use interp::Interpreter;
 use lexer::LexedLine;
@@ -37,21 +38,38 @@ pub fn parse_program(
         list: Vec::new(),
     };
     let lines: Vec<&str> = source.split('\n').collect();
+    let mut sources = Vec::new();
     match opts.dialect.unwrap_or_else(|| Dialect::of(file, source)) {
         Dialect::Rs274 => run_rs274(&lines, &mut interp, &mut errors),
-        Dialect::Sinumerik => run_sinumerik(&lines, &mut interp, &mut errors),
+        Dialect::Sinumerik => {
+            let folder = opts.subprogram_folder.as_deref();
+            sources = sinumerik::run::run(source, &mut interp, &mut errors, folder);
+        }
     }
     let count = lines.len() - usize::from(source.ends_with('\n'));
     if errors.list.is_empty() {
-        Ok(interp.finish(count))
+        let mut program = interp.finish(count);
+        program.sources = sources;
+        name_subprogram_warnings(&mut program);
+        Ok(program)
     } else {
         Err(GcodeErrors(errors.list))
     }
 }
 
+/// Warnings about lines of a subprogram's file say which file and line, in their text.
+fn name_subprogram_warnings(program: &mut Program) {
+    if program.sources.is_empty() {
+        return;
+    }
+    let warnings = std::mem::take(&mut program.warnings);
+    program.warnings = warnings.into_iter().map(|w| program.placed(w)).collect();
+}
+
 /// The errors of a program, each where it is, up to [`MAX_REPORTED_ERRORS`].
-struct Errors<'f> {
-    file: &'f str,
+pub(crate) struct Errors<'f> {
+    /// The program's file.
+    pub file: &'f str,
     list: Vec<GcodeError>,
 }
 
@@ -59,18 +77,37 @@ impl Errors<'_> {
     /// Records `kind` at byte `offset` of line `index` (`text`); false once there are too
     /// many to go on.
     fn push(&mut self, index: usize, text: &str, offset: usize, kind: GcodeErrorKind) -> bool {
+        let file = self.file;
+        self.push_in(file, index, text, offset, kind)
+    }
+
+    /// [`Errors::push`] for a line of another file (a subprogram's).
+    pub fn push_in(
+        &mut self,
+        file: &str,
+        index: usize,
+        text: &str,
+        offset: usize,
+        kind: GcodeErrorKind,
+    ) -> bool {
         let line = u32::try_from(index + 1).unwrap_or(u32::MAX);
-        self.list.push(GcodeError {
-            file: self.file.to_string(),
+        let error = GcodeError {
+            file: file.to_string(),
             pos: SourcePos {
                 line,
                 column: column_of(text, offset),
             },
             kind,
-        });
+        };
+        // A line run again (a loop, a subprogram called twice) fails the same way again:
+        // said once.
+        if self.list.contains(&error) {
+            return true;
+        }
+        self.list.push(error);
         if self.list.len() == MAX_REPORTED_ERRORS {
             self.list.push(GcodeError {
-                file: self.file.to_string(),
+                file: file.to_string(),
                 pos: SourcePos { line, column: 1 },
                 kind: GcodeErrorKind::TooMany(MAX_REPORTED_ERRORS),
             });
@@ -93,65 +130,8 @@ fn run_rs274(lines: &[&str], interp: &mut Interpreter, errors: &mut Errors) {
     }
 }
 
-/// Blocks a SINUMERIK program may run, loops and jumps included, before it is taken to
-/// run for ever.
-const MAX_RUN_BLOCKS: usize = 20_000_000;
-
-/// Runs a SINUMERIK program: each line rewritten into RS274/NGC words, its control
-/// statements choosing the next line.
-fn run_sinumerik(lines: &[&str], interp: &mut Interpreter, errors: &mut Errors) {
-    let structure = match sinumerik::flow::Structure::of(lines) {
-        Ok(s) => s,
-        Err((index, offset, kind)) => {
-            errors.push(index, lines[index], offset, kind);
-            return;
-        }
-    };
-    let mut translator = sinumerik::Translator::default();
-    let mut lexed = LexedLine::default();
-    let (mut k, mut run) = (0usize, 0usize);
-    while k < lines.len() {
-        let text = lines[k];
-        let line_no = u32::try_from(k + 1).unwrap_or(u32::MAX);
-        run += 1;
-        if run > MAX_RUN_BLOCKS {
-            let kind = GcodeErrorKind::Invalid(format!(
-                "the program's jumps and loops run more than {MAX_RUN_BLOCKS} blocks: it does \
-                 not end"
-            ));
-            errors.push(k, text, 0, kind);
-            return;
-        }
-        if let Some(c) = structure.control(k) {
-            match translator.control(c, k, &structure) {
-                Ok(next) => k = next,
-                Err(kind) => {
-                    if !errors.push(k, text, 0, kind) {
-                        return;
-                    }
-                    k += 1;
-                }
-            }
-            continue;
-        }
-        let result = translator.rewrite(text).and_then(|rewritten| {
-            for w in &rewritten.warnings {
-                interp.warn(line_no, w.clone());
-            }
-            run_line(interp, rewritten.text(text), line_no, &mut lexed)
-                .map_err(|(offset, kind)| (rewritten.original_offset(offset), kind))
-        });
-        if let Err((offset, kind)) = result
-            && !errors.push(k, text, offset, kind)
-        {
-            return;
-        }
-        k += 1;
-    }
-}
-
 /// Lexes and runs one RS274/NGC line; a failure's byte offset in it.
-fn run_line(
+pub(crate) fn run_line(
     interp: &mut Interpreter,
     text: &str,
     line_no: u32,

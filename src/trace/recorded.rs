@@ -115,6 +115,7 @@ pub fn program_from_commands(commands_m: &[Vec<f64>; 2], dt_s: f64, file: &str) 
         notes: Vec::new(),
         warnings: Vec::new(),
         lines: n,
+        sources: Vec::new(),
     })
 }
 

@@ -15,7 +15,8 @@
 //!   distance are planned with the planner's corner tolerance of that size (the 840D's
 //!   rounding inserts a blend; the planner passes the corner at the speed a blend of that
 //!   size allows, on the programmed path);
-//! - `G4 F…` (dwell in seconds), `G500`, `G54`–`G57`, `G153`, `M17`/`RET` (program end),
+//! - `G4 F…` (dwell in seconds), `G500`, `G54`–`G57`, `G153`, `M17`/`RET` (program end, or a
+//!   subprogram's return), `CYCLE832` (as `G642` within its tolerance),
 //!   `D` (tool edge: lengths taken as zero), `MSG(…)`;
 //! - R-parameters and `DEF REAL`/`DEF INT` variables, set and used in arithmetic
 //!   ([`expr`]: `+ - * /`, brackets, `SIN`, `COS`, `TAN`, `ATAN2`, `SQRT`, `ABS`, `POT`, …),
@@ -26,18 +27,21 @@
 //!   turned and shifted into the program's, arc centres turned with them;
 //! - program control on lines of its own ([`flow`]): labels, `GOTOF`/`GOTOB`/`GOTO`/`GOTOC`,
 //!   `IF … GOTO…`, `IF`/`ELSE`/`ENDIF`, `WHILE`, `FOR`, `REPEAT`/`UNTIL`, `LOOP`, run as the
-//!   control runs them (a program that runs more than 20 million blocks is an error).
+//!   control runs them (a program that runs more than 20 million blocks is an error);
+//! - subprogram calls (`L123 P3`, `NAME(args)`, `CALL "NAME"`) of the same file's `_SPF`
+//!   sections or the program folder's files, with `PROC` parameters ([`run`]).
 //!
 //! `BRISK`/`SOFT` and `FFWON`/`FFWOF` are kept as warnings: the acceleration profile and
 //! the feed-forward are the planner's and the machine file's settings, not switched by the
 //! program. Refused, with the word and the reason: system variables (`$…`), other `DEF`
-//! types, `CASE` and control sharing a line with other words, subprogram calls, scaled, mirrored
-//! and solid-angle frames (`SCALE`, `MIRROR`, `ROTS`), cycles (`CYCLE…`,
-//! `POCKET…`), splines, the compressor, transformations (`TRAORI`, `TRANSMIT`, `TRACYL`)
+//! types, `CASE` and control sharing a line with other words, modal calls (`MCALL`, `PCALL`),
+//! scaled, mirrored and solid-angle frames (`SCALE`, `MIRROR`, `ROTS`), machining cycles
+//! (`CYCLE…`, `POCKET3`, …), splines, the compressor, transformations (`TRAORI`, `TRANSMIT`, `TRACYL`)
 //! and cutter compensation — never a move skipped.
 
 mod expr;
 pub(crate) mod flow;
+pub(crate) mod run;
 
 use super::error::GcodeErrorKind;
 use expr::{ExprError, Variables, condition, evaluate};
@@ -178,8 +182,33 @@ pub(crate) struct Translator {
     frame_change: Option<FrameChange>,
     /// `RPL=` of the block being read: a rotation in the working plane (degrees).
     rpl: Option<f64>,
-    /// Each running `FOR`'s end value, by its line.
-    for_end: std::collections::HashMap<usize, f64>,
+    /// Each running `FOR`'s end value, by the run of its program text (its scope) and its
+    /// line.
+    for_end: std::collections::HashMap<(usize, usize), f64>,
+    /// The run of a program text the lines come from: a new one for each subprogram call,
+    /// so that a `FOR` keeps its end apart from the same line's in another call.
+    pub scope: usize,
+    /// Whether the lines are a subprogram's: `M17` and `RET` then return to the caller.
+    pub in_subprogram: bool,
+    /// The subprogram the block calls, once its other words have run.
+    call: Option<Call>,
+    /// The block returned from the subprogram (`M17`, `RET`).
+    returned: bool,
+}
+
+/// A subprogram call: `L123 P3`, `POCKET(5, , 2)`, `CALL "NAME"`.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Call {
+    /// Where the call is written in its line.
+    pub offset: usize,
+    /// The call as written (for messages).
+    pub word: String,
+    /// The subprogram's name, upper case (`L123`, `POCKET`).
+    pub name: String,
+    /// The arguments, by position; `None` where one is left out (`POCKET(, 3)`).
+    pub args: Vec<Option<f64>>,
+    /// How many times it runs (`P`).
+    pub repeat: u32,
 }
 
 /// A programmable frame in the XY plane: a point p of the workpiece is at
@@ -236,6 +265,10 @@ impl Default for Translator {
             frame_change: None,
             rpl: None,
             for_end: std::collections::HashMap::new(),
+            scope: 0,
+            in_subprogram: false,
+            call: None,
+            returned: false,
         }
     }
 }
@@ -260,7 +293,7 @@ impl Translator {
         };
         let (a, b) = (value(self, from)?, value(self, to)?);
         self.vars.insert(var.to_string(), a);
-        self.for_end.insert(k, b);
+        self.for_end.insert((self.scope, k), b);
         Ok(a <= b)
     }
 
@@ -275,7 +308,7 @@ impl Translator {
         self.vars.insert(var.clone(), v);
         let end = self
             .for_end
-            .get(&start)
+            .get(&(self.scope, start))
             .copied()
             .unwrap_or(f64::NEG_INFINITY);
         if v <= end { start + 1 } else { k + 1 }
@@ -372,8 +405,8 @@ fn refuse(offset: usize, word: &str, reason: &'static str) -> Failure {
 
 const CONTROL_FLOW: &str = "this form of program control is not read (jumps, IF, WHILE, FOR, \
      REPEAT and LOOP on lines of their own are): expand the program before checking it";
-const SUBPROGRAM: &str =
-    "subprogram calls are not supported yet: expand the subprogram into the main program";
+const MODAL_CALL: &str = "modal and path-named calls (MCALL, PCALL) are not supported: call \
+     the subprogram by its name or with CALL after each move instead";
 const FRAME: &str = "scaled, mirrored and solid-angle frames (SCALE, MIRROR, ROTS) are not \
      supported yet: post the program in the workpiece's coordinates";
 const CYCLE: &str =
@@ -397,9 +430,12 @@ fn refused_keyword(name: &str) -> Option<&'static str> {
         CONTROL_FLOW
     } else if frames.contains(&name) {
         FRAME
-    } else if name == "CALL" || name == "PCALL" || name == "MCALL" {
-        SUBPROGRAM
-    } else if name.starts_with("CYCLE") || name.starts_with("POCKET") || name.starts_with("SLOT") {
+    } else if name == "PCALL" || name == "MCALL" {
+        MODAL_CALL
+    } else if name.starts_with("CYCLE")
+        || ["POCKET1", "POCKET2", "POCKET3", "POCKET4", "SLOT1", "SLOT2", "LONGHOLE"]
+            .contains(&name)
+    {
         CYCLE
     } else if ["ASPLINE", "BSPLINE", "CSPLINE", "POLY", "BSPLINE"].contains(&name) {
         SPLINE
@@ -547,7 +583,15 @@ impl Translator {
                 .map_or(upper.len(), |e| i + e);
             &upper[name_start..end]
         };
-        if let Some(reason) = refused_keyword(name) {
+        // The whole identifier, digits included (`POCKET3`, `CYCLE832`).
+        let ident_end = upper[name_start..]
+            .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+            .map_or(upper.len(), |e| name_start + e);
+        if &upper[name_start..ident_end] == "CYCLE832" {
+            return self.cycle832(upper, name_start, ident_end, g_codes, out);
+        }
+        if let Some(reason) = refused_keyword(name).or(refused_keyword(&upper[name_start..ident_end]))
+        {
             return Err(refuse(name_start, rest_word(i), reason));
         }
         if name.starts_with('$') {
@@ -575,8 +619,8 @@ impl Translator {
         // A single letter followed by digits directly: `X10`, `G710`, `R1` …
         if name.len() == 1 || assigned {
             let letter = name.chars().next().unwrap_or('?');
-            if name.len() == 1 && letter == 'L' {
-                return Err(refuse(name_start, rest_word(i), SUBPROGRAM));
+            if name.len() == 1 && letter == 'L' && !assigned {
+                return self.numbered_call(upper, name_start, i, out);
             }
             let (value, n) = self.value(upper, i, name_start, assigned)?;
             i += n;
@@ -598,9 +642,212 @@ impl Translator {
             }
             return Ok(i);
         }
-        // A word of several letters that is none of the above: a named subprogram or an
-        // unknown command.
-        Err(refuse(name_start, rest_word(i), SUBPROGRAM))
+        // A word of several letters that is none of the above: a subprogram called by its
+        // name (the runner says so if there is none of that name).
+        self.named_call(upper, name, name_start, i, out)
+    }
+
+    /// `CYCLE832(tolerance, machining type, …)` at `name_start` (`i` after the name): the
+    /// 840D's high-speed settings, read as `G642` with `CTOL=` the tolerance (mm), or as
+    /// `G64` when switched off (`_OFF`, or no tolerance); the offset after it.
+    fn cycle832(
+        &mut self,
+        upper: &str,
+        name_start: usize,
+        i: usize,
+        g_codes: &mut Vec<(usize, u32)>,
+        out: &mut Rewritten,
+    ) -> Result<usize, Failure> {
+        out.plain = false;
+        let end = skip_parenthesised(upper, i, name_start, "CYCLE832")?;
+        let open = upper[i..end].find('(').map_or(end, |o| i + o + 1);
+        let inner = &upper[open..end - 1];
+        let mut args = inner.split(',').map(str::trim);
+        let tolerance = match args.next().filter(|t| !t.is_empty()) {
+            None => 0.0,
+            Some(_) => {
+                let at = open + (inner.len() - inner.trim_start().len());
+                let (v, _) = self.expression(upper, at, name_start)?;
+                v
+            }
+        };
+        let kind = args.next().unwrap_or("");
+        let off = tolerance <= 0.0 || kind == "_OFF" || kind == "0";
+        if off {
+            g_codes.push((name_start, 64));
+        } else {
+            self.ctol = Some(tolerance);
+            g_codes.push((name_start, 642));
+            out.warnings.push(format!(
+                "CYCLE832: read as G642 with CTOL={tolerance} (corners rounded within the \
+                 tolerance); the compressor, SOFT and FFWON it also switches on are not \
+                 followed: the blocks are planned as programmed, with the planner's profile \
+                 and the machine file's feed-forward"
+            ));
+        }
+        Ok(end)
+    }
+
+    /// `L123` at `name_start` (`i` after the `L`): a call of subprogram `L123`; the offset
+    /// after it.
+    fn numbered_call(
+        &mut self,
+        upper: &str,
+        name_start: usize,
+        i: usize,
+        out: &mut Rewritten,
+    ) -> Result<usize, Failure> {
+        let end = upper[i..]
+            .find(|c: char| !c.is_ascii_digit())
+            .map_or(upper.len(), |e| i + e);
+        if end == i {
+            return Err((name_start, GcodeErrorKind::MissingValue('L')));
+        }
+        self.set_call(name_start, &upper[name_start..end], Vec::new(), out)?;
+        Ok(end)
+    }
+
+    /// `NAME` or `NAME(a, , c)` at `name_start` (`i` after the name): a call of subprogram
+    /// `NAME`; the offset after it.
+    fn named_call(
+        &mut self,
+        upper: &str,
+        name: &str,
+        name_start: usize,
+        mut i: usize,
+        out: &mut Rewritten,
+    ) -> Result<usize, Failure> {
+        // A name may go on with digits and underscores: `POCKET_2`.
+        while upper.as_bytes().get(i).is_some_and(|c| c.is_ascii_alphanumeric() || *c == b'_') {
+            i += 1;
+        }
+        let name = if i > name_start + name.len() { &upper[name_start..i] } else { name };
+        let mut args = Vec::new();
+        if upper.as_bytes().get(i) == Some(&b'(') {
+            i += 1;
+            loop {
+                while upper.as_bytes().get(i) == Some(&b' ') {
+                    i += 1;
+                }
+                match upper.as_bytes().get(i) {
+                    Some(b',') => {
+                        args.push(None);
+                        i += 1;
+                        continue;
+                    }
+                    Some(b')') => {
+                        // `NAME()` has no argument; `NAME(1,)` leaves its last one out.
+                        if upper.as_bytes()[i - 1] == b',' {
+                            args.push(None);
+                        }
+                        i += 1;
+                        break;
+                    }
+                    None => {
+                        return Err((
+                            name_start,
+                            GcodeErrorKind::Invalid(format!("{name}( … ) is not closed")),
+                        ));
+                    }
+                    Some(_) => {}
+                }
+                let (v, n) = self.expression(upper, i, name_start)?;
+                args.push(Some(v));
+                i += n;
+                while upper.as_bytes().get(i) == Some(&b' ') {
+                    i += 1;
+                }
+                match upper.as_bytes().get(i) {
+                    Some(b',') => i += 1,
+                    Some(b')') => {
+                        i += 1;
+                        break;
+                    }
+                    _ => {
+                        return Err((
+                            i,
+                            GcodeErrorKind::Invalid(format!(
+                                "{name}( … ): ',' or ')' expected after an argument"
+                            )),
+                        ));
+                    }
+                }
+            }
+        }
+        self.set_call(name_start, name, args, out)?;
+        Ok(i)
+    }
+
+    /// Records the block's subprogram call (one per block).
+    fn set_call(
+        &mut self,
+        offset: usize,
+        name: &str,
+        args: Vec<Option<f64>>,
+        out: &mut Rewritten,
+    ) -> Result<(), Failure> {
+        out.plain = false;
+        if let Some(first) = &self.call {
+            return Err((
+                offset,
+                GcodeErrorKind::Invalid(format!(
+                    "{name}: a block calls one subprogram, and this one calls {} already",
+                    first.name
+                )),
+            ));
+        }
+        self.call = Some(Call {
+            offset,
+            word: name.to_string(),
+            name: name.to_string(),
+            args,
+            repeat: 1,
+        });
+        Ok(())
+    }
+
+    /// `CALL "NAME"` at `name_start` (`i` after `CALL`): the offset after it.
+    fn quoted_call(
+        &mut self,
+        upper: &str,
+        name_start: usize,
+        i: usize,
+        out: &mut Rewritten,
+    ) -> Result<usize, Failure> {
+        let open = i + upper[i..].len() - upper[i..].trim_start().len();
+        let closed = upper[open..]
+            .strip_prefix('"')
+            .and_then(|rest| rest.find('"'))
+            .map(|e| open + 1 + e);
+        let Some(close) = closed else {
+            return Err((
+                name_start,
+                GcodeErrorKind::Invalid("CALL needs the subprogram's name in quotes".into()),
+            ));
+        };
+        let path = &upper[open + 1..close];
+        // A name with its folder, `"/_N_SPF_DIR/_N_POCK_SPF"`: the subprogram's own name.
+        let file = path.rsplit('/').next().unwrap_or(path);
+        let name = file
+            .strip_prefix("_N_")
+            .unwrap_or(file)
+            .trim_end_matches("_SPF")
+            .trim_end_matches("_MPF");
+        self.set_call(name_start, name, Vec::new(), out)?;
+        if let Some(call) = &mut self.call {
+            call.word = upper[name_start..=close].to_string();
+        }
+        Ok(close + 1)
+    }
+
+    /// The subprogram the last block calls, to be run after its other words.
+    pub fn take_call(&mut self) -> Option<Call> {
+        self.call.take()
+    }
+
+    /// Whether the last block returned from the subprogram (`M17`, `RET`).
+    pub fn take_returned(&mut self) -> bool {
+        std::mem::take(&mut self.returned)
     }
 
     /// `R1=…` (an R-parameter set), `DEF REAL A=…` (variables declared) or `A=…` (one
@@ -670,7 +917,7 @@ impl Translator {
         }
         let warn = |what: &str| format!("{name}: {what}, not switched by the program");
         match name {
-            "MSG" => return skip_parenthesised(upper, i, name_start).map(Some),
+            "MSG" => return skip_parenthesised(upper, i, name_start, "MSG").map(Some),
             "BRISK" | "BRISKA" | "SOFT" | "SOFTA" | "DRIVE" | "DRIVEA" => {
                 out.warnings.push(warn(
                     "the acceleration profile is the planner's (--profile)",
@@ -680,7 +927,15 @@ impl Translator {
                 .warnings
                 .push(warn("feed-forward is the machine file's setting")),
             "COMPOF" | "TRAFOOF" | "CFC" | "CFTCP" | "CFIN" | "SUPA" => {}
+            "RET" if self.in_subprogram => self.returned = true,
             "RET" => words.push((name_start, 'M', Value::Number(2.0))),
+            // Declarations: `EXTERN NAME(REAL, INT)` of a subprogram, and `PROC NAME(…)`
+            // heading one, whose parameters the runner reads.
+            "EXTERN" | "PROC" => {
+                out.plain = false;
+                return Ok(Some(upper.len()));
+            }
+            "CALL" => return self.quoted_call(upper, name_start, i, out).map(Some),
             _ => return Ok(None),
         }
         Ok(Some(i))
@@ -828,6 +1083,33 @@ impl Translator {
         let mut pieces: Vec<(usize, Piece)> = Vec::new();
         let dwell = self.emit_codes(&g_codes, &mut pieces, out);
         let mut words = words;
+        if let Some(call) = &mut self.call {
+            // `L123 P3`: P is how many times the subprogram runs.
+            if let Some(k) = words.iter().position(|w| w.1 == 'P') {
+                let (offset, _, value) = words.remove(k);
+                let n = match value {
+                    Value::Number(n) if n >= 1.0 && n.fract() == 0.0 && n <= 1e6 => n as u32,
+                    _ => {
+                        return Err((
+                            offset,
+                            GcodeErrorKind::Invalid(
+                                "P: the number of runs is a whole number from 1 up".into(),
+                            ),
+                        ));
+                    }
+                };
+                call.repeat = n;
+            }
+        }
+        if self.in_subprogram
+            && let Some(k) = words
+                .iter()
+                .position(|(_, l, v)| *l == 'M' && matches!(v, Value::Number(x) if *x == 17.0))
+        {
+            words.remove(k);
+            self.returned = true;
+            out.plain = false;
+        }
         if let Some(change) = self.frame_change.take() {
             words = self.change_frame(change, words)?;
         }
@@ -1173,7 +1455,12 @@ fn unknown_position(offset: usize, letter: char) -> Failure {
 }
 
 /// Skips `( … )` after `MSG` (quotes may hold parentheses); the offset after it.
-fn skip_parenthesised(upper: &str, i: usize, name_start: usize) -> Result<usize, Failure> {
+fn skip_parenthesised(
+    upper: &str,
+    i: usize,
+    name_start: usize,
+    what: &str,
+) -> Result<usize, Failure> {
     let b = upper.as_bytes();
     let mut j = i;
     while j < b.len() && b[j] == b' ' {
@@ -1182,7 +1469,7 @@ fn skip_parenthesised(upper: &str, i: usize, name_start: usize) -> Result<usize,
     if j >= b.len() || b[j] != b'(' {
         return Err((
             name_start,
-            GcodeErrorKind::Invalid("MSG needs (\"text\")".into()),
+            GcodeErrorKind::Invalid(format!("{what} needs its arguments in ( … )")),
         ));
     }
     let (mut depth, mut quoted) = (0, false);
@@ -1202,7 +1489,7 @@ fn skip_parenthesised(upper: &str, i: usize, name_start: usize) -> Result<usize,
     }
     Err((
         name_start,
-        GcodeErrorKind::Invalid("MSG( is not closed".into()),
+        GcodeErrorKind::Invalid(format!("{what}( is not closed")),
     ))
 }
 
@@ -1274,9 +1561,8 @@ mod tests {
             ("N10 GOTOF END", 4, "GOTOF"),
             ("N10 MIRROR X0", 4, "MIRROR"),
             ("N10 CYCLE72(\"C\")", 4, "CYCLE72(\"C\")"),
-            ("N10 L123 P3", 4, "L123"),
             ("N10 X=$P_EP[X]", 6, "$P_EP"),
-            ("N10 MYSUB", 4, "MYSUB"),
+            ("N10 MCALL MYSUB", 4, "MCALL"),
             ("N10 G2 X1 F=AC(5)", 10, "F=AC/IC"),
         ] {
             let mut t = Translator {
@@ -1290,6 +1576,34 @@ mod tests {
             };
             assert_eq!(w, word, "{line}");
         }
+    }
+
+    #[test]
+    fn calls_are_read_with_their_arguments_and_runs() {
+        let mut t = Translator::default();
+        let call = |t: &mut Translator, line: &str| {
+            t.rewrite(line).unwrap_or_else(|e| panic!("{line}: {e:?}"));
+            t.take_call().unwrap()
+        };
+        let c = call(&mut t, "N10 L0123 P3");
+        assert_eq!((c.name.as_str(), c.repeat, c.offset), ("L0123", 3, 4));
+        t.rewrite("R2=4").unwrap();
+        let c = call(&mut t, "POCKET_2(1.5, , R2*2,)");
+        assert_eq!(c.name, "POCKET_2");
+        assert_eq!(c.args, vec![Some(1.5), None, Some(8.0), None]);
+        let c = call(&mut t, "CALL \"/_N_SPF_DIR/_N_ROUGH_SPF\"");
+        assert_eq!(c.name, "ROUGH");
+        assert!(t.rewrite("L1 P0").is_err());
+        assert!(t.rewrite("A(1 2)").is_err());
+        assert!(t.rewrite("L1 L2").is_err());
+        t.take_call();
+        // A subprogram's M17 and RET return; the main program's end it.
+        t.in_subprogram = true;
+        assert_eq!(t.rewrite("G1 X1 M17").unwrap().text, "G1 X1");
+        assert!(t.take_returned());
+        t.in_subprogram = false;
+        assert_eq!(t.rewrite("RET").unwrap().text, "M2");
+        assert!(!t.take_returned());
     }
 
     #[test]
