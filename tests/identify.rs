@@ -14,7 +14,7 @@ use contourcheck::compare::CompareSettings;
 use contourcheck::diagnose::{DiagnoseSettings, diagnose};
 use contourcheck::gcode::Program;
 use contourcheck::identify::{Identification, IdentifyError, identify};
-use contourcheck::machine::{AxisConfig, AxisName, MachineConfig};
+use contourcheck::machine::{AxisConfig, AxisName, Controller, MachineConfig};
 use contourcheck::synth::{SynthSpec, synthesize};
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 
@@ -65,7 +65,13 @@ fn hidden_value(hidden: &AxisConfig, key: &str) -> f64 {
         "drive.table_mass_kg" => hidden.drive.table_mass_kg,
         "friction.viscous_n_s_per_m" => hidden.friction.viscous_n_s_per_m,
         "position_loop.dead_time_ms" => hidden.position_loop.dead_time_ms,
-        other => panic!("{other}"),
+        "controller.gain" => match &hidden.controller {
+            Controller::TransferFunction(tf) => tf.numerator[0],
+            other => panic!("{other:?}"),
+        },
+        other => {
+            contourcheck::machine::keys::get(hidden, other).unwrap_or_else(|| panic!("{other}"))
+        }
     }
 }
 
@@ -170,10 +176,14 @@ fn a_hidden_cascade_is_identified_from_the_heavy_template_and_predicts_another_p
 }
 
 #[test]
-fn a_small_table_with_a_pid_and_with_state_feedback_is_identified() {
-    // X without acceleration feed-forward: fed the acceleration the record's commands are
-    // read back to (the foreign interpolator's steps, smoothed over the reconstruction's
-    // window), a fit of the preset's X came out 13 % heavy (z 5) — see docs/identify.md.
+fn a_small_table_whose_gains_are_not_the_designed_ones_is_identified() {
+    // The template is the design: a PID on X, state feedback on Y, both on current
+    // amplifiers. The table ran with other gains — X's 40 % higher, Y's position gain 35 %
+    // lower, its speed gain 33 % higher and its integral gain half again — other table
+    // masses (X 50 % heavier, Y lighter) and more friction than the data sheet's.
+    // (X without acceleration feed-forward: fed the acceleration the record's commands are
+    // read back to, the foreign interpolator's steps smoothed, a fit with it came out 13 %
+    // off — see docs/identify.md.)
     let template = MachineConfig::from_toml_str(
         "base = \"small-table\"\n[x.controller]\naccel_feedforward = 0.0\n\
          [y.controller]\nstructure = \"state_feedback\"\nposition_gain_a_per_mm = 40.0\n\
@@ -183,24 +193,44 @@ fn a_small_table_with_a_pid_and_with_state_feedback_is_identified() {
     )
     .unwrap();
     let mut truth = template.clone();
+    let Controller::TransferFunction(tf) = &mut truth.x.controller else {
+        panic!("the preset's X is a transfer function");
+    };
+    tf.numerator.iter_mut().for_each(|c| *c *= 1.4);
     truth.x.drive.table_mass_kg = 45.0;
     truth.x.friction.coulomb_coefficient = 0.08;
     truth.x.friction.viscous_n_s_per_m = 400.0;
+    let Controller::StateFeedback(sf) = &mut truth.y.controller else {
+        panic!("Y is state feedback");
+    };
+    sf.position_gain_a_per_mm = 26.0;
+    sf.velocity_gain_a_s_per_mm = 0.4;
+    sf.integral_gain_a_per_mm_s = 1500.0;
     truth.y.drive.table_mass_kg = 40.0;
     truth.y.friction.coulomb_coefficient = 0.14;
     let id = identified_and_predicting(
         &template,
         &truth,
-        &["drive.table_mass_kg", "friction.coulomb_n"],
+        &["friction.coulomb_n", "drive.table_mass_kg"],
         91,
     );
-    // The controller's gains are the user's: not fitted.
-    assert_eq!(id.machine.x.controller, template.x.controller);
+    let x_gain = id.axes[0]
+        .values
+        .iter()
+        .find(|v| v.key == "controller.gain")
+        .unwrap();
+    assert!(x_gain.determined, "{x_gain:?}");
+    let y_gain = id.axes[1]
+        .values
+        .iter()
+        .find(|v| v.key == "controller.position_gain_a_per_mm")
+        .unwrap();
+    assert!(y_gain.determined, "{y_gain:?}");
+    // The torque constant scales every gain: it is the data sheet's, said so.
     assert!(
-        id.axes[0]
-            .values
-            .iter()
-            .all(|v| !v.key.starts_with("position_loop.kv"))
+        id.axes[0].kept.starts_with("motor.kt_nm_per_a"),
+        "{}",
+        id.axes[0].kept
     );
 }
 

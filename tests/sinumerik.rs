@@ -240,12 +240,19 @@ fn subprograms_from_the_programs_folder_are_named_with_their_own_file_and_line()
     // subprogram runs twice); one in its structure also stops the call, named at the call;
     // a call of one that is not there names the call.
     std::fs::write(dir.path().join("L1.SPF"), "G1 X10 F500\nG1 X=Q7\nM17\n").unwrap();
-    let err = parse_program(main, "MAIN.MPF", &options).unwrap_err().to_string();
+    let err = parse_program(main, "MAIN.MPF", &options)
+        .unwrap_err()
+        .to_string();
     assert_eq!(err.matches("L1.SPF:2:6: Q7").count(), 1, "{err}");
     std::fs::write(dir.path().join("L1.SPF"), "G1 X10 F500\nENDIF\nM17\n").unwrap();
-    let err = parse_program(main, "MAIN.MPF", &options).unwrap_err().to_string();
+    let err = parse_program(main, "MAIN.MPF", &options)
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("L1.SPF:2:"), "{err}");
-    assert!(err.contains("MAIN.MPF:3:5: L1: the subprogram does not run"), "{err}");
+    assert!(
+        err.contains("MAIN.MPF:3:5: L1: the subprogram does not run"),
+        "{err}"
+    );
     let err = parse_program("G710\nN10 NOSUCH(1)\nM30\n", "m.mpf", &options)
         .unwrap_err()
         .to_string();
@@ -287,7 +294,10 @@ fn cycle832_rounds_corners_within_its_tolerance_as_g642_does() {
         "G710 G90 G0 X0 Y0\nG642 CTOL=0.02\nG1 X10 F900\nY10\nCTOL=0.1\nX0\nY0\nG64\nX10\nY10\nM30\n",
     );
     assert_eq!(by_cycle, by_codes);
-    let p = parse("G710\nCYCLE832(0.02, _FINISH, 1)\nG1 X1 F100\nM30\n", "w.mpf");
+    let p = parse(
+        "G710\nCYCLE832(0.02, _FINISH, 1)\nG1 X1 F100\nM30\n",
+        "w.mpf",
+    );
     assert!(
         p.warnings
             .iter()
@@ -316,7 +326,11 @@ fn the_840d_sample_is_its_subprogram_written_out_twice() {
     let blends = |p: &Program| p.segments.iter().map(|s| s.blend).collect::<Vec<_>>();
     assert_eq!(blends(&p), blends(&q));
     // Every cut is written in the subprogram (lines 22–33 of the file).
-    for s in p.segments.iter().filter(|s| s.motion == contourcheck::path::Motion::Feed) {
+    for s in p
+        .segments
+        .iter()
+        .filter(|s| s.motion == contourcheck::path::Motion::Feed)
+    {
         assert!((22..=33).contains(&s.line), "line {}", s.line);
     }
 }

@@ -208,7 +208,12 @@ pub fn load_program(path: &Path, machine: &MachineConfig) -> Result<Program, Cli
     let options = InterpretOptions {
         dialect: DIALECT.get().copied(),
         subprogram_folder: path.parent().map(|p| {
-            if p.as_os_str().is_empty() { Path::new(".") } else { p }.to_path_buf()
+            if p.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                p
+            }
+            .to_path_buf()
         }),
         ..InterpretOptions::default()
     };

@@ -2,7 +2,7 @@
 //! structure, how each is searched (a factor on a positive value, or an increment in units of
 //! its scale) and within what range.
 
-use crate::machine::{AxisConfig, Controller};
+use crate::machine::{AxisConfig, Controller, ControllerOutput};
 use crate::units::GRAVITY_M_PER_S2;
 
 /// A value of an axis that identification fits.
@@ -88,6 +88,47 @@ const COULOMB: Knob = Knob {
     max: 1e6,
 };
 
+/// A transfer-function controller's gain: the numerator's leading coefficient, the whole
+/// numerator scaled with it (its zeros kept).
+const TF_GAIN: Knob = Knob {
+    key: "controller.gain",
+    unit: "",
+    logarithmic: true,
+    least_scale: 0.0,
+    min: 1e-9,
+    max: 1e12,
+};
+const SF_POSITION: Knob = Knob {
+    key: "controller.position_gain_a_per_mm",
+    unit: "A/mm",
+    logarithmic: true,
+    least_scale: 0.0,
+    min: 1e-6,
+    max: 1e6,
+};
+const SF_INTEGRAL: Knob = Knob {
+    key: "controller.integral_gain_a_per_mm_s",
+    unit: "A/(mm·s)",
+    logarithmic: true,
+    least_scale: 0.0,
+    min: 1e-6,
+    max: 1e9,
+};
+const SF_VELOCITY: Knob = Knob {
+    key: "controller.velocity_gain_a_s_per_mm",
+    unit: "A·s/mm",
+    logarithmic: true,
+    least_scale: 0.0,
+    min: 1e-9,
+    max: 1e6,
+};
+
+/// The keys of the controllers' gains, as the search refers to them.
+pub const TF_GAIN_KEY: &str = TF_GAIN.key;
+pub const SF_POSITION_KEY: &str = SF_POSITION.key;
+pub const SF_INTEGRAL_KEY: &str = SF_INTEGRAL.key;
+pub const SF_VELOCITY_KEY: &str = SF_VELOCITY.key;
+
 /// The keys of the cascade's position gain, the velocity integral time, the mass and the
 /// Coulomb force, as the search refers to them.
 pub const KV_KEY: &str = KV.key;
@@ -96,14 +137,18 @@ pub const MASS_KEY: &str = MASS.key;
 pub const COULOMB_KEY: &str = COULOMB.key;
 pub const VISCOUS_KEY: &str = VISCOUS.key;
 
-/// What is fitted on an axis with `controller`. The cascade's own gains (Kv, the velocity
-/// integral time, the feed-forward) with the mechanics; another controller's gains are the
-/// user's settings, and only the mechanics and the dead time are fitted. The velocity
-/// loop's gain K_s is never fitted: it and the mass act on the trace almost only through
-/// their ratio, so it is taken from the template (the control's setting) and the mass and
-/// friction are found relative to it.
-pub(crate) fn for_controller(controller: &Controller) -> Vec<Knob> {
-    match controller {
+/// What is fitted on an axis: the controller's gains with the mechanics — users rarely know
+/// the gains the drive really runs with (set in its own units and scalings, retuned on site).
+///
+/// A gain and the moving mass would act on the record only through their ratio if the mass
+/// were all there is to move; the motor's and the screw's inertia (the data sheet's, kept)
+/// tell them apart, and where the record cannot, the uncertainty says so and the template's
+/// value stays. What no record separates is kept from the template: on the cascade (and a
+/// transfer function commanding a velocity loop) the velocity loop's K_s, which the whole
+/// drive's inertia is found relative to; on a controller that commands current, the torque
+/// constant, which multiplies every gain. Zeros and poles are the template's.
+pub(crate) fn for_axis(axis: &AxisConfig) -> Vec<Knob> {
+    match &axis.controller {
         Controller::Cascade => vec![
             KV,
             VELOCITY_FEEDFORWARD,
@@ -113,7 +158,30 @@ pub(crate) fn for_controller(controller: &Controller) -> Vec<Knob> {
             DEAD_TIME,
             COULOMB,
         ],
-        _ => vec![MASS, VISCOUS, DEAD_TIME, COULOMB],
+        Controller::TransferFunction(tf) if tf.output == ControllerOutput::Velocity => {
+            vec![TF_GAIN, MASS, VISCOUS, DEAD_TIME, COULOMB]
+        }
+        Controller::TransferFunction(_) => vec![TF_GAIN, MASS, VISCOUS, DEAD_TIME, COULOMB],
+        Controller::StateFeedback(sf) => {
+            let mut knobs = vec![SF_POSITION, SF_VELOCITY, MASS];
+            if sf.integral_gain_a_per_mm_s > 0.0 {
+                knobs.push(SF_INTEGRAL);
+            }
+            knobs.extend([VISCOUS, DEAD_TIME, COULOMB]);
+            knobs
+        }
+    }
+}
+
+/// What the template gives that the record cannot tell apart from a fitted value, said in the
+/// report.
+pub(crate) fn kept(axis: &AxisConfig) -> &'static str {
+    if axis.controller.uses_velocity_loop() {
+        "velocity_loop.ks_nm_s_per_rad (mass and friction are found relative to it)"
+    } else {
+        "motor.kt_nm_per_a, the motor's and screw's inertia and the controller's zeros and \
+         poles (the gains are found relative to the torque constant, the table's mass to the \
+         rotating inertia)"
     }
 }
 
@@ -121,6 +189,10 @@ pub(crate) fn for_controller(controller: &Controller) -> Vec<Knob> {
 /// through the machine's key table).
 pub fn get(axis: &AxisConfig, key: &str) -> f64 {
     match key {
+        "controller.gain" => match &axis.controller {
+            Controller::TransferFunction(tf) => leading(&tf.numerator),
+            _ => f64::NAN,
+        },
         "friction.coulomb_n" => {
             axis.friction.coulomb_coefficient * axis.drive.table_mass_kg * GRAVITY_M_PER_S2
         }
@@ -135,11 +207,27 @@ pub(crate) fn set_all(axis: &mut AxisConfig, keys: &[&str], values: &[f64]) {
     for (&key, &v) in keys.iter().zip(values) {
         if key == "friction.coulomb_n" {
             coulomb_n = v;
+        } else if key == "controller.gain" {
+            if let Controller::TransferFunction(tf) = &mut axis.controller {
+                let factor = v / leading(&tf.numerator);
+                if factor.is_finite() {
+                    tf.numerator.iter_mut().for_each(|c| *c *= factor);
+                }
+            }
         } else {
             crate::machine::keys::set(axis, key, v);
         }
     }
     axis.friction.coulomb_coefficient = coulomb_n / (axis.drive.table_mass_kg * GRAVITY_M_PER_S2);
+}
+
+/// A polynomial's first coefficient that is not zero.
+fn leading(coefficients: &[f64]) -> f64 {
+    coefficients
+        .iter()
+        .copied()
+        .find(|c| *c != 0.0)
+        .unwrap_or(f64::NAN)
 }
 
 #[cfg(test)]
@@ -154,14 +242,17 @@ mod tests {
             Controller::Cascade,
             MachineConfig::preset("small-table").unwrap().x.controller,
         ] {
-            for k in for_controller(&controller) {
+            let mut axis = x.clone();
+            axis.controller = controller;
+            for k in for_axis(&axis) {
                 assert!(
                     k.key == "friction.coulomb_n"
+                        || k.key == "controller.gain"
                         || crate::machine::keys::axis_key(k.key).is_some(),
                     "{}",
                     k.key
                 );
-                assert!(get(&x, k.key).is_finite(), "{}", k.key);
+                assert!(get(&axis, k.key).is_finite(), "{}", k.key);
             }
         }
     }
@@ -178,15 +269,26 @@ mod tests {
     }
 
     #[test]
-    fn another_controllers_gains_are_the_users() {
+    fn a_current_commanding_controllers_gains_are_fitted_with_the_mass() {
         let small = MachineConfig::preset("small-table").unwrap();
-        let keys: Vec<&str> = for_controller(&small.x.controller)
-            .iter()
-            .map(|k| k.key)
-            .collect();
+        let keys: Vec<&str> = for_axis(&small.x).iter().map(|k| k.key).collect();
         assert!(
-            !keys.contains(&KV_KEY) && keys.contains(&MASS_KEY),
+            keys.contains(&TF_GAIN_KEY) && keys.contains(&MASS_KEY) && !keys.contains(&KV_KEY),
             "{keys:?}"
         );
+        assert!(kept(&small.x).starts_with("motor.kt_nm_per_a"));
+        // The gain scales the numerator, its zeros kept.
+        let mut x = small.x.clone();
+        let before = get(&x, TF_GAIN_KEY);
+        set_all(&mut x, &[TF_GAIN_KEY], &[1.5 * before]);
+        let (Controller::TransferFunction(a), Controller::TransferFunction(b)) =
+            (&small.x.controller, &x.controller)
+        else {
+            panic!("a transfer function");
+        };
+        for (p, q) in a.numerator.iter().zip(&b.numerator) {
+            assert!((q - 1.5 * p).abs() <= 1e-12 * p.abs());
+        }
+        assert!(kept(&MachineConfig::default_preset().x).starts_with("velocity_loop"));
     }
 }

@@ -3,14 +3,15 @@
 //!
 //! Where `diagnose` keeps the machine file and asks what effect beyond it explains the
 //! record, `identify` starts from a template (a preset or a file) and fits the values a user
-//! would otherwise guess (`knobs`): on the cascade the position gain, the velocity
-//! feed-forward and integral time, and on every structure the moving mass, Coulomb and
-//! viscous friction and a dead time — each by re-simulating the axis on the record's
-//! commands (`solve`). The controller's other settings come from the template: they are
-//! what the user set on the control, and the velocity loop's gain and the mass act almost
-//! only through their ratio.
+//! would otherwise guess (`knobs`): the controller's gains (the cascade's position gain,
+//! velocity feed-forward and integral time; a transfer function's overall gain; state
+//! feedback's three gains), and on every structure the moving mass, Coulomb and viscous
+//! friction and a dead time — each by re-simulating the axis on the record's commands
+//! (`solve`). What no record separates comes from the template: the velocity loop's gain
+//! (the drive's inertia acts through its ratio to it), the torque constant (every gain of a
+//! current-commanding controller acts through its product with it), zeros and poles.
 //!
-//! The search is staged (`staged_start`): the gain first, which sets the lag and hides the
+//! The search is staged (`staged_start`): the gains first, which set the lag and hide the
 //! rest; then a coarse grid over the values that trade with each other through the
 //! standstills and reversals (Coulomb friction, the velocity integral time, the mass), whose
 //! residual has valleys a local search would stay in; then everything from the grid's best
@@ -34,7 +35,10 @@ use crate::gcode::Program;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::trace::measured::MeasuredTrace;
 use crate::units::um_from_m;
-use knobs::{COULOMB_KEY, INTEGRAL_TIME_KEY, KV_KEY, Knob, MASS_KEY, VISCOUS_KEY, get, set_all};
+use knobs::{
+    COULOMB_KEY, INTEGRAL_TIME_KEY, KV_KEY, Knob, MASS_KEY, SF_INTEGRAL_KEY, SF_POSITION_KEY,
+    SF_VELOCITY_KEY, TF_GAIN_KEY, VISCOUS_KEY, get, set_all,
+};
 use solve::{Fit, Fitted};
 
 /// Relative (or, for increments, scaled) uncertainty beyond which a value counts as not
@@ -272,7 +276,7 @@ fn identify_on(
     let (ctx, axis, offset) = (fit.ctx(), fit.axis(), fit.offset());
     let fold = ctx.halves(offset);
     let template_axis = template.axis(axis).clone();
-    let knobs = knobs::for_controller(&template_axis.controller);
+    let knobs = knobs::for_axis(&template_axis);
     let start = staged_start(&fit, &knobs, &template_axis);
     let (round, base) = Round::fit_determined(&fit, &knobs, &start, &template_axis, &fold)?;
     let config = round.config(&base, &round.whole);
@@ -314,11 +318,7 @@ fn identify_on(
             }
         })
         .collect();
-    let kept = if template_axis.controller.is_cascade() {
-        "velocity_loop.ks_nm_s_per_rad (mass and friction are found relative to it)"
-    } else {
-        "the controller's gains (mass and friction are found relative to them)"
-    };
+    let kept = knobs::kept(&template_axis);
     Some((
         config,
         AxisIdentification {
@@ -354,13 +354,13 @@ fn staged_start(fit: &Fit, knobs: &[Knob], template: &AxisConfig) -> AxisConfig 
         let c = Fit::config(staged, from, &f.values);
         Some((f.cost, c))
     };
-    let gain = pick(&[KV_KEY]);
+    let gain = pick(&[KV_KEY, TF_GAIN_KEY, SF_POSITION_KEY, SF_VELOCITY_KEY]);
     let after_gain = if gain.is_empty() {
         template.clone()
     } else {
         fitted_from(template, &gain).map_or_else(|| template.clone(), |(_, c)| c)
     };
-    let grid_keys: Vec<&str> = [COULOMB_KEY, INTEGRAL_TIME_KEY, MASS_KEY]
+    let grid_keys: Vec<&str> = [COULOMB_KEY, INTEGRAL_TIME_KEY, MASS_KEY, SF_INTEGRAL_KEY]
         .into_iter()
         .filter(|k| knobs.iter().any(|q| q.key == *k))
         .collect();
@@ -399,6 +399,10 @@ fn staged_start(fit: &Fit, knobs: &[Knob], template: &AxisConfig) -> AxisConfig 
     scored.sort_by(|a, b| a.0.total_cmp(&b.0));
     let dynamics = pick(&[
         KV_KEY,
+        TF_GAIN_KEY,
+        SF_POSITION_KEY,
+        SF_VELOCITY_KEY,
+        SF_INTEGRAL_KEY,
         INTEGRAL_TIME_KEY,
         MASS_KEY,
         COULOMB_KEY,

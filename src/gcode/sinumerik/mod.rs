@@ -433,8 +433,10 @@ fn refused_keyword(name: &str) -> Option<&'static str> {
     } else if name == "PCALL" || name == "MCALL" {
         MODAL_CALL
     } else if name.starts_with("CYCLE")
-        || ["POCKET1", "POCKET2", "POCKET3", "POCKET4", "SLOT1", "SLOT2", "LONGHOLE"]
-            .contains(&name)
+        || [
+            "POCKET1", "POCKET2", "POCKET3", "POCKET4", "SLOT1", "SLOT2", "LONGHOLE",
+        ]
+        .contains(&name)
     {
         CYCLE
     } else if ["ASPLINE", "BSPLINE", "CSPLINE", "POLY", "BSPLINE"].contains(&name) {
@@ -590,7 +592,8 @@ impl Translator {
         if &upper[name_start..ident_end] == "CYCLE832" {
             return self.cycle832(upper, name_start, ident_end, g_codes, out);
         }
-        if let Some(reason) = refused_keyword(name).or(refused_keyword(&upper[name_start..ident_end]))
+        if let Some(reason) =
+            refused_keyword(name).or(refused_keyword(&upper[name_start..ident_end]))
         {
             return Err(refuse(name_start, rest_word(i), reason));
         }
@@ -718,10 +721,18 @@ impl Translator {
         out: &mut Rewritten,
     ) -> Result<usize, Failure> {
         // A name may go on with digits and underscores: `POCKET_2`.
-        while upper.as_bytes().get(i).is_some_and(|c| c.is_ascii_alphanumeric() || *c == b'_') {
+        while upper
+            .as_bytes()
+            .get(i)
+            .is_some_and(|c| c.is_ascii_alphanumeric() || *c == b'_')
+        {
             i += 1;
         }
-        let name = if i > name_start + name.len() { &upper[name_start..i] } else { name };
+        let name = if i > name_start + name.len() {
+            &upper[name_start..i]
+        } else {
+            name
+        };
         let mut args = Vec::new();
         if upper.as_bytes().get(i) == Some(&b'(') {
             i += 1;

@@ -395,7 +395,13 @@ impl Runner<'_, '_> {
         let unit = if let Some(&range) = self.in_file.get(name) {
             let (text, lines) = (Rc::clone(&self.main_text), self.main_lines.clone());
             let file = self.errors.file.to_string();
-            self.unit(&file, &text, &lines, range, u32::try_from(range.0).unwrap_or(0))
+            self.unit(
+                &file,
+                &text,
+                &lines,
+                range,
+                u32::try_from(range.0).unwrap_or(0),
+            )
         } else {
             let Some(path) = self.path_of(name) else {
                 return Ok(None);
@@ -548,7 +554,9 @@ fn param(text: &str) -> Result<Param, GcodeErrorKind> {
     let default = match default {
         None => 0.0,
         Some(v) => v.parse::<f64>().map_err(|_| {
-            GcodeErrorKind::Invalid(format!("PROC parameter {name}: default '{v}' is not a number"))
+            GcodeErrorKind::Invalid(format!(
+                "PROC parameter {name}: default '{v}' is not a number"
+            ))
         })?,
     };
     Ok(Param {
@@ -565,24 +573,37 @@ mod tests {
     fn headers_name_programs_and_other_sections() {
         assert_eq!(header("%_N_MAIN_MPF"), Some(Header::Main));
         assert_eq!(header("%_n_pock_spf"), Some(Header::Sub("POCK".into())));
-        assert_eq!(header("%_N_MAIN_INI"), Some(Header::Other("MAIN_INI".into())));
+        assert_eq!(
+            header("%_N_MAIN_INI"),
+            Some(Header::Other("MAIN_INI".into()))
+        );
         assert_eq!(header("%MPF100"), Some(Header::Main));
         assert_eq!(header("G1 X1"), None);
     }
 
     #[test]
     fn proc_parameters_are_read_with_their_defaults() {
-        let p = proc_params(&["; pocket", "PROC POCK(REAL DEPTH=2.5, INT N) SAVE", "G1 X1"])
-            .unwrap();
+        let p =
+            proc_params(&["; pocket", "PROC POCK(REAL DEPTH=2.5, INT N) SAVE", "G1 X1"]).unwrap();
         assert_eq!(
             p,
             vec![
-                Param { name: "DEPTH".into(), default: 2.5 },
-                Param { name: "N".into(), default: 0.0 }
+                Param {
+                    name: "DEPTH".into(),
+                    default: 2.5
+                },
+                Param {
+                    name: "N".into(),
+                    default: 0.0
+                }
             ]
         );
         let e = proc_params(&["PROC P(VAR REAL A)"]).unwrap_err();
         assert!(e.2.to_string().contains("by reference"), "{}", e.2);
-        assert!(proc_params(&["G1 X1", "PROC P(REAL A)"]).unwrap().is_empty());
+        assert!(
+            proc_params(&["G1 X1", "PROC P(REAL A)"])
+                .unwrap()
+                .is_empty()
+        );
     }
 }
