@@ -2,7 +2,10 @@
 //! structure, how each is searched (a factor on a positive value, or an increment in units of
 //! its scale) and within what range.
 
-use crate::machine::{AxisConfig, Controller, ControllerOutput};
+use nalgebra::Complex;
+
+use crate::machine::{AxisConfig, Controller};
+use crate::numeric::poly;
 use crate::units::GRAVITY_M_PER_S2;
 
 /// A value of an axis that identification fits.
@@ -123,6 +126,80 @@ const SF_VELOCITY: Knob = Knob {
     max: 1e6,
 };
 
+/// A transfer function's real zeros and poles in the left half-plane, as corner frequencies,
+/// lowest first (a repeated one moves as one): up to two of each are fitted. Integrators
+/// (poles at 0), complex pairs and a digital controller's roots in z are the template's.
+const fn corner(key: &'static str) -> Knob {
+    Knob {
+        key,
+        unit: "Hz",
+        logarithmic: true,
+        least_scale: 0.0,
+        min: 0.01,
+        max: 1e5,
+    }
+}
+const CORNERS: [Knob; 4] = [
+    corner("controller.zero_1_hz"),
+    corner("controller.zero_2_hz"),
+    corner("controller.pole_1_hz"),
+    corner("controller.pole_2_hz"),
+];
+
+/// Which polynomial and which of its corners a corner key names.
+fn corner_of(key: &str) -> Option<(bool, usize)> {
+    let rest = key.strip_prefix("controller.")?.strip_suffix("_hz")?;
+    let (kind, k) = rest.split_once('_')?;
+    let k: usize = k.parse().ok()?;
+    match kind {
+        "zero" => Some((true, k - 1)),
+        "pole" => Some((false, k - 1)),
+        _ => None,
+    }
+}
+
+/// Roots of a polynomial grouped as they repeat, and the indices (into that list) of its
+/// real left-half-plane ones, lowest corner first.
+fn corners(coefficients: &[f64]) -> (Vec<(Complex<f64>, usize)>, Vec<usize>) {
+    // Coefficients typed to four or five figures split a double root by a few parts in a
+    // thousand: within a hundredth, a pair is one root twice (damping above 0.99995).
+    let groups = poly::distinct(&poly::roots(coefficients), 1e-2);
+    // An integrator's pole at 0 comes out a rounding off it: kept, as every root at 0.
+    let size = groups.iter().map(|g| g.0.norm()).fold(0.0, f64::max);
+    let mut real: Vec<usize> = (0..groups.len())
+        .filter(|&i| groups[i].0.im == 0.0 && groups[i].0.re < -1e-9 * size)
+        .collect();
+    real.sort_by(|&a, &b| groups[b].0.re.total_cmp(&groups[a].0.re));
+    (groups, real)
+}
+
+/// The corner (Hz) of `coefficients`' `k`-th real root, lowest first.
+fn corner_hz(coefficients: &[f64], k: usize) -> f64 {
+    let (groups, real) = corners(coefficients);
+    real.get(k)
+        .map_or(f64::NAN, |&i| -groups[i].0.re / std::f64::consts::TAU)
+}
+
+/// `coefficients` with its real roots set to the corners given (by index, lowest first as
+/// they were), the leading coefficient and the other roots kept.
+fn with_corners(coefficients: &[f64], set: &[(usize, f64)]) -> Vec<f64> {
+    let (mut groups, real) = corners(coefficients);
+    for &(k, hz) in set {
+        if let Some(&i) = real.get(k) {
+            groups[i].0 = Complex::new(-std::f64::consts::TAU * hz, 0.0);
+        }
+    }
+    let all: Vec<Complex<f64>> = groups
+        .iter()
+        .flat_map(|&(r, n)| std::iter::repeat_n(r, n))
+        .collect();
+    let fitted = poly::from_roots(leading(coefficients), &all);
+    // As long as the polynomial was (leading zeros kept out).
+    let mut out = vec![0.0; coefficients.len().saturating_sub(fitted.len())];
+    out.extend(fitted);
+    out
+}
+
 /// The keys of the controllers' gains, as the search refers to them.
 pub const TF_GAIN_KEY: &str = TF_GAIN.key;
 pub const SF_POSITION_KEY: &str = SF_POSITION.key;
@@ -158,10 +235,13 @@ pub(crate) fn for_axis(axis: &AxisConfig) -> Vec<Knob> {
             DEAD_TIME,
             COULOMB,
         ],
-        Controller::TransferFunction(tf) if tf.output == ControllerOutput::Velocity => {
-            vec![TF_GAIN, MASS, VISCOUS, DEAD_TIME, COULOMB]
+        Controller::TransferFunction(tf) => {
+            let mut knobs = vec![TF_GAIN, MASS, VISCOUS, DEAD_TIME, COULOMB];
+            if tf.sample_ms == 0.0 {
+                knobs.extend(CORNERS.iter().filter(|k| get(axis, k.key).is_finite()));
+            }
+            knobs
         }
-        Controller::TransferFunction(_) => vec![TF_GAIN, MASS, VISCOUS, DEAD_TIME, COULOMB],
         Controller::StateFeedback(sf) => {
             let mut knobs = vec![SF_POSITION, SF_VELOCITY, MASS];
             if sf.integral_gain_a_per_mm_s > 0.0 {
@@ -179,9 +259,9 @@ pub(crate) fn kept(axis: &AxisConfig) -> &'static str {
     if axis.controller.uses_velocity_loop() {
         "velocity_loop.ks_nm_s_per_rad (mass and friction are found relative to it)"
     } else {
-        "motor.kt_nm_per_a, the motor's and screw's inertia and the controller's zeros and \
-         poles (the gains are found relative to the torque constant, the table's mass to the \
-         rotating inertia)"
+        "motor.kt_nm_per_a and the motor's and screw's inertia (the gains are found relative \
+         to the torque constant, the table's mass to the rotating inertia), the controller's \
+         integrators and complex zeros and poles"
     }
 }
 
@@ -191,6 +271,11 @@ pub fn get(axis: &AxisConfig, key: &str) -> f64 {
     match key {
         "controller.gain" => match &axis.controller {
             Controller::TransferFunction(tf) => leading(&tf.numerator),
+            _ => f64::NAN,
+        },
+        corner if corner_of(corner).is_some() => match (&axis.controller, corner_of(corner)) {
+            (Controller::TransferFunction(tf), Some((true, k))) => corner_hz(&tf.numerator, k),
+            (Controller::TransferFunction(tf), Some((false, k))) => corner_hz(&tf.denominator, k),
             _ => f64::NAN,
         },
         "friction.coulomb_n" => {
@@ -204,7 +289,23 @@ pub fn get(axis: &AxisConfig, key: &str) -> f64 {
 /// not) whatever mass is set with it: the machine file holds it as a share of the weight.
 pub(crate) fn set_all(axis: &mut AxisConfig, keys: &[&str], values: &[f64]) {
     let mut coulomb_n = get(axis, "friction.coulomb_n");
+    // Corners are set together, by their order before any moved.
+    let (mut zeros, mut poles) = (Vec::new(), Vec::new());
     for (&key, &v) in keys.iter().zip(values) {
+        if let Some((zero, k)) = corner_of(key) {
+            if zero { &mut zeros } else { &mut poles }.push((k, v));
+        }
+    }
+    if let Controller::TransferFunction(tf) = &mut axis.controller
+        && (!zeros.is_empty() || !poles.is_empty())
+    {
+        tf.numerator = with_corners(&tf.numerator, &zeros);
+        tf.denominator = with_corners(&tf.denominator, &poles);
+    }
+    for (&key, &v) in keys.iter().zip(values) {
+        if corner_of(key).is_some() {
+            continue;
+        }
         if key == "friction.coulomb_n" {
             coulomb_n = v;
         } else if key == "controller.gain" {
@@ -248,6 +349,7 @@ mod tests {
                 assert!(
                     k.key == "friction.coulomb_n"
                         || k.key == "controller.gain"
+                        || corner_of(k.key).is_some()
                         || crate::machine::keys::axis_key(k.key).is_some(),
                     "{}",
                     k.key
@@ -290,5 +392,35 @@ mod tests {
             assert!((q - 1.5 * p).abs() <= 1e-12 * p.abs());
         }
         assert!(kept(&MachineConfig::default_preset().x).starts_with("velocity_loop"));
+        // Its corners: the double zero at 62.5 rad/s moves as one, the integrator stays, the
+        // derivative filter's pole at 1250 rad/s moves alone.
+        let keys: Vec<&str> = for_axis(&small.x).iter().map(|k| k.key).collect();
+        assert!(keys.contains(&"controller.zero_1_hz") && !keys.contains(&"controller.zero_2_hz"));
+        assert!(keys.contains(&"controller.pole_1_hz") && !keys.contains(&"controller.pole_2_hz"));
+        let zero = get(&small.x, "controller.zero_1_hz");
+        assert!((zero - 62.5 / std::f64::consts::TAU).abs() < 1e-6, "{zero}");
+        let mut x = small.x.clone();
+        set_all(
+            &mut x,
+            &["controller.zero_1_hz", "controller.pole_1_hz", TF_GAIN_KEY],
+            &[20.0, 100.0, 200.0],
+        );
+        let Controller::TransferFunction(tf) = &x.controller else {
+            panic!("a transfer function");
+        };
+        let w = std::f64::consts::TAU * 20.0;
+        let want_num = [200.0, 400.0 * w, 200.0 * w * w];
+        for (a, b) in tf.numerator.iter().zip(want_num) {
+            assert!((a - b).abs() < 1e-9 * b.abs(), "{:?}", tf.numerator);
+        }
+        let p = std::f64::consts::TAU * 100.0;
+        let want_den = [1.0, p, 0.0];
+        for (a, b) in tf.denominator.iter().zip(want_den) {
+            assert!(
+                (a - b).abs() < 1e-9 * b.abs().max(1.0),
+                "{:?}",
+                tf.denominator
+            );
+        }
     }
 }

@@ -407,6 +407,10 @@ fn staged_start(fit: &Fit, knobs: &[Knob], template: &AxisConfig) -> AxisConfig 
         MASS_KEY,
         COULOMB_KEY,
         VISCOUS_KEY,
+        "controller.zero_1_hz",
+        "controller.zero_2_hz",
+        "controller.pole_1_hz",
+        "controller.pole_2_hz",
     ]);
     scored
         .into_iter()

@@ -3,6 +3,7 @@
 //! one-dimensional minimum search. Each is tested here on problems with known answers.
 
 pub mod lsq;
+pub(crate) mod poly;
 mod search;
 
 pub use search::golden_section;
