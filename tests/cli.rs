@@ -814,3 +814,81 @@ fn identify_writes_a_machine_file_check_takes_and_a_record_without_commands_is_r
     );
     assert!(!dir.path().join("never.toml").exists());
 }
+
+/// The README's example of a controller that is not its design: the documented commands,
+/// on the documented files, find the stand-in's gain, corners, mass and friction, and the
+/// identified machine predicts the held-out halves to the record's noise.
+#[test]
+fn the_readme_lead_lag_example_identifies_the_stand_in() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let example = |name: &str| {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("docs/examples")
+            .join(name)
+            .to_str()
+            .unwrap()
+            .to_string()
+    };
+    let program = sample("small-circle.nc");
+    let program = program.to_str().unwrap();
+    let o = run(&[
+        "synth",
+        program,
+        "--machine",
+        &example("lead-lag-table.toml"),
+        "--with-commands",
+        "--rate-hz",
+        "10000",
+        "--quantization-um",
+        "0.1",
+        "--noise-um",
+        "0.05",
+        "--out",
+        &path("record.csv"),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let o = run(&[
+        "identify",
+        program,
+        "--measured",
+        &path("record.csv"),
+        "--template",
+        &example("lead-lag-design.toml"),
+        "--out",
+        &path("mine.toml"),
+        "--json",
+        &path("id.json"),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path("id.json")).unwrap()).unwrap();
+    let x = &json["axes"][0];
+    let value = |key: &str| {
+        let v = x["values"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|v| v["key"] == key)
+            .unwrap_or_else(|| panic!("{key}: {x}"));
+        assert_eq!(v["determined"], true, "{key}: {v}");
+        v["value"].as_f64().unwrap()
+    };
+    for (key, truth) in [
+        ("controller.gain", 60.75),
+        ("controller.zero_1_hz", 3.5),
+        ("controller.zero_2_hz", 14.4),
+        ("controller.pole_1_hz", 64.0),
+        ("drive.table_mass_kg", 40.0),
+        ("friction.coulomb_n", 0.15 * 40.0 * 9.81),
+    ] {
+        let v = value(key);
+        assert!((v / truth - 1.0).abs() < 0.03, "{key}: {v} against {truth}");
+    }
+    let noise = json["noise_um"].as_f64().unwrap();
+    for axis in json["axes"].as_array().unwrap() {
+        let held_out = axis["held_out_identified_um"].as_f64().unwrap();
+        assert!(held_out < 1.2 * noise, "{axis}");
+        assert!(held_out < 0.15 * axis["following_error_rms_um"].as_f64().unwrap());
+    }
+}
