@@ -369,4 +369,20 @@ fn a_lead_lag_controllers_gain_and_corners_are_identified() {
         ],
         93,
     );
+    // The machine written holds the controller found, in the template's structure: the same
+    // orders, an integrator still at 0.
+    let (Controller::TransferFunction(found), Controller::TransferFunction(run)) =
+        (&id.machine.x.controller, &truth.x.controller)
+    else {
+        panic!("a transfer function");
+    };
+    assert_eq!(found.denominator[2], 0.0);
+    for (a, b) in found.numerator.iter().zip(&run.numerator) {
+        assert!(
+            (a / b - 1.0).abs() < 0.05,
+            "{:?} against {:?}",
+            found.numerator,
+            run.numerator
+        );
+    }
 }

@@ -163,9 +163,15 @@ fn corner_of(key: &str) -> Option<(bool, usize)> {
 fn corners(coefficients: &[f64]) -> (Vec<(Complex<f64>, usize)>, Vec<usize>) {
     // Coefficients typed to four or five figures split a double root by a few parts in a
     // thousand: within a hundredth, a pair is one root twice (damping above 0.99995).
-    let groups = poly::distinct(&poly::roots(coefficients), 1e-2);
-    // An integrator's pole at 0 comes out a rounding off it: kept, as every root at 0.
+    let mut groups = poly::distinct(&poly::roots(coefficients), 1e-2);
+    // An integrator's pole at 0 comes out a rounding off it: put back at 0 (a written
+    // controller keeps its exact integrator), and kept there.
     let size = groups.iter().map(|g| g.0.norm()).fold(0.0, f64::max);
+    for g in &mut groups {
+        if g.0.norm() <= 1e-9 * size {
+            g.0 = Complex::new(0.0, 0.0);
+        }
+    }
     let mut real: Vec<usize> = (0..groups.len())
         .filter(|&i| groups[i].0.im == 0.0 && groups[i].0.re < -1e-9 * size)
         .collect();
