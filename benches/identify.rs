@@ -1,6 +1,8 @@
 //! `identify` end to end on a 5 s two-axis record at 10 kHz in 0.1 µm counts with its
 //! commands (the sample `identify-moves.nc`): the heavy preset identified from a machine
-//! with other gains, mass and friction, and the small table from one with other mechanics.
+//! with other gains, mass and friction, and the small table from one with other mechanics;
+//! and the README's lead-lag table (gain, three corners, mass and friction free) on the
+//! 5 s small circle.
 
 use std::hint::black_box;
 
@@ -12,17 +14,19 @@ use contourcheck::synth::{SynthSpec, synthesize};
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 use criterion::{Criterion, criterion_group, criterion_main};
 
-fn program() -> Program {
-    let path = format!(
-        "{}/gcode-samples/identify-moves.nc",
-        env!("CARGO_MANIFEST_DIR")
-    );
+fn program(name: &str) -> Program {
+    let path = format!("{}/gcode-samples/{name}", env!("CARGO_MANIFEST_DIR"));
     parse_program(
         &std::fs::read_to_string(path).unwrap(),
-        "identify-moves.nc",
+        name,
         &InterpretOptions::default(),
     )
     .unwrap()
+}
+
+fn example(name: &str) -> MachineConfig {
+    let path = format!("{}/docs/examples/{name}", env!("CARGO_MANIFEST_DIR"));
+    MachineConfig::load(std::path::Path::new(&path)).unwrap()
 }
 
 /// The program's record on `machine`, at 10 kHz in 0.1 µm counts with its commands.
@@ -43,7 +47,8 @@ fn record(program: &Program, machine: &MachineConfig) -> MeasuredTrace {
 }
 
 fn identify_bench(c: &mut Criterion) {
-    let program = program();
+    let moves = program("identify-moves.nc");
+    let circle = program("small-circle.nc");
     let heavy = MachineConfig::default_preset();
     let mut heavy_truth = heavy.clone();
     heavy_truth.x.position_loop.kv_m_per_min_per_mm = 0.9;
@@ -60,14 +65,24 @@ fn identify_bench(c: &mut Criterion) {
     small_truth.y.friction.viscous_n_s_per_m = 400.0;
     let mut g = c.benchmark_group("identify");
     g.sample_size(10);
-    for (name, template, truth) in [
-        ("hvmc, 5 s at 10 kHz", &heavy, &heavy_truth),
-        ("small table, 5 s at 10 kHz", &small, &small_truth),
+    let (design, stand_in) = (
+        example("lead-lag-design.toml"),
+        example("lead-lag-table.toml"),
+    );
+    for (name, program, template, truth) in [
+        ("hvmc, 5 s at 10 kHz", &moves, &heavy, &heavy_truth),
+        ("small table, 5 s at 10 kHz", &moves, &small, &small_truth),
+        (
+            "lead-lag table, free controller, 5 s at 10 kHz",
+            &circle,
+            &design,
+            &stand_in,
+        ),
     ] {
-        let measured = record(&program, truth);
+        let measured = record(program, truth);
         let settings = CompareSettings::for_machine(template);
         g.bench_function(name, |b| {
-            b.iter(|| identify(black_box(&program), template, &measured, &settings).unwrap())
+            b.iter(|| identify(black_box(program), template, &measured, &settings).unwrap())
         });
     }
     g.finish();
