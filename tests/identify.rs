@@ -83,8 +83,12 @@ fn hidden_value(hidden: &AxisConfig, key: &str) -> f64 {
             }
             hz[usize::from(key.contains("_2_"))]
         }
+        // The gain at low frequency: the lowest-order coefficients' ratio.
         "controller.gain" => match &hidden.controller {
-            Controller::TransferFunction(tf) => tf.numerator[0],
+            Controller::TransferFunction(tf) => {
+                let last = |c: &[f64]| *c.iter().rev().find(|v| **v != 0.0).unwrap();
+                last(&tf.numerator) / last(&tf.denominator)
+            }
             other => panic!("{other:?}"),
         },
         other => {
@@ -125,9 +129,16 @@ fn identified_and_predicting(
                 v.uncertainty
             );
         }
-        // Each axis that has the value (a corner of one axis's controller, say).
+        // Each axis that has the value, or the one named (`x:controller.zero_1_hz`).
         for key in must_see {
-            if let Some(v) = a.values.iter().find(|v| v.key == *key) {
+            let (only, key) = match key.split_once(':') {
+                Some((axis, key)) => (Some(axis), key),
+                None => (None, *key),
+            };
+            if only.is_some_and(|axis| !axis.eq_ignore_ascii_case(&a.axis.to_string())) {
+                continue;
+            }
+            if let Some(v) = a.values.iter().find(|v| v.key == key) {
                 assert!(v.determined, "{}: {key} not determined: {v:?}", a.axis);
             }
         }
@@ -141,10 +152,11 @@ fn identified_and_predicting(
         );
     }
     for key in must_see {
+        let key = key.split_once(':').map_or(*key, |(_, k)| k);
         assert!(
             id.axes
                 .iter()
-                .any(|a| a.values.iter().any(|v| v.key == *key)),
+                .any(|a| a.values.iter().any(|v| v.key == key)),
             "{key} is fitted on neither axis"
         );
     }
@@ -364,8 +376,8 @@ fn a_lead_lag_controllers_gain_and_corners_are_identified() {
         &truth,
         &[
             "controller.gain",
-            "controller.zero_1_hz",
-            "controller.zero_2_hz",
+            "x:controller.zero_1_hz",
+            "x:controller.zero_2_hz",
         ],
         93,
     );

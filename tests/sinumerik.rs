@@ -85,7 +85,7 @@ fn the_dialect_is_told_from_the_file_or_named() {
 
 #[test]
 fn what_the_dialect_front_end_does_not_read_is_refused_at_its_line() {
-    let text = "%_N_P_MPF\nN10 G710 G90\nN20 CASE R1 OF 1 GOTOF A DEFAULT GOTOF B\nN30 G1 X=$AA_IW[X] F100\nN40 MIRROR X0\n\
+    let text = "%_N_P_MPF\nN10 G710 G90\nN20 CASE R1 OF 1 GOTOF A DEFAULT GOTOF B\nN30 G1 X=$AA_IW[X] F100\nN40 ROTS X30 Y45\n\
                 N50 CYCLE72(\"C1\")\nN60 ASPLINE X1 Y2\nN70 G41 X5\nN80 L123 P2\nM30\n";
     let err = parse_program(text, "p.mpf", &InterpretOptions::default())
         .unwrap_err()
@@ -93,7 +93,7 @@ fn what_the_dialect_front_end_does_not_read_is_refused_at_its_line() {
     for (place, word) in [
         ("p.mpf:3:5", "CASE"),
         ("p.mpf:4:10", "$AA_IW"),
-        ("p.mpf:5:5", "MIRROR"),
+        ("p.mpf:5:5", "ROTS"),
         ("p.mpf:6:5", "CYCLE72"),
         ("p.mpf:7:5", "ASPLINE"),
         ("p.mpf:8:5", "G41"),
@@ -333,4 +333,48 @@ fn the_840d_sample_is_its_subprogram_written_out_twice() {
     {
         assert!((22..=33).contains(&s.line), "line {}", s.line);
     }
+}
+
+#[test]
+fn scaled_and_mirrored_frames_scale_radii_and_turn_arcs_round() {
+    // SCALE doubles the workpiece; MIRROR X0 (replacing it) mirrors X, which turns the
+    // workpiece's clockwise arcs counter-clockwise — also a modal arc's block that names
+    // no G code; AMIRROR X0 mirrors back, and the program's G2 holds again.
+    let sinumerik = "N10 G710 G90 G17 G94 G64\nN20 G0 X0 Y0 Z0\nN30 SCALE X2 Y2\n\
+                     N40 G1 X10 F500\nN50 G3 X20 Y10 CR=10\nN60 G2 X30 Y20 I10 J0\n\
+                     N70 MIRROR X0\nN80 G1 X-70\nN90 G2 X-80 Y50 I0 J10\nN100 X-90 Y40 I-10 J0\n\
+                     N110 AMIRROR X0\nN120 X100 Y50 I0 J10\nN130 M30\n";
+    let rs274 = "G21 G90 G17 G94 G64\nG0 X0 Y0 Z0\nG1 X20 F500\nG3 X40 Y20 R20\n\
+                 G2 X60 Y40 I20 J0\nG1 X70 Y40\nG3 X80 Y50 I0 J10\nX90 Y40 I10 J0\n\
+                 G2 X100 Y50 I0 J10\nM2\n";
+    let a = parse(rs274, "by-hand.ngc");
+    let b = parse(sinumerik, "frames.mpf");
+    assert_eq!(ends_nm(&a), ends_nm(&b));
+    let arcs = |p: &Program| {
+        p.segments
+            .iter()
+            .filter_map(|s| match s.geometry {
+                Geometry::Arc(arc) => Some((
+                    (arc.sweep_rad * 1e9).round() as i64,
+                    (arc.center_m[0] * 1e9).round() as i64,
+                    (arc.center_m[1] * 1e9).round() as i64,
+                )),
+                _ => None,
+            })
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(arcs(&a), arcs(&b));
+    assert_eq!(arcs(&b).len(), 5);
+    // An arc under a scale that differs on X and Y is an ellipse: refused at its block.
+    let err = parse_program(
+        "G710 G90 G0 X0 Y0 Z0\nSCALE X2 Y3\nG2 X10 Y0 I5 J0 F100\nM30\n",
+        "ellipse.mpf",
+        &InterpretOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        err.contains("ellipse.mpf:3:4: G2: an arc under a scale"),
+        "{err}"
+    );
 }

@@ -21,6 +21,7 @@
 use std::cell::RefCell;
 
 use nalgebra::{DMatrix, DVector};
+use rayon::prelude::*;
 
 use super::{Context, Stepping};
 use crate::causes::{self, CauseId, Param};
@@ -134,7 +135,21 @@ fn with_cause(
 }
 
 /// Fits `cause` on `axis` on the statistics of its residual (see
-/// [`Context::statistical_residual`]), the offset held.
+/// [`Context::statistical_residual`]), the offset held: the best of `starts` (evaluated side
+/// by side), refined by [`surface_descent`], its uncertainties from the χ²'s curvature as
+/// `uncertainty` asks.
+/// Whether a statistical fit's uncertainties are worked out (a grid of simulations around
+/// the best values): only when its χ² falls by at least this much from the χ² before (a fit
+/// that falls short is not named, whatever its uncertainty: its uncertainties are left NaN
+/// and the fit is not kept); or never (a fit whose values only serve to be scored elsewhere,
+/// as on the held-out half).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Uncertainty {
+    IfGainAtLeast(f64),
+    Never,
+}
+
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn fit_statistical(
     ctx: &Context,
     machine: &MachineConfig,
@@ -143,6 +158,7 @@ pub(crate) fn fit_statistical(
     starts: &[Vec<f64>],
     offset_s: f64,
     other: &[f64],
+    (before, uncertainty): (f64, Uncertainty),
 ) -> Option<Fitted> {
     let params = cause.params();
     let simulate =
@@ -156,15 +172,24 @@ pub(crate) fn fit_statistical(
         })
     };
     // Stick-slip statistics depend on every slip: the starts are looked at as finely as
-    // the fit.
+    // the fit, in parallel (each a simulation of the whole record; the first of equal
+    // costs wins, as in order).
     let (start_cost, start) = starts
-        .iter()
+        .par_iter()
         .map(|s| (chi2(s), s))
+        .collect::<Vec<_>>()
+        .into_iter()
         .min_by(|a, b| a.0.total_cmp(&b.0))?;
-    let (values, best) = nelder_mead(start, start_cost, params, &chi2);
+    let (values, best) = surface_descent(start, start_cost, params, &chi2);
     let trace = simulate(&values)?;
     let n_terms = ctx.statistical_residual(axis, &trace, offset_s).len();
-    let sigma = curvature_sigma(params, &values, best, n_terms, &chi2);
+    let sigma = match uncertainty {
+        Uncertainty::IfGainAtLeast(gain) if before - best < gain => {
+            vec![f64::NAN; params.len()]
+        }
+        Uncertainty::Never => vec![0.0; params.len()],
+        Uncertainty::IfGainAtLeast(_) => curvature_sigma(params, &values, best, n_terms, &chi2),
+    };
     let sum_sq = |v: Vec<f64>| v.iter().map(|x| x * x).sum::<f64>();
     let rss = sum_sq(ctx.residual(axis, &trace, offset_s))
         + sum_sq(ctx.residual(axis.other(), other, offset_s));
@@ -208,7 +233,7 @@ fn curvature_sigma(
     values: &[f64],
     best: f64,
     n_terms: usize,
-    objective: &dyn Fn(&[f64]) -> f64,
+    objective: &(dyn Fn(&[f64]) -> f64 + Sync),
 ) -> Vec<f64> {
     let n = params.len();
     let h: Vec<f64> = params
@@ -220,7 +245,7 @@ fn curvature_sigma(
     let levels = [-2.0, -1.0, 0.0, 1.0, 2.0];
     let design = grid_of(n, &levels);
     let chi2: Vec<f64> = design
-        .iter()
+        .par_iter()
         .map(|u| {
             if u.iter().all(|&u| u == 0.0) {
                 best
@@ -294,8 +319,35 @@ fn grid_of(n: usize, levels: &[f64]) -> Vec<Vec<f64>> {
 /// values about it. None when it cannot be fitted.
 fn quadratic_fit(design: &[Vec<f64>], y: &[f64]) -> Option<(DMatrix<f64>, f64)> {
     let n = design.first().map_or(0, Vec::len);
-    let quadratic_terms: Vec<(usize, usize)> =
-        (0..n).flat_map(|j| (0..=j).map(move |k| (j, k))).collect();
+    let (a, coefficients) = quadratic_system(design, y)?;
+    let quadratic_terms = quadratic_terms(n);
+    let mut hessian = DMatrix::<f64>::zeros(n, n);
+    for (c, &(j, k)) in quadratic_terms.iter().enumerate() {
+        hessian[(j, k)] = coefficients[1 + n + c];
+        hessian[(k, j)] = coefficients[1 + n + c];
+    }
+    let y = DVector::from_column_slice(y);
+    let columns = a.ncols();
+    let jitter =
+        ((&y - &a * &coefficients).norm_squared() / (design.len() - columns).max(1) as f64).sqrt();
+    Some((hessian, jitter))
+}
+
+/// The quadratic's coefficients: constant, linear, then the quadratic terms in the order of
+/// [`quadratic_terms`].
+fn quadratic_coefficients(design: &[Vec<f64>], y: &[f64]) -> Option<DVector<f64>> {
+    quadratic_system(design, y).map(|(_, c)| c)
+}
+
+/// The (j, k), k ≤ j, of the quadratic terms of `n` variables.
+fn quadratic_terms(n: usize) -> Vec<(usize, usize)> {
+    (0..n).flat_map(|j| (0..=j).map(move |k| (j, k))).collect()
+}
+
+/// The least-squares system of the quadratic: its design matrix and solution.
+fn quadratic_system(design: &[Vec<f64>], y: &[f64]) -> Option<(DMatrix<f64>, DVector<f64>)> {
+    let n = design.first().map_or(0, Vec::len);
+    let quadratic_terms = quadratic_terms(n);
     let columns = 1 + n + quadratic_terms.len();
     let mut a = DMatrix::<f64>::zeros(design.len(), columns);
     for (row, u) in design.iter().enumerate() {
@@ -313,14 +365,108 @@ fn quadratic_fit(design: &[Vec<f64>], y: &[f64]) -> Option<(DMatrix<f64>, f64)> 
     }
     let y = DVector::from_column_slice(y);
     let coefficients = a.clone().svd(true, true).solve(&y, 1e-12).ok()?;
-    let mut hessian = DMatrix::<f64>::zeros(n, n);
-    for (c, &(j, k)) in quadratic_terms.iter().enumerate() {
-        hessian[(j, k)] = coefficients[1 + n + c];
-        hessian[(k, j)] = coefficients[1 + n + c];
+    Some((a, coefficients))
+}
+
+/// A descent over the cause's parameters on a rough objective (stick-slip statistics), by
+/// quadratic surfaces: around the best point so far a 3ⁿ grid spanning ±20 % of each value
+/// (at least 5 % of its scale) is evaluated in parallel, a quadratic fitted to it, and its
+/// minimum — within one and a half steps of the centre — tried; the best point of all is the
+/// next centre, on a grid half as wide. Three rounds. A quadratic through many points
+/// averages the objective's jitter, where a simplex's steps follow it, and a round's
+/// simulations run side by side. Returns the best values and their cost.
+fn surface_descent(
+    start: &[f64],
+    start_cost: f64,
+    params: &[Param],
+    cost: &(dyn Fn(&[f64]) -> f64 + Sync),
+) -> (Vec<f64>, f64) {
+    const ROUNDS: usize = 3;
+    let n = params.len();
+    let clamp = |v: Vec<f64>| -> Vec<f64> {
+        v.iter()
+            .zip(params)
+            .map(|(x, q)| x.clamp(q.min, q.max))
+            .collect()
+    };
+    let mut best = (start.to_vec(), start_cost);
+    let mut h: Vec<f64> = params
+        .iter()
+        .zip(start)
+        .map(|(q, v)| 0.2 * v.abs().max(0.25 * q.scale))
+        .collect();
+    let design = grid_of(n, &[-1.0, 0.0, 1.0]);
+    for _ in 0..ROUNDS {
+        let centre = best.0.clone();
+        let point = |u: &[f64]| -> Vec<f64> {
+            clamp(
+                centre
+                    .iter()
+                    .zip(u)
+                    .zip(&h)
+                    .map(|((c, u), h)| c + u * h)
+                    .collect(),
+            )
+        };
+        let costs: Vec<f64> = design
+            .par_iter()
+            .map(|u| {
+                if u.iter().all(|&u| u == 0.0) {
+                    best.1
+                } else {
+                    cost(&point(u))
+                }
+            })
+            .collect();
+        let mut candidates: Vec<(Vec<f64>, f64)> = design
+            .iter()
+            .zip(&costs)
+            .map(|(u, &c)| (point(u), c))
+            .collect();
+        if let Some(u) = quadratic_minimum(&design, &costs, 1.5) {
+            let p = point(&u);
+            let c = cost(&p);
+            candidates.push((p, c));
+        }
+        if let Some(b) = candidates
+            .into_iter()
+            .filter(|c| c.1.is_finite())
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            && b.1 < best.1
+        {
+            best = b;
+        }
+        h.iter_mut().for_each(|h| *h *= 0.5);
     }
-    let jitter =
-        ((&y - &a * &coefficients).norm_squared() / (design.len() - columns).max(1) as f64).sqrt();
-    Some((hessian, jitter))
+    best
+}
+
+/// The minimum of the quadratic fitted to `y` at the points `design` (in steps), when it
+/// has one (a positive definite Hessian), each coordinate clamped to ±`within`.
+fn quadratic_minimum(design: &[Vec<f64>], y: &[f64], within: f64) -> Option<Vec<f64>> {
+    if y.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let n = design.first().map_or(0, Vec::len);
+    let (hessian, _) = quadratic_fit(design, y)?;
+    let gradient = quadratic_gradient(design, y)?;
+    let eigen = hessian.clone().symmetric_eigen();
+    if eigen.eigenvalues.iter().any(|&l| l <= 0.0) {
+        return None;
+    }
+    let step = hessian.lu().solve(&(-gradient))?;
+    Some((0..n).map(|j| step[j].clamp(-within, within)).collect())
+}
+
+/// The linear coefficients (the gradient at the centre) of the quadratic fitted as in
+/// [`quadratic_fit`].
+fn quadratic_gradient(design: &[Vec<f64>], y: &[f64]) -> Option<DVector<f64>> {
+    let n = design.first().map_or(0, Vec::len);
+    let coefficients = quadratic_coefficients(design, y)?;
+    Some(DVector::from_iterator(
+        n,
+        (0..n).map(|j| coefficients[1 + j]),
+    ))
 }
 
 /// Nelder–Mead over the cause's parameters (scaled) from `start`; returns the best values

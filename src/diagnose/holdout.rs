@@ -111,7 +111,11 @@ pub(crate) fn held_out(
     let other = &traces[axis.other().index()];
     let starts = [values.to_vec()];
     let fitted = if statistical {
-        fit::fit_statistical(&train, current, axis, cause, &starts, offset_s, other)
+        // Its values are only scored on the other half: no uncertainties.
+        let never = (f64::NAN, fit::Uncertainty::Never);
+        fit::fit_statistical(
+            &train, current, axis, cause, &starts, offset_s, other, never,
+        )
     } else {
         fit::fit_cause(&train, current, axis, cause, &starts, offset_s, other)
     }?;

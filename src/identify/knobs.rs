@@ -4,9 +4,18 @@
 
 use nalgebra::Complex;
 
-use crate::machine::{AxisConfig, Controller};
+use crate::machine::{AxisConfig, Controller, TransferFunction};
 use crate::numeric::poly;
 use crate::units::GRAVITY_M_PER_S2;
+
+/// Relative (or, for increments, scaled) uncertainty beyond which a value counts as not
+/// determined by the record.
+const UNDETERMINED: f64 = 0.5;
+/// The same for a controller's corner: one the record leaves more than 5 % open lies beyond
+/// what the record excites (a derivative filter's pole far above the loop's bandwidth), and
+/// fitted it would only follow the noise — each half of the record puts it elsewhere, and
+/// the gain with it. The design's value is kept.
+const CORNER_UNDETERMINED: f64 = 0.05;
 
 /// A value of an axis that identification fits.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -21,6 +30,9 @@ pub struct Knob {
     /// For increments: the least scale of a step, and the yardstick of "not determined"
     /// (the value itself, where larger).
     pub least_scale: f64,
+    /// Relative (or, for increments, scaled) uncertainty beyond which the record does not
+    /// determine the value.
+    pub undetermined_beyond: f64,
     /// Range the value is kept in.
     pub min: f64,
     /// Upper end.
@@ -28,6 +40,11 @@ pub struct Knob {
 }
 
 impl Knob {
+    /// Whether it is one of a transfer function's corners.
+    pub(crate) fn is_corner(&self) -> bool {
+        corner_of(self.key).is_some()
+    }
+
     /// The scale of an increment about `value`.
     pub(crate) fn scale_at(&self, value: f64) -> f64 {
         value.abs().max(self.least_scale)
@@ -39,6 +56,7 @@ const KV: Knob = Knob {
     unit: "m/min/mm",
     logarithmic: true,
     least_scale: 0.0,
+    undetermined_beyond: UNDETERMINED,
     min: 0.01,
     max: 100.0,
 };
@@ -47,6 +65,7 @@ const VELOCITY_FEEDFORWARD: Knob = Knob {
     unit: "",
     logarithmic: false,
     least_scale: 0.1,
+    undetermined_beyond: UNDETERMINED,
     min: 0.0,
     max: 1.2,
 };
@@ -55,6 +74,7 @@ const INTEGRAL_TIME: Knob = Knob {
     unit: "ms",
     logarithmic: true,
     least_scale: 0.0,
+    undetermined_beyond: UNDETERMINED,
     min: 0.1,
     max: 1e4,
 };
@@ -63,6 +83,7 @@ const MASS: Knob = Knob {
     unit: "kg",
     logarithmic: true,
     least_scale: 0.0,
+    undetermined_beyond: UNDETERMINED,
     min: 0.1,
     max: 1e6,
 };
@@ -71,6 +92,7 @@ const VISCOUS: Knob = Knob {
     unit: "N·s/m",
     logarithmic: false,
     least_scale: 100.0,
+    undetermined_beyond: UNDETERMINED,
     min: 0.0,
     max: 1e8,
 };
@@ -79,6 +101,7 @@ const DEAD_TIME: Knob = Knob {
     unit: "ms",
     logarithmic: false,
     least_scale: 1.0,
+    undetermined_beyond: UNDETERMINED,
     min: 0.0,
     max: 100.0,
 };
@@ -87,17 +110,22 @@ const COULOMB: Knob = Knob {
     unit: "N",
     logarithmic: false,
     least_scale: 10.0,
+    undetermined_beyond: UNDETERMINED,
     min: 0.0,
     max: 1e6,
 };
 
-/// A transfer-function controller's gain: the numerator's leading coefficient, the whole
-/// numerator scaled with it (its zeros kept).
+/// A transfer-function controller's gain at low frequency: the ratio of the lowest-order
+/// coefficients of numerator and denominator (an integrating controller's integral gain, a
+/// PD's proportional gain), the whole numerator scaled with it (its zeros kept). Measured
+/// there, it does not trade with the corners above the loop's bandwidth, which a record
+/// barely sees (a derivative filter's pole), as the leading coefficient would.
 const TF_GAIN: Knob = Knob {
     key: "controller.gain",
     unit: "",
     logarithmic: true,
     least_scale: 0.0,
+    undetermined_beyond: UNDETERMINED,
     min: 1e-9,
     max: 1e12,
 };
@@ -106,6 +134,7 @@ const SF_POSITION: Knob = Knob {
     unit: "A/mm",
     logarithmic: true,
     least_scale: 0.0,
+    undetermined_beyond: UNDETERMINED,
     min: 1e-6,
     max: 1e6,
 };
@@ -114,6 +143,7 @@ const SF_INTEGRAL: Knob = Knob {
     unit: "A/(mm·s)",
     logarithmic: true,
     least_scale: 0.0,
+    undetermined_beyond: UNDETERMINED,
     min: 1e-6,
     max: 1e9,
 };
@@ -122,6 +152,7 @@ const SF_VELOCITY: Knob = Knob {
     unit: "A·s/mm",
     logarithmic: true,
     least_scale: 0.0,
+    undetermined_beyond: UNDETERMINED,
     min: 1e-9,
     max: 1e6,
 };
@@ -135,6 +166,7 @@ const fn corner(key: &'static str) -> Knob {
         unit: "Hz",
         logarithmic: true,
         least_scale: 0.0,
+        undetermined_beyond: CORNER_UNDETERMINED,
         min: 0.01,
         max: 1e5,
     }
@@ -276,7 +308,7 @@ pub(crate) fn kept(axis: &AxisConfig) -> &'static str {
 pub fn get(axis: &AxisConfig, key: &str) -> f64 {
     match key {
         "controller.gain" => match &axis.controller {
-            Controller::TransferFunction(tf) => leading(&tf.numerator),
+            Controller::TransferFunction(tf) => low_frequency_gain(tf),
             _ => f64::NAN,
         },
         corner if corner_of(corner).is_some() => match (&axis.controller, corner_of(corner)) {
@@ -305,8 +337,11 @@ pub(crate) fn set_all(axis: &mut AxisConfig, keys: &[&str], values: &[f64]) {
     if let Controller::TransferFunction(tf) = &mut axis.controller
         && (!zeros.is_empty() || !poles.is_empty())
     {
+        // The corners move with the low-frequency gain held.
+        let gain = low_frequency_gain(tf);
         tf.numerator = with_corners(&tf.numerator, &zeros);
         tf.denominator = with_corners(&tf.denominator, &poles);
+        scale_to_gain(tf, gain);
     }
     for (&key, &v) in keys.iter().zip(values) {
         if corner_of(key).is_some() {
@@ -316,16 +351,34 @@ pub(crate) fn set_all(axis: &mut AxisConfig, keys: &[&str], values: &[f64]) {
             coulomb_n = v;
         } else if key == "controller.gain" {
             if let Controller::TransferFunction(tf) = &mut axis.controller {
-                let factor = v / leading(&tf.numerator);
-                if factor.is_finite() {
-                    tf.numerator.iter_mut().for_each(|c| *c *= factor);
-                }
+                scale_to_gain(tf, v);
             }
         } else {
             crate::machine::keys::set(axis, key, v);
         }
     }
     axis.friction.coulomb_coefficient = coulomb_n / (axis.drive.table_mass_kg * GRAVITY_M_PER_S2);
+}
+
+/// The ratio of the lowest-order coefficients (the last that are not zero) of the
+/// numerator and the denominator.
+fn low_frequency_gain(tf: &TransferFunction) -> f64 {
+    let last = |c: &[f64]| {
+        c.iter()
+            .rev()
+            .copied()
+            .find(|v| *v != 0.0)
+            .unwrap_or(f64::NAN)
+    };
+    last(&tf.numerator) / last(&tf.denominator)
+}
+
+/// The numerator scaled so that the low-frequency gain is `gain`.
+fn scale_to_gain(tf: &mut TransferFunction, gain: f64) {
+    let factor = gain / low_frequency_gain(tf);
+    if factor.is_finite() {
+        tf.numerator.iter_mut().for_each(|c| *c *= factor);
+    }
 }
 
 /// A polynomial's first coefficient that is not zero.
@@ -414,12 +467,14 @@ mod tests {
         let Controller::TransferFunction(tf) = &x.controller else {
             panic!("a transfer function");
         };
+        // The gain is the low-frequency one: K·w²/p = 200.
         let w = std::f64::consts::TAU * 20.0;
-        let want_num = [200.0, 400.0 * w, 200.0 * w * w];
+        let p = std::f64::consts::TAU * 100.0;
+        let k = 200.0 * p / (w * w);
+        let want_num = [k, 2.0 * k * w, k * w * w];
         for (a, b) in tf.numerator.iter().zip(want_num) {
             assert!((a - b).abs() < 1e-9 * b.abs(), "{:?}", tf.numerator);
         }
-        let p = std::f64::consts::TAU * 100.0;
         let want_den = [1.0, p, 0.0];
         for (a, b) in tf.denominator.iter().zip(want_den) {
             assert!(

@@ -41,9 +41,6 @@ use knobs::{
 };
 use solve::{Fit, Fitted};
 
-/// Relative (or, for increments, scaled) uncertainty beyond which a value counts as not
-/// determined by the record.
-const UNDETERMINED: f64 = 0.5;
 /// Least travel an axis's commands must have to identify it (m).
 const LEAST_TRAVEL_M: f64 = 1e-3;
 /// Factors on the values so far that the grid tries, and how many of its best points the
@@ -235,17 +232,63 @@ fn identify_axis(
     axis: AxisName,
     offset: f64,
 ) -> Option<(AxisConfig, AxisIdentification)> {
-    let everywhere = identify_on(Fit::new(ctx, template, axis, offset), template, false)?;
+    // A search that wanders where the model cannot be simulated (an unstable setting) has
+    // found nothing: the template's values stay, said so.
+    let Some(everywhere) =
+        identify_ordered(&Fit::new(ctx, template, axis, offset), template, false)
+    else {
+        return unfitted(Fit::new(ctx, template, axis, offset), template.axis(axis));
+    };
     let noise_um = um_from_m(ctx.noise_sigma);
     if everywhere.1.rms_identified_um <= REACHED_EXCESS * noise_um {
         return Some(everywhere);
     }
     let moving = moving_samples(ctx, axis, offset);
     let fit = Fit::new(ctx, template, axis, offset).masked(moving);
-    match identify_on(fit, template, true) {
+    match identify_ordered(&fit, template, true) {
         Some(m) if m.1.rms_identified_um <= REACHED_EXCESS * noise_um => Some(m),
         _ => Some(not_reached(everywhere, template.axis(axis))),
     }
+}
+
+/// An axis the search could not fit at all: the template's values and residuals, not
+/// reached; none when even the template cannot be simulated on the record.
+fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentification)> {
+    let (ctx, axis, offset) = (fit.ctx(), fit.axis(), fit.offset());
+    let residual = fit.residual(template)?;
+    let mask = fit.mask();
+    let (ss, n) = residual
+        .iter()
+        .zip(mask)
+        .filter(|(_, m)| **m)
+        .fold((0.0, 0usize), |(s, n), (v, _)| (s + v * v, n + 1));
+    let rms_um = um_from_m((ss / n.max(1) as f64).sqrt());
+    let values = knobs::for_axis(template)
+        .iter()
+        .map(|k| IdentifiedValue {
+            key: k.key,
+            unit: k.unit,
+            template: get(template, k.key),
+            value: get(template, k.key),
+            uncertainty: f64::NAN,
+            determined: false,
+        })
+        .collect();
+    Some((
+        template.clone(),
+        AxisIdentification {
+            axis,
+            values,
+            kept: knobs::kept(template),
+            moving_only: false,
+            reached: false,
+            following_error_rms_um: um_from_m(following_error_rms(ctx, axis, offset)),
+            rms_template_um: rms_um,
+            rms_identified_um: rms_um,
+            held_out_template_um: rms_um,
+            held_out_identified_um: rms_um,
+        },
+    ))
 }
 
 /// An axis whose best fit stays well above the record's noise: the template cannot be made
@@ -268,17 +311,62 @@ fn not_reached(
 /// One axis on the samples `fit` uses: a staged start, the fit on the whole record and each
 /// half, undetermined values put back and the rest fitted again, each half's fit scored on
 /// the other half.
-fn identify_on(
-    fit: Fit,
+/// [`identify_on`] with the controller's corners free and, where it has any, without them:
+/// the corners are kept only where they predict the record's held-out halves better — by
+/// more than a twentieth — than the design's corners do. A corner the record barely sees
+/// (a derivative filter's pole) fitted anyway lets each half's fit wander with the gain, and
+/// the other half is predicted worse.
+fn identify_ordered(
+    fit: &Fit,
     template: &MachineConfig,
     moving_only: bool,
+) -> Option<(AxisConfig, AxisIdentification)> {
+    const BETTER_BY: f64 = 0.95;
+    let template_axis = template.axis(fit.axis());
+    let all = knobs::for_axis(template_axis);
+    let fixed: Vec<Knob> = all.iter().copied().filter(|k| !k.is_corner()).collect();
+    let free = identify_on(fit, template, moving_only, &all);
+    if fixed.len() == all.len() {
+        return free;
+    }
+    let kept = identify_on(fit, template, moving_only, &fixed).map(|(config, mut id)| {
+        // The corners stay the design's: listed, not determined.
+        for k in all.iter().filter(|k| k.is_corner()) {
+            let value = get(template_axis, k.key);
+            id.values.push(IdentifiedValue {
+                key: k.key,
+                unit: k.unit,
+                template: value,
+                value,
+                uncertainty: f64::NAN,
+                determined: false,
+            });
+        }
+        (config, id)
+    });
+    match (free, kept) {
+        (Some(f), Some(k)) => Some(
+            if f.1.held_out_identified_um < BETTER_BY * k.1.held_out_identified_um {
+                f
+            } else {
+                k
+            },
+        ),
+        (f, k) => f.or(k),
+    }
+}
+
+fn identify_on(
+    fit: &Fit,
+    template: &MachineConfig,
+    moving_only: bool,
+    knobs: &[Knob],
 ) -> Option<(AxisConfig, AxisIdentification)> {
     let (ctx, axis, offset) = (fit.ctx(), fit.axis(), fit.offset());
     let fold = ctx.halves(offset);
     let template_axis = template.axis(axis).clone();
-    let knobs = knobs::for_axis(&template_axis);
-    let start = staged_start(&fit, &knobs, &template_axis);
-    let (round, base) = Round::fit_determined(&fit, &knobs, &start, &template_axis, &fold)?;
+    let start = staged_start(fit, knobs, &template_axis);
+    let (round, base) = Round::fit_determined(fit, knobs, &start, &template_axis, &fold)?;
     let config = round.config(&base, &round.whole);
     let mask = fit.mask();
     let rms = |r: &[f64]| {
@@ -494,7 +582,7 @@ impl Round {
                 } else {
                     k.scale_at(**v)
                 };
-                !(s.is_finite() && **s <= UNDETERMINED * size)
+                !(s.is_finite() && **s <= k.undetermined_beyond * size)
             })
             .map(|((k, _), _)| k.key)
             .collect()

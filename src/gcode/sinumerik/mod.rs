@@ -22,9 +22,10 @@
 //!   ([`expr`]: `+ - * /`, brackets, `SIN`, `COS`, `TAN`, `ATAN2`, `SQRT`, `ABS`, `POT`, …),
 //!   evaluated as the lines are read — programs run straight through, so each value is the
 //!   one the control would have there;
-//! - the programmable frames `TRANS`/`ATRANS` (a shift) and `ROT`/`AROT` (a turn in the XY
-//!   plane, `RPL=` or `Z`): coordinates are tracked in the workpiece's frame and written
-//!   turned and shifted into the program's, arc centres turned with them;
+//! - the programmable frames `TRANS`/`ATRANS` (a shift), `ROT`/`AROT` (a turn in the XY
+//!   plane, `RPL=` or `Z`), `SCALE`/`ASCALE` and `MIRROR`/`AMIRROR`: coordinates are tracked
+//!   in the workpiece's frame and written into the program's, arc centres and radii with
+//!   them, a mirrored arc's direction reversed;
 //! - program control on lines of its own ([`flow`]): labels, `GOTOF`/`GOTOB`/`GOTO`/`GOTOC`,
 //!   `IF … GOTO…`, `IF`/`ELSE`/`ENDIF`, `WHILE`, `FOR`, `REPEAT`/`UNTIL`, `LOOP`, run as the
 //!   control runs them (a program that runs more than 20 million blocks is an error);
@@ -35,7 +36,7 @@
 //! the feed-forward are the planner's and the machine file's settings, not switched by the
 //! program. Refused, with the word and the reason: system variables (`$…`), other `DEF`
 //! types, `CASE` and control sharing a line with other words, modal calls (`MCALL`, `PCALL`),
-//! scaled, mirrored and solid-angle frames (`SCALE`, `MIRROR`, `ROTS`), machining cycles
+//! solid-angle frames (`ROTS`), arcs under unequal scales (ellipses), machining cycles
 //! (`CYCLE…`, `POCKET3`, …), splines, the compressor, transformations (`TRAORI`, `TRANSMIT`, `TRACYL`)
 //! and cutter compensation — never a move skipped.
 
@@ -194,6 +195,10 @@ pub(crate) struct Translator {
     call: Option<Call>,
     /// The block returned from the subprogram (`M17`, `RET`).
     returned: bool,
+    /// The motion mode the program set (`G0`–`G3`), and the one the interpreter holds:
+    /// they differ on arcs under a mirror.
+    motion: Option<u32>,
+    emitted_motion: Option<u32>,
 }
 
 /// A subprogram call: `L123 P3`, `POCKET(5, , 2)`, `CALL "NAME"`.
@@ -211,12 +216,24 @@ pub(crate) struct Call {
     pub repeat: u32,
 }
 
-/// A programmable frame in the XY plane: a point p of the workpiece is at
-/// `shift + rotation(angle)·p` in the program's coordinates.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+/// A programmable frame: a point p of the workpiece is at `shift + rotation(angle)·S·p` in
+/// the program's coordinates, S the scale per axis (negative where mirrored) — the 840D's
+/// order of a frame's parts: translation, rotation, scale, mirror.
+#[derive(Debug, Clone, Copy, PartialEq)]
 struct Frame {
     shift: [f64; 3],
     angle_deg: f64,
+    scale: [f64; 3],
+}
+
+impl Default for Frame {
+    fn default() -> Self {
+        Frame {
+            shift: [0.0; 3],
+            angle_deg: 0.0,
+            scale: [1.0; 3],
+        }
+    }
 }
 
 impl Frame {
@@ -227,6 +244,7 @@ impl Frame {
     /// A vector of the workpiece (an increment, an arc's centre offset) in the program's
     /// coordinates.
     fn turn(&self, [x, y]: [f64; 2]) -> [f64; 2] {
+        let (x, y) = (self.scale[0] * x, self.scale[1] * y);
         let (s, c) = self.angle_deg.to_radians().sin_cos();
         [c * x - s * y, s * x + c * y]
     }
@@ -234,18 +252,49 @@ impl Frame {
     /// A point of the workpiece in the program's coordinates.
     fn place(&self, p: [f64; 3]) -> [f64; 3] {
         let [x, y] = self.turn([p[0], p[1]]);
-        [x + self.shift[0], y + self.shift[1], p[2] + self.shift[2]]
+        [
+            x + self.shift[0],
+            y + self.shift[1],
+            self.scale[2] * p[2] + self.shift[2],
+        ]
+    }
+
+    /// The workpiece point at the program's point `p`.
+    fn back(&self, p: [f64; 3]) -> [f64; 3] {
+        let (x, y) = (p[0] - self.shift[0], p[1] - self.shift[1]);
+        let (s, c) = self.angle_deg.to_radians().sin_cos();
+        let (x, y) = (c * x + s * y, -s * x + c * y);
+        [
+            x / self.scale[0],
+            y / self.scale[1],
+            (p[2] - self.shift[2]) / self.scale[2],
+        ]
+    }
+
+    /// Whether one of X and Y is mirrored (not both: that is a half turn), so that a
+    /// clockwise arc of the workpiece runs counter-clockwise in the program.
+    fn mirrored(&self) -> bool {
+        self.scale[0] * self.scale[1] < 0.0
+    }
+
+    /// Whether X and Y are scaled alike, so that an arc stays an arc.
+    fn round(&self) -> bool {
+        (self.scale[0].abs() - self.scale[1].abs()).abs() <= 1e-12 * self.scale[0].abs()
     }
 }
 
-/// A frame instruction: `TRANS` and `ROT` replace the programmable frame, `ATRANS` and
-/// `AROT` add to it (in its own coordinates).
+/// A frame instruction: `TRANS`, `ROT`, `SCALE` and `MIRROR` replace the programmable frame,
+/// `ATRANS`, `AROT`, `ASCALE` and `AMIRROR` add to it (in its own coordinates).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum FrameChange {
     Trans,
     ATrans,
     Rot,
     ARot,
+    Scale,
+    AScale,
+    Mirror,
+    AMirror,
 }
 
 impl Default for Translator {
@@ -269,6 +318,8 @@ impl Default for Translator {
             in_subprogram: false,
             call: None,
             returned: false,
+            motion: None,
+            emitted_motion: None,
         }
     }
 }
@@ -407,8 +458,8 @@ const CONTROL_FLOW: &str = "this form of program control is not read (jumps, IF,
      REPEAT and LOOP on lines of their own are): expand the program before checking it";
 const MODAL_CALL: &str = "modal and path-named calls (MCALL, PCALL) are not supported: call \
      the subprogram by its name or with CALL after each move instead";
-const FRAME: &str = "scaled, mirrored and solid-angle frames (SCALE, MIRROR, ROTS) are not \
-     supported yet: post the program in the workpiece's coordinates";
+const FRAME: &str = "solid-angle frames (ROTS, AROTS, CROTS) turn the working plane out of XY: \
+     post the program in the workpiece's coordinates";
 const CYCLE: &str =
     "cycles are not supported: expand the cycle into explicit moves (the CAM post can)";
 const SPLINE: &str = "spline and polynomial moves are not supported";
@@ -423,9 +474,7 @@ fn refused_keyword(name: &str) -> Option<&'static str> {
         "GOTOF", "GOTOB", "GOTO", "GOTOC", "IF", "ELSE", "ENDIF", "WHILE", "ENDWHILE", "FOR",
         "ENDFOR", "REPEAT", "UNTIL", "LOOP", "ENDLOOP", "CASE", "STOPRE",
     ];
-    let frames = [
-        "SCALE", "ASCALE", "MIRROR", "AMIRROR", "ROTS", "AROTS", "CROTS",
-    ];
+    let frames = ["ROTS", "AROTS", "CROTS"];
     Some(if flow.contains(&name) {
         CONTROL_FLOW
     } else if frames.contains(&name) {
@@ -919,6 +968,10 @@ impl Translator {
             "ATRANS" => Some(FrameChange::ATrans),
             "ROT" => Some(FrameChange::Rot),
             "AROT" => Some(FrameChange::ARot),
+            "SCALE" => Some(FrameChange::Scale),
+            "ASCALE" => Some(FrameChange::AScale),
+            "MIRROR" => Some(FrameChange::Mirror),
+            "AMIRROR" => Some(FrameChange::AMirror),
             _ => None,
         };
         if let Some(change) = change {
@@ -1124,13 +1177,14 @@ impl Translator {
         if let Some(change) = self.frame_change.take() {
             words = self.change_frame(change, words)?;
         }
+        self.motion_under_frame(&g_codes, &words, &mut pieces, out)?;
         let framed = !self.frame.is_identity();
         // Words RS274/NGC reads otherwise, or not at all: the line is rewritten.
         let rewritten_word = |(_, l, v): &(usize, char, Value)| {
             !matches!(v, Value::Number(_))
                 || *l == 'D'
                 || (*l == 'M' && matches!(v, Value::Number(x) if *x == 17.0))
-                || (framed && matches!(l, 'X' | 'Y' | 'Z' | 'I' | 'J'))
+                || (framed && matches!(l, 'X' | 'Y' | 'Z' | 'I' | 'J' | 'R'))
         };
         if dwell || words.iter().any(rewritten_word) {
             out.plain = false;
@@ -1141,6 +1195,62 @@ impl Translator {
         }
         if !out.plain {
             write_pieces(pieces, out);
+        }
+        Ok(())
+    }
+
+    /// The motion code the interpreter is to hold for this block under the frame: a
+    /// mirrored frame turns a clockwise arc of the workpiece counter-clockwise, so `G2` is
+    /// written `G3` and back — in the block that names it, and in a block that moves on the
+    /// modal arc whenever the interpreter holds the other one. An arc under a scale that
+    /// differs on X and Y (an ellipse) is refused.
+    fn motion_under_frame(
+        &mut self,
+        g_codes: &[(usize, u32)],
+        words: &[(usize, char, Value)],
+        pieces: &mut Vec<(usize, Piece)>,
+        out: &mut Rewritten,
+    ) -> Result<(), Failure> {
+        let named = g_codes.iter().copied().find(|&(_, g)| g <= 3);
+        if let Some((_, g)) = named {
+            self.motion = Some(g);
+        }
+        let moving = words
+            .iter()
+            .find(|w| matches!(w.1, 'X' | 'Y' | 'I' | 'J' | 'R'))
+            .map(|w| w.0);
+        let arc = matches!(self.motion, Some(2 | 3));
+        if let Some(offset) = moving
+            && arc
+            && !self.frame.round()
+        {
+            return Err(refuse(
+                offset,
+                &format!("G{}", self.motion.unwrap_or(2)),
+                "an arc under a scale that differs on X and Y is an ellipse, which G2/G3 \
+                 cannot describe",
+            ));
+        }
+        let wanted = match self.motion {
+            Some(g @ (2 | 3)) if self.frame.mirrored() => Some(5 - g),
+            m => m,
+        };
+        if let Some((offset, g)) = named {
+            if Some(g) != wanted {
+                out.plain = false;
+                for piece in pieces.iter_mut() {
+                    if piece.0 == offset && matches!(piece.1, Piece::G(code) if code == g) {
+                        piece.1 = Piece::G(wanted.unwrap_or(g));
+                    }
+                }
+            }
+            self.emitted_motion = wanted;
+        } else if let (Some(offset), Some(w)) = (moving, wanted)
+            && self.emitted_motion != wanted
+        {
+            out.plain = false;
+            pieces.push((offset, Piece::G(w)));
+            self.emitted_motion = wanted;
         }
         Ok(())
     }
@@ -1275,6 +1385,8 @@ impl Translator {
                 ('F', true) => ('P', v),
                 ('D', _) => continue,
                 ('M', _) if v == 17.0 => ('M', 2.0),
+                // An arc's radius scaled with the frame (alike on X and Y, or refused).
+                ('R', _) if framed => ('R', v * self.frame.scale[0].abs()),
                 other => (other.0, v),
             };
             if !out.plain {
@@ -1383,6 +1495,7 @@ impl Translator {
         words: Vec<(usize, char, Value)>,
     ) -> Result<Vec<(usize, char, Value)>, Failure> {
         let mut args = [0.0f64; 3];
+        let mut given = [false; 3];
         let mut rest = Vec::new();
         for (offset, letter, value) in words {
             let axis = match letter {
@@ -1408,7 +1521,16 @@ impl Translator {
                     "a rotation about X or Y leaves the XY plane",
                 ));
             }
+            if matches!(change, FrameChange::Scale | FrameChange::AScale)
+                && !(v.is_finite() && v != 0.0)
+            {
+                return Err((
+                    offset,
+                    GcodeErrorKind::Invalid(format!("{letter}{v}: a scale factor is not 0")),
+                ));
+            }
             args[axis] = v;
+            given[axis] = true;
         }
         let angle = self.rpl.take().unwrap_or(args[2]);
         // The workpiece position where the axes are, kept across the change.
@@ -1417,40 +1539,51 @@ impl Translator {
             _ => None,
         };
         let old = self.frame;
+        let per_axis = |f: &dyn Fn(usize) -> f64| [f(0), f(1), f(2)];
         self.frame = match change {
             FrameChange::Trans => Frame {
                 shift: args,
-                angle_deg: 0.0,
+                ..Frame::default()
             },
             FrameChange::ATrans => {
                 let [x, y] = old.turn([args[0], args[1]]);
                 Frame {
-                    shift: [old.shift[0] + x, old.shift[1] + y, old.shift[2] + args[2]],
-                    angle_deg: old.angle_deg,
+                    shift: [
+                        old.shift[0] + x,
+                        old.shift[1] + y,
+                        old.shift[2] + old.scale[2] * args[2],
+                    ],
+                    ..old
                 }
             }
             FrameChange::Rot => Frame {
-                shift: [0.0; 3],
                 angle_deg: angle,
+                ..Frame::default()
             },
             FrameChange::ARot => Frame {
                 angle_deg: old.angle_deg + angle,
                 ..old
             },
+            FrameChange::Scale => Frame {
+                scale: per_axis(&|a| if given[a] { args[a] } else { 1.0 }),
+                ..Frame::default()
+            },
+            FrameChange::AScale => Frame {
+                scale: per_axis(&|a| old.scale[a] * if given[a] { args[a] } else { 1.0 }),
+                ..old
+            },
+            FrameChange::Mirror => Frame {
+                scale: per_axis(&|a| if given[a] { -1.0 } else { 1.0 }),
+                ..Frame::default()
+            },
+            FrameChange::AMirror => Frame {
+                scale: per_axis(&|a| old.scale[a] * if given[a] { -1.0 } else { 1.0 }),
+                ..old
+            },
         };
         if let Some(p) = at {
             // The same point of the machine, in the new frame's workpiece coordinates.
-            let d = [p[0] - self.frame.shift[0], p[1] - self.frame.shift[1]];
-            let back = Frame {
-                shift: [0.0; 3],
-                angle_deg: -self.frame.angle_deg,
-            }
-            .turn(d);
-            self.position = [
-                Some(back[0]),
-                Some(back[1]),
-                Some(p[2] - self.frame.shift[2]),
-            ];
+            self.position = self.frame.back(p).map(Some);
         }
         Ok(rest)
     }
@@ -1570,7 +1703,7 @@ mod tests {
         for (line, column, word) in [
             ("N10 DEF STRING[8] A", 4, "DEF STRING"),
             ("N10 GOTOF END", 4, "GOTOF"),
-            ("N10 MIRROR X0", 4, "MIRROR"),
+            ("N10 ROTS X30 Y45", 4, "ROTS"),
             ("N10 CYCLE72(\"C\")", 4, "CYCLE72(\"C\")"),
             ("N10 X=$P_EP[X]", 6, "$P_EP"),
             ("N10 MCALL MYSUB", 4, "MCALL"),
