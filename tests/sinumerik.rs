@@ -378,3 +378,35 @@ fn scaled_and_mirrored_frames_scale_radii_and_turn_arcs_round() {
         "{err}"
     );
 }
+
+#[test]
+fn arcs_by_opening_angle_are_the_arcs_by_centre() {
+    // AR= with the end point (a quarter, then three quarters the long way), and with the
+    // centre (a half turn clockwise).
+    let sinumerik = "G710 G90 G17 G94\nG0 X10 Y0 Z0\nG3 X0 Y10 AR=90 F500\n\
+                     G2 X10 Y0 AR=270\nG2 I-5 J0 AR=180\nM30\n";
+    let rs274 = "G21 G90 G17 G94\nG0 X10 Y0 Z0\nG3 X0 Y10 I-10 J0 F500\n\
+                 G2 X10 Y0 I10 J0\nG2 X0 Y0 I-5 J0\nM2\n";
+    let a = parse(rs274, "by-centre.ngc");
+    let b = parse(sinumerik, "by-angle.mpf");
+    assert_eq!(ends_nm(&a), ends_nm(&b));
+    for (x, y) in a.segments.iter().zip(&b.segments) {
+        match (x.geometry, y.geometry) {
+            (Geometry::Arc(p), Geometry::Arc(q)) => {
+                assert!((p.sweep_rad - q.sweep_rad).abs() < 1e-9, "{p:?} {q:?}");
+                assert!((p.center_m[0] - q.center_m[0]).abs() < 1e-9, "{p:?} {q:?}");
+                assert!((p.center_m[1] - q.center_m[1]).abs() < 1e-9, "{p:?} {q:?}");
+            }
+            (Geometry::Line, Geometry::Line) => {}
+            other => panic!("{other:?}"),
+        }
+    }
+    let err = parse_program(
+        "G710 G0 X0 Y0\nG2 X5 Y5 I5 J0 AR=90 F100\n",
+        "ar.mpf",
+        &InterpretOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(err.contains("ar.mpf:2:"), "{err}");
+}

@@ -9,7 +9,8 @@
 //!   absolute or incremental against the block's `G90`/`G91`;
 //! - `G710`/`G700` (metric or inch, feeds included) and `G71`/`G70` (positions only) as
 //!   `G21`/`G20`;
-//! - arcs by centre (`I`, `J`) or by radius (`CR=`, negative above 180°);
+//! - arcs by centre (`I`, `J`), by radius (`CR=`, negative above 180°) or by opening angle
+//!   (`AR=`, with the end point or the centre);
 //! - `G60` (exact stop, modal) and `G9` (exact stop in its block), `G64` (continuous path),
 //!   `G641` with `ADIS=` and `G642` with `CTOL=`: the corners rounded within the given
 //!   distance are planned with the planner's corner tolerance of that size (the 840D's
@@ -508,6 +509,7 @@ enum Piece {
 }
 
 /// A word's value as written after its address: a number, or `AC(n)` / `IC(n)`.
+#[derive(Debug, Clone, Copy)]
 enum Value {
     Number(f64),
     Absolute(f64),
@@ -679,6 +681,9 @@ impl Translator {
             match (name, value) {
                 ("G", Value::Number(v)) => g_codes.push((name_start, v.round() as u32)),
                 ("CR", v) => words.push((name_start, 'R', v)),
+                // The opening angle, resolved into a radius or an end point once the
+                // block's other words are known.
+                ("AR", v) => words.push((name_start, 'A', v)),
                 ("ADIS" | "ADISPOS", Value::Number(v)) => self.adis = Some(v),
                 ("CTOL" | "OTOL" | "CTOLG0", Value::Number(v)) => self.ctol = Some(v),
                 ("RPL", Value::Number(v)) => self.rpl = Some(v),
@@ -1178,6 +1183,12 @@ impl Translator {
             words = self.change_frame(change, words)?;
         }
         self.motion_under_frame(&g_codes, &words, &mut pieces, out)?;
+        let mut words = words;
+        if let Some(k) = words.iter().position(|w| w.1 == 'A') {
+            let (offset, _, value) = words.remove(k);
+            out.plain = false;
+            self.opening_angle(offset, value, &mut words)?;
+        }
         let framed = !self.frame.is_identity();
         // Words RS274/NGC reads otherwise, or not at all: the line is rewritten.
         let rewritten_word = |(_, l, v): &(usize, char, Value)| {
@@ -1253,6 +1264,73 @@ impl Translator {
             self.emitted_motion = wanted;
         }
         Ok(())
+    }
+
+    /// An arc given by its opening angle `AR=` (degrees): with its end point, the radius
+    /// that spans it (`R`, negative above 180°); with its centre, the end point the angle
+    /// reaches from the start, counter-clockwise on `G3`, clockwise on `G2`.
+    fn opening_angle(
+        &self,
+        offset: usize,
+        value: Value,
+        words: &mut Vec<(usize, char, Value)>,
+    ) -> Result<(), Failure> {
+        let invalid = |what: &str| (offset, GcodeErrorKind::Invalid(format!("AR: {what}")));
+        let Value::Number(angle) = value else {
+            return Err(invalid("the opening angle is a plain number"));
+        };
+        if !(angle > 0.0 && angle < 360.0) {
+            return Err(invalid("the opening angle lies between 0 and 360°"));
+        }
+        let ccw = match self.motion {
+            Some(3) => true,
+            Some(2) => false,
+            _ => return Err(invalid("an opening angle belongs to a G2 or G3 arc")),
+        };
+        let [Some(x0), Some(y0)] = [self.position[0], self.position[1]] else {
+            return Err(invalid("the arc's start is not known yet"));
+        };
+        let has = |l: char| words.iter().any(|w| w.1 == l);
+        let end_given = has('X') || has('Y');
+        let centre_given = has('I') || has('J');
+        let half = (angle / 2.0).to_radians();
+        if end_given && !centre_given && !has('R') {
+            let start = self.position;
+            let mut end = [x0, y0];
+            for (o, l, v) in words.iter() {
+                if let Some(a) = "XY".find(*l) {
+                    let v = self.coordinate(*o, *l, *v, &start)?;
+                    end[a] = if self.absolute { v } else { [x0, y0][a] + v };
+                }
+            }
+            let chord = (end[0] - x0).hypot(end[1] - y0);
+            if chord == 0.0 {
+                return Err(invalid("an arc to its own start needs its centre (I, J)"));
+            }
+            let radius = chord / 2.0 / half.sin();
+            let signed = if angle > 180.0 { -radius } else { radius };
+            words.push((offset, 'R', Value::Number(signed)));
+            return Ok(());
+        }
+        if centre_given && !end_given && !has('R') {
+            let start = self.position;
+            let mut centre = [x0, y0];
+            for (o, l, v) in words.iter() {
+                if let Some(a) = "IJ".find(*l) {
+                    centre[a] += self.coordinate(*o, *l, *v, &start)?;
+                }
+            }
+            let turn = if ccw { angle } else { -angle }.to_radians();
+            let (s, c) = turn.sin_cos();
+            let (dx, dy) = (x0 - centre[0], y0 - centre[1]);
+            let end = [centre[0] + c * dx - s * dy, centre[1] + s * dx + c * dy];
+            words.push((offset, 'X', Value::Absolute(end[0])));
+            words.push((offset, 'Y', Value::Absolute(end[1])));
+            return Ok(());
+        }
+        Err(invalid(
+            "give the arc's end point (X, Y) or its centre (I, J) with it, not both, nor CR=",
+        ))
     }
 
     /// The block's G codes as RS274/NGC and the path mode they leave; whether the block
