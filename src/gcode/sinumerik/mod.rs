@@ -1183,7 +1183,6 @@ impl Translator {
             words = self.change_frame(change, words)?;
         }
         self.motion_under_frame(&g_codes, &words, &mut pieces, out)?;
-        let mut words = words;
         if let Some(k) = words.iter().position(|w| w.1 == 'A') {
             let (offset, _, value) = words.remove(k);
             out.plain = false;
