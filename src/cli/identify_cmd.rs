@@ -27,8 +27,10 @@ pub struct IdentifyArgs {
     #[command(flatten)]
     pub trace: TraceArgs,
     /// Where to start: a machine file, or a preset's name (`hvmc`, `small-table`). Its
-    /// controller structure and settings are kept; the mechanics, friction, dead time and
-    /// (for the cascade) Kv, feed-forward and velocity integral time are fitted.
+    /// controller structure is kept; the controller's gains (and a transfer function's real
+    /// corners), the mass, friction and dead time are fitted. `none`: no template — a model
+    /// of each axis's loop from command to position, of the order the record's held-out
+    /// halves choose, whose values describe the loop rather than the machine's parts.
     #[arg(long, value_name = "FILE|PRESET", default_value = "hvmc")]
     pub template: PathBuf,
     /// Write the identified machine here (a machine file `check` and `diagnose` take).
@@ -45,11 +47,17 @@ pub struct IdentifyArgs {
 }
 
 pub fn run(args: &IdentifyArgs) -> Result<Outcome, CliError> {
-    let template = super::common::MachineArgs {
-        machine: Some(args.template.clone()),
-    }
-    .load()?;
+    // `none`: no template — a model of each loop, started from the record itself.
+    let without_template = args.template.as_os_str() == "none";
     let measured = args.trace.read(&args.measured)?;
+    let template = if without_template {
+        crate::identify::loop_template(&measured)
+    } else {
+        super::common::MachineArgs {
+            machine: Some(args.template.clone()),
+        }
+        .load()?
+    };
     eprintln!(
         "{}: {}",
         measured.file,
@@ -67,7 +75,11 @@ pub fn run(args: &IdentifyArgs) -> Result<Outcome, CliError> {
     settings.check.plan = args.planning.config(&template)?;
     settings.command_tolerance_m = m_from_um(args.command_tolerance_um);
     let bar = spinner("identifying");
-    let id = identify(&program, &template, &measured, &settings)?;
+    let id = if without_template {
+        crate::identify::identify_loop(&program, &template, &measured, &settings)?
+    } else {
+        identify(&program, &template, &measured, &settings)?
+    };
     bar.finish_and_clear();
     let program_file = program.file.clone();
     let mut batch = OutputBatch::new();
@@ -164,7 +176,11 @@ pub fn summary(id: &Identification, template: &MachineConfig) -> String {
                 v.unit
             );
         }
-        let _ = writeln!(s, "  kept from the template: {}", a.kept);
+        if a.kept.starts_with("no template") {
+            let _ = writeln!(s, "  {}", a.kept);
+        } else {
+            let _ = writeln!(s, "  kept from the template: {}", a.kept);
+        }
     }
     let i = &id.interpolator;
     let limit = |value: f64, unit: &str, held: bool| {

@@ -23,6 +23,7 @@
 
 mod interpolator;
 mod knobs;
+mod loop_model;
 mod solve;
 
 use rayon::prelude::*;
@@ -88,7 +89,7 @@ pub struct AxisIdentification {
     /// Its values.
     pub values: Vec<IdentifiedValue>,
     /// What is taken from the template as the user's setting, not fitted.
-    pub kept: &'static str,
+    pub kept: String,
     /// Compared only while moving (away from standstills, where the axis hunts): the
     /// residuals below are over those samples.
     pub moving_only: bool,
@@ -166,12 +167,52 @@ pub enum IdentifyError {
     },
 }
 
+/// What the identification starts from and fits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Model {
+    /// The template's structure, its values fitted.
+    Template,
+    /// No template: a model of the loop, of the order the record's held-out halves choose.
+    Loop,
+}
+
 /// Identifies `template`'s values from `measured`, a record of `program` with its commands.
 pub fn identify(
     program: &Program,
     template: &MachineConfig,
     measured: &MeasuredTrace,
     settings: &CompareSettings,
+) -> Result<Identification, IdentifyError> {
+    identify_as(program, template, measured, settings, Model::Template)
+}
+
+/// Identifies a model of each axis's loop from command to position from `measured` alone
+/// (no template: `--template none`), of the order the record's held-out halves choose; the
+/// machine returned runs in `check` and `diagnose`, and its values describe the loop, not
+/// the machine's parts.
+///
+/// `start` is [`loop_template`]'s machine for the record (the settings made for it).
+pub fn identify_loop(
+    program: &Program,
+    start: &MachineConfig,
+    measured: &MeasuredTrace,
+    settings: &CompareSettings,
+) -> Result<Identification, IdentifyError> {
+    identify_as(program, start, measured, settings, Model::Loop)
+}
+
+/// Where a loop model of `measured` starts: a cascade on a stiff small drive per axis, its
+/// position gain read from the record's steady lag.
+pub fn loop_template(measured: &MeasuredTrace) -> MachineConfig {
+    loop_model::template(measured)
+}
+
+fn identify_as(
+    program: &Program,
+    template: &MachineConfig,
+    measured: &MeasuredTrace,
+    settings: &CompareSettings,
+    model: Model,
 ) -> Result<Identification, IdentifyError> {
     let file = measured.file.clone();
     let Some(commands) = &measured.commands else {
@@ -198,8 +239,8 @@ pub fn identify(
         ..
     } = compare(program, template, measured, settings, Stepping::Full)?;
     let (x, y) = rayon::join(
-        || identify_axis(&ctx, template, AxisName::X, offset),
-        || identify_axis(&ctx, template, AxisName::Y, offset),
+        || identify_axis(&ctx, template, AxisName::X, offset, model),
+        || identify_axis(&ctx, template, AxisName::Y, offset, model),
     );
     let mut machine = template.clone();
     let mut axes = Vec::new();
@@ -231,12 +272,16 @@ fn identify_axis(
     template: &MachineConfig,
     axis: AxisName,
     offset: f64,
+    model: Model,
 ) -> Option<(AxisConfig, AxisIdentification)> {
     // A search that wanders where the model cannot be simulated (an unstable setting) has
     // found nothing: the template's values stay, said so.
-    let Some(everywhere) =
-        identify_ordered(&Fit::new(ctx, template, axis, offset), template, false)
-    else {
+    let fit = Fit::new(ctx, template, axis, offset);
+    let found = match model {
+        Model::Template => identify_ordered(&fit, template, false),
+        Model::Loop => identify_loop_order(&fit, template, false),
+    };
+    let Some(everywhere) = found else {
         return unfitted(Fit::new(ctx, template, axis, offset), template.axis(axis));
     };
     let noise_um = um_from_m(ctx.noise_sigma);
@@ -245,6 +290,15 @@ fn identify_axis(
     }
     let moving = moving_samples(ctx, axis, offset);
     let fit = Fit::new(ctx, template, axis, offset).masked(moving);
+    if model == Model::Loop {
+        // A loop model is what the record gives, judged by how well it predicts the
+        // held-out halves, whether or not it reaches the noise: compared while moving where
+        // that predicts them better (the standstills' hunting has a phase no model times).
+        return match identify_loop_order(&fit, template, true) {
+            Some(m) if m.1.held_out_identified_um < everywhere.1.held_out_identified_um => Some(m),
+            _ => Some(everywhere),
+        };
+    }
     match identify_ordered(&fit, template, true) {
         Some(m) if m.1.rms_identified_um <= REACHED_EXCESS * noise_um => Some(m),
         _ => Some(not_reached(everywhere, template.axis(axis))),
@@ -279,7 +333,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
         AxisIdentification {
             axis,
             values,
-            kept: knobs::kept(template),
+            kept: knobs::kept(template).to_string(),
             moving_only: false,
             reached: false,
             following_error_rms_um: um_from_m(following_error_rms(ctx, axis, offset)),
@@ -356,6 +410,35 @@ fn identify_ordered(
     }
 }
 
+/// The loop model of the order the held-out halves choose: each order is kept over the one
+/// below only where it predicts them better by more than a twentieth.
+fn identify_loop_order(
+    fit: &Fit,
+    template: &MachineConfig,
+    moving_only: bool,
+) -> Option<(AxisConfig, AxisIdentification)> {
+    const BETTER_BY: f64 = 0.95;
+    let mut chosen: Option<(usize, (AxisConfig, AxisIdentification))> = None;
+    for (i, knobs) in loop_model::orders(template.axis(fit.axis()))
+        .iter()
+        .enumerate()
+    {
+        let Some(found) = identify_on(fit, template, moving_only, knobs) else {
+            continue;
+        };
+        let better = chosen.as_ref().is_none_or(|(_, c)| {
+            found.1.held_out_identified_um < BETTER_BY * c.1.held_out_identified_um
+        });
+        if better {
+            chosen = Some((i + 1, found));
+        }
+    }
+    chosen.map(|(order, (config, mut id))| {
+        id.kept = loop_model::describes(order);
+        (config, id)
+    })
+}
+
 fn identify_on(
     fit: &Fit,
     template: &MachineConfig,
@@ -406,7 +489,7 @@ fn identify_on(
             }
         })
         .collect();
-    let kept = knobs::kept(&template_axis);
+    let kept = knobs::kept(&template_axis).to_string();
     Some((
         config,
         AxisIdentification {

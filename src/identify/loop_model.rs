@@ -1,0 +1,139 @@
+//! A machine no template describes (`--template none`): a model of each axis's loop from
+//! command to position, identified from the record alone.
+//!
+//! The model is a cascade on a stiff small ball-screw drive — a proportional position loop
+//! with feed-forward and a dead time around a velocity loop, with Coulomb and viscous
+//! friction — whose values stand for the loop's behaviour, not for the machine's parts: a
+//! table run by a PID on a current amplifier is described by the cascade that follows its
+//! commands alike. It is fitted in increasing order, each order kept only where it predicts
+//! the record's held-out halves better than the one below it (see [`orders`]).
+
+use super::knobs::{self, Knob};
+use crate::machine::{AxisName, Controller, MachineConfig, VelocityLoop};
+use crate::trace::measured::MeasuredTrace;
+
+/// The velocity loop's bandwidth the model starts from (Hz): well above a position loop's,
+/// so that the lowest order is the position loop alone.
+const VELOCITY_BANDWIDTH_HZ: f64 = 50.0;
+/// Kv where the record does not tell (m/min/mm): a loop whose lag reads as a higher gain
+/// than [`MAX_LAG_KV`] follows by feed-forward or integral action, and starts from this with
+/// full velocity feed-forward.
+const DEFAULT_KV: f64 = 3.0;
+const MAX_LAG_KV: f64 = 10.0;
+
+/// The model's starting point for `measured`: the small-table preset's mechanics with a
+/// cascade per axis, its Kv read from the record's steady lag (the speed over the following
+/// error while moving), its velocity loop set to [`VELOCITY_BANDWIDTH_HZ`].
+pub(crate) fn template(measured: &MeasuredTrace) -> MachineConfig {
+    let mut m = MachineConfig::preset("small-table").expect("a built-in preset");
+    m.name = "closed loop (from the record)".to_string();
+    m.description = "a model of each axis's loop from command to position, identified \
+                     without a template: its values describe the loop, not the machine's parts"
+        .to_string();
+    for axis in AxisName::BOTH {
+        let kv = measured.commands.as_ref().and_then(|c| {
+            let actual = if axis == AxisName::X {
+                &measured.x_m
+            } else {
+                &measured.y_m
+            };
+            lag_gain_m_per_min_per_mm(&c[axis.index()], actual, measured.dt_s)
+        });
+        let kv_from_lag = kv.filter(|kv| *kv <= MAX_LAG_KV);
+        let kv = kv_from_lag.unwrap_or(DEFAULT_KV);
+        let a = m.axis_mut(axis);
+        let inertia = crate::sim::model::AxisModel::from_config(a).j_tot();
+        a.controller = Controller::Cascade;
+        a.position_loop.kv_m_per_min_per_mm = kv;
+        // A loop that follows with little lag (integral action, feed-forward) is the
+        // common case on current machines; a plain P loop's lag is found from there too.
+        a.position_loop.velocity_feedforward = if kv_from_lag.is_some() { 0.0 } else { 1.0 };
+        a.position_loop.accel_feedforward = 0.0;
+        a.position_loop.dead_time_ms = 0.0;
+        a.velocity_loop = Some(VelocityLoop {
+            ks_nm_s_per_rad: std::f64::consts::TAU * VELOCITY_BANDWIDTH_HZ * inertia,
+            // Integral action slow enough to leave the lowest order a proportional loop.
+            ts_ms: 1000.0,
+            i_max_a: a
+                .amplifier
+                .as_ref()
+                .and_then(|amp| amp.i_max_a)
+                .unwrap_or(13.5),
+        });
+        if let Some(amp) = &mut a.amplifier {
+            amp.i_max_a = None;
+        }
+    }
+    m
+}
+
+/// The position-loop gain a steady lag gives: Σ v·e / Σ e² over the samples where the
+/// command moves (e the following error, v the command's speed).
+fn lag_gain_m_per_min_per_mm(command: &[f64], actual: &[f64], dt: f64) -> Option<f64> {
+    let (mut ve, mut ee) = (0.0, 0.0);
+    for k in 1..command.len().min(actual.len()) {
+        let v = (command[k] - command[k - 1]) / dt;
+        let e = command[k] - actual[k];
+        if v.abs() > 1e-5 {
+            ve += v * e;
+            ee += e * e;
+        }
+    }
+    let kv_per_s = ve / ee;
+    // 1 m/min/mm is 1000/60 per second.
+    let kv = kv_per_s * 60.0 / 1000.0;
+    (kv.is_finite() && kv > 0.01 && kv < 100.0).then_some(kv)
+}
+
+/// The orders tried, lowest first: the position loop (Kv, feed-forward, dead time) with
+/// friction; then the velocity loop's bandwidth too (the moving mass against K_s); then its
+/// integral action.
+pub(crate) fn orders(axis: &crate::machine::AxisConfig) -> Vec<Vec<Knob>> {
+    let all = knobs::for_axis(axis);
+    let pick = |keys: &[&str]| -> Vec<Knob> {
+        all.iter()
+            .copied()
+            .filter(|k| keys.contains(&k.key))
+            .collect()
+    };
+    let first = [
+        knobs::KV_KEY,
+        "position_loop.velocity_feedforward",
+        "position_loop.dead_time_ms",
+        knobs::COULOMB_KEY,
+        knobs::VISCOUS_KEY,
+    ];
+    let mut second = first.to_vec();
+    second.push(knobs::MASS_KEY);
+    let mut third = second.clone();
+    third.push(knobs::INTEGRAL_TIME_KEY);
+    vec![pick(&first), pick(&second), pick(&third)]
+}
+
+/// What the report says the model is, at `order` (1-based).
+pub(crate) fn describes(order: usize) -> String {
+    format!(
+        "no template: a model of the loop from command to position, order {order} of 3 \
+         (1: the position loop; 2: and its velocity loop's bandwidth; 3: and integral action), \
+         chosen on the record's held-out halves — its values describe the loop, not the \
+         machine's parts"
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_lag_gives_the_gain() {
+        // A ramp followed at a lag of v/Kv with Kv 2 m/min/mm = 33.3 /s.
+        let dt = 1e-3;
+        let kv_per_s = 2.0 * 1000.0 / 60.0;
+        let v = 0.01;
+        let command: Vec<f64> = (0..1000).map(|k| v * k as f64 * dt).collect();
+        let actual: Vec<f64> = command.iter().map(|c| c - v / kv_per_s).collect();
+        let kv = lag_gain_m_per_min_per_mm(&command, &actual, dt).unwrap();
+        assert!((kv - 2.0).abs() < 1e-9, "{kv}");
+        assert_eq!(lag_gain_m_per_min_per_mm(&command, &command, dt), None);
+    }
+}
