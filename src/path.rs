@@ -85,6 +85,9 @@ pub struct Segment {
     pub blend: Blend,
     /// 1-based source line of the block that made it.
     pub line: u32,
+    /// The acceleration profile the program switched to for it (SINUMERIK `SOFT`: jerk
+    /// limited, `BRISK`: acceleration limited); `None`: the planner's own.
+    pub jerk_limited: Option<bool>,
 }
 
 /// Position, unit tangent and curvature vector at a point of a segment.
@@ -509,6 +512,7 @@ mod tests {
             feed_m_per_s: 0.01,
             blend: Blend::ExactStop,
             line: 1,
+            jerk_limited: None,
         }
     }
 

@@ -410,3 +410,30 @@ fn arcs_by_opening_angle_are_the_arcs_by_centre() {
     .to_string();
     assert!(err.contains("ar.mpf:2:"), "{err}");
 }
+
+#[test]
+fn brisk_and_soft_switch_the_paths_acceleration_profile() {
+    use contourcheck::machine::MachineConfig;
+    use contourcheck::plan::{KinematicLimits, PlanConfig, ProfileKind, plan, sample};
+    // Under the planner's S-curves, a BRISK move ramps its acceleration in one cycle; after
+    // SOFT the next move's acceleration ramps within the jerk limit again.
+    let text = "G710 G90 G17 G94 G60\nG0 X0 Y0\nBRISK\nG1 X50 F1000\nSOFT\nG1 X100\nM30\n";
+    let program = parse(text, "profiles.mpf");
+    assert_eq!(program.segments[0].jerk_limited, Some(false));
+    assert_eq!(program.segments[1].jerk_limited, Some(true));
+    let machine = MachineConfig::default_preset();
+    let limits = KinematicLimits::of(&machine);
+    let mut config = PlanConfig::for_machine(&machine);
+    config.profile = ProfileKind::SCurve;
+    let commands = sample(&plan(&program, &limits, &config));
+    let jerk_limit = limits.axes[0].jerk_m_per_s3;
+    let peak_jerk = |segment: u32| {
+        let a = &commands.x.acc_m_per_s2;
+        (1..a.len())
+            .filter(|&k| commands.segment[k] == segment && commands.segment[k - 1] == segment)
+            .map(|k| ((a[k] - a[k - 1]) / commands.dt_s).abs())
+            .fold(0.0, f64::max)
+    };
+    assert!(peak_jerk(0) > 5.0 * jerk_limit, "BRISK: {}", peak_jerk(0));
+    assert!(peak_jerk(1) <= 1.01 * jerk_limit, "SOFT: {}", peak_jerk(1));
+}

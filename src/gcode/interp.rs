@@ -229,6 +229,9 @@ pub struct Interpreter {
     g92_saved_mm: [f64; 3],
     pos_mm: [f64; 3],
     ended: bool,
+    /// The acceleration profile the program switched to (`SOFT`/`BRISK`), stamped on each
+    /// segment; `None`: the planner's.
+    jerk_limited: Option<bool>,
     block: BlockWords,
     line: u32,
     segments: Vec<Segment>,
@@ -277,6 +280,7 @@ impl Interpreter {
             g92_saved_mm: [0.0; 3],
             pos_mm: opts.start_mm,
             ended: false,
+            jerk_limited: None,
             block: BlockWords::default(),
             line: 0,
             segments: Vec::new(),
@@ -315,6 +319,12 @@ impl Interpreter {
     }
 
     /// Notes `message` about line `line` among the program's warnings.
+    /// Switches the acceleration profile of the segments that follow (SINUMERIK `SOFT`:
+    /// jerk limited, `BRISK`: acceleration limited).
+    pub(crate) fn switch_profile(&mut self, jerk_limited: bool) {
+        self.jerk_limited = Some(jerk_limited);
+    }
+
     pub(crate) fn warn(&mut self, line: u32, message: String) {
         self.warnings.push(Warning { line, message });
     }
@@ -559,6 +569,7 @@ impl Interpreter {
             feed_m_per_s: 0.0,
             blend: Blend::ExactStop,
             line: self.line,
+            jerk_limited: self.jerk_limited,
         });
     }
 
@@ -916,6 +927,7 @@ impl Interpreter {
             feed_m_per_s: self.feed_for(motion),
             blend: self.blend,
             line: self.line,
+            jerk_limited: self.jerk_limited,
         });
     }
 
@@ -988,6 +1000,7 @@ impl Interpreter {
             feed_m_per_s: self.feed_for(Motion::Feed),
             blend: self.blend,
             line: self.line,
+            jerk_limited: self.jerk_limited,
         });
         self.pos_mm = end_mm;
         Ok(())

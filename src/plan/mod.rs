@@ -118,6 +118,28 @@ pub struct PlanConfig {
 }
 
 impl PlanConfig {
+    /// The settings for `seg`: the profile the program switched to for it (SINUMERIK
+    /// `SOFT`: S-curve, `BRISK`: trapezoid) in place of the planner's, which holds where the
+    /// program switched none and where it is the ideal profile (the paper's velocity steps).
+    pub(crate) fn for_segment(&self, seg: &Segment) -> PlanConfig {
+        let profile = match (self.profile, seg.jerk_limited) {
+            (ProfileKind::Ideal, _) | (_, None) => self.profile,
+            (_, Some(true)) => ProfileKind::SCurve,
+            (_, Some(false)) => ProfileKind::Trapezoid,
+        };
+        PlanConfig { profile, ..*self }
+    }
+
+    /// The settings for the junction of `a` and `b`: jerk limited where either side is.
+    pub(crate) fn for_junction(&self, a: &Segment, b: &Segment) -> PlanConfig {
+        let (ca, cb) = (self.for_segment(a), self.for_segment(b));
+        if cb.profile == ProfileKind::SCurve {
+            cb
+        } else {
+            ca
+        }
+    }
+
     /// Defaults for a machine: its interpolation cycle, centripetal share and path limits,
     /// S-curve profiles, 10 µm corner tolerance.
     pub fn for_machine(machine: &MachineConfig) -> PlanConfig {
@@ -508,6 +530,7 @@ fn segment_limits(
     config: &PlanConfig,
     warnings: &mut FeedWarnings,
 ) -> SegmentLimits {
+    let config = &config.for_segment(seg);
     let length = seg.length_m();
     let mut caps = Caps {
         seg,
@@ -656,6 +679,7 @@ fn junction_limits(
 
 /// The corner rules of the module documentation for the junction between `a` and `b`.
 fn corner_speed(a: &Segment, b: &Segment, limits: &KinematicLimits, config: &PlanConfig) -> f64 {
+    let config = &config.for_junction(a, b);
     let (t_in, t_out) = (a.end_tangent(), b.start_tangent());
     let jerk_limited = config.profile == ProfileKind::SCurve;
     let t = config.cycle_s;

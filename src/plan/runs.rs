@@ -129,6 +129,7 @@ pub(super) fn smooth_junction_speed(
     config: &PlanConfig,
 ) -> Option<f64> {
     let (a, b) = (&segments[i - 1], &segments[i]);
+    let config = &config.for_junction(a, b);
     let continuous = matches!(a.blend, Blend::Continuous { .. });
     let feeds = a.motion == Motion::Feed && b.motion == Motion::Feed;
     if config.profile == ProfileKind::Ideal || a.is_dwell() || b.is_dwell() || !continuous || !feeds

@@ -104,6 +104,7 @@ pub fn program_from_commands(commands_m: &[Vec<f64>; 2], dt_s: f64, file: &str) 
                 naive_cam_m: None,
             },
             line: u32::try_from(w[0] + 1).unwrap_or(u32::MAX),
+            jerk_limited: None,
         })
         .collect();
     Some(Program {

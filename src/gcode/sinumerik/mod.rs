@@ -33,9 +33,9 @@
 //! - subprogram calls (`L123 P3`, `NAME(args)`, `CALL "NAME"`) of the same file's `_SPF`
 //!   sections or the program folder's files, with `PROC` parameters ([`run`]).
 //!
-//! `BRISK`/`SOFT` and `FFWON`/`FFWOF` are kept as warnings: the acceleration profile and
-//! the feed-forward are the planner's and the machine file's settings, not switched by the
-//! program. Refused, with the word and the reason: system variables (`$…`), other `DEF`
+//! `BRISK`/`SOFT` switch the path's acceleration profile from their block on (acceleration
+//! or jerk limited, stamped on the segments for the planner). `FFWON`/`FFWOF` are kept as
+//! warnings: the feed-forward is the machine file's setting, not switched by the program. Refused, with the word and the reason: system variables (`$…`), other `DEF`
 //! types, `CASE` and control sharing a line with other words, modal calls (`MCALL`, `PCALL`),
 //! solid-angle frames (`ROTS`), arcs under unequal scales (ellipses), machining cycles
 //! (`CYCLE…`, `POCKET3`, …), splines, the compressor, transformations (`TRAORI`, `TRANSMIT`, `TRACYL`)
@@ -105,6 +105,9 @@ pub(crate) struct Rewritten {
     spans: Vec<(usize, usize)>,
     /// Warnings about the line (words kept but not acted on).
     pub warnings: Vec<String>,
+    /// The path's acceleration profile the line switches to: `SOFT` (jerk limited) or
+    /// `BRISK` (acceleration limited).
+    pub jerk_limited: Option<bool>,
     /// Whether every word reads the same in RS274/NGC, so that the line is passed on as it
     /// is (most of a CAM program's lines: `G1 X10.5 Y3`).
     plain: bool,
@@ -116,6 +119,7 @@ impl Default for Rewritten {
             text: String::new(),
             spans: Vec::new(),
             warnings: Vec::new(),
+            jerk_limited: None,
             plain: true,
         }
     }
@@ -987,9 +991,12 @@ impl Translator {
         let warn = |what: &str| format!("{name}: {what}, not switched by the program");
         match name {
             "MSG" => return skip_parenthesised(upper, i, name_start, "MSG").map(Some),
-            "BRISK" | "BRISKA" | "SOFT" | "SOFTA" | "DRIVE" | "DRIVEA" => {
+            // The path's acceleration profile from this block on.
+            "BRISK" => out.jerk_limited = Some(false),
+            "SOFT" => out.jerk_limited = Some(true),
+            "BRISKA" | "SOFTA" | "DRIVE" | "DRIVEA" => {
                 out.warnings.push(warn(
-                    "the acceleration profile is the planner's (--profile)",
+                    "the positioning axes' profile is not modelled (the path's is BRISK/SOFT)",
                 ));
             }
             "FFWON" | "FFWOF" => out
@@ -1341,6 +1348,8 @@ impl Translator {
         out: &mut Rewritten,
     ) -> bool {
         let (mut exact_here, mut mode_changed, mut dwell) = (false, false, false);
+        // A `G60` writes its own `G61`: the mode needs no restoring on top of it.
+        let mut mode_written = false;
         // Where the block's path-mode code was written (a restoring one goes with the
         // block's first G code, or last).
         let mut mode_offset = g_codes.first().map_or(usize::MAX, |g| g.0);
@@ -1355,6 +1364,7 @@ impl Translator {
                 60 => {
                     self.path_mode = PathMode::ExactStop;
                     self.rounding = None;
+                    mode_written = true;
                     Some(Piece::Text("G61"))
                 }
                 9 | 64 | 641 | 642 => {
@@ -1398,8 +1408,12 @@ impl Translator {
             out.plain = false;
         }
         if exact_here {
-            pieces.push((mode_offset, Piece::Text("G61")));
+            if !mode_written {
+                pieces.push((mode_offset, Piece::Text("G61")));
+            }
             self.restore_mode = true;
+        } else if mode_written && !mode_changed {
+            self.restore_mode = false;
         } else if mode_changed || self.restore_mode {
             self.restore_mode = false;
             pieces.push((

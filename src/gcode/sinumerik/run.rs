@@ -308,6 +308,9 @@ impl Runner<'_, '_> {
             for w in &rewritten.warnings {
                 interp.warn(number, w.clone());
             }
+            if let Some(jerk_limited) = rewritten.jerk_limited {
+                interp.switch_profile(jerk_limited);
+            }
             run_line(interp, rewritten.text(text), number, lexed)
                 .map_err(|(offset, kind)| (rewritten.original_offset(offset), kind))
         });
