@@ -99,6 +99,40 @@ fn hidden_value(hidden: &AxisConfig, key: &str) -> f64 {
     }
 }
 
+/// How `machine` predicts another program's record of `truth` (seeded `seed`): per axis,
+/// the residual RMS and the record's following-error RMS (µm).
+fn predicts_other_program(
+    truth: &MachineConfig,
+    machine: &MachineConfig,
+    seed: u64,
+) -> Vec<(AxisName, f64, f64)> {
+    let other = other_program();
+    let measured = record(&other, truth, seed);
+    let mut settings = DiagnoseSettings::for_machine(machine);
+    settings.max_causes = 0;
+    let d = diagnose(&other, machine, &measured, &settings).unwrap();
+    AxisName::BOTH
+        .iter()
+        .map(|&axis| {
+            let commanded = &measured.commands.as_ref().unwrap()[axis.index()];
+            let (actual, residual) = if axis == AxisName::X {
+                (&measured.x_m, d.before.x.rms_um)
+            } else {
+                (&measured.y_m, d.before.y.rms_um)
+            };
+            let following_rms_um = 1e6
+                * (commanded
+                    .iter()
+                    .zip(actual)
+                    .map(|(c, m)| (c - m).powi(2))
+                    .sum::<f64>()
+                    / commanded.len() as f64)
+                    .sqrt();
+            (axis, residual, following_rms_um)
+        })
+        .collect()
+}
+
 /// Identifies `truth` from `template` on the fitted program's record, checks every
 /// determined value against the truth and the held-out halves, and that the keys in
 /// `must_see` are determined; then predicts the other program's record.
@@ -163,37 +197,15 @@ fn identified_and_predicting(
         );
     }
     // The identified machine predicts a program it was not fitted on.
-    let other = other_program();
-    let measured = record(&other, truth, seed + 1);
-    let mut settings = DiagnoseSettings::for_machine(&id.machine);
-    settings.max_causes = 0;
-    let d = diagnose(&other, &id.machine, &measured, &settings).unwrap();
-    for axis in AxisName::BOTH {
-        let commanded = &measured.commands.as_ref().unwrap()[axis.index()];
-        let actual = if axis == AxisName::X {
-            &measured.x_m
-        } else {
-            &measured.y_m
-        };
-        let following_rms_um = 1e6
-            * (commanded
-                .iter()
-                .zip(actual)
-                .map(|(c, m)| (c - m).powi(2))
-                .sum::<f64>()
-                / commanded.len() as f64)
-                .sqrt();
-        let r = if axis == AxisName::X {
-            &d.before.x
-        } else {
-            &d.before.y
-        };
+    for (axis, residual_um, following_rms_um) in
+        predicts_other_program(truth, &id.machine, seed + 1)
+    {
         // An axis with integral action follows to a few µm: there the record's noise is the
         // floor.
         assert!(
-            r.rms_um <= (0.02 * following_rms_um).max(1.5 * id.noise_um),
+            residual_um <= (0.02 * following_rms_um).max(1.5 * id.noise_um),
             "{axis}: residual {} µm against a following error of {following_rms_um} µm",
-            r.rms_um
+            residual_um
         );
     }
     id
@@ -427,31 +439,12 @@ fn without_a_template_a_loop_model_predicts_the_machine() {
             a.following_error_rms_um
         );
     }
-    let other = other_program();
-    let measured = record(&other, &truth, 98);
-    let mut settings = DiagnoseSettings::for_machine(&id.machine);
-    settings.max_causes = 0;
-    let d = diagnose(&other, &id.machine, &measured, &settings).unwrap();
-    for (axis, r) in [(AxisName::X, &d.before.x), (AxisName::Y, &d.before.y)] {
-        let commanded = &measured.commands.as_ref().unwrap()[axis.index()];
-        let actual = if axis == AxisName::X {
-            &measured.x_m
-        } else {
-            &measured.y_m
-        };
-        let following_rms_um = 1e6
-            * (commanded
-                .iter()
-                .zip(actual)
-                .map(|(c, m)| (c - m).powi(2))
-                .sum::<f64>()
-                / commanded.len() as f64)
-                .sqrt();
+    for (axis, residual_um, following_rms_um) in predicts_other_program(&truth, &id.machine, 98) {
         // Another program, with other stops and hunting: within 30 % (X measured 25 %).
         assert!(
-            r.rms_um <= 0.3 * following_rms_um,
+            residual_um <= 0.3 * following_rms_um,
             "{axis}: residual {} µm against a following error of {following_rms_um} µm",
-            r.rms_um
+            residual_um
         );
     }
 }
