@@ -437,3 +437,25 @@ fn brisk_and_soft_switch_the_paths_acceleration_profile() {
     assert!(peak_jerk(0) > 5.0 * jerk_limit, "BRISK: {}", peak_jerk(0));
     assert!(peak_jerk(1) <= 1.01 * jerk_limit, "SOFT: {}", peak_jerk(1));
 }
+
+#[test]
+fn case_jumps_to_the_branch_of_its_value() {
+    // R1 = 2 picks the second branch; R1 = 7 the default; a value without a branch and
+    // without a default goes on.
+    let program = |r1: f64| {
+        format!(
+            "G710 G90 G17 G94 G0 X0 Y0\nR1={r1}\nCASE (R1) OF 1 GOTOF ONE 2 GOTOF TWO DEFAULT GOTOF OTHER\n\
+             ONE: G1 X10 F500\nGOTOF END\nTWO: G1 X20 F500\nGOTOF END\nOTHER: G1 X30 F500\nEND: M30\n"
+        )
+    };
+    let end_x = |r1: f64| {
+        let p = parse(&program(r1), "case.mpf");
+        (p.segments.last().unwrap().end_m[0] * 1e3).round()
+    };
+    assert_eq!(end_x(1.0), 10.0);
+    assert_eq!(end_x(2.0), 20.0);
+    assert_eq!(end_x(7.0), 30.0);
+    let no_default = "G710 G90 G0 X0 Y0\nR1=5\nCASE(R1) OF 1 GOTOF AA\nG1 X40 F500\nAA: M30\n";
+    let p = parse(no_default, "case.mpf");
+    assert!((p.segments.last().unwrap().end_m[0] - 0.04).abs() < 1e-12);
+}

@@ -1,6 +1,7 @@
 //! Program control of SINUMERIK programs: labels and jumps (`GOTOF`, `GOTOB`, `GOTO`,
-//! `GOTOC`, `IF … GOTOF …`), and the structured forms `IF`/`ELSE`/`ENDIF`, `WHILE`/
-//! `ENDWHILE`, `FOR`/`ENDFOR`, `REPEAT`/`UNTIL` and `LOOP`/`ENDLOOP`. Each control
+//! `GOTOC`, `IF … GOTOF …`, `CASE (…) OF … GOTOF …`), and the structured forms
+//! `IF`/`ELSE`/`ENDIF`, `WHILE`/`ENDWHILE`, `FOR`/`ENDFOR`, `REPEAT`/`UNTIL` and
+//! `LOOP`/`ENDLOOP`. Each control
 //! statement stands on a line of its own (after its block number or label), as the 840D
 //! writes them; the structure is matched before the program runs, so an `ENDWHILE` without
 //! its `WHILE` is an error at its line rather than a surprise half-way through.
@@ -48,6 +49,13 @@ pub(crate) enum Control {
     },
     Loop,
     EndLoop,
+    /// `CASE (expr) OF c₁ GOTOF l₁ c₂ GOTOB l₂ … DEFAULT GOTOF l`: the jump of the first
+    /// constant equal to the expression's value, else the default's, else on.
+    Case {
+        expr: String,
+        branches: Vec<(String, String, Way)>,
+        default: Option<(String, Way)>,
+    },
 }
 
 /// Where a jump looks for its target.
@@ -108,6 +116,11 @@ fn statement(line: &str) -> (String, usize, Option<String>, Option<String>) {
 
 /// The control statement a block's content is, if any.
 fn control(text: &str) -> Option<Control> {
+    if let Some(rest) = text.strip_prefix("CASE")
+        && rest.trim_start().starts_with('(')
+    {
+        return case(rest.trim_start());
+    }
     let (word, rest) = match text.find(|c: char| c.is_whitespace()) {
         Some(i) => (&text[..i], text[i..].trim()),
         None => (text, ""),
@@ -156,6 +169,50 @@ fn control(text: &str) -> Option<Control> {
         "LOOP" => Control::Loop,
         "ENDLOOP" => Control::EndLoop,
         _ => return None,
+    })
+}
+
+/// A `CASE`'s text after its keyword: `(expr) OF c₁ GOTOF l₁ … DEFAULT GOTOF l`.
+fn case(rest: &str) -> Option<Control> {
+    // The expression: up to its matching bracket.
+    let mut depth = 0;
+    let mut close = None;
+    for (i, c) in rest.char_indices() {
+        match c {
+            '(' => depth += 1,
+            ')' => {
+                depth -= 1;
+                if depth == 0 {
+                    close = Some(i);
+                    break;
+                }
+            }
+            _ => {}
+        }
+    }
+    let close = close?;
+    let expr = rest[1..close].trim().to_string();
+    let tail = rest[close + 1..].trim_start().strip_prefix("OF")?;
+    let words: Vec<&str> = tail.split_whitespace().collect();
+    let (mut branches, mut default) = (Vec::new(), None);
+    for triple in words.chunks(3) {
+        let [key, jump, target] = triple else {
+            return None;
+        };
+        if !matches!(*jump, "GOTOF" | "GOTOB" | "GOTO") {
+            return None;
+        }
+        let to = (target.to_string(), Way::of(jump));
+        if *key == "DEFAULT" {
+            default = Some(to);
+        } else {
+            branches.push((key.to_string(), to.0, to.1));
+        }
+    }
+    Some(Control::Case {
+        expr,
+        branches,
+        default,
     })
 }
 

@@ -28,7 +28,7 @@
 //!   in the workpiece's frame and written into the program's, arc centres and radii with
 //!   them, a mirrored arc's direction reversed;
 //! - program control on lines of its own ([`flow`]): labels, `GOTOF`/`GOTOB`/`GOTO`/`GOTOC`,
-//!   `IF … GOTO…`, `IF`/`ELSE`/`ENDIF`, `WHILE`, `FOR`, `REPEAT`/`UNTIL`, `LOOP`, run as the
+//!   `IF … GOTO…`, `IF`/`ELSE`/`ENDIF`, `WHILE`, `FOR`, `REPEAT`/`UNTIL`, `LOOP`, `CASE`, run as the
 //!   control runs them (a program that runs more than 20 million blocks is an error);
 //! - subprogram calls (`L123 P3`, `NAME(args)`, `CALL "NAME"`) of the same file's `_SPF`
 //!   sections or the program folder's files, with `PROC` parameters ([`run`]).
@@ -36,7 +36,7 @@
 //! `BRISK`/`SOFT` switch the path's acceleration profile from their block on (acceleration
 //! or jerk limited, stamped on the segments for the planner). `FFWON`/`FFWOF` are kept as
 //! warnings: the feed-forward is the machine file's setting, not switched by the program. Refused, with the word and the reason: system variables (`$…`), other `DEF`
-//! types, `CASE` and control sharing a line with other words, modal calls (`MCALL`, `PCALL`),
+//! types, control sharing a line with other words, modal calls (`MCALL`, `PCALL`),
 //! solid-angle frames (`ROTS`), arcs under unequal scales (ellipses), machining cycles
 //! (`CYCLE…`, `POCKET3`, …), splines, the compressor, transformations (`TRAORI`, `TRANSMIT`, `TRACYL`)
 //! and cutter compensation — never a move skipped.
@@ -444,6 +444,31 @@ impl Translator {
                 }
             }
             Control::EndLoop => after(structure.partner(k)),
+            Control::Case {
+                expr,
+                branches,
+                default,
+            } => {
+                let value = |t: &Translator, text: &str| {
+                    evaluate(&text.replace(' ', ""), &t.vars)
+                        .map(|(v, _)| v)
+                        .map_err(|_| {
+                            GcodeErrorKind::Invalid(format!("CASE: '{text}' has no value"))
+                        })
+                };
+                let v = value(self, expr)?;
+                let mut chosen = None;
+                for (constant, target, way) in branches {
+                    if value(self, constant)? == v {
+                        chosen = Some((target, *way));
+                        break;
+                    }
+                }
+                match chosen.or(default.as_ref().map(|(t, w)| (t, *w))) {
+                    Some((target, way)) => jump(target, way, false)?,
+                    None => k + 1,
+                }
+            }
             Control::Repeat | Control::Loop | Control::EndIf => k + 1,
         })
     }
