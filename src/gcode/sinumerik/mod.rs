@@ -28,17 +28,19 @@
 //!   in the workpiece's frame and written into the program's, arc centres and radii with
 //!   them, a mirrored arc's direction reversed;
 //! - program control on lines of its own ([`flow`]): labels, `GOTOF`/`GOTOB`/`GOTO`/`GOTOC`,
-//!   `IF … GOTO…`, `IF`/`ELSE`/`ENDIF`, `WHILE`, `FOR`, `REPEAT`/`UNTIL`, `LOOP`, `CASE`, run as the
-//!   control runs them (a program that runs more than 20 million blocks is an error);
+//!   `IF … GOTO…`, `IF`/`ELSE`/`ENDIF`, `WHILE`, `FOR`, `REPEAT`/`UNTIL`, `LOOP`, `CASE`,
+//!   run as the control runs them (a program that runs more than 20 million blocks is an
+//!   error);
 //! - subprogram calls (`L123 P3`, `NAME(args)`, `CALL "NAME"`) of the same file's `_SPF`
 //!   sections or the program folder's files, with `PROC` parameters ([`run`]).
 //!
 //! `BRISK`/`SOFT` switch the path's acceleration profile from their block on (acceleration
 //! or jerk limited, stamped on the segments for the planner). `FFWON`/`FFWOF` are kept as
-//! warnings: the feed-forward is the machine file's setting, not switched by the program. Refused, with the word and the reason: system variables (`$…`), other `DEF`
-//! types, control sharing a line with other words, modal calls (`MCALL`, `PCALL`),
-//! solid-angle frames (`ROTS`), arcs under unequal scales (ellipses), machining cycles
-//! (`CYCLE…`, `POCKET3`, …), splines, the compressor, transformations (`TRAORI`, `TRANSMIT`, `TRACYL`)
+//! warnings: the feed-forward is the machine file's setting, not switched by the program.
+//! Refused, with the word and the reason: system variables (`$…`), other `DEF` types,
+//! control sharing a line with other words, modal calls (`MCALL`, `PCALL`), solid-angle
+//! frames (`ROTS`), arcs under unequal scales (ellipses), machining cycles (`CYCLE…`,
+//! `POCKET3`, …), splines, the compressor, transformations (`TRAORI`, `TRANSMIT`, `TRACYL`)
 //! and cutter compensation — never a move skipped.
 
 mod expr;
