@@ -429,6 +429,11 @@ fn without_a_template_a_loop_model_predicts_the_machine() {
     let start = loop_template(&measured);
     let settings = CompareSettings::for_machine(&start);
     let id = identify_loop(&program, &start, &measured, &settings).unwrap();
+    // What is written (as `identify --out` writes it: on no preset) reads back as the
+    // model found.
+    let text = format!("base = \"none\"\n{}", id.machine.to_toml());
+    let back = MachineConfig::from_toml_str(&text, "loop.toml").unwrap();
+    assert_eq!((&back.x, &back.y), (&id.machine.x, &id.machine.y));
     for a in &id.axes {
         assert!(a.kept.starts_with("no template"), "{}", a.kept);
         assert!(

@@ -413,7 +413,11 @@ impl Translator {
                     k + 1
                 }
             }
-            Control::If { condition } => {
+            // A structure entered (or, for UNTIL, left) while its condition holds; else past
+            // its partner.
+            Control::If { condition }
+            | Control::While { condition }
+            | Control::Until { condition } => {
                 if test(self, condition)? {
                     k + 1
                 } else {
@@ -422,13 +426,6 @@ impl Translator {
             }
             // Reached from the end of the IF's part: past the ENDIF.
             Control::Else => after(structure.partner(k)),
-            Control::While { condition } => {
-                if test(self, condition)? {
-                    k + 1
-                } else {
-                    after(structure.partner(k))
-                }
-            }
             Control::EndWhile => structure.partner(k).unwrap_or(k + 1),
             Control::For { var, from, to } => {
                 if self.for_entry(k, var, from, to)? {
@@ -438,13 +435,6 @@ impl Translator {
                 }
             }
             Control::EndFor => self.for_next(k, structure),
-            Control::Until { condition } => {
-                if test(self, condition)? {
-                    k + 1
-                } else {
-                    after(structure.partner(k))
-                }
-            }
             Control::EndLoop => after(structure.partner(k)),
             Control::Case {
                 expr,

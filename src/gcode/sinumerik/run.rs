@@ -409,10 +409,11 @@ impl Runner<'_, '_> {
             let Some(path) = self.path_of(name) else {
                 return Ok(None);
             };
-            let text = std::fs::read_to_string(&path).map_err(|e| {
+            // As the main program: bytes that are not UTF-8 (in comments, say) are replaced.
+            let bytes = std::fs::read(&path).map_err(|e| {
                 GcodeErrorKind::Invalid(format!("{name}: {} cannot be read: {e}", path.display()))
             })?;
-            let text: Rc<str> = Rc::from(text.as_str());
+            let text: Rc<str> = Rc::from(String::from_utf8_lossy(&bytes).as_ref());
             let lines = line_ranges(&text);
             let count = u32::try_from(lines.len()).unwrap_or(u32::MAX);
             let first = self.next_number;
@@ -517,7 +518,7 @@ fn proc_params(lines: &[&str]) -> Result<Vec<Param>, LineError> {
         let Some(open) = rest.find('(') else {
             return Ok(Vec::new());
         };
-        let close = rest.rfind(')').ok_or_else(|| {
+        let close = rest.rfind(')').filter(|&c| c > open).ok_or_else(|| {
             let kind = GcodeErrorKind::Invalid("PROC ( … ) is not closed".into());
             (k, at, kind)
         })?;
@@ -608,5 +609,7 @@ mod tests {
                 .unwrap()
                 .is_empty()
         );
+        // A closing bracket before the opening one is an error, not a panic.
+        assert!(proc_params(&["PROC P) (REAL A"]).is_err());
     }
 }
