@@ -375,7 +375,6 @@ fn identify_ordered(
     template: &MachineConfig,
     moving_only: bool,
 ) -> Option<(AxisConfig, AxisIdentification)> {
-    const BETTER_BY: f64 = 0.95;
     let template_axis = template.axis(fit.axis());
     let all = knobs::for_axis(template_axis);
     let fixed: Vec<Knob> = all.iter().copied().filter(|k| !k.is_corner()).collect();
@@ -399,13 +398,7 @@ fn identify_ordered(
         (config, id)
     });
     match (free, kept) {
-        (Some(f), Some(k)) => Some(
-            if f.1.held_out_identified_um < BETTER_BY * k.1.held_out_identified_um {
-                f
-            } else {
-                k
-            },
-        ),
+        (Some(f), Some(k)) => Some(if predicts_better(&f.1, &k.1) { f } else { k }),
         (f, k) => f.or(k),
     }
 }
@@ -417,7 +410,6 @@ fn identify_loop_order(
     template: &MachineConfig,
     moving_only: bool,
 ) -> Option<(AxisConfig, AxisIdentification)> {
-    const BETTER_BY: f64 = 0.95;
     let mut chosen: Option<(usize, (AxisConfig, AxisIdentification))> = None;
     for (i, knobs) in loop_model::orders(template.axis(fit.axis()))
         .iter()
@@ -426,9 +418,9 @@ fn identify_loop_order(
         let Some(found) = identify_on(fit, template, moving_only, knobs) else {
             continue;
         };
-        let better = chosen.as_ref().is_none_or(|(_, c)| {
-            found.1.held_out_identified_um < BETTER_BY * c.1.held_out_identified_um
-        });
+        let better = chosen
+            .as_ref()
+            .is_none_or(|(_, c)| predicts_better(&found.1, &c.1));
         if better {
             chosen = Some((i + 1, found));
         }
@@ -437,6 +429,12 @@ fn identify_loop_order(
         id.kept = loop_model::describes(order);
         (config, id)
     })
+}
+
+/// Whether the larger model `more` predicts the record's held-out halves better than
+/// `fewer` by more than a twentieth: only then is it kept over it.
+fn predicts_better(more: &AxisIdentification, fewer: &AxisIdentification) -> bool {
+    more.held_out_identified_um < 0.95 * fewer.held_out_identified_um
 }
 
 fn identify_on(
