@@ -323,14 +323,29 @@ fn the_840d_sample_is_its_subprogram_written_out_twice() {
     by_hand += "G0 Z50\nM2\n";
     let q = parse(&by_hand, "boss.ngc");
     assert_eq!(ends_nm(&p), ends_nm(&q));
-    let blends = |p: &Program| p.segments.iter().map(|s| s.blend).collect::<Vec<_>>();
-    assert_eq!(blends(&p), blends(&q));
+    // The cuts blend alike; the 840D's rapids keep the path mode (G642 from CYCLE832), where
+    // RS274/NGC's stop — all but the program's last move, which stops in both.
+    use contourcheck::path::{Blend, Motion};
+    let blends = |p: &Program, motion: Motion| {
+        p.segments[..p.segments.len() - 1]
+            .iter()
+            .filter(|s| s.motion == motion)
+            .map(|s| s.blend)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(blends(&p, Motion::Feed), blends(&q, Motion::Feed));
+    assert!(
+        blends(&p, Motion::Rapid)
+            .iter()
+            .all(|&b| b == blends(&p, Motion::Feed)[0])
+    );
+    assert!(
+        blends(&q, Motion::Rapid)
+            .iter()
+            .all(|&b| b == Blend::ExactStop)
+    );
     // Every cut is written in the subprogram (lines 22–33 of the file).
-    for s in p
-        .segments
-        .iter()
-        .filter(|s| s.motion == contourcheck::path::Motion::Feed)
-    {
+    for s in p.segments.iter().filter(|s| s.motion == Motion::Feed) {
         assert!((22..=33).contains(&s.line), "line {}", s.line);
     }
 }
@@ -458,4 +473,142 @@ fn case_jumps_to_the_branch_of_its_value() {
     let no_default = "G710 G90 G0 X0 Y0\nR1=5\nCASE(R1) OF 1 GOTOF AA\nG1 X40 F500\nAA: M30\n";
     let p = parse(no_default, "case.mpf");
     assert!((p.segments.last().unwrap().end_m[0] - 0.04).abs() < 1e-12);
+}
+
+#[test]
+fn rapids_keep_the_continuous_path_mode_as_the_840d_does() {
+    use contourcheck::machine::MachineConfig;
+    use contourcheck::path::Blend;
+    use contourcheck::plan::{KinematicLimits, PlanConfig, plan};
+    let tolerance_mm = |b: Blend| match b {
+        Blend::ExactStop => None,
+        Blend::Continuous { tolerance_m, .. } => Some(tolerance_m.map(|t| t * 1e3)),
+    };
+    let blends = |text: &str, file: &str| {
+        parse(text, file)
+            .segments
+            .iter()
+            .map(|s| tolerance_mm(s.blend))
+            .collect::<Vec<_>>()
+    };
+    // G641 rounds rapids by ADISPOS and feed moves by ADIS; G642 rapids by CTOLG0 (CTOL
+    // where none is set); under G60, or with G9 in its block, a rapid stops.
+    let rounded = "G710 G90 G641 ADIS=0.05 ADISPOS=0.5\nG0 X10\nY10\nG1 X0 F1000\nY0\n\
+                   G642 CTOL=0.02\nG0 X10\nCTOLG0=0.2\nY10\nG1 X0\nG9 G0 Y0\nG60 X10\nY10\nM30\n";
+    let close = |got: Option<Option<f64>>, want: Option<f64>| match (got, want) {
+        (Some(Some(g)), Some(w)) => (g - w).abs() < 1e-9,
+        (None, None) => true,
+        _ => false,
+    };
+    let got = blends(rounded, "rounded.mpf");
+    let want = [
+        Some(0.5),
+        Some(0.5),
+        Some(0.05),
+        Some(0.05),
+        Some(0.02),
+        Some(0.2),
+        Some(0.02),
+        None,
+        None,
+        None,
+    ];
+    assert_eq!(got.len(), want.len(), "{got:?}");
+    for (k, (&g, &w)) in got.iter().zip(&want).enumerate() {
+        assert!(close(g, w), "segment {k}: {g:?}, want {w:?} (all {got:?})");
+    }
+    // The same rapids in RS274/NGC each end in an exact stop.
+    let rs274 = blends(
+        "G21 G90 G64 P0.5\nG0 X10\nY10\nG1 X0 F1000\nM2\n",
+        "rapids.ngc",
+    );
+    assert_eq!(rs274[..2], [None, None]);
+
+    // Planned: the 840D runs through from one rapid into the next at the rapid rate, where
+    // RS274/NGC stops in between.
+    let machine = MachineConfig::default_preset();
+    let limits = KinematicLimits::of(&machine);
+    let config = PlanConfig::for_machine(&machine);
+    let planned = |text: &str, file: &str| plan(&parse(text, file), &limits, &config);
+    let siemens = planned("G710 G90 G64\nG0 X100\nX200\nM30\n", "l.mpf");
+    let rs = planned("G21 G90 G64\nG0 X100\nX200\nM2\n", "l.ngc");
+    let rapid_m_per_s = limits.axes[0].rapid_m_per_s;
+    let corner_speed = |p: &contourcheck::plan::Plan| {
+        let first = &p.plans[0];
+        first.motion().eval(first.duration_s).1
+    };
+    assert!(
+        corner_speed(&rs) < 1e-9,
+        "RS274 corner {}",
+        corner_speed(&rs)
+    );
+    assert!(
+        (corner_speed(&siemens) - rapid_m_per_s).abs() < 1e-6,
+        "840D {} m/s, rapid {rapid_m_per_s} m/s",
+        corner_speed(&siemens)
+    );
+    assert!(
+        siemens.total_time_s < rs.total_time_s - 0.01,
+        "840D {} s, RS274 {} s",
+        siemens.total_time_s,
+        rs.total_time_s
+    );
+}
+
+#[test]
+fn an_increment_after_a_frame_change_also_travels_the_offset() {
+    // The 840D's default (FRAME_OFFSET_INCR_PROG = 1): X=IC(1) after TRANS X100 goes from
+    // the last programmed X1 to X2 of the new frame, 102 in the program's coordinates; in
+    // G91 alike, and again after the frame is reset.
+    let p = parse(
+        "G710 G90 G1 F1000 X1 Y0 Z0\nTRANS X100\nX=IC(1)\nX=IC(2)\nTRANS\nG91 X3\nG90 Y5\nM30\n",
+        "incr.mpf",
+    );
+    let xs: Vec<f64> = p.segments.iter().map(|s| s.end_m[0] * 1e3).collect();
+    let want = [1.0, 102.0, 104.0, 7.0, 7.0];
+    assert_eq!(xs.len(), want.len(), "{xs:?}");
+    for (x, w) in xs.iter().zip(want) {
+        assert!((x - w).abs() < 1e-9, "{xs:?}");
+    }
+}
+
+#[test]
+fn what_cam_posts_write_around_the_path_is_read() {
+    // Rotary axes homed in a rapid, CYCLE800() switching a swivel off, FNORM, SETMS, a
+    // labelled block number, blanks around '=' and operators, DIV, a comparison assigned.
+    let text = "N10 DEF REAL _X_HOME, _Y_HOME\nN20 _X_HOME = 10 _Y_HOME=20\n\
+                N30 G17 G710 G94 G90 FNORM\nN40 SUPA G0 X=_X_HOME Y=_Y_HOME A=0 C=0\n\
+                N50 CYCLE800()\nN60 SETMS(1)\nN70 R1 = (7 DIV 2) * 10 + 1\n\
+                N80 R2 = R1 >= 31\nN90 G1 F500 X = R1 + R2 Y=20\nN100 GOTOF 120\n\
+                N110 X0\nN120 LAST_1: Y0\nN130 M30\nN140 GOTOB LAST_1\n";
+    let p = parse(text, "post.mpf");
+    let ends: Vec<[f64; 2]> = p
+        .segments
+        .iter()
+        .map(|s| [s.end_m[0] * 1e3, s.end_m[1] * 1e3])
+        .collect();
+    assert_eq!(ends, [[10.0, 20.0], [32.0, 20.0], [32.0, 0.0]], "{ends:?}");
+    let said = |what: &str| p.warnings.iter().any(|w| w.message.contains(what));
+    assert!(
+        said("rotary axis") && said("CYCLE800()"),
+        "{:?}",
+        p.warnings
+    );
+    // A rotary axis turning during a cut, and a swivel plane selected, are refused.
+    for (text, line, word) in [
+        ("G710 G1 F100 X10 C90\nM30\n", 1, "C"),
+        (
+            "G710 CYCLE800(1,\"TABLE\",0,57,0,0,0,0,0,0,0,0,0,1)\nM30\n",
+            1,
+            "CYCLE800",
+        ),
+    ] {
+        let e = parse_program(text, "r.mpf", &InterpretOptions::default()).unwrap_err();
+        let first = &e.0[0];
+        assert_eq!(first.pos.line, line, "{first}");
+        assert!(
+            matches!(&first.kind, contourcheck::gcode::GcodeErrorKind::Unsupported { word: w, .. } if w.starts_with(word)),
+            "{first}"
+        );
+    }
 }

@@ -232,6 +232,9 @@ pub struct Interpreter {
     /// The acceleration profile the program switched to (`SOFT`/`BRISK`), stamped on each
     /// segment; `None`: the planner's.
     jerk_limited: Option<bool>,
+    /// Whether rapids follow the path mode (SINUMERIK: `G0` blends under `G64`/`G641`/`G642`)
+    /// rather than ending in an exact stop (RS274/NGC here).
+    rapids_blend: bool,
     block: BlockWords,
     line: u32,
     segments: Vec<Segment>,
@@ -281,6 +284,7 @@ impl Interpreter {
             pos_mm: opts.start_mm,
             ended: false,
             jerk_limited: None,
+            rapids_blend: false,
             block: BlockWords::default(),
             line: 0,
             segments: Vec::new(),
@@ -323,6 +327,22 @@ impl Interpreter {
     /// jerk limited, `BRISK`: acceleration limited).
     pub(crate) fn switch_profile(&mut self, jerk_limited: bool) {
         self.jerk_limited = Some(jerk_limited);
+    }
+
+    /// Lets rapids take the path mode in force, as the 840D's `G0` does, instead of ending
+    /// each in an exact stop.
+    pub(crate) fn blend_rapids(&mut self) {
+        self.rapids_blend = true;
+    }
+
+    /// Whether the program has ended (`M2`, `M30`).
+    pub(crate) fn has_ended(&self) -> bool {
+        self.ended
+    }
+
+    /// Counts `n` blocks left unrun after the program's end.
+    pub(crate) fn skipped_after_end(&mut self, n: usize) {
+        self.lines_after_end += n;
     }
 
     pub(crate) fn warn(&mut self, line: u32, message: String) {
@@ -668,6 +688,15 @@ impl Interpreter {
         ]
     }
 
+    /// Where the tool stands in the active system's coordinates, in the program's unit: the
+    /// inverse of [`Interpreter::program_to_machine`].
+    pub(crate) fn program_position(&self) -> [f64; 3] {
+        let (sin, cos) = self.rotation_deg[self.coord_index].to_radians().sin_cos();
+        let o = self.offset_mm();
+        let d = [0, 1, 2].map(|i| self.pos_mm[i] - o[i]);
+        [cos * d[0] + sin * d[1], -sin * d[0] + cos * d[1], d[2]].map(|v| v / self.mm_per_unit)
+    }
+
     /// Program coordinates (mm, active system) → machine coordinates (mm): rotate about the
     /// system's origin, then offset, as LinuxCNC's canonical layer does.
     fn program_to_machine(&self, p: [f64; 3]) -> [f64; 3] {
@@ -925,10 +954,20 @@ impl Interpreter {
             end_m: end,
             motion,
             feed_m_per_s: self.feed_for(motion),
-            blend: self.blend,
+            blend: self.blend_for(motion),
             line: self.line,
             jerk_limited: self.jerk_limited,
         });
+    }
+
+    /// The path mode a move of `motion` ends in. RS274/NGC rapids end in an exact stop, as
+    /// on most controls (Fanuc's rapid in-position check; LinuxCNC is kept to the same
+    /// conservative rule).
+    fn blend_for(&self, motion: Motion) -> Blend {
+        match motion {
+            Motion::Rapid if !self.rapids_blend => Blend::ExactStop,
+            _ => self.blend,
+        }
     }
 
     fn feed_for(&self, motion: Motion) -> f64 {

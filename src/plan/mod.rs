@@ -68,7 +68,7 @@ impl std::str::FromStr for ProfileKind {
     }
 }
 
-/// The control's in-position check: after an exact stop (the end of a rapid, a G61 block)
+/// The control's in-position check: after an exact stop (an RS274/NGC rapid, a G61 block)
 /// the next block starts only when every axis's following error is within the window.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct InPosition {
@@ -433,15 +433,14 @@ pub(crate) fn plan_segments(
 }
 
 /// A motion segment the control stops exactly after: before a next block that moves, when
-/// it is a rapid or in exact-stop mode, and always at the program's end (the program is done
-/// when the axes are in position).
+/// it is in exact-stop mode (as the interpreter marks the rapids of a dialect whose rapids
+/// stop), and always at the program's end (the program is done when the axes are in
+/// position).
 pub(crate) fn ends_in_exact_stop(segments: &[Segment], i: usize) -> bool {
     let seg = &segments[i];
     let next_moves = segments.get(i + 1).is_some_and(|n| !n.is_dwell());
     let program_end = i + 1 == segments.len();
-    !seg.is_dwell()
-        && (program_end
-            || next_moves && (seg.motion == Motion::Rapid || seg.blend == Blend::ExactStop))
+    !seg.is_dwell() && (program_end || next_moves && seg.blend == Blend::ExactStop)
 }
 
 /// How long the axes need after segment `i` to come within the window: each axis's lag at
@@ -657,10 +656,7 @@ fn junction_limits(
     let mut v = vec![0.0; n + 1];
     for k in 1..n {
         let (a, b) = (&segments[runs[k - 1].last], &segments[runs[k].first]);
-        // Rapids end in an exact stop, as on most controls (Siemens G0 with G60, Fanuc's
-        // rapid in-position check).
-        if a.is_dwell() || b.is_dwell() || a.blend == Blend::ExactStop || a.motion == Motion::Rapid
-        {
+        if a.is_dwell() || b.is_dwell() || a.blend == Blend::ExactStop {
             continue;
         }
         let cap = runs[k - 1].limits.v_max.min(runs[k].limits.v_max);

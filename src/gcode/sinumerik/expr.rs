@@ -16,6 +16,16 @@ pub(crate) enum ExprError {
     Syntax(usize, String),
 }
 
+impl ExprError {
+    /// The same error, its offset counted from `by` bytes earlier.
+    fn shifted(self, by: usize) -> ExprError {
+        match self {
+            ExprError::Unknown(at, name) => ExprError::Unknown(at + by, name),
+            ExprError::Syntax(at, problem) => ExprError::Syntax(at + by, problem),
+        }
+    }
+}
+
 struct Parser<'a> {
     s: &'a [u8],
     text: &'a str,
@@ -23,8 +33,9 @@ struct Parser<'a> {
     vars: &'a Variables,
 }
 
-/// Evaluates the expression at the start of `text` (upper case), stopping at a blank,
-/// `;` or an unmatched `)` / `,` outside brackets; its value and the bytes it took.
+/// Evaluates the expression at the start of `text` (upper case), stopping at a blank (but
+/// for blanks around an operator), `;` or an unmatched `)` / `,` outside brackets; its value
+/// and the bytes it took.
 pub(crate) fn evaluate(text: &str, vars: &Variables) -> Result<(f64, usize), ExprError> {
     let mut p = Parser {
         s: text.as_bytes(),
@@ -42,12 +53,42 @@ pub(crate) fn evaluate(text: &str, vars: &Variables) -> Result<(f64, usize), Exp
     Ok((v, p.i))
 }
 
+/// [`evaluate`] for the value of an assignment, which may be a comparison (`R11=R10>=100`:
+/// 1 where it holds, else 0).
+pub(crate) fn evaluate_assigned(text: &str, vars: &Variables) -> Result<(f64, usize), ExprError> {
+    let (left, n) = evaluate(text, vars)?;
+    let rest = &text[n..];
+    let blanks = rest.len() - rest.trim_start_matches([' ', '\t']).len();
+    let after = &rest[blanks..];
+    let Some(op) = ["==", "<>", "<=", ">=", "<", ">"]
+        .into_iter()
+        .find(|op| after.starts_with(op))
+    else {
+        return Ok((left, n));
+    };
+    let mut at = n + blanks + op.len();
+    at += text[at..].len() - text[at..].trim_start_matches([' ', '\t']).len();
+    let (right, m) = evaluate(&text[at..], vars).map_err(|e| e.shifted(at))?;
+    let holds = match op {
+        "==" => left == right,
+        "<>" => left != right,
+        "<=" => left <= right,
+        ">=" => left >= right,
+        "<" => left < right,
+        _ => left > right,
+    };
+    Ok((f64::from(u8::from(holds)), at + m))
+}
+
 /// Evaluates a condition: comparisons (`==`, `<>`, `<`, `>`, `<=`, `>=`) of expressions,
 /// joined by `AND`, `OR` and `NOT`; the whole text must be the condition.
 pub(crate) fn condition(text: &str, vars: &Variables) -> Result<bool, ExprError> {
     let text = text.trim();
     if let Some(i) = find_word(text, " OR ") {
         return Ok(condition(&text[..i], vars)? || condition(&text[i + 4..], vars)?);
+    }
+    if let Some(i) = find_word(text, " XOR ") {
+        return Ok(condition(&text[..i], vars)? != condition(&text[i + 5..], vars)?);
     }
     if let Some(i) = find_word(text, " AND ") {
         return Ok(condition(&text[..i], vars)? && condition(&text[i + 5..], vars)?);
@@ -111,10 +152,51 @@ impl Parser<'_> {
         self.s.get(self.i).copied()
     }
 
+    /// The next character after blanks when it is one of `ops`, the blanks then passed
+    /// over: blanks may stand around an operator (`A + B`), while a blank before anything
+    /// else ends the value (`X=A Y=B`).
+    fn operator(&mut self, ops: &[u8]) -> Option<u8> {
+        let mut j = self.i;
+        while matches!(self.s.get(j), Some(b' ' | b'\t')) {
+            j += 1;
+        }
+        let c = *self.s.get(j)?;
+        ops.contains(&c).then(|| {
+            self.i = j;
+            c
+        })
+    }
+
+    /// `DIV`, `MOD` or a bit-by-bit `B_AND`, `B_OR`, `B_XOR` between blanks, passed over
+    /// with them.
+    fn word_operator(&mut self) -> Option<&'static str> {
+        let mut j = self.i;
+        while matches!(self.s.get(j), Some(b' ' | b'\t')) {
+            j += 1;
+        }
+        let word = ["DIV", "MOD", "B_AND", "B_OR", "B_XOR"]
+            .into_iter()
+            .find(|w| self.text[j..].starts_with(w))?;
+        let after = j + word.len();
+        if j == self.i || !matches!(self.s.get(after), Some(b' ' | b'\t' | b'(')) {
+            return None;
+        }
+        self.i = after;
+        self.skip_blanks();
+        Some(word)
+    }
+
+    fn skip_blanks(&mut self) {
+        while matches!(self.peek(), Some(b' ' | b'\t')) {
+            self.i += 1;
+        }
+    }
+
     fn sum(&mut self) -> Result<f64, ExprError> {
         let mut v = self.product()?;
-        while let Some(c @ (b'+' | b'-')) = self.peek() {
+        while let Some(c) = self.operator(b"+-") {
             self.i += 1;
+            self.skip_blanks();
             let r = self.product()?;
             v = if c == b'+' { v + r } else { v - r };
         }
@@ -124,13 +206,32 @@ impl Parser<'_> {
     fn product(&mut self) -> Result<f64, ExprError> {
         let mut v = self.factor()?;
         loop {
-            match self.peek() {
+            if let Some(word) = self.word_operator() {
+                let d = self.factor()?;
+                if d == 0.0 && matches!(word, "DIV" | "MOD") {
+                    return Err(ExprError::Syntax(self.i, "division by zero".into()));
+                }
+                // DIV: the integer quotient; MOD: the remainder, with the dividend's sign;
+                // the bit-by-bit operators on the values as whole numbers.
+                let bits = |f: fn(i64, i64) -> i64| f(v.round() as i64, d.round() as i64) as f64;
+                v = match word {
+                    "DIV" => (v / d).trunc(),
+                    "MOD" => v % d,
+                    "B_AND" => bits(|a, b| a & b),
+                    "B_OR" => bits(|a, b| a | b),
+                    _ => bits(|a, b| a ^ b),
+                };
+                continue;
+            }
+            match self.operator(b"*/") {
                 Some(b'*') => {
                     self.i += 1;
+                    self.skip_blanks();
                     v *= self.factor()?;
                 }
-                Some(b'/') => {
+                Some(_) => {
                     self.i += 1;
+                    self.skip_blanks();
                     let d = self.factor()?;
                     if d == 0.0 {
                         return Err(ExprError::Syntax(self.i, "division by zero".into()));
@@ -154,7 +255,9 @@ impl Parser<'_> {
             }
             Some(b'(') => {
                 self.i += 1;
+                self.skip_blanks();
                 let v = self.sum()?;
+                self.skip_blanks();
                 self.expect(b')')?;
                 Ok(v)
             }
@@ -210,6 +313,11 @@ impl Parser<'_> {
         if self.peek() == Some(b'(') {
             return self.function(name, start);
         }
+        match name {
+            "TRUE" => return Ok(1.0),
+            "FALSE" => return Ok(0.0),
+            _ => {}
+        }
         self.vars
             .get(name)
             .copied()
@@ -218,11 +326,14 @@ impl Parser<'_> {
 
     fn function(&mut self, name: &str, start: usize) -> Result<f64, ExprError> {
         self.i += 1;
+        self.skip_blanks();
         let mut args = vec![self.sum()?];
-        while self.peek() == Some(b',') {
+        while self.operator(b",").is_some() {
             self.i += 1;
+            self.skip_blanks();
             args.push(self.sum()?);
         }
+        self.skip_blanks();
         self.expect(b')')?;
         let one = |f: fn(f64) -> f64| -> Result<f64, ExprError> {
             match args.as_slice() {
@@ -268,6 +379,20 @@ mod tests {
         assert!((eval("ATAN2(1,1)").unwrap() - 45.0).abs() < 1e-12);
         assert_eq!(eval("1.5EX3"), Ok(1500.0));
         assert_eq!(evaluate("R1 X5", &vars), Ok((10.0, 2)));
+        // Blanks around operators and inside brackets belong to the value; before a word
+        // they end it.
+        assert_eq!(evaluate("R1 + 2 * ( _LEN - 1 ) X5", &vars), Ok((16.0, 21)));
+        assert_eq!(evaluate("ATAN2( 1 , 1 )", &vars), Ok((45.0, 14)));
+        assert_eq!(evaluate("R1 _LEN=2", &vars), Ok((10.0, 2)));
+        assert_eq!(evaluate_assigned("R1 >= 100", &vars), Ok((0.0, 9)));
+        assert_eq!(evaluate_assigned("R1==10 X5", &vars), Ok((1.0, 6)));
+        assert_eq!(eval("6 B_AND 3"), Ok(2.0));
+        assert_eq!(eval("6 B_OR 3"), Ok(7.0));
+        assert_eq!(eval("6 B_XOR 3"), Ok(5.0));
+        assert_eq!(eval("7 DIV 3"), Ok(2.0));
+        assert_eq!(eval("2+6 DIV 4"), Ok(3.0));
+        assert_eq!(eval("-7 MOD 3"), Ok(-1.0));
+        assert_eq!(evaluate("R1 DIVX", &vars), Ok((10.0, 2)));
         assert!(matches!(eval("R2+1"), Err(ExprError::Unknown(0, _))));
         assert!(matches!(eval("$P_EP[X]"), Err(ExprError::Unknown(0, _))));
         assert!(matches!(eval("R1/0"), Err(ExprError::Syntax(..))));
@@ -284,6 +409,9 @@ mod tests {
         assert!(!c("R1<>3 OR R1>=4"));
         assert!(c("NOT R1<=2"));
         assert!(c("R1*2 == 6"));
+        assert!(c("(R1 == 3) XOR (R1 == 4)"));
+        assert!(!c("(R1 == 3) XOR (R1 > 2)"));
+        assert!(c("TRUE") && !c("FALSE"));
         assert!(condition("R9>1", &vars).is_err());
     }
 }

@@ -277,7 +277,13 @@ impl Structure {
 
     /// The line of the label or block number a jump from line `k` reaches.
     pub fn label(&self, name: &str, k: usize, way: Way) -> Option<usize> {
-        let lines = self.labels.get(name)?;
+        // A block number may be named without its `N` (`GOTOF 90`).
+        let lines = match self.labels.get(name) {
+            None if name.bytes().all(|b| b.is_ascii_digit()) => {
+                self.labels.get(&format!("N{name}"))?
+            }
+            found => found?,
+        };
         let forward = || lines.iter().copied().find(|&l| l > k);
         let backward = || lines.iter().copied().rev().find(|&l| l < k);
         match way {

@@ -15,7 +15,8 @@
 //!   `G641` with `ADIS=` and `G642` with `CTOL=`: the corners rounded within the given
 //!   distance are planned with the planner's corner tolerance of that size (the 840D's
 //!   rounding inserts a blend; the planner passes the corner at the speed a blend of that
-//!   size allows, on the programmed path);
+//!   size allows, on the programmed path); rapids keep the path mode, as the 840D's `G0`
+//!   does, rounded by `ADISPOS=` under `G641` and `CTOLG0=` (else `CTOL=`) under `G642`;
 //! - `G4 F…` (dwell in seconds), `G500`, `G54`–`G57`, `G153`, `M17`/`RET` (program end, or a
 //!   subprogram's return), `CYCLE832` (as `G642` within its tolerance),
 //!   `D` (tool edge: lengths taken as zero), `MSG(…)`;
@@ -48,7 +49,7 @@ pub(crate) mod flow;
 pub(crate) mod run;
 
 use super::error::GcodeErrorKind;
-use expr::{ExprError, Variables, condition, evaluate};
+use expr::{ExprError, Variables, condition, evaluate, evaluate_assigned};
 use flow::{Control, Structure, Way};
 
 /// The dialect a program is written in.
@@ -169,11 +170,24 @@ pub(crate) struct Translator {
     path_mode: PathMode,
     /// Whether `G641` (else `G642`) is the rounding mode in force, when one is.
     rounding: Option<bool>,
+    /// `ADIS=`: the rounding distance of `G641` between feed moves (`G1`–`G3`).
     adis: Option<f64>,
+    /// `ADISPOS=`: the rounding distance of `G641` after a rapid (`G0`).
+    adispos: Option<f64>,
+    /// Whether a rotary axis's positioning has been noted.
+    rotary_noted: bool,
+    /// `CTOL=`: the contour tolerance of `G642`.
     ctol: Option<f64>,
+    /// `CTOLG0=`: the contour tolerance of `G642` after a rapid.
+    ctol_g0: Option<f64>,
     absolute: bool,
-    /// Programmed X, Y, Z in the program's coordinates, where known.
+    /// Where X, Y, Z stand in the workpiece's coordinates (the frame's), where known.
     position: [Option<f64>; 3],
+    /// What an incremental value (`IC()`, `G91`) adds to, per axis: the value last
+    /// programmed, kept as it was across a frame change, so that the next incremental move
+    /// also travels the change of the frame's offset — the 840D's default (setting data
+    /// `FRAME_OFFSET_INCR_PROG` = 1). `None`: the position.
+    incremental_base: [Option<f64>; 3],
     /// The last block was a `G9` block: the next one restores the path mode.
     restore_mode: bool,
     /// No block yet: the first one sets the control's initial path mode.
@@ -310,9 +324,13 @@ impl Default for Translator {
             path_mode: PathMode::ExactStop,
             rounding: None,
             adis: None,
+            adispos: None,
+            ctol_g0: None,
+            rotary_noted: false,
             ctol: None,
             absolute: true,
             position: [None; 3],
+            incremental_base: [None; 3],
             restore_mode: false,
             first_block: true,
             upper: String::new(),
@@ -381,6 +399,12 @@ impl Translator {
     ) -> Result<usize, GcodeErrorKind> {
         let test = |t: &Translator, text: &str| {
             condition(text, &t.vars).map_err(|e| match e {
+                ExprError::Unknown(_, name) if name.starts_with('$') => {
+                    GcodeErrorKind::Unsupported {
+                        word: name,
+                        reason: "system variables are not supported yet",
+                    }
+                }
                 ExprError::Unknown(_, name) => GcodeErrorKind::Invalid(format!(
                     "{name}: no R-parameter or DEF variable of that name has a value here"
                 )),
@@ -521,6 +545,50 @@ fn refused_keyword(name: &str) -> Option<&'static str> {
     })
 }
 
+/// Where a value starts after the `=` of an assignment at `i`, blanks allowed around the
+/// `=` (`R1 = 5`); none when no `=` follows.
+fn after_equals(b: &[u8], i: usize) -> Option<usize> {
+    let blanks = |mut j: usize| {
+        while b.get(j).is_some_and(|c| *c == b' ' || *c == b'\t') {
+            j += 1;
+        }
+        j
+    };
+    let at = blanks(i);
+    (b.get(at) == Some(&b'=') && b.get(at + 1) != Some(&b'=')).then(|| blanks(at + 1))
+}
+
+/// Why `NAME[…]` is refused.
+const INDEXED: &str = "arrays and axis-indexed settings (ACC[X], FA[X], …) are not read: \
+                       write the values out";
+
+/// The opening angle `AR=` among a block's words, until its arc is resolved (a letter of
+/// its own, `A` being a rotary axis).
+const OPENING_ANGLE: char = '∡';
+
+/// `CYCLE800()` without arguments: the swivel plane deselected. No swivel is ever in force
+/// here (a `CYCLE800` with a plane is refused), so only a note is left. The offset after it.
+fn swivel_deselected(
+    upper: &str,
+    name_start: usize,
+    i: usize,
+    out: &mut Rewritten,
+) -> Result<usize, Failure> {
+    let end = skip_parenthesised(upper, i, name_start, "CYCLE800")?;
+    let open = upper[i..end].find('(').map_or(end, |o| i + o + 1);
+    let inner = &upper[open..end.saturating_sub(1).max(open)];
+    if inner.split(',').any(|a| !a.trim().is_empty()) {
+        return Err(refuse(name_start, &upper[name_start..end], CYCLE));
+    }
+    out.plain = false;
+    out.warnings.push(
+        "CYCLE800(): the swivel plane deselected; none was selected (the XY path is the \
+         machine's)"
+            .to_string(),
+    );
+    Ok(end)
+}
+
 /// A piece of the rewritten line, written out only when the line is rewritten.
 enum Piece {
     Text(&'static str),
@@ -612,14 +680,17 @@ impl Translator {
                 i += 1;
             }
             let name = &upper[name_start..i];
-            // A label: `NAME:` at the start of a block, a jump's target.
-            if i < b.len() && b[i] == b':' && name.len() > 1 {
+            // A label: `NAME:` (digits allowed after its first two letters), a jump's target.
+            let label_end = upper[i..]
+                .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+                .map_or(upper.len(), |e| i + e);
+            if b.get(label_end) == Some(&b':') && label_end - name_start > 1 {
                 out.plain = false;
-                i += 1;
+                i = label_end + 1;
                 continue;
             }
             // Anything but a one-letter address directly followed by its number is rewritten.
-            if name.len() > 1 || b.get(i) == Some(&b'=') {
+            if name.len() > 1 || after_equals(b, i).is_some() {
                 out.plain = false;
             }
             i = self.word(
@@ -664,6 +735,20 @@ impl Translator {
         if &upper[name_start..ident_end] == "CYCLE832" {
             return self.cycle832(upper, name_start, ident_end, g_codes, out);
         }
+        if b.get(ident_end) == Some(&b'[') {
+            return Err(refuse(name_start, rest_word(ident_end), INDEXED));
+        }
+        if &upper[name_start..ident_end] == "CYCLE800" {
+            return swivel_deselected(upper, name_start, ident_end, out);
+        }
+        // Addresses whose name ends in a digit.
+        let name = match &upper[name_start..ident_end] {
+            whole @ ("CTOLG0" | "OTOLG0") => {
+                i = ident_end;
+                whole
+            }
+            _ => name,
+        };
         if let Some(reason) =
             refused_keyword(name).or(refused_keyword(&upper[name_start..ident_end]))
         {
@@ -687,9 +772,10 @@ impl Translator {
             return Ok(end);
         }
         // An assignment: `X=…`, `CR=…`, `ADIS=…`.
-        let assigned = i < b.len() && b[i] == b'=';
-        if assigned {
-            i += 1;
+        let value_at = after_equals(b, i);
+        let assigned = value_at.is_some();
+        if let Some(at) = value_at {
+            i = at;
         }
         // A single letter followed by digits directly: `X10`, `G710`, `R1` …
         if name.len() == 1 || assigned {
@@ -704,9 +790,15 @@ impl Translator {
                 ("CR", v) => words.push((name_start, 'R', v)),
                 // The opening angle, resolved into a radius or an end point once the
                 // block's other words are known.
-                ("AR", v) => words.push((name_start, 'A', v)),
-                ("ADIS" | "ADISPOS", Value::Number(v)) => self.adis = Some(v),
-                ("CTOL" | "OTOL" | "CTOLG0", Value::Number(v)) => self.ctol = Some(v),
+                ("AR", v) => words.push((name_start, OPENING_ANGLE, v)),
+                ("ADIS", Value::Number(v)) => self.adis = Some(v),
+                ("ADISPOS", Value::Number(v)) => self.adispos = Some(v),
+                ("CTOL", Value::Number(v)) => self.ctol = Some(v),
+                ("CTOLG0", Value::Number(v)) => self.ctol_g0 = Some(v),
+                // Tolerances of the tool's orientation: no rotary axes move it here.
+                ("OTOL" | "OTOLG0", Value::Number(_)) => out.warnings.push(format!(
+                    "{name}: an orientation tolerance, with no orientation axes to apply to"
+                )),
                 ("RPL", Value::Number(v)) => self.rpl = Some(v),
                 ("SPOS" | "SPOSA", _) => {}
                 (n, v) if n.len() == 1 => words.push((name_start, letter, v)),
@@ -952,13 +1044,13 @@ impl Translator {
             let digits = upper[i..]
                 .find(|c: char| !c.is_ascii_digit())
                 .map_or(upper.len(), |e| i + e);
-            if b.get(digits) != Some(&b'=') {
+            let Some(value_at) = after_equals(b, digits) else {
                 let word = &upper[name_start..digits];
                 return Err(refuse(name_start, word, CONTROL_FLOW));
-            }
-            let (v, n) = self.expression(upper, digits + 1, name_start)?;
+            };
+            let (v, n) = self.assigned_value(upper, value_at, name_start)?;
             self.vars.insert(upper[name_start..digits].to_string(), v);
-            return Ok(Some(digits + 1 + n));
+            return Ok(Some(value_at + n));
         }
         if name == "DEF" {
             out.plain = false;
@@ -967,13 +1059,14 @@ impl Translator {
         let ident_end = upper[name_start..]
             .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
             .map_or(upper.len(), |e| name_start + e);
-        if self.vars.contains_key(&upper[name_start..ident_end]) && b.get(ident_end) == Some(&b'=')
+        if self.vars.contains_key(&upper[name_start..ident_end])
+            && let Some(value_at) = after_equals(b, ident_end)
         {
             out.plain = false;
             let var = upper[name_start..ident_end].to_string();
-            let (v, n) = self.expression(upper, ident_end + 1, name_start)?;
+            let (v, n) = self.assigned_value(upper, value_at, name_start)?;
             self.vars.insert(var, v);
-            return Ok(Some(ident_end + 1 + n));
+            return Ok(Some(value_at + n));
         }
         Ok(None)
     }
@@ -1019,7 +1112,10 @@ impl Translator {
             "FFWON" | "FFWOF" => out
                 .warnings
                 .push(warn("feed-forward is the machine file's setting")),
-            "COMPOF" | "TRAFOOF" | "CFC" | "CFTCP" | "CFIN" | "SUPA" => {}
+            // Switching off what is not modelled, the programmed feed's default meaning, and
+            // the choice of master spindle: nothing on the XY path.
+            "COMPOF" | "TRAFOOF" | "CFC" | "CFTCP" | "CFIN" | "SUPA" | "FNORM" => {}
+            "SETMS" => return skip_parenthesised(upper, i, name_start, "SETMS").map(Some),
             "RET" if self.in_subprogram => self.returned = true,
             "RET" => words.push((name_start, 'M', Value::Number(2.0))),
             // Declarations: `EXTERN NAME(REAL, INT)` of a subprogram, and `PROC NAME(…)`
@@ -1082,11 +1178,31 @@ impl Translator {
         i: usize,
         name_start: usize,
     ) -> Result<(f64, usize), Failure> {
+        self.value_at(upper, i, name_start, evaluate)
+    }
+
+    /// [`Translator::expression`] for a variable's assignment, which may be a comparison.
+    fn assigned_value(
+        &self,
+        upper: &str,
+        i: usize,
+        name_start: usize,
+    ) -> Result<(f64, usize), Failure> {
+        self.value_at(upper, i, name_start, evaluate_assigned)
+    }
+
+    fn value_at(
+        &self,
+        upper: &str,
+        i: usize,
+        name_start: usize,
+        eval: fn(&str, &Variables) -> Result<(f64, usize), ExprError>,
+    ) -> Result<(f64, usize), Failure> {
         if i >= upper.len() || upper[i..].starts_with([' ', '\t', ';']) {
             let letter = upper[name_start..].chars().next().unwrap_or('?');
             return Err((name_start, GcodeErrorKind::MissingValue(letter)));
         }
-        evaluate(&upper[i..], &self.vars).map_err(|e| match e {
+        eval(&upper[i..], &self.vars).map_err(|e| match e {
             ExprError::Unknown(at, name) if name.starts_with('$') => {
                 refuse(i + at, &name, "system variables are not supported yet")
             }
@@ -1139,12 +1255,15 @@ impl Translator {
                     GcodeErrorKind::Invalid("DEF needs a variable name".into()),
                 ));
             }
+            if b.get(i) == Some(&b'[') {
+                return Err(refuse(start, &upper[start..=i], INDEXED));
+            }
             let var = upper[start..i].to_string();
             let mut value = 0.0;
-            if b.get(i) == Some(&b'=') {
-                let (v, n) = self.expression(upper, i + 1, start)?;
+            if let Some(value_at) = after_equals(b, i) {
+                let (v, n) = self.expression(upper, value_at, start)?;
                 value = if integer { v.round() } else { v };
-                i += 1 + n;
+                i = value_at + n;
             }
             self.vars.insert(var, value);
             i = skip_blanks(i);
@@ -1207,7 +1326,8 @@ impl Translator {
             words = self.change_frame(change, words)?;
         }
         self.motion_under_frame(&g_codes, &words, &mut pieces, out)?;
-        if let Some(k) = words.iter().position(|w| w.1 == 'A') {
+        self.rotary_positioning(&mut words, out)?;
+        if let Some(k) = words.iter().position(|w| w.1 == OPENING_ANGLE) {
             let (offset, _, value) = words.remove(k);
             out.plain = false;
             self.opening_angle(offset, value, &mut words)?;
@@ -1220,12 +1340,22 @@ impl Translator {
                 || (*l == 'M' && matches!(v, Value::Number(x) if *x == 17.0))
                 || (framed && matches!(l, 'X' | 'Y' | 'Z' | 'I' | 'J' | 'R'))
         };
-        if dwell || words.iter().any(rewritten_word) {
+        // An increment that also travels a frame's change of offset is rewritten.
+        let offset_left = |(_, l, _): &(usize, char, Value)| {
+            "XYZ".find(*l).is_some_and(|a| {
+                matches!((self.incremental_base[a], self.position[a]), (Some(b), Some(p)) if b != p)
+            })
+        };
+        if dwell
+            || words.iter().any(rewritten_word)
+            || (!self.absolute && words.iter().any(offset_left))
+        {
             out.plain = false;
         }
         self.emit_words(words, dwell, &mut pieces, out)?;
         if g_codes.iter().any(|&(_, g)| g == 53 || g == 153) {
             self.position = [None; 3];
+            self.incremental_base = [None; 3];
         }
         if !out.plain {
             write_pieces(pieces, out);
@@ -1286,6 +1416,41 @@ impl Translator {
             pieces.push((offset, Piece::G(w)));
             self.emitted_motion = wanted;
         }
+        Ok(())
+    }
+
+    /// Rotary axes (`A`, `B`, `C`): the model has none, and the XY path is the machine's. A
+    /// rotary axis positioned in a rapid, or in a block that moves no linear axis, leaves the
+    /// path alone: it is taken out and noted (once). Turning while a feed move runs along
+    /// X, Y or Z machines a path this cannot follow, and is refused.
+    fn rotary_positioning(
+        &mut self,
+        words: &mut Vec<(usize, char, Value)>,
+        out: &mut Rewritten,
+    ) -> Result<(), Failure> {
+        let is_rotary = |w: &(usize, char, Value)| matches!(w.1, 'A' | 'B' | 'C');
+        let Some(&(offset, axis, _)) = words.iter().find(|w| is_rotary(w)) else {
+            return Ok(());
+        };
+        let linear = words
+            .iter()
+            .any(|w| matches!(w.1, 'X' | 'Y' | 'Z' | 'I' | 'J' | 'R' | OPENING_ANGLE));
+        if linear && self.motion != Some(0) {
+            return Err(refuse(
+                offset,
+                &axis.to_string(),
+                "a rotary axis turning during a feed move: the model has X, Y and Z only",
+            ));
+        }
+        out.plain = false;
+        if !std::mem::replace(&mut self.rotary_noted, true) {
+            out.warnings.push(format!(
+                "{axis}: a rotary axis positioned (here and wherever else the program positions \
+                 one in a rapid or on its own): not modelled; the XY path is taken as the \
+                 machine's"
+            ));
+        }
+        words.retain(|w| !is_rotary(w));
         Ok(())
     }
 
@@ -1413,9 +1578,24 @@ impl Translator {
                 pieces.push((offset, rs));
             }
         }
-        // The rounding distance in force, should the block set one.
+        // The rounding distance in force, should the block set one: `G641` rounds after a
+        // rapid by `ADISPOS`, after a feed move by `ADIS`; `G642` by the contour tolerance,
+        // after a rapid by `CTOLG0` where one is set (else by `CTOL`: the machine data's
+        // factor for G0 tolerances is taken as 1).
         if let Some(is_641) = self.rounding {
-            let distance = if is_641 { self.adis } else { self.ctol };
+            let rapid = g_codes
+                .iter()
+                .rev()
+                .find(|g| g.1 <= 3)
+                .map(|g| g.1)
+                .or(self.motion)
+                == Some(0);
+            let distance = match (is_641, rapid) {
+                (true, true) => self.adispos,
+                (true, false) => self.adis,
+                (false, true) => self.ctol_g0.or(self.ctol),
+                (false, false) => self.ctol,
+            };
             if matches!(self.path_mode, PathMode::Continuous(d) if d != distance) {
                 mode_changed = true;
             }
@@ -1465,13 +1645,15 @@ impl Translator {
         let mut increment = [0.0f64; 3];
         for (offset, letter, value) in words {
             let axis = "XYZ".find(letter);
-            let v = self.coordinate(offset, letter, value, &start)?;
+            let mut v = self.coordinate(offset, letter, value, &start)?;
             if let Some(a) = axis {
+                let base = self.incremental_base[a].or(start[a]);
                 self.position[a] = if self.absolute {
                     Some(v)
                 } else {
-                    self.position[a].map(|p| p + v)
+                    base.map(|p| p + v)
                 };
+                self.incremental_base[a] = self.position[a];
                 if framed {
                     increment[a] = if self.absolute { 0.0 } else { v };
                     let first = if a == 2 {
@@ -1481,6 +1663,12 @@ impl Translator {
                     };
                     first.get_or_insert(offset);
                     continue;
+                }
+                // G91 without a frame: the increment, plus the offset a frame left behind.
+                if let (false, Some(b), Some(p)) = (self.absolute, base, start[a])
+                    && b != p
+                {
+                    v += b - p;
                 }
             }
             if framed && (letter == 'I' || letter == 'J') {
@@ -1505,6 +1693,12 @@ impl Translator {
             let [x, y] = if self.absolute {
                 let p = self.framed_target(offset)?;
                 [p[0], p[1]]
+            } else if let (Ok(to), [Some(x), Some(y), Some(z)]) =
+                (self.framed_target(offset), start)
+            {
+                // From where the block starts to its end, both in the program's coordinates.
+                let from = self.frame.place([x, y, z]);
+                [to[0] - from[0], to[1] - from[1]]
             } else {
                 self.frame.turn([increment[0], increment[1]])
             };
@@ -1514,6 +1708,10 @@ impl Translator {
         if let Some(offset) = framed_z {
             let z = if self.absolute {
                 self.framed_target(offset)?[2]
+            } else if let (Ok(to), [Some(x), Some(y), Some(z)]) =
+                (self.framed_target(offset), start)
+            {
+                to[2] - self.frame.place([x, y, z])[2]
             } else {
                 increment[2]
             };
@@ -1555,7 +1753,9 @@ impl Translator {
                 v - at
             }
             (Value::Incremental(v), Some(a)) if self.absolute => {
-                let at = self.position[a].ok_or_else(|| unknown_position(offset, letter))?;
+                let at = self.incremental_base[a]
+                    .or(self.position[a])
+                    .ok_or_else(|| unknown_position(offset, letter))?;
                 at + v
             }
             (Value::Absolute(v) | Value::Incremental(v), Some(_)) => v,
@@ -1580,6 +1780,15 @@ fn write_pieces(mut pieces: Vec<(usize, Piece)>, out: &mut Rewritten) {
 }
 
 impl Translator {
+    /// Takes the tool's place (program coordinates) for the axes whose programmed position
+    /// is not known: before the program first names them, and after a move in machine
+    /// coordinates — the control always knows where its axes stand.
+    pub(crate) fn where_unknown(&mut self, place: [f64; 3]) {
+        for (known, at) in self.position.iter_mut().zip(place) {
+            known.get_or_insert(at);
+        }
+    }
+
     /// The block's target (workpiece coordinates, as tracked) in the program's.
     fn framed_target(&self, offset: usize) -> Result<[f64; 3], Failure> {
         let [Some(x), Some(y), Some(z)] = self.position else {

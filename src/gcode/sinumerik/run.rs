@@ -152,6 +152,7 @@ pub(crate) fn run(
     let text: Rc<str> = Rc::from(source);
     let lines = line_ranges(&text);
     let main_file = errors.file.to_string();
+    interp.blend_rapids();
     let mut runner = Runner {
         interp,
         errors,
@@ -212,7 +213,8 @@ struct Runner<'r, 'f> {
     run: usize,
     scopes: usize,
     sources: Vec<SourceFile>,
-    /// Too many errors, or a program that does not end: nothing more runs.
+    /// Too many errors, a program that does not end, or its end (M2/M30) reached: nothing
+    /// more runs.
     stop: bool,
 }
 
@@ -285,6 +287,23 @@ impl Runner<'_, '_> {
                 break;
             }
             k = self.step(unit, k, depth);
+            // The control stops at M2/M30, whatever jumps or calls follow (code after the
+            // end is common in programs with jumps).
+            if self.interp.has_ended() {
+                let left = (k..unit.lines.len())
+                    .filter(|&j| {
+                        !unit
+                            .line(j)
+                            .split(';')
+                            .next()
+                            .unwrap_or("")
+                            .trim()
+                            .is_empty()
+                    })
+                    .count();
+                self.interp.skipped_after_end(left);
+                self.stop = true;
+            }
         }
         self.translator.scope = scope;
         self.translator.in_subprogram = sub;
@@ -304,6 +323,7 @@ impl Runner<'_, '_> {
         let text = unit.line(k);
         let number = unit.first_number + u32::try_from(k + 1).unwrap_or(u32::MAX);
         let (interp, lexed) = (&mut *self.interp, &mut self.lexed);
+        self.translator.where_unknown(interp.program_position());
         let result = self.translator.rewrite(text).and_then(|rewritten| {
             for w in &rewritten.warnings {
                 interp.warn(number, w.clone());
