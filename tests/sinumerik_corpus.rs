@@ -180,8 +180,7 @@ fn positions(program: &Program, prelude_lines: u32) -> Vec<[f64; 3]> {
     let mm = |s: &contourcheck::path::Segment| s.end_m.map(|v| v * 1e3);
     let start = moves
         .clone()
-        .filter(|s| s.line <= prelude_lines)
-        .last()
+        .rfind(|s| s.line <= prelude_lines)
         .map_or([0.0; 3], mm);
     let mut out = vec![start];
     for s in moves.filter(|s| s.line > prelude_lines) {

@@ -7,6 +7,9 @@ use std::collections::HashMap;
 /// The program's variables by name (`R1`, or a `DEF`'s name), upper case.
 pub(crate) type Variables = HashMap<String, f64>;
 
+/// An evaluator: a value at the start of a text, and the bytes it took.
+pub(crate) type Evaluator = fn(&str, &Variables) -> Result<(f64, usize), ExprError>;
+
 /// Why an expression has no value: the byte offset (in the text given) and the problem.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) enum ExprError {

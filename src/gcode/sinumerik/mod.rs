@@ -49,7 +49,7 @@ pub(crate) mod flow;
 pub(crate) mod run;
 
 use super::error::GcodeErrorKind;
-use expr::{ExprError, Variables, condition, evaluate, evaluate_assigned};
+use expr::{Evaluator, ExprError, Variables, condition, evaluate, evaluate_assigned};
 use flow::{Control, Structure, Way};
 
 /// The dialect a program is written in.
@@ -1196,7 +1196,7 @@ impl Translator {
         upper: &str,
         i: usize,
         name_start: usize,
-        eval: fn(&str, &Variables) -> Result<(f64, usize), ExprError>,
+        eval: Evaluator,
     ) -> Result<(f64, usize), Failure> {
         if i >= upper.len() || upper[i..].starts_with([' ', '\t', ';']) {
             let letter = upper[name_start..].chars().next().unwrap_or('?');
