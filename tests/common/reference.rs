@@ -1,5 +1,8 @@
 //! An independent reference for the diagnosis: the servo-feed axis of `docs/model.md` §1
-//! integrated here, apart from `contourcheck::sim` — classical fourth-order Runge–Kutta at a
+//! integrated here, apart from `contourcheck::sim` — the paper's cascade, or a transfer
+//! function or state feedback commanding a current amplifier (a first-order lag) with the
+//! position read at the motor's encoder where the machine file says so (the motor's own
+//! angle, where the tool reads the screw's) — classical fourth-order Runge–Kutta at a
 //! fixed step of a few microseconds, friction switched by a sticking test at each step rather
 //! than by the simulator's exact switching instants — and driven by a continuous trapezoidal
 //! interpolator that stops at every block end, evaluated at every step rather than once per
@@ -8,7 +11,7 @@
 //! integrator do differently shows up as residual.
 
 use contourcheck::gcode::Program;
-use contourcheck::machine::AxisConfig;
+use contourcheck::machine::{AxisConfig, Controller, ControllerOutput, Feedback};
 use contourcheck::path::{Geometry, Motion};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
@@ -48,11 +51,83 @@ pub struct Plant {
     f_v: f64,
     /// Delay between the interpolator and the position controller (s).
     dead_time: f64,
+    /// How the motor's current is commanded.
+    law: Law,
+    /// The position is read at the motor's encoder (else at the table).
+    motor_encoder: bool,
+}
+
+/// How the motor's current is commanded.
+#[derive(Clone, Copy, Debug)]
+enum Law {
+    /// The paper's cascade: P position, PI speed and PI current loops.
+    Cascade,
+    /// A position controller commanding the current of an amplifier that follows as a
+    /// first-order lag of `tau` seconds, limited to `i_max`, with the current that
+    /// accelerates the axis fed forward (`ka`).
+    Amplified {
+        control: CurrentLaw,
+        tau: f64,
+        i_max: f64,
+        ka: f64,
+    },
+}
+
+#[derive(Clone, Copy, Debug)]
+enum CurrentLaw {
+    /// C(s) from the error (mm) to the current (A), `n` states in controllable canonical
+    /// form: z_k' = z_(k+1), z_n' = e − Σ a_(n+1−k) z_k, and the current d·e + Σ c_k z_k.
+    Transfer {
+        n: usize,
+        a: [f64; 4],
+        c: [f64; 4],
+        d: f64,
+    },
+    /// i = kx·e + kz·∫e + kd·(kf·v_ref − v), e in mm, v the motor's speed as table speed.
+    State { kx: f64, kz: f64, kd: f64, kf: f64 },
+}
+
+impl CurrentLaw {
+    fn of(controller: &Controller) -> CurrentLaw {
+        match controller {
+            Controller::TransferFunction(tf) => {
+                assert!(
+                    tf.sample_ms == 0.0 && tf.output == ControllerOutput::Current,
+                    "the reference takes C(s) commanding current"
+                );
+                let lead = tf.denominator[0];
+                let n = tf.denominator.len() - 1;
+                assert!((1..=4).contains(&n) && tf.numerator.len() <= n + 1);
+                let den: Vec<f64> = tf.denominator.iter().map(|v| v / lead).collect();
+                let mut num = vec![0.0; n + 1 - tf.numerator.len()];
+                num.extend(tf.numerator.iter().map(|v| v / lead));
+                let d = num[0];
+                let (mut a, mut c) = ([0.0; 4], [0.0; 4]);
+                for k in 0..n {
+                    // z_(k+1) carries s^k: its coefficients are the (n−k)th ones.
+                    a[k] = den[n - k];
+                    c[k] = num[n - k] - d * den[n - k];
+                }
+                CurrentLaw::Transfer { n, a, c, d }
+            }
+            Controller::StateFeedback(sf) => CurrentLaw::State {
+                kx: sf.position_gain_a_per_mm,
+                kz: sf.integral_gain_a_per_mm_s,
+                kd: sf.velocity_gain_a_s_per_mm,
+                kf: sf.velocity_feedforward,
+            },
+            Controller::Cascade => unreachable!("the cascade has its own law"),
+        }
+    }
 }
 
 impl Plant {
-    /// The cascade axis of `c` (a current loop, the table's scale as feedback).
+    /// The axis of `c`: a cascade with its current loop, or a controller on a current
+    /// amplifier.
     pub fn new(c: &AxisConfig) -> Plant {
+        if !matches!(c.controller, Controller::Cascade) {
+            return Plant::amplified(c);
+        }
         let d = &c.drive;
         let r = d.lead_mm * 1e-3 / std::f64::consts::TAU;
         let it = d.gear_ratio;
@@ -96,6 +171,75 @@ impl Plant {
             f_s: (c.friction.static_to_coulomb * f_c).max(f_c + c.friction.stribeck_level_n),
             f_v: c.friction.viscous_n_s_per_m,
             dead_time: c.position_loop.dead_time_ms * 1e-3,
+            law: Law::Cascade,
+            motor_encoder: c.position_loop.feedback == Feedback::MotorEncoder,
+        }
+    }
+
+    /// A transfer function or state feedback on a current amplifier: the mechanics and
+    /// friction of the cascade's plant, the cascade's own loops unused.
+    fn amplified(c: &AxisConfig) -> Plant {
+        let amplifier = c.amplifier.as_ref().expect("a current amplifier");
+        let ka = match &c.controller {
+            Controller::TransferFunction(tf) => tf.accel_feedforward,
+            Controller::StateFeedback(sf) => sf.accel_feedforward,
+            Controller::Cascade => unreachable!(),
+        };
+        let law = Law::Amplified {
+            control: CurrentLaw::of(&c.controller),
+            tau: 1.0 / (std::f64::consts::TAU * amplifier.current_bandwidth_hz),
+            i_max: amplifier.i_max_a.expect("a current limit"),
+            ka,
+        };
+        let mut cascade_like = c.clone();
+        cascade_like.controller = Controller::Cascade;
+        let mut plant = Plant::mechanics(&cascade_like);
+        plant.law = law;
+        plant
+    }
+
+    /// The mechanics, friction and feedback of `c`, with loops that are never used.
+    fn mechanics(c: &AxisConfig) -> Plant {
+        let d = &c.drive;
+        let r = d.lead_mm * 1e-3 / std::f64::consts::TAU;
+        let it = d.gear_ratio;
+        let (jm, js, mt) = (c.motor.jm_kg_m2, d.js_kg_m2, d.table_mass_kg);
+        let reduced = |a: f64, b: f64| a * b / (a + b);
+        let j_theta = reduced(jm / (it * it), js);
+        let m_axial = reduced((jm / (it * it) + js) / (r * r), mt);
+        let f_c = c.friction.coulomb_coefficient * mt * GRAVITY;
+        Plant {
+            kp: 0.0,
+            kf: 0.0,
+            ka: 0.0,
+            ks: 0.0,
+            ts: 1.0,
+            i_max: 0.0,
+            ki: 0.0,
+            ti: 1.0,
+            tcf: 1.0,
+            u_max: 0.0,
+            ra: 0.0,
+            la: 1.0,
+            kt: c.motor.kt_nm_per_a,
+            ke: 0.0,
+            jm,
+            js,
+            k_theta: d.k_theta_nm_per_rad,
+            c_theta: 2.0 * d.zeta_theta * (d.k_theta_nm_per_rad * j_theta).sqrt(),
+            k_m: d.k_m_n_per_m,
+            c_m: 2.0 * d.zeta_m * (d.k_m_n_per_m * m_axial).sqrt(),
+            r,
+            it,
+            mt,
+            b_screw: d.screw_viscous_nm_s_per_rad,
+            half_gap: 0.5e-6 * d.backlash_um,
+            f_c,
+            f_s: (c.friction.static_to_coulomb * f_c).max(f_c + c.friction.stribeck_level_n),
+            f_v: c.friction.viscous_n_s_per_m,
+            dead_time: c.position_loop.dead_time_ms * 1e-3,
+            law: Law::Cascade,
+            motor_encoder: c.position_loop.feedback == Feedback::MotorEncoder,
         }
     }
 
@@ -123,7 +267,10 @@ const Z_V: usize = 7;
 const Z_I: usize = 8;
 const F_CMD: usize = 9;
 const F_I: usize = 10;
-const STATES: usize = 11;
+/// A transfer function's states (up to four), and state feedback's error integral.
+const C0: usize = 11;
+const Z_E: usize = 15;
+const STATES: usize = 16;
 
 type State = [f64; STATES];
 
@@ -162,6 +309,60 @@ impl<'p> Axis<'p> {
         self.x[X2]
     }
 
+    /// Where the control reads the axis (m): the table, or the motor's encoder through the
+    /// nominal lead.
+    pub fn feedback(&self) -> f64 {
+        self.read_at(&self.x)
+    }
+
+    fn read_at(&self, x: &State) -> f64 {
+        let p = self.plant;
+        if p.motor_encoder {
+            x[TH_M] * p.r * p.it
+        } else {
+            x[X2]
+        }
+    }
+
+    /// A controller on a current amplifier: the current command (limited), whether it is at
+    /// the limit, and the rates of the controller's states.
+    fn amplified_control(
+        &self,
+        x: &State,
+        (xr, vr, ar): (f64, f64, f64),
+        control: CurrentLaw,
+        i_max: f64,
+        ka: f64,
+    ) -> (f64, State) {
+        let p = self.plant;
+        let rit = p.r * p.it;
+        let e_mm = (xr - self.read_at(x)) * 1e3;
+        let j_tot = p.jm + p.it * p.it * p.js + rit * rit * p.mt;
+        let i_ff = ka * j_tot * ar / (rit * p.kt);
+        let mut dx = [0.0; STATES];
+        let i_cmd = match control {
+            CurrentLaw::Transfer { n, a, c, d } => {
+                for k in 0..n - 1 {
+                    dx[C0 + k] = x[C0 + k + 1];
+                }
+                dx[C0 + n - 1] = e_mm - (0..n).map(|k| a[k] * x[C0 + k]).sum::<f64>();
+                d * e_mm + (0..n).map(|k| c[k] * x[C0 + k]).sum::<f64>() + i_ff
+            }
+            CurrentLaw::State { kx, kz, kd, kf } => {
+                let v_mm = x[W_M] * rit * 1e3;
+                let i = kx * e_mm + kz * x[Z_E] + kd * (kf * vr * 1e3 - v_mm) + i_ff;
+                // The integral stops while the current sits at its limit.
+                dx[Z_E] = if i.abs() > i_max && e_mm * i > 0.0 {
+                    0.0
+                } else {
+                    e_mm
+                };
+                i
+            }
+        };
+        (i_cmd.clamp(-i_max, i_max), dx)
+    }
+
     /// The controller's outputs at state `x` and reference `(xr, vr, ar)`: the current
     /// command (limited) and the voltage (limited), and whether each is at its limit.
     fn controls(&self, x: &State, (xr, vr, ar): (f64, f64, f64)) -> (f64, bool, f64, bool) {
@@ -186,7 +387,12 @@ impl<'p> Axis<'p> {
 
     /// Whether the controller reads the reference's speed and acceleration (feed-forward).
     pub fn feeds_forward(&self) -> bool {
-        self.plant.kf != 0.0 || self.plant.ka != 0.0
+        match self.plant.law {
+            Law::Cascade => self.plant.kf != 0.0 || self.plant.ka != 0.0,
+            Law::Amplified { control, ka, .. } => {
+                ka != 0.0 || matches!(control, CurrentLaw::State { kf, .. } if kf != 0.0)
+            }
+        }
     }
 
     /// The nut's force on the table (N): the axial spring through the backlash gap, damped
@@ -218,24 +424,25 @@ impl<'p> Axis<'p> {
             self.direction
         };
         let p = self.plant;
+        if let Law::Amplified {
+            control,
+            tau,
+            i_max,
+            ka,
+        } = p.law
+        {
+            let (i_cmd, mut dx) = self.amplified_control(x, reference, control, i_max, ka);
+            dx[I] = (i_cmd - x[I]) / tau;
+            self.mechanics_rates(x, stuck, sliding_sign, &mut dx);
+            return dx;
+        }
         let (i_cmd, i_limited, u, u_limited) = self.controls(x, reference);
         let rit = p.r * p.it;
         let w_cmd = p.kp * (reference.0 - x[X2]) + p.kf * reference.1 / rit;
         let e_w = w_cmd - x[W_M];
         let e_i = x[F_CMD] - x[F_I];
-        let t_c = p.k_theta * (p.it * x[TH_M] - x[TH_S]) + p.c_theta * (p.it * x[W_M] - x[W_S]);
-        let f_n = self.nut_force(x);
-        let (f_c, _) = p.friction_at(x[X2], self.spot);
         let mut dx = [0.0; STATES];
-        dx[TH_M] = x[W_M];
-        dx[W_M] = (p.kt * x[I] - p.it * t_c) / p.jm;
-        dx[TH_S] = x[W_S];
-        dx[W_S] = (t_c - p.b_screw * x[W_S] - p.r * f_n) / p.js;
-        if !stuck {
-            dx[X2] = x[V2];
-            let friction = p.f_v * x[V2] + f_c * sliding_sign;
-            dx[V2] = (f_n - friction) / p.mt;
-        }
+        self.mechanics_rates(x, stuck, sliding_sign, &mut dx);
         dx[I] = (u - p.ra * x[I] - p.ke * x[W_M]) / p.la;
         // An integrator stops while its output sits at the limit.
         dx[Z_V] = if i_limited && e_w * i_cmd > 0.0 {
@@ -247,6 +454,23 @@ impl<'p> Axis<'p> {
         dx[F_CMD] = (i_cmd - x[F_CMD]) / p.tcf;
         dx[F_I] = (x[I] - x[F_I]) / p.tcf;
         dx
+    }
+
+    /// The motor, coupling, screw, nut and table driven by the motor's current.
+    fn mechanics_rates(&self, x: &State, stuck: bool, sliding_sign: f64, dx: &mut State) {
+        let p = self.plant;
+        let t_c = p.k_theta * (p.it * x[TH_M] - x[TH_S]) + p.c_theta * (p.it * x[W_M] - x[W_S]);
+        let f_n = self.nut_force(x);
+        let (f_c, _) = p.friction_at(x[X2], self.spot);
+        dx[TH_M] = x[W_M];
+        dx[W_M] = (p.kt * x[I] - p.it * t_c) / p.jm;
+        dx[TH_S] = x[W_S];
+        dx[W_S] = (t_c - p.b_screw * x[W_S] - p.r * f_n) / p.js;
+        if !stuck {
+            dx[X2] = x[V2];
+            let friction = p.f_v * x[V2] + f_c * sliding_sign;
+            dx[V2] = (f_n - friction) / p.mt;
+        }
     }
 
     /// One Runge–Kutta step of `h` from time `t`, then the friction's switches: a table that
@@ -392,6 +616,9 @@ pub struct Recording {
     pub accel: f64,
     /// A tight spot on X: (from m, to m, factor on Coulomb friction).
     pub tight_spot_x: Option<(f64, f64, f64)>,
+    /// The position is read where the control reads it (the motor's encoder on a
+    /// semi-closed loop), else at the table.
+    pub at_feedback: bool,
 }
 
 impl Default for Recording {
@@ -404,13 +631,14 @@ impl Default for Recording {
             seed: 1,
             accel: 0.5,
             tight_spot_x: None,
+            at_feedback: false,
         }
     }
 }
 
 /// A record of `program` run by the reference on axes `x` and `y`: a CSV with the time (s),
-/// the measured table positions and the commanded positions (mm), as a control's trace
-/// would give them.
+/// the measured positions (at the table, or where the control reads them) and the
+/// commanded positions (mm), as a control's trace would give them.
 pub fn record(program: &Program, x: &AxisConfig, y: &AxisConfig, rec: &Recording) -> String {
     let interpolator = Trapezoids::new(program, rec.accel, 0.3, 0.5);
     let plants = [Plant::new(x), Plant::new(y)];
@@ -436,8 +664,15 @@ pub fn record(program: &Program, x: &AxisConfig, y: &AxisConfig, rec: &Recording
     for k in 0..samples {
         let t = k as f64 * rec.sample_s;
         let cmd = interpolator.position(t);
-        let mx = read(axes[0].table(), &mut rng);
-        let my = read(axes[1].table(), &mut rng);
+        let at = |axis: &Axis| {
+            if rec.at_feedback {
+                axis.feedback()
+            } else {
+                axis.table()
+            }
+        };
+        let mx = read(at(&axes[0]), &mut rng);
+        let my = read(at(&axes[1]), &mut rng);
         csv.push_str(&format!(
             "{t:.6},{:.7},{:.7},{:.7},{:.7}\n",
             mx * 1e3,
