@@ -13,7 +13,8 @@ use crate::analysis::contour::ContourPoint;
 use crate::analysis::hotspot::Hotspot;
 use crate::check::{CheckResult, CheckSettings};
 use crate::execute::RunChunk;
-use crate::gcode::{CodeNote, Program, Warning};
+use crate::gcode::interp::SourceLine;
+use crate::gcode::{CodeNote, Program, SourceFile, Warning};
 use crate::machine::MachineConfig;
 use crate::units::{mm_from_m, um_from_m};
 
@@ -273,18 +274,29 @@ impl CheckReport {
 /// A run written as CSV chunk by chunk as it is simulated, one row every `every` samples:
 /// time, line, commanded and actual X/Y (mm), following errors and contour error (µm; empty
 /// while not cutting).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct TraceCsv {
     every: usize,
     started: bool,
+    /// The program's subprogram files, whose lines the `line` column names by file.
+    sources: Vec<SourceFile>,
 }
 
 impl TraceCsv {
+    /// The trace of `program`, keeping every `every`-th sample.
+    pub fn of(program: &Program, every: usize) -> Self {
+        TraceCsv {
+            sources: program.sources.clone(),
+            ..TraceCsv::new(every)
+        }
+    }
+
     /// A trace keeping every `every`-th sample.
     pub fn new(every: usize) -> Self {
         TraceCsv {
             every: every.max(1),
             started: false,
+            sources: Vec::new(),
         }
     }
 
@@ -316,7 +328,11 @@ impl TraceCsv {
             let e = points[i].error_m;
             out.write_record(&[
                 format!("{:.4}", c.time_s(chunk.first + i)),
-                chunk.plan.segments[c.segment[i] as usize].line.to_string(),
+                SourceLine::among(
+                    &self.sources,
+                    chunk.plan.segments[c.segment[i] as usize].line,
+                )
+                .short(),
                 format!("{:.6}", mm_from_m(c.x.pos_m[i])),
                 format!("{:.6}", mm_from_m(c.y.pos_m[i])),
                 format!("{:.6}", mm_from_m(chunk.x.pos_m[i])),

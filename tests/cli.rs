@@ -892,3 +892,42 @@ fn the_readme_lead_lag_example_identifies_the_stand_in() {
         assert!(held_out < 0.15 * axis["following_error_rms_um"].as_f64().unwrap());
     }
 }
+
+#[test]
+fn a_subprogram_files_lines_are_named_by_file_in_the_report_and_the_trace() {
+    let dir = tempfile::tempdir().unwrap();
+    let main = dir.path().join("main.mpf");
+    std::fs::write(
+        &main,
+        "N10 G710 G17 G90 G94 G64\nN20 G0 X0 Y0 Z5\nN30 G1 Z0 F300\nSQUARE\nN50 M30\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("SQUARE.SPF"),
+        "PROC SQUARE\nN10 G1 X20 F1000\nN20 Y20\nN30 X0\nN40 Y0\nM17\n",
+    )
+    .unwrap();
+    let trace = dir.path().join("t.csv");
+    let o = run(&[
+        "check",
+        main.to_str().unwrap(),
+        "--trace",
+        trace.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stdout).contains("SQUARE.SPF line"),
+        "{}",
+        text(&o.stdout)
+    );
+    let csv = std::fs::read_to_string(&trace).unwrap();
+    let lines: std::collections::BTreeSet<&str> = csv
+        .lines()
+        .skip(1)
+        .filter_map(|row| row.split(',').nth(1))
+        .collect();
+    // The main file's own lines by number, the subprogram's by file and line.
+    for want in ["2", "3", "SQUARE.SPF:2", "SQUARE.SPF:5"] {
+        assert!(lines.contains(want), "{want} not among {lines:?}");
+    }
+}

@@ -8,6 +8,8 @@ use super::Outcome;
 use super::common::{CliError, MachineArgs, PlanningArgs, group_warnings, load_program, progress};
 use crate::check::{CheckResult, CheckSettings, check_planned, circle_tests};
 use crate::cli::output::OutputBatch;
+use crate::gcode::SourceFile;
+use crate::gcode::interp::SourceLine;
 use crate::path::{Geometry, Motion};
 use crate::plan::{KinematicLimits, plan_segments};
 use crate::plot::along_path::AlongPathPlot;
@@ -68,7 +70,10 @@ pub fn run(args: &CheckArgs) -> Result<Outcome, CliError> {
     // end, or not at all.
     let mut batch = OutputBatch::new();
     let mut trace = match &args.trace {
-        Some(path) => Some((batch.stage_writer(path)?, TraceCsv::new(args.trace_every))),
+        Some(path) => Some((
+            batch.stage_writer(path)?,
+            TraceCsv::of(&program, args.trace_every),
+        )),
         None => None,
     };
     let result = check_planned(
@@ -88,7 +93,7 @@ pub fn run(args: &CheckArgs) -> Result<Outcome, CliError> {
         file.finish()?;
     }
     let report = CheckReport::new(&result, &settings, &program, &machine, args.tolerance);
-    write_outputs(args, batch, &result, &report)?;
+    write_outputs(args, batch, &result, &report, &program.sources)?;
     print!("{}", summary_text(&report, args.hotspots));
     let warnings = group_warnings(&report.warnings);
     if !warnings.is_empty() {
@@ -110,6 +115,7 @@ fn write_outputs(
     mut batch: OutputBatch,
     run: &CheckResult,
     report: &CheckReport,
+    sources: &[SourceFile],
 ) -> Result<(), CliError> {
     if let Some(path) = &args.json {
         batch.stage(path, |w| report.write_json(w))?;
@@ -120,7 +126,7 @@ fn write_outputs(
             path: dir.display().to_string(),
             message: e.to_string(),
         })?;
-        plots = stage_plots(&mut batch, dir, run, report)?;
+        plots = stage_plots(&mut batch, dir, run, report, sources)?;
     }
     batch.commit()?;
     if let Some(path) = &args.json {
@@ -137,13 +143,16 @@ fn stage_plots(
     dir: &Path,
     run: &CheckResult,
     report: &CheckReport,
+    sources: &[SourceFile],
 ) -> Result<Vec<std::path::PathBuf>, CliError> {
+    // A line as the plots label it: `29`, or `BOSS.SPF:8` in a subprogram's file.
+    let at = |line: u32| SourceLine::among(sources, line).short();
     let name = Path::new(&report.program.file)
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    let toolpath = toolpath_figure(run, &name, report);
-    let along = along_path_figure(run, &name);
-    let circles = polar_figures(run, &name);
+    let toolpath = toolpath_figure(run, &name, report, &at);
+    let along = along_path_figure(run, &name, &at);
+    let circles = polar_figures(run, &name, &at);
     let mut written = Vec::new();
     for ext in ["png", "svg"] {
         let path = dir.join(format!("toolpath.{ext}"));
@@ -183,7 +192,12 @@ fn programmed_polylines(run: &CheckResult) -> Vec<Vec<(f64, f64)>> {
         .collect()
 }
 
-fn toolpath_figure(run: &CheckResult, name: &str, report: &CheckReport) -> ToolpathPlot {
+fn toolpath_figure(
+    run: &CheckResult,
+    name: &str,
+    report: &CheckReport,
+    at: &dyn Fn(u32) -> String,
+) -> ToolpathPlot {
     let actual = run
         .plot
         .iter()
@@ -201,7 +215,7 @@ fn toolpath_figure(run: &CheckResult, name: &str, report: &CheckReport) -> Toolp
         .map(|(i, h)| Marker {
             x_mm: h.x_mm,
             y_mm: h.y_mm,
-            label: format!(" {}: L{}", i + 1, h.line),
+            label: format!(" {}: L{}", i + 1, at(h.line)),
         })
         .collect();
     ToolpathPlot {
@@ -215,7 +229,7 @@ fn toolpath_figure(run: &CheckResult, name: &str, report: &CheckReport) -> Toolp
     }
 }
 
-fn along_path_figure(run: &CheckResult, name: &str) -> AlongPathPlot {
+fn along_path_figure(run: &CheckResult, name: &str, at: &dyn Fn(u32) -> String) -> AlongPathPlot {
     let points = run
         .plot
         .iter()
@@ -226,7 +240,13 @@ fn along_path_figure(run: &CheckResult, name: &str) -> AlongPathPlot {
         .iter()
         .take(10)
         .enumerate()
-        .map(|(i, h)| (h.path_mm, h.error_um, format!(" {}: L{}", i + 1, h.line)))
+        .map(|(i, h)| {
+            (
+                h.path_mm,
+                h.error_um,
+                format!(" {}: L{}", i + 1, at(h.line)),
+            )
+        })
         .collect();
     AlongPathPlot {
         title: format!("{name}: contour error along the path"),
@@ -237,7 +257,7 @@ fn along_path_figure(run: &CheckResult, name: &str) -> AlongPathPlot {
 
 /// One polar plot per circle, both directions together when the program runs the same
 /// circle both ways.
-fn polar_figures(run: &CheckResult, name: &str) -> Vec<PolarPlot> {
+fn polar_figures(run: &CheckResult, name: &str, at: &dyn Fn(u32) -> String) -> Vec<PolarPlot> {
     let mut groups: Vec<Vec<crate::check::CircleTest>> = Vec::new();
     for c in circle_tests(run) {
         let same = |g: &Vec<crate::check::CircleTest>| {
@@ -272,7 +292,7 @@ fn polar_figures(run: &CheckResult, name: &str) -> Vec<PolarPlot> {
                             } else {
                                 "clockwise"
                             },
-                            c.line
+                            at(c.line)
                         ),
                         points: c.points.iter().map(|&(a, d)| (a, um_from_m(d))).collect(),
                         width: 2,

@@ -114,12 +114,10 @@ impl std::fmt::Display for SourceLine<'_> {
     }
 }
 
-impl Program {
-    /// Where program line `line` (the numbering of segments, hotspots and warnings) is
-    /// written.
-    pub fn source_line(&self, line: u32) -> SourceLine<'_> {
-        let file = self
-            .sources
+impl SourceLine<'_> {
+    /// Where program line `line` is written, among the program's subprogram files `sources`.
+    pub fn among(sources: &[super::SourceFile], line: u32) -> SourceLine<'_> {
+        let file = sources
             .iter()
             .find(|s| line > s.first_line && line - s.first_line <= s.lines);
         match file {
@@ -129,6 +127,29 @@ impl Program {
             },
             None => SourceLine { file: None, line },
         }
+    }
+
+    /// The line as a table's column or a plot's label shows it: `29`, or `BOSS.SPF:8` in a
+    /// subprogram's file (its name without the folder).
+    pub fn short(&self) -> String {
+        match self.file {
+            Some(f) => {
+                let name = std::path::Path::new(f)
+                    .file_name()
+                    .and_then(|n| n.to_str())
+                    .unwrap_or(f);
+                format!("{name}:{}", self.line)
+            }
+            None => self.line.to_string(),
+        }
+    }
+}
+
+impl Program {
+    /// Where program line `line` (the numbering of segments, hotspots and warnings) is
+    /// written.
+    pub fn source_line(&self, line: u32) -> SourceLine<'_> {
+        SourceLine::among(&self.sources, line)
     }
 
     /// A warning about one of the program's lines, with the file and line named in its
