@@ -113,12 +113,17 @@ struct Report<'a> {
     identification: &'a Identification,
 }
 
-/// A value for the table: fitted with its uncertainty, or the template's.
+/// A value for the table: fitted with its uncertainty (said so where that is not a
+/// measurement), or the template's.
 fn shown(v: &IdentifiedValue) -> String {
-    if v.determined {
-        format!("{} ± {}", sig(v.value), sig(v.uncertainty))
-    } else {
-        format!("{} (not determined: the template's)", sig(v.value))
+    match (v.determined, v.measured) {
+        (true, true) => format!("{} ± {}", sig(v.value), sig(v.uncertainty)),
+        (true, false) => format!(
+            "{} ± {} (a model's value, not a measurement)",
+            sig(v.value),
+            sig(v.uncertainty)
+        ),
+        (false, _) => format!("{} (not determined: the template's)", sig(v.value)),
     }
 }
 

@@ -40,6 +40,17 @@ pub struct Knob {
 }
 
 impl Knob {
+    /// Whether an uncertainty `sigma` leaves `value` determined: within
+    /// `undetermined_beyond` of its size (the value itself, or the knob's scale there).
+    pub fn determines(&self, sigma: f64, value: f64) -> bool {
+        let size = if self.logarithmic {
+            value.abs()
+        } else {
+            self.scale_at(value)
+        };
+        sigma.is_finite() && sigma <= self.undetermined_beyond * size
+    }
+
     /// Whether it is one of a transfer function's corners.
     pub(crate) fn is_corner(&self) -> bool {
         corner_of(self.key).is_some()

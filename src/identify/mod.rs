@@ -77,8 +77,13 @@ pub struct IdentifiedValue {
     pub value: f64,
     /// Its standard uncertainty (NaN where not determined).
     pub uncertainty: f64,
-    /// Whether the record determines it.
+    /// Whether the record determines it (the value is fitted; else the template's).
     pub determined: bool,
+    /// Whether it reads as the machine's own value: determined, with an uncertainty —
+    /// widened to what a modelling difference of half the noise could move it by — within
+    /// half of it. A determined value that is not measured is written because it predicts
+    /// the record: a model's value, not a measurement.
+    pub measured: bool,
 }
 
 /// One axis identified.
@@ -326,6 +331,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             value: get(template, k.key),
             uncertainty: f64::NAN,
             determined: false,
+            measured: false,
         })
         .collect();
     Some((
@@ -356,6 +362,7 @@ fn not_reached(
     identified.reached = false;
     for v in &mut identified.values {
         v.determined = false;
+        v.measured = false;
         v.uncertainty = f64::NAN;
         v.value = v.template;
     }
@@ -393,6 +400,7 @@ fn identify_ordered(
                 value,
                 uncertainty: f64::NAN,
                 determined: false,
+                measured: false,
             });
         }
         (config, id)
@@ -472,18 +480,20 @@ fn identify_on(
     let values = knobs
         .iter()
         .map(|k| {
+            let value = get(&config, k.key);
             let sigma = round
                 .knobs
                 .iter()
                 .position(|q| q.key == k.key)
-                .map(|p| round.sigma[p]);
+                .map(|p| round.sigma[p].max(round.whole.model_sigma[p]));
             IdentifiedValue {
                 key: k.key,
                 unit: k.unit,
                 template: get(&template_axis, k.key),
-                value: get(&config, k.key),
+                value,
                 uncertainty: sigma.unwrap_or(f64::NAN),
                 determined: sigma.is_some(),
+                measured: sigma.is_some_and(|s| k.determines(s, value)),
             }
         })
         .collect();
@@ -657,14 +667,7 @@ impl Round {
             .iter()
             .zip(&self.sigma)
             .zip(&self.whole.values)
-            .filter(|((k, s), v)| {
-                let size = if k.logarithmic {
-                    v.abs()
-                } else {
-                    k.scale_at(**v)
-                };
-                !(s.is_finite() && **s <= k.undetermined_beyond * size)
-            })
+            .filter(|((k, s), v)| !k.determines(**s, **v))
             .map(|((k, _), _)| k.key)
             .collect()
     }
