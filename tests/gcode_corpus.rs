@@ -7,7 +7,8 @@
 //! with an error that names its line and column; and every such program must check under
 //! every speed profile and at neighbouring gains.
 
-use std::io::Write;
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use contourcheck::check::{CheckSettings, check};
@@ -18,19 +19,10 @@ use rayon::prelude::*;
 
 const CORPUS_VARIABLE: &str = "CONTOURCHECK_GCODE_CORPUS";
 
-/// The corpus folder, or `None` (after saying so) when this machine has none. A variable that
-/// names a folder without a manifest is a broken setup, not an absent corpus: that fails.
+/// The corpus folder, or `None` (after saying so) when this machine has none. A folder
+/// without a manifest is a broken setup, not an absent corpus: that fails.
 fn corpus_dir() -> Option<PathBuf> {
-    let Some(dir) = std::env::var_os(CORPUS_VARIABLE) else {
-        // Straight to the stream: the test harness captures `eprintln!`, and the skip must
-        // be seen.
-        let _ = writeln!(
-            std::io::stderr(),
-            "skipped: corpus not present ({CORPUS_VARIABLE} is not set)"
-        );
-        return None;
-    };
-    let dir = PathBuf::from(dir);
+    let dir = common::corpus_dir(CORPUS_VARIABLE)?;
     assert!(
         dir.join("MANIFEST.tsv").is_file(),
         "{CORPUS_VARIABLE}={} has no MANIFEST.tsv",

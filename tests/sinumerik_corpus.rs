@@ -15,8 +15,9 @@
 //! block positions another SINUMERIK interpreter wrote for it — the positions this one
 //! reaches must be those, in the same order, to 1 µm.
 
-use std::io::Write;
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 
 use contourcheck::gcode::{GcodeErrorKind, InterpretOptions, Program, parse_program};
 use contourcheck::machine::MachineConfig;
@@ -25,23 +26,6 @@ use contourcheck::plan::{KinematicLimits, PlanConfig, plan};
 
 const CORPUS_VARIABLE: &str = "CONTOURCHECK_SINUMERIK_CORPUS";
 const MANIFEST: &str = include_str!("data/sinumerik-corpus.tsv");
-
-fn corpus_dir() -> Option<PathBuf> {
-    let Some(dir) = std::env::var_os(CORPUS_VARIABLE) else {
-        let _ = writeln!(
-            std::io::stderr(),
-            "skipped: corpus not present ({CORPUS_VARIABLE} is not set)"
-        );
-        return None;
-    };
-    let dir = PathBuf::from(dir);
-    assert!(
-        dir.is_dir(),
-        "{CORPUS_VARIABLE}={} is not a folder",
-        dir.display()
-    );
-    Some(dir)
-}
 
 /// What a program is expected to do.
 #[derive(Debug)]
@@ -191,7 +175,7 @@ fn positions(program: &Program, prelude_lines: u32) -> Vec<[f64; 3]> {
 
 #[test]
 fn sinumerik_programs_of_others_check_or_are_refused_where_expected() {
-    let Some(dir) = corpus_dir() else {
+    let Some(dir) = common::corpus_dir(CORPUS_VARIABLE) else {
         return;
     };
     let machine = MachineConfig::default_preset();
@@ -264,7 +248,7 @@ fn sinumerik_programs_of_others_check_or_are_refused_where_expected() {
 
 #[test]
 fn every_sinumerik_program_in_the_folder_reads_or_stops_at_a_line() {
-    let Some(dir) = corpus_dir() else {
+    let Some(dir) = common::corpus_dir(CORPUS_VARIABLE) else {
         return;
     };
     // Files the manifest does not know yet: read without a panic, and either checked or

@@ -26,6 +26,26 @@ pub fn sample_program(name: &str) -> Program {
     .unwrap()
 }
 
+/// The folder of programs written by others that the environment variable `variable`
+/// names, or `None` (after saying "skipped: corpus not present") when this machine has
+/// none. A variable that names no folder is a broken setup, not an absent corpus: that
+/// fails.
+pub fn corpus_dir(variable: &str) -> Option<std::path::PathBuf> {
+    use std::io::Write;
+    let Some(dir) = std::env::var_os(variable) else {
+        // Straight to the stream: the test harness captures `eprintln!`, and the skip must
+        // be seen.
+        let _ = writeln!(
+            std::io::stderr(),
+            "skipped: corpus not present ({variable} is not set)"
+        );
+        return None;
+    };
+    let dir = std::path::PathBuf::from(dir);
+    assert!(dir.is_dir(), "{variable}={} is not a folder", dir.display());
+    Some(dir)
+}
+
 pub fn program_text(text: &str) -> Program {
     parse_program(text, "test.nc", &InterpretOptions::default()).unwrap()
 }

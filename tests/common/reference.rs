@@ -128,18 +128,10 @@ impl Plant {
         if !matches!(c.controller, Controller::Cascade) {
             return Plant::amplified(c);
         }
-        let d = &c.drive;
-        let r = d.lead_mm * 1e-3 / std::f64::consts::TAU;
-        let it = d.gear_ratio;
-        let (jm, js, mt) = (c.motor.jm_kg_m2, d.js_kg_m2, d.table_mass_kg);
-        let kt = c.motor.kt_nm_per_a;
         let v = c.velocity_loop.as_ref().expect("a cascade axis");
         let i = c.current_loop.as_ref().expect("a modelled current loop");
-        // Each spring's damping from the reduced inertia of the two bodies it joins.
-        let reduced = |a: f64, b: f64| a * b / (a + b);
-        let j_theta = reduced(jm / (it * it), js);
-        let m_axial = reduced((jm / (it * it) + js) / (r * r), mt);
-        let f_c = c.friction.coulomb_coefficient * mt * GRAVITY;
+        let plant = Plant::mechanics(c);
+        let (r, it, kt) = (plant.r, plant.it, plant.kt);
         Plant {
             // Kv in 1/s over r·i_t: rad/s of motor speed per metre of error.
             kp: c.position_loop.kv_m_per_min_per_mm * 1000.0 / 60.0 / (r * it),
@@ -154,25 +146,8 @@ impl Plant {
             u_max: i.u_max_v,
             ra: c.motor.ra_ohm.unwrap(),
             la: c.motor.la_mh.unwrap() * 1e-3,
-            kt,
             ke: c.motor.ke_v_s_per_rad.unwrap(),
-            jm,
-            js,
-            k_theta: d.k_theta_nm_per_rad,
-            c_theta: 2.0 * d.zeta_theta * (d.k_theta_nm_per_rad * j_theta).sqrt(),
-            k_m: d.k_m_n_per_m,
-            c_m: 2.0 * d.zeta_m * (d.k_m_n_per_m * m_axial).sqrt(),
-            r,
-            it,
-            mt,
-            b_screw: d.screw_viscous_nm_s_per_rad,
-            half_gap: 0.5e-6 * d.backlash_um,
-            f_c,
-            f_s: (c.friction.static_to_coulomb * f_c).max(f_c + c.friction.stribeck_level_n),
-            f_v: c.friction.viscous_n_s_per_m,
-            dead_time: c.position_loop.dead_time_ms * 1e-3,
-            law: Law::Cascade,
-            motor_encoder: c.position_loop.feedback == Feedback::MotorEncoder,
+            ..plant
         }
     }
 
@@ -191,19 +166,20 @@ impl Plant {
             i_max: amplifier.i_max_a.expect("a current limit"),
             ka,
         };
-        let mut cascade_like = c.clone();
-        cascade_like.controller = Controller::Cascade;
-        let mut plant = Plant::mechanics(&cascade_like);
-        plant.law = law;
-        plant
+        Plant {
+            law,
+            ..Plant::mechanics(c)
+        }
     }
 
-    /// The mechanics, friction and feedback of `c`, with loops that are never used.
+    /// The mechanics, friction and feedback of `c`, its loops left for the controller's
+    /// constructor (the cascade's; unused by a controller on an amplifier).
     fn mechanics(c: &AxisConfig) -> Plant {
         let d = &c.drive;
         let r = d.lead_mm * 1e-3 / std::f64::consts::TAU;
         let it = d.gear_ratio;
         let (jm, js, mt) = (c.motor.jm_kg_m2, d.js_kg_m2, d.table_mass_kg);
+        // Each spring's damping from the reduced inertia of the two bodies it joins.
         let reduced = |a: f64, b: f64| a * b / (a + b);
         let j_theta = reduced(jm / (it * it), js);
         let m_axial = reduced((jm / (it * it) + js) / (r * r), mt);

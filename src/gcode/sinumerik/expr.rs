@@ -63,24 +63,13 @@ pub(crate) fn evaluate_assigned(text: &str, vars: &Variables) -> Result<(f64, us
     let rest = &text[n..];
     let blanks = rest.len() - rest.trim_start_matches([' ', '\t']).len();
     let after = &rest[blanks..];
-    let Some(op) = ["==", "<>", "<=", ">=", "<", ">"]
-        .into_iter()
-        .find(|op| after.starts_with(op))
-    else {
+    let Some(op) = COMPARISONS.into_iter().find(|op| after.starts_with(op)) else {
         return Ok((left, n));
     };
     let mut at = n + blanks + op.len();
     at += text[at..].len() - text[at..].trim_start_matches([' ', '\t']).len();
     let (right, m) = evaluate(&text[at..], vars).map_err(|e| e.shifted(at))?;
-    let holds = match op {
-        "==" => left == right,
-        "<>" => left != right,
-        "<=" => left <= right,
-        ">=" => left >= right,
-        "<" => left < right,
-        _ => left > right,
-    };
-    Ok((f64::from(u8::from(holds)), at + m))
+    Ok((f64::from(u8::from(compare(op, left, right))), at + m))
 }
 
 /// Evaluates a condition: comparisons (`==`, `<>`, `<`, `>`, `<=`, `>=`) of expressions,
@@ -106,21 +95,29 @@ pub(crate) fn condition(text: &str, vars: &Variables) -> Result<bool, ExprError>
     {
         return Ok(v);
     }
-    for op in ["==", "<>", "<=", ">=", "<", ">"] {
+    for op in COMPARISONS {
         if let Some(i) = text.find(op) {
             let left = value_of(text[..i].trim(), vars)?;
             let right = value_of(text[i + op.len()..].trim(), vars)?;
-            return Ok(match op {
-                "==" => left == right,
-                "<>" => left != right,
-                "<=" => left <= right,
-                ">=" => left >= right,
-                "<" => left < right,
-                _ => left > right,
-            });
+            return Ok(compare(op, left, right));
         }
     }
     Ok(value_of(text, vars)? != 0.0)
+}
+
+/// The comparison operators, the two-character ones first (so that `<=` is not read as `<`).
+const COMPARISONS: [&str; 6] = ["==", "<>", "<=", ">=", "<", ">"];
+
+/// The comparison `op` (one of [`COMPARISONS`]) of two values.
+fn compare(op: &str, left: f64, right: f64) -> bool {
+    match op {
+        "==" => left == right,
+        "<>" => left != right,
+        "<=" => left <= right,
+        ">=" => left >= right,
+        "<" => left < right,
+        _ => left > right,
+    }
 }
 
 /// The whole of `text` as one expression's value.
