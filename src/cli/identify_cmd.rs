@@ -181,6 +181,17 @@ pub fn summary(id: &Identification, template: &MachineConfig) -> String {
                 v.unit
             );
         }
+        if let Some(r) = &a.gain_per_inertia {
+            let _ = writeln!(
+                s,
+                "  {} per inertia: {} ± {} per kg, of {:.1} kg at the table (rotor, screw and \
+                 table) — what the record determines where the gain and the mass trade",
+                r.gain,
+                sig(r.value),
+                sig(r.uncertainty),
+                r.inertia_kg
+            );
+        }
         if a.kept.starts_with("no template") {
             let _ = writeln!(s, "  {}", a.kept);
         } else {
@@ -224,6 +235,17 @@ fn machine_file(id: &Identification, template: &MachineConfig, program_file: &st
     for a in &id.axes {
         for v in &a.values {
             let _ = writeln!(s, "#   {}.{} = {} {}", a.axis, v.key, shown(v), v.unit);
+        }
+        if let Some(r) = &a.gain_per_inertia {
+            let _ = writeln!(
+                s,
+                "#   {}.{} per inertia = {} ± {} per kg (of {:.1} kg)",
+                a.axis,
+                r.gain,
+                sig(r.value),
+                sig(r.uncertainty),
+                r.inertia_kg
+            );
         }
     }
     let _ = writeln!(s, "base = \"none\"\n");

@@ -249,7 +249,7 @@ impl Context<'_> {
         Some(commands_of(&plan, self.settle_s))
     }
 
-    fn measured_axis(&self, axis: AxisName) -> &[f64] {
+    pub(crate) fn measured_axis(&self, axis: AxisName) -> &[f64] {
         match axis {
             AxisName::X => &self.measured.x_m,
             AxisName::Y => &self.measured.y_m,

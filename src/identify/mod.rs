@@ -23,6 +23,7 @@
 
 mod interpolator;
 mod knobs;
+mod linear;
 mod loop_model;
 mod solve;
 
@@ -86,6 +87,24 @@ pub struct IdentifiedValue {
     pub measured: bool,
 }
 
+/// A current-commanding controller's gain over the whole drive's inertia: what a rigid
+/// drive's loop depends on. The record tells the gain from the table's mass only through
+/// the rotor's and screw's share of the inertia (which the template gives) and the drive's
+/// compliance, and a modelling difference moves both along their ratio; the ratio itself it
+/// determines.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GainPerInertia {
+    /// The gain's key.
+    pub gain: &'static str,
+    /// The drive's inertia as a mass at the table, identified: the rotor's and screw's
+    /// (the template's) with the table's (kg).
+    pub inertia_kg: f64,
+    /// The gain over it (the gain's unit per kg).
+    pub value: f64,
+    /// Its standard uncertainty, with the model's floor as every value's.
+    pub uncertainty: f64,
+}
+
 /// One axis identified.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct AxisIdentification {
@@ -111,6 +130,10 @@ pub struct AxisIdentification {
     pub held_out_template_um: f64,
     /// … and that of the values fitted on the other half (µm).
     pub held_out_identified_um: f64,
+    /// Where the gain and the table's mass are both fitted on a controller commanding
+    /// current: their ratio, which the record determines even where each alone is a
+    /// model's value.
+    pub gain_per_inertia: Option<GainPerInertia>,
 }
 
 /// The identification of a machine from a record.
@@ -347,6 +370,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             rms_identified_um: rms_um,
             held_out_template_um: rms_um,
             held_out_identified_um: rms_um,
+            gain_per_inertia: None,
         },
     ))
 }
@@ -360,6 +384,7 @@ fn not_reached(
     template: &AxisConfig,
 ) -> (AxisConfig, AxisIdentification) {
     identified.reached = false;
+    identified.gain_per_inertia = None;
     for v in &mut identified.values {
         v.determined = false;
         v.measured = false;
@@ -511,8 +536,45 @@ fn identify_on(
             rms_identified_um: rms(&identified_residual),
             held_out_template_um: um_from_m((before_ss / n.max(1) as f64).sqrt()),
             held_out_identified_um: um_from_m((after_ss / n.max(1) as f64).sqrt()),
+            gain_per_inertia: gain_per_inertia(&round, &base),
         },
     ))
+}
+
+/// The gain over the drive's inertia, where `round` fitted both on a controller commanding
+/// current: on the whole record, its uncertainty the Jacobian's along the ratio (widened to
+/// the model's floor and to half the halves' disagreement, as every value's).
+fn gain_per_inertia(round: &Round, base: &AxisConfig) -> Option<GainPerInertia> {
+    if base.controller.uses_velocity_loop() {
+        return None;
+    }
+    let index = |key: &str| round.knobs.iter().position(|k| k.key == key);
+    let mass = index(MASS_KEY)?;
+    let (gain_key, gain) = [TF_GAIN_KEY, SF_POSITION_KEY]
+        .into_iter()
+        .find_map(|key| Some((key, index(key)?)))?;
+    let ratio = |fitted: &Fitted| {
+        let config = round.config(base, fitted);
+        let model = crate::sim::AxisModel::from_config(&config);
+        let inertia_kg = model.j_tot() / model.travel_per_motor_rad().powi(2);
+        (
+            get(&config, gain_key) / inertia_kg,
+            inertia_kg,
+            config.drive.table_mass_kg,
+        )
+    };
+    let (value, inertia_kg, table_kg) = ratio(&round.whole);
+    // d ln(g / M) = d ln g − (m / M)·d ln m: the table's share of the inertia moves with it.
+    let (sigma, model_sigma) = round
+        .whole
+        .relative_uncertainty(&[(gain, 1.0), (mass, -table_kg / inertia_kg)]);
+    let halves = 0.5 * (ratio(&round.halves[0]).0 - ratio(&round.halves[1]).0).abs();
+    Some(GainPerInertia {
+        gain: gain_key,
+        inertia_kg,
+        value,
+        uncertainty: (sigma.max(model_sigma) * value).max(halves),
+    })
 }
 
 /// Where the final fit starts: the gain fitted first (on the cascade: the lag dominates the
@@ -533,6 +595,14 @@ fn staged_start(fit: &Fit, knobs: &[Knob], template: &AxisConfig) -> AxisConfig 
         let c = Fit::config(staged, from, &f.values);
         Some((f.cost, c))
     };
+    // The record's own equation, solved linearly, where it applies and explains the record
+    // better than the template does: a controller tens of percent off its design has
+    // valleys between it and the machine that the fits below would stay in.
+    let estimate = linear::first_estimate(fit, knobs, template).filter(|e| {
+        let cost = |c: &AxisConfig| fit.cost(c).unwrap_or(f64::INFINITY);
+        cost(e) < cost(template)
+    });
+    let template = estimate.as_ref().unwrap_or(template);
     let gain = pick(&[KV_KEY, TF_GAIN_KEY, SF_POSITION_KEY, SF_VELOCITY_KEY]);
     let after_gain = if gain.is_empty() {
         template.clone()
@@ -616,9 +686,13 @@ struct Round {
 impl Round {
     fn fit(fit: &Fit, knobs: Vec<Knob>, base: &AxisConfig, fold: &[bool]) -> Option<Round> {
         let whole = fit.run(&knobs, base, &|_| true)?;
+        // Each half's fit starts where the whole record's landed: their difference then
+        // measures how far the halves pull the values apart, not which valley a search
+        // from further off happens to fall into on one of them.
+        let landed = Fit::config(&knobs, base, &whole.values);
         let (a, b) = rayon::join(
-            || fit.run(&knobs, base, &|i| fold[i]),
-            || fit.run(&knobs, base, &|i| !fold[i]),
+            || fit.run(&knobs, &landed, &|i| fold[i]),
+            || fit.run(&knobs, &landed, &|i| !fold[i]),
         );
         let (a, b) = (a?, b?);
         let sigma = (0..knobs.len())

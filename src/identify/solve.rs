@@ -9,7 +9,9 @@ use nalgebra::{DMatrix, DVector};
 use super::knobs::{Knob, get, set_all};
 use crate::compare::Context;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
-use crate::numeric::lsq::{self, correlation_time, forward_jacobian, uncertainties};
+use crate::numeric::lsq::{
+    self, combination_uncertainty, correlation_time, forward_jacobian, uncertainties,
+};
 
 /// How far a positive value is searched from where the fit starts, as a factor either way:
 /// a template is a machine of the same kind, and a flat valley must not carry the search
@@ -52,6 +54,36 @@ pub struct Fitted {
     /// value by, the others refitted (machine units).
     pub model_sigma: Vec<f64>,
     pub cost: f64,
+    /// What the uncertainties were computed from, for those of combinations of the values.
+    spread: Option<Spread>,
+}
+
+/// The fit's Jacobian in its scaled parameters, with what turns its uncertainties into the
+/// reported ones.
+struct Spread {
+    jacobian: DMatrix<f64>,
+    noise: f64,
+    /// √ of the residual's correlation time (samples).
+    correlation: f64,
+    /// From the statistical uncertainty to the model's floor.
+    to_floor: f64,
+}
+
+impl Fitted {
+    /// The relative standard uncertainty of a product of logarithmic knobs' values, each to
+    /// the power given by knob index (a ratio: 1 and −1): statistical, floored as every
+    /// value's is, and the model's floor — (σ, σ_model). Infinite where nothing was fitted.
+    pub fn relative_uncertainty(&self, powers: &[(usize, f64)]) -> (f64, f64) {
+        let Some(s) = &self.spread else {
+            return (f64::INFINITY, f64::INFINITY);
+        };
+        let mut w = DVector::zeros(s.jacobian.ncols());
+        for &(j, power) in powers {
+            w[j] = power;
+        }
+        let raw = combination_uncertainty(&s.jacobian, self.cost, s.noise, &w);
+        ((raw * s.correlation).max(INPUT_FLOOR), raw * s.to_floor)
+    }
 }
 
 impl<'c, 'a> Fit<'c, 'a> {
@@ -223,6 +255,7 @@ impl Problem<'_, '_, '_> {
                 sigma: vec![f64::INFINITY; n],
                 model_sigma: vec![f64::INFINITY; n],
                 cost: end.cost,
+                spread: None,
             });
         }
         // Residuals that are not white (what the model misses, in stretches) carry fewer
@@ -270,6 +303,12 @@ impl Problem<'_, '_, '_> {
             sigma,
             model_sigma,
             cost: end.cost,
+            spread: Some(Spread {
+                jacobian: end.jacobian,
+                noise,
+                correlation,
+                to_floor,
+            }),
         })
     }
 }

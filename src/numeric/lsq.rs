@@ -161,30 +161,45 @@ pub fn forward_jacobian(
 /// freedom, `cost / (rows − n)`, and never below `noise`. A direction the data do not see
 /// at all gives an infinite uncertainty.
 pub fn uncertainties(jac: &DMatrix<f64>, cost: f64, noise: f64) -> Vec<f64> {
+    let n = jac.ncols();
+    (0..n)
+        .map(|j| {
+            combination_uncertainty(
+                jac,
+                cost,
+                noise,
+                &DVector::from_fn(n, |i, _| f64::from(i == j)),
+            )
+        })
+        .collect()
+}
+
+/// The standard uncertainty of the combination `w · p` of the parameters, as
+/// [`uncertainties`] gives each: √(s²·wᵀ(JᵀJ)⁺w) over every direction — a ratio of two
+/// values (a difference of their logarithms) the data see although each alone trades with
+/// the other comes out small.
+pub fn combination_uncertainty(jac: &DMatrix<f64>, cost: f64, noise: f64, w: &DVector<f64>) -> f64 {
     let (rows, n) = jac.shape();
     let spread = (cost / (rows as f64 - n as f64).max(1.0)).sqrt().max(noise);
     let svd = jac.clone().svd(false, true);
     let Some(vt) = svd.v_t else {
-        return vec![f64::INFINITY; n];
+        return f64::INFINITY;
     };
-    (0..n)
-        .map(|j| {
-            svd.singular_values
-                .iter()
-                .enumerate()
-                .map(|(k, &s)| {
-                    if s > 0.0 {
-                        (vt[(k, j)] * spread / s).powi(2)
-                    } else if vt[(k, j)] != 0.0 {
-                        f64::INFINITY
-                    } else {
-                        0.0
-                    }
-                })
-                .sum::<f64>()
-                .sqrt()
+    svd.singular_values
+        .iter()
+        .enumerate()
+        .map(|(k, &s)| {
+            let along = vt.row(k).transpose().dot(w);
+            if s > 0.0 {
+                (along * spread / s).powi(2)
+            } else if along != 0.0 {
+                f64::INFINITY
+            } else {
+                0.0
+            }
         })
-        .collect()
+        .sum::<f64>()
+        .sqrt()
 }
 
 /// The residual's integrated correlation time in samples, 1 + 2 Σ ρₖ over the lags until
