@@ -59,6 +59,13 @@ const REFERENCE: Recorder = Recorder {
     at: MeasuredAt::Motor,
 };
 
+/// The independent reference on a machine that reads a linear scale (the heavy preset): the
+/// control's feedback is the table's position.
+const REFERENCE_AT_SCALE: Recorder = Recorder {
+    make: reference_record,
+    at: MeasuredAt::Table,
+};
+
 /// `program` on `machine` integrated by the independent reference, driven by its own
 /// continuous interpolator, read at 10 kHz in 0.1 µm counts with the commands beside.
 fn reference_record(program: &Program, machine: &MachineConfig, seed: u64) -> MeasuredTrace {
@@ -289,6 +296,28 @@ fn a_hidden_cascade_is_identified_from_the_heavy_template_and_predicts_another_p
         ],
         81,
         TOOL,
+    );
+}
+
+#[test]
+fn a_hidden_cascade_recorded_by_an_independent_integrator_is_identified() {
+    // The heavy preset's cascade with other gains, mass and friction, integrated by the
+    // reference (its own current loop, screw and nut, friction by a sticking test) under its
+    // own continuous trapezoids and read at the scale: neither the tool's simulator nor its
+    // interpolator made the record.
+    let mut truth = MachineConfig::default_preset();
+    truth.x.position_loop.kv_m_per_min_per_mm = 0.9;
+    truth.x.drive.table_mass_kg = 7500.0;
+    truth.x.friction.coulomb_coefficient = 0.015;
+    truth.y.position_loop.kv_m_per_min_per_mm = 0.8;
+    truth.y.velocity_loop.as_mut().unwrap().ts_ms = 15.0;
+    truth.y.friction.viscous_n_s_per_m = 6000.0;
+    identified_and_predicting(
+        &MachineConfig::default_preset(),
+        &truth,
+        &["position_loop.kv_m_per_min_per_mm", "drive.table_mass_kg"],
+        85,
+        REFERENCE_AT_SCALE,
     );
 }
 
