@@ -321,6 +321,33 @@ fn a_hidden_cascade_recorded_by_an_independent_integrator_is_identified() {
     );
 }
 
+/// The heavy preset with play in X's nut and more static friction on Y than its template
+/// has: the cascade's values alone leave the reversals unexplained, and the nonlinear parts
+/// are fitted on top.
+fn heavy_with_play_and_sticking() -> MachineConfig {
+    let mut truth = MachineConfig::default_preset();
+    truth.x.position_loop.kv_m_per_min_per_mm = 0.9;
+    truth.x.drive.backlash_um = 6.0;
+    truth.y.position_loop.kv_m_per_min_per_mm = 0.8;
+    truth.y.friction.static_to_coulomb = 2.5;
+    truth
+}
+
+#[test]
+fn backlash_and_static_friction_the_template_lacks_are_identified_on_top() {
+    identified_and_predicting(
+        &MachineConfig::default_preset(),
+        &heavy_with_play_and_sticking(),
+        &[
+            "x:drive.backlash_um",
+            "y:friction.static_to_coulomb",
+            "position_loop.kv_m_per_min_per_mm",
+        ],
+        88,
+        TOOL,
+    );
+}
+
 /// The small table as designed (the template: a PID on X, state feedback on Y, both on
 /// current amplifiers) and as it ran: other gains — X's 40 % higher, Y's position gain 35 %
 /// lower, its speed gain 33 % higher and its integral gain half again — other table masses

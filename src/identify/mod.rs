@@ -7,12 +7,14 @@
 //! velocity feed-forward and integral time; a transfer function's overall gain; state
 //! feedback's three gains), and on every structure the moving mass, Coulomb and viscous
 //! friction and a dead time — each by re-simulating the axis on the record's commands
-//! (`solve`). What no record separates comes from the template: the velocity loop's gain
+//! (`solve`); where those leave the record above its noise, static friction and the nut's
+//! play on top (`knobs::nonlinear_for`). What no record separates comes from the template: the velocity loop's gain
 //! (the drive's inertia acts through its ratio to it), the torque constant (every gain of a
 //! current-commanding controller acts through its product with it), zeros and poles.
 //!
-//! The search is staged (`staged_start`): the gains first, which set the lag and hide the
-//! rest; then a coarse grid over the values that trade with each other through the
+//! The search is staged (`staged_start`): a current-commanding transfer function's gain and
+//! corners from the record's equation solved linearly (`linear`); the gains, which set the
+//! lag and hide the rest; then a coarse grid over the values that trade with each other through the
 //! standstills and reversals (Coulomb friction, the velocity integral time, the mass), whose
 //! residual has valleys a local search would stay in; then everything from the grid's best
 //! points. Each value gets a standard uncertainty, the larger of the Jacobian's and half the
@@ -38,8 +40,8 @@ use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::trace::measured::MeasuredTrace;
 use crate::units::um_from_m;
 use knobs::{
-    COULOMB_KEY, INTEGRAL_TIME_KEY, KV_KEY, Knob, MASS_KEY, SF_INTEGRAL_KEY, SF_POSITION_KEY,
-    SF_VELOCITY_KEY, TF_GAIN_KEY, VISCOUS_KEY, get, set_all,
+    BACKLASH_KEY, COULOMB_KEY, INTEGRAL_TIME_KEY, KV_KEY, Knob, MASS_KEY, SF_INTEGRAL_KEY,
+    SF_POSITION_KEY, SF_VELOCITY_KEY, STATIC_KEY, TF_GAIN_KEY, VISCOUS_KEY, get, set_all,
 };
 use solve::{Fit, Fitted};
 
@@ -53,6 +55,10 @@ const GRID_STARTS: usize = 3;
 /// far.
 const FRICTION_STEPS: usize = 13;
 const FRICTION_SPAN: f64 = 2.0;
+/// The values of the nut's play (µm) and of static over Coulomb friction scanned before the
+/// grid, where they are fitted.
+const BACKLASH_SCAN_UM: [f64; 9] = [0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0];
+const STATIC_SCAN: [f64; 8] = [1.0, 1.1, 1.25, 1.5, 1.75, 2.0, 2.5, 3.0];
 /// How long after a standstill the record is compared, and the speed (a share of the
 /// axis's peak) below which a command counts as standing.
 const SETTLE_S: f64 = 0.1;
@@ -306,15 +312,30 @@ fn identify_axis(
     // found nothing: the template's values stay, said so.
     let fit = Fit::new(ctx, template, axis, offset);
     let found = match model {
-        Model::Template => identify_ordered(&fit, template, false),
+        Model::Template => identify_ordered(&fit, template, false, &[]),
         Model::Loop => identify_loop_order(&fit, template, false),
     };
-    let Some(everywhere) = found else {
+    let Some(mut everywhere) = found else {
         return unfitted(Fit::new(ctx, template, axis, offset), template.axis(axis));
     };
     let noise_um = um_from_m(ctx.noise_sigma);
     if everywhere.1.rms_identified_um <= REACHED_EXCESS * noise_um {
         return Some(everywhere);
+    }
+    // Then the plant's nonlinear parts on top, where the template's values alone leave the
+    // record above its noise: a healthy machine never gets them fitted (a value found in
+    // the noise would be a false alarm), one with play or sticking the template lacks does.
+    let nonlinear = knobs::nonlinear_for(template.axis(axis), ctx.measured_at);
+    if model == Model::Template
+        && !nonlinear.is_empty()
+        && let Some(extended) = identify_ordered(&fit, template, false, &nonlinear)
+    {
+        if extended.1.rms_identified_um <= REACHED_EXCESS * noise_um {
+            return Some(extended);
+        }
+        if predicts_better(&extended.1, &everywhere.1) {
+            everywhere = extended;
+        }
     }
     let moving = moving_samples(ctx, axis, offset);
     let fit = Fit::new(ctx, template, axis, offset).masked(moving);
@@ -327,7 +348,7 @@ fn identify_axis(
             _ => Some(everywhere),
         };
     }
-    match identify_ordered(&fit, template, true) {
+    match identify_ordered(&fit, template, true, &[]) {
         Some(m) if m.1.rms_identified_um <= REACHED_EXCESS * noise_um => Some(m),
         _ => Some(not_reached(everywhere, template.axis(axis))),
     }
@@ -394,9 +415,6 @@ fn not_reached(
     (template.clone(), identified)
 }
 
-/// One axis on the samples `fit` uses: a staged start, the fit on the whole record and each
-/// half, undetermined values put back and the rest fitted again, each half's fit scored on
-/// the other half.
 /// [`identify_on`] with the controller's corners free and, where it has any, without them:
 /// the corners are kept only where they predict the record's held-out halves better — by
 /// more than a twentieth — than the design's corners do. A corner the record barely sees
@@ -406,9 +424,11 @@ fn identify_ordered(
     fit: &Fit,
     template: &MachineConfig,
     moving_only: bool,
+    extra: &[Knob],
 ) -> Option<(AxisConfig, AxisIdentification)> {
     let template_axis = template.axis(fit.axis());
-    let all = knobs::for_axis(template_axis);
+    let mut all = knobs::for_axis(template_axis);
+    all.extend_from_slice(extra);
     let fixed: Vec<Knob> = all.iter().copied().filter(|k| !k.is_corner()).collect();
     let free = identify_on(fit, template, moving_only, &all);
     if fixed.len() == all.len() {
@@ -470,6 +490,9 @@ fn predicts_better(more: &AxisIdentification, fewer: &AxisIdentification) -> boo
     more.held_out_identified_um < 0.95 * fewer.held_out_identified_um
 }
 
+/// One axis on the samples `fit` uses: a staged start, the fit on the whole record and each
+/// half, undetermined values put back and the rest fitted again, each half's fit scored on
+/// the other half.
 fn identify_on(
     fit: &Fit,
     template: &MachineConfig,
@@ -609,6 +632,29 @@ fn staged_start(fit: &Fit, knobs: &[Knob], template: &AxisConfig) -> AxisConfig 
     } else {
         fitted_from(template, &gain).map_or_else(|| template.clone(), |(_, c)| c)
     };
+    // The nonlinear parts fitted on top, each scanned on its own first: play and sticking
+    // change the reversals by steps that a local search from the template's value (none)
+    // does not see past.
+    let mut after_gain = after_gain;
+    for (key, scan) in [
+        (BACKLASH_KEY, &BACKLASH_SCAN_UM[..]),
+        (STATIC_KEY, &STATIC_SCAN[..]),
+    ] {
+        if !knobs.iter().any(|k| k.key == key) {
+            continue;
+        }
+        let best = scan
+            .par_iter()
+            .filter_map(|&v| {
+                let mut c = after_gain.clone();
+                set_all(&mut c, &[key], &[v]);
+                Some((fit.cost(&c)?, c))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        if let Some((_, c)) = best {
+            after_gain = c;
+        }
+    }
     let grid_keys: Vec<&str> = [COULOMB_KEY, INTEGRAL_TIME_KEY, MASS_KEY, SF_INTEGRAL_KEY]
         .into_iter()
         .filter(|k| knobs.iter().any(|q| q.key == *k))
@@ -656,6 +702,8 @@ fn staged_start(fit: &Fit, knobs: &[Knob], template: &AxisConfig) -> AxisConfig 
         MASS_KEY,
         COULOMB_KEY,
         VISCOUS_KEY,
+        BACKLASH_KEY,
+        STATIC_KEY,
         "controller.zero_1_hz",
         "controller.zero_2_hz",
         "controller.pole_1_hz",

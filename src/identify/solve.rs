@@ -20,11 +20,6 @@ const FACTOR_RANGE: f64 = 10.0;
 /// The residual of a simulation that failed (m): values the model cannot run with (an
 /// unstable loop) cost far more than any fit, so that the search steps back from them.
 const FAILED_M: f64 = 1.0;
-/// The least relative uncertainty of any value: the commands the model is driven with are
-/// read back from the record (resampled, their velocity and acceleration fitted over a few
-/// milliseconds), not the control's own, and on records of known machines that alone moved
-/// a fitted mass by 0.3 % while the noise allowed 0.05 %.
-const INPUT_FLOOR: f64 = 0.005;
 
 /// No model is the machine: two faithful integrations of one small table — this tool's and
 /// an independent Runge–Kutta reference — differ by 20 to 35 nm on its record, half the
@@ -67,6 +62,8 @@ struct Spread {
     correlation: f64,
     /// From the statistical uncertainty to the model's floor.
     to_floor: f64,
+    /// Each knob's least relative uncertainty.
+    input_floors: Vec<f64>,
 }
 
 impl Fitted {
@@ -82,7 +79,11 @@ impl Fitted {
             w[j] = power;
         }
         let raw = combination_uncertainty(&s.jacobian, self.cost, s.noise, &w);
-        ((raw * s.correlation).max(INPUT_FLOOR), raw * s.to_floor)
+        let floor = powers
+            .iter()
+            .map(|&(j, power)| s.input_floors[j] * power.abs())
+            .fold(0.0, f64::max);
+        ((raw * s.correlation).max(floor), raw * s.to_floor)
     }
 }
 
@@ -295,7 +296,7 @@ impl Problem<'_, '_, '_> {
                 } else {
                     k.scale_at(*v)
                 };
-                in_units(k, *s, *v).max(INPUT_FLOOR * size)
+                in_units(k, *s, *v).max(k.input_floor * size)
             })
             .collect();
         Some(Fitted {
@@ -308,6 +309,7 @@ impl Problem<'_, '_, '_> {
                 noise,
                 correlation,
                 to_floor,
+                input_floors: self.knobs.iter().map(|k| k.input_floor).collect(),
             }),
         })
     }
