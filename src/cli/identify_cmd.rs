@@ -170,6 +170,14 @@ pub fn summary(id: &Identification, template: &MachineConfig) -> String {
                 a.rms_identified_um, id.noise_um
             );
         }
+        if a.template_holds {
+            let _ = writeln!(
+                s,
+                "  the template explains the record to its noise, and values fitted to it \
+                 predict its held-out halves worse than the template does: the template's \
+                 values stay"
+            );
+        }
         let _ = writeln!(s, "  {:<38} {:>14}  identified", "key", "template");
         for v in &a.values {
             let _ = writeln!(

@@ -59,6 +59,9 @@ const FRICTION_SPAN: f64 = 2.0;
 /// grid, where they are fitted.
 const BACKLASH_SCAN_UM: [f64; 9] = [0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0];
 const STATIC_SCAN: [f64; 8] = [1.0, 1.1, 1.25, 1.5, 1.75, 2.0, 2.5, 3.0];
+/// How much lower one of them alone, scanned on the values fitted without them, must bring
+/// the residual's sum of squares for the axis to be fitted again with them.
+const NONLINEAR_GAIN: f64 = 0.9;
 /// How long after a standstill the record is compared, and the speed (a share of the
 /// axis's peak) below which a command counts as standing.
 const SETTLE_S: f64 = 0.1;
@@ -136,6 +139,9 @@ pub struct AxisIdentification {
     pub held_out_template_um: f64,
     /// … and that of the values fitted on the other half (µm).
     pub held_out_identified_um: f64,
+    /// The template already explains the record to its noise and the values fitted predict
+    /// its held-out halves worse: the template's values stay (none is determined).
+    pub template_holds: bool,
     /// Where the gain and the table's mass are both fitted on a controller commanding
     /// current: their ratio, which the record determines even where each alone is a
     /// model's value.
@@ -297,11 +303,40 @@ fn identify_as(
     })
 }
 
+/// One axis, from a template: where the template already explains the record to its noise
+/// and the values fitted predict the record's held-out halves worse than it does (by more
+/// than a twentieth), the template's values stay — the record does not show them wrong, and
+/// a fit that moves them only follows what the model misses of this machine.
+fn identify_axis(
+    ctx: &Context,
+    template: &MachineConfig,
+    axis: AxisName,
+    offset: f64,
+    model: Model,
+) -> Option<(AxisConfig, AxisIdentification)> {
+    let found = fit_axis(ctx, template, axis, offset, model)?;
+    let id = &found.1;
+    let noise_um = um_from_m(ctx.noise_sigma);
+    let template_holds = model == Model::Template
+        && id.reached
+        && id.held_out_template_um <= REACHED_EXCESS * noise_um
+        && id.held_out_identified_um > id.held_out_template_um / 0.95;
+    if !template_holds {
+        return Some(found);
+    }
+    let (_, mut kept) = not_reached(found, template.axis(axis));
+    kept.reached = true;
+    kept.template_holds = true;
+    kept.rms_identified_um = kept.rms_template_um;
+    kept.held_out_identified_um = kept.held_out_template_um;
+    Some((template.axis(axis).clone(), kept))
+}
+
 /// One axis: identified on every compared sample; where that leaves the residual well
 /// above the record's noise and the samples away from the standstills can be fitted to it,
 /// identified on those instead (the axis hunts about its target when it stands: integral
 /// action and friction on a limit cycle whose phase no model times).
-fn identify_axis(
+fn fit_axis(
     ctx: &Context,
     template: &MachineConfig,
     axis: AxisName,
@@ -327,7 +362,7 @@ fn identify_axis(
     // the noise would be a false alarm), one with play or sticking the template lacks does.
     let nonlinear = knobs::nonlinear_for(template.axis(axis), ctx.measured_at);
     if model == Model::Template
-        && !nonlinear.is_empty()
+        && nonlinear_helps(&fit, template.axis(axis), &everywhere.0, &nonlinear)
         && let Some(extended) = identify_ordered(&fit, template, false, &nonlinear)
     {
         if extended.1.rms_identified_um <= REACHED_EXCESS * noise_um {
@@ -392,6 +427,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             held_out_template_um: rms_um,
             held_out_identified_um: rms_um,
             gain_per_inertia: None,
+            template_holds: false,
         },
     ))
 }
@@ -560,8 +596,60 @@ fn identify_on(
             held_out_template_um: um_from_m((before_ss / n.max(1) as f64).sqrt()),
             held_out_identified_um: um_from_m((after_ss / n.max(1) as f64).sqrt()),
             gain_per_inertia: gain_per_inertia(&round, &base),
+            template_holds: false,
         },
     ))
+}
+
+/// `config` with the nonlinear part `key` at the value of its scan that explains the record
+/// best, and that cost; none for a key that is not scanned.
+fn scanned(fit: &Fit, config: &AxisConfig, key: &'static str) -> Option<(f64, AxisConfig)> {
+    let scan: &[f64] = match key {
+        BACKLASH_KEY => &BACKLASH_SCAN_UM,
+        STATIC_KEY => &STATIC_SCAN,
+        _ => return None,
+    };
+    scan.par_iter()
+        .filter_map(|&v| {
+            let mut c = config.clone();
+            set_all(&mut c, &[key], &[v]);
+            Some((fit.cost(&c)?, c))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+}
+
+/// Whether one of the nonlinear parts `nonlinear`, scanned alone on the template with the
+/// gains fitted without them, explains the record better by a tenth: only then is the axis
+/// fitted again with them (a fit that failed for another reason is not made to try). Not
+/// on the values fitted without them: those have already bent to the reversals.
+fn nonlinear_helps(
+    fit: &Fit,
+    template: &AxisConfig,
+    fitted: &AxisConfig,
+    nonlinear: &[Knob],
+) -> bool {
+    let gains = [
+        KV_KEY,
+        TF_GAIN_KEY,
+        SF_POSITION_KEY,
+        SF_VELOCITY_KEY,
+        SF_INTEGRAL_KEY,
+    ];
+    let keys: Vec<&str> = knobs::for_axis(template)
+        .iter()
+        .map(|k| k.key)
+        .filter(|k| gains.contains(k))
+        .collect();
+    let values: Vec<f64> = keys.iter().map(|k| get(fitted, k)).collect();
+    let mut gained = template.clone();
+    set_all(&mut gained, &keys, &values);
+    let Some(now) = fit.cost(&gained) else {
+        return false;
+    };
+    nonlinear
+        .iter()
+        .filter_map(|k| scanned(fit, &gained, k.key))
+        .any(|(cost, _)| cost < NONLINEAR_GAIN * now)
 }
 
 /// The gain over the drive's inertia, where `round` fitted both on a controller commanding
@@ -636,22 +724,8 @@ fn staged_start(fit: &Fit, knobs: &[Knob], template: &AxisConfig) -> AxisConfig 
     // change the reversals by steps that a local search from the template's value (none)
     // does not see past.
     let mut after_gain = after_gain;
-    for (key, scan) in [
-        (BACKLASH_KEY, &BACKLASH_SCAN_UM[..]),
-        (STATIC_KEY, &STATIC_SCAN[..]),
-    ] {
-        if !knobs.iter().any(|k| k.key == key) {
-            continue;
-        }
-        let best = scan
-            .par_iter()
-            .filter_map(|&v| {
-                let mut c = after_gain.clone();
-                set_all(&mut c, &[key], &[v]);
-                Some((fit.cost(&c)?, c))
-            })
-            .min_by(|a, b| a.0.total_cmp(&b.0));
-        if let Some((_, c)) = best {
+    for knob in knobs {
+        if let Some((_, c)) = scanned(fit, &after_gain, knob.key) {
             after_gain = c;
         }
     }
