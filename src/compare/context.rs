@@ -94,7 +94,7 @@ const START_AFTER_HUNTING_S: f64 = 0.2;
 /// Length of the alternate blocks of time a record is cut into for fitting on one half and
 /// judging on the other (s): long against a sample, short against the program's moves, so
 /// that both halves see every kind of move.
-pub(crate) const HALF_BLOCK_S: f64 = 0.2;
+const HALF_BLOCK_S: f64 = 0.2;
 
 impl Context<'_> {
     /// The record's noise floor (m), as [`super::compare`] estimated it.

@@ -18,7 +18,6 @@ use crate::sim::{MeasuredAt, SimError};
 use crate::trace::measured::{MeasuredError, MeasuredTrace};
 
 pub(crate) use align::context;
-pub(crate) use context::HALF_BLOCK_S;
 pub use context::{Context, Stepping};
 
 /// How a record is placed on a program and compared with a model.

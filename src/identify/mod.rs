@@ -18,8 +18,7 @@
 //! standstills and reversals (Coulomb friction, the velocity integral time, the mass), whose
 //! residual has valleys a local search would stay in; then everything from the grid's best
 //! points. Each value gets a standard uncertainty, the larger of the Jacobian's and half the
-//! difference between fits on the two halves of the record (blocks of time, those where the
-//! axis starts, stops or reverses shared out apart: `balanced_halves`); a value whose
+//! difference between fits on the two halves of the record (alternate blocks); a value whose
 //! uncertainty exceeds half of itself (or of its scale) is not determined by the record — it
 //! is put back to the template's, said so, and the rest fitted again. Each half's fit is
 //! then scored on the other half, which it was not fitted on.
@@ -35,9 +34,7 @@ use serde::Serialize;
 
 pub use interpolator::Interpolator;
 
-use crate::compare::{
-    CompareError, CompareSettings, Comparison, Context, HALF_BLOCK_S, Stepping, compare,
-};
+use crate::compare::{CompareError, CompareSettings, Comparison, Context, Stepping, compare};
 use crate::gcode::Program;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::trace::measured::MeasuredTrace;
@@ -318,7 +315,13 @@ fn identify_axis(
     model: Model,
 ) -> Option<(AxisConfig, AxisIdentification)> {
     let found = fit_axis(ctx, template, axis, offset, model)?;
-    if model != Model::Template || !template_holds(&found.1, um_from_m(ctx.noise_sigma)) {
+    let id = &found.1;
+    let noise_um = um_from_m(ctx.noise_sigma);
+    let template_holds = model == Model::Template
+        && id.reached
+        && id.held_out_template_um <= REACHED_EXCESS * noise_um
+        && id.held_out_identified_um > id.held_out_template_um / 0.95;
+    if !template_holds {
         return Some(found);
     }
     let (_, mut kept) = not_reached(found, template.axis(axis));
@@ -327,14 +330,6 @@ fn identify_axis(
     kept.rms_identified_um = kept.rms_template_um;
     kept.held_out_identified_um = kept.held_out_template_um;
     Some((template.axis(axis).clone(), kept))
-}
-
-/// Whether the template explains the record to its noise while the values fitted predict
-/// the held-out halves worse than it does by more than a twentieth.
-fn template_holds(id: &AxisIdentification, noise_um: f64) -> bool {
-    id.reached
-        && id.held_out_template_um <= REACHED_EXCESS * noise_um
-        && id.held_out_identified_um > id.held_out_template_um / 0.95
 }
 
 /// One axis: identified on every compared sample; where that leaves the residual well
@@ -541,7 +536,7 @@ fn identify_on(
     knobs: &[Knob],
 ) -> Option<(AxisConfig, AxisIdentification)> {
     let (ctx, axis, offset) = (fit.ctx(), fit.axis(), fit.offset());
-    let fold = balanced_halves(ctx, axis, offset);
+    let fold = ctx.halves(offset);
     let template_axis = template.axis(axis).clone();
     let start = staged_start(fit, knobs, &template_axis);
     let (round, base) = Round::fit_determined(fit, knobs, &start, &template_axis, &fold)?;
@@ -906,50 +901,6 @@ fn moving_samples(ctx: &Context, axis: AxisName, offset: f64) -> Vec<bool> {
         .collect()
 }
 
-/// Which half each compared sample belongs to, for fitting on one and judging on the other:
-/// the record's blocks of time (as `compare` cuts it), those in which the axis's command
-/// starts, stops or reverses dealt to the halves in turn, and the others in turn apart.
-/// Friction and play show only at those events, and plain alternate blocks can leave most
-/// of them to one half: on the independent small-table record the half without them fitted
-/// half the Coulomb friction and predicted the other half worse than the template.
-fn balanced_halves(ctx: &Context, axis: AxisName, offset: f64) -> Vec<bool> {
-    let c = ctx.commands.axis(axis);
-    let peak = c.vel_m_per_s.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let state = |v: f64| {
-        if v.abs() > MOVING_SHARE * peak {
-            v.signum()
-        } else {
-            0.0
-        }
-    };
-    let block_of = |t: f64| (t / HALF_BLOCK_S).floor().max(0.0) as usize;
-    let blocks = block_of(c.len() as f64 * ctx.dt) + 1;
-    let mut eventful = vec![false; blocks];
-    for k in 1..c.len() {
-        if state(c.vel_m_per_s[k]) != state(c.vel_m_per_s[k - 1]) {
-            eventful[block_of(k as f64 * ctx.dt)] = true;
-        }
-    }
-    // Each kind of block dealt in turn.
-    let mut next = [true, true];
-    let half: Vec<bool> = eventful
-        .iter()
-        .map(|&e| {
-            let turn = &mut next[usize::from(e)];
-            *turn = !*turn;
-            !*turn
-        })
-        .collect();
-    ctx.sample_times(offset)
-        .iter()
-        .map(|&t| {
-            half.get(block_of(t))
-                .copied()
-                .unwrap_or(block_of(t) % 2 == 0)
-        })
-        .collect()
-}
-
 /// RMS of commanded − measured over the compared samples (m).
 fn following_error_rms(ctx: &Context, axis: AxisName, offset: f64) -> f64 {
     let measured = ctx.measured_at_samples(axis);
@@ -962,42 +913,4 @@ fn following_error_rms(ctx: &Context, axis: AxisName, offset: f64) -> f64 {
         }
     }
     (ss / n.max(1) as f64).sqrt()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn scored(template_um: f64, identified_um: f64) -> AxisIdentification {
-        AxisIdentification {
-            axis: AxisName::Y,
-            values: Vec::new(),
-            kept: String::new(),
-            moving_only: false,
-            reached: true,
-            following_error_rms_um: 3.0,
-            rms_template_um: template_um,
-            rms_identified_um: identified_um,
-            held_out_template_um: template_um,
-            held_out_identified_um: identified_um,
-            gain_per_inertia: None,
-            template_holds: false,
-        }
-    }
-
-    #[test]
-    fn a_template_at_the_noise_stays_where_fits_predict_the_halves_worse() {
-        let noise_um = 0.06;
-        // At the noise, and the fit predicts its halves 18 % worse: the template stays.
-        assert!(template_holds(&scored(0.063, 0.074), noise_um));
-        // As well or better (within a twentieth): the values fitted are written.
-        assert!(!template_holds(&scored(0.063, 0.065), noise_um));
-        assert!(!template_holds(&scored(0.063, 0.060), noise_um));
-        // A template above the noise has shown itself wrong, whatever the halves say.
-        assert!(!template_holds(&scored(0.4, 0.5), noise_um));
-        // A fit that did not reach the noise keeps the template by another rule.
-        let mut unreached = scored(0.063, 0.074);
-        unreached.reached = false;
-        assert!(!template_holds(&unreached, noise_um));
-    }
 }
