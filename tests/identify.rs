@@ -276,8 +276,9 @@ fn identified_and_predicting(
     id
 }
 
-#[test]
-fn a_hidden_cascade_is_identified_from_the_heavy_template_and_predicts_another_program() {
+/// The heavy preset as it ran: other gains, a heavier X table with more friction, a slower
+/// velocity integrator and more damping on Y.
+fn heavy_retuned() -> MachineConfig {
     let mut truth = MachineConfig::default_preset();
     truth.x.position_loop.kv_m_per_min_per_mm = 0.9;
     truth.x.drive.table_mass_kg = 7500.0;
@@ -285,9 +286,14 @@ fn a_hidden_cascade_is_identified_from_the_heavy_template_and_predicts_another_p
     truth.y.position_loop.kv_m_per_min_per_mm = 0.8;
     truth.y.velocity_loop.as_mut().unwrap().ts_ms = 15.0;
     truth.y.friction.viscous_n_s_per_m = 6000.0;
+    truth
+}
+
+#[test]
+fn a_hidden_cascade_is_identified_from_the_heavy_template_and_predicts_another_program() {
     identified_and_predicting(
         &MachineConfig::default_preset(),
-        &truth,
+        &heavy_retuned(),
         &[
             "position_loop.kv_m_per_min_per_mm",
             "velocity_loop.ts_ms",
@@ -305,16 +311,9 @@ fn a_hidden_cascade_recorded_by_an_independent_integrator_is_identified() {
     // reference (its own current loop, screw and nut, friction by a sticking test) under its
     // own continuous trapezoids and read at the scale: neither the tool's simulator nor its
     // interpolator made the record.
-    let mut truth = MachineConfig::default_preset();
-    truth.x.position_loop.kv_m_per_min_per_mm = 0.9;
-    truth.x.drive.table_mass_kg = 7500.0;
-    truth.x.friction.coulomb_coefficient = 0.015;
-    truth.y.position_loop.kv_m_per_min_per_mm = 0.8;
-    truth.y.velocity_loop.as_mut().unwrap().ts_ms = 15.0;
-    truth.y.friction.viscous_n_s_per_m = 6000.0;
     identified_and_predicting(
         &MachineConfig::default_preset(),
-        &truth,
+        &heavy_retuned(),
         &["position_loop.kv_m_per_min_per_mm", "drive.table_mass_kg"],
         85,
         REFERENCE_AT_SCALE,
