@@ -347,6 +347,19 @@ fn backlash_and_static_friction_the_template_lacks_are_identified_on_top() {
     );
 }
 
+#[test]
+fn play_and_sticking_recorded_by_an_independent_integrator_are_identified_on_top() {
+    // The same machine integrated by the reference (its nut a spring through the gap, its
+    // friction by a sticking test) under its own trapezoids, read at the scale.
+    identified_and_predicting(
+        &MachineConfig::default_preset(),
+        &heavy_with_play_and_sticking(),
+        &["x:drive.backlash_um", "y:friction.static_to_coulomb"],
+        89,
+        REFERENCE_AT_SCALE,
+    );
+}
+
 /// The small table as designed (the template: a PID on X, state feedback on Y, both on
 /// current amplifiers) and as it ran: other gains — X's 40 % higher, Y's position gain 35 %
 /// lower, its speed gain 33 % higher and its integral gain half again — other table masses

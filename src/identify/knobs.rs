@@ -240,7 +240,7 @@ const CORNERS: [Knob; 4] = [
 ];
 
 /// Which polynomial and which of its corners a corner key names.
-fn corner_of(key: &str) -> Option<(bool, usize)> {
+pub(crate) fn corner_of(key: &str) -> Option<(bool, usize)> {
     let rest = key.strip_prefix("controller.")?.strip_suffix("_hz")?;
     let (kind, k) = rest.split_once('_')?;
     let k: usize = k.parse().ok()?;
@@ -253,7 +253,7 @@ fn corner_of(key: &str) -> Option<(bool, usize)> {
 
 /// Roots of a polynomial grouped as they repeat, and the indices (into that list) of its
 /// real left-half-plane ones, lowest corner first.
-fn corners(coefficients: &[f64]) -> (Vec<(Complex<f64>, usize)>, Vec<usize>) {
+pub(crate) fn corners(coefficients: &[f64]) -> (Vec<(Complex<f64>, usize)>, Vec<usize>) {
     // Coefficients typed to four or five figures split a double root by a few parts in a
     // thousand: within a hundredth, a pair is one root twice (damping above 0.99995).
     let mut groups = poly::distinct(&poly::roots(coefficients), 1e-2);

@@ -35,9 +35,10 @@
 //! valley. On the lead-lag table of the tests, recorded by an independent integrator, it
 //! finds the corners 20–30 % off the design within 1 % and the gain within 1 %.
 
-use nalgebra::{Complex, DMatrix, DVector};
+use nalgebra::{DMatrix, DVector};
 
-use super::knobs::{Knob, TF_GAIN_KEY, get, set_all};
+use super::Sliding;
+use super::knobs::{Knob, TF_GAIN_KEY, corner_of, corners, get, set_all};
 use super::solve::Fit;
 use crate::machine::{AxisConfig, Controller, ControllerOutput};
 use crate::numeric::poly;
@@ -48,11 +49,6 @@ use crate::units::mm_from_m;
 /// The state-variable filter's corner (Hz): near the position loops' crossover, where the
 /// record says most about the controller.
 const FILTER_HZ: f64 = 30.0;
-/// How long the command must have moved before a row is used (s): several times the
-/// filter's memory, n/λ.
-const SLIDING_FOR_S: f64 = 0.1;
-/// Speed below which a command counts as standing, as a share of the axis's peak.
-const MOVING_SHARE: f64 = 0.01;
 /// How far from the template an estimate may land and still be taken (a factor either way,
 /// as the fit by re-simulation searches).
 const PLAUSIBLE_FACTOR: f64 = 10.0;
@@ -74,11 +70,10 @@ pub(super) fn first_estimate(
         return None;
     }
     let model = AxisModel::from_config(template);
-    let travel = model.r * model.it;
     let drive = Drive {
         tau: model.amplifier_tau?,
-        force_per_amp: model.kt / travel,
-        mass_kg: model.j_tot() / (travel * travel),
+        force_per_amp: model.kt / model.travel_per_motor_rad(),
+        mass_kg: model.mass_at_table_kg(),
         viscous_n_s_per_m: model.f_v,
         coulomb_n: model.f_c,
         accel_feedforward: model.ka,
@@ -206,10 +201,9 @@ impl Signals {
         }
         let commands = ctx.commands.axis(axis);
         let dead_s = template.position_loop.dead_time_ms * 1e-3;
-        let peak = commands
-            .vel_m_per_s
-            .iter()
-            .fold(0.0f64, |m, v| m.max(v.abs()));
+        // A row once the command has slid as long as identification's "compared while
+        // moving" asks — several times the filter's memory, n/λ.
+        let sliding = Sliding::of(ctx, axis);
         let origin = measured[0];
         let (mut position_m, mut error_mm, mut direction, mut accel_m_per_s2, mut rows) = (
             Vec::with_capacity(n),
@@ -218,26 +212,18 @@ impl Signals {
             Vec::with_capacity(n),
             Vec::with_capacity(n),
         );
-        let mut moving_since: Option<f64> = None;
         for (i, &x) in measured.iter().enumerate() {
             let t = ctx.prog_time(i, fit.offset()) - dead_s;
             let x_ref = sample(&commands.pos_m, ctx.dt, t);
-            let v_ref = sample(&commands.vel_m_per_s, ctx.dt, t);
             let a_ref = sample(&commands.acc_m_per_s2, ctx.dt, t);
-            if !(x.is_finite() && x_ref.is_finite() && v_ref.is_finite() && a_ref.is_finite()) {
+            if !(x.is_finite() && x_ref.is_finite() && a_ref.is_finite()) {
                 return None;
             }
-            let moving = v_ref.abs() > MOVING_SHARE * peak;
-            moving_since = match (moving, moving_since) {
-                (false, _) => None,
-                (true, None) => Some(t),
-                (true, since) => since,
-            };
             position_m.push(x - origin);
             error_mm.push(mm_from_m(x_ref - x));
-            direction.push(if moving { v_ref.signum() } else { 0.0 });
+            direction.push(sliding.direction_at(ctx, t));
             accel_m_per_s2.push(a_ref);
-            rows.push(moving_since.is_some_and(|s| t - s > SLIDING_FOR_S));
+            rows.push(sliding.settled_at(ctx, t));
         }
         Some(Signals {
             h,
@@ -250,8 +236,7 @@ impl Signals {
     }
 }
 
-/// What the solve found: the controller's polynomials (monic denominator, by power) and the
-/// mechanics.
+/// What the solve found: the controller's polynomials (monic denominator, by power).
 struct Solved {
     numerator: Vec<f64>,
     denominator: Vec<f64>,
@@ -277,7 +262,7 @@ enum Unknown {
     Scale,
 }
 
-/// Solves the record's equation for the controller and the mechanics.
+/// Solves the record's equation for the controller.
 fn solve(signals: &Signals, shape: &Shape, drive: &Drive) -> Option<Solved> {
     let n = shape.order();
     // The highest derivative: sⁿ·(τs + 1)·s²x.
@@ -385,47 +370,38 @@ fn corner_of_estimate(
     denominator: &[f64],
     key: &str,
 ) -> Option<f64> {
-    let zero = key.contains("zero");
-    let k: usize = key
-        .trim_start_matches("controller.")
-        .trim_end_matches("_hz")
-        .rsplit('_')
-        .next()?
-        .parse()
-        .ok()?;
+    let (zero, k) = corner_of(key)?;
     let (template, found) = if zero {
         (numerator, &solved.numerator)
     } else {
         (denominator, &solved.denominator)
     };
-    // The template's real left-half-plane roots with their multiplicities, lowest first.
-    let groups = poly::distinct(&poly::roots(template), 1e-2);
-    let size = groups.iter().map(|g| g.0.norm()).fold(0.0, f64::max);
-    let at_origin = |r: &Complex<f64>| r.norm() <= 1e-9 * size;
-    let mut real: Vec<(f64, usize)> = groups
+    // The template's roots as the knobs name them: its real left-half-plane ones, lowest
+    // first, with their multiplicities; its integrators exactly at zero.
+    let (groups, real) = corners(template);
+    let integrators: usize = groups
         .iter()
-        .filter(|g| g.0.im == 0.0 && !at_origin(&g.0) && g.0.re < 0.0)
-        .map(|g| (-g.0.re, g.1))
-        .collect();
-    real.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let integrators: usize = groups.iter().filter(|g| at_origin(&g.0)).map(|g| g.1).sum();
+        .filter(|g| g.0.norm() == 0.0)
+        .map(|g| g.1)
+        .sum();
+    let multiplicities: Vec<usize> = real.iter().map(|&i| groups[i].1).collect();
     // The solved polynomial's roots, highest power first for `poly`, its integrators (the
     // template's, kept exactly at zero) left out.
-    let by_descending: Vec<f64> = found[integrators..].iter().rev().copied().collect();
+    let by_descending: Vec<f64> = found.get(integrators..)?.iter().rev().copied().collect();
     let mut roots = poly::roots(&by_descending);
-    if roots.len() != real.iter().map(|g| g.1).sum::<usize>() || roots.iter().any(|r| r.re >= 0.0) {
+    if roots.len() != multiplicities.iter().sum::<usize>() || roots.iter().any(|r| r.re >= 0.0) {
         return None;
     }
     roots.sort_by(|a, b| a.norm().total_cmp(&b.norm()));
     let mut next = 0;
-    for (i, &(_, multiplicity)) in real.iter().enumerate() {
+    for (i, &multiplicity) in multiplicities.iter().enumerate() {
         let group = &roots[next..next + multiplicity];
         next += multiplicity;
         let complex = group.iter().any(|r| r.im.abs() > 1e-9 * r.norm());
         if complex && multiplicity == 1 {
             return None;
         }
-        if i == k - 1 {
+        if i == k {
             let log_mean = group.iter().map(|r| r.norm().ln()).sum::<f64>() / multiplicity as f64;
             return Some(log_mean.exp() / std::f64::consts::TAU);
         }

@@ -8,14 +8,15 @@
 //! feedback's three gains), and on every structure the moving mass, Coulomb and viscous
 //! friction and a dead time — each by re-simulating the axis on the record's commands
 //! (`solve`); where those leave the record above its noise, static friction and the nut's
-//! play on top (`knobs::nonlinear_for`). What no record separates comes from the template: the velocity loop's gain
-//! (the drive's inertia acts through its ratio to it), the torque constant (every gain of a
-//! current-commanding controller acts through its product with it), zeros and poles.
+//! play on top (`knobs::nonlinear_for`). What no record separates comes from the template:
+//! the velocity loop's gain (the drive's inertia acts through its ratio to it), the torque
+//! constant (every gain of a current-commanding controller acts through its product with
+//! it), zeros and poles.
 //!
 //! The search is staged (`staged_start`): a current-commanding transfer function's gain and
 //! corners from the record's equation solved linearly (`linear`); the gains, which set the
-//! lag and hide the rest; then a coarse grid over the values that trade with each other through the
-//! standstills and reversals (Coulomb friction, the velocity integral time, the mass), whose
+//! lag and hide the rest; then a coarse grid over the values that trade with each other
+//! through the standstills and reversals (Coulomb friction, the velocity integral time, the mass), whose
 //! residual has valleys a local search would stay in; then everything from the grid's best
 //! points. Each value gets a standard uncertainty, the larger of the Jacobian's and half the
 //! difference between fits on the two halves of the record (alternate blocks); a value whose
@@ -59,8 +60,8 @@ const FRICTION_SPAN: f64 = 2.0;
 /// grid, where they are fitted.
 const BACKLASH_SCAN_UM: [f64; 9] = [0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0];
 const STATIC_SCAN: [f64; 8] = [1.0, 1.1, 1.25, 1.5, 1.75, 2.0, 2.5, 3.0];
-/// How much lower one of them alone, scanned on the values fitted without them, must bring
-/// the residual's sum of squares for the axis to be fitted again with them.
+/// How much lower one of them alone, scanned on the template with the gains fitted without
+/// them, must bring the residual's sum of squares for the axis to be fitted again with them.
 const NONLINEAR_GAIN: f64 = 0.9;
 /// How long after a standstill the record is compared, and the speed (a share of the
 /// axis's peak) below which a command counts as standing.
@@ -668,8 +669,7 @@ fn gain_per_inertia(round: &Round, base: &AxisConfig) -> Option<GainPerInertia> 
         .find_map(|key| Some((key, index(key)?)))?;
     let ratio = |fitted: &Fitted| {
         let config = round.config(base, fitted);
-        let model = crate::sim::AxisModel::from_config(&config);
-        let inertia_kg = model.j_tot() / model.travel_per_motor_rad().powi(2);
+        let inertia_kg = crate::sim::AxisModel::from_config(&config).mass_at_table_kg();
         (
             get(&config, gain_key) / inertia_kg,
             inertia_kg,
@@ -881,26 +881,63 @@ impl Round {
 /// its target on a limit cycle whose phase no model times (as stick-slip), and from the
 /// breakaways that follow them, which inherit that phase.
 fn moving_samples(ctx: &Context, axis: AxisName, offset: f64) -> Vec<bool> {
-    let c = ctx.commands.axis(axis);
-    let peak = c.vel_m_per_s.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let settle = (SETTLE_S / ctx.dt).ceil() as usize;
-    let mut since = vec![false; c.len()];
-    let mut run = 0usize;
-    for (k, v) in c.vel_m_per_s.iter().enumerate() {
-        run = if v.abs() > MOVING_SHARE * peak {
-            run + 1
-        } else {
-            0
-        };
-        since[k] = run > settle;
-    }
+    let sliding = Sliding::of(ctx, axis);
     ctx.samples
         .iter()
-        .map(|&i| {
-            let k = (ctx.prog_time(i, offset) / ctx.dt).round();
-            k >= 0.0 && since.get(k as usize).copied().unwrap_or(false)
-        })
+        .map(|&i| sliding.settled_at(ctx, ctx.prog_time(i, offset)))
         .collect()
+}
+
+/// An axis's commands as sliding: per command period, the direction it is told to move
+/// (−1, +1; 0 below `MOVING_SHARE` of its peak speed), and whether it has moved for
+/// `SETTLE_S` without standing.
+struct Sliding {
+    direction: Vec<f64>,
+    settled: Vec<bool>,
+}
+
+impl Sliding {
+    fn of(ctx: &Context, axis: AxisName) -> Sliding {
+        let c = ctx.commands.axis(axis);
+        let peak = c.vel_m_per_s.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let settle = (SETTLE_S / ctx.dt).ceil() as usize;
+        let direction: Vec<f64> = c
+            .vel_m_per_s
+            .iter()
+            .map(|v| {
+                if v.abs() > MOVING_SHARE * peak {
+                    v.signum()
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let mut run = 0usize;
+        let settled = direction
+            .iter()
+            .map(|d| {
+                run = if *d != 0.0 { run + 1 } else { 0 };
+                run > settle
+            })
+            .collect();
+        Sliding { direction, settled }
+    }
+
+    /// The command period at program time `t` (s), where the commands have one.
+    fn period(ctx: &Context, t: f64) -> Option<usize> {
+        let k = (t / ctx.dt).round();
+        (k >= 0.0).then_some(k as usize)
+    }
+
+    /// Whether the command at `t` has slid for `SETTLE_S`.
+    fn settled_at(&self, ctx: &Context, t: f64) -> bool {
+        Self::period(ctx, t).is_some_and(|k| self.settled.get(k).copied().unwrap_or(false))
+    }
+
+    /// The commanded direction at `t` (0 standing or beyond the commands).
+    fn direction_at(&self, ctx: &Context, t: f64) -> f64 {
+        Self::period(ctx, t).map_or(0.0, |k| self.direction.get(k).copied().unwrap_or(0.0))
+    }
 }
 
 /// RMS of commanded − measured over the compared samples (m).

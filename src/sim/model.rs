@@ -432,6 +432,11 @@ impl AxisModel {
         self.r * self.it
     }
 
+    /// The whole drive's inertia as a mass moving with the table, J_tot/(r·i_t)² (kg).
+    pub fn mass_at_table_kg(&self) -> f64 {
+        self.j_tot() / self.travel_per_motor_rad().powi(2)
+    }
+
     /// The position gain as the CNC shows it, Kv = Kp·r·i_t (1/s).
     pub fn kv_per_s(&self) -> f64 {
         self.kp * self.r * self.it
