@@ -247,7 +247,7 @@ impl CheckReport {
                     HotspotInfo {
                         rank: i + 1,
                         hotspot: Hotspot { line, ..h.clone() },
-                        label: h.cause.label(),
+                        label: h.label(),
                         file,
                         block_number: program.block_number(h.line),
                     }

@@ -2,13 +2,18 @@
 //! line, position, time, magnitude and cause.
 //!
 //! Causes are found from events, not guessed from the error curve: an axis reversal (the
-//! commanded velocity of X or Y changes sign during a cut — a quadrant crossing on a circle),
-//! labelled backlash when the nut actually crossed its gap there; a corner (a junction whose
-//! tangent turns by more than a few degrees); a feed change between blocks; stick-slip (an
-//! axis switching between stick and slip repeatedly while moving slowly). Each event opens a
-//! window — from just before it to a few position-loop time constants after — and the
-//! hotspot is the largest contour error in it. Overlapping windows merge into one hotspot;
-//! the global maximum is always reported; the list is ranked by magnitude.
+//! commanded velocity of X or Y changes sign during a cut — a quadrant crossing on a circle)
+//! or start from rest (an axis that stood longer than its loop takes to settle starts
+//! again), labelled backlash when the nut actually crossed its gap there; a corner (a
+//! junction whose tangent turns by more than a few degrees); a feed change between blocks;
+//! stick-slip (an axis switching between stick and slip repeatedly while moving slowly).
+//! Each event opens a window — from just before it to a few position-loop time constants
+//! after — and the hotspot is the largest contour error in it. Overlapping windows merge
+//! into one hotspot. A window whose peak does not stand out from the error just before it
+//! is a plateau, named by the steady effect that explains it (servo mismatch, backlash
+//! offset, steady lag: [`hotspot_cause`](super::hotspot_cause)); so is the largest error
+//! where it lies outside every window. Rows of one plateau are merged with their extent
+//! ([`hotspot_merge`](super::hotspot_merge)); the list is ranked by magnitude.
 //!
 //! The finder takes a run sample by sample and keeps only the last couple of seconds: an
 //! event is known at most a little over a second after its sample (a reversal's backlash
@@ -21,73 +26,12 @@ use std::collections::{BinaryHeap, VecDeque};
 
 use serde::Serialize;
 
+pub use super::hotspot_cause::{AxisSteady, Cause};
+use super::hotspot_cause::{junction_cause, plateau_cause};
+pub use super::hotspot_merge::Extent;
 use crate::machine::AxisName;
-use crate::path::{Motion, Segment, dot3};
+use crate::path::{Motion, Segment};
 use crate::plan::Plan;
-
-/// Why the contour error peaks here.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, PartialOrd, Ord)]
-#[serde(tag = "kind", rename_all = "snake_case")]
-pub enum Cause {
-    /// The axis's nut crossed its backlash gap at a reversal.
-    Backlash {
-        /// Axis.
-        axis: AxisName,
-    },
-    /// An axis reversed (quadrant crossing): friction and the loop's lag spike the error.
-    AxisReversal {
-        /// Axis.
-        axis: AxisName,
-    },
-    /// A corner of the path.
-    Corner,
-    /// A change of programmed feed.
-    SpeedChange,
-    /// The axes still settling into the exact-stop window when the next block starts (after
-    /// a rapid or a G61 stop).
-    Settling,
-    /// Repeated stick and slip at low speed.
-    StickSlip {
-        /// Axis.
-        axis: AxisName,
-    },
-    /// The steady lag of the axes (radius loss on arcs, unequal gains on lines): the error
-    /// here is no larger than just before the event that flagged the place.
-    SteadyLag,
-    /// The run's largest error, away from any of the events above.
-    GlobalMaximum,
-}
-
-impl Cause {
-    /// Which cause names a merged window: the most specific one.
-    fn priority(&self) -> u8 {
-        match self {
-            Cause::Backlash { .. } => 6,
-            Cause::StickSlip { .. } => 5,
-            Cause::Corner => 4,
-            Cause::Settling => 3,
-            Cause::AxisReversal { .. } => 2,
-            Cause::SpeedChange => 1,
-            Cause::SteadyLag | Cause::GlobalMaximum => 0,
-        }
-    }
-}
-
-impl Cause {
-    /// A short label for tables and plots.
-    pub fn label(&self) -> String {
-        match self {
-            Cause::Backlash { axis } => format!("{axis} backlash at reversal"),
-            Cause::AxisReversal { axis } => format!("{axis} reversal"),
-            Cause::Corner => "corner".into(),
-            Cause::SpeedChange => "feed change".into(),
-            Cause::Settling => "settling after exact stop".into(),
-            Cause::SteadyLag => "steady lag".into(),
-            Cause::StickSlip { axis } => format!("{axis} stick-slip"),
-            Cause::GlobalMaximum => "global maximum".into(),
-        }
-    }
-}
 
 /// One hotspot.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -112,6 +56,30 @@ pub struct Hotspot {
     pub excess_um: f64,
     /// Cause.
     pub cause: Cause,
+    /// The stretch the row stands for where near-identical rows of one plateau were merged
+    /// into it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub extent: Option<Extent>,
+    /// The stretch of uninterrupted cutting the peak lies on (for merging).
+    #[serde(skip)]
+    pub stretch: u32,
+}
+
+impl Hotspot {
+    /// The cause as tables give it, with the extent of a merged plateau: `steady lag (4
+    /// places, t 53.5–72.4 s)`.
+    pub fn label(&self) -> String {
+        match self.extent {
+            Some(e) if e.places > 1 => format!(
+                "{} ({} places, t {:.1}–{:.1} s)",
+                self.cause.label(),
+                e.places,
+                e.from_t_s,
+                e.to_t_s
+            ),
+            _ => self.cause.label(),
+        }
+    }
 }
 
 /// The smallest contour error a hotspot can have (µm): below it the report would list
@@ -161,6 +129,8 @@ pub struct RunSample {
     pub segment: u32,
     /// Commanded X and Y velocity (m/s).
     pub cmd_vel_m_per_s: [f64; 2],
+    /// Commanded X and Y acceleration (m/s²).
+    pub cmd_acc_m_per_s2: [f64; 2],
     /// X and Y mode codes ([`crate::sim::Mode::code`]).
     pub mode: [u8; 2],
 }
@@ -188,14 +158,18 @@ struct Kept {
     path_s_m: f64,
     line: u32,
     mode: [u8; 2],
+    cmd_vel: [f64; 2],
+    stretch: u32,
 }
 
-/// A reversal waiting to learn whether the nut crosses its gap.
+/// A reversal or start from rest waiting to learn whether the nut crosses its gap.
 #[derive(Debug, Clone, Copy)]
 struct Reversal {
     k: usize,
     axis: AxisName,
     gap_crossed: bool,
+    /// The axis had stood still (a start from rest, not a reversal in motion).
+    from_rest: bool,
 }
 
 /// An event's window, while it may still grow.
@@ -207,6 +181,9 @@ struct Window {
     level_m: f64,
     /// The largest |error| so far and where.
     peak: Option<Kept>,
+    /// The error at the window's last cutting sample so far (m): where a plateau the event
+    /// stepped into goes on.
+    tail_m: f64,
     /// Samples before this one (from the window's start on) are in `peak`.
     scanned_to: usize,
 }
@@ -224,7 +201,7 @@ struct Toggles {
 pub struct HotspotFinder {
     cfg: HotspotConfig,
     max: usize,
-    backlash_m: [f64; 2],
+    axes: [AxisSteady; 2],
     /// Window before and after an event, the level's span, half a second, a second
     /// (samples).
     before: usize,
@@ -238,6 +215,11 @@ pub struct HotspotFinder {
     n: usize,
     recent: VecDeque<Kept>,
     last_sign: [f64; 2],
+    /// Since when each axis's command has stood still (sample; before the run, the axes
+    /// stood), while it does.
+    still_since: [Option<i64>; 2],
+    /// The current stretch of uninterrupted cutting.
+    stretch: u32,
     reversals: Vec<Reversal>,
     next_junction: usize,
     toggles: [Toggles; 2],
@@ -246,20 +228,22 @@ pub struct HotspotFinder {
     open: Option<Window>,
     spots: Vec<Hotspot>,
     largest: Option<Kept>,
+    /// The error's level just before the largest (m), for its spike.
+    largest_level_m: f64,
     largest_window_peak_m: f64,
 }
 
 impl HotspotFinder {
-    /// A finder keeping at most `max` hotspots, for a run sampled every `dt_s` on axes with
-    /// `backlash_m` (X, Y; m).
-    pub fn new(cfg: HotspotConfig, backlash_m: [f64; 2], dt_s: f64, max: usize) -> Self {
+    /// A finder keeping at most `max` hotspots, for a run sampled every `dt_s` on axes
+    /// whose steady lag, offset and backlash are `axes` (X, Y).
+    pub fn new(cfg: HotspotConfig, axes: [AxisSteady; 2], dt_s: f64, max: usize) -> Self {
         let samples = |s: f64| (s / dt_s).ceil() as usize;
         let (before, after) = (samples(cfg.before_s), samples(cfg.after_s));
         let (half_second, second) = ((0.5 / dt_s) as usize, (1.0 / dt_s) as usize);
         HotspotFinder {
             cfg,
             max,
-            backlash_m,
+            axes,
             before,
             after,
             level_span: before.max(1) * 5,
@@ -269,6 +253,8 @@ impl HotspotFinder {
             n: 0,
             recent: VecDeque::new(),
             last_sign: [0.0; 2],
+            still_since: [Some(-(after as i64)); 2],
+            stretch: 0,
             reversals: Vec::new(),
             next_junction: 1,
             toggles: Default::default(),
@@ -277,6 +263,7 @@ impl HotspotFinder {
             open: None,
             spots: Vec::new(),
             largest: None,
+            largest_level_m: 0.0,
             largest_window_peak_m: 0.0,
         }
     }
@@ -286,7 +273,13 @@ impl HotspotFinder {
         let k = self.n;
         let seg = s.segment as usize;
         let cutting = plan.segments[seg].motion == Motion::Feed;
-        let prev_mode = self.recent.back().map(|p| p.mode);
+        let prev = self.recent.back().copied();
+        let prev_mode = prev.map(|p| p.mode);
+        self.note_junctions(&plan.segments, plan, seg, k);
+        // Leaving the contour (a rapid, a plunge) ends a stretch too.
+        if !s.error_m.is_finite() && prev.is_some_and(|p| p.error_m.is_finite()) {
+            self.stretch += 1;
+        }
         let kept = Kept {
             k,
             t_s: s.t_s,
@@ -295,18 +288,20 @@ impl HotspotFinder {
             path_s_m: s.path_s_m,
             line: plan.segments.get(seg).map_or(0, |g| g.line),
             mode: s.mode,
+            cmd_vel: s.cmd_vel_m_per_s,
+            stretch: self.stretch,
         };
-        self.recent.push_back(kept);
-        self.n += 1;
         if s.error_m.is_finite()
             && self
                 .largest
                 .is_none_or(|m| s.error_m.abs() > m.error_m.abs())
         {
             self.largest = Some(kept);
+            self.largest_level_m = level_before(&self.recent, k, self.level_span);
         }
+        self.recent.push_back(kept);
+        self.n += 1;
         self.note_reversals(s, k, cutting);
-        self.note_junctions(&plan.segments, plan, seg, k);
         if let Some(prev) = prev_mode {
             self.note_toggles(s, prev, k, cutting);
         }
@@ -332,39 +327,53 @@ impl HotspotFinder {
         if let Some(m) = self.largest
             && m.error_m.abs() > self.largest_window_peak_m
         {
-            self.spots.push(hotspot(&m, Cause::GlobalMaximum));
+            // Outside every window: a plateau, named by what explains it there.
+            let cause = plateau_cause(m.error_m, m.cmd_vel, &self.axes);
+            let mut h = hotspot(&m, cause);
+            h.excess_um = (m.error_m - self.largest_level_m).abs() * 1e6;
+            self.spots.push(h);
         }
         self.rank();
         self.spots
     }
 
-    /// Sign changes of an axis's commanded velocity during cuts — also across a standstill,
-    /// since the nut must cross its gap and static friction must break however long the axis
-    /// stood (where a reversal coincides with a corner, the corner names the place).
+    /// Sign changes of an axis's commanded velocity during cuts, and starts after it stood
+    /// still: a start from rest where it stood longer than the window after an event (five
+    /// of the loop's time constants: its lag has gone), a reversal otherwise — also across a
+    /// brief stop, since the nut must cross its gap and static friction must break however
+    /// short the stop (where either coincides with a corner, the corner names the place).
     fn note_reversals(&mut self, s: &RunSample, k: usize, cutting: bool) {
         for axis in AxisName::BOTH {
-            let v = s.cmd_vel_m_per_s[axis.index()];
+            let a = axis.index();
+            let v = s.cmd_vel_m_per_s[a];
             // Ignore the speed noise of a standing axis.
             if v.abs() < 1e-9 {
+                if s.cmd_acc_m_per_s2[a].abs() < 1e-9 {
+                    self.still_since[a].get_or_insert(k as i64);
+                }
                 continue;
             }
+            let rested = self.still_since[a]
+                .take()
+                .is_some_and(|since| k as i64 - since >= self.after as i64);
             let sign = v.signum();
-            let last = self.last_sign[axis.index()];
-            if last != 0.0 && sign != last && cutting {
+            let last = self.last_sign[a];
+            if cutting && (rested || (last != 0.0 && sign != last)) {
                 // Whether the nut is free in its gap from two samples before on.
                 let gap_crossed = self
                     .recent
                     .iter()
                     .rev()
                     .take(3)
-                    .any(|p| nut_free(p.mode[axis.index()]));
+                    .any(|p| nut_free(p.mode[a]));
                 self.reversals.push(Reversal {
                     k,
                     axis,
                     gap_crossed,
+                    from_rest: rested,
                 });
             }
-            self.last_sign[axis.index()] = sign;
+            self.last_sign[a] = sign;
         }
     }
 
@@ -373,7 +382,16 @@ impl HotspotFinder {
         while self.next_junction < segments.len() && seg >= self.next_junction {
             let i = self.next_junction;
             self.next_junction += 1;
-            if let Some(cause) = junction_cause(segments, plan, i, &self.cfg) {
+            let cause = junction_cause(segments, plan, i, &self.cfg);
+            let (a, b) = (&segments[i - 1], &segments[i]);
+            if matches!(cause, Some(Cause::Corner | Cause::Settling))
+                || a.motion != b.motion
+                || a.is_dwell()
+                || b.is_dwell()
+            {
+                self.stretch += 1;
+            }
+            if let Some(cause) = cause {
                 self.event(k, cause);
             }
         }
@@ -437,8 +455,10 @@ impl HotspotFinder {
             !done
         });
         for r in decided {
-            let cause = if self.backlash_m[r.axis.index()] > 0.0 && r.gap_crossed {
+            let cause = if self.axes[r.axis.index()].backlash_m > 0.0 && r.gap_crossed {
                 Cause::Backlash { axis: r.axis }
+            } else if r.from_rest {
+                Cause::StartFromRest { axis: r.axis }
             } else {
                 Cause::AxisReversal { axis: r.axis }
             };
@@ -497,6 +517,7 @@ impl HotspotFinder {
             cause,
             level_m: level_before(&self.recent, lo, self.level_span),
             peak: None,
+            tail_m: f64::NAN,
             scanned_to: lo,
         });
     }
@@ -510,10 +531,14 @@ impl HotspotFinder {
         self.largest_window_peak_m = self.largest_window_peak_m.max(peak.error_m.abs());
         let mut h = hotspot(&peak, w.cause);
         h.excess_um = (h.error_um - w.level_m * 1e6).abs();
-        // No spike above the local level: the place is flagged by an event, but its error
-        // is the axes' steady lag.
-        if h.excess_um < 0.1 * h.error_um.abs() && !matches!(w.cause, Cause::Backlash { .. }) {
-            h.cause = Cause::SteadyLag;
+        // No spike above the local level before, or none falling back from the level it
+        // stepped to (the error at the window's end still within a tenth of the peak): the
+        // place is flagged by an event, but its error is a plateau, named by the steady
+        // effect that explains it.
+        let flat_before = h.excess_um < 0.1 * h.error_um.abs();
+        let stays = w.tail_m * peak.error_m > 0.0 && w.tail_m.abs() >= 0.9 * peak.error_m.abs();
+        if (flat_before || stays) && !matches!(w.cause, Cause::Backlash { .. }) {
+            h.cause = plateau_cause(peak.error_m, peak.cmd_vel, &self.axes);
         }
         self.spots.push(h);
         if self.spots.len() > 2 * self.max + 64 {
@@ -521,8 +546,9 @@ impl HotspotFinder {
         }
     }
 
-    /// Keeps the largest `max` hotspots, ranked.
+    /// Keeps the largest `max` hotspots, ranked, the rows of one plateau merged.
     fn rank(&mut self) {
+        super::hotspot_merge::merge_plateaus(&mut self.spots);
         // A place worth naming stands out: not below 0.05 µm (the report's resolution is
         // 0.01 µm) nor below 1 % of the largest error.
         let largest = self
@@ -575,6 +601,9 @@ fn scan(w: &mut Window, recent: &VecDeque<Kept>) {
         if p.error_m.is_finite() && w.peak.is_none_or(|m| p.error_m.abs() > m.error_m.abs()) {
             w.peak = Some(*p);
         }
+        if p.error_m.is_finite() {
+            w.tail_m = p.error_m;
+        }
         w.scanned_to = p.k + 1;
     }
 }
@@ -605,34 +634,7 @@ fn hotspot(p: &Kept, cause: Cause) -> Hotspot {
         path_mm: p.path_s_m * 1e3,
         excess_um: (p.error_m * 1e6).abs(),
         cause,
-    }
-}
-
-/// What the junction before segment `i` is: settling after an exact stop, a corner, a feed
-/// change, or nothing worth a window.
-fn junction_cause(segs: &[Segment], plan: &Plan, i: usize, cfg: &HotspotConfig) -> Option<Cause> {
-    let (a, b) = (&segs[i - 1], &segs[i]);
-    if b.motion == Motion::Feed && !b.is_dwell() && plan.plans[i - 1].wait_s > 0.0 {
-        return Some(Cause::Settling);
-    }
-    if a.motion != Motion::Feed || b.motion != Motion::Feed || a.is_dwell() || b.is_dwell() {
-        return None;
-    }
-    let xy = |t: [f64; 3]| {
-        let n = t[0].hypot(t[1]);
-        if n > 1e-9 {
-            [t[0] / n, t[1] / n, 0.0]
-        } else {
-            [0.0; 3]
-        }
-    };
-    let (ta, tb) = (xy(a.end_tangent()), xy(b.start_tangent()));
-    let cos_limit = cfg.corner_deg.to_radians().cos();
-    if ta != [0.0; 3] && tb != [0.0; 3] && dot3(ta, tb) < cos_limit {
-        Some(Cause::Corner)
-    } else if (a.feed_m_per_s - b.feed_m_per_s).abs() > 0.05 * a.feed_m_per_s.max(b.feed_m_per_s) {
-        Some(Cause::SpeedChange)
-    } else {
-        None
+        extent: None,
+        stretch: p.stretch,
     }
 }

@@ -7,6 +7,8 @@
 pub mod circular;
 pub mod contour;
 pub mod hotspot;
+pub mod hotspot_cause;
+pub mod hotspot_merge;
 pub mod thinning;
 
 use serde::Serialize;
@@ -14,15 +16,16 @@ use serde::Serialize;
 use crate::analysis::circular::{CirclePath, CircleSamples, CircularTest, circles};
 use crate::analysis::contour::{ContourLocator, ContourPoint};
 pub use crate::analysis::hotspot::RunPlace;
-use crate::analysis::hotspot::{Hotspot, HotspotConfig, HotspotFinder, RunSample};
+use crate::analysis::hotspot::{AxisSteady, Hotspot, HotspotConfig, HotspotFinder, RunSample};
 use crate::analysis::thinning::PeakThinned;
 use crate::execute::RunChunk;
 use crate::gcode::Warning;
 use crate::geometry::ToolReader;
+use crate::machine::Feedback;
 use crate::machine::{AxisConfig, MachineConfig};
 use crate::path::Motion;
 use crate::plan::Plan;
-use crate::sim::linear::equivalent_kv_per_s;
+use crate::sim::linear::{equivalent_kv_per_s, velocity_lag_s};
 use crate::sim::{AxisModel, AxisTrace, Mode};
 
 /// Figures of a run.
@@ -90,6 +93,19 @@ pub struct CheckResult {
     pub dt_s: f64,
 }
 
+/// What an axis adds to a steady stretch's error: its lag per speed, and half its backlash
+/// where the loop reads the motor and the table trails it by that.
+fn steady_of(model: &AxisModel) -> AxisSteady {
+    AxisSteady {
+        lag_s: velocity_lag_s(model),
+        offset_m: match model.feedback {
+            Feedback::MotorEncoder => model.half_gap,
+            Feedback::LinearScale => 0.0,
+        },
+        backlash_m: 2.0 * model.half_gap,
+    }
+}
+
 /// A drive's time at its current or voltage limit.
 #[derive(Debug, Clone, Copy, Default)]
 struct LimitTally {
@@ -130,7 +146,7 @@ impl RunAnalyser {
             locator: ContourLocator::new(plan),
             hotspots: HotspotFinder::new(
                 HotspotConfig::for_kv(kv),
-                [2.0 * mx.half_gap, 2.0 * my.half_gap],
+                [&mx, &my].map(steady_of),
                 plan.config.cycle_s,
                 max_hotspots,
             ),
@@ -191,6 +207,7 @@ impl RunAnalyser {
                     path_s_m: point.path_s_m,
                     segment: c.segment[i],
                     cmd_vel_m_per_s: [c.x.vel_m_per_s[i], c.y.vel_m_per_s[i]],
+                    cmd_acc_m_per_s2: [c.x.acc_m_per_s2[i], c.y.acc_m_per_s2[i]],
                     mode: [chunk.x.mode[i], chunk.y.mode[i]],
                 },
             );

@@ -153,17 +153,23 @@ fn stage_plots(
     let toolpath = toolpath_figure(run, &name, report, &at);
     let along = along_path_figure(run, &name, &at);
     let circles = polar_figures(run, &name, &at);
+    let footer = super::common::run_footer(
+        &report.machine.name,
+        &report.program.file,
+        &run.plan.segments,
+        run.plan.config.cycle_s,
+    );
     let mut written = Vec::new();
     for ext in ["png", "svg"] {
         let path = dir.join(format!("toolpath.{ext}"));
-        batch.stage_with_path(&path, |p| crate::plot::render(p, &toolpath))?;
+        batch.stage_with_path(&path, |p| crate::plot::render(p, &toolpath, &footer))?;
         written.push(path);
         let path = dir.join(format!("contour-along-path.{ext}"));
-        batch.stage_with_path(&path, |p| crate::plot::render(p, &along))?;
+        batch.stage_with_path(&path, |p| crate::plot::render(p, &along, &footer))?;
         written.push(path);
         for (i, c) in circles.iter().enumerate() {
             let path = dir.join(format!("circle-{}.{ext}", i + 1));
-            batch.stage_with_path(&path, |p| crate::plot::render(p, c))?;
+            batch.stage_with_path(&path, |p| crate::plot::render(p, c, &footer))?;
             written.push(path);
         }
     }

@@ -9,6 +9,7 @@
 pub mod commands;
 pub mod discrete;
 pub mod linear;
+pub mod margins;
 pub mod model;
 pub mod simulate;
 pub mod stickslip;
