@@ -188,6 +188,20 @@ struct Window {
     scanned_to: usize,
 }
 
+/// A plateau row followed past its event's window, for as long as the error stays on the
+/// level it stepped to, so that the row holds the plateau's largest error rather than the
+/// window's share of it.
+#[derive(Debug, Clone)]
+struct Follow {
+    spot: Hotspot,
+    /// The plateau goes on while the error, of this sign, stays above this (m).
+    floor_m: f64,
+    /// The level before the window the spike is measured from (m).
+    level_m: f64,
+    /// Samples before this one are followed.
+    scanned_to: usize,
+}
+
 /// Stick-slip toggles of one axis waiting for their second to complete.
 #[derive(Debug, Clone, Default)]
 struct Toggles {
@@ -226,6 +240,7 @@ pub struct HotspotFinder {
     events: BinaryHeap<Reverse<(usize, u64, Cause)>>,
     event_seq: u64,
     open: Option<Window>,
+    follow: Option<Follow>,
     spots: Vec<Hotspot>,
     largest: Option<Kept>,
     /// The error's level just before the largest (m), for its spike.
@@ -261,6 +276,7 @@ impl HotspotFinder {
             events: BinaryHeap::new(),
             event_seq: 0,
             open: None,
+            follow: None,
             spots: Vec::new(),
             largest: None,
             largest_level_m: 0.0,
@@ -434,7 +450,49 @@ impl HotspotFinder {
         if at_end && let Some(w) = self.open.take() {
             self.close(w);
         }
+        self.follow_plateau(at_end);
         self.forget_old();
+    }
+
+    /// Follows the plateau row along the samples kept, to where the error leaves its level,
+    /// the stretch ends or the run does; then the row is final.
+    fn follow_plateau(&mut self, at_end: bool) {
+        let Some(f) = &mut self.follow else {
+            return;
+        };
+        let Some(front) = self.recent.front() else {
+            return;
+        };
+        let sign = f.spot.error_um.signum();
+        let mut ended = at_end;
+        let from = f.scanned_to.max(front.k);
+        for p in self.recent.range(from - front.k..) {
+            let on = p.error_m.is_finite()
+                && p.stretch == f.spot.stretch
+                && p.error_m * sign >= f.floor_m;
+            if !on {
+                ended = true;
+                break;
+            }
+            if p.error_m.abs() * 1e6 > f.spot.error_um.abs() {
+                let mut h = hotspot(p, f.spot.cause);
+                h.excess_um = (p.error_m - f.level_m).abs() * 1e6;
+                f.spot = h;
+            }
+            f.scanned_to = p.k + 1;
+        }
+        if ended && let Some(f) = self.follow.take() {
+            self.largest_window_peak_m =
+                self.largest_window_peak_m.max(f.spot.error_um.abs() * 1e-6);
+            self.push_spot(f.spot);
+        }
+    }
+
+    fn push_spot(&mut self, h: Hotspot) {
+        self.spots.push(h);
+        if self.spots.len() > 2 * self.max + 64 {
+            self.rank();
+        }
     }
 
     /// A reversal is backlash when the nut was free in its gap within half a second.
@@ -537,13 +595,25 @@ impl HotspotFinder {
         // effect that explains it.
         let flat_before = h.excess_um < 0.1 * h.error_um.abs();
         let stays = w.tail_m * peak.error_m > 0.0 && w.tail_m.abs() >= 0.9 * peak.error_m.abs();
-        if (flat_before || stays) && !matches!(w.cause, Cause::Backlash { .. }) {
-            h.cause = plateau_cause(peak.error_m, peak.cmd_vel, &self.axes);
+        if !(flat_before || stays) || matches!(w.cause, Cause::Backlash { .. }) {
+            self.push_spot(h);
+            return;
         }
-        self.spots.push(h);
-        if self.spots.len() > 2 * self.max + 64 {
-            self.rank();
+        h.cause = plateau_cause(peak.error_m, peak.cmd_vel, &self.axes);
+        if !stays {
+            self.push_spot(h);
+            return;
         }
+        // The plateau goes on past the window: follow it to its largest error.
+        if let Some(f) = self.follow.take() {
+            self.push_spot(f.spot);
+        }
+        self.follow = Some(Follow {
+            floor_m: 0.9 * peak.error_m.abs(),
+            level_m: w.level_m,
+            scanned_to: w.scanned_to,
+            spot: h,
+        });
     }
 
     /// Keeps the largest `max` hotspots, ranked, the rows of one plateau merged.
@@ -574,6 +644,9 @@ impl HotspotFinder {
             .saturating_sub(self.delay + self.before + self.level_span + 3);
         if let Some(w) = &self.open {
             keep_from = keep_from.min(w.scanned_to);
+        }
+        if let Some(f) = &self.follow {
+            keep_from = keep_from.min(f.scanned_to);
         }
         while self.recent.front().is_some_and(|p| p.k < keep_from) {
             self.recent.pop_front();

@@ -221,7 +221,7 @@ fn toolpath_figure(
         .map(|(i, h)| Marker {
             x_mm: h.x_mm,
             y_mm: h.y_mm,
-            label: format!(" {}: L{}", i + 1, at(h.line)),
+            label: format!("{}: L{}", i + 1, at(h.line)),
         })
         .collect();
     ToolpathPlot {
@@ -246,13 +246,7 @@ fn along_path_figure(run: &CheckResult, name: &str, at: &dyn Fn(u32) -> String) 
         .iter()
         .take(10)
         .enumerate()
-        .map(|(i, h)| {
-            (
-                h.path_mm,
-                h.error_um,
-                format!(" {}: L{}", i + 1, at(h.line)),
-            )
-        })
+        .map(|(i, h)| (h.path_mm, h.error_um, format!("{}: L{}", i + 1, at(h.line))))
         .collect();
     AlongPathPlot {
         title: format!("{name}: contour error along the path"),

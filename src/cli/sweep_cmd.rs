@@ -585,6 +585,11 @@ fn line_plot(name: &str, d: &Dimension, points: &[SweepPoint]) -> SweepLinePlot 
             .filter(|p| matches!(p.result, PointResult::Unstable { .. }))
             .map(|p| p.values[0])
             .collect(),
+        flagged: sorted
+            .iter()
+            .filter(|p| matches!(&p.result, PointResult::Ok { flags, .. } if !flags.is_empty()))
+            .map(|p| p.values[0])
+            .collect(),
     }
 }
 
@@ -605,7 +610,24 @@ fn heat_map(name: &str, [a, b]: [&Dimension; 2], points: &[SweepPoint]) -> Sweep
                 .collect()
         })
         .collect();
+    let flagged = a
+        .values
+        .iter()
+        .map(|va| {
+            b.values
+                .iter()
+                .map(|vb| {
+                    points.iter().any(|p| {
+                        p.values[0] == *va
+                            && p.values[1] == *vb
+                            && matches!(&p.result, PointResult::Ok { flags, .. } if !flags.is_empty())
+                    })
+                })
+                .collect()
+        })
+        .collect();
     SweepHeatMap {
+        flagged,
         title: format!(
             "{name}: largest contour error over {} and {}",
             a.name, b.name

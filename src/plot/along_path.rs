@@ -3,7 +3,11 @@
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
+use super::labels::place_labels;
 use super::{FONT, Figure, PlotResult, err, series_color};
+
+/// Font size of the hotspots' labels (px).
+const LABEL_FONT_PX: u32 = 14;
 
 /// The figure.
 pub struct AlongPathPlot {
@@ -55,7 +59,23 @@ impl Figure for AlongPathPlot {
         chart
             .draw_series(LineSeries::new([(0.0, 0.0), (s_max, 0.0)], BLACK.mix(0.5)))
             .map_err(err)?;
-        for (s, e, label) in &self.markers {
+        // Labels where they overlap no other label and no marker, in rank order; a label
+        // with no free place is left out (its marker stays).
+        let at_px: Vec<(i32, i32)> = self
+            .markers
+            .iter()
+            .map(|(s, e, _)| chart.backend_coord(&(*s, *e)))
+            .collect();
+        let labels: Vec<String> = self.markers.iter().map(|m| m.2.clone()).collect();
+        let (xs, ys) = chart.plotting_area().get_pixel_range();
+        let placed = place_labels(
+            &at_px,
+            &labels,
+            LABEL_FONT_PX,
+            (xs.start, ys.start, xs.end, ys.end),
+            &[],
+        );
+        for ((s, e, label), offset) in self.markers.iter().zip(placed) {
             chart
                 .draw_series(std::iter::once(Circle::new(
                     (*s, *e),
@@ -63,13 +83,18 @@ impl Figure for AlongPathPlot {
                     RED.stroke_width(2),
                 )))
                 .map_err(err)?;
-            chart
-                .draw_series(std::iter::once(Text::new(
-                    label.clone(),
-                    (*s, *e),
-                    (FONT, 14).into_font().color(&RED),
-                )))
-                .map_err(err)?;
+            if let Some(offset) = offset {
+                chart
+                    .draw_series(std::iter::once(
+                        EmptyElement::at((*s, *e))
+                            + Text::new(
+                                label.clone(),
+                                offset,
+                                (FONT, LABEL_FONT_PX).into_font().color(&RED),
+                            ),
+                    ))
+                    .map_err(err)?;
+            }
         }
         Ok(())
     }
