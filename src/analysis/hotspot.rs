@@ -194,6 +194,10 @@ struct Window {
 #[derive(Debug, Clone)]
 struct Follow {
     spot: Hotspot,
+    /// The cause of the event that flagged it: the row's again if the level does not last.
+    event_cause: Cause,
+    /// The sample of the window's peak, where the level is first reached.
+    from_k: usize,
     /// The plateau goes on while the error, of this sign, stays above this (m).
     floor_m: f64,
     /// The level before the window the spike is measured from (m).
@@ -482,10 +486,20 @@ impl HotspotFinder {
             f.scanned_to = p.k + 1;
         }
         if ended && let Some(f) = self.follow.take() {
-            self.largest_window_peak_m =
-                self.largest_window_peak_m.max(f.spot.error_um.abs() * 1e-6);
-            self.push_spot(f.spot);
+            self.end_follow(f);
         }
+    }
+
+    /// A followed row is final: a plateau where the level lasted as long as an event's
+    /// window at least, else a spike that only decays slowly (an integrator winding its
+    /// current back) — the event's.
+    fn end_follow(&mut self, f: Follow) {
+        let mut spot = f.spot;
+        if f.scanned_to.saturating_sub(f.from_k) < self.before + self.after {
+            spot.cause = f.event_cause;
+        }
+        self.largest_window_peak_m = self.largest_window_peak_m.max(spot.error_um.abs() * 1e-6);
+        self.push_spot(spot);
     }
 
     fn push_spot(&mut self, h: Hotspot) {
@@ -604,11 +618,14 @@ impl HotspotFinder {
             self.push_spot(h);
             return;
         }
-        // The plateau goes on past the window: follow it to its largest error.
+        // The level goes on past the window: follow it, to its largest error and to tell a
+        // plateau from a slow spike.
         if let Some(f) = self.follow.take() {
-            self.push_spot(f.spot);
+            self.end_follow(f);
         }
         self.follow = Some(Follow {
+            event_cause: w.cause,
+            from_k: peak.k,
             floor_m: 0.9 * peak.error_m.abs(),
             level_m: w.level_m,
             scanned_to: w.scanned_to,

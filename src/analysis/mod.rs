@@ -25,7 +25,7 @@ use crate::machine::Feedback;
 use crate::machine::{AxisConfig, MachineConfig};
 use crate::path::Motion;
 use crate::plan::Plan;
-use crate::sim::linear::{equivalent_kv_per_s, velocity_lag_s};
+use crate::sim::linear::{equivalent_kv_per_s, settling_rate_per_s, velocity_lag_s};
 use crate::sim::{AxisModel, AxisTrace, Mode};
 
 /// Figures of a run.
@@ -93,6 +93,18 @@ pub struct CheckResult {
     pub dt_s: f64,
 }
 
+/// The rate (1/s) an event's effect on the error dies away at, which sizes its hotspot
+/// window: a cascade's Kv; for another controller its closed loop's bandwidth, or the
+/// slowest mode its integral action leaves where that is slower (friction at a reversal
+/// decays with it).
+fn window_rate_per_s(model: &AxisModel) -> f64 {
+    let kv = equivalent_kv_per_s(model);
+    match model.control {
+        crate::sim::model::ControlModel::Cascade => kv,
+        _ => kv.min(settling_rate_per_s(model)),
+    }
+}
+
 /// What an axis adds to a steady stretch's error: its lag per speed, and half its backlash
 /// where the loop reads the motor and the table trails it by that.
 fn steady_of(model: &AxisModel) -> AxisSteady {
@@ -141,7 +153,7 @@ impl RunAnalyser {
     /// An analyser for the run of `plan` on `machine`, keeping at most `max_hotspots`.
     pub fn new(plan: &Plan, machine: &MachineConfig, max_hotspots: usize) -> Self {
         let [mx, my] = [&machine.x, &machine.y].map(AxisModel::from_config);
-        let kv = equivalent_kv_per_s(&mx).min(equivalent_kv_per_s(&my));
+        let kv = window_rate_per_s(&mx).min(window_rate_per_s(&my));
         RunAnalyser {
             locator: ContourLocator::new(plan),
             hotspots: HotspotFinder::new(

@@ -92,22 +92,18 @@ fn marks(m: &LoopMargins) -> Vec<BodeMark> {
             label: format!("peak {:+.1} dB at {}", m.peak_db, hz(m.peak_hz)),
         });
     }
-    if m.crossover_hz.is_finite() {
+    if let Some(f) = m.crossover_hz {
         out.push(BodeMark {
-            freq_hz: m.crossover_hz,
+            freq_hz: f,
             on_phase: true,
-            label: format!("PM {:.1}° at {}", m.phase_margin_deg, hz(m.crossover_hz)),
+            label: format!("PM {:.1}° at {}", m.phase_margin_deg, hz(f)),
         });
     }
-    if m.phase_crossover_hz.is_finite() {
+    if let Some(f) = m.phase_crossover_hz {
         out.push(BodeMark {
-            freq_hz: m.phase_crossover_hz,
+            freq_hz: f,
             on_phase: true,
-            label: format!(
-                "GM {:.1} dB at {}",
-                m.gain_margin_db,
-                hz(m.phase_crossover_hz)
-            ),
+            label: format!("GM {:.1} dB at {}", m.gain_margin_db, hz(f)),
         });
     }
     out
@@ -159,7 +155,7 @@ fn print_loop_table(model: &AxisModel, margins: &[LoopMargins]) {
         println!(
             "{:<9} {} {} {} {peak} {} {} {}",
             m.which.name(),
-            c(m.crossover_hz, 8, 2, " Hz"),
+            c(m.crossover_hz.unwrap_or(f64::NAN), 8, 2, " Hz"),
             c(m.phase_margin_deg, 12, 1, "°"),
             c(m.gain_margin_db, 9, 1, " dB"),
             c(f.bandwidth_3db_hz, 10, 2, " Hz"),
@@ -192,7 +188,7 @@ fn print_short_margins(margins: &[LoopMargins]) {
             short.push(format!(
                 "unstable if its gain falls by {:.1} dB (at {}; below {MIN_GAIN_MARGIN_DB} dB)",
                 m.gain_reduction_margin_db,
-                hz(m.gain_reduction_hz)
+                m.gain_reduction_hz.map_or_else(|| "—".into(), hz)
             ));
         }
         if !short.is_empty() {

@@ -405,7 +405,7 @@ fn margin_values(m: Option<&LoopMargins>) -> [String; 6] {
     };
     match m {
         Some(m) => [
-            v(m.crossover_hz),
+            v(m.crossover_hz.unwrap_or(f64::NAN)),
             v(m.phase_margin_deg),
             v(m.gain_margin_db),
             v(m.gain_reduction_margin_db),

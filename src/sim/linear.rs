@@ -65,6 +65,21 @@ pub(crate) fn equivalent_kv_per_s(model: &AxisModel) -> f64 {
     }
 }
 
+/// How fast the slowest closed-loop mode of the axis decays (1/s): what a disturbance —
+/// friction at a reversal — takes to die away. For a proportional position loop on a fast
+/// velocity loop about its Kv; for a controller with integral action the mode its
+/// integrator leaves, often far slower than its bandwidth.
+pub(crate) fn settling_rate_per_s(model: &AxisModel) -> f64 {
+    let modes = closed_loop_modes(model);
+    let fastest = modes.iter().map(|m| -m.real_per_s).fold(0.0, f64::max);
+    modes
+        .iter()
+        .map(|m| -m.real_per_s)
+        // Integrators no loop closes (none in a closed loop) would read as zero.
+        .filter(|&r| r > 1e-9 * fastest)
+        .fold(f64::INFINITY, f64::min)
+}
+
 /// The linear mode used for analysis.
 pub fn nominal_mode() -> Mode {
     Mode {

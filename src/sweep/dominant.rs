@@ -119,7 +119,11 @@ pub fn dominant(
     if m.overshoot_um >= OVERSHOOT_SHARE * max {
         return Dominant::Overshoot;
     }
-    if let Some(matched) = matched(machine)
+    // A plateau's mismatch is read off the commands where it is (the hotspot's cause); a
+    // transient's — a corner, a start — is asked of a run with the axes matched, where the
+    // lags differ by enough to make half the error at the program's speed.
+    if !top.cause.is_plateau()
+        && let Some(matched) = matched(machine, run, max)
         && max_error_um(&matched).is_some_and(|e| e < 0.5 * max)
     {
         return Dominant::ServoMismatch;
@@ -139,12 +143,21 @@ pub fn dominant(
 }
 
 /// The machine with the faster axis given the slower axis's controller (its loops, their
-/// gains and the amplifier), where the axes' gains differ; `None` where they match, or where
-/// the slower axis's controller is not stable on the other axis's mechanics.
-fn matched(machine: &MachineConfig) -> Option<MachineConfig> {
+/// gains and the amplifier), where the axes' gains differ enough that the difference of
+/// their time constants, at the run's fastest path speed, could make half of `max_um`;
+/// `None` otherwise, or where the slower axis's controller is not stable on the other
+/// axis's mechanics.
+fn matched(machine: &MachineConfig, run: &CheckRun, max_um: f64) -> Option<MachineConfig> {
     let [kx, ky] =
         [&machine.x, &machine.y].map(|a| equivalent_kv_per_s(&AxisModel::from_config(a)));
-    if (kx - ky).abs() <= MISMATCH_SHARE * kx.max(ky) {
+    let (vx, vy) = (&run.commands.x.vel_m_per_s, &run.commands.y.vel_m_per_s);
+    let fastest = vx
+        .iter()
+        .zip(vy)
+        .map(|(a, b)| a.hypot(*b))
+        .fold(0.0, f64::max);
+    let reach_um = fastest * (1.0 / kx - 1.0 / ky).abs() * 1e6;
+    if (kx - ky).abs() <= MISMATCH_SHARE * kx.max(ky) || reach_um < 0.5 * max_um {
         return None;
     }
     let (slow, fast) = if kx < ky {

@@ -4,11 +4,14 @@
 //! and ranked after every healthy one, whatever its contour error: a small error bought
 //! with a ringing loop is not a result.
 
+use std::collections::HashMap;
+use std::sync::Mutex;
+
 use serde::Serialize;
 
-use crate::machine::{AxisName, MachineConfig};
+use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::sim::AxisModel;
-use crate::sim::linear::Loop;
+use crate::sim::linear::{Loop, ModalFigure};
 use crate::sim::margins::{
     self, LoopMargins, MIN_GAIN_MARGIN_DB, MIN_PHASE_MARGIN_DEG, least_damped_loop_mode,
 };
@@ -158,24 +161,51 @@ pub fn describe(flags: &[Flag]) -> String {
         .join(", ")
 }
 
+/// One axis's margins and least damped own mode, by its settings: a sweep of one axis's
+/// gains reads the other axis once.
+#[derive(Debug, Default)]
+pub struct AxisCache {
+    read: Mutex<HashMap<String, AxisReading>>,
+}
+
+type AxisReading = (Vec<LoopMargins>, Option<ModalFigure>);
+
+impl AxisCache {
+    fn reading(&self, config: &AxisConfig) -> AxisReading {
+        let key = serde_json::to_string(config).expect("an axis always serialises");
+        if let Some(r) = self.read.lock().expect("no reader panics").get(&key) {
+            return r.clone();
+        }
+        let model = AxisModel::from_config(config);
+        let r = (margins::margins(&model), least_damped_loop_mode(&model));
+        self.read
+            .lock()
+            .expect("no reader panics")
+            .insert(key, r.clone());
+        r
+    }
+}
+
 /// The margins of both axes' loops and the least damping of their own modes.
 pub fn health(machine: &MachineConfig) -> Health {
+    health_with(machine, &AxisCache::default())
+}
+
+/// [`health`], each axis read once per setting of it into `cache`.
+pub fn health_with(machine: &MachineConfig, cache: &AxisCache) -> Health {
     let mut loop_damping = f64::INFINITY;
     let mut loop_damping_at = None;
     let margins = AxisName::BOTH
         .iter()
         .map(|&axis| {
-            let model = AxisModel::from_config(machine.axis(axis));
-            if let Some(m) = least_damped_loop_mode(&model)
+            let (loops, least) = cache.reading(machine.axis(axis));
+            if let Some(m) = least
                 && m.damping < loop_damping
             {
                 loop_damping = m.damping;
                 loop_damping_at = Some((axis, m.frequency_hz));
             }
-            AxisMargins {
-                axis,
-                loops: margins::margins(&model),
-            }
+            AxisMargins { axis, loops }
         })
         .collect();
     Health {

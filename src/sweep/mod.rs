@@ -308,8 +308,9 @@ pub fn run(
     done: &(dyn Fn() + Sync),
 ) -> Vec<SweepPoint> {
     let points = grid(dims);
+    let cache = health::AxisCache::default();
     let one = |values: &Vec<f64>| {
-        let r = run_point(program, machine, plan, dims, values);
+        let r = run_point(program, machine, plan, dims, values, &cache);
         done();
         SweepPoint {
             values: values.clone(),
@@ -329,6 +330,7 @@ fn run_point(
     plan: &PlanConfig,
     dims: &[Dimension],
     values: &[f64],
+    cache: &health::AxisCache,
 ) -> PointResult {
     let settings: Vec<(&[String], f64)> = dims
         .iter()
@@ -349,7 +351,7 @@ fn run_point(
             return PointResult::Unstable { axis, frequency_hz };
         }
     }
-    let health = health::health(&machine);
+    let health = health::health_with(&machine, cache);
     let mut settings = CheckSettings::for_machine(&machine);
     settings.plan = PlanConfig {
         in_position: settings.plan.in_position,
