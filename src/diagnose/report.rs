@@ -773,6 +773,15 @@ fn unexplained_line(u: &Located) -> String {
     )
 }
 
+impl Diagnosis {
+    /// The extended machine as a complete machine file (`base = "none"`), the fitted values
+    /// and their uncertainties as comments: what `diagnose --write-machine` writes, for a
+    /// record `record_file` of `program_file`.
+    pub fn machine_file(&self, program_file: &str, record_file: &str) -> String {
+        machine_file(&self.machine, self, program_file, record_file)
+    }
+}
+
 /// The extended machine as a machine file that `check`, `sweep` and `diagnose` load.
 pub fn machine_file(
     machine: &MachineConfig,

@@ -6,6 +6,14 @@ use std::fmt::Write as _;
 use crate::identify::{Identification, IdentifiedValue};
 use crate::machine::MachineConfig;
 
+impl Identification {
+    /// The identified machine as a machine file (what `identify --out` writes), its values
+    /// and their uncertainties in the header.
+    pub fn machine_file(&self, template: &MachineConfig, program_file: &str) -> String {
+        machine_file(self, template, program_file)
+    }
+}
+
 /// Schema id of the JSON report.
 pub const SCHEMA: &str = "contourcheck.identify/1";
 
