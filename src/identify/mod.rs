@@ -28,6 +28,7 @@ mod interpolator;
 mod knobs;
 mod linear;
 mod loop_model;
+pub mod report;
 mod solve;
 
 use rayon::prelude::*;
