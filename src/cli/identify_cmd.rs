@@ -222,7 +222,7 @@ fn prediction(a: &AxisIdentification) -> String {
         format!("the model is {:.1}× WORSE than it", written / b.held_out_um)
     };
     format!(
-        "predicts held-out data to {:.0} % of the following error ({:.3} µm RMS left{place}); \
+        "predicts held-out data to {:.1} % of the following error ({:.3} µm RMS left{place}); \
          the template {:.0} %; a regression on the command's velocity, acceleration, jerk and \
          direction {:.0} % ({against})",
         share(written),
