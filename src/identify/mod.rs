@@ -656,11 +656,18 @@ fn fitted_values(
                 .iter()
                 .position(|q| q.key == k.key)
                 .map(|p| round.sigma[p].max(round.whole.model_sigma[p]));
+            // A value the record does not determine is the template's, exactly (the
+            // Coulomb force read back through a fitted mass would differ in its last bits).
+            let template_value = get(template, k.key);
             IdentifiedValue {
                 key: k.key,
                 unit: k.unit,
-                template: get(template, k.key),
-                value,
+                template: template_value,
+                value: if sigma.is_some() {
+                    value
+                } else {
+                    template_value
+                },
                 uncertainty: sigma.unwrap_or(f64::NAN),
                 determined: sigma.is_some(),
                 measured: sigma.is_some_and(|s| k.determines(s, value)),
