@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use crate::identify::{Identification, IdentifiedValue};
+use crate::identify::{AxisIdentification, Identification, IdentifiedValue, Interpolator};
 use crate::machine::MachineConfig;
 
 impl Identification {
@@ -81,73 +81,133 @@ pub fn summary_text(id: &Identification, template: &MachineConfig) -> String {
         id.file, template.name, id.noise_um
     );
     for a in &id.axes {
+        axis_summary(&mut s, a, id.noise_um);
+    }
+    interpolator_summary(&mut s, &id.interpolator);
+    s
+}
+
+/// One axis: its residuals, what they predict against the template and the regression, and
+/// its values.
+fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
+    let _ = writeln!(
+        s,
+        "\n{} axis: residual {:.3} → {:.3} µm RMS{} (following error {:.1} µm); held out \
+         {:.3} → {:.3} µm",
+        a.axis,
+        a.rms_template_um,
+        a.rms_identified_um,
+        if a.moving_only {
+            ", compared while moving: the axis hunts at standstill"
+        } else {
+            ""
+        },
+        a.following_error_rms_um,
+        a.held_out_template_um,
+        a.held_out_identified_um
+    );
+    let _ = writeln!(s, "  {}", prediction(a));
+    if let Some(verdict) = verdict(a, noise_um) {
+        let _ = writeln!(s, "  {verdict}");
+    }
+    let _ = writeln!(s, "  {:<38} {:>14}  identified", "key", "template");
+    for v in &a.values {
         let _ = writeln!(
             s,
-            "\n{} axis: residual {:.3} → {:.3} µm RMS{} (following error {:.1} µm); held out \
-             {:.3} → {:.3} µm",
-            a.axis,
-            a.rms_template_um,
-            a.rms_identified_um,
-            if a.moving_only {
-                ", compared while moving: the axis hunts at standstill"
-            } else {
-                ""
-            },
-            a.following_error_rms_um,
-            a.held_out_template_um,
-            a.held_out_identified_um
+            "  {:<38} {:>14}  {} {}",
+            v.key,
+            sig(v.template),
+            shown(v),
+            v.unit
         );
-        if !a.reached {
-            let _ = writeln!(
-                s,
-                "  NOT IDENTIFIED: the best fit stays at {:.3} µm against the record's noise of \
-                 {:.3} µm — the template's controller or settings are not this machine's (or it \
-                 has effects `diagnose` looks for); the template's values are kept",
-                a.rms_identified_um, id.noise_um
-            );
-        }
-        if a.template_holds {
-            let _ = writeln!(
-                s,
-                "  the template explains the record to its noise, and values fitted to it \
-                 predict its held-out halves worse than the template does: the template's \
-                 values stay"
-            );
-        }
-        let _ = writeln!(s, "  {:<38} {:>14}  identified", "key", "template");
-        for v in &a.values {
-            let _ = writeln!(
-                s,
-                "  {:<38} {:>14}  {} {}",
-                v.key,
-                sig(v.template),
-                shown(v),
-                v.unit
-            );
-        }
-        if let Some(r) = &a.gain_per_inertia {
-            let _ = writeln!(
-                s,
-                "  {} per inertia: {} ± {} per kg, of {:.1} kg at the table (rotor, screw and \
-                 table) — what the record determines where the gain and the mass trade",
-                r.gain,
-                sig(r.value),
-                sig(r.uncertainty),
-                r.inertia_kg
-            );
-        }
-        if a.kept.starts_with("no template") {
-            let _ = writeln!(s, "  {}", a.kept);
-        } else {
-            let _ = writeln!(s, "  kept from the template: {}", a.kept);
-        }
     }
-    let i = &id.interpolator;
-    let limit = |value: f64, unit: &str, held: bool| {
+    if let Some(r) = &a.gain_per_inertia {
+        let _ = writeln!(
+            s,
+            "  {} per inertia: {} ± {} per kg, of {:.1} kg at the table (rotor, screw and \
+             table) — what the record determines where the gain and the mass trade",
+            r.gain,
+            sig(r.value),
+            sig(r.uncertainty),
+            r.inertia_kg
+        );
+    }
+    if a.kept.starts_with("no template") {
+        let _ = writeln!(s, "  {}", a.kept);
+    } else {
+        let _ = writeln!(s, "  kept from the template: {}", a.kept);
+    }
+}
+
+/// What the machine written predicts of the record's held-out halves, against the template
+/// and the plain regression on the command.
+fn prediction(a: &AxisIdentification) -> String {
+    let written = if a.better_than_template || a.template_holds {
+        a.held_out_identified_um
+    } else {
+        a.held_out_template_um
+    };
+    let share = |um: f64| 100.0 * um / a.following_error_rms_um;
+    let place = a
+        .largest_at
+        .map_or(String::new(), |p| format!(", largest {}", p.describe()));
+    let b = &a.baseline;
+    let against = if written < b.held_out_um {
+        format!("{:.1}× better", b.held_out_um / written)
+    } else {
+        format!("the model is {:.1}× WORSE than it", written / b.held_out_um)
+    };
+    format!(
+        "predicts held-out data to {:.1} % of the following error ({:.3} µm RMS left{place}); \
+         the template {:.0} %; a regression on the command's velocity, acceleration, jerk and \
+         direction {:.0} % ({against})",
+        share(written),
+        written,
+        share(a.held_out_template_um),
+        100.0 * b.share,
+    )
+}
+
+/// What the fit is, where it is not simply identified to the record's noise.
+fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
+    if a.template_holds {
+        return Some(
+            "the template explains the record to its noise, and values fitted to it predict \
+             its held-out halves worse than the template does: the template's values stay"
+                .to_string(),
+        );
+    }
+    if a.reached {
+        return None;
+    }
+    Some(if a.better_than_template {
+        format!(
+            "written as a model: it stays at {:.3} µm against the record's noise of {:.3} µm \
+             (the model lacks something of this machine: `diagnose` looks for effects beyond \
+             it), and predicts the held-out halves better than the template — its values \
+             predict, none is a measurement",
+            a.rms_identified_um, noise_um
+        )
+    } else {
+        format!(
+            "NOT IDENTIFIED: the best fit ({:.3} µm) predicts the held-out halves no better \
+             than the template — the template's controller or settings are not this \
+             machine's (or it has effects `diagnose` looks for); the template's values are \
+             kept",
+            a.rms_identified_um
+        )
+    })
+}
+
+/// The interpolator's peaks, and which were written as limits.
+fn interpolator_summary(s: &mut String, i: &Interpolator) {
+    let limit = |value: f64, demanded: f64, unit: &str, held: bool| {
         if held {
-            format!("{value:.3} {unit} (held: written as the limit)")
+            format!(
+                "{value:.3} {unit} (held where the template's planner asked {demanded:.3}: written as the limit)"
+            )
         } else {
-            format!("{value:.3} {unit} (not held: the template's limit stays)")
+            format!("peak {value:.3} {unit} (not shown to be a limit: the template's stays)")
         }
     };
     let _ = writeln!(
@@ -160,11 +220,20 @@ pub fn summary_text(id: &Identification, template: &MachineConfig) -> String {
             s,
             "  {axis}: up to {:.0} mm/min, acceleration {}, jerk {}",
             i.velocity_mm_per_min[k],
-            limit(i.accel_m_per_s2[k], "m/s²", i.accel_limited[k]),
-            limit(i.jerk_m_per_s3[k], "m/s³", i.jerk_limited[k]),
+            limit(
+                i.accel_m_per_s2[k],
+                i.demanded_accel_m_per_s2[k],
+                "m/s²",
+                i.accel_limited[k]
+            ),
+            limit(
+                i.jerk_m_per_s3[k],
+                i.demanded_jerk_m_per_s3[k],
+                "m/s³",
+                i.jerk_limited[k]
+            ),
         );
     }
-    s
 }
 
 /// The identified machine as a machine file, its values and their uncertainties in the
@@ -177,6 +246,7 @@ pub fn machine_file(id: &Identification, template: &MachineConfig, program_file:
         template.name, id.file
     );
     for a in &id.axes {
+        let _ = writeln!(s, "#   {}: {}", a.axis, prediction(a));
         for v in &a.values {
             let _ = writeln!(s, "#   {}.{} = {} {}", a.axis, v.key, shown(v), v.unit);
         }
