@@ -83,11 +83,14 @@ pub fn today() -> String {
     let fixed = std::env::var("SOURCE_DATE_EPOCH")
         .ok()
         .and_then(|s| s.trim().parse::<i64>().ok())
-        .and_then(|secs| chrono::DateTime::from_timestamp(secs, 0));
-    fixed
-        .unwrap_or_else(chrono::Utc::now)
-        .format("%Y-%m-%d")
-        .to_string()
+        .and_then(|secs| time::OffsetDateTime::from_unix_timestamp(secs).ok());
+    date_of(fixed.unwrap_or_else(time::OffsetDateTime::now_utc))
+}
+
+/// A moment's date as YYYY-MM-DD.
+fn date_of(t: time::OffsetDateTime) -> String {
+    let format = time::macros::format_description!("[year]-[month]-[day]");
+    t.format(&format).unwrap_or_default()
 }
 
 /// Draws `footer` along the bottom of `root` — a thin rule and the line of text, left
@@ -164,10 +167,7 @@ mod tests {
     fn a_fixed_source_date_fixes_the_footers_date() {
         // 2021-03-04 00:00:00 UTC.
         let secs = 1_614_816_000;
-        let date = chrono::DateTime::from_timestamp(secs, 0)
-            .unwrap()
-            .format("%Y-%m-%d")
-            .to_string();
+        let date = date_of(time::OffsetDateTime::from_unix_timestamp(secs).unwrap());
         assert_eq!(date, "2021-03-04");
         assert_eq!(today().len(), 10);
     }
