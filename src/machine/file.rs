@@ -452,7 +452,7 @@ fn syntax_message(text: &str, e: &toml::de::Error) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::super::AxisConfig;
+    use super::super::{AxisConfig, PRESETS};
     use super::*;
 
     #[test]
