@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use crate::identify::{Identification, IdentifiedValue};
+use crate::identify::{AxisIdentification, Identification, IdentifiedValue, Interpolator};
 use crate::machine::MachineConfig;
 
 impl Identification {
@@ -81,68 +81,83 @@ pub fn summary_text(id: &Identification, template: &MachineConfig) -> String {
         id.file, template.name, id.noise_um
     );
     for a in &id.axes {
+        write_axis(&mut s, a, id.noise_um);
+    }
+    let lines = interpolator_lines(&id.interpolator);
+    let _ = writeln!(s, "\ninterpolator: {}", lines[0]);
+    for line in &lines[1..] {
+        let _ = writeln!(s, "  {line}");
+    }
+    s
+}
+
+/// One axis: its residuals, whether it was identified, its values against the template's.
+fn write_axis(s: &mut String, a: &AxisIdentification, noise_um: f64) {
+    let _ = writeln!(
+        s,
+        "\n{} axis: residual {:.3} → {:.3} µm RMS{} (following error {:.1} µm); held out \
+         {:.3} → {:.3} µm",
+        a.axis,
+        a.rms_template_um,
+        a.rms_identified_um,
+        if a.moving_only {
+            ", compared while moving: the axis hunts at standstill"
+        } else {
+            ""
+        },
+        a.following_error_rms_um,
+        a.held_out_template_um,
+        a.held_out_identified_um
+    );
+    if !a.reached {
         let _ = writeln!(
             s,
-            "\n{} axis: residual {:.3} → {:.3} µm RMS{} (following error {:.1} µm); held out \
-             {:.3} → {:.3} µm",
-            a.axis,
-            a.rms_template_um,
-            a.rms_identified_um,
-            if a.moving_only {
-                ", compared while moving: the axis hunts at standstill"
-            } else {
-                ""
-            },
-            a.following_error_rms_um,
-            a.held_out_template_um,
-            a.held_out_identified_um
+            "  NOT IDENTIFIED: the best fit stays at {:.3} µm against the record's noise of \
+             {:.3} µm — the template's controller or settings are not this machine's (or it \
+             has effects `diagnose` looks for); the template's values are kept",
+            a.rms_identified_um, noise_um
         );
-        if !a.reached {
-            let _ = writeln!(
-                s,
-                "  NOT IDENTIFIED: the best fit stays at {:.3} µm against the record's noise of \
-                 {:.3} µm — the template's controller or settings are not this machine's (or it \
-                 has effects `diagnose` looks for); the template's values are kept",
-                a.rms_identified_um, id.noise_um
-            );
-        }
-        if a.template_holds {
-            let _ = writeln!(
-                s,
-                "  the template explains the record to its noise, and values fitted to it \
-                 predict its held-out halves worse than the template does: the template's \
-                 values stay"
-            );
-        }
-        let _ = writeln!(s, "  {:<38} {:>14}  identified", "key", "template");
-        for v in &a.values {
-            let _ = writeln!(
-                s,
-                "  {:<38} {:>14}  {} {}",
-                v.key,
-                sig(v.template),
-                shown(v),
-                v.unit
-            );
-        }
-        if let Some(r) = &a.gain_per_inertia {
-            let _ = writeln!(
-                s,
-                "  {} per inertia: {} ± {} per kg, of {:.1} kg at the table (rotor, screw and \
-                 table) — what the record determines where the gain and the mass trade",
-                r.gain,
-                sig(r.value),
-                sig(r.uncertainty),
-                r.inertia_kg
-            );
-        }
-        if a.kept.starts_with("no template") {
-            let _ = writeln!(s, "  {}", a.kept);
-        } else {
-            let _ = writeln!(s, "  kept from the template: {}", a.kept);
-        }
     }
-    let i = &id.interpolator;
+    if a.template_holds {
+        let _ = writeln!(
+            s,
+            "  the template explains the record to its noise, and values fitted to it \
+             predict its held-out halves worse than the template does: the template's \
+             values stay"
+        );
+    }
+    let _ = writeln!(s, "  {:<38} {:>14}  identified", "key", "template");
+    for v in &a.values {
+        let _ = writeln!(
+            s,
+            "  {:<38} {:>14}  {} {}",
+            v.key,
+            sig(v.template),
+            shown(v),
+            v.unit
+        );
+    }
+    if let Some(r) = &a.gain_per_inertia {
+        let _ = writeln!(
+            s,
+            "  {} per inertia: {} ± {} per kg, of {:.1} kg at the table (rotor, screw and \
+             table) — what the record determines where the gain and the mass trade",
+            r.gain,
+            sig(r.value),
+            sig(r.uncertainty),
+            r.inertia_kg
+        );
+    }
+    if a.kept.starts_with("no template") {
+        let _ = writeln!(s, "  {}", a.kept);
+    } else {
+        let _ = writeln!(s, "  kept from the template: {}", a.kept);
+    }
+}
+
+/// The record's interpolator in words: the path speed, then per axis its speed and its
+/// acceleration and jerk, each said to be held (written as the limit) or not.
+pub fn interpolator_lines(i: &Interpolator) -> Vec<String> {
     let limit = |value: f64, unit: &str, held: bool| {
         if held {
             format!("{value:.3} {unit} (held: written as the limit)")
@@ -150,21 +165,19 @@ pub fn summary_text(id: &Identification, template: &MachineConfig) -> String {
             format!("{value:.3} {unit} (not held: the template's limit stays)")
         }
     };
-    let _ = writeln!(
-        s,
-        "\ninterpolator: path speed up to {:.0} mm/min",
+    let mut lines = vec![format!(
+        "path speed up to {:.0} mm/min",
         i.path_speed_mm_per_min
-    );
+    )];
     for (k, axis) in ["X", "Y"].iter().enumerate() {
-        let _ = writeln!(
-            s,
-            "  {axis}: up to {:.0} mm/min, acceleration {}, jerk {}",
+        lines.push(format!(
+            "{axis}: up to {:.0} mm/min, acceleration {}, jerk {}",
             i.velocity_mm_per_min[k],
             limit(i.accel_m_per_s2[k], "m/s²", i.accel_limited[k]),
             limit(i.jerk_m_per_s3[k], "m/s³", i.jerk_limited[k]),
-        );
+        ));
     }
-    s
+    lines
 }
 
 /// The identified machine as a machine file, its values and their uncertainties in the
