@@ -951,19 +951,13 @@ fn a_subprogram_files_lines_are_named_by_file_in_the_report_and_the_trace() {
     }
 }
 
-/// A small machine written from docs/machine-file.md.
-const SMALL_MACHINE: &str = "base = \"hvmc\"\nname = \"small\"\n\
-    [x.drive]\ntable_mass_kg = 200.0\n[y.drive]\ntable_mass_kg = 200.0\n\
-    [x.motor]\njm_kg_m2 = 0.008\n[y.motor]\njm_kg_m2 = 0.008\n";
-
-/// The sweep a user compares gains with: each row says what dominates its error and whether
+/// The sweep a user compares gains with, the README's, on its small mill: each row says what dominates its error and whether
 /// it is flagged; the margins of every row follow, by rank; the CSV and JSON carry each
 /// loop's margins per axis, and the plot its conditions.
 #[test]
 fn a_sweep_shows_each_settings_margins_and_flags_the_ringing_one() {
     let dir = tempfile::tempdir().unwrap();
-    let m = dir.path().join("small.toml");
-    std::fs::write(&m, SMALL_MACHINE).unwrap();
+    let m = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/examples/small-mill.toml");
     let (csv_path, json, plots) = (
         dir.path().join("s.csv"),
         dir.path().join("s.json"),
@@ -1026,7 +1020,7 @@ fn a_sweep_shows_each_settings_margins_and_flags_the_ringing_one() {
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(doc["schema"], "contourcheck.sweep/2");
     assert_eq!(doc["thresholds"]["min_phase_margin_deg"], 30.0);
-    let first = &doc["points"][0];
+    let first = &doc["points"][0]["result"];
     assert_eq!(first["status"], "ok");
     assert!(
         first["health"]["margins"][0]["loops"][2]["phase_margin_deg"]

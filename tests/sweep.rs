@@ -267,11 +267,15 @@ fn a_setting_short_of_its_margins_is_never_ranked_best() {
     assert!(points.iter().all(|q| !q.result.is_healthy()));
 }
 
-/// A small machine written from docs/machine-file.md: the heavy machine's drive on a
-/// 200 kg table, with a lighter motor.
-const SMALL_MACHINE: &str = "base = \"hvmc\"\nname = \"small\"\n\
-    [x.drive]\ntable_mass_kg = 200.0\n[y.drive]\ntable_mass_kg = 200.0\n\
-    [x.motor]\njm_kg_m2 = 0.008\n[y.motor]\njm_kg_m2 = 0.008\n";
+/// A small mill written from docs/machine-file.md (docs/examples/small-mill.toml): the
+/// heavy machine's drive on a 200 kg table, with a lighter motor.
+fn small_mill() -> MachineConfig {
+    MachineConfig::load(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/docs/examples/small-mill.toml"
+    )))
+    .unwrap()
+}
 
 /// Comparing gains on the small machine: the stiffest position gain on the softest
 /// velocity loop (Kv 40, K_s 4) makes the smallest contour error — and rings, its position
@@ -280,7 +284,7 @@ const SMALL_MACHINE: &str = "base = \"hvmc\"\nname = \"small\"\n\
 /// stability, read off the closed-loop eigenvalues.
 #[test]
 fn the_small_machines_sweep_crowns_a_setting_with_margins() {
-    let machine = MachineConfig::from_toml_str(SMALL_MACHINE, "small.toml").unwrap();
+    let machine = small_mill();
     let src = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/gcode-samples/square.nc"

@@ -127,7 +127,7 @@ const EXPLAINS: f64 = 0.5;
 /// leaves −sgn(v_a)·(b_a/2)·n_a.
 pub(crate) fn plateau_cause(error_m: f64, vel: [f64; 2], axes: &[AxisSteady; 2]) -> Cause {
     let speed = vel[0].hypot(vel[1]);
-    if !(speed > 0.0) || !error_m.is_finite() {
+    if speed.is_nan() || speed <= 0.0 || !error_m.is_finite() {
         return Cause::SteadyLag;
     }
     let u = [vel[0] / speed, vel[1] / speed];

@@ -205,6 +205,7 @@ fn print_least_damped(model: &AxisModel, config: &AxisConfig, axis: AxisName) {
             "least damped closed-loop mode: {:.1} Hz, damping ratio {:.3}",
             m.frequency_hz, m.damping
         );
+        print_least_damped_loop_mode(model, &m);
         if m.damping < 0.0 {
             // The margins are read where each loop's gain first crosses 0 dB; a mode far
             // above that crossing grows unseen by them — say so beside them.
@@ -223,5 +224,19 @@ fn print_least_damped(model: &AxisModel, config: &AxisConfig, axis: AxisName) {
                 );
             }
         }
+    }
+}
+
+/// Where the least damped closed-loop mode `overall` is one of the mechanics' left as they
+/// damp it (a screw's kilohertz torsion), the least damped of the loops' own modes too: the
+/// figure a gain setting is judged by (`sweep`'s `loop damping`).
+fn print_least_damped_loop_mode(model: &AxisModel, overall: &linear::ModalFigure) {
+    match margins::least_damped_loop_mode(model) {
+        Some(own) if own != *overall => println!(
+            "least damped of the loops' own modes: {:.1} Hz, damping ratio {:.3} (the {:.1} Hz \
+             mode is the mechanics', left as they damp it)",
+            own.frequency_hz, own.damping, overall.frequency_hz
+        ),
+        _ => {}
     }
 }

@@ -128,16 +128,7 @@ pub(crate) fn preset_table(name: &str, file: &str) -> Result<toml::Table, Config
 /// Whether error `e` is about the file `file` itself (to be located in its text), rather
 /// than about a base file further down its chain (located in that file's already).
 pub(crate) fn is_about(e: &ConfigError, file: &str) -> bool {
-    let of = match e {
-        ConfigError::Io { file, .. }
-        | ConfigError::Syntax { file, .. }
-        | ConfigError::Missing { file, .. }
-        | ConfigError::UnknownKey { file, .. }
-        | ConfigError::UnknownKeys { file, .. }
-        | ConfigError::Invalid { file, .. }
-        | ConfigError::UnknownPreset { file, .. } => file,
-    };
-    of == file
+    e.place().0 == file
 }
 
 /// The warning for a file that gives no `base`.

@@ -207,52 +207,64 @@ impl Figure for SweepHeatMap {
             .map_err(err)?;
         for (i, row) in self.cells.iter().enumerate() {
             for (j, &v) in row.iter().enumerate() {
-                let (x, y) = (i as f64, j as f64);
-                let fill = if v.is_finite() {
-                    colormap(v / max).filled()
-                } else {
-                    RGBColor(200, 200, 200).filled()
-                };
-                chart
-                    .draw_series(std::iter::once(Rectangle::new(
-                        [(x - 0.5, y - 0.5), (x + 0.5, y + 0.5)],
-                        fill,
-                    )))
-                    .map_err(err)?;
                 let flagged = self
                     .flagged
                     .get(i)
                     .and_then(|r| r.get(j))
                     .copied()
                     .unwrap_or(false);
-                if flagged {
-                    chart
-                        .draw_series(std::iter::once(Rectangle::new(
-                            [(x - 0.47, y - 0.47), (x + 0.47, y + 0.47)],
-                            RED.stroke_width(3),
-                        )))
-                        .map_err(err)?;
-                }
-                let text = match (v.is_finite(), flagged) {
-                    (true, false) => format!("{v:.1}"),
-                    (true, true) => format!("{v:.1} flagged"),
-                    (false, _) => "unstable".into(),
-                };
-                let color = if v.is_finite() && v / max > 0.6 {
-                    BLACK
-                } else {
-                    WHITE
-                };
-                let color = if v.is_finite() { color } else { RED };
-                chart
-                    .draw_series(std::iter::once(Text::new(
-                        text,
-                        (x - 0.3, y),
-                        (FONT, 14).into_font().color(&color),
-                    )))
-                    .map_err(err)?;
+                draw_cell(&mut chart, (i as f64, j as f64), v / max, v, flagged)?;
             }
         }
         draw_colorbar(&bar, max, "max contour error (µm)")
     }
+}
+
+/// One cell of the heat map at `(x, y)`: its colour by `share` of the largest error, a red
+/// ring where the setting is flagged, and its value (or "unstable") written in it.
+fn draw_cell<DB: DrawingBackend>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    (x, y): (f64, f64),
+    share: f64,
+    v: f64,
+    flagged: bool,
+) -> PlotResult {
+    let fill = if v.is_finite() {
+        colormap(share).filled()
+    } else {
+        RGBColor(200, 200, 200).filled()
+    };
+    chart
+        .draw_series(std::iter::once(Rectangle::new(
+            [(x - 0.5, y - 0.5), (x + 0.5, y + 0.5)],
+            fill,
+        )))
+        .map_err(err)?;
+    if flagged {
+        chart
+            .draw_series(std::iter::once(Rectangle::new(
+                [(x - 0.47, y - 0.47), (x + 0.47, y + 0.47)],
+                RED.stroke_width(3),
+            )))
+            .map_err(err)?;
+    }
+    let text = match (v.is_finite(), flagged) {
+        (true, false) => format!("{v:.1}"),
+        (true, true) => format!("{v:.1} flagged"),
+        (false, _) => "unstable".into(),
+    };
+    // Dark text on the light end of the colour map, light text on the dark end.
+    let color = match (v.is_finite(), share > 0.6) {
+        (false, _) => RED,
+        (true, true) => BLACK,
+        (true, false) => WHITE,
+    };
+    chart
+        .draw_series(std::iter::once(Text::new(
+            text,
+            (x - 0.3, y),
+            (FONT, 14).into_font().color(&color),
+        )))
+        .map_err(err)?;
+    Ok(())
 }

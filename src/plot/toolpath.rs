@@ -5,7 +5,7 @@ use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
-use super::labels::place_labels;
+use super::along_path::draw_labelled_rings;
 use super::{FONT, Figure, PlotResult, err};
 
 /// A sample of the actual path.
@@ -112,41 +112,12 @@ impl Figure for ToolpathPlot {
                 )
             });
         chart.draw_series(segments).map_err(err)?;
-        let at_px: Vec<(i32, i32)> = self
+        let rings: Vec<((f64, f64), &str)> = self
             .markers
             .iter()
-            .map(|m| chart.backend_coord(&(m.x_mm, m.y_mm)))
+            .map(|m| ((m.x_mm, m.y_mm), m.label.as_str()))
             .collect();
-        let labels: Vec<String> = self.markers.iter().map(|m| m.label.clone()).collect();
-        let (xs, ys) = chart.plotting_area().get_pixel_range();
-        let placed = place_labels(
-            &at_px,
-            &labels,
-            LABEL_FONT_PX,
-            (xs.start, ys.start, xs.end, ys.end),
-            &[],
-        );
-        for (m, offset) in self.markers.iter().zip(&placed) {
-            chart
-                .draw_series(std::iter::once(Circle::new(
-                    (m.x_mm, m.y_mm),
-                    7,
-                    RED.stroke_width(2),
-                )))
-                .map_err(err)?;
-            if let Some((dx, dy)) = *offset {
-                chart
-                    .draw_series(std::iter::once(
-                        EmptyElement::at((m.x_mm, m.y_mm))
-                            + Text::new(
-                                m.label.clone(),
-                                (dx, dy),
-                                (FONT, LABEL_FONT_PX).into_font().color(&RED),
-                            ),
-                    ))
-                    .map_err(err)?;
-            }
-        }
+        draw_labelled_rings(&mut chart, &rings, 7, LABEL_FONT_PX)?;
         draw_colorbar(&bar, e_max, "|contour error| (µm)")
     }
 }

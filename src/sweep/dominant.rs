@@ -110,7 +110,7 @@ pub fn dominant(
         return Dominant::Nothing;
     };
     let max = m.max_contour_um;
-    if !(max > 0.0) {
+    if max.is_nan() || max <= 0.0 {
         return Dominant::Nothing;
     }
     if m.ripple_um >= RIPPLE_SHARE * max {
