@@ -1073,10 +1073,26 @@ fn a_machine_file_without_a_base_is_warned_about_and_named_after_itself() {
         err.contains("my-table.toml gives no `base`") && err.contains("`hvmc`"),
         "{err}"
     );
+    let out = text(&o.stdout);
+    assert!(out.starts_with("X axis of my-table "), "{out}");
+    // The least damped closed-loop mode is the screw's torsion, damped by its material
+    // whatever the gains: the loops' own least damped mode is named beside it, better damped.
+    let figures = |prefix: &str| -> (String, f64) {
+        let line = out
+            .lines()
+            .find(|l| l.starts_with(prefix))
+            .unwrap_or_else(|| panic!("{out}"));
+        let rest = &line[prefix.len()..];
+        let (hz, rest) = rest.split_once(" Hz, damping ratio ").unwrap();
+        let zeta = rest.split_whitespace().next().unwrap().parse().unwrap();
+        (hz.trim().to_string(), zeta)
+    };
+    let (overall_hz, overall_zeta) = figures("least damped closed-loop mode:");
+    let (_, own_zeta) = figures("least damped of the loops' own modes:");
+    assert!(own_zeta > overall_zeta, "{out}");
     assert!(
-        text(&o.stdout).starts_with("X axis of my-table "),
-        "{}",
-        text(&o.stdout)
+        out.contains(&format!("(the {overall_hz} Hz mode is the mechanics'")),
+        "{out}"
     );
     // The Bode plot marks each loop's margins and carries the machine's name.
     let svg = std::fs::read_to_string(plots.join("bode-x.svg")).unwrap();
