@@ -74,14 +74,7 @@ fn absurd_gains_are_flagged_unstable_not_measured() {
             values: vec![16.0, 2000.0],
         },
     ];
-    let points = sweep::run(
-        &p,
-        &machine,
-        &PlanConfig::for_machine(&machine),
-        &dims,
-        true,
-        &|| {},
-    );
+    let points = sweep_on(&p, &machine, &dims);
     for pt in &points {
         let sane = pt.values == [1.0, 16.0];
         match (&pt.result, sane) {
@@ -149,14 +142,7 @@ fn mismatched_gains_distort_a_circle_by_the_analytic_amount() {
     // And the sweep ranks the matched pair first, and names the mismatch as what makes the
     // others' error: matching the axes takes it back to the matched radius loss.
     let dims = [kv_dim(&["y"], vec![0.9, 1.0, 1.1])];
-    let mut points = sweep::run(
-        &p,
-        &machine,
-        &PlanConfig::for_machine(&machine),
-        &dims,
-        true,
-        &|| {},
-    );
+    let mut points = sweep_on(&p, &machine, &dims);
     sweep::rank(&mut points, &Thresholds::default());
     assert_eq!(points[0].values, vec![1.0]);
     for pt in &points {
@@ -190,6 +176,18 @@ fn edge_of_stability_kv(machine: &MachineConfig) -> f64 {
     lo
 }
 
+/// `dims` swept in parallel on `machine` with its own planner settings.
+fn sweep_on(p: &Program, machine: &MachineConfig, dims: &[Dimension]) -> Vec<sweep::SweepPoint> {
+    sweep::run(
+        p,
+        machine,
+        &PlanConfig::for_machine(machine),
+        dims,
+        true,
+        &|| {},
+    )
+}
+
 fn flags_of(points: &[sweep::SweepPoint], values: &[f64]) -> Vec<Flag> {
     match &points.iter().find(|q| q.values == values).unwrap().result {
         PointResult::Ok { flags, .. } => flags.clone(),
@@ -210,14 +208,7 @@ fn a_setting_short_of_its_margins_is_never_ranked_best() {
          G3 X50 Y-50 I0 J-50\nG1 X100 Y-50\nM2\n",
     );
     let dims = [kv_dim(&["x", "y"], vec![1.0, 1.2, 1.4])];
-    let mut points = sweep::run(
-        &p,
-        &machine,
-        &PlanConfig::for_machine(&machine),
-        &dims,
-        true,
-        &|| {},
-    );
+    let mut points = sweep_on(&p, &machine, &dims);
     let edge = edge_of_stability_kv(&machine);
     for pt in &points {
         let PointResult::Ok { health, .. } = &pt.result else {
@@ -267,6 +258,48 @@ fn a_setting_short_of_its_margins_is_never_ranked_best() {
     assert!(points.iter().all(|q| !q.result.is_healthy()));
 }
 
+/// Sweeping X alone on the heavy machine leaves Y at the preset's Kv of 1, whose gain
+/// margin — its distance to Y's own edge of stability, by the closed-loop eigenvalues — is
+/// below 6 dB: every setting is short by that same figure, none is crowned, and what they
+/// share is said once. X's own margin at Kv 0.6 is ample.
+#[test]
+fn a_shortfall_every_setting_shares_is_named_once() {
+    let machine = MachineConfig::default_preset();
+    let p = program("G21 G90 G17 G94\nG0 X0 Y0\nG1 X40 F2000\nG1 Y40\nM2\n");
+    let dims = [kv_dim(&["x"], vec![0.6, 0.8])];
+    let mut points = sweep_on(&p, &machine, &dims);
+    sweep::rank(&mut points, &Thresholds::default());
+    assert!(points.iter().all(|q| !q.result.is_healthy()), "{points:?}");
+    let mut as_x = machine.clone();
+    as_x.x = machine.y.clone();
+    let y_db =
+        20.0 * (edge_of_stability_kv(&as_x) / machine.y.position_loop.kv_m_per_min_per_mm).log10();
+    assert!(y_db < 6.0, "{y_db}");
+    let shared = sweep::shared_shortfall(&points).unwrap();
+    assert_eq!(shared.len(), 1, "{shared:?}");
+    let Flag::GainMargin {
+        axis: AxisName::Y,
+        which: Loop::Position,
+        db,
+    } = shared[0]
+    else {
+        panic!("{shared:?}")
+    };
+    assert!((db - y_db).abs() < 0.02, "{db} against {y_db}");
+    // X at Kv 0.6 is flagged for Y alone; a laxer rule crowns a setting, and nothing is
+    // shared then.
+    let x_db = 20.0 * (edge_of_stability_kv(&machine) / 0.6).log10();
+    assert!(x_db > 6.0, "{x_db}");
+    assert_eq!(flags_of(&points, &[0.6]), shared);
+    let lax = Thresholds {
+        min_gain_margin_db: 3.0,
+        ..Thresholds::default()
+    };
+    sweep::rank(&mut points, &lax);
+    assert!(points[0].result.is_healthy());
+    assert_eq!(sweep::shared_shortfall(&points), None);
+}
+
 /// A small mill written from docs/machine-file.md (docs/examples/small-mill.toml): the
 /// heavy machine's drive on a 200 kg table, with a lighter motor.
 fn small_mill() -> MachineConfig {
@@ -300,14 +333,7 @@ fn the_small_machines_sweep_crowns_a_setting_with_margins() {
             values: vec![4.0, 16.0],
         },
     ];
-    let mut points = sweep::run(
-        &program(&src),
-        &machine,
-        &PlanConfig::for_machine(&machine),
-        &dims,
-        true,
-        &|| {},
-    );
+    let mut points = sweep_on(&program(&src), &machine, &dims);
     let stiffest = [40.0, 4.0];
     let error = |q: &sweep::SweepPoint| match &q.result {
         PointResult::Ok { metrics, .. } => metrics.max_contour_um,

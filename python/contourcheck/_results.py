@@ -236,9 +236,10 @@ class SweepResult:
             out.append(row)
         return out
 
-    def best(self) -> Dict[str, Any]:
-        """The best setting (the first row)."""
-        return self.rows()[0]
+    def best(self) -> Optional[Dict[str, Any]]:
+        """The setting to use: the first row that was simulated and meets every threshold
+        (nothing ``flagged``), or ``None`` where no setting does."""
+        return next((r for r in self.rows() if r["status"] == "ok" and not r["flagged"]), None)
 
     def __len__(self) -> int:
         return len(self.report["points"])

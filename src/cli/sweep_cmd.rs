@@ -241,6 +241,7 @@ pub fn run(args: &SweepArgs, m: &ArgMatches) -> Result<Outcome, CliError> {
     }
     let shown = &points[..points.len().min(args.rows)];
     print_table(&program.file, &machine.name, &dims, shown, &thresholds);
+    print_none_crowned(&points);
     print_margins(&dims, shown);
     if points.len() > args.rows {
         println!(
@@ -249,6 +250,23 @@ pub fn run(args: &SweepArgs, m: &ArgMatches) -> Result<Outcome, CliError> {
         );
     }
     Ok(Outcome::Ok)
+}
+
+/// Why no row is crowned, where none meets the thresholds: what every setting falls short
+/// in alike (an axis the sweep leaves as it is), which no setting swept can mend.
+fn print_none_crowned(points: &[SweepPoint]) {
+    match sweep::shared_shortfall(points) {
+        None => {}
+        Some(shared) if shared.is_empty() => {
+            println!("  no setting meets the thresholds: none is crowned");
+        }
+        Some(shared) => println!(
+            "  no setting meets the thresholds: none is crowned; every one has {} — the swept \
+             keys do not change it (--min-phase-margin, --min-gain-margin, --min-damping set \
+             the rule)",
+            sweep::health::describe(&shared)
+        ),
+    }
 }
 
 #[derive(Serialize)]

@@ -285,6 +285,26 @@ pub fn rank(points: &mut [SweepPoint], thresholds: &Thresholds) {
     });
 }
 
+/// Where no setting meets the thresholds, what every simulated setting falls short in alike
+/// (the same loop of the same axis, by the same figure): an axis the sweep leaves as it is,
+/// short of its margins, makes every row short, and no setting of the other axis mends it.
+/// `None` where a setting is healthy or none was simulated.
+pub fn shared_shortfall(points: &[SweepPoint]) -> Option<Vec<Flag>> {
+    let mut flagged = points.iter().filter_map(|p| match &p.result {
+        PointResult::Ok { flags, .. } => Some(flags),
+        _ => None,
+    });
+    let first = flagged.next()?;
+    let mut shared = first.clone();
+    for flags in flagged {
+        if flags.is_empty() {
+            return None;
+        }
+        shared.retain(|f| flags.contains(f));
+    }
+    (!first.is_empty()).then_some(shared)
+}
+
 /// Every combination of the dimensions' values (the first dimension varies slowest).
 pub fn grid(dims: &[Dimension]) -> Vec<Vec<f64>> {
     dims.iter().fold(vec![Vec::new()], |acc, d| {
