@@ -614,6 +614,35 @@ pub const INTERPOLATION_KEYS: &[Key<Interpolation>] = &[
         "path jerk limit (else the axes')", |i| i.path_jerk_m_per_s3, v => *v),
 ];
 
+/// The unit of the axis key `path`, read from the table while the program is built: called
+/// in a constant, a path the table does not have stops the build.
+pub const fn axis_unit(path: &str) -> &'static str {
+    let mut i = 0;
+    while i < AXIS_KEYS.len() {
+        if same_text(AXIS_KEYS[i].path, path) {
+            return AXIS_KEYS[i].unit;
+        }
+        i += 1;
+    }
+    panic!("not an axis key of the machine file")
+}
+
+/// Whether two texts are equal, in a constant.
+const fn same_text(a: &str, b: &str) -> bool {
+    let (a, b) = (a.as_bytes(), b.as_bytes());
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut i = 0;
+    while i < a.len() {
+        if a[i] != b[i] {
+            return false;
+        }
+        i += 1;
+    }
+    true
+}
+
 /// The axis key of that path, if the table has it.
 pub fn axis_key(path: &str) -> Option<&'static AxisKey> {
     AXIS_KEYS.iter().find(|k| k.path == path)
