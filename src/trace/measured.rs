@@ -10,6 +10,7 @@
 
 use std::path::Path;
 
+use crate::trace::columns::NamedColumns;
 use crate::trace::format::{self, ColumnMap, Signal};
 use crate::trace::halscope;
 use crate::trace::mat;
@@ -155,7 +156,7 @@ pub fn read_trace_with(
     }
     let text = sinumerik::decode(&bytes);
     if sinumerik::is_sinumerik_trace(&text) {
-        return parse_sinumerik_trace(&text, &file, map);
+        return assemble_named(&file, sinumerik::sinumerik_columns(&text, &file)?, map);
     }
     if let Some(problem) = unreadable_kind(&bytes) {
         return Err(data_error_in(&file)(problem));
@@ -202,65 +203,20 @@ pub fn parse_mat_trace(
     file: &str,
     map: Option<&ColumnMap>,
 ) -> Result<MeasuredTrace, MeasuredError> {
-    let columns = mat::mat_columns(bytes, file)?;
-    let n = columns.iter().map(|(_, v)| v.len()).max().unwrap_or(0);
-    let source = Source::MatFile {
-        variables: columns.len(),
-    };
-    assemble_named(file, &columns, (1..=n as u64).collect(), map, source)
+    assemble_named(file, mat::mat_columns(bytes, file)?, map)
 }
 
-/// Parses a LinuxCNC halscope log (see [`trace_halscope`]): its channels are the columns,
-/// time comes from its sampling period.
-pub(crate) fn parse_halscope_trace(
-    text: &str,
-    file: &str,
-    map: Option<&ColumnMap>,
-) -> Result<MeasuredTrace, MeasuredError> {
-    let log = halscope::halscope_columns(text, file)?;
-    let source = Source::Halscope {
-        channels: log.columns.len() - 1,
-    };
-    assemble_named(file, &log.columns, log.rows, map, source)
-}
-
-/// Parses a SINUMERIK Operate trace (see [`sinumerik`]): its signals are the columns, on
-/// the clock of the most densely sampled one.
-pub(crate) fn parse_sinumerik_trace(
-    text: &str,
-    file: &str,
-    map: Option<&ColumnMap>,
-) -> Result<MeasuredTrace, MeasuredError> {
-    let trace = sinumerik::sinumerik_columns(text, file)?;
-    let source = Source::Sinumerik {
-        signals: trace.columns.len() - 1,
-    };
-    assemble_named(file, &trace.columns, trace.rows, map, source)
-}
-
-/// Parses a TwinCAT Scope export (see [`twincat`]): its channels are the columns, on the
-/// clock of the most densely sampled one.
-pub(crate) fn parse_twincat_trace(
-    text: &str,
-    file: &str,
-    map: Option<&ColumnMap>,
-) -> Result<MeasuredTrace, MeasuredError> {
-    let export = twincat::twincat_columns(text, file)?;
-    let source = Source::Twincat {
-        channels: export.columns.len() - 1,
-    };
-    assemble_named(file, &export.columns, export.rows, map, source)
-}
-
-/// A trace from named columns of equal length (a MAT-file's variables, a halscope log's
-/// channels), mapped like a text header; `rows` gives each sample's place for messages.
+/// A trace from a capture file's named columns of equal length, mapped like a text header.
 fn assemble_named(
     file: &str,
-    columns: &[(String, Vec<f64>)],
-    rows: Vec<u64>,
+    named: NamedColumns,
     map: Option<&ColumnMap>,
-    source: Source,
 ) -> Result<MeasuredTrace, MeasuredError> {
+    let NamedColumns {
+        columns,
+        rows,
+        source,
+    } = named;
     let data_error = data_error_in(file);
     let what = match source {
         Source::Halscope { .. } => "channel",
@@ -409,10 +365,10 @@ pub fn parse_trace_with(
     map: Option<&ColumnMap>,
 ) -> Result<MeasuredTrace, MeasuredError> {
     if halscope::is_halscope_log(text) {
-        return parse_halscope_trace(text, file, map);
+        return assemble_named(file, halscope::halscope_columns(text, file)?, map);
     }
     if twincat::is_twincat_export(text) {
-        return parse_twincat_trace(text, file, map);
+        return assemble_named(file, twincat::twincat_columns(text, file)?, map);
     }
     let data_error = data_error_in(file);
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
