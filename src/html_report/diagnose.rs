@@ -5,7 +5,7 @@
 use serde::Serialize;
 use serde_json::Value as Json;
 
-use super::{Fig, HtmlError, Inputs, Made, Row, Svg, fig, file_name, render, svg};
+use super::{Fig, HtmlError, Inputs, Made, Row, Svg, decimals_for, fig, file_name, render, svg};
 use crate::diagnose::Diagnosis;
 use crate::diagnose::report::{CauseReport, DiagnoseReport, next_step, strength};
 use crate::figures::DiagnoseFigures;
@@ -173,12 +173,7 @@ fn cause_view(rank: usize, i: usize, c: &CauseReport, json: &Json) -> CauseView 
         .iter()
         .enumerate()
         .map(|(k, p)| {
-            // The value to the uncertainty's second significant digit.
-            let decimals = if p.uncertainty.is_finite() && p.uncertainty > 0.0 {
-                (1 - p.uncertainty.log10().floor() as i32).clamp(0, 12) as usize
-            } else {
-                4
-            };
+            let decimals = decimals_for(p.uncertainty);
             (
                 p.key.clone(),
                 fig(json, &at(&format!("params[{k}].value")), decimals),

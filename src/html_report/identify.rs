@@ -5,7 +5,7 @@
 use serde::Serialize;
 use serde_json::Value as Json;
 
-use super::{Fig, HtmlError, Inputs, Made, Row, fig, file_name, render};
+use super::{Fig, HtmlError, Inputs, Made, Row, decimals_for, fig, file_name, render};
 use crate::identify::report::IdentifyReport;
 
 /// The page's view of an identification.
@@ -78,7 +78,7 @@ pub fn identify_page(report: &IdentifyReport, inputs: &Inputs) -> Result<String,
         axes: (0..id.axes.len())
             .map(|a| axis_view(report, &json, a))
             .collect(),
-        interpolator: interpolator_lines(report),
+        interpolator: crate::identify::report::interpolator_lines(&id.interpolator),
     };
     render("identify.html", page)
 }
@@ -110,11 +110,7 @@ fn axis_view(report: &IdentifyReport, json: &Json, a: usize) -> AxisView {
         .iter()
         .enumerate()
         .map(|(k, v)| {
-            let decimals = if v.uncertainty.is_finite() && v.uncertainty > 0.0 {
-                (1 - v.uncertainty.log10().floor() as i32).clamp(0, 12) as usize
-            } else {
-                4
-            };
+            let decimals = decimals_for(v.uncertainty);
             ValueView {
                 key: v.key.to_string(),
                 unit: v.unit.to_string(),
@@ -147,29 +143,4 @@ fn axis_view(report: &IdentifyReport, json: &Json, a: usize) -> AxisView {
             )
         }),
     }
-}
-
-fn interpolator_lines(report: &IdentifyReport) -> Vec<String> {
-    let i = &report.identification.interpolator;
-    let limit = |value: f64, unit: &str, held: bool| {
-        let how = if held {
-            "held: written as the limit"
-        } else {
-            "not held: the template's limit stays"
-        };
-        format!("{value:.3} {unit} ({how})")
-    };
-    let mut lines = vec![format!(
-        "path speed up to {:.0} mm/min",
-        i.path_speed_mm_per_min
-    )];
-    for (k, axis) in ["X", "Y"].iter().enumerate() {
-        lines.push(format!(
-            "{axis}: up to {:.0} mm/min, acceleration {}, jerk {}",
-            i.velocity_mm_per_min[k],
-            limit(i.accel_m_per_s2[k], "m/s²", i.accel_limited[k]),
-            limit(i.jerk_m_per_s3[k], "m/s³", i.jerk_limited[k]),
-        ));
-    }
-    lines
 }

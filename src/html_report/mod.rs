@@ -80,6 +80,16 @@ fn fig(json: &Json, key: &str, decimals: usize) -> Fig {
     }
 }
 
+/// Decimals that show a value to its standard uncertainty's second significant digit (4
+/// where there is no uncertainty).
+fn decimals_for(uncertainty: f64) -> usize {
+    if uncertainty.is_finite() && uncertainty > 0.0 {
+        (1 - uncertainty.log10().floor() as i32).clamp(0, 12) as usize
+    } else {
+        4
+    }
+}
+
 /// The value at a dotted key with indices (`circular_test.circles[1].g_um`).
 fn lookup<'a>(json: &'a Json, key: &str) -> Option<&'a Json> {
     let pointer: String = key

@@ -83,7 +83,11 @@ pub fn summary_text(id: &Identification, template: &MachineConfig) -> String {
     for a in &id.axes {
         axis_summary(&mut s, a, id.noise_um);
     }
-    interpolator_summary(&mut s, &id.interpolator);
+    let lines = interpolator_lines(&id.interpolator);
+    let _ = writeln!(s, "\ninterpolator: {}", lines[0]);
+    for line in &lines[1..] {
+        let _ = writeln!(s, "  {line}");
+    }
     s
 }
 
@@ -141,7 +145,7 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
 
 /// What the machine written predicts of the record's held-out halves, against the template
 /// and the plain regression on the command.
-fn prediction(a: &AxisIdentification) -> String {
+pub fn prediction(a: &AxisIdentification) -> String {
     let written = if a.better_than_template || a.template_holds {
         a.held_out_identified_um
     } else {
@@ -169,7 +173,7 @@ fn prediction(a: &AxisIdentification) -> String {
 }
 
 /// What the fit is, where it is not simply identified to the record's noise.
-fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
+pub fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
     if a.template_holds {
         return Some(
             "the template explains the record to its noise, and values fitted to it predict \
@@ -199,26 +203,26 @@ fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
     })
 }
 
-/// The interpolator's peaks, and which were written as limits.
-fn interpolator_summary(s: &mut String, i: &Interpolator) {
+/// The record's interpolator in words: the path speed, then per axis its speed and its
+/// acceleration and jerk, each said to be held (written as the limit) or only a peak.
+pub fn interpolator_lines(i: &Interpolator) -> Vec<String> {
     let limit = |value: f64, demanded: f64, unit: &str, held: bool| {
         if held {
             format!(
-                "{value:.3} {unit} (held where the template's planner asked {demanded:.3}: written as the limit)"
+                "{value:.3} {unit} (held where the template's planner asked {demanded:.3}: \
+                 written as the limit)"
             )
         } else {
             format!("peak {value:.3} {unit} (not shown to be a limit: the template's stays)")
         }
     };
-    let _ = writeln!(
-        s,
-        "\ninterpolator: path speed up to {:.0} mm/min",
+    let mut lines = vec![format!(
+        "path speed up to {:.0} mm/min",
         i.path_speed_mm_per_min
-    );
+    )];
     for (k, axis) in ["X", "Y"].iter().enumerate() {
-        let _ = writeln!(
-            s,
-            "  {axis}: up to {:.0} mm/min, acceleration {}, jerk {}",
+        lines.push(format!(
+            "{axis}: up to {:.0} mm/min, acceleration {}, jerk {}",
             i.velocity_mm_per_min[k],
             limit(
                 i.accel_m_per_s2[k],
@@ -232,8 +236,9 @@ fn interpolator_summary(s: &mut String, i: &Interpolator) {
                 "m/s³",
                 i.jerk_limited[k]
             ),
-        );
+        ));
     }
+    lines
 }
 
 /// The identified machine as a machine file, its values and their uncertainties in the
