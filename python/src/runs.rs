@@ -192,7 +192,7 @@ pub fn sweep(
                 "min_gain_margin {min_gain_margin}: dB from 0 up to 40"
             )));
         }
-        let thresholds = contourcheck::sweep::Thresholds {
+        let thresholds = contourcheck::SweepThresholds {
             min_phase_margin_deg: min_phase_margin,
             min_gain_margin_db: min_gain_margin,
             min_damping,
