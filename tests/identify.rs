@@ -78,6 +78,7 @@ fn reference_record(program: &Program, machine: &MachineConfig, seed: u64) -> Me
         accel: 0.5,
         tight_spot_x: None,
         at_feedback: true,
+        ..Recording::default()
     };
     let csv = reference::record(program, &machine.x, &machine.y, &rec);
     parse_trace(&csv, "reference.csv").unwrap()

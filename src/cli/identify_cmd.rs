@@ -144,6 +144,9 @@ pub fn summary(id: &Identification, template: &MachineConfig) -> String {
         "identified from {} (template {}; record noise {:.3} µm)",
         id.file, template.name, id.noise_um
     );
+    for line in id.coverage.describe() {
+        let _ = writeln!(s, "{line}");
+    }
     for a in &id.axes {
         let _ = writeln!(
             s,
@@ -176,6 +179,14 @@ pub fn summary(id: &Identification, template: &MachineConfig) -> String {
                 "  the template explains the record to its noise, and values fitted to it \
                  predict its held-out halves worse than the template does: the template's \
                  values stay"
+            );
+        }
+        if a.values.iter().all(|v| !v.determined) {
+            let _ = writeln!(
+                s,
+                "  the record determines none of {}'s values: what it compares (above) does not \
+                 move them beyond their uncertainty; the template's are written",
+                a.axis
             );
         }
         let _ = writeln!(s, "  {:<38} {:>14}  identified", "key", "template");

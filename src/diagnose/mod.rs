@@ -31,6 +31,7 @@ use crate::analysis::circular::{Circle, CircularTest, circles, circular_test};
 use crate::analysis::contour::{ContourSeries, contour_errors};
 use crate::compare::residual::{self, axis_residual};
 pub use crate::compare::residual::{AxisResidual, ResidualStats};
+pub use crate::compare::start::{Coverage, StartKind};
 pub use crate::compare::{CompareError, CompareSettings, Context, Stepping};
 use crate::compare::{Comparison, compare};
 use crate::gcode::Program;
@@ -253,6 +254,8 @@ pub struct Diagnosis {
     /// Terms learned from the residual where no catalogue cause explained it (position
     /// maps), part of `machine`.
     pub learned: Vec<learn::Learned>,
+    /// Which stretch of the program was compared, and how the record's start was set.
+    pub coverage: Coverage,
 }
 
 /// Circular-test figures of the same circles three ways.
@@ -447,13 +450,9 @@ fn assemble(ctx: &Context, outcome: search::Outcome, summary: Summary) -> Diagno
         timing_drift_ms: ctx.timing_drift_s.map(|s| s * 1e3),
         beyond_machine: Vec::new(),
         rapids_compared: ctx.rapids_compared,
-        hunting_left_out_s: AxisName::BOTH.map(|a| {
-            (0..ctx.samples.len())
-                .filter(|&k| !ctx.compared(a, k))
-                .count() as f64
-                * ctx.sample_dt_s
-        }),
+        hunting_left_out_s: AxisName::BOTH.map(|a| ctx.hunting_left_out_s(a)),
         circles: circles(&ctx.plan.segments),
+        coverage: ctx.coverage(outcome.offset_s),
         unexplained: Vec::new(),
         learned: Vec::new(),
         skipped: Vec::new(),
