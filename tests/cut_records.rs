@@ -233,3 +233,48 @@ fn a_record_from_home_is_compared_from_where_its_commands_join_the_program() {
         .collect();
     assert!(failures.is_empty(), "{failures:#?}");
 }
+
+/// A delay of 4 ms between X's interpolator and its position loop, recorded on a 60° line at
+/// F500 from 2 s to 6 s: at constant
+/// speed throughout, the record holds no start or stop, and there a delay τ lags the axis
+/// by v·τ just as a gain lowered from Kv to 1/(1/Kv + τ) does — 16.67 /s → 15.625 /s, i.e.
+/// 1 → 0.9375 m/min/mm for the nominal gain. One of the two is named on X, alone, the other
+/// given as its alternative with the record that would tell them apart, and the value named
+/// is the one that lag implies.
+#[test]
+fn a_delay_seen_only_at_speed_is_said_to_be_indistinguishable_from_a_gain() {
+    let program = program_text("G21 G90 G17 G94\nG0 X0 Y0\nG1 X30 Y52 F500\nM2\n");
+    let mut truth = MachineConfig::default_preset();
+    truth.x.position_loop.dead_time_ms = 4.0;
+    let rec = Recording {
+        keep_s: Some((2.0, 6.0)),
+        ..Recording::default()
+    };
+    let d = diagnose_csv(&program, &reference_csv(&program, &truth, &rec, true));
+    assert_eq!(d.coverage.start, StartKind::InMotion, "{:?}", d.coverage);
+    assert_eq!(d.causes.len(), 1, "{:?}", named(&d));
+    let c = &d.causes[0];
+    assert_eq!(c.axis, AxisName::X);
+    let kv_nominal_per_s = 1000.0 / 60.0;
+    let kv_equivalent = 1.0 / (1.0 / kv_nominal_per_s + 4e-3) * 60.0 / 1000.0;
+    let (other, hidden) = match c.id {
+        CauseId::KvGain => (CauseId::DeadTime, kv_equivalent),
+        CauseId::DeadTime => (CauseId::KvGain, 4.0),
+        id => panic!("named {id:?}; alternatives {:?}", c.alternatives),
+    };
+    let alternative = c.alternatives.iter().find(|a| a.id == other);
+    assert!(
+        alternative.is_some_and(|a| a.axis == AxisName::X && !a.told_apart_by.is_empty()),
+        "{:?}",
+        c.alternatives
+    );
+    let p = &c.params[0];
+    let err = (p.value - hidden).abs();
+    assert!(
+        err <= 4.0 * p.uncertainty && err <= 0.01 * hidden,
+        "{:?}: {} ± {}, expected {hidden}",
+        c.id,
+        p.value,
+        p.uncertainty
+    );
+}

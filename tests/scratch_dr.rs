@@ -91,4 +91,19 @@ fn scratch() {
         m.y.friction.coulomb_coefficient *= 1.5;
         write("circle-three", CIRCLE, &m, &rec);
     }
+    if which.contains("lag") {
+        let mut m = nominal.clone();
+        m.x.position_loop.dead_time_ms = 4.0;
+        let line = "G21 G90 G17 G94\nG0 X0 Y0\nG1 X30 Y52 F500\nM2\n";
+        write("line-dt4", line, &m, &rec);
+        write(
+            "line-dt4-mid",
+            line,
+            &m,
+            &Recording {
+                keep_s: Some((2.0, 6.0)),
+                ..rec
+            },
+        );
+    }
 }
