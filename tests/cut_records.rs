@@ -235,9 +235,9 @@ fn a_record_from_home_is_compared_from_where_its_commands_join_the_program() {
 }
 
 /// A delay of 4 ms between X's interpolator and its position loop, recorded on a 60° line at
-/// F500 from 2 s to 6 s: at constant
-/// speed throughout, the record holds no start or stop, and there a delay τ lags the axis
-/// by v·τ just as a gain lowered from Kv to 1/(1/Kv + τ) does — 16.67 /s → 15.625 /s, i.e.
+/// F500 from 2 s to 6 s: at constant speed throughout, the record holds no start or stop,
+/// and there a delay τ lags the axis by v·τ just as a gain lowered from Kv to
+/// 1/(1/Kv + τ) does — 16.67 /s → 15.625 /s, i.e.
 /// 1 → 0.9375 m/min/mm for the nominal gain. One of the two is named on X, alone, the other
 /// given as its alternative with the record that would tell them apart, and the value named
 /// is the one that lag implies.
