@@ -146,6 +146,10 @@ fn the_840d_trace_from_home_is_diagnosed_from_where_its_commands_join_the_progra
     // program does.
     assert_eq!(c.last_line, 17, "{c:?}");
     assert!(c.from_program_start && !c.to_program_end, "{c:?}");
+    // The 36 m/min rapid from home is beyond the nominal machine's 6 m/min, but the model
+    // is not driven by it: what the model follows, from the join on (the end of the rapids
+    // and a cut at F350), asks nothing beyond the machine file's limits.
+    assert!(d.beyond_machine.is_empty(), "{:?}", d.beyond_machine);
     // Half a second after the approach, most of it standing, is too little to tell any cause
     // from how the machine came out of its approach: nothing is named.
     assert!(d.causes.is_empty(), "{:?}", d.causes);

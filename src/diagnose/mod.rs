@@ -347,9 +347,26 @@ pub fn diagnose_validated(
                     .into_iter()
                     .any(|a| tries_allowed(machine, settings, a, c))
             }),
-        beyond_machine: measured.beyond_machine(machine),
+        beyond_machine: beyond_machine_compared(measured, machine, &ctx, outcome.offset_s),
         ..assemble(&ctx, outcome, summary)
     })
+}
+
+/// Where the recorded commands ask more of an axis than the machine file allows, from where
+/// the model follows them: after an approach from where the machine stood that it is not
+/// driven by, only from the join on.
+fn beyond_machine_compared(
+    measured: &MeasuredTrace,
+    machine: &MachineConfig,
+    ctx: &Context,
+    offset_s: f64,
+) -> Vec<BeyondMachine> {
+    let coverage = ctx.coverage(offset_s);
+    if coverage.start == StartKind::BeforeProgram && !coverage.approach_simulated {
+        measured.beyond_machine_from(machine, coverage.approach_s)
+    } else {
+        measured.beyond_machine(machine)
+    }
 }
 
 /// The extended model must not predict the contour worse than the nominal one: the last

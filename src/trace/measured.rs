@@ -92,6 +92,31 @@ impl MeasuredTrace {
         })
     }
 
+    /// As [`MeasuredTrace::beyond_machine`], on the commands from `from_s` after the
+    /// record's first sample on (the times still on the record's clock): an approach before
+    /// the program that the model does not follow asks nothing of it.
+    pub fn beyond_machine_from(
+        &self,
+        machine: &crate::machine::MachineConfig,
+        from_s: f64,
+    ) -> Vec<crate::trace::recorded::BeyondMachine> {
+        let skip = if from_s > 0.0 && self.dt_s > 0.0 {
+            (from_s / self.dt_s).floor() as usize
+        } else {
+            0
+        };
+        self.commands.as_ref().map_or_else(Vec::new, |c| {
+            let tail = c
+                .clone()
+                .map(|v| v.get(skip..).map_or_else(Vec::new, <[f64]>::to_vec));
+            let mut found = crate::trace::recorded::beyond_machine(&tail, self.dt_s, machine);
+            for b in &mut found {
+                b.t_s += skip as f64 * self.dt_s;
+            }
+            found
+        })
+    }
+
     /// The trace in the program's coordinates: `offset_m` (the program origin's place in
     /// the trace's, as a work offset G54… gives it) subtracted from every measured and
     /// commanded position.
