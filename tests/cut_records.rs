@@ -278,3 +278,52 @@ fn a_delay_seen_only_at_speed_is_said_to_be_indistinguishable_from_a_gain() {
         p.uncertainty
     );
 }
+
+/// A square recorded in 0.1 µm encoder counts under plain headers, as a logger writes them:
+/// read as millimetres the positions are whole numbers up to 600 000 "mm", and the record
+/// is refused with a hint that names counts and spells out the `--columns` mapping that
+/// reads them; with that mapping the same text is diagnosed, nothing named on the nominal
+/// machine.
+#[test]
+fn positions_in_encoder_counts_get_a_hint_with_the_columns_spelling() {
+    use contourcheck::trace::format::ColumnMap;
+    use contourcheck::trace::measured::parse_trace_with;
+    let program = program_text(SQUARE);
+    let truth = MachineConfig::default_preset();
+    let csv = reference_csv(&program, &truth, &Recording::default(), true);
+    let counts: String = csv
+        .lines()
+        .enumerate()
+        .map(|(k, line)| {
+            if k == 0 {
+                return format!("{line}\n");
+            }
+            let cells: Vec<String> = line
+                .split(',')
+                .enumerate()
+                .map(|(j, c)| match j {
+                    0 => c.to_string(),
+                    _ => format!("{}", (c.parse::<f64>().unwrap() * 1e4).round()),
+                })
+                .collect();
+            cells.join(",") + "\n"
+        })
+        .collect();
+    let nominal = MachineConfig::default_preset();
+    let settings = DiagnoseSettings::for_machine(&nominal);
+    let as_mm = parse_trace(&counts, "counts.csv").unwrap();
+    let refused = diagnose(&program, &nominal, &as_mm, &settings)
+        .err()
+        .expect("millimetres 10⁴ times too large are refused")
+        .to_string();
+    let spelling = "t=t[s],x=x[counts:0.1um],y=y[counts:0.1um],x_cmd=x_cmd[counts:0.1um],\
+                    y_cmd=y_cmd[counts:0.1um]";
+    assert!(
+        refused.contains("encoder counts") && refused.contains(spelling),
+        "{refused}"
+    );
+    let map = ColumnMap::parse(spelling).unwrap();
+    let as_counts = parse_trace_with(&counts, "counts.csv", Some(&map)).unwrap();
+    let d = diagnose(&program, &nominal, &as_counts, &settings).unwrap();
+    assert!(d.causes.is_empty(), "{:?}", named(&d));
+}

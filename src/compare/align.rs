@@ -452,6 +452,10 @@ fn off_path(
         ),
         None => "is this a record of this program, in the same coordinates?".into(),
     };
+    let hint = match measured.counts_hint() {
+        Some(counts) => format!("{counts}; else {hint}"),
+        None => hint,
+    };
     CompareError::OffPath {
         file: measured.file.clone(),
         t_s: measured.t0_s + worst.t_s,
@@ -553,7 +557,9 @@ fn refuse_far_prediction(
         return Ok(());
     }
     let off_path = share_off_path(ctx);
-    let hint = if off_path > 0.2 {
+    let hint = if let Some(counts) = ctx.measured.counts_hint() {
+        format!(" {}{}.", counts[..1].to_uppercase(), &counts[1..])
+    } else if off_path > 0.2 {
         format!(
             " Its measured path lies more than 1 mm from every block of the program over \
              {:.0} % of the record: no timing can mend that.",
