@@ -313,8 +313,7 @@ fn positions_in_encoder_counts_get_a_hint_with_the_columns_spelling() {
     let settings = DiagnoseSettings::for_machine(&nominal);
     let as_mm = parse_trace(&counts, "counts.csv").unwrap();
     let refused = diagnose(&program, &nominal, &as_mm, &settings)
-        .err()
-        .expect("millimetres 10⁴ times too large are refused")
+        .expect_err("millimetres 10⁴ times too large are refused")
         .to_string();
     let spelling = "t=t[s],x=x[counts:0.1um],y=y[counts:0.1um],x_cmd=x_cmd[counts:0.1um],\
                     y_cmd=y_cmd[counts:0.1um]";

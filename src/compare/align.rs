@@ -216,19 +216,15 @@ fn driving_commands(
         settling_s,
         arrival,
         approach_simulated,
-    } = if placement.join > 0 {
-        from_join(commands, placement.join, machine, measured, settings)
-    } else if starts_in_motion(&commands) {
-        in_motion(commands, &plan_commands, machine, settings)
-    } else {
-        Prepared {
-            commands,
-            run_in_s: 0.0,
-            settling_s: [0.0; 2],
-            arrival: None,
-            approach_simulated: false,
-        }
-    };
+    } = prepare(
+        kind,
+        commands,
+        placement.join,
+        &plan_commands,
+        machine,
+        measured,
+        settings,
+    );
     let program_start_s = if whole {
         first_motion(&commands) - first_motion(&plan_commands)
     } else {
@@ -260,6 +256,30 @@ fn driving_commands(
             approach_simulated,
         },
     })
+}
+
+/// The commands a record's start is simulated on, by how it begins: from where they join the
+/// program after an approach, with a run-in where they begin in motion, else as recorded.
+fn prepare(
+    kind: StartKind,
+    commands: Commands,
+    join: usize,
+    plan_commands: &Commands,
+    machine: &MachineConfig,
+    measured: &MeasuredTrace,
+    settings: &CompareSettings,
+) -> Prepared {
+    match kind {
+        StartKind::BeforeProgram => from_join(commands, join, machine, measured, settings),
+        StartKind::InMotion => in_motion(commands, plan_commands, machine, settings),
+        StartKind::AtRest | StartKind::Planned => Prepared {
+            commands,
+            run_in_s: 0.0,
+            settling_s: [0.0; 2],
+            arrival: None,
+            approach_simulated: false,
+        },
+    }
 }
 
 /// The commands a record's start is simulated on, with how its start was set.
