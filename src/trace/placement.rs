@@ -240,7 +240,7 @@ fn nearest_segment(segs: &[Segment], q: [f64; 2]) -> usize {
 
 /// Follows the stream from sample `from` on segment `start` up to sample `to`, writing each
 /// sample's segment into `segment` where given; the sample where it lies furthest from a
-/// feed segment.
+/// feed segment (or from a rapid of Z alone, whose X and Y stand).
 fn follow(
     segs: &[Segment],
     commands: &Commands,
@@ -263,7 +263,10 @@ fn follow(
         if let Some(s) = segment.as_deref_mut() {
             s[k] = j as u32;
         }
-        if segs[j].motion == Motion::Rapid {
+        // A rapid's axes may each move on their own, off its line, but one with no extent
+        // in the plane (Z alone) holds X and Y where they are: a stream that moves there
+        // has left the program.
+        if segs[j].motion == Motion::Rapid && segs[j].xy_length_m() > 0.0 {
             continue;
         }
         let d = proj.signed_distance_m.abs();
