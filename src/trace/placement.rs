@@ -263,10 +263,12 @@ fn follow(
         if let Some(s) = segment.as_deref_mut() {
             s[k] = j as u32;
         }
-        // A rapid's axes may each move on their own, off its line, but one with no extent
-        // in the plane (Z alone) holds X and Y where they are: a stream that moves there
-        // has left the program.
-        if segs[j].motion == Motion::Rapid && segs[j].xy_length_m() > 0.0 {
+        // A rapid's axes may each move on their own, off its line, but one of Z alone holds
+        // X and Y where they are: a stream that moves there has left the program. (A rapid
+        // of no length at all, such as a program's first `G0` to where the axes stand, is a
+        // rapid like any other: the record may still be arriving there.)
+        let z_alone = segs[j].xy_length_m() == 0.0 && segs[j].length_m() > 0.0;
+        if segs[j].motion == Motion::Rapid && !z_alone {
             continue;
         }
         let d = proj.signed_distance_m.abs();
