@@ -86,6 +86,15 @@ pub(crate) fn place_on_path(
         // it strays.
         None => (0, nearest_segment(segs, point(commands, 0)), false),
     };
+    // A stream whose samples before the join all lie where it joins stood there from its
+    // first sample (it set off between two samples, too fast to join at the first): no
+    // approach comes before it.
+    let joined_at = point(commands, join);
+    let stood_there = (0..join).all(|k| {
+        let q = point(commands, k);
+        (q[0] - joined_at[0]).hypot(q[1] - joined_at[1]) <= tolerance_m
+    });
+    let join = if stood_there { 0 } else { join };
     let at_program_start = at_program_start(segs, start, point(commands, join));
     let mut segment = std::mem::take(&mut commands.segment);
     let worst = follow(segs, commands, (join, start), n, Some(&mut segment));
