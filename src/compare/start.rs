@@ -123,10 +123,18 @@ const RUN_IN_CRUISE_S: f64 = 1.0;
 /// A command slower than this stands (m/s).
 const MOVING_M_PER_S: f64 = 1e-5;
 
-/// Whether recorded commands move at their first sample.
+/// Whether recorded commands move at their first sample. A command that sets off from rest
+/// at its first sample shows there, as a difference of samples, no more speed than its
+/// acceleration there gives in a sample or two; one already moving shows its speed.
 pub(crate) fn starts_in_motion(commands: &Commands) -> bool {
-    commands.len() > 1
-        && commands.x.vel_m_per_s[0].hypot(commands.y.vel_m_per_s[0]) > MOVING_M_PER_S
+    if commands.len() < 2 {
+        return false;
+    }
+    let peak_accel = (0..commands.len().min(3))
+        .map(|k| commands.x.acc_m_per_s2[k].hypot(commands.y.acc_m_per_s2[k]))
+        .fold(0.0, f64::max);
+    let setting_off = 2.0 * peak_accel * commands.dt_s;
+    commands.x.vel_m_per_s[0].hypot(commands.y.vel_m_per_s[0]) > MOVING_M_PER_S.max(setting_off)
 }
 
 /// How an axis arrives at the first command a run-in leads to.
