@@ -21,6 +21,7 @@ pub mod holdout;
 pub mod learn;
 pub mod locate;
 pub mod plausible;
+pub mod repeat;
 pub mod report;
 pub mod search;
 pub mod table;
@@ -256,6 +257,9 @@ pub struct Diagnosis {
     pub learned: Vec<learn::Learned>,
     /// Which stretch of the program was compared, and how the record's start was set.
     pub coverage: Coverage,
+    /// Residuals the extended model leaves that repeat at the same places on every pass of
+    /// an axis, however small the record's RMS.
+    pub localized: Vec<repeat::Localized>,
 }
 
 /// Circular-test figures of the same circles three ways.
@@ -337,9 +341,17 @@ pub fn diagnose_validated(
         summary = summarize(&ctx, &nominal, &outcome.traces, outcome.offset_s, window_s);
         unexplained = locate::locate(&ctx, &outcome.traces, outcome.offset_s);
     }
+    let localized = repeat::localize(
+        &ctx,
+        &outcome.machine,
+        &outcome.traces,
+        outcome.offset_s,
+        window_s,
+    );
     Ok(Diagnosis {
         unexplained,
         learned,
+        localized,
         skipped: skipped_causes(machine, settings),
         searched: settings.max_causes > 0
             && CauseId::ALL.into_iter().any(|c| {
@@ -472,6 +484,7 @@ fn assemble(ctx: &Context, outcome: search::Outcome, summary: Summary) -> Diagno
         coverage: ctx.coverage(outcome.offset_s),
         unexplained: Vec::new(),
         learned: Vec::new(),
+        localized: Vec::new(),
         skipped: Vec::new(),
         searched: false,
     }

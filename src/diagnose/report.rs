@@ -9,6 +9,7 @@ use serde::Serialize;
 
 use super::learn::Learned;
 use super::locate::{Located, Variable};
+use super::repeat::Localized;
 
 use super::{
     Alternative, AxisResidual, Candidate, CircularComparison, Coverage, Diagnosis, ExtraWait,
@@ -76,6 +77,9 @@ pub struct DiagnoseReport {
     pub learned: Vec<Learned>,
     /// Which stretch of the program was compared, and how the record's start was set.
     pub coverage: Coverage,
+    /// Residuals that repeat at the same places on every pass of an axis (a tight spot, a
+    /// local scale or straightness error), however small the record's RMS.
+    pub localized: Vec<Localized>,
 }
 
 /// The measurement, as read.
@@ -248,6 +252,7 @@ impl DiagnoseReport {
             unexplained: d.unexplained.clone(),
             learned: d.learned.clone(),
             coverage: d.coverage,
+            localized: d.localized.clone(),
         }
     }
 
@@ -279,6 +284,9 @@ impl DiagnoseReport {
         }
         for u in &self.unexplained {
             let _ = writeln!(s, "  {}", unexplained_line(u));
+        }
+        for l in &self.localized {
+            let _ = writeln!(s, "  {}", localized_line(l));
         }
         for k in &self.skipped {
             let axes: Vec<String> = k.axes.iter().map(|a| a.to_string()).collect();
@@ -707,7 +715,16 @@ fn verdict(d: &Diagnosis) -> String {
         );
     }
     let worst = d.before.x.rms_um.max(d.before.y.rms_um);
-    if worst <= 1.2 * d.noise_floor_um {
+    if !d.localized.is_empty() {
+        let axes: Vec<String> = d.localized.iter().map(|l| l.axis.to_string()).collect();
+        format!(
+            "No significant cause; a residual repeats at the same places on every pass of {} \
+             (a local effect, below), though the whole record's residual is {worst:.3} µm RMS \
+             against a noise of {:.3} µm.",
+            axes.join(" and "),
+            d.noise_floor_um
+        )
+    } else if worst <= 1.2 * d.noise_floor_um {
         format!(
             "No significant cause: the nominal model predicts the measurement to its noise ({:.3} µm).",
             d.noise_floor_um
@@ -744,6 +761,49 @@ fn learned_line(l: &Learned) -> String {
         l.rms_after_um,
         l.held_out_before_um,
         l.held_out_after_um
+    )
+}
+
+/// A residual that repeats at the same places, in a line: where, how large, how sure.
+fn localized_line(l: &Localized) -> String {
+    let spots: Vec<String> = l
+        .spots
+        .iter()
+        .map(|p| {
+            let way = if p.follows_direction {
+                " (against the motion: as on passes towards +)"
+            } else {
+                ""
+            };
+            format!(
+                "{} {:.1} mm ({:.1}–{:.1}) {:+.2} µm{way}, every pass ≥ {:.1} σ, together {:.1} σ",
+                l.axis,
+                p.centre_mm,
+                p.from_mm,
+                p.to_mm,
+                p.residual_um,
+                p.weakest_pass_sigma,
+                p.combined_sigma
+            )
+        })
+        .collect();
+    let stretch = l.stretch_mm.map_or(String::new(), |(a, b)| {
+        format!(
+            "; of opposite sign at both ends of {} {a:.1}–{b:.1} mm, as where a stretch differs \
+             (friction, scale)",
+            l.axis
+        )
+    });
+    format!(
+        "localized on {}: the residual repeats at the same places on all {} passes over them \
+         (of {} steady passes; windows of {:.1} mm, σ the spread of a window's mean): {}{stretch}. \
+         Not a cause of the catalogue, and not machine-wide: a tight spot, or a local scale or \
+         straightness error",
+        l.axis,
+        l.passes_over_spots,
+        l.passes,
+        l.window_mm,
+        spots.join("; ")
     )
 }
 
