@@ -673,8 +673,29 @@ fn sig(v: f64) -> String {
     format!("{v:.digits$}")
 }
 
-/// The one-sentence outcome.
+/// The one-sentence outcome, and the causes the record shows but the model cannot
+/// determine.
 fn verdict(d: &Diagnosis) -> String {
+    let seen: Vec<String> = d
+        .rejected
+        .iter()
+        .filter(|r| r.seen)
+        .map(|r| format!("{} on {}", r.id.as_str(), r.axis))
+        .collect();
+    let outcome = found_sentence(d);
+    if seen.is_empty() {
+        outcome
+    } else {
+        format!(
+            "{outcome} Seen, not determined: {} (the record shows it, but the model extended \
+             by it predicts the record worse point by point; below).",
+            seen.join(", ")
+        )
+    }
+}
+
+/// What was found, in a sentence.
+fn found_sentence(d: &Diagnosis) -> String {
     if !d.searched {
         return "No cause tried (none allowed by --max-causes, --causes, --exclude or the \
                 measuring point); the residuals below are the nominal model's."
