@@ -1211,3 +1211,37 @@ fn a_stick_slip_fit_that_predicts_the_record_worse_is_seen_and_not_named() {
         "{text}"
     );
 }
+
+/// A ballbar record (taken at the tool) of the circle test with 10 µm of backlash on X, an
+/// axis whose loop reads a linear scale: the scale's loop takes the gap out at each
+/// reversal, so the ballbar shows spikes rather than a 10 µm step, and the report says so
+/// by the axis's feedback — never that the loop closes on the motor, which it does not.
+#[test]
+fn the_backlash_explanation_follows_the_axis_feedback_not_where_the_record_was_taken() {
+    let circle = program("circle-test.nc");
+    let machine = MachineConfig::default_preset();
+    assert_eq!(
+        machine.x.position_loop.feedback,
+        contourcheck::machine::Feedback::LinearScale
+    );
+    let spec = SynthSpec {
+        effect: Some((CauseId::Backlash, AxisName::X, vec![10.0])),
+        offset_s: 0.31,
+        seed: 71,
+        ..SynthSpec::default()
+    };
+    let measured = recorded(&circle, &machine, &spec, "ballbar.csv");
+    let mut settings = DiagnoseSettings::for_machine(&machine);
+    settings.compare.measured_at = contourcheck::sim::MeasuredAt::Tool;
+    let d = diagnose(&circle, &machine, &measured, &settings).unwrap();
+    assert!(
+        d.causes.iter().any(|c| c.id == CauseId::Backlash),
+        "{:?}",
+        d.rejected
+    );
+    let text =
+        contourcheck::diagnose::report::DiagnoseReport::new(&d, "circle.nc", &measured, &machine)
+            .summary_text();
+    assert!(text.contains("behind the linear scale"), "{text}");
+    assert!(!text.contains("closes on the motor"), "{text}");
+}

@@ -16,7 +16,7 @@ use super::{
     FittedParam, HeldOut, HeldOutMeasure, JudgedOn, Place, Rejected, ResidualStats, Skipped,
 };
 use crate::causes::CauseId;
-use crate::machine::{AxisName, MachineConfig};
+use crate::machine::{AxisName, Feedback, MachineConfig};
 use crate::sim::MeasuredAt;
 use crate::trace::measured::MeasuredTrace;
 use crate::trace::recorded::BeyondMachine;
@@ -77,6 +77,8 @@ pub struct DiagnoseReport {
     pub learned: Vec<Learned>,
     /// Which stretch of the program was compared, and how the record's start was set.
     pub coverage: Coverage,
+    /// Where each axis's position loop reads it (X, Y): what the explanations follow.
+    pub loop_feedback: [Feedback; 2],
     /// Residuals that repeat at the same places on every pass of an axis (a tight spot, a
     /// local scale or straightness error), however small the record's RMS.
     pub localized: Vec<Localized>,
@@ -252,6 +254,7 @@ impl DiagnoseReport {
             unexplained: d.unexplained.clone(),
             learned: d.learned.clone(),
             coverage: d.coverage,
+            loop_feedback: AxisName::BOTH.map(|a| machine.axis(a).position_loop.feedback),
             localized: d.localized.clone(),
         }
     }
@@ -612,10 +615,13 @@ fn ballbar_and_causes(r: &DiagnoseReport) -> Option<String> {
         .flat_map(|c| spikes.map(|i| c.reversal_spikes_um[i]))
         .filter(|v| v.is_finite())
         .fold(0.0f64, |m, v| m.max(v.abs()));
-    let behind = if r.measured.measured_at == MeasuredAt::Table {
-        "behind the linear scale the loop takes the screw's gap out at each reversal"
-    } else {
-        "the loop closes on the motor, beyond which the gap lies"
+    // What the loop sees of the gap follows where it reads the axis, not where the record
+    // was taken.
+    let behind = match r.loop_feedback[backlash.axis.index()] {
+        Feedback::LinearScale => {
+            "behind the linear scale the loop takes the screw's gap out at each reversal"
+        }
+        Feedback::MotorEncoder => "the loop closes on the motor, beyond which the gap lies",
     };
     Some(format!(
         "The ballbar's backlash figure for {} ({step_um:+.2} µm, a step across the reversal) \
