@@ -56,6 +56,8 @@ pub struct RunChunk<'a> {
     pub x: AxisTrace,
     /// Y trace of the chunk.
     pub y: AxisTrace,
+    /// Z trace of the chunk, where the machine simulates Z (else Z stands where commanded).
+    pub z: Option<AxisTrace>,
 }
 
 /// Stretches shorter than this (samples) are simulated on one thread: splitting them over
@@ -285,6 +287,7 @@ impl Buffer {
             commands: &self.commands,
             x,
             y,
+            z: None,
         })?;
         self.first = self.next();
         self.commands.truncate(0);

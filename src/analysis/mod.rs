@@ -6,6 +6,7 @@
 
 pub mod circular;
 pub mod contour;
+pub mod contour3d;
 pub mod hotspot;
 pub mod thinning;
 
@@ -167,7 +168,13 @@ impl RunAnalyser {
             // At the tool: the axes' geometry lies beyond the scales the loops close on.
             let pos_m = self.tool.read([chunk.x.pos_m[i], chunk.y.pos_m[i]]);
             let reference = [c.x.pos_m[i], c.y.pos_m[i]];
-            let point = self.locator.locate(plan, seg, reference, pos_m);
+            let z_m = chunk.z.as_ref().map_or(c.z.pos_m[i], |z| z.pos_m[i]);
+            let point = self.locator.locate(
+                plan,
+                seg,
+                [reference[0], reference[1], c.z.pos_m[i]],
+                [pos_m[0], pos_m[1], z_m],
+            );
             let cutting = plan.segments[seg].motion == Motion::Feed;
             let line = plan.segments[seg].line;
             self.tally_errors(traces, i, cutting);
@@ -194,7 +201,7 @@ impl RunAnalyser {
                     mode: [chunk.x.mode[i], chunk.y.mode[i]],
                 },
             );
-            self.circles.push(point.segment, pos_m);
+            self.circles.push(point.segment, [pos_m[0], pos_m[1], z_m]);
             self.plot.push(PlotPoint {
                 pos_m,
                 path_s_m: point.path_s_m,

@@ -180,7 +180,7 @@ fn programmed_polylines(run: &CheckResult) -> Vec<Vec<(f64, f64)>> {
             Geometry::Arc(a) => {
                 let n = ((a.sweep_rad.abs() / 0.02).ceil() as usize).max(2);
                 (0..=n)
-                    .map(|i| a.xy_at(i as f64 / n as f64))
+                    .map(|i| s.point_at_param(i as f64 / n as f64))
                     .map(|p| (mm_from_m(p[0]), mm_from_m(p[1])))
                     .collect()
             }

@@ -114,8 +114,10 @@ pub fn write_commands_csv(
         "z_mm",
         "vx_mm_per_min",
         "vy_mm_per_min",
+        "vz_mm_per_min",
         "ax_m_per_s2",
         "ay_m_per_s2",
+        "az_m_per_s2",
         "line",
     ])?;
     for k in 0..c.len() {
@@ -123,11 +125,13 @@ pub fn write_commands_csv(
             format!("{:.4}", c.time_s(k)),
             format!("{:.6}", mm_from_m(c.x.pos_m[k])),
             format!("{:.6}", mm_from_m(c.y.pos_m[k])),
-            format!("{:.6}", mm_from_m(c.z_m[k])),
+            format!("{:.6}", mm_from_m(c.z.pos_m[k])),
             format!("{:.3}", mm_per_min_from_m_per_s(c.x.vel_m_per_s[k])),
             format!("{:.3}", mm_per_min_from_m_per_s(c.y.vel_m_per_s[k])),
+            format!("{:.3}", mm_per_min_from_m_per_s(c.z.vel_m_per_s[k])),
             format!("{:.6}", c.x.acc_m_per_s2[k]),
             format!("{:.6}", c.y.acc_m_per_s2[k]),
+            format!("{:.6}", c.z.acc_m_per_s2[k]),
             segments
                 .get(c.segment[k] as usize)
                 .map_or(0, |s| s.line)

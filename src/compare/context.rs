@@ -238,7 +238,7 @@ impl Context<'_> {
         let in_position = nominal.map(|ip| {
             let computed = InPosition::kv_per_s_of_cascades(machine);
             InPosition {
-                kv_per_s: [0, 1].map(|i| computed[i].unwrap_or(ip.kv_per_s[i])),
+                kv_per_s: [0, 1, 2].map(|i| computed[i].unwrap_or(ip.kv_per_s[i])),
                 ..ip
             }
         });

@@ -790,7 +790,9 @@ fn plan_view(ctx: &Context, times: &[f64]) -> Commands {
         v.y.vel_m_per_s.push(pc.y.vel_m_per_s[k]);
         v.x.acc_m_per_s2.push(pc.x.acc_m_per_s2[k]);
         v.y.acc_m_per_s2.push(pc.y.acc_m_per_s2[k]);
-        v.z_m.push(pc.z_m[k]);
+        v.z.pos_m.push(pc.z.pos_m[k]);
+        v.z.vel_m_per_s.push(pc.z.vel_m_per_s[k]);
+        v.z.acc_m_per_s2.push(pc.z.acc_m_per_s2[k]);
         v.segment.push(pc.segment[k]);
     }
     v

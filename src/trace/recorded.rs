@@ -289,7 +289,11 @@ pub(crate) fn commands_from_record(
         dt_s: dt_out_s,
         x: axis(x_m),
         y: axis(y_m),
-        z_m: vec![0.0; n],
+        z: AxisCommands {
+            pos_m: vec![0.0; n],
+            vel_m_per_s: vec![0.0; n],
+            acc_m_per_s2: vec![0.0; n],
+        },
         segment: vec![0; n],
     }
 }
