@@ -5,10 +5,14 @@
 //! statement stands on a line of its own (after its block number or label), as the 840D
 //! writes them; the structure is matched before the program runs, so an `ENDWHILE` without
 //! its `WHILE` is an error at its line rather than a surprise half-way through.
+//! A statement is run where the program reaches it, against the variables as they stand
+//! there ([`Translator::control`]).
 
 use std::collections::HashMap;
 
 use super::super::error::GcodeErrorKind;
+use super::Translator;
+use super::expr::{ExprError, condition, evaluate};
 
 /// A control statement and what it holds (the text after its keyword, upper case).
 #[derive(Debug, Clone, PartialEq)]
@@ -306,6 +310,146 @@ fn pair(s: &mut Structure, open: usize, close: usize) {
 
 fn bad(problem: &str) -> GcodeErrorKind {
     GcodeErrorKind::Invalid(problem.to_string())
+}
+
+/// Running a control statement: its conditions and values read from the variables as
+/// they stand when the program reaches it.
+impl Translator {
+    /// Enters the `FOR` of line `k`: its variable set to `from`, its end `to` kept; whether
+    /// the loop runs at all.
+    fn for_entry(
+        &mut self,
+        k: usize,
+        var: &str,
+        from: &str,
+        to: &str,
+    ) -> Result<bool, GcodeErrorKind> {
+        let value = |t: &Translator, text: &str| {
+            evaluate(&text.replace(' ', ""), &t.vars)
+                .map(|(v, _)| v)
+                .map_err(|_| GcodeErrorKind::Invalid(format!("FOR: '{text}' has no value")))
+        };
+        let (a, b) = (value(self, from)?, value(self, to)?);
+        self.vars.insert(var.to_string(), a);
+        self.for_end.insert((self.scope, k), b);
+        Ok(a <= b)
+    }
+
+    /// The `ENDFOR` of line `k`: the variable stepped, and the line to run next (the
+    /// loop's first, or past its end).
+    fn for_next(&mut self, k: usize, structure: &Structure) -> usize {
+        let start = structure.partner(k).unwrap_or(k);
+        let Some(Control::For { var, .. }) = structure.control(start) else {
+            return k + 1;
+        };
+        let v = self.vars.get(var).copied().unwrap_or(0.0) + 1.0;
+        self.vars.insert(var.clone(), v);
+        let end = self
+            .for_end
+            .get(&(self.scope, start))
+            .copied()
+            .unwrap_or(f64::NEG_INFINITY);
+        if v <= end { start + 1 } else { k + 1 }
+    }
+
+    /// Runs the control statement of line `k`; the line to run next.
+    pub fn control(
+        &mut self,
+        c: &Control,
+        k: usize,
+        structure: &Structure,
+    ) -> Result<usize, GcodeErrorKind> {
+        let test = |t: &Translator, text: &str| {
+            condition(text, &t.vars).map_err(|e| match e {
+                ExprError::Unknown(_, name) if name.starts_with('$') => {
+                    GcodeErrorKind::Unsupported {
+                        word: name,
+                        reason: "system variables are not supported yet",
+                    }
+                }
+                ExprError::Unknown(_, name) => GcodeErrorKind::Invalid(format!(
+                    "{name}: no R-parameter or DEF variable of that name has a value here"
+                )),
+                ExprError::Syntax(_, problem) => GcodeErrorKind::Expression(problem),
+            })
+        };
+        let jump = |target: &str, way: Way, quiet: bool| match structure.label(target, k, way) {
+            Some(line) => Ok(line),
+            None if quiet => Ok(k + 1),
+            None => Err(GcodeErrorKind::Invalid(format!(
+                "{target}: no label or block number of that name {}",
+                match way {
+                    Way::Forward => "after this block (GOTOF)",
+                    Way::Backward => "before this block (GOTOB)",
+                    Way::Both => "in the program",
+                }
+            ))),
+        };
+        let after = |line: Option<usize>| line.map_or(k + 1, |l| l + 1);
+        Ok(match c {
+            Control::Goto { target, way, quiet } => jump(target, *way, *quiet)?,
+            Control::IfGoto {
+                condition,
+                target,
+                way,
+            } => {
+                if test(self, condition)? {
+                    jump(target, *way, false)?
+                } else {
+                    k + 1
+                }
+            }
+            // A structure entered (or, for UNTIL, left) while its condition holds; else past
+            // its partner.
+            Control::If { condition }
+            | Control::While { condition }
+            | Control::Until { condition } => {
+                if test(self, condition)? {
+                    k + 1
+                } else {
+                    after(structure.partner(k))
+                }
+            }
+            // Reached from the end of the IF's part: past the ENDIF.
+            Control::Else => after(structure.partner(k)),
+            Control::EndWhile => structure.partner(k).unwrap_or(k + 1),
+            Control::For { var, from, to } => {
+                if self.for_entry(k, var, from, to)? {
+                    k + 1
+                } else {
+                    after(structure.partner(k))
+                }
+            }
+            Control::EndFor => self.for_next(k, structure),
+            Control::EndLoop => after(structure.partner(k)),
+            Control::Case {
+                expr,
+                branches,
+                default,
+            } => {
+                let value = |t: &Translator, text: &str| {
+                    evaluate(&text.replace(' ', ""), &t.vars)
+                        .map(|(v, _)| v)
+                        .map_err(|_| {
+                            GcodeErrorKind::Invalid(format!("CASE: '{text}' has no value"))
+                        })
+                };
+                let v = value(self, expr)?;
+                let mut chosen = None;
+                for (constant, target, way) in branches {
+                    if value(self, constant)? == v {
+                        chosen = Some((target, *way));
+                        break;
+                    }
+                }
+                match chosen.or(default.as_ref().map(|(t, w)| (t, *w))) {
+                    Some((target, way)) => jump(target, way, false)?,
+                    None => k + 1,
+                }
+            }
+            Control::Repeat | Control::Loop | Control::EndIf => k + 1,
+        })
+    }
 }
 
 #[cfg(test)]

@@ -17,8 +17,9 @@ use super::super::error::GcodeErrorKind;
 use super::super::interp::Interpreter;
 use super::super::lexer::LexedLine;
 use super::super::{Errors, run_line};
+use super::Translator;
+use super::calls::Call;
 use super::flow::Structure;
-use super::{Call, Translator};
 
 /// A file of subprograms the program calls, and where its lines are numbered.
 #[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]

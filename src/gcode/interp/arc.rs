@@ -1,0 +1,210 @@
+//! Arcs (`G2`/`G3`) in the XY plane: by centre (I/J) or radius (R), helical and
+//! multi-turn, checked against LinuxCNC's tolerances.
+
+use super::{IResult, Interpreter, Plane, err};
+use crate::gcode::error::{GcodeErrorKind, Warning};
+use crate::path::{Arc, Geometry, Motion, Segment};
+use crate::units::{MM_PER_INCH, m_from_mm};
+
+/// LinuxCNC's absolute tolerance on the start/end radius difference of an I/J arc
+/// (CENTER_ARC_RADIUS_TOLERANCE_MM = 2·0.01·√2 mm; the inch value, 2·0.001·√2 in, applies
+/// under G20).
+const ARC_RADIUS_TOL_MM: f64 = 2.0 * 0.01 * std::f64::consts::SQRT_2;
+const ARC_RADIUS_TOL_INCH: f64 = 2.0 * 0.001 * std::f64::consts::SQRT_2;
+/// LinuxCNC's relative tolerance on the same difference (SPIRAL_RELATIVE_TOLERANCE).
+const ARC_RADIUS_REL_TOL: f64 = 0.001;
+/// Slack for an R arc's radius against half its chord (RADIUS_TOLERANCE_INCH = 0.00005 in).
+const R_ARC_SLACK_INCH: f64 = 0.00005;
+/// R arcs within this angle of a half circle get a conditioning warning.
+const R_ARC_NEAR_HALF_DEG: f64 = 5.0;
+/// I/J arcs whose end lies within this distance of the start (but not on it) are warned.
+const NEAR_COINCIDENT_MM: f64 = 0.001;
+impl Interpreter {
+    /// G2/G3 in the XY plane, I/J or R form, optionally helical and multi-turn (P).
+    pub(super) fn arc(&mut self, ccw: bool, end_mm: [f64; 3], offset: u32) -> IResult<()> {
+        if self.plane != Plane::Xy {
+            let word = if ccw { "G3" } else { "G2" };
+            let reason = "arcs outside the XY plane (G18/G19) are not supported";
+            return err(
+                offset,
+                GcodeErrorKind::Unsupported {
+                    word: word.into(),
+                    reason,
+                },
+            );
+        }
+        if let Some(k) = self.block.values[(b'K' - b'A') as usize] {
+            return err(
+                k.1,
+                GcodeErrorKind::Invalid("K word in an XY-plane arc".into()),
+            );
+        }
+        let turns = self.arc_turns(offset)?;
+        let has_ij = self.block.get(b'I').is_some() || self.block.get(b'J').is_some();
+        let (center, r_start, r_end) = match (self.block.get(b'R'), has_ij) {
+            (Some(_), true) => {
+                let off = self.block.offset_of(b'R');
+                return err(
+                    off,
+                    GcodeErrorKind::Invalid("arc with both R and I/J".into()),
+                );
+            }
+            (None, false) => {
+                return err(offset, GcodeErrorKind::Invalid("arc needs I/J or R".into()));
+            }
+            (Some(r), false) => self.r_arc_center(ccw, r, end_mm)?,
+            (None, true) => self.ij_arc_center(end_mm)?,
+        };
+        let start = self.pos_mm;
+        let th0 = (start[1] - center[1]).atan2(start[0] - center[0]);
+        let th1 = (end_mm[1] - center[1]).atan2(end_mm[0] - center[0]);
+        let mut sweep = if ccw {
+            let d = (th1 - th0).rem_euclid(std::f64::consts::TAU);
+            if d == 0.0 { std::f64::consts::TAU } else { d }
+        } else {
+            let d = (th0 - th1).rem_euclid(std::f64::consts::TAU);
+            -(if d == 0.0 { std::f64::consts::TAU } else { d })
+        };
+        sweep += sweep.signum() * std::f64::consts::TAU * (turns - 1) as f64;
+        self.warn_near_coincident(start, end_mm, sweep);
+        let arc = Arc {
+            center_m: [m_from_mm(center[0]), m_from_mm(center[1])],
+            r_start_m: m_from_mm(r_start),
+            r_end_m: m_from_mm(r_end),
+            theta_start_rad: th0,
+            sweep_rad: sweep,
+        };
+        self.segments.push(Segment {
+            geometry: Geometry::Arc(arc),
+            start_m: self.pos_m(),
+            end_m: end_mm.map(m_from_mm),
+            motion: Motion::Feed,
+            feed_m_per_s: self.feed_for(Motion::Feed),
+            blend: self.blend,
+            line: self.line,
+            jerk_limited: self.jerk_limited,
+        });
+        self.pos_mm = end_mm;
+        Ok(())
+    }
+
+    fn arc_turns(&self, offset: u32) -> IResult<u32> {
+        match self.block.get(b'P') {
+            None => Ok(1),
+            Some(p) if p >= 1.0 && p.fract() == 0.0 && p <= 10_000.0 => Ok(p as u32),
+            Some(p) => err(
+                offset,
+                GcodeErrorKind::Invalid(format!("arc P{p}: turns must be a positive integer")),
+            ),
+        }
+    }
+
+    fn ij_arc_center(&self, end: [f64; 3]) -> IResult<([f64; 2], f64, f64)> {
+        let start = self.pos_mm;
+        let i = self.block.get(b'I').unwrap_or(0.0) * self.mm_per_unit;
+        let j = self.block.get(b'J').unwrap_or(0.0) * self.mm_per_unit;
+        let start_prog = self.machine_to_program(start);
+        let center_prog = if self.arc_absolute {
+            [i, j, 0.0]
+        } else {
+            [start_prog[0] + i, start_prog[1] + j, 0.0]
+        };
+        let c = self.program_to_machine(center_prog);
+        let center = [c[0], c[1]];
+        let r_start = (start[0] - center[0]).hypot(start[1] - center[1]);
+        let r_end = (end[0] - center[0]).hypot(end[1] - center[1]);
+        let slack = R_ARC_SLACK_INCH * MM_PER_INCH;
+        if r_start < slack || r_end < slack {
+            return err(
+                self.block.offset_of(b'I').max(self.block.offset_of(b'J')),
+                GcodeErrorKind::ZeroRadiusArc,
+            );
+        }
+        // LinuxCNC's rule: an error beyond 100× the absolute tolerance, or beyond both the
+        // absolute and the relative tolerance.
+        let tol = if self.mm_per_unit == 1.0 {
+            ARC_RADIUS_TOL_MM
+        } else {
+            ARC_RADIUS_TOL_INCH * MM_PER_INCH
+        };
+        let diff = (r_start - r_end).abs();
+        let rel = diff / r_start.max(r_end);
+        if diff > 100.0 * tol || (rel > ARC_RADIUS_REL_TOL && diff > tol) {
+            let off = self.first_axis_offset();
+            return err(
+                off,
+                GcodeErrorKind::ArcRadiusMismatch {
+                    r_start_mm: r_start,
+                    r_end_mm: r_end,
+                    diff_mm: diff,
+                    tolerance_mm: tol,
+                },
+            );
+        }
+        Ok((center, r_start, r_end))
+    }
+
+    fn r_arc_center(&mut self, ccw: bool, r: f64, end: [f64; 3]) -> IResult<([f64; 2], f64, f64)> {
+        let start = self.pos_mm;
+        let r_mm = r * self.mm_per_unit;
+        let (dx, dy) = (end[0] - start[0], end[1] - start[1]);
+        let chord = dx.hypot(dy);
+        let off = self.block.offset_of(b'R');
+        if chord == 0.0 {
+            return err(off, GcodeErrorKind::RArcFullCircle);
+        }
+        let abs_r = r_mm.abs();
+        let half = chord / 2.0;
+        if abs_r < half - R_ARC_SLACK_INCH * MM_PER_INCH {
+            return err(
+                off,
+                GcodeErrorKind::ArcRadiusTooSmall {
+                    r_mm: abs_r,
+                    chord_mm: chord,
+                },
+            );
+        }
+        let abs_r = abs_r.max(half);
+        let h = (abs_r * abs_r - half * half).max(0.0).sqrt();
+        // Centre on the left of the chord for a CCW minor arc (or a CW major arc).
+        let left = ccw == (r_mm > 0.0);
+        let (nx, ny) = if left {
+            (-dy / chord, dx / chord)
+        } else {
+            (dy / chord, -dx / chord)
+        };
+        let center = [start[0] + dx / 2.0 + nx * h, start[1] + dy / 2.0 + ny * h];
+        self.warn_badly_conditioned_r(abs_r, half, h);
+        Ok((center, abs_r, abs_r))
+    }
+
+    fn warn_badly_conditioned_r(&mut self, r: f64, half: f64, h: f64) {
+        let sweep_deg = 2.0 * (half / r).min(1.0).asin().to_degrees();
+        if (180.0 - sweep_deg).abs() < R_ARC_NEAR_HALF_DEG {
+            // d(centre)/d(end point) grows like half/h: how far 1 µm of rounding moves it.
+            let moved_um = if h > 0.0 { half / h } else { f64::INFINITY };
+            self.warnings.push(Warning {
+                line: self.line,
+                message: format!(
+                    "R-format arc spans {:.2}° (near a half circle): its centre is badly \
+                     conditioned, 1 µm of end-point rounding moves it by {:.0} µm; prefer I/J",
+                    sweep_deg, moved_um
+                ),
+            });
+        }
+    }
+
+    fn warn_near_coincident(&mut self, start: [f64; 3], end: [f64; 3], sweep: f64) {
+        let d = (end[0] - start[0]).hypot(end[1] - start[1]);
+        if d > 0.0 && d < NEAR_COINCIDENT_MM {
+            self.warnings.push(Warning {
+                line: self.line,
+                message: format!(
+                    "arc start and end nearly coincide ({:.3} µm apart): read as a {:.1}° arc",
+                    d * 1000.0,
+                    sweep.abs().to_degrees()
+                ),
+            });
+        }
+    }
+}

@@ -1,0 +1,262 @@
+//! The programmable frames (`TRANS`, `ROT`, `SCALE`, `MIRROR` and their additive forms):
+//! the workpiece's coordinates turned, shifted, scaled and mirrored into the program's.
+
+use super::super::error::GcodeErrorKind;
+use super::emit::Piece;
+use super::words::Value;
+use super::{Failure, Rewritten, Translator, refuse};
+
+/// A programmable frame: a point p of the workpiece is at `shift + rotation(angle)·S·p` in
+/// the program's coordinates, S the scale per axis (negative where mirrored) — the 840D's
+/// order of a frame's parts: translation, rotation, scale, mirror.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Frame {
+    shift: [f64; 3],
+    angle_deg: f64,
+    pub(super) scale: [f64; 3],
+}
+
+impl Default for Frame {
+    fn default() -> Self {
+        Frame {
+            shift: [0.0; 3],
+            angle_deg: 0.0,
+            scale: [1.0; 3],
+        }
+    }
+}
+
+impl Frame {
+    pub(super) fn is_identity(&self) -> bool {
+        *self == Frame::default()
+    }
+
+    /// A vector of the workpiece (an increment, an arc's centre offset) in the program's
+    /// coordinates.
+    pub(super) fn turn(&self, [x, y]: [f64; 2]) -> [f64; 2] {
+        let (x, y) = (self.scale[0] * x, self.scale[1] * y);
+        let (s, c) = self.angle_deg.to_radians().sin_cos();
+        [c * x - s * y, s * x + c * y]
+    }
+
+    /// A point of the workpiece in the program's coordinates.
+    pub(super) fn place(&self, p: [f64; 3]) -> [f64; 3] {
+        let [x, y] = self.turn([p[0], p[1]]);
+        [
+            x + self.shift[0],
+            y + self.shift[1],
+            self.scale[2] * p[2] + self.shift[2],
+        ]
+    }
+
+    /// The workpiece point at the program's point `p`.
+    fn back(&self, p: [f64; 3]) -> [f64; 3] {
+        let (x, y) = (p[0] - self.shift[0], p[1] - self.shift[1]);
+        let (s, c) = self.angle_deg.to_radians().sin_cos();
+        let (x, y) = (c * x + s * y, -s * x + c * y);
+        [
+            x / self.scale[0],
+            y / self.scale[1],
+            (p[2] - self.shift[2]) / self.scale[2],
+        ]
+    }
+
+    /// Whether one of X and Y is mirrored (not both: that is a half turn), so that a
+    /// clockwise arc of the workpiece runs counter-clockwise in the program.
+    fn mirrored(&self) -> bool {
+        self.scale[0] * self.scale[1] < 0.0
+    }
+
+    /// Whether X and Y are scaled alike, so that an arc stays an arc.
+    fn round(&self) -> bool {
+        (self.scale[0].abs() - self.scale[1].abs()).abs() <= 1e-12 * self.scale[0].abs()
+    }
+}
+
+/// A frame instruction: `TRANS`, `ROT`, `SCALE` and `MIRROR` replace the programmable frame,
+/// `ATRANS`, `AROT`, `ASCALE` and `AMIRROR` add to it (in its own coordinates).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum FrameChange {
+    Trans,
+    ATrans,
+    Rot,
+    ARot,
+    Scale,
+    AScale,
+    Mirror,
+    AMirror,
+}
+
+impl Translator {
+    /// The motion code the interpreter is to hold for this block under the frame: a
+    /// mirrored frame turns a clockwise arc of the workpiece counter-clockwise, so `G2` is
+    /// written `G3` and back — in the block that names it, and in a block that moves on the
+    /// modal arc whenever the interpreter holds the other one. An arc under a scale that
+    /// differs on X and Y (an ellipse) is refused.
+    pub(super) fn motion_under_frame(
+        &mut self,
+        g_codes: &[(usize, u32)],
+        words: &[(usize, char, Value)],
+        pieces: &mut Vec<(usize, Piece)>,
+        out: &mut Rewritten,
+    ) -> Result<(), Failure> {
+        let named = g_codes.iter().copied().find(|&(_, g)| g <= 3);
+        if let Some((_, g)) = named {
+            self.motion = Some(g);
+        }
+        let moving = words
+            .iter()
+            .find(|w| matches!(w.1, 'X' | 'Y' | 'I' | 'J' | 'R'))
+            .map(|w| w.0);
+        let arc = matches!(self.motion, Some(2 | 3));
+        if let Some(offset) = moving
+            && arc
+            && !self.frame.round()
+        {
+            return Err(refuse(
+                offset,
+                &format!("G{}", self.motion.unwrap_or(2)),
+                "an arc under a scale that differs on X and Y is an ellipse, which G2/G3 \
+                 cannot describe",
+            ));
+        }
+        let wanted = match self.motion {
+            Some(g @ (2 | 3)) if self.frame.mirrored() => Some(5 - g),
+            m => m,
+        };
+        if let Some((offset, g)) = named {
+            if Some(g) != wanted {
+                out.plain = false;
+                for piece in pieces.iter_mut() {
+                    if piece.0 == offset && matches!(piece.1, Piece::G(code) if code == g) {
+                        piece.1 = Piece::G(wanted.unwrap_or(g));
+                    }
+                }
+            }
+            self.emitted_motion = wanted;
+        } else if let (Some(offset), Some(w)) = (moving, wanted)
+            && self.emitted_motion != wanted
+        {
+            out.plain = false;
+            pieces.push((offset, Piece::G(w)));
+            self.emitted_motion = wanted;
+        }
+        Ok(())
+    }
+
+    /// The block's target (workpiece coordinates, as tracked) in the program's.
+    pub(super) fn framed_target(&self, offset: usize) -> Result<[f64; 3], Failure> {
+        let [Some(x), Some(y), Some(z)] = self.position else {
+            return Err((
+                offset,
+                GcodeErrorKind::Invalid(
+                    "a move under a frame needs X, Y and Z set before it (the frame turns \
+                     them together)"
+                        .into(),
+                ),
+            ));
+        };
+        Ok(self.frame.place([x, y, z]))
+    }
+
+    /// Applies a frame instruction whose arguments are the block's X, Y, Z and `RPL=`;
+    /// the block's other words.
+    pub(super) fn change_frame(
+        &mut self,
+        change: FrameChange,
+        words: Vec<(usize, char, Value)>,
+    ) -> Result<Vec<(usize, char, Value)>, Failure> {
+        let mut args = [0.0f64; 3];
+        let mut given = [false; 3];
+        let mut rest = Vec::new();
+        for (offset, letter, value) in words {
+            let axis = match letter {
+                'X' => 0,
+                'Y' => 1,
+                'Z' => 2,
+                _ => {
+                    rest.push((offset, letter, value));
+                    continue;
+                }
+            };
+            let Value::Number(v) = value else {
+                return Err(refuse(
+                    offset,
+                    "AC/IC",
+                    "a frame's values are plain numbers",
+                ));
+            };
+            if matches!(change, FrameChange::Rot | FrameChange::ARot) && axis != 2 {
+                return Err(refuse(
+                    offset,
+                    &format!("{letter}{v}"),
+                    "a rotation about X or Y leaves the XY plane",
+                ));
+            }
+            if matches!(change, FrameChange::Scale | FrameChange::AScale)
+                && !(v.is_finite() && v != 0.0)
+            {
+                return Err((
+                    offset,
+                    GcodeErrorKind::Invalid(format!("{letter}{v}: a scale factor is not 0")),
+                ));
+            }
+            args[axis] = v;
+            given[axis] = true;
+        }
+        let angle = self.rpl.take().unwrap_or(args[2]);
+        // The workpiece position where the axes are, kept across the change.
+        let at = match self.position {
+            [Some(x), Some(y), Some(z)] => Some(self.frame.place([x, y, z])),
+            _ => None,
+        };
+        let old = self.frame;
+        let per_axis = |f: &dyn Fn(usize) -> f64| [f(0), f(1), f(2)];
+        self.frame = match change {
+            FrameChange::Trans => Frame {
+                shift: args,
+                ..Frame::default()
+            },
+            FrameChange::ATrans => {
+                let [x, y] = old.turn([args[0], args[1]]);
+                Frame {
+                    shift: [
+                        old.shift[0] + x,
+                        old.shift[1] + y,
+                        old.shift[2] + old.scale[2] * args[2],
+                    ],
+                    ..old
+                }
+            }
+            FrameChange::Rot => Frame {
+                angle_deg: angle,
+                ..Frame::default()
+            },
+            FrameChange::ARot => Frame {
+                angle_deg: old.angle_deg + angle,
+                ..old
+            },
+            FrameChange::Scale => Frame {
+                scale: per_axis(&|a| if given[a] { args[a] } else { 1.0 }),
+                ..Frame::default()
+            },
+            FrameChange::AScale => Frame {
+                scale: per_axis(&|a| old.scale[a] * if given[a] { args[a] } else { 1.0 }),
+                ..old
+            },
+            FrameChange::Mirror => Frame {
+                scale: per_axis(&|a| if given[a] { -1.0 } else { 1.0 }),
+                ..Frame::default()
+            },
+            FrameChange::AMirror => Frame {
+                scale: per_axis(&|a| old.scale[a] * if given[a] { -1.0 } else { 1.0 }),
+                ..old
+            },
+        };
+        if let Some(p) = at {
+            // The same point of the machine, in the new frame's workpiece coordinates.
+            self.position = self.frame.back(p).map(Some);
+        }
+        Ok(rest)
+    }
+}
