@@ -149,6 +149,10 @@ pub struct Segment {
     /// The acceleration profile the program switched to for it (SINUMERIK `SOFT`: jerk
     /// limited, `BRISK`: acceleration limited); `None`: the planner's own.
     pub jerk_limited: Option<bool>,
+    /// The working plane of the block (G17/G18/G19): an arc's plane; for a line, the plane
+    /// its contour error is split by.
+    #[serde(skip_serializing_if = "Plane::is_xy")]
+    pub plane: Plane,
 }
 
 /// Position, unit tangent and curvature vector at a point of a segment.
@@ -291,10 +295,9 @@ impl Arc {
 }
 
 impl Segment {
-    /// The working plane of the block (G17/G18/G19): an arc's plane; for a line, the plane
-    /// its contour error is split by.
+    /// The working plane of the block ([`Segment::plane`]'s value).
     pub fn plane(&self) -> Plane {
-        Plane::Xy
+        self.plane
     }
 
     /// Length of the 3-D path (m); zero for dwells.
@@ -699,6 +702,7 @@ mod tests {
             blend: Blend::ExactStop,
             line: 1,
             jerk_limited: None,
+            plane: Plane::Xy,
         }
     }
 

@@ -192,6 +192,7 @@ mod tests {
             blend: Blend::ExactStop,
             line: 1,
             jerk_limited: None,
+            plane: Plane::Xy,
         }
     }
 

@@ -100,6 +100,9 @@ pub struct Hotspot {
     pub x_mm: f64,
     /// Actual Y at the peak (mm).
     pub y_mm: f64,
+    /// Actual Z at the peak (mm), where Z is simulated.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub z_mm: Option<f64>,
     /// Source line of the nearest block.
     pub line: u32,
     /// Signed contour error at the peak (µm).
@@ -131,6 +134,8 @@ pub struct HotspotConfig {
     pub slow_m_per_s: f64,
     /// Toggles within a second that make an episode stick-slip.
     pub stick_slip_toggles: usize,
+    /// Whether Z is simulated: hotspots then give its position too.
+    pub with_z: bool,
 }
 
 impl HotspotConfig {
@@ -142,6 +147,7 @@ impl HotspotConfig {
             corner_deg: 3.0,
             slow_m_per_s: 20.0 / 60_000.0,
             stick_slip_toggles: 4,
+            with_z: false,
         }
     }
 }
@@ -153,16 +159,19 @@ pub struct RunSample {
     pub t_s: f64,
     /// Actual X and Y (m).
     pub pos_m: [f64; 2],
+    /// Actual Z (m).
+    pub z_m: f64,
     /// Contour error (m), NaN while not cutting.
     pub error_m: f64,
     /// Path length of the contour error's foot point (m).
     pub path_s_m: f64,
     /// The plan segment being commanded.
     pub segment: u32,
-    /// Commanded X and Y velocity (m/s).
-    pub cmd_vel_m_per_s: [f64; 2],
-    /// X and Y mode codes ([`crate::sim::Mode::code`]).
-    pub mode: [u8; 2],
+    /// Commanded X, Y and Z velocity (m/s).
+    pub cmd_vel_m_per_s: [f64; 3],
+    /// X, Y and Z mode codes ([`crate::sim::Mode::code`]); Z's is read only where Z is
+    /// simulated.
+    pub mode: [u8; 3],
 }
 
 /// A place in a run.
@@ -184,10 +193,11 @@ struct Kept {
     k: usize,
     t_s: f64,
     pos_m: [f64; 2],
+    z_m: f64,
     error_m: f64,
     path_s_m: f64,
     line: u32,
-    mode: [u8; 2],
+    mode: [u8; 3],
 }
 
 /// A reversal waiting to learn whether the nut crosses its gap.
@@ -224,7 +234,7 @@ struct Toggles {
 pub struct HotspotFinder {
     cfg: HotspotConfig,
     max: usize,
-    backlash_m: [f64; 2],
+    backlash_m: [f64; 3],
     /// Window before and after an event, the level's span, half a second, a second
     /// (samples).
     before: usize,
@@ -237,10 +247,10 @@ pub struct HotspotFinder {
     /// Samples taken so far.
     n: usize,
     recent: VecDeque<Kept>,
-    last_sign: [f64; 2],
+    last_sign: [f64; 3],
     reversals: Vec<Reversal>,
     next_junction: usize,
-    toggles: [Toggles; 2],
+    toggles: [Toggles; 3],
     events: BinaryHeap<Reverse<(usize, u64, Cause)>>,
     event_seq: u64,
     open: Option<Window>,
@@ -251,8 +261,8 @@ pub struct HotspotFinder {
 
 impl HotspotFinder {
     /// A finder keeping at most `max` hotspots, for a run sampled every `dt_s` on axes with
-    /// `backlash_m` (X, Y; m).
-    pub fn new(cfg: HotspotConfig, backlash_m: [f64; 2], dt_s: f64, max: usize) -> Self {
+    /// `backlash_m` (X, Y, Z; m).
+    pub fn new(cfg: HotspotConfig, backlash_m: [f64; 3], dt_s: f64, max: usize) -> Self {
         let samples = |s: f64| (s / dt_s).ceil() as usize;
         let (before, after) = (samples(cfg.before_s), samples(cfg.after_s));
         let (half_second, second) = ((0.5 / dt_s) as usize, (1.0 / dt_s) as usize);
@@ -268,7 +278,7 @@ impl HotspotFinder {
             delay: (second + half_second + 3).max(after + 1),
             n: 0,
             recent: VecDeque::new(),
-            last_sign: [0.0; 2],
+            last_sign: [0.0; 3],
             reversals: Vec::new(),
             next_junction: 1,
             toggles: Default::default(),
@@ -291,6 +301,7 @@ impl HotspotFinder {
             k,
             t_s: s.t_s,
             pos_m: s.pos_m,
+            z_m: s.z_m,
             error_m: s.error_m,
             path_s_m: s.path_s_m,
             line: plan.segments.get(seg).map_or(0, |g| g.line),
@@ -332,7 +343,7 @@ impl HotspotFinder {
         if let Some(m) = self.largest
             && m.error_m.abs() > self.largest_window_peak_m
         {
-            self.spots.push(hotspot(&m, Cause::GlobalMaximum));
+            self.spots.push(hotspot(&m, Cause::GlobalMaximum, self.cfg.with_z));
         }
         self.rank();
         self.spots
@@ -342,7 +353,7 @@ impl HotspotFinder {
     /// since the nut must cross its gap and static friction must break however long the axis
     /// stood (where a reversal coincides with a corner, the corner names the place).
     fn note_reversals(&mut self, s: &RunSample, k: usize, cutting: bool) {
-        for axis in AxisName::BOTH {
+        for &axis in self.axes() {
             let v = s.cmd_vel_m_per_s[axis.index()];
             // Ignore the speed noise of a standing axis.
             if v.abs() < 1e-9 {
@@ -380,14 +391,23 @@ impl HotspotFinder {
     }
 
     /// Stick/slip toggles while an axis moves slowly in a cut.
-    fn note_toggles(&mut self, s: &RunSample, prev_mode: [u8; 2], k: usize, cutting: bool) {
-        for axis in AxisName::BOTH {
+    fn note_toggles(&mut self, s: &RunSample, prev_mode: [u8; 3], k: usize, cutting: bool) {
+        for &axis in self.axes() {
             let a = axis.index();
             let v = s.cmd_vel_m_per_s[a].abs();
             let slow = v > 0.0 && v < self.cfg.slow_m_per_s;
             if slow && cutting && stuck(s.mode[a]) != stuck(prev_mode[a]) {
                 self.toggles[a].pending.push_back(k);
             }
+        }
+    }
+
+    /// The axes whose events count: X and Y, and Z where it is simulated.
+    fn axes(&self) -> &'static [AxisName] {
+        if self.cfg.with_z {
+            &AxisName::ALL
+        } else {
+            &AxisName::BOTH
         }
     }
 
@@ -400,7 +420,7 @@ impl HotspotFinder {
     /// `at_end`: the run is complete.
     fn settle(&mut self, at_end: bool) {
         self.decide_reversals(at_end);
-        for axis in AxisName::BOTH {
+        for &axis in self.axes() {
             self.decide_episodes(axis, at_end);
         }
         while let Some(&Reverse((sample, _, cause))) = self.events.peek() {
@@ -508,7 +528,7 @@ impl HotspotFinder {
             return;
         };
         self.largest_window_peak_m = self.largest_window_peak_m.max(peak.error_m.abs());
-        let mut h = hotspot(&peak, w.cause);
+        let mut h = hotspot(&peak, w.cause, self.cfg.with_z);
         h.excess_um = (h.error_um - w.level_m * 1e6).abs();
         // No spike above the local level: the place is flagged by an event, but its error
         // is the axes' steady lag.
@@ -593,12 +613,13 @@ fn level_before(recent: &VecDeque<Kept>, k: usize, span: usize) -> f64 {
     *v.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
-fn hotspot(p: &Kept, cause: Cause) -> Hotspot {
+fn hotspot(p: &Kept, cause: Cause, with_z: bool) -> Hotspot {
     Hotspot {
         sample: p.k,
         t_s: p.t_s,
         x_mm: p.pos_m[0] * 1e3,
         y_mm: p.pos_m[1] * 1e3,
+        z_mm: with_z.then_some(p.z_m * 1e3),
         // The block being executed when the error peaks.
         line: p.line,
         error_um: p.error_m * 1e6,
@@ -618,7 +639,13 @@ fn junction_cause(segs: &[Segment], plan: &Plan, i: usize, cfg: &HotspotConfig) 
     if a.motion != Motion::Feed || b.motion != Motion::Feed || a.is_dwell() || b.is_dwell() {
         return None;
     }
+    // A corner is where the tool's path turns: in space where Z is simulated, else in XY
+    // (a carried Z's plunge is no corner of the XY contour).
     let xy = |t: [f64; 3]| {
+        if cfg.with_z {
+            let n = crate::path::norm3(t);
+            return if n > 1e-9 { t.map(|v| v / n) } else { [0.0; 3] };
+        }
         let n = t[0].hypot(t[1]);
         if n > 1e-9 {
             [t[0] / n, t[1] / n, 0.0]

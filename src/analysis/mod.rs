@@ -43,6 +43,12 @@ pub struct Summary {
     pub rms_contour_error_m: f64,
     /// Largest |following error| of X and Y while cutting (m).
     pub max_following_error_cutting_m: [f64; 2],
+    /// Z's largest |following error| while cutting and over the whole run (m), where Z is
+    /// simulated.
+    pub z_following_error_m: Option<[f64; 2]>,
+    /// The largest parts of the contour error in the block's plane and across it (m),
+    /// where Z is simulated (a carried Z has nothing across).
+    pub max_components_m: Option<[f64; 2]>,
     /// Largest XY distance from the commanded point while a feed block moves Z alone or
     /// dwells (m): the axes still settling after they arrived — a positioning error at that
     /// point, not part of the contour.
@@ -58,11 +64,16 @@ pub struct Summary {
 pub struct PlotPoint {
     /// Actual X and Y (m).
     pub pos_m: [f64; 2],
+    /// Actual Z (m): as commanded where Z is carried.
+    pub z_m: f64,
     /// Path length of the contour error's foot point (m).
     pub path_s_m: f64,
     /// Contour error (m), NaN while not cutting.
     pub error_m: f64,
 }
+
+/// The mode code a carried Z reads as: stuck, never limited (it takes no part in events).
+const STANDING: u8 = 2;
 
 /// Points kept for plots (up to twice as many while a run grows): each the largest contour
 /// error of its stretch of the run, so that every spike survives the thinning.
@@ -108,8 +119,9 @@ pub struct RunAnalyser {
     hotspots: HotspotFinder,
     circles: CircleSamples,
     plot: PeakThinned<PlotPoint>,
-    limits: [LimitTally; 2],
-    i_max_a: [f64; 2],
+    /// X, Y and (where simulated) Z.
+    limits: Vec<LimitTally>,
+    i_max_a: Vec<f64>,
     /// What lies beyond the scales (squareness, straightness, maps, play), applied to the
     /// positions at the tool sample by sample.
     tool: ToolReader,
@@ -117,8 +129,11 @@ pub struct RunAnalyser {
     cutting_samples: usize,
     /// Largest XY positioning error while Z moves alone or the program dwells, and where.
     positioning: (f64, Option<(u32, f64)>),
-    fe_cut_m: [f64; 2],
-    fe_all_m: [f64; 2],
+    /// X, Y and (where simulated) Z.
+    fe_cut_m: Vec<f64>,
+    fe_all_m: Vec<f64>,
+    /// The largest in-plane and across parts of the contour error.
+    components_m: [f64; 2],
     samples: usize,
 }
 
@@ -127,11 +142,23 @@ impl RunAnalyser {
     pub fn new(plan: &Plan, machine: &MachineConfig, max_hotspots: usize) -> Self {
         let [mx, my] = [&machine.x, &machine.y].map(AxisModel::from_config);
         let kv = equivalent_kv_per_s(&mx).min(equivalent_kv_per_s(&my));
+        let simulated: Vec<AxisModel> = machine.simulated_configs()
+            .into_iter()
+            .map(AxisModel::from_config)
+            .collect();
+        let z_simulated = simulated.len() == 3;
         RunAnalyser {
-            locator: ContourLocator::new(plan),
+            locator: if z_simulated {
+                ContourLocator::in_3d(plan)
+            } else {
+                ContourLocator::new(plan)
+            },
             hotspots: HotspotFinder::new(
-                HotspotConfig::for_kv(kv),
-                [2.0 * mx.half_gap, 2.0 * my.half_gap],
+                HotspotConfig {
+                    with_z: z_simulated,
+                    ..HotspotConfig::for_kv(kv)
+                },
+                [0, 1, 2].map(|a| simulated.get(a).map_or(0.0, |m| 2.0 * m.half_gap)),
                 plan.config.cycle_s,
                 max_hotspots,
             ),
@@ -143,14 +170,15 @@ impl RunAnalyser {
                     -1.0
                 }
             }),
-            limits: Default::default(),
-            i_max_a: [&mx, &my].map(|m| m.i_max),
+            limits: vec![LimitTally::default(); simulated.len()],
+            i_max_a: simulated.iter().map(|m| m.i_max).collect(),
             tool: ToolReader::new(machine),
             squares_m2: 0.0,
             cutting_samples: 0,
             positioning: (0.0, None),
-            fe_cut_m: [0.0; 2],
-            fe_all_m: [0.0; 2],
+            fe_cut_m: vec![0.0; simulated.len()],
+            fe_all_m: vec![0.0; simulated.len()],
+            components_m: [0.0; 2],
             samples: 0,
         }
     }
@@ -158,8 +186,11 @@ impl RunAnalyser {
     /// Takes the next chunk of the run; returns its samples' contour errors.
     pub fn take(&mut self, chunk: &RunChunk) -> Vec<ContourPoint> {
         let (plan, c) = (chunk.plan, chunk.commands);
-        let traces = [&chunk.x, &chunk.y];
-        let n = c.len().min(chunk.x.len()).min(chunk.y.len());
+        let traces: Vec<&AxisTrace> = [&chunk.x, &chunk.y]
+            .into_iter()
+            .chain(chunk.z.as_ref())
+            .collect();
+        let n = traces.iter().fold(c.len(), |n, t| n.min(t.len()));
         let mut points = Vec::with_capacity(n);
         for i in 0..n {
             let k = chunk.first + i;
@@ -177,33 +208,41 @@ impl RunAnalyser {
             );
             let cutting = plan.segments[seg].motion == Motion::Feed;
             let line = plan.segments[seg].line;
-            self.tally_errors(traces, i, cutting);
+            self.tally_errors(&traces, i, cutting);
             if cutting && !contour::is_contour(&plan.segments[seg]) {
                 let off = (pos_m[0] - reference[0]).hypot(pos_m[1] - reference[1]);
                 if off > self.positioning.0 {
                     self.positioning = (off, Some((line, t_s)));
                 }
             }
-            self.tally_limits(traces, i, t_s, line);
+            self.tally_limits(&traces, i, t_s, line);
             if point.error_m.is_finite() {
                 self.squares_m2 += point.error_m * point.error_m;
                 self.cutting_samples += 1;
+                let parts = [point.in_plane_m.abs(), point.across_m.abs()];
+                self.components_m = [0, 1].map(|j| self.components_m[j].max(parts[j]));
             }
             self.hotspots.push(
                 plan,
                 &RunSample {
                     t_s,
                     pos_m,
+                    z_m,
                     error_m: point.error_m,
                     path_s_m: point.path_s_m,
                     segment: c.segment[i],
-                    cmd_vel_m_per_s: [c.x.vel_m_per_s[i], c.y.vel_m_per_s[i]],
-                    mode: [chunk.x.mode[i], chunk.y.mode[i]],
+                    cmd_vel_m_per_s: [c.x.vel_m_per_s[i], c.y.vel_m_per_s[i], c.z.vel_m_per_s[i]],
+                    mode: [
+                        chunk.x.mode[i],
+                        chunk.y.mode[i],
+                        chunk.z.as_ref().map_or(STANDING, |z| z.mode[i]),
+                    ],
                 },
             );
             self.circles.push(point.segment, [pos_m[0], pos_m[1], z_m]);
             self.plot.push(PlotPoint {
                 pos_m,
+                z_m,
                 path_s_m: point.path_s_m,
                 error_m: point.error_m,
             });
@@ -213,7 +252,7 @@ impl RunAnalyser {
         points
     }
 
-    fn tally_errors(&mut self, traces: [&AxisTrace; 2], i: usize, cutting: bool) {
+    fn tally_errors(&mut self, traces: &[&AxisTrace], i: usize, cutting: bool) {
         for (a, t) in traces.iter().enumerate() {
             let e = t.following_error_m(i).abs();
             self.fe_all_m[a] = self.fe_all_m[a].max(e);
@@ -223,7 +262,7 @@ impl RunAnalyser {
         }
     }
 
-    fn tally_limits(&mut self, traces: [&AxisTrace; 2], i: usize, t_s: f64, line: u32) {
+    fn tally_limits(&mut self, traces: &[&AxisTrace], i: usize, t_s: f64, line: u32) {
         for (a, t) in traces.iter().enumerate() {
             let tally = &mut self.limits[a];
             let limited = Mode::code_is_limited(t.mode[i]);
@@ -244,8 +283,10 @@ impl RunAnalyser {
     /// The figures of the whole run, `plan` as the execution re-timed it.
     pub fn finish(self, mut plan: Plan, machine: &MachineConfig) -> CheckResult {
         let dt_s = plan.config.cycle_s;
-        for ((axis, config), tally) in [('X', &machine.x), ('Y', &machine.y)]
+        let z_simulated = self.fe_all_m.len() == 3;
+        for ((axis, config), tally) in ['X', 'Y', 'Z']
             .into_iter()
+            .zip(machine.simulated_configs())
             .zip(self.limits)
         {
             if let Some(w) = limit_warning(axis, &tally, config, dt_s) {
@@ -265,10 +306,12 @@ impl RunAnalyser {
             } else {
                 (self.squares_m2 / self.cutting_samples as f64).sqrt()
             },
-            max_following_error_cutting_m: self.fe_cut_m,
+            max_following_error_cutting_m: [self.fe_cut_m[0], self.fe_cut_m[1]],
+            z_following_error_m: z_simulated.then(|| [self.fe_cut_m[2], self.fe_all_m[2]]),
+            max_components_m: z_simulated.then_some(self.components_m),
             max_positioning_error_m: self.positioning.0,
             max_positioning_at: self.positioning.1,
-            max_following_error_m: self.fe_all_m,
+            max_following_error_m: [self.fe_all_m[0], self.fe_all_m[1]],
         };
         CheckResult {
             hotspots: self.hotspots.finish(),

@@ -150,14 +150,19 @@ fn stage_plots(
     let name = Path::new(&report.program.file)
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    let toolpath = toolpath_figure(run, &name, report, &at);
+    let toolpaths: Vec<(&str, ToolpathPlot)> = views(run)
+        .into_iter()
+        .map(|view| (view.file, toolpath_figure(run, &name, report, &at, &view)))
+        .collect();
     let along = along_path_figure(run, &name, &at);
     let circles = polar_figures(run, &name, &at);
     let mut written = Vec::new();
     for ext in ["png", "svg"] {
-        let path = dir.join(format!("toolpath.{ext}"));
-        batch.stage_with_path(&path, |p| crate::plot::render(p, &toolpath))?;
-        written.push(path);
+        for (file, toolpath) in &toolpaths {
+            let path = dir.join(format!("{file}.{ext}"));
+            batch.stage_with_path(&path, |p| crate::plot::render(p, toolpath))?;
+            written.push(path);
+        }
         let path = dir.join(format!("contour-along-path.{ext}"));
         batch.stage_with_path(&path, |p| crate::plot::render(p, &along))?;
         written.push(path);
@@ -170,8 +175,42 @@ fn stage_plots(
     Ok(written)
 }
 
-/// Programmed feed moves as polylines (mm).
-fn programmed_polylines(run: &CheckResult) -> Vec<Vec<(f64, f64)>> {
+/// A view of the toolpath: the axes it shows (indices into X, Y, Z) and the file it goes to.
+struct View {
+    axes: [usize; 2],
+    file: &'static str,
+}
+
+/// The toolpath's views: from above (XY) always; where Z is simulated and the program cuts
+/// while moving Z, also from the front (XZ) and the side (YZ).
+fn views(run: &CheckResult) -> Vec<View> {
+    let mut views = vec![View {
+        axes: [0, 1],
+        file: "toolpath",
+    }];
+    let cuts_in_z = run.plan.segments.iter().any(|s| {
+        s.motion == Motion::Feed && !s.is_dwell() && {
+            let [_, _, [z0, z1]] = s.extent_m();
+            z1 > z0
+        }
+    });
+    if run.summary.z_following_error_m.is_some() && cuts_in_z {
+        views.push(View {
+            axes: [0, 2],
+            file: "toolpath-xz",
+        });
+        views.push(View {
+            axes: [1, 2],
+            file: "toolpath-yz",
+        });
+    }
+    views
+}
+
+/// Programmed feed moves as polylines (mm) in `view`.
+fn programmed_polylines(run: &CheckResult, view: &View) -> Vec<Vec<(f64, f64)>> {
+    let [h, v] = view.axes;
+    let seen = |p: [f64; 3]| (mm_from_m(p[h]), mm_from_m(p[v]));
     run.plan
         .segments
         .iter()
@@ -180,14 +219,10 @@ fn programmed_polylines(run: &CheckResult) -> Vec<Vec<(f64, f64)>> {
             Geometry::Arc(a) => {
                 let n = ((a.sweep_rad.abs() / 0.02).ceil() as usize).max(2);
                 (0..=n)
-                    .map(|i| s.point_at_param(i as f64 / n as f64))
-                    .map(|p| (mm_from_m(p[0]), mm_from_m(p[1])))
+                    .map(|i| seen(s.point_at_param(i as f64 / n as f64)))
                     .collect()
             }
-            _ => vec![
-                (mm_from_m(s.start_m[0]), mm_from_m(s.start_m[1])),
-                (mm_from_m(s.end_m[0]), mm_from_m(s.end_m[1])),
-            ],
+            _ => vec![seen(s.start_m), seen(s.end_m)],
         })
         .collect()
 }
@@ -197,14 +232,19 @@ fn toolpath_figure(
     name: &str,
     report: &CheckReport,
     at: &dyn Fn(u32) -> String,
+    view: &View,
 ) -> ToolpathPlot {
+    let [h, v] = view.axes;
     let actual = run
         .plot
         .iter()
-        .map(|p| PathPoint {
-            x_mm: mm_from_m(p.pos_m[0]),
-            y_mm: mm_from_m(p.pos_m[1]),
-            error_um: um_from_m(p.error_m.abs()),
+        .map(|p| {
+            let q = [p.pos_m[0], p.pos_m[1], p.z_m];
+            PathPoint {
+                x_mm: mm_from_m(q[h]),
+                y_mm: mm_from_m(q[v]),
+                error_um: um_from_m(p.error_m.abs()),
+            }
         })
         .collect();
     let markers = run
@@ -212,20 +252,25 @@ fn toolpath_figure(
         .iter()
         .take(10)
         .enumerate()
-        .map(|(i, h)| Marker {
-            x_mm: h.x_mm,
-            y_mm: h.y_mm,
-            label: format!(" {}: L{}", i + 1, at(h.line)),
+        .map(|(i, spot)| {
+            let q = [spot.x_mm, spot.y_mm, spot.z_mm.unwrap_or(f64::NAN)];
+            Marker {
+                x_mm: q[h],
+                y_mm: q[v],
+                label: format!(" {}: L{}", i + 1, at(spot.line)),
+            }
         })
         .collect();
+    let names = ["X", "Y", "Z"];
     ToolpathPlot {
         title: format!(
             "{name}: predicted contour error on {} (max {:.2} µm)",
             report.machine.name, report.contour_error_um.max
         ),
-        programmed: programmed_polylines(run),
+        programmed: programmed_polylines(run, view),
         actual,
         markers,
+        axes: [names[h], names[v]],
     }
 }
 

@@ -253,6 +253,8 @@ impl Context<'_> {
         match axis {
             AxisName::X => &self.measured.x_m,
             AxisName::Y => &self.measured.y_m,
+            // A record's Z is not compared: nothing of it is read.
+            AxisName::Z => &[],
         }
     }
 

@@ -651,6 +651,7 @@ impl Model<'_> {
         match self.axis {
             AxisName::X => [trace, other],
             AxisName::Y => [other, trace],
+            AxisName::Z => unreachable!("causes are fitted on X and Y, which a record pairs"),
         }
     }
 

@@ -586,6 +586,8 @@ fn ballbar_and_causes(r: &DiagnoseReport) -> Option<String> {
     let (step_um, spikes) = match backlash.axis {
         AxisName::X => (pair.backlash_x_um, [0usize, 2]),
         AxisName::Y => (pair.backlash_y_um, [1, 3]),
+        // The ballbar's figures are the XY plane's.
+        AxisName::Z => return None,
     };
     if step_um.abs() >= 0.5 * gap_um {
         return None;

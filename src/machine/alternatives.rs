@@ -61,7 +61,7 @@ pub(crate) fn resolve(
     merged: &mut toml::Table,
     file: &str,
 ) -> Result<(), ConfigError> {
-    for axis in ["x", "y"] {
+    for axis in ["x", "y", "z"] {
         let Some(given) = section(user, axis, "friction") else {
             continue;
         };

@@ -83,20 +83,28 @@ impl InPosition {
     /// The loops' time scales the wait estimate uses, X, Y and Z (1/s): the cascade's Kv,
     /// or another controller's closed-loop bandwidth (the simulated waits re-time it).
     pub(crate) fn kv_per_s_of(machine: &MachineConfig) -> [f64; 3] {
-        let [x, y] = [&machine.x, &machine.y].map(|a| {
+        let kv = |a: &crate::machine::AxisConfig| {
             crate::sim::linear::equivalent_kv_per_s(&crate::sim::AxisModel::from_config(a))
-        });
-        [x, y, f64::INFINITY]
+        };
+        [
+            kv(&machine.x),
+            kv(&machine.y),
+            machine.z.simulated().map_or(f64::INFINITY, kv),
+        ]
     }
 
     /// The same for the axes controlled by the cascade (their Kv, cheap); none for others.
     pub(crate) fn kv_per_s_of_cascades(machine: &MachineConfig) -> [Option<f64>; 3] {
-        let [x, y] = [&machine.x, &machine.y].map(|a| {
+        let kv = |a: &crate::machine::AxisConfig| {
             a.controller
                 .is_cascade()
                 .then(|| crate::sim::AxisModel::from_config(a).kv_per_s())
-        });
-        [x, y, Some(f64::INFINITY)]
+        };
+        [
+            kv(&machine.x),
+            kv(&machine.y),
+            machine.z.simulated().map_or(Some(f64::INFINITY), kv),
+        ]
     }
 }
 
@@ -207,7 +215,7 @@ impl KinematicLimits {
             axes: [
                 (&machine.x.limits).into(),
                 (&machine.y.limits).into(),
-                (&machine.z.limits).into(),
+                machine.z.limits().into(),
             ],
         }
     }

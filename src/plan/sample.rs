@@ -28,6 +28,7 @@ impl Commands {
         match axis {
             AxisName::X => &self.x,
             AxisName::Y => &self.y,
+            AxisName::Z => &self.z,
         }
     }
 

@@ -8,6 +8,7 @@
 
 pub mod commands;
 pub mod discrete;
+pub(crate) mod gravity;
 pub mod linear;
 pub mod model;
 pub mod simulate;

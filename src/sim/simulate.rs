@@ -175,7 +175,7 @@ impl<'a> AxisSim<'a> {
                 tol: TOL_SPEED,
             }),
             FrictionMode::Stick => {
-                let f_e = m.nut_force(s, mode.contact) - unit(FX);
+                let f_e = m.breakaway_force(s, mode.contact);
                 let f_s = one * m.f_s + unit(FSX);
                 g.push(Guard {
                     row: f_s - f_e,
@@ -358,7 +358,7 @@ impl<'a> AxisSim<'a> {
 
     fn switch_friction(&mut self, x: &mut Aug, mode: &mut Mode) -> bool {
         let m = self.model;
-        let f_e = ((m.nut_force(&self.signals, mode.contact) - unit(FX)) * *x)[0];
+        let f_e = (m.breakaway_force(&self.signals, mode.contact) * *x)[0];
         let v = x[V2];
         let f_s = m.f_s + x[FSX];
         let want = match mode.friction {
@@ -617,7 +617,7 @@ fn unit(i: usize) -> Row {
 }
 
 /// The state of an axis at rest at `x0` (m): everything aligned, no current, stuck, the nut
-/// in the middle of its gap.
+/// in the middle of its gap — or, on a vertical axis, as its loops hold its weight.
 ///
 /// "At rest" means where the loop holds the axis: the feedback reads `x0`. With a measuring
 /// error that is not where the table is — a scale reading e too long holds the table at
@@ -656,12 +656,14 @@ pub(crate) fn rest_state(model: &AxisModel, x0: f64) -> (Aug, Mode) {
     } else {
         ContactMode::Pos
     };
-    let mode = Mode {
+    let mut mode = Mode {
         friction: FrictionMode::Stick,
         contact,
         current: ClampMode::Linear,
         voltage: ClampMode::Linear,
     };
+    // A vertical axis stands where its loops hold its weight.
+    super::gravity::hold_load(model, &mut x, &mut mode);
     (x, mode)
 }
 

@@ -15,7 +15,7 @@
 
 use crate::gcode::Program;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
-use crate::path::{Blend, Geometry, Motion, Segment};
+use crate::path::{Blend, Geometry, Motion, Plane, Segment};
 use crate::plan::{AxisCommands, Commands, Plan};
 use crate::sim::AxisModel;
 use crate::trace::signal::sample;
@@ -105,6 +105,7 @@ pub fn program_from_commands(commands_m: &[Vec<f64>; 2], dt_s: f64, file: &str) 
             },
             line: u32::try_from(w[0] + 1).unwrap_or(u32::MAX),
             jerk_limited: None,
+            plane: Plane::Xy,
         })
         .collect();
     Some(Program {
