@@ -128,7 +128,8 @@ pub(crate) fn execute_in_chunks<E: From<SimError>>(
         MAX_CYCLES_STREAMED,
         "(longer ones would take too long)",
     )?;
-    let models: Vec<AxisModel> = machine.simulated_configs()
+    let models: Vec<AxisModel> = machine
+        .simulated_configs()
         .into_iter()
         .map(AxisModel::from_config)
         .collect();
@@ -362,7 +363,10 @@ fn follow_in_turns(
         };
         let (ra, rb) = (slice(done[a]), b.map(|b| slice(done[b])));
         let (first, second) = match b {
-            None => (follow_one(&mut runs[a], a, commands, ra.clone(), progress), Ok(())),
+            None => (
+                follow_one(&mut runs[a], a, commands, ra.clone(), progress),
+                Ok(()),
+            ),
             Some(b) => {
                 let (run_a, run_b) = pair_mut(runs, a, b);
                 let rb = rb.clone().unwrap_or_default();

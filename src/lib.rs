@@ -8,7 +8,9 @@
 //! records come in through [`trace`] and are explained by [`diagnose`] and [`identify`].
 //! `ARCHITECTURE.md` gives the layers and the invariants.
 //!
-//! The entry points are re-exported here. Check a program on the embedded machine, then hide
+//! The entry points are re-exported here, with their settings, results and errors: they are
+//! the library's public interface (the Python package `python/` uses them alone), where the
+//! modules' own items may change with the code. Check a program on the embedded machine, then hide
 //! a cause in a synthetic record of it and let the diagnosis find it:
 //!
 //! ```
@@ -57,15 +59,19 @@ pub mod compensation;
 pub mod diagnose;
 pub mod envelope;
 pub mod execute;
+#[cfg(feature = "html-report")]
+pub mod figures;
 pub mod gcode;
 pub mod geometry;
+#[cfg(feature = "html-report")]
+pub mod html_report;
 pub mod identify;
 pub mod lookup;
 pub mod machine;
 pub mod numeric;
 pub mod path;
 pub mod plan;
-#[cfg(feature = "cli")]
+#[cfg(feature = "html-report")]
 pub mod plot;
 pub mod report;
 pub mod sim;
@@ -75,10 +81,27 @@ pub mod trace;
 pub mod units;
 pub mod validate;
 
+pub use causes::{CauseId, CauseSet};
 pub use check::{CheckRun, CheckSettings, check};
-pub use diagnose::{DiagnoseSettings, Diagnosis, diagnose};
-pub use gcode::{InterpretOptions, Program, parse_program};
-pub use identify::{Identification, identify};
-pub use machine::MachineConfig;
-pub use sim::{AxisModel, SimConfig, simulate};
-pub use trace::measured::{MeasuredTrace, parse_trace, read_trace};
+pub use compare::{CompareError, CompareSettings};
+pub use diagnose::report::DiagnoseReport;
+pub use diagnose::{DiagnoseError, DiagnoseSettings, Diagnosis, diagnose, diagnose_validated};
+pub use envelope::{EnvelopeError, check_fits};
+pub use gcode::{Dialect, GcodeErrors, InterpretOptions, Program, parse_program};
+#[cfg(feature = "html-report")]
+pub use html_report::{
+    HtmlError, Inputs as ReportInputs, check_page, diagnose_page, identify_page,
+};
+pub use identify::report::IdentifyReport;
+pub use identify::{Identification, IdentifyError, identify, identify_loop, loop_template};
+pub use machine::{AxisName, ConfigError, MachineConfig, PRESETS};
+pub use plan::ProfileKind;
+pub use report::CheckReport;
+pub use sim::{AxisModel, MeasuredAt, SimConfig, SimError, simulate};
+pub use sweep::{Dimension, PointResult, SweepInputError, SweepPoint, rank as rank_sweep};
+pub use sweep::{resolve_key, run as run_sweep};
+pub use trace::format::ColumnMap;
+pub use trace::measured::{
+    MeasuredError, MeasuredTrace, parse_trace, parse_trace_with, read_trace, read_trace_with,
+};
+pub use trace::recorded::program_from_commands;

@@ -11,7 +11,7 @@ use serde::Serialize;
 
 use crate::analysis::contour::ContourPoint;
 use crate::analysis::hotspot::Hotspot;
-use crate::check::{CheckResult, CheckSettings};
+use crate::check::{CheckResult, CheckSettings, RunPlace, Summary};
 use crate::execute::RunChunk;
 use crate::gcode::interp::SourceLine;
 use crate::gcode::{CodeNote, Program, SourceFile, Warning};
@@ -181,6 +181,91 @@ pub struct HotspotInfo {
     pub block_number: Option<u32>,
 }
 
+/// A line of the program as the report names it: its file (a subprogram's own file, else
+/// none) and its line there.
+fn placed(program: &Program, line: u32) -> (Option<String>, u32) {
+    let at = program.source_line(line);
+    (at.file.map(str::to_string), at.line)
+}
+
+impl SettingsInfo {
+    /// The planner's and simulator's settings a run used.
+    fn of(run: &CheckResult, settings: &CheckSettings) -> Self {
+        SettingsInfo {
+            profile: run.plan.config.profile,
+            interpolation_cycle_ms: run.plan.config.cycle_s * 1e3,
+            simulation_step_ms: run.dt_s * 1e3 / f64::from(settings.sim.substeps.max(1)),
+        }
+    }
+}
+
+impl Location {
+    /// A place of the run, named by the program's file and line.
+    fn of(p: &RunPlace, program: &Program) -> Self {
+        let (file, line) = placed(program, p.line);
+        Location {
+            t_s: p.t_s,
+            x_mm: mm_from_m(p.pos_m[0]),
+            y_mm: mm_from_m(p.pos_m[1]),
+            line,
+            file,
+            block_number: program.block_number(p.line),
+        }
+    }
+}
+
+impl FollowingInfo {
+    /// The simulated axes' largest following errors, while cutting and with the rapids.
+    fn of(s: &Summary) -> Self {
+        let axis = |i: usize| AxisFollowing {
+            max_cutting: um_from_m(s.max_following_error_cutting_m[i]),
+            max: um_from_m(s.max_following_error_m[i]),
+        };
+        FollowingInfo {
+            x: axis(0),
+            y: axis(1),
+            z: s.z_following_error_m.map(|[cutting, all]| AxisFollowing {
+                max_cutting: um_from_m(cutting),
+                max: um_from_m(all),
+            }),
+        }
+    }
+}
+
+impl PositioningInfo {
+    /// The largest settling error and where it is.
+    fn of(s: &Summary, program: &Program) -> Self {
+        let at = s.max_positioning_at;
+        PositioningInfo {
+            max: um_from_m(s.max_positioning_error_m),
+            line: at.map(|a| placed(program, a.0).1),
+            file: at.and_then(|a| placed(program, a.0).0),
+            t_s: at.map(|a| a.1),
+            block_number: at.and_then(|a| program.block_number(a.0)),
+        }
+    }
+}
+
+impl HotspotInfo {
+    /// The run's hotspots, ranked as found, their lines named by file.
+    fn ranked(hotspots: &[Hotspot], program: &Program) -> Vec<Self> {
+        hotspots
+            .iter()
+            .enumerate()
+            .map(|(i, h)| {
+                let (file, line) = placed(program, h.line);
+                HotspotInfo {
+                    rank: i + 1,
+                    hotspot: Hotspot { line, ..h.clone() },
+                    label: h.cause.label(),
+                    file,
+                    block_number: program.block_number(h.line),
+                }
+            })
+            .collect()
+    }
+}
+
 impl CheckReport {
     /// Assembles the report of a run.
     pub fn new(
@@ -192,23 +277,6 @@ impl CheckReport {
     ) -> Self {
         let s = &run.summary;
         let max_um = um_from_m(s.max_contour_error_m);
-        // A line of a subprogram's file is given as its line there, with the file.
-        let placed = |line: u32| {
-            let at = program.source_line(line);
-            (at.file.map(str::to_string), at.line)
-        };
-        let max_at = run.max_at.map(|p| Location {
-            t_s: p.t_s,
-            x_mm: mm_from_m(p.pos_m[0]),
-            y_mm: mm_from_m(p.pos_m[1]),
-            line: placed(p.line).1,
-            file: placed(p.line).0,
-            block_number: program.block_number(p.line),
-        });
-        let axis = |i: usize| AxisFollowing {
-            max_cutting: um_from_m(s.max_following_error_cutting_m[i]),
-            max: um_from_m(s.max_following_error_m[i]),
-        };
         CheckReport {
             schema: SCHEMA,
             program: ProgramInfo {
@@ -221,53 +289,22 @@ impl CheckReport {
                 name: machine.name.clone(),
                 description: machine.description.clone(),
             },
-            settings: SettingsInfo {
-                profile: run.plan.config.profile,
-                interpolation_cycle_ms: run.plan.config.cycle_s * 1e3,
-                simulation_step_ms: run.dt_s * 1e3 / f64::from(settings.sim.substeps.max(1)),
-            },
+            settings: SettingsInfo::of(run, settings),
             cycle_time_s: s.cycle_time_s,
             path_length_mm: mm_from_m(s.path_length_m),
             cut_length_mm: mm_from_m(s.cut_length_m),
             contour_error_um: ContourInfo {
                 max: max_um,
                 rms: um_from_m(s.rms_contour_error_m),
-                max_at,
+                max_at: run.max_at.map(|p| Location::of(&p, program)),
                 max_in_plane: s.max_components_m.map(|c| um_from_m(c[0])),
                 max_across: s.max_components_m.map(|c| um_from_m(c[1])),
             },
-            following_error_um: FollowingInfo {
-                x: axis(0),
-                y: axis(1),
-                z: s.z_following_error_m.map(|[cutting, all]| AxisFollowing {
-                    max_cutting: um_from_m(cutting),
-                    max: um_from_m(all),
-                }),
-            },
-            positioning_error_um: PositioningInfo {
-                max: um_from_m(s.max_positioning_error_m),
-                line: s.max_positioning_at.map(|a| placed(a.0).1),
-                file: s.max_positioning_at.and_then(|a| placed(a.0).0),
-                t_s: s.max_positioning_at.map(|a| a.1),
-                block_number: s.max_positioning_at.and_then(|a| program.block_number(a.0)),
-            },
+            following_error_um: FollowingInfo::of(s),
+            positioning_error_um: PositioningInfo::of(s, program),
             tolerance_um,
             within_tolerance: tolerance_um.map(|t| max_um <= t),
-            hotspots: run
-                .hotspots
-                .iter()
-                .enumerate()
-                .map(|(i, h)| {
-                    let (file, line) = placed(h.line);
-                    HotspotInfo {
-                        rank: i + 1,
-                        hotspot: Hotspot { line, ..h.clone() },
-                        label: h.cause.label(),
-                        file,
-                        block_number: program.block_number(h.line),
-                    }
-                })
-                .collect(),
+            hotspots: HotspotInfo::ranked(&run.hotspots, program),
             warnings: program
                 .warnings
                 .iter()
@@ -425,7 +462,10 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
         "contour   max {:.2} µm{at}, RMS {:.2} µm",
         r.contour_error_um.max, r.contour_error_um.rms
     );
-    match (r.contour_error_um.max_in_plane, r.contour_error_um.max_across) {
+    match (
+        r.contour_error_um.max_in_plane,
+        r.contour_error_um.max_across,
+    ) {
         (Some(in_plane), Some(across)) => {
             let _ = writeln!(
                 s,
@@ -548,4 +588,37 @@ fn hotspot_table(r: &CheckReport, max_hotspots: usize) -> String {
         );
     }
     s
+}
+
+/// Warnings with the same message merged into one line listing where they occur
+/// ("lines 11, 14, 17 … (143 places): message"), in order of first appearance.
+pub fn group_warnings(warnings: &[crate::gcode::Warning]) -> Vec<String> {
+    let mut groups: Vec<(&str, Vec<u32>)> = Vec::new();
+    for w in warnings {
+        match groups.iter_mut().find(|(m, _)| *m == w.message) {
+            Some((_, lines)) => {
+                // A line run more than once (a loop, a subprogram) is named once.
+                if !lines.contains(&w.line) {
+                    lines.push(w.line);
+                }
+            }
+            None => groups.push((&w.message, vec![w.line])),
+        }
+    }
+    groups
+        .into_iter()
+        .map(|(message, lines)| match lines.as_slice() {
+            [0] => message.to_string(),
+            [one] => format!("line {one}: {message}"),
+            many => {
+                let shown: Vec<String> = many.iter().take(3).map(u32::to_string).collect();
+                let more = if many.len() > 3 {
+                    format!(" … ({} places)", many.len())
+                } else {
+                    String::new()
+                };
+                format!("lines {}{more}: {message}", shown.join(", "))
+            }
+        })
+        .collect()
 }

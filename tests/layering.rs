@@ -20,6 +20,8 @@ const LAYERS: &[&[&str]] = &[
     &["check", "validate"],
     &["compare", "report", "sweep", "synth"],
     &["diagnose", "identify"],
+    &["figures"],
+    &["html_report"],
     &["cli"],
 ];
 

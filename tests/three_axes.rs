@@ -86,7 +86,10 @@ fn a_circle_in_zx_on_a_z_with_xs_settings_is_the_circle_in_xy() {
         {
             // F max is a fraction of a micrometre: 1 % of the radius loss serves as its scale.
             let scale = a.f_min_um.abs();
-            assert!((p - q).abs() <= 0.01 * scale, "{what}: XY {p} µm, ZX {q} µm");
+            assert!(
+                (p - q).abs() <= 0.01 * scale,
+                "{what}: XY {p} µm, ZX {q} µm"
+            );
         }
     }
     close(xy.pairs[0].h_um, zx.pairs[0].h_um, 0.01, "H");
@@ -145,7 +148,12 @@ fn a_line_in_space_with_z_slower_leaves_the_path_by_the_lags_difference() {
         .sum::<f64>()
         .sqrt();
     for &k in steady.iter().step_by(97) {
-        close(r.contour.error_m[k].abs(), normal, 0.01, "steady normal deviation");
+        close(
+            r.contour.error_m[k].abs(),
+            normal,
+            0.01,
+            "steady normal deviation",
+        );
         // The difference is Z's alone: it lies in the vertical plane of the path, across
         // the working plane, not beside the path in it.
         close(r.contour.across_m[k].abs(), normal, 0.01, "across");
@@ -179,8 +187,9 @@ fn a_helix_takes_its_length_over_the_feed_within_the_ramps() {
     // And the feed is the speed along the helix: at the cruise, the 3-D speed is F.
     let c = contourcheck::plan::sample(&planned);
     let k = ((sp.t_start_s + sp.duration_s / 2.0) / c.dt_s) as usize;
-    let speed = (c.x.vel_m_per_s[k].powi(2) + c.y.vel_m_per_s[k].powi(2) + c.z.vel_m_per_s[k].powi(2))
-        .sqrt();
+    let speed =
+        (c.x.vel_m_per_s[k].powi(2) + c.y.vel_m_per_s[k].powi(2) + c.z.vel_m_per_s[k].powi(2))
+            .sqrt();
     assert!((speed - feed).abs() < 1e-12, "{speed} m/s");
 }
 

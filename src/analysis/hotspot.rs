@@ -343,7 +343,8 @@ impl HotspotFinder {
         if let Some(m) = self.largest
             && m.error_m.abs() > self.largest_window_peak_m
         {
-            self.spots.push(hotspot(&m, Cause::GlobalMaximum, self.cfg.with_z));
+            self.spots
+                .push(hotspot(&m, Cause::GlobalMaximum, self.cfg.with_z));
         }
         self.rank();
         self.spots

@@ -142,7 +142,8 @@ impl RunAnalyser {
     pub fn new(plan: &Plan, machine: &MachineConfig, max_hotspots: usize) -> Self {
         let [mx, my] = [&machine.x, &machine.y].map(AxisModel::from_config);
         let kv = equivalent_kv_per_s(&mx).min(equivalent_kv_per_s(&my));
-        let simulated: Vec<AxisModel> = machine.simulated_configs()
+        let simulated: Vec<AxisModel> = machine
+            .simulated_configs()
             .into_iter()
             .map(AxisModel::from_config)
             .collect();
@@ -293,6 +294,9 @@ impl RunAnalyser {
                 plan.warnings.push(w);
             }
         }
+        if !z_simulated {
+            plan.warnings.extend(carried_z_warnings(&plan));
+        }
         let (circular, circle_paths) = self.circles.test();
         let largest = self.hotspots.largest();
         let summary = Summary {
@@ -325,6 +329,26 @@ impl RunAnalyser {
             plan,
         }
     }
+}
+
+/// On a machine that carries Z, one warning per feed block that moves Z together with X or
+/// Y (a helix, a slope, a 3-D contour): Z arrives with its command there, so the contour
+/// error is X's and Y's alone. A plunge (Z alone) is no contour and is not warned.
+fn carried_z_warnings(plan: &Plan) -> Vec<Warning> {
+    plan.segments
+        .iter()
+        .filter(|s| s.motion == Motion::Feed && !s.is_dwell())
+        .filter(|s| {
+            let [x, y, z] = s.extent_m();
+            z[1] > z[0] && (x[1] > x[0] || y[1] > y[0])
+        })
+        .map(|s| Warning {
+            line: s.line,
+            message: "Z moves along the contour, but this machine carries Z (its file gives \
+                      Z only limits): the contour error here is X's and Y's alone"
+                .into(),
+        })
+        .collect()
 }
 
 fn cut_length_m(plan: &Plan) -> f64 {

@@ -46,6 +46,9 @@ pub enum CliError {
     /// A machine could not be identified.
     #[error("{0}")]
     Identify(#[from] crate::identify::IdentifyError),
+    /// An HTML report could not be made.
+    #[error("{0}")]
+    Report(#[from] crate::html_report::HtmlError),
     /// Arguments that make no sense together.
     #[error("{0}")]
     Usage(String),
@@ -98,6 +101,17 @@ fn no_such_machine(path: &std::path::Path) -> String {
 }
 
 impl MachineArgs {
+    /// What an HTML report says of the machine's source: the file given, if one was.
+    pub fn report_inputs(&self) -> crate::html_report::Inputs {
+        crate::html_report::Inputs {
+            machine_file: self
+                .machine
+                .as_ref()
+                .filter(|p| p.exists())
+                .map(|p| p.display().to_string()),
+        }
+    }
+
     /// The machine, refused when an axis's loops are unstable, with the setting that makes
     /// them so and the range in which it is stable (for commands that simulate; `bode` and
     /// `sweep` show unstable settings instead).
@@ -234,39 +248,6 @@ pub fn format_duration(seconds: f64) -> String {
     } else {
         format!("{s:.2} s")
     }
-}
-
-/// Warnings with the same message merged into one line listing where they occur
-/// ("lines 11, 14, 17 … (143 places): message"), in order of first appearance.
-pub fn group_warnings(warnings: &[crate::gcode::Warning]) -> Vec<String> {
-    let mut groups: Vec<(&str, Vec<u32>)> = Vec::new();
-    for w in warnings {
-        match groups.iter_mut().find(|(m, _)| *m == w.message) {
-            Some((_, lines)) => {
-                // A line run more than once (a loop, a subprogram) is named once.
-                if !lines.contains(&w.line) {
-                    lines.push(w.line);
-                }
-            }
-            None => groups.push((&w.message, vec![w.line])),
-        }
-    }
-    groups
-        .into_iter()
-        .map(|(message, lines)| match lines.as_slice() {
-            [0] => message.to_string(),
-            [one] => format!("line {one}: {message}"),
-            many => {
-                let shown: Vec<String> = many.iter().take(3).map(u32::to_string).collect();
-                let more = if many.len() > 3 {
-                    format!(" … ({} places)", many.len())
-                } else {
-                    String::new()
-                };
-                format!("lines {}{more}: {message}", shown.join(", "))
-            }
-        })
-        .collect()
 }
 
 /// A progress bar on a terminal; hidden when stderr is piped or under CI.

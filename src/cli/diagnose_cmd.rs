@@ -9,18 +9,16 @@ use clap::Args;
 use super::Outcome;
 use super::common::{CliError, MachineArgs, PlanningArgs, TraceArgs, spinner};
 use super::common::{program_or_commands_path, warn_beyond_machine};
-use crate::analysis::circular::radial_points;
 use crate::causes::{CauseId, CauseSet};
-use crate::cli::output::OutputBatch;
+use crate::cli::output::{OutputBatch, at_most_one_stdout};
 use crate::diagnose::report::{DiagnoseReport, machine_file};
 use crate::diagnose::table::diagnose_table;
 use crate::diagnose::{DiagnoseSettings, Diagnosis, diagnose_validated};
+use crate::figures::DiagnoseFigures;
 use crate::machine::MachineConfig;
-use crate::plot::panels::{Curve, Panel, PanelsPlot};
-use crate::plot::polar::{PolarPlot, PolarTrace};
 use crate::sim::MeasuredAt;
 use crate::trace::measured::{MeasuredTrace, read_table};
-use crate::units::{m_from_um, mm_from_m, um_from_m};
+use crate::units::m_from_um;
 
 /// Arguments of `diagnose`.
 #[derive(Debug, Args)]
@@ -49,6 +47,11 @@ pub struct DiagnoseArgs {
     /// contourcheck.diagnose-table/1 with --table; see docs/report-schema.md).
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
+    /// Write a one-page HTML report (self-contained, printable on A4): the record, the
+    /// verdict, the causes ranked by their share of the residual with uncertainties and what
+    /// to do, the circular-test figures, the plots.
+    #[arg(long, value_name = "FILE.html")]
+    pub report: Option<PathBuf>,
     /// Write the extended machine as a machine file for check, sweep and diagnose.
     #[arg(long, value_name = "FILE")]
     pub write_machine: Option<PathBuf>,
@@ -96,6 +99,7 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
             args.evidence
         )));
     }
+    at_most_one_stdout([&args.json, &args.report, &args.write_machine].map(Option::as_ref))?;
     let machine = args.machine.load_stable()?;
     if let Some(table) = &args.table {
         return run_table(args, table, &machine);
@@ -172,6 +176,10 @@ fn write_outputs(
     if let Some(path) = &args.json {
         batch.stage(path, |w| report.write_json(w))?;
     }
+    if let Some(path) = &args.report {
+        let page = crate::html_report::diagnose_page(d, &report, &args.machine.report_inputs())?;
+        batch.stage(path, |w| w.write_all(page.as_bytes()))?;
+    }
     if let Some(path) = &args.write_machine {
         let text = machine_file(&d.machine, d, program_file, &measured.file);
         batch.stage(path, |w| w.write_all(text.as_bytes()))?;
@@ -239,9 +247,14 @@ fn run_table(
     path: &Path,
     machine: &crate::machine::MachineConfig,
 ) -> Result<Outcome, CliError> {
-    if args.write_machine.is_some() || args.plot.is_some() || args.write_compensation.is_some() {
+    if args.write_machine.is_some()
+        || args.plot.is_some()
+        || args.write_compensation.is_some()
+        || args.report.is_some()
+    {
         return Err(CliError::Usage(
-            "--write-machine, --write-compensation and --plot apply to traces, not to --table"
+            "--write-machine, --write-compensation, --plot and --report apply to traces, not \
+             to --table"
                 .into(),
         ));
     }
@@ -264,242 +277,28 @@ fn run_table(
     Ok(Outcome::Ok)
 }
 
-/// Half-width of the close-up around the largest miss (s).
-const ZOOM_HALF_S: f64 = 0.15;
-
-/// Most points per curve.
-const PLOT_POINTS: usize = 20_000;
-
-/// (abscissa, value) pairs, decimated, with a NaN wherever the samples jump (a stretch
-/// left out) so the line breaks there.
-fn curve_points(x: &[f64], t: &[f64], y: impl Fn(usize) -> f64) -> Vec<(f64, f64)> {
-    let every = x.len().div_ceil(PLOT_POINTS).max(1);
-    let step = t
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .fold(f64::MAX, f64::min)
-        .max(1e-9);
-    let mut out = Vec::new();
-    let mut last_t = f64::NAN;
-    for k in (0..x.len()).step_by(every) {
-        if t[k] - last_t > (every as f64 + 1.5) * step {
-            out.push((x[k], f64::NAN));
-        }
-        out.push((x[k], y(k)));
-        last_t = t[k];
-    }
-    out
-}
-
 fn stage_plots(
     batch: &mut OutputBatch,
     dir: &Path,
     d: &Diagnosis,
     program_file: &str,
 ) -> Result<(), CliError> {
-    let name = Path::new(program_file)
-        .file_name()
-        .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    let found: Vec<String> = d
-        .causes
-        .iter()
-        .map(|c| format!("{} on {}", c.id.as_str(), c.axis))
-        .collect();
-    let extended_name = if found.is_empty() {
-        "extended (no cause found)".to_string()
-    } else {
-        format!("extended: {}", found.join(", "))
-    };
-    let fit = fit_plot(d, &name, &extended_name);
-    let [over_time, along_path] = residual_plots(d, &name);
-    let polar = polar_plots(d, &name, &extended_name);
+    let figures = DiagnoseFigures::of(d, program_file);
     for ext in ["png", "svg"] {
-        for (c, figure) in d.circles.iter().zip(&polar) {
-            batch.stage_with_path(
-                &dir.join(format!("diagnose-polar-line{}.{ext}", c.line)),
-                |p| crate::plot::render(p, figure),
-            )?;
+        for (line, figure) in &figures.circles {
+            batch.stage_with_path(&dir.join(format!("diagnose-polar-line{line}.{ext}")), |p| {
+                crate::plot::render(p, figure)
+            })?;
         }
         batch.stage_with_path(&dir.join(format!("diagnose-fit.{ext}")), |p| {
-            crate::plot::render(p, &fit)
+            crate::plot::render(p, &figures.fit)
         })?;
         batch.stage_with_path(&dir.join(format!("diagnose-residual-time.{ext}")), |p| {
-            crate::plot::render(p, &over_time)
+            crate::plot::render(p, &figures.over_time)
         })?;
         batch.stage_with_path(&dir.join(format!("diagnose-residual-path.{ext}")), |p| {
-            crate::plot::render(p, &along_path)
+            crate::plot::render(p, &figures.along_path)
         })?;
     }
     Ok(())
-}
-
-/// Each axis's deviation from the command, measured and by both models.
-fn fit_plot(d: &Diagnosis, name: &str, extended_name: &str) -> PanelsPlot {
-    let s = &d.series;
-    let t = &s.t_s;
-    // Each axis's deviation from the command, measured and by both models, around where
-    // the nominal model misses most (the whole record when it misses nowhere).
-    let deviation = |a: usize| {
-        let axis = ["x", "y"][a];
-        let worst = d.places.iter().find(|p| p.what == axis);
-        let keep: Vec<usize> = match worst {
-            Some(p) => (0..t.len())
-                .filter(|&k| (t[k] - p.t_s).abs() <= ZOOM_HALF_S)
-                .collect(),
-            None => (0..t.len()).collect(),
-        };
-        let tk: Vec<f64> = keep.iter().map(|&k| t[k]).collect();
-        let dev = |model: &[f64]| {
-            curve_points(&tk, &tk, |j| {
-                um_from_m(model[keep[j]] - s.reference[a][keep[j]])
-            })
-        };
-        Panel {
-            caption: match worst {
-                Some(p) => format!(
-                    "{} axis: position − command around t = {:.2} s (line {}), where the nominal model misses most",
-                    axis.to_uppercase(),
-                    p.t_s,
-                    p.line
-                ),
-                None => format!("{} axis: position − command", axis.to_uppercase()),
-            },
-            y_label: "µm".into(),
-            curves: vec![
-                Curve {
-                    name: "measured".into(),
-                    points: dev(&s.measured[a]),
-                    color: None,
-                    width: 3,
-                },
-                Curve {
-                    name: "nominal model".into(),
-                    points: dev(&s.nominal[a]),
-                    color: Some(1),
-                    width: 2,
-                },
-                Curve {
-                    name: extended_name.to_string(),
-                    points: dev(&s.extended[a]),
-                    color: Some(0),
-                    width: 2,
-                },
-            ],
-        }
-    };
-    PanelsPlot {
-        title: format!("{name}: measured against the nominal and the extended model"),
-        x_label: "program time (s)".into(),
-        panels: vec![deviation(0), deviation(1)],
-    }
-}
-
-/// The residual of both models over time (X, Y, contour) and along the path (contour).
-fn residual_plots(d: &Diagnosis, name: &str) -> [PanelsPlot; 2] {
-    let s = &d.series;
-    let t = &s.t_s;
-    let residual_panel = |caption: String,
-                          before: &dyn Fn(usize) -> f64,
-                          after: &dyn Fn(usize) -> f64,
-                          x: &[f64]| Panel {
-        caption,
-        y_label: "residual (µm)".into(),
-        curves: vec![
-            Curve {
-                name: "nominal model".into(),
-                points: curve_points(x, t, before),
-                color: None,
-                width: 1,
-            },
-            Curve {
-                name: "extended model".into(),
-                points: curve_points(x, t, after),
-                color: Some(0),
-                width: 1,
-            },
-        ],
-    };
-    let axis_residual = |a: usize| {
-        residual_panel(
-            format!(
-                "{} axis: measured − model (RMS {:.3} → {:.3} µm)",
-                ["X", "Y"][a],
-                [d.before.x, d.before.y][a].rms_um,
-                [d.after.x, d.after.y][a].rms_um
-            ),
-            &|k| um_from_m(s.measured[a][k] - s.nominal[a][k]),
-            &|k| um_from_m(s.measured[a][k] - s.extended[a][k]),
-            t,
-        )
-    };
-    let contour_caption = format!(
-        "contour error: measured − model (RMS {:.3} → {:.3} µm)",
-        d.before.contour.rms_um, d.after.contour.rms_um
-    );
-    let contour_before = |k: usize| um_from_m(s.contour_residual[0][k]);
-    let contour_after = |k: usize| um_from_m(s.contour_residual[1][k]);
-    let over_time = PanelsPlot {
-        title: format!("{name}: residual before and after the extension, over time"),
-        x_label: "program time (s)".into(),
-        panels: vec![
-            axis_residual(0),
-            axis_residual(1),
-            residual_panel(contour_caption.clone(), &contour_before, &contour_after, t),
-        ],
-    };
-    let path_mm: Vec<f64> = s.path_s_m.iter().map(|&v| mm_from_m(v)).collect();
-    let along_path = PanelsPlot {
-        title: format!("{name}: contour-error residual along the path"),
-        x_label: "path length (mm)".into(),
-        panels: vec![residual_panel(
-            contour_caption,
-            &contour_before,
-            &contour_after,
-            &path_mm,
-        )],
-    };
-    [over_time, along_path]
-}
-
-/// Ballbar-style: each full circle's radial deviation, measured and by both models.
-fn polar_plots(d: &Diagnosis, name: &str, extended_name: &str) -> Vec<PolarPlot> {
-    let s = &d.series;
-    d.circles
-        .iter()
-        .map(|c| {
-            let g_of = |test: &crate::analysis::circular::CircularTest| {
-                test.circles
-                    .iter()
-                    .find(|f| f.line == c.line)
-                    .map(|f| f.g_um)
-            };
-            let trace = |label: &str, xy: &[Vec<f64>; 2], width: u32, g_um| PolarTrace {
-                label: label.to_string(),
-                width,
-                g_um,
-                points: radial_points(c, &s.segment, &xy[0], &xy[1])
-                    .into_iter()
-                    .map(|(a, r)| (a, um_from_m(r)))
-                    .collect(),
-            };
-            PolarPlot {
-                title: format!(
-                    "{name}: line {} ({}) R{:.1} mm — radial deviation",
-                    c.line,
-                    if c.ccw {
-                        "counter-clockwise"
-                    } else {
-                        "clockwise"
-                    },
-                    mm_from_m(c.radius_m)
-                ),
-                radius_mm: mm_from_m(c.radius_m),
-                traces: vec![
-                    trace("measured", &s.measured, 1, g_of(&d.circular.measured)),
-                    trace("nominal model", &s.nominal, 2, g_of(&d.circular.nominal)),
-                    trace(extended_name, &s.extended, 2, g_of(&d.circular.extended)),
-                ],
-            }
-        })
-        .collect()
 }

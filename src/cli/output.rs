@@ -10,6 +10,7 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Every temporary file staged and not yet committed or removed, in this process.
 static STAGED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
@@ -100,10 +101,72 @@ impl OutputError {
     }
 }
 
+/// Where an output named on the command line goes.
+#[derive(Debug, Clone, PartialEq)]
+enum Target {
+    /// A regular file, or none yet: staged beside it and renamed onto it. The path is the
+    /// one symbolic links lead to, so that a link stays a link and its target is replaced.
+    File(PathBuf),
+    /// `-`: the standard output.
+    Stdout,
+    /// A device, a FIFO, or a path under `/dev` or `/proc` (`/dev/stdout`): nothing can be
+    /// renamed onto it, so the bytes are written to it in place.
+    Stream(PathBuf),
+}
+
+/// What `dest` is: `-`, a stream, or a file (followed through symbolic links).
+fn target_of(dest: &Path) -> Target {
+    if dest.as_os_str() == "-" {
+        return Target::Stdout;
+    }
+    // `/dev/stdout` leads through `/proc/self/fd/1` to wherever the shell sent the output,
+    // perhaps a regular file it holds open: renaming onto that would lose what it writes.
+    if dest.starts_with("/dev") || dest.starts_with("/proc") {
+        return Target::Stream(dest.to_path_buf());
+    }
+    match std::fs::metadata(dest) {
+        Ok(m) if !m.is_file() && !m.is_dir() => Target::Stream(dest.to_path_buf()),
+        Ok(_) => Target::File(std::fs::canonicalize(dest).unwrap_or_else(|_| dest.into())),
+        // A dangling link is written where it points, and the link stays.
+        Err(_) => Target::File(link_destination(dest)),
+    }
+}
+
+/// Where a chain of symbolic links from `path` ends, whether or not a file is there yet.
+fn link_destination(path: &Path) -> PathBuf {
+    let mut at = path.to_path_buf();
+    // A loop of links ends nowhere: the file's own error says so when it is created.
+    for _ in 0..40 {
+        let Ok(next) = std::fs::read_link(&at) else {
+            return at;
+        };
+        at = match at.parent() {
+            Some(dir) => dir.join(next),
+            None => next,
+        };
+    }
+    at
+}
+
+/// What a staged output still needs when the batch is committed.
+#[derive(Debug)]
+enum Pending {
+    /// A complete temporary file to rename onto the target.
+    Rename { tmp: PathBuf, onto: PathBuf },
+    /// Bytes for the standard output or a stream.
+    Bytes { target: Target, bytes: Vec<u8> },
+    /// A temporary file (written by a library by path) to copy to the standard output or a
+    /// stream, then remove.
+    Copy { tmp: PathBuf, target: Target },
+    /// Written to its stream as it was produced: nothing left to do.
+    Written,
+}
+
 /// A set of outputs that become visible together.
 #[derive(Debug, Default)]
 pub struct OutputBatch {
-    staged: Vec<(PathBuf, PathBuf)>,
+    /// Each output's destination as given, and what is left to do at the commit.
+    staged: Vec<(PathBuf, Pending)>,
 }
 
 impl OutputBatch {
@@ -112,15 +175,26 @@ impl OutputBatch {
         Self::default()
     }
 
-    /// Stages `dest` with the bytes produced by `write`.
+    /// Stages `dest` with the bytes produced by `write`. A file is staged beside its
+    /// destination; for the standard output (`-`) or a stream the bytes are kept until the
+    /// commit, so that they too appear whole or not at all.
     pub fn stage(
         &mut self,
         dest: &Path,
         write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
     ) -> Result<(), OutputError> {
-        let tmp = self.temp_path(dest)?;
+        let target = self.claim(dest)?;
+        let Target::File(onto) = target else {
+            let mut bytes = Vec::new();
+            write(&mut bytes).map_err(|e| OutputError::new(dest, e))?;
+            self.staged
+                .push((dest.to_path_buf(), Pending::Bytes { target, bytes }));
+            return Ok(());
+        };
+        let tmp = temp_path(&onto, dest)?;
         let file = std::fs::File::create(&tmp).map_err(|e| OutputError::new(dest, e))?;
-        self.staged.push((tmp.clone(), dest.to_path_buf()));
+        self.staged
+            .push((dest.to_path_buf(), Pending::Rename { tmp, onto }));
         let mut w = std::io::BufWriter::new(file);
         write(&mut w).map_err(|e| OutputError::new(dest, e))?;
         w.flush().map_err(|e| OutputError::new(dest, e))?;
@@ -128,20 +202,37 @@ impl OutputBatch {
     }
 
     /// Stages `dest` to be written piece by piece (a run's trace as it is simulated): the
-    /// returned writer must be finished before the batch is committed.
+    /// returned writer must be finished before the batch is committed. To the standard
+    /// output or a stream the pieces go as they come (a trace of any length is never held).
     pub fn stage_writer(&mut self, dest: &Path) -> Result<StagedWriter, OutputError> {
-        let tmp = self.temp_path(dest)?;
-        let file = std::fs::File::create(&tmp).map_err(|e| OutputError::new(dest, e))?;
-        self.staged.push((tmp, dest.to_path_buf()));
+        let target = self.claim(dest)?;
+        let w: Box<dyn Write + Send> = match &target {
+            Target::File(onto) => {
+                let tmp = temp_path(onto, dest)?;
+                let file = std::fs::File::create(&tmp).map_err(|e| OutputError::new(dest, e))?;
+                self.staged.push((
+                    dest.to_path_buf(),
+                    Pending::Rename {
+                        tmp,
+                        onto: onto.clone(),
+                    },
+                ));
+                Box::new(file)
+            }
+            other => {
+                self.staged.push((dest.to_path_buf(), Pending::Written));
+                open_stream(other).map_err(|e| OutputError::new(dest, e))?
+            }
+        };
         Ok(StagedWriter {
             dest: dest.to_path_buf(),
-            w: std::io::BufWriter::new(file),
+            w: std::io::BufWriter::new(w),
         })
     }
 
     /// Where the staged outputs will appear, in the order they were staged.
     pub fn destinations(&self) -> Vec<PathBuf> {
-        self.staged.iter().map(|(_, dest)| dest.clone()).collect()
+        self.staged.iter().map(|(dest, _)| dest.clone()).collect()
     }
 
     /// Stages a file that a library writes by path itself (e.g. an image encoder): `write` is
@@ -151,50 +242,185 @@ impl OutputBatch {
         dest: &Path,
         write: impl FnOnce(&Path) -> Result<(), String>,
     ) -> Result<(), OutputError> {
-        let tmp = self.temp_path(dest)?;
-        self.staged.push((tmp.clone(), dest.to_path_buf()));
+        let target = self.claim(dest)?;
+        let (tmp, pending) = match target {
+            Target::File(onto) => {
+                let tmp = temp_path(&onto, dest)?;
+                (tmp.clone(), Pending::Rename { tmp, onto })
+            }
+            // Beside nothing: the system's temporary folder, under a name that keeps the
+            // extension the encoder reads.
+            target => {
+                let name = dest.file_name().map_or("output".into(), |n| n.to_owned());
+                let tmp = temp_path(&std::env::temp_dir().join(name), dest)?;
+                (tmp.clone(), Pending::Copy { tmp, target })
+            }
+        };
+        self.staged.push((dest.to_path_buf(), pending));
         write(&tmp).map_err(|e| OutputError::new(dest, e))
     }
 
-    fn temp_path(&self, dest: &Path) -> Result<PathBuf, OutputError> {
-        remove_stale_temporaries(dest);
-        let name = dest
-            .file_name()
-            .ok_or_else(|| OutputError::new(dest, "not a file name"))?;
-        let mut tmp_name = std::ffi::OsString::from(".");
-        tmp_name.push(name);
-        tmp_name.push(format!(".tmp{}", std::process::id()));
-        // Keep the extension last: image encoders choose the format from it.
-        if let Some(ext) = dest.extension() {
-            tmp_name.push(".");
-            tmp_name.push(ext);
+    /// The target of `dest`, refusing a second output to the standard output (two outputs
+    /// interleaved there could not be told apart).
+    fn claim(&self, dest: &Path) -> Result<Target, OutputError> {
+        let target = target_of(dest);
+        if target == Target::Stdout {
+            if STDOUT_TAKEN.load(Ordering::SeqCst) {
+                return Err(OutputError::new(
+                    dest,
+                    "only one output can go to the standard output",
+                ));
+            }
+            take_stdout();
         }
-        let tmp = dest.with_file_name(tmp_name);
-        staged_files().push(tmp.clone());
-        Ok(tmp)
+        Ok(target)
     }
 
-    /// Moves every staged file into place.
+    /// Moves every staged file into place, then writes what goes to the standard output or
+    /// a stream.
     pub fn commit(mut self) -> Result<(), OutputError> {
-        for (tmp, dest) in std::mem::take(&mut self.staged) {
-            let renamed = std::fs::rename(&tmp, &dest);
+        let staged = std::mem::take(&mut self.staged);
+        let (files, streams): (Vec<_>, Vec<_>) = staged
+            .into_iter()
+            .partition(|(_, p)| matches!(p, Pending::Rename { .. }));
+        for (dest, pending) in files {
+            let Pending::Rename { tmp, onto } = &pending else {
+                continue;
+            };
+            let renamed = std::fs::rename(tmp, onto);
             if renamed.is_err() {
                 // Put back, so that dropping the batch removes it with the rest.
-                self.staged.push((tmp, dest.clone()));
-            } else {
-                forget_staged(&tmp);
+                self.staged.push((dest.clone(), pending));
+                self.staged.extend(streams);
+                return renamed.map_err(|e| OutputError::new(&dest, e));
             }
-            renamed.map_err(|e| OutputError::new(&dest, e))?;
+            forget_staged(tmp);
+        }
+        for (dest, pending) in streams {
+            write_pending(&pending).map_err(|e| OutputError::new(&dest, e))?;
+            if let Pending::Copy { tmp, .. } = &pending {
+                let _ = std::fs::remove_file(tmp);
+                forget_staged(tmp);
+            }
         }
         Ok(())
     }
 }
 
+/// Writes what waited for the commit to its stream.
+fn write_pending(pending: &Pending) -> std::io::Result<()> {
+    match pending {
+        Pending::Bytes { target, bytes } => {
+            let mut w = open_stream(target)?;
+            w.write_all(bytes)?;
+            w.flush()
+        }
+        Pending::Copy { tmp, target } => {
+            let mut w = open_stream(target)?;
+            std::io::copy(&mut std::fs::File::open(tmp)?, &mut w)?;
+            w.flush()
+        }
+        Pending::Rename { .. } | Pending::Written => Ok(()),
+    }
+}
+
+/// The temporary file of a destination: beside `onto` (where it will be renamed to), hidden,
+/// named by this process; `dest` (as the user gave it) names it in errors.
+fn temp_path(onto: &Path, dest: &Path) -> Result<PathBuf, OutputError> {
+    remove_stale_temporaries(onto);
+    let name = onto
+        .file_name()
+        .ok_or_else(|| OutputError::new(dest, "not a file name"))?;
+    let mut tmp_name = std::ffi::OsString::from(".");
+    tmp_name.push(name);
+    tmp_name.push(format!(".tmp{}", std::process::id()));
+    // Keep the extension last: image encoders choose the format from it.
+    if let Some(ext) = onto.extension() {
+        tmp_name.push(".");
+        tmp_name.push(ext);
+    }
+    let tmp = onto.with_file_name(tmp_name);
+    staged_files().push(tmp.clone());
+    Ok(tmp)
+}
+
+/// Refuses, before any work, a run that names the standard output (`-`) for more than one
+/// of its outputs.
+pub fn at_most_one_stdout<'a>(
+    outputs: impl IntoIterator<Item = Option<&'a PathBuf>>,
+) -> Result<(), OutputError> {
+    let dashes = outputs
+        .into_iter()
+        .flatten()
+        .filter(|p| p.as_os_str() == "-")
+        .count();
+    if dashes > 1 {
+        return Err(OutputError::new(
+            Path::new("-"),
+            "only one output can go to the standard output",
+        ));
+    }
+    Ok(())
+}
+
+/// Whether an output of this process took the standard output.
+static STDOUT_TAKEN: AtomicBool = AtomicBool::new(false);
+
+/// The standard output as the data's, once an output takes it: on Unix a duplicate of the
+/// original descriptor 1, which itself is pointed at the standard error, so that what the
+/// command prints for people (its summary, what it wrote) goes there and the standard output
+/// carries the data alone.
+static DATA_OUT: Mutex<Option<std::fs::File>> = Mutex::new(None);
+
+/// Takes the standard output for data (see [`DATA_OUT`]).
+fn take_stdout() {
+    STDOUT_TAKEN.store(true, Ordering::SeqCst);
+    let _ = std::io::stdout().flush();
+    #[cfg(unix)]
+    {
+        use std::os::fd::FromRawFd;
+        // SAFETY: plain descriptor calls on the process's own standard streams; the
+        // duplicate is owned by the `File` alone.
+        let data = unsafe {
+            let fd = libc::dup(1);
+            if fd < 0 || libc::dup2(2, 1) < 0 {
+                return;
+            }
+            std::fs::File::from_raw_fd(fd)
+        };
+        *DATA_OUT.lock().unwrap_or_else(|e| e.into_inner()) = Some(data);
+    }
+}
+
+/// A writer to the standard output's data or to a stream (appended to: a regular file
+/// behind `/dev/stdout` keeps what was written to it before).
+fn open_stream(target: &Target) -> std::io::Result<Box<dyn Write + Send>> {
+    match target {
+        Target::Stdout => {
+            let data = DATA_OUT.lock().unwrap_or_else(|e| e.into_inner());
+            match data.as_ref() {
+                Some(file) => Ok(Box::new(file.try_clone()?)),
+                None => Ok(Box::new(std::io::stdout())),
+            }
+        }
+        Target::Stream(path) | Target::File(path) => Ok(Box::new(
+            std::fs::OpenOptions::new().append(true).open(path)?,
+        )),
+    }
+}
+
 /// A staged output being written piece by piece.
-#[derive(Debug)]
 pub struct StagedWriter {
     dest: PathBuf,
-    w: std::io::BufWriter<std::fs::File>,
+    w: std::io::BufWriter<Box<dyn Write + Send>>,
+}
+
+impl std::fmt::Debug for StagedWriter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("StagedWriter")
+            .field("dest", &self.dest)
+            .finish_non_exhaustive()
+    }
 }
 
 impl StagedWriter {
@@ -214,9 +440,11 @@ impl StagedWriter {
 
 impl Drop for OutputBatch {
     fn drop(&mut self) {
-        for (tmp, _) in &self.staged {
-            let _ = std::fs::remove_file(tmp);
-            forget_staged(tmp);
+        for (_, pending) in &self.staged {
+            if let Pending::Rename { tmp, .. } | Pending::Copy { tmp, .. } = pending {
+                let _ = std::fs::remove_file(tmp);
+                forget_staged(tmp);
+            }
         }
     }
 }

@@ -93,7 +93,7 @@ fn print_notes_and_warnings(program: &crate::gcode::Program, planner: &[crate::g
     let warnings: Vec<_> = program.warnings.iter().chain(planner).cloned().collect();
     if !warnings.is_empty() {
         println!("warnings:");
-        for line in super::common::group_warnings(&warnings) {
+        for line in crate::report::group_warnings(&warnings) {
             println!("  {line}");
         }
     }

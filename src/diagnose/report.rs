@@ -530,7 +530,7 @@ fn write_alternatives(s: &mut String, alternatives: &[Alternative]) {
 
 /// A value with its standard uncertainty in two significant digits, the value to the same
 /// decimal place: `7.989 ± 0.019`.
-fn with_uncertainty(value: f64, uncertainty: f64) -> String {
+pub(crate) fn with_uncertainty(value: f64, uncertainty: f64) -> String {
     if !(uncertainty.is_finite() && uncertainty > 0.0) {
         return format!("{} (uncertainty not determined)", sig(value));
     }
@@ -540,7 +540,7 @@ fn with_uncertainty(value: f64, uncertainty: f64) -> String {
 
 /// How strongly the record supports a cause, in words a user can weigh: by how much the
 /// residual falls on data the fit did not see, against what chance would give.
-fn strength(c: &CauseReport) -> String {
+pub(crate) fn strength(c: &CauseReport) -> String {
     let h = &c.held_out;
     let fall = if h.rms_before_um > 0.0 {
         100.0 * (1.0 - h.rms_after_um / h.rms_before_um)
@@ -614,7 +614,7 @@ fn ballbar_and_causes(r: &DiagnoseReport) -> Option<String> {
 }
 
 /// What a user does about a cause once it is named: where the value goes, or what to check.
-fn next_step(c: &CauseReport) -> String {
+pub(crate) fn next_step(c: &CauseReport) -> String {
     let axis = c.axis;
     let value = c.params.first().map_or(f64::NAN, |p| p.value);
     match c.id {
@@ -773,6 +773,15 @@ fn unexplained_line(u: &Located) -> String {
         u.residual_rms_um,
         variable.describe()
     )
+}
+
+impl Diagnosis {
+    /// The extended machine as a complete machine file (`base = "none"`), the fitted values
+    /// and their uncertainties as comments: what `diagnose --write-machine` writes, for a
+    /// record `record_file` of `program_file`.
+    pub fn machine_file(&self, program_file: &str, record_file: &str) -> String {
+        machine_file(&self.machine, self, program_file, record_file)
+    }
 }
 
 /// The extended machine as a machine file that `check`, `sweep` and `diagnose` load.

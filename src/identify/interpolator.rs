@@ -1,7 +1,13 @@
 //! What a record's commands show of the control's interpolator — each axis's peak
-//! velocity, acceleration and jerk and the path's peak speed — and those peaks as the
-//! identified machine's planning limits, so that `check` plans the next program about as
-//! that control did.
+//! velocity, acceleration and jerk and the path's peak speed — and, where the record shows
+//! the control held at one, that peak as the identified machine's planning limit, so that
+//! `check` plans the next program about as that control did.
+//!
+//! A peak is a limit only where the axis stayed at it, flat, in several stretches of the
+//! record, and the template's own planner would have asked for more on the same program:
+//! the moves demanded more than the machine gave. A circle at one feed never asks its
+//! axes for more than its radius needs; written as the limit, that peak would make every
+//! other program look gentler than the machine runs it.
 
 use serde::Serialize;
 
@@ -22,62 +28,108 @@ pub struct Interpolator {
     /// single cycles of a stepped acceleration (a trapezoidal interpolator has no jerk
     /// limit) are not taken for the control's jerk.
     pub jerk_m_per_s3: [f64; 2],
-    /// Whether the record shows the acceleration held at its peak (for `PLATEAU_S`): the
-    /// control's limit, not only what these moves needed.
+    /// Per axis, the peak acceleration (m/s²) and jerk (m/s³) the template's planner gives
+    /// the same program: what the moves demanded.
+    pub demanded_accel_m_per_s2: [f64; 2],
+    /// The same for the jerk.
+    pub demanded_jerk_m_per_s3: [f64; 2],
+    /// Whether the record shows the acceleration held at its peak (flat for `PLATEAU_S`,
+    /// in `PLATEAUS` stretches) where the moves demanded more: the control's limit, not
+    /// only what these moves needed.
     pub accel_limited: [bool; 2],
     /// Whether it shows the jerk held at its peak.
     pub jerk_limited: [bool; 2],
 }
 
-/// How long a peak must be held to count as the control's limit (s), and how close to it.
+/// How long a peak must be held to count as the control's limit (s), how close to it, and
+/// in how many separate stretches.
 const PLATEAU_S: f64 = 0.005;
 const PLATEAU_SHARE: f64 = 0.98;
+const PLATEAUS: usize = 2;
 
-/// Whether |v| stays within `PLATEAU_SHARE` of `peak` for `PLATEAU_S` somewhere.
-fn held_at(v: &[f64], peak: f64, dt: f64) -> bool {
+/// How much the path speed must change over a plateau (a share of its peak) for the
+/// plateau to be the interpolator ramping at its limit: a circle's centripetal peak comes at
+/// constant speed, whatever the limit.
+const RAMPING_SHARE: f64 = 0.01;
+
+/// Whether |v| stays within `PLATEAU_SHARE` of `peak` for `PLATEAU_S` in `PLATEAUS`
+/// separate stretches while the path speed `speed` (sampled alike) changes, and the moves
+/// `demanded` more than the peak.
+fn held_at(v: &[f64], peak: f64, demanded: f64, dt: f64, speed: &[f64]) -> bool {
     let need = (PLATEAU_S / dt).ceil() as usize;
-    let mut run = 0usize;
-    for x in v {
+    let top = speed.iter().fold(0.0f64, |m, s| m.max(s.abs()));
+    let (mut run, mut stretches) = (0usize, 0usize);
+    for (k, x) in v.iter().enumerate() {
         run = if peak > 0.0 && x.abs() >= PLATEAU_SHARE * peak {
             run + 1
         } else {
             0
         };
-        if run >= need {
-            return true;
+        let ramping = |k: usize| {
+            let (a, b) = (speed.get(k + 1 - need), speed.get(k));
+            matches!((a, b), (Some(a), Some(b)) if (b - a).abs() > RAMPING_SHARE * top)
+        };
+        if run == need && ramping(k) {
+            stretches += 1;
         }
     }
-    false
+    stretches >= PLATEAUS && peak < PLATEAU_SHARE * demanded
 }
 
-/// The peaks of the context's commands.
+/// The largest magnitude in `v`.
+fn peak(v: &[f64]) -> f64 {
+    v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
+}
+
+/// The rate of `a` sampled every `dt`.
+fn rate(a: &[f64], dt: f64) -> Vec<f64> {
+    a.windows(2).map(|w| (w[1] - w[0]) / dt).collect()
+}
+
+/// The peak jerk of the acceleration `a`: the 99.5th percentile of its rate.
+fn jerk(a: &[f64], dt: f64) -> f64 {
+    let mut rates: Vec<f64> = rate(a, dt).iter().map(|r| r.abs()).collect();
+    rates.sort_by(f64::total_cmp);
+    rates
+        .get(((rates.len() as f64) * 0.995) as usize)
+        .copied()
+        .unwrap_or(0.0)
+}
+
+/// The peaks of the context's commands, and what the template's planner demands on the
+/// same program.
 pub fn read(ctx: &Context) -> Interpolator {
     let c = &ctx.commands;
     let axes = [&c.x, &c.y];
-    let peak = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-    let rate = |a: &[f64]| -> Vec<f64> { a.windows(2).map(|w| (w[1] - w[0]) / ctx.dt).collect() };
-    let jerk = |a: &[f64]| {
-        let mut rates: Vec<f64> = rate(a).iter().map(|r| r.abs()).collect();
-        rates.sort_by(f64::total_cmp);
-        rates
-            .get(((rates.len() as f64) * 0.995) as usize)
-            .copied()
-            .unwrap_or(0.0)
-    };
+    let planned = crate::plan::sample(&ctx.plan);
+    let plan_dt = planned.dt_s;
+    let demanded = [&planned.x, &planned.y];
+    let demanded_accel = demanded.map(|a| peak(&a.acc_m_per_s2));
+    let demanded_jerk = demanded.map(|a| jerk(&a.acc_m_per_s2, plan_dt));
     let accel = axes.map(|a| peak(&a.acc_m_per_s2));
-    let jerks = axes.map(|a| jerk(&a.acc_m_per_s2));
-    let path =
+    let jerks = axes.map(|a| jerk(&a.acc_m_per_s2, ctx.dt));
+    let speed: Vec<f64> =
         c.x.vel_m_per_s
             .iter()
             .zip(&c.y.vel_m_per_s)
-            .fold(0.0f64, |m, (vx, vy)| m.max(vx.hypot(*vy)));
+            .map(|(vx, vy)| vx.hypot(*vy))
+            .collect();
+    let path = peak(&speed);
     Interpolator {
         path_speed_mm_per_min: mm_per_min_from_m_per_s(path),
         velocity_mm_per_min: axes.map(|a| mm_per_min_from_m_per_s(peak(&a.vel_m_per_s))),
         accel_m_per_s2: accel,
         jerk_m_per_s3: jerks,
-        accel_limited: [0, 1].map(|i| held_at(&axes[i].acc_m_per_s2, accel[i], ctx.dt)),
-        jerk_limited: [0, 1].map(|i| held_at(&rate(&axes[i].acc_m_per_s2), jerks[i], ctx.dt)),
+        demanded_accel_m_per_s2: demanded_accel,
+        demanded_jerk_m_per_s3: demanded_jerk,
+        accel_limited: [0, 1].map(|i| {
+            let a = &axes[i].acc_m_per_s2;
+            held_at(a, accel[i], demanded_accel[i], ctx.dt, &speed)
+        }),
+        jerk_limited: [0, 1].map(|i| {
+            let rates = rate(&axes[i].acc_m_per_s2, ctx.dt);
+            held_at(&rates, jerks[i], demanded_jerk[i], ctx.dt, &speed)
+        }),
     }
 }
 
@@ -108,21 +160,42 @@ mod tests {
     use super::{held_at, round_up};
 
     #[test]
-    fn a_limit_is_a_peak_held() {
+    fn a_limit_is_a_peak_held_in_several_stretches_where_more_was_demanded() {
         let dt = 1e-3;
-        // 20 ms at 0.5 m/s² between ramps: held. A single-sample spike: not.
-        let plateau: Vec<f64> = (0..60)
+        // Two stretches of 20 ms at 0.5 m/s² between ramps, where the planner would have
+        // asked for 2: held.
+        let plateaus: Vec<f64> = (0..120)
             .map(|k| {
-                if (20..40).contains(&k) {
+                if (20..40).contains(&k) || (80..100).contains(&k) {
                     0.5
                 } else {
                     0.01 * k as f64 % 0.3
                 }
             })
             .collect();
-        assert!(held_at(&plateau, 0.5, dt));
+        // The path speed ramps through each plateau (the acceleration's integral).
+        let ramp: Vec<f64> = plateaus
+            .iter()
+            .scan(0.0, |v, a| {
+                *v += a * dt;
+                Some(*v)
+            })
+            .collect();
+        assert!(held_at(&plateaus, 0.5, 2.0, dt, &ramp));
+        // The same where the planner gives 0.5 itself: the moves asked no more.
+        assert!(!held_at(&plateaus, 0.5, 0.5, dt, &ramp));
+        // At constant path speed (a circle's centripetal peaks): not a limit.
+        assert!(!held_at(&plateaus, 0.5, 2.0, dt, &[0.1; 120]));
+        // One stretch only: not.
+        let once: Vec<f64> = plateaus
+            .iter()
+            .enumerate()
+            .map(|(k, v)| if k < 60 { *v } else { 0.1 })
+            .collect();
+        assert!(!held_at(&once, 0.5, 2.0, dt, &ramp));
+        // A single-sample spike: not.
         let spike: Vec<f64> = (0..60).map(|k| if k == 30 { 0.5 } else { 0.1 }).collect();
-        assert!(!held_at(&spike, 0.5, dt));
+        assert!(!held_at(&spike, 0.5, 2.0, dt, &ramp));
     }
 
     #[test]

@@ -262,28 +262,52 @@ enum Unknown {
     Scale,
 }
 
+/// The record's signals through the state-variable filter 1/(s + λ)ⁿ with their
+/// derivatives, and the drive they are read through.
+struct Filtered<'d> {
+    x: Vec<Vec<f64>>,
+    sgn: Vec<Vec<f64>>,
+    e: Vec<Vec<f64>>,
+    a: Vec<Vec<f64>>,
+    drive: &'d Drive,
+}
+
+impl<'d> Filtered<'d> {
+    fn of(signals: &Signals, order: usize, drive: &'d Drive) -> Filtered<'d> {
+        let lambda = std::f64::consts::TAU * FILTER_HZ;
+        let through = |u: &[f64]| filtered(u, order, lambda, signals.h);
+        Filtered {
+            x: through(&signals.position_m),
+            sgn: through(&signals.direction),
+            e: through(&signals.error_mm),
+            a: through(&signals.accel_m_per_s2),
+            drive,
+        }
+    }
+
+    /// sᵠ of the force on the drive (filtered): accelerating it and pushing its friction.
+    fn force(&self, q: usize, i: usize) -> f64 {
+        let d = self.drive;
+        d.mass_kg * self.x[q + 2][i]
+            + d.viscous_n_s_per_m * self.x[q + 1][i]
+            + d.coulomb_n * self.sgn[q][i]
+    }
+
+    /// sᵖ of what the controller commands (filtered): the current for that force, the
+    /// amplifier's lag undone, less the current fed forward.
+    fn current(&self, p: usize, i: usize) -> f64 {
+        let d = self.drive;
+        (d.tau * self.force(p + 1, i) + self.force(p, i)
+            - d.accel_feedforward * d.mass_kg * self.a[p][i])
+            / d.force_per_amp
+    }
+}
+
 /// Solves the record's equation for the controller.
 fn solve(signals: &Signals, shape: &Shape, drive: &Drive) -> Option<Solved> {
     let n = shape.order();
     // The highest derivative: sⁿ·(τs + 1)·s²x.
-    let filter_order = n + 4;
-    let lambda = std::f64::consts::TAU * FILTER_HZ;
-    let x = filtered(&signals.position_m, filter_order, lambda, signals.h);
-    let sgn = filtered(&signals.direction, filter_order, lambda, signals.h);
-    let e = filtered(&signals.error_mm, filter_order, lambda, signals.h);
-    let a = filtered(&signals.accel_m_per_s2, filter_order, lambda, signals.h);
-    let k = drive.force_per_amp;
-    let ff = drive.accel_feedforward;
-    // sᵖ of what the controller commands (filtered): the current accelerating the drive and
-    // pushing its friction, the amplifier's lag undone, less the current fed forward.
-    let force = |q: usize, i: usize| {
-        drive.mass_kg * x[q + 2][i]
-            + drive.viscous_n_s_per_m * x[q + 1][i]
-            + drive.coulomb_n * sgn[q][i]
-    };
-    let current = |p: usize, i: usize| {
-        (drive.tau * force(p + 1, i) + force(p, i) - ff * drive.mass_kg * a[p][i]) / k
-    };
+    let f = Filtered::of(signals, n + 4, drive);
     let free_poles = shape.free_poles();
     let fixed_poles: Vec<(usize, f64)> = (0..=n)
         .filter(|p| !free_poles.contains(p))
@@ -302,44 +326,26 @@ fn solve(signals: &Signals, shape: &Shape, drive: &Drive) -> Option<Solved> {
     if rows.len() < 10 * unknowns.len() {
         return None;
     }
-    let over_fixed = |f: &dyn Fn(usize, usize) -> f64, i: usize| {
-        fixed_poles.iter().map(|&(p, c)| c * f(p, i)).sum::<f64>()
-    };
     let column = |u: Unknown, i: usize| -> f64 {
         match u {
-            Unknown::Pole(p) => current(p, i),
-            Unknown::Zero(p) => -e[p][i],
+            Unknown::Pole(p) => f.current(p, i),
+            Unknown::Zero(p) => -f.e[p][i],
             Unknown::Scale => -shape
                 .numerator
                 .iter()
                 .enumerate()
-                .map(|(p, c)| c * e[p][i])
+                .map(|(p, c)| c * f.e[p][i])
                 .sum::<f64>(),
         }
     };
-    let mut m = DMatrix::<f64>::zeros(rows.len(), unknowns.len());
-    let mut b = DVector::<f64>::zeros(rows.len());
-    for (r, &i) in rows.iter().enumerate() {
-        for (c, &u) in unknowns.iter().enumerate() {
-            m[(r, c)] = column(u, i);
-        }
-        b[r] = -over_fixed(&current, i);
-    }
-    // Columns of very different sizes: solved in unit-norm columns.
-    let norms: Vec<f64> = (0..unknowns.len()).map(|c| m.column(c).norm()).collect();
-    if norms.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
-        return None;
-    }
-    for (c, norm) in norms.iter().enumerate() {
-        m.column_mut(c).unscale_mut(*norm);
-    }
-    let theta = m.svd(true, true).solve(&b, 1e-12).ok()?;
-    let value = |u: Unknown| {
-        unknowns
+    let rhs = |i: usize| -> f64 {
+        -fixed_poles
             .iter()
-            .position(|q| *q == u)
-            .map(|c| theta[c] / norms[c])
+            .map(|&(p, c)| c * f.current(p, i))
+            .sum::<f64>()
     };
+    let theta = least_squares(&rows, unknowns.len(), |i, c| column(unknowns[c], i), rhs)?;
+    let value = |u: Unknown| unknowns.iter().position(|q| *q == u).map(|c| theta[c]);
     let mut denominator = shape.denominator.clone();
     for &p in &free_poles {
         denominator[p] = value(Unknown::Pole(p))?;
@@ -358,6 +364,34 @@ fn solve(signals: &Signals, shape: &Shape, drive: &Drive) -> Option<Solved> {
         numerator,
         denominator,
     })
+}
+
+/// The least-squares solution of `entry(row, column)·θ = rhs(row)` over `rows`, solved in
+/// unit-norm columns (their sizes differ by orders of magnitude); none where a column is
+/// empty or the solve fails.
+fn least_squares(
+    rows: &[usize],
+    columns: usize,
+    entry: impl Fn(usize, usize) -> f64,
+    rhs: impl Fn(usize) -> f64,
+) -> Option<Vec<f64>> {
+    let mut m = DMatrix::<f64>::zeros(rows.len(), columns);
+    let mut b = DVector::<f64>::zeros(rows.len());
+    for (r, &i) in rows.iter().enumerate() {
+        for c in 0..columns {
+            m[(r, c)] = entry(i, c);
+        }
+        b[r] = rhs(i);
+    }
+    let norms: Vec<f64> = (0..columns).map(|c| m.column(c).norm()).collect();
+    if norms.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
+        return None;
+    }
+    for (c, norm) in norms.iter().enumerate() {
+        m.column_mut(c).unscale_mut(*norm);
+    }
+    let theta = m.svd(true, true).solve(&b, 1e-12).ok()?;
+    Some((0..columns).map(|c| theta[c] / norms[c]).collect())
 }
 
 /// The corner `key` names, read from the solved polynomials with the template's grouping of

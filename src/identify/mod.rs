@@ -13,7 +13,7 @@
 //! constant (every gain of a current-commanding controller acts through its product with
 //! it), zeros and poles.
 //!
-//! The search is staged (`staged_start`): a current-commanding transfer function's gain and
+//! The search is staged (`staged::start`): a current-commanding transfer function's gain and
 //! corners from the record's equation solved linearly (`linear`); the gains, which set the
 //! lag and hide the rest; then a coarse grid over the values that trade with each other
 //! through the standstills and reversals (Coulomb friction, the velocity integral time, the mass), whose
@@ -24,16 +24,22 @@
 //! is put back to the template's, said so, and the rest fitted again. Each half's fit is
 //! then scored on the other half, which it was not fitted on.
 
+mod baseline;
 mod interpolator;
 mod knobs;
 mod linear;
 mod loop_model;
+pub mod report;
 mod solve;
+mod staged;
+mod verdict;
 
 use rayon::prelude::*;
 use serde::Serialize;
 
+pub use baseline::Baseline;
 pub use interpolator::Interpolator;
+pub use verdict::Place;
 
 use crate::compare::{CompareError, CompareSettings, Comparison, Context, Stepping, compare};
 use crate::gcode::Program;
@@ -41,21 +47,13 @@ use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::trace::measured::MeasuredTrace;
 use crate::units::um_from_m;
 use knobs::{
-    BACKLASH_KEY, COULOMB_KEY, INTEGRAL_TIME_KEY, KV_KEY, Knob, MASS_KEY, SF_INTEGRAL_KEY,
-    SF_POSITION_KEY, SF_VELOCITY_KEY, STATIC_KEY, TF_GAIN_KEY, VISCOUS_KEY, get, set_all,
+    BACKLASH_KEY, KV_KEY, Knob, MASS_KEY, SF_INTEGRAL_KEY, SF_POSITION_KEY, SF_VELOCITY_KEY,
+    STATIC_KEY, TF_GAIN_KEY, get, set_all,
 };
 use solve::{Fit, Fitted};
 
 /// Least travel an axis's commands must have to identify it (m).
 const LEAST_TRAVEL_M: f64 = 1e-3;
-/// Factors on the values so far that the grid tries, and how many of its best points the
-/// local fit starts from.
-const GRID_FACTORS: [f64; 5] = [0.5, 0.7, 1.0, 1.4, 2.0];
-const GRID_STARTS: usize = 3;
-/// Coulomb friction's steps on the grid: geometric, from 1/span to span times the value so
-/// far.
-const FRICTION_STEPS: usize = 13;
-const FRICTION_SPAN: f64 = 2.0;
 /// The values of the nut's play (µm) and of static over Coulomb friction scanned before the
 /// grid, where they are fitted.
 const BACKLASH_SCAN_UM: [f64; 9] = [0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0];
@@ -127,11 +125,22 @@ pub struct AxisIdentification {
     /// Compared only while moving (away from standstills, where the axis hunts): the
     /// residuals below are over those samples.
     pub moving_only: bool,
-    /// Whether the fit reached the record's noise. Where it did not, no value is reported
-    /// as found and the template's are kept: the residuals below say how far it stayed.
+    /// Whether the fit reached the record's noise. Where it did not, no value reads as a
+    /// measurement: the fit is written as a model's values where it predicts the held-out
+    /// halves better than the template (`better_than_template`), else the template's stay.
     pub reached: bool,
+    /// Whether the values written predict the record's held-out halves better than the
+    /// template's (by more than a twentieth): the fit is written, reached or not.
+    pub better_than_template: bool,
     /// RMS of the following error in the record (µm): the yardstick of the residuals.
     pub following_error_rms_um: f64,
+    /// The held-out residual as a share of the following error on the same samples.
+    pub held_out_share: f64,
+    /// The plain regression of the following error on the command (the baseline a model
+    /// must beat), scored on blocks it was not fitted on.
+    pub baseline: Baseline,
+    /// Where the residual the written values leave is largest.
+    pub largest_at: Option<Place>,
     /// The residual RMS with the template, whole record (µm).
     pub rms_template_um: f64,
     /// With the identified values.
@@ -324,6 +333,7 @@ fn identify_axis(
     kept.template_holds = true;
     kept.rms_identified_um = kept.rms_template_um;
     kept.held_out_identified_um = kept.held_out_template_um;
+    kept.held_out_share = kept.held_out_template_um / kept.following_error_rms_um;
     Some((template.axis(axis).clone(), kept))
 }
 
@@ -356,8 +366,7 @@ fn fit_axis(
     let Some(mut everywhere) = found else {
         return unfitted(Fit::new(ctx, template, axis, offset), template.axis(axis));
     };
-    let noise_um = um_from_m(ctx.noise_sigma);
-    if everywhere.1.rms_identified_um <= REACHED_EXCESS * noise_um {
+    if everywhere.1.reached {
         return Some(everywhere);
     }
     // Then the plant's nonlinear parts on top, where the template's values alone leave the
@@ -368,7 +377,7 @@ fn fit_axis(
         && nonlinear_helps(&fit, template.axis(axis), &everywhere.0, &nonlinear)
         && let Some(extended) = identify_ordered(&fit, template, false, &nonlinear)
     {
-        if extended.1.rms_identified_um <= REACHED_EXCESS * noise_um {
+        if extended.1.reached {
             return Some(extended);
         }
         if predicts_better(&extended.1, &everywhere.1) {
@@ -377,19 +386,50 @@ fn fit_axis(
     }
     let moving = moving_samples(ctx, axis, offset);
     let fit = Fit::new(ctx, template, axis, offset).masked(moving);
-    if model == Model::Loop {
-        // A loop model is what the record gives, judged by how well it predicts the
-        // held-out halves, whether or not it reaches the noise: compared while moving where
-        // that predicts them better (the standstills' hunting has a phase no model times).
-        return match identify_loop_order(&fit, template, true) {
-            Some(m) if m.1.held_out_identified_um < everywhere.1.held_out_identified_um => Some(m),
-            _ => Some(everywhere),
-        };
+    let while_moving = match model {
+        Model::Template => identify_ordered(&fit, template, true, &[]),
+        Model::Loop => identify_loop_order(&fit, template, true),
+    };
+    Some(best_written(everywhere, while_moving, template.axis(axis)))
+}
+
+/// What is written for an axis whose fit on every sample stayed above the record's noise:
+/// the fit while moving where that reaches it; else whichever of the two predicts its
+/// held-out halves best as a share of their following error — written as a model's values
+/// where it predicts them better than the template does; else the template's values (NOT
+/// IDENTIFIED). No model of a real machine reaches its encoder's noise: a fit is judged by
+/// what it predicts.
+fn best_written(
+    everywhere: (AxisConfig, AxisIdentification),
+    while_moving: Option<(AxisConfig, AxisIdentification)>,
+    template: &AxisConfig,
+) -> (AxisConfig, AxisIdentification) {
+    if let Some(m) = &while_moving
+        && m.1.reached
+    {
+        return m.clone();
     }
-    match identify_ordered(&fit, template, true, &[]) {
-        Some(m) if m.1.rms_identified_um <= REACHED_EXCESS * noise_um => Some(m),
-        _ => Some(not_reached(everywhere, template.axis(axis))),
+    let best = [Some(everywhere.clone()), while_moving]
+        .into_iter()
+        .flatten()
+        .filter(|c| c.1.better_than_template)
+        .min_by(|a, b| a.1.held_out_share.total_cmp(&b.1.held_out_share));
+    match best {
+        Some(c) => as_model(c),
+        None => not_reached(everywhere, template),
     }
+}
+
+/// A fit above the noise that predicts better than the template: written, every value a
+/// model's (none reads as a measurement of the machine).
+fn as_model(
+    (config, mut identified): (AxisConfig, AxisIdentification),
+) -> (AxisConfig, AxisIdentification) {
+    identified.reached = false;
+    for v in &mut identified.values {
+        v.measured = false;
+    }
+    (config, identified)
 }
 
 /// An axis the search could not fit at all: the template's values and residuals, not
@@ -404,6 +444,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
         .filter(|(_, m)| **m)
         .fold((0.0, 0usize), |(s, n), (v, _)| (s + v * v, n + 1));
     let rms_um = um_from_m((ss / n.max(1) as f64).sqrt());
+    let following_error_um = um_from_m(following_error_rms(ctx, axis, offset, mask));
     let values = knobs::for_axis(template)
         .iter()
         .map(|k| IdentifiedValue {
@@ -424,7 +465,11 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             kept: knobs::kept(template).to_string(),
             moving_only: false,
             reached: false,
-            following_error_rms_um: um_from_m(following_error_rms(ctx, axis, offset)),
+            better_than_template: false,
+            following_error_rms_um: following_error_um,
+            held_out_share: rms_um / following_error_um,
+            baseline: baseline::regression(ctx, axis, offset, mask),
+            largest_at: verdict::largest_at(ctx, axis, offset, &residual, mask),
             rms_template_um: rms_um,
             rms_identified_um: rms_um,
             held_out_template_um: rms_um,
@@ -444,6 +489,7 @@ fn not_reached(
     template: &AxisConfig,
 ) -> (AxisConfig, AxisIdentification) {
     identified.reached = false;
+    identified.better_than_template = false;
     identified.gain_per_inertia = None;
     for v in &mut identified.values {
         v.determined = false;
@@ -541,7 +587,7 @@ fn identify_on(
     let (ctx, axis, offset) = (fit.ctx(), fit.axis(), fit.offset());
     let fold = ctx.halves(offset);
     let template_axis = template.axis(axis).clone();
-    let start = staged_start(fit, knobs, &template_axis);
+    let start = staged::start(fit, knobs, &template_axis);
     let (round, base) = Round::fit_determined(fit, knobs, &start, &template_axis, &fold)?;
     let config = round.config(&base, &round.whole);
     let mask = fit.mask();
@@ -564,44 +610,71 @@ fn identify_on(
             n += 1;
         }
     }
-    let values = knobs
-        .iter()
-        .map(|k| {
-            let value = get(&config, k.key);
-            let sigma = round
-                .knobs
-                .iter()
-                .position(|q| q.key == k.key)
-                .map(|p| round.sigma[p].max(round.whole.model_sigma[p]));
-            IdentifiedValue {
-                key: k.key,
-                unit: k.unit,
-                template: get(&template_axis, k.key),
-                value,
-                uncertainty: sigma.unwrap_or(f64::NAN),
-                determined: sigma.is_some(),
-                measured: sigma.is_some_and(|s| k.determines(s, value)),
-            }
-        })
-        .collect();
-    let kept = knobs::kept(&template_axis).to_string();
+    let values = fitted_values(knobs, &round, &config, &template_axis);
+    let held_out_identified_um = um_from_m((after_ss / n.max(1) as f64).sqrt());
+    let held_out_template_um = um_from_m((before_ss / n.max(1) as f64).sqrt());
+    let following_error_um = um_from_m(following_error_rms(ctx, axis, offset, mask));
     Some((
         config,
         AxisIdentification {
             axis,
             values,
-            kept,
+            kept: knobs::kept(&template_axis).to_string(),
             moving_only,
-            reached: true,
-            following_error_rms_um: um_from_m(following_error_rms(ctx, axis, offset)),
+            reached: rms(&identified_residual) <= REACHED_EXCESS * um_from_m(ctx.noise_sigma),
+            better_than_template: verdict::better_than_template(
+                held_out_identified_um,
+                held_out_template_um,
+            ),
+            following_error_rms_um: following_error_um,
+            held_out_share: held_out_identified_um / following_error_um,
+            baseline: baseline::regression(ctx, axis, offset, mask),
+            largest_at: verdict::largest_at(ctx, axis, offset, &identified_residual, mask),
             rms_template_um: rms(&template_residual),
             rms_identified_um: rms(&identified_residual),
-            held_out_template_um: um_from_m((before_ss / n.max(1) as f64).sqrt()),
-            held_out_identified_um: um_from_m((after_ss / n.max(1) as f64).sqrt()),
+            held_out_template_um,
+            held_out_identified_um,
             gain_per_inertia: gain_per_inertia(&round, &base),
             template_holds: false,
         },
     ))
+}
+
+/// The values of `knobs` in `config`, fitted in `round` (with their uncertainties, the
+/// model's floor included) or put back to the template's.
+fn fitted_values(
+    knobs: &[Knob],
+    round: &Round,
+    config: &AxisConfig,
+    template: &AxisConfig,
+) -> Vec<IdentifiedValue> {
+    knobs
+        .iter()
+        .map(|k| {
+            let value = get(config, k.key);
+            let sigma = round
+                .knobs
+                .iter()
+                .position(|q| q.key == k.key)
+                .map(|p| round.sigma[p].max(round.whole.model_sigma[p]));
+            // A value the record does not determine is the template's, exactly (the
+            // Coulomb force read back through a fitted mass would differ in its last bits).
+            let template_value = get(template, k.key);
+            IdentifiedValue {
+                key: k.key,
+                unit: k.unit,
+                template: template_value,
+                value: if sigma.is_some() {
+                    value
+                } else {
+                    template_value
+                },
+                uncertainty: sigma.unwrap_or(f64::NAN),
+                determined: sigma.is_some(),
+                measured: sigma.is_some_and(|s| k.determines(s, value)),
+            }
+        })
+        .collect()
 }
 
 /// `config` with the nonlinear part `key` at the value of its scan that explains the record
@@ -688,111 +761,6 @@ fn gain_per_inertia(round: &Round, base: &AxisConfig) -> Option<GainPerInertia> 
         value,
         uncertainty: (sigma.max(model_sigma) * value).max(halves),
     })
-}
-
-/// Where the final fit starts: the gain fitted first (on the cascade: the lag dominates the
-/// residual and hides the rest; a feed-forward and a dead time give the same steady lag, and
-/// only the transients fitted later tell them apart); then a coarse grid over the values that
-/// trade with each other through the standstills and reversals; then a local fit of the loop
-/// and friction from the grid's best few points.
-fn staged_start(fit: &Fit, knobs: &[Knob], template: &AxisConfig) -> AxisConfig {
-    let pick = |keys: &[&str]| -> Vec<Knob> {
-        knobs
-            .iter()
-            .copied()
-            .filter(|k| keys.contains(&k.key))
-            .collect()
-    };
-    let fitted_from = |from: &AxisConfig, staged: &[Knob]| -> Option<(f64, AxisConfig)> {
-        let f = fit.run(staged, from, &|_| true)?;
-        let c = Fit::config(staged, from, &f.values);
-        Some((f.cost, c))
-    };
-    // The record's own equation, solved linearly, where it applies and explains the record
-    // better than the template does: a controller tens of percent off its design has
-    // valleys between it and the machine that the fits below would stay in.
-    let estimate = linear::first_estimate(fit, knobs, template).filter(|e| {
-        let cost = |c: &AxisConfig| fit.cost(c).unwrap_or(f64::INFINITY);
-        cost(e) < cost(template)
-    });
-    let template = estimate.as_ref().unwrap_or(template);
-    let gain = pick(&[KV_KEY, TF_GAIN_KEY, SF_POSITION_KEY, SF_VELOCITY_KEY]);
-    let after_gain = if gain.is_empty() {
-        template.clone()
-    } else {
-        fitted_from(template, &gain).map_or_else(|| template.clone(), |(_, c)| c)
-    };
-    // The nonlinear parts fitted on top, each scanned on its own first: play and sticking
-    // change the reversals by steps that a local search from the template's value (none)
-    // does not see past.
-    let mut after_gain = after_gain;
-    for knob in knobs {
-        if let Some((_, c)) = scanned(fit, &after_gain, knob.key) {
-            after_gain = c;
-        }
-    }
-    let grid_keys: Vec<&str> = [COULOMB_KEY, INTEGRAL_TIME_KEY, MASS_KEY, SF_INTEGRAL_KEY]
-        .into_iter()
-        .filter(|k| knobs.iter().any(|q| q.key == *k))
-        .collect();
-    let centre: Vec<f64> = grid_keys.iter().map(|k| get(&after_gain, k)).collect();
-    let mut points: Vec<Vec<f64>> = vec![Vec::new()];
-    for key in &grid_keys {
-        // Friction's valley is narrow (a tenth off, and the breakaways come at other
-        // times): it gets the finer steps.
-        let factors: Vec<f64> = if *key == COULOMB_KEY {
-            (0..FRICTION_STEPS)
-                .map(|i| FRICTION_SPAN.powf(2.0 * i as f64 / (FRICTION_STEPS - 1) as f64 - 1.0))
-                .collect()
-        } else {
-            GRID_FACTORS.to_vec()
-        };
-        points = points
-            .into_iter()
-            .flat_map(|p| {
-                factors.iter().map(move |&f| {
-                    let mut q = p.clone();
-                    q.push(f);
-                    q
-                })
-            })
-            .collect();
-    }
-    let mut scored: Vec<(f64, AxisConfig)> = points
-        .par_iter()
-        .filter_map(|factors| {
-            let mut c = after_gain.clone();
-            let values: Vec<f64> = centre.iter().zip(factors).map(|(v, f)| v * f).collect();
-            set_all(&mut c, &grid_keys, &values);
-            Some((fit.cost(&c)?, c))
-        })
-        .collect();
-    scored.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let dynamics = pick(&[
-        KV_KEY,
-        TF_GAIN_KEY,
-        SF_POSITION_KEY,
-        SF_VELOCITY_KEY,
-        SF_INTEGRAL_KEY,
-        INTEGRAL_TIME_KEY,
-        MASS_KEY,
-        COULOMB_KEY,
-        VISCOUS_KEY,
-        BACKLASH_KEY,
-        STATIC_KEY,
-        "controller.zero_1_hz",
-        "controller.zero_2_hz",
-        "controller.pole_1_hz",
-        "controller.pole_2_hz",
-    ]);
-    scored
-        .into_iter()
-        .take(GRID_STARTS)
-        .collect::<Vec<_>>()
-        .par_iter()
-        .filter_map(|(_, from)| fitted_from(from, &dynamics))
-        .min_by(|a, b| a.0.total_cmp(&b.0))
-        .map_or(after_gain, |(_, c)| c)
 }
 
 /// The fits of some knobs on the whole record and on each half.
@@ -940,11 +908,16 @@ impl Sliding {
     }
 }
 
-/// RMS of commanded − measured over the compared samples (m).
-fn following_error_rms(ctx: &Context, axis: AxisName, offset: f64) -> f64 {
+/// RMS of commanded − measured over the compared samples `mask` allows (m): the samples the
+/// held-out residuals are counted on (those left out for hunting among them, where every
+/// model's residual is zero).
+fn following_error_rms(ctx: &Context, axis: AxisName, offset: f64, mask: &[bool]) -> f64 {
     let measured = ctx.measured_at_samples(axis);
     let (mut ss, mut n) = (0.0, 0usize);
-    for (&i, m) in ctx.samples.iter().zip(measured) {
+    for (k, (&i, m)) in ctx.samples.iter().zip(measured).enumerate() {
+        if !mask.get(k).copied().unwrap_or(false) {
+            continue;
+        }
         let e = ctx.command_at(axis, ctx.prog_time(i, offset)).0 - m;
         if e.is_finite() {
             ss += e * e;
@@ -965,7 +938,14 @@ mod tests {
             kept: String::new(),
             moving_only: false,
             reached: true,
+            better_than_template: false,
             following_error_rms_um: 3.0,
+            held_out_share: identified_um / 3.0,
+            baseline: Baseline {
+                held_out_um: 1.0,
+                share: 0.3,
+            },
+            largest_at: None,
             rms_template_um: template_um,
             rms_identified_um: identified_um,
             held_out_template_um: template_um,

@@ -414,7 +414,8 @@ fn read_table<T: serde::de::DeserializeOwned>(
             Ok(value) => return Ok(unknown.is_empty().then_some(value)),
             Err(e) => {
                 let path = e.path().to_string();
-                let error = classify_serde_error(file, &prefixed(prefix, &path), &e.inner().to_string());
+                let error =
+                    classify_serde_error(file, &prefixed(prefix, &path), &e.inner().to_string());
                 if let ConfigError::UnknownKey { key, hint, .. } = &error
                     && unknown.len() < 100
                     && locate::remove_key(&mut table, unprefixed(prefix, key))

@@ -726,7 +726,10 @@ pub fn get_on_machine(m: &MachineConfig, key: &str) -> Option<f64> {
             ZAxis::Simulated(axis) => get(axis, rest),
             ZAxis::Carried(planned) => {
                 let leaf = rest.strip_prefix("limits.")?;
-                LIMIT_KEYS.iter().find(|k| k.path == leaf)?.get(&planned.limits)
+                LIMIT_KEYS
+                    .iter()
+                    .find(|k| k.path == leaf)?
+                    .get(&planned.limits)
             }
         },
         "interpolation" => INTERPOLATION_KEYS

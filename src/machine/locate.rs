@@ -93,6 +93,57 @@ pub(crate) fn plain_words(path: &str, message: &str) -> String {
     )
 }
 
+impl ConfigError {
+    /// The dotted key the error is about, where it is about one (the first of several
+    /// unknown keys).
+    pub fn key(&self) -> Option<&str> {
+        match self {
+            ConfigError::Missing { key, .. }
+            | ConfigError::UnknownKey { key, .. }
+            | ConfigError::Invalid { key, .. } => Some(key),
+            ConfigError::UnknownKeys { keys, .. } => keys.first().map(|k| k.key.as_str()),
+            _ => None,
+        }
+    }
+
+    /// The file as given and the 1-based line and column the error points to, where the
+    /// file's text shows them (see [`located`]; a syntax error's from the TOML parser).
+    pub fn place(&self) -> (&str, Option<(usize, usize)>) {
+        let file = match self {
+            ConfigError::Io { file, .. }
+            | ConfigError::Syntax { file, .. }
+            | ConfigError::Missing { file, .. }
+            | ConfigError::UnknownKey { file, .. }
+            | ConfigError::UnknownKeys { file, .. }
+            | ConfigError::Invalid { file, .. }
+            | ConfigError::UnknownPreset { file, .. } => file.as_str(),
+        };
+        match self {
+            ConfigError::UnknownKeys { file, keys } => (file, keys.first().and_then(|k| k.at)),
+            ConfigError::Syntax { file, message } => (file, syntax_place(message)),
+            _ => split_place(file),
+        }
+    }
+}
+
+/// `m.toml:3:1` → (`m.toml`, (3, 1)), as [`located`] writes a place.
+fn split_place(file: &str) -> (&str, Option<(usize, usize)>) {
+    let mut parts = file.rsplitn(3, ':');
+    let (column, line, name) = (parts.next(), parts.next(), parts.next());
+    match (name, line.map(str::parse), column.map(str::parse)) {
+        (Some(name), Some(Ok(line)), Some(Ok(column))) => (name, Some((line, column))),
+        _ => (file, None),
+    }
+}
+
+/// `line 2, column 9: …`, as a syntax error's message starts.
+fn syntax_place(message: &str) -> Option<(usize, usize)> {
+    let rest = message.strip_prefix("line ")?;
+    let (line, rest) = rest.split_once(", column ")?;
+    let (column, _) = rest.split_once(':')?;
+    Some((line.parse().ok()?, column.parse().ok()?))
+}
+
 /// The error with the line and column of its key in the file's `text`, where the text shows
 /// it: `m.toml:3:1: key …`.
 pub fn located(e: ConfigError, text: &str) -> ConfigError {

@@ -580,7 +580,10 @@ impl MachineConfig {
 
     /// The simulated axes' configurations, in the order X, Y, Z.
     pub fn simulated_configs(&self) -> Vec<&AxisConfig> {
-        [&self.x, &self.y].into_iter().chain(self.z.simulated()).collect()
+        [&self.x, &self.y]
+            .into_iter()
+            .chain(self.z.simulated())
+            .collect()
     }
 
     /// Whether Z is simulated.

@@ -71,6 +71,19 @@ pub(crate) fn render(path: &Path, figure: &impl Figure) -> PlotResult {
     }
 }
 
+/// Draws a figure as SVG text, for a page to hold inline.
+pub fn svg_text(figure: &impl Figure) -> Result<String, String> {
+    register_font();
+    let mut text = String::new();
+    {
+        let root = SVGBackend::with_string(&mut text, SIZE).into_drawing_area();
+        root.fill(&WHITE).map_err(err)?;
+        figure.draw(&root)?;
+        root.present().map_err(err)?;
+    }
+    Ok(text)
+}
+
 /// Turns any plotters error into text.
 pub fn err<E: std::fmt::Display>(e: E) -> String {
     e.to_string()

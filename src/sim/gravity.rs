@@ -206,12 +206,14 @@ mod tests {
         let mut s = [0.0; 6];
         let mut out = Vec::new();
         for k in 0..(seconds / h) as usize {
-            let add = |a: [f64; 6], b: [f64; 6], f: f64| [0, 1, 2, 3, 4, 5].map(|j| a[j] + f * b[j]);
+            let add =
+                |a: [f64; 6], b: [f64; 6], f: f64| [0, 1, 2, 3, 4, 5].map(|j| a[j] + f * b[j]);
             let k1 = rate(s);
             let k2 = rate(add(s, k1, h / 2.0));
             let k3 = rate(add(s, k2, h / 2.0));
             let k4 = rate(add(s, k3, h));
-            s = [0, 1, 2, 3, 4, 5].map(|j| s[j] + h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]));
+            s = [0, 1, 2, 3, 4, 5]
+                .map(|j| s[j] + h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]));
             if (k + 1) % 500 == 0 {
                 out.push(s[2]);
             }
@@ -225,7 +227,10 @@ mod tests {
         let linear = released_ram_linear(0.3);
         let lowest = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
         let (sag, expected) = (lowest(&simulated[..600]), lowest(&linear));
-        eprintln!("SAG {sag:e} {expected:e} last {:e}", simulated[simulated.len() - 1]);
+        eprintln!(
+            "SAG {sag:e} {expected:e} last {:e}",
+            simulated[simulated.len() - 1]
+        );
         assert!(expected < -10e-6, "the model sags {expected:e} m");
         assert!(
             (sag - expected).abs() < 0.03 * expected.abs(),
@@ -236,6 +241,10 @@ mod tests {
         // The velocity loop's integral holds the weight: no lasting sag. (Friction leaves the
         // ram wherever the loop's last push moved it within its static band.)
         let last = simulated[simulated.len() - 1];
-        assert!(last.abs() < 0.01 * expected.abs(), "after 2 s: {:.4} µm", last * 1e6);
+        assert!(
+            last.abs() < 0.01 * expected.abs(),
+            "after 2 s: {:.4} µm",
+            last * 1e6
+        );
     }
 }

@@ -422,9 +422,10 @@ impl AxisModel {
                     c.errors.resonance_damping,
                 )
             }),
-            load_n: c.gravity.as_ref().map_or(0.0, |g| {
-                mt * GRAVITY_M_PER_S2 - g.counterbalance_n
-            }),
+            load_n: c
+                .gravity
+                .as_ref()
+                .map_or(0.0, |g| mt * GRAVITY_M_PER_S2 - g.counterbalance_n),
         }
     }
 

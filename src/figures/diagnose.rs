@@ -1,0 +1,249 @@
+//! The figures of a diagnosis: measured against the nominal and the extended model around
+//! where the nominal misses most, the residual before and after over time and along the
+//! path, and a ballbar-style polar plot per circle — drawn as files by `diagnose --plot` and
+//! inline in the HTML report.
+
+use std::path::Path;
+
+use crate::analysis::circular::radial_points;
+use crate::diagnose::Diagnosis;
+use crate::plot::panels::{Curve, Panel, PanelsPlot};
+use crate::plot::polar::{PolarPlot, PolarTrace};
+use crate::units::{mm_from_m, um_from_m};
+
+/// Every figure of a diagnosis.
+pub struct DiagnoseFigures {
+    /// Each axis's deviation from the command: measured, nominal, extended.
+    pub fit: PanelsPlot,
+    /// The residual of both models over time (X, Y, contour).
+    pub over_time: PanelsPlot,
+    /// The contour residual along the path.
+    pub along_path: PanelsPlot,
+    /// Per full circle, its source line and its polar plot.
+    pub circles: Vec<(u32, PolarPlot)>,
+}
+
+impl DiagnoseFigures {
+    /// The figures of a diagnosis of a record of `program_file`.
+    pub fn of(d: &Diagnosis, program_file: &str) -> Self {
+        let name = Path::new(program_file)
+            .file_name()
+            .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        let found: Vec<String> = d
+            .causes
+            .iter()
+            .map(|c| format!("{} on {}", c.id.as_str(), c.axis))
+            .collect();
+        let extended_name = if found.is_empty() {
+            "extended (no cause found)".to_string()
+        } else {
+            format!("extended: {}", found.join(", "))
+        };
+        let [over_time, along_path] = residual_plots(d, &name);
+        let circles = polar_plots(d, &name, &extended_name);
+        DiagnoseFigures {
+            fit: fit_plot(d, &name, &extended_name),
+            over_time,
+            along_path,
+            circles: d.circles.iter().map(|c| c.line).zip(circles).collect(),
+        }
+    }
+}
+
+/// Half-width of the close-up around the largest miss (s).
+const ZOOM_HALF_S: f64 = 0.15;
+
+/// Most points per curve.
+const PLOT_POINTS: usize = 20_000;
+
+/// (abscissa, value) pairs, decimated, with a NaN wherever the samples jump (a stretch
+/// left out) so the line breaks there.
+fn curve_points(x: &[f64], t: &[f64], y: impl Fn(usize) -> f64) -> Vec<(f64, f64)> {
+    let every = x.len().div_ceil(PLOT_POINTS).max(1);
+    let step = t
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(f64::MAX, f64::min)
+        .max(1e-9);
+    let mut out = Vec::new();
+    let mut last_t = f64::NAN;
+    for k in (0..x.len()).step_by(every) {
+        if t[k] - last_t > (every as f64 + 1.5) * step {
+            out.push((x[k], f64::NAN));
+        }
+        out.push((x[k], y(k)));
+        last_t = t[k];
+    }
+    out
+}
+
+/// Each axis's deviation from the command, measured and by both models.
+fn fit_plot(d: &Diagnosis, name: &str, extended_name: &str) -> PanelsPlot {
+    let s = &d.series;
+    let t = &s.t_s;
+    // Each axis's deviation from the command, measured and by both models, around where
+    // the nominal model misses most (the whole record when it misses nowhere).
+    let deviation = |a: usize| {
+        let axis = ["x", "y"][a];
+        let worst = d.places.iter().find(|p| p.what == axis);
+        let keep: Vec<usize> = match worst {
+            Some(p) => (0..t.len())
+                .filter(|&k| (t[k] - p.t_s).abs() <= ZOOM_HALF_S)
+                .collect(),
+            None => (0..t.len()).collect(),
+        };
+        let tk: Vec<f64> = keep.iter().map(|&k| t[k]).collect();
+        let dev = |model: &[f64]| {
+            curve_points(&tk, &tk, |j| {
+                um_from_m(model[keep[j]] - s.reference[a][keep[j]])
+            })
+        };
+        Panel {
+            caption: match worst {
+                Some(p) => format!(
+                    "{} axis: position − command around t = {:.2} s (line {}), where the nominal model misses most",
+                    axis.to_uppercase(),
+                    p.t_s,
+                    p.line
+                ),
+                None => format!("{} axis: position − command", axis.to_uppercase()),
+            },
+            y_label: "µm".into(),
+            curves: vec![
+                Curve {
+                    name: "measured".into(),
+                    points: dev(&s.measured[a]),
+                    color: None,
+                    width: 3,
+                },
+                Curve {
+                    name: "nominal model".into(),
+                    points: dev(&s.nominal[a]),
+                    color: Some(1),
+                    width: 2,
+                },
+                Curve {
+                    name: extended_name.to_string(),
+                    points: dev(&s.extended[a]),
+                    color: Some(0),
+                    width: 2,
+                },
+            ],
+        }
+    };
+    PanelsPlot {
+        title: format!("{name}: measured against the nominal and the extended model"),
+        x_label: "program time (s)".into(),
+        panels: vec![deviation(0), deviation(1)],
+    }
+}
+
+/// The residual of both models over time (X, Y, contour) and along the path (contour).
+fn residual_plots(d: &Diagnosis, name: &str) -> [PanelsPlot; 2] {
+    let s = &d.series;
+    let t = &s.t_s;
+    let residual_panel = |caption: String,
+                          before: &dyn Fn(usize) -> f64,
+                          after: &dyn Fn(usize) -> f64,
+                          x: &[f64]| Panel {
+        caption,
+        y_label: "residual (µm)".into(),
+        curves: vec![
+            Curve {
+                name: "nominal model".into(),
+                points: curve_points(x, t, before),
+                color: None,
+                width: 1,
+            },
+            Curve {
+                name: "extended model".into(),
+                points: curve_points(x, t, after),
+                color: Some(0),
+                width: 1,
+            },
+        ],
+    };
+    let axis_residual = |a: usize| {
+        residual_panel(
+            format!(
+                "{} axis: measured − model (RMS {:.3} → {:.3} µm)",
+                ["X", "Y"][a],
+                [d.before.x, d.before.y][a].rms_um,
+                [d.after.x, d.after.y][a].rms_um
+            ),
+            &|k| um_from_m(s.measured[a][k] - s.nominal[a][k]),
+            &|k| um_from_m(s.measured[a][k] - s.extended[a][k]),
+            t,
+        )
+    };
+    let contour_caption = format!(
+        "contour error: measured − model (RMS {:.3} → {:.3} µm)",
+        d.before.contour.rms_um, d.after.contour.rms_um
+    );
+    let contour_before = |k: usize| um_from_m(s.contour_residual[0][k]);
+    let contour_after = |k: usize| um_from_m(s.contour_residual[1][k]);
+    let over_time = PanelsPlot {
+        title: format!("{name}: residual before and after the extension, over time"),
+        x_label: "program time (s)".into(),
+        panels: vec![
+            axis_residual(0),
+            axis_residual(1),
+            residual_panel(contour_caption.clone(), &contour_before, &contour_after, t),
+        ],
+    };
+    let path_mm: Vec<f64> = s.path_s_m.iter().map(|&v| mm_from_m(v)).collect();
+    let along_path = PanelsPlot {
+        title: format!("{name}: contour-error residual along the path"),
+        x_label: "path length (mm)".into(),
+        panels: vec![residual_panel(
+            contour_caption,
+            &contour_before,
+            &contour_after,
+            &path_mm,
+        )],
+    };
+    [over_time, along_path]
+}
+
+/// Ballbar-style: each full circle's radial deviation, measured and by both models.
+fn polar_plots(d: &Diagnosis, name: &str, extended_name: &str) -> Vec<PolarPlot> {
+    let s = &d.series;
+    d.circles
+        .iter()
+        .map(|c| {
+            let g_of = |test: &crate::analysis::circular::CircularTest| {
+                test.circles
+                    .iter()
+                    .find(|f| f.line == c.line)
+                    .map(|f| f.g_um)
+            };
+            let trace = |label: &str, xy: &[Vec<f64>; 2], width: u32, g_um| PolarTrace {
+                label: label.to_string(),
+                width,
+                g_um,
+                points: radial_points(c, &s.segment, &xy[0], &xy[1])
+                    .into_iter()
+                    .map(|(a, r)| (a, um_from_m(r)))
+                    .collect(),
+            };
+            PolarPlot {
+                title: format!(
+                    "{name}: line {} ({}) R{:.1} mm — radial deviation",
+                    c.line,
+                    if c.ccw {
+                        "counter-clockwise"
+                    } else {
+                        "clockwise"
+                    },
+                    mm_from_m(c.radius_m)
+                ),
+                radius_mm: mm_from_m(c.radius_m),
+                traces: vec![
+                    trace("measured", &s.measured, 1, g_of(&d.circular.measured)),
+                    trace("nominal model", &s.nominal, 2, g_of(&d.circular.nominal)),
+                    trace(extended_name, &s.extended, 2, g_of(&d.circular.extended)),
+                ],
+            }
+        })
+        .collect()
+}

@@ -1,0 +1,238 @@
+//! The page of a diagnosis: the record and the machine, the verdict, the residual before
+//! and after, the causes ranked by their share of the residual with their uncertainties and
+//! what to do, the circular-test figures measured and by both models, and the plots.
+
+use serde::Serialize;
+use serde_json::Value as Json;
+
+use super::{Fig, HtmlError, Inputs, Made, Row, Svg, decimals_for, fig, file_name, render, svg};
+use crate::diagnose::Diagnosis;
+use crate::diagnose::report::{CauseReport, DiagnoseReport, next_step, strength};
+use crate::figures::DiagnoseFigures;
+
+/// The page's view of a diagnosis.
+#[derive(Serialize)]
+struct DiagnosePage {
+    title: String,
+    made: Made,
+    conditions: Vec<Row>,
+    verdict: String,
+    residual: Vec<(&'static str, Vec<Fig>)>,
+    causes: Vec<CauseView>,
+    rejected: Vec<String>,
+    circles: Vec<Vec<Fig>>,
+    fit: Svg,
+    over_time: Svg,
+    polar: Vec<Svg>,
+}
+
+/// A named cause as the page shows it.
+#[derive(Serialize)]
+struct CauseView {
+    rank: usize,
+    id: Fig,
+    axis: Fig,
+    /// (key, value, uncertainty, unit) of each fitted value.
+    params: Vec<(String, Fig, Fig, String)>,
+    share: Fig,
+    held_out: [Fig; 2],
+    strength: String,
+    what_to_do: String,
+    alternatives: Vec<String>,
+}
+
+/// The HTML report of a diagnosis `d` and its JSON `report`.
+pub fn diagnose_page(
+    d: &Diagnosis,
+    report: &DiagnoseReport,
+    inputs: &Inputs,
+) -> Result<String, HtmlError> {
+    let json = serde_json::to_value(report)?;
+    let figures = DiagnoseFigures::of(d, &report.program);
+    let page = DiagnosePage {
+        title: format!(
+            "Diagnosis of {} against {}",
+            file_name(&report.measured.file),
+            file_name(&report.program)
+        ),
+        made: Made::now(),
+        conditions: conditions(report, inputs),
+        verdict: report.verdict.clone(),
+        residual: residual_rows(&json),
+        causes: ranked_causes(report, &json),
+        rejected: report
+            .rejected
+            .iter()
+            .map(|r| format!("{} on {}: {}", r.id.as_str(), r.axis, r.reason))
+            .collect(),
+        circles: circle_rows(&json),
+        fit: svg(
+            "Each axis's position − command around where the nominal model misses most: \
+             measured, nominal and extended model",
+            &figures.fit,
+        )?,
+        over_time: svg(
+            "The residual (measured − model) before and after the extension",
+            &figures.over_time,
+        )?,
+        polar: figures
+            .circles
+            .iter()
+            .map(|(line, c)| svg(format!("Circle of line {line}: radial deviation"), c))
+            .collect::<Result<_, _>>()?,
+    };
+    render("diagnose.html", page)
+}
+
+fn conditions(r: &DiagnoseReport, inputs: &Inputs) -> Vec<Row> {
+    let m = &r.measured;
+    vec![
+        Row {
+            label: "program",
+            value: r.program.clone(),
+        },
+        Row {
+            label: "record",
+            value: format!(
+                "{} ({} samples every {:.4} ms{}; measured at the {}{})",
+                m.file,
+                m.samples,
+                m.sample_step_s * 1e3,
+                if m.resampled { ", resampled" } else { "" },
+                m.measured_at.as_str(),
+                if m.commands_recorded {
+                    ", with its commands"
+                } else {
+                    ", without commands: the plan's"
+                }
+            ),
+        },
+        Row {
+            label: "machine",
+            value: r.machine.clone(),
+        },
+        Row {
+            label: "machine file",
+            value: inputs.machine_source(&r.machine),
+        },
+        Row {
+            label: "noise floor",
+            value: format!(
+                "{:.3} µm; {} samples compared",
+                r.noise_floor_um, m.samples_compared
+            ),
+        },
+        Row {
+            label: "clock offset",
+            value: format!(
+                "{:.4} s (record time = program time + this)",
+                r.clock_offset_s
+            ),
+        },
+    ]
+}
+
+/// The residual's RMS of the nominal and the extended model and the gain, per axis and for
+/// the contour.
+fn residual_rows(json: &Json) -> Vec<(&'static str, Vec<Fig>)> {
+    [("X", "x"), ("Y", "y"), ("contour", "contour")]
+        .into_iter()
+        .map(|(label, k)| {
+            (
+                label,
+                vec![
+                    fig(json, &format!("residual.nominal.{k}.rms_um"), 3),
+                    fig(json, &format!("residual.extended.{k}.rms_um"), 3),
+                    fig(json, &format!("residual.gain_percent.{k}.rms"), 0),
+                ],
+            )
+        })
+        .collect()
+}
+
+/// The named causes, the largest share of its axis's residual first.
+fn ranked_causes(r: &DiagnoseReport, json: &Json) -> Vec<CauseView> {
+    let mut order: Vec<usize> = (0..r.causes.len()).collect();
+    order.sort_by(|&a, &b| {
+        r.causes[b]
+            .gain_percent
+            .rms
+            .total_cmp(&r.causes[a].gain_percent.rms)
+    });
+    order
+        .into_iter()
+        .enumerate()
+        .map(|(rank, i)| cause_view(rank + 1, i, &r.causes[i], json))
+        .collect()
+}
+
+fn cause_view(rank: usize, i: usize, c: &CauseReport, json: &Json) -> CauseView {
+    let at = |field: &str| format!("causes[{i}].{field}");
+    let params = c
+        .params
+        .iter()
+        .enumerate()
+        .map(|(k, p)| {
+            let decimals = decimals_for(p.uncertainty);
+            (
+                p.key.clone(),
+                fig(json, &at(&format!("params[{k}].value")), decimals),
+                fig(json, &at(&format!("params[{k}].uncertainty")), decimals),
+                p.unit.to_string(),
+            )
+        })
+        .collect();
+    CauseView {
+        rank,
+        id: fig(json, &at("id"), 0),
+        axis: fig(json, &at("axis"), 0),
+        params,
+        share: fig(json, &at("gain_percent.rms"), 0),
+        held_out: [
+            fig(json, &at("held_out.rms_before_um"), 3),
+            fig(json, &at("held_out.rms_after_um"), 3),
+        ],
+        strength: strength(c),
+        what_to_do: next_step(c),
+        alternatives: c
+            .alternatives
+            .iter()
+            .map(|a| {
+                format!(
+                    "or {} on {}: this record cannot tell them apart; {} would",
+                    a.id.as_str(),
+                    a.axis,
+                    a.told_apart_by
+                )
+            })
+            .collect(),
+    }
+}
+
+/// Per circle: line, and G measured, by the nominal and by the extended model.
+fn circle_rows(json: &Json) -> Vec<Vec<Fig>> {
+    let n = json["circular_test"]["measured"]["circles"]
+        .as_array()
+        .map_or(0, Vec::len);
+    (0..n)
+        .map(|i| {
+            let f = |model: &str, field: &str, d| {
+                fig(
+                    json,
+                    &format!("circular_test.{model}.circles[{i}].{field}"),
+                    d,
+                )
+            };
+            vec![
+                f("measured", "line", 0),
+                f("measured", "direction", 0),
+                f("measured", "radius_mm", 1),
+                f("measured", "g_um", 2),
+                f("nominal", "g_um", 2),
+                f("extended", "g_um", 2),
+                f("measured", "f_min_um", 2),
+                f("measured", "f_max_um", 2),
+            ]
+        })
+        .collect()
+}

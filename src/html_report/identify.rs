@@ -1,0 +1,146 @@
+//! The page of an identification: the record and the template, per axis the residual and
+//! the held-out figure, the template's values against the identified ones with their
+//! uncertainties, and the interpolator's limits.
+
+use serde::Serialize;
+use serde_json::Value as Json;
+
+use super::{Fig, HtmlError, Inputs, Made, Row, decimals_for, fig, file_name, render};
+use crate::identify::report::IdentifyReport;
+
+/// The page's view of an identification.
+#[derive(Serialize)]
+struct IdentifyPage {
+    title: String,
+    made: Made,
+    conditions: Vec<Row>,
+    axes: Vec<AxisView>,
+    interpolator: Vec<String>,
+}
+
+/// One axis: its residuals and its values.
+#[derive(Serialize)]
+struct AxisView {
+    axis: String,
+    /// Template → identified on the whole record, and on the held-out halves.
+    residual: [Fig; 2],
+    held_out: [Fig; 2],
+    following_error: Fig,
+    notes: Vec<String>,
+    values: Vec<ValueView>,
+    gain_per_inertia: Option<String>,
+}
+
+/// A template's value against the identified one.
+#[derive(Serialize)]
+struct ValueView {
+    key: String,
+    unit: String,
+    template: Fig,
+    value: Fig,
+    uncertainty: Fig,
+    status: &'static str,
+}
+
+/// The HTML report of an identification, from its JSON `report`.
+pub fn identify_page(report: &IdentifyReport, inputs: &Inputs) -> Result<String, HtmlError> {
+    let json = serde_json::to_value(report)?;
+    let id = report.identification;
+    let page = IdentifyPage {
+        title: format!(
+            "Machine identified from {} ({})",
+            file_name(&id.file),
+            file_name(report.program)
+        ),
+        made: Made::now(),
+        conditions: vec![
+            Row {
+                label: "program",
+                value: report.program.to_string(),
+            },
+            Row {
+                label: "record",
+                value: id.file.clone(),
+            },
+            Row {
+                label: "template",
+                value: report.template.to_string(),
+            },
+            Row {
+                label: "template file",
+                value: inputs.machine_source(report.template),
+            },
+            Row {
+                label: "record noise",
+                value: format!("{:.3} µm", id.noise_um),
+            },
+        ],
+        axes: (0..id.axes.len())
+            .map(|a| axis_view(report, &json, a))
+            .collect(),
+        interpolator: crate::identify::report::interpolator_lines(&id.interpolator),
+    };
+    render("identify.html", page)
+}
+
+fn axis_view(report: &IdentifyReport, json: &Json, a: usize) -> AxisView {
+    let axis = &report.identification.axes[a];
+    let f = |field: &str, d| fig(json, &format!("axes[{a}].{field}"), d);
+    let mut notes = Vec::new();
+    if !axis.reached {
+        notes.push(
+            "NOT IDENTIFIED: the best fit stays above the record's noise — the template's \
+             controller or settings are not this machine's; the template's values are kept"
+                .to_string(),
+        );
+    }
+    if axis.template_holds {
+        notes.push(
+            "The template explains the record to its noise, and values fitted to it predict \
+             the held-out halves worse: the template's values stay"
+                .to_string(),
+        );
+    }
+    if axis.moving_only {
+        notes.push("Compared while moving: the axis hunts at standstill.".to_string());
+    }
+    notes.push(format!("Kept from the template: {}", axis.kept));
+    let values = axis
+        .values
+        .iter()
+        .enumerate()
+        .map(|(k, v)| {
+            let decimals = decimals_for(v.uncertainty);
+            ValueView {
+                key: v.key.to_string(),
+                unit: v.unit.to_string(),
+                template: f(&format!("values[{k}].template"), 4),
+                value: f(&format!("values[{k}].value"), decimals),
+                uncertainty: f(&format!("values[{k}].uncertainty"), decimals),
+                status: match (v.determined, v.measured) {
+                    (true, true) => "identified",
+                    (true, false) => "a model's value, not a measurement",
+                    (false, _) => "not determined: the template's",
+                },
+            }
+        })
+        .collect();
+    AxisView {
+        axis: axis.axis.to_string(),
+        residual: [f("rms_template_um", 3), f("rms_identified_um", 3)],
+        held_out: [f("held_out_template_um", 3), f("held_out_identified_um", 3)],
+        following_error: f("following_error_rms_um", 1),
+        notes,
+        values,
+        gain_per_inertia: axis.gain_per_inertia.as_ref().map(|r| {
+            format!(
+                "{} per inertia: {} ± {} per kg, of {:.1} kg at the table — what the record \
+                 determines where the gain and the mass trade",
+                r.gain,
+                crate::identify::report::sig(r.value),
+                crate::identify::report::sig(r.uncertainty),
+                r.inertia_kg
+            )
+        }),
+    }
+}

@@ -1,0 +1,273 @@
+//! An identification for people (the terminal's table), for scripts (JSON) and for the
+//! control (the machine file with the values and their uncertainties in its header).
+
+use std::fmt::Write as _;
+
+use crate::identify::{AxisIdentification, Identification, IdentifiedValue, Interpolator};
+use crate::machine::MachineConfig;
+
+impl Identification {
+    /// The identified machine as a machine file (what `identify --out` writes), its values
+    /// and their uncertainties in the header.
+    pub fn machine_file(&self, template: &MachineConfig, program_file: &str) -> String {
+        machine_file(self, template, program_file)
+    }
+}
+
+/// Schema id of the JSON report.
+pub const SCHEMA: &str = "contourcheck.identify/1";
+
+/// The JSON report of an identification (`docs/report-schema.md`).
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct IdentifyReport<'a> {
+    /// Schema id.
+    pub schema: &'static str,
+    /// The program the record ran.
+    pub program: &'a str,
+    /// The template machine's name.
+    pub template: &'a str,
+    /// What was identified.
+    #[serde(flatten)]
+    pub identification: &'a Identification,
+}
+
+impl<'a> IdentifyReport<'a> {
+    /// The report of `identification`, of a record of `program` from `template`.
+    pub fn new(identification: &'a Identification, program: &'a str, template: &'a str) -> Self {
+        IdentifyReport {
+            schema: SCHEMA,
+            program,
+            template,
+            identification,
+        }
+    }
+
+    /// Writes the report as pretty JSON.
+    pub fn write_json(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+        serde_json::to_writer_pretty(&mut *w, self).map_err(std::io::Error::other)?;
+        w.write_all(b"\n")
+    }
+}
+
+/// A value for the table: fitted with its uncertainty (said so where that is not a
+/// measurement), or the template's.
+pub fn shown(v: &IdentifiedValue) -> String {
+    match (v.determined, v.measured) {
+        (true, true) => format!("{} ± {}", sig(v.value), sig(v.uncertainty)),
+        (true, false) => format!(
+            "{} ± {} (a model's value, not a measurement)",
+            sig(v.value),
+            sig(v.uncertainty)
+        ),
+        (false, _) => format!("{} (not determined: the template's)", sig(v.value)),
+    }
+}
+
+/// Four significant digits.
+pub fn sig(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let digits = (3 - v.abs().log10().floor() as i32).clamp(0, 9) as usize;
+    format!("{v:.digits$}")
+}
+
+/// The identification as the terminal shows it.
+pub fn summary_text(id: &Identification, template: &MachineConfig) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "identified from {} (template {}; record noise {:.3} µm)",
+        id.file, template.name, id.noise_um
+    );
+    for a in &id.axes {
+        axis_summary(&mut s, a, id.noise_um);
+    }
+    let lines = interpolator_lines(&id.interpolator);
+    let _ = writeln!(s, "\ninterpolator: {}", lines[0]);
+    for line in &lines[1..] {
+        let _ = writeln!(s, "  {line}");
+    }
+    s
+}
+
+/// One axis: its residuals, what they predict against the template and the regression, and
+/// its values.
+fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
+    let _ = writeln!(
+        s,
+        "\n{} axis: residual {:.3} → {:.3} µm RMS{} (following error {:.1} µm); held out \
+         {:.3} → {:.3} µm",
+        a.axis,
+        a.rms_template_um,
+        a.rms_identified_um,
+        if a.moving_only {
+            ", compared while moving: the axis hunts at standstill"
+        } else {
+            ""
+        },
+        a.following_error_rms_um,
+        a.held_out_template_um,
+        a.held_out_identified_um
+    );
+    let _ = writeln!(s, "  {}", prediction(a));
+    if let Some(verdict) = verdict(a, noise_um) {
+        let _ = writeln!(s, "  {verdict}");
+    }
+    let _ = writeln!(s, "  {:<38} {:>14}  identified", "key", "template");
+    for v in &a.values {
+        let _ = writeln!(
+            s,
+            "  {:<38} {:>14}  {} {}",
+            v.key,
+            sig(v.template),
+            shown(v),
+            v.unit
+        );
+    }
+    if let Some(r) = &a.gain_per_inertia {
+        let _ = writeln!(
+            s,
+            "  {} per inertia: {} ± {} per kg, of {:.1} kg at the table (rotor, screw and \
+             table) — what the record determines where the gain and the mass trade",
+            r.gain,
+            sig(r.value),
+            sig(r.uncertainty),
+            r.inertia_kg
+        );
+    }
+    if a.kept.starts_with("no template") {
+        let _ = writeln!(s, "  {}", a.kept);
+    } else {
+        let _ = writeln!(s, "  kept from the template: {}", a.kept);
+    }
+}
+
+/// What the machine written predicts of the record's held-out halves, against the template
+/// and the plain regression on the command.
+pub fn prediction(a: &AxisIdentification) -> String {
+    let written = if a.better_than_template || a.template_holds {
+        a.held_out_identified_um
+    } else {
+        a.held_out_template_um
+    };
+    let share = |um: f64| 100.0 * um / a.following_error_rms_um;
+    let place = a
+        .largest_at
+        .map_or(String::new(), |p| format!(", largest {}", p.describe()));
+    let b = &a.baseline;
+    let against = if written < b.held_out_um {
+        format!("{:.1}× better", b.held_out_um / written)
+    } else {
+        format!("the model is {:.1}× WORSE than it", written / b.held_out_um)
+    };
+    format!(
+        "predicts held-out data to {:.1} % of the following error ({:.3} µm RMS left{place}); \
+         the template {:.0} %; a regression on the command's velocity, acceleration, jerk and \
+         direction {:.0} % ({against})",
+        share(written),
+        written,
+        share(a.held_out_template_um),
+        100.0 * b.share,
+    )
+}
+
+/// What the fit is, where it is not simply identified to the record's noise.
+pub fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
+    if a.template_holds {
+        return Some(
+            "the template explains the record to its noise, and values fitted to it predict \
+             its held-out halves worse than the template does: the template's values stay"
+                .to_string(),
+        );
+    }
+    if a.reached {
+        return None;
+    }
+    Some(if a.better_than_template {
+        format!(
+            "written as a model: it stays at {:.3} µm against the record's noise of {:.3} µm \
+             (the model lacks something of this machine: `diagnose` looks for effects beyond \
+             it), and predicts the held-out halves better than the template — its values \
+             predict, none is a measurement",
+            a.rms_identified_um, noise_um
+        )
+    } else {
+        format!(
+            "NOT IDENTIFIED: the best fit ({:.3} µm) predicts the held-out halves no better \
+             than the template — the template's controller or settings are not this \
+             machine's (or it has effects `diagnose` looks for); the template's values are \
+             kept",
+            a.rms_identified_um
+        )
+    })
+}
+
+/// The record's interpolator in words: the path speed, then per axis its speed and its
+/// acceleration and jerk, each said to be held (written as the limit) or only a peak.
+pub fn interpolator_lines(i: &Interpolator) -> Vec<String> {
+    let limit = |value: f64, demanded: f64, unit: &str, held: bool| {
+        if held {
+            format!(
+                "{value:.3} {unit} (held where the template's planner asked {demanded:.3}: \
+                 written as the limit)"
+            )
+        } else {
+            format!("peak {value:.3} {unit} (not shown to be a limit: the template's stays)")
+        }
+    };
+    let mut lines = vec![format!(
+        "path speed up to {:.0} mm/min",
+        i.path_speed_mm_per_min
+    )];
+    for (k, axis) in ["X", "Y"].iter().enumerate() {
+        lines.push(format!(
+            "{axis}: up to {:.0} mm/min, acceleration {}, jerk {}",
+            i.velocity_mm_per_min[k],
+            limit(
+                i.accel_m_per_s2[k],
+                i.demanded_accel_m_per_s2[k],
+                "m/s²",
+                i.accel_limited[k]
+            ),
+            limit(
+                i.jerk_m_per_s3[k],
+                i.demanded_jerk_m_per_s3[k],
+                "m/s³",
+                i.jerk_limited[k]
+            ),
+        ));
+    }
+    lines
+}
+
+/// The identified machine as a machine file, its values and their uncertainties in the
+/// header.
+pub fn machine_file(id: &Identification, template: &MachineConfig, program_file: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# {} identified from {program_file} against {}.",
+        template.name, id.file
+    );
+    for a in &id.axes {
+        let _ = writeln!(s, "#   {}: {}", a.axis, prediction(a));
+        for v in &a.values {
+            let _ = writeln!(s, "#   {}.{} = {} {}", a.axis, v.key, shown(v), v.unit);
+        }
+        if let Some(r) = &a.gain_per_inertia {
+            let _ = writeln!(
+                s,
+                "#   {}.{} per inertia = {} ± {} per kg (of {:.1} kg)",
+                a.axis,
+                r.gain,
+                sig(r.value),
+                sig(r.uncertainty),
+                r.inertia_kg
+            );
+        }
+    }
+    let _ = writeln!(s, "base = \"none\"\n");
+    s.push_str(&id.machine.to_toml());
+    s
+}

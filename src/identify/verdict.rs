@@ -1,0 +1,149 @@
+//! How a fit is judged: by what it predicts of the record's held-out halves, against the
+//! template and against the plain regression of [`super::baseline`] — not by the record's
+//! noise, which no model of a real machine reaches — and where the residual it leaves is
+//! largest, so that a user knows what the written model misses.
+
+use serde::Serialize;
+
+use crate::compare::Context;
+use crate::machine::AxisName;
+
+/// How much better than the template a fit must predict the held-out halves to be written
+/// when it stays above the noise (the same margin a larger model must show over a smaller
+/// one).
+pub(crate) const BETTER_THAN_TEMPLATE: f64 = 0.95;
+/// How long around a start, stop or reversal of the command counts as "at" it (s).
+const NEAR_EVENT_S: f64 = 0.05;
+/// Share of the peak acceleration above which the command counts as accelerating, and of
+/// the peak speed below which it counts as standing.
+const ACCELERATING_SHARE: f64 = 0.1;
+const STANDING_SHARE: f64 = 0.01;
+
+/// Where a residual is largest: the kind of motion whose samples it is largest at, by RMS.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Place {
+    /// Within 50 ms of the command starting, stopping or reversing.
+    StartsStopsReversals,
+    /// While the command accelerates.
+    Accelerating,
+    /// At steady speed.
+    SteadySpeed,
+    /// Where the command stands.
+    Standstill,
+}
+
+impl Place {
+    const ALL: [Place; 4] = [
+        Place::StartsStopsReversals,
+        Place::Accelerating,
+        Place::SteadySpeed,
+        Place::Standstill,
+    ];
+
+    /// In words, after "largest".
+    pub fn describe(self) -> &'static str {
+        match self {
+            Place::StartsStopsReversals => "at starts, stops and reversals",
+            Place::Accelerating => "while accelerating",
+            Place::SteadySpeed => "at steady speed",
+            Place::Standstill => "at standstill",
+        }
+    }
+}
+
+/// Whether a fit predicting the held-out halves to `identified` (µm RMS) is written over a
+/// template that predicts them to `template`.
+pub(crate) fn better_than_template(identified_um: f64, template_um: f64) -> bool {
+    identified_um < BETTER_THAN_TEMPLATE * template_um
+}
+
+/// The kind of motion at each command period of `axis`.
+fn places(ctx: &Context, axis: AxisName) -> Vec<Place> {
+    let c = ctx.commands.axis(axis);
+    let peak_v = c.vel_m_per_s.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let peak_a = c.acc_m_per_s2.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let direction: Vec<i8> = c
+        .vel_m_per_s
+        .iter()
+        .map(|v| {
+            if v.abs() <= STANDING_SHARE * peak_v {
+                0
+            } else if *v > 0.0 {
+                1
+            } else {
+                -1
+            }
+        })
+        .collect();
+    // Periods within NEAR_EVENT_S of a change of direction (standing counts as one).
+    let reach = (NEAR_EVENT_S / ctx.dt).ceil() as usize;
+    let mut near = vec![false; direction.len()];
+    for k in 1..direction.len() {
+        if direction[k] != direction[k - 1] {
+            let (lo, hi) = (k.saturating_sub(reach), (k + reach).min(direction.len()));
+            near[lo..hi].iter_mut().for_each(|n| *n = true);
+        }
+    }
+    (0..direction.len())
+        .map(|k| {
+            if near[k] {
+                Place::StartsStopsReversals
+            } else if direction[k] == 0 {
+                Place::Standstill
+            } else if c.acc_m_per_s2[k].abs() > ACCELERATING_SHARE * peak_a {
+                Place::Accelerating
+            } else {
+                Place::SteadySpeed
+            }
+        })
+        .collect()
+}
+
+/// Where `residual` (at the context's compared samples, zero where not compared) is
+/// largest among the samples `mask` allows; none without samples.
+pub(crate) fn largest_at(
+    ctx: &Context,
+    axis: AxisName,
+    offset_s: f64,
+    residual: &[f64],
+    mask: &[bool],
+) -> Option<Place> {
+    let places = places(ctx, axis);
+    let mut sums = [(0.0f64, 0usize); 4];
+    for (k, &i) in ctx.samples.iter().enumerate() {
+        if !(mask.get(k).copied().unwrap_or(false) && ctx.compared(axis, k)) {
+            continue;
+        }
+        let period = (ctx.prog_time(i, offset_s) / ctx.dt).round();
+        let place = if period >= 0.0 {
+            places.get(period as usize).copied()
+        } else {
+            None
+        };
+        let place = place.unwrap_or(Place::Standstill);
+        let slot = Place::ALL.iter().position(|p| *p == place).unwrap_or(3);
+        sums[slot].0 += residual[k] * residual[k];
+        sums[slot].1 += 1;
+    }
+    Place::ALL
+        .iter()
+        .zip(sums)
+        .filter(|(_, (_, n))| *n > 0)
+        .map(|(p, (ss, n))| (*p, (ss / n as f64).sqrt()))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(p, _)| p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_fit_is_written_where_it_predicts_better_by_a_twentieth() {
+        assert!(better_than_template(11.0, 128.0));
+        assert!(better_than_template(0.94, 1.0));
+        assert!(!better_than_template(0.96, 1.0));
+        assert!(!better_than_template(1.2, 1.0));
+    }
+}

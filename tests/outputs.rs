@@ -1,0 +1,144 @@
+//! Where outputs go: `-` is the standard output (the data alone there, what is printed for
+//! people on the standard error); a symbolic link is written through and stays a link; a
+//! device or a FIFO is written to in place, not replaced.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_contourcheck"))
+}
+
+fn square() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("gcode-samples/square.nc")
+}
+
+fn check(extra: &[&str]) -> Output {
+    bin()
+        .arg("check")
+        .arg(square())
+        .args(extra)
+        .env("CI", "1")
+        .output()
+        .unwrap()
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// The report a plain file gets, to compare with.
+fn plain_report(dir: &Path) -> serde_json::Value {
+    let path = dir.join("plain.json");
+    let o = check(&["--json", path.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn a_dash_writes_the_data_alone_to_standard_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = check(&["--json", "-"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let report: serde_json::Value =
+        serde_json::from_slice(&o.stdout).expect("stdout is the JSON alone");
+    assert_eq!(report, plain_report(dir.path()));
+    assert!(
+        text(&o.stderr).contains("contour   max"),
+        "the summary goes to stderr"
+    );
+    assert!(!Path::new("-").exists());
+
+    let o = check(&["--trace", "-", "--trace-every", "100"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let mut rows = csv::Reader::from_reader(&o.stdout[..]);
+    assert_eq!(rows.headers().unwrap().get(0), Some("t_s"));
+    assert!(rows.records().all(|r| r.unwrap().len() == 9));
+
+    let o = check(&["--report", "-"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let page = text(&o.stdout);
+    assert!(page.starts_with("<!DOCTYPE html>") && page.trim_end().ends_with("</html>"));
+
+    // Two outputs cannot share it: refused before the run.
+    let o = check(&["--json", "-", "--trace", "-"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(o.stdout.is_empty());
+    assert!(text(&o.stderr).contains("only one output can go to the standard output"));
+}
+
+#[test]
+fn a_symbolic_link_is_written_through_and_stays_a_link() {
+    let dir = tempfile::tempdir().unwrap();
+    let target = dir.path().join("reports").join("real.json");
+    std::fs::create_dir(target.parent().unwrap()).unwrap();
+    std::fs::write(&target, "an older report").unwrap();
+    let link = dir.path().join("link.json");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    let o = check(&["--json", link.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(
+        std::fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&target).unwrap()).unwrap();
+    assert_eq!(report, plain_report(dir.path()));
+    // Staged beside the target and renamed: nothing else left in either folder.
+    assert_eq!(
+        std::fs::read_dir(target.parent().unwrap()).unwrap().count(),
+        1
+    );
+    // A link to where no file is yet: the file appears there, the link stays.
+    let dangling = dir.path().join("to-be.json");
+    let later = target.with_file_name("later.json");
+    std::os::unix::fs::symlink(&later, &dangling).unwrap();
+    let o = check(&["--json", dangling.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(
+        std::fs::symlink_metadata(&dangling)
+            .unwrap()
+            .file_type()
+            .is_symlink()
+    );
+    assert!(
+        std::fs::read_to_string(&later)
+            .unwrap()
+            .contains("contourcheck.check/1")
+    );
+}
+
+#[test]
+fn a_fifo_and_dev_stdout_are_written_to_not_replaced() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("pipe");
+    let c_path = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+    // SAFETY: creating a FIFO at a path of our own temporary folder.
+    assert_eq!(unsafe { libc::mkfifo(c_path.as_ptr(), 0o600) }, 0);
+    let reader = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || std::fs::read_to_string(fifo).unwrap())
+    };
+    let o = check(&["--json", fifo.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let read: serde_json::Value = serde_json::from_str(&reader.join().unwrap()).unwrap();
+    assert_eq!(read, plain_report(dir.path()));
+    use std::os::unix::fs::FileTypeExt;
+    assert!(
+        std::fs::symlink_metadata(&fifo)
+            .unwrap()
+            .file_type()
+            .is_fifo()
+    );
+
+    // `/dev/stdout` (a link to the process's descriptor) is written to, before the summary.
+    let o = check(&["--json", "/dev/stdout"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let mut stream =
+        serde_json::Deserializer::from_slice(&o.stdout).into_iter::<serde_json::Value>();
+    let first = stream.next().unwrap().expect("the report first on stdout");
+    assert_eq!(first, plain_report(dir.path()));
+    assert!(Path::new("/dev/stdout").exists());
+}
