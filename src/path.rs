@@ -320,6 +320,16 @@ impl Segment {
         matches!(self.geometry, Geometry::Arc(_)) && self.normal_travel_m() != 0.0
     }
 
+    /// True for a feed move that travels in Z together with X or Y (a helix, a slope, a 3-D
+    /// contour); a plunge (Z alone), a rapid or a dwell is not.
+    pub fn cuts_in_space(&self) -> bool {
+        if self.motion != Motion::Feed || self.is_dwell() {
+            return false;
+        }
+        let [x, y, z] = self.extent_m();
+        z[1] > z[0] && (x[1] > x[0] || y[1] > y[0])
+    }
+
     /// The lowest and highest X, Y and Z the segment reaches (m), `[min, max]` per axis.
     pub fn extent_m(&self) -> [[f64; 2]; 3] {
         let span = |i: usize| {

@@ -7,7 +7,7 @@
 use contourcheck::analysis::circular::CircleFigures;
 use contourcheck::check::{CheckRun, CheckSettings, check};
 use contourcheck::gcode::{Dialect, InterpretOptions, Program, parse_program};
-use contourcheck::machine::{MachineConfig, ZAxis};
+use contourcheck::machine::{MachineConfig, PlannedAxis, ZAxis};
 use contourcheck::path::{Geometry, Plane};
 use contourcheck::plan::{KinematicLimits, PlanConfig, plan};
 
@@ -93,9 +93,6 @@ fn a_circle_in_zx_on_a_z_with_xs_settings_is_the_circle_in_xy() {
         }
     }
     close(xy.pairs[0].h_um, zx.pairs[0].h_um, 0.01, "H");
-    // The radius loss of a Kv = 1 loop at F1000 on R100: v²/(2·Kv²·R) ≈ 0.5 µm? No — the
-    // lag's geometry gives R(1 − 1/√(1 + (ω/Kv)²)) to first order; the figures of the
-    // circle in XY are the reference here, checked against the paper elsewhere.
 }
 
 /// A long straight move in space at F1000 on `m`; the samples in its steady middle.
@@ -197,14 +194,15 @@ fn a_helix_takes_its_length_over_the_feed_within_the_ramps() {
 fn a_program_and_its_sinumerik_twin_plan_the_same_path_in_space() {
     // Three turns of a helix down 12 mm, a quarter circle in ZX (G18, from Z towards X) and
     // one in YZ (G19, clockwise from Y towards −Z); the 840D gives the turns with TURN= and
-    // the quarters by opening angle and by radius.
+    // the quarters by opening angle and by radius. Its rapid keeps the path mode in force
+    // (G64), where RS274/NGC's stops exactly: G9 makes the twin's rapid stop as well.
     let rs274 = program(
         "G21 G90 G94 G64\nG17 G0 X50 Y0 Z5\nG1 Z0 F300\n\
          G2 X50 Y0 Z-12 I-50 J0 P3 F600\n\
          G18 G3 Z-22 X40 K0 I-10\nG19 G2 Y-10 Z-12 J0 K10\nG17 G1 X0 Y0 Z60\nM30\n",
     );
     let twin = sinumerik(
-        "N10 G710 G90 G94 G64\nN20 G17 G0 X50 Y0 Z5\nN30 G1 Z0 F300\n\
+        "N10 G710 G90 G94 G64\nN20 G17 G0 X50 Y0 Z5 G9\nN30 G1 Z0 F300\n\
          N40 G2 X50 Y0 Z-12 I-50 J0 TURN=2 F600\n\
          N50 G18 G3 Z-22 X40 AR=90\nN60 G19 G2 Y-10 Z-12 CR=10\nN70 G17 G1 X0 Y0 Z60\nN80 M30\n",
     );
@@ -241,4 +239,82 @@ fn a_program_and_its_sinumerik_twin_plan_the_same_path_in_space() {
     let h = 0.01 * std::f64::consts::FRAC_1_SQRT_2;
     assert!((mid[2] - (-0.012 - h)).abs() < 1e-12 && (mid[0] - (0.040 + h)).abs() < 1e-12);
     assert!((a.total_time_s - b.total_time_s).abs() < 1e-9);
+}
+
+/// The preset with its Z carried (planned, not simulated), as before the preset had a Z.
+fn z_carried() -> MachineConfig {
+    let mut m = MachineConfig::default_preset();
+    m.z = ZAxis::Carried(PlannedAxis {
+        limits: m.z.limits().clone(),
+    });
+    m
+}
+
+#[test]
+fn simulating_a_standing_z_leaves_the_xy_circles_as_they_were() {
+    // X and Y do not feel Z: the circles, cut at one depth, have the same figures whether
+    // Z is simulated (holding its weight at rest) or carried; only the corner where the
+    // plunge meets the lead-in is new — a corner in space, rounded by Z still coming down.
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/gcode-samples/circle-test.nc"
+    ))
+    .unwrap();
+    let p = program(&text);
+    let (simulated, carried) = (
+        run(&p, &MachineConfig::default_preset()).result,
+        run(&p, &z_carried()).result,
+    );
+    assert_eq!(simulated.circular.circles.len(), 2);
+    for (a, b) in simulated
+        .circular
+        .circles
+        .iter()
+        .zip(&carried.circular.circles)
+    {
+        for (p, q) in [
+            (a.g_um, b.g_um),
+            (a.f_min_um, b.f_min_um),
+            (a.f_max_um, b.f_max_um),
+        ] {
+            assert!((p - q).abs() < 1e-6, "{p} µm against {q} µm");
+        }
+    }
+    // The radius loss of a Kv = 1 /min loop at F1000 on R100 is the paper's ~5 µm.
+    assert!((carried.circular.circles[0].f_min_um + 5.07).abs() < 0.01);
+    // The simulated Z holds still under its weight while the circles are cut: its largest
+    // following error while cutting is its lag in the plunge at F500, v/Kv = 500 µm.
+    let [cutting, _] = simulated.summary.z_following_error_m.expect("Z simulated");
+    assert!((cutting - 500e-6).abs() < 5e-6, "{cutting:e} m");
+    assert!(carried.summary.z_following_error_m.is_none());
+}
+
+#[test]
+fn a_machine_that_carries_z_names_the_lines_where_z_moves_along_the_contour() {
+    // Line 3 plunges (Z alone: no contour), line 4 is a helix and line 5 a slope: both move
+    // Z along the contour, which a machine without a simulated Z cannot follow.
+    let p = program(
+        "G21 G17 G90 G94 G64\nG0 X10 Y0 Z5\nG1 Z0 F300\nG2 X10 Y0 Z-2 I-10 J0 F600\n\
+         G1 X20 Y5 Z-3\nG1 X30\nM30\n",
+    );
+    let small = MachineConfig::preset("small-table").unwrap();
+    assert!(!small.simulates_z());
+    let warned: Vec<u32> = run(&p, &small)
+        .result
+        .plan
+        .warnings
+        .iter()
+        .filter(|w| w.message.contains("carries Z"))
+        .map(|w| w.line)
+        .collect();
+    assert_eq!(warned, [4, 5]);
+    // The preset simulates Z: nothing to warn.
+    let hvmc = run(&p, &MachineConfig::default_preset()).result;
+    assert!(
+        !hvmc
+            .plan
+            .warnings
+            .iter()
+            .any(|w| w.message.contains("carries Z"))
+    );
 }

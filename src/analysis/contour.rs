@@ -142,6 +142,18 @@ impl ContourLocator {
         }
     }
 
+    /// Whether a segment near the commanded one is part of the path the tool is measured
+    /// against: a contour, and in 3-D also a plunge (a corner between a plunge and the cut
+    /// that follows is rounded in space, and the tool still coming down is that far from
+    /// the path, not as far as its height above the cut).
+    fn is_nearby_path(&self, seg: &Segment) -> bool {
+        is_contour(seg)
+            || (self.three_d
+                && seg.motion == Motion::Feed
+                && !seg.is_dwell()
+                && seg.start_m != seg.end_m)
+    }
+
     /// The contour error of the actual position `q` (m) while segment `c` is commanded at
     /// `reference` (m).
     pub fn locate(&self, plan: &Plan, c: usize, reference: [f64; 3], q: [f64; 3]) -> ContourPoint {
@@ -170,7 +182,7 @@ impl ContourLocator {
         let window = apart * 2.0 + SEARCH_MARGIN_M;
         let mut best: Option<(f64, ContourPoint)> = None;
         let mut consider = |j: usize, hint: f64| {
-            if !is_contour(&segs[j]) {
+            if !self.is_nearby_path(&segs[j]) {
                 return;
             }
             let p = self.deviation(&segs[j], q, hint);

@@ -337,11 +337,7 @@ impl RunAnalyser {
 fn carried_z_warnings(plan: &Plan) -> Vec<Warning> {
     plan.segments
         .iter()
-        .filter(|s| s.motion == Motion::Feed && !s.is_dwell())
-        .filter(|s| {
-            let [x, y, z] = s.extent_m();
-            z[1] > z[0] && (x[1] > x[0] || y[1] > y[0])
-        })
+        .filter(|s| s.cuts_in_space())
         .map(|s| Warning {
             line: s.line,
             message: "Z moves along the contour, but this machine carries Z (its file gives \

@@ -67,7 +67,7 @@ pub fn run(args: &PlanArgs) -> Result<Outcome, CliError> {
     );
     println!("time      {}", format_duration(planned.total_time_s));
     println!("peaks     speed (mm/min)  accel (m/s²)  jerk (m/s³, sampled)");
-    for (name, axis) in [("X", &commands.x), ("Y", &commands.y)] {
+    for (name, axis) in [("X", &commands.x), ("Y", &commands.y), ("Z", &commands.z)] {
         let p = axis.peaks(commands.dt_s);
         println!(
             "  {name}       {:>12.1}  {:>12.4}  {:>12.3}",

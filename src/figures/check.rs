@@ -58,15 +58,10 @@ const FROM_ABOVE: View = View {
     file: "toolpath",
 };
 
-/// The views besides the one from above: where Z is simulated and the program cuts while
-/// moving Z, from the front (XZ) and the side (YZ).
+/// The views besides the one from above: where Z is simulated and moves along the contour
+/// (not only in plunges), from the front (XZ) and the side (YZ).
 fn side_views(run: &CheckResult) -> Vec<View> {
-    let cuts_in_z = run.plan.segments.iter().any(|s| {
-        s.motion == Motion::Feed && !s.is_dwell() && {
-            let [_, _, [z0, z1]] = s.extent_m();
-            z1 > z0
-        }
-    });
+    let cuts_in_z = run.plan.segments.iter().any(|s| s.cuts_in_space());
     if run.summary.z_following_error_m.is_none() || !cuts_in_z {
         return Vec::new();
     }
