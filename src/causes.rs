@@ -109,120 +109,57 @@ impl CauseId {
         }
     }
 
-    /// The fitted parameters.
+    /// The fitted parameters: each a machine key, with a typical step and the bounds the
+    /// fit searches within.
     pub fn params(self) -> &'static [Param] {
         match self {
-            CauseId::Backlash => &[Param {
-                key: "drive.backlash_um",
-                unit: "µm",
-                scale: 10.0,
-                min: 0.0,
-                max: 1000.0,
-            }],
-            CauseId::CoulombFriction => &[Param {
-                key: "friction.coulomb_coefficient",
-                unit: "",
-                scale: 0.01,
-                min: 0.0,
-                max: 0.5,
-            }],
-            CauseId::Stribeck => &[
-                Param {
-                    key: "friction.stribeck_level_n",
-                    unit: "N",
-                    scale: 300.0,
-                    min: 1.0,
-                    max: 1e5,
-                },
-                Param {
-                    key: "friction.stribeck_velocity_mm_per_min",
-                    unit: "mm/min",
-                    scale: 20.0,
-                    min: 0.1,
-                    max: 1e4,
-                },
-            ],
-            CauseId::KvGain => &[Param {
-                key: "position_loop.kv_m_per_min_per_mm",
-                unit: "m/min/mm",
-                scale: 0.1,
-                min: 0.01,
-                max: 100.0,
-            }],
-            CauseId::DeadTime => &[Param {
-                key: "position_loop.dead_time_ms",
-                unit: "ms",
-                scale: 2.0,
-                min: 0.0,
-                max: 500.0,
-            }],
-            CauseId::CyclicError => &[
-                Param {
-                    key: "errors.cyclic_amplitude_um",
-                    unit: "µm",
-                    scale: 2.0,
-                    min: 0.0,
-                    max: 1e4,
-                },
-                Param {
-                    key: "errors.cyclic_phase_deg",
-                    unit: "°",
-                    scale: 30.0,
-                    min: -1e6,
-                    max: 1e6,
-                },
-            ],
-            CauseId::ScaleError => &[Param {
-                key: "errors.scale_error_ppm",
-                unit: "ppm",
-                scale: 10.0,
-                min: -1e5,
-                max: 1e5,
-            }],
-            CauseId::Resonance => &[
-                Param {
-                    key: "errors.resonance_hz",
-                    unit: "Hz",
-                    scale: 5.0,
-                    min: 0.5,
-                    max: 5000.0,
-                },
-                Param {
-                    key: "errors.resonance_damping",
-                    unit: "",
-                    scale: 0.02,
-                    min: 0.002,
-                    max: 1.0,
-                },
-            ],
-            CauseId::Squareness => &[Param {
-                key: "errors.squareness_urad",
-                unit: "µrad",
-                scale: 20.0,
-                min: -1e5,
-                max: 1e5,
-            }],
-            CauseId::Straightness => &[Param {
-                key: "errors.straightness_bow_um",
-                unit: "µm",
-                scale: 5.0,
-                min: -1e4,
-                max: 1e4,
-            }],
-            CauseId::LateralPlay => &[Param {
-                key: "errors.lateral_play_um",
-                unit: "µm",
-                scale: 5.0,
-                min: -1e4,
-                max: 1e4,
-            }],
-            CauseId::DirectionOffset => &[Param {
-                key: "errors.direction_offset_um",
-                unit: "µm",
-                scale: 5.0,
-                min: -1e4,
-                max: 1e4,
-            }],
+            CauseId::Backlash => const { &[param("drive.backlash_um", 10.0, 0.0..=1000.0)] },
+            CauseId::CoulombFriction => {
+                const { &[param("friction.coulomb_coefficient", 0.01, 0.0..=0.5)] }
+            }
+            CauseId::Stribeck => {
+                const {
+                    &[
+                        param("friction.stribeck_level_n", 300.0, 1.0..=1e5),
+                        param("friction.stribeck_velocity_mm_per_min", 20.0, 0.1..=1e4),
+                    ]
+                }
+            }
+            CauseId::KvGain => {
+                const {
+                    &[param(
+                        "position_loop.kv_m_per_min_per_mm",
+                        0.1,
+                        0.01..=100.0,
+                    )]
+                }
+            }
+            CauseId::DeadTime => const { &[param("position_loop.dead_time_ms", 2.0, 0.0..=500.0)] },
+            CauseId::CyclicError => {
+                const {
+                    &[
+                        param("errors.cyclic_amplitude_um", 2.0, 0.0..=1e4),
+                        param("errors.cyclic_phase_deg", 30.0, -1e6..=1e6),
+                    ]
+                }
+            }
+            CauseId::ScaleError => const { &[param("errors.scale_error_ppm", 10.0, -1e5..=1e5)] },
+            CauseId::Resonance => {
+                const {
+                    &[
+                        param("errors.resonance_hz", 5.0, 0.5..=5000.0),
+                        param("errors.resonance_damping", 0.02, 0.002..=1.0),
+                    ]
+                }
+            }
+            CauseId::Squareness => const { &[param("errors.squareness_urad", 20.0, -1e5..=1e5)] },
+            CauseId::Straightness => {
+                const { &[param("errors.straightness_bow_um", 5.0, -1e4..=1e4)] }
+            }
+            CauseId::LateralPlay => const { &[param("errors.lateral_play_um", 5.0, -1e4..=1e4)] },
+            CauseId::DirectionOffset => {
+                const { &[param("errors.direction_offset_um", 5.0, -1e4..=1e4)] }
+            }
         }
     }
 
@@ -313,7 +250,8 @@ impl CauseSet {
 }
 
 /// A fitted parameter: a machine key below the axis, its unit, a typical magnitude (to
-/// scale the fit) and the range it may take.
+/// scale the fit) and the range it may take — within the values a machine can have (the
+/// key's rule), where a fit is worth looking.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Param {
     /// Key below the axis, e.g. `drive.backlash_um`.
@@ -326,6 +264,18 @@ pub struct Param {
     pub min: f64,
     /// Upper bound.
     pub max: f64,
+}
+
+/// The parameter of machine key `key` (below the axis), its unit the key table's, with a
+/// typical step `scale` and the bounds a fit searches within.
+const fn param(key: &'static str, scale: f64, bounds: std::ops::RangeInclusive<f64>) -> Param {
+    Param {
+        key,
+        unit: crate::machine::keys::axis_unit(key),
+        scale,
+        min: *bounds.start(),
+        max: *bounds.end(),
+    }
 }
 
 /// Reads a parameter's value from an axis (every cause parameter is in the machine's key
@@ -532,6 +482,19 @@ mod tests {
                     p.key
                 );
                 assert!(crate::machine::keys::get(&x, p.key).is_some(), "{}", p.key);
+            }
+        }
+    }
+
+    #[test]
+    fn every_parameters_bounds_lie_within_what_a_machine_can_have() {
+        for id in CauseId::ALL {
+            for p in id.params() {
+                let rule = crate::machine::keys::axis_key(p.key).unwrap().rule;
+                for bound in [p.min, p.max] {
+                    assert_eq!(rule.problem(bound), None, "{}: {bound}", p.key);
+                }
+                assert!(p.min < p.max && p.scale > 0.0, "{}", p.key);
             }
         }
     }

@@ -330,6 +330,14 @@ impl Segment {
         z[1] > z[0] && (x[1] > x[0] || y[1] > y[0])
     }
 
+    /// True for a feed move whose contour needs Z: one that moves Z along the contour
+    /// ([`Segment::cuts_in_space`]) or lies in the ZX or YZ plane (G18, G19), where Z is one
+    /// of the plane's axes.
+    pub fn is_contour_in_space(&self) -> bool {
+        self.cuts_in_space()
+            || (self.motion == Motion::Feed && !self.is_dwell() && self.plane != Plane::Xy)
+    }
+
     /// The lowest and highest X, Y and Z the segment reaches (m), `[min, max]` per axis.
     pub fn extent_m(&self) -> [[f64; 2]; 3] {
         let span = |i: usize| {

@@ -469,9 +469,9 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
         (Some(in_plane), Some(across)) => {
             let _ = writeln!(
                 s,
-                "          (3-D distance to the path; feed moves but plunges; largest part in the \
-                 block's plane {in_plane:.2} µm, across it {across:.2} µm; signed + to the \
-                 left of travel in the plane)"
+                "          (3-D distance to the path where Z moves along it, XY elsewhere; largest \
+                 part in the block's plane {in_plane:.2} µm, across it {across:.2} µm; signed + \
+                 to the left of travel in the plane)"
             );
         }
         _ => {

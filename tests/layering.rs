@@ -139,3 +139,85 @@ fn the_reader_skips_comments_and_other_crates() {
     let used = used_modules(text);
     assert_eq!(used, BTreeSet::from(["sim".to_string()]));
 }
+
+/// The names `lib.rs` re-exports at the crate's root: its public interface.
+fn root_exports() -> BTreeSet<String> {
+    let lib = fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("src/lib.rs")).unwrap();
+    let mut names = BTreeSet::new();
+    // A `pub use` may run over several lines; join each statement up to its `;`.
+    for statement in lib.split(';') {
+        let Some(at) = statement.find("pub use ") else {
+            continue;
+        };
+        let body = &statement[at + "pub use ".len()..];
+        let items = match body.find('{') {
+            Some(open) => body[open + 1..]
+                .trim_end()
+                .trim_end_matches('}')
+                .to_string(),
+            None => body.rsplit("::").next().unwrap_or("").to_string(),
+        };
+        for item in items.split(',') {
+            let item = item.trim();
+            let name = item.rsplit(" as ").next().unwrap_or(item).trim();
+            if !name.is_empty() {
+                names.insert(name.to_string());
+            }
+        }
+    }
+    names
+}
+
+/// Every name the Python bindings take from the library: `contourcheck::name` and the
+/// members of `contourcheck::{…}`.
+fn python_imports() -> BTreeSet<String> {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("python/src");
+    let mut files = Vec::new();
+    rust_files(&src, &mut files);
+    let mut names = BTreeSet::new();
+    for file in files {
+        let text: String = fs::read_to_string(&file)
+            .unwrap()
+            .lines()
+            .map(|line| line.split("//").next().unwrap_or(""))
+            .collect::<Vec<_>>()
+            .join("\n");
+        let mut rest = text.as_str();
+        while let Some(at) = rest.find("contourcheck::") {
+            rest = &rest[at + "contourcheck::".len()..];
+            if let Some(group) = rest.strip_prefix('{') {
+                let close = group.find('}').unwrap_or(group.len());
+                names.extend(group[..close].split(',').map(|n| n.trim().to_string()));
+            } else {
+                // `contourcheck::MachineConfig::load` takes `MachineConfig`; `contourcheck::
+                // sim::AxisModel` takes the module `sim`, which the root does not re-export.
+                let name: String = rest
+                    .chars()
+                    .take_while(|c| c.is_alphanumeric() || *c == '_')
+                    .collect();
+                names.insert(name);
+            }
+        }
+    }
+    names.retain(|n| !n.is_empty());
+    names
+}
+
+/// The Python package stands on the library's root interface alone: a module path or a name
+/// `lib.rs` does not re-export would tie it to internals that change with the code.
+#[test]
+fn the_python_package_uses_only_the_root_interface() {
+    let exports = root_exports();
+    // The reader must see what is there, or the check below passes vacuously.
+    assert!(
+        exports.contains("check") && exports.contains("ReportInputs"),
+        "{exports:?}"
+    );
+    let imports = python_imports();
+    assert!(imports.contains("check_fits"), "{imports:?}");
+    let outside: Vec<&String> = imports.iter().filter(|n| !exports.contains(*n)).collect();
+    assert!(
+        outside.is_empty(),
+        "python/src takes names lib.rs does not re-export: {outside:?}"
+    );
+}

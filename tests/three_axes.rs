@@ -252,9 +252,9 @@ fn z_carried() -> MachineConfig {
 
 #[test]
 fn simulating_a_standing_z_leaves_the_xy_circles_as_they_were() {
-    // X and Y do not feel Z: the circles, cut at one depth, have the same figures whether
-    // Z is simulated (holding its weight at rest) or carried; only the corner where the
-    // plunge meets the lead-in is new — a corner in space, rounded by Z still coming down.
+    // X and Y do not feel Z: a program cut at one depth has the same figures whether Z is
+    // simulated (holding its weight at rest) or carried — blocks at one height are measured
+    // in X and Y either way.
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/gcode-samples/circle-test.nc"
@@ -266,6 +266,19 @@ fn simulating_a_standing_z_leaves_the_xy_circles_as_they_were() {
         run(&p, &z_carried()).result,
     );
     assert_eq!(simulated.circular.circles.len(), 2);
+    assert_eq!(
+        simulated.summary.max_contour_error_m,
+        carried.summary.max_contour_error_m
+    );
+    assert_eq!(
+        simulated.summary.rms_contour_error_m,
+        carried.summary.rms_contour_error_m
+    );
+    assert_eq!(simulated.summary.max_components_m, None);
+    let spots = |r: &contourcheck::check::CheckResult| -> Vec<(u32, f64)> {
+        r.hotspots.iter().map(|h| (h.line, h.error_um)).collect()
+    };
+    assert_eq!(spots(&simulated), spots(&carried));
     for (a, b) in simulated
         .circular
         .circles

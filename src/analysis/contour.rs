@@ -128,8 +128,8 @@ impl ContourLocator {
     }
 
     /// A point's deviation from a segment, in 3-D or in the XY projection.
-    fn deviation(&self, seg: &Segment, q: [f64; 3], u_hint: f64) -> Deviation {
-        if self.three_d {
+    fn deviation(in_space: bool, seg: &Segment, q: [f64; 3], u_hint: f64) -> Deviation {
+        if in_space {
             return deviation(seg, q, u_hint);
         }
         let p = seg.project_xy([q[0], q[1]], u_hint);
@@ -142,13 +142,22 @@ impl ContourLocator {
         }
     }
 
+    /// Whether the error while `seg` is commanded is measured in space: where Z is simulated
+    /// and the block moves Z along the contour (a helix, a slope) or lies in ZX or YZ. A block
+    /// of the XY plane at one height is measured in X and Y as on a machine that carries Z, so a 2.5-D
+    /// program's figures do not change with a simulated Z; Z's own deviation there is its
+    /// following error (and Z still arriving after a plunge, the plunge's).
+    pub fn measures_in_space(&self, seg: &Segment) -> bool {
+        self.three_d && seg.is_contour_in_space()
+    }
+
     /// Whether a segment near the commanded one is part of the path the tool is measured
     /// against: a contour, and in 3-D also a plunge (a corner between a plunge and the cut
     /// that follows is rounded in space, and the tool still coming down is that far from
     /// the path, not as far as its height above the cut).
-    fn is_nearby_path(&self, seg: &Segment) -> bool {
+    fn is_nearby_path(in_space: bool, seg: &Segment) -> bool {
         is_contour(seg)
-            || (self.three_d
+            || (in_space
                 && seg.motion == Motion::Feed
                 && !seg.is_dwell()
                 && seg.start_m != seg.end_m)
@@ -158,7 +167,8 @@ impl ContourLocator {
     /// `reference` (m).
     pub fn locate(&self, plan: &Plan, c: usize, reference: [f64; 3], q: [f64; 3]) -> ContourPoint {
         let (segs, cum) = (&plan.segments, &self.cum_m);
-        let ref_u = self.deviation(&segs[c], reference, 0.5).u;
+        let in_space = self.measures_in_space(&segs[c]);
+        let ref_u = Self::deviation(in_space, &segs[c], reference, 0.5).u;
         let s_ref = cum[c] + ref_u * plan.plans[c].length_m;
         let none = ContourPoint {
             error_m: f64::NAN,
@@ -174,18 +184,14 @@ impl ContourLocator {
         }
         let apart = (q[0] - reference[0])
             .hypot(q[1] - reference[1])
-            .hypot(if self.three_d {
-                q[2] - reference[2]
-            } else {
-                0.0
-            });
+            .hypot(if in_space { q[2] - reference[2] } else { 0.0 });
         let window = apart * 2.0 + SEARCH_MARGIN_M;
         let mut best: Option<(f64, ContourPoint)> = None;
         let mut consider = |j: usize, hint: f64| {
-            if !self.is_nearby_path(&segs[j]) {
+            if !Self::is_nearby_path(in_space, &segs[j]) {
                 return;
             }
-            let p = self.deviation(&segs[j], q, hint);
+            let p = Self::deviation(in_space, &segs[j], q, hint);
             let d = p.distance_m;
             if best.is_none_or(|b| d < b.0) {
                 let point = ContourPoint {

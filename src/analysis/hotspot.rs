@@ -640,10 +640,12 @@ fn junction_cause(segs: &[Segment], plan: &Plan, i: usize, cfg: &HotspotConfig) 
     if a.motion != Motion::Feed || b.motion != Motion::Feed || a.is_dwell() || b.is_dwell() {
         return None;
     }
-    // A corner is where the tool's path turns: in space where Z is simulated, else in XY
-    // (a carried Z's plunge is no corner of the XY contour).
+    // A corner is where the tool's path turns: in space where Z is simulated and either
+    // block is measured in space (it moves Z along the contour), else in XY (a plunge is no
+    // corner of the XY contour, as the error next to it is measured in XY).
+    let in_space = cfg.with_z && (a.is_contour_in_space() || b.is_contour_in_space());
     let xy = |t: [f64; 3]| {
-        if cfg.with_z {
+        if in_space {
             let n = crate::path::norm3(t);
             return if n > 1e-9 { t.map(|v| v / n) } else { [0.0; 3] };
         }

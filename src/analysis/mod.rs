@@ -46,8 +46,9 @@ pub struct Summary {
     /// Z's largest |following error| while cutting and over the whole run (m), where Z is
     /// simulated.
     pub z_following_error_m: Option<[f64; 2]>,
-    /// The largest parts of the contour error in the block's plane and across it (m),
-    /// where Z is simulated (a carried Z has nothing across).
+    /// The largest parts of the contour error in the block's plane and across it (m), over
+    /// the blocks measured in space (Z simulated and moving along the contour); `None` where
+    /// there are none.
     pub max_components_m: Option<[f64; 2]>,
     /// Largest XY distance from the commanded point while a feed block moves Z alone or
     /// dwells (m): the axes still settling after they arrived — a positioning error at that
@@ -132,8 +133,9 @@ pub struct RunAnalyser {
     /// X, Y and (where simulated) Z.
     fe_cut_m: Vec<f64>,
     fe_all_m: Vec<f64>,
-    /// The largest in-plane and across parts of the contour error.
-    components_m: [f64; 2],
+    /// The largest in-plane and across parts of the contour error, over the samples measured
+    /// in space.
+    components_m: Option<[f64; 2]>,
     samples: usize,
 }
 
@@ -179,7 +181,7 @@ impl RunAnalyser {
             positioning: (0.0, None),
             fe_cut_m: vec![0.0; simulated.len()],
             fe_all_m: vec![0.0; simulated.len()],
-            components_m: [0.0; 2],
+            components_m: None,
             samples: 0,
         }
     }
@@ -220,8 +222,11 @@ impl RunAnalyser {
             if point.error_m.is_finite() {
                 self.squares_m2 += point.error_m * point.error_m;
                 self.cutting_samples += 1;
-                let parts = [point.in_plane_m.abs(), point.across_m.abs()];
-                self.components_m = [0, 1].map(|j| self.components_m[j].max(parts[j]));
+                if self.locator.measures_in_space(&plan.segments[seg]) {
+                    let parts = [point.in_plane_m.abs(), point.across_m.abs()];
+                    let largest = self.components_m.unwrap_or_default();
+                    self.components_m = Some([0, 1].map(|j| largest[j].max(parts[j])));
+                }
             }
             self.hotspots.push(
                 plan,
@@ -312,7 +317,7 @@ impl RunAnalyser {
             },
             max_following_error_cutting_m: [self.fe_cut_m[0], self.fe_cut_m[1]],
             z_following_error_m: z_simulated.then(|| [self.fe_cut_m[2], self.fe_all_m[2]]),
-            max_components_m: z_simulated.then_some(self.components_m),
+            max_components_m: self.components_m,
             max_positioning_error_m: self.positioning.0,
             max_positioning_at: self.positioning.1,
             max_following_error_m: [self.fe_all_m[0], self.fe_all_m[1]],

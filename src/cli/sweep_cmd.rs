@@ -352,35 +352,13 @@ fn figure(p: &SweepPoint, pick: impl Fn(&crate::sweep::Metrics) -> f64) -> f64 {
     }
 }
 
-/// A swept dimension's name with the unit its machine key carries, for a plot's axis:
-/// `x.kv (m/min/mm)`.
+/// A swept dimension's name with the unit its machine key carries (the key table's), for a
+/// plot's axis: `x.kv (m/min/mm)`; a ratio's name alone.
 fn labelled(d: &Dimension) -> String {
     let key = d.keys.first().map_or("", String::as_str);
-    let unit = [
-        ("_m_per_min_per_mm", "m/min/mm"),
-        ("_nm_s_per_rad", "N·m·s/rad"),
-        ("_n_s_per_m", "N·s/m"),
-        ("_mm_per_min", "mm/min"),
-        ("_m_per_s2", "m/s²"),
-        ("_um", "µm"),
-        ("_mm", "mm"),
-        ("_ms", "ms"),
-        ("_kg", "kg"),
-        ("_hz", "Hz"),
-        ("_ppm", "ppm"),
-        ("_urad", "µrad"),
-        ("_deg", "°"),
-        ("_n", "N"),
-        ("_a", "A"),
-        ("feedforward", "share"),
-        ("coefficient", "share of the weight"),
-    ]
-    .iter()
-    .find(|(suffix, _)| key.ends_with(suffix))
-    .map(|(_, unit)| *unit);
-    match unit {
-        Some(unit) => format!("{} ({unit})", d.name),
-        None => d.name.clone(),
+    match crate::machine::keys::unit_on_machine(key) {
+        Some(unit) if !unit.is_empty() => format!("{} ({unit})", d.name),
+        _ => d.name.clone(),
     }
 }
 

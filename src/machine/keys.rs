@@ -616,6 +616,35 @@ pub const INTERPOLATION_KEYS: &[Key<Interpolation>] = &[
         "path jerk limit (else the axes')", |i| i.path_jerk_m_per_s3, v => *v),
 ];
 
+/// The unit of the axis key `path`, read from the table while the program is built: called
+/// in a constant, a path the table does not have stops the build.
+pub const fn axis_unit(path: &str) -> &'static str {
+    let mut i = 0;
+    while i < AXIS_KEYS.len() {
+        if same_text(AXIS_KEYS[i].path, path) {
+            return AXIS_KEYS[i].unit;
+        }
+        i += 1;
+    }
+    panic!("not an axis key of the machine file")
+}
+
+/// Whether two texts are equal, in a constant.
+const fn same_text(a: &str, b: &str) -> bool {
+    let (a, b) = (a.as_bytes(), b.as_bytes());
+    if a.len() != b.len() {
+        return false;
+    }
+    let mut i = 0;
+    while i < a.len() {
+        if a[i] != b[i] {
+            return false;
+        }
+        i += 1;
+    }
+    true
+}
+
 /// The axis key of that path, if the table has it.
 pub fn axis_key(path: &str) -> Option<&'static AxisKey> {
     AXIS_KEYS.iter().find(|k| k.path == path)
@@ -740,6 +769,23 @@ pub fn get_on_machine(m: &MachineConfig, key: &str) -> Option<f64> {
     }
 }
 
+/// A full dotted key's unit (empty for a ratio); `None` for a key not in the table.
+pub fn unit_on_machine(key: &str) -> Option<&'static str> {
+    let (part, rest) = key.split_once('.')?;
+    match part {
+        "x" | "y" => axis_key(rest).map(|k| k.unit),
+        "z" => {
+            let leaf = rest.strip_prefix("limits.")?;
+            LIMIT_KEYS.iter().find(|k| k.path == leaf).map(|k| k.unit)
+        }
+        "interpolation" => INTERPOLATION_KEYS
+            .iter()
+            .find(|k| k.path == rest)
+            .map(|k| k.unit),
+        _ => None,
+    }
+}
+
 /// The reference of every key as Markdown: `docs/machine-keys.md` is this text.
 pub fn reference_markdown() -> String {
     fn rows<T>(out: &mut String, prefix: &str, keys: &[Key<T>]) {
@@ -820,6 +866,19 @@ mod tests {
             set_on_machine(&mut m, "x.drive.nope", 1.0),
             Err(SetError::Unknown)
         );
+    }
+
+    #[test]
+    fn every_machine_path_has_its_unit_and_the_causes_look_up_the_same() {
+        for p in machine_paths() {
+            assert!(unit_on_machine(&p).is_some(), "{p}");
+        }
+        assert_eq!(unit_on_machine("x.drive.backlash_um"), Some("µm"));
+        assert_eq!(unit_on_machine("z.limits.max_accel_m_per_s2"), Some("m/s²"));
+        assert_eq!(unit_on_machine("interpolation.cycle_ms"), Some("ms"));
+        assert_eq!(unit_on_machine("y.drive.gear_ratio"), Some(""));
+        assert_eq!(unit_on_machine("x.drive.nope"), None);
+        assert_eq!(axis_unit("position_loop.kv_m_per_min_per_mm"), "m/min/mm");
     }
 
     #[test]

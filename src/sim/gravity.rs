@@ -150,7 +150,7 @@ mod tests {
         let m = AxisModel::from_config(MachineConfig::default_preset().axis(AxisName::Z));
         let (mut x, mut mode) = at_rest(&m, 0.0);
         let h = 0.5e-3;
-        let mut sim = crate::sim::simulate::AxisSim::new(&m, h);
+        let mut sim = crate::sim::hybrid::AxisSim::new(&m, h);
         (0..(seconds / h) as usize)
             .map(|k| {
                 sim.step(&mut x, &mut mode, k as f64 * h, None)

@@ -3,12 +3,14 @@
 //! hybrid stick/slip friction, backlash, lateral shift, current and voltage limits.
 //!
 //! [`simulate`] is pure: model and commands in, trace out, no I/O and no shared state, so
-//! axes and sweeps run in parallel. [`linear`] gives the linearised loops (Bode, stability)
-//! and [`stickslip`] the paper's stick-slip criterion.
+//! axes and sweeps run in parallel; each of its sub-steps is [`hybrid`]'s, exact between mode
+//! switches. [`linear`] gives the linearised loops (Bode, stability) and [`stickslip`] the
+//! paper's stick-slip criterion.
 
 pub mod commands;
 pub mod discrete;
 pub(crate) mod gravity;
+pub mod hybrid;
 pub mod linear;
 pub mod model;
 pub mod simulate;

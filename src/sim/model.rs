@@ -16,12 +16,10 @@
 use nalgebra::{SMatrix, SVector};
 
 use crate::lookup::Lookup;
-use crate::machine::realise::{Realisation, realise};
-use crate::machine::{AxisConfig, Controller, ControllerOutput, Drive, DriveKind, Feedback};
-use crate::units::{
-    GRAVITY_M_PER_S2, h_from_mh, m_from_mm, m_from_um, m_per_s_from_mm_per_min,
-    per_s_from_kv_m_per_min_per_mm, s_from_ms,
-};
+use crate::machine::realise::Realisation;
+use crate::machine::{ControllerOutput, Feedback};
+
+mod config;
 
 /// Number of states.
 pub const N: usize = 13;
@@ -190,23 +188,6 @@ pub enum ControlModel {
     },
 }
 
-impl ControlModel {
-    fn from_config(c: &Controller) -> ControlModel {
-        match c {
-            Controller::Cascade => ControlModel::Cascade,
-            Controller::TransferFunction(tf) => ControlModel::Transfer {
-                realisation: realise(tf).expect("validated with the machine"),
-                output: tf.output,
-            },
-            Controller::StateFeedback(sf) => ControlModel::StateFeedback {
-                kx: sf.position_gain_a_per_mm * 1e3,
-                kz: sf.integral_gain_a_per_mm_s * 1e3,
-                kd: sf.velocity_gain_a_s_per_mm * 1e3,
-            },
-        }
-    }
-}
-
 /// An integrator behind a limited output y = … + g·z: its state, what it integrates and g.
 pub struct Integrator {
     /// Its index in the state.
@@ -306,127 +287,6 @@ impl AxisModel {
         let here = self.friction_map.at(x).max(-self.f_c);
         let sliding = (here + self.friction_speed.at(v.abs())).max(-self.f_c);
         (sliding, here)
-    }
-
-    /// Derives the SI model from an axis configuration (all conversions happen here).
-    pub fn from_config(c: &AxisConfig) -> AxisModel {
-        let d = &c.drive;
-        let linear_motor = d.kind == DriveKind::LinearMotor;
-        // A linear motor is its own table: a "motor radian" is a metre, its force constant
-        // the torque constant, and there is no screw, coupling or nut.
-        let (r, it) = if linear_motor {
-            (1.0, 1.0)
-        } else {
-            (m_from_mm(d.lead_mm) / std::f64::consts::TAU, d.gear_ratio)
-        };
-        let kt = c.motor.kt_nm_per_a;
-        let (jm, js, mt) = if linear_motor {
-            (0.0, 0.0, d.table_mass_kg)
-        } else {
-            (c.motor.jm_kg_m2, d.js_kg_m2, d.table_mass_kg)
-        };
-        let (k_theta, c_theta, k_m, c_m) = if linear_motor {
-            (0.0, 0.0, 0.0, 0.0)
-        } else {
-            springs(d, [jm, js, mt], r, it)
-        };
-        let f_c = c.friction.coulomb_coefficient * mt * GRAVITY_M_PER_S2;
-        let (kf, ka) = feedforward(c);
-        // Unused parts of the model are left at values that keep its matrices finite.
-        let velocity = c
-            .velocity_loop
-            .as_ref()
-            .filter(|_| c.controller.uses_velocity_loop());
-        let current = c.current_loop.as_ref().filter(|_| c.amplifier.is_none());
-        let i_max = match (velocity, &c.amplifier) {
-            (Some(v), _) => v.i_max_a,
-            (None, Some(amp)) => amp.i_max_a.unwrap_or(f64::INFINITY),
-            (None, None) => f64::INFINITY,
-        };
-        AxisModel {
-            kp: match c.controller {
-                Controller::Cascade => {
-                    per_s_from_kv_m_per_min_per_mm(c.position_loop.kv_m_per_min_per_mm) / (r * it)
-                }
-                _ => 0.0,
-            },
-            kf,
-            ka,
-            // A linear motor's position is read where it pushes: at the table.
-            feedback: if linear_motor {
-                Feedback::LinearScale
-            } else {
-                c.position_loop.feedback
-            },
-            control: ControlModel::from_config(&c.controller),
-            amplifier_tau: c
-                .amplifier
-                .as_ref()
-                .map(|amp| 1.0 / (std::f64::consts::TAU * amp.current_bandwidth_hz)),
-            ks: velocity.map_or(0.0, |v| v.ks_nm_s_per_rad / kt),
-            ts: velocity.map_or(1.0, |v| s_from_ms(v.ts_ms)),
-            i_max,
-            ki: current.map_or(0.0, |i| i.ki_v_per_a),
-            ti: current.map_or(1.0, |i| s_from_ms(i.ti_ms)),
-            tcf: current.map_or(1.0, |i| s_from_ms(i.tcf_ms)),
-            u_max: current.map_or(f64::INFINITY, |i| i.u_max_v),
-            ra: c.motor.ra_ohm.unwrap_or(0.0),
-            la: h_from_mh(c.motor.la_mh.unwrap_or(1.0)),
-            kt,
-            ke: c.motor.ke_v_s_per_rad.unwrap_or(0.0),
-            jm,
-            js,
-            k_theta,
-            c_theta,
-            k_m,
-            c_m,
-            r,
-            it,
-            mt,
-            linear_motor,
-            b_screw: if linear_motor {
-                0.0
-            } else {
-                d.screw_viscous_nm_s_per_rad
-            },
-            half_gap: 0.5 * m_from_um(d.backlash_um),
-            f_c,
-            // With a Stribeck excess the friction at rest is f_c + level: the break-away
-            // force cannot be lower than that (the Stribeck curve starts at static friction).
-            f_s: (c.friction.static_to_coulomb * f_c).max(f_c + c.friction.stribeck_level_n),
-            f_v: c.friction.viscous_n_s_per_m,
-            lateral: c.lateral_shift.as_ref().map(LateralShiftModel::from_config),
-            dead_time_s: s_from_ms(c.position_loop.dead_time_ms),
-            stribeck: (c.friction.stribeck_level_n > 0.0).then(|| {
-                (
-                    c.friction.stribeck_level_n,
-                    m_per_s_from_mm_per_min(c.friction.stribeck_velocity_mm_per_min),
-                )
-            }),
-            friction_map: Lookup::scaled(
-                &c.errors.friction_map_mm,
-                &c.errors.friction_map_n,
-                1e-3,
-                1.0,
-            ),
-            friction_speed: Lookup::scaled(
-                &c.errors.friction_speed_mm_per_min,
-                &c.errors.friction_speed_n,
-                m_per_s_from_mm_per_min(1.0),
-                1.0,
-            ),
-            measuring: MeasuringError::from_config(&c.errors, d.lead_mm),
-            resonance: (c.errors.resonance_hz > 0.0).then_some({
-                (
-                    std::f64::consts::TAU * c.errors.resonance_hz,
-                    c.errors.resonance_damping,
-                )
-            }),
-            load_n: c
-                .gravity
-                .as_ref()
-                .map_or(0.0, |g| mt * GRAVITY_M_PER_S2 - g.counterbalance_n),
-        }
     }
 
     /// Total inertia reflected to the motor, J_m + i_t² J_s + (r i_t)² M_T (kg·m²).
@@ -908,62 +768,6 @@ fn integrator_row(mode: ClampMode, limited: &Limited, z: &Integrator, a: &AugMat
         ClampMode::Linear => z.integrand,
         ClampMode::HeldHi | ClampMode::HeldLo => Row::zeros(),
         ClampMode::SlideHi | ClampMode::SlideLo => (limited.output * a) * (-1.0 / z.gain),
-    }
-}
-
-/// The torsional and axial springs and their damping, (K_θ, C_θ, K_M, C_M), from the
-/// drive and the inertias `[J_m, J_s, M_T]` at lead radius `r` and gear ratio `it`. Each
-/// damping comes from its spring's two sides' reduced inertia: C = 2ζ√(K·m_eq).
-fn springs(d: &Drive, [jm, js, mt]: [f64; 3], r: f64, it: f64) -> (f64, f64, f64, f64) {
-    let reduced = |a: f64, b: f64| a * b / (a + b);
-    let j_theta = reduced(jm / (it * it), js);
-    let m_axial = reduced((jm / (it * it) + js) / (r * r), mt);
-    (
-        d.k_theta_nm_per_rad,
-        2.0 * d.zeta_theta * (d.k_theta_nm_per_rad * j_theta).sqrt(),
-        d.k_m_n_per_m,
-        2.0 * d.zeta_m * (d.k_m_n_per_m * m_axial).sqrt(),
-    )
-}
-
-/// The velocity and acceleration feed-forward shares of the axis's controller.
-fn feedforward(c: &AxisConfig) -> (f64, f64) {
-    match &c.controller {
-        Controller::Cascade => (
-            c.position_loop.velocity_feedforward,
-            c.position_loop.accel_feedforward,
-        ),
-        Controller::TransferFunction(tf) => (tf.velocity_feedforward, tf.accel_feedforward),
-        Controller::StateFeedback(sf) => (sf.velocity_feedforward, sf.accel_feedforward),
-    }
-}
-
-impl MeasuringError {
-    /// From the machine file's error terms; a cyclic error without a period repeats with
-    /// the screw's lead.
-    fn from_config(e: &crate::machine::Errors, lead_mm: f64) -> MeasuringError {
-        MeasuringError {
-            scale: e.scale_error_ppm * 1e-6,
-            amplitude_m: m_from_um(e.cyclic_amplitude_um),
-            wavenumber_per_m: std::f64::consts::TAU
-                / m_from_mm(if e.cyclic_period_mm > 0.0 {
-                    e.cyclic_period_mm
-                } else {
-                    lead_mm
-                }),
-            phase_rad: e.cyclic_phase_deg.to_radians(),
-        }
-    }
-}
-
-impl LateralShiftModel {
-    fn from_config(l: &crate::machine::LateralShift) -> LateralShiftModel {
-        LateralShiftModel {
-            l: l.beam_length_m,
-            ei: l.bending_stiffness_n_m2,
-            load: l.holder_load_n,
-            a0: l.holder_at_zero_m,
-        }
     }
 }
 

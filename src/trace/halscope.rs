@@ -10,7 +10,8 @@
 //! Values are in the machine's own units (mm or inch, as its INI file says): state them in
 //! the mapping when they are not millimetres, `x=joint.0.pos-fb[in]`.
 
-use crate::trace::measured::MeasuredError;
+use crate::trace::columns::NamedColumns;
+use crate::trace::measured::{MeasuredError, Source};
 
 /// The text every halscope log starts with.
 const SIGNATURE: &str = "Sampling period is";
@@ -25,18 +26,9 @@ pub(crate) fn is_halscope_log(text: &str) -> bool {
         .starts_with(SIGNATURE)
 }
 
-/// A halscope log's channels as columns: `time` (s) first, then one per channel named as
-/// in the file; and each sample's line in the file, for messages.
-#[derive(Debug, Clone, PartialEq)]
-pub struct HalscopeColumns {
-    /// (name, values), time first.
-    pub columns: Vec<(String, Vec<f64>)>,
-    /// 1-based line of each sample.
-    pub rows: Vec<u64>,
-}
-
-/// Reads a halscope log; `file` names it in errors.
-pub(crate) fn halscope_columns(text: &str, file: &str) -> Result<HalscopeColumns, MeasuredError> {
+/// Reads a halscope log; `file` names it in errors. Its channels as columns: `time` (s)
+/// first, then one per channel named as in the file; each sample's line in the file.
+pub(crate) fn halscope_columns(text: &str, file: &str) -> Result<NamedColumns, MeasuredError> {
     let row_error = |row: u64, problem: String| MeasuredError::Row {
         file: file.into(),
         row,
@@ -103,7 +95,13 @@ pub(crate) fn halscope_columns(text: &str, file: &str) -> Result<HalscopeColumns
     let time: Vec<f64> = (0..rows.len()).map(|k| k as f64 * period_s).collect();
     let mut columns = vec![(TIME_COLUMN.to_string(), time)];
     columns.extend(names.into_iter().zip(values));
-    Ok(HalscopeColumns { columns, rows })
+    Ok(NamedColumns {
+        source: Source::Halscope {
+            channels: columns.len() - 1,
+        },
+        columns,
+        rows,
+    })
 }
 
 /// One sample's values from its `name value` pairs `tokens`, each channel in the first

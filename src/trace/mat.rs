@@ -18,8 +18,9 @@
 //!
 //! `-v7.3` (HDF5) files are refused with what to do instead.
 
+use crate::trace::columns::NamedColumns;
 use crate::trace::mat5::{self, Value};
-use crate::trace::measured::MeasuredError;
+use crate::trace::measured::{MeasuredError, Source};
 
 /// How deep structures may nest before the rest is ignored (a capture is two or three
 /// levels; a file deeper than this is not a trace).
@@ -31,11 +32,9 @@ pub(crate) fn is_mat_file(bytes: &[u8]) -> bool {
     bytes.starts_with(mat5::SIGNATURE)
 }
 
-/// The columns of a MAT file: (name, values), in the file's order.
-pub(crate) fn mat_columns(
-    bytes: &[u8],
-    file: &str,
-) -> Result<Vec<(String, Vec<f64>)>, MeasuredError> {
+/// The columns of a MAT file: (name, values), in the file's order; a sample's row is its
+/// index in the variable.
+pub(crate) fn mat_columns(bytes: &[u8], file: &str) -> Result<NamedColumns, MeasuredError> {
     let error = |problem: String| MeasuredError::Data {
         file: file.into(),
         problem,
@@ -62,7 +61,14 @@ pub(crate) fn mat_columns(
                 .into(),
         ));
     }
-    Ok(out)
+    let n = out.iter().map(|(_, v)| v.len()).max().unwrap_or(0);
+    Ok(NamedColumns {
+        source: Source::MatFile {
+            variables: out.len(),
+        },
+        rows: (1..=n as u64).collect(),
+        columns: out,
+    })
 }
 
 /// What a file holds: columns named by their place, and signals named by their own label

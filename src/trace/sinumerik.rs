@@ -22,7 +22,8 @@
 use std::collections::HashMap;
 
 use crate::trace::clock::{Sampled, on_one_clock};
-use crate::trace::measured::MeasuredError;
+use crate::trace::columns::NamedColumns;
+use crate::trace::measured::{MeasuredError, Source};
 
 /// The name given to the shared clock.
 pub const TIME_COLUMN: &str = "time [s]";
@@ -48,20 +49,10 @@ pub(crate) fn decode(bytes: &[u8]) -> String {
     }
 }
 
-/// A trace's signals as columns of equal length: the clock first, then one per signal that
-/// has samples; and each row's line in the file (of the `rec` it was taken at).
-#[derive(Debug, Clone, PartialEq)]
-pub struct SinumerikColumns {
-    /// (name, values), time first.
-    pub columns: Vec<(String, Vec<f64>)>,
-    /// 1-based line of each row's `rec`.
-    pub rows: Vec<u64>,
-    /// Signals listed without a single sample (named for the layout's description).
-    pub empty_signals: Vec<String>,
-}
-
-/// Reads a SINUMERIK Operate trace; `file` names it in errors.
-pub(crate) fn sinumerik_columns(text: &str, file: &str) -> Result<SinumerikColumns, MeasuredError> {
+/// Reads a SINUMERIK Operate trace; `file` names it in errors. Its signals as columns of
+/// equal length: the clock first, then one per signal that has samples; each row's line in
+/// the file (of the `rec` it was taken at).
+pub(crate) fn sinumerik_columns(text: &str, file: &str) -> Result<NamedColumns, MeasuredError> {
     let data_error = |problem: String| MeasuredError::Data {
         file: file.into(),
         problem,
@@ -87,9 +78,7 @@ pub(crate) fn sinumerik_columns(text: &str, file: &str) -> Result<SinumerikColum
         ));
     }
     read_records(&doc, frame, &mut signals, file)?;
-    let (sampled, empty): (Vec<Sampled>, Vec<Sampled>) =
-        signals.into_iter().partition(|s| !s.t.is_empty());
-    let empty_signals = empty.into_iter().map(|s| s.name).collect();
+    let sampled: Vec<Sampled> = signals.into_iter().filter(|s| !s.t.is_empty()).collect();
     if sampled.is_empty() {
         return Err(data_error(
             "the trace holds no samples (no rec with a value)".into(),
@@ -101,10 +90,12 @@ pub(crate) fn sinumerik_columns(text: &str, file: &str) -> Result<SinumerikColum
             "the signals' samples do not overlap in time: no instant has them all".into(),
         ));
     }
-    Ok(SinumerikColumns {
+    Ok(NamedColumns {
+        source: Source::Sinumerik {
+            signals: columns.len() - 1,
+        },
         columns,
         rows,
-        empty_signals,
     })
 }
 

@@ -15,7 +15,8 @@
 //! read on its own instants and all are put on the clock of the most densely sampled one.
 
 use crate::trace::clock::{Sampled, on_one_clock};
-use crate::trace::measured::MeasuredError;
+use crate::trace::columns::NamedColumns;
+use crate::trace::measured::{MeasuredError, Source};
 
 /// The name given to the shared clock.
 pub const TIME_COLUMN: &str = "time [s]";
@@ -34,16 +35,6 @@ pub(crate) fn is_twincat_export(text: &str) -> bool {
             .any(|l| l.trim_start().starts_with(SAMPLE_TIME_KEY))
 }
 
-/// An export's channels as columns of equal length: the clock (s) first, then one per
-/// channel named `name [unit]` where the export gives a unit; each row's 1-based line.
-#[derive(Debug, Clone, PartialEq)]
-pub struct TwincatColumns {
-    /// (name, values), time first.
-    pub columns: Vec<(String, Vec<f64>)>,
-    /// 1-based line of each row.
-    pub rows: Vec<u64>,
-}
-
 /// Where a channel's samples are: its time column and its value column.
 struct Channel {
     name: String,
@@ -51,8 +42,10 @@ struct Channel {
     value_col: usize,
 }
 
-/// Reads a TwinCAT Scope export; `file` names it in errors.
-pub(crate) fn twincat_columns(text: &str, file: &str) -> Result<TwincatColumns, MeasuredError> {
+/// Reads a TwinCAT Scope export; `file` names it in errors. Its channels as columns of
+/// equal length: the clock (s) first, then one per channel named `name [unit]` where the
+/// export gives a unit; each row's 1-based line.
+pub(crate) fn twincat_columns(text: &str, file: &str) -> Result<NamedColumns, MeasuredError> {
     let data_error = |problem: String| MeasuredError::Data {
         file: file.into(),
         problem,
@@ -72,7 +65,13 @@ pub(crate) fn twincat_columns(text: &str, file: &str) -> Result<TwincatColumns, 
             "the channels' samples do not overlap in time: no instant has them all".into(),
         ));
     }
-    Ok(TwincatColumns { columns, rows })
+    Ok(NamedColumns {
+        source: Source::Twincat {
+            channels: columns.len() - 1,
+        },
+        columns,
+        rows,
+    })
 }
 
 /// How an export is laid out: its delimiter, its channels, and where its samples start.

@@ -2,6 +2,7 @@
 //! words resolved against the position (and the frame), in the order of their meaning.
 
 use super::super::error::GcodeErrorKind;
+use super::frame::Framed;
 use super::words::{CENTRE_AC_IC, OPENING_ANGLE, Value};
 use super::{Failure, Rewritten, Translator, refuse};
 
@@ -12,6 +13,33 @@ pub(super) enum PathMode {
     ExactStop,
     /// `G64`, or `G641`/`G642` with their distance (mm or inch, as the program's unit).
     Continuous(Option<f64>),
+}
+
+/// What a block's path-mode codes did, for the code written after them.
+#[derive(Clone, Copy)]
+struct ModeCodes {
+    /// `G9`: exact stop in this block only.
+    exact_here: bool,
+    /// The path mode changed (`G64`, `G641`, `G642`, or a new rounding distance).
+    changed: bool,
+    /// `G60` wrote its own `G61`: the mode needs no restoring on top of it.
+    written: bool,
+    /// Where the block's path-mode code is written (a restoring one goes with the block's
+    /// first G code, or last).
+    offset: usize,
+}
+
+/// A word as RS274/NGC reads it (none for a word it is not to see): a dwell's `F` as `P`,
+/// `M17` as `M2`, an arc's radius scaled with the frame (`scale`, alike on X and Y).
+fn rs274_word(letter: char, v: f64, dwell: bool, scale: Option<f64>) -> Option<(char, f64)> {
+    Some(match (letter, dwell, scale) {
+        // `G4 F2`: two seconds' dwell; RS274 gives it as P.
+        ('F', true, _) => ('P', v),
+        ('D', _, _) => return None,
+        ('M', _, _) if v == 17.0 => ('M', 2.0),
+        ('R', _, Some(scale)) => ('R', v * scale),
+        (letter, _, _) => (letter, v),
+    })
 }
 
 /// A piece of the rewritten line, written out only when the line is rewritten.
@@ -43,33 +71,8 @@ impl Translator {
         let mut pieces: Vec<(usize, Piece)> = Vec::new();
         let dwell = self.emit_codes(&g_codes, &mut pieces, out);
         let mut words = words;
-        if let Some(call) = &mut self.call {
-            // `L123 P3`: P is how many times the subprogram runs.
-            if let Some(k) = words.iter().position(|w| w.1 == 'P') {
-                let (offset, _, value) = words.remove(k);
-                let n = match value {
-                    Value::Number(n) if n >= 1.0 && n.fract() == 0.0 && n <= 1e6 => n as u32,
-                    _ => {
-                        return Err((
-                            offset,
-                            GcodeErrorKind::Invalid(
-                                "P: the number of runs is a whole number from 1 up".into(),
-                            ),
-                        ));
-                    }
-                };
-                call.repeat = n;
-            }
-        }
-        if self.in_subprogram
-            && let Some(k) = words
-                .iter()
-                .position(|(_, l, v)| *l == 'M' && matches!(v, Value::Number(x) if *x == 17.0))
-        {
-            words.remove(k);
-            self.returned = true;
-            out.plain = false;
-        }
+        self.call_repeats(&mut words)?;
+        self.subprogram_return(&mut words, out);
         if let Some(change) = self.frame_change.take() {
             words = self.change_frame(change, words)?;
         }
@@ -80,24 +83,7 @@ impl Translator {
             out.plain = false;
             self.opening_angle(offset, value, &mut words)?;
         }
-        let framed = !self.frame.is_identity();
-        // Words RS274/NGC reads otherwise, or not at all: the line is rewritten.
-        let rewritten_word = |(_, l, v): &(usize, char, Value)| {
-            !matches!(v, Value::Number(_))
-                || *l == 'D'
-                || (*l == 'M' && matches!(v, Value::Number(x) if *x == 17.0))
-                || (framed && matches!(l, 'X' | 'Y' | 'Z' | 'I' | 'J' | 'R'))
-        };
-        // An increment that also travels a frame's change of offset is rewritten.
-        let offset_left = |(_, l, _): &(usize, char, Value)| {
-            "XYZ".find(*l).is_some_and(|a| {
-                matches!((self.incremental_base[a], self.position[a]), (Some(b), Some(p)) if b != p)
-            })
-        };
-        if dwell
-            || words.iter().any(rewritten_word)
-            || (!self.absolute && words.iter().any(offset_left))
-        {
+        if dwell || self.words_rewritten(&words) {
             out.plain = false;
         }
         self.emit_words(words, dwell, &mut pieces, out)?;
@@ -109,6 +95,61 @@ impl Translator {
             write_pieces(pieces, out);
         }
         Ok(())
+    }
+
+    /// `L123 P3`: P is how many times the block's subprogram runs (taken out of the words).
+    fn call_repeats(&mut self, words: &mut Vec<(usize, char, Value)>) -> Result<(), Failure> {
+        let Some(call) = &mut self.call else {
+            return Ok(());
+        };
+        let Some(k) = words.iter().position(|w| w.1 == 'P') else {
+            return Ok(());
+        };
+        let (offset, _, value) = words.remove(k);
+        call.repeat = match value {
+            Value::Number(n) if n >= 1.0 && n.fract() == 0.0 && n <= 1e6 => n as u32,
+            _ => {
+                return Err((
+                    offset,
+                    GcodeErrorKind::Invalid(
+                        "P: the number of runs is a whole number from 1 up".into(),
+                    ),
+                ));
+            }
+        };
+        Ok(())
+    }
+
+    /// `M17` in a subprogram: the return to its caller (taken out of the words).
+    fn subprogram_return(&mut self, words: &mut Vec<(usize, char, Value)>, out: &mut Rewritten) {
+        if self.in_subprogram
+            && let Some(k) = words
+                .iter()
+                .position(|(_, l, v)| *l == 'M' && matches!(v, Value::Number(x) if *x == 17.0))
+        {
+            words.remove(k);
+            self.returned = true;
+            out.plain = false;
+        }
+    }
+
+    /// Whether the block's words read otherwise in RS274/NGC, or not at all, so that the
+    /// line is rewritten: `AC`/`IC` values, `D`, `M17`, coordinates under a frame, and an
+    /// increment that also travels a frame's change of offset.
+    fn words_rewritten(&self, words: &[(usize, char, Value)]) -> bool {
+        let framed = !self.frame.is_identity();
+        let rewritten_word = |(_, l, v): &(usize, char, Value)| {
+            !matches!(v, Value::Number(_))
+                || *l == 'D'
+                || (*l == 'M' && matches!(v, Value::Number(x) if *x == 17.0))
+                || (framed && matches!(l, 'X' | 'Y' | 'Z' | 'I' | 'J' | 'R'))
+        };
+        let offset_left = |(_, l, _): &(usize, char, Value)| {
+            "XYZ".find(*l).is_some_and(|a| {
+                matches!((self.incremental_base[a], self.position[a]), (Some(b), Some(p)) if b != p)
+            })
+        };
+        words.iter().any(rewritten_word) || (!self.absolute && words.iter().any(offset_left))
     }
 
     /// Rotary axes (`A`, `B`, `C`): the model has none, and the XY path is the machine's. A
@@ -227,92 +268,114 @@ impl Translator {
         pieces: &mut Vec<(usize, Piece)>,
         out: &mut Rewritten,
     ) -> bool {
-        let (mut exact_here, mut mode_changed, mut dwell) = (false, false, false);
-        // A `G60` writes its own `G61`: the mode needs no restoring on top of it.
-        let mut mode_written = false;
-        // Where the block's path-mode code was written (a restoring one goes with the
-        // block's first G code, or last).
-        let mut mode_offset = g_codes.first().map_or(usize::MAX, |g| g.0);
+        let mut modes = ModeCodes {
+            exact_here: false,
+            changed: false,
+            written: false,
+            offset: g_codes.first().map_or(usize::MAX, |g| g.0),
+        };
+        let mut dwell = false;
         const REWRITTEN: [u32; 12] = [710, 71, 700, 70, 60, 9, 64, 641, 642, 500, 153, 4];
         if g_codes.iter().any(|(_, g)| REWRITTEN.contains(g)) {
             out.plain = false;
         }
         for &(offset, g) in g_codes {
-            let rs = match g {
-                710 | 71 => Some(Piece::Text("G21")),
-                700 | 70 => Some(Piece::Text("G20")),
-                60 => {
-                    self.path_mode = PathMode::ExactStop;
-                    self.rounding = None;
-                    mode_written = true;
-                    Some(Piece::Text("G61"))
-                }
-                9 | 64 | 641 | 642 => {
-                    match g {
-                        9 => exact_here = true,
-                        64 => {
-                            self.path_mode = PathMode::Continuous(None);
-                            self.rounding = None;
-                        }
-                        _ => self.rounding = Some(g == 641),
-                    }
-                    mode_changed |= g != 9;
-                    mode_offset = offset;
-                    None
-                }
-                500 => None,
-                153 => Some(Piece::Text("G53")),
-                4 => {
-                    dwell = true;
-                    Some(Piece::Text("G4"))
-                }
-                90 | 91 => {
-                    self.absolute = g == 90;
-                    Some(Piece::G(g))
-                }
-                g => Some(Piece::G(g)),
-            };
-            if let Some(rs) = rs {
+            dwell |= g == 4;
+            if let Some(rs) = self.code(offset, g, &mut modes) {
                 pieces.push((offset, rs));
             }
         }
-        // The rounding distance in force, should the block set one: `G641` rounds after a
-        // rapid by `ADISPOS`, after a feed move by `ADIS`; `G642` by the contour tolerance,
-        // after a rapid by `CTOLG0` where one is set (else by `CTOL`: the machine data's
-        // factor for G0 tolerances is taken as 1).
-        if let Some(is_641) = self.rounding {
-            let rapid = g_codes
-                .iter()
-                .rev()
-                .find(|g| g.1 <= 3)
-                .map(|g| g.1)
-                .or(self.motion)
-                == Some(0);
-            let distance = match (is_641, rapid) {
-                (true, true) => self.adispos,
-                (true, false) => self.adis,
-                (false, true) => self.ctol_g0.or(self.ctol),
-                (false, false) => self.ctol,
-            };
-            if matches!(self.path_mode, PathMode::Continuous(d) if d != distance) {
-                mode_changed = true;
-            }
-            self.path_mode = PathMode::Continuous(distance);
+        if self.rounding_distance(g_codes) {
+            modes.changed = true;
         }
-        if exact_here || mode_changed || self.restore_mode {
+        self.path_mode_code(modes, pieces, out);
+        dwell
+    }
+
+    /// One G code as RS274/NGC (none for a path-mode code written after the block's codes,
+    /// and for `G500`), its modes taken on.
+    fn code(&mut self, offset: usize, g: u32, modes: &mut ModeCodes) -> Option<Piece> {
+        match g {
+            710 | 71 => Some(Piece::Text("G21")),
+            700 | 70 => Some(Piece::Text("G20")),
+            60 => {
+                self.path_mode = PathMode::ExactStop;
+                self.rounding = None;
+                modes.written = true;
+                Some(Piece::Text("G61"))
+            }
+            9 | 64 | 641 | 642 => {
+                match g {
+                    9 => modes.exact_here = true,
+                    64 => {
+                        self.path_mode = PathMode::Continuous(None);
+                        self.rounding = None;
+                    }
+                    _ => self.rounding = Some(g == 641),
+                }
+                modes.changed |= g != 9;
+                modes.offset = offset;
+                None
+            }
+            500 => None,
+            153 => Some(Piece::Text("G53")),
+            4 => Some(Piece::Text("G4")),
+            90 | 91 => {
+                self.absolute = g == 90;
+                Some(Piece::G(g))
+            }
+            g => Some(Piece::G(g)),
+        }
+    }
+
+    /// The rounding distance in force, should the block set one: `G641` rounds after a
+    /// rapid by `ADISPOS`, after a feed move by `ADIS`; `G642` by the contour tolerance,
+    /// after a rapid by `CTOLG0` where one is set (else by `CTOL`: the machine data's
+    /// factor for G0 tolerances is taken as 1). Whether it changed the path mode.
+    fn rounding_distance(&mut self, g_codes: &[(usize, u32)]) -> bool {
+        let Some(is_641) = self.rounding else {
+            return false;
+        };
+        let rapid = g_codes
+            .iter()
+            .rev()
+            .find(|g| g.1 <= 3)
+            .map(|g| g.1)
+            .or(self.motion)
+            == Some(0);
+        let distance = match (is_641, rapid) {
+            (true, true) => self.adispos,
+            (true, false) => self.adis,
+            (false, true) => self.ctol_g0.or(self.ctol),
+            (false, false) => self.ctol,
+        };
+        let changed = matches!(self.path_mode, PathMode::Continuous(d) if d != distance);
+        self.path_mode = PathMode::Continuous(distance);
+        changed
+    }
+
+    /// The path-mode code the block needs: `G61` for a `G9` block, the mode it set, or the
+    /// mode restored after a `G9` block.
+    fn path_mode_code(
+        &mut self,
+        modes: ModeCodes,
+        pieces: &mut Vec<(usize, Piece)>,
+        out: &mut Rewritten,
+    ) {
+        if modes.exact_here || modes.changed || self.restore_mode {
             out.plain = false;
         }
-        if exact_here {
-            if !mode_written {
-                pieces.push((mode_offset, Piece::Text("G61")));
+        if modes.exact_here {
+            if !modes.written {
+                pieces.push((modes.offset, Piece::Text("G61")));
             }
             self.restore_mode = true;
-        } else if mode_written && !mode_changed {
+        } else if modes.written && !modes.changed {
             self.restore_mode = false;
-        } else if mode_changed || self.restore_mode {
+        } else if modes.changed || self.restore_mode {
             self.restore_mode = false;
             pieces.push((
-                mode_offset,
+                modes.offset,
                 match self.path_mode {
                     PathMode::ExactStop => Piece::Text("G61"),
                     PathMode::Continuous(None) => Piece::Text("G64"),
@@ -320,7 +383,6 @@ impl Translator {
                 },
             ));
         }
-        dwell
     }
 
     /// The block's words as RS274/NGC: coordinates resolved against the position and, under
@@ -333,18 +395,12 @@ impl Translator {
         pieces: &mut Vec<(usize, Piece)>,
         out: &Rewritten,
     ) -> Result<(), Failure> {
-        let framed = !self.frame.is_identity();
-        let mut framed_xy: Option<usize> = None;
-        let mut framed_z: Option<usize> = None;
-        let mut framed_ij: Option<(usize, [f64; 2])> = None;
+        let mut framed = (!self.frame.is_identity()).then(Framed::default);
         // Where the block starts: an arc centre given absolute is taken from there.
         let start = self.position;
-        // Under a frame in G91: the block's increments (workpiece coordinates).
-        let mut increment = [0.0f64; 3];
         for (offset, letter, value) in words {
-            let axis = "XYZ".find(letter);
             let mut v = self.coordinate(offset, letter, value, &start)?;
-            if let Some(a) = axis {
+            if let Some(a) = "XYZ".find(letter) {
                 let base = self.incremental_base[a].or(start[a]);
                 self.position[a] = if self.absolute {
                     Some(v)
@@ -352,14 +408,8 @@ impl Translator {
                     base.map(|p| p + v)
                 };
                 self.incremental_base[a] = self.position[a];
-                if framed {
-                    increment[a] = if self.absolute { 0.0 } else { v };
-                    let first = if a == 2 {
-                        &mut framed_z
-                    } else {
-                        &mut framed_xy
-                    };
-                    first.get_or_insert(offset);
+                if let Some(f) = &mut framed {
+                    f.axis(a, offset, if self.absolute { 0.0 } else { v });
                     continue;
                 }
                 // G91 without a frame: the increment, plus the offset a frame left behind.
@@ -369,56 +419,21 @@ impl Translator {
                     v += b - p;
                 }
             }
-            if framed && (letter == 'I' || letter == 'J') {
-                let slot = framed_ij.get_or_insert((offset, [0.0; 2]));
-                slot.1[usize::from(letter == 'J')] = v;
+            if let Some(f) = &mut framed
+                && (letter == 'I' || letter == 'J')
+            {
+                f.centre(offset, letter, v);
                 continue;
             }
-            let (letter, v) = match (letter, dwell) {
-                // `G4 F2`: two seconds' dwell; RS274 gives it as P.
-                ('F', true) => ('P', v),
-                ('D', _) => continue,
-                ('M', _) if v == 17.0 => ('M', 2.0),
-                // An arc's radius scaled with the frame (alike on X and Y, or refused).
-                ('R', _) if framed => ('R', v * self.frame.scale[0].abs()),
-                other => (other.0, v),
-            };
-            if !out.plain {
+            let scale = framed.is_some().then(|| self.frame.scale[0].abs());
+            if let Some((letter, v)) = rs274_word(letter, v, dwell, scale)
+                && !out.plain
+            {
                 pieces.push((offset, Piece::Word(letter, v)));
             }
         }
-        if let Some(offset) = framed_xy {
-            let [x, y] = if self.absolute {
-                let p = self.framed_target(offset)?;
-                [p[0], p[1]]
-            } else if let (Ok(to), [Some(x), Some(y), Some(z)]) =
-                (self.framed_target(offset), start)
-            {
-                // From where the block starts to its end, both in the program's coordinates.
-                let from = self.frame.place([x, y, z]);
-                [to[0] - from[0], to[1] - from[1]]
-            } else {
-                self.frame.turn([increment[0], increment[1]])
-            };
-            pieces.push((offset, Piece::Word('X', x)));
-            pieces.push((offset, Piece::Word('Y', y)));
-        }
-        if let Some(offset) = framed_z {
-            let z = if self.absolute {
-                self.framed_target(offset)?[2]
-            } else if let (Ok(to), [Some(x), Some(y), Some(z)]) =
-                (self.framed_target(offset), start)
-            {
-                to[2] - self.frame.place([x, y, z])[2]
-            } else {
-                increment[2]
-            };
-            pieces.push((offset, Piece::Word('Z', z)));
-        }
-        if let Some((offset, ij)) = framed_ij {
-            let [i, j] = self.frame.turn(ij);
-            pieces.push((offset, Piece::Word('I', i)));
-            pieces.push((offset, Piece::Word('J', j)));
+        if let Some(f) = framed {
+            self.framed_pieces(&f, start, pieces)?;
         }
         Ok(())
     }

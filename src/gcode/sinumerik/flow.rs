@@ -315,6 +315,28 @@ fn bad(problem: &str) -> GcodeErrorKind {
 /// Running a control statement: its conditions and values read from the variables as
 /// they stand when the program reaches it.
 impl Translator {
+    /// The value of `text` (a `FOR`'s bounds, a `CASE`'s expression and constants), for the
+    /// statement `what`.
+    fn statement_value(&self, text: &str, what: &str) -> Result<f64, GcodeErrorKind> {
+        evaluate(&text.replace(' ', ""), &self.vars)
+            .map(|(v, _)| v)
+            .map_err(|_| GcodeErrorKind::Invalid(format!("{what}: '{text}' has no value")))
+    }
+
+    /// Whether the condition `text` holds with the variables as they stand.
+    fn holds(&self, text: &str) -> Result<bool, GcodeErrorKind> {
+        condition(text, &self.vars).map_err(|e| match e {
+            ExprError::Unknown(_, name) if name.starts_with('$') => GcodeErrorKind::Unsupported {
+                word: name,
+                reason: "system variables are not supported yet",
+            },
+            ExprError::Unknown(_, name) => GcodeErrorKind::Invalid(format!(
+                "{name}: no R-parameter or DEF variable of that name has a value here"
+            )),
+            ExprError::Syntax(_, problem) => GcodeErrorKind::Expression(problem),
+        })
+    }
+
     /// Enters the `FOR` of line `k`: its variable set to `from`, its end `to` kept; whether
     /// the loop runs at all.
     fn for_entry(
@@ -324,12 +346,10 @@ impl Translator {
         from: &str,
         to: &str,
     ) -> Result<bool, GcodeErrorKind> {
-        let value = |t: &Translator, text: &str| {
-            evaluate(&text.replace(' ', ""), &t.vars)
-                .map(|(v, _)| v)
-                .map_err(|_| GcodeErrorKind::Invalid(format!("FOR: '{text}' has no value")))
-        };
-        let (a, b) = (value(self, from)?, value(self, to)?);
+        let (a, b) = (
+            self.statement_value(from, "FOR")?,
+            self.statement_value(to, "FOR")?,
+        );
         self.vars.insert(var.to_string(), a);
         self.for_end.insert((self.scope, k), b);
         Ok(a <= b)
@@ -352,6 +372,30 @@ impl Translator {
         if v <= end { start + 1 } else { k + 1 }
     }
 
+    /// The `CASE` of line `k`: the jump of the first constant equal to the expression's
+    /// value, else the default's, else the next line.
+    fn case(
+        &self,
+        k: usize,
+        expr: &str,
+        branches: &[(String, String, Way)],
+        default: Option<&(String, Way)>,
+        structure: &Structure,
+    ) -> Result<usize, GcodeErrorKind> {
+        let v = self.statement_value(expr, "CASE")?;
+        let mut chosen = None;
+        for (constant, target, way) in branches {
+            if self.statement_value(constant, "CASE")? == v {
+                chosen = Some((target, *way));
+                break;
+            }
+        }
+        match chosen.or(default.map(|(t, w)| (t, *w))) {
+            Some((target, way)) => jump(structure, k, target, way, false),
+            None => Ok(k + 1),
+        }
+    }
+
     /// Runs the control statement of line `k`; the line to run next.
     pub fn control(
         &mut self,
@@ -359,42 +403,16 @@ impl Translator {
         k: usize,
         structure: &Structure,
     ) -> Result<usize, GcodeErrorKind> {
-        let test = |t: &Translator, text: &str| {
-            condition(text, &t.vars).map_err(|e| match e {
-                ExprError::Unknown(_, name) if name.starts_with('$') => {
-                    GcodeErrorKind::Unsupported {
-                        word: name,
-                        reason: "system variables are not supported yet",
-                    }
-                }
-                ExprError::Unknown(_, name) => GcodeErrorKind::Invalid(format!(
-                    "{name}: no R-parameter or DEF variable of that name has a value here"
-                )),
-                ExprError::Syntax(_, problem) => GcodeErrorKind::Expression(problem),
-            })
-        };
-        let jump = |target: &str, way: Way, quiet: bool| match structure.label(target, k, way) {
-            Some(line) => Ok(line),
-            None if quiet => Ok(k + 1),
-            None => Err(GcodeErrorKind::Invalid(format!(
-                "{target}: no label or block number of that name {}",
-                match way {
-                    Way::Forward => "after this block (GOTOF)",
-                    Way::Backward => "before this block (GOTOB)",
-                    Way::Both => "in the program",
-                }
-            ))),
-        };
         let after = |line: Option<usize>| line.map_or(k + 1, |l| l + 1);
         Ok(match c {
-            Control::Goto { target, way, quiet } => jump(target, *way, *quiet)?,
+            Control::Goto { target, way, quiet } => jump(structure, k, target, *way, *quiet)?,
             Control::IfGoto {
                 condition,
                 target,
                 way,
             } => {
-                if test(self, condition)? {
-                    jump(target, *way, false)?
+                if self.holds(condition)? {
+                    jump(structure, k, target, *way, false)?
                 } else {
                     k + 1
                 }
@@ -404,7 +422,7 @@ impl Translator {
             Control::If { condition }
             | Control::While { condition }
             | Control::Until { condition } => {
-                if test(self, condition)? {
+                if self.holds(condition)? {
                     k + 1
                 } else {
                     after(structure.partner(k))
@@ -426,29 +444,32 @@ impl Translator {
                 expr,
                 branches,
                 default,
-            } => {
-                let value = |t: &Translator, text: &str| {
-                    evaluate(&text.replace(' ', ""), &t.vars)
-                        .map(|(v, _)| v)
-                        .map_err(|_| {
-                            GcodeErrorKind::Invalid(format!("CASE: '{text}' has no value"))
-                        })
-                };
-                let v = value(self, expr)?;
-                let mut chosen = None;
-                for (constant, target, way) in branches {
-                    if value(self, constant)? == v {
-                        chosen = Some((target, *way));
-                        break;
-                    }
-                }
-                match chosen.or(default.as_ref().map(|(t, w)| (t, *w))) {
-                    Some((target, way)) => jump(target, way, false)?,
-                    None => k + 1,
-                }
-            }
+            } => self.case(k, expr, branches, default.as_ref(), structure)?,
             Control::Repeat | Control::Loop | Control::EndIf => k + 1,
         })
+    }
+}
+
+/// The line a jump from line `k` to `target` lands on, searched `way`; a `quiet` jump
+/// (`GOTOC`) to no such label goes on with the next line.
+fn jump(
+    structure: &Structure,
+    k: usize,
+    target: &str,
+    way: Way,
+    quiet: bool,
+) -> Result<usize, GcodeErrorKind> {
+    match structure.label(target, k, way) {
+        Some(line) => Ok(line),
+        None if quiet => Ok(k + 1),
+        None => Err(GcodeErrorKind::Invalid(format!(
+            "{target}: no label or block number of that name {}",
+            match way {
+                Way::Forward => "after this block (GOTOF)",
+                Way::Backward => "before this block (GOTOB)",
+                Way::Both => "in the program",
+            }
+        ))),
     }
 }
 

@@ -78,6 +78,82 @@ impl Frame {
     fn round(&self) -> bool {
         (self.scale[0].abs() - self.scale[1].abs()).abs() <= 1e-12 * self.scale[0].abs()
     }
+
+    /// This frame after the instruction `change` with its arguments (`angle_deg`: the
+    /// rotation's, from `RPL=` or Z): a replacing instruction starts from no frame, an
+    /// additive one from this.
+    fn changed(self, change: FrameChange, args: &FrameArguments, angle_deg: f64) -> Frame {
+        let old = self;
+        let FrameArguments { values, given } = *args;
+        let per_axis = |f: &dyn Fn(usize) -> f64| [f(0), f(1), f(2)];
+        match change {
+            FrameChange::Trans => Frame {
+                shift: values,
+                ..Frame::default()
+            },
+            FrameChange::ATrans => {
+                let [x, y] = old.turn([values[0], values[1]]);
+                Frame {
+                    shift: [
+                        old.shift[0] + x,
+                        old.shift[1] + y,
+                        old.shift[2] + old.scale[2] * values[2],
+                    ],
+                    ..old
+                }
+            }
+            FrameChange::Rot => Frame {
+                angle_deg,
+                ..Frame::default()
+            },
+            FrameChange::ARot => Frame {
+                angle_deg: old.angle_deg + angle_deg,
+                ..old
+            },
+            FrameChange::Scale => Frame {
+                scale: per_axis(&|a| if given[a] { values[a] } else { 1.0 }),
+                ..Frame::default()
+            },
+            FrameChange::AScale => Frame {
+                scale: per_axis(&|a| old.scale[a] * if given[a] { values[a] } else { 1.0 }),
+                ..old
+            },
+            FrameChange::Mirror => Frame {
+                scale: per_axis(&|a| if given[a] { -1.0 } else { 1.0 }),
+                ..Frame::default()
+            },
+            FrameChange::AMirror => Frame {
+                scale: per_axis(&|a| old.scale[a] * if given[a] { -1.0 } else { 1.0 }),
+                ..old
+            },
+        }
+    }
+}
+
+/// A block's coordinates under a frame, written once all its words are read: where X or Y,
+/// Z, and the centre's I and J are first given, and the increments (workpiece coordinates,
+/// in `G91`).
+#[derive(Default)]
+pub(super) struct Framed {
+    xy: Option<usize>,
+    z: Option<usize>,
+    ij: Option<(usize, [f64; 2])>,
+    increment: [f64; 3],
+}
+
+impl Framed {
+    /// Axis `a`'s word at `offset`, with its increment (0 in `G90`).
+    pub(super) fn axis(&mut self, a: usize, offset: usize, increment: f64) {
+        self.increment[a] = increment;
+        let first = if a == 2 { &mut self.z } else { &mut self.xy };
+        first.get_or_insert(offset);
+    }
+
+    /// The centre's `I` or `J` at `offset`.
+    pub(super) fn centre(&mut self, offset: usize, letter: char, v: f64) {
+        let slot = self.ij.get_or_insert((offset, [0.0; 2]));
+        slot.1[usize::from(letter == 'J')] = v;
+    }
 }
 
 /// A frame instruction: `TRANS`, `ROT`, `SCALE` and `MIRROR` replace the programmable frame,
@@ -190,104 +266,123 @@ impl Translator {
         Ok(self.frame.place([x, y, z]))
     }
 
+    /// The block's coordinates under the frame, in the program's: X and Y both, Z, and the
+    /// centre's I and J turned; an increment from where the block starts (`start`) to its end.
+    pub(super) fn framed_pieces(
+        &self,
+        framed: &Framed,
+        start: [Option<f64>; 3],
+        pieces: &mut Vec<(usize, Piece)>,
+    ) -> Result<(), Failure> {
+        let increment = framed.increment;
+        if let Some(offset) = framed.xy {
+            let [x, y] = if self.absolute {
+                let p = self.framed_target(offset)?;
+                [p[0], p[1]]
+            } else if let (Ok(to), [Some(x), Some(y), Some(z)]) =
+                (self.framed_target(offset), start)
+            {
+                // From where the block starts to its end, both in the program's coordinates.
+                let from = self.frame.place([x, y, z]);
+                [to[0] - from[0], to[1] - from[1]]
+            } else {
+                self.frame.turn([increment[0], increment[1]])
+            };
+            pieces.push((offset, Piece::Word('X', x)));
+            pieces.push((offset, Piece::Word('Y', y)));
+        }
+        if let Some(offset) = framed.z {
+            let z = if self.absolute {
+                self.framed_target(offset)?[2]
+            } else if let (Ok(to), [Some(x), Some(y), Some(z)]) =
+                (self.framed_target(offset), start)
+            {
+                to[2] - self.frame.place([x, y, z])[2]
+            } else {
+                increment[2]
+            };
+            pieces.push((offset, Piece::Word('Z', z)));
+        }
+        if let Some((offset, ij)) = framed.ij {
+            let [i, j] = self.frame.turn(ij);
+            pieces.push((offset, Piece::Word('I', i)));
+            pieces.push((offset, Piece::Word('J', j)));
+        }
+        Ok(())
+    }
+
     /// Applies a frame instruction whose arguments are the block's X, Y, Z and `RPL=`;
     /// the block's other words.
     pub(super) fn change_frame(
         &mut self,
         change: FrameChange,
-        words: Vec<(usize, char, Value)>,
+        mut words: Vec<(usize, char, Value)>,
     ) -> Result<Vec<(usize, char, Value)>, Failure> {
-        let mut args = [0.0f64; 3];
-        let mut given = [false; 3];
-        let mut rest = Vec::new();
-        for (offset, letter, value) in words {
-            let axis = match letter {
-                'X' => 0,
-                'Y' => 1,
-                'Z' => 2,
-                _ => {
-                    rest.push((offset, letter, value));
-                    continue;
-                }
-            };
-            let Value::Number(v) = value else {
-                return Err(refuse(
-                    offset,
-                    "AC/IC",
-                    "a frame's values are plain numbers",
-                ));
-            };
-            if matches!(change, FrameChange::Rot | FrameChange::ARot) && axis != 2 {
-                return Err(refuse(
-                    offset,
-                    &format!("{letter}{v}"),
-                    "a rotation about X or Y leaves the XY plane",
-                ));
-            }
-            if matches!(change, FrameChange::Scale | FrameChange::AScale)
-                && !(v.is_finite() && v != 0.0)
-            {
-                return Err((
-                    offset,
-                    GcodeErrorKind::Invalid(format!("{letter}{v}: a scale factor is not 0")),
-                ));
-            }
-            args[axis] = v;
-            given[axis] = true;
-        }
-        let angle = self.rpl.take().unwrap_or(args[2]);
+        let args = frame_arguments(change, &words)?;
+        words.retain(|w| !matches!(w.1, 'X' | 'Y' | 'Z'));
+        let angle_deg = self.rpl.take().unwrap_or(args.values[2]);
         // The workpiece position where the axes are, kept across the change.
         let at = match self.position {
             [Some(x), Some(y), Some(z)] => Some(self.frame.place([x, y, z])),
             _ => None,
         };
-        let old = self.frame;
-        let per_axis = |f: &dyn Fn(usize) -> f64| [f(0), f(1), f(2)];
-        self.frame = match change {
-            FrameChange::Trans => Frame {
-                shift: args,
-                ..Frame::default()
-            },
-            FrameChange::ATrans => {
-                let [x, y] = old.turn([args[0], args[1]]);
-                Frame {
-                    shift: [
-                        old.shift[0] + x,
-                        old.shift[1] + y,
-                        old.shift[2] + old.scale[2] * args[2],
-                    ],
-                    ..old
-                }
-            }
-            FrameChange::Rot => Frame {
-                angle_deg: angle,
-                ..Frame::default()
-            },
-            FrameChange::ARot => Frame {
-                angle_deg: old.angle_deg + angle,
-                ..old
-            },
-            FrameChange::Scale => Frame {
-                scale: per_axis(&|a| if given[a] { args[a] } else { 1.0 }),
-                ..Frame::default()
-            },
-            FrameChange::AScale => Frame {
-                scale: per_axis(&|a| old.scale[a] * if given[a] { args[a] } else { 1.0 }),
-                ..old
-            },
-            FrameChange::Mirror => Frame {
-                scale: per_axis(&|a| if given[a] { -1.0 } else { 1.0 }),
-                ..Frame::default()
-            },
-            FrameChange::AMirror => Frame {
-                scale: per_axis(&|a| old.scale[a] * if given[a] { -1.0 } else { 1.0 }),
-                ..old
-            },
-        };
+        self.frame = self.frame.changed(change, &args, angle_deg);
         if let Some(p) = at {
             // The same point of the machine, in the new frame's workpiece coordinates.
             self.position = self.frame.back(p).map(Some);
         }
-        Ok(rest)
+        Ok(words)
     }
+}
+
+/// A frame instruction's X, Y, Z values, and which of them the block gives.
+#[derive(Clone, Copy)]
+struct FrameArguments {
+    values: [f64; 3],
+    given: [bool; 3],
+}
+
+/// The frame instruction's arguments among the block's words, its X, Y and Z: plain
+/// numbers, a rotation about Z only, no zero scale.
+fn frame_arguments(
+    change: FrameChange,
+    words: &[(usize, char, Value)],
+) -> Result<FrameArguments, Failure> {
+    let mut args = FrameArguments {
+        values: [0.0; 3],
+        given: [false; 3],
+    };
+    for &(offset, letter, value) in words {
+        let axis = match letter {
+            'X' => 0,
+            'Y' => 1,
+            'Z' => 2,
+            _ => continue,
+        };
+        let Value::Number(v) = value else {
+            return Err(refuse(
+                offset,
+                "AC/IC",
+                "a frame's values are plain numbers",
+            ));
+        };
+        if matches!(change, FrameChange::Rot | FrameChange::ARot) && axis != 2 {
+            return Err(refuse(
+                offset,
+                &format!("{letter}{v}"),
+                "a rotation about X or Y leaves the XY plane",
+            ));
+        }
+        if matches!(change, FrameChange::Scale | FrameChange::AScale)
+            && !(v.is_finite() && v != 0.0)
+        {
+            return Err((
+                offset,
+                GcodeErrorKind::Invalid(format!("{letter}{v}: a scale factor is not 0")),
+            ));
+        }
+        args.values[axis] = v;
+        args.given[axis] = true;
+    }
+    Ok(args)
 }

@@ -72,6 +72,58 @@ const INDEXED: &str = "arrays and axis-indexed settings (ACC[X], FA[X], …) are
 /// its own, `A` being a rotary axis).
 pub(super) const OPENING_ANGLE: char = '∡';
 
+/// The word from `name_start` to the next blank or `;`, searched from `from` (for messages).
+fn rest_of_word(upper: &str, name_start: usize, from: usize) -> &str {
+    let end = upper[from..]
+        .find(|c: char| c.is_whitespace() || c == ';')
+        .map_or(upper.len(), |e| from + e);
+    &upper[name_start..end]
+}
+
+/// A keyword refused whole (see [`refused_keyword`]), or a system variable, at
+/// `name_start`: the error, naming the word.
+fn refused_word(
+    upper: &str,
+    name: &str,
+    name_start: usize,
+    ident_end: usize,
+    i: usize,
+) -> Result<(), Failure> {
+    if let Some(reason) = refused_keyword(name).or(refused_keyword(&upper[name_start..ident_end])) {
+        return Err(refuse(
+            name_start,
+            rest_of_word(upper, name_start, i),
+            reason,
+        ));
+    }
+    if name.starts_with('$') {
+        return Err(refuse(
+            name_start,
+            rest_of_word(upper, name_start, i),
+            CONTROL_FLOW,
+        ));
+    }
+    Ok(())
+}
+
+/// A tool by its name, `T="MILL_10"`: a tool change, taken as instantaneous; the offset
+/// after it, or none for any other word.
+fn tool_by_name(
+    upper: &str,
+    name: &str,
+    name_start: usize,
+    i: usize,
+) -> Result<Option<usize>, Failure> {
+    if name != "T" || !upper[i..].starts_with("=\"") {
+        return Ok(None);
+    }
+    let close = upper[i + 2..].find('"').ok_or((
+        name_start,
+        GcodeErrorKind::Invalid("T=\" is not closed".into()),
+    ))?;
+    Ok(Some(i + 2 + close + 1))
+}
+
 /// `CYCLE800()` without arguments: the swivel plane deselected. No swivel is ever in force
 /// here (a `CYCLE800` with a plane is refused), so only a note is left. The offset after it.
 fn swivel_deselected(
@@ -134,13 +186,6 @@ impl Translator {
         words: &mut Vec<(usize, char, Value)>,
         out: &mut Rewritten,
     ) -> Result<usize, Failure> {
-        let b = upper.as_bytes();
-        let rest_word = |i: usize| {
-            let end = upper[i..]
-                .find(|c: char| c.is_whitespace() || c == ';')
-                .map_or(upper.len(), |e| i + e);
-            &upper[name_start..end]
-        };
         // The whole identifier, digits included (`POCKET3`, `CYCLE832`).
         let ident_end = upper[name_start..]
             .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
@@ -148,8 +193,12 @@ impl Translator {
         if &upper[name_start..ident_end] == "CYCLE832" {
             return self.cycle832(upper, name_start, ident_end, g_codes, out);
         }
-        if b.get(ident_end) == Some(&b'[') {
-            return Err(refuse(name_start, rest_word(ident_end), INDEXED));
+        if upper.as_bytes().get(ident_end) == Some(&b'[') {
+            return Err(refuse(
+                name_start,
+                rest_of_word(upper, name_start, ident_end),
+                INDEXED,
+            ));
         }
         if &upper[name_start..ident_end] == "CYCLE800" {
             return swivel_deselected(upper, name_start, ident_end, out);
@@ -162,21 +211,9 @@ impl Translator {
             }
             _ => name,
         };
-        if let Some(reason) =
-            refused_keyword(name).or(refused_keyword(&upper[name_start..ident_end]))
-        {
-            return Err(refuse(name_start, rest_word(i), reason));
-        }
-        if name.starts_with('$') {
-            return Err(refuse(name_start, rest_word(i), CONTROL_FLOW));
-        }
-        // A tool by its name, `T="MILL_10"`: a tool change, taken as instantaneous.
-        if name == "T" && upper[i..].starts_with("=\"") {
-            let close = upper[i + 2..].find('"').ok_or((
-                name_start,
-                GcodeErrorKind::Invalid("T=\" is not closed".into()),
-            ))?;
-            return Ok(i + 2 + close + 1);
+        refused_word(upper, name, name_start, ident_end, i)?;
+        if let Some(end) = tool_by_name(upper, name, name_start, i)? {
+            return Ok(end);
         }
         if let Some(end) = self.assignment(upper, name, name_start, i, out)? {
             return Ok(end);
@@ -184,62 +221,86 @@ impl Translator {
         if let Some(end) = self.keyword(upper, name, name_start, i, words, out)? {
             return Ok(end);
         }
-        // An assignment: `X=…`, `CR=…`, `ADIS=…`.
-        let value_at = after_equals(b, i);
-        let assigned = value_at.is_some();
-        if let Some(at) = value_at {
-            i = at;
-        }
-        // A single letter followed by digits directly: `X10`, `G710`, `R1` …
-        if name.len() == 1 || assigned {
-            let letter = name.chars().next().unwrap_or('?');
-            if name.len() == 1 && letter == 'L' && !assigned {
-                return self.numbered_call(upper, name_start, i, out);
-            }
-            let (value, n) = self.value(upper, i, name_start, assigned)?;
-            i += n;
-            match (name, value) {
-                ("G", Value::Number(v)) => g_codes.push((name_start, v.round() as u32)),
-                ("CR", v) => words.push((name_start, 'R', v)),
-                // The opening angle, resolved into a radius or an end point once the
-                // block's other words are known.
-                ("AR", v) => words.push((name_start, OPENING_ANGLE, v)),
-                // A helix's further full turns; RS274/NGC counts the turns themselves.
-                ("TURN", Value::Number(n)) if n >= 0.0 && n.fract() == 0.0 && n < 10_000.0 => {
-                    words.push((name_start, 'P', Value::Number(n + 1.0)))
-                }
-                ("TURN", _) => {
-                    return Err((
-                        name_start,
-                        GcodeErrorKind::Invalid(
-                            "TURN: the number of full turns is a whole number from 0".into(),
-                        ),
-                    ));
-                }
-                ("ADIS", Value::Number(v)) => self.adis = Some(v),
-                ("ADISPOS", Value::Number(v)) => self.adispos = Some(v),
-                ("CTOL", Value::Number(v)) => self.ctol = Some(v),
-                ("CTOLG0", Value::Number(v)) => self.ctol_g0 = Some(v),
-                // Tolerances of the tool's orientation: no rotary axes move it here.
-                ("OTOL" | "OTOLG0", Value::Number(_)) => out.warnings.push(format!(
-                    "{name}: an orientation tolerance, with no orientation axes to apply to"
-                )),
-                ("RPL", Value::Number(v)) => self.rpl = Some(v),
-                ("SPOS" | "SPOSA", _) => {}
-                (n, v) if n.len() == 1 => words.push((name_start, letter, v)),
-                _ => {
-                    return Err(refuse(
-                        name_start,
-                        rest_word(name_start + name.len()),
-                        "unknown SINUMERIK address",
-                    ));
-                }
-            }
-            return Ok(i);
+        // An assignment: `X=…`, `CR=…`, `ADIS=…`; or a single letter followed by digits
+        // directly: `X10`, `G710`, `R1` …
+        let value_at = after_equals(upper.as_bytes(), i);
+        if name.len() == 1 || value_at.is_some() {
+            let at = value_at.unwrap_or(i);
+            return self.address(
+                upper,
+                name,
+                name_start,
+                at,
+                value_at.is_some(),
+                g_codes,
+                words,
+                out,
+            );
         }
         // A word of several letters that is none of the above: a subprogram called by its
         // name (the runner says so if there is none of that name).
         self.named_call(upper, name, name_start, i, out)
+    }
+
+    /// The address `name` at `name_start` with its value at `i` (after the `=` when
+    /// `assigned`): a G code, a coordinate or another one-letter word, an arc's radius or
+    /// opening angle, a rounding distance or tolerance; or `L123`, a call. The offset after
+    /// it.
+    #[allow(clippy::too_many_arguments)]
+    fn address(
+        &mut self,
+        upper: &str,
+        name: &str,
+        name_start: usize,
+        i: usize,
+        assigned: bool,
+        g_codes: &mut Vec<(usize, u32)>,
+        words: &mut Vec<(usize, char, Value)>,
+        out: &mut Rewritten,
+    ) -> Result<usize, Failure> {
+        let letter = name.chars().next().unwrap_or('?');
+        if name.len() == 1 && letter == 'L' && !assigned {
+            return self.numbered_call(upper, name_start, i, out);
+        }
+        let (value, n) = self.value(upper, i, name_start, assigned)?;
+        match (name, value) {
+            ("G", Value::Number(v)) => g_codes.push((name_start, v.round() as u32)),
+            ("CR", v) => words.push((name_start, 'R', v)),
+            // The opening angle, resolved into a radius or an end point once the
+            // block's other words are known.
+            ("AR", v) => words.push((name_start, OPENING_ANGLE, v)),
+            // A helix's further full turns; RS274/NGC counts the turns themselves.
+            ("TURN", Value::Number(n)) if n >= 0.0 && n.fract() == 0.0 && n < 10_000.0 => {
+                words.push((name_start, 'P', Value::Number(n + 1.0)))
+            }
+            ("TURN", _) => {
+                return Err((
+                    name_start,
+                    GcodeErrorKind::Invalid(
+                        "TURN: the number of full turns is a whole number from 0".into(),
+                    ),
+                ));
+            }
+            ("ADIS", Value::Number(v)) => self.adis = Some(v),
+            ("ADISPOS", Value::Number(v)) => self.adispos = Some(v),
+            ("CTOL", Value::Number(v)) => self.ctol = Some(v),
+            ("CTOLG0", Value::Number(v)) => self.ctol_g0 = Some(v),
+            // Tolerances of the tool's orientation: no rotary axes move it here.
+            ("OTOL" | "OTOLG0", Value::Number(_)) => out.warnings.push(format!(
+                "{name}: an orientation tolerance, with no orientation axes to apply to"
+            )),
+            ("RPL", Value::Number(v)) => self.rpl = Some(v),
+            ("SPOS" | "SPOSA", _) => {}
+            (n, v) if n.len() == 1 => words.push((name_start, letter, v)),
+            _ => {
+                return Err(refuse(
+                    name_start,
+                    rest_of_word(upper, name_start, name_start + name.len()),
+                    "unknown SINUMERIK address",
+                ));
+            }
+        }
+        Ok(i + n)
     }
 
     /// `CYCLE832(tolerance, machining type, …)` at `name_start` (`i` after the name): the
