@@ -134,14 +134,7 @@ pub(crate) fn execute_in_chunks<E: From<SimError>>(
         .map(AxisModel::from_config)
         .collect();
     let dt = plan.config.cycle_s;
-    let start = plan.segments.first().map_or([0.0; 3], |s| s.start_m);
-    let mut runs = models
-        .iter()
-        .enumerate()
-        .map(|(a, model)| {
-            AxisRun::new(model, start[a], dt, &config.sim).map_err(|e| e.on_axis(LETTERS[a], None))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
+    let mut runs = axis_runs(&models, &plan, config)?;
     let mut buffer = Buffer::new(dt);
     let n = plan.segments.len();
     let window_m = plan.config.in_position.map(|ip| ip.window_m);
@@ -197,6 +190,23 @@ pub(crate) fn execute_in_chunks<E: From<SimError>>(
     }
     buffer.hand_on(&mut runs, &plan, sink)?;
     Ok(plan)
+}
+
+/// Each simulated axis at rest at the program's start.
+fn axis_runs<'a>(
+    models: &'a [AxisModel],
+    plan: &Plan,
+    config: &ExecConfig,
+) -> Result<Vec<AxisRun<'a>>, SimError> {
+    let start = plan.segments.first().map_or([0.0; 3], |s| s.start_m);
+    models
+        .iter()
+        .enumerate()
+        .map(|(a, model)| {
+            AxisRun::new(model, start[a], plan.config.cycle_s, &config.sim)
+                .map_err(|e| e.on_axis(LETTERS[a], None))
+        })
+        .collect()
 }
 
 /// The simulated axes' letters, in the order of the runs.

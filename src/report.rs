@@ -325,12 +325,16 @@ impl CheckReport {
 
 /// A run written as CSV chunk by chunk as it is simulated, one row every `every` samples:
 /// time, line, commanded and actual X/Y (mm), following errors and contour error (µm; empty
-/// while not cutting); where Z is simulated, then commanded and actual Z, its following error
-/// and the contour error's parts in the block's plane and across it.
+/// while not cutting); where Z is simulated and some block is measured in space, then
+/// commanded and actual Z, its following error and the contour error's parts in the block's
+/// plane and across it.
 #[derive(Debug, Clone)]
 pub struct TraceCsv {
     every: usize,
     started: bool,
+    /// Whether the rows give Z: where it is simulated and some block is measured in space
+    /// (a 2.5-D program's trace is the same with Z simulated or carried).
+    with_z: bool,
     /// The program's subprogram files, whose lines the `line` column names by file.
     sources: Vec<SourceFile>,
 }
@@ -349,6 +353,7 @@ impl TraceCsv {
         TraceCsv {
             every: every.max(1),
             started: false,
+            with_z: false,
             sources: Vec::new(),
         }
     }
@@ -373,7 +378,9 @@ impl TraceCsv {
                 "fe_y_um",
                 "contour_um",
             ];
-            if chunk.z.is_some() {
+            self.with_z =
+                chunk.z.is_some() && chunk.plan.segments.iter().any(|s| s.is_contour_in_space());
+            if self.with_z {
                 header.extend(["z_ref_mm", "z_mm", "fe_z_um", "in_plane_um", "across_um"]);
             }
             out.write_record(header)?;
@@ -404,7 +411,7 @@ impl TraceCsv {
                 format!("{:.4}", um_from_m(chunk.y.following_error_m(i))),
                 um_or_empty(points[i].error_m),
             ];
-            if let Some(z) = &chunk.z {
+            if let Some(z) = chunk.z.as_ref().filter(|_| self.with_z) {
                 row.extend([
                     format!("{:.6}", mm_from_m(c.z.pos_m[i])),
                     format!("{:.6}", mm_from_m(z.pos_m[i])),
@@ -462,26 +469,7 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
         "contour   max {:.2} µm{at}, RMS {:.2} µm",
         r.contour_error_um.max, r.contour_error_um.rms
     );
-    match (
-        r.contour_error_um.max_in_plane,
-        r.contour_error_um.max_across,
-    ) {
-        (Some(in_plane), Some(across)) => {
-            let _ = writeln!(
-                s,
-                "          (3-D distance to the path where Z moves along it, XY elsewhere; largest \
-                 part in the block's plane {in_plane:.2} µm, across it {across:.2} µm; signed + \
-                 to the left of travel in the plane)"
-            );
-        }
-        _ => {
-            let _ = writeln!(
-                s,
-                "          (XY feed moves only; signed + to the left of the direction of travel: \
-                 inside a ccw circle, outside a cw one)"
-            );
-        }
-    }
+    let _ = writeln!(s, "{}", contour_note(r));
     let p = &r.positioning_error_um;
     if let (Some(line), Some(t)) = (p.line, p.t_s)
         && p.max >= 0.005
@@ -495,25 +483,7 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
             in_file(p.file.as_deref(), line)
         );
     }
-    let fe = &r.following_error_um;
-    match &fe.z {
-        None => {
-            let _ = writeln!(
-                s,
-                "following max while cutting: X {:.1} µm, Y {:.1} µm (with rapids: X {:.1} µm, \
-                 Y {:.1} µm)",
-                fe.x.max_cutting, fe.y.max_cutting, fe.x.max, fe.y.max
-            );
-        }
-        Some(z) => {
-            let _ = writeln!(
-                s,
-                "following max while cutting: X {:.1} µm, Y {:.1} µm, Z {:.1} µm (with rapids: \
-                 X {:.1} µm, Y {:.1} µm, Z {:.1} µm)",
-                fe.x.max_cutting, fe.y.max_cutting, z.max_cutting, fe.x.max, fe.y.max, z.max
-            );
-        }
-    }
+    let _ = writeln!(s, "{}", following_line(&r.following_error_um));
     if let (Some(t), Some(ok)) = (r.tolerance_um, r.within_tolerance) {
         let verdict = if ok { "within" } else { "EXCEEDS" };
         let _ = writeln!(s, "tolerance {t} µm: the predicted maximum {verdict} it");
@@ -526,6 +496,46 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
         s.push_str(&hotspot_table(r, max_hotspots));
     }
     s
+}
+
+/// The line under the contour figure: how it was measured, and its parts where some blocks
+/// were measured in space.
+fn contour_note(r: &CheckReport) -> String {
+    match (
+        r.contour_error_um.max_in_plane,
+        r.contour_error_um.max_across,
+    ) {
+        (Some(in_plane), Some(across)) => {
+            format!(
+                "          (3-D distance to the path on blocks that move Z or lie in ZX or YZ, XY \
+                 elsewhere; largest part in the block's plane {in_plane:.2} µm, across it {across:.2} µm; signed + \
+                 to the left of travel in the plane)"
+            )
+        }
+        _ => "          (XY feed moves only; signed + to the left of the direction of travel: \
+              inside a ccw circle, outside a cw one)"
+            .to_string(),
+    }
+}
+
+/// The simulated axes' largest following errors, while cutting and with the rapids.
+fn following_line(fe: &FollowingInfo) -> String {
+    match &fe.z {
+        None => {
+            format!(
+                "following max while cutting: X {:.1} µm, Y {:.1} µm (with rapids: X {:.1} µm, \
+                 Y {:.1} µm)",
+                fe.x.max_cutting, fe.y.max_cutting, fe.x.max, fe.y.max
+            )
+        }
+        Some(z) => {
+            format!(
+                "following max while cutting: X {:.1} µm, Y {:.1} µm, Z {:.1} µm (with rapids: \
+                 X {:.1} µm, Y {:.1} µm, Z {:.1} µm)",
+                fe.x.max_cutting, fe.y.max_cutting, z.max_cutting, fe.x.max, fe.y.max, z.max
+            )
+        }
+    }
 }
 
 /// "line 16", or "L1.SPF line 7" for a line of a subprogram's file.
