@@ -98,7 +98,10 @@ pub use machine::{AxisName, ConfigError, MachineConfig, PRESETS};
 pub use plan::ProfileKind;
 pub use report::CheckReport;
 pub use sim::{AxisModel, MeasuredAt, SimConfig, SimError, simulate};
-pub use sweep::{Dimension, PointResult, SweepInputError, SweepPoint, rank as rank_sweep};
+pub use sweep::{
+    Dimension, PointResult, SweepInputError, SweepPoint, Thresholds as SweepThresholds,
+    rank as rank_sweep,
+};
 pub use sweep::{resolve_key, run as run_sweep};
 pub use trace::format::ColumnMap;
 pub use trace::measured::{

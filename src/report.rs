@@ -257,7 +257,7 @@ impl HotspotInfo {
                 HotspotInfo {
                     rank: i + 1,
                     hotspot: Hotspot { line, ..h.clone() },
-                    label: h.cause.label(),
+                    label: h.label(),
                     file,
                     block_number: program.block_number(h.line),
                 }

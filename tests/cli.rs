@@ -48,8 +48,14 @@ fn check_writes_a_report_a_trace_and_plots_that_parse_back() {
     assert_eq!(report["schema"], "contourcheck.check/1");
     let max = report["contour_error_um"]["max"].as_f64().unwrap();
     assert!(max > 0.0 && max < 1000.0);
-    assert!(report["hotspots"].as_array().unwrap().len() >= 4);
+    // The radius loss all round each circle: one row per circle, with the stretch it covers.
+    let hotspots = report["hotspots"].as_array().unwrap();
+    assert_eq!(hotspots.len(), 2, "{hotspots:#?}");
     assert_eq!(report["hotspots"][0]["rank"], 1);
+    for h in hotspots {
+        assert_eq!(h["cause"]["kind"], "steady_lag");
+        assert!(h["extent"]["places"].as_u64().unwrap() >= 3, "{h}");
+    }
     let mut reader = csv::Reader::from_path(&csv_path).unwrap();
     assert_eq!(reader.headers().unwrap().get(8), Some("contour_um"));
     let rows = reader.records().count();
@@ -59,6 +65,19 @@ fn check_writes_a_report_a_trace_and_plots_that_parse_back() {
         (rows as f64 - (cycle + 0.3) / 0.02).abs() < 3.0,
         "{rows} rows for {cycle} s"
     );
+    // Every plot says what it was made of: machine, program, feed, sampling, date, tool.
+    for name in ["toolpath.svg", "contour-along-path.svg", "circle-1.svg"] {
+        let svg = std::fs::read_to_string(plots.join(name)).unwrap();
+        for part in [
+            "machine hvmc",
+            "program circle-test.nc",
+            "F 500–1000 mm/min",
+            "IPO cycle 2 ms",
+            concat!("contourcheck ", env!("CARGO_PKG_VERSION")),
+        ] {
+            assert!(svg.contains(part), "{name} lacks {part}");
+        }
+    }
     for name in [
         "toolpath.png",
         "toolpath.svg",
@@ -815,7 +834,7 @@ fn identify_writes_a_machine_file_check_takes_and_a_record_without_commands_is_r
     assert!(!dir.path().join("never.toml").exists());
 }
 
-/// The README's example of a controller that is not its design: the documented commands,
+/// docs/identify.md's example of a controller that is not its design: the documented commands,
 /// on the documented files, find the stand-in's gain, corners, mass and friction, and the
 /// identified machine predicts the held-out halves to the record's noise.
 #[test]
@@ -930,4 +949,163 @@ fn a_subprogram_files_lines_are_named_by_file_in_the_report_and_the_trace() {
     for want in ["2", "3", "SQUARE.SPF:2", "SQUARE.SPF:5"] {
         assert!(lines.contains(want), "{want} not among {lines:?}");
     }
+}
+
+/// The sweep a user compares gains with, the README's, on its small mill: each row says what dominates its error and whether
+/// it is flagged; the margins of every row follow, by rank; the CSV and JSON carry each
+/// loop's margins per axis, and the plot its conditions.
+#[test]
+fn a_sweep_shows_each_settings_margins_and_flags_the_ringing_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/examples/small-mill.toml");
+    let (csv_path, json, plots) = (
+        dir.path().join("s.csv"),
+        dir.path().join("s.json"),
+        dir.path().join("plots"),
+    );
+    let o = run(&[
+        "sweep",
+        sample("square.nc").to_str().unwrap(),
+        "--machine",
+        m.to_str().unwrap(),
+        "--axis",
+        "xy",
+        "--kv",
+        "6,10,20,40",
+        "--ks",
+        "4,16",
+        "--csv",
+        csv_path.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+        "--plot",
+        plots.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    assert!(
+        out.contains("loop damping  dominated by") && out.contains("stability margins"),
+        "{out}"
+    );
+    // The ranking comes first, the margins' table after it.
+    let stiff = out
+        .lines()
+        .find(|l| l.contains("40.0000     4.0000"))
+        .unwrap_or_else(|| panic!("no row in {out}"));
+    assert!(
+        stiff.contains("ringing") && stiff.contains("flagged: position PM"),
+        "{stiff}"
+    );
+    let best = out.lines().find(|l| l.contains("◀ best")).unwrap();
+    assert!(
+        !best.contains("40.0000     4.0000") && !best.contains("flagged"),
+        "{best}"
+    );
+    let mut reader = csv::Reader::from_path(&csv_path).unwrap();
+    let headers = reader.headers().unwrap().clone();
+    for column in [
+        "loop_damping",
+        "dominated_by",
+        "flags",
+        "x_position_phase_margin_deg",
+        "y_velocity_gain_margin_db",
+        "x_current_peak_db",
+    ] {
+        assert!(
+            headers.iter().any(|h| h == column),
+            "{column} in {headers:?}"
+        );
+    }
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(doc["schema"], "contourcheck.sweep/2");
+    assert_eq!(doc["thresholds"]["min_phase_margin_deg"], 30.0);
+    let first = &doc["points"][0]["result"];
+    assert_eq!(first["status"], "ok");
+    assert!(
+        first["health"]["margins"][0]["loops"][2]["phase_margin_deg"]
+            .as_f64()
+            .unwrap()
+            >= 30.0
+    );
+    let svg = std::fs::read_to_string(plots.join("sweep.svg")).unwrap();
+    assert!(svg.contains("machine small") && svg.contains("program square.nc"));
+    // Stricter thresholds are the user's: at 60° the crowned setting is flagged too.
+    let o = run(&[
+        "sweep",
+        sample("square.nc").to_str().unwrap(),
+        "--machine",
+        m.to_str().unwrap(),
+        "--axis",
+        "xy",
+        "--kv",
+        "20",
+        "--ks",
+        "4",
+        "--min-phase-margin",
+        "60",
+    ]);
+    let out = text(&o.stdout);
+    assert!(
+        out.contains("flagged: position PM") && !out.contains("◀ best"),
+        "{out}"
+    );
+}
+
+/// A file that names no base runs on the default preset's keys: it says so, and is named
+/// after itself in the output, not after the preset.
+#[test]
+fn a_machine_file_without_a_base_is_warned_about_and_named_after_itself() {
+    let dir = tempfile::tempdir().unwrap();
+    let m = dir.path().join("my-table.toml");
+    std::fs::write(&m, "[x.drive]\nbacklash_um = 3.0\n").unwrap();
+    let plots = dir.path().join("plots");
+    let o = run(&[
+        "bode",
+        "--machine",
+        m.to_str().unwrap(),
+        "--plot",
+        plots.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let err = text(&o.stderr);
+    assert!(
+        err.contains("my-table.toml gives no `base`") && err.contains("`hvmc`"),
+        "{err}"
+    );
+    let out = text(&o.stdout);
+    assert!(out.starts_with("X axis of my-table "), "{out}");
+    // The least damped closed-loop mode is the screw's torsion, damped by its material
+    // whatever the gains: the loops' own least damped mode is named beside it, better damped.
+    let figures = |prefix: &str| -> (String, f64) {
+        let line = out
+            .lines()
+            .find(|l| l.starts_with(prefix))
+            .unwrap_or_else(|| panic!("{out}"));
+        let rest = &line[prefix.len()..];
+        let (hz, rest) = rest.split_once(" Hz, damping ratio ").unwrap();
+        let zeta = rest.split_whitespace().next().unwrap().parse().unwrap();
+        (hz.trim().to_string(), zeta)
+    };
+    let (overall_hz, overall_zeta) = figures("least damped closed-loop mode:");
+    let (_, own_zeta) = figures("least damped of the loops' own modes:");
+    assert!(own_zeta > overall_zeta, "{out}");
+    assert!(
+        out.contains(&format!("(the {overall_hz} Hz mode is the mechanics'")),
+        "{out}"
+    );
+    // The Bode plot marks each loop's margins and carries the machine's name.
+    let svg = std::fs::read_to_string(plots.join("bode-x.svg")).unwrap();
+    for part in ["PM 89.9°", "GM 5.0 dB", "peak +2.2 dB", "machine my-table"] {
+        assert!(svg.contains(part), "bode-x.svg lacks {part}");
+    }
+    // And a preset misspelt as a base meets the one meant.
+    std::fs::write(&m, "base = \"hmvc\"\n").unwrap();
+    let o = run(&["bode", "--machine", m.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o.stderr).contains("did you mean `hvmc`?"),
+        "{}",
+        text(&o.stderr)
+    );
 }

@@ -79,6 +79,7 @@ fn reference_record(program: &Program, machine: &MachineConfig, seed: u64) -> Me
         accel: 0.5,
         tight_spot_x: None,
         at_feedback: true,
+        ..Recording::default()
     };
     let csv = reference::record(program, &machine.x, &machine.y, &rec);
     parse_trace(&csv, "reference.csv").unwrap()
@@ -822,6 +823,7 @@ fn limits_a_circle_never_reached_stay_the_templates_and_a_square_is_predicted() 
         accel: 0.5,
         tight_spot_x: None,
         at_feedback: true,
+        ..Recording::default()
     };
     let csv = reference::record(&circle, &truth.x, &truth.y, &rec);
     let measured = parse_trace(&csv, "circle.csv").unwrap();

@@ -232,16 +232,29 @@ def sweep(
     profile: Optional[str] = None,
     cycle_ms: Optional[float] = None,
     min_damping: float = 0.05,
+    min_phase_margin: float = 30.0,
+    min_gain_margin: float = 6.0,
 ) -> SweepResult:
     """Compares machine settings on a program (``contourcheck sweep``): every combination
     of `grid`'s values, in parallel, ranked.
 
     `grid` maps machine keys to values: ``{"x.kv_m_per_min_per_mm": [0.8, 1.0, 1.2],
     "xy.backlash_um": [0, 10]}`` — a key as ``axis.leaf`` or ``axis.section.leaf``,
-    ``xy.`` for both axes alike (docs/machine-keys.md lists the keys).
+    ``xy.`` for both axes alike (docs/machine-keys.md lists the keys). A setting with a
+    loop below `min_phase_margin` (degrees) or `min_gain_margin` (dB), or a closed loop's
+    own mode damped below `min_damping`, is flagged and ranked after every healthy one.
     """
     pairs = [(str(k), [float(v) for v in values]) for k, values in grid.items()]
-    text = _native.sweep(load_program(program), load_machine(machine), pairs, profile, cycle_ms, min_damping)
+    text = _native.sweep(
+        load_program(program),
+        load_machine(machine),
+        pairs,
+        profile,
+        cycle_ms,
+        min_damping,
+        min_phase_margin,
+        min_gain_margin,
+    )
     return SweepResult(text)
 
 

@@ -103,6 +103,8 @@ def sweep(
     profile: Optional[str] = None,
     cycle_ms: Optional[float] = None,
     min_damping: float = 0.05,
+    min_phase_margin: float = 30.0,
+    min_gain_margin: float = 6.0,
 ) -> str: ...
 def diagnose(
     program: Optional[Program],

@@ -200,7 +200,8 @@ class Identification(_Result):
 
 class SweepResult:
     """A sweep: every setting, ranked (healthy settings by their largest contour error,
-    then the poorly damped, then the unstable and invalid)."""
+    then those flagged for their stability margins or loop damping, then the unstable and
+    invalid)."""
 
     def __init__(self, text: str) -> None:
         self.report: Dict[str, Any] = json.loads(text)
@@ -216,8 +217,10 @@ class SweepResult:
 
     def rows(self) -> List[Dict[str, Any]]:
         """One flat dict per setting, ranked: the swept values by name, ``status``, and for
-        healthy settings ``max_contour_um``, ``rms_contour_um``, ``overshoot_um``,
-        ``ripple_um``, ``least_damping``, ``poorly_damped``."""
+        simulated settings ``max_contour_um``, ``rms_contour_um``, ``overshoot_um``,
+        ``ripple_um``, ``loop_damping`` (the least damping of the closed loops' own modes),
+        ``dominated_by`` and ``flagged`` (the thresholds it falls short of; empty when
+        healthy)."""
         out = []
         for p in self.report["points"]:
             row: Dict[str, Any] = dict(zip(self.dimensions, p["values"]))
@@ -227,14 +230,16 @@ class SweepResult:
                 row.update(
                     {k: v for k, v in result["metrics"].items() if k != "max_following_um"}
                 )
-                row["least_damping"] = result["least_damping"]
-                row["poorly_damped"] = result["poorly_damped"]
+                row["loop_damping"] = result["health"]["loop_damping"]
+                row["dominated_by"] = result["dominant"]["kind"]
+                row["flagged"] = [f["kind"] for f in result["flags"]]
             out.append(row)
         return out
 
-    def best(self) -> Dict[str, Any]:
-        """The best setting (the first row)."""
-        return self.rows()[0]
+    def best(self) -> Optional[Dict[str, Any]]:
+        """The setting to use: the first row that was simulated and meets every threshold
+        (nothing ``flagged``), or ``None`` where no setting does."""
+        return next((r for r in self.rows() if r["status"] == "ok" and not r["flagged"]), None)
 
     def __len__(self) -> int:
         return len(self.report["points"])

@@ -159,10 +159,11 @@ impl CheckOutcome {
 }
 
 /// Runs every combination of `grid`'s values — (key, values) pairs, a key as `x.kv_m_per_min_per_mm`,
-/// `x.drive.backlash_um` or `xy.backlash_um` (both axes alike) — and ranks them: the JSON
-/// `sweep --json` writes.
+/// `x.drive.backlash_um` or `xy.backlash_um` (both axes alike) — and ranks them, a setting
+/// short of the thresholds after every healthy one: the JSON `sweep --json` writes.
 #[pyfunction]
-#[pyo3(signature = (program, machine, grid, profile = None, cycle_ms = None, min_damping = 0.05))]
+#[pyo3(signature = (program, machine, grid, profile = None, cycle_ms = None, min_damping = 0.05, min_phase_margin = 30.0, min_gain_margin = 6.0))]
+#[allow(clippy::too_many_arguments)]
 pub fn sweep(
     py: Python<'_>,
     program: &Program,
@@ -171,6 +172,8 @@ pub fn sweep(
     profile: Option<String>,
     cycle_ms: Option<f64>,
     min_damping: f64,
+    min_phase_margin: f64,
+    min_gain_margin: f64,
 ) -> PyResult<String> {
     let (program, config) = (program.program.clone(), machine.config.clone());
     detached(py, move || {
@@ -179,6 +182,21 @@ pub fn sweep(
                 "min_damping {min_damping}: a damping ratio from 0 up to 1"
             )));
         }
+        if !(min_phase_margin.is_finite() && (0.0..90.0).contains(&min_phase_margin)) {
+            return Err(Failure::Usage(format!(
+                "min_phase_margin {min_phase_margin}: degrees from 0 up to 90"
+            )));
+        }
+        if !(min_gain_margin.is_finite() && (0.0..40.0).contains(&min_gain_margin)) {
+            return Err(Failure::Usage(format!(
+                "min_gain_margin {min_gain_margin}: dB from 0 up to 40"
+            )));
+        }
+        let thresholds = contourcheck::SweepThresholds {
+            min_phase_margin_deg: min_phase_margin,
+            min_gain_margin_db: min_gain_margin,
+            min_damping,
+        };
         let settings = plan_settings(&config, profile.as_deref(), cycle_ms, None)?;
         contourcheck::check_fits(&program, &config)?;
         let dims = grid
@@ -187,11 +205,12 @@ pub fn sweep(
             .collect::<Result<Vec<_>, _>>()?;
         let mut points =
             contourcheck::run_sweep(&program, &config, &settings.plan, &dims, true, &|| {});
-        contourcheck::rank_sweep(&mut points, min_damping);
+        contourcheck::rank_sweep(&mut points, &thresholds);
         Ok(json(&serde_json::json!({
-            "schema": "contourcheck.sweep/1",
+            "schema": "contourcheck.sweep/2",
             "program": program.file,
             "machine": config.name,
+            "thresholds": thresholds,
             "dimensions": dims,
             "points": points,
         })))

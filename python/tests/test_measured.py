@@ -91,6 +91,12 @@ def test_sweep_ranks_gains_as_the_cli_does(cli, tmp_path):
     lag = {p["values"][0]: p["result"]["metrics"]["max_following_um"][0] for p in ours.report["points"]}
     for kv, fe in lag.items():
         assert fe == pytest.approx(1000.0 / kv, rel=0.01)
+    # Y's Kv of 1 leaves its position loop 5 dB from the edge of stability (the table's
+    # axial mode): short of 6 dB in every row, no setting is the one to use; at 3 dB, X at
+    # 1.0 is (1.2 takes the table mode's damping below 0.05).
+    assert ours.best() is None
+    lax = cc.sweep(sample("square.nc"), grid, min_gain_margin=3.0)
+    assert lax.best()["x.kv_m_per_min_per_mm"] == 1.0
 
 
 def test_identify_finds_the_gain_the_record_ran_with_as_the_cli_does(cli, tmp_path):

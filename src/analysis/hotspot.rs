@@ -2,13 +2,18 @@
 //! line, position, time, magnitude and cause.
 //!
 //! Causes are found from events, not guessed from the error curve: an axis reversal (the
-//! commanded velocity of X or Y changes sign during a cut — a quadrant crossing on a circle),
-//! labelled backlash when the nut actually crossed its gap there; a corner (a junction whose
-//! tangent turns by more than a few degrees); a feed change between blocks; stick-slip (an
-//! axis switching between stick and slip repeatedly while moving slowly). Each event opens a
-//! window — from just before it to a few position-loop time constants after — and the
-//! hotspot is the largest contour error in it. Overlapping windows merge into one hotspot;
-//! the global maximum is always reported; the list is ranked by magnitude.
+//! commanded velocity of X or Y changes sign during a cut — a quadrant crossing on a circle)
+//! or start from rest (an axis that stood longer than its loop takes to settle starts
+//! again), labelled backlash when the nut actually crossed its gap there; a corner (a
+//! junction whose tangent turns by more than a few degrees); a feed change between blocks;
+//! stick-slip (an axis switching between stick and slip repeatedly while moving slowly).
+//! Each event opens a window — from just before it to a few position-loop time constants
+//! after — and the hotspot is the largest contour error in it. Overlapping windows merge
+//! into one hotspot. A window whose peak does not stand out from the error just before it
+//! is a plateau, named by the steady effect that explains it (servo mismatch, backlash
+//! offset, steady lag: [`hotspot_cause`](super::hotspot_cause)); so is the largest error
+//! where it lies outside every window. Rows of one plateau are merged with their extent
+//! ([`hotspot_merge`](super::hotspot_merge)); the list is ranked by magnitude.
 //!
 //! The finder takes a run sample by sample and keeps only the last couple of seconds: an
 //! event is known at most a little over a second after its sample (a reversal's backlash
@@ -21,73 +26,12 @@ use std::collections::{BinaryHeap, VecDeque};
 
 use serde::Serialize;
 
+pub use super::hotspot_cause::{AxisSteady, Cause};
+use super::hotspot_cause::{junction_cause, plateau_cause};
+pub use super::hotspot_merge::Extent;
 use crate::machine::AxisName;
-use crate::path::{Motion, Segment, dot3};
+use crate::path::{Motion, Segment};
 use crate::plan::Plan;
-
-/// Why the contour error peaks here.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, PartialOrd, Ord)]
-#[serde(tag = "kind", rename_all = "snake_case")]
-pub enum Cause {
-    /// The axis's nut crossed its backlash gap at a reversal.
-    Backlash {
-        /// Axis.
-        axis: AxisName,
-    },
-    /// An axis reversed (quadrant crossing): friction and the loop's lag spike the error.
-    AxisReversal {
-        /// Axis.
-        axis: AxisName,
-    },
-    /// A corner of the path.
-    Corner,
-    /// A change of programmed feed.
-    SpeedChange,
-    /// The axes still settling into the exact-stop window when the next block starts (after
-    /// a rapid or a G61 stop).
-    Settling,
-    /// Repeated stick and slip at low speed.
-    StickSlip {
-        /// Axis.
-        axis: AxisName,
-    },
-    /// The steady lag of the axes (radius loss on arcs, unequal gains on lines): the error
-    /// here is no larger than just before the event that flagged the place.
-    SteadyLag,
-    /// The run's largest error, away from any of the events above.
-    GlobalMaximum,
-}
-
-impl Cause {
-    /// Which cause names a merged window: the most specific one.
-    fn priority(&self) -> u8 {
-        match self {
-            Cause::Backlash { .. } => 6,
-            Cause::StickSlip { .. } => 5,
-            Cause::Corner => 4,
-            Cause::Settling => 3,
-            Cause::AxisReversal { .. } => 2,
-            Cause::SpeedChange => 1,
-            Cause::SteadyLag | Cause::GlobalMaximum => 0,
-        }
-    }
-}
-
-impl Cause {
-    /// A short label for tables and plots.
-    pub fn label(&self) -> String {
-        match self {
-            Cause::Backlash { axis } => format!("{axis} backlash at reversal"),
-            Cause::AxisReversal { axis } => format!("{axis} reversal"),
-            Cause::Corner => "corner".into(),
-            Cause::SpeedChange => "feed change".into(),
-            Cause::Settling => "settling after exact stop".into(),
-            Cause::SteadyLag => "steady lag".into(),
-            Cause::StickSlip { axis } => format!("{axis} stick-slip"),
-            Cause::GlobalMaximum => "global maximum".into(),
-        }
-    }
-}
 
 /// One hotspot.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -115,6 +59,30 @@ pub struct Hotspot {
     pub excess_um: f64,
     /// Cause.
     pub cause: Cause,
+    /// The stretch the row stands for where near-identical rows of one plateau were merged
+    /// into it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub extent: Option<Extent>,
+    /// The stretch of uninterrupted cutting the peak lies on (for merging).
+    #[serde(skip)]
+    pub stretch: u32,
+}
+
+impl Hotspot {
+    /// The cause as tables give it, with the extent of a merged plateau: `steady lag (4
+    /// places, t 53.5–72.4 s)`.
+    pub fn label(&self) -> String {
+        match self.extent {
+            Some(e) if e.places > 1 => format!(
+                "{} ({} places, t {:.1}–{:.1} s)",
+                self.cause.label(),
+                e.places,
+                e.from_t_s,
+                e.to_t_s
+            ),
+            _ => self.cause.label(),
+        }
+    }
 }
 
 /// The smallest contour error a hotspot can have (µm): below it the report would list
@@ -134,7 +102,8 @@ pub struct HotspotConfig {
     pub slow_m_per_s: f64,
     /// Toggles within a second that make an episode stick-slip.
     pub stick_slip_toggles: usize,
-    /// Whether Z is simulated: hotspots then give its position too.
+    /// Whether Z is simulated: its events count, hotspots give its position and corners
+    /// turn in space on blocks measured in space.
     pub with_z: bool,
 }
 
@@ -169,6 +138,8 @@ pub struct RunSample {
     pub segment: u32,
     /// Commanded X, Y and Z velocity (m/s).
     pub cmd_vel_m_per_s: [f64; 3],
+    /// Commanded X, Y and Z acceleration (m/s²).
+    pub cmd_acc_m_per_s2: [f64; 3],
     /// X, Y and Z mode codes ([`crate::sim::Mode::code`]); Z's is read only where Z is
     /// simulated.
     pub mode: [u8; 3],
@@ -198,14 +169,18 @@ struct Kept {
     path_s_m: f64,
     line: u32,
     mode: [u8; 3],
+    cmd_vel: [f64; 3],
+    stretch: u32,
 }
 
-/// A reversal waiting to learn whether the nut crosses its gap.
+/// A reversal or start from rest waiting to learn whether the nut crosses its gap.
 #[derive(Debug, Clone, Copy)]
 struct Reversal {
     k: usize,
     axis: AxisName,
     gap_crossed: bool,
+    /// The axis had stood still (a start from rest, not a reversal in motion).
+    from_rest: bool,
 }
 
 /// An event's window, while it may still grow.
@@ -217,7 +192,28 @@ struct Window {
     level_m: f64,
     /// The largest |error| so far and where.
     peak: Option<Kept>,
+    /// The error at the window's last cutting sample so far (m): where a plateau the event
+    /// stepped into goes on.
+    tail_m: f64,
     /// Samples before this one (from the window's start on) are in `peak`.
+    scanned_to: usize,
+}
+
+/// A plateau row followed past its event's window, for as long as the error stays on the
+/// level it stepped to, so that the row holds the plateau's largest error rather than the
+/// window's share of it.
+#[derive(Debug, Clone)]
+struct Follow {
+    spot: Hotspot,
+    /// The cause of the event that flagged it: the row's again if the level does not last.
+    event_cause: Cause,
+    /// The sample of the window's peak, where the level is first reached.
+    from_k: usize,
+    /// The plateau goes on while the error, of this sign, stays above this (m).
+    floor_m: f64,
+    /// The level before the window the spike is measured from (m).
+    level_m: f64,
+    /// Samples before this one are followed.
     scanned_to: usize,
 }
 
@@ -234,7 +230,7 @@ struct Toggles {
 pub struct HotspotFinder {
     cfg: HotspotConfig,
     max: usize,
-    backlash_m: [f64; 3],
+    axes: [AxisSteady; 3],
     /// Window before and after an event, the level's span, half a second, a second
     /// (samples).
     before: usize,
@@ -248,28 +244,37 @@ pub struct HotspotFinder {
     n: usize,
     recent: VecDeque<Kept>,
     last_sign: [f64; 3],
+    /// Since when each axis's command has stood still (sample; before the run, the axes
+    /// stood), while it does.
+    still_since: [Option<i64>; 3],
+    /// The current stretch of uninterrupted cutting.
+    stretch: u32,
     reversals: Vec<Reversal>,
     next_junction: usize,
     toggles: [Toggles; 3],
     events: BinaryHeap<Reverse<(usize, u64, Cause)>>,
     event_seq: u64,
     open: Option<Window>,
+    follow: Option<Follow>,
     spots: Vec<Hotspot>,
     largest: Option<Kept>,
+    /// The error's level just before the largest (m), for its spike.
+    largest_level_m: f64,
     largest_window_peak_m: f64,
 }
 
 impl HotspotFinder {
-    /// A finder keeping at most `max` hotspots, for a run sampled every `dt_s` on axes with
-    /// `backlash_m` (X, Y, Z; m).
-    pub fn new(cfg: HotspotConfig, backlash_m: [f64; 3], dt_s: f64, max: usize) -> Self {
+    /// A finder keeping at most `max` hotspots, for a run sampled every `dt_s` on axes
+    /// whose steady lag, offset and backlash are `axes` (X, Y, Z; Z's read only where
+    /// `cfg.with_z`).
+    pub fn new(cfg: HotspotConfig, axes: [AxisSteady; 3], dt_s: f64, max: usize) -> Self {
         let samples = |s: f64| (s / dt_s).ceil() as usize;
         let (before, after) = (samples(cfg.before_s), samples(cfg.after_s));
         let (half_second, second) = ((0.5 / dt_s) as usize, (1.0 / dt_s) as usize);
         HotspotFinder {
             cfg,
             max,
-            backlash_m,
+            axes,
             before,
             after,
             level_span: before.max(1) * 5,
@@ -279,14 +284,18 @@ impl HotspotFinder {
             n: 0,
             recent: VecDeque::new(),
             last_sign: [0.0; 3],
+            still_since: [Some(-(after as i64)); 3],
+            stretch: 0,
             reversals: Vec::new(),
             next_junction: 1,
             toggles: Default::default(),
             events: BinaryHeap::new(),
             event_seq: 0,
             open: None,
+            follow: None,
             spots: Vec::new(),
             largest: None,
+            largest_level_m: 0.0,
             largest_window_peak_m: 0.0,
         }
     }
@@ -296,7 +305,13 @@ impl HotspotFinder {
         let k = self.n;
         let seg = s.segment as usize;
         let cutting = plan.segments[seg].motion == Motion::Feed;
-        let prev_mode = self.recent.back().map(|p| p.mode);
+        let prev = self.recent.back().copied();
+        let prev_mode = prev.map(|p| p.mode);
+        self.note_junctions(&plan.segments, plan, seg, k);
+        // Leaving the contour (a rapid, a plunge) ends a stretch too.
+        if !s.error_m.is_finite() && prev.is_some_and(|p| p.error_m.is_finite()) {
+            self.stretch += 1;
+        }
         let kept = Kept {
             k,
             t_s: s.t_s,
@@ -306,18 +321,25 @@ impl HotspotFinder {
             path_s_m: s.path_s_m,
             line: plan.segments.get(seg).map_or(0, |g| g.line),
             mode: s.mode,
+            // Z's speed counts towards a plateau's cause only where Z is simulated.
+            cmd_vel: if self.cfg.with_z {
+                s.cmd_vel_m_per_s
+            } else {
+                [s.cmd_vel_m_per_s[0], s.cmd_vel_m_per_s[1], 0.0]
+            },
+            stretch: self.stretch,
         };
-        self.recent.push_back(kept);
-        self.n += 1;
         if s.error_m.is_finite()
             && self
                 .largest
                 .is_none_or(|m| s.error_m.abs() > m.error_m.abs())
         {
             self.largest = Some(kept);
+            self.largest_level_m = level_before(&self.recent, k, self.level_span);
         }
+        self.recent.push_back(kept);
+        self.n += 1;
         self.note_reversals(s, k, cutting);
-        self.note_junctions(&plan.segments, plan, seg, k);
         if let Some(prev) = prev_mode {
             self.note_toggles(s, prev, k, cutting);
         }
@@ -343,40 +365,53 @@ impl HotspotFinder {
         if let Some(m) = self.largest
             && m.error_m.abs() > self.largest_window_peak_m
         {
-            self.spots
-                .push(hotspot(&m, Cause::GlobalMaximum, self.cfg.with_z));
+            // Outside every window: a plateau, named by what explains it there.
+            let cause = plateau_cause(m.error_m, m.cmd_vel, &self.axes);
+            let mut h = hotspot(&m, cause, self.cfg.with_z);
+            h.excess_um = (m.error_m - self.largest_level_m).abs() * 1e6;
+            self.spots.push(h);
         }
         self.rank();
         self.spots
     }
 
-    /// Sign changes of an axis's commanded velocity during cuts — also across a standstill,
-    /// since the nut must cross its gap and static friction must break however long the axis
-    /// stood (where a reversal coincides with a corner, the corner names the place).
+    /// Sign changes of an axis's commanded velocity during cuts, and starts after it stood
+    /// still: a start from rest where it stood longer than the window after an event (five
+    /// of the loop's time constants: its lag has gone), a reversal otherwise — also across a
+    /// brief stop, since the nut must cross its gap and static friction must break however
+    /// short the stop (where either coincides with a corner, the corner names the place).
     fn note_reversals(&mut self, s: &RunSample, k: usize, cutting: bool) {
-        for &axis in self.axes() {
-            let v = s.cmd_vel_m_per_s[axis.index()];
+        for &axis in self.event_axes() {
+            let a = axis.index();
+            let v = s.cmd_vel_m_per_s[a];
             // Ignore the speed noise of a standing axis.
             if v.abs() < 1e-9 {
+                if s.cmd_acc_m_per_s2[a].abs() < 1e-9 {
+                    self.still_since[a].get_or_insert(k as i64);
+                }
                 continue;
             }
+            let rested = self.still_since[a]
+                .take()
+                .is_some_and(|since| k as i64 - since >= self.after as i64);
             let sign = v.signum();
-            let last = self.last_sign[axis.index()];
-            if last != 0.0 && sign != last && cutting {
+            let last = self.last_sign[a];
+            if cutting && (rested || (last != 0.0 && sign != last)) {
                 // Whether the nut is free in its gap from two samples before on.
                 let gap_crossed = self
                     .recent
                     .iter()
                     .rev()
                     .take(3)
-                    .any(|p| nut_free(p.mode[axis.index()]));
+                    .any(|p| nut_free(p.mode[a]));
                 self.reversals.push(Reversal {
                     k,
                     axis,
                     gap_crossed,
+                    from_rest: rested,
                 });
             }
-            self.last_sign[axis.index()] = sign;
+            self.last_sign[a] = sign;
         }
     }
 
@@ -385,7 +420,16 @@ impl HotspotFinder {
         while self.next_junction < segments.len() && seg >= self.next_junction {
             let i = self.next_junction;
             self.next_junction += 1;
-            if let Some(cause) = junction_cause(segments, plan, i, &self.cfg) {
+            let cause = junction_cause(segments, plan, i, &self.cfg);
+            let (a, b) = (&segments[i - 1], &segments[i]);
+            if matches!(cause, Some(Cause::Corner | Cause::Settling))
+                || a.motion != b.motion
+                || a.is_dwell()
+                || b.is_dwell()
+            {
+                self.stretch += 1;
+            }
+            if let Some(cause) = cause {
                 self.event(k, cause);
             }
         }
@@ -393,7 +437,7 @@ impl HotspotFinder {
 
     /// Stick/slip toggles while an axis moves slowly in a cut.
     fn note_toggles(&mut self, s: &RunSample, prev_mode: [u8; 3], k: usize, cutting: bool) {
-        for &axis in self.axes() {
+        for &axis in self.event_axes() {
             let a = axis.index();
             let v = s.cmd_vel_m_per_s[a].abs();
             let slow = v > 0.0 && v < self.cfg.slow_m_per_s;
@@ -404,7 +448,7 @@ impl HotspotFinder {
     }
 
     /// The axes whose events count: X and Y, and Z where it is simulated.
-    fn axes(&self) -> &'static [AxisName] {
+    fn event_axes(&self) -> &'static [AxisName] {
         if self.cfg.with_z {
             &AxisName::ALL
         } else {
@@ -421,7 +465,7 @@ impl HotspotFinder {
     /// `at_end`: the run is complete.
     fn settle(&mut self, at_end: bool) {
         self.decide_reversals(at_end);
-        for &axis in self.axes() {
+        for &axis in self.event_axes() {
             self.decide_episodes(axis, at_end);
         }
         while let Some(&Reverse((sample, _, cause))) = self.events.peek() {
@@ -437,7 +481,59 @@ impl HotspotFinder {
         if at_end && let Some(w) = self.open.take() {
             self.close(w);
         }
+        self.follow_plateau(at_end);
         self.forget_old();
+    }
+
+    /// Follows the plateau row along the samples kept, to where the error leaves its level,
+    /// the stretch ends or the run does; then the row is final.
+    fn follow_plateau(&mut self, at_end: bool) {
+        let Some(f) = &mut self.follow else {
+            return;
+        };
+        let Some(front) = self.recent.front() else {
+            return;
+        };
+        let sign = f.spot.error_um.signum();
+        let mut ended = at_end;
+        let from = f.scanned_to.max(front.k);
+        for p in self.recent.range(from - front.k..) {
+            let on = p.error_m.is_finite()
+                && p.stretch == f.spot.stretch
+                && p.error_m * sign >= f.floor_m;
+            if !on {
+                ended = true;
+                break;
+            }
+            if p.error_m.abs() * 1e6 > f.spot.error_um.abs() {
+                let mut h = hotspot(p, f.spot.cause, self.cfg.with_z);
+                h.excess_um = (p.error_m - f.level_m).abs() * 1e6;
+                f.spot = h;
+            }
+            f.scanned_to = p.k + 1;
+        }
+        if ended && let Some(f) = self.follow.take() {
+            self.end_follow(f);
+        }
+    }
+
+    /// A followed row is final: a plateau where the level lasted as long as an event's
+    /// window at least, else a spike that only decays slowly (an integrator winding its
+    /// current back) — the event's.
+    fn end_follow(&mut self, f: Follow) {
+        let mut spot = f.spot;
+        if f.scanned_to.saturating_sub(f.from_k) < self.before + self.after {
+            spot.cause = f.event_cause;
+        }
+        self.largest_window_peak_m = self.largest_window_peak_m.max(spot.error_um.abs() * 1e-6);
+        self.push_spot(spot);
+    }
+
+    fn push_spot(&mut self, h: Hotspot) {
+        self.spots.push(h);
+        if self.spots.len() > 2 * self.max + 64 {
+            self.rank();
+        }
     }
 
     /// A reversal is backlash when the nut was free in its gap within half a second.
@@ -458,8 +554,10 @@ impl HotspotFinder {
             !done
         });
         for r in decided {
-            let cause = if self.backlash_m[r.axis.index()] > 0.0 && r.gap_crossed {
+            let cause = if self.axes[r.axis.index()].backlash_m > 0.0 && r.gap_crossed {
                 Cause::Backlash { axis: r.axis }
+            } else if r.from_rest {
+                Cause::StartFromRest { axis: r.axis }
             } else {
                 Cause::AxisReversal { axis: r.axis }
             };
@@ -518,6 +616,7 @@ impl HotspotFinder {
             cause,
             level_m: level_before(&self.recent, lo, self.level_span),
             peak: None,
+            tail_m: f64::NAN,
             scanned_to: lo,
         });
     }
@@ -531,19 +630,39 @@ impl HotspotFinder {
         self.largest_window_peak_m = self.largest_window_peak_m.max(peak.error_m.abs());
         let mut h = hotspot(&peak, w.cause, self.cfg.with_z);
         h.excess_um = (h.error_um - w.level_m * 1e6).abs();
-        // No spike above the local level: the place is flagged by an event, but its error
-        // is the axes' steady lag.
-        if h.excess_um < 0.1 * h.error_um.abs() && !matches!(w.cause, Cause::Backlash { .. }) {
-            h.cause = Cause::SteadyLag;
+        // No spike above the local level before, or none falling back from the level it
+        // stepped to (the error at the window's end still within a tenth of the peak): the
+        // place is flagged by an event, but its error is a plateau, named by the steady
+        // effect that explains it.
+        let flat_before = h.excess_um < 0.1 * h.error_um.abs();
+        let stays = w.tail_m * peak.error_m > 0.0 && w.tail_m.abs() >= 0.9 * peak.error_m.abs();
+        if !(flat_before || stays) || matches!(w.cause, Cause::Backlash { .. }) {
+            self.push_spot(h);
+            return;
         }
-        self.spots.push(h);
-        if self.spots.len() > 2 * self.max + 64 {
-            self.rank();
+        h.cause = plateau_cause(peak.error_m, peak.cmd_vel, &self.axes);
+        if !stays {
+            self.push_spot(h);
+            return;
         }
+        // The level goes on past the window: follow it, to its largest error and to tell a
+        // plateau from a slow spike.
+        if let Some(f) = self.follow.take() {
+            self.end_follow(f);
+        }
+        self.follow = Some(Follow {
+            event_cause: w.cause,
+            from_k: peak.k,
+            floor_m: 0.9 * peak.error_m.abs(),
+            level_m: w.level_m,
+            scanned_to: w.scanned_to,
+            spot: h,
+        });
     }
 
-    /// Keeps the largest `max` hotspots, ranked.
+    /// Keeps the largest `max` hotspots, ranked, the rows of one plateau merged.
     fn rank(&mut self) {
+        super::hotspot_merge::merge_plateaus(&mut self.spots);
         // A place worth naming stands out: not below 0.05 µm (the report's resolution is
         // 0.01 µm) nor below 1 % of the largest error.
         let largest = self
@@ -570,6 +689,9 @@ impl HotspotFinder {
         if let Some(w) = &self.open {
             keep_from = keep_from.min(w.scanned_to);
         }
+        if let Some(f) = &self.follow {
+            keep_from = keep_from.min(f.scanned_to);
+        }
         while self.recent.front().is_some_and(|p| p.k < keep_from) {
             self.recent.pop_front();
         }
@@ -595,6 +717,9 @@ fn scan(w: &mut Window, recent: &VecDeque<Kept>) {
     for p in recent.range(from - front.k..).take_while(|p| p.k <= w.hi) {
         if p.error_m.is_finite() && w.peak.is_none_or(|m| p.error_m.abs() > m.error_m.abs()) {
             w.peak = Some(*p);
+        }
+        if p.error_m.is_finite() {
+            w.tail_m = p.error_m;
         }
         w.scanned_to = p.k + 1;
     }
@@ -627,42 +752,7 @@ fn hotspot(p: &Kept, cause: Cause, with_z: bool) -> Hotspot {
         path_mm: p.path_s_m * 1e3,
         excess_um: (p.error_m * 1e6).abs(),
         cause,
-    }
-}
-
-/// What the junction before segment `i` is: settling after an exact stop, a corner, a feed
-/// change, or nothing worth a window.
-fn junction_cause(segs: &[Segment], plan: &Plan, i: usize, cfg: &HotspotConfig) -> Option<Cause> {
-    let (a, b) = (&segs[i - 1], &segs[i]);
-    if b.motion == Motion::Feed && !b.is_dwell() && plan.plans[i - 1].wait_s > 0.0 {
-        return Some(Cause::Settling);
-    }
-    if a.motion != Motion::Feed || b.motion != Motion::Feed || a.is_dwell() || b.is_dwell() {
-        return None;
-    }
-    // A corner is where the tool's path turns: in space where Z is simulated and either
-    // block is measured in space (it moves Z along the contour), else in XY (a plunge is no
-    // corner of the XY contour, as the error next to it is measured in XY).
-    let in_space = cfg.with_z && (a.is_contour_in_space() || b.is_contour_in_space());
-    let xy = |t: [f64; 3]| {
-        if in_space {
-            let n = crate::path::norm3(t);
-            return if n > 1e-9 { t.map(|v| v / n) } else { [0.0; 3] };
-        }
-        let n = t[0].hypot(t[1]);
-        if n > 1e-9 {
-            [t[0] / n, t[1] / n, 0.0]
-        } else {
-            [0.0; 3]
-        }
-    };
-    let (ta, tb) = (xy(a.end_tangent()), xy(b.start_tangent()));
-    let cos_limit = cfg.corner_deg.to_radians().cos();
-    if ta != [0.0; 3] && tb != [0.0; 3] && dot3(ta, tb) < cos_limit {
-        Some(Cause::Corner)
-    } else if (a.feed_m_per_s - b.feed_m_per_s).abs() > 0.05 * a.feed_m_per_s.max(b.feed_m_per_s) {
-        Some(Cause::SpeedChange)
-    } else {
-        None
+        extent: None,
+        stretch: p.stretch,
     }
 }

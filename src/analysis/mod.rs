@@ -8,6 +8,8 @@ pub mod circular;
 pub mod contour;
 pub mod contour3d;
 pub mod hotspot;
+pub mod hotspot_cause;
+pub mod hotspot_merge;
 pub mod thinning;
 
 use serde::Serialize;
@@ -15,15 +17,16 @@ use serde::Serialize;
 use crate::analysis::circular::{CirclePath, CircleSamples, CircularTest, circles};
 use crate::analysis::contour::{ContourLocator, ContourPoint};
 pub use crate::analysis::hotspot::RunPlace;
-use crate::analysis::hotspot::{Hotspot, HotspotConfig, HotspotFinder, RunSample};
+use crate::analysis::hotspot::{AxisSteady, Hotspot, HotspotConfig, HotspotFinder, RunSample};
 use crate::analysis::thinning::PeakThinned;
 use crate::execute::RunChunk;
 use crate::gcode::Warning;
 use crate::geometry::ToolReader;
+use crate::machine::Feedback;
 use crate::machine::{AxisConfig, MachineConfig};
 use crate::path::Motion;
 use crate::plan::Plan;
-use crate::sim::linear::equivalent_kv_per_s;
+use crate::sim::linear::{equivalent_kv_per_s, settling_rate_per_s, velocity_lag_s};
 use crate::sim::{AxisModel, AxisTrace, Mode};
 
 /// Figures of a run.
@@ -103,6 +106,31 @@ pub struct CheckResult {
     pub dt_s: f64,
 }
 
+/// The rate (1/s) an event's effect on the error dies away at, which sizes its hotspot
+/// window: a cascade's Kv; for another controller its closed loop's bandwidth, or the
+/// slowest mode its integral action leaves where that is slower (friction at a reversal
+/// decays with it).
+fn window_rate_per_s(model: &AxisModel) -> f64 {
+    let kv = equivalent_kv_per_s(model);
+    match model.control {
+        crate::sim::model::ControlModel::Cascade => kv,
+        _ => kv.min(settling_rate_per_s(model)),
+    }
+}
+
+/// What an axis adds to a steady stretch's error: its lag per speed, and half its backlash
+/// where the loop reads the motor and the table trails it by that.
+fn steady_of(model: &AxisModel) -> AxisSteady {
+    AxisSteady {
+        lag_s: velocity_lag_s(model),
+        offset_m: match model.feedback {
+            Feedback::MotorEncoder => model.half_gap,
+            Feedback::LinearScale => 0.0,
+        },
+        backlash_m: 2.0 * model.half_gap,
+    }
+}
+
 /// A drive's time at its current or voltage limit.
 #[derive(Debug, Clone, Copy, Default)]
 struct LimitTally {
@@ -143,7 +171,7 @@ impl RunAnalyser {
     /// An analyser for the run of `plan` on `machine`, keeping at most `max_hotspots`.
     pub fn new(plan: &Plan, machine: &MachineConfig, max_hotspots: usize) -> Self {
         let [mx, my] = [&machine.x, &machine.y].map(AxisModel::from_config);
-        let kv = equivalent_kv_per_s(&mx).min(equivalent_kv_per_s(&my));
+        let kv = window_rate_per_s(&mx).min(window_rate_per_s(&my));
         let simulated: Vec<AxisModel> = machine
             .simulated_configs()
             .into_iter()
@@ -161,7 +189,7 @@ impl RunAnalyser {
                     with_z: z_simulated,
                     ..HotspotConfig::for_kv(kv)
                 },
-                [0, 1, 2].map(|a| simulated.get(a).map_or(0.0, |m| 2.0 * m.half_gap)),
+                [0, 1, 2].map(|a| simulated.get(a).map_or(AxisSteady::default(), steady_of)),
                 plan.config.cycle_s,
                 max_hotspots,
             ),
@@ -238,6 +266,11 @@ impl RunAnalyser {
                     path_s_m: point.path_s_m,
                     segment: c.segment[i],
                     cmd_vel_m_per_s: [c.x.vel_m_per_s[i], c.y.vel_m_per_s[i], c.z.vel_m_per_s[i]],
+                    cmd_acc_m_per_s2: [
+                        c.x.acc_m_per_s2[i],
+                        c.y.acc_m_per_s2[i],
+                        c.z.acc_m_per_s2[i],
+                    ],
                     mode: [
                         chunk.x.mode[i],
                         chunk.y.mode[i],

@@ -7,9 +7,11 @@ use clap::Args;
 use super::Outcome;
 use super::common::{AxisArg, CliError, MachineArgs, write_plots_into};
 use crate::machine::{AxisConfig, AxisName};
-use crate::plot::bode::{BodeCurve, BodePlot};
+use crate::plot::Footer;
+use crate::plot::bode::{BodeCurve, BodeMark, BodePlot};
 use crate::sim::AxisModel;
 use crate::sim::linear;
+use crate::sim::margins::{self, LoopMargins, MIN_GAIN_MARGIN_DB, MIN_PHASE_MARGIN_DEG};
 
 /// Arguments of `bode`.
 #[derive(Debug, Args)]
@@ -32,59 +34,166 @@ pub fn run(args: &BodeArgs) -> Result<Outcome, CliError> {
         "{} axis of {} — linearised (friction as viscous only, nut in contact)",
         args.axis.axis, machine.name
     );
-    println!(
-        "loop       crossover  phase margin  closed −3 dB  closed −10°  gain at crossover/100"
-    );
-    print_loop_table(&model);
+    let margins = margins::margins(&model);
+    print_loop_table(&model, &margins);
+    print_short_margins(&margins);
     print_least_damped(&model, config, args.axis.axis);
     // The figures of an unstable loop are shown (they tell where it went wrong), but the
     // setting is an error.
     linear::check_stable(&model).map_err(|e| e.on_axis(args.axis.axis.letter(), None))?;
     if let Some(path) = &args.plot {
-        let freqs = linear::log_space(0.1, 10_000.0, 60);
-        let curves = linear::loops(&model)
-            .into_iter()
-            .map(|l| BodeCurve {
-                label: format!("{} loop", l.name()),
-                points: linear::bode(&model, l, &freqs, false),
+        let curves = margins
+            .iter()
+            .map(|m| BodeCurve {
+                label: format!("{} loop: {}", m.which.name(), margin_summary(m)),
+                points: linear::bode(
+                    &model,
+                    m.which,
+                    &margins::response_grid(&model, m.which, (0.1, 10_000.0), 60),
+                    false,
+                ),
+                marks: marks(m),
             })
             .collect();
         let title = format!("Closed loops, {} axis of {}", args.axis.axis, machine.name);
         let stem = format!("bode-{}", args.axis.axis.as_str());
-        write_plots_into(path, &stem, &BodePlot { title, curves })?;
+        let footer = Footer::new(&machine.name).sampling(format!(
+            "{} axis, linearised: friction viscous only, nut in contact",
+            args.axis.axis
+        ));
+        write_plots_into(path, &stem, &BodePlot { title, curves }, &footer)?;
     }
     Ok(Outcome::Ok)
 }
 
-/// Each loop's crossover, phase margin, closed-loop bandwidths and low-frequency gain.
-fn print_loop_table(model: &AxisModel) {
+/// A loop's margins in a few words: `PM 62.7°, GM 14.2 dB, peak +1.3 dB`.
+fn margin_summary(m: &LoopMargins) -> String {
+    let gm = if m.gain_margin_db.is_finite() {
+        format!("{:.1} dB", m.gain_margin_db)
+    } else {
+        "∞".into()
+    };
+    let pm = if m.phase_margin_deg.is_finite() {
+        format!("{:.1}°", m.phase_margin_deg)
+    } else {
+        "∞".into()
+    };
+    format!("PM {pm}, GM {gm}, peak {:+.1} dB", m.peak_db)
+}
+
+/// The marks of a loop's curves: its resonance peak on the magnitude, its phase margin at
+/// the gain crossover and its gain margin at the phase crossover on the phase.
+fn marks(m: &LoopMargins) -> Vec<BodeMark> {
+    let mut out = Vec::new();
+    if m.peak_hz > 0.0 && m.peak_db > 0.05 {
+        out.push(BodeMark {
+            freq_hz: m.peak_hz,
+            on_phase: false,
+            label: format!("peak {:+.1} dB at {}", m.peak_db, hz(m.peak_hz)),
+        });
+    }
+    if let Some(f) = m.crossover_hz {
+        out.push(BodeMark {
+            freq_hz: f,
+            on_phase: true,
+            label: format!("PM {:.1}° at {}", m.phase_margin_deg, hz(f)),
+        });
+    }
+    if let Some(f) = m.phase_crossover_hz {
+        out.push(BodeMark {
+            freq_hz: f,
+            on_phase: true,
+            label: format!("GM {:.1} dB at {}", m.gain_margin_db, hz(f)),
+        });
+    }
+    out
+}
+
+/// A frequency with three significant digits and its unit.
+fn hz(f: f64) -> String {
+    match f {
+        f if f >= 1000.0 => format!("{:.2} kHz", f / 1000.0),
+        f if f >= 100.0 => format!("{f:.0} Hz"),
+        f if f >= 10.0 => format!("{f:.1} Hz"),
+        f if f >= 1.0 => format!("{f:.2} Hz"),
+        f => format!("{f:.3} Hz"),
+    }
+}
+
+/// A table cell: the value right-aligned in `width` with its unit, or "—" where the loop
+/// does not reach that point (`∞` for a margin that is not read anywhere).
+fn cell(v: f64, width: usize, decimals: usize, unit: &str, missing: &mut bool) -> String {
+    if v.is_finite() {
+        // Slow loops (a tiny Kv) keep their significant digits.
+        let slow = unit == " Hz" && v.abs() < 0.1 && v != 0.0;
+        let decimals = if slow { 5 } else { decimals };
+        format!("{v:>width$.decimals$}{unit}")
+    } else if v == f64::INFINITY {
+        format!("{:>w$}", "∞", w = width + unit.chars().count())
+    } else {
+        *missing = true;
+        format!("{:>w$}", "—", w = width + unit.chars().count())
+    }
+}
+
+/// Each loop's crossover, margins, closed-loop peak and bandwidths, and low-frequency gain.
+fn print_loop_table(model: &AxisModel, margins: &[LoopMargins]) {
+    println!(
+        "loop       crossover  phase margin  gain margin  closed-loop peak      closed −3 dB  \
+         closed −10°  gain at crossover/100"
+    );
     let mut missing = false;
-    for l in linear::loops(model) {
-        let f = linear::loop_figures(model, l);
-        let low = linear::closed_loop(model, l, f.crossover_hz / 100.0);
-        let mut cell = |v: f64, width: usize, decimals: usize, unit: &str| {
-            if v.is_finite() {
-                // Slow loops (a tiny Kv) keep their significant digits.
-                let slow = unit == " Hz" && v.abs() < 0.1 && v != 0.0;
-                let decimals = if slow { 5 } else { decimals };
-                format!("{v:>width$.decimals$}{unit}")
-            } else {
-                missing = true;
-                format!("{:>w$}", "—", w = width + unit.chars().count())
-            }
+    for m in margins {
+        let f = linear::loop_figures(model, m.which);
+        let low = linear::closed_loop(model, m.which, f.crossover_hz / 100.0);
+        let peak = if m.peak_hz > 0.0 {
+            format!("{:>+6.2} dB at {:>8}", m.peak_db, hz(m.peak_hz))
+        } else {
+            format!("{:>+6.2} dB {:>11}", m.peak_db, "(none)")
         };
+        let mut c = |v, w, d, u| cell(v, w, d, u, &mut missing);
         println!(
-            "{:<9} {} {} {} {} {}",
-            l.name(),
-            cell(f.crossover_hz, 8, 2, " Hz"),
-            cell(f.phase_margin_deg, 11, 1, "°"),
-            cell(f.bandwidth_3db_hz, 10, 2, " Hz"),
-            cell(f.phase_10deg_hz, 9, 2, " Hz"),
-            cell(20.0 * low.norm().log10(), 10, 2, " dB"),
+            "{:<9} {} {} {} {peak} {} {} {}",
+            m.which.name(),
+            c(m.crossover_hz.unwrap_or(f64::NAN), 8, 2, " Hz"),
+            c(m.phase_margin_deg, 12, 1, "°"),
+            c(m.gain_margin_db, 9, 1, " dB"),
+            c(f.bandwidth_3db_hz, 10, 2, " Hz"),
+            c(f.phase_10deg_hz, 9, 2, " Hz"),
+            c(20.0 * low.norm().log10(), 10, 2, " dB"),
         );
     }
     if missing {
         println!("— : the loop does not reach that point between 0.1 mHz and 100 kHz");
+    }
+}
+
+/// The loops short of the usual margins, each with what it lacks.
+fn print_short_margins(margins: &[LoopMargins]) {
+    for m in margins {
+        let mut short = Vec::new();
+        if m.phase_margin_deg < MIN_PHASE_MARGIN_DEG {
+            short.push(format!(
+                "phase margin {:.1}° (below {MIN_PHASE_MARGIN_DEG}°)",
+                m.phase_margin_deg
+            ));
+        }
+        if m.gain_margin_db < MIN_GAIN_MARGIN_DB {
+            short.push(format!(
+                "gain margin {:.1} dB (below {MIN_GAIN_MARGIN_DB} dB)",
+                m.gain_margin_db
+            ));
+        }
+        if m.gain_reduction_margin_db < MIN_GAIN_MARGIN_DB {
+            short.push(format!(
+                "unstable if its gain falls by {:.1} dB (at {}; below {MIN_GAIN_MARGIN_DB} dB)",
+                m.gain_reduction_margin_db,
+                m.gain_reduction_hz.map_or_else(|| "—".into(), hz)
+            ));
+        }
+        if !short.is_empty() {
+            println!("{} loop: {}", m.which.name(), short.join(", "));
+        }
     }
 }
 
@@ -96,6 +205,7 @@ fn print_least_damped(model: &AxisModel, config: &AxisConfig, axis: AxisName) {
             "least damped closed-loop mode: {:.1} Hz, damping ratio {:.3}",
             m.frequency_hz, m.damping
         );
+        print_least_damped_loop_mode(model, &m);
         if m.damping < 0.0 {
             // The margins are read where each loop's gain first crosses 0 dB; a mode far
             // above that crossing grows unseen by them — say so beside them.
@@ -114,5 +224,19 @@ fn print_least_damped(model: &AxisModel, config: &AxisConfig, axis: AxisName) {
                 );
             }
         }
+    }
+}
+
+/// Where the least damped closed-loop mode `overall` is one of the mechanics' left as they
+/// damp it (a screw's kilohertz torsion), the least damped of the loops' own modes too: the
+/// figure a gain setting is judged by (`sweep`'s `loop damping`).
+fn print_least_damped_loop_mode(model: &AxisModel, overall: &linear::ModalFigure) {
+    match margins::least_damped_loop_mode(model) {
+        Some(own) if own != *overall => println!(
+            "least damped of the loops' own modes: {:.1} Hz, damping ratio {:.3} (the {:.1} Hz \
+             mode is the mechanics', left as they damp it)",
+            own.frequency_hz, own.damping, overall.frequency_hz
+        ),
+        _ => {}
     }
 }

@@ -151,22 +151,32 @@ fn stage_plots(
     sources: &[SourceFile],
 ) -> Result<Vec<std::path::PathBuf>, CliError> {
     let figures = CheckFigures::of(run, report, sources);
+    let footer = super::common::run_footer(
+        &report.machine.name,
+        &report.program.file,
+        &run.plan.segments,
+        run.plan.config.cycle_s,
+    );
     let mut written = Vec::new();
     for ext in ["png", "svg"] {
         let path = dir.join(format!("toolpath.{ext}"));
-        batch.stage_with_path(&path, |p| crate::plot::render(p, &figures.toolpath))?;
+        batch.stage_with_path(&path, |p| {
+            crate::plot::render(p, &figures.toolpath, &footer)
+        })?;
         written.push(path);
         for (file, view) in &figures.side_views {
             let path = dir.join(format!("{file}.{ext}"));
-            batch.stage_with_path(&path, |p| crate::plot::render(p, view))?;
+            batch.stage_with_path(&path, |p| crate::plot::render(p, view, &footer))?;
             written.push(path);
         }
         let path = dir.join(format!("contour-along-path.{ext}"));
-        batch.stage_with_path(&path, |p| crate::plot::render(p, &figures.along_path))?;
+        batch.stage_with_path(&path, |p| {
+            crate::plot::render(p, &figures.along_path, &footer)
+        })?;
         written.push(path);
         for (i, c) in figures.circles.iter().enumerate() {
             let path = dir.join(format!("circle-{}.{ext}", i + 1));
-            batch.stage_with_path(&path, |p| crate::plot::render(p, c))?;
+            batch.stage_with_path(&path, |p| crate::plot::render(p, c, &footer))?;
             written.push(path);
         }
     }

@@ -8,7 +8,9 @@ use clap::Args;
 use crate::cli::output::OutputError;
 use crate::gcode::{GcodeErrors, InterpretOptions, Program, parse_program};
 use crate::machine::{ConfigError, MachineConfig};
+use crate::path::{Motion, Segment};
 use crate::plan::{PlanConfig, ProfileKind};
+use crate::plot::Footer;
 use crate::units::{m_from_mm, s_from_ms};
 
 /// Errors a command can end with.
@@ -347,6 +349,7 @@ pub fn write_plots_into(
     dir: &Path,
     stem: &str,
     figure: &impl crate::plot::Figure,
+    footer: &Footer,
 ) -> Result<(), CliError> {
     std::fs::create_dir_all(dir).map_err(|e| CliError::Read {
         path: dir.display().to_string(),
@@ -357,7 +360,7 @@ pub fn write_plots_into(
         .map(|ext| dir.join(format!("{stem}.{ext}")))
         .into();
     for path in &paths {
-        batch.stage_with_path(path, |tmp| crate::plot::render(tmp, figure))?;
+        batch.stage_with_path(path, |tmp| crate::plot::render(tmp, figure, footer))?;
     }
     batch.commit()?;
     for path in &paths {
@@ -480,4 +483,36 @@ impl clap::ValueEnum for crate::machine::AxisName {
     fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
         Some(clap::builder::PossibleValue::new(self.as_str()))
     }
+}
+
+/// The programmed feed of the cutting moves as a footer gives it: `F 1000 mm/min`, or the
+/// range `F 500–1000 mm/min`; empty for a program without feed moves.
+pub(crate) fn feed_text(segments: &[Segment]) -> String {
+    let feeds = segments
+        .iter()
+        .filter(|s| s.motion == Motion::Feed && !s.is_dwell() && s.feed_m_per_s > 0.0)
+        .map(|s| crate::units::mm_per_min_from_m_per_s(s.feed_m_per_s));
+    let (lo, hi) = feeds.fold((f64::INFINITY, 0.0f64), |(a, b), f| (a.min(f), b.max(f)));
+    let round = |f: f64| format!("{}", (f * 10.0).round() / 10.0);
+    if hi == 0.0 {
+        String::new()
+    } else if hi - lo < 0.05 {
+        format!("F {} mm/min", round(hi))
+    } else {
+        format!("F {}–{} mm/min", round(lo), round(hi))
+    }
+}
+
+/// A plot's footer for a run of `segments` on `machine` from `program`, sampled at the
+/// interpolation cycle `cycle_s`.
+pub(crate) fn run_footer(
+    machine: &str,
+    program: &str,
+    segments: &[Segment],
+    cycle_s: f64,
+) -> Footer {
+    Footer::new(machine)
+        .program(program)
+        .feed(feed_text(segments))
+        .sampling(format!("IPO cycle {} ms", (cycle_s * 1e6).round() / 1e3))
 }

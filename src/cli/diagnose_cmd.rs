@@ -134,7 +134,14 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
         &settings,
     )?;
     bar.finish_and_clear();
-    write_outputs(args, &d, &program.file, &measured, &machine)?;
+    let footer = crate::plot::Footer::new(&machine.name)
+        .program(&program.file)
+        .feed(super::common::feed_text(&program.segments))
+        .sampling(format!(
+            "record sampled at {} Hz",
+            (10.0 / measured.dt_s).round() / 10.0
+        ));
+    write_outputs(args, &d, &program.file, &measured, &machine, &footer)?;
     Ok(Outcome::Ok)
 }
 
@@ -170,6 +177,7 @@ fn write_outputs(
     program_file: &str,
     measured: &MeasuredTrace,
     machine: &MachineConfig,
+    footer: &crate::plot::Footer,
 ) -> Result<(), CliError> {
     let report = DiagnoseReport::new(d, program_file, measured, machine);
     let mut batch = OutputBatch::new();
@@ -193,7 +201,7 @@ fn write_outputs(
             path: dir.display().to_string(),
             message: e.to_string(),
         })?;
-        stage_plots(&mut batch, dir, d, program_file)?;
+        stage_plots(&mut batch, dir, d, program_file, footer)?;
     }
     let written = batch.destinations();
     batch.commit()?;
@@ -282,22 +290,23 @@ fn stage_plots(
     dir: &Path,
     d: &Diagnosis,
     program_file: &str,
+    footer: &crate::plot::Footer,
 ) -> Result<(), CliError> {
     let figures = DiagnoseFigures::of(d, program_file);
     for ext in ["png", "svg"] {
         for (line, figure) in &figures.circles {
             batch.stage_with_path(&dir.join(format!("diagnose-polar-line{line}.{ext}")), |p| {
-                crate::plot::render(p, figure)
+                crate::plot::render(p, figure, footer)
             })?;
         }
         batch.stage_with_path(&dir.join(format!("diagnose-fit.{ext}")), |p| {
-            crate::plot::render(p, &figures.fit)
+            crate::plot::render(p, &figures.fit, footer)
         })?;
         batch.stage_with_path(&dir.join(format!("diagnose-residual-time.{ext}")), |p| {
-            crate::plot::render(p, &figures.over_time)
+            crate::plot::render(p, &figures.over_time, footer)
         })?;
         batch.stage_with_path(&dir.join(format!("diagnose-residual-path.{ext}")), |p| {
-            crate::plot::render(p, &figures.along_path)
+            crate::plot::render(p, &figures.along_path, footer)
         })?;
     }
     Ok(())

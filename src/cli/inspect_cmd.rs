@@ -48,7 +48,14 @@ pub fn run(args: &InspectArgs) -> Result<Outcome, CliError> {
     }
     print!("{}", summarise(&trace).text());
     if let Some(path) = &args.plot {
-        write_plots_into(path, "inspect", &overview(&trace))?;
+        let record = std::path::Path::new(&trace.file)
+            .file_name()
+            .map_or_else(|| trace.file.clone(), |n| n.to_string_lossy().into_owned());
+        let footer = crate::plot::Footer::new("").sampling(format!(
+            "record {record} sampled at {} Hz",
+            (10.0 / trace.dt_s).round() / 10.0
+        ));
+        write_plots_into(path, "inspect", &overview(&trace), &footer)?;
     }
     Ok(Outcome::Ok)
 }

@@ -93,7 +93,17 @@ pub fn run(args: &StickSlipArgs) -> Result<Outcome, CliError> {
             args.axis.axis, machine.name
         );
         let stem = format!("stickslip-{}", args.axis.axis.as_str());
-        write_plots_into(path, &stem, &StickSlipPlot { title, curves })?;
+        let footer = crate::plot::Footer::new(&machine.name)
+            .feed(format!(
+                "F {} mm/min",
+                feeds
+                    .iter()
+                    .map(|f| f.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ))
+            .sampling(format!("simulated at {} ms", cfg.dt_s * 1e3));
+        write_plots_into(path, &stem, &StickSlipPlot { title, curves }, &footer)?;
     }
     Ok(Outcome::Ok)
 }

@@ -12,9 +12,12 @@ use super::common::{
     CliError, MachineArgs, PlanningArgs, load_program, progress, write_plots_into,
 };
 use crate::cli::output::OutputBatch;
-use crate::machine::MachineConfig;
+use crate::machine::{AxisName, MachineConfig};
+use crate::plot::Footer;
 use crate::plot::sweep::{SweepHeatMap, SweepLinePlot};
-use crate::sweep::{self, Dimension, PointResult, SweepPoint};
+use crate::sim::linear::Loop;
+use crate::sim::margins::LoopMargins;
+use crate::sweep::{self, Dimension, PointResult, SweepPoint, Thresholds};
 
 /// Arguments of `sweep`.
 #[derive(Debug, Args)]
@@ -58,10 +61,17 @@ pub struct SweepArgs {
     /// Settings listed on the terminal.
     #[arg(long, default_value_t = 20, value_name = "N")]
     pub rows: usize,
-    /// Least closed-loop damping ratio of a healthy setting: below it a setting is flagged
-    /// "poorly damped" and ranked after every healthy one, whatever its contour error.
+    /// Least damping ratio of the closed loops' own modes (the mechanics' own left aside)
+    /// of a healthy setting: below it a setting is flagged and ranked after every healthy
+    /// one, whatever its contour error.
     #[arg(long, default_value_t = crate::sweep::POOR_DAMPING, value_name = "ZETA")]
     pub min_damping: f64,
+    /// Least phase margin of every loop of a healthy setting (degrees).
+    #[arg(long, default_value_t = crate::sim::margins::MIN_PHASE_MARGIN_DEG, value_name = "DEG")]
+    pub min_phase_margin: f64,
+    /// Least gain margin of every loop of a healthy setting (dB).
+    #[arg(long, default_value_t = crate::sim::margins::MIN_GAIN_MARGIN_DB, value_name = "DB")]
+    pub min_gain_margin: f64,
 }
 
 /// The axis an occurrence of `arg` belongs to: the last --axis given before it.
@@ -161,7 +171,35 @@ fn on_off(text: &str) -> Result<Vec<f64>, CliError> {
         .collect()
 }
 
+/// The thresholds from the flags, each checked.
+fn thresholds(args: &SweepArgs) -> Result<Thresholds, CliError> {
+    if !(args.min_damping.is_finite() && (0.0..1.0).contains(&args.min_damping)) {
+        return Err(CliError::Usage(format!(
+            "--min-damping {}: a damping ratio from 0 up to 1",
+            args.min_damping
+        )));
+    }
+    if !(args.min_phase_margin.is_finite() && (0.0..90.0).contains(&args.min_phase_margin)) {
+        return Err(CliError::Usage(format!(
+            "--min-phase-margin {}: degrees from 0 up to 90",
+            args.min_phase_margin
+        )));
+    }
+    if !(args.min_gain_margin.is_finite() && (0.0..40.0).contains(&args.min_gain_margin)) {
+        return Err(CliError::Usage(format!(
+            "--min-gain-margin {}: dB from 0 up to 40",
+            args.min_gain_margin
+        )));
+    }
+    Ok(Thresholds {
+        min_phase_margin_deg: args.min_phase_margin,
+        min_gain_margin_db: args.min_gain_margin,
+        min_damping: args.min_damping,
+    })
+}
+
 pub fn run(args: &SweepArgs, m: &ArgMatches) -> Result<Outcome, CliError> {
+    let thresholds = thresholds(args)?;
     let machine = args.machine.load()?;
     let plan = args.planning.config(&machine)?;
     let program = load_program(&args.program, &machine)?;
@@ -172,22 +210,17 @@ pub fn run(args: &SweepArgs, m: &ArgMatches) -> Result<Outcome, CliError> {
         bar.inc(1)
     });
     bar.finish_and_clear();
-    if !(args.min_damping.is_finite() && (0.0..1.0).contains(&args.min_damping)) {
-        return Err(CliError::Usage(format!(
-            "--min-damping {}: a damping ratio from 0 up to 1",
-            args.min_damping
-        )));
-    }
-    crate::sweep::rank(&mut points, args.min_damping);
+    sweep::rank(&mut points, &thresholds);
     let mut batch = OutputBatch::new();
     if let Some(path) = &args.csv {
         batch.stage(path, |w| write_csv(w, &dims, &points))?;
     }
     if let Some(path) = &args.json {
         let doc = SweepJson {
-            schema: "contourcheck.sweep/1",
+            schema: "contourcheck.sweep/2",
             program: &program.file,
             machine: &machine.name,
+            thresholds: &thresholds,
             dimensions: &dims,
             points: &points,
         };
@@ -198,17 +231,42 @@ pub fn run(args: &SweepArgs, m: &ArgMatches) -> Result<Outcome, CliError> {
     }
     batch.commit()?;
     if let Some(dir) = &args.plot {
-        plot(dir, &program.file, &dims, &points)?;
+        let footer = super::common::run_footer(
+            &machine.name,
+            &program.file,
+            &program.segments,
+            plan.cycle_s,
+        );
+        plot(dir, &program.file, &dims, &points, &footer)?;
     }
-    print_table(
-        &program.file,
-        &machine.name,
-        &dims,
-        &points,
-        args.rows,
-        args.min_damping,
-    );
+    let shown = &points[..points.len().min(args.rows)];
+    print_table(&program.file, &machine.name, &dims, shown, &thresholds);
+    print_none_crowned(&points);
+    print_margins(&dims, shown);
+    if points.len() > args.rows {
+        println!(
+            "  … {} more (--rows, --csv, --json)",
+            points.len() - args.rows
+        );
+    }
     Ok(Outcome::Ok)
+}
+
+/// Why no row is crowned, where none meets the thresholds: what every setting falls short
+/// in alike (an axis the sweep leaves as it is), which no setting swept can mend.
+fn print_none_crowned(points: &[SweepPoint]) {
+    match sweep::shared_shortfall(points) {
+        None => {}
+        Some(shared) if shared.is_empty() => {
+            println!("  no setting meets the thresholds: none is crowned");
+        }
+        Some(shared) => println!(
+            "  no setting meets the thresholds: none is crowned; every one has {} — the swept \
+             keys do not change it (--min-phase-margin, --min-gain-margin, --min-damping set \
+             the rule)",
+            sweep::health::describe(&shared)
+        ),
+    }
 }
 
 #[derive(Serialize)]
@@ -216,8 +274,18 @@ struct SweepJson<'a> {
     schema: &'static str,
     program: &'a str,
     machine: &'a str,
+    thresholds: &'a Thresholds,
     dimensions: &'a [Dimension],
     points: &'a [SweepPoint],
+}
+
+/// The swept values of a row, right-aligned under their names.
+fn value_cells(p: &SweepPoint) -> String {
+    p.values
+        .iter()
+        .map(|v| format!("{v:>10.4}"))
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 fn print_table(
@@ -225,64 +293,144 @@ fn print_table(
     machine: &str,
     dims: &[Dimension],
     points: &[SweepPoint],
-    rows: usize,
-    min_damping: f64,
+    t: &Thresholds,
 ) {
     println!(
-        "sweep of {program} on {machine}: {} settings, ranked by the largest contour error; \
-         settings whose loops leave a mode damped below ζ {min_damping} and below the \
-         mechanics' own ranked after the healthy ones",
-        points.len()
+        "sweep of {program} on {machine}: ranked by the largest contour error; a setting with \
+         a loop below {}° of phase margin or {} dB of gain margin, or a closed loop's own mode \
+         damped below ζ {}, is flagged and ranked after every healthy one",
+        t.min_phase_margin_deg, t.min_gain_margin_db, t.min_damping
     );
     let head: Vec<String> = dims.iter().map(|d| format!("{:>10}", d.name)).collect();
     println!(
-        "  rank {}  max contour µm  RMS µm  FE X µm  FE Y µm  overshoot µm  ripple µm  damping",
+        "  rank {}  max contour µm  RMS µm  FE X µm  FE Y µm  overshoot µm  ripple µm  \
+         loop damping  dominated by",
         head.join(" ")
     );
-    for (i, p) in points.iter().enumerate().take(rows) {
-        let values: Vec<String> = p.values.iter().map(|v| format!("{v:>10.4}")).collect();
+    let mut crowned = false;
+    for (i, p) in points.iter().enumerate() {
         let figures = match &p.result {
             PointResult::Ok {
                 metrics: m,
-                least_damping,
-                poorly_damped,
-                ..
-            } => format!(
-                "{:>14.2}  {:>6.2}  {:>7.1}  {:>7.1}  {:>12.2}  {:>9.3}  {:>7.4}{}",
-                m.max_contour_um,
-                m.rms_contour_um,
-                m.max_following_um[0],
-                m.max_following_um[1],
-                m.overshoot_um,
-                m.ripple_um,
-                least_damping,
-                if *poorly_damped {
-                    "  poorly damped: ranked after the healthy settings"
+                health,
+                flags,
+                dominant,
+            } => {
+                let damping = if health.loop_damping.is_finite() {
+                    format!("{:>12.3}", health.loop_damping)
                 } else {
-                    ""
-                }
-            ),
+                    format!("{:>12}", "—")
+                };
+                let verdict = if !flags.is_empty() {
+                    format!("  flagged: {}", sweep::health::describe(flags))
+                } else if !crowned {
+                    crowned = true;
+                    "  ◀ best".to_string()
+                } else {
+                    String::new()
+                };
+                format!(
+                    "{:>14.2}  {:>6.2}  {:>7.1}  {:>7.1}  {:>12.2}  {:>9.3}  {damping}  {:<28}{verdict}",
+                    m.max_contour_um,
+                    m.rms_contour_um,
+                    m.max_following_um[0],
+                    m.max_following_um[1],
+                    m.overshoot_um,
+                    m.ripple_um,
+                    dominant.label(),
+                )
+            }
             PointResult::Unstable { axis, frequency_hz } => {
                 format!("  unstable: {axis} axis, growing mode at {frequency_hz:.1} Hz")
             }
             PointResult::Invalid { reason } => format!("  invalid: {reason}"),
         };
-        let best = if i == 0
-            && matches!(
-                p.result,
-                PointResult::Ok {
-                    poorly_damped: false,
-                    ..
-                }
-            ) {
-            "  ◀ best"
-        } else {
-            ""
-        };
-        println!("  {:>4} {}  {figures}{best}", i + 1, values.join(" "));
+        println!("  {:>4} {}  {}", i + 1, value_cells(p), figures.trim_end());
     }
-    if points.len() > rows {
-        println!("  … {} more (--rows, --csv, --json)", points.len() - rows);
+}
+
+/// A margin's cell: the value, `∞` where the loop has none to lose, `—` where it lacks the loop.
+fn margin_cell(v: Option<f64>, width: usize, decimals: usize, sign: bool) -> String {
+    match v {
+        // A loop whose gain only falls has its peak at 0 dB: no "−0.0".
+        Some(v) if v.is_finite() && sign && v.abs() < 0.05 => format!("{:>width$}", "0.0"),
+        Some(v) if v.is_finite() && sign => format!("{v:>+width$.decimals$}"),
+        Some(v) if v.is_finite() => format!("{v:>width$.decimals$}"),
+        Some(v) if v == f64::INFINITY => format!("{:>width$}", "∞"),
+        _ => format!("{:>width$}", "—"),
+    }
+}
+
+/// The stability margins of the rows shown, rank by rank: each loop's phase margin, gain
+/// margin and closed-loop peak, the worse of X and Y.
+fn print_margins(dims: &[Dimension], points: &[SweepPoint]) {
+    if !points
+        .iter()
+        .any(|p| matches!(p.result, PointResult::Ok { .. }))
+    {
+        return;
+    }
+    println!(
+        "stability margins, the worse of X and Y: phase margin (°), gain margin (dB), \
+         closed-loop peak (dB)"
+    );
+    let head: Vec<String> = dims.iter().map(|d| format!("{:>10}", d.name)).collect();
+    println!(
+        "  rank {}   position  PM     GM   peak   velocity  PM     GM   peak    current  PM     GM   peak",
+        head.join(" ")
+    );
+    for (i, p) in points.iter().enumerate() {
+        let PointResult::Ok { health, .. } = &p.result else {
+            continue;
+        };
+        let cells: Vec<String> = [Loop::Position, Loop::Velocity, Loop::Current]
+            .iter()
+            .map(|&l| {
+                let pm = health.least(l, |m: &LoopMargins| m.phase_margin_deg);
+                let gm = health.least(l, |m: &LoopMargins| m.gain_margin_db);
+                let peak = health.most(l, |m: &LoopMargins| m.peak_db);
+                format!(
+                    "{}° {} {}",
+                    margin_cell(pm, 13, 1, false),
+                    margin_cell(gm, 6, 1, false),
+                    margin_cell(peak, 6, 1, true)
+                )
+            })
+            .collect();
+        println!("  {:>4} {}{}", i + 1, value_cells(p), cells.join(""));
+    }
+}
+
+/// The CSV columns of one axis's loop: `x_position_phase_margin_deg`, ….
+const MARGIN_COLUMNS: [&str; 6] = [
+    "crossover_hz",
+    "phase_margin_deg",
+    "gain_margin_db",
+    "gain_reduction_margin_db",
+    "peak_db",
+    "peak_hz",
+];
+
+fn margin_values(m: Option<&LoopMargins>) -> [String; 6] {
+    let v = |x: f64| {
+        if x.is_finite() {
+            format!("{x:.6}")
+        } else if x == f64::INFINITY {
+            "inf".to_string()
+        } else {
+            String::new()
+        }
+    };
+    match m {
+        Some(m) => [
+            v(m.crossover_hz.unwrap_or(f64::NAN)),
+            v(m.phase_margin_deg),
+            v(m.gain_margin_db),
+            v(m.gain_reduction_margin_db),
+            v(m.peak_db),
+            v(m.peak_hz),
+        ],
+        None => Default::default(),
     }
 }
 
@@ -298,28 +446,31 @@ fn write_csv(w: &mut dyn Write, dims: &[Dimension], points: &[SweepPoint]) -> st
             "max_fe_y_um",
             "overshoot_um",
             "ripple_um",
-            "least_damping",
+            "loop_damping",
+            "dominated_by",
+            "flags",
         ]
         .map(String::from),
     );
+    for axis in AxisName::BOTH {
+        for l in Loop::ALL {
+            for c in MARGIN_COLUMNS {
+                header.push(format!("{}_{}_{c}", axis.as_str(), l.name()));
+            }
+        }
+    }
     out.write_record(&header)?;
+    let width = header.len();
     for p in points {
         let mut row: Vec<String> = p.values.iter().map(|v| v.to_string()).collect();
         match &p.result {
             PointResult::Ok {
                 metrics: m,
-                least_damping,
-                poorly_damped,
-                ..
+                health,
+                flags,
+                dominant,
             } => {
-                row.push(
-                    if *poorly_damped {
-                        "poorly_damped"
-                    } else {
-                        "ok"
-                    }
-                    .into(),
-                );
+                row.push(if flags.is_empty() { "ok" } else { "flagged" }.into());
                 for v in [
                     m.max_contour_um,
                     m.rms_contour_um,
@@ -327,19 +478,28 @@ fn write_csv(w: &mut dyn Write, dims: &[Dimension], points: &[SweepPoint]) -> st
                     m.max_following_um[1],
                     m.overshoot_um,
                     m.ripple_um,
-                    *least_damping,
+                    health.loop_damping,
                 ] {
                     row.push(format!("{v:.6}"));
                 }
+                row.push(dominant.label());
+                row.push(
+                    flags
+                        .iter()
+                        .map(|f| f.label())
+                        .collect::<Vec<_>>()
+                        .join("; "),
+                );
+                for a in &health.margins {
+                    for l in Loop::ALL {
+                        row.extend(margin_values(a.loops.iter().find(|m| m.which == l)));
+                    }
+                }
             }
-            PointResult::Unstable { .. } => row.extend(
-                std::iter::once("unstable".to_string())
-                    .chain(std::iter::repeat_n(String::new(), 7)),
-            ),
-            PointResult::Invalid { .. } => row.extend(
-                std::iter::once("invalid".to_string()).chain(std::iter::repeat_n(String::new(), 7)),
-            ),
+            PointResult::Unstable { .. } => row.push("unstable".into()),
+            PointResult::Invalid { .. } => row.push("invalid".into()),
         }
+        row.resize(width, String::new());
         out.write_record(&row)?;
     }
     out.flush()
@@ -367,13 +527,14 @@ fn plot(
     program: &str,
     dims: &[Dimension],
     points: &[SweepPoint],
+    footer: &Footer,
 ) -> Result<(), CliError> {
     let name = Path::new(program)
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
     match dims {
-        [d] => write_plots_into(dir, "sweep", &line_plot(&name, d, points))?,
-        [a, b] => write_plots_into(dir, "sweep", &heat_map(&name, [a, b], points))?,
+        [d] => write_plots_into(dir, "sweep", &line_plot(&name, d, points), footer)?,
+        [a, b] => write_plots_into(dir, "sweep", &heat_map(&name, [a, b], points), footer)?,
         _ => println!("(no plot for {} swept dimensions: use --csv)", dims.len()),
     }
     Ok(())
@@ -420,6 +581,11 @@ fn line_plot(name: &str, d: &Dimension, points: &[SweepPoint]) -> SweepLinePlot 
             .filter(|p| matches!(p.result, PointResult::Unstable { .. }))
             .map(|p| p.values[0])
             .collect(),
+        flagged: sorted
+            .iter()
+            .filter(|p| matches!(&p.result, PointResult::Ok { flags, .. } if !flags.is_empty()))
+            .map(|p| p.values[0])
+            .collect(),
     }
 }
 
@@ -440,7 +606,24 @@ fn heat_map(name: &str, [a, b]: [&Dimension; 2], points: &[SweepPoint]) -> Sweep
                 .collect()
         })
         .collect();
+    let flagged = a
+        .values
+        .iter()
+        .map(|va| {
+            b.values
+                .iter()
+                .map(|vb| {
+                    points.iter().any(|p| {
+                        p.values[0] == *va
+                            && p.values[1] == *vb
+                            && matches!(&p.result, PointResult::Ok { flags, .. } if !flags.is_empty())
+                    })
+                })
+                .collect()
+        })
+        .collect();
     SweepHeatMap {
+        flagged,
         title: format!(
             "{name}: largest contour error over {} and {}",
             a.name, b.name

@@ -5,6 +5,10 @@
 
 use super::context::{Context, Stepping};
 use super::residual::rms;
+use super::start::{
+    Arrival, Start, StartKind, last_direction, run_in_to_state, settling_time, starts_in_motion,
+    with_run_in,
+};
 use super::{CompareError, CompareSettings};
 use crate::check::plan_commands;
 use crate::gcode::Program;
@@ -13,7 +17,8 @@ use crate::numeric::golden_section;
 use crate::plan::{Commands, Plan};
 use crate::sim::AxisModel;
 use crate::trace::measured::MeasuredTrace;
-use crate::trace::recorded::{commands_from_record, place_on_path};
+use crate::trace::placement::{Departure, place_on_path};
+use crate::trace::recorded::{commands_from_record, local_derivatives};
 use crate::trace::signal::sample;
 use crate::units::um_from_m;
 
@@ -50,8 +55,9 @@ fn parallel_offset(
         measured.dt_s,
         dt,
     );
-    match place_on_path(plan, &mut shifted) {
-        Some(worst) if worst.distance_m > settings.command_tolerance_m => None,
+    let placed = place_on_path(&plan.segments, &mut shifted, settings.command_tolerance_m);
+    match placed.worst {
+        Some(worst) if worst.distance_m > settings.command_tolerance_m || !placed.joined => None,
         _ => Some(offset),
     }
 }
@@ -91,13 +97,13 @@ pub(crate) fn context<'a>(
 ) -> Result<(Context<'a>, f64), CompareError> {
     let (plan, plan_commands) = plan_commands(program, machine, &settings.check)?;
     let dt = plan_commands.dt_s;
-    let (commands, fixed_offset, program_start_s) =
-        driving_commands(&plan, plan_commands, measured, settings)?;
+    let driving = driving_commands(&plan, plan_commands, machine, measured, settings)?;
+    let fixed_offset = driving.fixed_offset;
     let mut ctx = Context {
         measured,
-        commands,
+        commands: driving.commands,
         plan,
-        program_start_s,
+        program_start_s: driving.program_start_s,
         dt,
         fixed_offset,
         extra_wait_s: Vec::new(),
@@ -111,6 +117,8 @@ pub(crate) fn context<'a>(
         timing_drift_s: None,
         rapids_compared: false,
         holding: [Vec::new(), Vec::new()],
+        unsettled: [Vec::new(), Vec::new()],
+        start: driving.start,
     };
     let nominal = [AxisName::X, AxisName::Y].map(|a| ctx.simulate_axis(machine, a));
     let [Some(x), Some(y)] = nominal else {
@@ -155,47 +163,344 @@ fn cannot(measured: &MeasuredTrace, reason: String) -> CompareError {
     }
 }
 
-/// The commands that drive the simulation, the record's clock offset when it fixes it, and
-/// where the program starts on their timeline (s). The record's own commands, where it has
-/// them, drive the simulation on its own clock, whatever timing our plan gives the program —
-/// after they have shown that they lie on the program's path; the program gives geometry and
-/// lines.
+/// What drives the simulation: the commands, the record's clock offset when they fix it,
+/// where the program starts on their timeline (s), and how the record's start was set.
+struct Driving {
+    commands: Commands,
+    fixed_offset: Option<f64>,
+    program_start_s: f64,
+    start: Start,
+}
+
+/// The commands that drive the simulation. The record's own commands, where it has them,
+/// drive the simulation on its own clock, whatever timing our plan gives the program — after
+/// they have shown that they lie on the program's path from where they join it; the program
+/// gives geometry and lines. A record whose commands begin in motion gets a run-in before
+/// them and a settling stretch that is not compared ([`super::start`]).
 fn driving_commands(
     plan: &Plan,
     plan_commands: Commands,
+    machine: &MachineConfig,
     measured: &MeasuredTrace,
     settings: &CompareSettings,
-) -> Result<(Commands, Option<f64>, f64), CompareError> {
+) -> Result<Driving, CompareError> {
     let dt = plan_commands.dt_s;
     let Some([xc, yc]) = &measured.commands else {
-        return Ok((plan_commands, None, 0.0));
+        return Ok(Driving {
+            commands: plan_commands,
+            fixed_offset: None,
+            program_start_s: 0.0,
+            start: Start::planned(),
+        });
     };
     let mut commands = commands_from_record(xc, yc, measured.dt_s, dt);
-    if let Some(worst) = place_on_path(plan, &mut commands)
-        && worst.distance_m > settings.command_tolerance_m
+    let placement = place_on_path(&plan.segments, &mut commands, settings.command_tolerance_m);
+    if let Some(worst) = placement.worst
+        && (worst.distance_m > settings.command_tolerance_m || !placement.joined)
     {
-        let hint = match parallel_offset(plan, &plan_commands, measured, dt, settings) {
-            Some([x, y]) => format!(
-                "the commands run parallel to the program, offset by X {:.3} mm, Y {:.3} \
-                 mm — a work offset; give it with --work-offset {:.3},{:.3}",
-                x * 1e3,
-                y * 1e3,
-                x * 1e3,
-                y * 1e3
-            ),
-            None => "is this a record of this program, in the same coordinates?".into(),
-        };
-        return Err(CompareError::OffPath {
-            file: measured.file.clone(),
-            t_s: measured.t0_s + worst.t_s,
-            line: worst.line,
-            distance_um: um_from_m(worst.distance_m),
-            tolerance_um: um_from_m(settings.command_tolerance_m),
-            hint,
-        });
+        return Err(off_path(plan, &plan_commands, measured, settings, worst));
     }
-    let start = first_motion(&commands) - first_motion(&plan_commands);
-    Ok((commands, Some(measured.t0_s), start))
+    let join_s = placement.join as f64 * dt;
+    let first_command_m = [commands.x.pos_m[0], commands.y.pos_m[0]];
+    let kind = if placement.join > 0 {
+        StartKind::BeforeProgram
+    } else if starts_in_motion(&commands) {
+        StartKind::InMotion
+    } else {
+        StartKind::AtRest
+    };
+    let whole = kind == StartKind::AtRest && placement.at_program_start;
+    let Prepared {
+        commands,
+        run_in_s,
+        settling_s,
+        arrival,
+        approach_simulated,
+    } = prepare(
+        kind,
+        commands,
+        placement.join,
+        &plan_commands,
+        machine,
+        measured,
+        settings,
+    );
+    let program_start_s = if whole {
+        first_motion(&commands) - first_motion(&plan_commands)
+    } else {
+        // The program started before the record, or the record before the program: where
+        // the plan would be where the comparison begins, on the commands' timeline.
+        let k = (run_in_s / dt).round() as usize;
+        let at = [commands.x.pos_m[k], commands.y.pos_m[k]];
+        run_in_s - plan_time_at(&plan_commands, commands.segment[k], at)
+    };
+    Ok(Driving {
+        commands,
+        fixed_offset: Some(
+            measured.t0_s
+                + if approach_simulated {
+                    0.0
+                } else {
+                    join_s - run_in_s
+                },
+        ),
+        program_start_s,
+        start: Start {
+            kind,
+            run_in_s,
+            join_s,
+            settling_s,
+            first_command_m,
+            at_program_start: placement.at_program_start,
+            arrival,
+            approach_simulated,
+        },
+    })
+}
+
+/// The commands a record's start is simulated on, by how it begins: from where they join the
+/// program after an approach, with a run-in where they begin in motion, else as recorded.
+fn prepare(
+    kind: StartKind,
+    commands: Commands,
+    join: usize,
+    plan_commands: &Commands,
+    machine: &MachineConfig,
+    measured: &MeasuredTrace,
+    settings: &CompareSettings,
+) -> Prepared {
+    match kind {
+        StartKind::BeforeProgram => from_join(commands, join, machine, measured, settings),
+        StartKind::InMotion => in_motion(commands, plan_commands, machine, settings),
+        StartKind::AtRest | StartKind::Planned => Prepared {
+            commands,
+            run_in_s: 0.0,
+            settling_s: [0.0; 2],
+            arrival: None,
+            approach_simulated: false,
+        },
+    }
+}
+
+/// The commands a record's start is simulated on, with how its start was set.
+struct Prepared {
+    commands: Commands,
+    /// Simulated before the comparison's first command (s).
+    run_in_s: f64,
+    /// Per axis, simulated but not compared after that (s).
+    settling_s: [f64; 2],
+    /// Where each model's run-in must bring it (a run-in to the record's state).
+    arrival: Option<[Arrival; 2]>,
+    /// The record's approach drives the model (it follows it), not a run-in.
+    approach_simulated: bool,
+}
+
+/// How far the nominal model may end its run of a record's approach from where the record
+/// has the machine at the join, as a share of the machine's following error there, for the
+/// approach to drive it (or 5 µm, whichever is more).
+const APPROACH_FOLLOWED: f64 = 0.1;
+
+/// A record whose commands join the program after an approach from where the machine stood.
+/// Where the nominal model follows the approach — it ends it near where the record has the
+/// machine — the approach drives it, as it drove the machine, and is simulated but not
+/// compared: every model then meets the join in the state its own run of the approach
+/// leaves, play and friction on the side the approach left them. Where it does not (a rapid
+/// at 36 m/min on a machine file whose rapid rate is 6 m/min), the approach is left out and
+/// each model is run in to where and how fast the record has the machine at the join. Either
+/// way a settling stretch follows, as long as the two starts take to agree.
+fn from_join(
+    commands: Commands,
+    join: usize,
+    machine: &MachineConfig,
+    measured: &MeasuredTrace,
+    settings: &CompareSettings,
+) -> Prepared {
+    let dt = commands.dt_s;
+    let join_s = join as f64 * dt;
+    let sim = &settings.check.sim;
+    let came_from = [&commands.x, &commands.y].map(|c| last_direction(c, join));
+    let state = state_at(measured, join_s, came_from);
+    let joined = tail(&commands, join);
+    let (run, run_in_s) = run_in_to_state(&joined, machine, state, sim);
+    let at_join = AxisName::BOTH.map(|a| {
+        let model = AxisModel::from_config(machine.axis(a));
+        let head = crate::plan::AxisCommands {
+            pos_m: commands.axis(a).pos_m[..=join].to_vec(),
+            vel_m_per_s: commands.axis(a).vel_m_per_s[..=join].to_vec(),
+            acc_m_per_s2: commands.axis(a).acc_m_per_s2[..=join].to_vec(),
+        };
+        crate::sim::simulate(&model, &head, dt, sim)
+            .ok()
+            .map(|t| t.into_read_at(settings.measured_at)[join])
+    });
+    let follows = AxisName::BOTH.into_iter().all(|a| {
+        let lag = (commands.axis(a).pos_m[join] - state[a.index()].x_m).abs();
+        at_join[a.index()].is_some_and(|m| {
+            (m - state[a.index()].x_m).abs() <= (APPROACH_FOLLOWED * lag).max(5e-6)
+        })
+    });
+    let run_in_samples = (run_in_s / dt).round() as usize;
+    if follows {
+        let settling_s = settling_time(machine, (&commands, join), (&run, run_in_samples), sim);
+        return Prepared {
+            commands,
+            run_in_s: join_s,
+            settling_s,
+            arrival: None,
+            approach_simulated: true,
+        };
+    }
+    // The other guess: the machine at rest where the record has it.
+    let resting = state.map(|s| Arrival {
+        v_m_per_s: 0.0,
+        a_m_per_s2: 0.0,
+        ..s
+    });
+    let (at_rest, rest_s) = run_in_to_state(&joined, machine, resting, sim);
+    let settling_s = settling_time(
+        machine,
+        (&run, run_in_samples),
+        (&at_rest, (rest_s / dt).round() as usize),
+        sim,
+    );
+    Prepared {
+        commands: run,
+        run_in_s,
+        settling_s,
+        arrival: Some(state),
+        approach_simulated: false,
+    }
+}
+
+/// A record whose commands begin in motion on the program's path: a run-in on their first
+/// speed, an axis standing there moved in from the side the program's previous move of it
+/// came from, and a settling stretch as long as a start from rest takes to agree with it.
+fn in_motion(
+    commands: Commands,
+    plan_commands: &Commands,
+    machine: &MachineConfig,
+    settings: &CompareSettings,
+) -> Prepared {
+    let dt = commands.dt_s;
+    let first = [commands.x.pos_m[0], commands.y.pos_m[0]];
+    let plan_k = plan_sample_at(plan_commands, commands.segment[0], first);
+    let arrive = AxisName::BOTH.map(|a| {
+        let c = commands.axis(a);
+        Arrival {
+            x_m: c.pos_m[0],
+            v_m_per_s: c.vel_m_per_s[0],
+            a_m_per_s2: c.acc_m_per_s2[0],
+            came_from: last_direction(plan_commands.axis(a), plan_k),
+        }
+    });
+    let (run, run_in_s) = with_run_in(&commands, machine, arrive);
+    let settling_s = settling_time(
+        machine,
+        (&run, (run_in_s / dt).round() as usize),
+        (&commands, 0),
+        &settings.check.sim,
+    );
+    Prepared {
+        commands: run,
+        run_in_s,
+        settling_s,
+        arrival: None,
+        approach_simulated: false,
+    }
+}
+
+/// The commands from sample `from` on.
+fn tail(commands: &Commands, from: usize) -> Commands {
+    let cut = |c: &crate::plan::AxisCommands| crate::plan::AxisCommands {
+        pos_m: c.pos_m[from..].to_vec(),
+        vel_m_per_s: c.vel_m_per_s[from..].to_vec(),
+        acc_m_per_s2: c.acc_m_per_s2[from..].to_vec(),
+    };
+    Commands {
+        dt_s: commands.dt_s,
+        x: cut(&commands.x),
+        y: cut(&commands.y),
+        z: cut(&commands.z),
+        segment: commands.segment[from..].to_vec(),
+    }
+}
+
+/// Half-width of the fit that reads the machine's state from its measured positions (s):
+/// wide against the noise of a measured position, short against a deceleration.
+const STATE_HALF_WIDTH_S: f64 = 0.02;
+
+/// Where the record has the machine at `t_s` after its start, how fast it moves and how it
+/// accelerates, per axis — a local quadratic fit of its measured positions; `came_from`,
+/// the direction each last moved in.
+fn state_at(measured: &MeasuredTrace, t_s: f64, came_from: [f64; 2]) -> [Arrival; 2] {
+    let half = STATE_HALF_WIDTH_S.max(1.5 * measured.dt_s);
+    [&measured.x_m, &measured.y_m]
+        .into_iter()
+        .zip(came_from)
+        .map(|(m, came_from)| {
+            let (v, a) = local_derivatives(m, measured.dt_s, t_s, half);
+            Arrival {
+                x_m: sample(m, measured.dt_s, t_s),
+                v_m_per_s: v,
+                a_m_per_s2: a,
+                came_from,
+            }
+        })
+        .collect::<Vec<_>>()
+        .try_into()
+        .expect("two axes")
+}
+
+/// Why recorded commands cannot be placed on the program: where they leave its path, and
+/// what the user may try.
+fn off_path(
+    plan: &Plan,
+    plan_commands: &Commands,
+    measured: &MeasuredTrace,
+    settings: &CompareSettings,
+    worst: Departure,
+) -> CompareError {
+    let dt = plan_commands.dt_s;
+    let hint = match parallel_offset(plan, plan_commands, measured, dt, settings) {
+        Some([x, y]) => format!(
+            "the commands run parallel to the program, offset by X {:.3} mm, Y {:.3} \
+             mm — a work offset; give it with --work-offset {:.3},{:.3}",
+            x * 1e3,
+            y * 1e3,
+            x * 1e3,
+            y * 1e3
+        ),
+        None => "is this a record of this program, in the same coordinates?".into(),
+    };
+    let hint = match measured.counts_hint() {
+        Some(counts) => format!("{counts}; else {hint}"),
+        None => hint,
+    };
+    CompareError::OffPath {
+        file: measured.file.clone(),
+        t_s: measured.t0_s + worst.t_s,
+        line: worst.line,
+        distance_um: um_from_m(worst.distance_m),
+        tolerance_um: um_from_m(settings.command_tolerance_m),
+        hint,
+    }
+}
+
+/// When the plan passes `at` (m) on segment `segment` (s on the plan's clock).
+fn plan_time_at(plan_commands: &Commands, segment: u32, at: [f64; 2]) -> f64 {
+    plan_sample_at(plan_commands, segment, at) as f64 * plan_commands.dt_s
+}
+
+/// The plan's sample on segment `segment` nearest `at` (m), or the first sample of a later
+/// segment.
+fn plan_sample_at(plan_commands: &Commands, segment: u32, at: [f64; 2]) -> usize {
+    let c = plan_commands;
+    let distance = |k: usize| (c.x.pos_m[k] - at[0]).hypot(c.y.pos_m[k] - at[1]);
+    let on: Vec<usize> = (0..c.len()).filter(|&k| c.segment[k] == segment).collect();
+    on.into_iter()
+        .min_by(|&a, &b| distance(a).total_cmp(&distance(b)))
+        .or_else(|| (0..c.len()).find(|&k| c.segment[k] > segment))
+        .unwrap_or(0)
 }
 
 /// The samples compared at clock offset `offset`: those whose program time lies within the
@@ -218,15 +523,18 @@ fn choose_samples(ctx: &mut Context, offset: f64) -> Result<(), CompareError> {
     let duration = ctx.commands.duration_s();
     let fixed = ctx.fixed_offset.is_some();
     let margin = if fixed { 0.0 } else { 0.2 };
+    // Nothing before the record's commands join the program or have settled.
+    let from = ctx.start.compared_from_s().max(margin);
     let stride = ((ctx.dt / measured.dt_s) * (1.0 + 1e-9)).floor().max(1.0) as usize;
     ctx.sample_dt_s = stride as f64 * measured.dt_s;
-    let expected = (duration / measured.dt_s).min(measured.len() as f64) / stride as f64;
+    let expected =
+        ((duration - from).max(0.0) / measured.dt_s).min(measured.len() as f64) / stride as f64;
     let compared = |ctx: &Context, with_rapids: bool| -> Vec<usize> {
         (0..measured.len())
             .step_by(stride)
             .filter(|&i| {
                 let t = ctx.prog_time(i, offset);
-                t >= margin && t <= duration - margin && (with_rapids || !ctx.in_rapid(t))
+                t >= from && t <= duration - margin && (with_rapids || !ctx.in_rapid(t))
             })
             .collect()
     };
@@ -269,7 +577,9 @@ fn refuse_far_prediction(
         return Ok(());
     }
     let off_path = share_off_path(ctx);
-    let hint = if off_path > 0.2 {
+    let hint = if let Some(counts) = ctx.measured.counts_hint() {
+        format!(" {}{}.", counts[..1].to_uppercase(), &counts[1..])
+    } else if off_path > 0.2 {
         format!(
             " Its measured path lies more than 1 mm from every block of the program over \
              {:.0} % of the record: no timing can mend that.",

@@ -76,6 +76,13 @@ pub struct Context<'a> {
     /// holds still after settling and the nominal model hunts ([`Context::hunting_holds`]).
     /// Empty for none.
     pub(crate) holding: [Vec<bool>; 2],
+    /// Per axis, the compared samples left out of its point-by-point residual because the
+    /// axis has not settled from the record's start ([`Context::unsettled_at_start`]). Empty
+    /// for none.
+    pub(crate) unsettled: [Vec<bool>; 2],
+    /// How the record's start was set: a run-in before it, where its commands join the
+    /// program, the settling stretch not compared.
+    pub(crate) start: super::start::Start,
 }
 
 /// A command slower than this stands (m/s): recorded commands' speeds are fitted and carry
@@ -217,9 +224,55 @@ impl Context<'_> {
         } else {
             self.sim
         };
-        simulate(&model, commands.axis(axis), self.dt, &sim)
+        let own;
+        let axis_commands = match self.start.arrival {
+            Some(arrival) => {
+                own = self.run_in_for(&model, axis, commands, arrival[axis.index()], &sim)?;
+                &own
+            }
+            None => commands.axis(axis),
+        };
+        simulate(&model, axis_commands, self.dt, &sim)
             .ok()
             .map(|t| t.into_read_at(self.measured_at))
+    }
+
+    /// `axis`'s commands with their run-in moved so that `model` arrives where and how fast
+    /// the record has the machine where its commands join the program (`arrival`): each
+    /// model — the nominal one and each with a cause — enters the record in the state the
+    /// record shows, not in the nominal model's. The run-in is run once on its own, and
+    /// moved by what it leaves between the model and the record's place.
+    fn run_in_for(
+        &self,
+        model: &AxisModel,
+        axis: AxisName,
+        commands: &Commands,
+        arrival: super::start::Arrival,
+        sim: &SimConfig,
+    ) -> Option<crate::plan::AxisCommands> {
+        let c = commands.axis(axis);
+        let n = ((self.start.run_in_s / self.dt).round() as usize).min(c.len());
+        if n == 0 {
+            return Some(c.clone());
+        }
+        let mut alone = crate::plan::AxisCommands {
+            pos_m: c.pos_m[..n].to_vec(),
+            vel_m_per_s: c.vel_m_per_s[..n].to_vec(),
+            acc_m_per_s2: c.acc_m_per_s2[..n].to_vec(),
+        };
+        let (v, a) = (c.vel_m_per_s[n - 1], c.acc_m_per_s2[n - 1]);
+        alone.push(
+            c.pos_m[n - 1] + v * self.dt + 0.5 * a * self.dt * self.dt,
+            v + a * self.dt,
+            a,
+        );
+        let reached = simulate(model, &alone, self.dt, sim)
+            .ok()?
+            .into_read_at(self.measured_at);
+        let shift = arrival.x_m - reached.get(n)?;
+        let mut own = c.clone();
+        own.pos_m[..n].iter_mut().for_each(|p| *p += shift);
+        Some(own)
     }
 
     /// The commands of `machine` when its in-position waits differ from those of the plan
@@ -269,15 +322,14 @@ impl Context<'_> {
     /// model: they weigh in no fit and no evidence.
     pub fn residual(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> Vec<f64> {
         let m = self.measured_axis(axis);
-        let held = &self.holding[axis.index()];
         self.samples
             .iter()
             .enumerate()
             .map(|(k, &i)| {
-                if held.get(k).copied().unwrap_or(false) {
-                    0.0
-                } else {
+                if self.compared(axis, k) {
                     m[i] - sample(trace, self.dt, self.prog_time(i, offset_s))
+                } else {
+                    0.0
                 }
             })
             .collect()
@@ -292,7 +344,45 @@ impl Context<'_> {
 
     /// Whether compared sample `k` of `axis` is in its point-by-point residual.
     pub(crate) fn compared(&self, axis: AxisName, k: usize) -> bool {
-        !self.holding[axis.index()].get(k).copied().unwrap_or(false)
+        let left_out = |mask: &[Vec<bool>; 2]| mask[axis.index()].get(k).copied().unwrap_or(false);
+        !left_out(&self.holding) && !left_out(&self.unsettled)
+    }
+
+    /// How long `axis` is left out because it holds still while the model hunts (s).
+    pub fn hunting_left_out_s(&self, axis: AxisName) -> f64 {
+        self.holding[axis.index()].iter().filter(|&&h| h).count() as f64 * self.sample_dt_s
+    }
+
+    /// The compared samples at which `axis` has not settled from the record's start: before
+    /// its settling time after the run-in, and, unless the record starts at rest at the
+    /// program's start, from an axis standing there until [`START_AFTER_HUNTING_S`] after
+    /// it first moves — how long it stood, and what its integral action holds against
+    /// friction, the record does not show.
+    pub(crate) fn unsettled_at_start(&self, axis: AxisName, offset_s: f64) -> Vec<bool> {
+        let start = &self.start;
+        let settled_s = start.run_in_s + start.settling_s[axis.index()];
+        let times = self.sample_times(offset_s);
+        let whole = match start.kind {
+            super::start::StartKind::Planned => true,
+            super::start::StartKind::AtRest => start.at_program_start,
+            _ => false,
+        };
+        let first_move = if whole {
+            None
+        } else {
+            let c = &self.commands;
+            let begin = ((start.run_in_s / self.dt).round() as usize).min(c.len());
+            let moves = |k: usize| c.axis(axis).vel_m_per_s[k].abs() >= STILL_M_PER_S;
+            (!moves(begin.min(c.len().saturating_sub(1)))).then(|| {
+                (begin..c.len())
+                    .find(|&k| moves(k))
+                    .map_or(f64::INFINITY, |k| k as f64 * self.dt)
+            })
+        };
+        times
+            .iter()
+            .map(|&t| t < settled_s || first_move.is_some_and(|m| t < m + START_AFTER_HUNTING_S))
+            .collect()
     }
 
     /// The samples of `axis` at which it holds still and the model `trace` hunts: from where
@@ -613,5 +703,62 @@ impl Context<'_> {
                 .collect()
         };
         (at(&reversal), at(&event))
+    }
+}
+
+impl Context<'_> {
+    /// Which stretch of the program the compared samples cover, and how the record's start
+    /// was set, at clock offset `offset_s`.
+    pub fn coverage(&self, offset_s: f64) -> super::start::Coverage {
+        let segs = &self.plan.segments;
+        let line_at = |t: f64| {
+            let c = &self.commands;
+            let k = (t / c.dt_s).round().clamp(0.0, (c.len().max(1) - 1) as f64) as usize;
+            c.segment.get(k).map_or(0, |&s| s as usize)
+        };
+        let times = self.sample_times(offset_s);
+        let (first_t, last_t) = (
+            times.first().copied().unwrap_or(0.0),
+            times.last().copied().unwrap_or(0.0),
+        );
+        let (first_seg, last_seg) = (line_at(first_t), line_at(last_t));
+        let feeds: Vec<usize> = (0..segs.len())
+            .filter(|&j| segs[j].motion == Motion::Feed)
+            .collect();
+        let line = |j: usize| segs.get(j).map_or(0, |s| s.line);
+        let start = &self.start;
+        let from_program_start = match start.kind {
+            super::start::StartKind::Planned => first_t <= 0.5,
+            _ => start.at_program_start,
+        };
+        super::start::Coverage {
+            start: start.kind,
+            first_line: line(first_seg),
+            last_line: line(last_seg),
+            program_first_line: line(0),
+            program_last_line: line(segs.len().saturating_sub(1)),
+            compared_from_s: first_t + offset_s,
+            compared_to_s: last_t + offset_s,
+            stood_at_mm: (start.kind == super::start::StartKind::BeforeProgram)
+                .then(|| start.first_command_m.map(|v| v * 1e3)),
+            approach_s: start.join_s,
+            approach_simulated: start.approach_simulated,
+            run_in_s: if start.kind == super::start::StartKind::InMotion {
+                start.run_in_s
+            } else {
+                0.0
+            },
+            settling_s: AxisName::BOTH.map(|a| {
+                let dropped = start.compared_from_s() - start.run_in_s;
+                let left_out = self.unsettled[a.index()].iter().filter(|&&u| u).count();
+                dropped + left_out as f64 * self.sample_dt_s
+            }),
+            from_program_start,
+            to_program_end: feeds.last().is_none_or(|&f| last_seg >= f),
+            into_program_s: match start.kind {
+                super::start::StartKind::Planned => first_t,
+                _ => (start.run_in_s - self.program_start_s).max(0.0),
+            },
+        }
     }
 }

@@ -10,6 +10,7 @@
 mod align;
 pub mod context;
 pub mod residual;
+pub mod start;
 
 use crate::check::CheckSettings;
 use crate::gcode::Program;
@@ -67,7 +68,7 @@ pub enum CompareError {
     /// The recorded commands leave the program's geometry.
     #[error(
         "{file}: the recorded commands leave the program's path by {distance_um:.1} µm at \
-         t = {t_s:.4} s (line {line}); more than the {tolerance_um} µm allowed \
+         t = {t_s:.4} s (line {line}); more than the {tolerance_um:.1} µm allowed \
          (--command-tolerance-um): {hint}"
     )]
     OffPath {
@@ -124,6 +125,7 @@ pub fn compare<'a>(
     let residuals = AxisName::BOTH.map(|a| ctx.residual(a, &nominal[a.index()], offset_s));
     ctx.noise_sigma = residual::record_noise(&residuals, measured);
     ctx.holding = AxisName::BOTH.map(|a| ctx.hunting_holds(a, &nominal[a.index()], offset_s));
+    ctx.unsettled = AxisName::BOTH.map(|a| ctx.unsettled_at_start(a, offset_s));
     Ok(Comparison {
         ctx,
         offset_s,

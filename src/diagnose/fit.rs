@@ -26,7 +26,7 @@ use rayon::prelude::*;
 use super::{Context, Stepping};
 use crate::causes::{self, CauseId, Param};
 use crate::machine::{AxisName, MachineConfig};
-use crate::numeric::lsq::{self, forward_jacobian, uncertainties};
+use crate::numeric::lsq::{self, correlation_time, forward_jacobian, model_floor, uncertainties};
 
 /// A fitted cause.
 #[derive(Debug, Clone, PartialEq)]
@@ -105,7 +105,7 @@ pub(crate) fn fit_cause(
     let params = cause.params();
     let sigma = jacobian.map_or_else(
         || vec![f64::NAN; params.len()],
-        |j| problem.model.uncertainties(&j, rss),
+        |j| problem.model.uncertainties(&j, rss, &r0),
     );
     let (values, offset_s) = problem.model.unscale(&p);
     accept(
@@ -675,13 +675,23 @@ impl Model<'_> {
         )
     }
 
-    /// Standard uncertainties of the cause's parameters from the Jacobian `jac`, with the
-    /// residual's variance per degree of freedom, in machine units.
-    fn uncertainties(&self, jac: &DMatrix<f64>, rss: f64) -> Vec<f64> {
+    /// Standard uncertainties of the cause's parameters from the Jacobian `jac`, in machine
+    /// units: the residual's variance per degree of freedom, widened by its correlation time
+    /// (a smooth residual holds fewer independent samples than it numbers), and never below
+    /// the model's floor — what a modelling difference of half the noise could move them by,
+    /// as identification allows: the model is not the machine.
+    fn uncertainties(&self, jac: &DMatrix<f64>, rss: f64, residual: &DVector<f64>) -> Vec<f64> {
+        let correlation = correlation_time(residual).sqrt();
+        let floor = model_floor(
+            jac,
+            self.ctx.noise_sigma,
+            self.ctx.compared_count(self.axis),
+        );
         uncertainties(jac, rss, 0.0)
             .into_iter()
+            .zip(floor)
             .zip(self.cause.params())
-            .map(|(s, q)| s * q.scale)
+            .map(|((s, f), q)| (s * correlation).max(f) * q.scale)
             .collect()
     }
 }

@@ -31,6 +31,7 @@ use crate::analysis::circular::{Circle, CircularTest, circles, circular_test};
 use crate::analysis::contour::{ContourSeries, contour_errors};
 use crate::compare::residual::{self, axis_residual};
 pub use crate::compare::residual::{AxisResidual, ResidualStats};
+pub use crate::compare::start::{Coverage, StartKind};
 pub use crate::compare::{CompareError, CompareSettings, Context, Stepping};
 use crate::compare::{Comparison, compare};
 use crate::gcode::Program;
@@ -253,6 +254,8 @@ pub struct Diagnosis {
     /// Terms learned from the residual where no catalogue cause explained it (position
     /// maps), part of `machine`.
     pub learned: Vec<learn::Learned>,
+    /// Which stretch of the program was compared, and how the record's start was set.
+    pub coverage: Coverage,
 }
 
 /// Circular-test figures of the same circles three ways.
@@ -344,9 +347,26 @@ pub fn diagnose_validated(
                     .into_iter()
                     .any(|a| tries_allowed(machine, settings, a, c))
             }),
-        beyond_machine: measured.beyond_machine(machine),
+        beyond_machine: beyond_machine_compared(measured, machine, &ctx, outcome.offset_s),
         ..assemble(&ctx, outcome, summary)
     })
+}
+
+/// Where the recorded commands ask more of an axis than the machine file allows, from where
+/// the model follows them: after an approach from where the machine stood that it is not
+/// driven by, only from the join on.
+fn beyond_machine_compared(
+    measured: &MeasuredTrace,
+    machine: &MachineConfig,
+    ctx: &Context,
+    offset_s: f64,
+) -> Vec<BeyondMachine> {
+    let coverage = ctx.coverage(offset_s);
+    if coverage.start == StartKind::BeforeProgram && !coverage.approach_simulated {
+        measured.beyond_machine_from(machine, coverage.approach_s)
+    } else {
+        measured.beyond_machine(machine)
+    }
 }
 
 /// The extended model must not predict the contour worse than the nominal one: the last
@@ -447,13 +467,9 @@ fn assemble(ctx: &Context, outcome: search::Outcome, summary: Summary) -> Diagno
         timing_drift_ms: ctx.timing_drift_s.map(|s| s * 1e3),
         beyond_machine: Vec::new(),
         rapids_compared: ctx.rapids_compared,
-        hunting_left_out_s: AxisName::BOTH.map(|a| {
-            (0..ctx.samples.len())
-                .filter(|&k| !ctx.compared(a, k))
-                .count() as f64
-                * ctx.sample_dt_s
-        }),
+        hunting_left_out_s: AxisName::BOTH.map(|a| ctx.hunting_left_out_s(a)),
         circles: circles(&ctx.plan.segments),
+        coverage: ctx.coverage(outcome.offset_s),
         unexplained: Vec::new(),
         learned: Vec::new(),
         skipped: Vec::new(),

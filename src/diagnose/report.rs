@@ -11,8 +11,8 @@ use super::learn::Learned;
 use super::locate::{Located, Variable};
 
 use super::{
-    Alternative, AxisResidual, Candidate, CircularComparison, Diagnosis, ExtraWait, FittedParam,
-    HeldOut, HeldOutMeasure, JudgedOn, Place, Rejected, ResidualStats, Skipped,
+    Alternative, AxisResidual, Candidate, CircularComparison, Coverage, Diagnosis, ExtraWait,
+    FittedParam, HeldOut, HeldOutMeasure, JudgedOn, Place, Rejected, ResidualStats, Skipped,
 };
 use crate::causes::CauseId;
 use crate::machine::{AxisName, MachineConfig};
@@ -74,6 +74,8 @@ pub struct DiagnoseReport {
     /// Position maps learned from the residual where no catalogue cause explained it (in
     /// the extended machine as `errors.position_map_mm/um`).
     pub learned: Vec<Learned>,
+    /// Which stretch of the program was compared, and how the record's start was set.
+    pub coverage: Coverage,
 }
 
 /// The measurement, as read.
@@ -245,6 +247,7 @@ impl DiagnoseReport {
             circular_test: d.circular.clone(),
             unexplained: d.unexplained.clone(),
             learned: d.learned.clone(),
+            coverage: d.coverage,
         }
     }
 
@@ -320,6 +323,9 @@ impl DiagnoseReport {
             "machine {}; clock offset {:.4} s; noise floor {:.3} µm; {} samples compared per axis",
             self.machine, self.clock_offset_s, self.noise_floor_um, m.samples_compared
         );
+        for line in self.coverage.describe() {
+            let _ = writeln!(s, "{line}");
+        }
         for beyond in &self.beyond_machine {
             let _ = writeln!(s, "warning: {beyond}");
         }

@@ -394,6 +394,11 @@ fn judge(
     if let Some(why) = worse_somewhere(ctx, now, s.try_.statistical, axis, fitted) {
         return Err(why);
     }
+    if !s.try_.statistical
+        && let Some(why) = evidence_at_the_start(ctx, settings, now, axis, fitted)
+    {
+        return Err(why);
+    }
     let held = match validation {
         Some(v) => v
             .judge(current, axis, cause, &fitted.values, s.try_.statistical)
@@ -498,6 +503,63 @@ fn worse_somewhere(
         }
     }
     None
+}
+
+/// How long after the comparison's first sample a cause's evidence must not all lie (s):
+/// there the model's state is least known — a record begun in motion, after an approach,
+/// or cut from a longer trace — and a cause fitted to it only mends the start.
+const START_S: f64 = 1.0;
+
+/// Why a fit's evidence cannot be trusted for where it lies, if it cannot: what it gains
+/// on the samples after the comparison's first [`START_S`] falls short of the evidence
+/// threshold (counted as [`score`] counts it). A cause seen only there is a misalignment.
+fn evidence_at_the_start(
+    ctx: &Context,
+    settings: &DiagnoseSettings,
+    now: Current,
+    axis: AxisName,
+    fitted: &Fitted,
+) -> Option<String> {
+    let times = ctx.sample_times(now.offset_s);
+    let from = times.first()? + START_S;
+    let late: Vec<usize> = (0..times.len()).filter(|&k| times[k] >= from).collect();
+    let late_of = |r: Vec<f64>| -> Vec<f64> { late.iter().map(|&k| r[k]).collect() };
+    let sum_sq = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
+    let new_trace = |a: AxisName| {
+        if a == axis {
+            &fitted.trace
+        } else {
+            &fitted.other
+        }
+    };
+    let (mut before, mut after) = (0.0, 0.0);
+    for a in AxisName::BOTH {
+        before += sum_sq(&late_of(ctx.residual(
+            a,
+            &now.traces[a.index()],
+            now.offset_s,
+        )));
+        after += sum_sq(&late_of(ctx.residual(a, new_trace(a), fitted.offset_s)));
+    }
+    let evidence = if late.is_empty() {
+        f64::NEG_INFINITY
+    } else {
+        let own = late_of(ctx.residual(axis, &fitted.trace, fitted.offset_s));
+        let n = 2.0 * late.len() as f64;
+        (before - after) / (ctx.noise_sigma * ctx.noise_sigma) * independent_share(&own)
+            - fitted.values.len() as f64 * n.ln()
+    };
+    (evidence < settings.evidence).then(|| {
+        let rest = if late.is_empty() {
+            "nothing is compared after it".to_string()
+        } else {
+            format!("evidence on the rest {evidence:.1}")
+        };
+        format!(
+            "fits, but its evidence lies in the comparison's first {START_S:.0} s, where the \
+             model's start is least known ({rest})"
+        )
+    })
 }
 
 /// How far an axis's residual exceeds the noise: its sum of squares beyond n σ², in

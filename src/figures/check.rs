@@ -127,7 +127,7 @@ fn toolpath_figure(
             Marker {
                 x_mm: q[h],
                 y_mm: q[v],
-                label: format!(" {}: L{}", i + 1, at(spot.line)),
+                label: format!("{}: L{}", i + 1, at(spot.line)),
             }
         })
         .collect();
@@ -155,13 +155,7 @@ fn along_path_figure(run: &CheckResult, name: &str, at: &dyn Fn(u32) -> String) 
         .iter()
         .take(10)
         .enumerate()
-        .map(|(i, h)| {
-            (
-                h.path_mm,
-                h.error_um,
-                format!(" {}: L{}", i + 1, at(h.line)),
-            )
-        })
+        .map(|(i, h)| (h.path_mm, h.error_um, format!("{}: L{}", i + 1, at(h.line))))
         .collect();
     AlongPathPlot {
         title: format!("{name}: contour error along the path"),

@@ -77,13 +77,13 @@ fn curve_points(x: &[f64], t: &[f64], y: impl Fn(usize) -> f64) -> Vec<(f64, f64
     out
 }
 
-/// Each axis's deviation from the command, measured and by both models.
+/// Each axis's deviation from the command, measured and by both models, around where the
+/// nominal model misses most, and beneath it the miss itself (model − measured) at its own
+/// scale: a 6 µm miss on a 500 µm following error is invisible on the deviation's.
 fn fit_plot(d: &Diagnosis, name: &str, extended_name: &str) -> PanelsPlot {
     let s = &d.series;
     let t = &s.t_s;
-    // Each axis's deviation from the command, measured and by both models, around where
-    // the nominal model misses most (the whole record when it misses nowhere).
-    let deviation = |a: usize| {
+    let panels = |a: usize| {
         let axis = ["x", "y"][a];
         let worst = d.places.iter().find(|p| p.what == axis);
         let keep: Vec<usize> = match worst {
@@ -93,48 +93,47 @@ fn fit_plot(d: &Diagnosis, name: &str, extended_name: &str) -> PanelsPlot {
             None => (0..t.len()).collect(),
         };
         let tk: Vec<f64> = keep.iter().map(|&k| t[k]).collect();
-        let dev = |model: &[f64]| {
-            curve_points(&tk, &tk, |j| {
-                um_from_m(model[keep[j]] - s.reference[a][keep[j]])
-            })
+        let series = |value: &dyn Fn(usize) -> f64| curve_points(&tk, &tk, |j| value(keep[j]));
+        let dev = |model: &[f64]| series(&|k| um_from_m(model[k] - s.reference[a][k]));
+        let miss = |model: &[f64]| series(&|k| um_from_m(model[k] - s.measured[a][k]));
+        let curve = |name: &str, points, color, width| Curve {
+            name: name.to_string(),
+            points,
+            color,
+            width,
         };
-        Panel {
-            caption: match worst {
-                Some(p) => format!(
-                    "{} axis: position − command around t = {:.2} s (line {}), where the nominal model misses most",
-                    axis.to_uppercase(),
-                    p.t_s,
-                    p.line
-                ),
-                None => format!("{} axis: position − command", axis.to_uppercase()),
+        let upper = axis.to_uppercase();
+        let caption = match worst {
+            Some(p) => format!(
+                "{upper} axis: position − command around t = {:.2} s (line {}), where the nominal model misses most",
+                p.t_s, p.line
+            ),
+            None => format!("{upper} axis: position − command"),
+        };
+        [
+            Panel {
+                caption,
+                y_label: "µm".into(),
+                curves: vec![
+                    curve("measured", dev(&s.measured[a]), None, 3),
+                    curve("nominal model", dev(&s.nominal[a]), Some(1), 2),
+                    curve(extended_name, dev(&s.extended[a]), Some(0), 2),
+                ],
             },
-            y_label: "µm".into(),
-            curves: vec![
-                Curve {
-                    name: "measured".into(),
-                    points: dev(&s.measured[a]),
-                    color: None,
-                    width: 3,
-                },
-                Curve {
-                    name: "nominal model".into(),
-                    points: dev(&s.nominal[a]),
-                    color: Some(1),
-                    width: 2,
-                },
-                Curve {
-                    name: extended_name.to_string(),
-                    points: dev(&s.extended[a]),
-                    color: Some(0),
-                    width: 2,
-                },
-            ],
-        }
+            Panel {
+                caption: format!("{upper} axis there: model − measured"),
+                y_label: "µm".into(),
+                curves: vec![
+                    curve("nominal model", miss(&s.nominal[a]), Some(1), 2),
+                    curve(extended_name, miss(&s.extended[a]), Some(0), 2),
+                ],
+            },
+        ]
     };
     PanelsPlot {
         title: format!("{name}: measured against the nominal and the extended model"),
         x_label: "program time (s)".into(),
-        panels: vec![deviation(0), deviation(1)],
+        panels: panels(0).into_iter().chain(panels(1)).collect(),
     }
 }
 

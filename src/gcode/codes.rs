@@ -82,7 +82,60 @@ pub(crate) fn classify_m(code10: u16) -> CodeClass {
         66 => Refused("M66 waits on an input for an unknown time"),
         70..=73 => Refused("saving and restoring modal state (M70–M73) is not supported"),
         98 | 99 => Refused("M98/M99 subprogram calls are not supported"),
+        96 => Refused("M96 interrupts the program with a macro at an input: its path is unknown"),
+        97 => Refused("M97 calls a subprogram of this file (a local subroutine): not supported"),
         _ => Unknown,
+    }
+}
+
+/// Whole-number M codes the table does not know, with the lines they stand on: a machine's
+/// own switching functions (clamps, doors, chip conveyors — M10, M11, M300), taken as not
+/// moving the axes and listed in one warning, never silently. Codes that move or wait are
+/// in the table as refused.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct UnknownMCodes {
+    seen: std::collections::BTreeMap<u16, Vec<u32>>,
+}
+
+/// Lines listed per code in the warning.
+const LINES_LISTED: usize = 5;
+
+impl UnknownMCodes {
+    /// Notes M code `code10` (number × 10) on `line`.
+    pub(crate) fn note(&mut self, code10: u16, line: u32) {
+        let lines = self.seen.entry(code10).or_default();
+        if lines.last() != Some(&line) {
+            lines.push(line);
+        }
+    }
+
+    /// The one warning listing them, with their lines; `None` when there were none.
+    pub(crate) fn warning(&self) -> Option<String> {
+        if self.seen.is_empty() {
+            return None;
+        }
+        let listed: Vec<String> = self
+            .seen
+            .iter()
+            .map(|(&code, lines)| {
+                let mut shown: Vec<String> = lines
+                    .iter()
+                    .take(LINES_LISTED)
+                    .map(u32::to_string)
+                    .collect();
+                if lines.len() > LINES_LISTED {
+                    shown.push(format!("… {} in all", lines.len()));
+                }
+                let word = if lines.len() == 1 { "line" } else { "lines" };
+                format!("{} ({word} {})", code_name('M', code), shown.join(", "))
+            })
+            .collect();
+        Some(format!(
+            "M codes this reader does not know, taken as the machine's own switching \
+             functions that neither move nor hold the axes: {} — if one moves an axis or \
+             waits, the prediction does not follow it",
+            listed.join(", ")
+        ))
     }
 }
 
@@ -139,5 +192,27 @@ mod tests {
         assert_eq!(classify_g(555), CodeClass::Unknown);
         assert_eq!(classify_m(3000), CodeClass::Unknown);
         assert_eq!(code_name('G', 901), "G90.1");
+        // Subprogram calls and interrupts move the axes where the reader cannot follow.
+        for m in [96, 97, 98, 99] {
+            assert!(matches!(classify_m(10 * m), CodeClass::Refused(_)), "M{m}");
+        }
+    }
+
+    #[test]
+    fn unknown_m_codes_are_listed_once_with_their_lines() {
+        let mut u = UnknownMCodes::default();
+        assert_eq!(u.warning(), None);
+        for (code, line) in [(100, 12), (110, 14), (100, 40), (100, 40), (3000, 9)] {
+            u.note(code, line);
+        }
+        let text = u.warning().unwrap();
+        assert!(
+            text.contains("M10 (lines 12, 40), M11 (line 14), M300 (line 9)"),
+            "{text}"
+        );
+        for l in 0..8 {
+            u.note(100, 100 + l);
+        }
+        assert!(u.warning().unwrap().contains("… 10 in all"));
     }
 }

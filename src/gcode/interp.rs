@@ -133,6 +133,7 @@ pub struct Interpreter {
     segments: Vec<Segment>,
     events: Vec<Event>,
     notes: BTreeMap<String, CodeNote>,
+    unknown_m: codes::UnknownMCodes,
     warnings: Vec<Warning>,
     blocks: usize,
     block_numbers: Vec<(u32, u32)>,
@@ -168,6 +169,7 @@ impl Interpreter {
             segments: Vec::new(),
             events: Vec::new(),
             notes: BTreeMap::new(),
+            unknown_m: codes::UnknownMCodes::default(),
             warnings: Vec::new(),
             blocks: 0,
             block_numbers: Vec::new(),
@@ -229,6 +231,10 @@ impl Interpreter {
 
     /// The interpreted program.
     pub fn finish(mut self, lines: usize) -> Program {
+        if let Some(message) = self.unknown_m.warning() {
+            // The warning lists its lines itself: it concerns the whole program.
+            self.warnings.push(Warning { line: 0, message });
+        }
         if self.lines_after_end > 0 {
             self.warnings.push(Warning {
                 line: 0,
@@ -288,7 +294,7 @@ impl Interpreter {
     }
 
     /// Refuses unknown and unsupported codes and letters, and modal-group conflicts.
-    fn check_codes(&self) -> IResult<()> {
+    fn check_codes(&mut self) -> IResult<()> {
         let b = &self.block;
         for (letter, list, classify) in [
             ('G', &b.g, codes::classify_g as fn(u16) -> CodeClass),
@@ -297,6 +303,10 @@ impl Interpreter {
             let mut groups: Vec<(u8, u16)> = Vec::new();
             for &(code, offset) in list.iter() {
                 match classify(code) {
+                    // A machine's own M function: listed in one warning at the end.
+                    CodeClass::Unknown if letter == 'M' && code.is_multiple_of(10) => {
+                        self.unknown_m.note(code, self.line);
+                    }
                     CodeClass::Unknown => {
                         let name = codes::code_name(letter, code);
                         return err(offset, GcodeErrorKind::UnknownCode(name));

@@ -41,6 +41,7 @@ pub use baseline::Baseline;
 pub use interpolator::Interpolator;
 pub use verdict::Place;
 
+use crate::compare::start::Coverage;
 use crate::compare::{CompareError, CompareSettings, Comparison, Context, Stepping, compare};
 use crate::gcode::Program;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
@@ -173,6 +174,10 @@ pub struct Identification {
     pub interpolator: Interpolator,
     /// The record's noise floor (µm).
     pub noise_um: f64,
+    /// Which stretch of the program the record was compared on, and how its start was set
+    /// (a trace that begins at the machine's home is compared from where its commands join
+    /// the program).
+    pub coverage: Coverage,
 }
 
 /// Why a record cannot identify a machine.
@@ -310,6 +315,7 @@ fn identify_as(
         axes,
         interpolator,
         noise_um: um_from_m(ctx.noise_sigma),
+        coverage: ctx.coverage(offset),
     })
 }
 

@@ -80,6 +80,9 @@ pub fn summary_text(id: &Identification, template: &MachineConfig) -> String {
         "identified from {} (template {}; record noise {:.3} µm)",
         id.file, template.name, id.noise_um
     );
+    for line in id.coverage.describe() {
+        let _ = writeln!(s, "{line}");
+    }
     for a in &id.axes {
         axis_summary(&mut s, a, id.noise_um);
     }
@@ -113,6 +116,14 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
     let _ = writeln!(s, "  {}", prediction(a));
     if let Some(verdict) = verdict(a, noise_um) {
         let _ = writeln!(s, "  {verdict}");
+    }
+    if a.values.iter().all(|v| !v.determined) {
+        let _ = writeln!(
+            s,
+            "  the record determines none of {}'s values: what it compares (above) does not \
+             move them beyond their uncertainty; the template's are written",
+            a.axis
+        );
     }
     let _ = writeln!(s, "  {:<38} {:>14}  identified", "key", "template");
     for v in &a.values {

@@ -10,7 +10,8 @@ use super::knobs::{Knob, get, set_all};
 use crate::compare::Context;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::numeric::lsq::{
-    self, combination_uncertainty, correlation_time, forward_jacobian, uncertainties,
+    self, MODEL_FLOOR_SHARE, combination_uncertainty, correlation_time, forward_jacobian,
+    uncertainties,
 };
 
 /// How far a positive value is searched from where the fit starts, as a factor either way:
@@ -21,11 +22,6 @@ const FACTOR_RANGE: f64 = 10.0;
 /// unstable loop) cost far more than any fit, so that the search steps back from them.
 const FAILED_M: f64 = 1.0;
 
-/// No model is the machine: two faithful integrations of one small table — this tool's and
-/// an independent Runge–Kutta reference — differ by 20 to 35 nm on its record, half the
-/// noise of 0.1 µm counts (`tests/identify.rs`). A value is known no better than the change
-/// that raises the residual by that much in quadrature, with the other values refitted.
-pub const MODEL_FLOOR_SHARE: f64 = 0.5;
 /// Step of the Jacobian's differences in the scaled parameters: large against the
 /// switching instants' rounding, small against the values.
 const STEP: f64 = 0.01;

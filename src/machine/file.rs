@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use super::{
-    AxisConfig, DEFAULT_PRESET, MachineConfig, PRESETS, ZAxis, alternatives, locate, sections,
+    AxisConfig, DEFAULT_PRESET, MachineConfig, ZAxis, alternatives, base, locate, sections,
     validate,
 };
 
@@ -16,7 +16,7 @@ impl MachineConfig {
 
     /// An embedded preset by name, validated.
     pub fn preset(name: &str) -> Result<MachineConfig, ConfigError> {
-        let table = preset_table(name, "<command line>")?;
+        let table = base::preset_table(name, "<command line>")?;
         from_table(table, &format!("<preset {name}>"))
     }
 
@@ -26,8 +26,9 @@ impl MachineConfig {
         Self::load_with_warnings(path).map(|(machine, _)| machine)
     }
 
-    /// Loads a machine file as [`MachineConfig::load`] does, with warnings about values the
-    /// file gives that look like a unit mixed up (0.005 µm of backlash: mm meant?).
+    /// Loads a machine file as [`MachineConfig::load`] does, with warnings: a file that
+    /// gives no `base` (it starts from the default preset), values that look like a unit
+    /// mixed up (0.005 µm of backlash: mm meant?).
     pub(crate) fn load_with_warnings(
         path: &Path,
     ) -> Result<(MachineConfig, Vec<String>), ConfigError> {
@@ -39,33 +40,54 @@ impl MachineConfig {
         let machine = Self::from_toml_str(&text, &file)?;
         // The text parsed once already; read as a table again for the keys the file gave.
         let over: toml::Table = text.parse().unwrap_or_default();
-        Ok((machine, suspicious_values(&over, &text, &file)))
+        let mut warnings = Vec::new();
+        if !over.contains_key("base") {
+            warnings.push(base::no_base_warning(&file));
+        }
+        warnings.extend(suspicious_values(&over, &text, &file));
+        Ok((machine, warnings))
     }
 
-    /// Parses a machine from TOML text; `file` names it in errors.
+    /// Parses a machine from TOML text; `file` names it in errors, and a `base` that names a
+    /// file is found relative to its folder. A file that gives no `name` is named after
+    /// itself (its file name without `.toml`), not after its base.
     pub fn from_toml_str(text: &str, file: &str) -> Result<MachineConfig, ConfigError> {
+        Self::from_toml_chained(text, file, &[])
+    }
+
+    /// [`MachineConfig::from_toml_str`] for a file reached through the chain of bases
+    /// `chain` (the files that named it, outermost first).
+    pub(crate) fn from_toml_chained(
+        text: &str,
+        file: &str,
+        chain: &[std::path::PathBuf],
+    ) -> Result<MachineConfig, ConfigError> {
         let mut over: toml::Table =
             text.parse()
                 .map_err(|e: toml::de::Error| ConfigError::Syntax {
                     file: file.to_string(),
                     message: syntax_message(text, &e),
                 })?;
-        let base = match over.remove("base") {
-            None => DEFAULT_PRESET.to_string(),
-            Some(toml::Value::String(s)) => s,
-            Some(other) => {
-                return Err(ConfigError::Invalid {
-                    file: file.to_string(),
-                    key: "base".into(),
-                    problem: format!("must be a preset name, not {other}"),
-                });
+        let base::Base {
+            mut table,
+            label: base,
+        } = base::resolve(over.remove("base"), file, chain).map_err(|e| {
+            // A base file's errors name it, and where in it they are, already.
+            if base::is_about(&e, file) {
+                locate::located(e, text)
+            } else {
+                e
             }
-        };
-        let mut table = if base == "none" {
-            toml::Table::new()
-        } else {
-            preset_table(&base, file)?
-        };
+        })?;
+        if !over.contains_key("name")
+            && !file.starts_with('<')
+            && let Some(stem) = Path::new(file).file_stem()
+        {
+            table.insert(
+                "name".into(),
+                toml::Value::String(stem.to_string_lossy().into_owned()),
+            );
+        }
         let base_table = table.clone();
         merge(&mut table, over.clone());
         let located = |e: ConfigError| locate::located(e, text);
@@ -169,8 +191,10 @@ pub enum ConfigError {
         /// What is wrong.
         problem: String,
     },
-    /// `base` names no embedded preset.
-    #[error("{file}: no preset named `{name}` (available: {available})")]
+    /// `base` names no embedded preset and no machine file.
+    #[error(
+        "{file}: key `base`: no preset or machine file `{name}` (presets: {available}; or \"none\"){hint}"
+    )]
     UnknownPreset {
         /// File.
         file: String,
@@ -178,22 +202,9 @@ pub enum ConfigError {
         name: String,
         /// The presets there are.
         available: String,
+        /// " — did you mean `…`?", where the file looked for is, or empty.
+        hint: String,
     },
-}
-
-fn preset_table(name: &str, file: &str) -> Result<toml::Table, ConfigError> {
-    let Some((_, text)) = PRESETS.iter().find(|(n, _)| *n == name) else {
-        return Err(ConfigError::UnknownPreset {
-            file: file.to_string(),
-            name: name.to_string(),
-            available: PRESETS
-                .iter()
-                .map(|(n, _)| *n)
-                .collect::<Vec<_>>()
-                .join(", "),
-        });
-    };
-    Ok(text.parse().expect("embedded presets are valid TOML"))
 }
 
 /// A key the file gives that the axis's controller structure does not read is refused, so
@@ -500,7 +511,7 @@ fn syntax_message(text: &str, e: &toml::de::Error) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::super::AxisConfig;
+    use super::super::{AxisConfig, PRESETS};
     use super::*;
 
     #[test]

@@ -11,6 +11,7 @@
 //! units and ranges listed once in [`keys`].
 
 mod alternatives;
+mod base;
 mod controller;
 mod file;
 pub mod keys;

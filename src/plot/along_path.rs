@@ -1,9 +1,14 @@
 //! Contour error along the path length, with the hotspots marked.
 
 use plotters::coord::Shift;
+use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
+use super::labels::place_labels;
 use super::{FONT, Figure, PlotResult, err, series_color};
+
+/// Font size of the hotspots' labels (px).
+const LABEL_FONT_PX: u32 = 14;
 
 /// The figure.
 pub struct AlongPathPlot {
@@ -55,22 +60,54 @@ impl Figure for AlongPathPlot {
         chart
             .draw_series(LineSeries::new([(0.0, 0.0), (s_max, 0.0)], BLACK.mix(0.5)))
             .map_err(err)?;
-        for (s, e, label) in &self.markers {
+        let rings: Vec<((f64, f64), &str)> = self
+            .markers
+            .iter()
+            .map(|(s, e, label)| ((*s, *e), label.as_str()))
+            .collect();
+        draw_labelled_rings(&mut chart, &rings, 6, LABEL_FONT_PX)
+    }
+}
+
+/// Red rings at `rings`' points (chart coordinates), each labelled where its label overlaps
+/// no other label and no ring and stays inside the chart, in the order given (the most
+/// important first); a label with no free place is left out, its ring stays.
+pub(super) fn draw_labelled_rings<DB: DrawingBackend>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    rings: &[((f64, f64), &str)],
+    radius_px: i32,
+    font_px: u32,
+) -> PlotResult {
+    let at_px: Vec<(i32, i32)> = rings.iter().map(|(p, _)| chart.backend_coord(p)).collect();
+    let labels: Vec<String> = rings.iter().map(|(_, l)| l.to_string()).collect();
+    let (xs, ys) = chart.plotting_area().get_pixel_range();
+    let placed = place_labels(
+        &at_px,
+        &labels,
+        font_px,
+        (xs.start, ys.start, xs.end, ys.end),
+        &[],
+    );
+    for ((at, label), offset) in rings.iter().zip(placed) {
+        chart
+            .draw_series(std::iter::once(Circle::new(
+                *at,
+                radius_px,
+                RED.stroke_width(2),
+            )))
+            .map_err(err)?;
+        if let Some(offset) = offset {
             chart
-                .draw_series(std::iter::once(Circle::new(
-                    (*s, *e),
-                    6,
-                    RED.stroke_width(2),
-                )))
-                .map_err(err)?;
-            chart
-                .draw_series(std::iter::once(Text::new(
-                    label.clone(),
-                    (*s, *e),
-                    (FONT, 14).into_font().color(&RED),
-                )))
+                .draw_series(std::iter::once(
+                    EmptyElement::at(*at)
+                        + Text::new(
+                            label.to_string(),
+                            offset,
+                            (FONT, font_px).into_font().color(&RED),
+                        ),
+                ))
                 .map_err(err)?;
         }
-        Ok(())
     }
+    Ok(())
 }

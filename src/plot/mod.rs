@@ -3,6 +3,9 @@
 
 pub mod along_path;
 pub mod bode;
+pub mod footer;
+pub mod labels;
+pub mod legend;
 pub mod panels;
 pub mod polar;
 pub mod stickslip;
@@ -15,6 +18,8 @@ use std::sync::Once;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
+
+pub use footer::Footer;
 
 /// Pixel size of every plot.
 pub const SIZE: (u32, u32) = (1200, 800);
@@ -42,8 +47,9 @@ pub trait Figure {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> PlotResult;
 }
 
-/// Draws a figure into a PNG or SVG at `path` (chosen by extension; none means PNG).
-pub(crate) fn render(path: &Path, figure: &impl Figure) -> PlotResult {
+/// Draws a figure into a PNG or SVG at `path` (chosen by extension; none means PNG), with
+/// `footer` along its foot: no plot is written without the conditions it was made under.
+pub fn render(path: &Path, figure: &impl Figure, footer: &Footer) -> PlotResult {
     register_font();
     let ext = path.extension().map(|e| e.to_string_lossy().to_lowercase());
     let svg = match ext.as_deref() {
@@ -61,12 +67,12 @@ pub(crate) fn render(path: &Path, figure: &impl Figure) -> PlotResult {
     if svg {
         let root = SVGBackend::new(path, SIZE).into_drawing_area();
         root.fill(&WHITE).map_err(err)?;
-        figure.draw(&root)?;
+        figure.draw(&footer::draw_footer(&root, footer)?)?;
         root.present().map_err(err)
     } else {
         let root = BitMapBackend::new(path, SIZE).into_drawing_area();
         root.fill(&WHITE).map_err(err)?;
-        figure.draw(&root)?;
+        figure.draw(&footer::draw_footer(&root, footer)?)?;
         root.present().map_err(err)
     }
 }

@@ -5,6 +5,8 @@ use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
+use super::labels::along_polyline;
+use super::legend::{LegendEntry, draw_legend};
 use super::{FONT, Figure, PlotResult, err, series_color};
 
 /// One curve. A NaN ordinate breaks the line (a stretch left out, a rapid).
@@ -89,41 +91,53 @@ fn draw_panel<DB: DrawingBackend>(
     draw_curves(&mut chart, &panel.curves)
 }
 
-/// Draws `curves` on `chart`, each broken where its ordinate is NaN, and then the legend.
+/// Draws the legend (where it covers fewest of the curves) and `curves` on `chart`, each
+/// broken where its ordinate is NaN.
 pub(super) fn draw_curves<'a, DB: DrawingBackend + 'a>(
     chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
     curves: &[Curve],
 ) -> PlotResult {
-    for curve in curves {
-        let style = match curve.color {
-            Some(i) => series_color(i).stroke_width(curve.width),
-            None => RGBColor(150, 150, 150).stroke_width(curve.width),
-        };
-        let mut first = true;
-        for run in curve
+    let style_of = |curve: &Curve| match curve.color {
+        Some(i) => (series_color(i), curve.width),
+        None => (RGBColor(150, 150, 150), curve.width),
+    };
+    let pieces = |curve: &'_ Curve| {
+        curve
             .points
             .split(|p| !p.1.is_finite())
             .filter(|r| r.len() > 1)
-        {
-            let drawn = chart
-                .draw_series(LineSeries::new(run.iter().copied(), style))
-                .map_err(err)?;
-            // One legend entry per curve, however many pieces it is drawn in; none for a
-            // curve without a name (a second curve of an entry already made).
-            if first && !curve.name.is_empty() {
-                drawn
-                    .label(curve.name.clone())
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 24, y)], style));
-                first = false;
-            }
+            .map(|r| r.to_vec())
+            .collect::<Vec<_>>()
+    };
+    let mut drawn_px = Vec::new();
+    for curve in curves {
+        for piece in pieces(curve) {
+            let px: Vec<(i32, i32)> = piece.iter().map(|p| chart.backend_coord(p)).collect();
+            drawn_px.extend(along_polyline(&px));
         }
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font((FONT, 13))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(err)
+    // One legend entry per curve, however many pieces it is drawn in; none for a curve
+    // without a name (a second curve of an entry already made).
+    let entries: Vec<LegendEntry> = curves
+        .iter()
+        .filter(|c| !c.name.is_empty() && !pieces(c).is_empty())
+        .map(|c| {
+            let (color, width) = style_of(c);
+            LegendEntry {
+                text: c.name.clone(),
+                color,
+                width,
+            }
+        })
+        .collect();
+    draw_legend(chart.plotting_area(), &entries, &drawn_px)?;
+    for curve in curves {
+        let (color, width) = style_of(curve);
+        for piece in pieces(curve) {
+            chart
+                .draw_series(LineSeries::new(piece, color.stroke_width(width)))
+                .map_err(err)?;
+        }
+    }
+    Ok(())
 }

@@ -6,6 +6,7 @@ use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
+use super::along_path::draw_labelled_rings;
 use super::{FONT, Figure, PlotResult, err};
 
 /// A sample of the actual path, in the view's coordinates.
@@ -114,34 +115,12 @@ impl Figure for ToolpathPlot {
                 )
             });
         chart.draw_series(segments).map_err(err)?;
-        let at_px: Vec<(i32, i32)> = self
+        let rings: Vec<((f64, f64), &str)> = self
             .markers
             .iter()
-            .map(|m| chart.backend_coord(&(m.x_mm, m.y_mm)))
+            .map(|m| ((m.x_mm, m.y_mm), m.label.as_str()))
             .collect();
-        let labels: Vec<String> = self.markers.iter().map(|m| m.label.clone()).collect();
-        let placed = place_labels(&at_px, &labels);
-        for (m, offset) in self.markers.iter().zip(&placed) {
-            chart
-                .draw_series(std::iter::once(Circle::new(
-                    (m.x_mm, m.y_mm),
-                    7,
-                    RED.stroke_width(2),
-                )))
-                .map_err(err)?;
-            if let Some((dx, dy)) = *offset {
-                chart
-                    .draw_series(std::iter::once(
-                        EmptyElement::at((m.x_mm, m.y_mm))
-                            + Text::new(
-                                m.label.clone(),
-                                (dx, dy),
-                                (FONT, LABEL_FONT_PX).into_font().color(&RED),
-                            ),
-                    ))
-                    .map_err(err)?;
-            }
-        }
+        draw_labelled_rings(&mut chart, &rings, 7, LABEL_FONT_PX)?;
         draw_colorbar(&bar, e_max, "|contour error| (µm)")
     }
 }
@@ -235,91 +214,5 @@ pub(crate) fn draw_colorbar<DB: DrawingBackend>(
     Ok(())
 }
 
-/// Label text height and a generous width per character (px), for placing labels apart.
-const LABEL_FONT_PX: i32 = 15;
-const LABEL_CHAR_PX: i32 = 9;
-
-/// The box a label takes at a marker drawn at `at` with the label's top-left at `offset`.
-fn label_box(at: (i32, i32), offset: (i32, i32), label: &str) -> (i32, i32, i32, i32) {
-    let w = LABEL_CHAR_PX * label.chars().count() as i32;
-    let (x, y) = (at.0 + offset.0, at.1 + offset.1);
-    (x, y, x + w, y + LABEL_FONT_PX + 2)
-}
-
-fn overlap(a: (i32, i32, i32, i32), b: (i32, i32, i32, i32)) -> bool {
-    a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
-}
-
-/// Where each marker's label goes (its top-left offset from the marker, px), in rank order:
-/// the first of a few places around the marker that overlaps no label already placed and no
-/// marker; `None` where every place is taken — that label is left out (thinned), its marker
-/// stays.
-pub(crate) fn place_labels(at_px: &[(i32, i32)], labels: &[String]) -> Vec<Option<(i32, i32)>> {
-    let marker_box = |p: (i32, i32)| (p.0 - 8, p.1 - 8, p.0 + 8, p.1 + 8);
-    let mut taken: Vec<(i32, i32, i32, i32)> = Vec::new();
-    at_px
-        .iter()
-        .zip(labels)
-        .map(|(&at, label)| {
-            let w = LABEL_CHAR_PX * label.chars().count() as i32;
-            let h = LABEL_FONT_PX + 2;
-            let candidates = [
-                (10, -h - 4),
-                (10, 6),
-                (-w - 10, -h - 4),
-                (-w - 10, 6),
-                (10, -2 * h - 8),
-                (-w - 10, h + 10),
-                (-w / 2, -2 * h - 8),
-                (-w / 2, h + 10),
-            ];
-            let free = candidates.into_iter().find(|&offset| {
-                let b = label_box(at, offset, label);
-                !taken.iter().any(|&t| overlap(b, t))
-                    && !at_px.iter().any(|&p| overlap(b, marker_box(p)))
-            });
-            if let Some(offset) = free {
-                taken.push(label_box(at, offset, label));
-            }
-            free
-        })
-        .collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn labels_of_clustered_markers_never_overlap() {
-        // Ten hotspots, eight of them within a few pixels of one another (a corner hit
-        // twice, the steady lag all round a circle).
-        let at: Vec<(i32, i32)> = (0..10)
-            .map(|i| {
-                if i < 8 {
-                    (400 + 3 * i, 300 + 2 * i)
-                } else {
-                    (100 * i, 50)
-                }
-            })
-            .collect();
-        let labels: Vec<String> = (0..10)
-            .map(|i| format!(" {}: L{}", i + 1, 13 + i))
-            .collect();
-        let placed = place_labels(&at, &labels);
-        let boxes: Vec<_> = placed
-            .iter()
-            .zip(&at)
-            .zip(&labels)
-            .filter_map(|((o, &a), l)| o.map(|o| label_box(a, o, l)))
-            .collect();
-        for (i, a) in boxes.iter().enumerate() {
-            for b in &boxes[i + 1..] {
-                assert!(!overlap(*a, *b), "{a:?} overlaps {b:?}");
-            }
-        }
-        // The first ranks are always labelled; the far ones too.
-        assert!(placed[0].is_some() && placed[1].is_some());
-        assert!(placed[8].is_some() && placed[9].is_some());
-    }
-}
+/// Font size of the hotspots' labels (px).
+const LABEL_FONT_PX: u32 = 15;

@@ -12,6 +12,7 @@ pub mod discrete;
 pub(crate) mod gravity;
 pub mod hybrid;
 pub mod linear;
+pub mod margins;
 pub mod model;
 pub mod simulate;
 pub mod stickslip;

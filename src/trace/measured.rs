@@ -64,6 +64,90 @@ impl MeasuredTrace {
         })
     }
 
+    /// As [`MeasuredTrace::beyond_machine`], on the commands from `from_s` after the
+    /// record's first sample on (the times still on the record's clock): an approach before
+    /// the program that the model does not follow asks nothing of it.
+    pub fn beyond_machine_from(
+        &self,
+        machine: &crate::machine::MachineConfig,
+        from_s: f64,
+    ) -> Vec<crate::trace::recorded::BeyondMachine> {
+        let skip = if from_s > 0.0 && self.dt_s > 0.0 {
+            (from_s / self.dt_s).floor() as usize
+        } else {
+            0
+        };
+        self.commands.as_ref().map_or_else(Vec::new, |c| {
+            let tail = c
+                .clone()
+                .map(|v| v.get(skip..).map_or_else(Vec::new, <[f64]>::to_vec));
+            let mut found = crate::trace::recorded::beyond_machine(&tail, self.dt_s, machine);
+            for b in &mut found {
+                b.t_s += skip as f64 * self.dt_s;
+            }
+            found
+        })
+    }
+
+    /// A hint where the measured positions, read as lengths, look like encoder counts: whole
+    /// numbers in the unit they were read in, over a range no table travels (a thousand of
+    /// that unit). The `--columns` spelling that reads them as counts, with an example
+    /// resolution. `None` where the user gave the positions' unit, or they do not look so.
+    pub fn counts_hint(&self) -> Option<String> {
+        /// A range of whole numbers this wide is no length in the unit read.
+        const COUNTS_RANGE: f64 = 1000.0;
+        let column = |signal: Signal| self.layout.mapped.iter().find(|m| m.signal == signal);
+        let looks_like_counts = |signal: Signal, values: &[f64], offset_m: f64| {
+            let Some(m) = column(signal) else {
+                return false;
+            };
+            if m.unit_from == "mapping" || m.unit.label == "counts" || values.is_empty() {
+                return false;
+            }
+            let read: Vec<f64> = values
+                .iter()
+                .map(|v| (v + offset_m) / m.unit.to_si)
+                .collect();
+            let (lo, hi) = read
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                    (lo.min(*v), hi.max(*v))
+                });
+            hi.max(-lo) >= COUNTS_RANGE && read.iter().all(|v| (v - v.round()).abs() < 1e-6)
+        };
+        let offset = self.layout.work_offset_m.unwrap_or([0.0; 2]);
+        if !looks_like_counts(Signal::X, &self.x_m, offset[0])
+            || !looks_like_counts(Signal::Y, &self.y_m, offset[1])
+        {
+            return None;
+        }
+        let spelling: Vec<String> = self
+            .layout
+            .mapped
+            .iter()
+            .map(|m| {
+                let unit = if m.signal == Signal::Time {
+                    m.unit.label
+                } else {
+                    "counts:0.1um"
+                };
+                format!("{}={}[{unit}]", m.signal.key(), m.header)
+            })
+            .collect();
+        Some(format!(
+            "the measured positions are whole numbers up to {:.0} (read as {}): they look like \
+             encoder counts; give each position's resolution, e.g. --columns '{}' (0.1 µm per \
+             count here: your encoder's)",
+            self.x_m
+                .iter()
+                .chain(&self.y_m)
+                .fold(0.0f64, |m, v| m.max(v.abs()))
+                / column(Signal::X).map_or(1e-3, |m| m.unit.to_si),
+            column(Signal::X).map_or("mm", |m| m.unit.label),
+            spelling.join(",")
+        ))
+    }
+
     /// The trace in the program's coordinates: `offset_m` (the program origin's place in
     /// the trace's, as a work offset G54… gives it) subtracted from every measured and
     /// commanded position.

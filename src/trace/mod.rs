@@ -13,6 +13,7 @@ pub mod inspect;
 pub mod mat;
 pub mod mat5;
 pub mod measured;
+pub mod placement;
 pub mod recorded;
 pub mod signal;
 pub mod sinumerik;

@@ -9,14 +9,13 @@
 //!    acceleration (the feed-forward inputs) from a local quadratic least-squares fit over
 //!    a few milliseconds of the raw samples — differences of neighbouring samples would
 //!    amplify the encoder's quantisation (0.1 µm at 0.1 ms is 1 mm/s of noise).
-//! 2. [`place_on_path`]: each command sample located on the program's segments by a search
-//!    that only moves forward, so that the report can name source lines and rapids; the
-//!    largest distance from the programmed geometry is checked against a tolerance.
+//! 2. [`super::placement`]: each command sample located on the program's segments, from
+//!    where the stream joins the program's path.
 
 use crate::gcode::Program;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::path::{Blend, Geometry, Motion, Plane, Segment};
-use crate::plan::{AxisCommands, Commands, Plan};
+use crate::plan::{AxisCommands, Commands};
 use crate::sim::AxisModel;
 use crate::trace::signal::sample;
 use crate::units::{m_per_s_from_mm_per_min, mm_per_min_from_m_per_s};
@@ -301,7 +300,7 @@ pub(crate) fn commands_from_record(
 
 /// Slope and curvature at `t` of the least-squares parabola through the samples of `v`
 /// (step `dt`) within ±`half` of `t`; zero where fewer than three samples lie there.
-fn local_derivatives(v: &[f64], dt: f64, t: f64, half: f64) -> (f64, f64) {
+pub(crate) fn local_derivatives(v: &[f64], dt: f64, t: f64, half: f64) -> (f64, f64) {
     let lo = ((t - half) / dt).ceil().max(0.0) as usize;
     let hi = (((t + half) / dt).floor() as usize).min(v.len().saturating_sub(1));
     if hi < lo + 2 {
@@ -329,99 +328,6 @@ fn local_derivatives(v: &[f64], dt: f64, t: f64, half: f64) -> (f64, f64) {
         Some(c) => (c[1] / half, 2.0 * c[2] / (half * half)),
         None => (0.0, 0.0),
     }
-}
-
-/// Where a command stream leaves the program's geometry furthest.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Departure {
-    /// Time of the command sample (s from the stream's start).
-    pub t_s: f64,
-    /// Source line of the nearest segment.
-    pub line: u32,
-    /// Distance from the programmed geometry (m).
-    pub distance_m: f64,
-}
-
-/// Path length beyond the distance moved that the search looks ahead (m): enough for a
-/// blended corner's cut, short of the next pass of any pocket.
-const LOOK_AHEAD_MARGIN_M: f64 = 0.2e-3;
-
-/// Sets each command sample's segment (into `plan.segments`) by following the stream along
-/// the program, and returns the sample where the stream lies furthest from the programmed
-/// geometry. Rapids are not held to their line (many controls move each axis on its own
-/// in G0); the stream is matched again where the feed motion begins.
-pub(crate) fn place_on_path(plan: &Plan, commands: &mut Commands) -> Option<Departure> {
-    let segs = &plan.segments;
-    if segs.is_empty() || commands.is_empty() {
-        return None;
-    }
-    let n = commands.len();
-    let point = |k: usize| [commands.x.pos_m[k], commands.y.pos_m[k]];
-    let mut current = first_segment(segs, point(0));
-    let mut u = segs[current].project_xy(point(0), 0.0).u;
-    let mut worst: Option<Departure> = None;
-    let mut last = point(0);
-    for k in 0..n {
-        let q = point(k);
-        let moved = (q[0] - last[0]).hypot(q[1] - last[1]);
-        last = q;
-        let (j, proj) = best_ahead(segs, current, u, q, moved + LOOK_AHEAD_MARGIN_M);
-        current = j;
-        u = proj.u;
-        commands.segment[k] = j as u32;
-        if segs[j].motion == Motion::Rapid {
-            continue;
-        }
-        let d = proj.signed_distance_m.abs();
-        if worst.is_none_or(|w| d > w.distance_m) {
-            worst = Some(Departure {
-                t_s: k as f64 * commands.dt_s,
-                line: segs[j].line,
-                distance_m: d,
-            });
-        }
-    }
-    worst
-}
-
-/// The first segment the stream's first point lies on (to 1 µm), else the nearest one.
-fn first_segment(segs: &[Segment], q: [f64; 2]) -> usize {
-    let distance = |j: usize| segs[j].project_xy(q, 0.0).signed_distance_m.abs();
-    (0..segs.len())
-        .find(|&j| distance(j) < 1e-6)
-        .unwrap_or_else(|| {
-            (0..segs.len())
-                .min_by(|&a, &b| distance(a).total_cmp(&distance(b)))
-                .unwrap_or(0)
-        })
-}
-
-/// The segment nearest `q` among the current one and those starting within `window` of
-/// path length ahead (all of a chain of rapids, and the feed segment after it, while in a
-/// rapid). Ties go to the later segment: a path that doubles back on itself is followed
-/// onto the return stroke.
-fn best_ahead(
-    segs: &[Segment],
-    current: usize,
-    u: f64,
-    q: [f64; 2],
-    window: f64,
-) -> (usize, crate::path::Projection) {
-    let mut best = (current, segs[current].project_xy(q, u));
-    let mut ahead = (1.0 - u) * segs[current].xy_length_m();
-    let mut in_rapids = segs[current].motion == Motion::Rapid;
-    let mut j = current + 1;
-    while j < segs.len() && (ahead <= window || in_rapids) {
-        let p = segs[j].project_xy(q, 0.0);
-        if p.signed_distance_m.abs() <= best.1.signed_distance_m.abs() + 1e-9 {
-            best = (j, p);
-        }
-        // A chain of rapids is searched to its end and one segment beyond.
-        in_rapids = in_rapids && segs[j].motion == Motion::Rapid;
-        ahead += segs[j].xy_length_m();
-        j += 1;
-    }
-    best
 }
 
 #[cfg(test)]

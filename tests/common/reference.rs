@@ -504,11 +504,40 @@ pub struct Trapezoids {
 
 impl Trapezoids {
     pub fn new(program: &Program, accel: f64, pre_s: f64, post_s: f64) -> Trapezoids {
+        Trapezoids::from_home(program, accel, pre_s, post_s, None)
+    }
+
+    /// [`Trapezoids::new`] for a machine standing at `home` (m), where given, rather than
+    /// at the program's start: the program's first move runs from there — its first rapid
+    /// from home to the rapid's end, or, where it begins with a feed move, a rapid from
+    /// home to that move's start first. The approach is a move the program does not
+    /// describe: a control starts it from wherever the machine stands.
+    pub fn from_home(
+        program: &Program,
+        accel: f64,
+        pre_s: f64,
+        post_s: f64,
+        home: Option<[f64; 2]>,
+    ) -> Trapezoids {
         const RAPID_M_PER_S: f64 = 10.0 / 60.0;
         let mut blocks: Vec<Block> = Vec::new();
-        let start = program.segments[0].start_m;
+        let mut segments = program.segments.clone();
+        if let Some([hx, hy]) = home {
+            let first = segments[0];
+            if first.motion == Motion::Rapid && matches!(first.geometry, Geometry::Line) {
+                segments[0].start_m = [hx, hy, first.start_m[2]];
+            } else {
+                let mut approach = first;
+                approach.geometry = Geometry::Line;
+                approach.motion = Motion::Rapid;
+                approach.start_m = [hx, hy, first.start_m[2]];
+                approach.end_m = first.start_m;
+                segments.insert(0, approach);
+            }
+        }
+        let start = segments[0].start_m;
         blocks.push((pre_s, Box::new(move |_| [start[0], start[1]])));
-        for seg in program.segments.iter().copied() {
+        for seg in segments.iter().copied() {
             if let Geometry::Dwell { seconds } = seg.geometry {
                 let p = seg.start_m;
                 blocks.push((seconds, Box::new(move |_| [p[0], p[1]])));
@@ -545,7 +574,7 @@ impl Trapezoids {
                 }),
             ));
         }
-        let end = program.segments.last().unwrap().end_m;
+        let end = segments.last().unwrap().end_m;
         blocks.push((post_s, Box::new(move |_| [end[0], end[1]])));
         let duration_s = blocks.iter().map(|b| b.0).sum();
         Trapezoids { blocks, duration_s }
@@ -595,6 +624,13 @@ pub struct Recording {
     /// The position is read where the control reads it (the motor's encoder on a
     /// semi-closed loop), else at the table.
     pub at_feedback: bool,
+    /// Where the machine stands before the program (m): the run starts there and its first
+    /// move comes from there ([`Trapezoids::from_home`]); `None` for the program's start.
+    pub home_m: Option<[f64; 2]>,
+    /// The stretch of the run the record keeps (s from the run's start, from and to): a
+    /// logger started late or stopped early, its clock starting at zero where it starts.
+    /// `None` keeps the whole run.
+    pub keep_s: Option<(f64, f64)>,
 }
 
 impl Default for Recording {
@@ -608,6 +644,8 @@ impl Default for Recording {
             accel: 0.5,
             tight_spot_x: None,
             at_feedback: false,
+            home_m: None,
+            keep_s: None,
         }
     }
 }
@@ -616,7 +654,7 @@ impl Default for Recording {
 /// the measured positions (at the table, or where the control reads them) and the
 /// commanded positions (mm), as a control's trace would give them.
 pub fn record(program: &Program, x: &AxisConfig, y: &AxisConfig, rec: &Recording) -> String {
-    let interpolator = Trapezoids::new(program, rec.accel, 0.3, 0.5);
+    let interpolator = Trapezoids::from_home(program, rec.accel, 0.3, 0.5, rec.home_m);
     let plants = [Plant::new(x), Plant::new(y)];
     let start = interpolator.position(0.0);
     let mut axes = [
@@ -637,9 +675,11 @@ pub fn record(program: &Program, x: &AxisConfig, y: &AxisConfig, rec: &Recording
             m
         }
     };
+    let (keep_from, keep_to) = rec.keep_s.unwrap_or((0.0, f64::INFINITY));
     for k in 0..samples {
         let t = k as f64 * rec.sample_s;
         let cmd = interpolator.position(t);
+        let kept = t >= keep_from - 1e-9 && t < keep_to - 1e-9;
         let at = |axis: &Axis| {
             if rec.at_feedback {
                 axis.feedback()
@@ -649,13 +689,18 @@ pub fn record(program: &Program, x: &AxisConfig, y: &AxisConfig, rec: &Recording
         };
         let mx = read(at(&axes[0]), &mut rng);
         let my = read(at(&axes[1]), &mut rng);
-        csv.push_str(&format!(
-            "{t:.6},{:.7},{:.7},{:.7},{:.7}\n",
-            mx * 1e3,
-            my * 1e3,
-            cmd[0] * 1e3,
-            cmd[1] * 1e3
-        ));
+        if kept {
+            csv.push_str(&format!(
+                "{:.6},{:.7},{:.7},{:.7},{:.7}\n",
+                t - keep_from,
+                mx * 1e3,
+                my * 1e3,
+                cmd[0] * 1e3,
+                cmd[1] * 1e3
+            ));
+        } else if t >= keep_to {
+            break;
+        }
         for s in 0..steps_per_sample {
             let ts = t + s as f64 * h;
             for (a, axis) in axes.iter_mut().enumerate() {

@@ -1,11 +1,16 @@
 //! Gain and parameter sweeps: one program, a grid of machine settings, the contour error
-//! of each — ranked, with unstable and poorly damped settings flagged rather than measured.
+//! of each and what dominates it — ranked, with unstable settings flagged rather than
+//! measured and settings short of the usual stability margins ([`health`]) ranked after
+//! every healthy one.
 //!
 //! Any numeric machine key can be swept by name (`x.drive.backlash_um`, or its leaf
 //! `x.backlash_um`); values are set through the machine's key table and each setting is
 //! validated as a machine file is. Every grid point is an independent, pure
 //! run of [`crate::check`], so the grid runs in parallel and gives the same results as a
 //! serial run.
+
+pub mod dominant;
+pub mod health;
 
 use rayon::prelude::*;
 use serde::Serialize;
@@ -18,13 +23,8 @@ use crate::sim::linear;
 use crate::sim::{AxisModel, SimError};
 use crate::units::um_from_m;
 
-/// Least closed-loop damping ratio below which a setting is flagged as poorly damped and
-/// ranked after every healthy one (the default of `sweep --min-damping`): a mode damped
-/// less than this rings for dozens of periods after every corner and drifts unstable with a
-/// few percent of mass or friction. A ball screw's own torsional and axial modes are often
-/// damped less (2 % on `hvmc`); a setting is flagged only where the loop leaves a mode less
-/// damped than the mechanics alone do (see [`rank`]).
-pub const POOR_DAMPING: f64 = 0.05;
+pub use dominant::Dominant;
+pub use health::{Flag, Health, POOR_DAMPING, Thresholds};
 
 /// One swept dimension: a name for tables, the keys it sets (one per axis it applies to)
 /// and its values.
@@ -199,18 +199,16 @@ pub(crate) fn with_values(
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(tag = "status", rename_all = "snake_case")]
 pub enum PointResult {
-    /// Simulated; `poorly_damped` when the least closed-loop damping is below
-    /// [`POOR_DAMPING`].
+    /// Simulated; flagged where its loops fall short of the thresholds.
     Ok {
         /// Figures.
         metrics: Metrics,
-        /// Least damping ratio of the closed loops of X and Y.
-        least_damping: f64,
-        /// Least damping ratio of the drives' own mechanical modes (torsional and axial,
-        /// `zeta_theta`, `zeta_m`; infinite for linear motors): what no loop setting adds to.
-        mechanics_damping: f64,
-        /// Whether that is below [`POOR_DAMPING`].
-        poorly_damped: bool,
+        /// Each loop's margins and the least damping of the loops' own modes.
+        health: Health,
+        /// What falls short of the thresholds (empty: a healthy setting).
+        flags: Vec<Flag>,
+        /// What dominates the largest contour error.
+        dominant: Dominant,
     },
     /// A closed-loop mode grows: no numbers.
     Unstable {
@@ -224,6 +222,13 @@ pub enum PointResult {
         /// Why.
         reason: String,
     },
+}
+
+impl PointResult {
+    /// Whether the setting was simulated and meets every threshold.
+    pub fn is_healthy(&self) -> bool {
+        matches!(self, PointResult::Ok { flags, .. } if flags.is_empty())
+    }
 }
 
 /// Figures of a setting.
@@ -251,35 +256,26 @@ pub struct SweepPoint {
 }
 
 impl SweepPoint {
-    /// The ranking key: healthy settings by their largest contour error, then the poorly
-    /// damped ones by theirs, then the unstable and invalid ones.
+    /// The ranking key: healthy settings by their largest contour error, then the flagged
+    /// ones by theirs, then the unstable and invalid ones.
     pub(crate) fn rank_key(&self) -> (u8, f64) {
         match &self.result {
-            PointResult::Ok {
-                metrics,
-                poorly_damped: false,
-                ..
-            } => (0, metrics.max_contour_um),
+            PointResult::Ok { metrics, flags, .. } if flags.is_empty() => {
+                (0, metrics.max_contour_um)
+            }
             PointResult::Ok { metrics, .. } => (1, metrics.max_contour_um),
             _ => (2, f64::INFINITY),
         }
     }
 }
 
-/// Flags the settings whose least closed-loop damping is below both `min_damping` and the
-/// damping the drives' mechanical modes have on their own (a loop that takes damping from a
-/// mode, not a screw mode it leaves as it is), and ranks every setting by
-/// [`SweepPoint::rank_key`].
-pub fn rank(points: &mut [SweepPoint], min_damping: f64) {
+/// Flags the settings that fall short of `thresholds` (any loop's phase or gain margin,
+/// the least damping of the loops' own modes) and ranks every setting by
+/// [`SweepPoint::rank_key`]: no flagged setting is ever ranked before a healthy one.
+pub fn rank(points: &mut [SweepPoint], thresholds: &Thresholds) {
     for p in points.iter_mut() {
-        if let PointResult::Ok {
-            least_damping,
-            mechanics_damping,
-            poorly_damped,
-            ..
-        } = &mut p.result
-        {
-            *poorly_damped = *least_damping < min_damping.min(*mechanics_damping);
+        if let PointResult::Ok { health, flags, .. } = &mut p.result {
+            *flags = health.flags(thresholds);
         }
     }
     points.sort_by(|a, b| {
@@ -287,6 +283,26 @@ pub fn rank(points: &mut [SweepPoint], min_damping: f64) {
         let (tb, eb) = b.rank_key();
         ta.cmp(&tb).then(ea.total_cmp(&eb))
     });
+}
+
+/// Where no setting meets the thresholds, what every simulated setting falls short in alike
+/// (the same loop of the same axis, by the same figure): an axis the sweep leaves as it is,
+/// short of its margins, makes every row short, and no setting of the other axis mends it.
+/// `None` where a setting is healthy or none was simulated.
+pub fn shared_shortfall(points: &[SweepPoint]) -> Option<Vec<Flag>> {
+    let mut flagged = points.iter().filter_map(|p| match &p.result {
+        PointResult::Ok { flags, .. } => Some(flags),
+        _ => None,
+    });
+    let first = flagged.next()?;
+    let mut shared = first.clone();
+    for flags in flagged {
+        if flags.is_empty() {
+            return None;
+        }
+        shared.retain(|f| flags.contains(f));
+    }
+    (!first.is_empty()).then_some(shared)
 }
 
 /// Every combination of the dimensions' values (the first dimension varies slowest).
@@ -312,8 +328,9 @@ pub fn run(
     done: &(dyn Fn() + Sync),
 ) -> Vec<SweepPoint> {
     let points = grid(dims);
+    let cache = health::AxisCache::default();
     let one = |values: &Vec<f64>| {
-        let r = run_point(program, machine, plan, dims, values);
+        let r = run_point(program, machine, plan, dims, values, &cache);
         done();
         SweepPoint {
             values: values.clone(),
@@ -333,6 +350,7 @@ fn run_point(
     plan: &PlanConfig,
     dims: &[Dimension],
     values: &[f64],
+    cache: &health::AxisCache,
 ) -> PointResult {
     let settings: Vec<(&[String], f64)> = dims
         .iter()
@@ -347,41 +365,36 @@ fn run_point(
             };
         }
     };
-    let mut least_damping = f64::INFINITY;
-    let mechanics_damping = AxisName::BOTH
-        .iter()
-        .map(|&a| {
-            let drive = &machine.axis(a).drive;
-            match drive.kind {
-                crate::machine::DriveKind::BallScrew => drive.zeta_theta.min(drive.zeta_m),
-                _ => f64::INFINITY,
-            }
-        })
-        .fold(f64::INFINITY, f64::min);
     for axis in AxisName::BOTH {
         let model = AxisModel::from_config(machine.axis(axis));
         if let Err(SimError::Unstable { frequency_hz, .. }) = linear::check_stable(&model) {
             return PointResult::Unstable { axis, frequency_hz };
         }
-        if let Some(m) = linear::least_damped(&model) {
-            least_damping = least_damping.min(m.damping);
-        }
     }
+    let health = health::health_with(&machine, cache);
     let mut settings = CheckSettings::for_machine(&machine);
     settings.plan = PlanConfig {
         in_position: settings.plan.in_position,
         ..*plan
     };
     match check(program, &machine, &settings) {
-        Ok(run) => PointResult::Ok {
-            metrics: metrics(
-                &run,
-                linear::equivalent_kv_per_s(&AxisModel::from_config(&machine.x)),
-            ),
-            least_damping,
-            mechanics_damping,
-            poorly_damped: least_damping < POOR_DAMPING.min(mechanics_damping),
-        },
+        Ok(run) => {
+            let kv = linear::equivalent_kv_per_s(&AxisModel::from_config(&machine.x));
+            let metrics = metrics(&run, kv);
+            let rerun = |m: &MachineConfig| {
+                let mut s = CheckSettings::for_machine(m);
+                s.plan = settings.plan;
+                check(program, m, &s)
+                    .ok()
+                    .map(|r| um_from_m(r.result.summary.max_contour_error_m))
+            };
+            PointResult::Ok {
+                dominant: dominant::dominant(&run, &metrics, &machine, &rerun),
+                metrics,
+                flags: health.flags(&Thresholds::default()),
+                health,
+            }
+        }
         Err(e) if let SimError::Unstable { frequency_hz, .. } = *e.innermost() => {
             PointResult::Unstable {
                 axis: match &e {

@@ -1,0 +1,304 @@
+//! Stability margins against an axis written out by hand. A cascade on a linear motor is a
+//! rigid body pushed by a current amplifier: its loops are rational functions the test
+//! writes from the physics — the amplifier's lag, the PI velocity controller, the mass and
+//! its viscous drag, the P position loop — and reads its own margins off, by its own root
+//! finding on the open loop, and its own closed-loop eigenvalues off the characteristic
+//! polynomial. Nothing here is read from the tool but the figures under test.
+
+use std::f64::consts::TAU;
+
+use nalgebra::{Complex, DMatrix};
+
+use contourcheck::machine::MachineConfig;
+use contourcheck::sim::AxisModel;
+use contourcheck::sim::linear::{self, Loop};
+use contourcheck::sim::margins::{self, LoopMargins};
+
+/// The table: mass (kg), force constant (N/A), viscous drag (N·s/m), amplifier bandwidth
+/// (Hz), velocity gain (N·s/m) and integral time (s).
+const MASS: f64 = 25.0;
+const KT: f64 = 60.0;
+const DRAG: f64 = 200.0;
+const AMP_HZ: f64 = 500.0;
+const KS: f64 = 4000.0;
+const TS: f64 = 0.005;
+
+fn machine(kv_m_per_min_per_mm: f64) -> MachineConfig {
+    let toml = format!(
+        "base = \"small-table\"\n\
+         [x.controller]\nstructure = \"cascade\"\n\
+         [x.drive]\nkind = \"linear_motor\"\ntable_mass_kg = {MASS}\n\
+         [x.motor]\nkt_nm_per_a = {KT}\n\
+         [x.friction]\nviscous_n_s_per_m = {DRAG}\n\
+         [x.amplifier]\ncurrent_bandwidth_hz = {AMP_HZ}\ni_max_a = 20.0\n\
+         [x.position_loop]\nkv_m_per_min_per_mm = {kv_m_per_min_per_mm}\n\
+         [x.velocity_loop]\nks_nm_s_per_rad = {KS}\nts_ms = {}\ni_max_a = 20.0\n",
+        TS * 1e3
+    );
+    MachineConfig::from_toml_str(&toml, "m.toml").unwrap()
+}
+
+/// A polynomial in s, lowest power first.
+type Poly = Vec<f64>;
+
+fn mul(a: &[f64], b: &[f64]) -> Poly {
+    let mut out = vec![0.0; a.len() + b.len() - 1];
+    for (i, x) in a.iter().enumerate() {
+        for (j, y) in b.iter().enumerate() {
+            out[i + j] += x * y;
+        }
+    }
+    out
+}
+
+fn add(a: &[f64], b: &[f64]) -> Poly {
+    (0..a.len().max(b.len()))
+        .map(|i| a.get(i).unwrap_or(&0.0) + b.get(i).unwrap_or(&0.0))
+        .collect()
+}
+
+fn eval(p: &[f64], s: Complex<f64>) -> Complex<f64> {
+    p.iter()
+        .rev()
+        .fold(Complex::new(0.0, 0.0), |acc, &c| acc * s + c)
+}
+
+/// Roots of a polynomial: the eigenvalues of its companion matrix.
+fn roots(p: &[f64]) -> Vec<Complex<f64>> {
+    let n = p.len() - 1;
+    let lead = p[n];
+    let c = DMatrix::from_fn(n, n, |i, j| {
+        if i == 0 {
+            -p[n - 1 - j] / lead
+        } else if i == j + 1 {
+            1.0
+        } else {
+            0.0
+        }
+    });
+    c.complex_eigenvalues().iter().copied().collect()
+}
+
+/// The loops as numerator and denominator of their open loops: the amplifier
+/// 1/(τs + 1), the PI K_s(1 + 1/(T_s s)), the mass 1/(Ms + f_v) from force to speed; the
+/// position loop Kv/s around the closed velocity loop.
+struct Loops {
+    velocity: (Poly, Poly),
+    position: (Poly, Poly),
+}
+
+fn loops(kv_per_s: f64) -> Loops {
+    let tau = 1.0 / (TAU * AMP_HZ);
+    let nv = vec![KS, KS * TS];
+    let dv = mul(&mul(&[0.0, TS], &[1.0, tau]), &[DRAG, MASS]);
+    let closed = add(&dv, &nv);
+    Loops {
+        position: (
+            nv.iter().map(|c| c * kv_per_s).collect(),
+            mul(&[0.0, 1.0], &closed),
+        ),
+        velocity: (nv, dv),
+    }
+}
+
+fn open(l: &(Poly, Poly), f_hz: f64) -> Complex<f64> {
+    let s = Complex::new(0.0, TAU * f_hz);
+    eval(&l.0, s) / eval(&l.1, s)
+}
+
+/// Sign changes of `g` on a log grid from 10 mHz to 100 kHz, each refined by bisection.
+fn crossings(g: impl Fn(f64) -> f64) -> Vec<f64> {
+    let grid: Vec<f64> = (0..=7000)
+        .map(|i| 1e-2 * 10f64.powf(i as f64 / 1000.0))
+        .collect();
+    let mut out = Vec::new();
+    for w in grid.windows(2) {
+        let (mut lo, mut hi) = (w[0], w[1]);
+        if (g(lo) < 0.0) == (g(hi) < 0.0) {
+            continue;
+        }
+        let below = g(lo) < 0.0;
+        for _ in 0..80 {
+            let mid = (lo * hi).sqrt();
+            if (g(mid) < 0.0) == below {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        out.push(lo);
+    }
+    out
+}
+
+/// The margins read off an open loop written out: (crossover Hz, phase margin °, phase
+/// crossover Hz, gain margin dB, closed-loop peak dB).
+fn read_off(l: &(Poly, Poly)) -> (f64, f64, f64, f64, f64) {
+    let gain = crossings(|f| open(l, f).norm() - 1.0);
+    assert_eq!(gain.len(), 1, "one gain crossover: {gain:?}");
+    let pm = 180.0 + open(l, gain[0]).arg().to_degrees();
+    let phase: Vec<f64> = crossings(|f| open(l, f).im)
+        .into_iter()
+        .filter(|&f| open(l, f).re < 0.0)
+        .collect();
+    let (pc, gm) = match phase.as_slice() {
+        [] => (f64::NAN, f64::INFINITY),
+        [f] => (*f, -20.0 * open(l, *f).norm().log10()),
+        more => panic!("one phase crossover: {more:?}"),
+    };
+    let peak = (0..=200_000)
+        .map(|i| 1e-2 * 10f64.powf(i as f64 / 20_000.0))
+        .map(|f| {
+            let o = open(l, f);
+            (o / (o + 1.0)).norm()
+        })
+        .fold(0.0, f64::max);
+    (gain[0], pm, pc, gm, 20.0 * peak.log10())
+}
+
+fn of(all: &[LoopMargins], which: Loop) -> LoopMargins {
+    *all.iter().find(|m| m.which == which).unwrap()
+}
+
+#[test]
+fn the_margins_are_those_of_the_open_loop_written_out() {
+    for kv in [3.0, 10.0] {
+        let kv_per_s = kv * 1000.0 / 60.0;
+        let model = AxisModel::from_config(&machine(kv).x);
+        let all = margins::margins(&model);
+        let written = loops(kv_per_s);
+        for (which, l) in [
+            (Loop::Velocity, &written.velocity),
+            (Loop::Position, &written.position),
+        ] {
+            let (fc, pm, pc, gm, peak) = read_off(l);
+            let m = of(&all, which);
+            let context = format!("Kv {kv}, {which:?}: {m:?} against {fc} {pm} {pc} {gm} {peak}");
+            assert!(
+                (m.crossover_hz.unwrap() / fc - 1.0).abs() < 1e-6,
+                "{context}"
+            );
+            assert!((m.phase_margin_deg - pm).abs() < 0.01, "{context}");
+            assert!((m.peak_db - peak).abs() < 0.01, "{context}");
+            if gm.is_finite() {
+                assert!(
+                    (m.phase_crossover_hz.unwrap() / pc - 1.0).abs() < 1e-6,
+                    "{context}"
+                );
+                assert!((m.gain_margin_db - gm).abs() < 0.01, "{context}");
+            } else {
+                assert_eq!(m.gain_margin_db, f64::INFINITY, "{context}");
+                assert_eq!(m.phase_crossover_hz, None, "{context}");
+            }
+        }
+        // An amplifier's current is a first-order lag: L = 1/(τs), 90° at its bandwidth.
+        let current = of(&all, Loop::Current);
+        assert!(
+            (current.crossover_hz.unwrap() / AMP_HZ - 1.0).abs() < 1e-6,
+            "{current:?}"
+        );
+        assert!((current.phase_margin_deg - 90.0).abs() < 1e-6);
+        assert_eq!(current.gain_margin_db, f64::INFINITY);
+    }
+    // The faster position loop has the smaller margins.
+    let [slow, fast] = [3.0, 10.0].map(|kv| {
+        of(
+            &margins::margins(&AxisModel::from_config(&machine(kv).x)),
+            Loop::Position,
+        )
+    });
+    assert!(
+        fast.phase_margin_deg < slow.phase_margin_deg - 10.0,
+        "{slow:?} {fast:?}"
+    );
+    assert!(
+        fast.gain_margin_db < slow.gain_margin_db - 5.0,
+        "{slow:?} {fast:?}"
+    );
+}
+
+#[test]
+fn the_gain_margin_is_where_a_closed_loop_pole_reaches_the_imaginary_axis() {
+    let kv = 10.0;
+    let kv_per_s = kv * 1000.0 / 60.0;
+    let model = AxisModel::from_config(&machine(kv).x);
+    let m = margins::loop_margins(&model, Loop::Position);
+    let written = loops(kv_per_s);
+    // Closed loop: s(D_v + N_v) + k·Kv·N_v, the position loop's gain multiplied by k.
+    let characteristic = |k: f64| {
+        add(
+            &written.position.1,
+            &written.position.0.iter().map(|c| c * k).collect::<Vec<_>>(),
+        )
+    };
+    // At k = 1 its roots are the tool's closed-loop eigenvalues, all of them.
+    let mut ours = roots(&characteristic(1.0));
+    let mut tools: Vec<Complex<f64>> = linear::closed_loop_modes(&model)
+        .iter()
+        .map(|p| {
+            let im = (TAU * p.frequency_hz).powi(2) - p.real_per_s.powi(2);
+            Complex::new(p.real_per_s, im.max(0.0).sqrt())
+        })
+        .collect();
+    let key = |c: &Complex<f64>| (c.re, c.im.abs());
+    ours.sort_by(|a, b| key(a).partial_cmp(&key(b)).unwrap());
+    tools.sort_by(|a, b| key(a).partial_cmp(&key(b)).unwrap());
+    assert_eq!(ours.len(), tools.len(), "{ours:?} {tools:?}");
+    for (a, b) in ours.iter().zip(&tools) {
+        assert!(
+            (a.re - b.re).abs() < 1e-6 * a.norm() && (a.im.abs() - b.im).abs() < 1e-6 * a.norm(),
+            "{ours:?} against {tools:?}"
+        );
+    }
+    // Raised by its gain margin the loop is on the edge: a pole pair on the imaginary axis
+    // at the phase crossover; a percent less is stable, a percent more is not.
+    let edge = 10f64.powf(m.gain_margin_db / 20.0);
+    let worst = |k: f64| {
+        roots(&characteristic(k))
+            .into_iter()
+            .max_by(|a, b| a.re.total_cmp(&b.re))
+            .unwrap()
+    };
+    let at_edge = worst(edge);
+    assert!(
+        at_edge.re.abs() < 1e-6 * at_edge.norm(),
+        "{at_edge} at k {edge}"
+    );
+    assert!((at_edge.im.abs() / (TAU * m.phase_crossover_hz.unwrap()) - 1.0).abs() < 1e-6);
+    assert!(worst(0.99 * edge).re < 0.0 && worst(1.01 * edge).re > 0.0);
+    // The tool's own stability check agrees at the machine's gain so raised.
+    let stable = |kv: f64| linear::check_stable(&AxisModel::from_config(&machine(kv).x)).is_ok();
+    assert!(stable(0.99 * edge * kv) && !stable(1.01 * edge * kv));
+}
+
+/// On the heavy machine the position loop's margin is lost to the table ringing on its
+/// screw (the 38 Hz axial mode), not to the loop's own lag: its gain margin is the distance
+/// to the largest stable Kv, found by bisection on the closed-loop eigenvalues, and its
+/// phase margin is nearly the 90° of an integrator.
+#[test]
+fn the_heavy_machines_gain_margin_is_the_distance_to_its_largest_stable_kv() {
+    let base = MachineConfig::default_preset();
+    let stable = |kv: f64| {
+        let mut x = base.x.clone();
+        x.position_loop.kv_m_per_min_per_mm = kv;
+        linear::check_stable(&AxisModel::from_config(&x)).is_ok()
+    };
+    let (mut lo, mut hi) = (1.0, 10.0);
+    for _ in 0..50 {
+        let mid = 0.5 * (lo + hi);
+        if stable(mid) { lo = mid } else { hi = mid }
+    }
+    let m = margins::loop_margins(&AxisModel::from_config(&base.x), Loop::Position);
+    let by_eigenvalues = 20.0 * lo.log10();
+    assert!(
+        (m.gain_margin_db - by_eigenvalues).abs() < 0.01,
+        "{m:?} against {by_eigenvalues}"
+    );
+    assert!(
+        (m.phase_crossover_hz.unwrap() / 38.4 - 1.0).abs() < 0.02,
+        "{m:?}"
+    );
+    assert!(m.phase_margin_deg > 85.0, "{m:?}");
+    // Below the 6 dB engineers ask for: the preset's Kv of 1 is a setting at its limit.
+    assert!(m.gain_margin_db < margins::MIN_GAIN_MARGIN_DB);
+}

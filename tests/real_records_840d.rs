@@ -1,0 +1,182 @@
+//! The SINUMERIK 840D control's own 50 Hz trace of a plate program's start, as a user brings
+//! it: machine coordinates, a standstill at the machine's home, a rapid at 36 m/min from
+//! there that the program does not describe (it blends into the program's second rapid),
+//! a Z rapid down and the first tenth of a second of the first cutting block. The files
+//! are not part of the repository: the tests read the folder `CONTOURCHECK_REAL_RECORDS`
+//! names and say "skipped: real records not present" without it.
+//!
+//! What the tests know comes from the files themselves, not from the tool: where the
+//! machine stood (the first row), when its commands first move and when the cutting block
+//! begins (the commanded columns), and the work offset — where the first feed move's start
+//! `X37.5 Y-5` stands in machine coordinates, the commands' standstill before that block.
+
+use std::path::PathBuf;
+
+use contourcheck::diagnose::{DiagnoseSettings, StartKind, diagnose};
+use contourcheck::gcode::{InterpretOptions, Program, parse_program};
+use contourcheck::identify::identify;
+use contourcheck::machine::{AxisName, MachineConfig};
+use contourcheck::trace::measured::{MeasuredTrace, read_trace};
+
+const VARIABLE: &str = "CONTOURCHECK_REAL_RECORDS";
+const PROGRAM: &str = "AL_2007_T4_Plate_Normal.mpf";
+const TRACE: &str = "DMC_AL2007T4_Plate_Normal_Aircut_0.csv";
+
+/// The folder of the 840D records, or `None` (after saying so) where this machine has none.
+fn folder() -> Option<PathBuf> {
+    use std::io::Write;
+    let Some(dir) = std::env::var_os(VARIABLE) else {
+        let _ = writeln!(
+            std::io::stderr(),
+            "skipped: real records not present ({VARIABLE} is not set)"
+        );
+        return None;
+    };
+    let dir = PathBuf::from(dir).join("kit-dmc-840d");
+    assert!(
+        dir.is_dir(),
+        "{VARIABLE} names no folder with kit-dmc-840d/"
+    );
+    Some(dir)
+}
+
+/// The trace's own columns, read plainly: time, commanded X and Y (mm, machine coordinates).
+fn commanded(dir: &std::path::Path) -> Vec<[f64; 3]> {
+    let text = std::fs::read_to_string(dir.join(TRACE)).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (t, x, y) = (col("time"), col("cmd_pos_x"), col("cmd_pos_y"));
+    lines
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            let v: Vec<f64> = l
+                .split(',')
+                .map(|c| c.parse().unwrap_or(f64::NAN))
+                .collect();
+            [v[t], v[x], v[y]]
+        })
+        .collect()
+}
+
+struct Facts {
+    /// The work offset (mm): where `X37.5 Y-5` stands in machine coordinates.
+    offset_mm: [f64; 2],
+    /// Where the machine stood, in program coordinates (mm).
+    home_mm: [f64; 2],
+    /// When the commands first move, and when the cutting block's Y starts to move (s).
+    first_move_s: f64,
+    cut_starts_s: f64,
+}
+
+/// What the record's own columns say.
+fn facts(dir: &std::path::Path) -> Facts {
+    let rows = commanded(dir);
+    let first = rows[0];
+    let first_move = rows
+        .iter()
+        .find(|r| (r[1] - first[1]).abs() > 1e-3 || (r[2] - first[2]).abs() > 1e-3)
+        .unwrap()[0];
+    // The record ends in the cutting block `G1 Y10`: Y rises while X stands. Going back from
+    // the end, the last row before Y began to rise is the block's start, X37.5 Y-5.
+    let k = (1..rows.len())
+        .rev()
+        .find(|&k| rows[k][2] - rows[k - 1][2] < 1e-6)
+        .unwrap();
+    let standing = rows[k];
+    let offset_mm = [standing[1] - 37.5, standing[2] + 5.0];
+    Facts {
+        offset_mm,
+        home_mm: [first[1] - offset_mm[0], first[2] - offset_mm[1]],
+        first_move_s: first_move,
+        cut_starts_s: standing[0],
+    }
+}
+
+fn program(dir: &std::path::Path) -> Program {
+    let text = std::fs::read_to_string(dir.join(PROGRAM)).unwrap();
+    parse_program(&text, PROGRAM, &InterpretOptions::default()).unwrap()
+}
+
+fn trace(dir: &std::path::Path, offset_mm: [f64; 2]) -> MeasuredTrace {
+    read_trace(&dir.join(TRACE))
+        .unwrap()
+        .in_work_coordinates(offset_mm.map(|v| v * 1e-3))
+}
+
+#[test]
+fn the_840d_trace_from_home_is_diagnosed_from_where_its_commands_join_the_program() {
+    let Some(dir) = folder() else { return };
+    let f = facts(&dir);
+    // The facts themselves, against the folder's README: home at machine X200 Y118.1, the
+    // work offset puts the plate's corner a few hundred mm away from it.
+    assert!(
+        f.first_move_s > 1.8 && f.first_move_s < 2.0,
+        "{}",
+        f.first_move_s
+    );
+    assert!(
+        f.cut_starts_s > 3.1 && f.cut_starts_s < 3.3,
+        "{}",
+        f.cut_starts_s
+    );
+    let nominal = MachineConfig::default_preset();
+    let d = diagnose(
+        &program(&dir),
+        &nominal,
+        &trace(&dir, f.offset_mm),
+        &DiagnoseSettings::for_machine(&nominal),
+    )
+    .expect("diagnosed, not refused");
+    let c = d.coverage;
+    assert_eq!(c.start, StartKind::BeforeProgram, "{c:?}");
+    let [hx, hy] = c.stood_at_mm.unwrap();
+    assert!(
+        (hx - f.home_mm[0]).abs() < 0.01 && (hy - f.home_mm[1]).abs() < 0.01,
+        "{c:?}, home {:?}",
+        f.home_mm
+    );
+    // The approach ends after the rapid from home began and before the cut: the commands
+    // join the program where the rapids leave them standing at X37.5 Y-5.
+    assert!(
+        c.approach_s > f.first_move_s && c.approach_s < f.cut_starts_s,
+        "{c:?}"
+    );
+    // The record ends in the first cutting block (line 17, `G1 Y10`), long before the
+    // program does.
+    assert_eq!(c.last_line, 17, "{c:?}");
+    assert!(c.from_program_start && !c.to_program_end, "{c:?}");
+    // The 36 m/min rapid from home is beyond the nominal machine's 6 m/min, but the model
+    // is not driven by it: what the model follows, from the join on (the end of the rapids
+    // and a cut at F350), asks nothing beyond the machine file's limits.
+    assert!(d.beyond_machine.is_empty(), "{:?}", d.beyond_machine);
+    // Half a second after the approach, most of it standing, is too little to tell any cause
+    // from how the machine came out of its approach: nothing is named.
+    assert!(d.causes.is_empty(), "{:?}", d.causes);
+}
+
+#[test]
+fn identify_on_the_840d_trace_writes_a_machine_and_says_what_it_cannot_determine() {
+    let Some(dir) = folder() else { return };
+    let f = facts(&dir);
+    let template = MachineConfig::default_preset();
+    let id = identify(
+        &program(&dir),
+        &template,
+        &trace(&dir, f.offset_mm),
+        &DiagnoseSettings::for_machine(&template).compare,
+    )
+    .expect("identified or said undetermined, not refused for the approach from home");
+    assert_eq!(id.coverage.start, StartKind::BeforeProgram);
+    for a in &id.axes {
+        for v in &a.values {
+            // A value the record does not determine is the template's, said so.
+            if !v.determined {
+                assert_eq!(v.value, v.template, "{:?} {}", a.axis, v.key);
+            }
+            assert!(v.value.is_finite(), "{:?} {}", a.axis, v.key);
+        }
+    }
+    let written = id.machine.axis(AxisName::X);
+    assert!(written.position_loop.kv_m_per_min_per_mm > 0.0);
+}
