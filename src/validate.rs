@@ -6,10 +6,12 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::machine::{AxisConfig, MachineConfig};
+use crate::numeric::units::{
+    m_per_s_from_mm_per_min, mm_from_m, per_s_from_kv_m_per_min_per_mm, um_from_m,
+};
 use crate::plan::AxisCommands;
 use crate::sim::linear::{self, Loop, LoopFigures};
 use crate::sim::{AxisModel, SimConfig, SimError, simulate, stickslip};
-use crate::units::{m_per_s_from_mm_per_min, mm_from_m, per_s_from_kv_m_per_min_per_mm, um_from_m};
 
 /// One of the paper's following-error tables.
 #[derive(Debug, Clone, Copy)]

@@ -26,8 +26,8 @@ use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 
 use crate::analysis::thinning::PeakThinned;
+use crate::numeric::units::{mm_from_m, um_from_m};
 use crate::path::{Geometry, Motion, Plane, Segment};
-use crate::units::{mm_from_m, um_from_m};
 
 /// A full circle of the program.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -8,10 +8,10 @@ use clap::Args;
 use crate::cli::output::OutputError;
 use crate::gcode::{GcodeErrors, InterpretOptions, Program, parse_program};
 use crate::machine::{ConfigError, MachineConfig};
+use crate::numeric::units::{m_from_mm, s_from_ms};
 use crate::path::{Motion, Segment};
 use crate::plan::{PlanConfig, ProfileKind};
 use crate::plot::Footer;
-use crate::units::{m_from_mm, s_from_ms};
 
 /// Errors a command can end with.
 #[derive(Debug, thiserror::Error)]
@@ -38,7 +38,7 @@ pub enum CliError {
     },
     /// The program does not fit the machine (no XY motion, outside travel).
     #[error("{0}")]
-    Envelope(#[from] crate::envelope::EnvelopeError),
+    Envelope(#[from] crate::check::envelope::EnvelopeError),
     /// Measured data is unreadable or malformed.
     #[error("{0}")]
     Measured(#[from] crate::trace::measured::MeasuredError),
@@ -234,7 +234,7 @@ pub fn load_program(path: &Path, machine: &MachineConfig) -> Result<Program, Cli
         ..InterpretOptions::default()
     };
     let program = parse_program(&text, &path.display().to_string(), &options)?;
-    crate::envelope::check_fits(&program, machine)?;
+    crate::check::envelope::check_fits(&program, machine)?;
     Ok(program)
 }
 
@@ -491,7 +491,7 @@ pub(crate) fn feed_text(segments: &[Segment]) -> String {
     let feeds = segments
         .iter()
         .filter(|s| s.motion == Motion::Feed && !s.is_dwell() && s.feed_m_per_s > 0.0)
-        .map(|s| crate::units::mm_per_min_from_m_per_s(s.feed_m_per_s));
+        .map(|s| crate::numeric::units::mm_per_min_from_m_per_s(s.feed_m_per_s));
     let (lo, hi) = feeds.fold((f64::INFINITY, 0.0f64), |(a, b), f| (a.min(f), b.max(f)));
     let round = |f: f64| format!("{}", (f * 10.0).round() / 10.0);
     if hi == 0.0 {

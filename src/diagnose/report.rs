@@ -14,7 +14,7 @@ use super::{
     Alternative, AxisResidual, Candidate, CircularComparison, Coverage, Diagnosis, ExtraWait,
     FittedParam, HeldOut, HeldOutMeasure, JudgedOn, Place, Rejected, ResidualStats, Skipped,
 };
-use crate::causes::CauseId;
+use crate::diagnose::causes::CauseId;
 use crate::machine::{AxisName, MachineConfig};
 use crate::sim::MeasuredAt;
 use crate::trace::measured::MeasuredTrace;

@@ -15,9 +15,9 @@
 
 use nalgebra::{SMatrix, SVector};
 
-use crate::lookup::Lookup;
 use crate::machine::realise::Realisation;
 use crate::machine::{ControllerOutput, Feedback};
+use crate::numeric::lookup::Lookup;
 
 mod config;
 

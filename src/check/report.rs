@@ -12,11 +12,11 @@ use serde::Serialize;
 use crate::analysis::contour::ContourPoint;
 use crate::analysis::hotspot::Hotspot;
 use crate::check::{CheckResult, CheckSettings, RunPlace, Summary};
-use crate::execute::RunChunk;
 use crate::gcode::interp::SourceLine;
 use crate::gcode::{CodeNote, Program, SourceFile, Warning};
 use crate::machine::MachineConfig;
-use crate::units::{mm_from_m, um_from_m};
+use crate::numeric::units::{mm_from_m, um_from_m};
+use crate::plan::execute::RunChunk;
 
 /// Version tag of the JSON report.
 pub const SCHEMA: &str = "contourcheck.check/1";

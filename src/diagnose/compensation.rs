@@ -20,12 +20,12 @@
 
 use std::fmt::Write as _;
 
-use crate::geometry::CrossTerms;
 use crate::machine::{AxisName, MachineConfig};
+use crate::numeric::units::{m_from_mm, um_from_m};
 use crate::sim::AxisModel;
+use crate::sim::geometry::CrossTerms;
 use crate::sim::model::X2;
 use crate::sim::simulate::rest_state;
-use crate::units::{m_from_mm, um_from_m};
 
 /// Points of a table over the travel when the errors are smooth (scale, cyclic).
 const GRID_POINTS: usize = 101;

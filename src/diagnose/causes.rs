@@ -326,7 +326,7 @@ impl Kinematics<'_> {
 
 /// The direction last travelled at each of a series of positions (m) in time order.
 fn travel_directions(positions_m: &[f64]) -> Vec<f64> {
-    let mut travel = crate::geometry::Travel::default();
+    let mut travel = crate::sim::geometry::Travel::default();
     positions_m.iter().map(|&q| travel.direction(q)).collect()
 }
 
