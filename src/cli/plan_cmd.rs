@@ -101,7 +101,7 @@ fn print_notes_and_warnings(program: &crate::gcode::Program, planner: &[crate::g
 
 /// The sampled commands as CSV: time, X/Y/Z position, X/Y velocity and acceleration, and
 /// the source line of the block being executed.
-pub fn write_commands_csv(
+pub(crate) fn write_commands_csv(
     w: &mut dyn Write,
     c: &Commands,
     segments: &[crate::path::Segment],

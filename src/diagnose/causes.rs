@@ -59,7 +59,7 @@ impl CauseId {
 
     /// What kind of record would tell this cause from `other` where a record explains both
     /// alike: where their signatures part.
-    pub fn told_apart_from(self, other: CauseId) -> &'static str {
+    pub(crate) fn told_apart_from(self, other: CauseId) -> &'static str {
         use CauseId::*;
         let pair = |a: CauseId, b: CauseId| (self == a && other == b) || (self == b && other == a);
         if pair(KvGain, DeadTime) {

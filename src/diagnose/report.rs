@@ -252,7 +252,7 @@ impl DiagnoseReport {
     }
 
     /// Writes the report as pretty JSON.
-    pub fn write_json(&self, w: &mut dyn Write) -> std::io::Result<()> {
+    pub(crate) fn write_json(&self, w: &mut dyn Write) -> std::io::Result<()> {
         serde_json::to_writer_pretty(&mut *w, self)?;
         writeln!(w)
     }

@@ -227,7 +227,7 @@ pub const TABLE_SCHEMA: &str = "contourcheck.diagnose-table/1";
 
 impl TableDiagnosis {
     /// Writes the diagnosis as pretty JSON.
-    pub fn write_json(
+    pub(crate) fn write_json(
         &self,
         w: &mut dyn std::io::Write,
         file: &str,
