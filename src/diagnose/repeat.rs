@@ -28,7 +28,7 @@
 use super::Context;
 use super::locate::{directions, finite_range, positions_mm};
 use crate::machine::{AxisName, MachineConfig};
-use crate::units::um_from_m;
+use crate::numeric::units::um_from_m;
 
 /// A place where an axis's residual repeats on every pass.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]

@@ -10,9 +10,9 @@ use std::path::Path;
 
 use contourcheck::diagnose::Diagnosis;
 use contourcheck::diagnose::learn::Term;
+use contourcheck::diagnose::synth::CommandStream;
 use contourcheck::gcode::{InterpretOptions, Program, parse_program};
 use contourcheck::machine::AxisName;
-use contourcheck::synth::CommandStream;
 
 pub fn sample_program(name: &str) -> Program {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -90,7 +90,7 @@ pub fn assert_tight_spot_learned(d: &Diagnosis) {
 /// shows it, but the model extended by it predicts the axis worse point by point — its
 /// reason gives that RMS before and after, and after is the larger — so the model stays the
 /// nominal one.
-pub fn assert_seen_not_named(d: &Diagnosis, cause: contourcheck::causes::CauseId, axis: AxisName) {
+pub fn assert_seen_not_named(d: &Diagnosis, cause: contourcheck::CauseId, axis: AxisName) {
     assert!(d.causes.is_empty(), "{:?}", d.causes);
     let seen: Vec<_> = d.rejected.iter().filter(|r| r.seen).collect();
     assert_eq!(seen.len(), 1, "{:?}", d.rejected);
