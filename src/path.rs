@@ -91,7 +91,7 @@ impl Plane {
     }
 
     /// True for G17 (what a serialised segment leaves out).
-    pub fn is_xy(&self) -> bool {
+    pub(crate) fn is_xy(&self) -> bool {
         *self == Plane::Xy
     }
 }
@@ -263,7 +263,7 @@ impl Arc {
     /// The lowest and highest coordinates the arc reaches along its plane's two axes (m):
     /// its ends, and each point where it passes a direction of the axes (0°, 90°, 180°,
     /// 270° about the centre).
-    pub fn in_plane_extent_m(&self) -> [[f64; 2]; 2] {
+    pub(crate) fn in_plane_extent_m(&self) -> [[f64; 2]; 2] {
         let mut ext = [[f64::INFINITY, f64::NEG_INFINITY]; 2];
         let mut include = |p: [f64; 2]| {
             for (e, v) in ext.iter_mut().zip(p) {
@@ -316,7 +316,7 @@ impl Segment {
     }
 
     /// True for an arc that also travels along its plane's normal: a helix.
-    pub fn is_helix(&self) -> bool {
+    pub(crate) fn is_helix(&self) -> bool {
         matches!(self.geometry, Geometry::Arc(_)) && self.normal_travel_m() != 0.0
     }
 
@@ -333,13 +333,13 @@ impl Segment {
     /// True for a feed move whose contour needs Z: one that moves Z along the contour
     /// ([`Segment::cuts_in_space`]) or lies in the ZX or YZ plane (G18, G19), where Z is one
     /// of the plane's axes.
-    pub fn is_contour_in_space(&self) -> bool {
+    pub(crate) fn is_contour_in_space(&self) -> bool {
         self.cuts_in_space()
             || (self.motion == Motion::Feed && !self.is_dwell() && self.plane != Plane::Xy)
     }
 
     /// The lowest and highest X, Y and Z the segment reaches (m), `[min, max]` per axis.
-    pub fn extent_m(&self) -> [[f64; 2]; 3] {
+    pub(crate) fn extent_m(&self) -> [[f64; 2]; 3] {
         let span = |i: usize| {
             [
                 self.start_m[i].min(self.end_m[i]),
@@ -387,7 +387,7 @@ impl Segment {
     }
 
     /// The point at parameter `u` ∈ [0, 1] (the arc's angle share, linear along a line).
-    pub fn point_at_param(&self, u: f64) -> [f64; 3] {
+    pub(crate) fn point_at_param(&self, u: f64) -> [f64; 3] {
         match self.geometry {
             Geometry::Arc(a) => {
                 let [a0, a1, n] = self.plane().axes();
@@ -562,7 +562,7 @@ impl Segment {
     /// Projects a point given in the segment's plane coordinates ([`Plane::coords`]) onto the
     /// segment's projection on that plane; the signed distance is positive to the left of
     /// travel seen from the plane normal's + side. For G17 this is [`Segment::project_xy`].
-    pub fn project_in_plane(&self, q: [f64; 2], u_hint: f64) -> Projection {
+    pub(crate) fn project_in_plane(&self, q: [f64; 2], u_hint: f64) -> Projection {
         match self.geometry {
             Geometry::Arc(a) => project_on_arc(&a, q, u_hint),
             Geometry::Line | Geometry::Dwell { .. } => project_on_line(

@@ -26,8 +26,8 @@ use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 
 use crate::analysis::thinning::PeakThinned;
+use crate::numeric::units::{mm_from_m, um_from_m};
 use crate::path::{Geometry, Motion, Plane, Segment};
-use crate::units::{mm_from_m, um_from_m};
 
 /// A full circle of the program.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -79,7 +79,12 @@ pub fn circles(segments: &[Segment]) -> Vec<Circle> {
 /// The samples of a path on circle `c` (`segment[k]` the plan segment sample `k` lies
 /// nearest): each one's polar angle about the programmed centre (rad) and radial deviation
 /// from the programmed radius (m, outward positive).
-pub fn radial_points(c: &Circle, segment: &[u32], x_m: &[f64], y_m: &[f64]) -> Vec<(f64, f64)> {
+pub(crate) fn radial_points(
+    c: &Circle,
+    segment: &[u32],
+    x_m: &[f64],
+    y_m: &[f64],
+) -> Vec<(f64, f64)> {
     (0..segment.len().min(x_m.len()).min(y_m.len()))
         .filter(|&k| segment[k] as usize == c.segment && x_m[k].is_finite() && y_m[k].is_finite())
         .map(|k| c.polar([x_m[k], y_m[k]]))

@@ -120,7 +120,7 @@ impl ContourLocator {
     }
 
     /// The search in 3-D, for a machine that simulates Z.
-    pub fn in_3d(plan: &Plan) -> Self {
+    pub(crate) fn in_3d(plan: &Plan) -> Self {
         ContourLocator {
             three_d: true,
             ..Self::new(plan)
@@ -147,7 +147,7 @@ impl ContourLocator {
     /// of the XY plane at one height is measured in X and Y as on a machine that carries Z, so a 2.5-D
     /// program's figures do not change with a simulated Z; Z's own deviation there is its
     /// following error (and Z still arriving after a plunge, the plunge's).
-    pub fn measures_in_space(&self, seg: &Segment) -> bool {
+    pub(crate) fn measures_in_space(&self, seg: &Segment) -> bool {
         self.three_d && seg.is_contour_in_space()
     }
 

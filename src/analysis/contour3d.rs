@@ -35,7 +35,7 @@ pub struct Deviation {
 impl Deviation {
     /// The contour error as one signed number: the distance, signed by the in-plane side.
     /// Where nothing deviates across the plane it is the in-plane part exactly.
-    pub fn signed_m(&self) -> f64 {
+    pub(crate) fn signed_m(&self) -> f64 {
         if self.across_m == 0.0 {
             self.in_plane_m
         } else {

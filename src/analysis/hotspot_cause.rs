@@ -77,7 +77,7 @@ impl Cause {
 
     /// Whether the cause is a plateau of the error along a stretch rather than a spike at
     /// an event: rows of one stretch with it are one place.
-    pub fn is_plateau(&self) -> bool {
+    pub(crate) fn is_plateau(&self) -> bool {
         matches!(
             self,
             Cause::SteadyLag | Cause::ServoMismatch | Cause::BacklashOffset { .. }

@@ -19,13 +19,13 @@ use crate::analysis::contour::{ContourLocator, ContourPoint};
 pub use crate::analysis::hotspot::RunPlace;
 use crate::analysis::hotspot::{AxisSteady, Hotspot, HotspotConfig, HotspotFinder, RunSample};
 use crate::analysis::thinning::PeakThinned;
-use crate::execute::RunChunk;
 use crate::gcode::Warning;
-use crate::geometry::ToolReader;
 use crate::machine::Feedback;
 use crate::machine::{AxisConfig, MachineConfig};
 use crate::path::Motion;
 use crate::plan::Plan;
+use crate::plan::execute::RunChunk;
+use crate::sim::geometry::ToolReader;
 use crate::sim::linear::{equivalent_kv_per_s, settling_rate_per_s, velocity_lag_s};
 use crate::sim::{AxisModel, AxisTrace, Mode};
 

@@ -6,12 +6,12 @@ use clap::Args;
 
 use super::Outcome;
 use super::common::{CliError, MachineArgs, PlanningArgs, load_program, progress};
+use crate::check::report::{CheckReport, TraceCsv, group_warnings, summary_text};
 use crate::check::{CheckResult, CheckSettings, check_planned};
 use crate::cli::output::{OutputBatch, at_most_one_stdout};
 use crate::figures::CheckFigures;
 use crate::gcode::SourceFile;
 use crate::plan::{KinematicLimits, plan_segments};
-use crate::report::{CheckReport, TraceCsv, group_warnings, summary_text};
 
 /// Arguments of `check`.
 #[derive(Debug, Args)]

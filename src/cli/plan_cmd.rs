@@ -8,9 +8,9 @@ use clap::Args;
 use super::Outcome;
 use super::common::{CliError, MachineArgs, PlanningArgs, format_duration, load_program};
 use crate::cli::output::OutputBatch;
+use crate::numeric::units::{mm_from_m, mm_per_min_from_m_per_s};
 use crate::path::Motion;
 use crate::plan::{Commands, KinematicLimits, plan, sample};
-use crate::units::{mm_from_m, mm_per_min_from_m_per_s};
 
 /// Arguments of `plan`.
 #[derive(Debug, Args)]
@@ -93,7 +93,7 @@ fn print_notes_and_warnings(program: &crate::gcode::Program, planner: &[crate::g
     let warnings: Vec<_> = program.warnings.iter().chain(planner).cloned().collect();
     if !warnings.is_empty() {
         println!("warnings:");
-        for line in crate::report::group_warnings(&warnings) {
+        for line in crate::check::report::group_warnings(&warnings) {
             println!("  {line}");
         }
     }
@@ -101,7 +101,7 @@ fn print_notes_and_warnings(program: &crate::gcode::Program, planner: &[crate::g
 
 /// The sampled commands as CSV: time, X/Y/Z position, X/Y velocity and acceleration, and
 /// the source line of the block being executed.
-pub fn write_commands_csv(
+pub(crate) fn write_commands_csv(
     w: &mut dyn Write,
     c: &Commands,
     segments: &[crate::path::Segment],

@@ -8,10 +8,10 @@
 //! residual, except in a record with its commands that is mostly rapids.
 
 use super::residual::{chatter_noise_power, chatter_windows};
-use crate::geometry;
 use crate::machine::{AxisName, MachineConfig};
 use crate::path::Motion;
 use crate::plan::{Commands, InPosition, Plan};
+use crate::sim::geometry;
 use crate::sim::{AxisModel, MeasuredAt, SimConfig, simulate};
 use crate::trace::measured::MeasuredTrace;
 use crate::trace::signal::sample;

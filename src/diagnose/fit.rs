@@ -24,7 +24,7 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use super::{Context, Stepping};
-use crate::causes::{self, CauseId, Param};
+use crate::diagnose::causes::{self, CauseId, Param};
 use crate::machine::{AxisName, MachineConfig};
 use crate::numeric::lsq::{self, correlation_time, forward_jacobian, model_floor, uncertainties};
 

@@ -14,7 +14,7 @@ use super::{
     Alternative, AxisResidual, Candidate, CircularComparison, Coverage, Diagnosis, ExtraWait,
     FittedParam, HeldOut, HeldOutMeasure, JudgedOn, Place, Rejected, ResidualStats, Skipped,
 };
-use crate::causes::CauseId;
+use crate::diagnose::causes::CauseId;
 use crate::machine::{AxisName, MachineConfig};
 use crate::sim::MeasuredAt;
 use crate::trace::measured::MeasuredTrace;
@@ -252,7 +252,7 @@ impl DiagnoseReport {
     }
 
     /// Writes the report as pretty JSON.
-    pub fn write_json(&self, w: &mut dyn Write) -> std::io::Result<()> {
+    pub(crate) fn write_json(&self, w: &mut dyn Write) -> std::io::Result<()> {
         serde_json::to_writer_pretty(&mut *w, self)?;
         writeln!(w)
     }

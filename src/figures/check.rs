@@ -2,15 +2,15 @@
 //! and a ballbar-style polar plot per circular test — drawn as files by `check --plot` and
 //! inline in the HTML report.
 
+use crate::check::report::CheckReport;
 use crate::check::{CheckResult, CircleTest, circle_tests};
 use crate::gcode::SourceFile;
 use crate::gcode::interp::SourceLine;
+use crate::numeric::units::{mm_from_m, um_from_m};
 use crate::path::{Geometry, Motion};
 use crate::plot::along_path::AlongPathPlot;
 use crate::plot::polar::{PolarPlot, PolarTrace};
 use crate::plot::toolpath::{Marker, PathPoint, ToolpathPlot};
-use crate::report::CheckReport;
-use crate::units::{mm_from_m, um_from_m};
 
 /// Every figure of a check.
 pub struct CheckFigures {

@@ -10,8 +10,8 @@ use std::collections::BTreeMap;
 use super::codes::{self, CodeClass};
 use super::error::{GcodeErrorKind, Warning};
 use super::lexer::Word;
+use crate::numeric::units::{MM_PER_INCH, m_from_mm, m_per_s_from_mm_per_min};
 use crate::path::{Blend, Geometry, Motion, Plane, Segment};
-use crate::units::{MM_PER_INCH, m_from_mm, m_per_s_from_mm_per_min};
 
 mod arc;
 mod coords;

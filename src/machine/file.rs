@@ -623,7 +623,9 @@ mod tests {
 
     /// Friction force at the table (N) as the model will use it.
     fn coulomb_force_n(a: &AxisConfig) -> f64 {
-        a.friction.coulomb_coefficient * a.drive.table_mass_kg * crate::units::GRAVITY_M_PER_S2
+        a.friction.coulomb_coefficient
+            * a.drive.table_mass_kg
+            * crate::numeric::units::GRAVITY_M_PER_S2
     }
 
     #[test]

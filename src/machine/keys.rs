@@ -646,7 +646,7 @@ const fn same_text(a: &str, b: &str) -> bool {
 }
 
 /// The axis key of that path, if the table has it.
-pub fn axis_key(path: &str) -> Option<&'static AxisKey> {
+pub(crate) fn axis_key(path: &str) -> Option<&'static AxisKey> {
     AXIS_KEYS.iter().find(|k| k.path == path)
 }
 
@@ -704,7 +704,7 @@ impl std::fmt::Display for SetError {
 impl std::error::Error for SetError {}
 
 /// Sets a full dotted key (`x.drive.backlash_um`) on a machine.
-pub fn set_on_machine(m: &mut MachineConfig, key: &str, value: f64) -> Result<(), SetError> {
+pub(crate) fn set_on_machine(m: &mut MachineConfig, key: &str, value: f64) -> Result<(), SetError> {
     let (part, rest) = key.split_once('.').ok_or(SetError::Unknown)?;
     let done = match part {
         "x" | "y" => {
@@ -770,7 +770,7 @@ pub fn get_on_machine(m: &MachineConfig, key: &str) -> Option<f64> {
 }
 
 /// A full dotted key's unit (empty for a ratio); `None` for a key not in the table.
-pub fn unit_on_machine(key: &str) -> Option<&'static str> {
+pub(crate) fn unit_on_machine(key: &str) -> Option<&'static str> {
     let (part, rest) = key.split_once('.')?;
     match part {
         "x" | "y" => axis_key(rest).map(|k| k.unit),

@@ -580,7 +580,7 @@ impl MachineConfig {
     }
 
     /// The simulated axes' configurations, in the order X, Y, Z.
-    pub fn simulated_configs(&self) -> Vec<&AxisConfig> {
+    pub(crate) fn simulated_configs(&self) -> Vec<&AxisConfig> {
         [&self.x, &self.y]
             .into_iter()
             .chain(self.z.simulated())

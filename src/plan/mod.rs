@@ -19,14 +19,17 @@
 //! Profiles start and end every run with zero path acceleration, so the only acceleration
 //! steps are those of curvature (and, for trapezoids, of the ramps themselves).
 
+pub mod execute;
 pub mod profile;
 mod runs;
 pub mod sample;
 
 use crate::gcode::{Program, Warning};
 use crate::machine::{Limits, MachineConfig};
+use crate::numeric::units::{
+    m_from_mm, m_per_s_from_mm_per_min, mm_per_min_from_m_per_s, s_from_ms,
+};
 use crate::path::{Blend, Geometry, Motion, Segment, dot3};
-use crate::units::{m_from_mm, m_per_s_from_mm_per_min, mm_per_min_from_m_per_s, s_from_ms};
 use profile::{Dynamics, SegmentProfile, reachable_speed};
 
 pub use crate::sim::AxisCommands;

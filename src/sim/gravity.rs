@@ -101,7 +101,7 @@ mod tests {
     /// X of the preset stood on end: a 6000 kg table hanging on its screw.
     fn hanging() -> AxisModel {
         let mut m = AxisModel::from_config(&MachineConfig::default_preset().x);
-        m.load_n = m.mt * crate::units::GRAVITY_M_PER_S2;
+        m.load_n = m.mt * crate::numeric::units::GRAVITY_M_PER_S2;
         m
     }
 
@@ -169,7 +169,7 @@ mod tests {
     fn released_ram_linear(seconds: f64) -> Vec<f64> {
         let c = MachineConfig::default_preset();
         let z = c.axis(AxisName::Z);
-        let g = crate::units::GRAVITY_M_PER_S2;
+        let g = crate::numeric::units::GRAVITY_M_PER_S2;
         let (lead, it) = (z.drive.lead_mm * 1e-3, z.drive.gear_ratio);
         let rit = lead / std::f64::consts::TAU * it;
         let kt = z.motor.kt_nm_per_a;

@@ -15,9 +15,9 @@
 
 use nalgebra::{SMatrix, SVector};
 
-use crate::lookup::Lookup;
 use crate::machine::realise::Realisation;
 use crate::machine::{ControllerOutput, Feedback};
+use crate::numeric::lookup::Lookup;
 
 mod config;
 
@@ -300,7 +300,7 @@ impl AxisModel {
     }
 
     /// The whole drive's inertia as a mass moving with the table, J_tot/(r·i_t)² (kg).
-    pub fn mass_at_table_kg(&self) -> f64 {
+    pub(crate) fn mass_at_table_kg(&self) -> f64 {
         self.j_tot() / self.travel_per_motor_rad().powi(2)
     }
 

@@ -14,11 +14,11 @@
 
 use crate::gcode::Program;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
+use crate::numeric::units::{m_per_s_from_mm_per_min, mm_per_min_from_m_per_s};
 use crate::path::{Blend, Geometry, Motion, Plane, Segment};
 use crate::plan::{AxisCommands, Commands};
 use crate::sim::AxisModel;
 use crate::trace::signal::sample;
-use crate::units::{m_per_s_from_mm_per_min, mm_per_min_from_m_per_s};
 
 /// Half-width of the derivative fit (s): wide enough to average a 10 kHz record's
 /// quantisation, short against any feed change a servo follows.

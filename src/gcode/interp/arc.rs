@@ -5,8 +5,8 @@
 
 use super::{IResult, Interpreter, err};
 use crate::gcode::error::{GcodeErrorKind, Warning};
+use crate::numeric::units::{MM_PER_INCH, m_from_mm};
 use crate::path::{Arc, Geometry, Motion, Plane, Segment};
-use crate::units::{MM_PER_INCH, m_from_mm};
 
 /// LinuxCNC's absolute tolerance on the start/end radius difference of an I/J arc
 /// (CENTER_ARC_RADIUS_TOLERANCE_MM = 2·0.01·√2 mm; the inch value, 2·0.001·√2 in, applies

@@ -147,7 +147,7 @@ impl Rewritten {
     }
 
     /// The SINUMERIK line's byte offset for an offset in the rewritten text.
-    pub fn original_offset(&self, rewritten: usize) -> usize {
+    pub(crate) fn original_offset(&self, rewritten: usize) -> usize {
         if self.plain {
             return rewritten;
         }

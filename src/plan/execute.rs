@@ -15,10 +15,10 @@
 
 use crate::gcode::Warning;
 use crate::machine::MachineConfig;
+use crate::numeric::units::um_from_m;
 use crate::path::Segment;
 use crate::plan::{Commands, Plan, Sampler, ends_in_exact_stop};
 use crate::sim::{AxisModel, AxisRun, AxisTrace, SimConfig, SimError};
-use crate::units::um_from_m;
 
 /// Settings of an execution.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -6,7 +6,7 @@
 
 use crate::gcode::Program;
 use crate::machine::{Limits, MachineConfig};
-use crate::units::mm_from_m;
+use crate::numeric::units::mm_from_m;
 
 /// The bound on any coordinate when the machine file sets no travel (mm).
 const FARTHEST_MM: f64 = 1e6;

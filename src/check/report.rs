@@ -12,11 +12,11 @@ use serde::Serialize;
 use crate::analysis::contour::ContourPoint;
 use crate::analysis::hotspot::Hotspot;
 use crate::check::{CheckResult, CheckSettings, RunPlace, Summary};
-use crate::execute::RunChunk;
 use crate::gcode::interp::SourceLine;
 use crate::gcode::{CodeNote, Program, SourceFile, Warning};
 use crate::machine::MachineConfig;
-use crate::units::{mm_from_m, um_from_m};
+use crate::numeric::units::{mm_from_m, um_from_m};
+use crate::plan::execute::RunChunk;
 
 /// Version tag of the JSON report.
 pub const SCHEMA: &str = "contourcheck.check/1";
@@ -317,7 +317,7 @@ impl CheckReport {
     }
 
     /// The report as pretty JSON.
-    pub fn write_json(&self, w: &mut dyn Write) -> std::io::Result<()> {
+    pub(crate) fn write_json(&self, w: &mut dyn Write) -> std::io::Result<()> {
         serde_json::to_writer_pretty(&mut *w, self).map_err(std::io::Error::other)?;
         writeln!(w)
     }
@@ -359,7 +359,7 @@ impl TraceCsv {
     }
 
     /// Writes the rows of the next chunk (with the header before the first).
-    pub fn write_chunk(
+    pub(crate) fn write_chunk(
         &mut self,
         w: &mut dyn Write,
         chunk: &RunChunk,
@@ -602,7 +602,7 @@ fn hotspot_table(r: &CheckReport, max_hotspots: usize) -> String {
 
 /// Warnings with the same message merged into one line listing where they occur
 /// ("lines 11, 14, 17 … (143 places): message"), in order of first appearance.
-pub fn group_warnings(warnings: &[crate::gcode::Warning]) -> Vec<String> {
+pub(crate) fn group_warnings(warnings: &[crate::gcode::Warning]) -> Vec<String> {
     let mut groups: Vec<(&str, Vec<u32>)> = Vec::new();
     for w in warnings {
         match groups.iter_mut().find(|(m, _)| *m == w.message) {
