@@ -5,10 +5,10 @@
 //! The Z the tests write is their own: a steady descent at a known rate, so the travel the
 //! report must give follows from the times it compared.
 
+use contourcheck::diagnose::synth::{SynthSpec, synthesize};
 use contourcheck::diagnose::{DiagnoseSettings, Diagnosis, diagnose};
 use contourcheck::gcode::{InterpretOptions, Program, parse_program};
 use contourcheck::machine::MachineConfig;
-use contourcheck::synth::{SynthSpec, synthesize};
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 
 /// A square at one height, 20 mm a side at F1000: a few seconds of X and Y.
