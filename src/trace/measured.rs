@@ -41,6 +41,10 @@ pub struct MeasuredTrace {
     pub y_m: Vec<f64>,
     /// Commanded X and Y (m), when the trace has them.
     pub commands: Option<[Vec<f64>; 2]>,
+    /// Measured Z (m), when the trace has it; in the trace's own coordinates.
+    pub z_m: Option<Vec<f64>>,
+    /// Commanded Z (m), when the trace has it; in the trace's own coordinates.
+    pub z_cmd_m: Option<Vec<f64>>,
     /// Whether irregular sampling was resampled.
     pub resampled: bool,
     /// How the file was read.
@@ -161,6 +165,21 @@ impl MeasuredTrace {
         }
         self.layout.work_offset_m = Some(offset_m);
         self
+    }
+
+    /// The lowest and highest Z over samples `from..=to` (m, the trace's own coordinates):
+    /// its commands where recorded, else its positions; `None` where the trace has no Z.
+    pub fn z_span_m(&self, from: usize, to: usize) -> Option<(f64, f64)> {
+        let z = self.z_cmd_m.as_ref().or(self.z_m.as_ref())?;
+        let stretch = z.get(from..=to.min(z.len().checked_sub(1)?))?;
+        Some(
+            stretch
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                    (lo.min(*v), hi.max(*v))
+                }),
+        )
+        .filter(|(lo, hi)| lo <= hi)
     }
 
     /// Number of samples.
@@ -353,6 +372,8 @@ fn slot(signal: Signal) -> Option<usize> {
         Signal::Y => Some(1),
         Signal::XCmd => Some(2),
         Signal::YCmd => Some(3),
+        Signal::Z => Some(4),
+        Signal::ZCmd => Some(5),
     }
 }
 
@@ -361,7 +382,7 @@ fn slot(signal: Signal) -> Option<usize> {
 #[derive(Default)]
 struct Table {
     t: Vec<f64>,
-    cols: [Vec<f64>; 4],
+    cols: [Vec<f64>; 6],
     rows: Vec<u64>,
 }
 
@@ -411,7 +432,7 @@ fn assemble(file: &str, table: Table, layout: TraceLayout) -> Result<MeasuredTra
         ),
         None => (t, cols, dt),
     };
-    let [x, y, xc, yc] = if irregular {
+    let [x, y, xc, yc, z, zc] = if irregular {
         cols.map(|c| {
             if c.is_empty() {
                 c
@@ -429,6 +450,8 @@ fn assemble(file: &str, table: Table, layout: TraceLayout) -> Result<MeasuredTra
         x_m: x,
         y_m: y,
         commands: has_commands.then_some([xc, yc]),
+        z_m: (!z.is_empty()).then_some(z),
+        z_cmd_m: (!zc.is_empty()).then_some(zc),
         resampled: irregular,
         layout,
         steps: StepStats::of(&t, dt),
