@@ -11,7 +11,7 @@
 use std::path::Path;
 
 use crate::trace::columns::NamedColumns;
-use crate::trace::format::{self, ColumnMap, Signal};
+use crate::trace::format::{self, ColumnMap, Dialect, Mapped, Signal};
 use crate::trace::halscope;
 use crate::trace::mat;
 use crate::trace::sinumerik;
@@ -21,7 +21,7 @@ mod layout;
 mod sampling;
 mod steady;
 
-pub use layout::{Source, TraceLayout};
+pub use layout::{Source, TraceLayout, UnusedColumn};
 pub use sampling::{HeldRows, StepStats};
 use sampling::{held_rows, keep_readings, plausible_clock, resample};
 pub use steady::{TableRow, parse_table, read_table};
@@ -355,9 +355,16 @@ fn assemble_named(
         }
     }
     table.rows = rows;
+    let unused = columns
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !mapped.iter().any(|m| m.index == *i))
+        .map(|(_, (name, values))| UnusedColumn::of(name, values.iter().map(|v| Some(*v))))
+        .collect();
     let layout = TraceLayout {
         source,
         mapped,
+        unused,
         trailer_rows: 0,
         work_offset_m: None,
     };
@@ -537,13 +544,38 @@ pub fn parse_trace_with(
         }
         table.rows.push(row);
     }
+    let unused = unused_text_columns(&headers, &mapped, &data[..data_end], &dialect);
     let layout = TraceLayout {
         source: Source::Text(dialect),
         mapped,
+        unused,
         trailer_rows,
         work_offset_m: None,
     };
     assemble(file, table, layout)
+}
+
+/// A text table's columns that no signal was mapped to, each with its range.
+fn unused_text_columns(
+    headers: &[&str],
+    mapped: &[Mapped],
+    data: &[(u64, &str)],
+    dialect: &Dialect,
+) -> Vec<UnusedColumn> {
+    let rows: Vec<Vec<&str>> = data
+        .iter()
+        .map(|(_, line)| format::fields(line, dialect.delimiter))
+        .collect();
+    (0..headers.len())
+        .filter(|i| !mapped.iter().any(|m| m.index == *i))
+        .map(|i| {
+            let values = rows.iter().map(|f| {
+                f.get(i)
+                    .and_then(|v| format::number(v.trim_matches('"'), dialect))
+            });
+            UnusedColumn::of(headers[i], values)
+        })
+        .collect()
 }
 
 /// The grid positions sit on, if they do (an encoder's count, a display's last digit): the
