@@ -517,15 +517,35 @@ pub fn parse_trace_with(
         .rposition(|(_, l)| time_of(l).is_some())
         .map_or(0, |i| i + 1);
     let trailer_rows = data.len() - data_end;
+    let table = read_rows(file, &data[..data_end], &mapped, &dialect)?;
+    let unused = unused_text_columns(&headers, &mapped, &data[..data_end], &dialect);
+    let layout = TraceLayout {
+        source: Source::Text(dialect),
+        mapped,
+        unused,
+        trailer_rows,
+        work_offset_m: None,
+    };
+    assemble(file, table, layout)
+}
+
+/// The mapped columns of a text table's data rows, in SI units; a field that is not a number
+/// is an error at its row.
+fn read_rows(
+    file: &str,
+    data: &[(u64, &str)],
+    mapped: &[Mapped],
+    dialect: &Dialect,
+) -> Result<Table, MeasuredError> {
     let mut table = Table {
-        rows: Vec::with_capacity(data_end),
+        rows: Vec::with_capacity(data.len()),
         ..Table::default()
     };
-    for &(row, line) in &data[..data_end] {
+    for &(row, line) in data {
         let f = format::fields(line, dialect.delimiter);
-        for m in &mapped {
+        for m in mapped {
             let text = f.get(m.index).map_or("", |v| v.trim_matches('"'));
-            let value = format::number(text, &dialect)
+            let value = format::number(text, dialect)
                 .map(|v| v * m.unit.to_si)
                 .ok_or_else(|| MeasuredError::Row {
                     file: file.into(),
@@ -544,15 +564,7 @@ pub fn parse_trace_with(
         }
         table.rows.push(row);
     }
-    let unused = unused_text_columns(&headers, &mapped, &data[..data_end], &dialect);
-    let layout = TraceLayout {
-        source: Source::Text(dialect),
-        mapped,
-        unused,
-        trailer_rows,
-        work_offset_m: None,
-    };
-    assemble(file, table, layout)
+    Ok(table)
 }
 
 /// A text table's columns that no signal was mapped to, each with its range.
