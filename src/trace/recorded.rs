@@ -186,7 +186,7 @@ pub(crate) fn beyond_machine(
 }
 
 /// One axis's peaks against its limits.
-fn axis_beyond(
+pub(crate) fn axis_beyond(
     axis: AxisName,
     config: &AxisConfig,
     c: &AxisCommands,
