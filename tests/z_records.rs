@@ -16,9 +16,11 @@ use std::sync::OnceLock;
 use common::program_text;
 use common::reference::{Recording, record_xyz};
 use contourcheck::diagnose::causes::CauseId;
+use contourcheck::diagnose::report::DiagnoseReport;
 use contourcheck::diagnose::{DiagnoseSettings, Diagnosis, diagnose};
 use contourcheck::machine::{AxisName, MachineConfig};
-use contourcheck::trace::measured::parse_trace;
+use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
+use contourcheck::{ReportInputs, diagnose_page};
 
 /// A plunge of 2 mm, a helix of one turn of 5 mm radius down 6 mm more, and the retract
 /// up 8 mm: Z moves down at the feed, slower along the helix, and reverses to go up.
@@ -30,28 +32,29 @@ const LOW_KV: f64 = 0.92;
 
 /// The diagnosis of the program recorded by the reference on `truth`, against the nominal
 /// machine (the preset, whose Z is simulated and carries its weight).
-fn diagnosed(truth: &MachineConfig) -> Diagnosis {
+fn diagnosed(truth: &MachineConfig) -> (Diagnosis, MeasuredTrace) {
     let nominal = MachineConfig::default_preset();
     let program = program_text(PROGRAM);
     let z = truth.axis(AxisName::Z);
     let csv = record_xyz(&program, [&truth.x, &truth.y, z], &Recording::default());
     let measured = parse_trace(&csv, "reference-xyz.csv").unwrap();
-    diagnose(
+    let d = diagnose(
         &program,
         &nominal,
         &measured,
         &DiagnoseSettings::for_machine(&nominal),
     )
-    .unwrap()
+    .unwrap();
+    (d, measured)
 }
 
 fn nominal_record() -> &'static Diagnosis {
     static D: OnceLock<Diagnosis> = OnceLock::new();
-    D.get_or_init(|| diagnosed(&MachineConfig::default_preset()))
+    D.get_or_init(|| diagnosed(&MachineConfig::default_preset()).0)
 }
 
-fn low_gain_record() -> &'static Diagnosis {
-    static D: OnceLock<Diagnosis> = OnceLock::new();
+fn low_gain_record() -> &'static (Diagnosis, MeasuredTrace) {
+    static D: OnceLock<(Diagnosis, MeasuredTrace)> = OnceLock::new();
     D.get_or_init(|| {
         let mut truth = MachineConfig::default_preset();
         truth
@@ -85,7 +88,7 @@ fn the_nominal_machine_with_its_weighted_z_is_found_nominal_on_every_axis() {
 
 #[test]
 fn a_low_gain_on_z_is_named_on_z_at_its_value_and_nothing_on_x_or_y() {
-    let d = low_gain_record();
+    let (d, measured) = low_gain_record();
     let z = &d.z;
     let cause = z.cause.as_ref().unwrap_or_else(|| panic!("{z:?}"));
     assert_eq!(cause.id, CauseId::KvGain, "{z:?}");
@@ -104,8 +107,12 @@ fn a_low_gain_on_z_is_named_on_z_at_its_value_and_nothing_on_x_or_y() {
     assert!(d.causes.is_empty(), "X or Y named: {:?}", d.causes);
     let said = d.z.describe().join("\n");
     assert!(said.contains("found on Z: kv_gain"), "{said}");
-    // The extended machine carries the gain on Z, X and Y as they were.
+    // The HTML page says it too.
     let nominal = MachineConfig::default_preset();
+    let report = DiagnoseReport::new(d, "helix.nc", measured, &nominal);
+    let page = diagnose_page(d, &report, &ReportInputs::default()).unwrap();
+    assert!(page.contains("<h3>Z</h3>") && page.contains("found on Z: kv_gain"));
+    // The extended machine carries the gain on Z, X and Y as they were.
     assert_eq!(d.machine.x, nominal.x);
     assert_eq!(d.machine.y, nominal.y);
     let fitted = d
@@ -125,7 +132,7 @@ fn backlash_on_a_z_that_carries_its_weight_stays_hidden_and_is_not_named() {
     let nominal = MachineConfig::default_preset();
     let mut truth = nominal.clone();
     truth.axis_mut(AxisName::Z).drive.backlash_um = 20.0;
-    let d = diagnosed(&truth);
+    let (d, _) = diagnosed(&truth);
     assert!(d.z.compared, "{:?}", d.z);
     assert!(d.z.before_rms_um < 2.0 * d.z.noise_um, "{:?}", d.z);
     assert!(d.z.cause.is_none(), "{:?}", d.z);
