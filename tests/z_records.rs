@@ -13,11 +13,12 @@ mod common;
 
 use std::sync::OnceLock;
 
+use common::diagnosing::diagnose_nominal;
 use common::program_text;
 use common::reference::{Recording, record_xyz};
+use contourcheck::diagnose::Diagnosis;
 use contourcheck::diagnose::causes::CauseId;
 use contourcheck::diagnose::report::DiagnoseReport;
-use contourcheck::diagnose::{DiagnoseSettings, Diagnosis, diagnose};
 use contourcheck::machine::{AxisName, MachineConfig};
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 use contourcheck::{ReportInputs, diagnose_page};
@@ -33,19 +34,11 @@ const LOW_KV: f64 = 0.92;
 /// The diagnosis of the program recorded by the reference on `truth`, against the nominal
 /// machine (the preset, whose Z is simulated and carries its weight).
 fn diagnosed(truth: &MachineConfig) -> (Diagnosis, MeasuredTrace) {
-    let nominal = MachineConfig::default_preset();
     let program = program_text(PROGRAM);
     let z = truth.axis(AxisName::Z);
     let csv = record_xyz(&program, [&truth.x, &truth.y, z], &Recording::default());
     let measured = parse_trace(&csv, "reference-xyz.csv").unwrap();
-    let d = diagnose(
-        &program,
-        &nominal,
-        &measured,
-        &DiagnoseSettings::for_machine(&nominal),
-    )
-    .unwrap();
-    (d, measured)
+    (diagnose_nominal(&program, &measured), measured)
 }
 
 fn nominal_record() -> &'static Diagnosis {
