@@ -1,7 +1,7 @@
-//! Property tests of the G-code front end: no input panics it, and every number is read
-//! exactly as `str::parse::<f64>` reads the same text.
+//! Property tests of the G-code front end: no input panics it. (That every number is read
+//! exactly as `str::parse::<f64>` reads the same text is a property of the lexer, tested
+//! beside it.)
 
-use contourcheck::gcode::lexer::{LexedLine, lex_line};
 use contourcheck::gcode::{InterpretOptions, parse_program};
 use proptest::prelude::*;
 
@@ -219,25 +219,6 @@ proptest! {
     fn sinumerik_soups_never_panic(tokens in prop::collection::vec(sinumerik_token(), 0..60), bytes in prop::collection::vec(any::<u8>(), 0..40)) {
         let text = format!("{}{}", tokens.concat(), String::from_utf8_lossy(&bytes));
         let _ = parse_program(&text, "soup.mpf", &InterpretOptions::default());
-    }
-
-    #[test]
-    fn numbers_read_exactly_as_str_parse(n in number_text(), letter in prop::sample::select(vec!['X', 'y', 'F', 'r'])) {
-        let mut out = LexedLine::default();
-        lex_line(&format!("{letter}{n}"), &mut out).unwrap();
-        let expected: f64 = n.parse().unwrap();
-        prop_assert_eq!(out.words.len(), 1);
-        prop_assert_eq!(out.words[0].value.to_bits(), expected.to_bits());
-        prop_assert_eq!(out.words[0].letter, letter.to_ascii_uppercase() as u8);
-    }
-
-    #[test]
-    fn packed_words_split_where_letters_start(a in number_text(), b in number_text()) {
-        let mut out = LexedLine::default();
-        lex_line(&format!("G01X{a}Y{b}F600"), &mut out).unwrap();
-        prop_assert_eq!(out.words.len(), 4);
-        prop_assert_eq!(out.words[1].value.to_bits(), a.parse::<f64>().unwrap().to_bits());
-        prop_assert_eq!(out.words[2].value.to_bits(), b.parse::<f64>().unwrap().to_bits());
     }
 }
 

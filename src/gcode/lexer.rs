@@ -50,7 +50,7 @@ pub struct LexError {
 }
 
 /// Lexes one line (without its line terminator) into `out`.
-pub fn lex_line(line: &str, out: &mut LexedLine) -> Result<(), LexError> {
+pub(crate) fn lex_line(line: &str, out: &mut LexedLine) -> Result<(), LexError> {
     out.block_delete = false;
     out.tape_marker = false;
     out.words.clear();
@@ -225,6 +225,7 @@ fn lex_o_word<'a>(line: &'a str, s: &'a str, offset: usize) -> Result<&'a str, L
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
 
     fn words(line: &str) -> Vec<(char, f64)> {
         let mut out = LexedLine::default();
@@ -297,5 +298,44 @@ mod tests {
     #[test]
     fn expressions_are_values() {
         assert_eq!(words("R[0.75/4]"), vec![('R', 0.75 / 4.0)]);
+    }
+
+    /// Decimal numbers in every RS274/NGC form, including large and tiny ones.
+    fn number_text() -> impl Strategy<Value = String> {
+        (
+            prop::sample::select(vec!["", "+", "-"]),
+            prop::option::of("[0-9]{1,12}"),
+            prop::option::of("[0-9]{0,12}"),
+        )
+            .prop_map(|(sign, int, frac)| match (int, frac) {
+                (Some(i), Some(f)) => format!("{sign}{i}.{f}"),
+                (Some(i), None) => format!("{sign}{i}"),
+                (None, Some(f)) if !f.is_empty() => format!("{sign}.{f}"),
+                _ => format!("{sign}0"),
+            })
+    }
+
+    // Every number is read exactly as `str::parse::<f64>` reads the same text.
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 2000, ..ProptestConfig::default() })]
+
+        #[test]
+        fn numbers_read_exactly_as_str_parse(n in number_text(), letter in prop::sample::select(vec!['X', 'y', 'F', 'r'])) {
+            let mut out = LexedLine::default();
+            lex_line(&format!("{letter}{n}"), &mut out).unwrap();
+            let expected: f64 = n.parse().unwrap();
+            prop_assert_eq!(out.words.len(), 1);
+            prop_assert_eq!(out.words[0].value.to_bits(), expected.to_bits());
+            prop_assert_eq!(out.words[0].letter, letter.to_ascii_uppercase() as u8);
+        }
+
+        #[test]
+        fn packed_words_split_where_letters_start(a in number_text(), b in number_text()) {
+            let mut out = LexedLine::default();
+            lex_line(&format!("G01X{a}Y{b}F600"), &mut out).unwrap();
+            prop_assert_eq!(out.words.len(), 4);
+            prop_assert_eq!(out.words[1].value.to_bits(), a.parse::<f64>().unwrap().to_bits());
+            prop_assert_eq!(out.words[2].value.to_bits(), b.parse::<f64>().unwrap().to_bits());
+        }
     }
 }

@@ -11,7 +11,7 @@ pub mod codes;
 pub mod error;
 pub mod expr;
 pub mod interp;
-pub mod lexer;
+pub(crate) mod lexer;
 pub mod sinumerik;
 
 pub use error::{GcodeError, GcodeErrorKind, GcodeErrors, SourcePos, Warning};
