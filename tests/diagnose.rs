@@ -26,7 +26,7 @@ use contourcheck::trace::measured::{parse_table, parse_trace};
 
 #[test]
 fn backlash_on_either_axis() {
-    let d = assert_found("circle-test.nc", CauseId::Backlash, AxisName::X, &[10.0], 1);
+    let d = assert_found("circle-r50.nc", CauseId::Backlash, AxisName::X, &[10.0], 1);
     // The ballbar figures: the measured spikes at X's reversals (0°, 180°) stand well above
     // the nominal model's and the extended model reproduces them to a micrometre.
     let c = &d.circular;
@@ -40,20 +40,20 @@ fn backlash_on_either_axis() {
             assert!(m > n + 2.0 && (m - e).abs() < 1.0, "{m} {n} {e}");
         }
     }
-    assert_found("circle-test.nc", CauseId::Backlash, AxisName::Y, &[6.0], 2);
+    assert_found("circle-r50.nc", CauseId::Backlash, AxisName::Y, &[6.0], 2);
 }
 
 #[test]
 fn reversal_spikes_from_friction_on_either_axis() {
     assert_found(
-        "circle-test.nc",
+        "circle-r50.nc",
         CauseId::CoulombFriction,
         AxisName::X,
         &[0.03],
         3,
     );
     assert_found(
-        "circle-test.nc",
+        "circle-r50.nc",
         CauseId::CoulombFriction,
         AxisName::Y,
         &[0.04],
@@ -81,7 +81,7 @@ fn stribeck_friction_at_low_speed_on_either_axis() {
 
 #[test]
 fn a_gain_mismatch_on_either_axis() {
-    assert_found("circle-test.nc", CauseId::KvGain, AxisName::X, &[0.9], 7);
+    assert_found("circle-r50.nc", CauseId::KvGain, AxisName::X, &[0.9], 7);
     assert_found(
         "back-and-forth.nc",
         CauseId::KvGain,
@@ -93,8 +93,8 @@ fn a_gain_mismatch_on_either_axis() {
 
 #[test]
 fn a_dead_time_on_either_axis() {
-    assert_found("circle-test.nc", CauseId::DeadTime, AxisName::X, &[4.0], 9);
-    assert_found("circle-test.nc", CauseId::DeadTime, AxisName::Y, &[3.0], 10);
+    assert_found("circle-r50.nc", CauseId::DeadTime, AxisName::X, &[4.0], 9);
+    assert_found("circle-r50.nc", CauseId::DeadTime, AxisName::Y, &[3.0], 10);
 }
 
 #[test]

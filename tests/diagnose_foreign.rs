@@ -117,28 +117,28 @@ fn assert_found_through_foreign_commands(
 #[test]
 fn backlash_and_friction_found_through_another_interpolators_commands() {
     assert_found_through_foreign_commands(
-        "circle-test.nc",
+        "circle-r50.nc",
         CauseId::Backlash,
         AxisName::X,
         &[10.0],
         31,
     );
     assert_found_through_foreign_commands(
-        "circle-test.nc",
+        "circle-r50.nc",
         CauseId::Backlash,
         AxisName::Y,
         &[6.0],
         41,
     );
     assert_found_through_foreign_commands(
-        "circle-test.nc",
+        "circle-r50.nc",
         CauseId::CoulombFriction,
         AxisName::Y,
         &[0.03],
         32,
     );
     assert_found_through_foreign_commands(
-        "circle-test.nc",
+        "circle-r50.nc",
         CauseId::CoulombFriction,
         AxisName::X,
         &[0.04],
@@ -149,28 +149,28 @@ fn backlash_and_friction_found_through_another_interpolators_commands() {
 #[test]
 fn servo_causes_found_through_another_interpolators_commands() {
     assert_found_through_foreign_commands(
-        "circle-test.nc",
+        "circle-r50.nc",
         CauseId::KvGain,
         AxisName::Y,
         &[0.9],
         33,
     );
     assert_found_through_foreign_commands(
-        "circle-test.nc",
+        "circle-r50.nc",
         CauseId::KvGain,
         AxisName::X,
         &[0.85],
         43,
     );
     assert_found_through_foreign_commands(
-        "circle-test.nc",
+        "circle-r50.nc",
         CauseId::DeadTime,
         AxisName::X,
         &[4.0],
         34,
     );
     assert_found_through_foreign_commands(
-        "circle-test.nc",
+        "circle-r50.nc",
         CauseId::DeadTime,
         AxisName::Y,
         &[3.0],
