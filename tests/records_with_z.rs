@@ -12,6 +12,7 @@ use contourcheck::diagnose::{DiagnoseSettings, Diagnosis, diagnose};
 use contourcheck::gcode::{InterpretOptions, Program, parse_program};
 use contourcheck::machine::{MachineConfig, PlannedAxis, ZAxis};
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
+use contourcheck::{DiagnoseReport, ReportInputs, diagnose_page};
 
 /// A square at one height, 20 mm a side at F1000: a few seconds of X and Y.
 const SQUARE: &str =
@@ -119,6 +120,14 @@ fn a_records_z_is_read_its_travel_reported_and_x_and_y_analysed_as_without_it() 
         "{z}"
     );
     assert!(a.z.describe().is_empty());
+    // Where Z is not compared (a record without it, or Z carried) the figures have no Z panel.
+    for (d, trace) in [(&a, &xy), (&b, &xyz)] {
+        assert!(d.z.series.is_none());
+        let report = DiagnoseReport::new(d, "square.nc", trace, &carrying_z());
+        let page = diagnose_page(d, &report, &ReportInputs::default()).unwrap();
+        assert!(page.contains("X axis: position − command"));
+        assert!(!page.contains("Z axis:"));
+    }
 }
 
 #[test]

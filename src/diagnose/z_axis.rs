@@ -68,6 +68,26 @@ pub struct ZFindings {
     pub cause: Option<ZCause>,
     /// Causes fitted on Z but not named, and why.
     pub not_named: Vec<ZNotNamed>,
+    /// Z at the diagnosis's samples (those of `Diagnosis::series`), for plots; `None` where
+    /// Z was not compared.
+    #[serde(skip)]
+    pub series: Option<ZSeries>,
+}
+
+/// Z at each of the diagnosis's samples: the command, the record and both models (m), NaN
+/// where Z is not compared.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ZSeries {
+    /// Commanded Z.
+    pub reference: Vec<f64>,
+    /// Measured Z.
+    pub measured: Vec<f64>,
+    /// The nominal model's Z.
+    pub nominal: Vec<f64>,
+    /// The extended model's Z (the nominal one with the cause named on Z, if any).
+    pub extended: Vec<f64>,
+    /// Where the nominal model misses Z most: program time (s) and source line.
+    pub worst: Option<(f64, u32)>,
 }
 
 /// A cause named on Z.
@@ -204,6 +224,7 @@ pub(crate) fn diagnose_z(
         beyond_machine: beyond_machine(ctx, machine, offset_s),
         cause: None,
         not_named: Vec::new(),
+        series: None,
     };
     if seek && findings.beyond_machine.is_empty() && rms(&r) > ABOVE_NOISE * noise {
         let before = half_sums(ctx, &nominal, offset_s);
@@ -225,12 +246,67 @@ pub(crate) fn diagnose_z(
             following_error_max_m: following_error_max(ctx, offset_s),
         };
         choose(&mut findings, machine, tried, (before, &observed));
-        if findings.cause.is_some() {
-            let full = ctx.simulate_axis(machine, AxisName::Z).unwrap_or(nominal);
-            findings.after_rms_um = um_from_m(rms(&compared_residual(ctx, &full, offset_s)));
-        }
     }
+    let extended = match findings.cause {
+        Some(_) => ctx.simulate_axis(machine, AxisName::Z),
+        None => None,
+    };
+    if let Some(full) = &extended {
+        findings.after_rms_um = um_from_m(rms(&compared_residual(ctx, full, offset_s)));
+    }
+    let extended = extended.as_deref().unwrap_or(&nominal);
+    findings.series = Some(series_of(ctx, &nominal, extended, offset_s));
     findings
+}
+
+/// Z's command, record and models at the context's samples, NaN where Z is not compared,
+/// and where the nominal model misses most.
+fn series_of(ctx: &Context, nominal: &[f64], extended: &[f64], offset_s: f64) -> ZSeries {
+    let times = ctx.sample_times(offset_s);
+    let keep = |k: usize, v: f64| {
+        if ctx.compared(AxisName::Z, k) {
+            v
+        } else {
+            f64::NAN
+        }
+    };
+    let at = |trace: &[f64]| -> Vec<f64> {
+        let v = ctx.at_samples(trace, offset_s);
+        v.into_iter().enumerate().map(|(k, v)| keep(k, v)).collect()
+    };
+    let measured: Vec<f64> = ctx
+        .measured_at_samples(AxisName::Z)
+        .into_iter()
+        .enumerate()
+        .map(|(k, v)| keep(k, v))
+        .collect();
+    let nominal = at(nominal);
+    let worst = (0..times.len())
+        .filter(|&k| measured[k].is_finite() && nominal[k].is_finite())
+        .max_by(|&a, &b| {
+            let miss = |k: usize| (measured[k] - nominal[k]).abs();
+            miss(a).total_cmp(&miss(b))
+        })
+        .map(|k| {
+            let cycle = (times[k] / ctx.dt).round().max(0.0) as usize;
+            let last = ctx.commands.segment.len().saturating_sub(1);
+            let segment = ctx
+                .commands
+                .segment
+                .get(cycle.min(last))
+                .copied()
+                .unwrap_or(0);
+            (times[k], ctx.plan.segments[segment as usize].line)
+        });
+    ZSeries {
+        reference: (0..times.len())
+            .map(|k| keep(k, ctx.command_at(AxisName::Z, times[k]).0))
+            .collect(),
+        measured,
+        nominal,
+        extended: at(extended),
+        worst,
+    }
 }
 
 /// The residual of Z at its compared samples only.
