@@ -32,6 +32,7 @@ mod loop_model;
 pub mod report;
 mod solve;
 mod staged;
+mod starts;
 mod verdict;
 
 use rayon::prelude::*;
@@ -817,7 +818,12 @@ impl Round {
         let mut base = start.clone();
         let mut round = Round::fit(fit, knobs.to_vec(), &base, fold)?;
         loop {
-            let undetermined = round.undetermined();
+            // Above the noise the model is not the machine: a corner only the model's floor
+            // leaves loose stays where the fit put it (`Knob::stays_fitted`).
+            let samples = fit.mask().iter().filter(|m| **m).count().max(1);
+            let above_noise =
+                (round.whole.cost / samples as f64).sqrt() > REACHED_EXCESS * fit.ctx().noise_sigma;
+            let undetermined = round.undetermined(above_noise);
             if undetermined.is_empty() || round.knobs.is_empty() {
                 return Some((round, base));
             }
@@ -834,12 +840,18 @@ impl Round {
     }
 
     /// The knobs whose uncertainty leaves them undetermined.
-    fn undetermined(&self) -> Vec<&'static str> {
+    fn undetermined(&self, above_noise: bool) -> Vec<&'static str> {
         self.knobs
             .iter()
             .zip(&self.sigma)
             .zip(&self.whole.values)
-            .filter(|((k, s), v)| !k.determines(**s, **v))
+            .filter(|((k, s), v)| {
+                !if above_noise {
+                    k.stays_fitted(**s, **v)
+                } else {
+                    k.determines(**s, **v)
+                }
+            })
             .map(|((k, _), _)| k.key)
             .collect()
     }
