@@ -9,11 +9,11 @@
 use std::hint::black_box;
 
 use contourcheck::diagnose::causes::CauseId;
+use contourcheck::diagnose::synth::{SynthSpec, synthesize};
 use contourcheck::diagnose::{DiagnoseSettings, diagnose};
 use contourcheck::gcode::{InterpretOptions, Program, parse_program};
 use contourcheck::machine::{AxisName, MachineConfig};
 use contourcheck::sim::MeasuredAt;
-use contourcheck::synth::{SynthSpec, synthesize};
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 use criterion::{Criterion, criterion_group, criterion_main};
 

@@ -7,10 +7,10 @@
 use std::hint::black_box;
 
 use contourcheck::compare::CompareSettings;
+use contourcheck::diagnose::synth::{SynthSpec, synthesize};
 use contourcheck::gcode::{InterpretOptions, Program, parse_program};
 use contourcheck::identify::identify;
 use contourcheck::machine::MachineConfig;
-use contourcheck::synth::{SynthSpec, synthesize};
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 use criterion::{Criterion, criterion_group, criterion_main};
 

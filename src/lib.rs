@@ -20,7 +20,7 @@
 //! };
 //! use contourcheck::diagnose::causes::CauseId;
 //! use contourcheck::machine::AxisName;
-//! use contourcheck::synth::{SynthSpec, synthesize};
+//! use contourcheck::diagnose::synth::{SynthSpec, synthesize};
 //!
 //! let text = "G21 G90 G17 G94\nG0 X0 Y0\nG1 X40 F1000\nY40\nX0\nY0\nM2\n";
 //! let program = parse_program(text, "square.nc", &InterpretOptions::default())?;
@@ -50,43 +50,35 @@
 #![deny(missing_docs)]
 
 pub mod analysis;
-pub mod causes;
 pub mod check;
 #[cfg(feature = "cli")]
 pub mod cli;
 pub mod compare;
-pub mod compensation;
 pub mod diagnose;
-pub mod envelope;
-pub mod execute;
 #[cfg(feature = "html-report")]
 pub mod figures;
 pub mod gcode;
-pub mod geometry;
 #[cfg(feature = "html-report")]
 pub mod html_report;
 pub mod identify;
-pub mod lookup;
 pub mod machine;
 pub mod numeric;
 pub mod path;
 pub mod plan;
 #[cfg(feature = "html-report")]
 pub mod plot;
-pub mod report;
 pub mod sim;
 pub mod sweep;
-pub mod synth;
 pub mod trace;
-pub mod units;
 pub mod validate;
 
-pub use causes::{CauseId, CauseSet};
+pub use check::envelope::{EnvelopeError, check_fits};
+pub use check::report::CheckReport;
 pub use check::{CheckRun, CheckSettings, check};
 pub use compare::{CompareError, CompareSettings};
+pub use diagnose::causes::{CauseId, CauseSet};
 pub use diagnose::report::DiagnoseReport;
 pub use diagnose::{DiagnoseError, DiagnoseSettings, Diagnosis, diagnose, diagnose_validated};
-pub use envelope::{EnvelopeError, check_fits};
 pub use gcode::{Dialect, GcodeErrors, InterpretOptions, Program, parse_program};
 #[cfg(feature = "html-report")]
 pub use html_report::{
@@ -96,7 +88,6 @@ pub use identify::report::IdentifyReport;
 pub use identify::{Identification, IdentifyError, identify, identify_loop, loop_template};
 pub use machine::{AxisName, ConfigError, MachineConfig, PRESETS};
 pub use plan::ProfileKind;
-pub use report::CheckReport;
 pub use sim::{AxisModel, MeasuredAt, SimConfig, SimError, simulate};
 pub use sweep::{
     Dimension, PointResult, SweepInputError, SweepPoint, Thresholds as SweepThresholds,

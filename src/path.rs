@@ -1,11 +1,13 @@
 //! The programmed path: lines, arcs and dwells with exact geometry, in metres, each
 //! carrying the source line of the block that made it.
 //!
-//! Arcs are general enough for what real controls interpolate: a circle in XY, optionally
-//! helical (Z linear in the angle) and optionally a slight Archimedean spiral (radius linear
-//! in the angle) — the way LinuxCNC interprets an I/J arc whose end radius differs from its
-//! start radius within tolerance. Everything downstream evaluates the geometry by arc
-//! length `s` along the 3-D path, so that the planner's speed is the true tool speed.
+//! Arcs are general enough for what real controls interpolate: a circle in a principal plane
+//! (XY, ZX or YZ: G17, G18, G19), optionally helical (the plane's normal axis linear in the
+//! angle) and optionally a slight Archimedean spiral (radius linear in the angle) — the way
+//! LinuxCNC interprets an I/J arc whose end radius differs from its start radius within
+//! tolerance. Everything downstream evaluates the geometry by arc length `s` along the 3-D
+//! path, so that the planner's speed is the true tool speed: the feed of RS274/NGC and of
+//! the 840D alike, which both take F along the path of X, Y and Z together.
 
 use serde::Serialize;
 
@@ -37,19 +39,78 @@ pub enum Blend {
     },
 }
 
-/// A circular, helical or slightly spiral arc in the XY plane.
+/// A principal plane: the working plane a block is programmed in (G17, G18, G19). An arc
+/// turns in it; a line's contour error is split into the part in it and the part across it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default, Serialize)]
+pub enum Plane {
+    /// G17: X then Y, normal Z.
+    #[default]
+    #[serde(rename = "XY")]
+    Xy,
+    /// G18: Z then X, normal Y (counter-clockwise seen from +Y).
+    #[serde(rename = "ZX")]
+    Zx,
+    /// G19: Y then Z, normal X.
+    #[serde(rename = "YZ")]
+    Yz,
+}
+
+impl Plane {
+    /// Indices (0 = X, 1 = Y, 2 = Z) of the plane's first axis, its second and its normal:
+    /// the first turned a quarter counter-clockwise about the normal gives the second.
+    pub fn axes(self) -> [usize; 3] {
+        match self {
+            Plane::Xy => [0, 1, 2],
+            Plane::Zx => [2, 0, 1],
+            Plane::Yz => [1, 2, 0],
+        }
+    }
+
+    /// A point's coordinates in the plane (first, second axis).
+    pub fn coords(self, p: [f64; 3]) -> [f64; 2] {
+        let [a, b, _] = self.axes();
+        [p[a], p[b]]
+    }
+
+    /// The plane's name as reports give it: `XY`, `ZX`, `YZ`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Plane::Xy => "XY",
+            Plane::Zx => "ZX",
+            Plane::Yz => "YZ",
+        }
+    }
+
+    /// The G code that selects it.
+    pub fn gcode(self) -> &'static str {
+        match self {
+            Plane::Xy => "G17",
+            Plane::Zx => "G18",
+            Plane::Yz => "G19",
+        }
+    }
+
+    /// True for G17 (what a serialised segment leaves out).
+    pub(crate) fn is_xy(&self) -> bool {
+        *self == Plane::Xy
+    }
+}
+
+/// A circular, helical or slightly spiral arc in its segment's plane ([`Segment::plane`]).
+/// Its centre and angles are in that plane's own coordinates (first axis, second axis): for
+/// G17 X and Y, for G18 Z and X, for G19 Y and Z.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Arc {
-    /// Centre in XY (m).
+    /// Centre in the plane (m).
     pub center_m: [f64; 2],
     /// Radius at the start (m).
     pub r_start_m: f64,
     /// Radius at the end (m); differs from `r_start_m` only for a tolerated spiral.
     pub r_end_m: f64,
-    /// Polar angle of the start point about the centre (rad).
+    /// Polar angle of the start point about the centre (rad), from the plane's first axis.
     pub theta_start_rad: f64,
-    /// Signed swept angle (rad): positive counter-clockwise (G3), negative clockwise (G2).
-    /// Its magnitude exceeds 2π for multi-turn arcs.
+    /// Signed swept angle (rad): positive counter-clockwise seen from the plane normal's +
+    /// side (G3), negative clockwise (G2). Its magnitude exceeds 2π for multi-turn arcs.
     pub sweep_rad: f64,
 }
 
@@ -88,6 +149,10 @@ pub struct Segment {
     /// The acceleration profile the program switched to for it (SINUMERIK `SOFT`: jerk
     /// limited, `BRISK`: acceleration limited); `None`: the planner's own.
     pub jerk_limited: Option<bool>,
+    /// The working plane of the block (G17/G18/G19): an arc's plane; for a line, the plane
+    /// its contour error is split by.
+    #[serde(skip_serializing_if = "Plane::is_xy")]
+    pub plane: Plane,
 }
 
 /// Position, unit tangent and curvature vector at a point of a segment.
@@ -134,7 +199,7 @@ impl Arc {
         self.dr() != 0.0
     }
 
-    /// |dP/du| at parameter u ∈ [0, 1], with `dz` the Z travel.
+    /// |dP/du| at parameter u ∈ [0, 1], with `dz` the travel along the plane's normal.
     fn speed_du(&self, u: f64, dz: f64) -> f64 {
         let r = self.r_start_m + self.dr() * u;
         ((self.sweep_rad * r).powi(2) + self.dr().powi(2) + dz * dz).sqrt()
@@ -170,8 +235,8 @@ impl Arc {
         u
     }
 
-    /// XY point at parameter u.
-    pub(crate) fn xy_at(&self, u: f64) -> [f64; 2] {
+    /// The point at parameter u in the plane's coordinates (for G17: X and Y).
+    pub(crate) fn in_plane_at(&self, u: f64) -> [f64; 2] {
         let r = self.r_start_m + self.dr() * u;
         let th = self.theta_start_rad + self.sweep_rad * u;
         [
@@ -190,14 +255,15 @@ impl Arc {
         self.r_start_m.min(self.r_end_m)
     }
 
-    /// Length of the XY projection (m).
-    pub(crate) fn xy_length_m(&self) -> f64 {
+    /// Length of the projection onto its plane (m).
+    pub(crate) fn in_plane_length_m(&self) -> f64 {
         self.length_to(1.0, 0.0)
     }
 
-    /// The lowest and highest X and Y the arc reaches (m): its ends, and each point where
-    /// it passes a direction of the axes (0°, 90°, 180°, 270° about the centre).
-    pub fn xy_extent_m(&self) -> [[f64; 2]; 2] {
+    /// The lowest and highest coordinates the arc reaches along its plane's two axes (m):
+    /// its ends, and each point where it passes a direction of the axes (0°, 90°, 180°,
+    /// 270° about the centre).
+    pub(crate) fn in_plane_extent_m(&self) -> [[f64; 2]; 2] {
         let mut ext = [[f64::INFINITY, f64::NEG_INFINITY]; 2];
         let mut include = |p: [f64; 2]| {
             for (e, v) in ext.iter_mut().zip(p) {
@@ -205,8 +271,8 @@ impl Arc {
                 e[1] = e[1].max(v);
             }
         };
-        include(self.xy_at(0.0));
-        include(self.xy_at(1.0));
+        include(self.in_plane_at(0.0));
+        include(self.in_plane_at(1.0));
         let quarter = std::f64::consts::FRAC_PI_2;
         let (from, to) = if self.sweep_rad >= 0.0 {
             (self.theta_start_rad, self.theta_start_rad + self.sweep_rad)
@@ -222,24 +288,58 @@ impl Arc {
         let candidates = (first..=last.min(first + 4)).chain((last - 4).max(first + 5)..=last);
         for k in candidates.filter(|_| self.sweep_rad != 0.0) {
             let u = (k as f64 * quarter - self.theta_start_rad) / self.sweep_rad;
-            include(self.xy_at(u.clamp(0.0, 1.0)));
+            include(self.in_plane_at(u.clamp(0.0, 1.0)));
         }
         ext
     }
 }
 
 impl Segment {
+    /// The working plane of the block ([`Segment::plane`]'s value).
+    pub fn plane(&self) -> Plane {
+        self.plane
+    }
+
     /// Length of the 3-D path (m); zero for dwells.
     pub fn length_m(&self) -> f64 {
         match self.geometry {
             Geometry::Line => dist3(self.start_m, self.end_m),
-            Geometry::Arc(a) => a.length_to(1.0, self.end_m[2] - self.start_m[2]),
+            Geometry::Arc(a) => a.length_to(1.0, self.normal_travel_m()),
             Geometry::Dwell { .. } => 0.0,
         }
     }
 
+    /// Travel along the plane's normal (m): a helix's lead over the whole segment.
+    pub(crate) fn normal_travel_m(&self) -> f64 {
+        let n = self.plane().axes()[2];
+        self.end_m[n] - self.start_m[n]
+    }
+
+    /// True for an arc that also travels along its plane's normal: a helix.
+    pub(crate) fn is_helix(&self) -> bool {
+        matches!(self.geometry, Geometry::Arc(_)) && self.normal_travel_m() != 0.0
+    }
+
+    /// True for a feed move that travels in Z together with X or Y (a helix, a slope, a 3-D
+    /// contour); a plunge (Z alone), a rapid or a dwell is not.
+    pub fn cuts_in_space(&self) -> bool {
+        if self.motion != Motion::Feed || self.is_dwell() {
+            return false;
+        }
+        let [x, y, z] = self.extent_m();
+        z[1] > z[0] && (x[1] > x[0] || y[1] > y[0])
+    }
+
+    /// True for a feed move whose contour needs Z: one that moves Z along the contour
+    /// ([`Segment::cuts_in_space`]) or lies in the ZX or YZ plane (G18, G19), where Z is one
+    /// of the plane's axes.
+    pub(crate) fn is_contour_in_space(&self) -> bool {
+        self.cuts_in_space()
+            || (self.motion == Motion::Feed && !self.is_dwell() && self.plane != Plane::Xy)
+    }
+
     /// The lowest and highest X, Y and Z the segment reaches (m), `[min, max]` per axis.
-    pub fn extent_m(&self) -> [[f64; 2]; 3] {
+    pub(crate) fn extent_m(&self) -> [[f64; 2]; 3] {
         let span = |i: usize| {
             [
                 self.start_m[i].min(self.end_m[i]),
@@ -248,21 +348,65 @@ impl Segment {
         };
         match self.geometry {
             Geometry::Arc(a) => {
-                let [x, y] = a.xy_extent_m();
-                [x, y, span(2)]
+                let [a0, a1, n] = self.plane().axes();
+                let [first, second] = a.in_plane_extent_m();
+                let mut extent = [[0.0; 2]; 3];
+                extent[a0] = first;
+                extent[a1] = second;
+                extent[n] = span(n);
+                extent
             }
             _ => [span(0), span(1), span(2)],
         }
     }
 
-    /// Length of the XY projection (m).
+    /// Length of the XY projection (m). An arc in another plane projects onto a line
+    /// travelled back and forth; its length is summed over fine chords.
     pub(crate) fn xy_length_m(&self) -> f64 {
         match self.geometry {
             Geometry::Line => {
                 (self.end_m[0] - self.start_m[0]).hypot(self.end_m[1] - self.start_m[1])
             }
-            Geometry::Arc(a) => a.xy_length_m(),
+            Geometry::Arc(a) if self.plane() == Plane::Xy => a.in_plane_length_m(),
+            Geometry::Arc(_) => {
+                let l = self.length_m();
+                let chords = 64 * (1 + (self.turns() as usize));
+                let xy = |k: usize| {
+                    let p = self.eval(l * k as f64 / chords as f64, l).pos;
+                    [p[0], p[1]]
+                };
+                (1..=chords)
+                    .map(|k| {
+                        let (p, q) = (xy(k - 1), xy(k));
+                        (q[0] - p[0]).hypot(q[1] - p[1])
+                    })
+                    .sum()
+            }
             Geometry::Dwell { .. } => 0.0,
+        }
+    }
+
+    /// The point at parameter `u` ∈ [0, 1] (the arc's angle share, linear along a line).
+    pub(crate) fn point_at_param(&self, u: f64) -> [f64; 3] {
+        match self.geometry {
+            Geometry::Arc(a) => {
+                let [a0, a1, n] = self.plane().axes();
+                let q = a.in_plane_at(u);
+                let mut p = [0.0; 3];
+                p[a0] = q[0];
+                p[a1] = q[1];
+                p[n] = self.start_m[n] + self.normal_travel_m() * u;
+                p
+            }
+            _ => [0, 1, 2].map(|i| self.start_m[i] + (self.end_m[i] - self.start_m[i]) * u),
+        }
+    }
+
+    /// Whole turns an arc sweeps (0 for anything else).
+    fn turns(&self) -> f64 {
+        match self.geometry {
+            Geometry::Arc(a) => (a.sweep_rad.abs() / std::f64::consts::TAU).floor(),
+            _ => 0.0,
         }
     }
 
@@ -311,28 +455,38 @@ impl Segment {
     }
 
     fn eval_arc(&self, a: &Arc, s: f64, length: f64) -> PathPoint {
-        let dz = self.end_m[2] - self.start_m[2];
+        let [a0, a1, n] = self.plane().axes();
+        let dz = self.end_m[n] - self.start_m[n];
         let u = a.param_at(s, length, dz);
         let (k, phi) = (a.dr(), a.sweep_rad);
         let r = a.r_start_m + k * u;
         let th = a.theta_start_rad + phi * u;
         let (sin, cos) = th.sin_cos();
+        // Each vector is built in the plane's axes (first, second, normal) and placed on X,
+        // Y, Z; for G17 that is the identity.
+        let place = |v: [f64; 3]| {
+            let mut out = [0.0; 3];
+            out[a0] = v[0];
+            out[a1] = v[1];
+            out[n] = v[2];
+            out
+        };
         let pos = if u == 1.0 {
             self.end_m
         } else {
-            [
+            place([
                 a.center_m[0] + r * cos,
                 a.center_m[1] + r * sin,
-                self.start_m[2] + dz * u,
-            ]
+                self.start_m[n] + dz * u,
+            ])
         };
         // Derivatives with respect to u, then converted to arc length.
-        let p_u = [k * cos - r * phi * sin, k * sin + r * phi * cos, dz];
-        let p_uu = [
+        let p_u = place([k * cos - r * phi * sin, k * sin + r * phi * cos, dz]);
+        let p_uu = place([
             -2.0 * k * phi * sin - r * phi * phi * cos,
             2.0 * k * phi * cos - r * phi * phi * sin,
             0.0,
-        ];
+        ]);
         let s_u = norm3(p_u);
         if s_u == 0.0 {
             return PathPoint {
@@ -391,64 +545,117 @@ pub struct Projection {
 
 impl Segment {
     /// Projects an XY point onto the segment's XY projection. `u_hint` picks the turn of a
-    /// multi-turn arc (the foot point nearest to the hint).
+    /// multi-turn arc (the foot point nearest to the hint). An arc in another plane projects
+    /// onto XY as a line travelled back and forth: its foot point is searched along it.
     pub fn project_xy(&self, q: [f64; 2], u_hint: f64) -> Projection {
         match self.geometry {
-            Geometry::Line | Geometry::Dwell { .. } => {
-                let (p0, p1) = (
-                    [self.start_m[0], self.start_m[1]],
-                    [self.end_m[0], self.end_m[1]],
-                );
-                let d = [p1[0] - p0[0], p1[1] - p0[1]];
-                let l2 = d[0] * d[0] + d[1] * d[1];
-                if l2 == 0.0 {
-                    let dist = (q[0] - p0[0]).hypot(q[1] - p0[1]);
-                    return Projection {
-                        signed_distance_m: dist,
-                        u: 0.0,
-                        radial_m: None,
-                    };
-                }
-                let rel = [q[0] - p0[0], q[1] - p0[1]];
-                let u = ((rel[0] * d[0] + rel[1] * d[1]) / l2).clamp(0.0, 1.0);
-                let foot = [p0[0] + d[0] * u, p0[1] + d[1] * u];
-                let dist = (q[0] - foot[0]).hypot(q[1] - foot[1]);
-                // Left of travel = positive cross product of direction and offset.
-                let cross = d[0] * (q[1] - foot[1]) - d[1] * (q[0] - foot[0]);
-                Projection {
-                    signed_distance_m: dist.copysign(cross),
-                    u,
-                    radial_m: None,
-                }
-            }
-            Geometry::Arc(a) => {
-                let rel = [q[0] - a.center_m[0], q[1] - a.center_m[1]];
-                let rq = rel[0].hypot(rel[1]);
-                let ang = rel[1].atan2(rel[0]);
-                let u = arc_param_near(&a, ang, u_hint);
-                let radial = rq - a.radius_at(u);
-                let inside_angle = u > 0.0 && u < 1.0;
-                if inside_angle {
-                    // CCW travel has the centre on its left: outward is to the right.
-                    let signed = if a.sweep_rad > 0.0 { -radial } else { radial };
-                    Projection {
-                        signed_distance_m: signed,
-                        u,
-                        radial_m: Some(radial),
-                    }
-                } else {
-                    // Beyond an end: distance to the end point, sign from the radial side.
-                    let e = a.xy_at(u);
-                    let dist = (q[0] - e[0]).hypot(q[1] - e[1]);
-                    let side = if a.sweep_rad > 0.0 { -radial } else { radial };
-                    Projection {
-                        signed_distance_m: dist.copysign(side),
-                        u,
-                        radial_m: Some(radial),
-                    }
-                }
-            }
+            Geometry::Arc(_) if self.plane() != Plane::Xy => self.project_xy_searched(q),
+            Geometry::Arc(a) => project_on_arc(&a, q, u_hint),
+            Geometry::Line | Geometry::Dwell { .. } => project_on_line(
+                [self.start_m[0], self.start_m[1]],
+                [self.end_m[0], self.end_m[1]],
+                q,
+            ),
         }
+    }
+
+    /// Projects a point given in the segment's plane coordinates ([`Plane::coords`]) onto the
+    /// segment's projection on that plane; the signed distance is positive to the left of
+    /// travel seen from the plane normal's + side. For G17 this is [`Segment::project_xy`].
+    pub(crate) fn project_in_plane(&self, q: [f64; 2], u_hint: f64) -> Projection {
+        match self.geometry {
+            Geometry::Arc(a) => project_on_arc(&a, q, u_hint),
+            Geometry::Line | Geometry::Dwell { .. } => project_on_line(
+                self.plane().coords(self.start_m),
+                self.plane().coords(self.end_m),
+                q,
+            ),
+        }
+    }
+
+    /// The XY foot point of an arc in another plane: the nearest of fine chords' vertices,
+    /// refined by golden section between its neighbours.
+    fn project_xy_searched(&self, q: [f64; 2]) -> Projection {
+        let l = self.length_m();
+        let xy_at = |u: f64| {
+            let p = self.eval(u * l, l).pos;
+            [p[0], p[1]]
+        };
+        let d2 = |u: f64| {
+            let p = xy_at(u);
+            (q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2)
+        };
+        let steps = 64 * (1 + self.turns() as usize);
+        let k = (0..=steps)
+            .min_by(|&i, &j| d2(i as f64 / steps as f64).total_cmp(&d2(j as f64 / steps as f64)))
+            .unwrap_or(0);
+        let h = 1.0 / steps as f64;
+        let (mut lo, mut hi) = ((k as f64 - 1.0) * h, (k as f64 + 1.0) * h);
+        (lo, hi) = (lo.max(0.0), hi.min(1.0));
+        let ratio = 0.5 * (5f64.sqrt() - 1.0);
+        for _ in 0..60 {
+            let (m1, m2) = (hi - ratio * (hi - lo), lo + ratio * (hi - lo));
+            if d2(m1) <= d2(m2) { hi = m2 } else { lo = m1 }
+        }
+        let u = 0.5 * (lo + hi);
+        let foot = xy_at(u);
+        let ahead = xy_at((u + 1e-6).min(1.0));
+        let behind = xy_at((u - 1e-6).max(0.0));
+        let d = [ahead[0] - behind[0], ahead[1] - behind[1]];
+        let cross = d[0] * (q[1] - foot[1]) - d[1] * (q[0] - foot[0]);
+        Projection {
+            signed_distance_m: (q[0] - foot[0]).hypot(q[1] - foot[1]).copysign(cross),
+            u,
+            radial_m: None,
+        }
+    }
+}
+
+/// Projects `q` onto the segment from `p0` to `p1` (2-D).
+fn project_on_line(p0: [f64; 2], p1: [f64; 2], q: [f64; 2]) -> Projection {
+    let d = [p1[0] - p0[0], p1[1] - p0[1]];
+    let l2 = d[0] * d[0] + d[1] * d[1];
+    if l2 == 0.0 {
+        let dist = (q[0] - p0[0]).hypot(q[1] - p0[1]);
+        return Projection {
+            signed_distance_m: dist,
+            u: 0.0,
+            radial_m: None,
+        };
+    }
+    let rel = [q[0] - p0[0], q[1] - p0[1]];
+    let u = ((rel[0] * d[0] + rel[1] * d[1]) / l2).clamp(0.0, 1.0);
+    let foot = [p0[0] + d[0] * u, p0[1] + d[1] * u];
+    let dist = (q[0] - foot[0]).hypot(q[1] - foot[1]);
+    // Left of travel = positive cross product of direction and offset.
+    let cross = d[0] * (q[1] - foot[1]) - d[1] * (q[0] - foot[0]);
+    Projection {
+        signed_distance_m: dist.copysign(cross),
+        u,
+        radial_m: None,
+    }
+}
+
+/// Projects `q` (in the arc's plane coordinates) onto the arc.
+fn project_on_arc(a: &Arc, q: [f64; 2], u_hint: f64) -> Projection {
+    let rel = [q[0] - a.center_m[0], q[1] - a.center_m[1]];
+    let rq = rel[0].hypot(rel[1]);
+    let ang = rel[1].atan2(rel[0]);
+    let u = arc_param_near(a, ang, u_hint);
+    let radial = rq - a.radius_at(u);
+    // CCW travel has the centre on its left: outward is to the right.
+    let side = if a.sweep_rad > 0.0 { -radial } else { radial };
+    let signed = if u > 0.0 && u < 1.0 {
+        side
+    } else {
+        // Beyond an end: distance to the end point, sign from the radial side.
+        let e = a.in_plane_at(u);
+        (q[0] - e[0]).hypot(q[1] - e[1]).copysign(side)
+    };
+    Projection {
+        signed_distance_m: signed,
+        u,
+        radial_m: Some(radial),
     }
 }
 
@@ -502,8 +709,8 @@ mod tests {
     use std::f64::consts::{FRAC_PI_2, PI};
 
     fn arc_segment(arc: Arc, z0: f64, z1: f64) -> Segment {
-        let s = arc.xy_at(0.0);
-        let e = arc.xy_at(1.0);
+        let s = arc.in_plane_at(0.0);
+        let e = arc.in_plane_at(1.0);
         Segment {
             geometry: Geometry::Arc(arc),
             start_m: [s[0], s[1], z0],
@@ -513,6 +720,7 @@ mod tests {
             blend: Blend::ExactStop,
             line: 1,
             jerk_limited: None,
+            plane: Plane::Xy,
         }
     }
 
@@ -570,9 +778,9 @@ mod tests {
         // Polyline with a million chords.
         let n = 1_000_000;
         let mut l = 0.0;
-        let mut prev = arc.xy_at(0.0);
+        let mut prev = arc.in_plane_at(0.0);
         for i in 1..=n {
-            let p = arc.xy_at(i as f64 / n as f64);
+            let p = arc.in_plane_at(i as f64 / n as f64);
             l += (p[0] - prev[0]).hypot(p[1] - prev[1]);
             prev = p;
         }

@@ -6,10 +6,12 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::machine::{AxisConfig, MachineConfig};
+use crate::numeric::units::{
+    m_per_s_from_mm_per_min, mm_from_m, per_s_from_kv_m_per_min_per_mm, um_from_m,
+};
 use crate::plan::AxisCommands;
 use crate::sim::linear::{self, Loop, LoopFigures};
 use crate::sim::{AxisModel, SimConfig, SimError, simulate, stickslip};
-use crate::units::{m_per_s_from_mm_per_min, mm_from_m, per_s_from_kv_m_per_min_per_mm, um_from_m};
 
 /// One of the paper's following-error tables.
 #[derive(Debug, Clone, Copy)]
@@ -163,7 +165,7 @@ pub fn steady_following_error_m(
 }
 
 /// Runs one of the paper's tables on the X axis of `machine`.
-pub fn compare_table(
+pub(crate) fn compare_table(
     machine: &MachineConfig,
     table: &PaperTable,
     sim: &SimConfig,
@@ -215,7 +217,7 @@ pub const MODEL_LOOP_FIGURES: [(Loop, f64, f64, f64, f64); 3] = [
 ];
 
 /// Our loop figures beside the reference ones.
-pub fn compare_bode(machine: &MachineConfig) -> Vec<(LoopFigures, (f64, f64, f64, f64))> {
+pub(crate) fn compare_bode(machine: &MachineConfig) -> Vec<(LoopFigures, (f64, f64, f64, f64))> {
     let model = AxisModel::from_config(&machine.x);
     MODEL_LOOP_FIGURES
         .iter()
@@ -236,7 +238,7 @@ pub struct StickSlipSummary {
 pub const STICK_SLIP_SCAN_MM_PER_MIN: [f64; 9] = [0.1, 0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0];
 
 /// Stick-slip scan and critical velocity of the X axis.
-pub fn stick_slip_summary(
+pub(crate) fn stick_slip_summary(
     machine: &MachineConfig,
     cfg: &stickslip::StickSlipConfig,
 ) -> Result<StickSlipSummary, SimError> {
@@ -359,7 +361,7 @@ pub fn backlash_reversal(
 
 /// Following error's mean at steady state and its ripple during the start-up: the largest
 /// departure from the ideal first-order lag F/Kv·(1 − e^{−Kv t}) (both m).
-pub fn mean_and_ripple_m(
+pub(crate) fn mean_and_ripple_m(
     axis: &AxisConfig,
     feed_m_per_s: f64,
     sim: &SimConfig,

@@ -401,7 +401,7 @@ fn a_circle_of_short_chords_errs_as_the_arc_does() {
 #[test]
 fn a_run_in_chunks_is_the_run_in_one_piece() {
     use contourcheck::analysis::contour::contour_errors;
-    use contourcheck::execute::CHUNK_SAMPLES;
+    use contourcheck::plan::execute::CHUNK_SAMPLES;
     use contourcheck::sim::{SimConfig, simulate};
     let mut machine = MachineConfig::default_preset();
     machine.x.errors.resonance_hz = 35.0;

@@ -834,7 +834,7 @@ fn identify_writes_a_machine_file_check_takes_and_a_record_without_commands_is_r
     assert!(!dir.path().join("never.toml").exists());
 }
 
-/// The README's example of a controller that is not its design: the documented commands,
+/// docs/identify.md's example of a controller that is not its design: the documented commands,
 /// on the documented files, find the stand-in's gain, corners, mass and friction, and the
 /// identified machine predicts the held-out halves to the record's noise.
 #[test]

@@ -364,10 +364,10 @@ fn the_cascade_on_a_linear_motor_lags_by_f_over_kv_and_backlash_is_refused() {
 /// out near 3 µm beside a dead time (see the closing note of this change).
 #[test]
 fn backlash_on_another_controller_is_named_on_a_planned_record() {
-    use contourcheck::causes::CauseId;
+    use contourcheck::diagnose::causes::CauseId;
+    use contourcheck::diagnose::synth::{SynthSpec, synthesize};
     use contourcheck::diagnose::{DiagnoseSettings, diagnose};
     use contourcheck::machine::AxisName;
-    use contourcheck::synth::{SynthSpec, synthesize};
     use contourcheck::trace::measured::parse_trace;
     let table = MachineConfig::preset("small-table").unwrap();
     let program = common::sample_program("square.nc");

@@ -16,12 +16,12 @@ use std::process::Command;
 use common::{program_text, sample_program as program};
 use contourcheck::diagnose::causes::CauseId;
 use contourcheck::diagnose::locate::Variable;
+use contourcheck::diagnose::synth::{SynthSpec, synthesize};
 use contourcheck::diagnose::table::diagnose_table;
 use contourcheck::diagnose::{AxisResidual, DiagnoseSettings, Diagnosis, diagnose};
 use contourcheck::gcode::Program;
 use contourcheck::machine::{AxisName, MachineConfig};
 use contourcheck::sim::SimConfig;
-use contourcheck::synth::{SynthSpec, synthesize};
 use contourcheck::trace::measured::{parse_table, parse_trace};
 
 fn sample_path(name: &str) -> PathBuf {
@@ -942,7 +942,7 @@ fn an_effect_outside_the_catalogue_is_placed_learned_and_measured() {
     assert!(at(-50.0).abs() < 0.5 && at(80.0).abs() < 0.5);
     // As a compensation table: the table stands 6 µm beyond where it is told to at 30 mm —
     // the direction the record was bumped — whichever way it travels.
-    let tables = contourcheck::compensation::compensation(&d.machine);
+    let tables = contourcheck::diagnose::compensation::compensation(&d.machine);
     assert_eq!(tables.len(), 1);
     let (_, forward, reverse) = *tables[0]
         .points

@@ -11,11 +11,11 @@ mod common;
 
 use common::{foreign_commands, program_text, sample_program};
 use contourcheck::diagnose::causes::CauseId;
+use contourcheck::diagnose::synth::{SynthSpec, synthesize};
 use contourcheck::diagnose::{DiagnoseError, DiagnoseSettings, Diagnosis, diagnose};
 use contourcheck::gcode::Program;
 use contourcheck::machine::{AxisName, MachineConfig};
 use contourcheck::sim::MeasuredAt;
-use contourcheck::synth::{SynthSpec, synthesize};
 use contourcheck::trace::measured::parse_trace;
 
 /// A record of `program` on the nominal machine with `effect` hidden, driven by the foreign

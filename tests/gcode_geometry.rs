@@ -195,7 +195,7 @@ fn arc_radius_tolerance_follows_linuxcnc() {
 #[test]
 fn every_refused_construct_names_line_and_column() {
     let cases: [(&str, u32, u32); 14] = [
-        ("G21\nG18 G2 X1 Z1 I1 F10\n", 2, 5),
+        ("G21\nG18 G2 X1 Z1 J1 F10\n", 2, 14),
         ("G21 F10\nG41 D1 G1 X10\n", 2, 1),
         ("G21 F10\n  G81 X1 Y1 Z-1 R1\n", 2, 3),
         ("G21\nG93 G1 X1 F1\n", 2, 1),

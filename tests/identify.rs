@@ -15,6 +15,7 @@ use common::reference::{self, Recording};
 use common::{foreign_commands, program_text};
 use contourcheck::check::{CheckSettings, check};
 use contourcheck::compare::CompareSettings;
+use contourcheck::diagnose::synth::{SynthSpec, synthesize};
 use contourcheck::diagnose::{DiagnoseSettings, diagnose};
 use contourcheck::gcode::Program;
 use contourcheck::identify::{
@@ -22,7 +23,6 @@ use contourcheck::identify::{
 };
 use contourcheck::machine::{AxisConfig, AxisName, Controller, MachineConfig};
 use contourcheck::sim::MeasuredAt;
-use contourcheck::synth::{SynthSpec, synthesize};
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 
 /// A 5 s program moving both axes both ways at several feeds, with an arc.

@@ -9,16 +9,15 @@ use std::path::{Path, PathBuf};
 
 /// Lowest first. A module may use modules of lower layers only.
 const LAYERS: &[&[&str]] = &[
-    &["units", "lookup", "numeric", "plot"],
+    &["numeric", "plot"],
     &["path"],
     &["gcode"],
     &["machine"],
-    &["geometry", "sim"],
+    &["sim"],
     &["plan"],
-    &["causes", "execute", "envelope", "compensation"],
     &["analysis", "trace"],
     &["check", "validate"],
-    &["compare", "report", "sweep", "synth"],
+    &["compare", "sweep"],
     &["diagnose", "identify"],
     &["figures"],
     &["html_report"],

@@ -4,8 +4,8 @@
 //! write the files themselves, laid out as those tools lay them out, from a synthetic
 //! record, and read them back.
 
+use contourcheck::diagnose::synth::{SynthSpec, synthesize};
 use contourcheck::machine::MachineConfig;
-use contourcheck::synth::{SynthSpec, synthesize};
 use contourcheck::trace::format::ColumnMap;
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace, read_trace_with};
 
@@ -69,7 +69,7 @@ fn square() -> contourcheck::gcode::Program {
 }
 
 /// The square on the nominal machine with its commands recorded.
-fn synthetic_square() -> contourcheck::synth::Synthetic {
+fn synthetic_square() -> contourcheck::diagnose::synth::Synthetic {
     let spec = SynthSpec {
         with_commands: true,
         ..SynthSpec::default()

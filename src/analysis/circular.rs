@@ -1,6 +1,8 @@
 //! Circular-test figures in the manner of ISO 230-4 (the ballbar or grid-encoder test of two
-//! interpolating axes), for every full circle a program contains — from any XY path: a
-//! prediction, a measurement, or a fitted model.
+//! interpolating axes), for every full circle a program contains in a principal plane (XY,
+//! ZX or YZ; a helix is no circular test) — from any path: a prediction, a measurement, or a
+//! fitted model. In another plane than XY, "X" and "Y" below stand for the plane's first
+//! and second axes (ZX: Z and X; YZ: Y and Z), and the figures name their plane.
 //!
 //! Per circle and direction:
 //! - **G, circular deviation**: the radial width of the band holding the path, about the
@@ -24,8 +26,8 @@ use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 
 use crate::analysis::thinning::PeakThinned;
-use crate::path::{Geometry, Motion, Segment};
-use crate::units::{mm_from_m, um_from_m};
+use crate::numeric::units::{mm_from_m, um_from_m};
+use crate::path::{Geometry, Motion, Plane, Segment};
 
 /// A full circle of the program.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -42,10 +44,12 @@ pub struct Circle {
     pub ccw: bool,
     /// Programmed feed (m/s).
     pub feed_m_per_s: f64,
+    /// The plane it lies in; its centre is in that plane's coordinates.
+    pub plane: Plane,
 }
 
-/// The full circles among `segments`: feed arcs of constant radius that sweep at least one
-/// whole turn.
+/// The full circles among `segments`: feed arcs of constant radius, in their plane (not
+/// helices), that sweep at least one whole turn.
 pub fn circles(segments: &[Segment]) -> Vec<Circle> {
     segments
         .iter()
@@ -53,6 +57,7 @@ pub fn circles(segments: &[Segment]) -> Vec<Circle> {
         .filter_map(|(i, s)| match s.geometry {
             Geometry::Arc(a)
                 if s.motion == Motion::Feed
+                    && !s.is_helix()
                     && a.sweep_rad.abs() >= std::f64::consts::TAU * (1.0 - 1e-9)
                     && (a.r_end_m - a.r_start_m).abs() <= 1e-9 =>
             {
@@ -63,6 +68,7 @@ pub fn circles(segments: &[Segment]) -> Vec<Circle> {
                     radius_m: a.r_start_m,
                     ccw: a.sweep_rad > 0.0,
                     feed_m_per_s: s.feed_m_per_s,
+                    plane: s.plane(),
                 })
             }
             _ => None,
@@ -73,7 +79,12 @@ pub fn circles(segments: &[Segment]) -> Vec<Circle> {
 /// The samples of a path on circle `c` (`segment[k]` the plan segment sample `k` lies
 /// nearest): each one's polar angle about the programmed centre (rad) and radial deviation
 /// from the programmed radius (m, outward positive).
-pub fn radial_points(c: &Circle, segment: &[u32], x_m: &[f64], y_m: &[f64]) -> Vec<(f64, f64)> {
+pub(crate) fn radial_points(
+    c: &Circle,
+    segment: &[u32],
+    x_m: &[f64],
+    y_m: &[f64],
+) -> Vec<(f64, f64)> {
     (0..segment.len().min(x_m.len()).min(y_m.len()))
         .filter(|&k| segment[k] as usize == c.segment && x_m[k].is_finite() && y_m[k].is_finite())
         .map(|k| c.polar([x_m[k], y_m[k]]))
@@ -94,6 +105,9 @@ impl Circle {
 pub struct CircleFigures {
     /// Source line of the circle.
     pub line: u32,
+    /// The plane of the circle (`XY`, `ZX`, `YZ`); left out for XY.
+    #[serde(skip_serializing_if = "Plane::is_xy")]
+    pub plane: Plane,
     /// `ccw` or `cw`.
     pub direction: &'static str,
     /// Programmed radius (mm).
@@ -123,6 +137,10 @@ pub struct CircleFigures {
 pub struct Hysteresis {
     /// Line of the counter-clockwise circle.
     pub ccw_line: u32,
+    /// The plane of the pair; left out for XY (the `x`/`y` figures are then its first and
+    /// second axes').
+    #[serde(skip_serializing_if = "Plane::is_xy")]
+    pub plane: Plane,
     /// Line of the clockwise circle.
     pub cw_line: u32,
     /// Circular hysteresis H.
@@ -172,7 +190,8 @@ pub struct CircularTest {
 const MIN_SAMPLES: usize = 36;
 
 /// The circular-test figures of an XY path: `segment[k]` is the plan segment sample `k`
-/// lies nearest to (as the contour search found it), `x_m`, `y_m` its position.
+/// lies nearest to (as the contour search found it), `x_m`, `y_m` its position (circles in
+/// another plane than XY need Z, and get no points here).
 pub fn circular_test(
     circles: &[Circle],
     segment: &[u32],
@@ -181,7 +200,7 @@ pub fn circular_test(
 ) -> CircularTest {
     let mut gathered = CircleSamples::new(circles.to_vec());
     for k in 0..segment.len().min(x_m.len()).min(y_m.len()) {
-        gathered.push(segment[k], [x_m[k], y_m[k]]);
+        gathered.push(segment[k], [x_m[k], y_m[k], f64::NAN]);
     }
     gathered.test().0
 }
@@ -227,11 +246,12 @@ impl CircleSamples {
         }
     }
 
-    /// Takes a sample at `pos_m` lying nearest plan segment `segment`.
-    pub fn push(&mut self, segment: u32, pos_m: [f64; 2]) {
+    /// Takes a sample at `pos_m` (X, Y, Z) lying nearest plan segment `segment`.
+    pub fn push(&mut self, segment: u32, pos_m: [f64; 3]) {
         let Some(&i) = self.by_segment.get(&(segment as usize)) else {
             return;
         };
+        let pos_m = self.circles[i].plane.coords(pos_m);
         if pos_m[0].is_finite() && pos_m[1].is_finite() {
             let radial = self.circles[i].polar(pos_m).1;
             self.points[i].push((pos_m, radial));
@@ -260,6 +280,7 @@ impl CircleSamples {
         for (i, (a, pa)) in kept.iter().enumerate() {
             let partner = kept[i + 1..].iter().find(|(b, _)| {
                 b.ccw != a.ccw
+                    && b.plane == a.plane
                     && (b.radius_m - a.radius_m).abs() < 1e-9
                     && (b.center_m[0] - a.center_m[0]).hypot(b.center_m[1] - a.center_m[1]) < 1e-9
             });
@@ -289,6 +310,7 @@ fn figures(c: &Circle, p: &[[f64; 2]]) -> CircleFigures {
     let (along_axes, along_diagonals) = (h.cos2(), h.sin2());
     CircleFigures {
         line: c.line,
+        plane: c.plane,
         direction: if c.ccw { "ccw" } else { "cw" },
         radius_mm: mm_from_m(c.radius_m),
         g_um: um_from_m(hi - lo),
@@ -488,6 +510,7 @@ fn hysteresis(ccw: (&Circle, &Vec<[f64; 2]>), cw: (&Circle, &Vec<[f64; 2]>)) -> 
     };
     Hysteresis {
         ccw_line: ccw.0.line,
+        plane: ccw.0.plane,
         cw_line: cw.0.line,
         h_um: um_from_m(h),
         g_both_um: um_from_m(hi - lo),
@@ -577,10 +600,11 @@ impl CircularTest {
                 })
                 .collect();
             s.push_str(&format!(
-                "  line {:>4} {:<3} R{:<8} G {:>7.2} µm   F {:+.2} / {:+.2} µm   reversal spikes 0/90/180/270°: {} µm\n",
+                "  line {:>4} {:<3} R{:<8} {}G {:>7.2} µm   F {:+.2} / {:+.2} µm   reversal spikes 0/90/180/270°: {} µm\n",
                 c.line,
                 c.direction,
                 c.radius_mm,
+                plane_label(c.plane),
                 c.g_um,
                 c.f_max_um,
                 c.f_min_um,
@@ -588,13 +612,19 @@ impl CircularTest {
             ));
         }
         for p in &self.pairs {
+            let [a, b, _] = p.plane.axes().map(|i| ['X', 'Y', 'Z'][i]);
             s.push_str(&format!(
-                "  lines {} and {}: hysteresis H {:.2} µm, both directions G {:.2} µm, squareness \
+                "  lines {} and {}{}: hysteresis H {:.2} µm, both directions G {:.2} µm, squareness \
                  {:+.1} µrad, servo mismatch {:+.2} ms, scale mismatch {:+.1} ppm\n    \
-                 straightness X/Y {:+.2} / {:+.2} µm, lateral play X/Y {:+.2} / {:+.2} µm, \
-                 backlash X/Y {:+.2} / {:+.2} µm\n",
+                 straightness {a}/{b} {:+.2} / {:+.2} µm, lateral play {a}/{b} {:+.2} / {:+.2} µm, \
+                 backlash {a}/{b} {:+.2} / {:+.2} µm\n",
                 p.ccw_line,
                 p.cw_line,
+                if p.plane.is_xy() {
+                    String::new()
+                } else {
+                    format!(" ({} plane, {})", p.plane.name(), p.plane.gcode())
+                },
                 p.h_um,
                 p.g_both_um,
                 p.squareness_urad,
@@ -612,6 +642,15 @@ impl CircularTest {
     }
 }
 
+/// A circle's plane as its figures' line names it: nothing for XY, `ZX (G18) ` otherwise.
+fn plane_label(plane: Plane) -> String {
+    if plane.is_xy() {
+        String::new()
+    } else {
+        format!("{} ({}) ", plane.name(), plane.gcode())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -624,6 +663,7 @@ mod tests {
             radius_m: 0.1,
             ccw,
             feed_m_per_s: 1000.0 / 60_000.0,
+            plane: Plane::Xy,
         }
     }
 

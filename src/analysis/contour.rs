@@ -1,7 +1,8 @@
-//! Contour error (docs/model.md §3): the signed shortest distance from the actual tool position
-//! to the programmed geometry — the G-code's lines and true arcs, not the time-parametrised
-//! reference point. Positive to the left of the direction of travel; on arcs the radial
-//! deviation (positive outward) is kept as well.
+//! Contour error (docs/model.md §3): the shortest distance from the actual tool position to the
+//! programmed geometry in 3-D — the G-code's lines, true arcs and helices, not the
+//! time-parametrised reference point — signed by its side in the block's plane (positive to
+//! the left of the direction of travel), with its parts in the plane and across it and, on
+//! arcs, the radial deviation (positive outward). `contour3d` measures one segment.
 //!
 //! The search is local and follows the path: for each sample only the segments within a
 //! window of path length around the segment being commanded are tried, the window being
@@ -9,6 +10,7 @@
 //! in the length of the run, and a tool passing near an earlier part of the path is never
 //! matched to it.
 
+use super::contour3d::{Deviation, deviation};
 use crate::path::{Geometry, Motion, Segment};
 use crate::plan::{Commands, Plan};
 
@@ -20,6 +22,10 @@ const SEARCH_MARGIN_M: f64 = 0.5e-3;
 pub struct ContourSeries {
     /// Signed contour error per sample (m); NaN while not cutting (rapids).
     pub error_m: Vec<f64>,
+    /// Its part in the block's plane (m, signed left of travel); NaN while not cutting.
+    pub in_plane_m: Vec<f64>,
+    /// Its part across the block's plane (m, towards the normal's +); NaN while not cutting.
+    pub across_m: Vec<f64>,
     /// Radial deviation (m, positive outward) when the nearest geometry is an arc, else NaN.
     pub radial_m: Vec<f64>,
     /// Index of the nearest segment.
@@ -54,10 +60,9 @@ impl ContourSeries {
     }
 }
 
-/// Whether a segment is part of the cutting contour.
-/// Whether a segment is part of the XY contour: a feed move that moves X or Y. A dwell, or
-/// a move of Z alone (a plunge), has no contour: the XY error there is a positioning error,
-/// reported apart.
+/// Whether a segment is part of the cutting contour: a feed move that moves X or Y (any arc
+/// does). A dwell, or a move of Z alone (a plunge), has no contour: the XY error there is a
+/// positioning error, reported apart.
 pub(crate) fn is_contour(seg: &Segment) -> bool {
     let moves_xy = match seg.geometry {
         Geometry::Dwell { .. } => false,
@@ -72,8 +77,13 @@ pub(crate) fn is_contour(seg: &Segment) -> bool {
 /// One sample's contour error.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContourPoint {
-    /// Signed contour error (m); NaN while not cutting.
+    /// Signed contour error (m): the distance, signed by the in-plane side; NaN while not
+    /// cutting.
     pub error_m: f64,
+    /// Its part in the block's plane (m); NaN while not cutting.
+    pub in_plane_m: f64,
+    /// Its part across the plane (m); NaN while not cutting.
+    pub across_m: f64,
     /// Radial deviation (m, outward) when the nearest geometry is an arc, else NaN.
     pub radial_m: f64,
     /// Index of the nearest segment (of the commanded one while not cutting).
@@ -89,27 +99,81 @@ pub struct ContourPoint {
 pub struct ContourLocator {
     /// Path length at the start of each segment, and at the end (m).
     cum_m: Vec<f64>,
+    /// Whether Z is simulated: then the error is measured in 3-D; else Z stands where it is
+    /// commanded, which says nothing of the real Z, and the error is the XY projection's.
+    three_d: bool,
 }
 
 impl ContourLocator {
-    /// The search along `plan`'s path (its segment lengths; its timing does not matter).
+    /// The search along `plan`'s path (its segment lengths; its timing does not matter), in
+    /// the XY projection: for a machine that carries Z, or positions measured in X and Y.
     pub fn new(plan: &Plan) -> Self {
         let mut cum_m = Vec::with_capacity(plan.plans.len() + 1);
         cum_m.push(0.0);
         for p in &plan.plans {
             cum_m.push(cum_m.last().copied().unwrap_or(0.0) + p.length_m);
         }
-        ContourLocator { cum_m }
+        ContourLocator {
+            cum_m,
+            three_d: false,
+        }
+    }
+
+    /// The search in 3-D, for a machine that simulates Z.
+    pub(crate) fn in_3d(plan: &Plan) -> Self {
+        ContourLocator {
+            three_d: true,
+            ..Self::new(plan)
+        }
+    }
+
+    /// A point's deviation from a segment, in 3-D or in the XY projection.
+    fn deviation(in_space: bool, seg: &Segment, q: [f64; 3], u_hint: f64) -> Deviation {
+        if in_space {
+            return deviation(seg, q, u_hint);
+        }
+        let p = seg.project_xy([q[0], q[1]], u_hint);
+        Deviation {
+            distance_m: p.signed_distance_m.abs(),
+            in_plane_m: p.signed_distance_m,
+            across_m: 0.0,
+            radial_m: p.radial_m,
+            u: p.u,
+        }
+    }
+
+    /// Whether the error while `seg` is commanded is measured in space: where Z is simulated
+    /// and the block moves Z along the contour (a helix, a slope) or lies in ZX or YZ. A block
+    /// of the XY plane at one height is measured in X and Y as on a machine that carries Z, so a 2.5-D
+    /// program's figures do not change with a simulated Z; Z's own deviation there is its
+    /// following error (and Z still arriving after a plunge, the plunge's).
+    pub(crate) fn measures_in_space(&self, seg: &Segment) -> bool {
+        self.three_d && seg.is_contour_in_space()
+    }
+
+    /// Whether a segment near the commanded one is part of the path the tool is measured
+    /// against: a contour, and in 3-D also a plunge (a corner between a plunge and the cut
+    /// that follows is rounded in space, and the tool still coming down is that far from
+    /// the path, not as far as its height above the cut).
+    fn is_nearby_path(in_space: bool, seg: &Segment) -> bool {
+        is_contour(seg)
+            || (in_space
+                && seg.motion == Motion::Feed
+                && !seg.is_dwell()
+                && seg.start_m != seg.end_m)
     }
 
     /// The contour error of the actual position `q` (m) while segment `c` is commanded at
     /// `reference` (m).
-    pub fn locate(&self, plan: &Plan, c: usize, reference: [f64; 2], q: [f64; 2]) -> ContourPoint {
+    pub fn locate(&self, plan: &Plan, c: usize, reference: [f64; 3], q: [f64; 3]) -> ContourPoint {
         let (segs, cum) = (&plan.segments, &self.cum_m);
-        let ref_u = segs[c].project_xy(reference, 0.5).u;
+        let in_space = self.measures_in_space(&segs[c]);
+        let ref_u = Self::deviation(in_space, &segs[c], reference, 0.5).u;
         let s_ref = cum[c] + ref_u * plan.plans[c].length_m;
         let none = ContourPoint {
             error_m: f64::NAN,
+            in_plane_m: f64::NAN,
+            across_m: f64::NAN,
             radial_m: f64::NAN,
             segment: c as u32,
             path_s_m: s_ref,
@@ -118,17 +182,22 @@ impl ContourLocator {
         if !is_contour(&segs[c]) {
             return none;
         }
-        let window = (q[0] - reference[0]).hypot(q[1] - reference[1]) * 2.0 + SEARCH_MARGIN_M;
+        let apart = (q[0] - reference[0])
+            .hypot(q[1] - reference[1])
+            .hypot(if in_space { q[2] - reference[2] } else { 0.0 });
+        let window = apart * 2.0 + SEARCH_MARGIN_M;
         let mut best: Option<(f64, ContourPoint)> = None;
         let mut consider = |j: usize, hint: f64| {
-            if !is_contour(&segs[j]) {
+            if !Self::is_nearby_path(in_space, &segs[j]) {
                 return;
             }
-            let p = segs[j].project_xy(q, hint);
-            let d = p.signed_distance_m.abs();
+            let p = Self::deviation(in_space, &segs[j], q, hint);
+            let d = p.distance_m;
             if best.is_none_or(|b| d < b.0) {
                 let point = ContourPoint {
-                    error_m: p.signed_distance_m,
+                    error_m: p.signed_m(),
+                    in_plane_m: p.in_plane_m,
+                    across_m: p.across_m,
                     radial_m: p.radial_m.unwrap_or(f64::NAN),
                     segment: j as u32,
                     path_s_m: cum[j] + p.u * plan.plans[j].length_m,
@@ -152,21 +221,25 @@ impl ContourLocator {
     }
 }
 
-/// Contour errors of the actual XY positions (`x_m`, `y_m`, one per command sample).
+/// Contour errors of the actual positions (`x_m`, `y_m`, one per command sample; Z where
+/// it is commanded).
 pub fn contour_errors(plan: &Plan, commands: &Commands, x_m: &[f64], y_m: &[f64]) -> ContourSeries {
     let locator = ContourLocator::new(plan);
     let n = x_m.len().min(commands.len());
     let mut out = ContourSeries {
         error_m: Vec::with_capacity(n),
+        in_plane_m: Vec::with_capacity(n),
+        across_m: Vec::with_capacity(n),
         radial_m: Vec::with_capacity(n),
         segment: Vec::with_capacity(n),
         path_s_m: Vec::with_capacity(n),
         at_vertex: Vec::with_capacity(n),
     };
     for k in 0..n {
-        let reference = [commands.x.pos_m[k], commands.y.pos_m[k]];
+        let z = commands.z.pos_m[k];
+        let reference = [commands.x.pos_m[k], commands.y.pos_m[k], z];
         let c = commands.segment[k] as usize;
-        out.push(locator.locate(plan, c, reference, [x_m[k], y_m[k]]));
+        out.push(locator.locate(plan, c, reference, [x_m[k], y_m[k], z]));
     }
     out
 }
@@ -175,6 +248,8 @@ impl ContourSeries {
     /// Appends one sample's contour error.
     pub fn push(&mut self, p: ContourPoint) {
         self.error_m.push(p.error_m);
+        self.in_plane_m.push(p.in_plane_m);
+        self.across_m.push(p.across_m);
         self.radial_m.push(p.radial_m);
         self.segment.push(p.segment);
         self.path_s_m.push(p.path_s_m);

@@ -44,6 +44,9 @@ pub struct Hotspot {
     pub x_mm: f64,
     /// Actual Y at the peak (mm).
     pub y_mm: f64,
+    /// Actual Z at the peak (mm), where Z is simulated.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub z_mm: Option<f64>,
     /// Source line of the nearest block.
     pub line: u32,
     /// Signed contour error at the peak (µm).
@@ -99,6 +102,9 @@ pub struct HotspotConfig {
     pub slow_m_per_s: f64,
     /// Toggles within a second that make an episode stick-slip.
     pub stick_slip_toggles: usize,
+    /// Whether Z is simulated: its events count, hotspots give its position and corners
+    /// turn in space on blocks measured in space.
+    pub with_z: bool,
 }
 
 impl HotspotConfig {
@@ -110,6 +116,7 @@ impl HotspotConfig {
             corner_deg: 3.0,
             slow_m_per_s: 20.0 / 60_000.0,
             stick_slip_toggles: 4,
+            with_z: false,
         }
     }
 }
@@ -121,18 +128,21 @@ pub struct RunSample {
     pub t_s: f64,
     /// Actual X and Y (m).
     pub pos_m: [f64; 2],
+    /// Actual Z (m).
+    pub z_m: f64,
     /// Contour error (m), NaN while not cutting.
     pub error_m: f64,
     /// Path length of the contour error's foot point (m).
     pub path_s_m: f64,
     /// The plan segment being commanded.
     pub segment: u32,
-    /// Commanded X and Y velocity (m/s).
-    pub cmd_vel_m_per_s: [f64; 2],
-    /// Commanded X and Y acceleration (m/s²).
-    pub cmd_acc_m_per_s2: [f64; 2],
-    /// X and Y mode codes ([`crate::sim::Mode::code`]).
-    pub mode: [u8; 2],
+    /// Commanded X, Y and Z velocity (m/s).
+    pub cmd_vel_m_per_s: [f64; 3],
+    /// Commanded X, Y and Z acceleration (m/s²).
+    pub cmd_acc_m_per_s2: [f64; 3],
+    /// X, Y and Z mode codes ([`crate::sim::Mode::code`]); Z's is read only where Z is
+    /// simulated.
+    pub mode: [u8; 3],
 }
 
 /// A place in a run.
@@ -154,11 +164,12 @@ struct Kept {
     k: usize,
     t_s: f64,
     pos_m: [f64; 2],
+    z_m: f64,
     error_m: f64,
     path_s_m: f64,
     line: u32,
-    mode: [u8; 2],
-    cmd_vel: [f64; 2],
+    mode: [u8; 3],
+    cmd_vel: [f64; 3],
     stretch: u32,
 }
 
@@ -219,7 +230,7 @@ struct Toggles {
 pub struct HotspotFinder {
     cfg: HotspotConfig,
     max: usize,
-    axes: [AxisSteady; 2],
+    axes: [AxisSteady; 3],
     /// Window before and after an event, the level's span, half a second, a second
     /// (samples).
     before: usize,
@@ -232,15 +243,15 @@ pub struct HotspotFinder {
     /// Samples taken so far.
     n: usize,
     recent: VecDeque<Kept>,
-    last_sign: [f64; 2],
+    last_sign: [f64; 3],
     /// Since when each axis's command has stood still (sample; before the run, the axes
     /// stood), while it does.
-    still_since: [Option<i64>; 2],
+    still_since: [Option<i64>; 3],
     /// The current stretch of uninterrupted cutting.
     stretch: u32,
     reversals: Vec<Reversal>,
     next_junction: usize,
-    toggles: [Toggles; 2],
+    toggles: [Toggles; 3],
     events: BinaryHeap<Reverse<(usize, u64, Cause)>>,
     event_seq: u64,
     open: Option<Window>,
@@ -254,8 +265,9 @@ pub struct HotspotFinder {
 
 impl HotspotFinder {
     /// A finder keeping at most `max` hotspots, for a run sampled every `dt_s` on axes
-    /// whose steady lag, offset and backlash are `axes` (X, Y).
-    pub fn new(cfg: HotspotConfig, axes: [AxisSteady; 2], dt_s: f64, max: usize) -> Self {
+    /// whose steady lag, offset and backlash are `axes` (X, Y, Z; Z's read only where
+    /// `cfg.with_z`).
+    pub fn new(cfg: HotspotConfig, axes: [AxisSteady; 3], dt_s: f64, max: usize) -> Self {
         let samples = |s: f64| (s / dt_s).ceil() as usize;
         let (before, after) = (samples(cfg.before_s), samples(cfg.after_s));
         let (half_second, second) = ((0.5 / dt_s) as usize, (1.0 / dt_s) as usize);
@@ -271,8 +283,8 @@ impl HotspotFinder {
             delay: (second + half_second + 3).max(after + 1),
             n: 0,
             recent: VecDeque::new(),
-            last_sign: [0.0; 2],
-            still_since: [Some(-(after as i64)); 2],
+            last_sign: [0.0; 3],
+            still_since: [Some(-(after as i64)); 3],
             stretch: 0,
             reversals: Vec::new(),
             next_junction: 1,
@@ -304,11 +316,17 @@ impl HotspotFinder {
             k,
             t_s: s.t_s,
             pos_m: s.pos_m,
+            z_m: s.z_m,
             error_m: s.error_m,
             path_s_m: s.path_s_m,
             line: plan.segments.get(seg).map_or(0, |g| g.line),
             mode: s.mode,
-            cmd_vel: s.cmd_vel_m_per_s,
+            // Z's speed counts towards a plateau's cause only where Z is simulated.
+            cmd_vel: if self.cfg.with_z {
+                s.cmd_vel_m_per_s
+            } else {
+                [s.cmd_vel_m_per_s[0], s.cmd_vel_m_per_s[1], 0.0]
+            },
             stretch: self.stretch,
         };
         if s.error_m.is_finite()
@@ -349,7 +367,7 @@ impl HotspotFinder {
         {
             // Outside every window: a plateau, named by what explains it there.
             let cause = plateau_cause(m.error_m, m.cmd_vel, &self.axes);
-            let mut h = hotspot(&m, cause);
+            let mut h = hotspot(&m, cause, self.cfg.with_z);
             h.excess_um = (m.error_m - self.largest_level_m).abs() * 1e6;
             self.spots.push(h);
         }
@@ -363,7 +381,7 @@ impl HotspotFinder {
     /// brief stop, since the nut must cross its gap and static friction must break however
     /// short the stop (where either coincides with a corner, the corner names the place).
     fn note_reversals(&mut self, s: &RunSample, k: usize, cutting: bool) {
-        for axis in AxisName::BOTH {
+        for &axis in self.event_axes() {
             let a = axis.index();
             let v = s.cmd_vel_m_per_s[a];
             // Ignore the speed noise of a standing axis.
@@ -418,14 +436,23 @@ impl HotspotFinder {
     }
 
     /// Stick/slip toggles while an axis moves slowly in a cut.
-    fn note_toggles(&mut self, s: &RunSample, prev_mode: [u8; 2], k: usize, cutting: bool) {
-        for axis in AxisName::BOTH {
+    fn note_toggles(&mut self, s: &RunSample, prev_mode: [u8; 3], k: usize, cutting: bool) {
+        for &axis in self.event_axes() {
             let a = axis.index();
             let v = s.cmd_vel_m_per_s[a].abs();
             let slow = v > 0.0 && v < self.cfg.slow_m_per_s;
             if slow && cutting && stuck(s.mode[a]) != stuck(prev_mode[a]) {
                 self.toggles[a].pending.push_back(k);
             }
+        }
+    }
+
+    /// The axes whose events count: X and Y, and Z where it is simulated.
+    fn event_axes(&self) -> &'static [AxisName] {
+        if self.cfg.with_z {
+            &AxisName::ALL
+        } else {
+            &AxisName::BOTH
         }
     }
 
@@ -438,7 +465,7 @@ impl HotspotFinder {
     /// `at_end`: the run is complete.
     fn settle(&mut self, at_end: bool) {
         self.decide_reversals(at_end);
-        for axis in AxisName::BOTH {
+        for &axis in self.event_axes() {
             self.decide_episodes(axis, at_end);
         }
         while let Some(&Reverse((sample, _, cause))) = self.events.peek() {
@@ -479,7 +506,7 @@ impl HotspotFinder {
                 break;
             }
             if p.error_m.abs() * 1e6 > f.spot.error_um.abs() {
-                let mut h = hotspot(p, f.spot.cause);
+                let mut h = hotspot(p, f.spot.cause, self.cfg.with_z);
                 h.excess_um = (p.error_m - f.level_m).abs() * 1e6;
                 f.spot = h;
             }
@@ -601,7 +628,7 @@ impl HotspotFinder {
             return;
         };
         self.largest_window_peak_m = self.largest_window_peak_m.max(peak.error_m.abs());
-        let mut h = hotspot(&peak, w.cause);
+        let mut h = hotspot(&peak, w.cause, self.cfg.with_z);
         h.excess_um = (h.error_um - w.level_m * 1e6).abs();
         // No spike above the local level before, or none falling back from the level it
         // stepped to (the error at the window's end still within a tenth of the peak): the
@@ -712,12 +739,13 @@ fn level_before(recent: &VecDeque<Kept>, k: usize, span: usize) -> f64 {
     *v.select_nth_unstable_by(mid, f64::total_cmp).1
 }
 
-fn hotspot(p: &Kept, cause: Cause) -> Hotspot {
+fn hotspot(p: &Kept, cause: Cause, with_z: bool) -> Hotspot {
     Hotspot {
         sample: p.k,
         t_s: p.t_s,
         x_mm: p.pos_m[0] * 1e3,
         y_mm: p.pos_m[1] * 1e3,
+        z_mm: with_z.then_some(p.z_m * 1e3),
         // The block being executed when the error peaks.
         line: p.line,
         error_um: p.error_m * 1e6,

@@ -77,7 +77,7 @@ impl Cause {
 
     /// Whether the cause is a plateau of the error along a stretch rather than a spike at
     /// an event: rows of one stretch with it are one place.
-    pub fn is_plateau(&self) -> bool {
+    pub(crate) fn is_plateau(&self) -> bool {
         matches!(
             self,
             Cause::SteadyLag | Cause::ServoMismatch | Cause::BacklashOffset { .. }
@@ -118,27 +118,31 @@ pub struct AxisSteady {
 const EXPLAINS: f64 = 0.5;
 
 /// Which steady effect makes a plateau of contour error `error_m` where the axes are
-/// commanded at `vel` (m/s): the axes' lag difference, a semi-closed axis's backlash
-/// offset, or (neither explaining half of it) the loops' lag.
+/// commanded at `vel` (X, Y, Z; m/s, Z's 0 where Z is carried or stands): the axes' lag
+/// difference, a semi-closed axis's backlash offset, or (neither explaining half of it) the
+/// loops' lag.
 ///
-/// Each is read across the direction of travel u (the error's direction, n = u turned a
-/// quarter left): the lags put the tool at −τ_a·v_a on each axis, so their difference
-/// leaves |v|·u_x·u_y·(τ_x − τ_y) across it; an offset b/2 against each axis's motion
-/// leaves −sgn(v_a)·(b_a/2)·n_a.
-pub(crate) fn plateau_cause(error_m: f64, vel: [f64; 2], axes: &[AxisSteady; 2]) -> Cause {
-    let speed = vel[0].hypot(vel[1]);
+/// Each is read across the direction of travel u (the error lies across it): the lags put
+/// the tool at −τ_a·v_a on each axis, and what of that is not along u is the part their
+/// difference leaves across the path — in the plane |v|·u_x·u_y·(τ_x − τ_y); an offset b/2
+/// against an axis's motion along its unit vector e_a leaves (b_a/2)·√(1 − u_a²) across it.
+pub(crate) fn plateau_cause(error_m: f64, vel: [f64; 3], axes: &[AxisSteady; 3]) -> Cause {
+    let speed = crate::path::norm3(vel);
     if speed.is_nan() || speed <= 0.0 || !error_m.is_finite() {
         return Cause::SteadyLag;
     }
-    let u = [vel[0] / speed, vel[1] / speed];
-    let n = [-u[1], u[0]];
-    let mismatch = (speed * u[0] * u[1] * (axes[0].lag_s - axes[1].lag_s)).abs();
-    let offsets = [0, 1].map(|a| (vel[a].signum() * axes[a].offset_m * n[a]).abs());
-    let (axis, offset) = if offsets[1] > offsets[0] {
-        (AxisName::Y, offsets[1])
-    } else {
-        (AxisName::X, offsets[0])
-    };
+    let u = vel.map(|v| v / speed);
+    let lag = [0, 1, 2].map(|a| axes[a].lag_s * vel[a]);
+    let along = dot3(lag, u);
+    let mismatch = crate::path::norm3([0, 1, 2].map(|a| lag[a] - along * u[a]));
+    let offsets = [0, 1, 2].map(|a| axes[a].offset_m * (1.0 - u[a] * u[a]).max(0.0).sqrt());
+    let (axis, offset) =
+        AxisName::ALL
+            .into_iter()
+            .zip(offsets)
+            .fold((AxisName::X, 0.0), |best, (axis, o)| {
+                if o > best.1 { (axis, o) } else { best }
+            });
     let e = error_m.abs();
     if mismatch >= EXPLAINS * e && mismatch >= offset {
         Cause::ServoMismatch
@@ -164,7 +168,15 @@ pub(crate) fn junction_cause(
     if a.motion != Motion::Feed || b.motion != Motion::Feed || a.is_dwell() || b.is_dwell() {
         return None;
     }
+    // A corner is where the tool's path turns: in space where Z is simulated and either
+    // block is measured in space (it moves Z along the contour), else in XY (a plunge is no
+    // corner of the XY contour, as the error next to it is measured in XY).
+    let in_space = cfg.with_z && (a.is_contour_in_space() || b.is_contour_in_space());
     let xy = |t: [f64; 3]| {
+        if in_space {
+            let n = crate::path::norm3(t);
+            return if n > 1e-9 { t.map(|v| v / n) } else { [0.0; 3] };
+        }
         let n = t[0].hypot(t[1]);
         if n > 1e-9 {
             [t[0] / n, t[1] / n, 0.0]
@@ -196,9 +208,9 @@ mod tests {
     #[test]
     fn a_plateau_is_named_by_the_effect_that_explains_it() {
         let v = 1000.0 / 60_000.0;
-        let diagonal = [v / 2f64.sqrt(), v / 2f64.sqrt()];
+        let diagonal = [v / 2f64.sqrt(), v / 2f64.sqrt(), 0.0];
         // Equal lags leave nothing across a line: whatever is there is not theirs.
-        assert_eq!(plateau_cause(5e-6, diagonal, &[LAG; 2]), Cause::SteadyLag);
+        assert_eq!(plateau_cause(5e-6, diagonal, &[LAG; 3]), Cause::SteadyLag);
         // Y lagging 1/0.9 − 1 of X's 60 ms: v·½·Δτ = 55.6 µm across a 45° line.
         let slow_y = AxisSteady {
             lag_s: 0.06 / 0.9,
@@ -207,12 +219,12 @@ mod tests {
         let across = v * 0.5 * (0.06 / 0.9 - 0.06);
         assert!((across - 55.6e-6).abs() < 0.1e-6);
         assert_eq!(
-            plateau_cause(across, diagonal, &[LAG, slow_y]),
+            plateau_cause(across, diagonal, &[LAG, slow_y, LAG]),
             Cause::ServoMismatch
         );
         // Along an axis the mismatch leaves nothing.
         assert_eq!(
-            plateau_cause(5e-6, [v, 0.0], &[LAG, slow_y]),
+            plateau_cause(5e-6, [v, 0.0, 0.0], &[LAG, slow_y, LAG]),
             Cause::SteadyLag
         );
         // Half of 20 µm of play on X, semi-closed, across a 45° line: 10·√½ µm.
@@ -222,12 +234,12 @@ mod tests {
             ..LAG
         };
         assert_eq!(
-            plateau_cause(7.07e-6, diagonal, &[play_x, LAG]),
+            plateau_cause(7.07e-6, diagonal, &[play_x, LAG, LAG]),
             Cause::BacklashOffset { axis: AxisName::X }
         );
         // Standing axes have no plateau to name.
         assert_eq!(
-            plateau_cause(1e-6, [0.0, 0.0], &[play_x, LAG]),
+            plateau_cause(1e-6, [0.0, 0.0, 0.0], &[play_x, LAG, LAG]),
             Cause::SteadyLag
         );
     }

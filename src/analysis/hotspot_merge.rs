@@ -103,6 +103,7 @@ mod tests {
             t_s: sample as f64 * 0.1,
             x_mm: 0.0,
             y_mm: 0.0,
+            z_mm: None,
             line: 10 + sample as u32,
             error_um,
             path_mm: 0.0,

@@ -6,6 +6,7 @@
 
 pub mod circular;
 pub mod contour;
+pub mod contour3d;
 pub mod hotspot;
 pub mod hotspot_cause;
 pub mod hotspot_merge;
@@ -18,13 +19,13 @@ use crate::analysis::contour::{ContourLocator, ContourPoint};
 pub use crate::analysis::hotspot::RunPlace;
 use crate::analysis::hotspot::{AxisSteady, Hotspot, HotspotConfig, HotspotFinder, RunSample};
 use crate::analysis::thinning::PeakThinned;
-use crate::execute::RunChunk;
 use crate::gcode::Warning;
-use crate::geometry::ToolReader;
 use crate::machine::Feedback;
 use crate::machine::{AxisConfig, MachineConfig};
 use crate::path::Motion;
 use crate::plan::Plan;
+use crate::plan::execute::RunChunk;
+use crate::sim::geometry::ToolReader;
 use crate::sim::linear::{equivalent_kv_per_s, settling_rate_per_s, velocity_lag_s};
 use crate::sim::{AxisModel, AxisTrace, Mode};
 
@@ -45,6 +46,13 @@ pub struct Summary {
     pub rms_contour_error_m: f64,
     /// Largest |following error| of X and Y while cutting (m).
     pub max_following_error_cutting_m: [f64; 2],
+    /// Z's largest |following error| while cutting and over the whole run (m), where Z is
+    /// simulated.
+    pub z_following_error_m: Option<[f64; 2]>,
+    /// The largest parts of the contour error in the block's plane and across it (m), over
+    /// the blocks measured in space (Z simulated and moving along the contour); `None` where
+    /// there are none.
+    pub max_components_m: Option<[f64; 2]>,
     /// Largest XY distance from the commanded point while a feed block moves Z alone or
     /// dwells (m): the axes still settling after they arrived — a positioning error at that
     /// point, not part of the contour.
@@ -60,11 +68,16 @@ pub struct Summary {
 pub struct PlotPoint {
     /// Actual X and Y (m).
     pub pos_m: [f64; 2],
+    /// Actual Z (m): as commanded where Z is carried.
+    pub z_m: f64,
     /// Path length of the contour error's foot point (m).
     pub path_s_m: f64,
     /// Contour error (m), NaN while not cutting.
     pub error_m: f64,
 }
+
+/// The mode code a carried Z reads as: stuck, never limited (it takes no part in events).
+const STANDING: u8 = 2;
 
 /// Points kept for plots (up to twice as many while a run grows): each the largest contour
 /// error of its stretch of the run, so that every spike survives the thinning.
@@ -135,8 +148,9 @@ pub struct RunAnalyser {
     hotspots: HotspotFinder,
     circles: CircleSamples,
     plot: PeakThinned<PlotPoint>,
-    limits: [LimitTally; 2],
-    i_max_a: [f64; 2],
+    /// X, Y and (where simulated) Z.
+    limits: Vec<LimitTally>,
+    i_max_a: Vec<f64>,
     /// What lies beyond the scales (squareness, straightness, maps, play), applied to the
     /// positions at the tool sample by sample.
     tool: ToolReader,
@@ -144,8 +158,12 @@ pub struct RunAnalyser {
     cutting_samples: usize,
     /// Largest XY positioning error while Z moves alone or the program dwells, and where.
     positioning: (f64, Option<(u32, f64)>),
-    fe_cut_m: [f64; 2],
-    fe_all_m: [f64; 2],
+    /// X, Y and (where simulated) Z.
+    fe_cut_m: Vec<f64>,
+    fe_all_m: Vec<f64>,
+    /// The largest in-plane and across parts of the contour error, over the samples measured
+    /// in space.
+    components_m: Option<[f64; 2]>,
     samples: usize,
 }
 
@@ -154,11 +172,24 @@ impl RunAnalyser {
     pub fn new(plan: &Plan, machine: &MachineConfig, max_hotspots: usize) -> Self {
         let [mx, my] = [&machine.x, &machine.y].map(AxisModel::from_config);
         let kv = window_rate_per_s(&mx).min(window_rate_per_s(&my));
+        let simulated: Vec<AxisModel> = machine
+            .simulated_configs()
+            .into_iter()
+            .map(AxisModel::from_config)
+            .collect();
+        let z_simulated = simulated.len() == 3;
         RunAnalyser {
-            locator: ContourLocator::new(plan),
+            locator: if z_simulated {
+                ContourLocator::in_3d(plan)
+            } else {
+                ContourLocator::new(plan)
+            },
             hotspots: HotspotFinder::new(
-                HotspotConfig::for_kv(kv),
-                [&mx, &my].map(steady_of),
+                HotspotConfig {
+                    with_z: z_simulated,
+                    ..HotspotConfig::for_kv(kv)
+                },
+                [0, 1, 2].map(|a| simulated.get(a).map_or(AxisSteady::default(), steady_of)),
                 plan.config.cycle_s,
                 max_hotspots,
             ),
@@ -170,14 +201,15 @@ impl RunAnalyser {
                     -1.0
                 }
             }),
-            limits: Default::default(),
-            i_max_a: [&mx, &my].map(|m| m.i_max),
+            limits: vec![LimitTally::default(); simulated.len()],
+            i_max_a: simulated.iter().map(|m| m.i_max).collect(),
             tool: ToolReader::new(machine),
             squares_m2: 0.0,
             cutting_samples: 0,
             positioning: (0.0, None),
-            fe_cut_m: [0.0; 2],
-            fe_all_m: [0.0; 2],
+            fe_cut_m: vec![0.0; simulated.len()],
+            fe_all_m: vec![0.0; simulated.len()],
+            components_m: None,
             samples: 0,
         }
     }
@@ -185,8 +217,11 @@ impl RunAnalyser {
     /// Takes the next chunk of the run; returns its samples' contour errors.
     pub fn take(&mut self, chunk: &RunChunk) -> Vec<ContourPoint> {
         let (plan, c) = (chunk.plan, chunk.commands);
-        let traces = [&chunk.x, &chunk.y];
-        let n = c.len().min(chunk.x.len()).min(chunk.y.len());
+        let traces: Vec<&AxisTrace> = [&chunk.x, &chunk.y]
+            .into_iter()
+            .chain(chunk.z.as_ref())
+            .collect();
+        let n = traces.iter().fold(c.len(), |n, t| n.min(t.len()));
         let mut points = Vec::with_capacity(n);
         for i in 0..n {
             let k = chunk.first + i;
@@ -195,37 +230,58 @@ impl RunAnalyser {
             // At the tool: the axes' geometry lies beyond the scales the loops close on.
             let pos_m = self.tool.read([chunk.x.pos_m[i], chunk.y.pos_m[i]]);
             let reference = [c.x.pos_m[i], c.y.pos_m[i]];
-            let point = self.locator.locate(plan, seg, reference, pos_m);
+            let z_m = chunk.z.as_ref().map_or(c.z.pos_m[i], |z| z.pos_m[i]);
+            let point = self.locator.locate(
+                plan,
+                seg,
+                [reference[0], reference[1], c.z.pos_m[i]],
+                [pos_m[0], pos_m[1], z_m],
+            );
             let cutting = plan.segments[seg].motion == Motion::Feed;
             let line = plan.segments[seg].line;
-            self.tally_errors(traces, i, cutting);
+            self.tally_errors(&traces, i, cutting);
             if cutting && !contour::is_contour(&plan.segments[seg]) {
                 let off = (pos_m[0] - reference[0]).hypot(pos_m[1] - reference[1]);
                 if off > self.positioning.0 {
                     self.positioning = (off, Some((line, t_s)));
                 }
             }
-            self.tally_limits(traces, i, t_s, line);
+            self.tally_limits(&traces, i, t_s, line);
             if point.error_m.is_finite() {
                 self.squares_m2 += point.error_m * point.error_m;
                 self.cutting_samples += 1;
+                if self.locator.measures_in_space(&plan.segments[seg]) {
+                    let parts = [point.in_plane_m.abs(), point.across_m.abs()];
+                    let largest = self.components_m.unwrap_or_default();
+                    self.components_m = Some([0, 1].map(|j| largest[j].max(parts[j])));
+                }
             }
             self.hotspots.push(
                 plan,
                 &RunSample {
                     t_s,
                     pos_m,
+                    z_m,
                     error_m: point.error_m,
                     path_s_m: point.path_s_m,
                     segment: c.segment[i],
-                    cmd_vel_m_per_s: [c.x.vel_m_per_s[i], c.y.vel_m_per_s[i]],
-                    cmd_acc_m_per_s2: [c.x.acc_m_per_s2[i], c.y.acc_m_per_s2[i]],
-                    mode: [chunk.x.mode[i], chunk.y.mode[i]],
+                    cmd_vel_m_per_s: [c.x.vel_m_per_s[i], c.y.vel_m_per_s[i], c.z.vel_m_per_s[i]],
+                    cmd_acc_m_per_s2: [
+                        c.x.acc_m_per_s2[i],
+                        c.y.acc_m_per_s2[i],
+                        c.z.acc_m_per_s2[i],
+                    ],
+                    mode: [
+                        chunk.x.mode[i],
+                        chunk.y.mode[i],
+                        chunk.z.as_ref().map_or(STANDING, |z| z.mode[i]),
+                    ],
                 },
             );
-            self.circles.push(point.segment, pos_m);
+            self.circles.push(point.segment, [pos_m[0], pos_m[1], z_m]);
             self.plot.push(PlotPoint {
                 pos_m,
+                z_m,
                 path_s_m: point.path_s_m,
                 error_m: point.error_m,
             });
@@ -235,7 +291,7 @@ impl RunAnalyser {
         points
     }
 
-    fn tally_errors(&mut self, traces: [&AxisTrace; 2], i: usize, cutting: bool) {
+    fn tally_errors(&mut self, traces: &[&AxisTrace], i: usize, cutting: bool) {
         for (a, t) in traces.iter().enumerate() {
             let e = t.following_error_m(i).abs();
             self.fe_all_m[a] = self.fe_all_m[a].max(e);
@@ -245,7 +301,7 @@ impl RunAnalyser {
         }
     }
 
-    fn tally_limits(&mut self, traces: [&AxisTrace; 2], i: usize, t_s: f64, line: u32) {
+    fn tally_limits(&mut self, traces: &[&AxisTrace], i: usize, t_s: f64, line: u32) {
         for (a, t) in traces.iter().enumerate() {
             let tally = &mut self.limits[a];
             let limited = Mode::code_is_limited(t.mode[i]);
@@ -266,13 +322,18 @@ impl RunAnalyser {
     /// The figures of the whole run, `plan` as the execution re-timed it.
     pub fn finish(self, mut plan: Plan, machine: &MachineConfig) -> CheckResult {
         let dt_s = plan.config.cycle_s;
-        for ((axis, config), tally) in [('X', &machine.x), ('Y', &machine.y)]
+        let z_simulated = self.fe_all_m.len() == 3;
+        for ((axis, config), tally) in ['X', 'Y', 'Z']
             .into_iter()
+            .zip(machine.simulated_configs())
             .zip(self.limits)
         {
             if let Some(w) = limit_warning(axis, &tally, config, dt_s) {
                 plan.warnings.push(w);
             }
+        }
+        if !z_simulated {
+            plan.warnings.extend(carried_z_warnings(&plan));
         }
         let (circular, circle_paths) = self.circles.test();
         let largest = self.hotspots.largest();
@@ -287,10 +348,12 @@ impl RunAnalyser {
             } else {
                 (self.squares_m2 / self.cutting_samples as f64).sqrt()
             },
-            max_following_error_cutting_m: self.fe_cut_m,
+            max_following_error_cutting_m: [self.fe_cut_m[0], self.fe_cut_m[1]],
+            z_following_error_m: z_simulated.then(|| [self.fe_cut_m[2], self.fe_all_m[2]]),
+            max_components_m: self.components_m,
             max_positioning_error_m: self.positioning.0,
             max_positioning_at: self.positioning.1,
-            max_following_error_m: self.fe_all_m,
+            max_following_error_m: [self.fe_all_m[0], self.fe_all_m[1]],
         };
         CheckResult {
             hotspots: self.hotspots.finish(),
@@ -304,6 +367,22 @@ impl RunAnalyser {
             plan,
         }
     }
+}
+
+/// On a machine that carries Z, one warning per feed block that moves Z together with X or
+/// Y (a helix, a slope, a 3-D contour): Z arrives with its command there, so the contour
+/// error is X's and Y's alone. A plunge (Z alone) is no contour and is not warned.
+fn carried_z_warnings(plan: &Plan) -> Vec<Warning> {
+    plan.segments
+        .iter()
+        .filter(|s| s.cuts_in_space())
+        .map(|s| Warning {
+            line: s.line,
+            message: "Z moves along the contour, but this machine carries Z (its file gives \
+                      Z only limits): the contour error here is X's and Y's alone"
+                .into(),
+        })
+        .collect()
 }
 
 fn cut_length_m(plan: &Plan) -> f64 {

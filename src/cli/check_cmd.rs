@@ -6,12 +6,12 @@ use clap::Args;
 
 use super::Outcome;
 use super::common::{CliError, MachineArgs, PlanningArgs, load_program, progress};
+use crate::check::report::{CheckReport, TraceCsv, group_warnings, summary_text};
 use crate::check::{CheckResult, CheckSettings, check_planned};
 use crate::cli::output::{OutputBatch, at_most_one_stdout};
 use crate::figures::CheckFigures;
 use crate::gcode::SourceFile;
 use crate::plan::{KinematicLimits, plan_segments};
-use crate::report::{CheckReport, TraceCsv, group_warnings, summary_text};
 
 /// Arguments of `check`.
 #[derive(Debug, Args)]
@@ -164,6 +164,11 @@ fn stage_plots(
             crate::plot::render(p, &figures.toolpath, &footer)
         })?;
         written.push(path);
+        for (file, view) in &figures.side_views {
+            let path = dir.join(format!("{file}.{ext}"));
+            batch.stage_with_path(&path, |p| crate::plot::render(p, view, &footer))?;
+            written.push(path);
+        }
         let path = dir.join(format!("contour-along-path.{ext}"));
         batch.stage_with_path(&path, |p| {
             crate::plot::render(p, &figures.along_path, &footer)

@@ -8,10 +8,10 @@ use clap::Args;
 use crate::cli::output::OutputError;
 use crate::gcode::{GcodeErrors, InterpretOptions, Program, parse_program};
 use crate::machine::{ConfigError, MachineConfig};
+use crate::numeric::units::{m_from_mm, s_from_ms};
 use crate::path::{Motion, Segment};
 use crate::plan::{PlanConfig, ProfileKind};
 use crate::plot::Footer;
-use crate::units::{m_from_mm, s_from_ms};
 
 /// Errors a command can end with.
 #[derive(Debug, thiserror::Error)]
@@ -38,7 +38,7 @@ pub enum CliError {
     },
     /// The program does not fit the machine (no XY motion, outside travel).
     #[error("{0}")]
-    Envelope(#[from] crate::envelope::EnvelopeError),
+    Envelope(#[from] crate::check::envelope::EnvelopeError),
     /// Measured data is unreadable or malformed.
     #[error("{0}")]
     Measured(#[from] crate::trace::measured::MeasuredError),
@@ -104,7 +104,7 @@ fn no_such_machine(path: &std::path::Path) -> String {
 
 impl MachineArgs {
     /// What an HTML report says of the machine's source: the file given, if one was.
-    pub fn report_inputs(&self) -> crate::html_report::Inputs {
+    pub(crate) fn report_inputs(&self) -> crate::html_report::Inputs {
         crate::html_report::Inputs {
             machine_file: self
                 .machine
@@ -117,7 +117,7 @@ impl MachineArgs {
     /// The machine, refused when an axis's loops are unstable, with the setting that makes
     /// them so and the range in which it is stable (for commands that simulate; `bode` and
     /// `sweep` show unstable settings instead).
-    pub fn load_stable(&self) -> Result<MachineConfig, CliError> {
+    pub(crate) fn load_stable(&self) -> Result<MachineConfig, CliError> {
         let machine = self.load()?;
         let file = self
             .machine
@@ -234,12 +234,12 @@ pub fn load_program(path: &Path, machine: &MachineConfig) -> Result<Program, Cli
         ..InterpretOptions::default()
     };
     let program = parse_program(&text, &path.display().to_string(), &options)?;
-    crate::envelope::check_fits(&program, machine)?;
+    crate::check::envelope::check_fits(&program, machine)?;
     Ok(program)
 }
 
 /// "1 h 02 min 03.4 s" style durations.
-pub fn format_duration(seconds: f64) -> String {
+pub(crate) fn format_duration(seconds: f64) -> String {
     let h = (seconds / 3600.0).floor();
     let m = ((seconds - h * 3600.0) / 60.0).floor();
     let s = seconds - h * 3600.0 - m * 60.0;
@@ -345,7 +345,7 @@ pub struct AxisArg {
 /// Writes a figure into the `--plot` directory (made if missing) as `<stem>.png` and
 /// `<stem>.svg`, whole or not at all, and says so on stdout — as every command's `--plot DIR`
 /// does.
-pub fn write_plots_into(
+pub(crate) fn write_plots_into(
     dir: &Path,
     stem: &str,
     figure: &impl crate::plot::Figure,
@@ -439,7 +439,7 @@ impl clap::ValueEnum for crate::gcode::Dialect {
 static DIALECT: std::sync::OnceLock<crate::gcode::Dialect> = std::sync::OnceLock::new();
 
 /// Sets the dialect of the programs this run reads (`--dialect`).
-pub fn set_dialect(dialect: crate::gcode::Dialect) {
+pub(crate) fn set_dialect(dialect: crate::gcode::Dialect) {
     let _ = DIALECT.set(dialect);
 }
 
@@ -491,7 +491,7 @@ pub(crate) fn feed_text(segments: &[Segment]) -> String {
     let feeds = segments
         .iter()
         .filter(|s| s.motion == Motion::Feed && !s.is_dwell() && s.feed_m_per_s > 0.0)
-        .map(|s| crate::units::mm_per_min_from_m_per_s(s.feed_m_per_s));
+        .map(|s| crate::numeric::units::mm_per_min_from_m_per_s(s.feed_m_per_s));
     let (lo, hi) = feeds.fold((f64::INFINITY, 0.0f64), |(a, b), f| (a.min(f), b.max(f)));
     let round = |f: f64| format!("{}", (f * 10.0).round() / 10.0);
     if hi == 0.0 {

@@ -9,16 +9,16 @@ use clap::Args;
 use super::Outcome;
 use super::common::{CliError, MachineArgs, PlanningArgs, TraceArgs, spinner};
 use super::common::{program_or_commands_path, warn_beyond_machine};
-use crate::causes::{CauseId, CauseSet};
 use crate::cli::output::{OutputBatch, at_most_one_stdout};
+use crate::diagnose::causes::{CauseId, CauseSet};
 use crate::diagnose::report::{DiagnoseReport, machine_file};
 use crate::diagnose::table::diagnose_table;
 use crate::diagnose::{DiagnoseSettings, Diagnosis, diagnose_validated};
 use crate::figures::DiagnoseFigures;
 use crate::machine::MachineConfig;
+use crate::numeric::units::m_from_um;
 use crate::sim::MeasuredAt;
 use crate::trace::measured::{MeasuredTrace, read_table};
-use crate::units::m_from_um;
 
 /// Arguments of `diagnose`.
 #[derive(Debug, Args)]
@@ -221,7 +221,7 @@ fn stage_compensation(
     dir: &Path,
     machine: &crate::machine::MachineConfig,
 ) -> Result<String, CliError> {
-    use crate::compensation::{compensation, linuxcnc_file, neutral_csv};
+    use crate::diagnose::compensation::{compensation, linuxcnc_file, neutral_csv};
     let tables = compensation(machine);
     if tables.is_empty() {
         return Ok(

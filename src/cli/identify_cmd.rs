@@ -12,7 +12,7 @@ use crate::cli::output::{OutputBatch, at_most_one_stdout};
 use crate::compare::CompareSettings;
 use crate::identify::identify;
 use crate::identify::report::{IdentifyReport, machine_file, summary_text};
-use crate::units::m_from_um;
+use crate::numeric::units::m_from_um;
 
 /// Arguments of `identify`.
 #[derive(Debug, Args)]

@@ -6,11 +6,11 @@ use clap::Args;
 
 use super::Outcome;
 use super::common::{CliError, TraceArgs, write_plots_into};
+use crate::numeric::units::{mm_from_m, um_from_m};
 use crate::plot::panels::{Curve, Panel, PanelsPlot};
 use crate::plot::xy::{Beside, XyPlot};
 use crate::trace::inspect::summarise;
 use crate::trace::measured::MeasuredTrace;
-use crate::units::{mm_from_m, um_from_m};
 
 /// Arguments of `inspect`.
 #[derive(Debug, Args)]

@@ -204,7 +204,7 @@ impl OutputBatch {
     /// Stages `dest` to be written piece by piece (a run's trace as it is simulated): the
     /// returned writer must be finished before the batch is committed. To the standard
     /// output or a stream the pieces go as they come (a trace of any length is never held).
-    pub fn stage_writer(&mut self, dest: &Path) -> Result<StagedWriter, OutputError> {
+    pub(crate) fn stage_writer(&mut self, dest: &Path) -> Result<StagedWriter, OutputError> {
         let target = self.claim(dest)?;
         let w: Box<dyn Write + Send> = match &target {
             Target::File(onto) => {
@@ -231,13 +231,13 @@ impl OutputBatch {
     }
 
     /// Where the staged outputs will appear, in the order they were staged.
-    pub fn destinations(&self) -> Vec<PathBuf> {
+    pub(crate) fn destinations(&self) -> Vec<PathBuf> {
         self.staged.iter().map(|(dest, _)| dest.clone()).collect()
     }
 
     /// Stages a file that a library writes by path itself (e.g. an image encoder): `write` is
     /// given the temporary path to write to.
-    pub fn stage_with_path(
+    pub(crate) fn stage_with_path(
         &mut self,
         dest: &Path,
         write: impl FnOnce(&Path) -> Result<(), String>,
@@ -346,7 +346,7 @@ fn temp_path(onto: &Path, dest: &Path) -> Result<PathBuf, OutputError> {
 
 /// Refuses, before any work, a run that names the standard output (`-`) for more than one
 /// of its outputs.
-pub fn at_most_one_stdout<'a>(
+pub(crate) fn at_most_one_stdout<'a>(
     outputs: impl IntoIterator<Item = Option<&'a PathBuf>>,
 ) -> Result<(), OutputError> {
     let dashes = outputs

@@ -8,9 +8,9 @@ use clap::Args;
 use super::Outcome;
 use super::common::{CliError, MachineArgs, PlanningArgs, format_duration, load_program};
 use crate::cli::output::OutputBatch;
+use crate::numeric::units::{mm_from_m, mm_per_min_from_m_per_s};
 use crate::path::Motion;
 use crate::plan::{Commands, KinematicLimits, plan, sample};
-use crate::units::{mm_from_m, mm_per_min_from_m_per_s};
 
 /// Arguments of `plan`.
 #[derive(Debug, Args)]
@@ -67,7 +67,7 @@ pub fn run(args: &PlanArgs) -> Result<Outcome, CliError> {
     );
     println!("time      {}", format_duration(planned.total_time_s));
     println!("peaks     speed (mm/min)  accel (m/s²)  jerk (m/s³, sampled)");
-    for (name, axis) in [("X", &commands.x), ("Y", &commands.y)] {
+    for (name, axis) in [("X", &commands.x), ("Y", &commands.y), ("Z", &commands.z)] {
         let p = axis.peaks(commands.dt_s);
         println!(
             "  {name}       {:>12.1}  {:>12.4}  {:>12.3}",
@@ -93,7 +93,7 @@ fn print_notes_and_warnings(program: &crate::gcode::Program, planner: &[crate::g
     let warnings: Vec<_> = program.warnings.iter().chain(planner).cloned().collect();
     if !warnings.is_empty() {
         println!("warnings:");
-        for line in crate::report::group_warnings(&warnings) {
+        for line in crate::check::report::group_warnings(&warnings) {
             println!("  {line}");
         }
     }
@@ -101,7 +101,7 @@ fn print_notes_and_warnings(program: &crate::gcode::Program, planner: &[crate::g
 
 /// The sampled commands as CSV: time, X/Y/Z position, X/Y velocity and acceleration, and
 /// the source line of the block being executed.
-pub fn write_commands_csv(
+pub(crate) fn write_commands_csv(
     w: &mut dyn Write,
     c: &Commands,
     segments: &[crate::path::Segment],
@@ -114,8 +114,10 @@ pub fn write_commands_csv(
         "z_mm",
         "vx_mm_per_min",
         "vy_mm_per_min",
+        "vz_mm_per_min",
         "ax_m_per_s2",
         "ay_m_per_s2",
+        "az_m_per_s2",
         "line",
     ])?;
     for k in 0..c.len() {
@@ -123,11 +125,13 @@ pub fn write_commands_csv(
             format!("{:.4}", c.time_s(k)),
             format!("{:.6}", mm_from_m(c.x.pos_m[k])),
             format!("{:.6}", mm_from_m(c.y.pos_m[k])),
-            format!("{:.6}", mm_from_m(c.z_m[k])),
+            format!("{:.6}", mm_from_m(c.z.pos_m[k])),
             format!("{:.3}", mm_per_min_from_m_per_s(c.x.vel_m_per_s[k])),
             format!("{:.3}", mm_per_min_from_m_per_s(c.y.vel_m_per_s[k])),
+            format!("{:.3}", mm_per_min_from_m_per_s(c.z.vel_m_per_s[k])),
             format!("{:.6}", c.x.acc_m_per_s2[k]),
             format!("{:.6}", c.y.acc_m_per_s2[k]),
+            format!("{:.6}", c.z.acc_m_per_s2[k]),
             segments
                 .get(c.segment[k] as usize)
                 .map_or(0, |s| s.line)

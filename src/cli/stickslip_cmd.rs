@@ -8,9 +8,9 @@ use rayon::prelude::*;
 
 use super::Outcome;
 use super::common::{AxisArg, CliError, MachineArgs, progress, write_plots_into};
+use crate::numeric::units::{m_per_s_from_mm_per_min, mm_per_min_from_m_per_s, um_from_m};
 use crate::plot::stickslip::{StickSlipCurve, StickSlipPlot};
 use crate::sim::{AxisModel, stickslip};
-use crate::units::{m_per_s_from_mm_per_min, mm_per_min_from_m_per_s, um_from_m};
 
 /// Arguments of `stickslip`.
 #[derive(Debug, Args)]

@@ -8,14 +8,14 @@ use clap::Args;
 
 use super::Outcome;
 use super::common::{CliError, MachineArgs, TraceArgs, load_program};
-use crate::causes::CauseId;
 use crate::cli::output::OutputBatch;
+use crate::diagnose::causes::CauseId;
+use crate::diagnose::synth::{CommandStream, SynthSpec, synthesize};
 use crate::machine::AxisName;
+use crate::numeric::units::{m_from_um, s_from_ms};
 use crate::sim::MeasuredAt;
-use crate::synth::{CommandStream, SynthSpec, synthesize};
 use crate::trace::format::ColumnMap;
 use crate::trace::measured::MeasuredTrace;
-use crate::units::{m_from_um, s_from_ms};
 
 /// Arguments of `synth`.
 #[derive(Debug, Args)]

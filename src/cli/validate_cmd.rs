@@ -6,8 +6,8 @@ use rayon::prelude::*;
 use super::Outcome;
 use super::common::{CliError, MachineArgs};
 use crate::machine::Feedback;
+use crate::numeric::units::{m_per_s_from_mm_per_min, um_from_m};
 use crate::sim::{SimConfig, stickslip};
-use crate::units::{m_per_s_from_mm_per_min, um_from_m};
 use crate::validate::{self, PAPER_TABLES};
 
 /// Arguments of `validate`.

@@ -14,13 +14,13 @@ use crate::check::plan_commands;
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
 use crate::numeric::golden_section;
+use crate::numeric::units::um_from_m;
 use crate::plan::{Commands, Plan};
 use crate::sim::AxisModel;
 use crate::trace::measured::MeasuredTrace;
 use crate::trace::placement::{Departure, place_on_path};
 use crate::trace::recorded::{commands_from_record, local_derivatives};
 use crate::trace::signal::sample;
-use crate::units::um_from_m;
 
 /// The constant offset (m) by which a record's commands run beside the program, if shifting
 /// them back by it puts them on the program's path: the centres of the two ranges of travel,
@@ -420,7 +420,7 @@ fn tail(commands: &Commands, from: usize) -> Commands {
         dt_s: commands.dt_s,
         x: cut(&commands.x),
         y: cut(&commands.y),
-        z_m: commands.z_m[from..].to_vec(),
+        z: cut(&commands.z),
         segment: commands.segment[from..].to_vec(),
     }
 }

@@ -8,10 +8,10 @@
 //! residual, except in a record with its commands that is mostly rapids.
 
 use super::residual::{chatter_noise_power, chatter_windows};
-use crate::geometry;
 use crate::machine::{AxisName, MachineConfig};
 use crate::path::Motion;
 use crate::plan::{Commands, InPosition, Plan};
+use crate::sim::geometry;
 use crate::sim::{AxisModel, MeasuredAt, SimConfig, simulate};
 use crate::trace::measured::MeasuredTrace;
 use crate::trace::signal::sample;
@@ -291,7 +291,7 @@ impl Context<'_> {
         let in_position = nominal.map(|ip| {
             let computed = InPosition::kv_per_s_of_cascades(machine);
             InPosition {
-                kv_per_s: [0, 1].map(|i| computed[i].unwrap_or(ip.kv_per_s[i])),
+                kv_per_s: [0, 1, 2].map(|i| computed[i].unwrap_or(ip.kv_per_s[i])),
                 ..ip
             }
         });
@@ -306,6 +306,8 @@ impl Context<'_> {
         match axis {
             AxisName::X => &self.measured.x_m,
             AxisName::Y => &self.measured.y_m,
+            // A record's Z is not compared: nothing of it is read.
+            AxisName::Z => &[],
         }
     }
 

@@ -3,7 +3,7 @@
 
 use serde::Serialize;
 
-use crate::units::um_from_m;
+use crate::numeric::units::um_from_m;
 
 /// Residual figures of one axis (µm).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

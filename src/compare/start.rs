@@ -307,15 +307,23 @@ fn run_in_then(
         }
         out
     };
-    let mut z_m = vec![commands.z_m.first().copied().unwrap_or(0.0); samples];
-    z_m.extend_from_slice(&commands.z_m);
+    // Z is not read from a record: its run-in stands where its commands begin.
+    let mut z = AxisCommands {
+        pos_m: vec![commands.z.pos_m.first().copied().unwrap_or(0.0); samples],
+        vel_m_per_s: vec![0.0; samples],
+        acc_m_per_s2: vec![0.0; samples],
+    };
+    for k in 0..commands.z.len() {
+        let c = &commands.z;
+        z.push(c.pos_m[k], c.vel_m_per_s[k], c.acc_m_per_s2[k]);
+    }
     let mut segment = vec![commands.segment.first().copied().unwrap_or(0); samples];
     segment.extend_from_slice(&commands.segment);
     let run = Commands {
         dt_s: dt,
         x: axis(AxisName::X),
         y: axis(AxisName::Y),
-        z_m,
+        z,
         segment,
     };
     (run, run_in_s)

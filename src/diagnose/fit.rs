@@ -24,7 +24,7 @@ use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
 
 use super::{Context, Stepping};
-use crate::causes::{self, CauseId, Param};
+use crate::diagnose::causes::{self, CauseId, Param};
 use crate::machine::{AxisName, MachineConfig};
 use crate::numeric::lsq::{self, correlation_time, forward_jacobian, model_floor, uncertainties};
 
@@ -651,6 +651,7 @@ impl Model<'_> {
         match self.axis {
             AxisName::X => [trace, other],
             AxisName::Y => [other, trace],
+            AxisName::Z => unreachable!("causes are fitted on X and Y, which a record pairs"),
         }
     }
 

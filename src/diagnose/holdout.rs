@@ -10,9 +10,9 @@
 
 use super::search::Current;
 use super::{DiagnoseError, fit};
-use crate::causes::{self, CauseId};
 use crate::compare::residual::{chatter_mismatch, independent_share};
 use crate::compare::{CompareSettings, Comparison, Context, Stepping, compare};
+use crate::diagnose::causes::{self, CauseId};
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
 use crate::numeric::golden_section;

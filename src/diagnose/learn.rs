@@ -7,7 +7,7 @@
 //!   axis's scale says it is — what a compensation table corrects. Learned as a table, the
 //!   residual's mean in bins of the position, linear in between: the machine keys
 //!   `errors.position_map_mm` / `_um`, added beyond the scale like the axes' squareness (see
-//!   [`crate::geometry`]), so the loops do not see it and it does not lag;
+//!   [`crate::sim::geometry`]), so the loops do not see it and it does not lag;
 //! - **its own position, each direction on its own**: friction that depends on where the
 //!   table is (a tight spot on a guideway) — `errors.friction_map_mm` / `_n`;
 //! - **its velocity**: friction that depends on speed beyond the Coulomb, viscous and
@@ -34,10 +34,10 @@ use super::Context;
 use super::locate::{
     Bins, Located, Predictor, Variable, finite_range, held_out_share, positions_mm,
 };
-use crate::geometry::CrossTerms;
 use crate::machine::{AxisName, MachineConfig};
+use crate::numeric::units::{m_from_mm, um_from_m};
+use crate::sim::geometry::CrossTerms;
 use crate::sim::{AxisModel, MeasuredAt};
-use crate::units::{m_from_mm, um_from_m};
 
 /// Bin counts a position map's smoothness is chosen from.
 const MAP_BIN_COUNTS: [usize; 6] = [8, 16, 32, 64, 128, 256];

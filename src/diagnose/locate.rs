@@ -16,8 +16,8 @@
 
 use super::Context;
 use crate::machine::AxisName;
+use crate::numeric::units::um_from_m;
 use crate::trace::signal::sample;
-use crate::units::um_from_m;
 
 /// A variable a residual can hang on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]

@@ -14,8 +14,9 @@
 //!    [`DiagnoseSettings::evidence`]; the strongest is kept first, then the search repeats
 //!    on the extended model.
 
-/// The catalogue of causes, which sits below `diagnose` and `synth` both.
-pub use crate::causes;
+/// The catalogue of causes the diagnosis fits and synthetic records hide.
+pub mod causes;
+pub mod compensation;
 pub mod fit;
 pub mod holdout;
 pub mod learn;
@@ -23,6 +24,7 @@ pub mod locate;
 pub mod plausible;
 pub mod report;
 pub mod search;
+pub mod synth;
 pub mod table;
 
 use serde::Serialize;
@@ -36,12 +38,12 @@ pub use crate::compare::{CompareError, CompareSettings, Context, Stepping};
 use crate::compare::{Comparison, compare};
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
+use crate::numeric::units::{mm_from_m, um_from_m};
 use crate::plan::Commands;
 use crate::sim::MeasuredAt;
 use crate::trace::measured::MeasuredTrace;
 use crate::trace::recorded::BeyondMachine;
 use crate::trace::signal::sample;
-use crate::units::{mm_from_m, um_from_m};
 use causes::{CauseId, CauseSet};
 pub use holdout::{HeldOut, HeldOutMeasure, JudgedOn};
 pub use search::{Candidate, Rejected};
@@ -806,7 +808,9 @@ fn plan_view(ctx: &Context, times: &[f64]) -> Commands {
         v.y.vel_m_per_s.push(pc.y.vel_m_per_s[k]);
         v.x.acc_m_per_s2.push(pc.x.acc_m_per_s2[k]);
         v.y.acc_m_per_s2.push(pc.y.acc_m_per_s2[k]);
-        v.z_m.push(pc.z_m[k]);
+        v.z.pos_m.push(pc.z.pos_m[k]);
+        v.z.vel_m_per_s.push(pc.z.vel_m_per_s[k]);
+        v.z.acc_m_per_s2.push(pc.z.acc_m_per_s2[k]);
         v.segment.push(pc.segment[k]);
     }
     v

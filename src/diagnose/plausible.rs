@@ -5,11 +5,11 @@
 //! hundred newtons of Coulomb friction, or a "resonance" at the servo loop's own
 //! crossover. Such a cause is reported as fitting but implausible, never as found.
 
-use crate::causes::CauseId;
+use crate::diagnose::causes::CauseId;
 use crate::machine::AxisConfig;
+use crate::numeric::units::{m_from_um, per_s_from_kv_m_per_min_per_mm};
 use crate::sim::AxisModel;
 use crate::sim::linear::{Loop, closed_loop_modes, loop_figures};
-use crate::units::{m_from_um, per_s_from_kv_m_per_min_per_mm};
 
 /// What a measurement shows about an axis, for judging fitted values.
 #[derive(Debug, Clone, Copy, PartialEq)]

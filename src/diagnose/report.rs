@@ -14,7 +14,7 @@ use super::{
     Alternative, AxisResidual, Candidate, CircularComparison, Coverage, Diagnosis, ExtraWait,
     FittedParam, HeldOut, HeldOutMeasure, JudgedOn, Place, Rejected, ResidualStats, Skipped,
 };
-use crate::causes::CauseId;
+use crate::diagnose::causes::CauseId;
 use crate::machine::{AxisName, MachineConfig};
 use crate::sim::MeasuredAt;
 use crate::trace::measured::MeasuredTrace;
@@ -252,7 +252,7 @@ impl DiagnoseReport {
     }
 
     /// Writes the report as pretty JSON.
-    pub fn write_json(&self, w: &mut dyn Write) -> std::io::Result<()> {
+    pub(crate) fn write_json(&self, w: &mut dyn Write) -> std::io::Result<()> {
         serde_json::to_writer_pretty(&mut *w, self)?;
         writeln!(w)
     }
@@ -592,6 +592,8 @@ fn ballbar_and_causes(r: &DiagnoseReport) -> Option<String> {
     let (step_um, spikes) = match backlash.axis {
         AxisName::X => (pair.backlash_x_um, [0usize, 2]),
         AxisName::Y => (pair.backlash_y_um, [1, 3]),
+        // The ballbar's figures are the XY plane's.
+        AxisName::Z => return None,
     };
     if step_um.abs() >= 0.5 * gap_um {
         return None;

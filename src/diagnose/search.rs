@@ -16,14 +16,16 @@ use super::fit::{self, Fitted};
 use super::holdout::{HeldOut, JudgedOn, Validation, held_out};
 use super::plausible::{Observed, implausible};
 use super::{Alternative, DiagnoseSettings, FittedParam, FoundCause};
-use crate::causes::{self, CauseId, Kinematics};
 use crate::compare::context::Context;
 use crate::compare::residual::{
     CHATTER_AVERAGE_HALF_S, averaged_rms, axis_residual, chatter_mismatch, independent_share, rms,
 };
+use crate::diagnose::causes::{self, CauseId, Kinematics};
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
+use crate::numeric::units::{
+    kv_m_per_min_per_mm_from_per_s, per_s_from_kv_m_per_min_per_mm, um_from_m,
+};
 use crate::trace::signal::sample;
-use crate::units::{kv_m_per_min_per_mm_from_per_s, per_s_from_kv_m_per_min_per_mm, um_from_m};
 
 /// A cause tried on an axis in the first round.
 #[derive(Debug, Clone, PartialEq, Serialize)]

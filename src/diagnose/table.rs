@@ -13,12 +13,12 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::causes::CauseId;
+use crate::diagnose::causes::CauseId;
 use crate::machine::MachineConfig;
 use crate::numeric::golden_section;
+use crate::numeric::units::{m_per_s_from_mm_per_min, mm_from_m};
 use crate::sim::{SimConfig, SimError};
 use crate::trace::measured::TableRow;
-use crate::units::{m_per_s_from_mm_per_min, mm_from_m};
 use crate::validate::steady_following_error_m;
 
 /// One row with the model's predictions (mm).
@@ -227,7 +227,7 @@ pub const TABLE_SCHEMA: &str = "contourcheck.diagnose-table/1";
 
 impl TableDiagnosis {
     /// Writes the diagnosis as pretty JSON.
-    pub fn write_json(
+    pub(crate) fn write_json(
         &self,
         w: &mut dyn std::io::Write,
         file: &str,

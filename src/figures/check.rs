@@ -2,20 +2,24 @@
 //! and a ballbar-style polar plot per circular test — drawn as files by `check --plot` and
 //! inline in the HTML report.
 
+use crate::check::report::CheckReport;
 use crate::check::{CheckResult, CircleTest, circle_tests};
 use crate::gcode::SourceFile;
 use crate::gcode::interp::SourceLine;
+use crate::numeric::units::{mm_from_m, um_from_m};
 use crate::path::{Geometry, Motion};
 use crate::plot::along_path::AlongPathPlot;
 use crate::plot::polar::{PolarPlot, PolarTrace};
 use crate::plot::toolpath::{Marker, PathPoint, ToolpathPlot};
-use crate::report::CheckReport;
-use crate::units::{mm_from_m, um_from_m};
 
 /// Every figure of a check.
 pub struct CheckFigures {
-    /// The programmed and the predicted path, coloured by contour error, hotspots marked.
+    /// The programmed and the predicted path seen from above (XY), coloured by contour
+    /// error, hotspots marked.
     pub toolpath: ToolpathPlot,
+    /// Where Z is simulated and the program cuts while moving Z: the path from the front
+    /// (XZ) and the side (YZ), each with the file name it is drawn to.
+    pub side_views: Vec<(&'static str, ToolpathPlot)>,
     /// The contour error against the path length.
     pub along_path: AlongPathPlot,
     /// One polar plot per circle (both directions on one plot where the program runs both).
@@ -30,16 +34,53 @@ impl CheckFigures {
         let name = std::path::Path::new(&report.program.file)
             .file_name()
             .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+        let figure = |view: &View| toolpath_figure(run, &name, report, &at, view);
         CheckFigures {
-            toolpath: toolpath_figure(run, &name, report, &at),
+            toolpath: figure(&FROM_ABOVE),
+            side_views: side_views(run)
+                .iter()
+                .map(|view| (view.file, figure(view)))
+                .collect(),
             along_path: along_path_figure(run, &name, &at),
             circles: polar_figures(run, &name, &at),
         }
     }
 }
 
-/// Programmed feed moves as polylines (mm).
-fn programmed_polylines(run: &CheckResult) -> Vec<Vec<(f64, f64)>> {
+/// A view of the toolpath: the axes it shows (indices into X, Y, Z) and the file it goes to.
+struct View {
+    axes: [usize; 2],
+    file: &'static str,
+}
+
+const FROM_ABOVE: View = View {
+    axes: [0, 1],
+    file: "toolpath",
+};
+
+/// The views besides the one from above: where Z is simulated and moves along the contour
+/// (not only in plunges), from the front (XZ) and the side (YZ).
+fn side_views(run: &CheckResult) -> Vec<View> {
+    let cuts_in_z = run.plan.segments.iter().any(|s| s.cuts_in_space());
+    if run.summary.z_following_error_m.is_none() || !cuts_in_z {
+        return Vec::new();
+    }
+    vec![
+        View {
+            axes: [0, 2],
+            file: "toolpath-xz",
+        },
+        View {
+            axes: [1, 2],
+            file: "toolpath-yz",
+        },
+    ]
+}
+
+/// Programmed feed moves as polylines (mm) in `view`.
+fn programmed_polylines(run: &CheckResult, view: &View) -> Vec<Vec<(f64, f64)>> {
+    let [h, v] = view.axes;
+    let seen = |p: [f64; 3]| (mm_from_m(p[h]), mm_from_m(p[v]));
     run.plan
         .segments
         .iter()
@@ -48,14 +89,10 @@ fn programmed_polylines(run: &CheckResult) -> Vec<Vec<(f64, f64)>> {
             Geometry::Arc(a) => {
                 let n = ((a.sweep_rad.abs() / 0.02).ceil() as usize).max(2);
                 (0..=n)
-                    .map(|i| a.xy_at(i as f64 / n as f64))
-                    .map(|p| (mm_from_m(p[0]), mm_from_m(p[1])))
+                    .map(|i| seen(s.point_at_param(i as f64 / n as f64)))
                     .collect()
             }
-            _ => vec![
-                (mm_from_m(s.start_m[0]), mm_from_m(s.start_m[1])),
-                (mm_from_m(s.end_m[0]), mm_from_m(s.end_m[1])),
-            ],
+            _ => vec![seen(s.start_m), seen(s.end_m)],
         })
         .collect()
 }
@@ -65,14 +102,19 @@ fn toolpath_figure(
     name: &str,
     report: &CheckReport,
     at: &dyn Fn(u32) -> String,
+    view: &View,
 ) -> ToolpathPlot {
+    let [h, v] = view.axes;
     let actual = run
         .plot
         .iter()
-        .map(|p| PathPoint {
-            x_mm: mm_from_m(p.pos_m[0]),
-            y_mm: mm_from_m(p.pos_m[1]),
-            error_um: um_from_m(p.error_m.abs()),
+        .map(|p| {
+            let q = [p.pos_m[0], p.pos_m[1], p.z_m];
+            PathPoint {
+                x_mm: mm_from_m(q[h]),
+                y_mm: mm_from_m(q[v]),
+                error_um: um_from_m(p.error_m.abs()),
+            }
         })
         .collect();
     let markers = run
@@ -80,20 +122,25 @@ fn toolpath_figure(
         .iter()
         .take(10)
         .enumerate()
-        .map(|(i, h)| Marker {
-            x_mm: h.x_mm,
-            y_mm: h.y_mm,
-            label: format!("{}: L{}", i + 1, at(h.line)),
+        .map(|(i, spot)| {
+            let q = [spot.x_mm, spot.y_mm, spot.z_mm.unwrap_or(f64::NAN)];
+            Marker {
+                x_mm: q[h],
+                y_mm: q[v],
+                label: format!("{}: L{}", i + 1, at(spot.line)),
+            }
         })
         .collect();
+    let names = ["X", "Y", "Z"];
     ToolpathPlot {
         title: format!(
             "{name}: predicted contour error on {} (max {:.2} µm)",
             report.machine.name, report.contour_error_um.max
         ),
-        programmed: programmed_polylines(run),
+        programmed: programmed_polylines(run, view),
         actual,
         markers,
+        axes: [names[h], names[v]],
     }
 }
 

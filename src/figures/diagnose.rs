@@ -7,9 +7,9 @@ use std::path::Path;
 
 use crate::analysis::circular::radial_points;
 use crate::diagnose::Diagnosis;
+use crate::numeric::units::{mm_from_m, um_from_m};
 use crate::plot::panels::{Curve, Panel, PanelsPlot};
 use crate::plot::polar::{PolarPlot, PolarTrace};
-use crate::units::{mm_from_m, um_from_m};
 
 /// Every figure of a diagnosis.
 pub struct DiagnoseFigures {

@@ -10,8 +10,8 @@ use std::collections::BTreeMap;
 use super::codes::{self, CodeClass};
 use super::error::{GcodeErrorKind, Warning};
 use super::lexer::Word;
-use crate::path::{Blend, Geometry, Motion, Segment};
-use crate::units::{MM_PER_INCH, m_from_mm, m_per_s_from_mm_per_min};
+use crate::numeric::units::{MM_PER_INCH, m_from_mm, m_per_s_from_mm_per_min};
+use crate::path::{Blend, Geometry, Motion, Plane, Segment};
 
 mod arc;
 mod coords;
@@ -74,13 +74,6 @@ enum MotionMode {
     Linear,
     ArcCw,
     ArcCcw,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Plane {
-    Xy,
-    Xz,
-    Yz,
 }
 
 /// The words of one block, sorted into codes and letter values.
@@ -485,6 +478,7 @@ impl Interpreter {
             blend: Blend::ExactStop,
             line: self.line,
             jerk_limited: self.jerk_limited,
+            plane: self.plane,
         });
     }
 
@@ -492,7 +486,7 @@ impl Interpreter {
         for &(code, offset) in gs {
             match code {
                 170 => self.plane = Plane::Xy,
-                180 => self.plane = Plane::Xz,
+                180 => self.plane = Plane::Zx,
                 190 => self.plane = Plane::Yz,
                 200 => self.mm_per_unit = MM_PER_INCH,
                 210 => self.mm_per_unit = 1.0,
@@ -687,6 +681,7 @@ impl Interpreter {
             blend: self.blend_for(motion),
             line: self.line,
             jerk_limited: self.jerk_limited,
+            plane: self.plane,
         });
     }
 

@@ -82,7 +82,7 @@ impl Errors<'_> {
     }
 
     /// [`Errors::push`] for a line of another file (a subprogram's).
-    pub fn push_in(
+    pub(crate) fn push_in(
         &mut self,
         file: &str,
         index: usize,

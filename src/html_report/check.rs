@@ -6,10 +6,10 @@ use serde_json::Value as Json;
 
 use super::{Fig, HtmlError, Inputs, Made, Row, Svg, fig, file_name, render, svg};
 use crate::check::CheckResult;
+use crate::check::report::CheckReport;
 use crate::figures::CheckFigures;
 use crate::gcode::SourceFile;
 use crate::path::Motion;
-use crate::report::CheckReport;
 
 /// Most hotspots listed on the page (the JSON report lists them all).
 const HOTSPOTS_SHOWN: usize = 20;
@@ -75,7 +75,7 @@ pub fn check_page(
             &figures.toolpath,
         )?,
         along_path: svg("Contour error along the path", &figures.along_path)?,
-        warnings: crate::report::group_warnings(&report.warnings),
+        warnings: crate::check::report::group_warnings(&report.warnings),
     };
     render("check.html", page)
 }
@@ -131,7 +131,7 @@ fn feeds(run: &CheckResult) -> String {
         .segments
         .iter()
         .filter(|s| s.motion == Motion::Feed && s.feed_m_per_s > 0.0)
-        .map(|s| crate::units::mm_per_min_from_m_per_s(s.feed_m_per_s))
+        .map(|s| crate::numeric::units::mm_per_min_from_m_per_s(s.feed_m_per_s))
         .collect();
     feeds.sort_by(f64::total_cmp);
     feeds.dedup_by(|a, b| (*a - *b).abs() < 1e-6);

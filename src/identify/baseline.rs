@@ -9,8 +9,8 @@ use serde::Serialize;
 
 use crate::compare::Context;
 use crate::machine::AxisName;
+use crate::numeric::units::um_from_m;
 use crate::trace::signal::sample;
-use crate::units::um_from_m;
 
 /// Length of the alternate blocks the regression is fitted and scored on (s).
 const BLOCK_S: f64 = 0.1;

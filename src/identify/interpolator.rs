@@ -13,7 +13,7 @@ use serde::Serialize;
 
 use crate::compare::Context;
 use crate::machine::{AxisName, MachineConfig};
-use crate::units::mm_per_min_from_m_per_s;
+use crate::numeric::units::mm_per_min_from_m_per_s;
 
 /// The interpolator's peaks in a record.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]

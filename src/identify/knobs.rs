@@ -6,8 +6,8 @@ use nalgebra::Complex;
 
 use crate::machine::{AxisConfig, Controller, DriveKind, Feedback, TransferFunction};
 use crate::numeric::poly;
+use crate::numeric::units::GRAVITY_M_PER_S2;
 use crate::sim::MeasuredAt;
-use crate::units::GRAVITY_M_PER_S2;
 
 /// Relative (or, for increments, scaled) uncertainty beyond which a value counts as not
 /// determined by the record.

@@ -42,9 +42,9 @@ use super::knobs::{Knob, TF_GAIN_KEY, corner_of, corners, get, set_all};
 use super::solve::Fit;
 use crate::machine::{AxisConfig, Controller, ControllerOutput};
 use crate::numeric::poly;
+use crate::numeric::units::mm_from_m;
 use crate::sim::AxisModel;
 use crate::trace::signal::sample;
-use crate::units::mm_from_m;
 
 /// The state-variable filter's corner (Hz): near the position loops' crossover, where the
 /// record says most about the controller.

@@ -46,8 +46,8 @@ use crate::compare::start::Coverage;
 use crate::compare::{CompareError, CompareSettings, Comparison, Context, Stepping, compare};
 use crate::gcode::Program;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
+use crate::numeric::units::um_from_m;
 use crate::trace::measured::MeasuredTrace;
-use crate::units::um_from_m;
 use knobs::{
     BACKLASH_KEY, KV_KEY, Knob, MASS_KEY, SF_INTEGRAL_KEY, SF_POSITION_KEY, SF_VELOCITY_KEY,
     STATIC_KEY, TF_GAIN_KEY, get, set_all,

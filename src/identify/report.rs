@@ -43,7 +43,7 @@ impl<'a> IdentifyReport<'a> {
     }
 
     /// Writes the report as pretty JSON.
-    pub fn write_json(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
+    pub(crate) fn write_json(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
         serde_json::to_writer_pretty(&mut *w, self).map_err(std::io::Error::other)?;
         w.write_all(b"\n")
     }
@@ -64,7 +64,7 @@ pub fn shown(v: &IdentifiedValue) -> String {
 }
 
 /// Four significant digits.
-pub fn sig(v: f64) -> String {
+pub(crate) fn sig(v: f64) -> String {
     if v == 0.0 || !v.is_finite() {
         return format!("{v}");
     }
@@ -216,7 +216,7 @@ pub fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
 
 /// The record's interpolator in words: the path speed, then per axis its speed and its
 /// acceleration and jerk, each said to be held (written as the limit) or only a peak.
-pub fn interpolator_lines(i: &Interpolator) -> Vec<String> {
+pub(crate) fn interpolator_lines(i: &Interpolator) -> Vec<String> {
     let limit = |value: f64, demanded: f64, unit: &str, held: bool| {
         if held {
             format!(

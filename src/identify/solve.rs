@@ -66,7 +66,7 @@ impl Fitted {
     /// The relative standard uncertainty of a product of logarithmic knobs' values, each to
     /// the power given by knob index (a ratio: 1 and −1): statistical, floored as every
     /// value's is, and the model's floor — (σ, σ_model). Infinite where nothing was fitted.
-    pub fn relative_uncertainty(&self, powers: &[(usize, f64)]) -> (f64, f64) {
+    pub(crate) fn relative_uncertainty(&self, powers: &[(usize, f64)]) -> (f64, f64) {
         let Some(s) = &self.spread else {
             return (f64::INFINITY, f64::INFINITY);
         };

@@ -17,7 +17,7 @@
 //! rad/s as b·(2π/(i_t·P))².
 
 use super::ConfigError;
-use crate::units::GRAVITY_M_PER_S2;
+use crate::numeric::units::GRAVITY_M_PER_S2;
 
 /// How an alternative key's value becomes the model's.
 #[derive(Clone, Copy)]
@@ -61,7 +61,7 @@ pub(crate) fn resolve(
     merged: &mut toml::Table,
     file: &str,
 ) -> Result<(), ConfigError> {
-    for axis in ["x", "y"] {
+    for axis in ["x", "y", "z"] {
         let Some(given) = section(user, axis, "friction") else {
             continue;
         };

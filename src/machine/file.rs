@@ -3,7 +3,10 @@
 
 use std::path::Path;
 
-use super::{DEFAULT_PRESET, MachineConfig, alternatives, base, locate, sections, validate};
+use super::{
+    AxisConfig, DEFAULT_PRESET, MachineConfig, ZAxis, alternatives, base, locate, sections,
+    validate,
+};
 
 impl MachineConfig {
     /// The embedded default machine.
@@ -107,7 +110,8 @@ impl MachineConfig {
     /// whose drive closes none, as a file that gave them would be refused.
     pub fn to_toml(&self) -> String {
         let mut table = toml::Table::try_from(self).expect("a machine always serialises");
-        for (axis, config) in [("x", &self.x), ("y", &self.y)] {
+        let z = self.z.simulated().map(|z| ("z", z));
+        for (axis, config) in [("x", &self.x), ("y", &self.y)].into_iter().chain(z) {
             let Some(toml::Value::Table(section)) = table.get_mut(axis) else {
                 continue;
             };
@@ -211,7 +215,7 @@ fn refuse_unused_keys(
     merged: &toml::Table,
     file: &str,
 ) -> Result<(), ConfigError> {
-    for axis in ["x", "y"] {
+    for axis in ["x", "y", "z"] {
         let given = |section: &str| {
             over.get(axis)
                 .and_then(|a| a.get(section))
@@ -278,7 +282,7 @@ fn refuse_unused_keys(
 /// its place and what it would be in the unit probably meant.
 fn suspicious_values(over: &toml::Table, text: &str, file: &str) -> Vec<String> {
     let mut warnings = Vec::new();
-    for axis in ["x", "y"] {
+    for axis in ["x", "y", "z"] {
         let value = |section: &str, key: &str| {
             over.get(axis)
                 .and_then(|a| a.get(section))
@@ -358,37 +362,24 @@ fn explain_missing(e: ConfigError, base: &str, base_table: &toml::Table) -> Conf
 }
 
 fn from_table(mut table: toml::Table, file: &str) -> Result<MachineConfig, ConfigError> {
+    // A simulated Z is read apart, so that its errors name its keys as X's and Y's do.
+    let z_table = take_simulated_z(&mut table);
     // Every unknown key is reported at once: each is taken out and the rest read again.
     let mut unknown = Vec::new();
-    let machine = loop {
-        match serde_path_to_error::deserialize::<_, MachineConfig>(toml::Value::Table(
-            table.clone(),
-        )) {
-            Ok(machine) => break Some(machine),
-            Err(e) => {
-                let error =
-                    classify_serde_error(file, &e.path().to_string(), &e.inner().to_string());
-                if let ConfigError::UnknownKey { key, hint, .. } = &error
-                    && unknown.len() < 100
-                    && locate::remove_key(&mut table, key)
-                {
-                    unknown.push(locate::UnknownKeyAt::new(key, hint));
-                    continue;
-                }
-                if unknown.is_empty() {
-                    return Err(error);
-                }
-                // What else is wrong may follow from the unknown keys: they come first.
-                break None;
-            }
-        }
+    let machine = read_table::<MachineConfig>(table, file, "", &mut unknown)?;
+    let z = match z_table {
+        Some(t) => read_table::<AxisConfig>(t, file, "z", &mut unknown)?.map(Some),
+        None => Some(None),
     };
-    match (machine, unknown.len()) {
-        (Some(machine), 0) => {
+    match (machine, z, unknown.len()) {
+        (Some(mut machine), Some(z), 0) => {
+            if let Some(z) = z {
+                machine.z = ZAxis::Simulated(Box::new(z));
+            }
             validate::validate(&machine, file)?;
             Ok(machine)
         }
-        (_, 1) => {
+        (.., 1) => {
             let only = unknown.remove(0);
             Err(ConfigError::UnknownKey {
                 file: file.into(),
@@ -401,6 +392,74 @@ fn from_table(mut table: toml::Table, file: &str) -> Result<MachineConfig, Confi
             keys: unknown,
         }),
     }
+}
+
+/// Takes `[z]` out of `table` where it gives more than `limits` (a simulated Z), leaving
+/// its limits (or an empty `[z]`, whose missing limits the reading then names).
+fn take_simulated_z(table: &mut toml::Table) -> Option<toml::Table> {
+    let z = table.get("z")?.as_table()?;
+    if z.keys().all(|k| k == "limits") {
+        return None;
+    }
+    let z = z.clone();
+    let mut planned = toml::Table::new();
+    if let Some(limits) = z.get("limits") {
+        planned.insert("limits".into(), limits.clone());
+    }
+    table.insert("z".into(), toml::Value::Table(planned));
+    Some(z)
+}
+
+/// Reads `table` (the file's `prefix` section, or the whole machine when empty) as a `T`.
+/// An unknown key is taken out, noted in `unknown` and the rest read again; `None` when any
+/// was found (what else is wrong may follow from them), an error when something else is
+/// wrong and no unknown key came first.
+fn read_table<T: serde::de::DeserializeOwned>(
+    mut table: toml::Table,
+    file: &str,
+    prefix: &str,
+    unknown: &mut Vec<locate::UnknownKeyAt>,
+) -> Result<Option<T>, ConfigError> {
+    loop {
+        match serde_path_to_error::deserialize::<_, T>(toml::Value::Table(table.clone())) {
+            Ok(value) => return Ok(unknown.is_empty().then_some(value)),
+            Err(e) => {
+                let path = e.path().to_string();
+                let error =
+                    classify_serde_error(file, &prefixed(prefix, &path), &e.inner().to_string());
+                if let ConfigError::UnknownKey { key, hint, .. } = &error
+                    && unknown.len() < 100
+                    && locate::remove_key(&mut table, unprefixed(prefix, key))
+                {
+                    unknown.push(locate::UnknownKeyAt::new(key, hint));
+                    continue;
+                }
+                if unknown.is_empty() {
+                    return Err(error);
+                }
+                return Ok(None);
+            }
+        }
+    }
+}
+
+/// A path within the `prefix` section as the file names it.
+fn prefixed(prefix: &str, path: &str) -> String {
+    match (prefix, path) {
+        ("", _) => path.to_string(),
+        (_, "" | ".") => prefix.to_string(),
+        _ => format!("{prefix}.{path}"),
+    }
+}
+
+/// The file's dotted key within the `prefix` section.
+fn unprefixed<'a>(prefix: &str, key: &'a str) -> &'a str {
+    if prefix.is_empty() {
+        return key;
+    }
+    key.strip_prefix(prefix)
+        .and_then(|k| k.strip_prefix('.'))
+        .unwrap_or(key)
 }
 
 fn classify_serde_error(file: &str, path: &str, message: &str) -> ConfigError {
@@ -564,7 +623,9 @@ mod tests {
 
     /// Friction force at the table (N) as the model will use it.
     fn coulomb_force_n(a: &AxisConfig) -> f64 {
-        a.friction.coulomb_coefficient * a.drive.table_mass_kg * crate::units::GRAVITY_M_PER_S2
+        a.friction.coulomb_coefficient
+            * a.drive.table_mass_kg
+            * crate::numeric::units::GRAVITY_M_PER_S2
     }
 
     #[test]

@@ -9,7 +9,7 @@
 //! words (the controller's structure, the feedback) are not in it: validation checks those
 //! on their own.
 
-use super::{AxisConfig, Controller, Interpolation, Limits, MachineConfig};
+use super::{AxisConfig, Controller, Interpolation, Limits, MachineConfig, ZAxis};
 
 /// What a value must satisfy. The upper bounds are generous — beyond anything from a desktop
 /// table to the heaviest machine — and there so that a slip of the exponent (a table of
@@ -416,6 +416,8 @@ pub const AXIS_KEYS: &[AxisKey] = &[
         "speed over which the Stribeck friction fades",
         |a| a.friction.stribeck_velocity_mm_per_min
     ),
+    optional!("gravity.counterbalance_n", "N", NonNegative(1e7), Always,
+        "force of a counterbalance holding a vertical axis up", |a| a.gravity, g => g.counterbalance_n),
     optional!("lateral_shift.beam_length_m", "m", Positive(100.0), Always,
         "length of the beam the holder moves along", |a| a.lateral_shift, l => l.beam_length_m),
     optional!("lateral_shift.bending_stiffness_n_m2", "N·m²", Positive(1e13), Always,
@@ -644,7 +646,7 @@ const fn same_text(a: &str, b: &str) -> bool {
 }
 
 /// The axis key of that path, if the table has it.
-pub fn axis_key(path: &str) -> Option<&'static AxisKey> {
+pub(crate) fn axis_key(path: &str) -> Option<&'static AxisKey> {
     AXIS_KEYS.iter().find(|k| k.path == path)
 }
 
@@ -702,7 +704,7 @@ impl std::fmt::Display for SetError {
 impl std::error::Error for SetError {}
 
 /// Sets a full dotted key (`x.drive.backlash_um`) on a machine.
-pub fn set_on_machine(m: &mut MachineConfig, key: &str, value: f64) -> Result<(), SetError> {
+pub(crate) fn set_on_machine(m: &mut MachineConfig, key: &str, value: f64) -> Result<(), SetError> {
     let (part, rest) = key.split_once('.').ok_or(SetError::Unknown)?;
     let done = match part {
         "x" | "y" => {
@@ -713,14 +715,23 @@ pub fn set_on_machine(m: &mut MachineConfig, key: &str, value: f64) -> Result<()
             }
             k.set(axis, value)
         }
-        "z" => {
-            let leaf = rest.strip_prefix("limits.").ok_or(SetError::Unknown)?;
-            let k = LIMIT_KEYS
-                .iter()
-                .find(|k| k.path == leaf)
-                .ok_or(SetError::Unknown)?;
-            k.set(&mut m.z.limits, value)
-        }
+        "z" => match &mut m.z {
+            ZAxis::Simulated(axis) => {
+                let k = axis_key(rest).ok_or(SetError::Unknown)?;
+                if !k.needs.holds(axis) {
+                    return Err(SetError::Unused(k.needs));
+                }
+                k.set(axis, value)
+            }
+            ZAxis::Carried(planned) => {
+                let leaf = rest.strip_prefix("limits.").ok_or(SetError::Unknown)?;
+                let k = LIMIT_KEYS
+                    .iter()
+                    .find(|k| k.path == leaf)
+                    .ok_or(SetError::Unknown)?;
+                k.set(&mut planned.limits, value)
+            }
+        },
         "interpolation" => {
             let k = INTERPOLATION_KEYS
                 .iter()
@@ -740,10 +751,16 @@ pub fn get_on_machine(m: &MachineConfig, key: &str) -> Option<f64> {
     match part {
         "x" => get(&m.x, rest),
         "y" => get(&m.y, rest),
-        "z" => {
-            let leaf = rest.strip_prefix("limits.")?;
-            LIMIT_KEYS.iter().find(|k| k.path == leaf)?.get(&m.z.limits)
-        }
+        "z" => match &m.z {
+            ZAxis::Simulated(axis) => get(axis, rest),
+            ZAxis::Carried(planned) => {
+                let leaf = rest.strip_prefix("limits.")?;
+                LIMIT_KEYS
+                    .iter()
+                    .find(|k| k.path == leaf)?
+                    .get(&planned.limits)
+            }
+        },
         "interpolation" => INTERPOLATION_KEYS
             .iter()
             .find(|k| k.path == rest)?
@@ -753,7 +770,7 @@ pub fn get_on_machine(m: &MachineConfig, key: &str) -> Option<f64> {
 }
 
 /// A full dotted key's unit (empty for a ratio); `None` for a key not in the table.
-pub fn unit_on_machine(key: &str) -> Option<&'static str> {
+pub(crate) fn unit_on_machine(key: &str) -> Option<&'static str> {
     let (part, rest) = key.split_once('.')?;
     match part {
         "x" | "y" => axis_key(rest).map(|k| k.unit),

@@ -37,7 +37,8 @@ pub const POSITION_MAP_POINTS: usize = 256;
 /// The default preset's name.
 pub const DEFAULT_PRESET: &str = "hvmc";
 
-/// A whole machine: interpolation settings and the X, Y (simulated) and Z (planned) axes.
+/// A whole machine: interpolation settings, the simulated X and Y axes, and Z — simulated
+/// like them where the file gives its sections, else planned and carried.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MachineConfig {
@@ -51,8 +52,65 @@ pub struct MachineConfig {
     pub x: AxisConfig,
     /// Y axis.
     pub y: AxisConfig,
-    /// Z axis: only its kinematic limits (Z is planned, not simulated).
-    pub z: PlannedAxis,
+    /// Z axis: simulated like X and Y (`[z.*]` with their keys), or only its kinematic
+    /// limits (`[z.limits]` alone: planned, and carried where it is commanded).
+    pub z: ZAxis,
+}
+
+/// The Z axis of a machine.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum ZAxis {
+    /// Planned (its moves take their time) but not simulated: the tool stands in Z where it
+    /// is commanded.
+    Carried(PlannedAxis),
+    /// Simulated like X and Y.
+    Simulated(Box<AxisConfig>),
+}
+
+impl ZAxis {
+    /// Its kinematic limits.
+    pub fn limits(&self) -> &Limits {
+        match self {
+            ZAxis::Carried(p) => &p.limits,
+            ZAxis::Simulated(a) => &a.limits,
+        }
+    }
+
+    /// Its kinematic limits, mutably.
+    pub fn limits_mut(&mut self) -> &mut Limits {
+        match self {
+            ZAxis::Carried(p) => &mut p.limits,
+            ZAxis::Simulated(a) => &mut a.limits,
+        }
+    }
+
+    /// The axis, where it is simulated.
+    pub fn simulated(&self) -> Option<&AxisConfig> {
+        match self {
+            ZAxis::Carried(_) => None,
+            ZAxis::Simulated(a) => Some(a),
+        }
+    }
+}
+
+/// A section `[z]` with nothing but `limits` is a carried axis; any other section makes it
+/// simulated, with all of an axis's sections. (The machine file's reader takes a simulated
+/// Z apart first, so that its errors name the key; this serves other readers.)
+impl<'de> Deserialize<'de> for ZAxis {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        let table = toml::Table::deserialize(d)?;
+        if table.keys().all(|k| k == "limits") {
+            PlannedAxis::deserialize(toml::Value::Table(table))
+                .map(ZAxis::Carried)
+                .map_err(D::Error::custom)
+        } else {
+            AxisConfig::deserialize(toml::Value::Table(table))
+                .map(|a| ZAxis::Simulated(Box::new(a)))
+                .map_err(D::Error::custom)
+        }
+    }
 }
 
 /// Interpolator settings.
@@ -116,6 +174,20 @@ pub struct AxisConfig {
     /// `contourcheck diagnose` fits them from measurements.
     #[serde(default)]
     pub errors: Errors,
+    /// A vertical axis (+ up) carries its weight (docs/model.md §1.8); none on a horizontal
+    /// one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gravity: Option<Gravity>,
+}
+
+/// The weight a vertical axis carries: the moving mass's, less a counterbalance.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Gravity {
+    /// The force of a counterbalance (a balancing cylinder or counterweight) pushing the
+    /// axis up (N); 0 where there is none.
+    #[serde(default)]
+    pub counterbalance_n: f64,
 }
 
 fn default_straightness_span_mm() -> f64 {
@@ -393,7 +465,7 @@ pub struct Limits {
     pub travel_mm: Option<[f64; 2]>,
 }
 
-/// Which of the two simulated axes.
+/// A simulated axis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, PartialOrd, Ord)]
 #[serde(rename_all = "lowercase")]
 pub enum AxisName {
@@ -401,43 +473,53 @@ pub enum AxisName {
     X,
     /// Y.
     Y,
+    /// Z, on a machine that simulates it.
+    Z,
 }
 
 impl AxisName {
-    /// Both simulated axes.
+    /// The axes of the XY plane: every machine simulates both.
     pub const BOTH: [AxisName; 2] = [AxisName::X, AxisName::Y];
+
+    /// All three axes.
+    pub const ALL: [AxisName; 3] = [AxisName::X, AxisName::Y, AxisName::Z];
 
     /// Lower-case name as used in keys and on the command line.
     pub fn as_str(self) -> &'static str {
         match self {
             AxisName::X => "x",
             AxisName::Y => "y",
+            AxisName::Z => "z",
         }
     }
 
-    /// The other simulated axis.
+    /// The other axis of the XY pair (the squareness, straightness and play between them
+    /// are read on it); Z has no partner and names itself.
     pub fn other(self) -> AxisName {
         match self {
             AxisName::X => AxisName::Y,
             AxisName::Y => AxisName::X,
+            AxisName::Z => AxisName::Z,
         }
     }
 
-    /// Index into XY arrays.
+    /// Index into X, Y, Z arrays.
     pub fn index(self) -> usize {
         match self {
             AxisName::X => 0,
             AxisName::Y => 1,
+            AxisName::Z => 2,
         }
     }
 }
 
 impl AxisName {
-    /// `X` or `Y`.
+    /// `X`, `Y` or `Z`.
     pub fn letter(self) -> char {
         match self {
             AxisName::X => 'X',
             AxisName::Y => 'Y',
+            AxisName::Z => 'Z',
         }
     }
 }
@@ -454,25 +536,68 @@ impl std::str::FromStr for AxisName {
         match s.to_ascii_lowercase().as_str() {
             "x" => Ok(AxisName::X),
             "y" => Ok(AxisName::Y),
-            other => Err(format!("no simulated axis '{other}' (x or y)")),
+            "z" => Ok(AxisName::Z),
+            other => Err(format!("no axis '{other}' (x, y or z)")),
         }
     }
 }
 
 impl MachineConfig {
-    /// The axis by name.
+    /// A simulated axis by name; Z only where the machine simulates it (see
+    /// [`MachineConfig::simulated_axes`]; [`MachineConfig::try_axis`] asks).
     pub fn axis(&self, name: AxisName) -> &AxisConfig {
-        match name {
-            AxisName::X => &self.x,
-            AxisName::Y => &self.y,
-        }
+        self.try_axis(name)
+            .expect("Z is named only on a machine that simulates it")
     }
 
-    /// The axis by name, mutably.
+    /// A simulated axis by name, mutably (as [`MachineConfig::axis`]).
     pub fn axis_mut(&mut self, name: AxisName) -> &mut AxisConfig {
         match name {
             AxisName::X => &mut self.x,
             AxisName::Y => &mut self.y,
+            AxisName::Z => match &mut self.z {
+                ZAxis::Simulated(a) => a,
+                ZAxis::Carried(_) => panic!("Z is named only on a machine that simulates it"),
+            },
+        }
+    }
+
+    /// A simulated axis by name; `None` for Z where it is carried.
+    pub fn try_axis(&self, name: AxisName) -> Option<&AxisConfig> {
+        match name {
+            AxisName::X => Some(&self.x),
+            AxisName::Y => Some(&self.y),
+            AxisName::Z => self.z.simulated(),
+        }
+    }
+
+    /// The simulated axes: X, Y and, where simulated, Z.
+    pub fn simulated_axes(&self) -> Vec<AxisName> {
+        AxisName::ALL
+            .into_iter()
+            .filter(|&a| self.try_axis(a).is_some())
+            .collect()
+    }
+
+    /// The simulated axes' configurations, in the order X, Y, Z.
+    pub(crate) fn simulated_configs(&self) -> Vec<&AxisConfig> {
+        [&self.x, &self.y]
+            .into_iter()
+            .chain(self.z.simulated())
+            .collect()
+    }
+
+    /// Whether Z is simulated.
+    pub fn simulates_z(&self) -> bool {
+        self.z.simulated().is_some()
+    }
+
+    /// An axis's kinematic limits, simulated or carried.
+    pub fn limits(&self, name: AxisName) -> &Limits {
+        match name {
+            AxisName::X => &self.x.limits,
+            AxisName::Y => &self.y.limits,
+            AxisName::Z => self.z.limits(),
         }
     }
 }

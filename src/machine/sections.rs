@@ -29,7 +29,7 @@ pub(crate) fn resolve(
     for (axis, other) in [("x", "y"), ("y", "x")] {
         complete_from_other_axis(user, base, merged, axis, other);
     }
-    for axis in ["x", "y"] {
+    for axis in ["x", "y", "z"] {
         let Some(given) = user.get(axis).and_then(|v| v.as_table()) else {
             continue;
         };

@@ -5,6 +5,7 @@
 use super::keys::{AXIS_KEYS, INTERPOLATION_KEYS, Key, LIMIT_KEYS, Rule, number};
 use super::{
     AxisConfig, ConfigError, Controller, ControllerOutput, Limits, MachineConfig, TransferFunction,
+    ZAxis,
 };
 
 struct Checker<'a> {
@@ -59,8 +60,13 @@ pub fn validate(m: &MachineConfig, file: &str) -> Result<(), ConfigError> {
     )?;
     validate_axis(&c, "x", &m.x)?;
     validate_axis(&c, "y", &m.y)?;
-    c.check_keys("z.limits.", LIMIT_KEYS, &m.z.limits, |_| true)?;
-    validate_limits(&c, "z.limits", &m.z.limits)
+    match &m.z {
+        ZAxis::Simulated(z) => validate_axis(&c, "z", z),
+        ZAxis::Carried(planned) => {
+            c.check_keys("z.limits.", LIMIT_KEYS, &planned.limits, |_| true)?;
+            validate_limits(&c, "z.limits", &planned.limits)
+        }
+    }
 }
 
 /// An axis: its sections as its structure needs them, every key in range, and the values

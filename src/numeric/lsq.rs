@@ -45,7 +45,7 @@ impl Settings {
     }
 
     /// The same with `bounds`.
-    pub fn with_bounds(bounds: Vec<(f64, f64)>) -> Self {
+    pub(crate) fn with_bounds(bounds: Vec<(f64, f64)>) -> Self {
         Settings {
             bounds,
             ..Settings::unbounded(0)
@@ -130,7 +130,7 @@ pub fn minimise(problem: &dyn Problem, p0: DVector<f64>, settings: &Settings) ->
 /// parallel; the other columns are left zero for the caller to fill. Steps must be large
 /// against the rounding of whatever the residual switches on (a simulation's switching
 /// instants) and small against the parameters' ranges.
-pub fn forward_jacobian(
+pub(crate) fn forward_jacobian(
     p: &DVector<f64>,
     r0: &DVector<f64>,
     bounds: &[(f64, f64)],
@@ -184,7 +184,7 @@ pub const MODEL_FLOOR_SHARE: f64 = 0.5;
 /// What a modelling difference of [`MODEL_FLOOR_SHARE`] of the `noise` over `rows` samples
 /// could move each parameter by, the others refitted: the uncertainty a systematic
 /// residual of that size gives where it lines up with the parameter's own signature.
-pub fn model_floor(jac: &DMatrix<f64>, noise: f64, rows: usize) -> Vec<f64> {
+pub(crate) fn model_floor(jac: &DMatrix<f64>, noise: f64, rows: usize) -> Vec<f64> {
     let size = MODEL_FLOOR_SHARE * noise * (rows as f64).sqrt();
     uncertainties(jac, 0.0, 1.0)
         .into_iter()
@@ -196,7 +196,12 @@ pub fn model_floor(jac: &DMatrix<f64>, noise: f64, rows: usize) -> Vec<f64> {
 /// [`uncertainties`] gives each: √(s²·wᵀ(JᵀJ)⁺w) over every direction — a ratio of two
 /// values (a difference of their logarithms) the data see although each alone trades with
 /// the other comes out small.
-pub fn combination_uncertainty(jac: &DMatrix<f64>, cost: f64, noise: f64, w: &DVector<f64>) -> f64 {
+pub(crate) fn combination_uncertainty(
+    jac: &DMatrix<f64>,
+    cost: f64,
+    noise: f64,
+    w: &DVector<f64>,
+) -> f64 {
     let (rows, n) = jac.shape();
     let spread = (cost / (rows as f64 - n as f64).max(1.0)).sqrt().max(noise);
     let svd = jac.clone().svd(false, true);
@@ -225,7 +230,7 @@ pub fn combination_uncertainty(jac: &DMatrix<f64>, cost: f64, noise: f64, w: &DV
 /// stretches over which it keeps its sign where a model misses something. Residuals that
 /// are not white carry fewer independent samples than they number, and uncertainties
 /// computed as if they were white grow by its square root.
-pub fn correlation_time(r: &DVector<f64>) -> f64 {
+pub(crate) fn correlation_time(r: &DVector<f64>) -> f64 {
     const LONGEST_LAG: usize = 500;
     let n = r.len();
     let mean = r.mean();

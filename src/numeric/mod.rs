@@ -2,8 +2,10 @@
 //! forward-difference Jacobian and the uncertainties that follow from it, and a
 //! one-dimensional minimum search. Each is tested here on problems with known answers.
 
+pub mod lookup;
 pub mod lsq;
 pub(crate) mod poly;
 mod search;
+pub mod units;
 
 pub use search::golden_section;

@@ -19,14 +19,17 @@
 //! Profiles start and end every run with zero path acceleration, so the only acceleration
 //! steps are those of curvature (and, for trapezoids, of the ramps themselves).
 
+pub mod execute;
 pub mod profile;
 mod runs;
 pub mod sample;
 
 use crate::gcode::{Program, Warning};
 use crate::machine::{Limits, MachineConfig};
+use crate::numeric::units::{
+    m_from_mm, m_per_s_from_mm_per_min, mm_per_min_from_m_per_s, s_from_ms,
+};
 use crate::path::{Blend, Geometry, Motion, Segment, dot3};
-use crate::units::{m_from_mm, m_per_s_from_mm_per_min, mm_per_min_from_m_per_s, s_from_ms};
 use profile::{Dynamics, SegmentProfile, reachable_speed};
 
 pub use crate::sim::AxisCommands;
@@ -74,26 +77,37 @@ impl std::str::FromStr for ProfileKind {
 pub struct InPosition {
     /// Exact-stop window (m).
     pub window_m: f64,
-    /// Position-loop gain of X and Y (1/s), for the first-order estimate of their lag.
-    pub kv_per_s: [f64; 2],
+    /// Position-loop gain of X, Y and Z (1/s), for the first-order estimate of their lag;
+    /// infinite for an axis that is carried, not simulated (it arrives with its command).
+    pub kv_per_s: [f64; 3],
 }
 
 impl InPosition {
-    /// The loops' time scales the wait estimate uses, X and Y (1/s): the cascade's Kv, or
-    /// another controller's closed-loop bandwidth (the simulated waits re-time it).
-    pub(crate) fn kv_per_s_of(machine: &MachineConfig) -> [f64; 2] {
-        [&machine.x, &machine.y].map(|a| {
+    /// The loops' time scales the wait estimate uses, X, Y and Z (1/s): the cascade's Kv,
+    /// or another controller's closed-loop bandwidth (the simulated waits re-time it).
+    pub(crate) fn kv_per_s_of(machine: &MachineConfig) -> [f64; 3] {
+        let kv = |a: &crate::machine::AxisConfig| {
             crate::sim::linear::equivalent_kv_per_s(&crate::sim::AxisModel::from_config(a))
-        })
+        };
+        [
+            kv(&machine.x),
+            kv(&machine.y),
+            machine.z.simulated().map_or(f64::INFINITY, kv),
+        ]
     }
 
     /// The same for the axes controlled by the cascade (their Kv, cheap); none for others.
-    pub(crate) fn kv_per_s_of_cascades(machine: &MachineConfig) -> [Option<f64>; 2] {
-        [&machine.x, &machine.y].map(|a| {
+    pub(crate) fn kv_per_s_of_cascades(machine: &MachineConfig) -> [Option<f64>; 3] {
+        let kv = |a: &crate::machine::AxisConfig| {
             a.controller
                 .is_cascade()
                 .then(|| crate::sim::AxisModel::from_config(a).kv_per_s())
-        })
+        };
+        [
+            kv(&machine.x),
+            kv(&machine.y),
+            machine.z.simulated().map_or(Some(f64::INFINITY), kv),
+        ]
     }
 }
 
@@ -204,7 +218,7 @@ impl KinematicLimits {
             axes: [
                 (&machine.x.limits).into(),
                 (&machine.y.limits).into(),
-                (&machine.z.limits).into(),
+                machine.z.limits().into(),
             ],
         }
     }
@@ -449,7 +463,13 @@ pub(crate) fn ends_in_exact_stop(segments: &[Segment], i: usize) -> bool {
 fn in_position_wait(segments: &[Segment], plans: &[SegmentPlan], i: usize, ip: &InPosition) -> f64 {
     let t_stop = plans[i].t_start_s + plans[i].duration_s;
     let mut wait = 0.0f64;
-    for (axis, &kv) in ip.kv_per_s.iter().enumerate() {
+    // A carried axis (infinite gain) arrives with its command.
+    let simulated = ip
+        .kv_per_s
+        .iter()
+        .enumerate()
+        .filter(|(_, kv)| kv.is_finite());
+    for (axis, &kv) in simulated {
         let horizon = 8.0 / kv;
         let mut lag = 0.0;
         let mut j = i;
@@ -548,11 +568,12 @@ fn segment_limits(
             }
         }
         Geometry::Arc(arc) => {
-            let f_xy = arc.xy_length_m() / length;
-            if f_xy > 1e-12 {
-                caps.arc_plane(f_xy, arc.min_radius_m(), config);
+            let [first, second, normal] = seg.plane().axes();
+            let f_plane = arc.in_plane_length_m() / length;
+            if f_plane > 1e-12 {
+                caps.arc_plane([first, second], f_plane, arc.min_radius_m(), config);
             }
-            caps.axis_share(2, (seg.end_m[2] - seg.start_m[2]).abs() / length);
+            caps.axis_share(normal, seg.normal_travel_m().abs() / length);
         }
     }
     let accel = caps.accel.min(config.path_dynamics.accel);
@@ -616,16 +637,20 @@ impl Caps<'_> {
         }
     }
 
-    /// An arc's XY part, `f_xy` of the path's motion, on the smallest radius `r`: the
-    /// slower axis's speed, the centripetal acceleration within its share of the limit and,
-    /// with jerk limits, the rotating acceleration's jerk.
-    fn arc_plane(&mut self, f_xy: f64, r: f64, config: &PlanConfig) {
-        let [x, y, _] = self.limits.axes;
+    /// An arc's part in its plane (the axes `plane`), `f_xy` of the path's motion, on the
+    /// smallest radius `r`: the slower axis's speed, the centripetal acceleration within its
+    /// share of the limit and, with jerk limits, the rotating acceleration's jerk.
+    fn arc_plane(&mut self, plane: [usize; 2], f_xy: f64, r: f64, config: &PlanConfig) {
+        let [x, y] = plane.map(|i| self.limits.axes[i]);
         let a_xy = x.accel_m_per_s2.min(y.accel_m_per_s2);
         let j_xy = x.jerk_m_per_s3.min(y.jerk_m_per_s3);
         let eta = config.arc_normal_share;
-        let (vx, vy) = (self.axis_speed(0), self.axis_speed(1));
-        let (axis, v_axis) = if vx <= vy { (0, vx) } else { (1, vy) };
+        let (vx, vy) = (self.axis_speed(plane[0]), self.axis_speed(plane[1]));
+        let (axis, v_axis) = if vx <= vy {
+            (plane[0], vx)
+        } else {
+            (plane[1], vy)
+        };
         self.clamp_speed(v_axis / f_xy, axis);
         if config.profile != ProfileKind::Ideal {
             // Centripetal acceleration (v f_xy)²/R within η·a.

@@ -51,7 +51,11 @@ pub(super) fn form_runs(
     for (i, lim) in seg_limits.iter().enumerate() {
         let joined = match runs.last_mut() {
             Some(run) if run.last + 1 == i => smooth_junction_speed(segments, i, limits, config)
-                .and_then(|v_junction| extend(run, lim, v_junction, config, limits)),
+                .and_then(|v_junction| {
+                    let turn =
+                        turning_axes(&segments[i - 1], &segments[i]).unwrap_or([true, true, false]);
+                    extend(run, lim, (v_junction, turn), config, limits)
+                }),
             _ => None,
         };
         match joined {
@@ -72,7 +76,7 @@ pub(super) fn form_runs(
 fn extend(
     run: &Run,
     next: &SegmentLimits,
-    v_junction: f64,
+    (v_junction, turning): (f64, [bool; 3]),
     config: &PlanConfig,
     limits: &KinematicLimits,
 ) -> Option<Run> {
@@ -87,9 +91,9 @@ fn extend(
         jerk: run.limits.dynamics.jerk.min(next.dynamics.jerk),
     };
     if v_junction.is_finite() {
-        // The path turns at this junction: the tangential acceleration shares the axes with
-        // the centripetal, as on an arc.
-        dynamics = curved(dynamics, limits, config);
+        // The path turns at this junction: the tangential acceleration shares the axes it
+        // turns on with the centripetal, as on an arc.
+        dynamics = curved(dynamics, turning, limits, config);
     }
     if dynamics.accel < ACCEL_RATIO * accel_top {
         return None;
@@ -107,16 +111,50 @@ fn extend(
     })
 }
 
-/// Tangential dynamics on a curved path: √(1 − η²) of the acceleration, half the jerk.
-fn curved(d: Dynamics, limits: &KinematicLimits, config: &PlanConfig) -> Dynamics {
-    let [x, y, _] = limits.axes;
+/// Tangential dynamics on a curved path turning on the axes `turning`: √(1 − η²) of their
+/// acceleration, half their jerk.
+fn curved(
+    d: Dynamics,
+    turning: [bool; 3],
+    limits: &KinematicLimits,
+    config: &PlanConfig,
+) -> Dynamics {
+    let (accel, jerk) = turn_limits(limits, turning);
     let eta = config.arc_normal_share;
     Dynamics {
-        accel: d
-            .accel
-            .min((1.0 - eta * eta).sqrt() * x.accel_m_per_s2.min(y.accel_m_per_s2)),
-        jerk: d.jerk.min(0.5 * x.jerk_m_per_s3.min(y.jerk_m_per_s3)),
+        accel: d.accel.min((1.0 - eta * eta).sqrt() * accel),
+        jerk: d.jerk.min(0.5 * jerk),
     }
+}
+
+/// The axes the path turns on at the junction of `a` and `b`: where the tangent changes or
+/// either side curves; `None` where it does neither.
+fn turning_axes(a: &Segment, b: &Segment) -> Option<[bool; 3]> {
+    let (t_in, t_out) = (a.end_tangent(), b.start_tangent());
+    let (k_in, k_out) = (a.end_curvature(), b.start_curvature());
+    let turning = [0, 1, 2].map(|i| {
+        (t_out[i] - t_in[i]).abs() > 1e-12 || k_in[i].abs() > 1e-12 || k_out[i].abs() > 1e-12
+    });
+    turning.contains(&true).then(|| xy_together(turning))
+}
+
+/// X and Y are taken together wherever either turns, as the planner always has for curves
+/// in XY; Z joins them where it turns too.
+fn xy_together(turning: [bool; 3]) -> [bool; 3] {
+    let xy = turning[0] || turning[1];
+    [xy, xy, turning[2]]
+}
+
+/// The lowest acceleration and jerk limits among the axes a curve turns on (m/s², m/s³).
+fn turn_limits(limits: &KinematicLimits, turning: [bool; 3]) -> (f64, f64) {
+    limits
+        .axes
+        .iter()
+        .zip(turning)
+        .filter(|(_, on)| *on)
+        .fold((f64::INFINITY, f64::INFINITY), |(a, j), (l, _)| {
+            (a.min(l.accel_m_per_s2), j.min(l.jerk_m_per_s3))
+        })
 }
 
 /// The speed limit through the junction before segment `i` when it is smooth enough to be
@@ -157,12 +195,13 @@ pub(super) fn smooth_junction_speed(
             return None;
         }
         let mut radius = shorter / theta;
-        if arc_speed(radius, limits, config) < a.feed_m_per_s.max(b.feed_m_per_s) {
+        let turning = xy_together([0, 1, 2].map(|i| (t_out[i] - t_in[i]).abs() > 1e-12));
+        if arc_speed(radius, turning, limits, config) < a.feed_m_per_s.max(b.feed_m_per_s) {
             // The vertex alone would slow the feed: see whether it is only the rounding of
             // short chords' end points.
             radius = chord_radius(segments, i, tolerance).unwrap_or(radius);
         }
-        v = v.min(arc_speed(radius, limits, config));
+        v = v.min(arc_speed(radius, turning, limits, config));
         // The commands turn at the vertex within one cycle: each axis's velocity step there
         // stays within what its acceleration gives in a cycle. (A corner under S-curves is
         // held to a cycle's jerk, j·T²; at a chord vertex that would stop a CAM polygon to
@@ -272,15 +311,13 @@ fn circumcircle(p: [f64; 2], q: [f64; 2], r: [f64; 2]) -> Option<([f64; 2], f64)
     Some(([p[0] + ux, p[1] + uy], ux.hypot(uy)))
 }
 
-/// The speed limit of a circle of radius `r` (m) in XY: centripetal acceleration within η·a
-/// and, for S-curves, the rotating acceleration's jerk within j/4 — the arc rules of the
-/// segment limits.
-fn arc_speed(r: f64, limits: &KinematicLimits, config: &PlanConfig) -> f64 {
-    let [x, y, _] = limits.axes;
-    let a = x.accel_m_per_s2.min(y.accel_m_per_s2);
+/// The speed limit of a circle of radius `r` (m) turning on the axes `turning`: centripetal
+/// acceleration within η·a and, for S-curves, the rotating acceleration's jerk within j/4 —
+/// the arc rules of the segment limits.
+fn arc_speed(r: f64, turning: [bool; 3], limits: &KinematicLimits, config: &PlanConfig) -> f64 {
+    let (a, j) = turn_limits(limits, turning);
     let mut v = (config.arc_normal_share * a * r).sqrt();
     if config.profile == ProfileKind::SCurve {
-        let j = x.jerk_m_per_s3.min(y.jerk_m_per_s3);
         v = v.min((0.25 * j * r * r).cbrt());
     }
     v

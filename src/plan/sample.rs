@@ -6,8 +6,8 @@ use crate::machine::AxisName;
 use crate::path::Geometry;
 use crate::sim::AxisCommands;
 
-/// The interpolator's output for a program: X, Y (simulated) and Z (carried) commands on a
-/// uniform time grid t_k = k·dt, with the path segment each sample lies on.
+/// The interpolator's output for a program: X, Y and Z commands (Z simulated where the machine
+/// simulates it, else carried) on a uniform time grid t_k = k·dt, with the path segment of each sample.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Commands {
     /// Sample period (s).
@@ -16,8 +16,8 @@ pub struct Commands {
     pub x: AxisCommands,
     /// Y commands.
     pub y: AxisCommands,
-    /// Z position (m), carried for reports.
-    pub z_m: Vec<f64>,
+    /// Z commands.
+    pub z: AxisCommands,
     /// Index of the path segment of each sample (into the plan's segments).
     pub segment: Vec<u32>,
 }
@@ -28,6 +28,7 @@ impl Commands {
         match axis {
             AxisName::X => &self.x,
             AxisName::Y => &self.y,
+            AxisName::Z => &self.z,
         }
     }
 
@@ -53,12 +54,11 @@ impl Commands {
 
     /// Keeps the first `len` samples.
     pub fn truncate(&mut self, len: usize) {
-        for c in [&mut self.x, &mut self.y] {
+        for c in [&mut self.x, &mut self.y, &mut self.z] {
             c.pos_m.truncate(len);
             c.vel_m_per_s.truncate(len);
             c.acc_m_per_s2.truncate(len);
         }
-        self.z_m.truncate(len);
         self.segment.truncate(len);
     }
 
@@ -66,7 +66,7 @@ impl Commands {
     pub fn append(&mut self, next: &Commands) {
         self.x.append(&next.x);
         self.y.append(&next.y);
-        self.z_m.extend_from_slice(&next.z_m);
+        self.z.append(&next.z);
         self.segment.extend_from_slice(&next.segment);
     }
 
@@ -77,7 +77,7 @@ impl Commands {
         let (Some(&x), Some(&y), Some(&z), Some(&seg)) = (
             self.x.pos_m.last(),
             self.y.pos_m.last(),
-            self.z_m.last(),
+            self.z.pos_m.last(),
             self.segment.last(),
         ) else {
             return;
@@ -85,19 +85,18 @@ impl Commands {
         for _ in 0..n {
             self.x.push(x, 0.0, 0.0);
             self.y.push(y, 0.0, 0.0);
-            self.z_m.push(z);
+            self.z.push(z, 0.0, 0.0);
             self.segment.push(seg);
         }
     }
 
     /// Room for `more` samples.
     pub(crate) fn reserve(&mut self, more: usize) {
-        for c in [&mut self.x, &mut self.y] {
+        for c in [&mut self.x, &mut self.y, &mut self.z] {
             c.pos_m.reserve(more);
             c.vel_m_per_s.reserve(more);
             c.acc_m_per_s2.reserve(more);
         }
-        self.z_m.reserve(more);
         self.segment.reserve(more);
     }
 }
@@ -195,10 +194,10 @@ impl<'p> Sampler<'p> {
                 p.tangent[i] * a + p.curvature[i] * v * v,
             )
         };
-        let (x, y) = (axis(0), axis(1));
+        let (x, y, z) = (axis(0), axis(1), axis(2));
         out.x.push(x.0, x.1, x.2);
         out.y.push(y.0, y.1, y.2);
-        out.z_m.push(p.pos[2]);
+        out.z.push(z.0, z.1, z.2);
         out.segment.push(self.index as u32);
     }
 }

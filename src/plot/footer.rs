@@ -95,7 +95,7 @@ fn date_of(t: time::OffsetDateTime) -> String {
 
 /// Draws `footer` along the bottom of `root` — a thin rule and the line of text, left
 /// aligned — and returns the area above it for the figure.
-pub fn draw_footer<DB: DrawingBackend>(
+pub(crate) fn draw_footer<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     footer: &Footer,
 ) -> Result<DrawingArea<DB, Shift>, String> {

@@ -10,14 +10,14 @@ pub type PixelBox = (i32, i32, i32, i32);
 const CHAR_EM: f64 = 0.62;
 
 /// The box a line of `text` in a `font_px` font takes with its top-left at `at`.
-pub fn text_box(at: (i32, i32), text: &str, font_px: u32) -> PixelBox {
+pub(crate) fn text_box(at: (i32, i32), text: &str, font_px: u32) -> PixelBox {
     let w = text_width(text, font_px);
     let h = font_px as i32 + 2;
     (at.0, at.1, at.0 + w, at.1 + h)
 }
 
 /// A generous width of `text` in a `font_px` font (px).
-pub fn text_width(text: &str, font_px: u32) -> i32 {
+pub(crate) fn text_width(text: &str, font_px: u32) -> i32 {
     (CHAR_EM * f64::from(font_px) * text.chars().count() as f64).ceil() as i32
 }
 
@@ -47,7 +47,7 @@ fn marker_box(p: (i32, i32)) -> PixelBox {
 /// given (the most important first): the first of a few places around the marker that
 /// stays inside `bounds`, overlaps no label already placed, no marker and nothing in
 /// `avoid`; `None` where every place is taken — that label is left out, its marker stays.
-pub fn place_labels(
+pub(crate) fn place_labels(
     at_px: &[(i32, i32)],
     labels: &[String],
     font_px: u32,
@@ -117,7 +117,7 @@ pub fn best_corner(chart: PixelBox, size: (i32, i32), points: &[(i32, i32)]) -> 
 
 /// The points of a polyline (px) every few pixels along it, so that a legend placed clear
 /// of them is clear of the line, not only of its vertices.
-pub fn along_polyline(points: &[(i32, i32)]) -> Vec<(i32, i32)> {
+pub(crate) fn along_polyline(points: &[(i32, i32)]) -> Vec<(i32, i32)> {
     let mut out = Vec::with_capacity(points.len());
     for w in points.windows(2) {
         let (a, b) = (w[0], w[1]);
@@ -136,7 +136,7 @@ pub fn along_polyline(points: &[(i32, i32)]) -> Vec<(i32, i32)> {
 
 /// The size (px) of a legend listing `entries` in a `font_px` font: a 24 px swatch between
 /// 10 px gaps, the longest entry and a 10 px margin; a row per entry and 8 px above and below.
-pub fn legend_size(entries: &[String], font_px: u32) -> (i32, i32) {
+pub(crate) fn legend_size(entries: &[String], font_px: u32) -> (i32, i32) {
     let longest = entries
         .iter()
         .map(|e| text_width(e, font_px))

@@ -38,7 +38,7 @@ pub fn legend_box<DB: DrawingBackend, CT: CoordTranslate>(
 }
 
 /// Draws the legend of `entries` on `plot` in the box [`legend_box`] gives.
-pub fn draw_legend<DB: DrawingBackend, CT: CoordTranslate>(
+pub(crate) fn draw_legend<DB: DrawingBackend, CT: CoordTranslate>(
     plot: &DrawingArea<DB, CT>,
     entries: &[LegendEntry],
     points_px: &[(i32, i32)],

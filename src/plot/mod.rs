@@ -78,7 +78,7 @@ pub fn render(path: &Path, figure: &impl Figure, footer: &Footer) -> PlotResult 
 }
 
 /// Draws a figure as SVG text, for a page to hold inline.
-pub fn svg_text(figure: &impl Figure) -> Result<String, String> {
+pub(crate) fn svg_text(figure: &impl Figure) -> Result<String, String> {
     register_font();
     let mut text = String::new();
     {

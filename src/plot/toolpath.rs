@@ -1,5 +1,6 @@
-//! The toolpath in XY, coloured by the contour error, with a colour bar and the hotspots
-//! marked by rank and G-code line. Equal scales on X and Y.
+//! The toolpath seen along one axis (in XY, or from the front or the side for a path in
+//! 3-D), coloured by the contour error, with a colour bar and the hotspots marked by rank
+//! and G-code line. Equal scales on both axes of the view.
 
 use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
@@ -8,23 +9,23 @@ use plotters::prelude::*;
 use super::along_path::draw_labelled_rings;
 use super::{FONT, Figure, PlotResult, err};
 
-/// A sample of the actual path.
+/// A sample of the actual path, in the view's coordinates.
 #[derive(Debug, Clone, Copy)]
 pub struct PathPoint {
-    /// Actual X (mm).
+    /// Actual position along the view's horizontal axis (X in the XY view) (mm).
     pub x_mm: f64,
-    /// Actual Y (mm).
+    /// Actual position along its vertical axis (mm).
     pub y_mm: f64,
     /// |contour error| (µm); NaN while not cutting.
     pub error_um: f64,
 }
 
-/// A marked place.
+/// A marked place, in the view's coordinates.
 #[derive(Debug, Clone)]
 pub struct Marker {
-    /// X (mm).
+    /// Along the view's horizontal axis (mm).
     pub x_mm: f64,
-    /// Y (mm).
+    /// Along its vertical axis (mm).
     pub y_mm: f64,
     /// Label, e.g. "1: L13".
     pub label: String,
@@ -40,6 +41,8 @@ pub struct ToolpathPlot {
     pub actual: Vec<PathPoint>,
     /// Hotspots.
     pub markers: Vec<Marker>,
+    /// The view's axes, horizontal and vertical (`["X", "Y"]` seen from above).
+    pub axes: [&'static str; 2],
 }
 
 /// A perceptually ordered colour map (viridis, five anchors) for t in [0, 1].
@@ -85,8 +88,8 @@ impl Figure for ToolpathPlot {
         let mut chart = xy_chart(&main, points, None)?;
         chart
             .configure_mesh()
-            .x_desc("X (mm)")
-            .y_desc("Y (mm)")
+            .x_desc(format!("{} (mm)", self.axes[0]))
+            .y_desc(format!("{} (mm)", self.axes[1]))
             .label_style((FONT, 15))
             .axis_desc_style((FONT, 17))
             .light_line_style(WHITE.mix(0.0))

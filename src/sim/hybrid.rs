@@ -173,7 +173,7 @@ impl<'a> AxisSim<'a> {
                 tol: TOL_SPEED,
             }),
             FrictionMode::Stick => {
-                let f_e = m.nut_force(s, mode.contact) - unit(FX);
+                let f_e = m.breakaway_force(s, mode.contact);
                 let f_s = one * m.f_s + unit(FSX);
                 g.push(Guard {
                     row: f_s - f_e,
@@ -356,7 +356,7 @@ impl<'a> AxisSim<'a> {
 
     fn switch_friction(&mut self, x: &mut Aug, mode: &mut Mode) -> bool {
         let m = self.model;
-        let f_e = ((m.nut_force(&self.signals, mode.contact) - unit(FX)) * *x)[0];
+        let f_e = (m.breakaway_force(&self.signals, mode.contact) * *x)[0];
         let v = x[V2];
         let f_s = m.f_s + x[FSX];
         let want = match mode.friction {

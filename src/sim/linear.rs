@@ -246,7 +246,7 @@ pub fn closed_loop(model: &AxisModel, which: Loop, freq_hz: f64) -> Complex<f64>
 /// leaves, lim (1 − T(s))/s over the closed loop with its feed-forward — 1/Kv for a
 /// proportional loop, (1 − k_f)/Kv with velocity feed-forward, none with integral action.
 /// Read at 10 µHz, where the loop's own dynamics add nothing measurable.
-pub fn velocity_lag_s(model: &AxisModel) -> f64 {
+pub(crate) fn velocity_lag_s(model: &AxisModel) -> f64 {
     let f = 1e-5;
     let t = closed_loop(model, Loop::Position, f);
     ((Complex::new(1.0, 0.0) - t) / Complex::new(0.0, std::f64::consts::TAU * f)).re
@@ -482,7 +482,7 @@ pub fn check_stable(model: &AxisModel) -> Result<(), SimError> {
 /// that is stable with every other setting held, found by bisection on the linear model
 /// between a hundredth of a m/min/mm and the gain given; `None` for another controller, or
 /// when even the smallest gain is unstable (the velocity or current loop is).
-pub fn largest_stable_kv(config: &crate::machine::AxisConfig) -> Option<f64> {
+pub(crate) fn largest_stable_kv(config: &crate::machine::AxisConfig) -> Option<f64> {
     if !config.controller.is_cascade() {
         return None;
     }

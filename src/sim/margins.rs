@@ -148,7 +148,7 @@ fn resonances(poles: &[Complex<f64>], mechanics: &[ModalFigure]) -> Vec<(f64, f6
 
 /// A logarithmic grid from `from_hz` to `to_hz`, `per_decade` points a decade, thickened
 /// around the loop's resonances: what a plot of the loop needs to show its peaks whole.
-pub fn response_grid(
+pub(crate) fn response_grid(
     model: &AxisModel,
     which: Loop,
     (from_hz, to_hz): (f64, f64),
@@ -301,7 +301,7 @@ fn closed_peak(grid: &[f64], t: &impl Fn(f64) -> Complex<f64>) -> (f64, f64) {
 
 /// The oscillatory modes of the mechanics alone (motor, screw and table with no torque from
 /// the motor): what a loop that leaves them be leaves in its closed-loop modes.
-pub fn mechanical_modes(model: &AxisModel) -> Vec<ModalFigure> {
+pub(crate) fn mechanical_modes(model: &AxisModel) -> Vec<ModalFigure> {
     let states: &[usize] = if model.linear_motor {
         &[X2, V2]
     } else {
@@ -361,7 +361,7 @@ pub fn loop_modes(model: &AxisModel) -> Vec<ModalFigure> {
 }
 
 /// The least damped of the closed loops' own modes ([`loop_modes`]).
-pub fn least_damped_loop_mode(model: &AxisModel) -> Option<ModalFigure> {
+pub(crate) fn least_damped_loop_mode(model: &AxisModel) -> Option<ModalFigure> {
     loop_modes(model)
         .into_iter()
         .min_by(|a, b| a.damping.total_cmp(&b.damping))

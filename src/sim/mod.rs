@@ -9,6 +9,8 @@
 
 pub mod commands;
 pub mod discrete;
+pub mod geometry;
+pub(crate) mod gravity;
 pub mod hybrid;
 pub mod linear;
 pub mod margins;

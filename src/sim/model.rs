@@ -15,9 +15,9 @@
 
 use nalgebra::{SMatrix, SVector};
 
-use crate::lookup::Lookup;
 use crate::machine::realise::Realisation;
 use crate::machine::{ControllerOutput, Feedback};
+use crate::numeric::lookup::Lookup;
 
 mod config;
 
@@ -159,6 +159,9 @@ pub struct AxisModel {
     pub measuring: MeasuringError,
     /// Structural mode between the table and the measured point: ω (rad/s) and ζ.
     pub resonance: Option<(f64, f64)>,
+    /// A vertical axis's load F_g = M_T·g − F_cb (N), pulling the table towards −; zero on
+    /// a horizontal axis (docs/model.md §1.8).
+    pub load_n: f64,
 }
 
 /// How the axis is controlled, in SI units.
@@ -297,7 +300,7 @@ impl AxisModel {
     }
 
     /// The whole drive's inertia as a mass moving with the table, J_tot/(r·i_t)² (kg).
-    pub fn mass_at_table_kg(&self) -> f64 {
+    pub(crate) fn mass_at_table_kg(&self) -> f64 {
         self.j_tot() / self.travel_per_motor_rad().powi(2)
     }
 
@@ -666,6 +669,22 @@ impl AxisModel {
         }
     }
 
+    /// The force against the table besides friction (N): the held input `FX` and, on a
+    /// vertical axis, the load.
+    pub(crate) fn external_force(&self) -> Row {
+        if self.load_n == 0.0 {
+            unit(FX)
+        } else {
+            unit(FX) + unit(ONE) * self.load_n
+        }
+    }
+
+    /// The force that would move a stuck table, F_e = F_n − F_ext (N), in a contact mode:
+    /// it breaks away once |F_e| reaches the static friction.
+    pub(crate) fn breakaway_force(&self, s: &Signals, contact: ContactMode) -> Row {
+        self.nut_force(s, contact) - self.external_force()
+    }
+
     /// The augmented dynamics matrix of a mode: d/dt [x; u] = A [x; u] (input rows zero).
     pub fn dynamics(&self, mode: Mode) -> AugMatrix {
         let s = self.signals();
@@ -717,7 +736,7 @@ impl AxisModel {
                 };
                 set(X2, unit(V2));
                 let friction = unit(V2) * self.f_v + unit(ONE) * (sign * self.f_c);
-                set(V2, (f_n - friction - unit(FX)) / self.mt);
+                set(V2, (f_n - friction - self.external_force()) / self.mt);
             }
         }
         set(XR, unit(VR));

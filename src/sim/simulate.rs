@@ -13,7 +13,7 @@ use crate::machine::Feedback;
 use crate::sim::AxisCommands;
 
 /// The state of an axis at rest at `x0` (m): everything aligned, no current, stuck, the nut
-/// in the middle of its gap.
+/// in the middle of its gap — or, on a vertical axis, as its loops hold its weight.
 ///
 /// "At rest" means where the loop holds the axis: the feedback reads `x0`. With a measuring
 /// error that is not where the table is — a scale reading e too long holds the table at
@@ -52,12 +52,14 @@ pub(crate) fn rest_state(model: &AxisModel, x0: f64) -> (Aug, Mode) {
     } else {
         ContactMode::Pos
     };
-    let mode = Mode {
+    let mut mode = Mode {
         friction: FrictionMode::Stick,
         contact,
         current: ClampMode::Linear,
         voltage: ClampMode::Linear,
     };
+    // A vertical axis stands where its loops hold its weight.
+    super::gravity::hold_load(model, &mut x, &mut mode);
     (x, mode)
 }
 

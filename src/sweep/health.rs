@@ -192,7 +192,7 @@ pub fn health(machine: &MachineConfig) -> Health {
 }
 
 /// [`health`], each axis read once per setting of it into `cache`.
-pub fn health_with(machine: &MachineConfig, cache: &AxisCache) -> Health {
+pub(crate) fn health_with(machine: &MachineConfig, cache: &AxisCache) -> Health {
     let mut loop_damping = f64::INFINITY;
     let mut loop_damping_at = None;
     let margins = AxisName::BOTH

@@ -18,10 +18,10 @@ use serde::Serialize;
 use crate::check::{CheckRun, CheckSettings, check};
 use crate::gcode::Program;
 use crate::machine::{AxisName, ConfigError, MachineConfig, keys};
+use crate::numeric::units::um_from_m;
 use crate::plan::PlanConfig;
 use crate::sim::linear;
 use crate::sim::{AxisModel, SimError};
-use crate::units::um_from_m;
 
 pub use dominant::Dominant;
 pub use health::{Flag, Health, POOR_DAMPING, Thresholds};

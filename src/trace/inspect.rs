@@ -3,8 +3,8 @@
 //! the commands were recorded — the largest following error. The first thing to look at on
 //! a record from an unfamiliar machine.
 
+use crate::numeric::units::um_from_m;
 use crate::trace::measured::{MeasuredTrace, quantum};
-use crate::units::um_from_m;
 
 /// An axis moves where its position changes by more than this over the window (m).
 const MOVING_M: f64 = 1e-6;

@@ -67,7 +67,7 @@ impl MeasuredTrace {
     /// As [`MeasuredTrace::beyond_machine`], on the commands from `from_s` after the
     /// record's first sample on (the times still on the record's clock): an approach before
     /// the program that the model does not follow asks nothing of it.
-    pub fn beyond_machine_from(
+    pub(crate) fn beyond_machine_from(
         &self,
         machine: &crate::machine::MachineConfig,
         from_s: f64,
@@ -93,7 +93,7 @@ impl MeasuredTrace {
     /// numbers in the unit they were read in, over a range no table travels (a thousand of
     /// that unit). The `--columns` spelling that reads them as counts, with an example
     /// resolution. `None` where the user gave the positions' unit, or they do not look so.
-    pub fn counts_hint(&self) -> Option<String> {
+    pub(crate) fn counts_hint(&self) -> Option<String> {
         /// A range of whole numbers this wide is no length in the unit read.
         const COUNTS_RANGE: f64 = 1000.0;
         let column = |signal: Signal| self.layout.mapped.iter().find(|m| m.signal == signal);

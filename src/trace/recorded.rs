@@ -14,11 +14,11 @@
 
 use crate::gcode::Program;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
-use crate::path::{Blend, Geometry, Motion, Segment};
+use crate::numeric::units::{m_per_s_from_mm_per_min, mm_per_min_from_m_per_s};
+use crate::path::{Blend, Geometry, Motion, Plane, Segment};
 use crate::plan::{AxisCommands, Commands};
 use crate::sim::AxisModel;
 use crate::trace::signal::sample;
-use crate::units::{m_per_s_from_mm_per_min, mm_per_min_from_m_per_s};
 
 /// Half-width of the derivative fit (s): wide enough to average a 10 kHz record's
 /// quantisation, short against any feed change a servo follows.
@@ -104,6 +104,7 @@ pub fn program_from_commands(commands_m: &[Vec<f64>; 2], dt_s: f64, file: &str) 
             },
             line: u32::try_from(w[0] + 1).unwrap_or(u32::MAX),
             jerk_limited: None,
+            plane: Plane::Xy,
         })
         .collect();
     Some(Program {
@@ -288,7 +289,11 @@ pub(crate) fn commands_from_record(
         dt_s: dt_out_s,
         x: axis(x_m),
         y: axis(y_m),
-        z_m: vec![0.0; n],
+        z: AxisCommands {
+            pos_m: vec![0.0; n],
+            vel_m_per_s: vec![0.0; n],
+            acc_m_per_s2: vec![0.0; n],
+        },
         segment: vec![0; n],
     }
 }

@@ -10,9 +10,9 @@ use std::path::Path;
 
 use contourcheck::diagnose::Diagnosis;
 use contourcheck::diagnose::learn::Term;
+use contourcheck::diagnose::synth::CommandStream;
 use contourcheck::gcode::{InterpretOptions, Program, parse_program};
 use contourcheck::machine::AxisName;
-use contourcheck::synth::CommandStream;
 
 pub fn sample_program(name: &str) -> Program {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))

@@ -1,10 +1,12 @@
-//! Arcs (`G2`/`G3`) in the XY plane: by centre (I/J) or radius (R), helical and
-//! multi-turn, checked against LinuxCNC's tolerances.
+//! Arcs (`G2`/`G3`) in the working plane — XY (G17, centre by I/J), ZX (G18, by K/I) or YZ
+//! (G19, by J/K) — or by radius (R), helical along the plane's normal and multi-turn,
+//! checked against LinuxCNC's tolerances. As in RS274/NGC, G18's arcs turn from Z towards X
+//! and G19's from Y towards Z: counter-clockwise (G3) seen from the normal's + side.
 
-use super::{IResult, Interpreter, Plane, err};
+use super::{IResult, Interpreter, err};
 use crate::gcode::error::{GcodeErrorKind, Warning};
-use crate::path::{Arc, Geometry, Motion, Segment};
-use crate::units::{MM_PER_INCH, m_from_mm};
+use crate::numeric::units::{MM_PER_INCH, m_from_mm};
+use crate::path::{Arc, Geometry, Motion, Plane, Segment};
 
 /// LinuxCNC's absolute tolerance on the start/end radius difference of an I/J arc
 /// (CENTER_ARC_RADIUS_TOLERANCE_MM = 2·0.01·√2 mm; the inch value, 2·0.001·√2 in, applies
@@ -19,45 +21,40 @@ const R_ARC_SLACK_INCH: f64 = 0.00005;
 const R_ARC_NEAR_HALF_DEG: f64 = 5.0;
 /// I/J arcs whose end lies within this distance of the start (but not on it) are warned.
 const NEAR_COINCIDENT_MM: f64 = 0.001;
+
+/// The centre-offset word of each axis: I for X, J for Y, K for Z.
+const OFFSET_LETTERS: [u8; 3] = [b'I', b'J', b'K'];
+
 impl Interpreter {
-    /// G2/G3 in the XY plane, I/J or R form, optionally helical and multi-turn (P).
+    /// G2/G3 in the working plane, by centre or R, optionally helical and multi-turn (P).
     pub(super) fn arc(&mut self, ccw: bool, end_mm: [f64; 3], offset: u32) -> IResult<()> {
-        if self.plane != Plane::Xy {
-            let word = if ccw { "G3" } else { "G2" };
-            let reason = "arcs outside the XY plane (G18/G19) are not supported";
-            return err(
-                offset,
-                GcodeErrorKind::Unsupported {
-                    word: word.into(),
-                    reason,
-                },
-            );
-        }
-        if let Some(k) = self.block.values[(b'K' - b'A') as usize] {
-            return err(
-                k.1,
-                GcodeErrorKind::Invalid("K word in an XY-plane arc".into()),
-            );
-        }
+        self.check_arc_plane(ccw, offset)?;
         let turns = self.arc_turns(offset)?;
-        let has_ij = self.block.get(b'I').is_some() || self.block.get(b'J').is_some();
+        let [a0, a1, _] = self.plane.axes();
+        let [l0, l1] = [a0, a1].map(|a| OFFSET_LETTERS[a]);
+        let has_ij = self.block.get(l0).is_some() || self.block.get(l1).is_some();
+        let words = format!("{}/{}", l0 as char, l1 as char);
         let (center, r_start, r_end) = match (self.block.get(b'R'), has_ij) {
             (Some(_), true) => {
                 let off = self.block.offset_of(b'R');
                 return err(
                     off,
-                    GcodeErrorKind::Invalid("arc with both R and I/J".into()),
+                    GcodeErrorKind::Invalid(format!("arc with both R and {words}")),
                 );
             }
             (None, false) => {
-                return err(offset, GcodeErrorKind::Invalid("arc needs I/J or R".into()));
+                return err(
+                    offset,
+                    GcodeErrorKind::Invalid(format!("arc needs {words} or R")),
+                );
             }
             (Some(r), false) => self.r_arc_center(ccw, r, end_mm)?,
             (None, true) => self.ij_arc_center(end_mm)?,
         };
         let start = self.pos_mm;
-        let th0 = (start[1] - center[1]).atan2(start[0] - center[0]);
-        let th1 = (end_mm[1] - center[1]).atan2(end_mm[0] - center[0]);
+        let (s, e) = (self.plane.coords(start), self.plane.coords(end_mm));
+        let th0 = (s[1] - center[1]).atan2(s[0] - center[0]);
+        let th1 = (e[1] - center[1]).atan2(e[0] - center[0]);
         let mut sweep = if ccw {
             let d = (th1 - th0).rem_euclid(std::f64::consts::TAU);
             if d == 0.0 { std::f64::consts::TAU } else { d }
@@ -66,7 +63,7 @@ impl Interpreter {
             -(if d == 0.0 { std::f64::consts::TAU } else { d })
         };
         sweep += sweep.signum() * std::f64::consts::TAU * (turns - 1) as f64;
-        self.warn_near_coincident(start, end_mm, sweep);
+        self.warn_near_coincident(s, e, sweep);
         let arc = Arc {
             center_m: [m_from_mm(center[0]), m_from_mm(center[1])],
             r_start_m: m_from_mm(r_start),
@@ -83,8 +80,40 @@ impl Interpreter {
             blend: self.blend,
             line: self.line,
             jerk_limited: self.jerk_limited,
+            plane: self.plane,
         });
         self.pos_mm = end_mm;
+        Ok(())
+    }
+
+    /// Refuses what an arc in the working plane cannot take: the normal axis's centre word
+    /// (K in G17, J in G18, I in G19), and a plane other than XY under a rotated coordinate
+    /// system (the rotation turns XY about Z, which would tilt such an arc out of its plane).
+    fn check_arc_plane(&self, ccw: bool, offset: u32) -> IResult<()> {
+        let plane = self.plane;
+        let normal = OFFSET_LETTERS[plane.axes()[2]];
+        if let Some(k) = self.block.values[(normal - b'A') as usize] {
+            return err(
+                k.1,
+                GcodeErrorKind::Invalid(format!(
+                    "{} word in an arc in the {} plane ({})",
+                    normal as char,
+                    plane.name(),
+                    plane.gcode()
+                )),
+            );
+        }
+        if plane != Plane::Xy && self.rotation_deg[self.coord_index] != 0.0 {
+            let word = if ccw { "G3" } else { "G2" };
+            return err(
+                offset,
+                GcodeErrorKind::Unsupported {
+                    word: word.into(),
+                    reason: "an arc outside XY (G18/G19) in a rotated coordinate system \
+                             (G10 L2 R): the rotation about Z would tilt it out of its plane",
+                },
+            );
+        }
         Ok(())
     }
 
@@ -99,24 +128,29 @@ impl Interpreter {
         }
     }
 
+    /// The centre (in the plane's coordinates, mm) from the plane's two centre words, and
+    /// the start and end radii.
     fn ij_arc_center(&self, end: [f64; 3]) -> IResult<([f64; 2], f64, f64)> {
+        let [a0, a1, _] = self.plane.axes();
+        let [l0, l1] = [a0, a1].map(|a| OFFSET_LETTERS[a]);
         let start = self.pos_mm;
-        let i = self.block.get(b'I').unwrap_or(0.0) * self.mm_per_unit;
-        let j = self.block.get(b'J').unwrap_or(0.0) * self.mm_per_unit;
+        let i = self.block.get(l0).unwrap_or(0.0) * self.mm_per_unit;
+        let j = self.block.get(l1).unwrap_or(0.0) * self.mm_per_unit;
         let start_prog = self.machine_to_program(start);
-        let center_prog = if self.arc_absolute {
-            [i, j, 0.0]
+        let mut center_prog = [0.0; 3];
+        if self.arc_absolute {
+            (center_prog[a0], center_prog[a1]) = (i, j);
         } else {
-            [start_prog[0] + i, start_prog[1] + j, 0.0]
-        };
-        let c = self.program_to_machine(center_prog);
-        let center = [c[0], c[1]];
-        let r_start = (start[0] - center[0]).hypot(start[1] - center[1]);
-        let r_end = (end[0] - center[0]).hypot(end[1] - center[1]);
+            (center_prog[a0], center_prog[a1]) = (start_prog[a0] + i, start_prog[a1] + j);
+        }
+        let center = self.plane.coords(self.program_to_machine(center_prog));
+        let (s, e) = (self.plane.coords(start), self.plane.coords(end));
+        let r_start = (s[0] - center[0]).hypot(s[1] - center[1]);
+        let r_end = (e[0] - center[0]).hypot(e[1] - center[1]);
         let slack = R_ARC_SLACK_INCH * MM_PER_INCH;
         if r_start < slack || r_end < slack {
             return err(
-                self.block.offset_of(b'I').max(self.block.offset_of(b'J')),
+                self.block.offset_of(l0).max(self.block.offset_of(l1)),
                 GcodeErrorKind::ZeroRadiusArc,
             );
         }
@@ -144,8 +178,9 @@ impl Interpreter {
         Ok((center, r_start, r_end))
     }
 
+    /// The centre (in the plane's coordinates, mm) of an R-form arc, and its radius twice.
     fn r_arc_center(&mut self, ccw: bool, r: f64, end: [f64; 3]) -> IResult<([f64; 2], f64, f64)> {
-        let start = self.pos_mm;
+        let (start, end) = (self.plane.coords(self.pos_mm), self.plane.coords(end));
         let r_mm = r * self.mm_per_unit;
         let (dx, dy) = (end[0] - start[0], end[1] - start[1]);
         let chord = dx.hypot(dy);
@@ -194,7 +229,7 @@ impl Interpreter {
         }
     }
 
-    fn warn_near_coincident(&mut self, start: [f64; 3], end: [f64; 3], sweep: f64) {
+    fn warn_near_coincident(&mut self, start: [f64; 2], end: [f64; 2], sweep: f64) {
         let d = (end[0] - start[0]).hypot(end[1] - start[1]);
         if d > 0.0 && d < NEAR_COINCIDENT_MM {
             self.warnings.push(Warning {

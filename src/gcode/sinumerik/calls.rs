@@ -181,12 +181,12 @@ impl Translator {
     }
 
     /// The subprogram the last block calls, to be run after its other words.
-    pub fn take_call(&mut self) -> Option<Call> {
+    pub(crate) fn take_call(&mut self) -> Option<Call> {
         self.call.take()
     }
 
     /// Whether the last block returned from the subprogram (`M17`, `RET`).
-    pub fn take_returned(&mut self) -> bool {
+    pub(crate) fn take_returned(&mut self) -> bool {
         std::mem::take(&mut self.returned)
     }
 }

@@ -208,25 +208,30 @@ impl Translator {
             Some(2) => false,
             _ => return Err(invalid("an opening angle belongs to a G2 or G3 arc")),
         };
-        let [Some(x0), Some(y0)] = [self.position[0], self.position[1]] else {
+        // In the working plane: its first and second axes (X and Y in G17, Z and X in G18,
+        // Y and Z in G19) and their centre words.
+        let [a0, a1, _] = self.plane.axes();
+        let axis_letter = |a: usize| b"XYZ"[a] as char;
+        let centre_letter = |a: usize| b"IJK"[a] as char;
+        let [Some(x0), Some(y0)] = [self.position[a0], self.position[a1]] else {
             return Err(invalid("the arc's start is not known yet"));
         };
         let has = |l: char| words.iter().any(|w| w.1 == l);
-        let end_given = has('X') || has('Y');
-        let centre_given = has('I') || has('J');
+        let end_given = has(axis_letter(a0)) || has(axis_letter(a1));
+        let centre_given = has(centre_letter(a0)) || has(centre_letter(a1));
         let half = (angle / 2.0).to_radians();
         if end_given && !centre_given && !has('R') {
             let start = self.position;
             let mut end = [x0, y0];
             for (o, l, v) in words.iter() {
-                if let Some(a) = "XY".find(*l) {
+                if let Some(k) = [a0, a1].iter().position(|&a| axis_letter(a) == *l) {
                     let v = self.coordinate(*o, *l, *v, &start)?;
-                    end[a] = if self.absolute { v } else { [x0, y0][a] + v };
+                    end[k] = if self.absolute { v } else { [x0, y0][k] + v };
                 }
             }
             let chord = (end[0] - x0).hypot(end[1] - y0);
             if chord == 0.0 {
-                return Err(invalid("an arc to its own start needs its centre (I, J)"));
+                return Err(invalid("an arc to its own start needs its centre"));
             }
             let radius = chord / 2.0 / half.sin();
             let signed = if angle > 180.0 { -radius } else { radius };
@@ -237,20 +242,21 @@ impl Translator {
             let start = self.position;
             let mut centre = [x0, y0];
             for (o, l, v) in words.iter() {
-                if let Some(a) = "IJ".find(*l) {
-                    centre[a] += self.coordinate(*o, *l, *v, &start)?;
+                if let Some(k) = [a0, a1].iter().position(|&a| centre_letter(a) == *l) {
+                    centre[k] += self.coordinate(*o, *l, *v, &start)?;
                 }
             }
             let turn = if ccw { angle } else { -angle }.to_radians();
             let (s, c) = turn.sin_cos();
             let (dx, dy) = (x0 - centre[0], y0 - centre[1]);
             let end = [centre[0] + c * dx - s * dy, centre[1] + s * dx + c * dy];
-            words.push((offset, 'X', Value::Absolute(end[0])));
-            words.push((offset, 'Y', Value::Absolute(end[1])));
+            words.push((offset, axis_letter(a0), Value::Absolute(end[0])));
+            words.push((offset, axis_letter(a1), Value::Absolute(end[1])));
             return Ok(());
         }
         Err(invalid(
-            "give the arc's end point (X, Y) or its centre (I, J) with it, not both, nor CR=",
+            "give the arc's end point or its centre in the working plane with it, not both, \
+             nor CR=",
         ))
     }
 

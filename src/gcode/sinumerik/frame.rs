@@ -5,6 +5,7 @@ use super::super::error::GcodeErrorKind;
 use super::emit::Piece;
 use super::words::Value;
 use super::{Failure, Rewritten, Translator, refuse};
+use crate::path::Plane;
 
 /// A programmable frame: a point p of the workpiece is at `shift + rotation(angle)·S·p` in
 /// the program's coordinates, S the scale per axis (negative where mirrored) — the 840D's
@@ -65,6 +66,12 @@ impl Frame {
     /// clockwise arc of the workpiece runs counter-clockwise in the program.
     fn mirrored(&self) -> bool {
         self.scale[0] * self.scale[1] < 0.0
+    }
+
+    /// Whether the frame only shifts (no rotation, scale or mirror): an arc in G18 or G19,
+    /// whose centre words include K, stays as written.
+    fn only_shifts(&self) -> bool {
+        self.angle_deg == 0.0 && self.scale == [1.0; 3]
     }
 
     /// Whether X and Y are scaled alike, so that an arc stays an arc.
@@ -180,11 +187,35 @@ impl Translator {
         if let Some((_, g)) = named {
             self.motion = Some(g);
         }
+        for &(_, g) in g_codes {
+            match g {
+                17 => self.plane = Plane::Xy,
+                18 => self.plane = Plane::Zx,
+                19 => self.plane = Plane::Yz,
+                _ => {}
+            }
+        }
         let moving = words
             .iter()
             .find(|w| matches!(w.1, 'X' | 'Y' | 'I' | 'J' | 'R'))
             .map(|w| w.0);
         let arc = matches!(self.motion, Some(2 | 3));
+        let moving_in_space = words
+            .iter()
+            .find(|w| matches!(w.1, 'X' | 'Y' | 'Z' | 'I' | 'J' | 'K' | 'R'))
+            .map(|w| w.0);
+        if let Some(offset) = moving_in_space
+            && arc
+            && self.plane != Plane::Xy
+            && !self.frame.only_shifts()
+        {
+            return Err(refuse(
+                offset,
+                &format!("G{}", self.motion.unwrap_or(2)),
+                "an arc in G18/G19 under a frame that rotates, scales or mirrors: the frames \
+                 here turn and scale the XY plane only",
+            ));
+        }
         if let Some(offset) = moving
             && arc
             && !self.frame.round()

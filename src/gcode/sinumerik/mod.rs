@@ -9,8 +9,9 @@
 //!   absolute or incremental against the block's `G90`/`G91`;
 //! - `G710`/`G700` (metric or inch, feeds included) and `G71`/`G70` (positions only) as
 //!   `G21`/`G20`;
-//! - arcs by centre (`I`, `J`), by radius (`CR=`, negative above 180°) or by opening angle
-//!   (`AR=`, with the end point or the centre);
+//! - arcs in the working plane (`G17`, `G18`, `G19`) by centre (`I`, `J`, `K`), by radius
+//!   (`CR=`, negative above 180°) or by opening angle (`AR=`, with the end point or the
+//!   centre), helical with `TURN=` full turns more (RS274/NGC's `P`, one more);
 //! - `G60` (exact stop, modal) and `G9` (exact stop in its block), `G64` (continuous path),
 //!   `G641` with `ADIS=` and `G642` with `CTOL=`: the corners rounded within the given
 //!   distance are planned with the planner's corner tolerance of that size (the 840D's
@@ -146,7 +147,7 @@ impl Rewritten {
     }
 
     /// The SINUMERIK line's byte offset for an offset in the rewritten text.
-    pub fn original_offset(&self, rewritten: usize) -> usize {
+    pub(crate) fn original_offset(&self, rewritten: usize) -> usize {
         if self.plain {
             return rewritten;
         }
@@ -222,6 +223,8 @@ pub(crate) struct Translator {
     /// they differ on arcs under a mirror.
     motion: Option<u32>,
     emitted_motion: Option<u32>,
+    /// The working plane (`G17`, `G18`, `G19`): arcs and opening angles lie in it.
+    plane: crate::path::Plane,
 }
 
 impl Default for Translator {
@@ -251,6 +254,7 @@ impl Default for Translator {
             returned: false,
             motion: None,
             emitted_motion: None,
+            plane: crate::path::Plane::Xy,
         }
     }
 }

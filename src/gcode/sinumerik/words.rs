@@ -269,6 +269,18 @@ impl Translator {
             // The opening angle, resolved into a radius or an end point once the
             // block's other words are known.
             ("AR", v) => words.push((name_start, OPENING_ANGLE, v)),
+            // A helix's further full turns; RS274/NGC counts the turns themselves.
+            ("TURN", Value::Number(n)) if n >= 0.0 && n.fract() == 0.0 && n < 10_000.0 => {
+                words.push((name_start, 'P', Value::Number(n + 1.0)))
+            }
+            ("TURN", _) => {
+                return Err((
+                    name_start,
+                    GcodeErrorKind::Invalid(
+                        "TURN: the number of full turns is a whole number from 0".into(),
+                    ),
+                ));
+            }
             ("ADIS", Value::Number(v)) => self.adis = Some(v),
             ("ADISPOS", Value::Number(v)) => self.adispos = Some(v),
             ("CTOL", Value::Number(v)) => self.ctol = Some(v),

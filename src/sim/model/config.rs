@@ -3,10 +3,10 @@
 //! keep the matrices finite.
 
 use super::{AxisModel, ControlModel, LateralShiftModel, MeasuringError};
-use crate::lookup::Lookup;
 use crate::machine::realise::realise;
 use crate::machine::{AxisConfig, Controller, Drive, DriveKind, Feedback};
-use crate::units::{
+use crate::numeric::lookup::Lookup;
+use crate::numeric::units::{
     GRAVITY_M_PER_S2, h_from_mh, m_from_mm, m_from_um, m_per_s_from_mm_per_min,
     per_s_from_kv_m_per_min_per_mm, s_from_ms,
 };
@@ -86,6 +86,10 @@ impl AxisModel {
                     c.errors.resonance_damping,
                 )
             }),
+            load_n: c
+                .gravity
+                .as_ref()
+                .map_or(0.0, |g| m.mt * GRAVITY_M_PER_S2 - g.counterbalance_n),
         }
     }
 }

@@ -59,7 +59,7 @@ impl CauseId {
 
     /// What kind of record would tell this cause from `other` where a record explains both
     /// alike: where their signatures part.
-    pub fn told_apart_from(self, other: CauseId) -> &'static str {
+    pub(crate) fn told_apart_from(self, other: CauseId) -> &'static str {
         use CauseId::*;
         let pair = |a: CauseId, b: CauseId| (self == a && other == b) || (self == b && other == a);
         if pair(KvGain, DeadTime) {
@@ -326,7 +326,7 @@ impl Kinematics<'_> {
 
 /// The direction last travelled at each of a series of positions (m) in time order.
 fn travel_directions(positions_m: &[f64]) -> Vec<f64> {
-    let mut travel = crate::geometry::Travel::default();
+    let mut travel = crate::sim::geometry::Travel::default();
     positions_m.iter().map(|&q| travel.direction(q)).collect()
 }
 

@@ -20,12 +20,12 @@
 
 use std::fmt::Write as _;
 
-use crate::geometry::CrossTerms;
 use crate::machine::{AxisName, MachineConfig};
+use crate::numeric::units::{m_from_mm, um_from_m};
 use crate::sim::AxisModel;
+use crate::sim::geometry::CrossTerms;
 use crate::sim::model::X2;
 use crate::sim::simulate::rest_state;
-use crate::units::{m_from_mm, um_from_m};
 
 /// Points of a table over the travel when the errors are smooth (scale, cyclic).
 const GRID_POINTS: usize = 101;
@@ -99,7 +99,7 @@ fn positions_mm(machine: &MachineConfig, axis: AxisName) -> Vec<f64> {
 }
 
 /// The tables as the control-neutral CSV.
-pub fn neutral_csv(tables: &[AxisCompensation]) -> String {
+pub(crate) fn neutral_csv(tables: &[AxisCompensation]) -> String {
     let mut s = String::from("axis,position_mm,forward_um,reverse_um\n");
     for t in tables {
         for (p, f, r) in &t.points {
@@ -110,7 +110,7 @@ pub fn neutral_csv(tables: &[AxisCompensation]) -> String {
 }
 
 /// One axis's table as a LinuxCNC compensation file (type 1, mm).
-pub fn linuxcnc_file(table: &AxisCompensation) -> String {
+pub(crate) fn linuxcnc_file(table: &AxisCompensation) -> String {
     let mut s = String::new();
     for (p, f, r) in &table.points {
         let _ = writeln!(s, "{p:.4} {:.6} {:.6}", f * 1e-3, r * 1e-3);

@@ -7,15 +7,17 @@
 //! writes the run out does so from the chunks it is handed), so that sweeps can run it many
 //! times in parallel.
 
+pub mod envelope;
+pub mod report;
 use serde::Serialize;
 
 use crate::analysis::RunAnalyser;
 use crate::analysis::circular::CirclePath;
 use crate::analysis::contour::{ContourPoint, ContourSeries};
 pub use crate::analysis::{CheckResult, RunPlace, Summary};
-use crate::execute::{ExecConfig, RunChunk, execute_in_chunks};
 use crate::gcode::Program;
 use crate::machine::MachineConfig;
+use crate::plan::execute::{ExecConfig, RunChunk, execute_in_chunks};
 use crate::plan::{Commands, KinematicLimits, Plan, PlanConfig, plan};
 use crate::sim::{AxisTrace, SimConfig, SimError};
 
@@ -77,7 +79,7 @@ pub fn check(
     settings: &CheckSettings,
 ) -> Result<CheckRun, SimError> {
     let planned = plan(program, &KinematicLimits::of(machine), &settings.plan);
-    crate::execute::check_run_length(&planned)?;
+    crate::plan::execute::check_run_length(&planned)?;
     let dt_s = planned.config.cycle_s;
     let mut commands = Commands {
         dt_s,
@@ -148,7 +150,7 @@ pub(crate) fn plan_commands(
     settings: &CheckSettings,
 ) -> Result<(Plan, Commands), SimError> {
     let planned = plan(program, &KinematicLimits::of(machine), &settings.plan);
-    crate::execute::check_run_length(&planned)?;
+    crate::plan::execute::check_run_length(&planned)?;
     let mut commands = crate::plan::sample(&planned);
     commands.hold(settings.settle_s);
     Ok((planned, commands))

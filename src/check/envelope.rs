@@ -6,7 +6,7 @@
 
 use crate::gcode::Program;
 use crate::machine::{Limits, MachineConfig};
-use crate::units::mm_from_m;
+use crate::numeric::units::mm_from_m;
 
 /// The bound on any coordinate when the machine file sets no travel (mm).
 const FARTHEST_MM: f64 = 1e6;
@@ -57,7 +57,7 @@ pub fn check_fits(program: &Program, machine: &MachineConfig) -> Result<(), Enve
     let travels = [
         ('X', travel(&machine.x.limits, "x")),
         ('Y', travel(&machine.y.limits, "y")),
-        ('Z', travel(&machine.z.limits, "z")),
+        ('Z', travel(machine.z.limits(), "z")),
     ];
     for seg in program.segments.iter().filter(|s| !s.is_dwell()) {
         for (extent_m, (axis, (lo_mm, hi_mm, source))) in seg.extent_m().iter().zip(&travels) {

@@ -8,53 +8,53 @@ pub const MM_PER_INCH: f64 = 25.4;
 pub const GRAVITY_M_PER_S2: f64 = 9.81;
 
 /// mm → m.
-pub fn m_from_mm(mm: f64) -> f64 {
+pub(crate) fn m_from_mm(mm: f64) -> f64 {
     mm * 1e-3
 }
 
 /// m → mm.
-pub fn mm_from_m(m: f64) -> f64 {
+pub(crate) fn mm_from_m(m: f64) -> f64 {
     m * 1e3
 }
 
 /// m → µm.
-pub fn um_from_m(m: f64) -> f64 {
+pub(crate) fn um_from_m(m: f64) -> f64 {
     m * 1e6
 }
 
 /// µm → m.
-pub fn m_from_um(um: f64) -> f64 {
+pub(crate) fn m_from_um(um: f64) -> f64 {
     um * 1e-6
 }
 
 /// mm/min → m/s.
-pub fn m_per_s_from_mm_per_min(mm_per_min: f64) -> f64 {
+pub(crate) fn m_per_s_from_mm_per_min(mm_per_min: f64) -> f64 {
     mm_per_min / 60_000.0
 }
 
 /// m/s → mm/min.
-pub fn mm_per_min_from_m_per_s(m_per_s: f64) -> f64 {
+pub(crate) fn mm_per_min_from_m_per_s(m_per_s: f64) -> f64 {
     m_per_s * 60_000.0
 }
 
 /// Position-loop gain: m/min/mm (the CNC's Kv, e.g. Siemens POSCTRL_GAIN) → 1/s.
 /// 1 m/min of feed per mm of following error is (1/60 m/s) / (1e-3 m) = 16.667 1/s.
-pub fn per_s_from_kv_m_per_min_per_mm(kv: f64) -> f64 {
+pub(crate) fn per_s_from_kv_m_per_min_per_mm(kv: f64) -> f64 {
     kv * 1000.0 / 60.0
 }
 
 /// Position-loop gain: 1/s → m/min/mm.
-pub fn kv_m_per_min_per_mm_from_per_s(per_s: f64) -> f64 {
+pub(crate) fn kv_m_per_min_per_mm_from_per_s(per_s: f64) -> f64 {
     per_s * 60.0 / 1000.0
 }
 
 /// ms → s.
-pub fn s_from_ms(ms: f64) -> f64 {
+pub(crate) fn s_from_ms(ms: f64) -> f64 {
     ms * 1e-3
 }
 
 /// mH → H.
-pub fn h_from_mh(mh: f64) -> f64 {
+pub(crate) fn h_from_mh(mh: f64) -> f64 {
     mh * 1e-3
 }
 

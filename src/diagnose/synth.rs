@@ -14,8 +14,8 @@ use std::io::Write;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 
-use crate::causes::{self, CauseId};
 use crate::check::{CheckSettings, plan_commands};
+use crate::diagnose::causes::{self, CauseId};
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
 use crate::sim::{AxisModel, MeasuredAt, SimError, simulate};
@@ -124,7 +124,7 @@ pub fn synthesize(
     // The axes' geometry lies beyond the scales: the tool and the table see it, a motor
     // encoder does not.
     if spec.measured_at != MeasuredAt::Motor {
-        crate::geometry::to_tool(&machine, &mut x, &mut y);
+        crate::sim::geometry::to_tool(&machine, &mut x, &mut y);
     }
     let read = |v: f64| {
         if spec.quantization_m > 0.0 {

@@ -23,8 +23,8 @@
 //! so that a standing axis's nanometre creep turns nothing; before it first moves that far
 //! the play sits in its middle.
 
-use crate::lookup::Lookup;
 use crate::machine::{AxisName, MachineConfig};
+use crate::numeric::lookup::Lookup;
 
 /// How far an axis comes back from its furthest point before its direction counts as
 /// turned (m).

@@ -12,11 +12,11 @@ use serde::Serialize;
 use crate::analysis::contour::ContourPoint;
 use crate::analysis::hotspot::Hotspot;
 use crate::check::{CheckResult, CheckSettings, RunPlace, Summary};
-use crate::execute::RunChunk;
 use crate::gcode::interp::SourceLine;
 use crate::gcode::{CodeNote, Program, SourceFile, Warning};
 use crate::machine::MachineConfig;
-use crate::units::{mm_from_m, um_from_m};
+use crate::numeric::units::{mm_from_m, um_from_m};
+use crate::plan::execute::RunChunk;
 
 /// Version tag of the JSON report.
 pub const SCHEMA: &str = "contourcheck.check/1";
@@ -101,6 +101,12 @@ pub struct ContourInfo {
     pub rms: f64,
     /// Where the largest occurs.
     pub max_at: Option<Location>,
+    /// The largest part of the error in the block's plane (µm), where Z is simulated.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_in_plane: Option<f64>,
+    /// The largest part across the block's plane (µm), where Z is simulated.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_across: Option<f64>,
 }
 
 /// The largest XY positioning error while only Z moves or the program dwells.
@@ -144,6 +150,9 @@ pub struct FollowingInfo {
     pub x: AxisFollowing,
     /// Y axis.
     pub y: AxisFollowing,
+    /// Z axis, where simulated.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub z: Option<AxisFollowing>,
 }
 
 /// One axis's following error.
@@ -206,7 +215,7 @@ impl Location {
 }
 
 impl FollowingInfo {
-    /// Both axes' largest following errors, while cutting and with the rapids.
+    /// The simulated axes' largest following errors, while cutting and with the rapids.
     fn of(s: &Summary) -> Self {
         let axis = |i: usize| AxisFollowing {
             max_cutting: um_from_m(s.max_following_error_cutting_m[i]),
@@ -215,6 +224,10 @@ impl FollowingInfo {
         FollowingInfo {
             x: axis(0),
             y: axis(1),
+            z: s.z_following_error_m.map(|[cutting, all]| AxisFollowing {
+                max_cutting: um_from_m(cutting),
+                max: um_from_m(all),
+            }),
         }
     }
 }
@@ -284,6 +297,8 @@ impl CheckReport {
                 max: max_um,
                 rms: um_from_m(s.rms_contour_error_m),
                 max_at: run.max_at.map(|p| Location::of(&p, program)),
+                max_in_plane: s.max_components_m.map(|c| um_from_m(c[0])),
+                max_across: s.max_components_m.map(|c| um_from_m(c[1])),
             },
             following_error_um: FollowingInfo::of(s),
             positioning_error_um: PositioningInfo::of(s, program),
@@ -302,7 +317,7 @@ impl CheckReport {
     }
 
     /// The report as pretty JSON.
-    pub fn write_json(&self, w: &mut dyn Write) -> std::io::Result<()> {
+    pub(crate) fn write_json(&self, w: &mut dyn Write) -> std::io::Result<()> {
         serde_json::to_writer_pretty(&mut *w, self).map_err(std::io::Error::other)?;
         writeln!(w)
     }
@@ -310,11 +325,16 @@ impl CheckReport {
 
 /// A run written as CSV chunk by chunk as it is simulated, one row every `every` samples:
 /// time, line, commanded and actual X/Y (mm), following errors and contour error (µm; empty
-/// while not cutting).
+/// while not cutting); where Z is simulated and some block is measured in space, then
+/// commanded and actual Z, its following error and the contour error's parts in the block's
+/// plane and across it.
 #[derive(Debug, Clone)]
 pub struct TraceCsv {
     every: usize,
     started: bool,
+    /// Whether the rows give Z: where it is simulated and some block is measured in space
+    /// (a 2.5-D program's trace is the same with Z simulated or carried).
+    with_z: bool,
     /// The program's subprogram files, whose lines the `line` column names by file.
     sources: Vec<SourceFile>,
 }
@@ -333,12 +353,13 @@ impl TraceCsv {
         TraceCsv {
             every: every.max(1),
             started: false,
+            with_z: false,
             sources: Vec::new(),
         }
     }
 
     /// Writes the rows of the next chunk (with the header before the first).
-    pub fn write_chunk(
+    pub(crate) fn write_chunk(
         &mut self,
         w: &mut dyn Write,
         chunk: &RunChunk,
@@ -346,7 +367,7 @@ impl TraceCsv {
     ) -> std::io::Result<()> {
         let mut out = csv::Writer::from_writer(w);
         if !self.started {
-            out.write_record([
+            let mut header = vec![
                 "t_s",
                 "line",
                 "x_ref_mm",
@@ -356,14 +377,26 @@ impl TraceCsv {
                 "fe_x_um",
                 "fe_y_um",
                 "contour_um",
-            ])?;
+            ];
+            self.with_z =
+                chunk.z.is_some() && chunk.plan.segments.iter().any(|s| s.is_contour_in_space());
+            if self.with_z {
+                header.extend(["z_ref_mm", "z_mm", "fe_z_um", "in_plane_um", "across_um"]);
+            }
+            out.write_record(header)?;
             self.started = true;
         }
         let c = chunk.commands;
         let first_kept = chunk.first.next_multiple_of(self.every) - chunk.first;
+        let um_or_empty = |e: f64| {
+            if e.is_finite() {
+                format!("{:.4}", um_from_m(e))
+            } else {
+                String::new()
+            }
+        };
         for i in (first_kept..points.len().min(chunk.x.len())).step_by(self.every) {
-            let e = points[i].error_m;
-            out.write_record(&[
+            let mut row = vec![
                 format!("{:.4}", c.time_s(chunk.first + i)),
                 SourceLine::among(
                     &self.sources,
@@ -376,12 +409,18 @@ impl TraceCsv {
                 format!("{:.6}", mm_from_m(chunk.y.pos_m[i])),
                 format!("{:.4}", um_from_m(chunk.x.following_error_m(i))),
                 format!("{:.4}", um_from_m(chunk.y.following_error_m(i))),
-                if e.is_finite() {
-                    format!("{:.4}", um_from_m(e))
-                } else {
-                    String::new()
-                },
-            ])?;
+                um_or_empty(points[i].error_m),
+            ];
+            if let Some(z) = chunk.z.as_ref().filter(|_| self.with_z) {
+                row.extend([
+                    format!("{:.6}", mm_from_m(c.z.pos_m[i])),
+                    format!("{:.6}", mm_from_m(z.pos_m[i])),
+                    format!("{:.4}", um_from_m(z.following_error_m(i))),
+                    um_or_empty(points[i].in_plane_m),
+                    um_or_empty(points[i].across_m),
+                ]);
+            }
+            out.write_record(&row)?;
         }
         out.flush()
     }
@@ -430,11 +469,7 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
         "contour   max {:.2} µm{at}, RMS {:.2} µm",
         r.contour_error_um.max, r.contour_error_um.rms
     );
-    let _ = writeln!(
-        s,
-        "          (XY feed moves only; signed + to the left of the direction of travel: \
-         inside a ccw circle, outside a cw one)"
-    );
+    let _ = writeln!(s, "{}", contour_note(r));
     let p = &r.positioning_error_um;
     if let (Some(line), Some(t)) = (p.line, p.t_s)
         && p.max >= 0.005
@@ -448,12 +483,7 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
             in_file(p.file.as_deref(), line)
         );
     }
-    let fe = &r.following_error_um;
-    let _ = writeln!(
-        s,
-        "following max while cutting: X {:.1} µm, Y {:.1} µm (with rapids: X {:.1} µm, Y {:.1} µm)",
-        fe.x.max_cutting, fe.y.max_cutting, fe.x.max, fe.y.max
-    );
+    let _ = writeln!(s, "{}", following_line(&r.following_error_um));
     if let (Some(t), Some(ok)) = (r.tolerance_um, r.within_tolerance) {
         let verdict = if ok { "within" } else { "EXCEEDS" };
         let _ = writeln!(s, "tolerance {t} µm: the predicted maximum {verdict} it");
@@ -466,6 +496,46 @@ pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
         s.push_str(&hotspot_table(r, max_hotspots));
     }
     s
+}
+
+/// The line under the contour figure: how it was measured, and its parts where some blocks
+/// were measured in space.
+fn contour_note(r: &CheckReport) -> String {
+    match (
+        r.contour_error_um.max_in_plane,
+        r.contour_error_um.max_across,
+    ) {
+        (Some(in_plane), Some(across)) => {
+            format!(
+                "          (3-D distance to the path on blocks that move Z or lie in ZX or YZ, XY \
+                 elsewhere; largest part in the block's plane {in_plane:.2} µm, across it {across:.2} µm; signed + \
+                 to the left of travel in the plane)"
+            )
+        }
+        _ => "          (XY feed moves only; signed + to the left of the direction of travel: \
+              inside a ccw circle, outside a cw one)"
+            .to_string(),
+    }
+}
+
+/// The simulated axes' largest following errors, while cutting and with the rapids.
+fn following_line(fe: &FollowingInfo) -> String {
+    match &fe.z {
+        None => {
+            format!(
+                "following max while cutting: X {:.1} µm, Y {:.1} µm (with rapids: X {:.1} µm, \
+                 Y {:.1} µm)",
+                fe.x.max_cutting, fe.y.max_cutting, fe.x.max, fe.y.max
+            )
+        }
+        Some(z) => {
+            format!(
+                "following max while cutting: X {:.1} µm, Y {:.1} µm, Z {:.1} µm (with rapids: \
+                 X {:.1} µm, Y {:.1} µm, Z {:.1} µm)",
+                fe.x.max_cutting, fe.y.max_cutting, z.max_cutting, fe.x.max, fe.y.max, z.max
+            )
+        }
+    }
 }
 
 /// "line 16", or "L1.SPF line 7" for a line of a subprogram's file.
@@ -497,11 +567,13 @@ fn hotspot_table(r: &CheckReport, max_hotspots: usize) -> String {
     };
     let shown = || r.hotspots.iter().take(max_hotspots);
     let width = shown().map(|h| line_of(h).len()).max().unwrap_or(4).max(4);
+    let with_z = r.hotspots.iter().any(|h| h.hotspot.z_mm.is_some());
     let _ = writeln!(
         s,
-        "  rank  {:>width$}{}   time (s)     X (mm)     Y (mm)   error (µm)  spike (µm)  cause",
+        "  rank  {:>width$}{}   time (s)     X (mm)     Y (mm){}   error (µm)  spike (µm)  cause",
         "line",
-        if numbered { "  block" } else { "" }
+        if numbered { "  block" } else { "" },
+        if with_z { "     Z (mm)" } else { "" }
     );
     for h in shown() {
         let hs = &h.hotspot;
@@ -511,9 +583,10 @@ fn hotspot_table(r: &CheckReport, max_hotspots: usize) -> String {
             (true, None) => format!("  {:>5}", ""),
         };
         let line = line_of(h);
+        let z = hs.z_mm.map_or(String::new(), |z| format!("  {z:>9.3}"));
         let _ = writeln!(
             s,
-            "  {:>4}  {line:>width$}{block}  {:>9.3}  {:>9.3}  {:>9.3}  {:>11.2}  {:>10.2}  {}",
+            "  {:>4}  {line:>width$}{block}  {:>9.3}  {:>9.3}  {:>9.3}{z}  {:>11.2}  {:>10.2}  {}",
             h.rank, hs.t_s, hs.x_mm, hs.y_mm, hs.error_um, hs.excess_um, h.label
         );
     }
@@ -529,7 +602,7 @@ fn hotspot_table(r: &CheckReport, max_hotspots: usize) -> String {
 
 /// Warnings with the same message merged into one line listing where they occur
 /// ("lines 11, 14, 17 … (143 places): message"), in order of first appearance.
-pub fn group_warnings(warnings: &[crate::gcode::Warning]) -> Vec<String> {
+pub(crate) fn group_warnings(warnings: &[crate::gcode::Warning]) -> Vec<String> {
     let mut groups: Vec<(&str, Vec<u32>)> = Vec::new();
     for w in warnings {
         match groups.iter_mut().find(|(m, _)| *m == w.message) {
