@@ -1109,3 +1109,44 @@ fn a_machine_file_without_a_base_is_warned_about_and_named_after_itself() {
         text(&o.stderr)
     );
 }
+
+/// A record whose commands run an axis faster than the machine file's rapid rate (1000
+/// mm/min commanded, 600 allowed): `diagnose` warns of it once, in its report, and not again
+/// on stderr.
+#[test]
+fn a_command_beyond_the_machine_is_warned_of_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("line.nc");
+    std::fs::write(
+        &program,
+        "G21 G90 G17 G94\nG0 X0 Y0\nG1 X20 F1000\nG1 X0\nM2\n",
+    )
+    .unwrap();
+    let record = dir.path().join("line.csv");
+    let o = run(&[
+        "synth",
+        program.to_str().unwrap(),
+        "--with-commands",
+        "--out",
+        record.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let slow = dir.path().join("slow.toml");
+    std::fs::write(
+        &slow,
+        "base = \"hvmc\"\n[x.limits]\nrapid_mm_per_min = 600\nmax_feed_mm_per_min = 600\n",
+    )
+    .unwrap();
+    let o = run(&[
+        "diagnose",
+        program.to_str().unwrap(),
+        "--measured",
+        record.to_str().unwrap(),
+        "--machine",
+        slow.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let all = text(&o.stdout) + &text(&o.stderr);
+    let warning = "beyond the rapid rate of 600 mm/min (x.limits.rapid_mm_per_min)";
+    assert_eq!(all.matches(warning).count(), 1, "{all}");
+}

@@ -59,6 +59,22 @@ fn commanded(dir: &std::path::Path) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// The record's commanded Z (mm, machine coordinates) at each of its times (s), read plainly.
+fn commanded_z(dir: &std::path::Path) -> Vec<(f64, f64)> {
+    let text = std::fs::read_to_string(dir.join(TRACE)).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (t, z) = (col("time"), col("cmd_pos_z"));
+    lines
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            let v: Vec<&str> = l.split(',').collect();
+            (v[t].parse().unwrap(), v[z].parse().unwrap())
+        })
+        .collect()
+}
+
 struct Facts {
     /// The work offset (mm): where `X37.5 Y-5` stands in machine coordinates.
     offset_mm: [f64; 2],
@@ -153,6 +169,33 @@ fn the_840d_trace_from_home_is_diagnosed_from_where_its_commands_join_the_progra
     // Half a second after the approach, most of it standing, is too little to tell any cause
     // from how the machine came out of its approach: nothing is named.
     assert!(d.causes.is_empty(), "{:?}", d.causes);
+    // Z comes down in the stretch compared (the Z rapid to the part): the record's own Z
+    // columns are read, and the report says how far Z moved there and that it is not
+    // compared, with the lowest and highest commanded Z of the file's rows in that stretch.
+    let [lo, hi] = c.z_span_mm.expect("the 840D trace has Z");
+    // The file's rows in the stretch, and its ends between rows (the record is read on a
+    // regular clock, so its ends fall between the logger's rows).
+    let rows = commanded_z(&dir);
+    let at = |t: f64| {
+        let k = rows.iter().position(|r| r.0 >= t).unwrap().max(1);
+        let ((t0, z0), (t1, z1)) = (rows[k - 1], rows[k]);
+        z0 + (z1 - z0) * (t - t0) / (t1 - t0)
+    };
+    let (file_lo, file_hi) = rows
+        .iter()
+        .filter(|&&(t, _)| t > c.compared_from_s && t < c.compared_to_s)
+        .map(|&(_, z)| z)
+        .chain([at(c.compared_from_s), at(c.compared_to_s)])
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), z| {
+            (l.min(z), h.max(z))
+        });
+    assert!(
+        (lo - file_lo).abs() < 0.01 && (hi - file_hi).abs() < 0.01,
+        "{c:?}: file {file_lo}..{file_hi}"
+    );
+    assert!(hi - lo > 1.0, "{c:?}");
+    let said = c.describe().join("\n");
+    assert!(said.contains("Z: moves"), "{said}");
 }
 
 #[test]

@@ -9,25 +9,36 @@ mod common;
 use common::program_text;
 use common::reference::{Recording, record};
 use contourcheck::diagnose::causes::CauseId;
+use contourcheck::diagnose::report::DiagnoseReport;
 use contourcheck::diagnose::{DiagnoseSettings, Diagnosis, diagnose};
 use contourcheck::machine::{AxisName, MachineConfig};
-use contourcheck::trace::measured::parse_trace;
+use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 use rayon::prelude::*;
 
 /// The diagnosis of `text` recorded by the reference on `truth`, against the nominal
 /// machine.
 fn diagnose_reference(text: &str, truth: &MachineConfig, rec: &Recording) -> Diagnosis {
+    diagnose_reference_with_record(text, truth, rec).0
+}
+
+/// [`diagnose_reference`], with the record read.
+fn diagnose_reference_with_record(
+    text: &str,
+    truth: &MachineConfig,
+    rec: &Recording,
+) -> (Diagnosis, MeasuredTrace) {
     let nominal = MachineConfig::default_preset();
     let program = program_text(text);
     let csv = record(&program, &truth.x, &truth.y, rec);
     let measured = parse_trace(&csv, "reference.csv").unwrap();
-    diagnose(
+    let d = diagnose(
         &program,
         &nominal,
         &measured,
         &DiagnoseSettings::for_machine(&nominal),
     )
-    .unwrap()
+    .unwrap();
+    (d, measured)
 }
 
 /// The nominal records: programs with many stops and without, feeds, rates, noise levels and
@@ -154,7 +165,8 @@ fn nominal_cases() -> Vec<(&'static str, String, Recording)> {
 
 /// The false-alarm test: twenty independent nominal records — squares whose axes hold while
 /// the other moves, lines and circles; 300 to 1500 mm/min; 0.1 ms, 1 ms and 2 ms sampling;
-/// noise 0.1 to 0.5 µm; twenty seeds — and not one named cause or learned term. On each the
+/// noise 0.1 to 0.5 µm; twenty seeds — and not one named cause, learned term or residual
+/// repeating at one place (the squares and lines pass each place twice). On each the
 /// nominal model's residual, on the samples compared, is the noise that was added.
 #[test]
 fn independent_nominal_records_name_nothing() {
@@ -165,9 +177,12 @@ fn independent_nominal_records_name_nothing() {
             let d = diagnose_reference(&text, &machine, &rec);
             let noise_um = rec.noise_m * 1e6;
             let mut wrong = Vec::new();
-            if !d.causes.is_empty() || !d.learned.is_empty() {
+            if !d.causes.is_empty() || !d.learned.is_empty() || !d.localized.is_empty() {
                 let named: Vec<_> = d.causes.iter().map(|c| (c.id, c.axis)).collect();
-                wrong.push(format!("named {named:?}, learned {:?}", d.learned));
+                wrong.push(format!(
+                    "named {named:?}, learned {:?}, localized {:?}",
+                    d.learned, d.localized
+                ));
             }
             if (d.noise_floor_um / noise_um - 1.0).abs() > 0.1 {
                 wrong.push(format!("noise floor {:.3} µm", d.noise_floor_um));
@@ -193,7 +208,7 @@ fn independent_nominal_records_name_nothing() {
 }
 
 /// One effect hidden in an independent record: the cause named, alone, at its value within
-/// four of its standard uncertainties and 2 %.
+/// four of its standard uncertainties and 2 %; no residual said to repeat at one place.
 fn assert_found_in_reference(
     text: &str,
     change: impl Fn(&mut MachineConfig),
@@ -206,6 +221,8 @@ fn assert_found_in_reference(
     let d = diagnose_reference(text, &machine, &Recording::default());
     let named: Vec<_> = d.causes.iter().map(|c| (c.id, c.axis)).collect();
     assert_eq!(named, vec![(cause, axis)], "{:?}", d.rejected);
+    // A machine-wide effect is not a local one.
+    assert!(d.localized.is_empty(), "{:#?}", d.localized);
     let p = &d.causes[0].params[0];
     assert!(
         (p.value - truth).abs() <= (4.0 * p.uncertainty).max(1e-12)
@@ -216,6 +233,7 @@ fn assert_found_in_reference(
     );
     assert!(d.after.x.rms_um <= 1.1 * d.noise_floor_um, "{:?}", d.after);
     assert!(d.after.y.rms_um <= 1.1 * d.noise_floor_um, "{:?}", d.after);
+    assert!(d.localized.is_empty(), "{:#?}", d.localized);
 }
 
 const CIRCLE: &str = "G21 G90 G17 G94\nG0 X30 Y0\nG3 X30 Y0 I-30 J0 F1000\nG3 X30 Y0 I-30 J0\nM2\n";
@@ -267,15 +285,73 @@ fn a_dead_time_in_an_independent_record_is_found_and_told_from_a_gain() {
     );
 }
 
-#[test]
-fn a_tight_spot_in_an_independent_record_is_not_taken_for_machine_wide_friction() {
-    // Coulomb friction doubled on X between 20 and 40 mm only.
+/// A tight spot — Coulomb friction `factor` times the machine file's between `from_mm` and
+/// `to_mm` of X — in an independent record of `text`: no cause is named (the friction is
+/// not the machine's), and X's residual is reported as repeating at the spot's two ends on
+/// every one of `passes` steady passes, each end within `tolerance_mm` (half the 2 mm a
+/// window spans at 1 m/min under a gain of 1 m/min/mm: twice the loop's time constant
+/// of travel). Where the table enters the spot the added friction holds it back; where it
+/// leaves, the force its integral action built up throws it forward: moving towards +,
+/// behind is below and ahead is above, moving towards −, the other way round — so on both
+/// directions the residual is negative at the lower end and positive at the upper, a sign
+/// that follows the place, not the direction. Nothing repeats on Y, which crosses no spot.
+fn assert_tight_spot_localized(
+    text: &str,
+    (from_mm, to_mm, factor): (f64, f64, f64),
+    passes: usize,
+) {
+    let tolerance_mm = 1.0;
     let rec = Recording {
-        tight_spot_x: Some((0.020, 0.040, 2.0)),
+        tight_spot_x: Some((from_mm * 1e-3, to_mm * 1e-3, factor)),
         ..Recording::default()
     };
-    let d = diagnose_reference(SQUARE, &MachineConfig::default_preset(), &rec);
+    let nominal = MachineConfig::default_preset();
+    let (d, measured) = diagnose_reference_with_record(text, &nominal, &rec);
     assert!(d.causes.is_empty(), "{:?}", d.causes);
+    // The premise: the whole record's residual stays within half as much again as its noise.
+    assert!(d.before.x.rms_um < 1.5 * d.noise_floor_um, "{:?}", d.before);
+    assert_eq!(d.localized.len(), 1, "{:#?}", d.localized);
+    let l = &d.localized[0];
+    assert_eq!(l.axis, AxisName::X, "{l:#?}");
+    assert_eq!((l.passes, l.passes_over_spots), (passes, passes), "{l:#?}");
+    let [lower, upper] = l.spots.as_slice() else {
+        panic!("not two spots: {l:#?}");
+    };
+    for (spot, end, sign) in [(lower, from_mm, -1.0), (upper, to_mm, 1.0)] {
+        assert!((spot.centre_mm - end).abs() <= tolerance_mm, "{l:#?}");
+        assert!(spot.from_mm <= end && end <= spot.to_mm, "{l:#?}");
+        assert!(
+            spot.residual_um * sign > 0.0 && !spot.follows_direction,
+            "{l:#?}"
+        );
+    }
+    let (a, b) = l.stretch_mm.unwrap();
+    assert!(
+        (a - from_mm).abs() <= tolerance_mm && (b - to_mm).abs() <= tolerance_mm,
+        "{l:#?}"
+    );
+    // The report says so, rather than that nothing is there.
+    let report = DiagnoseReport::new(&d, "test.nc", &measured, &nominal);
+    assert!(
+        report
+            .verdict
+            .contains("repeats at the same places on every pass of X"),
+        "{}",
+        report.verdict
+    );
+    assert!(report.summary_text().contains("localized on X: "));
+}
+
+#[test]
+fn a_tight_spot_in_an_independent_record_is_reported_where_it_is_though_the_rms_is_at_the_noise() {
+    // Friction doubled between 20 and 40 mm on X, one square: one pass each way.
+    assert_tight_spot_localized(SQUARE, (20.0, 40.0, 2.0), 2);
+}
+
+#[test]
+fn a_tight_spot_crossed_four_times_is_reported_on_all_four_passes() {
+    let twice = "G21 G90 G17 G94\nG0 X0 Y0\nG1 X70 F1000\nY50\nX0\nY0\nX70\nY50\nX0\nY0\nM2\n";
+    assert_tight_spot_localized(twice, (35.0, 52.0, 1.8), 4);
 }
 
 /// Three effects at once in one independent record of the circle test: 10 µm of backlash on
@@ -320,4 +396,5 @@ fn three_effects_in_an_independent_record_are_found_in_one_run() {
     }
     assert!(d.after.x.rms_um <= 1.1 * d.noise_floor_um, "{:?}", d.after);
     assert!(d.after.y.rms_um <= 1.1 * d.noise_floor_um, "{:?}", d.after);
+    assert!(d.localized.is_empty(), "{:#?}", d.localized);
 }

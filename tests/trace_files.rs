@@ -642,3 +642,46 @@ proptest::proptest! {
         let _ = read(&text.as_bytes()[..text.len() - cut], None);
     }
 }
+
+/// Every column a file holds is shown, the ones no signal was mapped to with their ranges as
+/// the file gives them, in a text table and in a capture file alike.
+#[test]
+fn columns_no_signal_was_mapped_to_are_listed_with_their_ranges() {
+    let n = 400;
+    let load: Vec<f64> = (0..n).map(|i| 10.0 + (i % 9) as f64 * 0.5).collect();
+    let mut csv = String::from("time_s,x_mm,y_mm,spindle_load_pct,mode\n");
+    for (i, l) in load.iter().enumerate() {
+        let t = i as f64 * 1e-3;
+        csv += &format!("{t},{},{},{l},m{}\n", t * 10.0, t * 5.0, i % 3);
+    }
+    let trace = parse_trace(&csv, "extra.csv").unwrap();
+    let unused = &trace.layout.unused;
+    assert_eq!(unused.len(), 2, "{unused:?}");
+    assert_eq!(unused[0].name, "spindle_load_pct");
+    // 10 + 8·0.5: the largest load written.
+    assert_eq!(unused[0].range, Some([10.0, 14.0]));
+    assert_eq!(unused[1].name, "mode");
+    assert_eq!(unused[1].range, None, "text is not a range");
+    let shown = trace.layout.describe().join("\n");
+    assert!(shown.contains("not used (2"), "{shown}");
+    assert!(shown.contains("spindle_load_pct (10 … 14)"), "{shown}");
+
+    let t: Vec<f64> = (0..n).map(|i| i as f64 * 1e-3).collect();
+    let current: Vec<f64> = (0..n).map(|i| -2.0 + i as f64 * 0.01).collect();
+    let bytes = mat_file(&[
+        ("t", n, 1, t.clone()),
+        ("x", n, 1, t.iter().map(|v| v * 10.0).collect()),
+        ("y", n, 1, t.iter().map(|v| v * 5.0).collect()),
+        ("motor_current_A", n, 1, current),
+    ]);
+    let trace = read(&bytes, None).unwrap();
+    let unused = &trace.layout.unused;
+    assert_eq!(unused.len(), 1, "{unused:?}");
+    assert_eq!(unused[0].name, "motor_current_A");
+    // −2 + 399·0.01 = 1.99.
+    let [lo, hi] = unused[0].range.unwrap();
+    assert!(
+        (lo + 2.0).abs() < 1e-12 && (hi - 1.99).abs() < 1e-12,
+        "{lo} {hi}"
+    );
+}

@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::Outcome;
+use super::common::program_or_commands_path;
 use super::common::{CliError, MachineArgs, PlanningArgs, TraceArgs, spinner};
-use super::common::{program_or_commands_path, warn_beyond_machine};
 use crate::cli::output::{OutputBatch, at_most_one_stdout};
 use crate::diagnose::causes::{CauseId, CauseSet};
 use crate::diagnose::report::{DiagnoseReport, machine_file};
@@ -122,7 +122,8 @@ pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
     };
     let measured = read(measured_path)?;
     let program = program_or_commands_path(args.program.as_deref(), &measured, &machine)?;
-    warn_beyond_machine(&measured, &machine);
+    // Where the commands ask more than the machine allows is said once, in the report (from
+    // where the model follows them), not also here.
     let validation = second.first().map(read).transpose()?;
     let settings = settings_of(args, &machine)?;
     let bar = spinner("fitting causes");

@@ -759,6 +759,13 @@ impl Context<'_> {
                 super::start::StartKind::Planned => first_t,
                 _ => (start.run_in_s - self.program_start_s).max(0.0),
             },
+            z_span_mm: match (self.samples.first(), self.samples.last()) {
+                (Some(&from), Some(&to)) => self
+                    .measured
+                    .z_span_m(from, to)
+                    .map(|(lo, hi)| [lo * 1e3, hi * 1e3]),
+                _ => None,
+            },
         }
     }
 }

@@ -423,7 +423,14 @@ pub struct Coverage {
     pub to_program_end: bool,
     /// How far into the program the comparison begins by the plan's timing (s).
     pub into_program_s: f64,
+    /// Where the record has Z: the lowest and highest Z over the stretch compared (mm, the
+    /// record's own coordinates; its commands where recorded). Z is read, but neither
+    /// compared nor fitted.
+    pub z_span_mm: Option<[f64; 2]>,
 }
+
+/// Z travel below this (mm) is a standing Z, not worth a word.
+const Z_STANDS_MM: f64 = 1e-3;
 
 impl Coverage {
     /// How long each axis was simulated but not compared at the start, in words.
@@ -485,6 +492,16 @@ impl Coverage {
             StartKind::Planned => None,
         };
         lines.extend(start);
+        lines.extend(self.z_span_mm.and_then(|[lo, hi]| {
+            (hi - lo > Z_STANDS_MM).then(|| {
+                format!(
+                    "Z: moves {:.3} mm in the stretch compared (Z {lo:.3} to {hi:.3} mm on the \
+                     record's own scale); it is read but not compared, diagnosed or fitted: \
+                     the figures are of X and Y, and a machine file written keeps Z as it was",
+                    hi - lo
+                )
+            })
+        }));
         lines
     }
 }

@@ -22,6 +22,7 @@ pub mod holdout;
 pub mod learn;
 pub mod locate;
 pub mod plausible;
+pub mod repeat;
 pub mod report;
 pub mod search;
 pub mod synth;
@@ -258,6 +259,9 @@ pub struct Diagnosis {
     pub learned: Vec<learn::Learned>,
     /// Which stretch of the program was compared, and how the record's start was set.
     pub coverage: Coverage,
+    /// Residuals the extended model leaves that repeat at the same places on every pass of
+    /// an axis, however small the record's RMS.
+    pub localized: Vec<repeat::Localized>,
 }
 
 /// Circular-test figures of the same circles three ways.
@@ -327,6 +331,7 @@ pub fn diagnose_validated(
     }
     let window_s = settings.event_window_s;
     let mut summary = keep_contour_no_worse(&ctx, machine, &mut outcome, &nominal, window_s);
+    search::one_seen_per_axis(&mut outcome.rejected);
     // What no cause explains: where it lives, and, where a term of the model can stand for
     // that variable, the term learned from it.
     let mut unexplained = locate::locate(&ctx, &outcome.traces, outcome.offset_s);
@@ -339,9 +344,17 @@ pub fn diagnose_validated(
         summary = summarize(&ctx, &nominal, &outcome.traces, outcome.offset_s, window_s);
         unexplained = locate::locate(&ctx, &outcome.traces, outcome.offset_s);
     }
+    let localized = repeat::localize(
+        &ctx,
+        &outcome.machine,
+        &outcome.traces,
+        outcome.offset_s,
+        window_s,
+    );
     Ok(Diagnosis {
         unexplained,
         learned,
+        localized,
         skipped: skipped_causes(machine, settings),
         searched: settings.max_causes > 0
             && CauseId::ALL.into_iter().any(|c| {
@@ -382,31 +395,25 @@ fn keep_contour_no_worse(
 ) -> Summary {
     loop {
         let summary = summarize(ctx, nominal, &outcome.traces, outcome.offset_s, window_s);
-        // Averaged over a statistical window where a cause was fitted on stick-slip
-        // statistics (no model times the slips).
-        let half_s = if outcome.found.iter().any(|c| c.statistical) {
-            residual::CHATTER_AVERAGE_HALF_S
-        } else {
-            0.0
-        };
+        // Point by point, the whole-record RMS the report states, for every cause: one
+        // fitted on stick-slip statistics too (which no model times) is not named if it
+        // predicts the contour worse.
         let contour_rms = |r: &[f64]| {
             let finite: Vec<f64> = r.iter().copied().filter(|v| v.is_finite()).collect();
-            um_from_m(residual::averaged_rms(&finite, ctx.sample_dt_s, half_s))
+            um_from_m(residual::averaged_rms(&finite, ctx.sample_dt_s, 0.0))
         };
         let [before_r, after_r] = &summary.series.contour_residual;
         let (b, a) = (contour_rms(before_r), contour_rms(after_r));
-        // Averaged, the residual keeps the noise of its window: a change within that is
-        // no change.
-        let averaged_noise_um = if half_s > 0.0 {
-            um_from_m(ctx.noise_sigma) / (2.0 * half_s / ctx.sample_dt_s + 1.0).sqrt()
-        } else {
-            0.0
-        };
-        if a <= b * (1.0 + search::WORSE_TOLERANCE) + averaged_noise_um || outcome.found.is_empty()
-        {
+        if a <= b * (1.0 + search::WORSE_TOLERANCE) || outcome.found.is_empty() {
             return summary;
         }
-        let reason = format!("fits, but makes the contour residual worse ({b:.3} → {a:.3} µm RMS)");
+        let seen = if outcome.found.last().is_some_and(|c| c.statistical) {
+            search::SEEN_NOT_DETERMINED
+        } else {
+            ""
+        };
+        let reason =
+            format!("{seen}fits, but makes the contour residual worse ({b:.3} → {a:.3} µm RMS)");
         drop_last_cause(ctx, machine, outcome, nominal, reason);
     }
 }
@@ -474,6 +481,7 @@ fn assemble(ctx: &Context, outcome: search::Outcome, summary: Summary) -> Diagno
         coverage: ctx.coverage(outcome.offset_s),
         unexplained: Vec::new(),
         learned: Vec::new(),
+        localized: Vec::new(),
         skipped: Vec::new(),
         searched: false,
     }
@@ -519,6 +527,7 @@ fn drop_last_cause(
         axis: last.axis,
         params: last.params,
         evidence: last.evidence,
+        seen: reason.starts_with(search::SEEN_NOT_DETERMINED),
         reason,
     });
 }

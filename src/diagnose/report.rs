@@ -9,13 +9,14 @@ use serde::Serialize;
 
 use super::learn::Learned;
 use super::locate::{Located, Variable};
+use super::repeat::Localized;
 
 use super::{
     Alternative, AxisResidual, Candidate, CircularComparison, Coverage, Diagnosis, ExtraWait,
     FittedParam, HeldOut, HeldOutMeasure, JudgedOn, Place, Rejected, ResidualStats, Skipped,
 };
 use crate::diagnose::causes::CauseId;
-use crate::machine::{AxisName, MachineConfig};
+use crate::machine::{AxisName, Feedback, MachineConfig};
 use crate::sim::MeasuredAt;
 use crate::trace::measured::MeasuredTrace;
 use crate::trace::recorded::BeyondMachine;
@@ -76,6 +77,11 @@ pub struct DiagnoseReport {
     pub learned: Vec<Learned>,
     /// Which stretch of the program was compared, and how the record's start was set.
     pub coverage: Coverage,
+    /// Where each axis's position loop reads it (X, Y): what the explanations follow.
+    pub loop_feedback: [Feedback; 2],
+    /// Residuals that repeat at the same places on every pass of an axis (a tight spot, a
+    /// local scale or straightness error), however small the record's RMS.
+    pub localized: Vec<Localized>,
 }
 
 /// The measurement, as read.
@@ -248,6 +254,8 @@ impl DiagnoseReport {
             unexplained: d.unexplained.clone(),
             learned: d.learned.clone(),
             coverage: d.coverage,
+            loop_feedback: AxisName::BOTH.map(|a| machine.axis(a).position_loop.feedback),
+            localized: d.localized.clone(),
         }
     }
 
@@ -279,6 +287,9 @@ impl DiagnoseReport {
         }
         for u in &self.unexplained {
             let _ = writeln!(s, "  {}", unexplained_line(u));
+        }
+        for l in &self.localized {
+            let _ = writeln!(s, "  {}", localized_line(l));
         }
         for k in &self.skipped {
             let axes: Vec<String> = k.axes.iter().map(|a| a.to_string()).collect();
@@ -606,10 +617,13 @@ fn ballbar_and_causes(r: &DiagnoseReport) -> Option<String> {
         .flat_map(|c| spikes.map(|i| c.reversal_spikes_um[i]))
         .filter(|v| v.is_finite())
         .fold(0.0f64, |m, v| m.max(v.abs()));
-    let behind = if r.measured.measured_at == MeasuredAt::Table {
-        "behind the linear scale the loop takes the screw's gap out at each reversal"
-    } else {
-        "the loop closes on the motor, beyond which the gap lies"
+    // What the loop sees of the gap follows where it reads the axis, not where the record
+    // was taken.
+    let behind = match r.loop_feedback[backlash.axis.index()] {
+        Feedback::LinearScale => {
+            "behind the linear scale the loop takes the screw's gap out at each reversal"
+        }
+        Feedback::MotorEncoder => "the loop closes on the motor, beyond which the gap lies",
     };
     Some(format!(
         "The ballbar's backlash figure for {} ({step_um:+.2} µm, a step across the reversal) \
@@ -667,8 +681,29 @@ fn sig(v: f64) -> String {
     format!("{v:.digits$}")
 }
 
-/// The one-sentence outcome.
+/// The one-sentence outcome, and the causes the record shows but the model cannot
+/// determine.
 fn verdict(d: &Diagnosis) -> String {
+    let seen: Vec<String> = d
+        .rejected
+        .iter()
+        .filter(|r| r.seen)
+        .map(|r| format!("{} on {}", r.id.as_str(), r.axis))
+        .collect();
+    let outcome = found_sentence(d);
+    if seen.is_empty() {
+        outcome
+    } else {
+        format!(
+            "{outcome} Seen, not determined: {} (the record shows it, but the model extended \
+             by it predicts the record worse point by point; below).",
+            seen.join(", ")
+        )
+    }
+}
+
+/// What was found, in a sentence.
+fn found_sentence(d: &Diagnosis) -> String {
     if !d.searched {
         return "No cause tried (none allowed by --max-causes, --causes, --exclude or the \
                 measuring point); the residuals below are the nominal model's."
@@ -709,7 +744,16 @@ fn verdict(d: &Diagnosis) -> String {
         );
     }
     let worst = d.before.x.rms_um.max(d.before.y.rms_um);
-    if worst <= 1.2 * d.noise_floor_um {
+    if !d.localized.is_empty() {
+        let axes: Vec<String> = d.localized.iter().map(|l| l.axis.to_string()).collect();
+        format!(
+            "No significant cause; a residual repeats at the same places on every pass of {} \
+             (a local effect, below), though the whole record's residual is {worst:.3} µm RMS \
+             against a noise of {:.3} µm.",
+            axes.join(" and "),
+            d.noise_floor_um
+        )
+    } else if worst <= 1.2 * d.noise_floor_um {
         format!(
             "No significant cause: the nominal model predicts the measurement to its noise ({:.3} µm).",
             d.noise_floor_um
@@ -746,6 +790,49 @@ fn learned_line(l: &Learned) -> String {
         l.rms_after_um,
         l.held_out_before_um,
         l.held_out_after_um
+    )
+}
+
+/// A residual that repeats at the same places, in a line: where, how large, how sure.
+fn localized_line(l: &Localized) -> String {
+    let spots: Vec<String> = l
+        .spots
+        .iter()
+        .map(|p| {
+            let way = if p.follows_direction {
+                " (against the motion: as on passes towards +)"
+            } else {
+                ""
+            };
+            format!(
+                "{} {:.1} mm ({:.1}–{:.1}) {:+.2} µm{way}, every pass ≥ {:.1} σ, together {:.1} σ",
+                l.axis,
+                p.centre_mm,
+                p.from_mm,
+                p.to_mm,
+                p.residual_um,
+                p.weakest_pass_sigma,
+                p.combined_sigma
+            )
+        })
+        .collect();
+    let stretch = l.stretch_mm.map_or(String::new(), |(a, b)| {
+        format!(
+            "; of opposite sign at both ends of {} {a:.1}–{b:.1} mm, as where a stretch differs \
+             (friction, scale)",
+            l.axis
+        )
+    });
+    format!(
+        "localized on {}: the residual repeats at the same places on all {} passes over them \
+         (of {} steady passes; windows of {:.1} mm, σ the spread of a window's mean): {}{stretch}. \
+         Not a cause of the catalogue, and not machine-wide: a tight spot, or a local scale or \
+         straightness error",
+        l.axis,
+        l.passes_over_spots,
+        l.passes,
+        l.window_mm,
+        spots.join("; ")
     )
 }
 

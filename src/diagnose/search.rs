@@ -73,6 +73,9 @@ pub struct Rejected {
     /// Why it is not named: implausible values, a worse fit somewhere, or no gain on data
     /// it was not fitted on.
     pub reason: String,
+    /// Whether the record shows it (stick-slip's chatter) though the extended model does not
+    /// predict the record better: seen, not determined.
+    pub seen: bool,
 }
 
 /// The causes whose fits take longest, longest first: a gain re-plans the waits and moves
@@ -256,6 +259,7 @@ fn choose(
                         axis,
                         params: fitted_params(id, fitted),
                         evidence: s.evidence,
+                        seen: reason.starts_with(SEEN_NOT_DETERMINED),
                         reason,
                     });
                 }
@@ -502,9 +506,61 @@ fn worse_somewhere(
                     um_from_m(after),
                 ));
             }
+            if let Some(why) = worse_point_by_point(ctx, a, (&traces[a.index()], offset_s), fitted)
+            {
+                return Some(why);
+            }
         }
     }
     None
+}
+
+/// What a reason for not naming a cause begins with when the record shows it but the
+/// extended model does not predict the record better: seen, not determined.
+pub const SEEN_NOT_DETERMINED: &str = "seen, not determined: ";
+
+/// One cause seen, not determined, per axis: the one with the most evidence. The others
+/// fitted the same chatter less well and are not said to be seen.
+pub(crate) fn one_seen_per_axis(rejected: &mut [Rejected]) {
+    for axis in AxisName::BOTH {
+        let strongest = rejected
+            .iter()
+            .filter(|r| r.seen && r.axis == axis)
+            .map(|r| r.evidence)
+            .fold(f64::NEG_INFINITY, f64::max);
+        for r in rejected.iter_mut().filter(|r| r.seen && r.axis == axis) {
+            if r.evidence < strongest {
+                r.seen = false;
+                r.reason = format!(
+                    "fits the chatter with less evidence than the cause seen on {axis}, and \
+                     predicts {axis} no better point by point"
+                );
+            }
+        }
+    }
+}
+
+/// Why a cause fitted on stick-slip statistics is only seen, if it is: it matches the
+/// chatter, but no model times the slips, and point by point — the whole-record RMS the
+/// report states — it predicts the axis worse than the model without it. A cause that
+/// worsens the fit is never named.
+fn worse_point_by_point(
+    ctx: &Context,
+    a: AxisName,
+    (trace, offset_s): (&[f64], f64),
+    fitted: &Fitted,
+) -> Option<String> {
+    let before = rms(&ctx.residual(a, trace, offset_s));
+    let after = rms(&ctx.residual(a, &fitted.trace, fitted.offset_s));
+    (after > before * (1.0 + WORSE_TOLERANCE)).then(|| {
+        format!(
+            "{SEEN_NOT_DETERMINED}its chatter matches the record's, but no model times the \
+             slips: point by point it predicts {a} worse (residual RMS {:.3} → {:.3} µm), so \
+             its values are not determined",
+            um_from_m(before),
+            um_from_m(after),
+        )
+    })
 }
 
 /// How long after the comparison's first sample a cause's evidence must not all lie (s):

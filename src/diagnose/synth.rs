@@ -186,6 +186,8 @@ impl Synthetic {
             .into_iter()
             .enumerate()
             .filter(|(k, _)| self.with_commands || *k < 3)
+            // A synthetic record holds X and Y (rows of time, X, Y and their commands).
+            .filter(|(_, signal)| !signal.is_z())
             .filter_map(|(k, signal)| {
                 let spec = layout.get(signal)?;
                 let unit = spec.unit.unwrap_or(Unit {

@@ -25,19 +25,25 @@ pub enum Signal {
     XCmd,
     /// Commanded Y.
     YCmd,
+    /// Measured Z (optional: read where the file has it).
+    Z,
+    /// Commanded Z (optional).
+    ZCmd,
 }
 
 impl Signal {
     /// Every signal, time first.
-    pub const ALL: [Signal; 5] = [
+    pub const ALL: [Signal; 7] = [
         Signal::Time,
         Signal::X,
         Signal::Y,
         Signal::XCmd,
         Signal::YCmd,
+        Signal::Z,
+        Signal::ZCmd,
     ];
 
-    /// The key in a mapping: `t`, `x`, `y`, `x_cmd`, `y_cmd`.
+    /// The key in a mapping: `t`, `x`, `y`, `x_cmd`, `y_cmd`, `z`, `z_cmd`.
     pub fn key(self) -> &'static str {
         match self {
             Signal::Time => "t",
@@ -45,6 +51,8 @@ impl Signal {
             Signal::Y => "y",
             Signal::XCmd => "x_cmd",
             Signal::YCmd => "y_cmd",
+            Signal::Z => "z",
+            Signal::ZCmd => "z_cmd",
         }
     }
 
@@ -55,6 +63,11 @@ impl Signal {
     /// Whether this is the time.
     pub(crate) fn is_time(self) -> bool {
         self == Signal::Time
+    }
+
+    /// Whether this is a Z signal (optional in every file).
+    pub(crate) fn is_z(self) -> bool {
+        matches!(self, Signal::Z | Signal::ZCmd)
     }
 }
 
@@ -394,6 +407,9 @@ pub(crate) fn map_columns(
                 None if signal == Signal::Time => recognise(headers, signal)?,
                 None => None,
             },
+            // Z is optional: where several columns could be it, it is left to a mapping
+            // rather than the whole file refused (X and Y are read either way).
+            None if signal.is_z() => recognise(headers, signal).ok().flatten(),
             None => recognise(headers, signal)?,
         };
         if let Some(f) = found {
@@ -405,7 +421,7 @@ pub(crate) fn map_columns(
         if !has(s) {
             return Err(format!(
                 "no column for {} among the headers {:?}; name them with --columns \
-                 t=NAME[unit],x=NAME[unit],y=NAME[unit] (x_cmd, y_cmd optional)",
+                 t=NAME[unit],x=NAME[unit],y=NAME[unit] (x_cmd, y_cmd, z, z_cmd optional)",
                 describe(s),
                 headers
             ));
@@ -426,6 +442,8 @@ fn describe(s: Signal) -> &'static str {
         Signal::Y => "the measured Y",
         Signal::XCmd => "the commanded X",
         Signal::YCmd => "the commanded Y",
+        Signal::Z => "the measured Z",
+        Signal::ZCmd => "the commanded Z",
     }
 }
 
@@ -491,76 +509,113 @@ fn header_unit(header: &str, signal: Signal) -> Result<Option<Unit>, String> {
 /// The usual spellings of each signal, compared without case, spaces, `_`, `-` or units.
 fn spellings(signal: Signal) -> &'static [&'static str] {
     match signal {
-        Signal::Time => &[
-            "t",
-            "ts",
-            "tms",
-            "time",
-            "times",
-            "timems",
-            "zeit",
-            "timestamp",
-        ],
-        Signal::X => &[
-            "x",
-            "xmm",
-            "xum",
-            "xact",
-            "xactpos",
-            "xpos",
-            "posx",
-            "actposx",
-            "xactual",
-            "xmeas",
-            "xmeasured",
-            "xis",
-            "xist",
-        ],
-        Signal::Y => &[
-            "y",
-            "ymm",
-            "yum",
-            "yact",
-            "yactpos",
-            "ypos",
-            "posy",
-            "actposy",
-            "yactual",
-            "ymeas",
-            "ymeasured",
-            "yis",
-            "yist",
-        ],
-        Signal::XCmd => &[
-            "xcmd",
-            "xcmdmm",
-            "xref",
-            "xtraj",
-            "xset",
-            "xsetpos",
-            "xcmdpos",
-            "cmdposx",
-            "xsoll",
-            "xcommand",
-            "xcommanded",
-            "setposx",
-        ],
-        Signal::YCmd => &[
-            "ycmd",
-            "ycmdmm",
-            "yref",
-            "ytraj",
-            "yset",
-            "ysetpos",
-            "ycmdpos",
-            "cmdposy",
-            "ysoll",
-            "ycommand",
-            "ycommanded",
-            "setposy",
-        ],
+        Signal::Time => &TIME_SPELLINGS,
+        Signal::X => &X_SPELLINGS,
+        Signal::Y => &Y_SPELLINGS,
+        Signal::XCmd => &X_CMD_SPELLINGS,
+        Signal::YCmd => &Y_CMD_SPELLINGS,
+        Signal::Z => &Z_SPELLINGS,
+        Signal::ZCmd => &Z_CMD_SPELLINGS,
     }
 }
+
+const TIME_SPELLINGS: [&str; 8] = [
+    "t",
+    "ts",
+    "tms",
+    "time",
+    "times",
+    "timems",
+    "zeit",
+    "timestamp",
+];
+const X_SPELLINGS: [&str; 13] = [
+    "x",
+    "xmm",
+    "xum",
+    "xact",
+    "xactpos",
+    "xpos",
+    "posx",
+    "actposx",
+    "xactual",
+    "xmeas",
+    "xmeasured",
+    "xis",
+    "xist",
+];
+const Y_SPELLINGS: [&str; 13] = [
+    "y",
+    "ymm",
+    "yum",
+    "yact",
+    "yactpos",
+    "ypos",
+    "posy",
+    "actposy",
+    "yactual",
+    "ymeas",
+    "ymeasured",
+    "yis",
+    "yist",
+];
+const X_CMD_SPELLINGS: [&str; 12] = [
+    "xcmd",
+    "xcmdmm",
+    "xref",
+    "xtraj",
+    "xset",
+    "xsetpos",
+    "xcmdpos",
+    "cmdposx",
+    "xsoll",
+    "xcommand",
+    "xcommanded",
+    "setposx",
+];
+const Y_CMD_SPELLINGS: [&str; 12] = [
+    "ycmd",
+    "ycmdmm",
+    "yref",
+    "ytraj",
+    "yset",
+    "ysetpos",
+    "ycmdpos",
+    "cmdposy",
+    "ysoll",
+    "ycommand",
+    "ycommanded",
+    "setposy",
+];
+const Z_SPELLINGS: [&str; 13] = [
+    "z",
+    "zmm",
+    "zum",
+    "zact",
+    "zactpos",
+    "zpos",
+    "posz",
+    "actposz",
+    "zactual",
+    "zmeas",
+    "zmeasured",
+    "zis",
+    "zist",
+];
+const Z_CMD_SPELLINGS: [&str; 12] = [
+    "zcmd",
+    "zcmdmm",
+    "zref",
+    "ztraj",
+    "zset",
+    "zsetpos",
+    "zcmdpos",
+    "cmdposz",
+    "zsoll",
+    "zcommand",
+    "zcommanded",
+    "setposz",
+];
 
 /// A header reduced for comparison: no unit (bracketed or as a `_unit` suffix), no case, no
 /// separators.
@@ -635,6 +690,7 @@ const POSITION_WORDS: [&str; 2] = ["pos", "position"];
 /// How an axis is named among a name's words: its letter, or SINUMERIK's machine-axis name.
 const X_WORDS: [&str; 2] = ["x", "x1"];
 const Y_WORDS: [&str; 2] = ["y", "y1"];
+const Z_WORDS: [&str; 2] = ["z", "z1"];
 const OTHER_QUANTITY_WORDS: [&str; 20] = [
     "vel",
     "velocity",
@@ -668,14 +724,17 @@ fn described_signal(header: &str) -> Option<Signal> {
     if has(&OTHER_QUANTITY_WORDS) {
         return None;
     }
-    let (x, y) = (has(&X_WORDS), has(&Y_WORDS));
+    let axis = match (has(&X_WORDS), has(&Y_WORDS), has(&Z_WORDS)) {
+        (true, false, false) => 0,
+        (false, true, false) => 1,
+        (false, false, true) => 2,
+        _ => return None,
+    };
     let command = has(&COMMAND_WORDS);
     let measured = has(&MEASURED_WORDS) || (has(&POSITION_WORDS) && !command);
-    match (x, y, command, measured) {
-        (true, false, true, false) => Some(Signal::XCmd),
-        (false, true, true, false) => Some(Signal::YCmd),
-        (true, false, false, true) => Some(Signal::X),
-        (false, true, false, true) => Some(Signal::Y),
+    match (command, measured) {
+        (true, false) => Some([Signal::XCmd, Signal::YCmd, Signal::ZCmd][axis]),
+        (false, true) => Some([Signal::X, Signal::Y, Signal::Z][axis]),
         _ => None,
     }
 }
@@ -819,5 +878,43 @@ mod tests {
         assert_eq!(fields("  0.1   1\t2 ", d.delimiter), vec!["0.1", "1", "2"]);
         let d = sniff("t,x,y", &["0.1,1,2"]);
         assert!(!d.decimal_comma);
+    }
+
+    #[test]
+    fn z_columns_are_read_where_a_file_has_them_and_never_refuse_it() {
+        let index_of = |headers: &[&str], signal: Signal| {
+            map_columns(headers, None)
+                .unwrap()
+                .iter()
+                .find(|m| m.signal == signal)
+                .map(|m| m.index)
+        };
+        // A SINUMERIK-style export with all three axes.
+        let h = [
+            "time",
+            "pos_x",
+            "pos_y",
+            "pos_z",
+            "cmd_pos_x",
+            "cmd_pos_y",
+            "cmd_pos_z",
+        ];
+        assert_eq!(index_of(&h, Signal::Z), Some(3));
+        assert_eq!(index_of(&h, Signal::ZCmd), Some(6));
+        // Descriptive names, one axis letter each.
+        let h = ["t", "x", "y", "Encoder Feedback Z", "Z Reference"];
+        assert_eq!(index_of(&h, Signal::Z), Some(3));
+        assert_eq!(index_of(&h, Signal::ZCmd), Some(4));
+        // Two columns that could each be Z: Z is left to a mapping, X and Y still read.
+        let h = ["t", "x", "y", "z", "Z_pos"];
+        assert_eq!(index_of(&h, Signal::Z), None);
+        assert_eq!(index_of(&h, Signal::X), Some(1));
+        // A file without Z reads as before.
+        assert_eq!(index_of(&["t", "x", "y"], Signal::Z), None);
+        // And a mapping may name it.
+        let m = ColumnMap::parse("t=t,x=x,y=y,z=Z_pos[um]").unwrap();
+        let mapped = map_columns(&h, Some(&m)).unwrap();
+        let z = mapped.iter().find(|m| m.signal == Signal::Z).unwrap();
+        assert_eq!((z.index, z.unit.to_si), (4, 1e-6));
     }
 }

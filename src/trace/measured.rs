@@ -11,7 +11,7 @@
 use std::path::Path;
 
 use crate::trace::columns::NamedColumns;
-use crate::trace::format::{self, ColumnMap, Signal};
+use crate::trace::format::{self, ColumnMap, Dialect, Mapped, Signal};
 use crate::trace::halscope;
 use crate::trace::mat;
 use crate::trace::sinumerik;
@@ -21,7 +21,7 @@ mod layout;
 mod sampling;
 mod steady;
 
-pub use layout::{Source, TraceLayout};
+pub use layout::{Source, TraceLayout, UnusedColumn};
 pub use sampling::{HeldRows, StepStats};
 use sampling::{held_rows, keep_readings, plausible_clock, resample};
 pub use steady::{TableRow, parse_table, read_table};
@@ -41,6 +41,10 @@ pub struct MeasuredTrace {
     pub y_m: Vec<f64>,
     /// Commanded X and Y (m), when the trace has them.
     pub commands: Option<[Vec<f64>; 2]>,
+    /// Measured Z (m), when the trace has it; in the trace's own coordinates.
+    pub z_m: Option<Vec<f64>>,
+    /// Commanded Z (m), when the trace has it; in the trace's own coordinates.
+    pub z_cmd_m: Option<Vec<f64>>,
     /// Whether irregular sampling was resampled.
     pub resampled: bool,
     /// How the file was read.
@@ -161,6 +165,21 @@ impl MeasuredTrace {
         }
         self.layout.work_offset_m = Some(offset_m);
         self
+    }
+
+    /// The lowest and highest Z over samples `from..=to` (m, the trace's own coordinates):
+    /// its commands where recorded, else its positions; `None` where the trace has no Z.
+    pub fn z_span_m(&self, from: usize, to: usize) -> Option<(f64, f64)> {
+        let z = self.z_cmd_m.as_ref().or(self.z_m.as_ref())?;
+        let stretch = z.get(from..=to.min(z.len().checked_sub(1)?))?;
+        Some(
+            stretch
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                    (lo.min(*v), hi.max(*v))
+                }),
+        )
+        .filter(|(lo, hi)| lo <= hi)
     }
 
     /// Number of samples.
@@ -336,9 +355,16 @@ fn assemble_named(
         }
     }
     table.rows = rows;
+    let unused = columns
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !mapped.iter().any(|m| m.index == *i))
+        .map(|(_, (name, values))| UnusedColumn::of(name, values.iter().map(|v| Some(*v))))
+        .collect();
     let layout = TraceLayout {
         source,
         mapped,
+        unused,
         trailer_rows: 0,
         work_offset_m: None,
     };
@@ -353,6 +379,8 @@ fn slot(signal: Signal) -> Option<usize> {
         Signal::Y => Some(1),
         Signal::XCmd => Some(2),
         Signal::YCmd => Some(3),
+        Signal::Z => Some(4),
+        Signal::ZCmd => Some(5),
     }
 }
 
@@ -361,7 +389,7 @@ fn slot(signal: Signal) -> Option<usize> {
 #[derive(Default)]
 struct Table {
     t: Vec<f64>,
-    cols: [Vec<f64>; 4],
+    cols: [Vec<f64>; 6],
     rows: Vec<u64>,
 }
 
@@ -411,7 +439,7 @@ fn assemble(file: &str, table: Table, layout: TraceLayout) -> Result<MeasuredTra
         ),
         None => (t, cols, dt),
     };
-    let [x, y, xc, yc] = if irregular {
+    let [x, y, xc, yc, z, zc] = if irregular {
         cols.map(|c| {
             if c.is_empty() {
                 c
@@ -429,6 +457,8 @@ fn assemble(file: &str, table: Table, layout: TraceLayout) -> Result<MeasuredTra
         x_m: x,
         y_m: y,
         commands: has_commands.then_some([xc, yc]),
+        z_m: (!z.is_empty()).then_some(z),
+        z_cmd_m: (!zc.is_empty()).then_some(zc),
         resampled: irregular,
         layout,
         steps: StepStats::of(&t, dt),
@@ -487,15 +517,35 @@ pub fn parse_trace_with(
         .rposition(|(_, l)| time_of(l).is_some())
         .map_or(0, |i| i + 1);
     let trailer_rows = data.len() - data_end;
+    let table = read_rows(file, &data[..data_end], &mapped, &dialect)?;
+    let unused = unused_text_columns(&headers, &mapped, &data[..data_end], &dialect);
+    let layout = TraceLayout {
+        source: Source::Text(dialect),
+        mapped,
+        unused,
+        trailer_rows,
+        work_offset_m: None,
+    };
+    assemble(file, table, layout)
+}
+
+/// The mapped columns of a text table's data rows, in SI units; a field that is not a number
+/// is an error at its row.
+fn read_rows(
+    file: &str,
+    data: &[(u64, &str)],
+    mapped: &[Mapped],
+    dialect: &Dialect,
+) -> Result<Table, MeasuredError> {
     let mut table = Table {
-        rows: Vec::with_capacity(data_end),
+        rows: Vec::with_capacity(data.len()),
         ..Table::default()
     };
-    for &(row, line) in &data[..data_end] {
+    for &(row, line) in data {
         let f = format::fields(line, dialect.delimiter);
-        for m in &mapped {
+        for m in mapped {
             let text = f.get(m.index).map_or("", |v| v.trim_matches('"'));
-            let value = format::number(text, &dialect)
+            let value = format::number(text, dialect)
                 .map(|v| v * m.unit.to_si)
                 .ok_or_else(|| MeasuredError::Row {
                     file: file.into(),
@@ -514,13 +564,30 @@ pub fn parse_trace_with(
         }
         table.rows.push(row);
     }
-    let layout = TraceLayout {
-        source: Source::Text(dialect),
-        mapped,
-        trailer_rows,
-        work_offset_m: None,
-    };
-    assemble(file, table, layout)
+    Ok(table)
+}
+
+/// A text table's columns that no signal was mapped to, each with its range.
+fn unused_text_columns(
+    headers: &[&str],
+    mapped: &[Mapped],
+    data: &[(u64, &str)],
+    dialect: &Dialect,
+) -> Vec<UnusedColumn> {
+    let rows: Vec<Vec<&str>> = data
+        .iter()
+        .map(|(_, line)| format::fields(line, dialect.delimiter))
+        .collect();
+    (0..headers.len())
+        .filter(|i| !mapped.iter().any(|m| m.index == *i))
+        .map(|i| {
+            let values = rows.iter().map(|f| {
+                f.get(i)
+                    .and_then(|v| format::number(v.trim_matches('"'), dialect))
+            });
+            UnusedColumn::of(headers[i], values)
+        })
+        .collect()
 }
 
 /// The grid positions sit on, if they do (an encoder's count, a display's last digit): the

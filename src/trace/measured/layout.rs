@@ -29,6 +29,50 @@ pub enum Source {
     },
 }
 
+/// A column of the file that no signal was mapped to, shown so that the user sees everything
+/// the file holds (a spindle load, a current, a second encoder) and can map it with
+/// `--columns` where it is what they meant.
+#[derive(Debug, Clone, PartialEq)]
+pub struct UnusedColumn {
+    /// The column's name as written (a header, a variable, a channel, a signal).
+    pub name: String,
+    /// Its lowest and highest value in the file's own units, where every sample is a
+    /// number.
+    pub range: Option<[f64; 2]>,
+}
+
+impl UnusedColumn {
+    /// The column named `name` with the range of `values` (none where any is not finite).
+    pub(crate) fn of(name: &str, values: impl IntoIterator<Item = Option<f64>>) -> Self {
+        let mut range = Some([f64::INFINITY, f64::NEG_INFINITY]);
+        for v in values {
+            range = match (range, v) {
+                (Some([lo, hi]), Some(v)) if v.is_finite() => Some([lo.min(v), hi.max(v)]),
+                _ => None,
+            };
+        }
+        let range = range.filter(|[lo, hi]| lo <= hi);
+        UnusedColumn {
+            name: name.to_string(),
+            range,
+        }
+    }
+
+    fn describe(&self) -> String {
+        match self.range {
+            Some([lo, hi]) => format!("{} ({} … {})", self.name, short(lo), short(hi)),
+            None => format!("{} (not all numbers)", self.name),
+        }
+    }
+}
+
+/// A value in six significant digits, without trailing zeros.
+fn short(v: f64) -> String {
+    let text = format!("{v:.6e}");
+    let parsed: f64 = text.parse().unwrap_or(v);
+    format!("{parsed}")
+}
+
 /// How a trace file was read: its format, which column became what, and how many trailer
 /// rows were skipped.
 #[derive(Debug, Clone, PartialEq)]
@@ -37,6 +81,8 @@ pub struct TraceLayout {
     pub source: Source,
     /// Time, X, Y (and commands) as mapped.
     pub mapped: Vec<Mapped>,
+    /// The file's other columns, in its order: read, not used.
+    pub unused: Vec<UnusedColumn>,
     /// Lines after the data that were not data (skipped).
     pub trailer_rows: usize,
     /// The program origin's place in the trace's coordinates (m), subtracted from every
@@ -79,6 +125,15 @@ impl TraceLayout {
         };
         let mut lines = vec![first];
         lines.extend(format::describe_mapping(&self.mapped));
+        if !self.unused.is_empty() {
+            // Every column the file holds is shown: one line each, so that a long capture's
+            // signals can be read down the page.
+            lines.push(format!(
+                "also in the file, not used ({}; map one with --columns):",
+                self.unused.len()
+            ));
+            lines.extend(self.unused.iter().map(|c| format!("  {}", c.describe())));
+        }
         if let Some([x, y]) = self.work_offset_m {
             lines.push(format!(
                 "work offset X {:.3} mm, Y {:.3} mm subtracted from every position (machine \

@@ -113,7 +113,7 @@ fn check_time_plausible(dt: f64, t: &[f64], time: &Mapped) -> Result<(), String>
 /// speeds change on the same grid of rows only when the logger holds them; a record in
 /// which nothing changes is no evidence either way. (The stray hundredth allows for a
 /// logger that once reads a row late.)
-pub(super) fn held_rows(cols: &[Vec<f64>; 4]) -> Option<HeldRows> {
+pub(super) fn held_rows(cols: &[Vec<f64>]) -> Option<HeldRows> {
     const FEWEST_READINGS: usize = 50;
     let n = cols[0].len();
     let differs = |i: usize| {
