@@ -82,7 +82,10 @@ fn a_controller_tuned_three_times_off_its_design_is_found_from_trial_starts() {
         id.noise_um,
         x.values
     );
-    // The controller that ran: its corners, as written into the machine file, within 10 %.
+    // The controller that ran: its corners, as written into the machine file, within 20 % —
+    // the pole at 240 Hz too, six times the crossover: with the design's 80 Hz in its place
+    // the rest of the fit no longer reaches the record's noise, so the record excludes the
+    // design's pole even where it leaves the corner looser than a measurement.
     let Controller::TransferFunction(found) = &id.machine.x.controller else {
         panic!("a transfer function");
     };
@@ -113,4 +116,32 @@ fn a_controller_tuned_three_times_off_its_design_is_found_from_trial_starts() {
     }
     // And it predicts the halves of the record each fit did not see near the noise.
     assert!(x.held_out_identified_um < 2.0 * id.noise_um, "{x:?}");
+    // Nothing reads as a measurement that is not the machine's: every value marked measured
+    // lies within 4 of its stated uncertainties of the machine that ran (the gain at low
+    // frequency K·z₁·z₂/p, in the units of the template's numerator; the small table's
+    // 30 kg and 29.43 N; no dead time).
+    let tau = std::f64::consts::TAU;
+    let truth_of = |key: &str| match key {
+        "controller.gain" => Some(90.0 * tau * run[0] * run[1] / run[2]),
+        "controller.zero_1_hz" => Some(run[0]),
+        "controller.zero_2_hz" => Some(run[1]),
+        "controller.pole_1_hz" => Some(run[2]),
+        "drive.table_mass_kg" => Some(30.0),
+        "friction.viscous_n_s_per_m" => Some(200.0),
+        "friction.coulomb_n" => Some(29.43),
+        "position_loop.dead_time_ms" => Some(0.0),
+        _ => None,
+    };
+    for v in x.values.iter().filter(|v| v.measured) {
+        let Some(truth) = truth_of(v.key) else {
+            continue;
+        };
+        assert!(
+            (v.value - truth).abs() <= 4.0 * v.uncertainty,
+            "{} read as measured at {} ± {}, the machine's {truth}",
+            v.key,
+            v.value,
+            v.uncertainty
+        );
+    }
 }
