@@ -71,9 +71,22 @@ impl Round {
         template: &AxisConfig,
         fold: &[bool],
     ) -> Option<(Round, AxisConfig)> {
-        let mut base = start.clone();
-        let mut round = Round::fit(fit, knobs.to_vec(), &base, fold)?;
-        let mut refuted: Vec<&'static str> = Vec::new();
+        let base = start.clone();
+        let round = Round::fit(fit, knobs.to_vec(), &base, fold)?;
+        Round::settled(fit, (round, base), template, fold, &[])
+    }
+
+    /// The rounds of [`Round::fit_determined`] from `round`, the corners `refuted` kept
+    /// fitted. Where putting a loose corner back leaves the noise, both ways are followed to
+    /// their end and the corner kept only where that way predicts the held-out halves better
+    /// by more than a twentieth.
+    fn settled(
+        fit: &Fit,
+        (mut round, mut base): (Round, AxisConfig),
+        template: &AxisConfig,
+        fold: &[bool],
+        refuted: &[&'static str],
+    ) -> Option<(Round, AxisConfig)> {
         loop {
             // Above the noise the model is not the machine: a corner only the model's floor
             // leaves loose stays where the fit put it (`Knob::stays_fitted`).
@@ -86,18 +99,19 @@ impl Round {
             if undetermined.is_empty() || round.knobs.is_empty() {
                 return Some((round, base));
             }
-            let (next, next_base) = round.put_back(fit, &base, &undetermined, template, fold)?;
+            let next = round.put_back(fit, &base, &undetermined, template, fold)?;
             let corners: Vec<&'static str> = undetermined
                 .iter()
                 .copied()
                 .filter(|k| knobs::corner_of(k).is_some())
                 .collect();
-            if !reached || corners.is_empty() || next.reaches_noise(fit) {
-                (round, base) = (next, next_base);
+            if !reached || corners.is_empty() || next.0.reaches_noise(fit) {
+                (round, base) = next;
                 continue;
             }
-            // The design's corners leave the noise: the other way, the corners kept where
-            // the fit put them and only the rest put back.
+            // The design's corners leave the noise: the other way keeps them where the fit
+            // put them and puts back only the rest.
+            let design_way = Round::settled(fit, next, template, fold, refuted)?;
             let rest: Vec<&'static str> = undetermined
                 .into_iter()
                 .filter(|k| !corners.contains(k))
@@ -107,22 +121,19 @@ impl Round {
             } else {
                 round.put_back(fit, &base, &rest, template, fold)
             };
-            let better = kept.as_ref().is_some_and(|(k, k_base)| {
-                match (
-                    k.held_out_rms(fit, k_base, fold),
-                    next.held_out_rms(fit, &next_base, fold),
-                ) {
-                    (Some(free), Some(design)) => free < HELD_OUT_GAIN * design,
-                    _ => false,
+            let refuted: Vec<&'static str> = refuted.iter().copied().chain(corners).collect();
+            let kept_way = kept.and_then(|k| Round::settled(fit, k, template, fold, &refuted));
+            let held_out = |(r, b): &(Round, AxisConfig)| r.held_out_rms(fit, b, fold);
+            return Some(match kept_way {
+                Some(k)
+                    if held_out(&k)
+                        .zip(held_out(&design_way))
+                        .is_some_and(|(free, design)| free < HELD_OUT_GAIN * design) =>
+                {
+                    k
                 }
+                _ => design_way,
             });
-            match kept {
-                Some(k) if better => {
-                    refuted.extend(corners);
-                    (round, base) = k;
-                }
-                _ => (round, base) = (next, next_base),
-            }
         }
     }
 
