@@ -13,6 +13,7 @@ use contourcheck::diagnose::report::DiagnoseReport;
 use contourcheck::diagnose::{DiagnoseSettings, Diagnosis, diagnose};
 use contourcheck::machine::{AxisName, MachineConfig};
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
+use contourcheck::{ReportInputs, diagnose_page};
 use rayon::prelude::*;
 
 /// The diagnosis of `text` recorded by the reference on `truth`, against the nominal
@@ -340,6 +341,11 @@ fn assert_tight_spot_localized(
         report.verdict
     );
     assert!(report.summary_text().contains("localized on X: "));
+    // And the HTML page shows the same finding, not only the verdict that points to it.
+    let page = diagnose_page(&d, &report, &ReportInputs::default()).unwrap();
+    let finding =
+        format!("localized on X: the residual repeats at the same places on all {passes}");
+    assert!(page.contains("Where the residual is left") && page.contains(&finding));
 }
 
 #[test]

@@ -282,14 +282,8 @@ impl DiagnoseReport {
                 r.reason
             );
         }
-        for l in &self.learned {
-            let _ = writeln!(s, "  {}", learned_line(l));
-        }
-        for u in &self.unexplained {
-            let _ = writeln!(s, "  {}", unexplained_line(u));
-        }
-        for l in &self.localized {
-            let _ = writeln!(s, "  {}", localized_line(l));
+        for line in self.residual_findings() {
+            let _ = writeln!(s, "  {line}");
         }
         for k in &self.skipped {
             let axes: Vec<String> = k.axes.iter().map(|a| a.to_string()).collect();
@@ -305,6 +299,16 @@ impl DiagnoseReport {
         self.write_residuals(&mut s);
         self.write_places(&mut s);
         s
+    }
+
+    /// What the record says of the residual no named cause took, a sentence each: effects
+    /// learned as tables, where the residual left lives, and residuals that repeat at the
+    /// same places on every pass. The text summary and the HTML page show the same lines.
+    pub fn residual_findings(&self) -> Vec<String> {
+        let learned = self.learned.iter().map(learned_line);
+        let unexplained = self.unexplained.iter().map(unexplained_line);
+        let localized = self.localized.iter().map(localized_line);
+        learned.chain(unexplained).chain(localized).collect()
     }
 
     /// The record, the machine, the alignment and the warnings about the record.

@@ -20,6 +20,8 @@ struct DiagnosePage {
     residual: Vec<(&'static str, Vec<Fig>)>,
     causes: Vec<CauseView>,
     rejected: Vec<String>,
+    /// What the record says of the residual no named cause took (the text summary's lines).
+    left: Vec<String>,
     circles: Vec<Vec<Fig>>,
     fit: Svg,
     over_time: Svg,
@@ -65,6 +67,7 @@ pub fn diagnose_page(
             .iter()
             .map(|r| format!("{} on {}: {}", r.id.as_str(), r.axis, r.reason))
             .collect(),
+        left: report.residual_findings(),
         circles: circle_rows(&json),
         fit: svg(
             "Each axis's position − command around where the nominal model misses most: \
