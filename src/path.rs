@@ -58,7 +58,7 @@ pub enum Plane {
 impl Plane {
     /// Indices (0 = X, 1 = Y, 2 = Z) of the plane's first axis, its second and its normal:
     /// the first turned a quarter counter-clockwise about the normal gives the second.
-    pub fn axes(self) -> [usize; 3] {
+    pub(crate) fn axes(self) -> [usize; 3] {
         match self {
             Plane::Xy => [0, 1, 2],
             Plane::Zx => [2, 0, 1],
@@ -67,13 +67,13 @@ impl Plane {
     }
 
     /// A point's coordinates in the plane (first, second axis).
-    pub fn coords(self, p: [f64; 3]) -> [f64; 2] {
+    pub(crate) fn coords(self, p: [f64; 3]) -> [f64; 2] {
         let [a, b, _] = self.axes();
         [p[a], p[b]]
     }
 
     /// The plane's name as reports give it: `XY`, `ZX`, `YZ`.
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Plane::Xy => "XY",
             Plane::Zx => "ZX",
@@ -82,7 +82,7 @@ impl Plane {
     }
 
     /// The G code that selects it.
-    pub fn gcode(self) -> &'static str {
+    pub(crate) fn gcode(self) -> &'static str {
         match self {
             Plane::Xy => "G17",
             Plane::Zx => "G18",
@@ -322,7 +322,7 @@ impl Segment {
 
     /// True for a feed move that travels in Z together with X or Y (a helix, a slope, a 3-D
     /// contour); a plunge (Z alone), a rapid or a dwell is not.
-    pub fn cuts_in_space(&self) -> bool {
+    pub(crate) fn cuts_in_space(&self) -> bool {
         if self.motion != Motion::Feed || self.is_dwell() {
             return false;
         }

@@ -38,7 +38,7 @@ pub enum Parameter {
 
 impl Parameter {
     /// Column heading.
-    pub fn heading(self) -> &'static str {
+    pub(crate) fn heading(self) -> &'static str {
         match self {
             Parameter::FeedMmPerMin => "feed (mm/min)",
             Parameter::KvMPerMinPerMm => "Kv (m/min/mm)",

@@ -170,8 +170,8 @@ fn the_840d_trace_from_home_is_diagnosed_from_where_its_commands_join_the_progra
     // from how the machine came out of its approach: nothing is named.
     assert!(d.causes.is_empty(), "{:?}", d.causes);
     // Z comes down in the stretch compared (the Z rapid to the part): the record's own Z
-    // columns are read, and the report says how far Z moved there and that it is not
-    // compared, with the lowest and highest commanded Z of the file's rows in that stretch.
+    // columns are read, and the report says how far Z moved there, with the lowest and
+    // highest commanded Z of the file's rows in that stretch.
     let [lo, hi] = c.z_span_mm.expect("the 840D trace has Z");
     // The file's rows in the stretch, and its ends between rows (the record is read on a
     // regular clock, so its ends fall between the logger's rows).
@@ -196,6 +196,29 @@ fn the_840d_trace_from_home_is_diagnosed_from_where_its_commands_join_the_progra
     assert!(hi - lo > 1.0, "{c:?}");
     let said = c.describe().join("\n");
     assert!(said.contains("Z: moves"), "{said}");
+    // The preset simulates Z, so Z is compared; but that rapid runs faster than the
+    // preset's Z rapid rate (4000 mm/min) by the file's own rows in the stretch, so the
+    // model cannot follow it: the diagnosis says so and seeks no cause on Z.
+    let file_peak_mm_per_min = rows
+        .windows(2)
+        .filter(|w| w[0].0 > c.compared_from_s && w[1].0 < c.compared_to_s)
+        .map(|w| ((w[1].1 - w[0].1) / (w[1].0 - w[0].0)).abs() * 60.0)
+        .fold(0.0, f64::max);
+    assert!(
+        file_peak_mm_per_min > 1.05 * 4000.0,
+        "{file_peak_mm_per_min}"
+    );
+    assert!(d.z.compared, "{:?}", d.z);
+    let rapid =
+        d.z.beyond_machine
+            .iter()
+            .find(|b| b.key == "limits.rapid_mm_per_min")
+            .unwrap_or_else(|| panic!("{:?}", d.z));
+    assert!(
+        (rapid.recorded - file_peak_mm_per_min).abs() < 0.1 * file_peak_mm_per_min,
+        "{rapid:?}, file {file_peak_mm_per_min}"
+    );
+    assert!(d.z.cause.is_none() && d.z.not_named.is_empty(), "{:?}", d.z);
 }
 
 #[test]

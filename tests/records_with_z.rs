@@ -1,6 +1,8 @@
 //! A record with Z, as a three-axis control's trace has it: its `z` and `z_cmd` columns are
 //! read, how far Z moves over the stretch compared is reported, and the analysis of X and Y
-//! is the one the same record without Z gets (Z is read, not compared or fitted).
+//! is the one the same record without Z gets. On a machine that carries Z without
+//! simulating it, Z is read, not compared or fitted; where Z is simulated it is compared
+//! (tests/z_records.rs), and Z that no servo could give names nothing.
 //!
 //! The Z the tests write is their own: a steady descent at a known rate, so the travel the
 //! report must give follows from the times it compared.
@@ -8,7 +10,7 @@
 use contourcheck::diagnose::synth::{SynthSpec, synthesize};
 use contourcheck::diagnose::{DiagnoseSettings, Diagnosis, diagnose};
 use contourcheck::gcode::{InterpretOptions, Program, parse_program};
-use contourcheck::machine::MachineConfig;
+use contourcheck::machine::{MachineConfig, PlannedAxis, ZAxis};
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 
 /// A square at one height, 20 mm a side at F1000: a few seconds of X and Y.
@@ -53,13 +55,25 @@ fn with_z(text: &str) -> String {
     out
 }
 
+/// The preset with its Z carried: planned, not simulated.
+fn carrying_z() -> MachineConfig {
+    let mut m = MachineConfig::default_preset();
+    m.z = ZAxis::Carried(PlannedAxis {
+        limits: m.z.limits().clone(),
+    });
+    m
+}
+
 fn diagnosed(trace: &MeasuredTrace) -> Diagnosis {
-    let nominal = MachineConfig::default_preset();
+    diagnosed_on(trace, &carrying_z())
+}
+
+fn diagnosed_on(trace: &MeasuredTrace, nominal: &MachineConfig) -> Diagnosis {
     diagnose(
         &program(),
-        &nominal,
+        nominal,
         trace,
-        &DiagnoseSettings::for_machine(&nominal),
+        &DiagnoseSettings::for_machine(nominal),
     )
     .unwrap()
 }
@@ -99,6 +113,38 @@ fn a_records_z_is_read_its_travel_reported_and_x_and_y_analysed_as_without_it() 
     );
     assert!(said.contains("not compared, diagnosed or fitted"), "{said}");
     assert!(!a.coverage.describe().join("\n").contains("Z:"));
+    let z = b.z.describe().join("\n");
+    assert!(
+        z.contains("Z: not compared: the machine file carries Z"),
+        "{z}"
+    );
+    assert!(a.z.describe().is_empty());
+}
+
+#[test]
+fn where_z_is_simulated_the_records_z_is_compared_with_it() {
+    // The test's Z descends at 0.25 mm/s and reads 2 µm above its command: a lag of 2 µm,
+    // where the preset's Kv (1 m/min/mm, 16.7 /s) lags v / Kv = 15 µm. The comparison shows
+    // the difference, 13 µm; a gain on Z can only explain it by being higher than set.
+    let preset = MachineConfig::default_preset();
+    let xyz = parse_trace(&with_z(&record_text()), "xyz.csv").unwrap();
+    let d = diagnosed_on(&xyz, &preset);
+    assert!(d.z.compared, "{:?}", d.z);
+    let lag_um = 0.25e-3 / (1000.0 / 60.0) * 1e6;
+    assert!(
+        (d.z.before_peak_um - (lag_um - 2.0)).abs() < 0.5,
+        "{:?}, lag {lag_um}",
+        d.z
+    );
+    if let Some(c) = &d.z.cause {
+        assert_eq!(
+            c.id,
+            contourcheck::diagnose::causes::CauseId::KvGain,
+            "{c:?}"
+        );
+        assert!(c.params[0].value > 1.0, "{c:?}");
+    }
+    assert!(d.causes.is_empty(), "{:?}", d.causes);
 }
 
 #[test]

@@ -6,11 +6,12 @@
 
 mod common;
 
+use common::diagnosing::diagnose_nominal;
 use common::program_text;
 use common::reference::{Recording, record};
+use contourcheck::diagnose::Diagnosis;
 use contourcheck::diagnose::causes::CauseId;
 use contourcheck::diagnose::report::DiagnoseReport;
-use contourcheck::diagnose::{DiagnoseSettings, Diagnosis, diagnose};
 use contourcheck::machine::{AxisName, MachineConfig};
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 use contourcheck::{ReportInputs, diagnose_page};
@@ -28,18 +29,10 @@ fn diagnose_reference_with_record(
     truth: &MachineConfig,
     rec: &Recording,
 ) -> (Diagnosis, MeasuredTrace) {
-    let nominal = MachineConfig::default_preset();
     let program = program_text(text);
     let csv = record(&program, &truth.x, &truth.y, rec);
     let measured = parse_trace(&csv, "reference.csv").unwrap();
-    let d = diagnose(
-        &program,
-        &nominal,
-        &measured,
-        &DiagnoseSettings::for_machine(&nominal),
-    )
-    .unwrap();
-    (d, measured)
+    (diagnose_nominal(&program, &measured), measured)
 }
 
 /// The nominal records: programs with many stops and without, feeds, rates, noise levels and

@@ -50,7 +50,7 @@ pub struct Circle {
 
 /// The full circles among `segments`: feed arcs of constant radius, in their plane (not
 /// helices), that sweep at least one whole turn.
-pub fn circles(segments: &[Segment]) -> Vec<Circle> {
+pub(crate) fn circles(segments: &[Segment]) -> Vec<Circle> {
     segments
         .iter()
         .enumerate()
@@ -94,7 +94,7 @@ pub(crate) fn radial_points(
 impl Circle {
     /// A point's polar angle about the programmed centre (rad) and its radial deviation from
     /// the programmed radius (m, outward positive).
-    pub fn polar(&self, p: [f64; 2]) -> (f64, f64) {
+    pub(crate) fn polar(&self, p: [f64; 2]) -> (f64, f64) {
         let (dx, dy) = (p[0] - self.center_m[0], p[1] - self.center_m[1]);
         (dy.atan2(dx), dx.hypot(dy) - self.radius_m)
     }
@@ -192,7 +192,7 @@ const MIN_SAMPLES: usize = 36;
 /// The circular-test figures of an XY path: `segment[k]` is the plan segment sample `k`
 /// lies nearest to (as the contour search found it), `x_m`, `y_m` its position (circles in
 /// another plane than XY need Z, and get no points here).
-pub fn circular_test(
+pub(crate) fn circular_test(
     circles: &[Circle],
     segment: &[u32],
     x_m: &[f64],
@@ -231,7 +231,7 @@ pub struct CircleSamples {
 
 impl CircleSamples {
     /// Gathers the samples on `circles`.
-    pub fn new(circles: Vec<Circle>) -> Self {
+    pub(crate) fn new(circles: Vec<Circle>) -> Self {
         CircleSamples {
             by_segment: circles
                 .iter()
@@ -247,7 +247,7 @@ impl CircleSamples {
     }
 
     /// Takes a sample at `pos_m` (X, Y, Z) lying nearest plan segment `segment`.
-    pub fn push(&mut self, segment: u32, pos_m: [f64; 3]) {
+    pub(crate) fn push(&mut self, segment: u32, pos_m: [f64; 3]) {
         let Some(&i) = self.by_segment.get(&(segment as usize)) else {
             return;
         };
@@ -260,7 +260,7 @@ impl CircleSamples {
 
     /// The figures of every circle with enough samples and of every opposite pair, and the
     /// circles with the points they come from.
-    pub fn test(self) -> (CircularTest, Vec<CirclePath>) {
+    pub(crate) fn test(self) -> (CircularTest, Vec<CirclePath>) {
         let mut out = CircularTest::default();
         let kept: Vec<(Circle, Vec<[f64; 2]>)> = self
             .circles
@@ -585,7 +585,7 @@ fn step_across(c: &Circle, p: &[[f64; 2]], smooth: &Harmonics, quadrant: f64) ->
 
 impl CircularTest {
     /// The figures as text, one circle a line, prefixed with `label` (e.g. "predicted").
-    pub fn text(&self) -> String {
+    pub(crate) fn text(&self) -> String {
         let mut s = String::new();
         for c in &self.circles {
             let spikes: Vec<String> = c

@@ -107,7 +107,7 @@ pub struct ContourLocator {
 impl ContourLocator {
     /// The search along `plan`'s path (its segment lengths; its timing does not matter), in
     /// the XY projection: for a machine that carries Z, or positions measured in X and Y.
-    pub fn new(plan: &Plan) -> Self {
+    pub(crate) fn new(plan: &Plan) -> Self {
         let mut cum_m = Vec::with_capacity(plan.plans.len() + 1);
         cum_m.push(0.0);
         for p in &plan.plans {
@@ -165,7 +165,13 @@ impl ContourLocator {
 
     /// The contour error of the actual position `q` (m) while segment `c` is commanded at
     /// `reference` (m).
-    pub fn locate(&self, plan: &Plan, c: usize, reference: [f64; 3], q: [f64; 3]) -> ContourPoint {
+    pub(crate) fn locate(
+        &self,
+        plan: &Plan,
+        c: usize,
+        reference: [f64; 3],
+        q: [f64; 3],
+    ) -> ContourPoint {
         let (segs, cum) = (&plan.segments, &self.cum_m);
         let in_space = self.measures_in_space(&segs[c]);
         let ref_u = Self::deviation(in_space, &segs[c], reference, 0.5).u;
@@ -246,7 +252,7 @@ pub fn contour_errors(plan: &Plan, commands: &Commands, x_m: &[f64], y_m: &[f64]
 
 impl ContourSeries {
     /// Appends one sample's contour error.
-    pub fn push(&mut self, p: ContourPoint) {
+    pub(crate) fn push(&mut self, p: ContourPoint) {
         self.error_m.push(p.error_m);
         self.in_plane_m.push(p.in_plane_m);
         self.across_m.push(p.across_m);

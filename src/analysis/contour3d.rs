@@ -46,7 +46,7 @@ impl Deviation {
 
 /// The deviation of `q` (m) from `seg`; `u_hint` picks the turn of a multi-turn arc in its
 /// plane (a helix's turn is the one at the point's height).
-pub fn deviation(seg: &Segment, q: [f64; 3], u_hint: f64) -> Deviation {
+pub(crate) fn deviation(seg: &Segment, q: [f64; 3], u_hint: f64) -> Deviation {
     let plane = seg.plane();
     let [_, _, n] = plane.axes();
     let climbs = match seg.geometry {

@@ -71,7 +71,7 @@ pub struct Hotspot {
 impl Hotspot {
     /// The cause as tables give it, with the extent of a merged plateau: `steady lag (4
     /// places, t 53.5–72.4 s)`.
-    pub fn label(&self) -> String {
+    pub(crate) fn label(&self) -> String {
         match self.extent {
             Some(e) if e.places > 1 => format!(
                 "{} ({} places, t {:.1}–{:.1} s)",
@@ -267,7 +267,7 @@ impl HotspotFinder {
     /// A finder keeping at most `max` hotspots, for a run sampled every `dt_s` on axes
     /// whose steady lag, offset and backlash are `axes` (X, Y, Z; Z's read only where
     /// `cfg.with_z`).
-    pub fn new(cfg: HotspotConfig, axes: [AxisSteady; 3], dt_s: f64, max: usize) -> Self {
+    pub(crate) fn new(cfg: HotspotConfig, axes: [AxisSteady; 3], dt_s: f64, max: usize) -> Self {
         let samples = |s: f64| (s / dt_s).ceil() as usize;
         let (before, after) = (samples(cfg.before_s), samples(cfg.after_s));
         let (half_second, second) = ((0.5 / dt_s) as usize, (1.0 / dt_s) as usize);
@@ -301,7 +301,7 @@ impl HotspotFinder {
     }
 
     /// Takes the next sample of the run.
-    pub fn push(&mut self, plan: &Plan, s: &RunSample) {
+    pub(crate) fn push(&mut self, plan: &Plan, s: &RunSample) {
         let k = self.n;
         let seg = s.segment as usize;
         let cutting = plan.segments[seg].motion == Motion::Feed;
@@ -347,7 +347,7 @@ impl HotspotFinder {
     }
 
     /// The largest |contour error| so far (m), and where it is (the first such place).
-    pub fn largest(&self) -> Option<(f64, RunPlace)> {
+    pub(crate) fn largest(&self) -> Option<(f64, RunPlace)> {
         self.largest.map(|m| {
             let place = RunPlace {
                 sample: m.k,
@@ -360,7 +360,7 @@ impl HotspotFinder {
     }
 
     /// The hotspots of the whole run, ranked by |error|.
-    pub fn finish(mut self) -> Vec<Hotspot> {
+    pub(crate) fn finish(mut self) -> Vec<Hotspot> {
         self.settle(true);
         if let Some(m) = self.largest
             && m.error_m.abs() > self.largest_window_peak_m

@@ -85,7 +85,7 @@ impl Cause {
     }
 
     /// A short label for tables and plots.
-    pub fn label(&self) -> String {
+    pub(crate) fn label(&self) -> String {
         match self {
             Cause::Backlash { axis } => format!("{axis} backlash at reversal"),
             Cause::AxisReversal { axis } => format!("{axis} reversal"),

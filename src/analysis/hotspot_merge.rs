@@ -24,7 +24,7 @@ pub struct Extent {
 
 impl Extent {
     /// The extent of one row.
-    pub fn of(h: &Hotspot) -> Extent {
+    pub(crate) fn of(h: &Hotspot) -> Extent {
         Extent {
             places: 1,
             from_t_s: h.t_s,

@@ -169,7 +169,7 @@ pub struct RunAnalyser {
 
 impl RunAnalyser {
     /// An analyser for the run of `plan` on `machine`, keeping at most `max_hotspots`.
-    pub fn new(plan: &Plan, machine: &MachineConfig, max_hotspots: usize) -> Self {
+    pub(crate) fn new(plan: &Plan, machine: &MachineConfig, max_hotspots: usize) -> Self {
         let [mx, my] = [&machine.x, &machine.y].map(AxisModel::from_config);
         let kv = window_rate_per_s(&mx).min(window_rate_per_s(&my));
         let simulated: Vec<AxisModel> = machine
@@ -215,7 +215,7 @@ impl RunAnalyser {
     }
 
     /// Takes the next chunk of the run; returns its samples' contour errors.
-    pub fn take(&mut self, chunk: &RunChunk) -> Vec<ContourPoint> {
+    pub(crate) fn take(&mut self, chunk: &RunChunk) -> Vec<ContourPoint> {
         let (plan, c) = (chunk.plan, chunk.commands);
         let traces: Vec<&AxisTrace> = [&chunk.x, &chunk.y]
             .into_iter()
@@ -320,7 +320,7 @@ impl RunAnalyser {
     }
 
     /// The figures of the whole run, `plan` as the execution re-timed it.
-    pub fn finish(self, mut plan: Plan, machine: &MachineConfig) -> CheckResult {
+    pub(crate) fn finish(self, mut plan: Plan, machine: &MachineConfig) -> CheckResult {
         let dt_s = plan.config.cycle_s;
         let z_simulated = self.fe_all_m.len() == 3;
         for ((axis, config), tally) in ['X', 'Y', 'Z']

@@ -18,7 +18,7 @@ pub struct PeakThinned<T> {
 impl<T: Copy> PeakThinned<T> {
     /// An empty series of at most about `limit` points, samples ranked by `weight` (NaN
     /// ranks lowest).
-    pub fn new(limit: usize, weight: fn(&T) -> f64) -> Self {
+    pub(crate) fn new(limit: usize, weight: fn(&T) -> f64) -> Self {
         PeakThinned {
             points: Vec::new(),
             limit: limit.max(1),
@@ -30,7 +30,7 @@ impl<T: Copy> PeakThinned<T> {
     }
 
     /// Takes the next sample.
-    pub fn push(&mut self, p: T) {
+    pub(crate) fn push(&mut self, p: T) {
         let w = self.rank(&p);
         if self.pending.is_none_or(|(_, best)| w > best) {
             self.pending = Some((p, w));

@@ -341,7 +341,7 @@ pub struct TraceCsv {
 
 impl TraceCsv {
     /// The trace of `program`, keeping every `every`-th sample.
-    pub fn of(program: &Program, every: usize) -> Self {
+    pub(crate) fn of(program: &Program, every: usize) -> Self {
         TraceCsv {
             sources: program.sources.clone(),
             ..TraceCsv::new(every)
@@ -349,7 +349,7 @@ impl TraceCsv {
     }
 
     /// A trace keeping every `every`-th sample.
-    pub fn new(every: usize) -> Self {
+    pub(crate) fn new(every: usize) -> Self {
         TraceCsv {
             every: every.max(1),
             started: false,
@@ -427,7 +427,7 @@ impl TraceCsv {
 }
 
 /// The human-readable summary.
-pub fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
+pub(crate) fn summary_text(r: &CheckReport, max_hotspots: usize) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
     let _ = writeln!(

@@ -26,7 +26,7 @@ pub struct BodeArgs {
     pub plot: Option<PathBuf>,
 }
 
-pub fn run(args: &BodeArgs) -> Result<Outcome, CliError> {
+pub(crate) fn run(args: &BodeArgs) -> Result<Outcome, CliError> {
     let machine = args.machine.load()?;
     let config = machine.axis(args.axis.axis);
     let model = AxisModel::from_config(config);

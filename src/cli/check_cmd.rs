@@ -47,7 +47,7 @@ pub struct CheckArgs {
     pub hotspots: usize,
 }
 
-pub fn run(args: &CheckArgs) -> Result<Outcome, CliError> {
+pub(crate) fn run(args: &CheckArgs) -> Result<Outcome, CliError> {
     if let Some(t) = args.tolerance
         && !(t.is_finite() && t > 0.0)
     {

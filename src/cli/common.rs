@@ -67,7 +67,7 @@ pub struct MachineArgs {
 
 impl MachineArgs {
     /// The machine to use: a file where one exists by that name, else a preset.
-    pub fn load(&self) -> Result<MachineConfig, CliError> {
+    pub(crate) fn load(&self) -> Result<MachineConfig, CliError> {
         match &self.machine {
             Some(path) if !path.exists() && is_preset_name(path) => {
                 Ok(MachineConfig::preset(&path.to_string_lossy())?)
@@ -191,7 +191,7 @@ pub struct PlanningArgs {
 
 impl PlanningArgs {
     /// Validated planner settings.
-    pub fn config(&self, machine: &MachineConfig) -> Result<PlanConfig, CliError> {
+    pub(crate) fn config(&self, machine: &MachineConfig) -> Result<PlanConfig, CliError> {
         let mut c = PlanConfig::for_machine(machine);
         c.profile = self.profile;
         if let Some(ms) = self.cycle_ms {
@@ -215,7 +215,7 @@ impl PlanningArgs {
 
 /// Reads and interprets a program (bytes that are not UTF-8, in comments say, are replaced)
 /// and checks that it fits the machine (it moves in XY, within travel).
-pub fn load_program(path: &Path, machine: &MachineConfig) -> Result<Program, CliError> {
+pub(crate) fn load_program(path: &Path, machine: &MachineConfig) -> Result<Program, CliError> {
     let bytes = std::fs::read(path).map_err(|e| CliError::Read {
         path: path.display().to_string(),
         message: e.to_string(),
@@ -253,7 +253,7 @@ pub(crate) fn format_duration(seconds: f64) -> String {
 }
 
 /// A progress bar on a terminal; hidden when stderr is piped or under CI.
-pub fn progress(len: u64, message: &str) -> indicatif::ProgressBar {
+pub(crate) fn progress(len: u64, message: &str) -> indicatif::ProgressBar {
     use std::io::IsTerminal;
     let quiet = !std::io::stderr().is_terminal() || std::env::var_os("CI").is_some();
     if quiet {
@@ -270,7 +270,7 @@ pub fn progress(len: u64, message: &str) -> indicatif::ProgressBar {
 }
 
 /// A spinner for work of unknown length on a terminal; hidden when piped or under CI.
-pub fn spinner(message: &str) -> indicatif::ProgressBar {
+pub(crate) fn spinner(message: &str) -> indicatif::ProgressBar {
     let bar = progress(0, message);
     if bar.is_hidden() {
         return bar;
@@ -301,7 +301,10 @@ pub struct TraceArgs {
 
 impl TraceArgs {
     /// Reads the trace at `path` as these arguments say.
-    pub fn read(&self, path: &Path) -> Result<crate::trace::measured::MeasuredTrace, CliError> {
+    pub(crate) fn read(
+        &self,
+        path: &Path,
+    ) -> Result<crate::trace::measured::MeasuredTrace, CliError> {
         use crate::trace::format::{ColumnMap, TraceProfile};
         let map = match (&self.columns, &self.trace_profile) {
             (Some(text), _) => Some(

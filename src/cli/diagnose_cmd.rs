@@ -92,7 +92,7 @@ pub struct DiagnoseArgs {
     pub command_tolerance_um: f64,
 }
 
-pub fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
+pub(crate) fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
     if !(args.evidence.is_finite() && args.evidence >= 0.0) {
         return Err(CliError::Usage(format!(
             "--evidence {}: must be a number ≥ 0",

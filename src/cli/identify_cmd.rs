@@ -50,7 +50,7 @@ pub struct IdentifyArgs {
     pub command_tolerance_um: f64,
 }
 
-pub fn run(args: &IdentifyArgs) -> Result<Outcome, CliError> {
+pub(crate) fn run(args: &IdentifyArgs) -> Result<Outcome, CliError> {
     // `none`: no template — a model of each loop, started from the record itself.
     at_most_one_stdout([Some(&args.out), args.json.as_ref(), args.report.as_ref()])?;
     let without_template = args.template.as_os_str() == "none";

@@ -25,7 +25,7 @@ pub struct InspectArgs {
     pub plot: Option<PathBuf>,
 }
 
-pub fn run(args: &InspectArgs) -> Result<Outcome, CliError> {
+pub(crate) fn run(args: &InspectArgs) -> Result<Outcome, CliError> {
     let trace = args.columns.read(&args.trace)?;
     println!("trace     {}", trace.file);
     for line in trace.layout.describe() {

@@ -26,7 +26,7 @@ fn forget_staged(tmp: &Path) {
 
 /// On SIGINT or SIGTERM, removes every staged temporary file and ends the process with
 /// status 130, as a shell reports an interrupted command. Installed once by the CLI.
-pub fn remove_staged_on_interrupt() {
+pub(crate) fn remove_staged_on_interrupt() {
     // Only fails when a handler is already installed, which leaves one in place.
     let _ = ctrlc::set_handler(|| {
         for tmp in staged_files().drain(..) {
@@ -171,14 +171,14 @@ pub struct OutputBatch {
 
 impl OutputBatch {
     /// An empty batch.
-    pub fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Self::default()
     }
 
     /// Stages `dest` with the bytes produced by `write`. A file is staged beside its
     /// destination; for the standard output (`-`) or a stream the bytes are kept until the
     /// commit, so that they too appear whole or not at all.
-    pub fn stage(
+    pub(crate) fn stage(
         &mut self,
         dest: &Path,
         write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
@@ -278,7 +278,7 @@ impl OutputBatch {
 
     /// Moves every staged file into place, then writes what goes to the standard output or
     /// a stream.
-    pub fn commit(mut self) -> Result<(), OutputError> {
+    pub(crate) fn commit(mut self) -> Result<(), OutputError> {
         let staged = std::mem::take(&mut self.staged);
         let (files, streams): (Vec<_>, Vec<_>) = staged
             .into_iter()
@@ -425,7 +425,7 @@ impl std::fmt::Debug for StagedWriter {
 
 impl StagedWriter {
     /// Writes the next piece.
-    pub fn write(
+    pub(crate) fn write(
         &mut self,
         write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
     ) -> Result<(), OutputError> {
@@ -433,7 +433,7 @@ impl StagedWriter {
     }
 
     /// Completes the file (its batch still decides whether it appears).
-    pub fn finish(mut self) -> Result<(), OutputError> {
+    pub(crate) fn finish(mut self) -> Result<(), OutputError> {
         self.w.flush().map_err(|e| OutputError::new(&self.dest, e))
     }
 }

@@ -26,7 +26,7 @@ pub struct PlanArgs {
     pub csv: Option<PathBuf>,
 }
 
-pub fn run(args: &PlanArgs) -> Result<Outcome, CliError> {
+pub(crate) fn run(args: &PlanArgs) -> Result<Outcome, CliError> {
     let machine = args.machine.load_stable()?;
     let config = args.planning.config(&machine)?;
     let program = load_program(&args.program, &machine)?;

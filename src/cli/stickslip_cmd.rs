@@ -36,7 +36,7 @@ pub struct StickSlipArgs {
     pub plot: Option<PathBuf>,
 }
 
-pub fn run(args: &StickSlipArgs) -> Result<Outcome, CliError> {
+pub(crate) fn run(args: &StickSlipArgs) -> Result<Outcome, CliError> {
     let machine = args.machine.load_stable()?;
     let model = AxisModel::from_config(machine.axis(args.axis.axis));
     let mut feeds = args.feeds.clone();

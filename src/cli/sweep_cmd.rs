@@ -198,7 +198,7 @@ fn thresholds(args: &SweepArgs) -> Result<Thresholds, CliError> {
     })
 }
 
-pub fn run(args: &SweepArgs, m: &ArgMatches) -> Result<Outcome, CliError> {
+pub(crate) fn run(args: &SweepArgs, m: &ArgMatches) -> Result<Outcome, CliError> {
     let thresholds = thresholds(args)?;
     let machine = args.machine.load()?;
     let plan = args.planning.config(&machine)?;

@@ -82,7 +82,7 @@ pub struct SynthArgs {
     pub seed: u64,
 }
 
-pub fn run(args: &SynthArgs) -> Result<Outcome, CliError> {
+pub(crate) fn run(args: &SynthArgs) -> Result<Outcome, CliError> {
     let effect = hidden_effect(args)?;
     let sample_ms = checked_measurement(args)?;
     let layout = args

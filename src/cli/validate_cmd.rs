@@ -17,7 +17,7 @@ pub struct ValidateArgs {
     pub machine: MachineArgs,
 }
 
-pub fn run(args: &ValidateArgs) -> Result<Outcome, CliError> {
+pub(crate) fn run(args: &ValidateArgs) -> Result<Outcome, CliError> {
     let machine = args.machine.load()?;
     let sim = SimConfig::default();
     println!(

@@ -193,7 +193,7 @@ fn driving_commands(
             start: Start::planned(),
         });
     };
-    let mut commands = commands_from_record(xc, yc, measured.dt_s, dt);
+    let mut commands = recorded_commands(measured, [xc, yc], dt);
     let placement = place_on_path(&plan.segments, &mut commands, settings.command_tolerance_m);
     if let Some(worst) = placement.worst
         && (worst.distance_m > settings.command_tolerance_m || !placement.joined)
@@ -407,6 +407,16 @@ fn in_motion(
         arrival: None,
         approach_simulated: false,
     }
+}
+
+/// A record's commands on the simulation's step `dt`: X and Y, and Z where the record has
+/// its commands — they drive a simulated Z in the record's coordinates, as its measured Z is.
+fn recorded_commands(measured: &MeasuredTrace, [xc, yc]: [&[f64]; 2], dt: f64) -> Commands {
+    let mut commands = commands_from_record(xc, yc, measured.dt_s, dt);
+    if let Some(zc) = measured.z_cmd_m.as_deref().filter(|z| z.len() == xc.len()) {
+        commands.z = commands_from_record(zc, zc, measured.dt_s, dt).x;
+    }
+    commands
 }
 
 /// The commands from sample `from` on.

@@ -225,7 +225,7 @@ impl Context<'_> {
             self.sim
         };
         let own;
-        let axis_commands = match self.start.arrival {
+        let axis_commands = match self.start.arrival.filter(|_| axis != AxisName::Z) {
             Some(arrival) => {
                 own = self.run_in_for(&model, axis, commands, arrival[axis.index()], &sim)?;
                 &own
@@ -306,8 +306,8 @@ impl Context<'_> {
         match axis {
             AxisName::X => &self.measured.x_m,
             AxisName::Y => &self.measured.y_m,
-            // A record's Z is not compared: nothing of it is read.
-            AxisName::Z => &[],
+            // Z where the record has it (compared only where the machine simulates Z).
+            AxisName::Z => self.measured.z_m.as_deref().unwrap_or(&[]),
         }
     }
 
@@ -344,6 +344,11 @@ impl Context<'_> {
 
     /// Whether compared sample `k` of `axis` is in its point-by-point residual.
     pub(crate) fn compared(&self, axis: AxisName, k: usize) -> bool {
+        if axis == AxisName::Z {
+            // Z has no start or hunting of its own worked out: it is compared where both X
+            // and Y are, after the start has settled and away from their hunting holds.
+            return AxisName::BOTH.iter().all(|&a| self.compared(a, k));
+        }
         let left_out = |mask: &[Vec<bool>; 2]| mask[axis.index()].get(k).copied().unwrap_or(false);
         !left_out(&self.holding) && !left_out(&self.unsettled)
     }
@@ -766,6 +771,7 @@ impl Context<'_> {
                     .map(|(lo, hi)| [lo * 1e3, hi * 1e3]),
                 _ => None,
             },
+            z_compared: false,
         }
     }
 }

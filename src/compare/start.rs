@@ -427,6 +427,8 @@ pub struct Coverage {
     /// record's own coordinates; its commands where recorded). Z is read, but neither
     /// compared nor fitted.
     pub z_span_mm: Option<[f64; 2]>,
+    /// Whether Z was compared with a simulated Z (the diagnosis says how it compares).
+    pub z_compared: bool,
 }
 
 /// Z travel below this (mm) is a standing Z, not worth a word.
@@ -494,6 +496,14 @@ impl Coverage {
         lines.extend(start);
         lines.extend(self.z_span_mm.and_then(|[lo, hi]| {
             (hi - lo > Z_STANDS_MM).then(|| {
+                if self.z_compared {
+                    return format!(
+                        "Z: moves {:.3} mm in the stretch compared (Z {lo:.3} to {hi:.3} mm on \
+                         the record's own scale); compared with the simulated Z on its own, \
+                         the figures above being of X and Y",
+                        hi - lo
+                    );
+                }
                 format!(
                     "Z: moves {:.3} mm in the stretch compared (Z {lo:.3} to {hi:.3} mm on the \
                      record's own scale); it is read but not compared, diagnosed or fitted: \

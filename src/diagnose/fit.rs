@@ -553,8 +553,12 @@ impl Model<'_> {
         let m = with_cause(self.machine, self.axis, self.cause, values);
         on.simulate_pair(&m, self.axis, self.other)
             .map_or(f64::INFINITY, |(t, o)| {
-                sum_sq(on.residual(self.axis, &t, offset))
-                    + sum_sq(on.residual(self.axis.other(), &o, offset))
+                let other = match self.axis {
+                    // Z is fitted on its own residual.
+                    AxisName::Z => 0.0,
+                    _ => sum_sq(on.residual(self.axis.other(), &o, offset)),
+                };
+                sum_sq(on.residual(self.axis, &t, offset)) + other
             })
     }
 
@@ -647,32 +651,36 @@ impl Model<'_> {
         Some((r, trace, other))
     }
 
-    fn traces<'b>(&self, trace: &'b [f64], other: &'b [f64]) -> [&'b [f64]; 2] {
+    /// The residual's axes and their traces: X and Y together, Z (a vertical axis the record
+    /// has) on its own.
+    fn traces<'b>(&self, trace: &'b [f64], other: &'b [f64]) -> Vec<(AxisName, &'b [f64])> {
         match self.axis {
-            AxisName::X => [trace, other],
-            AxisName::Y => [other, trace],
-            AxisName::Z => unreachable!("causes are fitted on X and Y, which a record pairs"),
+            AxisName::X => vec![(AxisName::X, trace), (AxisName::Y, other)],
+            AxisName::Y => vec![(AxisName::X, other), (AxisName::Y, trace)],
+            AxisName::Z => vec![(AxisName::Z, trace)],
         }
     }
 
     fn residual_with(&self, trace: &[f64], other: &[f64], offset: f64) -> DVector<f64> {
-        let [x, y] = self.traces(trace, other);
-        let rx = self.ctx.residual(AxisName::X, x, offset);
-        let ry = self.ctx.residual(AxisName::Y, y, offset);
-        DVector::from_iterator(rx.len() + ry.len(), rx.into_iter().chain(ry))
+        let r: Vec<f64> = self
+            .traces(trace, other)
+            .into_iter()
+            .flat_map(|(a, t)| self.ctx.residual(a, t, offset))
+            .collect();
+        DVector::from_vec(r)
     }
 
     /// The offset's column, analytic: r = measured − sim(t − offset), so ∂r/∂offset =
     /// sim'(t − offset), per command period.
     fn offset_column(&self, p: &DVector<f64>, trace: &[f64], other: &[f64]) -> DVector<f64> {
         let (_, offset) = self.unscale(p);
-        let [x, y] = self.traces(trace, other);
-        let dx = self.ctx.residual_rate(x, offset);
-        let dy = self.ctx.residual_rate(y, offset);
-        DVector::from_iterator(
-            dx.len() + dy.len(),
-            dx.into_iter().chain(dy).map(|v| v * self.ctx.dt),
-        )
+        let d: Vec<f64> = self
+            .traces(trace, other)
+            .into_iter()
+            .flat_map(|(_, t)| self.ctx.residual_rate(t, offset))
+            .map(|v| v * self.ctx.dt)
+            .collect();
+        DVector::from_vec(d)
     }
 
     /// Standard uncertainties of the cause's parameters from the Jacobian `jac`, in machine

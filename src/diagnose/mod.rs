@@ -27,6 +27,7 @@ pub mod report;
 pub mod search;
 pub mod synth;
 pub mod table;
+pub mod z_axis;
 
 use serde::Serialize;
 
@@ -262,6 +263,9 @@ pub struct Diagnosis {
     /// Residuals the extended model leaves that repeat at the same places on every pass of
     /// an axis, however small the record's RMS.
     pub localized: Vec<repeat::Localized>,
+    /// Z, where the record measured it: compared where the machine simulates Z, with the
+    /// cause it shows (part of `machine`).
+    pub z: z_axis::ZFindings,
 }
 
 /// Circular-test figures of the same circles three ways.
@@ -363,7 +367,7 @@ pub fn diagnose_validated(
                     .any(|a| tries_allowed(machine, settings, a, c))
             }),
         beyond_machine: beyond_machine_compared(measured, machine, &ctx, outcome.offset_s),
-        ..assemble(&ctx, outcome, summary)
+        ..assemble(&ctx, outcome, summary, settings.max_causes > 0)
     })
 }
 
@@ -440,7 +444,15 @@ fn learn_unexplained(
 
 /// The diagnosis of a finished search and its figures; the caller adds what needs the
 /// settings and the nominal machine.
-fn assemble(ctx: &Context, outcome: search::Outcome, summary: Summary) -> Diagnosis {
+/// The diagnosis of X and Y from the search's outcome, and Z's where the record has it
+/// (its causes sought where `seek_z`).
+fn assemble(
+    ctx: &Context,
+    mut outcome: search::Outcome,
+    summary: Summary,
+    seek_z: bool,
+) -> Diagnosis {
+    let z = z_axis::diagnose_z(ctx, &mut outcome.machine, outcome.offset_s, seek_z);
     // With recorded commands the simulation runs on the measurement's clock; the program
     // starts where the recorded commands start to move, less the plan's standing start.
     let program_start = if ctx.fixed_offset.is_some() {
@@ -478,7 +490,11 @@ fn assemble(ctx: &Context, outcome: search::Outcome, summary: Summary) -> Diagno
         rapids_compared: ctx.rapids_compared,
         hunting_left_out_s: AxisName::BOTH.map(|a| ctx.hunting_left_out_s(a)),
         circles: circles(&ctx.plan.segments),
-        coverage: ctx.coverage(outcome.offset_s),
+        coverage: Coverage {
+            z_compared: z.compared,
+            ..ctx.coverage(outcome.offset_s)
+        },
+        z,
         unexplained: Vec::new(),
         learned: Vec::new(),
         localized: Vec::new(),

@@ -82,6 +82,8 @@ pub struct DiagnoseReport {
     /// Residuals that repeat at the same places on every pass of an axis (a tight spot, a
     /// local scale or straightness error), however small the record's RMS.
     pub localized: Vec<Localized>,
+    /// Z, where the record measured it: compared with the simulated Z, its cause.
+    pub z: super::z_axis::ZFindings,
 }
 
 /// The measurement, as read.
@@ -256,6 +258,7 @@ impl DiagnoseReport {
             coverage: d.coverage,
             loop_feedback: AxisName::BOTH.map(|a| machine.axis(a).position_loop.feedback),
             localized: d.localized.clone(),
+            z: d.z.clone(),
         }
     }
 
@@ -284,6 +287,9 @@ impl DiagnoseReport {
         }
         for line in self.residual_findings() {
             let _ = writeln!(s, "  {line}");
+        }
+        for line in self.z.describe() {
+            let _ = writeln!(s, "{line}");
         }
         for k in &self.skipped {
             let axes: Vec<String> = k.axes.iter().map(|a| a.to_string()).collect();

@@ -853,7 +853,7 @@ fn initial_guess(cause: CauseId, axis: &AxisConfig, r: &[f64], k: &Kinematics) -
 
 /// Where a fit may start: the data's first guess and, for causes that are not linear in
 /// their parameters, a small grid around typical values (the fit refines the best).
-fn starts(cause: CauseId, guess: Vec<f64>, current: &[f64]) -> Vec<Vec<f64>> {
+pub(super) fn starts(cause: CauseId, guess: Vec<f64>, current: &[f64]) -> Vec<Vec<f64>> {
     let mut s = vec![guess.clone()];
     match cause {
         // Log-spaced grids: 0.5–50 µm; 0.25–8 × the nominal coefficient; levels and

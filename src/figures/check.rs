@@ -28,7 +28,7 @@ pub struct CheckFigures {
 
 impl CheckFigures {
     /// The figures of a run; `sources` names the lines of subprograms' own files.
-    pub fn of(run: &CheckResult, report: &CheckReport, sources: &[SourceFile]) -> Self {
+    pub(crate) fn of(run: &CheckResult, report: &CheckReport, sources: &[SourceFile]) -> Self {
         // A line as the plots label it: `29`, or `BOSS.SPF:8` in a subprogram's file.
         let at = |line: u32| SourceLine::among(sources, line).short();
         let name = std::path::Path::new(&report.program.file)

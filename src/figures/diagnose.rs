@@ -25,7 +25,7 @@ pub struct DiagnoseFigures {
 
 impl DiagnoseFigures {
     /// The figures of a diagnosis of a record of `program_file`.
-    pub fn of(d: &Diagnosis, program_file: &str) -> Self {
+    pub(crate) fn of(d: &Diagnosis, program_file: &str) -> Self {
         let name = Path::new(program_file)
             .file_name()
             .map_or_else(String::new, |n| n.to_string_lossy().into_owned());

@@ -142,7 +142,7 @@ pub struct Interpreter {
 impl Interpreter {
     /// A fresh interpreter in RS274/NGC's start-up state: G17 G21 G40 G49 G54 G64 G80 G90
     /// G91.1 G94.
-    pub fn new(file: &str, opts: InterpretOptions) -> Self {
+    pub(crate) fn new(file: &str, opts: InterpretOptions) -> Self {
         Interpreter {
             file: file.to_string(),
             mm_per_unit: 1.0,
@@ -184,7 +184,7 @@ impl Interpreter {
     }
 
     /// Executes one block. `block_delete` is the block's `/` flag.
-    pub fn execute(&mut self, line: u32, words: &[Word], block_delete: bool) -> IResult<()> {
+    pub(crate) fn execute(&mut self, line: u32, words: &[Word], block_delete: bool) -> IResult<()> {
         self.line = line;
         if words.is_empty() {
             return Ok(());
@@ -230,7 +230,7 @@ impl Interpreter {
     }
 
     /// The interpreted program.
-    pub fn finish(mut self, lines: usize) -> Program {
+    pub(crate) fn finish(mut self, lines: usize) -> Program {
         if let Some(message) = self.unknown_m.warning() {
             // The warning lists its lines itself: it concerns the whole program.
             self.warnings.push(Warning { line: 0, message });

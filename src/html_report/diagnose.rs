@@ -22,6 +22,8 @@ struct DiagnosePage {
     rejected: Vec<String>,
     /// What the record says of the residual no named cause took (the text summary's lines).
     left: Vec<String>,
+    /// Z against its simulation, where the record has Z (the text summary's lines).
+    z: Vec<String>,
     circles: Vec<Vec<Fig>>,
     fit: Svg,
     over_time: Svg,
@@ -68,6 +70,12 @@ pub fn diagnose_page(
             .map(|r| format!("{} on {}: {}", r.id.as_str(), r.axis, r.reason))
             .collect(),
         left: report.residual_findings(),
+        z: report
+            .z
+            .describe()
+            .iter()
+            .map(|l| l.trim().to_string())
+            .collect(),
         circles: circle_rows(&json),
         fit: svg(
             "Each axis's position − command around where the nominal model misses most: \

@@ -101,7 +101,7 @@ impl MachineConfig {
 
     /// Checks the machine as a machine file is checked: its sections, every number in range,
     /// the values that must agree agreeing; errors name `file` and the key.
-    pub fn validate(&self, file: &str) -> Result<(), ConfigError> {
+    pub(crate) fn validate(&self, file: &str) -> Result<(), ConfigError> {
         validate::validate(self, file)
     }
 

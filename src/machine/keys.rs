@@ -36,7 +36,7 @@ pub(crate) fn number(v: f64) -> String {
 
 impl Rule {
     /// What is wrong with `value` under this rule, if anything.
-    pub fn problem(self, value: f64) -> Option<String> {
+    pub(crate) fn problem(self, value: f64) -> Option<String> {
         if !value.is_finite() {
             return Some("must be a finite number".to_string());
         }
@@ -57,7 +57,7 @@ impl Rule {
     }
 
     /// The rule in a few symbols, for the reference: `> 0, ≤ 100`.
-    pub fn describe(self) -> String {
+    pub(crate) fn describe(self) -> String {
         match self {
             Rule::Positive(hi) => format!("> 0, ≤ {}", number(hi)),
             Rule::NonNegative(hi) => format!("≥ 0, ≤ {}", number(hi)),
@@ -79,7 +79,7 @@ pub enum Needs {
 
 impl Needs {
     /// Whether `axis` reads the key.
-    pub fn holds(self, axis: &AxisConfig) -> bool {
+    pub(crate) fn holds(self, axis: &AxisConfig) -> bool {
         match self {
             Needs::Always => true,
             Needs::Cascade => axis.controller.is_cascade(),
@@ -118,12 +118,12 @@ pub type AxisKey = Key<AxisConfig>;
 impl<T> Key<T> {
     /// Its value; `None` where the part does not have its section (no velocity loop on a
     /// current amplifier, no state-feedback gains on the cascade).
-    pub fn get(&self, on: &T) -> Option<f64> {
+    pub(crate) fn get(&self, on: &T) -> Option<f64> {
         (self.get)(on)
     }
 
     /// Sets it; whether it could (its section is there).
-    pub fn set(&self, on: &mut T, value: f64) -> bool {
+    pub(crate) fn set(&self, on: &mut T, value: f64) -> bool {
         (self.set)(on, value)
     }
 }
@@ -657,7 +657,7 @@ pub fn get(axis: &AxisConfig, path: &str) -> Option<f64> {
 }
 
 /// Sets a key on an axis; whether it could (the key is in the table and its section there).
-pub fn set(axis: &mut AxisConfig, path: &str, value: f64) -> bool {
+pub(crate) fn set(axis: &mut AxisConfig, path: &str, value: f64) -> bool {
     axis_key(path).is_some_and(|k| k.set(axis, value))
 }
 

@@ -17,7 +17,7 @@ pub struct UnknownKeyAt {
 
 impl UnknownKeyAt {
     /// An unknown key not yet located.
-    pub fn new(key: &str, hint: &str) -> UnknownKeyAt {
+    pub(crate) fn new(key: &str, hint: &str) -> UnknownKeyAt {
         UnknownKeyAt {
             key: key.into(),
             hint: hint.into(),
@@ -146,7 +146,7 @@ fn syntax_place(message: &str) -> Option<(usize, usize)> {
 
 /// The error with the line and column of its key in the file's `text`, where the text shows
 /// it: `m.toml:3:1: key …`.
-pub fn located(e: ConfigError, text: &str) -> ConfigError {
+pub(crate) fn located(e: ConfigError, text: &str) -> ConfigError {
     let at = |file: String, key: &str| match find_key(text, key) {
         Some((line, column)) => format!("{file}:{line}:{column}"),
         None => file,

@@ -86,7 +86,7 @@ impl ZAxis {
     }
 
     /// The axis, where it is simulated.
-    pub fn simulated(&self) -> Option<&AxisConfig> {
+    pub(crate) fn simulated(&self) -> Option<&AxisConfig> {
         match self {
             ZAxis::Carried(_) => None,
             ZAxis::Simulated(a) => Some(a),
@@ -485,7 +485,7 @@ impl AxisName {
     pub const ALL: [AxisName; 3] = [AxisName::X, AxisName::Y, AxisName::Z];
 
     /// Lower-case name as used in keys and on the command line.
-    pub fn as_str(self) -> &'static str {
+    pub(crate) fn as_str(self) -> &'static str {
         match self {
             AxisName::X => "x",
             AxisName::Y => "y",
@@ -495,7 +495,7 @@ impl AxisName {
 
     /// The other axis of the XY pair (the squareness, straightness and play between them
     /// are read on it); Z has no partner and names itself.
-    pub fn other(self) -> AxisName {
+    pub(crate) fn other(self) -> AxisName {
         match self {
             AxisName::X => AxisName::Y,
             AxisName::Y => AxisName::X,
@@ -515,7 +515,7 @@ impl AxisName {
 
 impl AxisName {
     /// `X`, `Y` or `Z`.
-    pub fn letter(self) -> char {
+    pub(crate) fn letter(self) -> char {
         match self {
             AxisName::X => 'X',
             AxisName::Y => 'Y',
@@ -563,7 +563,7 @@ impl MachineConfig {
     }
 
     /// A simulated axis by name; `None` for Z where it is carried.
-    pub fn try_axis(&self, name: AxisName) -> Option<&AxisConfig> {
+    pub(crate) fn try_axis(&self, name: AxisName) -> Option<&AxisConfig> {
         match name {
             AxisName::X => Some(&self.x),
             AxisName::Y => Some(&self.y),

@@ -33,7 +33,7 @@ pub struct Realisation {
 
 impl Realisation {
     /// Number of states.
-    pub fn order(&self) -> usize {
+    pub(crate) fn order(&self) -> usize {
         self.den.len()
     }
 
@@ -48,7 +48,7 @@ impl Realisation {
     }
 
     /// B's entry for state `i`.
-    pub fn b(&self, i: usize) -> f64 {
+    pub(crate) fn b(&self, i: usize) -> f64 {
         if i + 1 == self.order() { 1.0 } else { 0.0 }
     }
 

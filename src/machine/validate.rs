@@ -50,7 +50,7 @@ impl Checker<'_> {
 }
 
 /// Validates a deserialised machine.
-pub fn validate(m: &MachineConfig, file: &str) -> Result<(), ConfigError> {
+pub(crate) fn validate(m: &MachineConfig, file: &str) -> Result<(), ConfigError> {
     let c = Checker { file };
     c.check_keys(
         "interpolation.",

@@ -11,12 +11,12 @@ pub struct Lookup {
 impl Lookup {
     /// The function through `points` (arguments increasing, as the machine file's
     /// validation requires).
-    pub fn new(points: Vec<(f64, f64)>) -> Lookup {
+    pub(crate) fn new(points: Vec<(f64, f64)>) -> Lookup {
         Lookup { points }
     }
 
     /// From parallel lists of arguments and values, each scaled (to SI).
-    pub fn scaled(at: &[f64], values: &[f64], at_scale: f64, value_scale: f64) -> Lookup {
+    pub(crate) fn scaled(at: &[f64], values: &[f64], at_scale: f64, value_scale: f64) -> Lookup {
         Lookup::new(
             at.iter()
                 .zip(values)
@@ -26,7 +26,7 @@ impl Lookup {
     }
 
     /// Whether it is zero everywhere.
-    pub fn is_empty(&self) -> bool {
+    pub(crate) fn is_empty(&self) -> bool {
         self.points.iter().all(|p| p.1 == 0.0)
     }
 
@@ -36,7 +36,7 @@ impl Lookup {
     }
 
     /// Its value at `p`.
-    pub fn at(&self, p: f64) -> f64 {
+    pub(crate) fn at(&self, p: f64) -> f64 {
         let m = &self.points;
         match m.partition_point(|&(at, _)| at <= p) {
             _ if m.is_empty() => 0.0,

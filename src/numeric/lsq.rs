@@ -35,7 +35,7 @@ pub struct Settings {
 impl Settings {
     /// No bounds on `n` parameters, 40 iterations of up to 10 tries, stopping below a
     /// relative improvement of 10⁻⁷.
-    pub fn unbounded(n: usize) -> Self {
+    pub(crate) fn unbounded(n: usize) -> Self {
         Settings {
             bounds: vec![(f64::NEG_INFINITY, f64::INFINITY); n],
             iterations: 40,
@@ -68,7 +68,11 @@ pub struct Solution {
 
 /// Minimises the sum of squares of `problem`'s residuals from `p0` inside `settings`'
 /// bounds; none where the residuals or the Jacobian cannot be evaluated at `p0`.
-pub fn minimise(problem: &dyn Problem, p0: DVector<f64>, settings: &Settings) -> Option<Solution> {
+pub(crate) fn minimise(
+    problem: &dyn Problem,
+    p0: DVector<f64>,
+    settings: &Settings,
+) -> Option<Solution> {
     let n = p0.len();
     let clamp = |mut q: DVector<f64>| {
         for (j, &(lo, hi)) in settings.bounds.iter().enumerate().take(n) {
@@ -160,7 +164,7 @@ pub(crate) fn forward_jacobian(
 /// values along it uncertain, as it should), with s the residual's spread per degree of
 /// freedom, `cost / (rows − n)`, and never below `noise`. A direction the data do not see
 /// at all gives an infinite uncertainty.
-pub fn uncertainties(jac: &DMatrix<f64>, cost: f64, noise: f64) -> Vec<f64> {
+pub(crate) fn uncertainties(jac: &DMatrix<f64>, cost: f64, noise: f64) -> Vec<f64> {
     let n = jac.ncols();
     (0..n)
         .map(|j| {

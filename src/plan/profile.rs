@@ -30,7 +30,7 @@ pub struct Ramp {
 
 impl Ramp {
     /// The fastest change from `v0` to `v1` within the dynamics.
-    pub fn new(v0: f64, v1: f64, d: Dynamics) -> Ramp {
+    pub(crate) fn new(v0: f64, v1: f64, d: Dynamics) -> Ramp {
         let dv = (v1 - v0).abs();
         let sign = if v1 >= v0 { 1.0 } else { -1.0 };
         if dv == 0.0 || d.accel.is_infinite() {
@@ -75,17 +75,17 @@ impl Ramp {
     }
 
     /// Duration (s).
-    pub fn duration(&self) -> f64 {
+    pub(crate) fn duration(&self) -> f64 {
         2.0 * self.t_j + self.t_a
     }
 
     /// Distance covered (m).
-    pub fn distance(&self) -> f64 {
+    pub(crate) fn distance(&self) -> f64 {
         0.5 * (self.v0 + self.v1) * self.duration()
     }
 
     /// Distance, velocity and acceleration at time `t` ∈ [0, duration] from the start.
-    pub fn eval(&self, t: f64) -> (f64, f64, f64) {
+    pub(crate) fn eval(&self, t: f64) -> (f64, f64, f64) {
         let (v0, a) = (self.v0, self.a_peak);
         // At and after the end the ramp has arrived: the target speed, no acceleration. (An
         // instantaneous ramp of the ideal profile has zero duration, and its phase formulas
@@ -223,7 +223,7 @@ pub struct SegmentProfile {
 impl SegmentProfile {
     /// The fastest profile over `length` from `v_entry` to `v_exit` not exceeding `v_max`.
     /// The caller guarantees that the exit speed is reachable (the planner's passes do).
-    pub fn plan(v_entry: f64, v_exit: f64, v_max: f64, length: f64, d: Dynamics) -> Self {
+    pub(crate) fn plan(v_entry: f64, v_exit: f64, v_max: f64, length: f64, d: Dynamics) -> Self {
         let needed = |vp: f64| ramp_distance(v_entry, vp, d) + ramp_distance(vp, v_exit, d);
         let floor = v_entry.max(v_exit);
         let v_peak = if v_max <= floor || needed(v_max) <= length {
@@ -249,7 +249,7 @@ impl SegmentProfile {
     }
 
     /// Duration (s).
-    pub fn duration(&self) -> f64 {
+    pub(crate) fn duration(&self) -> f64 {
         self.up.duration() + self.cruise_s + self.down.duration()
     }
 
@@ -278,7 +278,7 @@ impl SegmentProfile {
     }
 
     /// Distance, speed and acceleration along the path at time `t` from the segment start.
-    pub fn eval(&self, t: f64) -> (f64, f64, f64) {
+    pub(crate) fn eval(&self, t: f64) -> (f64, f64, f64) {
         let t_up = self.up.duration();
         if t < t_up {
             return self.up.eval(t);

@@ -24,7 +24,7 @@ pub struct Commands {
 
 impl Commands {
     /// One axis's commands.
-    pub fn axis(&self, axis: AxisName) -> &AxisCommands {
+    pub(crate) fn axis(&self, axis: AxisName) -> &AxisCommands {
         match axis {
             AxisName::X => &self.x,
             AxisName::Y => &self.y,
@@ -48,12 +48,12 @@ impl Commands {
     }
 
     /// Duration covered (s).
-    pub fn duration_s(&self) -> f64 {
+    pub(crate) fn duration_s(&self) -> f64 {
         self.len().saturating_sub(1) as f64 * self.dt_s
     }
 
     /// Keeps the first `len` samples.
-    pub fn truncate(&mut self, len: usize) {
+    pub(crate) fn truncate(&mut self, len: usize) {
         for c in [&mut self.x, &mut self.y, &mut self.z] {
             c.pos_m.truncate(len);
             c.vel_m_per_s.truncate(len);
@@ -63,7 +63,7 @@ impl Commands {
     }
 
     /// Appends the samples of the commands that follow these.
-    pub fn append(&mut self, next: &Commands) {
+    pub(crate) fn append(&mut self, next: &Commands) {
         self.x.append(&next.x);
         self.y.append(&next.y);
         self.z.append(&next.z);
@@ -72,7 +72,7 @@ impl Commands {
 
     /// Appends `seconds` of standing still at the last position, so that the axes can settle
     /// after the program ends.
-    pub fn hold(&mut self, seconds: f64) {
+    pub(crate) fn hold(&mut self, seconds: f64) {
         let n = (seconds / self.dt_s).ceil() as usize;
         let (Some(&x), Some(&y), Some(&z), Some(&seg)) = (
             self.x.pos_m.last(),
@@ -160,7 +160,7 @@ pub struct Sampler<'p> {
 
 impl<'p> Sampler<'p> {
     /// A sampler over segments `first..=last` of a plan, whose start times must be set.
-    pub fn new(plan: &'p Plan, first: usize, last: usize) -> Self {
+    pub(crate) fn new(plan: &'p Plan, first: usize, last: usize) -> Self {
         Sampler {
             plan,
             index: first,
@@ -170,7 +170,7 @@ impl<'p> Sampler<'p> {
     }
 
     /// Appends the commands at time `t` (s on the plan's clock; not before the last call's).
-    pub fn push(&mut self, t: f64, out: &mut Commands) {
+    pub(crate) fn push(&mut self, t: f64, out: &mut Commands) {
         let plan = self.plan;
         // Advance to the segment that holds t (the later one at a boundary).
         while self.index < self.last && t >= plan.plans[self.index + 1].t_start_s {

@@ -29,7 +29,7 @@ pub struct Footer {
 
 impl Footer {
     /// A footer for a plot of `machine`, dated today, with this tool's version.
-    pub fn new(machine: &str) -> Self {
+    pub(crate) fn new(machine: &str) -> Self {
         Footer {
             machine: machine.to_string(),
             date: today(),
@@ -39,7 +39,7 @@ impl Footer {
     }
 
     /// The same footer naming `program` (its file name only).
-    pub fn program(mut self, program: &str) -> Self {
+    pub(crate) fn program(mut self, program: &str) -> Self {
         self.program = std::path::Path::new(program)
             .file_name()
             .map_or_else(|| program.to_string(), |n| n.to_string_lossy().into_owned());
@@ -47,20 +47,20 @@ impl Footer {
     }
 
     /// The same footer with the feed as written.
-    pub fn feed(mut self, feed: impl Into<String>) -> Self {
+    pub(crate) fn feed(mut self, feed: impl Into<String>) -> Self {
         self.feed = feed.into();
         self
     }
 
     /// The same footer with the sampling as written.
-    pub fn sampling(mut self, sampling: impl Into<String>) -> Self {
+    pub(crate) fn sampling(mut self, sampling: impl Into<String>) -> Self {
         self.sampling = sampling.into();
         self
     }
 
     /// The footer's line: `machine hvmc · program circle-test.nc · F 1000 mm/min · IPO
     /// cycle 2 ms · 2025-01-31 · contourcheck 0.1.0`.
-    pub fn text(&self) -> String {
+    pub(crate) fn text(&self) -> String {
         let named = |what: &str, v: &str| (!v.is_empty()).then(|| format!("{what} {v}"));
         [
             named("machine", &self.machine),
@@ -79,7 +79,7 @@ impl Footer {
 
 /// Today's date (UTC), or the date of `SOURCE_DATE_EPOCH` where it is set, so that a
 /// build that must be reproducible can fix it.
-pub fn today() -> String {
+pub(crate) fn today() -> String {
     let fixed = std::env::var("SOURCE_DATE_EPOCH")
         .ok()
         .and_then(|s| s.trim().parse::<i64>().ok())

@@ -22,12 +22,12 @@ pub(crate) fn text_width(text: &str, font_px: u32) -> i32 {
 }
 
 /// Whether two boxes share any pixel.
-pub fn overlap(a: PixelBox, b: PixelBox) -> bool {
+pub(crate) fn overlap(a: PixelBox, b: PixelBox) -> bool {
     a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
 }
 
 /// Whether `inner` lies wholly inside `outer`.
-pub fn inside(inner: PixelBox, outer: PixelBox) -> bool {
+pub(crate) fn inside(inner: PixelBox, outer: PixelBox) -> bool {
     inner.0 >= outer.0 && inner.1 >= outer.1 && inner.2 <= outer.2 && inner.3 <= outer.3
 }
 
@@ -93,7 +93,7 @@ pub(crate) fn place_labels(
 /// right, upper left, lower right, lower left — that covers none of `points` (px), else the
 /// one that covers fewest. The legend is drawn under the data, so a point it must cover
 /// still shows.
-pub fn best_corner(chart: PixelBox, size: (i32, i32), points: &[(i32, i32)]) -> PixelBox {
+pub(crate) fn best_corner(chart: PixelBox, size: (i32, i32), points: &[(i32, i32)]) -> PixelBox {
     let pad = 10;
     let (w, h) = size;
     let corners = [

@@ -22,7 +22,7 @@ pub const LEGEND_FONT_PX: u32 = 14;
 
 /// The box (backend px) a legend of `entries` takes on `plot` (a chart's plotting area)
 /// clear of `points_px` (backend px) where a corner is.
-pub fn legend_box<DB: DrawingBackend, CT: CoordTranslate>(
+pub(crate) fn legend_box<DB: DrawingBackend, CT: CoordTranslate>(
     plot: &DrawingArea<DB, CT>,
     entries: &[LegendEntry],
     points_px: &[(i32, i32)],

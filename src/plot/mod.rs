@@ -49,7 +49,7 @@ pub trait Figure {
 
 /// Draws a figure into a PNG or SVG at `path` (chosen by extension; none means PNG), with
 /// `footer` along its foot: no plot is written without the conditions it was made under.
-pub fn render(path: &Path, figure: &impl Figure, footer: &Footer) -> PlotResult {
+pub(crate) fn render(path: &Path, figure: &impl Figure, footer: &Footer) -> PlotResult {
     register_font();
     let ext = path.extension().map(|e| e.to_string_lossy().to_lowercase());
     let svg = match ext.as_deref() {
@@ -91,7 +91,7 @@ pub(crate) fn svg_text(figure: &impl Figure) -> Result<String, String> {
 }
 
 /// Turns any plotters error into text.
-pub fn err<E: std::fmt::Display>(e: E) -> String {
+pub(crate) fn err<E: std::fmt::Display>(e: E) -> String {
     e.to_string()
 }
 

@@ -25,7 +25,7 @@ impl AxisCommands {
     }
 
     /// Appends the samples of `next`.
-    pub fn append(&mut self, next: &AxisCommands) {
+    pub(crate) fn append(&mut self, next: &AxisCommands) {
         self.pos_m.extend_from_slice(&next.pos_m);
         self.vel_m_per_s.extend_from_slice(&next.vel_m_per_s);
         self.acc_m_per_s2.extend_from_slice(&next.acc_m_per_s2);

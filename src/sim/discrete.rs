@@ -23,7 +23,7 @@ pub struct MapCache {
 
 impl MapCache {
     /// An empty cache for steps of `h` seconds.
-    pub fn new(h: f64) -> Self {
+    pub(crate) fn new(h: f64) -> Self {
         MapCache {
             h,
             dynamics: (0..Mode::COUNT).map(|_| None).collect(),
@@ -32,17 +32,17 @@ impl MapCache {
     }
 
     /// The full step (s).
-    pub fn step_s(&self) -> f64 {
+    pub(crate) fn step_s(&self) -> f64 {
         self.h
     }
 
     /// The augmented dynamics matrix of a mode.
-    pub fn dynamics(&mut self, model: &AxisModel, mode: Mode) -> &AugMatrix {
+    pub(crate) fn dynamics(&mut self, model: &AxisModel, mode: Mode) -> &AugMatrix {
         self.dynamics[mode.index()].get_or_insert_with(|| Box::new(model.dynamics(mode)))
     }
 
     /// The map of a step of h/2^level in a mode.
-    pub fn map(&mut self, model: &AxisModel, mode: Mode, level: usize) -> &StepMap {
+    pub(crate) fn map(&mut self, model: &AxisModel, mode: Mode, level: usize) -> &StepMap {
         let slot = mode.index() * (LEVELS + 1) + level;
         if self.maps[slot].is_none() {
             let a = *self.dynamics(model, mode);

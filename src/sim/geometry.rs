@@ -50,7 +50,7 @@ pub struct CrossTerms {
 
 impl CrossTerms {
     /// The terms of `axis` in `machine`.
-    pub fn of(machine: &MachineConfig, axis: AxisName) -> CrossTerms {
+    pub(crate) fn of(machine: &MachineConfig, axis: AxisName) -> CrossTerms {
         let e = &machine.axis(axis).errors;
         CrossTerms {
             squareness_rad: e.squareness_urad * 1e-6,
@@ -73,7 +73,7 @@ impl CrossTerms {
 
     /// What the axis reads more at `p` with the other axis at `q`, the axis's own last
     /// direction `own_dir` and the other's `other_dir` (±1, or 0 before either moved) (m).
-    pub fn at(&self, p: f64, q: f64, own_dir: f64, other_dir: f64) -> f64 {
+    pub(crate) fn at(&self, p: f64, q: f64, own_dir: f64, other_dir: f64) -> f64 {
         let u = q / self.half_span_m;
         self.squareness_rad * q - self.bow_m * u * u
             + self.map.at(p)
@@ -87,7 +87,7 @@ impl CrossTerms {
 
     /// Adds the terms to `own`, sample by sample in time order, from `other` (on one time
     /// grid, both at the scales).
-    pub fn add(&self, own: &mut [f64], other: &[f64]) {
+    pub(crate) fn add(&self, own: &mut [f64], other: &[f64]) {
         if self.is_zero() {
             return;
         }
@@ -110,7 +110,7 @@ pub struct Travel {
 
 impl Travel {
     /// Takes the next position (m); returns the direction the axis last travelled.
-    pub fn direction(&mut self, p: f64) -> f64 {
+    pub(crate) fn direction(&mut self, p: f64) -> f64 {
         let extreme = *self.extreme.get_or_insert(p);
         let beyond = (p - extreme) * self.dir;
         if beyond > 0.0 {
@@ -133,7 +133,7 @@ pub struct ToolReader {
 
 impl ToolReader {
     /// A reader for `machine`'s axes, both not yet moved.
-    pub fn new(machine: &MachineConfig) -> ToolReader {
+    pub(crate) fn new(machine: &MachineConfig) -> ToolReader {
         ToolReader {
             terms: AxisName::BOTH.map(|a| CrossTerms::of(machine, a)),
             travel: Default::default(),
@@ -146,7 +146,7 @@ impl ToolReader {
     }
 
     /// Both axes at the tool from both at the scales (m), the next sample in time.
-    pub fn read(&mut self, scale: [f64; 2]) -> [f64; 2] {
+    pub(crate) fn read(&mut self, scale: [f64; 2]) -> [f64; 2] {
         let dirs = [
             self.travel[0].direction(scale[0]),
             self.travel[1].direction(scale[1]),

@@ -147,7 +147,7 @@ pub struct AxisSim<'a> {
 
 impl<'a> AxisSim<'a> {
     /// A simulator with steps of `h` seconds.
-    pub fn new(model: &'a AxisModel, h: f64) -> Self {
+    pub(crate) fn new(model: &'a AxisModel, h: f64) -> Self {
         AxisSim {
             model,
             signals: model.signals(),
@@ -258,7 +258,7 @@ impl<'a> AxisSim<'a> {
     }
 
     /// Advances `x` by one full step h in `mode`, switching modes where guards demand.
-    pub fn step(
+    pub(crate) fn step(
         &mut self,
         x: &mut Aug,
         mode: &mut Mode,

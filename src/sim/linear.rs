@@ -29,7 +29,7 @@ impl Loop {
     pub const ALL: [Loop; 3] = [Loop::Current, Loop::Velocity, Loop::Position];
 
     /// Name for tables.
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Loop::Current => "current",
             Loop::Velocity => "velocity",
@@ -261,7 +261,12 @@ pub fn open_loop(model: &AxisModel, which: Loop, freq_hz: f64) -> Complex<f64> {
 
 /// Magnitude (dB) and phase (degrees, unwrapped from 0 at low frequency) over a frequency
 /// list.
-pub fn bode(model: &AxisModel, which: Loop, freqs_hz: &[f64], open: bool) -> Vec<(f64, f64, f64)> {
+pub(crate) fn bode(
+    model: &AxisModel,
+    which: Loop,
+    freqs_hz: &[f64],
+    open: bool,
+) -> Vec<(f64, f64, f64)> {
     let sys = loop_system(model, which, open);
     let mut out = Vec::with_capacity(freqs_hz.len());
     let mut prev_phase: Option<f64> = None;

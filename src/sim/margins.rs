@@ -332,7 +332,7 @@ fn left_as_it_is(m: &ModalFigure, own: &ModalFigure) -> bool {
 
 /// The closed loops' own oscillatory modes: every closed-loop mode with a damping below 1
 /// except, for each mode of the mechanics alone, the closed-loop mode left where it is.
-pub fn loop_modes(model: &AxisModel) -> Vec<ModalFigure> {
+pub(crate) fn loop_modes(model: &AxisModel) -> Vec<ModalFigure> {
     let mut modes: Vec<ModalFigure> = closed_loop_modes(model)
         .into_iter()
         .filter(|m| m.damping < 0.999 && m.frequency_hz > 0.0 && m.real_per_s.is_finite())

@@ -120,7 +120,7 @@ fn near_line(line: Option<u32>) -> String {
 
 impl SimError {
     /// When it happened (s), if it happened during the run.
-    pub fn t_s(&self) -> Option<f64> {
+    pub(crate) fn t_s(&self) -> Option<f64> {
         match self {
             SimError::Diverged { t_s, .. } | SimError::Chattering { t_s, .. } => Some(*t_s),
             SimError::OnAxis { source, .. } => source.t_s(),
@@ -244,7 +244,7 @@ impl AxisTrace {
     }
 
     /// Appends the samples (and friction switches) of the trace that follows this one.
-    pub fn append(&mut self, mut next: AxisTrace) {
+    pub(crate) fn append(&mut self, mut next: AxisTrace) {
         self.pos_m.append(&mut next.pos_m);
         self.motor_pos_m.append(&mut next.motor_pos_m);
         self.ref_m.append(&mut next.ref_m);

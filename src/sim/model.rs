@@ -228,7 +228,7 @@ impl MeasuringError {
     }
 
     /// e(x) (m).
-    pub fn at(&self, x: f64) -> f64 {
+    pub(crate) fn at(&self, x: f64) -> f64 {
         self.scale * x + self.amplitude_m * (self.wavenumber_per_m * x + self.phase_rad).sin()
     }
 }
@@ -408,7 +408,7 @@ impl Mode {
     pub const COUNT: usize = 3 * 3 * 5 * 5;
 
     /// A dense index in 0..COUNT.
-    pub fn index(self) -> usize {
+    pub(crate) fn index(self) -> usize {
         let f = self.friction as usize;
         let c = self.contact as usize;
         ((f * 3 + c) * 5 + self.current as usize) * 5 + self.voltage as usize
@@ -416,7 +416,7 @@ impl Mode {
 
     /// A compact code for traces: friction (0 slip+, 1 slip−, 2 stick) + 3·contact
     /// (0 pos, 1 free, 2 neg) + 9 when a limit is active.
-    pub fn code(self) -> u8 {
+    pub(crate) fn code(self) -> u8 {
         let limited = self.current != ClampMode::Linear || self.voltage != ClampMode::Linear;
         self.friction as u8 + 3 * self.contact as u8 + if limited { 9 } else { 0 }
     }
@@ -526,7 +526,7 @@ impl AxisModel {
     }
 
     /// The model's signals as functionals of the augmented state.
-    pub fn signals(&self) -> Signals {
+    pub(crate) fn signals(&self) -> Signals {
         let x_fb = match self.feedback {
             Feedback::LinearScale => unit(X2) + unit(FB),
             Feedback::MotorEncoder => unit(TH_S) * self.r + unit(FB),

@@ -119,7 +119,7 @@ pub struct AxisRun<'a> {
 impl<'a> AxisRun<'a> {
     /// An axis at rest at `x0_m` (m), advanced in cycles of `dt_s` (s). An unstable gain
     /// setting is refused here, before any step.
-    pub fn new(
+    pub(crate) fn new(
         model: &'a AxisModel,
         x0_m: f64,
         dt_s: f64,
@@ -150,7 +150,7 @@ impl<'a> AxisRun<'a> {
     }
 
     /// Cycles done so far (= samples recorded, taken out or not).
-    pub fn cycles(&self) -> usize {
+    pub(crate) fn cycles(&self) -> usize {
         self.taken + self.trace.len()
     }
 
@@ -212,7 +212,7 @@ impl<'a> AxisRun<'a> {
     }
 
     /// Advances through `commands[range]`, one cycle per sample.
-    pub fn follow(
+    pub(crate) fn follow(
         &mut self,
         commands: &AxisCommands,
         range: std::ops::Range<usize>,
@@ -249,7 +249,7 @@ impl<'a> AxisRun<'a> {
 
     /// The recorded trace (one sample per cycle advanced since the last
     /// [`AxisRun::take_trace`]).
-    pub fn finish(mut self) -> AxisTrace {
+    pub(crate) fn finish(mut self) -> AxisTrace {
         self.take_trace()
     }
 }

@@ -65,7 +65,7 @@ pub enum Dominant {
 
 impl Dominant {
     /// A few words for tables.
-    pub fn label(&self) -> String {
+    pub(crate) fn label(&self) -> String {
         match self {
             Dominant::ServoMismatch => "servo mismatch between axes".into(),
             Dominant::LagAtCorners => "lag at corners".into(),
@@ -100,7 +100,7 @@ const MISMATCH_SHARE: f64 = 0.05;
 /// What dominates the largest contour error of `run` with figures `m` on `machine`;
 /// `max_error_um` runs the program on another machine and gives its largest contour error
 /// (µm), to ask whether matching the axes would take most of the error away.
-pub fn dominant(
+pub(crate) fn dominant(
     run: &CheckRun,
     m: &Metrics,
     machine: &MachineConfig,

@@ -111,7 +111,7 @@ pub enum Flag {
 
 impl Flag {
     /// A few words for tables, the axis last: `position PM 6.3° (X)`.
-    pub fn label(&self) -> String {
+    pub(crate) fn label(&self) -> String {
         format!("{} ({})", self.what(), self.axis())
     }
 
@@ -143,7 +143,7 @@ impl Flag {
 
 /// Flags as a table gives them: each figure once, with the axes that share it —
 /// `position PM 11.9° (X, Y), ζ 0.041 at 183 Hz (X)`.
-pub fn describe(flags: &[Flag]) -> String {
+pub(crate) fn describe(flags: &[Flag]) -> String {
     let mut seen: Vec<(String, Vec<AxisName>)> = Vec::new();
     for f in flags {
         let what = f.what();
@@ -217,7 +217,7 @@ pub(crate) fn health_with(machine: &MachineConfig, cache: &AxisCache) -> Health 
 
 impl Health {
     /// What falls short of `t`: each loop's margins, then the damping.
-    pub fn flags(&self, t: &Thresholds) -> Vec<Flag> {
+    pub(crate) fn flags(&self, t: &Thresholds) -> Vec<Flag> {
         let mut flags = Vec::new();
         for a in &self.margins {
             for m in &a.loops {
@@ -267,7 +267,7 @@ impl Health {
     }
 
     /// The largest of a figure over both axes for one loop.
-    pub fn most(&self, which: Loop, figure: impl Fn(&LoopMargins) -> f64) -> Option<f64> {
+    pub(crate) fn most(&self, which: Loop, figure: impl Fn(&LoopMargins) -> f64) -> Option<f64> {
         self.margins
             .iter()
             .flat_map(|a| a.loops.iter().filter(|m| m.which == which))

@@ -411,7 +411,7 @@ fn run_point(
 }
 
 /// The figures of a run.
-pub fn metrics(run: &CheckRun, kv_per_s: f64) -> Metrics {
+pub(crate) fn metrics(run: &CheckRun, kv_per_s: f64) -> Metrics {
     let s = &run.result.summary;
     Metrics {
         max_contour_um: um_from_m(s.max_contour_error_m),

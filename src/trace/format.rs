@@ -192,7 +192,7 @@ impl ColumnMap {
     }
 
     /// Sets one signal from `Name[unit]` or `Name`.
-    pub fn set(&mut self, signal: Signal, column: &str) -> Result<(), MappingError> {
+    pub(crate) fn set(&mut self, signal: Signal, column: &str) -> Result<(), MappingError> {
         let (name, unit) = split_unit(column.trim());
         let unit = unit
             .map(|u| parse_unit(u, signal))
@@ -216,7 +216,7 @@ impl ColumnMap {
     }
 
     /// The column mapped to `signal`, if any.
-    pub fn get(&self, signal: Signal) -> Option<&ColumnSpec> {
+    pub(crate) fn get(&self, signal: Signal) -> Option<&ColumnSpec> {
         self.specs
             .iter()
             .find(|(s, _)| *s == signal)
@@ -288,7 +288,7 @@ pub struct TraceProfile {
 
 impl TraceProfile {
     /// Reads a profile file into a mapping.
-    pub fn load(path: &std::path::Path) -> Result<ColumnMap, MappingError> {
+    pub(crate) fn load(path: &std::path::Path) -> Result<ColumnMap, MappingError> {
         let in_file = |problem: String| MappingError(format!("{}: {problem}", path.display()));
         let text = std::fs::read_to_string(path).map_err(|e| in_file(e.to_string()))?;
         let profile: TraceProfile =
@@ -361,7 +361,7 @@ pub(crate) fn sniff(header: &str, data: &[&str]) -> Dialect {
 }
 
 /// Splits a line into trimmed fields.
-pub fn fields(line: &str, d: Delimiter) -> Vec<&str> {
+pub(crate) fn fields(line: &str, d: Delimiter) -> Vec<&str> {
     match d {
         Delimiter::Byte(b) => line.split(b as char).map(str::trim).collect(),
         Delimiter::Whitespace => line.split_whitespace().collect(),
@@ -369,7 +369,7 @@ pub fn fields(line: &str, d: Delimiter) -> Vec<&str> {
 }
 
 /// Reads a number as written in the dialect.
-pub fn number(field: &str, dialect: &Dialect) -> Option<f64> {
+pub(crate) fn number(field: &str, dialect: &Dialect) -> Option<f64> {
     let v = if dialect.decimal_comma {
         field.replace(',', ".").parse::<f64>()
     } else {

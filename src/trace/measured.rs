@@ -59,7 +59,7 @@ pub struct MeasuredTrace {
 impl MeasuredTrace {
     /// Where the recorded commands (if any) ask more of an axis than the machine file says
     /// it can give: speed, acceleration, the drive's current.
-    pub fn beyond_machine(
+    pub(crate) fn beyond_machine(
         &self,
         machine: &crate::machine::MachineConfig,
     ) -> Vec<crate::trace::recorded::BeyondMachine> {
@@ -169,7 +169,7 @@ impl MeasuredTrace {
 
     /// The lowest and highest Z over samples `from..=to` (m, the trace's own coordinates):
     /// its commands where recorded, else its positions; `None` where the trace has no Z.
-    pub fn z_span_m(&self, from: usize, to: usize) -> Option<(f64, f64)> {
+    pub(crate) fn z_span_m(&self, from: usize, to: usize) -> Option<(f64, f64)> {
         let z = self.z_cmd_m.as_ref().or(self.z_m.as_ref())?;
         let stretch = z.get(from..=to.min(z.len().checked_sub(1)?))?;
         Some(

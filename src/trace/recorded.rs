@@ -169,7 +169,7 @@ const BEYOND_MARGIN: f64 = 1.05;
 /// The recorded commands' peak speed and acceleration on each axis against the machine
 /// file's rapid rate, acceleration limit and the acceleration its drive's current limit can
 /// give (friction left aside, so this errs towards silence). Positions in m every `dt_s`.
-pub fn beyond_machine(
+pub(crate) fn beyond_machine(
     commands_m: &[Vec<f64>; 2],
     dt_s: f64,
     machine: &MachineConfig,
@@ -186,7 +186,7 @@ pub fn beyond_machine(
 }
 
 /// One axis's peaks against its limits.
-fn axis_beyond(
+pub(crate) fn axis_beyond(
     axis: AxisName,
     config: &AxisConfig,
     c: &AxisCommands,

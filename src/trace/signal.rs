@@ -4,7 +4,7 @@
 
 /// A signal sampled every `dt` at time `t`: cubic (Catmull–Rom) between samples, held
 /// before the first and after the last.
-pub fn sample(v: &[f64], dt: f64, t: f64) -> f64 {
+pub(crate) fn sample(v: &[f64], dt: f64, t: f64) -> f64 {
     let n = v.len();
     if n == 0 {
         return 0.0;

@@ -4,6 +4,10 @@
 #![allow(dead_code)]
 
 #[allow(dead_code)]
+pub mod cli;
+#[allow(dead_code)]
+pub mod diagnosing;
+#[allow(dead_code)]
 pub mod reference;
 
 use std::path::Path;

@@ -55,6 +55,8 @@ pub struct Plant {
     law: Law,
     /// The position is read at the motor's encoder (else at the table).
     motor_encoder: bool,
+    /// A vertical axis's weight less its counterbalance, pulling the table down (N).
+    load: f64,
 }
 
 /// How the motor's current is commanded.
@@ -216,6 +218,10 @@ impl Plant {
             dead_time: c.position_loop.dead_time_ms * 1e-3,
             law: Law::Cascade,
             motor_encoder: c.position_loop.feedback == Feedback::MotorEncoder,
+            load: c
+                .gravity
+                .as_ref()
+                .map_or(0.0, |g| mt * GRAVITY - g.counterbalance_n),
         }
     }
 
@@ -271,6 +277,9 @@ impl<'p> Axis<'p> {
         x[X2] = x0;
         x[TH_S] = x0 / plant.r;
         x[TH_M] = x[TH_S] / plant.it;
+        if plant.load != 0.0 {
+            Axis::holding_load(plant, &mut x);
+        }
         Axis {
             plant,
             x,
@@ -278,6 +287,28 @@ impl<'p> Axis<'p> {
             direction: 1.0,
             spot,
         }
+    }
+
+    /// The rest state in which the cascade holds a vertical axis's weight with the table
+    /// where it stands and friction carrying nothing: the nut pushes the weight up through
+    /// its flank (the gap closed), the screw's and the coupling's torque pass it to the
+    /// motor, whose current the velocity loop's integral commands and the current loop's
+    /// integral drives (its voltage the resistive drop, the motor standing).
+    fn holding_load(p: &Plant, x: &mut State) {
+        assert!(
+            matches!(p.law, Law::Cascade),
+            "the reference holds a weight with the cascade only"
+        );
+        let gap = p.half_gap * p.load.signum();
+        x[TH_S] = (x[X2] + gap + p.load / p.k_m) / p.r;
+        let torque = p.r * p.load;
+        x[TH_M] = (x[TH_S] + torque / p.k_theta) / p.it;
+        let current = p.it * torque / p.kt;
+        x[I] = current;
+        x[F_CMD] = current;
+        x[F_I] = current;
+        x[Z_I] = p.ra * current * p.ti / p.ki;
+        x[Z_V] = current * p.ts / p.ks;
     }
 
     /// The table's position (m).
@@ -445,7 +476,7 @@ impl<'p> Axis<'p> {
         if !stuck {
             dx[X2] = x[V2];
             let friction = p.f_v * x[V2] + f_c * sliding_sign;
-            dx[V2] = (f_n - friction) / p.mt;
+            dx[V2] = (f_n - friction - p.load) / p.mt;
         }
     }
 
@@ -474,7 +505,8 @@ impl<'p> Axis<'p> {
             next[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
         }
         let (_, f_s) = self.plant.friction_at(next[X2], self.spot);
-        let f_n = self.nut_force(&next);
+        // What friction must hold: the nut's force less the weight.
+        let f_n = self.nut_force(&next) - self.plant.load;
         if stuck {
             next[V2] = 0.0;
             if f_n.abs() >= f_s {
@@ -493,8 +525,8 @@ impl<'p> Axis<'p> {
 /// A continuous trapezoidal interpolator: each block accelerates at `accel`, cruises at its
 /// feed and stops at its end (rapids at 10 m/min); a dwell stands. Positions are exact at any
 /// time, speed and acceleration along the path by differences over a microsecond.
-/// A block of the interpolator: its duration and its XY position at a time into it.
-type Block = (f64, Box<dyn Fn(f64) -> [f64; 2]>);
+/// A block of the interpolator: its duration and its XYZ position at a time into it.
+type Block = (f64, Box<dyn Fn(f64) -> [f64; 3]>);
 
 pub struct Trapezoids {
     blocks: Vec<Block>,
@@ -536,11 +568,11 @@ impl Trapezoids {
             }
         }
         let start = segments[0].start_m;
-        blocks.push((pre_s, Box::new(move |_| [start[0], start[1]])));
+        blocks.push((pre_s, Box::new(move |_| start)));
         for seg in segments.iter().copied() {
             if let Geometry::Dwell { seconds } = seg.geometry {
                 let p = seg.start_m;
-                blocks.push((seconds, Box::new(move |_| [p[0], p[1]])));
+                blocks.push((seconds, Box::new(move |_| p)));
                 continue;
             }
             let length = seg.length_m();
@@ -568,20 +600,17 @@ impl Trapezoids {
             };
             blocks.push((
                 total,
-                Box::new(move |t| {
-                    let p = seg.eval(distance(t.clamp(0.0, total)), length).pos;
-                    [p[0], p[1]]
-                }),
+                Box::new(move |t| seg.eval(distance(t.clamp(0.0, total)), length).pos),
             ));
         }
         let end = segments.last().unwrap().end_m;
-        blocks.push((post_s, Box::new(move |_| [end[0], end[1]])));
+        blocks.push((post_s, Box::new(move |_| end)));
         let duration_s = blocks.iter().map(|b| b.0).sum();
         Trapezoids { blocks, duration_s }
     }
 
-    /// The commanded XY position at `t` (m).
-    pub fn position(&self, t: f64) -> [f64; 2] {
+    /// The commanded XYZ position at `t` (m).
+    pub fn position(&self, t: f64) -> [f64; 3] {
         let mut start = 0.0;
         for (k, (d, f)) in self.blocks.iter().enumerate() {
             if t < start + d || k + 1 == self.blocks.len() {
@@ -654,19 +683,34 @@ impl Default for Recording {
 /// the measured positions (at the table, or where the control reads them) and the
 /// commanded positions (mm), as a control's trace would give them.
 pub fn record(program: &Program, x: &AxisConfig, y: &AxisConfig, rec: &Recording) -> String {
+    record_axes(program, &[x, y], rec)
+}
+
+/// [`record`] with Z run too, on `z`: its measured and commanded columns after X's and Y's.
+pub fn record_xyz(program: &Program, [x, y, z]: [&AxisConfig; 3], rec: &Recording) -> String {
+    record_axes(program, &[x, y, z], rec)
+}
+
+/// A record of the first `configs.len()` axes (X, Y and perhaps Z).
+fn record_axes(program: &Program, configs: &[&AxisConfig], rec: &Recording) -> String {
     let interpolator = Trapezoids::from_home(program, rec.accel, 0.3, 0.5, rec.home_m);
-    let plants = [Plant::new(x), Plant::new(y)];
+    let plants: Vec<Plant> = configs.iter().map(|c| Plant::new(c)).collect();
     let start = interpolator.position(0.0);
-    let mut axes = [
-        Axis::at_rest(&plants[0], start[0], rec.tight_spot_x),
-        Axis::at_rest(&plants[1], start[1], None),
-    ];
+    let mut axes: Vec<Axis> = plants
+        .iter()
+        .enumerate()
+        .map(|(a, p)| Axis::at_rest(p, start[a], rec.tight_spot_x.filter(|_| a == 0)))
+        .collect();
     let mut rng = rand::rngs::StdRng::seed_from_u64(rec.seed);
     let noise = Normal::new(0.0, rec.noise_m.max(1e-15)).unwrap();
     let steps_per_sample = (rec.sample_s / rec.step_s).round() as usize;
     let h = rec.sample_s / steps_per_sample as f64;
     let samples = (interpolator.duration_s / rec.sample_s).floor() as usize;
-    let mut csv = String::from("t,x,y,x_cmd,y_cmd\n");
+    let mut csv = String::from(if axes.len() == 3 {
+        "t,x,y,z,x_cmd,y_cmd,z_cmd\n"
+    } else {
+        "t,x,y,x_cmd,y_cmd\n"
+    });
     let read = |v: f64, rng: &mut rand::rngs::StdRng| {
         let m = v + noise.sample(rng);
         if rec.count_m > 0.0 {
@@ -687,17 +731,14 @@ pub fn record(program: &Program, x: &AxisConfig, y: &AxisConfig, rec: &Recording
                 axis.table()
             }
         };
-        let mx = read(at(&axes[0]), &mut rng);
-        let my = read(at(&axes[1]), &mut rng);
+        let measured: Vec<f64> = axes.iter().map(|a| read(at(a), &mut rng)).collect();
         if kept {
-            csv.push_str(&format!(
-                "{:.6},{:.7},{:.7},{:.7},{:.7}\n",
-                t - keep_from,
-                mx * 1e3,
-                my * 1e3,
-                cmd[0] * 1e3,
-                cmd[1] * 1e3
-            ));
+            let mut row = format!("{:.6}", t - keep_from);
+            for v in measured.iter().chain(&cmd[..axes.len()]) {
+                row.push_str(&format!(",{:.7}", v * 1e3));
+            }
+            csv.push_str(&row);
+            csv.push('\n');
         } else if t >= keep_to {
             break;
         }

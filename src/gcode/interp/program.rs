@@ -74,7 +74,7 @@ impl std::fmt::Display for SourceLine<'_> {
 
 impl SourceLine<'_> {
     /// Where program line `line` is written, among the program's subprogram files `sources`.
-    pub fn among(sources: &[SourceFile], line: u32) -> SourceLine<'_> {
+    pub(crate) fn among(sources: &[SourceFile], line: u32) -> SourceLine<'_> {
         let file = sources
             .iter()
             .find(|s| line > s.first_line && line - s.first_line <= s.lines);
@@ -89,7 +89,7 @@ impl SourceLine<'_> {
 
     /// The line as a table's column or a plot's label shows it: `29`, or `BOSS.SPF:8` in a
     /// subprogram's file (its name without the folder).
-    pub fn short(&self) -> String {
+    pub(crate) fn short(&self) -> String {
         match self.file {
             Some(f) => {
                 let name = std::path::Path::new(f)
@@ -112,7 +112,7 @@ impl Program {
 
     /// A warning about one of the program's lines, with the file and line named in its
     /// text when the line is in a subprogram's file.
-    pub fn placed(&self, warning: Warning) -> Warning {
+    pub(crate) fn placed(&self, warning: Warning) -> Warning {
         let at = self.source_line(warning.line);
         match at.file {
             Some(_) => Warning {

@@ -222,7 +222,7 @@ fn case(rest: &str) -> Option<Control> {
 
 impl Structure {
     /// Reads the program's control statements and labels, and pairs the structured ones.
-    pub fn of(lines: &[&str]) -> Result<Structure, FlowError> {
+    pub(crate) fn of(lines: &[&str]) -> Result<Structure, FlowError> {
         let mut s = Structure::default();
         let mut open: Vec<(usize, &'static str)> = Vec::new();
         for (k, line) in lines.iter().enumerate() {
@@ -275,12 +275,12 @@ impl Structure {
     }
 
     /// The control statement of line `k`, if it is one.
-    pub fn control(&self, k: usize) -> Option<&Control> {
+    pub(crate) fn control(&self, k: usize) -> Option<&Control> {
         self.controls.get(&k)
     }
 
     /// The line of the label or block number a jump from line `k` reaches.
-    pub fn label(&self, name: &str, k: usize, way: Way) -> Option<usize> {
+    pub(crate) fn label(&self, name: &str, k: usize, way: Way) -> Option<usize> {
         // A block number may be named without its `N` (`GOTOF 90`).
         let lines = match self.labels.get(name) {
             None if name.bytes().all(|b| b.is_ascii_digit()) => {
@@ -298,7 +298,7 @@ impl Structure {
     }
 
     /// The line that closes (or, from a closing one, opens) the structure of line `k`.
-    pub fn partner(&self, k: usize) -> Option<usize> {
+    pub(crate) fn partner(&self, k: usize) -> Option<usize> {
         self.partner.get(&k).copied()
     }
 }
@@ -397,7 +397,7 @@ impl Translator {
     }
 
     /// Runs the control statement of line `k`; the line to run next.
-    pub fn control(
+    pub(crate) fn control(
         &mut self,
         c: &Control,
         k: usize,

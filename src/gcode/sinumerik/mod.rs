@@ -142,7 +142,7 @@ impl Default for Rewritten {
 
 impl Rewritten {
     /// The RS274/NGC text of `line`: the line itself where it is plain.
-    pub fn text<'a>(&'a self, line: &'a str) -> &'a str {
+    pub(crate) fn text<'a>(&'a self, line: &'a str) -> &'a str {
         if self.plain { line } else { &self.text }
     }
 
@@ -274,7 +274,7 @@ fn refuse(offset: usize, word: &str, reason: &'static str) -> Failure {
 
 impl Translator {
     /// Rewrites one SINUMERIK line into RS274/NGC words.
-    pub fn rewrite(&mut self, line: &str) -> Result<Rewritten, Failure> {
+    pub(crate) fn rewrite(&mut self, line: &str) -> Result<Rewritten, Failure> {
         let mut upper = std::mem::take(&mut self.upper);
         upper.clear();
         upper.push_str(line);

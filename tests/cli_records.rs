@@ -1,0 +1,433 @@
+//! The command line on measured records: `diagnose` and `identify` with their exit
+//! statuses, outputs written whole, and warnings given once.
+
+mod common;
+
+use std::path::Path;
+
+use common::cli::{run, sample, text};
+
+/// A control's export — milliseconds, vendor column names, semicolons with decimal commas,
+/// a comment and an `EOF` trailer — is diagnosed as it is, with a column mapping, and gives
+/// the diagnosis the plain file gives. `inspect` shows how it was read.
+#[test]
+fn a_vendor_export_is_diagnosed_without_conversion() {
+    let dir = tempfile::tempdir().unwrap();
+    let plain = dir.path().join("m.csv");
+    let circle = sample("circle-test.nc");
+    let o = run(&[
+        "synth",
+        circle.to_str().unwrap(),
+        "--out",
+        plain.to_str().unwrap(),
+        "--effect",
+        "backlash",
+        "--axis",
+        "x",
+        "--values",
+        "8",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let mut vendor =
+        String::from("// servo trace, axis positions in mm\r\nTime;X_ActPos;Y_ActPos\r\n");
+    for line in std::fs::read_to_string(&plain).unwrap().lines().skip(1) {
+        let f: Vec<f64> = line.split(',').map(|v| v.parse().unwrap()).collect();
+        let row = format!("{:.3};{:.7};{:.7}\r\n", f[0] * 1e3, f[1], f[2]);
+        vendor.push_str(&row.replace('.', ","));
+    }
+    vendor.push_str("EOF;;\r\n");
+    let exported = dir.path().join("export.csv");
+    std::fs::write(&exported, vendor).unwrap();
+
+    let overview_dir = dir.path().join("overview");
+    let overview = overview_dir.join("inspect.png");
+    let o = run(&[
+        "inspect",
+        exported.to_str().unwrap(),
+        "--columns",
+        "t=Time[ms],x=X_ActPos[mm],y=Y_ActPos[mm]",
+        "--plot",
+        overview_dir.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(std::fs::read(&overview).unwrap().starts_with(b"\x89PNG"));
+    let shown = text(&o.stdout);
+    assert!(
+        shown.contains("semicolon-separated, decimal comma, 1 trailer rows skipped"),
+        "{shown}"
+    );
+    assert!(shown.contains("at 500.0 Hz"), "{shown}");
+    // Without the mapping, the unit-less millisecond clock is read in ms — the only unit
+    // giving a plausible step — and the mapping says so.
+    let o = run(&["inspect", exported.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let shown = text(&o.stdout);
+    assert!(shown.contains("at 500.0 Hz"), "{shown}");
+    assert!(
+        shown.contains("in ms (unit from the sampling step"),
+        "{shown}"
+    );
+
+    let found = |measured: &std::path::Path, extra: &[&str]| {
+        let mut args = vec!["diagnose", circle.to_str().unwrap(), "--measured"];
+        args.push(measured.to_str().unwrap());
+        args.extend_from_slice(extra);
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+        text(&o.stdout)
+            .lines()
+            .find(|l| l.contains("drive.backlash_um ="))
+            .unwrap_or_else(|| panic!("no backlash found:\n{}", text(&o.stdout)))
+            .to_string()
+    };
+    let from_export = found(
+        &exported,
+        &["--columns", "t=Time[ms],x=X_ActPos[mm],y=Y_ActPos[mm]"],
+    );
+    assert_eq!(from_export, found(&plain, &[]));
+}
+
+/// Another interpolator's commands drive `synth` (a record at 5 kHz in 0.1 µm motor-encoder
+/// counts), and `diagnose` reads it at the motor: the hidden gain error is named, the
+/// causes a motor encoder cannot see are listed as not tried, and the user steers the
+/// search.
+#[test]
+fn a_foreign_command_stream_at_the_motor_is_diagnosed_and_the_user_steers() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("small-circle.nc");
+    std::fs::write(
+        &program,
+        "G21 G17 G90 G94\nG0 X10 Y-5\nG1 Y0 F3000\nG3 X10 Y0 I-10 J0\nG1 Y5\nM30\n",
+    )
+    .unwrap();
+    let program = program.to_str().unwrap();
+    // Our plan's commands, re-timed 25 % slower on a 1 kHz clock: the same path at
+    // another speed, as another control would run it.
+    let planned = dir.path().join("planned.csv");
+    let o = run(&[
+        "synth",
+        program,
+        "--out",
+        planned.to_str().unwrap(),
+        "--with-commands",
+        "--sample-ms",
+        "1",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let mut stream = String::from("time_ms,X_Traj,Y_Traj\n");
+    for line in std::fs::read_to_string(&planned).unwrap().lines().skip(1) {
+        let f: Vec<f64> = line.split(',').map(|v| v.parse().unwrap()).collect();
+        stream.push_str(&format!("{:.3},{:.7},{:.7}\n", f[0] * 1.25e3, f[3], f[4]));
+    }
+    let commands = dir.path().join("commands.csv");
+    std::fs::write(&commands, stream).unwrap();
+    let record = dir.path().join("record.csv");
+    let o = run(&[
+        "synth",
+        program,
+        "--out",
+        record.to_str().unwrap(),
+        "--commands",
+        commands.to_str().unwrap(),
+        "--columns",
+        "t=time_ms[ms],x=X_Traj[mm],y=Y_Traj[mm]",
+        "--rate-hz",
+        "5000",
+        "--quantization-um",
+        "0.1",
+        "--measured-at",
+        "motor",
+        "--noise-um",
+        "0.02",
+        "--effect",
+        "kv_gain",
+        "--axis",
+        "y",
+        "--values",
+        "0.9",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+
+    let diagnose = |extra: &[&str]| {
+        let mut args = vec!["diagnose", program, "--measured", record.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+        text(&o.stdout)
+    };
+    let at_motor = diagnose(&["--measured-at", "motor"]);
+    assert!(
+        at_motor.contains("1 significant cause: kv_gain on Y."),
+        "{at_motor}"
+    );
+    assert!(at_motor.contains("held out:"), "{at_motor}");
+    assert!(
+        at_motor.contains("not tried: backlash on X, Y (measured at the motor"),
+        "{at_motor}"
+    );
+    let none = diagnose(&["--measured-at", "motor", "--max-causes", "0"]);
+    assert!(none.contains("No cause tried"), "{none}");
+    let excluded = diagnose(&["--measured-at", "motor", "--exclude", "kv_gain,dead_time"]);
+    assert!(
+        !excluded.contains("significant cause: kv_gain"),
+        "{excluded}"
+    );
+    assert!(
+        excluded.contains("not tried: kv_gain on X, Y (left out"),
+        "{excluded}"
+    );
+    let o = run(&[
+        "diagnose",
+        program,
+        "--measured",
+        record.to_str().unwrap(),
+        "--causes",
+        "lost_motion",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    // An unknown id is refused with the ids there are.
+    let err = text(&o.stderr);
+    assert!(
+        err.contains("invalid value 'lost_motion'") && err.contains("direction_offset"),
+        "{err}"
+    );
+}
+
+/// `--measured` names one record to fit on and at most one to judge on.
+#[test]
+fn diagnose_takes_at_most_two_records() {
+    let square = sample("square.nc");
+    let o = run(&[
+        "diagnose",
+        square.to_str().unwrap(),
+        "--measured",
+        "a.csv",
+        "--measured",
+        "b.csv",
+        "--measured",
+        "c.csv",
+    ]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("at most one to judge on"), "{err}");
+}
+
+/// From a record to a machine file in one command: a small table with heavier tables and
+/// other friction than the preset's is recorded at 10 kHz with its commands; `identify`
+/// from the `small-table` template writes a machine file that `check` takes, with the
+/// values in its header. A record without commands says what it lacks.
+#[test]
+fn identify_writes_a_machine_file_check_takes_and_a_record_without_commands_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    // Both without acceleration feed-forward (docs/identify.md: feed-forward of a record's
+    // reconstructed acceleration biases the mass).
+    let no_ff =
+        "[x.controller]\naccel_feedforward = 0.0\n[y.controller]\naccel_feedforward = 0.0\n";
+    std::fs::write(
+        path("hidden.toml"),
+        format!(
+            "base = \"small-table\"\n{no_ff}[x.drive]\ntable_mass_kg = 45.0\n\
+             [x.friction]\ncoulomb_n = 35.0\n[y.drive]\ntable_mass_kg = 70.0\n"
+        ),
+    )
+    .unwrap();
+    std::fs::write(
+        path("template.toml"),
+        format!("base = \"small-table\"\n{no_ff}"),
+    )
+    .unwrap();
+    let program = sample("identify-moves.nc");
+    let program = program.to_str().unwrap();
+    let o = run(&[
+        "synth",
+        program,
+        "--machine",
+        &path("hidden.toml"),
+        "--out",
+        &path("rec.csv"),
+        "--with-commands",
+        "--rate-hz",
+        "10000",
+        "--quantization-um",
+        "0.1",
+        "--noise-um",
+        "0.05",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let o = run(&[
+        "identify",
+        program,
+        "--measured",
+        &path("rec.csv"),
+        "--template",
+        &path("template.toml"),
+        "--out",
+        &path("id.toml"),
+        "--json",
+        &path("id.json"),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    assert!(
+        out.contains("drive.table_mass_kg") && out.contains("machine written to"),
+        "{out}"
+    );
+    let id = contourcheck::machine::MachineConfig::load(Path::new(&path("id.toml"))).unwrap();
+    let masses = (id.x.drive.table_mass_kg, id.y.drive.table_mass_kg);
+    assert!(
+        (masses.0 - 45.0).abs() < 0.5 && (masses.1 - 70.0).abs() < 0.7,
+        "{masses:?}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path("id.json")).unwrap()).unwrap();
+    assert_eq!(json["axes"][0]["axis"], "x");
+    let o = run(&["check", program, "--machine", &path("id.toml")]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    // Without the commands.
+    let o = run(&[
+        "synth",
+        program,
+        "--machine",
+        &path("hidden.toml"),
+        "--out",
+        &path("bare.csv"),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let o = run(&[
+        "identify",
+        program,
+        "--measured",
+        &path("bare.csv"),
+        "--template",
+        "small-table",
+        "--out",
+        &path("never.toml"),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o.stderr).contains("no commanded positions"),
+        "{}",
+        text(&o.stderr)
+    );
+    assert!(!dir.path().join("never.toml").exists());
+}
+
+/// docs/identify.md's example of a controller that is not its design: the documented commands,
+/// on the documented files, find the stand-in's gain, corners, mass and friction, and the
+/// identified machine predicts the held-out halves to the record's noise.
+#[test]
+fn the_readme_lead_lag_example_identifies_the_stand_in() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let example = |name: &str| {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("docs/examples")
+            .join(name)
+            .to_str()
+            .unwrap()
+            .to_string()
+    };
+    let program = sample("small-circle.nc");
+    let program = program.to_str().unwrap();
+    let o = run(&[
+        "synth",
+        program,
+        "--machine",
+        &example("lead-lag-table.toml"),
+        "--with-commands",
+        "--rate-hz",
+        "10000",
+        "--quantization-um",
+        "0.1",
+        "--noise-um",
+        "0.05",
+        "--out",
+        &path("record.csv"),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let o = run(&[
+        "identify",
+        program,
+        "--measured",
+        &path("record.csv"),
+        "--template",
+        &example("lead-lag-design.toml"),
+        "--out",
+        &path("mine.toml"),
+        "--json",
+        &path("id.json"),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path("id.json")).unwrap()).unwrap();
+    let x = &json["axes"][0];
+    let value = |key: &str| {
+        let v = x["values"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|v| v["key"] == key)
+            .unwrap_or_else(|| panic!("{key}: {x}"));
+        assert_eq!(v["determined"], true, "{key}: {v}");
+        v["value"].as_f64().unwrap()
+    };
+    for (key, truth) in [
+        ("controller.gain", 300.59),
+        ("controller.zero_1_hz", 3.5),
+        ("controller.zero_2_hz", 14.4),
+        ("controller.pole_1_hz", 64.0),
+        ("drive.table_mass_kg", 40.0),
+        ("friction.coulomb_n", 0.15 * 40.0 * 9.81),
+    ] {
+        let v = value(key);
+        assert!((v / truth - 1.0).abs() < 0.03, "{key}: {v} against {truth}");
+    }
+    let noise = json["noise_um"].as_f64().unwrap();
+    for axis in json["axes"].as_array().unwrap() {
+        let held_out = axis["held_out_identified_um"].as_f64().unwrap();
+        assert!(held_out < 1.5 * noise, "{axis}");
+        assert!(held_out < 0.15 * axis["following_error_rms_um"].as_f64().unwrap());
+    }
+}
+
+/// A record whose commands run an axis faster than the machine file's rapid rate (1000
+/// mm/min commanded, 600 allowed): `diagnose` warns of it once, in its report, and not again
+/// on stderr.
+#[test]
+fn a_command_beyond_the_machine_is_warned_of_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("line.nc");
+    std::fs::write(
+        &program,
+        "G21 G90 G17 G94\nG0 X0 Y0\nG1 X20 F1000\nG1 X0\nM2\n",
+    )
+    .unwrap();
+    let record = dir.path().join("line.csv");
+    let o = run(&[
+        "synth",
+        program.to_str().unwrap(),
+        "--with-commands",
+        "--out",
+        record.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let slow = dir.path().join("slow.toml");
+    std::fs::write(
+        &slow,
+        "base = \"hvmc\"\n[x.limits]\nrapid_mm_per_min = 600\nmax_feed_mm_per_min = 600\n",
+    )
+    .unwrap();
+    let o = run(&[
+        "diagnose",
+        program.to_str().unwrap(),
+        "--measured",
+        record.to_str().unwrap(),
+        "--machine",
+        slow.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let all = text(&o.stdout) + &text(&o.stderr);
+    let warning = "beyond the rapid rate of 600 mm/min (x.limits.rapid_mm_per_min)";
+    assert_eq!(all.matches(warning).count(), 1, "{all}");
+}

@@ -1,0 +1,133 @@
+//! Records with Z that the tool did not make: the independent reference of
+//! `common::reference` runs X, Y and a vertical Z that carries its weight (its own
+//! integrator, its own interpolator with a stop at every block end, recorded commands,
+//! noise), on a machine whose Z is simulated. The program plunges, runs a helix down and
+//! retracts, so Z goes down and up and reverses under its weight.
+//!
+//! On the nominal machine Z compares at the noise and nothing is named on any axis (the
+//! weight's different reversals up and down are the model's, not backlash); with Z's
+//! position gain 8 % low, the diagnosis names that gain on Z at its value within its
+//! uncertainty, and nothing on X or Y.
+
+mod common;
+
+use std::sync::OnceLock;
+
+use common::diagnosing::diagnose_nominal;
+use common::program_text;
+use common::reference::{Recording, record_xyz};
+use contourcheck::diagnose::Diagnosis;
+use contourcheck::diagnose::causes::CauseId;
+use contourcheck::diagnose::report::DiagnoseReport;
+use contourcheck::machine::{AxisName, MachineConfig};
+use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
+use contourcheck::{ReportInputs, diagnose_page};
+
+/// A plunge of 2 mm, a helix of one turn of 5 mm radius down 6 mm more, and the retract
+/// up 8 mm: Z moves down at the feed, slower along the helix, and reverses to go up.
+const PROGRAM: &str = "G21 G90 G17 G94\nG0 X5 Y0 Z0\nG1 Z-2 F1000\nG3 X5 Y0 Z-8 I-5 J0\n\
+                       G1 Z0\nM2\n";
+
+/// Z's position gain in the second record, against the nominal 1.0 m/min/mm.
+const LOW_KV: f64 = 0.92;
+
+/// The diagnosis of the program recorded by the reference on `truth`, against the nominal
+/// machine (the preset, whose Z is simulated and carries its weight).
+fn diagnosed(truth: &MachineConfig) -> (Diagnosis, MeasuredTrace) {
+    let program = program_text(PROGRAM);
+    let z = truth.axis(AxisName::Z);
+    let csv = record_xyz(&program, [&truth.x, &truth.y, z], &Recording::default());
+    let measured = parse_trace(&csv, "reference-xyz.csv").unwrap();
+    (diagnose_nominal(&program, &measured), measured)
+}
+
+fn nominal_record() -> &'static Diagnosis {
+    static D: OnceLock<Diagnosis> = OnceLock::new();
+    D.get_or_init(|| diagnosed(&MachineConfig::default_preset()).0)
+}
+
+fn low_gain_record() -> &'static (Diagnosis, MeasuredTrace) {
+    static D: OnceLock<(Diagnosis, MeasuredTrace)> = OnceLock::new();
+    D.get_or_init(|| {
+        let mut truth = MachineConfig::default_preset();
+        truth
+            .axis_mut(AxisName::Z)
+            .position_loop
+            .kv_m_per_min_per_mm = LOW_KV;
+        diagnosed(&truth)
+    })
+}
+
+#[test]
+fn the_nominal_machine_with_its_weighted_z_is_found_nominal_on_every_axis() {
+    let d = nominal_record();
+    let text = d.coverage.describe().join("\n");
+    assert!(d.z.compared, "{:?}\n{text}", d.z);
+    assert!(text.contains("compared with the simulated Z"), "{text}");
+    // Z runs at up to 1000 mm/min, a lag of 1 mm at Kv = 1 m/min/mm (F / Kv), reverses at
+    // the bottom and holds 24.5 kN throughout: the model must match the reference to its
+    // noise (0.3 µm) and try no cause.
+    assert!(d.z.before_rms_um < 2.0 * d.z.noise_um, "{:?}", d.z);
+    assert!(d.z.noise_um < 0.5, "{:?}", d.z);
+    assert!(d.z.cause.is_none() && d.z.not_named.is_empty(), "{:?}", d.z);
+    assert!(d.causes.is_empty(), "{:?}", d.causes);
+    let said = d.z.describe().join("\n");
+    assert!(
+        said.starts_with("Z: compared with the simulated Z"),
+        "{said}"
+    );
+    assert!(!said.contains("found on Z"), "{said}");
+}
+
+#[test]
+fn a_low_gain_on_z_is_named_on_z_at_its_value_and_nothing_on_x_or_y() {
+    let (d, measured) = low_gain_record();
+    let z = &d.z;
+    let cause = z.cause.as_ref().unwrap_or_else(|| panic!("{z:?}"));
+    assert_eq!(cause.id, CauseId::KvGain, "{z:?}");
+    let kv = &cause.params[0];
+    assert_eq!(kv.key, "position_loop.kv_m_per_min_per_mm");
+    // Within its uncertainty (and that uncertainty a useful one).
+    assert!(
+        (kv.value - LOW_KV).abs() <= 3.0 * kv.uncertainty.max(0.002),
+        "{kv:?}"
+    );
+    assert!(kv.uncertainty < 0.02, "{kv:?}");
+    // The lag the gain leaves: at 1000 mm/min an 8 % gain error is F/Kv·(1/0.92 − 1) ≈
+    // 87 µm at full Z speed, which the fit must take away to near the nominal record's level.
+    assert!(z.before_rms_um > 20.0, "{z:?}");
+    assert!(z.after_rms_um < 0.2 * z.before_rms_um, "{z:?}");
+    assert!(d.causes.is_empty(), "X or Y named: {:?}", d.causes);
+    let said = d.z.describe().join("\n");
+    assert!(said.contains("found on Z: kv_gain"), "{said}");
+    // The HTML page says it too.
+    let nominal = MachineConfig::default_preset();
+    let report = DiagnoseReport::new(d, "helix.nc", measured, &nominal);
+    let page = diagnose_page(d, &report, &ReportInputs::default()).unwrap();
+    assert!(page.contains("<h3>Z</h3>") && page.contains("found on Z: kv_gain"));
+    // The extended machine carries the gain on Z, X and Y as they were.
+    assert_eq!(d.machine.x, nominal.x);
+    assert_eq!(d.machine.y, nominal.y);
+    let fitted = d
+        .machine
+        .axis(AxisName::Z)
+        .position_loop
+        .kv_m_per_min_per_mm;
+    assert!((fitted - kv.value).abs() < 1e-12);
+}
+
+#[test]
+fn backlash_on_a_z_that_carries_its_weight_stays_hidden_and_is_not_named() {
+    // The weight, 2500 kg · g ≈ 24.5 kN, is far beyond Z's friction (300 N) and the force
+    // its accelerations take (2500 kg · 0.5 m/s² = 1.25 kN): the nut never leaves the flank
+    // that carries it, up or down, so 20 µm of play in it moves nothing the scale reads,
+    // and the nominal model without it matches the record at its noise.
+    let nominal = MachineConfig::default_preset();
+    let mut truth = nominal.clone();
+    truth.axis_mut(AxisName::Z).drive.backlash_um = 20.0;
+    let (d, _) = diagnosed(&truth);
+    assert!(d.z.compared, "{:?}", d.z);
+    assert!(d.z.before_rms_um < 2.0 * d.z.noise_um, "{:?}", d.z);
+    assert!(d.z.cause.is_none(), "{:?}", d.z);
+    assert!(d.causes.is_empty(), "{:?}", d.causes);
+}
