@@ -2,7 +2,7 @@
 //! uncertainties both give; and the rounds by which the values the record does not
 //! determine go back to the template's.
 
-use super::REACHED_EXCESS;
+use super::at_noise;
 
 /// How much better than with the design's corner (on the held-out halves) the fit with a
 /// loose corner free must predict for the corner to stay: by more than a twentieth, as
@@ -90,7 +90,7 @@ impl Round {
         loop {
             // Above the noise the model is not the machine: a corner only the model's floor
             // leaves loose stays where the fit put it (`Knob::stays_fitted`).
-            let reached = round.reaches_noise(fit);
+            let reached = round.reaches_noise(fit, &base, fold);
             let undetermined: Vec<&'static str> = round
                 .undetermined(!reached)
                 .into_iter()
@@ -105,7 +105,7 @@ impl Round {
                 .copied()
                 .filter(|k| knobs::corner_of(k).is_some())
                 .collect();
-            if !reached || corners.is_empty() || next.0.reaches_noise(fit) {
+            if !reached || corners.is_empty() || next.0.reaches_noise(fit, &next.1, fold) {
                 (round, base) = next;
                 continue;
             }
@@ -175,10 +175,13 @@ impl Round {
         Some((ss / n.max(1) as f64).sqrt())
     }
 
-    /// Whether the fit on the whole record reaches the record's noise.
-    fn reaches_noise(&self, fit: &Fit) -> bool {
+    /// Whether the round reaches the record's noise: the fit on the whole record, and its
+    /// halves' on the samples they did not see ([`super::at_noise`]).
+    fn reaches_noise(&self, fit: &Fit, base: &AxisConfig, fold: &[bool]) -> bool {
         let samples = fit.mask().iter().filter(|m| **m).count().max(1);
-        (self.whole.cost / samples as f64).sqrt() <= REACHED_EXCESS * fit.ctx().noise_sigma
+        let rms = (self.whole.cost / samples as f64).sqrt();
+        self.held_out_rms(fit, base, fold)
+            .is_some_and(|held_out| at_noise(rms, held_out, fit.ctx().noise_sigma))
     }
 
     /// The knobs whose uncertainty leaves them undetermined.
