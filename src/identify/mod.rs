@@ -75,22 +75,6 @@ const MOVING_SHARE: f64 = 0.01;
 /// systematic — values fitted to absorb it are not the machine's. On every sample first;
 /// above it, away from the standstills; above it there too, nothing is identified.
 const REACHED_EXCESS: f64 = 1.1;
-/// How far above the record's noise the held-out residual — each half's fit scored on the
-/// samples of the other half — may stay for a fit to count as reaching the noise. Values
-/// the record determines come out of each half as they come out of the whole, and predict
-/// the other half to about the noise (the model's floor adds a quarter of it in squares).
-/// Halves that miss each other's samples by twice the noise carry a systematic part of √3
-/// times it: the fit at the noise on every sample had values the record does not pin down
-/// follow the noise and what the model misses, and it is not the machine.
-const HELD_OUT_EXCESS: f64 = 2.0;
-
-/// Whether a fit reaches the record's noise (all in one unit): its residual over the
-/// samples it was fitted on within [`REACHED_EXCESS`] of it, and its halves' residual on
-/// the samples they did not see within [`HELD_OUT_EXCESS`] — a fit is judged by what it
-/// predicts.
-fn at_noise(rms: f64, held_out: f64, noise: f64) -> bool {
-    rms <= REACHED_EXCESS * noise && held_out <= HELD_OUT_EXCESS * noise
-}
 
 /// One identified value.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -638,11 +622,7 @@ fn identify_on(
             values,
             kept: knobs::kept(&template_axis).to_string(),
             moving_only,
-            reached: at_noise(
-                rms(&identified_residual),
-                held_out_identified_um,
-                um_from_m(ctx.noise_sigma),
-            ),
+            reached: rms(&identified_residual) <= REACHED_EXCESS * um_from_m(ctx.noise_sigma),
             better_than_template: verdict::better_than_template(
                 held_out_identified_um,
                 held_out_template_um,

@@ -2,12 +2,20 @@
 //! uncertainties both give; and the rounds by which the values the record does not
 //! determine go back to the template's.
 
-use super::at_noise;
+use super::REACHED_EXCESS;
 
 /// How much better than with the design's corner (on the held-out halves) the fit with a
 /// loose corner free must predict for the corner to stay: by more than a twentieth, as
 /// every larger model must.
 const HELD_OUT_GAIN: f64 = 0.95;
+/// And how close to the record's noise it must predict them: a corner the noise leaves
+/// loose is kept only because the fit with it reaches the noise where the design's does
+/// not, so it must reach it on the samples each half's fit did not see as well. Values the
+/// record determines predict the other half to about the noise (the model's floor adds a
+/// quarter of it in squares); halves that miss each other by twice it carry a systematic
+/// part of √3 times the noise — the loose corner wandered with the gain on each half,
+/// and the fit at the noise on every sample had it follow the noise.
+const HELD_OUT_EXCESS: f64 = 2.0;
 use super::knobs::{self, Knob, get, set_all};
 use super::solve::{Fit, Fitted};
 use crate::machine::AxisConfig;
@@ -59,11 +67,12 @@ impl Round {
     /// A corner put back is the design's, and the design's is a guess the record can refute:
     /// where the fit with the corner free reached the noise, the fit with the design's corner
     /// does not, and the fit with the corner kept (the rest that is undetermined put back)
-    /// predicts the held-out halves better than it by more than a twentieth, the record
-    /// excludes the design's value even though it leaves the corner looser than its 5 % —
-    /// the corner stays where the fit put it, a model's value (not a measurement). (Where the
-    /// halves' fits of a loose corner wander with the gain and predict each other worse, it
-    /// goes back.)
+    /// predicts the held-out halves within twice the noise and better than it by more than a
+    /// twentieth, the record excludes the design's value even though it leaves the corner
+    /// looser than its 5 % — the corner stays where the fit put it, a model's value (not a
+    /// measurement). (Where the halves' fits of a loose corner wander with the gain and
+    /// predict each other worse, or miss each other by more than twice the noise, it goes
+    /// back.)
     pub(super) fn fit_determined(
         fit: &Fit,
         knobs: &[Knob],
@@ -78,8 +87,8 @@ impl Round {
 
     /// The rounds of [`Round::fit_determined`] from `round`, the corners `refuted` kept
     /// fitted. Where putting a loose corner back leaves the noise, both ways are followed to
-    /// their end and the corner kept only where that way predicts the held-out halves better
-    /// by more than a twentieth.
+    /// their end and the corner kept only where that way predicts the held-out halves within
+    /// twice the noise, and better than the design's way by more than a twentieth.
     fn settled(
         fit: &Fit,
         (mut round, mut base): (Round, AxisConfig),
@@ -90,7 +99,7 @@ impl Round {
         loop {
             // Above the noise the model is not the machine: a corner only the model's floor
             // leaves loose stays where the fit put it (`Knob::stays_fitted`).
-            let reached = round.reaches_noise(fit, &base, fold);
+            let reached = round.reaches_noise(fit);
             let undetermined: Vec<&'static str> = round
                 .undetermined(!reached)
                 .into_iter()
@@ -105,7 +114,7 @@ impl Round {
                 .copied()
                 .filter(|k| knobs::corner_of(k).is_some())
                 .collect();
-            if !reached || corners.is_empty() || next.0.reaches_noise(fit, &next.1, fold) {
+            if !reached || corners.is_empty() || next.0.reaches_noise(fit) {
                 (round, base) = next;
                 continue;
             }
@@ -124,11 +133,14 @@ impl Round {
             let refuted: Vec<&'static str> = refuted.iter().copied().chain(corners).collect();
             let kept_way = kept.and_then(|k| Round::settled(fit, k, template, fold, &refuted));
             let held_out = |(r, b): &(Round, AxisConfig)| r.held_out_rms(fit, b, fold);
+            let noise = fit.ctx().noise_sigma;
             return Some(match kept_way {
                 Some(k)
                     if held_out(&k)
                         .zip(held_out(&design_way))
-                        .is_some_and(|(free, design)| free < HELD_OUT_GAIN * design) =>
+                        .is_some_and(|(free, design)| {
+                            free <= HELD_OUT_EXCESS * noise && free < HELD_OUT_GAIN * design
+                        }) =>
                 {
                     k
                 }
@@ -175,13 +187,10 @@ impl Round {
         Some((ss / n.max(1) as f64).sqrt())
     }
 
-    /// Whether the round reaches the record's noise: the fit on the whole record, and its
-    /// halves' on the samples they did not see ([`super::at_noise`]).
-    fn reaches_noise(&self, fit: &Fit, base: &AxisConfig, fold: &[bool]) -> bool {
+    /// Whether the fit on the whole record reaches the record's noise.
+    fn reaches_noise(&self, fit: &Fit) -> bool {
         let samples = fit.mask().iter().filter(|m| **m).count().max(1);
-        let rms = (self.whole.cost / samples as f64).sqrt();
-        self.held_out_rms(fit, base, fold)
-            .is_some_and(|held_out| at_noise(rms, held_out, fit.ctx().noise_sigma))
+        (self.whole.cost / samples as f64).sqrt() <= REACHED_EXCESS * fit.ctx().noise_sigma
     }
 
     /// The knobs whose uncertainty leaves them undetermined.
