@@ -573,6 +573,45 @@ impl Segment {
         }
     }
 
+    /// Projects a point in space onto the segment: the foot point of its projection onto
+    /// the segment's plane (for a helix on the turn at the point's height, else on the turn
+    /// nearest `u_hint`), with the offset along the plane's normal there; a line's foot
+    /// point in closed form. `signed_distance_m` holds the distance in space, unsigned:
+    /// exact for lines and for arcs in a plane, and for a helix exact on its path and an
+    /// upper bound off it (enough to tell which block a point lies on).
+    pub(crate) fn project_in_space(&self, q: [f64; 3], u_hint: f64) -> Projection {
+        let Geometry::Arc(_) = self.geometry else {
+            let d = [0, 1, 2].map(|i| self.end_m[i] - self.start_m[i]);
+            let rel = [0, 1, 2].map(|i| q[i] - self.start_m[i]);
+            let l2 = dot3(d, d);
+            let u = if l2 > 0.0 {
+                (dot3(rel, d) / l2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            return Projection {
+                signed_distance_m: dist3(q, self.point_at_param(u)),
+                u,
+                radial_m: None,
+            };
+        };
+        let plane = self.plane();
+        let n = plane.axes()[2];
+        let lead = self.normal_travel_m();
+        let hint = if lead != 0.0 {
+            ((q[n] - self.start_m[n]) / lead).clamp(0.0, 1.0)
+        } else {
+            u_hint
+        };
+        let p = self.project_in_plane(plane.coords(q), hint);
+        let across = q[n] - self.point_at_param(p.u)[n];
+        Projection {
+            signed_distance_m: p.signed_distance_m.hypot(across),
+            u: p.u,
+            radial_m: p.radial_m,
+        }
+    }
+
     /// The XY foot point of an arc in another plane: the nearest of fine chords' vertices,
     /// refined by golden section between its neighbours.
     fn project_xy_searched(&self, q: [f64; 2]) -> Projection {

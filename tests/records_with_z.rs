@@ -12,6 +12,7 @@ use contourcheck::diagnose::{DiagnoseSettings, Diagnosis, diagnose};
 use contourcheck::gcode::{InterpretOptions, Program, parse_program};
 use contourcheck::machine::{MachineConfig, PlannedAxis, ZAxis};
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
+use contourcheck::{DiagnoseReport, ReportInputs, diagnose_page};
 
 /// A square at one height, 20 mm a side at F1000: a few seconds of X and Y.
 const SQUARE: &str =
@@ -119,6 +120,14 @@ fn a_records_z_is_read_its_travel_reported_and_x_and_y_analysed_as_without_it() 
         "{z}"
     );
     assert!(a.z.describe().is_empty());
+    // Where Z is not compared (a record without it, or Z carried) the figures have no Z panel.
+    for (d, trace) in [(&a, &xy), (&b, &xyz)] {
+        assert!(d.z.series.is_none());
+        let report = DiagnoseReport::new(d, "square.nc", trace, &carrying_z());
+        let page = diagnose_page(d, &report, &ReportInputs::default()).unwrap();
+        assert!(page.contains("X axis: position − command"));
+        assert!(!page.contains("Z axis:"));
+    }
 }
 
 #[test]
@@ -136,14 +145,22 @@ fn where_z_is_simulated_the_records_z_is_compared_with_it() {
         "{:?}, lag {lag_um}",
         d.z
     );
-    if let Some(c) = &d.z.cause {
-        assert_eq!(
-            c.id,
-            contourcheck::diagnose::causes::CauseId::KvGain,
-            "{c:?}"
-        );
-        assert!(c.params[0].value > 1.0, "{c:?}");
-    }
+    // A pure gain error would lag v / Kv: 2 µm at 0.25 mm/s is Kv = 125 /s (7.5 m/min/mm,
+    // 7.5 times the set one), which the gain's fit does not reach: it stops near 2.8
+    // m/min/mm, far from the set one, leaving a quarter of Z's residual (RMS) on a record
+    // without noise — a value bent to what the gain cannot explain: not named, and said why.
+    assert!(d.z.cause.is_none(), "{:?}", d.z);
+    let kv =
+        d.z.not_named
+            .iter()
+            .find(|n| n.id == contourcheck::diagnose::causes::CauseId::KvGain)
+            .unwrap_or_else(|| panic!("{:?}", d.z));
+    assert!(
+        kv.reason.starts_with("not determined") && kv.reason.contains("of Z's residual"),
+        "{}",
+        kv.reason
+    );
+    assert!(!d.z.describe().join("\n").contains("found on Z"));
     assert!(d.causes.is_empty(), "{:?}", d.causes);
 }
 

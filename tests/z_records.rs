@@ -131,3 +131,67 @@ fn backlash_on_a_z_that_carries_its_weight_stays_hidden_and_is_not_named() {
     assert!(d.z.cause.is_none(), "{:?}", d.z);
     assert!(d.causes.is_empty(), "{:?}", d.causes);
 }
+
+/// The largest |model − command| Z over the series (µm): Z's following error at its fastest.
+fn peak_lag_um(model: &[f64], reference: &[f64]) -> f64 {
+    model
+        .iter()
+        .zip(reference)
+        .filter(|(m, r)| m.is_finite() && r.is_finite())
+        .map(|(m, r)| (m - r).abs() * 1e6)
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn the_diagnosis_figures_show_z_beside_x_and_y_with_the_lag_each_gain_gives() {
+    let (d, measured) = low_gain_record();
+    let z = d.z.series.as_ref().unwrap_or_else(|| panic!("{:?}", d.z));
+    let n = d.series.t_s.len();
+    assert!(
+        [&z.reference, &z.measured, &z.nominal, &z.extended]
+            .iter()
+            .all(|v| v.len() == n)
+    );
+    // The series are the record and the models, not the tool's reading of one: Z's steady
+    // following error at the feed is F / Kv (no feed-forward), so the reference's 8 % lower
+    // gain lags 1/0.92 times the nominal model's, and the extended model (its gain fitted)
+    // lags as the record does.
+    let measured_lag = peak_lag_um(&z.measured, &z.reference);
+    let nominal_lag = peak_lag_um(&z.nominal, &z.reference);
+    let extended_lag = peak_lag_um(&z.extended, &z.reference);
+    // F1000 at Kv = 1 m/min/mm lags 1000 µm once steady; the 8 mm retract comes within a
+    // few per cent of steady (the lag settles with a time constant of 1/Kv = 60 ms after
+    // the ramp), so each peak is within 4 % of F / Kv, and their ratio within 1.5 % of 1/0.92.
+    let steady_um = |kv: f64| 1000.0 / kv;
+    assert!(
+        (nominal_lag / steady_um(1.0) - 1.0).abs() < 0.04,
+        "{nominal_lag}"
+    );
+    assert!(
+        (measured_lag / steady_um(LOW_KV) - 1.0).abs() < 0.04,
+        "{measured_lag}"
+    );
+    assert!(
+        (measured_lag / nominal_lag - 1.0 / LOW_KV).abs() < 0.015,
+        "{measured_lag} µm against {nominal_lag} µm"
+    );
+    assert!(
+        (extended_lag / measured_lag - 1.0).abs() < 0.005,
+        "{extended_lag}"
+    );
+    let (t_worst, line) = z.worst.unwrap();
+    assert!(t_worst > 0.0 && [3, 4, 5].contains(&line), "{:?}", z.worst);
+    // The page's figures draw Z's panels: its deviation, its miss and its residual.
+    let nominal = MachineConfig::default_preset();
+    let report = DiagnoseReport::new(d, "helix.nc", measured, &nominal);
+    let page = diagnose_page(d, &report, &ReportInputs::default()).unwrap();
+    for caption in [
+        "Z axis: position − command around",
+        "Z axis there: model − measured",
+        "Z axis: measured − model (RMS",
+        "X axis: position − command",
+        "Y axis: measured − model",
+    ] {
+        assert!(page.contains(caption), "no '{caption}' on the page");
+    }
+}

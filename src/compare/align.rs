@@ -18,7 +18,7 @@ use crate::numeric::units::um_from_m;
 use crate::plan::{Commands, Plan};
 use crate::sim::AxisModel;
 use crate::trace::measured::MeasuredTrace;
-use crate::trace::placement::{Departure, place_on_path};
+use crate::trace::placement::{Departure, place_in_space, place_on_path};
 use crate::trace::recorded::{commands_from_record, local_derivatives};
 use crate::trace::signal::sample;
 
@@ -194,7 +194,7 @@ fn driving_commands(
         });
     };
     let mut commands = recorded_commands(measured, [xc, yc], dt);
-    let placement = place_on_path(&plan.segments, &mut commands, settings.command_tolerance_m);
+    let placement = place_recorded(plan, &mut commands, measured, settings);
     if let Some(worst) = placement.worst
         && (worst.distance_m > settings.command_tolerance_m || !placement.joined)
     {
@@ -417,6 +417,22 @@ fn recorded_commands(measured: &MeasuredTrace, [xc, yc]: [&[f64]; 2], dt: f64) -
         commands.z = commands_from_record(zc, zc, measured.dt_s, dt).x;
     }
     commands
+}
+
+/// The recorded commands placed on the plan: by X, Y and Z where the record holds Z's
+/// commands, else by X and Y.
+fn place_recorded(
+    plan: &Plan,
+    commands: &mut Commands,
+    measured: &MeasuredTrace,
+    settings: &CompareSettings,
+) -> crate::trace::placement::Placement {
+    let tolerance_m = settings.command_tolerance_m;
+    if measured.z_cmd_m.is_some() {
+        place_in_space(&plan.segments, commands, tolerance_m)
+    } else {
+        place_on_path(&plan.segments, commands, tolerance_m)
+    }
 }
 
 /// The commands from sample `from` on.

@@ -16,7 +16,9 @@
 //! fitted value one a machine could have (`plausible`) and more than three standard
 //! uncertainties from the nominal one, and no other
 //! cause explaining the record within a tenth as well — a record that cannot tell two causes
-//! apart names neither.
+//! apart names neither. A cause that leaves more than a quarter of Z's residual (RMS) well
+//! above the noise, at a value more than twice or less than half the set one, is not named
+//! either: nothing else on Z takes what it leaves, and its value is bent towards that.
 
 use serde::Serialize;
 
@@ -26,7 +28,7 @@ use super::plausible::{Observed, implausible};
 use super::search::starts;
 use super::{Context, FittedParam, Stepping};
 use crate::compare::residual::{noise_floor, rms};
-use crate::machine::{AxisName, MachineConfig};
+use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::numeric::units::um_from_m;
 use crate::plan::AxisCommands;
 use crate::trace::recorded::{BeyondMachine, axis_beyond};
@@ -43,6 +45,14 @@ const EXPLAINED_SHARE: f64 = 1.0 / 3.0;
 const SIGMAS: f64 = 3.0;
 /// A second cause whose fit leaves at most this much more than the best's is as good.
 const AS_GOOD: f64 = 1.1;
+/// The share of Z's residual (RMS, on either half) a cause may leave, above the noise, and
+/// still be named at a value far from the set one: one cause is all Z names, so what it
+/// leaves nothing else takes — and a fit that leaves a quarter of the residual while moving
+/// a value far off bends that value to what it cannot explain.
+const LEFT_SHARE_MAX: f64 = 0.25;
+/// A value more than this factor from the set one (either way) is far from it: beyond a
+/// machine file's usual mismatch (a drive re-tuned, a load estimated) of tens of per cent.
+const FAR_FACTOR: f64 = 2.0;
 
 /// What the diagnosis says of Z.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
@@ -68,6 +78,26 @@ pub struct ZFindings {
     pub cause: Option<ZCause>,
     /// Causes fitted on Z but not named, and why.
     pub not_named: Vec<ZNotNamed>,
+    /// Z at the diagnosis's samples (those of `Diagnosis::series`), for plots; `None` where
+    /// Z was not compared.
+    #[serde(skip)]
+    pub series: Option<ZSeries>,
+}
+
+/// Z at each of the diagnosis's samples: the command, the record and both models (m), NaN
+/// where Z is not compared.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ZSeries {
+    /// Commanded Z.
+    pub reference: Vec<f64>,
+    /// Measured Z.
+    pub measured: Vec<f64>,
+    /// The nominal model's Z.
+    pub nominal: Vec<f64>,
+    /// The extended model's Z (the nominal one with the cause named on Z, if any).
+    pub extended: Vec<f64>,
+    /// Where the nominal model misses Z most: program time (s) and source line.
+    pub worst: Option<(f64, u32)>,
 }
 
 /// A cause named on Z.
@@ -204,6 +234,7 @@ pub(crate) fn diagnose_z(
         beyond_machine: beyond_machine(ctx, machine, offset_s),
         cause: None,
         not_named: Vec::new(),
+        series: None,
     };
     if seek && findings.beyond_machine.is_empty() && rms(&r) > ABOVE_NOISE * noise {
         let before = half_sums(ctx, &nominal, offset_s);
@@ -224,13 +255,69 @@ pub(crate) fn diagnose_z(
         let observed = Observed {
             following_error_max_m: following_error_max(ctx, offset_s),
         };
-        choose(&mut findings, machine, tried, (before, &observed));
-        if findings.cause.is_some() {
-            let full = ctx.simulate_axis(machine, AxisName::Z).unwrap_or(nominal);
-            findings.after_rms_um = um_from_m(rms(&compared_residual(ctx, &full, offset_s)));
-        }
+        let noise_ss = half_counts(ctx, offset_s).map(|n| n * noise * noise);
+        choose(&mut findings, machine, tried, (before, &observed, noise_ss));
     }
+    let extended = match findings.cause {
+        Some(_) => ctx.simulate_axis(machine, AxisName::Z),
+        None => None,
+    };
+    if let Some(full) = &extended {
+        findings.after_rms_um = um_from_m(rms(&compared_residual(ctx, full, offset_s)));
+    }
+    let extended = extended.as_deref().unwrap_or(&nominal);
+    findings.series = Some(series_of(ctx, &nominal, extended, offset_s));
     findings
+}
+
+/// Z's command, record and models at the context's samples, NaN where Z is not compared,
+/// and where the nominal model misses most.
+fn series_of(ctx: &Context, nominal: &[f64], extended: &[f64], offset_s: f64) -> ZSeries {
+    let times = ctx.sample_times(offset_s);
+    let keep = |k: usize, v: f64| {
+        if ctx.compared(AxisName::Z, k) {
+            v
+        } else {
+            f64::NAN
+        }
+    };
+    let at = |trace: &[f64]| -> Vec<f64> {
+        let v = ctx.at_samples(trace, offset_s);
+        v.into_iter().enumerate().map(|(k, v)| keep(k, v)).collect()
+    };
+    let measured: Vec<f64> = ctx
+        .measured_at_samples(AxisName::Z)
+        .into_iter()
+        .enumerate()
+        .map(|(k, v)| keep(k, v))
+        .collect();
+    let nominal = at(nominal);
+    let worst = (0..times.len())
+        .filter(|&k| measured[k].is_finite() && nominal[k].is_finite())
+        .max_by(|&a, &b| {
+            let miss = |k: usize| (measured[k] - nominal[k]).abs();
+            miss(a).total_cmp(&miss(b))
+        })
+        .map(|k| {
+            let cycle = (times[k] / ctx.dt).round().max(0.0) as usize;
+            let last = ctx.commands.segment.len().saturating_sub(1);
+            let segment = ctx
+                .commands
+                .segment
+                .get(cycle.min(last))
+                .copied()
+                .unwrap_or(0);
+            (times[k], ctx.plan.segments[segment as usize].line)
+        });
+    ZSeries {
+        reference: (0..times.len())
+            .map(|k| keep(k, ctx.command_at(AxisName::Z, times[k]).0))
+            .collect(),
+        measured,
+        nominal,
+        extended: at(extended),
+        worst,
+    }
 }
 
 /// The residual of Z at its compared samples only.
@@ -310,6 +397,15 @@ fn half_sums(ctx: &Context, trace: &[f64], offset_s: f64) -> [f64; 2] {
     sums
 }
 
+/// How many of Z's compared samples each half of the record holds.
+fn half_counts(ctx: &Context, offset_s: f64) -> [f64; 2] {
+    let mut counts = [0.0; 2];
+    for first in ctx.axis_halves(AxisName::Z, offset_s).into_iter().flatten() {
+        counts[usize::from(!first)] += 1.0;
+    }
+    counts
+}
+
 /// Each cause fitted on Z, side by side; `Err` for one whose fit determined nothing (a
 /// value run to its bound, or one the record leaves open).
 fn try_causes(
@@ -369,7 +465,7 @@ fn choose(
     findings: &mut ZFindings,
     machine: &mut MachineConfig,
     tried: Vec<Tried>,
-    (before, observed): ([f64; 2], &Observed),
+    (before, observed, noise_ss): ([f64; 2], &Observed, [f64; 2]),
 ) {
     let axis = machine.axis(AxisName::Z).clone();
     let share = |t: &Tried| [0, 1].map(|h| 1.0 - t.halves[h] / before[h].max(f64::MIN_POSITIVE));
@@ -384,6 +480,9 @@ fn choose(
             ));
         }
         if let Some(why) = implausible(t.id, &t.values, &axis, observed) {
+            return Some(why);
+        }
+        if let Some(why) = leaves_too_much(t, &axis, before, noise_ss) {
             return Some(why);
         }
         t.id.params().iter().enumerate().find_map(|(i, p)| {
@@ -425,6 +524,42 @@ fn choose(
         });
         findings.not_named.push(ZNotNamed { id: t.id, reason });
     }
+}
+
+/// Why a cause is not named for what it leaves: more than [`LEFT_SHARE_MAX`] of Z's
+/// residual (RMS) on either half, well above the noise (`noise_ss`: the noise's sum of
+/// squares on each half), at a value [`FAR_FACTOR`] or more from the set one (or any value
+/// where the set one is zero).
+fn leaves_too_much(
+    t: &Tried,
+    axis: &AxisConfig,
+    before: [f64; 2],
+    noise_ss: [f64; 2],
+) -> Option<String> {
+    let left = [0, 1].map(|h| (t.halves[h] / before[h].max(f64::MIN_POSITIVE)).sqrt());
+    let above_noise = (0..2).any(|h| t.halves[h] > ABOVE_NOISE * ABOVE_NOISE * noise_ss[h]);
+    let worst = left[0].max(left[1]);
+    if worst <= LEFT_SHARE_MAX || !above_noise {
+        return None;
+    }
+    t.id.params().iter().enumerate().find_map(|(i, p)| {
+        let set = causes::get(axis, p.key);
+        let ratio = (t.values[i] / set).abs();
+        let far = set == 0.0 || !(1.0 / FAR_FACTOR..=FAR_FACTOR).contains(&ratio);
+        far.then(|| {
+            format!(
+                "not determined: {} = {:.4} ± {:.4} {} (set {:.4}) leaves {:.0} % of Z's \
+                 residual (RMS) well above its noise — the record holds what this cause \
+                 cannot explain, and the value is bent towards it",
+                p.key,
+                t.values[i],
+                t.sigma[i],
+                p.unit,
+                set,
+                100.0 * worst
+            )
+        })
+    })
 }
 
 fn params_of(t: &Tried) -> Vec<FittedParam> {

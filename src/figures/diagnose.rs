@@ -13,9 +13,10 @@ use crate::plot::polar::{PolarPlot, PolarTrace};
 
 /// Every figure of a diagnosis.
 pub struct DiagnoseFigures {
-    /// Each axis's deviation from the command: measured, nominal, extended.
+    /// Each axis's deviation from the command (X, Y, and Z where the diagnosis compared
+    /// it): measured, nominal, extended.
     pub fit: PanelsPlot,
-    /// The residual of both models over time (X, Y, contour).
+    /// The residual of both models over time (X, Y, Z where compared, contour).
     pub over_time: PanelsPlot,
     /// The contour residual along the path.
     pub along_path: PanelsPlot,
@@ -77,67 +78,113 @@ fn curve_points(x: &[f64], t: &[f64], y: impl Fn(usize) -> f64) -> Vec<(f64, f64
     out
 }
 
+/// One axis's series at the diagnosis's samples (m), and where the nominal model misses
+/// it most (program time s, source line).
+struct AxisSeries<'a> {
+    name: &'static str,
+    reference: &'a [f64],
+    measured: &'a [f64],
+    nominal: &'a [f64],
+    extended: &'a [f64],
+    worst: Option<(f64, u32)>,
+}
+
+/// X and Y, and Z where the diagnosis compared it.
+fn axis_series(d: &Diagnosis) -> Vec<AxisSeries<'_>> {
+    let s = &d.series;
+    let mut axes: Vec<AxisSeries> = (0..2)
+        .map(|a| {
+            let name = ["X", "Y"][a];
+            let lower = name.to_lowercase();
+            AxisSeries {
+                name,
+                reference: &s.reference[a],
+                measured: &s.measured[a],
+                nominal: &s.nominal[a],
+                extended: &s.extended[a],
+                worst: d
+                    .places
+                    .iter()
+                    .find(|p| p.what == lower)
+                    .map(|p| (p.t_s, p.line)),
+            }
+        })
+        .collect();
+    if let Some(z) = &d.z.series {
+        axes.push(AxisSeries {
+            name: "Z",
+            reference: &z.reference,
+            measured: &z.measured,
+            nominal: &z.nominal,
+            extended: &z.extended,
+            worst: z.worst,
+        });
+    }
+    axes
+}
+
 /// Each axis's deviation from the command, measured and by both models, around where the
 /// nominal model misses most, and beneath it the miss itself (model − measured) at its own
 /// scale: a 6 µm miss on a 500 µm following error is invisible on the deviation's.
 fn fit_plot(d: &Diagnosis, name: &str, extended_name: &str) -> PanelsPlot {
-    let s = &d.series;
-    let t = &s.t_s;
-    let panels = |a: usize| {
-        let axis = ["x", "y"][a];
-        let worst = d.places.iter().find(|p| p.what == axis);
-        let keep: Vec<usize> = match worst {
-            Some(p) => (0..t.len())
-                .filter(|&k| (t[k] - p.t_s).abs() <= ZOOM_HALF_S)
-                .collect(),
-            None => (0..t.len()).collect(),
-        };
-        let tk: Vec<f64> = keep.iter().map(|&k| t[k]).collect();
-        let series = |value: &dyn Fn(usize) -> f64| curve_points(&tk, &tk, |j| value(keep[j]));
-        let dev = |model: &[f64]| series(&|k| um_from_m(model[k] - s.reference[a][k]));
-        let miss = |model: &[f64]| series(&|k| um_from_m(model[k] - s.measured[a][k]));
-        let curve = |name: &str, points, color, width| Curve {
-            name: name.to_string(),
-            points,
-            color,
-            width,
-        };
-        let upper = axis.to_uppercase();
-        let caption = match worst {
-            Some(p) => format!(
-                "{upper} axis: position − command around t = {:.2} s (line {}), where the nominal model misses most",
-                p.t_s, p.line
-            ),
-            None => format!("{upper} axis: position − command"),
-        };
-        [
-            Panel {
-                caption,
-                y_label: "µm".into(),
-                curves: vec![
-                    curve("measured", dev(&s.measured[a]), None, 3),
-                    curve("nominal model", dev(&s.nominal[a]), Some(1), 2),
-                    curve(extended_name, dev(&s.extended[a]), Some(0), 2),
-                ],
-            },
-            Panel {
-                caption: format!("{upper} axis there: model − measured"),
-                y_label: "µm".into(),
-                curves: vec![
-                    curve("nominal model", miss(&s.nominal[a]), Some(1), 2),
-                    curve(extended_name, miss(&s.extended[a]), Some(0), 2),
-                ],
-            },
-        ]
-    };
     PanelsPlot {
         title: format!("{name}: measured against the nominal and the extended model"),
         x_label: "program time (s)".into(),
-        panels: panels(0).into_iter().chain(panels(1)).collect(),
+        panels: axis_series(d)
+            .iter()
+            .flat_map(|a| fit_panels(&d.series.t_s, a, extended_name))
+            .collect(),
     }
 }
 
-/// The residual of both models over time (X, Y, contour) and along the path (contour).
+/// One axis's two panels of the fit figure.
+fn fit_panels(t: &[f64], a: &AxisSeries, extended_name: &str) -> [Panel; 2] {
+    let keep: Vec<usize> = match a.worst {
+        Some((t_worst, _)) => (0..t.len())
+            .filter(|&k| (t[k] - t_worst).abs() <= ZOOM_HALF_S)
+            .collect(),
+        None => (0..t.len()).collect(),
+    };
+    let tk: Vec<f64> = keep.iter().map(|&k| t[k]).collect();
+    let series = |value: &dyn Fn(usize) -> f64| curve_points(&tk, &tk, |j| value(keep[j]));
+    let dev = |model: &[f64]| series(&|k| um_from_m(model[k] - a.reference[k]));
+    let miss = |model: &[f64]| series(&|k| um_from_m(model[k] - a.measured[k]));
+    let curve = |name: &str, points, color, width| Curve {
+        name: name.to_string(),
+        points,
+        color,
+        width,
+    };
+    let axis = a.name;
+    let caption = match a.worst {
+        Some((t_s, line)) => format!(
+            "{axis} axis: position − command around t = {t_s:.2} s (line {line}), where the nominal model misses most"
+        ),
+        None => format!("{axis} axis: position − command"),
+    };
+    [
+        Panel {
+            caption,
+            y_label: "µm".into(),
+            curves: vec![
+                curve("measured", dev(a.measured), None, 3),
+                curve("nominal model", dev(a.nominal), Some(1), 2),
+                curve(extended_name, dev(a.extended), Some(0), 2),
+            ],
+        },
+        Panel {
+            caption: format!("{axis} axis there: model − measured"),
+            y_label: "µm".into(),
+            curves: vec![
+                curve("nominal model", miss(a.nominal), Some(1), 2),
+                curve(extended_name, miss(a.extended), Some(0), 2),
+            ],
+        },
+    ]
+}
+
+/// The residual of both models over time (X, Y, Z where compared, contour) and along the
+/// path (contour).
 fn residual_plots(d: &Diagnosis, name: &str) -> [PanelsPlot; 2] {
     let s = &d.series;
     let t = &s.t_s;
@@ -181,14 +228,28 @@ fn residual_plots(d: &Diagnosis, name: &str) -> [PanelsPlot; 2] {
     );
     let contour_before = |k: usize| um_from_m(s.contour_residual[0][k]);
     let contour_after = |k: usize| um_from_m(s.contour_residual[1][k]);
+    let mut panels = vec![axis_residual(0), axis_residual(1)];
+    if let Some(z) = &d.z.series {
+        panels.push(residual_panel(
+            format!(
+                "Z axis: measured − model (RMS {:.3} → {:.3} µm)",
+                d.z.before_rms_um, d.z.after_rms_um
+            ),
+            &|k| um_from_m(z.measured[k] - z.nominal[k]),
+            &|k| um_from_m(z.measured[k] - z.extended[k]),
+            t,
+        ));
+    }
+    panels.push(residual_panel(
+        contour_caption.clone(),
+        &contour_before,
+        &contour_after,
+        t,
+    ));
     let over_time = PanelsPlot {
         title: format!("{name}: residual before and after the extension, over time"),
         x_label: "program time (s)".into(),
-        panels: vec![
-            axis_residual(0),
-            axis_residual(1),
-            residual_panel(contour_caption.clone(), &contour_before, &contour_after, t),
-        ],
+        panels,
     };
     let path_mm: Vec<f64> = s.path_s_m.iter().map(|&v| mm_from_m(v)).collect();
     let along_path = PanelsPlot {
