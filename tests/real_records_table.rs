@@ -34,8 +34,30 @@ fn table_record() -> Option<MeasuredTrace> {
     let path = std::path::Path::new(&dir).join("ubc-xy-table/standard.csv");
     assert!(path.is_file(), "{} is not a file", path.display());
     let text = std::fs::read_to_string(&path).unwrap();
-    Some(parse_trace(&text, "standard.csv").unwrap())
+    // The rows up to 2.5 s (the header's first column is the time in ms): the motion ends
+    // at about 1.9 s and the axes stand within a count of their commands by 2.5 s; the
+    // 2.6 s of standstill after that make each identification half as long again. What
+    // the assertions below ask holds on either stretch; the shares move with the samples
+    // compared (from the template X 37.4 % on both, Y 37 % against 36 %; the loop model
+    // X 44 % against 32 %, Y 36 % against 40 %).
+    let kept: String = text
+        .lines()
+        .enumerate()
+        .filter(|(i, line)| {
+            *i == 0
+                || line
+                    .split(',')
+                    .next()
+                    .and_then(|t| t.parse::<f64>().ok())
+                    .is_some_and(|ms| ms <= KEPT_MS)
+        })
+        .map(|(_, line)| format!("{line}\n"))
+        .collect();
+    Some(parse_trace(&kept, "standard.csv").unwrap())
 }
+
+/// How much of the record the tests identify from (ms).
+const KEPT_MS: f64 = 2500.0;
 
 /// The course's contour: from P1 (0, 0) a line to P2 (40, 30), a line to P3 (60, 30), a full
 /// counter-clockwise circle of radius 30 mm about (90, 30); exact stops at the corners.
@@ -165,6 +187,15 @@ fn the_real_table_is_identified_from_the_course_template_and_without_one() {
             100.0 * a.baseline.share
         );
         predicts_better_than_template_and_regression(a);
+        // And clearly, not by a hair: by a fifth at least. (A search that stays at the
+        // design's corners leaves X at 66 % of its following error, the regression 67 %.)
+        assert!(
+            a.held_out_identified_um < 0.8 * a.baseline.held_out_um,
+            "{}: held out {:.2} µm, the regression {:.2} µm",
+            a.axis,
+            a.held_out_identified_um,
+            a.baseline.held_out_um
+        );
         // Nothing read as a measurement: no model of this table reaches its counts' noise.
         assert!(!a.reached && a.values.iter().all(|v| !v.measured), "{a:?}");
     }

@@ -65,6 +65,21 @@ impl Knob {
         sigma.is_finite() && sigma <= self.undetermined_beyond * size
     }
 
+    /// Whether a fit that stays above the record's noise keeps the value at what it found
+    /// rather than putting the template's back: where it determines it, and for a corner
+    /// also where it is looser than its own bound but within the general one — such a
+    /// corner is a model's value, not a measurement, and the design's corner it replaces may
+    /// lie several times off (a controller tuned on the machine): put back, it would leave
+    /// the fit of the rest worse than either. Whether the corners are kept at all the
+    /// held-out halves decide. (A fit at the noise puts back what it does not determine.)
+    pub fn stays_fitted(&self, sigma: f64, value: f64) -> bool {
+        if self.is_corner() {
+            sigma.is_finite() && sigma <= UNDETERMINED * value.abs()
+        } else {
+            self.determines(sigma, value)
+        }
+    }
+
     /// Whether it is one of a transfer function's corners.
     pub(crate) fn is_corner(&self) -> bool {
         corner_of(self.key).is_some()

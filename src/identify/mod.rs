@@ -30,8 +30,10 @@ mod knobs;
 mod linear;
 mod loop_model;
 pub mod report;
+mod round;
 mod solve;
 mod staged;
+mod starts;
 mod verdict;
 
 use rayon::prelude::*;
@@ -51,6 +53,7 @@ use knobs::{
     BACKLASH_KEY, KV_KEY, Knob, MASS_KEY, SF_INTEGRAL_KEY, SF_POSITION_KEY, SF_VELOCITY_KEY,
     STATIC_KEY, TF_GAIN_KEY, get, set_all,
 };
+use round::Round;
 use solve::{Fit, Fitted};
 
 /// Least travel an axis's commands must have to identify it (m).
@@ -607,18 +610,10 @@ fn identify_on(
     };
     let template_residual = fit.residual(&template_axis)?;
     let identified_residual = fit.residual(&config)?;
-    let (mut before_ss, mut after_ss, mut n) = (0.0, 0.0, 0usize);
-    for (k, side) in [true, false].into_iter().enumerate() {
-        let r = fit.residual(&round.config(&base, &round.halves[k]))?;
-        for i in (0..r.len()).filter(|&i| fold[i] != side && mask[i]) {
-            before_ss += template_residual[i] * template_residual[i];
-            after_ss += r[i] * r[i];
-            n += 1;
-        }
-    }
     let values = fitted_values(knobs, &round, &config, &template_axis);
-    let held_out_identified_um = um_from_m((after_ss / n.max(1) as f64).sqrt());
-    let held_out_template_um = um_from_m((before_ss / n.max(1) as f64).sqrt());
+    // Each half's fit scored on the other half; the template, fitted to neither, on all.
+    let held_out_identified_um = um_from_m(round.held_out_rms(fit, &base, &fold)?);
+    let held_out_template_um = rms(&template_residual);
     let following_error_um = um_from_m(following_error_rms(ctx, axis, offset, mask));
     Some((
         config,
@@ -767,87 +762,6 @@ fn gain_per_inertia(round: &Round, base: &AxisConfig) -> Option<GainPerInertia> 
         value,
         uncertainty: (sigma.max(model_sigma) * value).max(halves),
     })
-}
-
-/// The fits of some knobs on the whole record and on each half.
-struct Round {
-    knobs: Vec<Knob>,
-    whole: Fitted,
-    halves: [Fitted; 2],
-    /// Standard uncertainties: the Jacobian's, widened to half the halves' disagreement —
-    /// a fit that lands elsewhere on each half (a valley of the hybrid model's residual,
-    /// a value traded against another) is not known better than that, however sharp the
-    /// local curvature.
-    sigma: Vec<f64>,
-}
-
-impl Round {
-    fn fit(fit: &Fit, knobs: Vec<Knob>, base: &AxisConfig, fold: &[bool]) -> Option<Round> {
-        let whole = fit.run(&knobs, base, &|_| true)?;
-        // Each half's fit starts where the whole record's landed: their difference then
-        // measures how far the halves pull the values apart, not which valley a search
-        // from further off happens to fall into on one of them.
-        let landed = Fit::config(&knobs, base, &whole.values);
-        let (a, b) = rayon::join(
-            || fit.run(&knobs, &landed, &|i| fold[i]),
-            || fit.run(&knobs, &landed, &|i| !fold[i]),
-        );
-        let (a, b) = (a?, b?);
-        let sigma = (0..knobs.len())
-            .map(|j| whole.sigma[j].max(0.5 * (a.values[j] - b.values[j]).abs()))
-            .collect();
-        Some(Round {
-            knobs,
-            whole,
-            halves: [a, b],
-            sigma,
-        })
-    }
-
-    /// `knobs` fitted from `start`, then those the record does not determine put back to
-    /// the template's values and the rest fitted again (until all left are determined).
-    /// Returns the last round and the values it was fitted about.
-    fn fit_determined(
-        fit: &Fit,
-        knobs: &[Knob],
-        start: &AxisConfig,
-        template: &AxisConfig,
-        fold: &[bool],
-    ) -> Option<(Round, AxisConfig)> {
-        let mut base = start.clone();
-        let mut round = Round::fit(fit, knobs.to_vec(), &base, fold)?;
-        loop {
-            let undetermined = round.undetermined();
-            if undetermined.is_empty() || round.knobs.is_empty() {
-                return Some((round, base));
-            }
-            let values: Vec<f64> = undetermined.iter().map(|k| get(template, k)).collect();
-            set_all(&mut base, &undetermined, &values);
-            let kept = round
-                .knobs
-                .iter()
-                .copied()
-                .filter(|k| !undetermined.contains(&k.key))
-                .collect();
-            round = Round::fit(fit, kept, &base, fold)?;
-        }
-    }
-
-    /// The knobs whose uncertainty leaves them undetermined.
-    fn undetermined(&self) -> Vec<&'static str> {
-        self.knobs
-            .iter()
-            .zip(&self.sigma)
-            .zip(&self.whole.values)
-            .filter(|((k, s), v)| !k.determines(**s, **v))
-            .map(|((k, _), _)| k.key)
-            .collect()
-    }
-
-    /// `base` with the values of one of the fits.
-    fn config(&self, base: &AxisConfig, fitted: &Fitted) -> AxisConfig {
-        Fit::config(&self.knobs, base, &fitted.values)
-    }
 }
 
 /// Samples at which the axis's command has been moving for `SETTLE_S` and still moves:

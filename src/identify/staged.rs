@@ -14,7 +14,7 @@ use super::knobs::{
     SF_POSITION_KEY, SF_VELOCITY_KEY, STATIC_KEY, TF_GAIN_KEY, VISCOUS_KEY, get, set_all,
 };
 use super::solve::Fit;
-use super::{linear, scanned};
+use super::{linear, scanned, starts};
 use crate::machine::AxisConfig;
 
 /// Factors on the values so far that the grid tries, and how many of its best points the
@@ -48,10 +48,26 @@ const DYNAMICS_KEYS: [&str; 15] = [
     "controller.pole_2_hz",
 ];
 
-/// Where the final fit of `knobs` starts from `template`.
+/// Where the final fit of `knobs` starts from `template`: the staged search below from the
+/// record's equation solved linearly where that gives a controller that explains the record
+/// better than the template; else from each of the best few trial starts (`starts`), the
+/// one whose search ends lowest.
 pub(super) fn start(fit: &Fit, knobs: &[Knob], template: &AxisConfig) -> AxisConfig {
-    let template = estimated(fit, knobs, template).unwrap_or_else(|| template.clone());
-    let mut after_gain = gains_fitted(fit, knobs, &template);
+    let from = match estimated(fit, knobs, template) {
+        Some(estimate) => vec![estimate],
+        None => starts::candidates(fit, knobs, template),
+    };
+    let first = from[0].clone();
+    from.par_iter()
+        .map(|s| searched_from(fit, knobs, s))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map_or(first, |(_, c)| c)
+}
+
+/// The gains fitted alone from `template`, the nonlinear parts scanned, the grid, and the
+/// local fits from its best points: the cost and the configuration the best landed on.
+fn searched_from(fit: &Fit, knobs: &[Knob], template: &AxisConfig) -> (f64, AxisConfig) {
+    let mut after_gain = gains_fitted(fit, knobs, template);
     // The nonlinear parts, each scanned on its own: play and sticking change the reversals
     // by steps that a local search from the template's value (none) does not see past.
     for knob in knobs {
@@ -66,7 +82,10 @@ pub(super) fn start(fit: &Fit, knobs: &[Knob], template: &AxisConfig) -> AxisCon
         .par_iter()
         .filter_map(|(_, from)| fitted_from(fit, from, &dynamics))
         .min_by(|a, b| a.0.total_cmp(&b.0))
-        .map_or(after_gain, |(_, c)| c)
+        .unwrap_or_else(|| {
+            let cost = fit.cost(&after_gain).unwrap_or(f64::INFINITY);
+            (cost, after_gain)
+        })
 }
 
 /// The record's own equation solved linearly, where it applies and explains the record

@@ -1,0 +1,217 @@
+//! A round of fits: some knobs fitted on the whole record and on each half, with the
+//! uncertainties both give; and the rounds by which the values the record does not
+//! determine go back to the template's.
+
+use super::REACHED_EXCESS;
+
+/// How much better than with the design's corner (on the held-out halves) the fit with a
+/// loose corner free must predict for the corner to stay: by more than a twentieth, as
+/// every larger model must.
+const HELD_OUT_GAIN: f64 = 0.95;
+/// And how close to the record's noise it must predict them: a corner the noise leaves
+/// loose is kept only because the fit with it reaches the noise where the design's does
+/// not, so it must reach it on the samples each half's fit did not see as well. Values the
+/// record determines predict the other half to about the noise (the model's floor adds a
+/// quarter of it in squares); halves that miss each other by twice it carry a systematic
+/// part of √3 times the noise — the loose corner wandered with the gain on each half,
+/// and the fit at the noise on every sample had it follow the noise.
+const HELD_OUT_EXCESS: f64 = 2.0;
+use super::knobs::{self, Knob, get, set_all};
+use super::solve::{Fit, Fitted};
+use crate::machine::AxisConfig;
+
+/// The fits of some knobs on the whole record and on each half.
+pub(super) struct Round {
+    pub(super) knobs: Vec<Knob>,
+    pub(super) whole: Fitted,
+    pub(super) halves: [Fitted; 2],
+    /// Standard uncertainties: the Jacobian's, widened to half the halves' disagreement —
+    /// a fit that lands elsewhere on each half (a valley of the hybrid model's residual,
+    /// a value traded against another) is not known better than that, however sharp the
+    /// local curvature.
+    pub(super) sigma: Vec<f64>,
+}
+
+impl Round {
+    pub(super) fn fit(
+        fit: &Fit,
+        knobs: Vec<Knob>,
+        base: &AxisConfig,
+        fold: &[bool],
+    ) -> Option<Round> {
+        let whole = fit.run(&knobs, base, &|_| true)?;
+        // Each half's fit starts where the whole record's landed: their difference then
+        // measures how far the halves pull the values apart, not which valley a search
+        // from further off happens to fall into on one of them.
+        let landed = Fit::config(&knobs, base, &whole.values);
+        let (a, b) = rayon::join(
+            || fit.run(&knobs, &landed, &|i| fold[i]),
+            || fit.run(&knobs, &landed, &|i| !fold[i]),
+        );
+        let (a, b) = (a?, b?);
+        let sigma = (0..knobs.len())
+            .map(|j| whole.sigma[j].max(0.5 * (a.values[j] - b.values[j]).abs()))
+            .collect();
+        Some(Round {
+            knobs,
+            whole,
+            halves: [a, b],
+            sigma,
+        })
+    }
+
+    /// `knobs` fitted from `start`, then those the record does not determine put back to
+    /// the template's values and the rest fitted again (until all left are determined).
+    /// Returns the last round and the values it was fitted about.
+    ///
+    /// A corner put back is the design's, and the design's is a guess the record can refute:
+    /// where the fit with the corner free reached the noise, the fit with the design's corner
+    /// does not, and the fit with the corner kept (the rest that is undetermined put back)
+    /// predicts the held-out halves within twice the noise and better than it by more than a
+    /// twentieth, the record excludes the design's value even though it leaves the corner
+    /// looser than its 5 % — the corner stays where the fit put it, a model's value (not a
+    /// measurement). (Where the halves' fits of a loose corner wander with the gain and
+    /// predict each other worse, or miss each other by more than twice the noise, it goes
+    /// back.)
+    pub(super) fn fit_determined(
+        fit: &Fit,
+        knobs: &[Knob],
+        start: &AxisConfig,
+        template: &AxisConfig,
+        fold: &[bool],
+    ) -> Option<(Round, AxisConfig)> {
+        let base = start.clone();
+        let round = Round::fit(fit, knobs.to_vec(), &base, fold)?;
+        Round::settled(fit, (round, base), template, fold, &[])
+    }
+
+    /// The rounds of [`Round::fit_determined`] from `round`, the corners `refuted` kept
+    /// fitted. Where putting a loose corner back leaves the noise, both ways are followed to
+    /// their end and the corner kept only where that way predicts the held-out halves within
+    /// twice the noise, and better than the design's way by more than a twentieth.
+    fn settled(
+        fit: &Fit,
+        (mut round, mut base): (Round, AxisConfig),
+        template: &AxisConfig,
+        fold: &[bool],
+        refuted: &[&'static str],
+    ) -> Option<(Round, AxisConfig)> {
+        loop {
+            // Above the noise the model is not the machine: a corner only the model's floor
+            // leaves loose stays where the fit put it (`Knob::stays_fitted`).
+            let reached = round.reaches_noise(fit);
+            let undetermined: Vec<&'static str> = round
+                .undetermined(!reached)
+                .into_iter()
+                .filter(|k| !refuted.contains(k))
+                .collect();
+            if undetermined.is_empty() || round.knobs.is_empty() {
+                return Some((round, base));
+            }
+            let next = round.put_back(fit, &base, &undetermined, template, fold)?;
+            let corners: Vec<&'static str> = undetermined
+                .iter()
+                .copied()
+                .filter(|k| knobs::corner_of(k).is_some())
+                .collect();
+            if !reached || corners.is_empty() || next.0.reaches_noise(fit) {
+                (round, base) = next;
+                continue;
+            }
+            // The design's corners leave the noise: the other way keeps them where the fit
+            // put them and puts back only the rest.
+            let design_way = Round::settled(fit, next, template, fold, refuted)?;
+            let rest: Vec<&'static str> = undetermined
+                .into_iter()
+                .filter(|k| !corners.contains(k))
+                .collect();
+            let kept = if rest.is_empty() {
+                Some((round, base))
+            } else {
+                round.put_back(fit, &base, &rest, template, fold)
+            };
+            let refuted: Vec<&'static str> = refuted.iter().copied().chain(corners).collect();
+            let kept_way = kept.and_then(|k| Round::settled(fit, k, template, fold, &refuted));
+            let held_out = |(r, b): &(Round, AxisConfig)| r.held_out_rms(fit, b, fold);
+            let noise = fit.ctx().noise_sigma;
+            return Some(match kept_way {
+                Some(k)
+                    if held_out(&k)
+                        .zip(held_out(&design_way))
+                        .is_some_and(|(free, design)| {
+                            free <= HELD_OUT_EXCESS * noise && free < HELD_OUT_GAIN * design
+                        }) =>
+                {
+                    k
+                }
+                _ => design_way,
+            });
+        }
+    }
+
+    /// `keys` of this round put back to `template`'s values in `base` and the other knobs
+    /// fitted again about it: the new round and its base.
+    fn put_back(
+        &self,
+        fit: &Fit,
+        base: &AxisConfig,
+        keys: &[&'static str],
+        template: &AxisConfig,
+        fold: &[bool],
+    ) -> Option<(Round, AxisConfig)> {
+        let mut base = base.clone();
+        let values: Vec<f64> = keys.iter().map(|k| get(template, k)).collect();
+        set_all(&mut base, keys, &values);
+        let kept = self
+            .knobs
+            .iter()
+            .copied()
+            .filter(|k| !keys.contains(&k.key))
+            .collect();
+        let round = Round::fit(fit, kept, &base, fold)?;
+        Some((round, base))
+    }
+
+    /// The RMS residual (m) of each half's fit on the other half's samples (of those `fit`
+    /// compares): how well this round predicts what it did not see.
+    pub(super) fn held_out_rms(&self, fit: &Fit, base: &AxisConfig, fold: &[bool]) -> Option<f64> {
+        let mask = fit.mask();
+        let (mut ss, mut n) = (0.0, 0usize);
+        for (k, side) in [true, false].into_iter().enumerate() {
+            let r = fit.residual(&self.config(base, &self.halves[k]))?;
+            for i in (0..r.len()).filter(|&i| fold[i] != side && mask[i]) {
+                ss += r[i] * r[i];
+                n += 1;
+            }
+        }
+        Some((ss / n.max(1) as f64).sqrt())
+    }
+
+    /// Whether the fit on the whole record reaches the record's noise.
+    fn reaches_noise(&self, fit: &Fit) -> bool {
+        let samples = fit.mask().iter().filter(|m| **m).count().max(1);
+        (self.whole.cost / samples as f64).sqrt() <= REACHED_EXCESS * fit.ctx().noise_sigma
+    }
+
+    /// The knobs whose uncertainty leaves them undetermined.
+    fn undetermined(&self, above_noise: bool) -> Vec<&'static str> {
+        self.knobs
+            .iter()
+            .zip(&self.sigma)
+            .zip(&self.whole.values)
+            .filter(|((k, s), v)| {
+                !if above_noise {
+                    k.stays_fitted(**s, **v)
+                } else {
+                    k.determines(**s, **v)
+                }
+            })
+            .map(|((k, _), _)| k.key)
+            .collect()
+    }
+
+    /// `base` with the values of one of the fits.
+    pub(super) fn config(&self, base: &AxisConfig, fitted: &Fitted) -> AxisConfig {
+        Fit::config(&self.knobs, base, &fitted.values)
+    }
+}
