@@ -11,6 +11,7 @@
 
 mod common;
 
+use common::identifying::{encoder_record, lead_lag_toml};
 use common::reference::{self, Recording};
 use common::{foreign_commands, program_text};
 use contourcheck::check::{CheckSettings, check};
@@ -56,34 +57,16 @@ const TOOL: Recorder = Recorder {
 /// The independent reference, read where the control reads (the small table's motor
 /// encoders).
 const REFERENCE: Recorder = Recorder {
-    make: reference_record,
+    make: encoder_record,
     at: MeasuredAt::Motor,
 };
 
 /// The independent reference on a machine that reads a linear scale (the heavy preset): the
 /// control's feedback is the table's position.
 const REFERENCE_AT_SCALE: Recorder = Recorder {
-    make: reference_record,
+    make: encoder_record,
     at: MeasuredAt::Table,
 };
-
-/// `program` on `machine` integrated by the independent reference, driven by its own
-/// continuous interpolator, read at 10 kHz in 0.1 µm counts with the commands beside.
-fn reference_record(program: &Program, machine: &MachineConfig, seed: u64) -> MeasuredTrace {
-    let rec = Recording {
-        sample_s: 1e-4,
-        noise_m: 0.05e-6,
-        count_m: 0.1e-6,
-        step_s: 1e-5,
-        seed,
-        accel: 0.5,
-        tight_spot_x: None,
-        at_feedback: true,
-        ..Recording::default()
-    };
-    let csv = reference::record(program, &machine.x, &machine.y, &rec);
-    parse_trace(&csv, "reference.csv").unwrap()
-}
 
 /// `program` on `machine`, driven by the foreign interpolator, as a 10 kHz servo trace.
 fn record(program: &Program, machine: &MachineConfig, seed: u64) -> MeasuredTrace {
@@ -474,7 +457,7 @@ fn a_small_table_recorded_by_an_independent_integrator_is_predicted_as_its_truth
     let id = identify(
         &program,
         &template,
-        &reference_record(&program, &truth, 92),
+        &encoder_record(&program, &truth, 92),
         &settings,
     )
     .unwrap();
@@ -528,7 +511,7 @@ fn a_record_without_commands_or_with_a_still_axis_says_what_it_lacks() {
     let template = MachineConfig::default_preset();
     let settings = CompareSettings::for_machine(&template);
     let program = fitted_program();
-    let mut no_commands = reference_record(&program, &template, 83);
+    let mut no_commands = encoder_record(&program, &template, 83);
     no_commands.commands = None;
     let err = identify(&program, &template, &no_commands, &settings).unwrap_err();
     assert!(matches!(err, IdentifyError::NoCommands { .. }), "{err}");
@@ -537,7 +520,7 @@ fn a_record_without_commands_or_with_a_still_axis_says_what_it_lacks() {
     let err = identify(
         &x_only,
         &template,
-        &reference_record(&x_only, &template, 84),
+        &encoder_record(&x_only, &template, 84),
         &settings,
     )
     .unwrap_err();
@@ -574,7 +557,7 @@ fn a_template_with_another_controller_measures_nothing() {
     let id = identify(
         &program,
         &template,
-        &reference_record(&program, &truth, 95),
+        &encoder_record(&program, &truth, 95),
         &settings,
     )
     .unwrap();
@@ -605,23 +588,6 @@ fn a_template_with_another_controller_measures_nothing() {
             );
         }
     }
-}
-
-/// A lead-lag controller with an integrator, `gain·(s + 2π·z₁)(s + 2π·z₂) / (s·(s + 2π·p))`,
-/// on a current amplifier: the structure the template names, its corners in Hz.
-fn lead_lag_toml(gain: f64, z1_hz: f64, z2_hz: f64, p_hz: f64) -> String {
-    let (a, b, c) = (
-        std::f64::consts::TAU * z1_hz,
-        std::f64::consts::TAU * z2_hz,
-        std::f64::consts::TAU * p_hz,
-    );
-    format!(
-        "base = \"small-table\"\n[x.controller]\nstructure = \"transfer_function\"\n\
-         numerator = [{gain}, {}, {}]\ndenominator = [1.0, {c}, 0.0]\noutput = \"current\"\n\
-         accel_feedforward = 0.0\n[y.controller]\naccel_feedforward = 0.0\n",
-        gain * (a + b),
-        gain * a * b
-    )
 }
 
 /// The lead-lag table as designed and as it ran. Designed: the lead zero at 12 Hz and its
@@ -771,7 +737,7 @@ fn without_a_template_a_loop_model_predicts_the_machine() {
     truth.x.friction.coulomb_coefficient = 0.12;
     truth.y.drive.table_mass_kg = 70.0;
     let program = fitted_program();
-    let measured = reference_record(&program, &truth, 97);
+    let measured = encoder_record(&program, &truth, 97);
     let start = loop_template(&measured);
     let mut settings = CompareSettings::for_machine(&start);
     settings.measured_at = REFERENCE.at;

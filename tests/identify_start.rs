@@ -8,14 +8,13 @@
 
 mod common;
 
+use common::identifying::{encoder_record, lead_lag_toml};
 use common::program_text;
-use common::reference::{self, Recording};
 use contourcheck::compare::CompareSettings;
 use contourcheck::gcode::Program;
 use contourcheck::identify::identify;
 use contourcheck::machine::{Controller, MachineConfig};
 use contourcheck::sim::MeasuredAt;
-use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 
 /// A 5 s program moving both axes both ways at several feeds, with an arc.
 fn program() -> Program {
@@ -25,38 +24,13 @@ fn program() -> Program {
     )
 }
 
-/// A lead-lag controller with an integrator on X, `gain·(s + 2π·z₁)(s + 2π·z₂) / (s·(s +
-/// 2π·p))`, on a current amplifier, the small table's viscous friction set to
-/// `viscous_n_s_per_m`.
+/// The lead-lag table of `common::identifying` (its corners in Hz), the small table's viscous
+/// friction set to `viscous_n_s_per_m`.
 fn lead_lag(gain: f64, [z1, z2, p]: [f64; 3], viscous_n_s_per_m: f64) -> MachineConfig {
-    let [a, b, c] = [z1, z2, p].map(|hz| std::f64::consts::TAU * hz);
-    let text = format!(
-        "base = \"small-table\"\n[x.controller]\nstructure = \"transfer_function\"\n\
-         numerator = [{gain}, {}, {}]\ndenominator = [1.0, {c}, 0.0]\noutput = \"current\"\n\
-         accel_feedforward = 0.0\n[x.friction]\nviscous_n_s_per_m = {viscous_n_s_per_m}\n\
-         [y.controller]\naccel_feedforward = 0.0\n",
-        gain * (a + b),
-        gain * a * b
-    );
-    MachineConfig::from_toml_str(&text, "lead-lag.toml").unwrap()
-}
-
-/// `program` on `machine` integrated by the independent reference under its own continuous
-/// interpolator, read at the motor's encoder at 10 kHz in 0.1 µm counts.
-fn reference_record(program: &Program, machine: &MachineConfig) -> MeasuredTrace {
-    let rec = Recording {
-        sample_s: 1e-4,
-        noise_m: 0.05e-6,
-        count_m: 0.1e-6,
-        step_s: 1e-5,
-        seed: 41,
-        accel: 0.5,
-        tight_spot_x: None,
-        at_feedback: true,
-        ..Recording::default()
-    };
-    let csv = reference::record(program, &machine.x, &machine.y, &rec);
-    parse_trace(&csv, "reference.csv").unwrap()
+    let text = lead_lag_toml(gain, z1, z2, p);
+    let mut machine = MachineConfig::from_toml_str(&text, "lead-lag.toml").unwrap();
+    machine.x.friction.viscous_n_s_per_m = viscous_n_s_per_m;
+    machine
 }
 
 #[test]
@@ -71,7 +45,7 @@ fn a_controller_tuned_three_times_off_its_design_is_found_from_trial_starts() {
     let mut settings = CompareSettings::for_machine(&template);
     settings.measured_at = MeasuredAt::Motor;
     let program = program();
-    let measured = reference_record(&program, &truth);
+    let measured = encoder_record(&program, &truth, 41);
     let id = identify(&program, &template, &measured, &settings).unwrap();
     let x = &id.axes[0];
     eprintln!(
