@@ -2,7 +2,14 @@
 //! the step map [x; u] ↦ x' is the top block of exp(A·h) for the augmented matrix A.
 //!
 //! Mode switches are located inside a step by bisection, which needs the maps of h/2,
-//! h/4, … h/2^K as well: each (mode, level) map is computed once, when first needed.
+//! h/4, … h/2^K as well: each (mode, level) map is computed once, when first needed, and
+//! shared with every other simulation whose mode has the same dynamics and step (a fit
+//! simulates one axis hundreds of times, and a value such as a dead time or a friction
+//! force leaves most modes' matrices as they were).
+
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use nalgebra::SMatrix;
 
@@ -18,7 +25,7 @@ pub const LEVELS: usize = 24;
 pub struct MapCache {
     h: f64,
     dynamics: Vec<Option<Box<AugMatrix>>>,
-    maps: Vec<Option<Box<StepMap>>>,
+    maps: Vec<Option<Arc<ModeMaps>>>,
 }
 
 impl MapCache {
@@ -27,7 +34,7 @@ impl MapCache {
         MapCache {
             h,
             dynamics: (0..Mode::COUNT).map(|_| None).collect(),
-            maps: (0..Mode::COUNT * (LEVELS + 1)).map(|_| None).collect(),
+            maps: (0..Mode::COUNT).map(|_| None).collect(),
         }
     }
 
@@ -43,27 +50,143 @@ impl MapCache {
 
     /// The map of a step of h/2^level in a mode.
     pub(crate) fn map(&mut self, model: &AxisModel, mode: Mode, level: usize) -> &StepMap {
-        let slot = mode.index() * (LEVELS + 1) + level;
-        if self.maps[slot].is_none() {
+        if self.maps[mode.index()].is_none() {
             let a = *self.dynamics(model, mode);
-            let dt = self.h / (1u64 << level) as f64;
-            let e = exp_balanced(a * dt);
-            self.maps[slot] = Some(Box::new(e.fixed_view::<N, NA>(0, 0).into_owned()));
+            self.maps[mode.index()] = Some(shared_maps(&a, self.h));
         }
-        self.maps[slot].as_ref().expect("just filled")
+        self.maps[mode.index()]
+            .as_ref()
+            .expect("just filled")
+            .at(level)
     }
 }
 
-/// exp(M) through a diagonal similarity that balances M's rows and columns. The axis's
-/// states span many orders of magnitude (metres of travel, amperes, newtons through
+/// One mode's maps at every level for one step h, computed as asked for.
+struct ModeMaps {
+    /// A·h balanced (see [`series_top`]), and the diagonal that balanced it. A·h/2^k is
+    /// balanced by the same diagonal: halving every entry leaves the rows' and columns'
+    /// ratios as they were, bit for bit.
+    balanced: AugMatrix,
+    diagonal: nalgebra::SVector<f64, NA>,
+    levels: [OnceLock<StepMap>; LEVELS + 1],
+}
+
+impl ModeMaps {
+    fn new(a: &AugMatrix, h: f64) -> Self {
+        let mut balanced = a * h;
+        let diagonal = nalgebra::linalg::balancing::balance_parlett_reinsch(&mut balanced);
+        ModeMaps {
+            balanced,
+            diagonal,
+            levels: std::array::from_fn(|_| OnceLock::new()),
+        }
+    }
+
+    fn at(&self, level: usize) -> &StepMap {
+        self.levels[level].get_or_init(|| {
+            let m = self.balanced * (1.0 / (1u64 << level) as f64);
+            let mut top = if one_norm(&m) > TAYLOR_NORM {
+                m.exp().fixed_view::<N, NA>(0, 0).into_owned()
+            } else {
+                series_top(&m)
+            };
+            // D·E·D⁻¹, as nalgebra's `unbalance` does it, on the rows kept.
+            for (j, mut col) in top.column_iter_mut().enumerate() {
+                let denom = 1.0 / self.diagonal[j];
+                for (i, v) in col.iter_mut().enumerate() {
+                    *v *= self.diagonal[i] * denom;
+                }
+            }
+            top
+        })
+    }
+}
+
+/// The top rows of exp(M) for a balanced M whose norm is at most [`TAYLOR_NORM`]. The
+/// axis's states span many orders of magnitude (metres of travel, amperes, newtons through
 /// stiffnesses of 10¹⁰ N/m): unbalanced, a stiff drive's step map loses its small entries
 /// to the rounding of its large ones (a rigid table's speed drifted by 30 ppm), balanced it
 /// keeps them to the last digits.
-fn exp_balanced(mut m: AugMatrix) -> AugMatrix {
-    let d = nalgebra::linalg::balancing::balance_parlett_reinsch(&mut m);
-    let mut e = m.exp();
-    nalgebra::linalg::balancing::unbalance(&mut e, &d);
-    e
+///
+/// The short steps of the bisection have ‖M‖ ≪ 1: there the Taylor series reaches the last
+/// digit in a few terms, without the Padé approximant's norm estimates and solve, and the
+/// rows of its powers that a map keeps follow from the same rows of the power below.
+fn series_top(m: &AugMatrix) -> StepMap {
+    let mut term: StepMap = m.fixed_view::<N, NA>(0, 0).into_owned();
+    let mut sum = term;
+    for i in 0..N {
+        sum[(i, i)] += 1.0;
+    }
+    for k in 2..=TAYLOR_TERMS {
+        term = term * m * (1.0 / k as f64);
+        sum += term;
+        if term.iter().map(|v| v.abs()).sum::<f64>() <= TAYLOR_TAIL {
+            break;
+        }
+    }
+    sum
+}
+
+/// Largest ‖M‖₁ summed as a Taylor series: its terms beyond the eighth stay below 10⁻¹⁸.
+const TAYLOR_NORM: f64 = 1.0 / 128.0;
+/// Most terms summed (never reached below [`TAYLOR_NORM`]).
+const TAYLOR_TERMS: usize = 12;
+/// A term this small changes no digit of exp(M) (whose diagonal is near 1).
+const TAYLOR_TAIL: f64 = 1e-19;
+
+fn one_norm(m: &AugMatrix) -> f64 {
+    m.column_iter()
+        .map(|c| c.iter().map(|v| v.abs()).sum::<f64>())
+        .fold(0.0, f64::max)
+}
+
+/// A dynamics matrix and a step, bit for bit: the same key gives the same maps.
+type MapKey = (Vec<u64>, u64);
+
+/// A hasher for keys of many machine words (the default one is slower than the maps'
+/// arithmetic it saves at this size).
+#[derive(Default)]
+struct WordHasher(u64);
+
+impl Hasher for WordHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.write_u64(u64::from(b));
+        }
+    }
+
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x517c_c1b7_2722_0a95);
+    }
+}
+
+type Shared = HashMap<MapKey, Arc<ModeMaps>, BuildHasherDefault<WordHasher>>;
+
+/// Modes' maps kept before the shared ones are cleared (up to 50 kB each).
+const SHARED_MAX: usize = 512;
+
+static SHARED: OnceLock<Mutex<Shared>> = OnceLock::new();
+
+/// The maps of a mode with dynamics `a` and step `h`: the ones shared where another
+/// simulation has them.
+fn shared_maps(a: &AugMatrix, h: f64) -> Arc<ModeMaps> {
+    let key: MapKey = (a.iter().map(|v| v.to_bits()).collect(), h.to_bits());
+    let shared = SHARED.get_or_init(|| Mutex::new(Shared::default()));
+    // A panic elsewhere while the lock was held leaves whole entries only.
+    let mut maps = shared.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(m) = maps.get(&key) {
+        return Arc::clone(m);
+    }
+    if maps.len() >= SHARED_MAX {
+        maps.clear();
+    }
+    let m = Arc::new(ModeMaps::new(a, h));
+    maps.insert(key, Arc::clone(&m));
+    m
 }
 
 #[cfg(test)]
@@ -105,5 +228,44 @@ mod tests {
         // The reference is integrated exactly: x_r + v_r h + a_r h²/2.
         let h = 5e-4;
         assert!((full[XR] - (0.1 + 0.01 * h + 0.1 * h * h)).abs() < 1e-16);
+    }
+
+    /// The short steps' maps, summed as a Taylor series, are the Padé approximant's to the
+    /// last digits: each entry within 1e-13 of itself, or of 1e-13 of its row's largest
+    /// (an entry summed from terms of both signs keeps its row's rounding, not its own).
+    #[test]
+    fn short_steps_summed_as_a_series_match_the_approximant() {
+        let mode = Mode {
+            friction: FrictionMode::SlipPos,
+            contact: ContactMode::Pos,
+            current: ClampMode::Linear,
+            voltage: ClampMode::Linear,
+        };
+        for preset in ["hvmc", "small-table"] {
+            let machine = MachineConfig::preset(preset).unwrap();
+            let model = AxisModel::from_config(&machine.x);
+            let h = 1e-4;
+            let maps = ModeMaps::new(&model.dynamics(mode), h);
+            let mut series = 0;
+            for level in 0..=LEVELS {
+                let m = maps.balanced * (1.0 / (1u64 << level) as f64);
+                series += usize::from(one_norm(&m) <= TAYLOR_NORM);
+                let mut pade = m.exp();
+                nalgebra::linalg::balancing::unbalance(&mut pade, &maps.diagonal);
+                let pade = pade.fixed_view::<N, NA>(0, 0).into_owned();
+                let got = maps.at(level);
+                for i in 0..N {
+                    let row_max = (0..NA).map(|j| pade[(i, j)].abs()).fold(0.0, f64::max);
+                    for j in 0..NA {
+                        let (want, have) = (pade[(i, j)], got[(i, j)]);
+                        assert!(
+                            (want - have).abs() <= 1e-13 * want.abs().max(row_max),
+                            "{preset} level {level} ({i}, {j}): {have} against {want}"
+                        );
+                    }
+                }
+            }
+            assert!(series > 10, "{preset}: {series} levels summed as a series");
+        }
     }
 }

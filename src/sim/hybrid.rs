@@ -123,6 +123,11 @@ impl Kernel {
     fn apply(&self, x: &Aug) -> [f64; ROWS] {
         let mut y = [0.0; ROWS];
         for (col, &xj) in self.cols.iter().zip(x.iter()) {
+            // Inputs and controller states a model does not use stay zero: a quarter of
+            // the columns on many axes, whose products would add nothing.
+            if xj == 0.0 {
+                continue;
+            }
             for (yi, ci) in y.iter_mut().zip(col) {
                 *yi += ci * xj;
             }
