@@ -63,7 +63,10 @@ impl MapCache {
 
 /// One mode's maps at every level for one step h, computed as asked for.
 struct ModeMaps {
-    /// A·h balanced (see [`series_top`]), and the diagonal that balanced it. A·h/2^k is
+    /// A·h balanced (its entries span many orders of magnitude: metres of travel, amperes,
+    /// newtons through stiffnesses of 10¹⁰ N/m — unbalanced, a stiff drive's step map loses its
+    /// small entries to the rounding of its large ones, a rigid table's speed drifting by 30
+    /// ppm), and the diagonal that balanced it. A·h/2^k is
     /// balanced by the same diagonal: halving every entry leaves the rows' and columns'
     /// ratios as they were, bit for bit.
     balanced: AugMatrix,
@@ -85,11 +88,7 @@ impl ModeMaps {
     fn at(&self, level: usize) -> &StepMap {
         self.levels[level].get_or_init(|| {
             let m = self.balanced * (1.0 / (1u64 << level) as f64);
-            let mut top = if one_norm(&m) > TAYLOR_NORM {
-                m.exp().fixed_view::<N, NA>(0, 0).into_owned()
-            } else {
-                series_top(&m)
-            };
+            let mut top = m.exp().fixed_view::<N, NA>(0, 0).into_owned();
             // D·E·D⁻¹, as nalgebra's `unbalance` does it, on the rows kept.
             for (j, mut col) in top.column_iter_mut().enumerate() {
                 let denom = 1.0 / self.diagonal[j];
@@ -100,44 +99,6 @@ impl ModeMaps {
             top
         })
     }
-}
-
-/// The top rows of exp(M) for a balanced M whose norm is at most [`TAYLOR_NORM`]. The
-/// axis's states span many orders of magnitude (metres of travel, amperes, newtons through
-/// stiffnesses of 10¹⁰ N/m): unbalanced, a stiff drive's step map loses its small entries
-/// to the rounding of its large ones (a rigid table's speed drifted by 30 ppm), balanced it
-/// keeps them to the last digits.
-///
-/// The short steps of the bisection have ‖M‖ ≪ 1: there the Taylor series reaches the last
-/// digit in a few terms, without the Padé approximant's norm estimates and solve, and the
-/// rows of its powers that a map keeps follow from the same rows of the power below.
-fn series_top(m: &AugMatrix) -> StepMap {
-    let mut term: StepMap = m.fixed_view::<N, NA>(0, 0).into_owned();
-    let mut sum = term;
-    for i in 0..N {
-        sum[(i, i)] += 1.0;
-    }
-    for k in 2..=TAYLOR_TERMS {
-        term = term * m * (1.0 / k as f64);
-        sum += term;
-        if term.iter().map(|v| v.abs()).sum::<f64>() <= TAYLOR_TAIL {
-            break;
-        }
-    }
-    sum
-}
-
-/// Largest ‖M‖₁ summed as a Taylor series: its terms beyond the eighth stay below 10⁻¹⁸.
-const TAYLOR_NORM: f64 = 1.0 / 128.0;
-/// Most terms summed (never reached below [`TAYLOR_NORM`]).
-const TAYLOR_TERMS: usize = 12;
-/// A term this small changes no digit of exp(M) (whose diagonal is near 1).
-const TAYLOR_TAIL: f64 = 1e-19;
-
-fn one_norm(m: &AugMatrix) -> f64 {
-    m.column_iter()
-        .map(|c| c.iter().map(|v| v.abs()).sum::<f64>())
-        .fold(0.0, f64::max)
 }
 
 /// A dynamics matrix and a step, bit for bit: the same key gives the same maps.
@@ -230,11 +191,10 @@ mod tests {
         assert!((full[XR] - (0.1 + 0.01 * h + 0.1 * h * h)).abs() < 1e-16);
     }
 
-    /// The short steps' maps, summed as a Taylor series, are the Padé approximant's to the
-    /// last digits: each entry within 1e-13 of itself, or of 1e-13 of its row's largest
-    /// (an entry summed from terms of both signs keeps its row's rounding, not its own).
+    /// Each level's map is the one balancing that level's matrix on its own gives, bit for
+    /// bit: halving a matrix leaves its balancing as it was.
     #[test]
-    fn short_steps_summed_as_a_series_match_the_approximant() {
+    fn maps_balanced_once_are_those_balanced_at_each_level() {
         let mode = Mode {
             friction: FrictionMode::SlipPos,
             contact: ContactMode::Pos,
@@ -244,28 +204,16 @@ mod tests {
         for preset in ["hvmc", "small-table"] {
             let machine = MachineConfig::preset(preset).unwrap();
             let model = AxisModel::from_config(&machine.x);
-            let h = 1e-4;
-            let maps = ModeMaps::new(&model.dynamics(mode), h);
-            let mut series = 0;
+            let (a, h) = (model.dynamics(mode), 1e-4);
+            let maps = ModeMaps::new(&a, h);
             for level in 0..=LEVELS {
-                let m = maps.balanced * (1.0 / (1u64 << level) as f64);
-                series += usize::from(one_norm(&m) <= TAYLOR_NORM);
-                let mut pade = m.exp();
-                nalgebra::linalg::balancing::unbalance(&mut pade, &maps.diagonal);
-                let pade = pade.fixed_view::<N, NA>(0, 0).into_owned();
-                let got = maps.at(level);
-                for i in 0..N {
-                    let row_max = (0..NA).map(|j| pade[(i, j)].abs()).fold(0.0, f64::max);
-                    for j in 0..NA {
-                        let (want, have) = (pade[(i, j)], got[(i, j)]);
-                        assert!(
-                            (want - have).abs() <= 1e-13 * want.abs().max(row_max),
-                            "{preset} level {level} ({i}, {j}): {have} against {want}"
-                        );
-                    }
-                }
+                let mut m = a * (h / (1u64 << level) as f64);
+                let d = nalgebra::linalg::balancing::balance_parlett_reinsch(&mut m);
+                let mut e = m.exp();
+                nalgebra::linalg::balancing::unbalance(&mut e, &d);
+                let want = e.fixed_view::<N, NA>(0, 0).into_owned();
+                assert_eq!(maps.at(level), &want, "{preset} level {level}");
             }
-            assert!(series > 10, "{preset}: {series} levels summed as a series");
         }
     }
 }
