@@ -216,7 +216,7 @@ fn nominal_z(
     let Some(nominal) = ctx.simulate_axis(machine, AxisName::Z) else {
         return Err(Some("the nominal Z cannot be simulated on these commands"));
     };
-    if command_travel(ctx, offset_s) < Z_MOVES_M {
+    if ctx.command_travel_m(AxisName::Z, offset_s) < Z_MOVES_M {
         return Err(Some("Z stands over the stretch compared"));
     }
     Ok(nominal)
@@ -354,20 +354,6 @@ fn compared_residual(ctx: &Context, trace: &[f64], offset_s: f64) -> Vec<f64> {
         .filter(|&(k, _)| ctx.compared(AxisName::Z, k))
         .map(|(_, v)| v)
         .collect()
-}
-
-/// How far the commanded Z travels between its compared samples (m).
-fn command_travel(ctx: &Context, offset_s: f64) -> f64 {
-    let times = ctx.sample_times(offset_s);
-    let (lo, hi) = times
-        .iter()
-        .enumerate()
-        .filter(|&(k, _)| ctx.compared(AxisName::Z, k))
-        .map(|(_, &t)| ctx.command_at(AxisName::Z, t).0)
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), z| {
-            (l.min(z), h.max(z))
-        });
-    (hi - lo).max(0.0)
 }
 
 /// Where Z's recorded commands over its compared samples ask more than `machine`'s Z allows
