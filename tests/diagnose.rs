@@ -624,7 +624,7 @@ fn a_stick_slip_fit_that_predicts_the_record_worse_is_seen_and_not_named() {
 /// by the axis's feedback — never that the loop closes on the motor, which it does not.
 #[test]
 fn the_backlash_explanation_follows_the_axis_feedback_not_where_the_record_was_taken() {
-    let circle = program("circle-test.nc");
+    let circle = program("circle-r50.nc");
     let machine = MachineConfig::default_preset();
     assert_eq!(
         machine.x.position_loop.feedback,

@@ -222,7 +222,7 @@ fn lost_motion_beyond_the_scale_found_through_another_interpolators_commands() {
     // Y reads 5 µm more travelling + than −, beyond its scale; the record's commands fix
     // the clock, which would otherwise take it for an offset (v·Δt at one feed).
     let d = assert_found_through_foreign_commands(
-        "circle-test.nc",
+        "circle-r50.nc",
         CauseId::DirectionOffset,
         AxisName::Y,
         &[5.0],
@@ -257,7 +257,7 @@ fn a_bowed_travel_found_through_another_interpolators_commands() {
 fn lateral_play_found_through_another_interpolators_commands() {
     // X steps 6 µm at each reversal of Y (at the circle's ±Y points), against 0.3 µm of noise.
     let d = assert_found_through_foreign_commands(
-        "circle-test.nc",
+        "circle-r50.nc",
         CauseId::LateralPlay,
         AxisName::X,
         &[6.0],

@@ -1,6 +1,6 @@
-//! Property tests of the G-code front end: no input panics it. (That every number is read
-//! exactly as `str::parse::<f64>` reads the same text is a property of the lexer, tested
-//! beside it.)
+//! Property tests of the G-code front end: no input panics it. (Soups of RS274/NGC tokens,
+//! and that every number is read exactly as `str::parse::<f64>` reads the same text, are
+//! tested beside the lexer, whose numbers they share.)
 
 use contourcheck::gcode::{InterpretOptions, parse_program};
 use proptest::prelude::*;
@@ -108,98 +108,6 @@ fn sinumerik_token() -> impl Strategy<Value = String> {
     ]
 }
 
-/// Fragments real and broken programs are made of.
-fn token() -> impl Strategy<Value = String> {
-    prop_oneof![
-        prop::sample::select(vec![
-            "G0",
-            "G1",
-            "G2",
-            "G3",
-            "G4",
-            "G17",
-            "G18",
-            "G20",
-            "G21",
-            "G28",
-            "G40",
-            "G41",
-            "G43",
-            "G53",
-            "G54",
-            "G61",
-            "G64",
-            "G80",
-            "G81",
-            "G90",
-            "G90.1",
-            "G91",
-            "G91.1",
-            "G92",
-            "G10",
-            "L2",
-            "L20",
-            "M2",
-            "M3",
-            "M30",
-            "M6",
-            "M99",
-            "O100",
-            "sub",
-            "call",
-            "#1",
-            "[",
-            "]",
-            "[1+2]",
-            "SIN[30]",
-            "ATAN[1]/[2]",
-            "(",
-            ")",
-            "(comment)",
-            ";",
-            "/",
-            "%",
-            " ",
-            "\t",
-            "\n",
-            "\r\n",
-            "@",
-            "^",
-            "$",
-            "P",
-            "R",
-            "Q",
-            "E",
-            "**",
-            "MOD",
-        ])
-        .prop_map(str::to_string),
-        (
-            prop::sample::select(vec![
-                'X', 'Y', 'Z', 'I', 'J', 'K', 'R', 'F', 'P', 'x', 'g', 'A'
-            ]),
-            number_text()
-        )
-            .prop_map(|(l, n)| format!("{l}{n}")),
-        any::<char>().prop_map(|c| c.to_string()),
-    ]
-}
-
-/// Decimal numbers in every RS274/NGC form, including large and tiny ones.
-fn number_text() -> impl Strategy<Value = String> {
-    (
-        prop::sample::select(vec!["", "+", "-"]),
-        prop::option::of("[0-9]{1,12}"),
-        prop::option::of("[0-9]{0,12}"),
-    )
-        .prop_map(|(sign, int, frac)| match (int, frac) {
-            (Some(i), Some(f)) => format!("{sign}{i}.{f}"),
-            (Some(i), None) => format!("{sign}{i}"),
-            (None, Some(f)) if !f.is_empty() => format!("{sign}.{f}"),
-            _ => format!("{sign}0"),
-        })
-}
-
 proptest! {
     #![proptest_config(ProptestConfig { cases: 2000, ..ProptestConfig::default() })]
 
@@ -207,12 +115,6 @@ proptest! {
     fn random_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..400)) {
         let text = String::from_utf8_lossy(&bytes);
         let _ = parse_program(&text, "fuzz.nc", &InterpretOptions::default());
-    }
-
-    #[test]
-    fn token_soups_never_panic(tokens in prop::collection::vec(token(), 0..60)) {
-        let text: String = tokens.concat();
-        let _ = parse_program(&text, "soup.nc", &InterpretOptions::default());
     }
 
     #[test]

@@ -56,7 +56,8 @@ impl<T: Copy> PeakThinned<T> {
     }
 
     /// Samples stood for by each point.
-    pub fn stride(&self) -> usize {
+    #[cfg(test)]
+    pub(crate) fn stride(&self) -> usize {
         self.stride
     }
 

@@ -315,6 +315,83 @@ mod tests {
             })
     }
 
+    /// Fragments real and broken programs are made of.
+    fn token() -> impl Strategy<Value = String> {
+        prop_oneof![
+            prop::sample::select(vec![
+                "G0",
+                "G1",
+                "G2",
+                "G3",
+                "G4",
+                "G17",
+                "G18",
+                "G20",
+                "G21",
+                "G28",
+                "G40",
+                "G41",
+                "G43",
+                "G53",
+                "G54",
+                "G61",
+                "G64",
+                "G80",
+                "G81",
+                "G90",
+                "G90.1",
+                "G91",
+                "G91.1",
+                "G92",
+                "G10",
+                "L2",
+                "L20",
+                "M2",
+                "M3",
+                "M30",
+                "M6",
+                "M99",
+                "O100",
+                "sub",
+                "call",
+                "#1",
+                "[",
+                "]",
+                "[1+2]",
+                "SIN[30]",
+                "ATAN[1]/[2]",
+                "(",
+                ")",
+                "(comment)",
+                ";",
+                "/",
+                "%",
+                " ",
+                "\t",
+                "\n",
+                "\r\n",
+                "@",
+                "^",
+                "$",
+                "P",
+                "R",
+                "Q",
+                "E",
+                "**",
+                "MOD",
+            ])
+            .prop_map(str::to_string),
+            (
+                prop::sample::select(vec![
+                    'X', 'Y', 'Z', 'I', 'J', 'K', 'R', 'F', 'P', 'x', 'g', 'A'
+                ]),
+                number_text()
+            )
+                .prop_map(|(l, n)| format!("{l}{n}")),
+            any::<char>().prop_map(|c| c.to_string()),
+        ]
+    }
+
     // Every number is read exactly as `str::parse::<f64>` reads the same text.
     proptest! {
         #![proptest_config(ProptestConfig { cases: 2000, ..ProptestConfig::default() })]
@@ -336,6 +413,13 @@ mod tests {
             prop_assert_eq!(out.words.len(), 4);
             prop_assert_eq!(out.words[1].value.to_bits(), a.parse::<f64>().unwrap().to_bits());
             prop_assert_eq!(out.words[2].value.to_bits(), b.parse::<f64>().unwrap().to_bits());
+        }
+
+        // Whatever the lexer's tokens make, the front end reads or refuses, never panics.
+        #[test]
+        fn token_soups_never_panic(tokens in prop::collection::vec(token(), 0..60)) {
+            let text: String = tokens.concat();
+            let _ = crate::gcode::parse_program(&text, "soup.nc", &crate::gcode::InterpretOptions::default());
         }
     }
 }

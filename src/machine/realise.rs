@@ -53,7 +53,8 @@ impl Realisation {
     }
 
     /// C(s) at a complex frequency (for tests and checks).
-    pub fn response(&self, s: nalgebra::Complex<f64>) -> nalgebra::Complex<f64> {
+    #[cfg(test)]
+    pub(crate) fn response(&self, s: nalgebra::Complex<f64>) -> nalgebra::Complex<f64> {
         // With the companion form, C(sI − A)⁻¹B = (Σ cᵢ sⁱ)/(sⁿ + Σ aᵢ sⁱ).
         let poly = |coefficients: &[f64], lead: f64| {
             let mut value = nalgebra::Complex::new(lead, 0.0);

@@ -30,11 +30,6 @@ impl Lookup {
         self.points.iter().all(|p| p.1 == 0.0)
     }
 
-    /// Its points.
-    pub fn points(&self) -> &[(f64, f64)] {
-        &self.points
-    }
-
     /// Its value at `p`.
     pub(crate) fn at(&self, p: f64) -> f64 {
         let m = &self.points;

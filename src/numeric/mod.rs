@@ -8,4 +8,4 @@ pub(crate) mod poly;
 mod search;
 pub mod units;
 
-pub use search::golden_section;
+pub(crate) use search::golden_section;

@@ -1,7 +1,7 @@
 //! One-dimensional minimisation.
 
 /// Golden-section minimum of `f` on [a, b] to a bracket of `tol`.
-pub fn golden_section(mut a: f64, mut b: f64, tol: f64, f: &dyn Fn(f64) -> f64) -> f64 {
+pub(crate) fn golden_section(mut a: f64, mut b: f64, tol: f64, f: &dyn Fn(f64) -> f64) -> f64 {
     let g = 0.5 * (5f64.sqrt() - 1.0);
     let (mut c, mut d) = (b - g * (b - a), a + g * (b - a));
     let (mut fc, mut fd) = (f(c), f(d));

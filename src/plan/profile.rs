@@ -243,11 +243,6 @@ impl SegmentProfile {
         }
     }
 
-    /// Peak speed (m/s).
-    pub fn v_peak(&self) -> f64 {
-        self.v_peak
-    }
-
     /// Duration (s).
     pub(crate) fn duration(&self) -> f64 {
         self.up.duration() + self.cruise_s + self.down.duration()

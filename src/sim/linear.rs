@@ -81,7 +81,7 @@ pub(crate) fn settling_rate_per_s(model: &AxisModel) -> f64 {
 }
 
 /// The linear mode used for analysis.
-pub fn nominal_mode() -> Mode {
+pub(crate) fn nominal_mode() -> Mode {
     Mode {
         friction: FrictionMode::SlipPos,
         contact: ContactMode::Pos,

@@ -266,7 +266,7 @@ impl AxisModel {
     /// mode's dynamics is linear with inputs known in closed form over the cycle, integrated
     /// exactly, and mode switches are located inside a step: one step per cycle gives the
     /// same trace as finer ones.
-    pub fn inputs_vary_within_cycle(&self) -> bool {
+    pub(crate) fn inputs_vary_within_cycle(&self) -> bool {
         self.has_friction_inputs() || self.measuring.is_active()
     }
 
@@ -686,7 +686,7 @@ impl AxisModel {
     }
 
     /// The augmented dynamics matrix of a mode: d/dt [x; u] = A [x; u] (input rows zero).
-    pub fn dynamics(&self, mode: Mode) -> AugMatrix {
+    pub(crate) fn dynamics(&self, mode: Mode) -> AugMatrix {
         let s = self.signals();
         let mut a = AugMatrix::zeros();
         let mut set = |i: usize, row: Row| a.set_row(i, &row);

@@ -306,7 +306,7 @@ pub fn shared_shortfall(points: &[SweepPoint]) -> Option<Vec<Flag>> {
 }
 
 /// Every combination of the dimensions' values (the first dimension varies slowest).
-pub fn grid(dims: &[Dimension]) -> Vec<Vec<f64>> {
+pub(crate) fn grid(dims: &[Dimension]) -> Vec<Vec<f64>> {
     dims.iter().fold(vec![Vec::new()], |acc, d| {
         acc.iter()
             .flat_map(|prefix| {

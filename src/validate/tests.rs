@@ -2,11 +2,11 @@
 //! Error of Heavy Vertical Machining Centre Considering Nonlinear Factors", §4) and against
 //! docs/model.md's reference figures. The paper's numbers are written here, in the test source.
 
-use contourcheck::machine::{Feedback, MachineConfig};
-use contourcheck::plan::AxisCommands;
-use contourcheck::sim::linear::{self, Loop};
-use contourcheck::sim::{AxisModel, SimConfig, simulate, stickslip};
-use contourcheck::validate;
+use crate::machine::{Feedback, MachineConfig};
+use crate::plan::AxisCommands;
+use crate::sim::linear::{self, Loop};
+use crate::sim::{AxisModel, SimConfig, simulate, stickslip};
+use crate::validate;
 
 fn preset() -> MachineConfig {
     MachineConfig::default_preset()
@@ -21,7 +21,7 @@ fn f_over_kv_mm(feed: f64, kv: f64) -> f64 {
     feed / (kv * 1000.0)
 }
 
-fn steady_mm(axis: &contourcheck::machine::AxisConfig, feed_mm_per_min: f64) -> f64 {
+fn steady_mm(axis: &crate::machine::AxisConfig, feed_mm_per_min: f64) -> f64 {
     validate::steady_following_error_m(axis, mm_per_min(feed_mm_per_min), &SimConfig::default())
         .unwrap()
         * 1e3
@@ -197,7 +197,7 @@ fn critical_stick_slip_velocity_is_four_and_a_half_mm_per_min() {
 fn start_up_trends_follow_the_papers_figures_17_to_19() {
     let feed = mm_per_min(500.0);
     let sim = SimConfig::default();
-    let peak = |set: &dyn Fn(&mut contourcheck::machine::AxisConfig)| {
+    let peak = |set: &dyn Fn(&mut crate::machine::AxisConfig)| {
         let mut x = preset().x;
         set(&mut x);
         validate::start_up(&x, feed, &sim).unwrap()
@@ -374,7 +374,7 @@ fn expm_taylor(m: &nalgebra::DMatrix<f64>) -> nalgebra::DMatrix<f64> {
 
 #[test]
 fn linear_step_and_ramp_responses_match_the_closed_form() {
-    use contourcheck::sim::model::{X2, XR};
+    use crate::sim::model::{X2, XR};
     // A purely linear axis: no Coulomb or static friction, no backlash, no lateral shift.
     let mut x = preset().x;
     x.friction.coulomb_coefficient = 0.0;

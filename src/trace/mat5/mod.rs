@@ -91,7 +91,7 @@ pub enum Value {
 
 impl Value {
     /// The value of field `name` in a structure's first element.
-    pub fn field(&self, name: &str) -> Option<&Value> {
+    pub(crate) fn field(&self, name: &str) -> Option<&Value> {
         let Value::Struct {
             fields, elements, ..
         } = self
@@ -103,7 +103,7 @@ impl Value {
     }
 
     /// The text of a character array.
-    pub fn text(&self) -> Option<&str> {
+    pub(crate) fn text(&self) -> Option<&str> {
         match self {
             Value::Text(s) => Some(s),
             _ => None,
@@ -140,7 +140,7 @@ pub enum Mat5Error {
 }
 
 /// Decodes every variable of a level-5 MAT-file.
-pub fn read(bytes: &[u8]) -> Result<Vec<Variable>, Mat5Error> {
+pub(crate) fn read(bytes: &[u8]) -> Result<Vec<Variable>, Mat5Error> {
     let order = header_byte_order(bytes)?;
     let mut top = Cursor {
         bytes,
@@ -586,3 +586,6 @@ fn characters(kind: u32, data: &[u8], order: Order) -> Option<Vec<char>> {
         _ => return None,
     })
 }
+
+#[cfg(test)]
+mod tests;

@@ -147,7 +147,7 @@ fn table_setup(base: &AxisConfig, parameter: Parameter, value: f64) -> (AxisConf
 }
 
 /// The steady following error (m) of an axis after a velocity step from rest to `feed`.
-pub fn steady_following_error_m(
+pub(crate) fn steady_following_error_m(
     axis: &AxisConfig,
     feed_m_per_s: f64,
     sim: &SimConfig,
@@ -276,7 +276,7 @@ pub struct StartUp {
 }
 
 /// Start-up of an axis at `feed` (m/s) from rest.
-pub fn start_up(
+pub(crate) fn start_up(
     axis: &AxisConfig,
     feed_m_per_s: f64,
     sim: &SimConfig,
@@ -331,7 +331,7 @@ pub struct BacklashReversal {
 }
 
 /// Backlash `b_um` on the X axis at the Fig. 20 reversal, with the given feedback.
-pub fn backlash_reversal(
+pub(crate) fn backlash_reversal(
     machine: &MachineConfig,
     b_um: f64,
     feedback: crate::machine::Feedback,
@@ -384,3 +384,6 @@ pub(crate) fn mean_and_ripple_m(
         .fold(0.0, f64::max);
     Ok((trace.following_error_m(n - 1), ripple))
 }
+
+#[cfg(test)]
+mod tests;

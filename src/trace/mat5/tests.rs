@@ -7,8 +7,8 @@
 //! stored as `miUINT8`, four-byte data in small elements; in either byte order, and
 //! compressed. And no damaged file makes the decoder panic.
 
-use contourcheck::trace::mat5::{self, Value};
-use contourcheck::trace::measured::parse_mat_trace;
+use crate::trace::mat5::{self, Value};
+use crate::trace::measured::parse_mat_trace;
 use proptest::prelude::*;
 
 const MI_INT8: u32 = 1;
