@@ -230,8 +230,29 @@ impl ContourLocator {
 /// Contour errors of the actual positions (`x_m`, `y_m`, one per command sample; Z where
 /// it is commanded).
 pub fn contour_errors(plan: &Plan, commands: &Commands, x_m: &[f64], y_m: &[f64]) -> ContourSeries {
-    let locator = ContourLocator::new(plan);
-    let n = x_m.len().min(commands.len());
+    let z_m = &commands.z.pos_m;
+    locate_all(&ContourLocator::new(plan), plan, commands, [x_m, y_m, z_m])
+}
+
+/// Contour errors of actual positions in X, Y and Z (one per command sample): in space on
+/// the blocks that move Z along the contour or lie in ZX or YZ, in X and Y on the rest
+/// ([`ContourLocator::measures_in_space`]), as `check` measures a machine that simulates Z.
+pub fn contour_errors_in_space(
+    plan: &Plan,
+    commands: &Commands,
+    xyz_m: [&[f64]; 3],
+) -> ContourSeries {
+    locate_all(&ContourLocator::in_3d(plan), plan, commands, xyz_m)
+}
+
+/// Each sample's contour error by `locator`.
+fn locate_all(
+    locator: &ContourLocator,
+    plan: &Plan,
+    commands: &Commands,
+    [x_m, y_m, z_m]: [&[f64]; 3],
+) -> ContourSeries {
+    let n = x_m.len().min(y_m.len()).min(z_m.len()).min(commands.len());
     let mut out = ContourSeries {
         error_m: Vec::with_capacity(n),
         in_plane_m: Vec::with_capacity(n),
@@ -242,10 +263,13 @@ pub fn contour_errors(plan: &Plan, commands: &Commands, x_m: &[f64], y_m: &[f64]
         at_vertex: Vec::with_capacity(n),
     };
     for k in 0..n {
-        let z = commands.z.pos_m[k];
-        let reference = [commands.x.pos_m[k], commands.y.pos_m[k], z];
+        let reference = [
+            commands.x.pos_m[k],
+            commands.y.pos_m[k],
+            commands.z.pos_m[k],
+        ];
         let c = commands.segment[k] as usize;
-        out.push(locator.locate(plan, c, reference, [x_m[k], y_m[k], z]));
+        out.push(locator.locate(plan, c, reference, [x_m[k], y_m[k], z_m[k]]));
     }
     out
 }

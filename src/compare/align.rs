@@ -116,8 +116,8 @@ pub(crate) fn context<'a>(
         measured_at: settings.measured_at,
         timing_drift_s: None,
         rapids_compared: false,
-        holding: [Vec::new(), Vec::new()],
-        unsettled: [Vec::new(), Vec::new()],
+        holding: Default::default(),
+        unsettled: Default::default(),
         start: driving.start,
     };
     let nominal = [AxisName::X, AxisName::Y].map(|a| ctx.simulate_axis(machine, a));

@@ -72,14 +72,14 @@ pub struct Context<'a> {
     /// Whether the rapids are among the samples compared (a record with its commands that
     /// is mostly rapids).
     pub(crate) rapids_compared: bool,
-    /// Per axis, the compared samples left out of its point-by-point residual: where it
-    /// holds still after settling and the nominal model hunts ([`Context::hunting_holds`]).
-    /// Empty for none.
-    pub(crate) holding: [Vec<bool>; 2],
-    /// Per axis, the compared samples left out of its point-by-point residual because the
-    /// axis has not settled from the record's start ([`Context::unsettled_at_start`]). Empty
-    /// for none.
-    pub(crate) unsettled: [Vec<bool>; 2],
+    /// Per axis (X, Y, Z by [`AxisName::index`]), the compared samples left out of its
+    /// point-by-point residual: where it holds still after settling and the nominal model
+    /// hunts ([`Context::hunting_holds`]). Empty for none (Z's, where Z is not compared).
+    pub(crate) holding: [Vec<bool>; 3],
+    /// Per axis (X, Y, Z), the compared samples left out of its point-by-point residual
+    /// because the axis has not settled from the record's start
+    /// ([`Context::unsettled_at_start`]; for X and Y: Z's start is theirs). Empty for none.
+    pub(crate) unsettled: [Vec<bool>; 3],
     /// How the record's start was set: a run-in before it, where its commands join the
     /// program, the settling stretch not compared.
     pub(crate) start: super::start::Start,
@@ -344,13 +344,25 @@ impl Context<'_> {
 
     /// Whether compared sample `k` of `axis` is in its point-by-point residual.
     pub(crate) fn compared(&self, axis: AxisName, k: usize) -> bool {
-        if axis == AxisName::Z {
-            // Z has no start or hunting of its own worked out: it is compared where both X
-            // and Y are, after the start has settled and away from their hunting holds.
-            return AxisName::BOTH.iter().all(|&a| self.compared(a, k));
-        }
-        let left_out = |mask: &[Vec<bool>; 2]| mask[axis.index()].get(k).copied().unwrap_or(false);
-        !left_out(&self.holding) && !left_out(&self.unsettled)
+        let left_out = |mask: &[Vec<bool>; 3]| mask[axis.index()].get(k).copied().unwrap_or(false);
+        let own = !left_out(&self.holding) && !left_out(&self.unsettled);
+        // Z's start is X's and Y's (it has no arrival of its own worked out): it is compared
+        // only where both of them are, and away from its own hunting holds.
+        own && (axis != AxisName::Z || AxisName::BOTH.iter().all(|&a| self.compared(a, k)))
+    }
+
+    /// How far `axis`'s commands travel between its compared samples (m).
+    pub(crate) fn command_travel_m(&self, axis: AxisName, offset_s: f64) -> f64 {
+        let (lo, hi) = self
+            .sample_times(offset_s)
+            .iter()
+            .enumerate()
+            .filter(|&(k, _)| self.compared(axis, k))
+            .map(|(_, &t)| self.command_at(axis, t).0)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+                (l.min(v), h.max(v))
+            });
+        (hi - lo).max(0.0)
     }
 
     /// How long `axis` is left out because it holds still while the model hunts (s).

@@ -124,8 +124,21 @@ pub fn compare<'a>(
     // sample-to-sample differences, which a slow limit cycle barely moves.
     let residuals = AxisName::BOTH.map(|a| ctx.residual(a, &nominal[a.index()], offset_s));
     ctx.noise_sigma = residual::record_noise(&residuals, measured);
-    ctx.holding = AxisName::BOTH.map(|a| ctx.hunting_holds(a, &nominal[a.index()], offset_s));
-    ctx.unsettled = AxisName::BOTH.map(|a| ctx.unsettled_at_start(a, offset_s));
+    for a in AxisName::BOTH {
+        ctx.holding[a.index()] = ctx.hunting_holds(a, &nominal[a.index()], offset_s);
+        ctx.unsettled[a.index()] = ctx.unsettled_at_start(a, offset_s);
+    }
+    // Z's own hunting holds where it is compared: a simulated Z the record measured (with
+    // its commands where the record holds X's and Y's). Its start is X's and Y's: it is
+    // compared where they are.
+    let z_measured =
+        measured.z_m.is_some() && (measured.commands.is_none() || measured.z_cmd_m.is_some());
+    if machine.simulates_z()
+        && z_measured
+        && let Some(z) = ctx.simulate_axis(machine, AxisName::Z)
+    {
+        ctx.holding[AxisName::Z.index()] = ctx.hunting_holds(AxisName::Z, &z, offset_s);
+    }
     Ok(Comparison {
         ctx,
         offset_s,

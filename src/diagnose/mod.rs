@@ -32,7 +32,7 @@ pub mod z_axis;
 use serde::Serialize;
 
 use crate::analysis::circular::{Circle, CircularTest, circles, circular_test};
-use crate::analysis::contour::{ContourSeries, contour_errors};
+use crate::analysis::contour::{ContourSeries, contour_errors, contour_errors_in_space};
 use crate::compare::residual::{self, axis_residual};
 pub use crate::compare::residual::{AxisResidual, ResidualStats};
 pub use crate::compare::start::{Coverage, StartKind};
@@ -49,6 +49,7 @@ use crate::trace::signal::sample;
 use causes::{CauseId, CauseSet};
 pub use holdout::{HeldOut, HeldOutMeasure, JudgedOn};
 pub use search::{Candidate, Rejected};
+use z_axis::ZSeries;
 
 /// Settings of a diagnosis.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -194,6 +195,9 @@ pub struct Series {
     pub extended: [Vec<f64>; 2],
     /// Contour error residual before and after (m).
     pub contour_residual: [Vec<f64>; 2],
+    /// Whether the contour error is measured in space (with Z) on the blocks that move Z
+    /// along the contour or lie in ZX or YZ; else in X and Y alone.
+    pub contour_in_space: bool,
     /// The plan segment nearest each measured sample.
     pub segment: Vec<u32>,
 }
@@ -312,29 +316,22 @@ pub fn diagnose_validated(
         &settings.compare,
         Stepping::Full,
     )?;
-    // The search's many fits simulate one step per cycle where that gives the same trace;
-    // what it finds is confirmed at full resolution.
-    let search_ctx = Context {
-        stepping: Stepping::PerCycleWhereExact,
-        ..ctx.clone()
-    };
-    let mut outcome = search::search(
-        &search_ctx,
+    let mut outcome = searched(
+        &ctx,
         machine,
         settings,
-        nominal.clone(),
-        offset,
+        (&nominal, offset),
         validation.as_mut(),
     );
-    if !outcome.found.is_empty() {
-        for a in AxisName::BOTH {
-            if let Some(t) = ctx.simulate_axis(&outcome.machine, a) {
-                outcome.traces[a.index()] = t;
-            }
-        }
-    }
     let window_s = settings.event_window_s;
-    let mut summary = keep_contour_no_worse(&ctx, machine, &mut outcome, &nominal, window_s);
+    // The contour in space, until Z's causes are sought, with the nominal model's Z.
+    let z_nominal = z_axis::nominal_series(&ctx, machine, outcome.offset_s);
+    let models = Models {
+        nominal: &nominal,
+        window_s,
+        z: z_nominal.as_ref(),
+    };
+    let mut summary = keep_contour_no_worse(&ctx, machine, &mut outcome, &models);
     search::one_seen_per_axis(&mut outcome.rejected);
     // What no cause explains: where it lives, and, where a term of the model can stand for
     // that variable, the term learned from it.
@@ -345,7 +342,7 @@ pub fn diagnose_validated(
         Vec::new()
     };
     if !learned.is_empty() {
-        summary = summarize(&ctx, &nominal, &outcome.traces, outcome.offset_s, window_s);
+        summary = models.summarize(&ctx, &outcome);
         unexplained = locate::locate(&ctx, &outcome.traces, outcome.offset_s);
     }
     let localized = repeat::localize(
@@ -367,8 +364,40 @@ pub fn diagnose_validated(
                     .any(|a| tries_allowed(machine, settings, a, c))
             }),
         beyond_machine: beyond_machine_compared(measured, machine, &ctx, outcome.offset_s),
-        ..assemble(&ctx, outcome, summary, settings.max_causes > 0)
+        ..assemble(&ctx, outcome, (summary, &models), settings.max_causes > 0)
     })
+}
+
+/// The causes the search finds from the nominal model's X and Y traces at the clock offset,
+/// their traces confirmed at full resolution.
+fn searched(
+    ctx: &Context,
+    machine: &MachineConfig,
+    settings: &DiagnoseSettings,
+    (nominal, offset): (&[Vec<f64>; 2], f64),
+    validation: Option<&mut holdout::Validation<'_>>,
+) -> search::Outcome {
+    // The search's many fits simulate one step per cycle where that gives the same trace.
+    let search_ctx = Context {
+        stepping: Stepping::PerCycleWhereExact,
+        ..ctx.clone()
+    };
+    let mut outcome = search::search(
+        &search_ctx,
+        machine,
+        settings,
+        nominal.clone(),
+        offset,
+        validation,
+    );
+    if !outcome.found.is_empty() {
+        for a in AxisName::BOTH {
+            if let Some(t) = ctx.simulate_axis(&outcome.machine, a) {
+                outcome.traces[a.index()] = t;
+            }
+        }
+    }
+    outcome
 }
 
 /// Where the recorded commands ask more of an axis than the machine file allows, from where
@@ -394,11 +423,10 @@ fn keep_contour_no_worse(
     ctx: &Context,
     machine: &MachineConfig,
     outcome: &mut search::Outcome,
-    nominal: &[Vec<f64>; 2],
-    window_s: f64,
+    models: &Models,
 ) -> Summary {
     loop {
-        let summary = summarize(ctx, nominal, &outcome.traces, outcome.offset_s, window_s);
+        let summary = models.summarize(ctx, outcome);
         // Point by point, the whole-record RMS the report states, for every cause: one
         // fitted on stick-slip statistics too (which no model times) is not named if it
         // predicts the contour worse.
@@ -418,7 +446,7 @@ fn keep_contour_no_worse(
         };
         let reason =
             format!("{seen}fits, but makes the contour residual worse ({b:.3} → {a:.3} µm RMS)");
-        drop_last_cause(ctx, machine, outcome, nominal, reason);
+        drop_last_cause(ctx, machine, outcome, models.nominal, reason);
     }
 }
 
@@ -449,10 +477,19 @@ fn learn_unexplained(
 fn assemble(
     ctx: &Context,
     mut outcome: search::Outcome,
-    summary: Summary,
+    (summary, models): (Summary, &Models),
     seek_z: bool,
 ) -> Diagnosis {
     let z = z_axis::diagnose_z(ctx, &mut outcome.machine, outcome.offset_s, seek_z);
+    // The contour in space again, now with Z's extended model.
+    let summary = match &z.series {
+        Some(zs) if summary.series.contour_in_space => Models {
+            z: Some(zs),
+            ..*models
+        }
+        .summarize(ctx, &outcome),
+        _ => summary,
+    };
     // With recorded commands the simulation runs on the measurement's clock; the program
     // starts where the recorded commands start to move, less the plan's standing start.
     let program_start = if ctx.fixed_offset.is_some() {
@@ -648,6 +685,30 @@ fn series_at_samples(
     s
 }
 
+/// What a summary compares the record with besides the extended model's X and Y: the
+/// nominal model's X and Y, the event window (s), and Z where compared (the contour is then
+/// measured in space).
+#[derive(Clone, Copy)]
+struct Models<'a> {
+    nominal: &'a [Vec<f64>; 2],
+    window_s: f64,
+    z: Option<&'a ZSeries>,
+}
+
+impl Models<'_> {
+    /// The summary of the outcome's extended X and Y against the record.
+    fn summarize(&self, ctx: &Context, outcome: &search::Outcome) -> Summary {
+        summarize(
+            ctx,
+            self.nominal,
+            &outcome.traces,
+            outcome.offset_s,
+            self.window_s,
+            self.z,
+        )
+    }
+}
+
 /// A model's figures against the record.
 struct Summary {
     /// The nominal model's residual statistics.
@@ -668,15 +729,22 @@ fn summarize(
     extended: &[Vec<f64>; 2],
     offset: f64,
     window_s: f64,
+    z: Option<&ZSeries>,
 ) -> Summary {
     let mut s = series_at_samples(ctx, nominal, extended, offset);
-    // Contour errors of the three paths against the program's geometry, on the plan's clock.
+    // Contour errors of the three paths against the program's geometry, on the plan's clock:
+    // in space where Z was compared and the program moves in space, as `check` measures them.
     let view = plan_view(ctx, &s.t_s);
-    let contour_of = |xy: &[Vec<f64>; 2]| contour_errors(&ctx.plan, &view, &xy[0], &xy[1]);
+    let z = z.filter(|_| ctx.plan.segments.iter().any(|g| g.is_contour_in_space()));
+    s.contour_in_space = z.is_some();
+    let contour_of = |xy: &[Vec<f64>; 2], z: Option<&[f64]>| match z {
+        Some(z) => contour_errors_in_space(&ctx.plan, &view, [&xy[0], &xy[1], z]),
+        None => contour_errors(&ctx.plan, &view, &xy[0], &xy[1]),
+    };
     let (cm, cn, ce) = (
-        contour_of(&s.measured),
-        contour_of(&s.nominal),
-        contour_of(&s.extended),
+        contour_of(&s.measured, z.map(|z| z.measured.as_slice())),
+        contour_of(&s.nominal, z.map(|z| z.nominal.as_slice())),
+        contour_of(&s.extended, z.map(|z| z.extended.as_slice())),
     );
     s.path_s_m = cm.path_s_m.clone();
     s.segment = cm.segment.clone();

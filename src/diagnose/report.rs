@@ -173,6 +173,9 @@ pub struct ResidualReport {
     pub extended: ResidualStats,
     /// Gains per axis and for the contour (%).
     pub gain_percent: GainStats,
+    /// Whether the contour error is measured in space (with Z) on the blocks that move Z
+    /// along the contour or lie in ZX or YZ; else from X and Y alone.
+    pub contour_in_space: bool,
 }
 
 /// Gains per axis and for the contour.
@@ -243,6 +246,7 @@ impl DiagnoseReport {
                     y: Gains::between(&d.before.y, &d.after.y),
                     contour: Gains::between(&d.before.contour, &d.after.contour),
                 },
+                contour_in_space: d.series.contour_in_space,
             },
             places: d.places.clone(),
             candidates: d.candidates.clone(),
@@ -437,6 +441,13 @@ impl DiagnoseReport {
              averaged over ±20 ms, noise removed; chatter: the mismatch of stick-slip amplitude \
              per 0.25 s)"
         );
+        if r.contour_in_space {
+            let _ = writeln!(
+                s,
+                "  (contour: the distance to the programmed curve in space, X, Y and Z, on the \
+                 blocks that move Z along the contour or lie in ZX or YZ)"
+            );
+        }
     }
 
     /// Where the nominal model's residual is largest.

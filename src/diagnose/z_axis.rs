@@ -192,6 +192,47 @@ impl ZFindings {
     }
 }
 
+/// The nominal model's Z where Z can be compared against the record, else why not (`None`
+/// for a record without Z: nothing to say).
+fn nominal_z(
+    ctx: &Context,
+    machine: &MachineConfig,
+    offset_s: f64,
+) -> Result<Vec<f64>, Option<&'static str>> {
+    if ctx.measured.z_m.is_none() {
+        return Err(None);
+    }
+    if !machine.simulates_z() {
+        return Err(Some(
+            "the machine file carries Z without simulating it (give it [z.*] sections to \
+             simulate it)",
+        ));
+    }
+    if ctx.measured.commands.is_some() && ctx.measured.z_cmd_m.is_none() {
+        return Err(Some(
+            "the record holds X and Y commands but no Z command (record z_cmd to compare Z)",
+        ));
+    }
+    let Some(nominal) = ctx.simulate_axis(machine, AxisName::Z) else {
+        return Err(Some("the nominal Z cannot be simulated on these commands"));
+    };
+    if ctx.command_travel_m(AxisName::Z, offset_s) < Z_MOVES_M {
+        return Err(Some("Z stands over the stretch compared"));
+    }
+    Ok(nominal)
+}
+
+/// Z at the context's samples by the nominal model alone (as its extended model too), where
+/// Z is compared: what the contour in space is measured with before Z's causes are sought.
+pub(crate) fn nominal_series(
+    ctx: &Context,
+    machine: &MachineConfig,
+    offset_s: f64,
+) -> Option<ZSeries> {
+    let nominal = nominal_z(ctx, machine, offset_s).ok()?;
+    Some(series_of(ctx, &nominal, &nominal, offset_s))
+}
+
 /// Z's findings: compared where `machine` simulates Z and the record measured it, its causes
 /// sought where `seek` allows; `machine` extended by the cause named.
 pub(crate) fn diagnose_z(
@@ -200,26 +241,11 @@ pub(crate) fn diagnose_z(
     offset_s: f64,
     seek: bool,
 ) -> ZFindings {
-    if ctx.measured.z_m.is_none() {
-        return ZFindings::default();
-    }
-    if !machine.simulates_z() {
-        return ZFindings::not_compared(
-            "the machine file carries Z without simulating it (give it [z.*] sections to \
-             simulate it)",
-        );
-    }
-    if ctx.measured.commands.is_some() && ctx.measured.z_cmd_m.is_none() {
-        return ZFindings::not_compared(
-            "the record holds X and Y commands but no Z command (record z_cmd to compare Z)",
-        );
-    }
-    let Some(nominal) = ctx.simulate_axis(machine, AxisName::Z) else {
-        return ZFindings::not_compared("the nominal Z cannot be simulated on these commands");
+    let nominal = match nominal_z(ctx, machine, offset_s) {
+        Ok(nominal) => nominal,
+        Err(None) => return ZFindings::default(),
+        Err(Some(why)) => return ZFindings::not_compared(why),
     };
-    if command_travel(ctx, offset_s) < Z_MOVES_M {
-        return ZFindings::not_compared("Z stands over the stretch compared");
-    }
     let r = compared_residual(ctx, &nominal, offset_s);
     // Z's own noise, unless X's and Y's is lower: the same measuring system, where a Z that
     // hunts in its backlash would pass its chatter for noise.
@@ -328,20 +354,6 @@ fn compared_residual(ctx: &Context, trace: &[f64], offset_s: f64) -> Vec<f64> {
         .filter(|&(k, _)| ctx.compared(AxisName::Z, k))
         .map(|(_, v)| v)
         .collect()
-}
-
-/// How far the commanded Z travels between its compared samples (m).
-fn command_travel(ctx: &Context, offset_s: f64) -> f64 {
-    let times = ctx.sample_times(offset_s);
-    let (lo, hi) = times
-        .iter()
-        .enumerate()
-        .filter(|&(k, _)| ctx.compared(AxisName::Z, k))
-        .map(|(_, &t)| ctx.command_at(AxisName::Z, t).0)
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), z| {
-            (l.min(z), h.max(z))
-        });
-    (hi - lo).max(0.0)
 }
 
 /// Where Z's recorded commands over its compared samples ask more than `machine`'s Z allows

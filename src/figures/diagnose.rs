@@ -223,8 +223,10 @@ fn residual_plots(d: &Diagnosis, name: &str) -> [PanelsPlot; 2] {
         )
     };
     let contour_caption = format!(
-        "contour error: measured − model (RMS {:.3} → {:.3} µm)",
-        d.before.contour.rms_um, d.after.contour.rms_um
+        "contour error{}: measured − model (RMS {:.3} → {:.3} µm)",
+        if s.contour_in_space { " in space" } else { "" },
+        d.before.contour.rms_um,
+        d.after.contour.rms_um
     );
     let contour_before = |k: usize| um_from_m(s.contour_residual[0][k]);
     let contour_after = |k: usize| um_from_m(s.contour_residual[1][k]);

@@ -5,7 +5,9 @@
 use serde::Serialize;
 use serde_json::Value as Json;
 
-use super::{Fig, HtmlError, Inputs, Made, Row, Svg, decimals_for, fig, file_name, render, svg};
+use super::{
+    Fig, HtmlError, Inputs, Made, Row, Svg, decimals_for, fig, file_name, lookup, render, svg,
+};
 use crate::diagnose::Diagnosis;
 use crate::diagnose::report::{CauseReport, DiagnoseReport, next_step, strength};
 use crate::figures::DiagnoseFigures;
@@ -146,7 +148,11 @@ fn conditions(r: &DiagnoseReport, inputs: &Inputs) -> Vec<Row> {
 /// The residual's RMS of the nominal and the extended model and the gain, per axis and for
 /// the contour.
 fn residual_rows(json: &Json) -> Vec<(&'static str, Vec<Fig>)> {
-    [("X", "x"), ("Y", "y"), ("contour", "contour")]
+    let contour = match lookup(json, "residual.contour_in_space") {
+        Some(Json::Bool(true)) => "contour (in space)",
+        _ => "contour",
+    };
+    [("X", "x"), ("Y", "y"), (contour, "contour")]
         .into_iter()
         .map(|(label, k)| {
             (

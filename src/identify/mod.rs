@@ -35,6 +35,7 @@ mod solve;
 mod staged;
 mod starts;
 mod verdict;
+mod z_axis;
 
 use rayon::prelude::*;
 use serde::Serialize;
@@ -181,6 +182,9 @@ pub struct Identification {
     /// (a trace that begins at the machine's home is compared from where its commands join
     /// the program).
     pub coverage: Coverage,
+    /// Why Z was not identified, where the record measured Z (its template's values stay);
+    /// `None` where it was, or where the record has no Z.
+    pub z_not_identified: Option<String>,
 }
 
 /// Why a record cannot identify a machine.
@@ -296,9 +300,14 @@ fn identify_as(
         offset_s: offset,
         ..
     } = compare(program, template, measured, settings, Stepping::Full)?;
-    let (x, y) = rayon::join(
-        || identify_axis(&ctx, template, AxisName::X, offset, model),
-        || identify_axis(&ctx, template, AxisName::Y, offset, model),
+    let ((x, y), z) = rayon::join(
+        || {
+            rayon::join(
+                || identify_axis(&ctx, template, AxisName::X, offset, model),
+                || identify_axis(&ctx, template, AxisName::Y, offset, model),
+            )
+        },
+        || z_axis::identify(&ctx, template, offset, model),
     );
     let mut machine = template.clone();
     let mut axes = Vec::new();
@@ -310,6 +319,7 @@ fn identify_as(
         *machine.axis_mut(axis) = config;
         axes.push(identified);
     }
+    let z_not_identified = z_axis::write(z, &mut machine, &mut axes);
     let interpolator = interpolator::read(&ctx);
     interpolator::write_limits(&mut machine, &interpolator);
     Ok(Identification {
@@ -318,7 +328,11 @@ fn identify_as(
         axes,
         interpolator,
         noise_um: um_from_m(ctx.noise_sigma),
-        coverage: ctx.coverage(offset),
+        coverage: Coverage {
+            z_compared: z_not_identified.is_none() && measured.z_m.is_some(),
+            ..ctx.coverage(offset)
+        },
+        z_not_identified,
     })
 }
 

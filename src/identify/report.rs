@@ -86,6 +86,12 @@ pub fn summary_text(id: &Identification, template: &MachineConfig) -> String {
     for a in &id.axes {
         axis_summary(&mut s, a, id.noise_um);
     }
+    if let Some(why) = &id.z_not_identified {
+        let _ = writeln!(
+            s,
+            "\nZ axis: not identified: {why}; the template's Z is written"
+        );
+    }
     let lines = interpolator_lines(&id.interpolator);
     let _ = writeln!(s, "\ninterpolator: {}", lines[0]);
     for line in &lines[1..] {
@@ -277,6 +283,9 @@ pub fn machine_file(id: &Identification, template: &MachineConfig, program_file:
                 r.inertia_kg
             );
         }
+    }
+    if let Some(why) = &id.z_not_identified {
+        let _ = writeln!(s, "#   Z: not identified ({why}): the template's");
     }
     let _ = writeln!(s, "base = \"none\"\n");
     s.push_str(&id.machine.to_toml());
