@@ -377,7 +377,10 @@ impl Context<'_> {
     /// friction, the record does not show.
     pub(crate) fn unsettled_at_start(&self, axis: AxisName, offset_s: f64) -> Vec<bool> {
         let start = &self.start;
-        let settled_s = start.run_in_s + start.settling_s[axis.index()];
+        // Settling is measured on X and Y; an axis beyond them waits for the slower.
+        let settling_s = start.settling_s.get(axis.index()).copied();
+        let settled_s =
+            start.run_in_s + settling_s.unwrap_or(start.settling_s[0].max(start.settling_s[1]));
         let times = self.sample_times(offset_s);
         let whole = match start.kind {
             super::start::StartKind::Planned => true,

@@ -424,8 +424,8 @@ pub struct Coverage {
     /// How far into the program the comparison begins by the plan's timing (s).
     pub into_program_s: f64,
     /// Where the record has Z: the lowest and highest Z over the stretch compared (mm, the
-    /// record's own coordinates; its commands where recorded). Z is read, but neither
-    /// compared nor fitted.
+    /// record's own coordinates; its commands where recorded). Z is compared where the
+    /// machine simulates it (`z_compared`), and carried as read otherwise.
     pub z_span_mm: Option<[f64; 2]>,
     /// Whether Z was compared with a simulated Z (the diagnosis says how it compares).
     pub z_compared: bool,
@@ -499,8 +499,8 @@ impl Coverage {
                 if self.z_compared {
                     return format!(
                         "Z: moves {:.3} mm in the stretch compared (Z {lo:.3} to {hi:.3} mm on \
-                         the record's own scale); compared with the simulated Z on its own, \
-                         the figures above being of X and Y",
+                         the record's own scale); compared with the simulated Z, in its own \
+                         figures",
                         hi - lo
                     );
                 }

@@ -8,7 +8,6 @@
 //! force leaves most modes' matrices as they were).
 
 use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
 use std::sync::{Arc, Mutex, OnceLock};
 
 use nalgebra::SMatrix;
@@ -77,7 +76,13 @@ struct ModeMaps {
 impl ModeMaps {
     fn new(a: &AugMatrix, h: f64) -> Self {
         let mut balanced = a * h;
-        let diagonal = nalgebra::linalg::balancing::balance_parlett_reinsch(&mut balanced);
+        // Balancing never ends on an infinite entry; such dynamics step to non-finite states,
+        // which the simulation reports as not simulable, balanced or not.
+        let diagonal = if balanced.iter().all(|v| v.is_finite()) {
+            nalgebra::linalg::balancing::balance_parlett_reinsch(&mut balanced)
+        } else {
+            nalgebra::SVector::repeat(1.0)
+        };
         ModeMaps {
             balanced,
             diagonal,
@@ -104,30 +109,10 @@ impl ModeMaps {
 /// A dynamics matrix and a step, bit for bit: the same key gives the same maps.
 type MapKey = (Vec<u64>, u64);
 
-/// A hasher for keys of many machine words (the default one is slower than the maps'
-/// arithmetic it saves at this size).
-#[derive(Default)]
-struct WordHasher(u64);
+type Shared = HashMap<MapKey, Arc<ModeMaps>>;
 
-impl Hasher for WordHasher {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.write_u64(u64::from(b));
-        }
-    }
-
-    fn write_u64(&mut self, v: u64) {
-        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x517c_c1b7_2722_0a95);
-    }
-}
-
-type Shared = HashMap<MapKey, Arc<ModeMaps>, BuildHasherDefault<WordHasher>>;
-
-/// Modes' maps kept before the shared ones are cleared (up to 50 kB each).
+/// Modes' maps kept before the shared ones are cleared: about 55 kB an entry (its key and
+/// room for every level), so under 30 MB for the process.
 const SHARED_MAX: usize = 512;
 
 static SHARED: OnceLock<Mutex<Shared>> = OnceLock::new();
@@ -138,16 +123,18 @@ fn shared_maps(a: &AugMatrix, h: f64) -> Arc<ModeMaps> {
     let key: MapKey = (a.iter().map(|v| v.to_bits()).collect(), h.to_bits());
     let shared = SHARED.get_or_init(|| Mutex::new(Shared::default()));
     // A panic elsewhere while the lock was held leaves whole entries only.
-    let mut maps = shared.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some(m) = maps.get(&key) {
+    let lock = || shared.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(m) = lock().get(&key) {
         return Arc::clone(m);
     }
+    // Balanced outside the lock, so one slow mode holds up no other simulation; two threads
+    // that build the same maps at once build equal ones, and the first kept is used.
+    let built = Arc::new(ModeMaps::new(a, h));
+    let mut maps = lock();
     if maps.len() >= SHARED_MAX {
         maps.clear();
     }
-    let m = Arc::new(ModeMaps::new(a, h));
-    maps.insert(key, Arc::clone(&m));
-    m
+    Arc::clone(maps.entry(key).or_insert(built))
 }
 
 #[cfg(test)]

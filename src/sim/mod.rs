@@ -2,16 +2,17 @@
 //! structure, realised by `machine::realise`), ball-screw mechanics,
 //! hybrid stick/slip friction, backlash, lateral shift, current and voltage limits.
 //!
-//! [`simulate`] is pure: model and commands in, trace out, no I/O and no shared state, so
-//! axes and sweeps run in parallel; each of its sub-steps is [`hybrid`]'s, exact between mode
-//! switches. [`linear`] gives the linearised loops (Bode, stability) and [`stickslip`] the
+//! [`simulate`] is pure: model and commands in, trace out, no I/O, its result its arguments'
+//! alone (the step maps it shares between simulations are keyed by dynamics and step bit for
+//! bit), so axes and sweeps run in parallel; each of its sub-steps is `hybrid`'s, exact between
+//! mode switches. [`linear`] gives the linearised loops (Bode, stability) and [`stickslip`] the
 //! paper's stick-slip criterion.
 
 pub mod commands;
-pub mod discrete;
+pub(crate) mod discrete;
 pub mod geometry;
 pub(crate) mod gravity;
-pub mod hybrid;
+pub(crate) mod hybrid;
 pub mod linear;
 pub mod margins;
 pub mod model;
@@ -19,7 +20,8 @@ pub mod simulate;
 pub mod stickslip;
 
 pub use commands::AxisCommands;
-pub use model::{AxisModel, FrictionMode, Mode};
+pub use model::AxisModel;
+pub(crate) use model::{FrictionMode, Mode};
 pub use simulate::{AxisRun, simulate};
 
 use model::{Aug, I, X2, XR};

@@ -11,7 +11,7 @@ pub mod format;
 pub mod halscope;
 pub mod inspect;
 pub mod mat;
-pub mod mat5;
+pub(crate) mod mat5;
 pub mod measured;
 pub mod placement;
 pub mod recorded;
