@@ -133,7 +133,7 @@ impl Context<'_> {
     }
 
     /// Which half each compared sample belongs to: alternate blocks of time.
-    pub fn halves(&self, offset_s: f64) -> Vec<bool> {
+    pub(crate) fn halves(&self, offset_s: f64) -> Vec<bool> {
         self.sample_times(offset_s)
             .iter()
             .map(|t| (t / HALF_BLOCK_S).floor().rem_euclid(2.0) == 0.0)
@@ -141,7 +141,11 @@ impl Context<'_> {
     }
 
     /// Simulates one axis of a machine on the context's commands; `None` if it cannot run.
-    pub fn simulate_axis(&self, machine: &MachineConfig, axis: AxisName) -> Option<Vec<f64>> {
+    pub(crate) fn simulate_axis(
+        &self,
+        machine: &MachineConfig,
+        axis: AxisName,
+    ) -> Option<Vec<f64>> {
         match self.replanned(machine) {
             None => self.read_on(machine, axis, &self.commands, None),
             // The machine runs on its own plan's clock.
@@ -320,7 +324,7 @@ impl Context<'_> {
     ///
     /// At the samples left out for hunting ([`Context::hunting_holds`]) it is zero for every
     /// model: they weigh in no fit and no evidence.
-    pub fn residual(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> Vec<f64> {
+    pub(crate) fn residual(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> Vec<f64> {
         let m = self.measured_axis(axis);
         self.samples
             .iter()
@@ -366,7 +370,7 @@ impl Context<'_> {
     }
 
     /// How long `axis` is left out because it holds still while the model hunts (s).
-    pub fn hunting_left_out_s(&self, axis: AxisName) -> f64 {
+    pub(crate) fn hunting_left_out_s(&self, axis: AxisName) -> f64 {
         self.holding[axis.index()].iter().filter(|&&h| h).count() as f64 * self.sample_dt_s
     }
 

@@ -280,12 +280,12 @@ const fn param(key: &'static str, scale: f64, bounds: std::ops::RangeInclusive<f
 
 /// Reads a parameter's value from an axis (every cause parameter is in the machine's key
 /// table: `tests::every_parameter_is_a_machine_key`).
-pub fn get(axis: &AxisConfig, key: &str) -> f64 {
+pub(crate) fn get(axis: &AxisConfig, key: &str) -> f64 {
     crate::machine::keys::get(axis, key).unwrap_or(f64::NAN)
 }
 
 /// Sets a parameter on an axis.
-pub fn set(axis: &mut AxisConfig, key: &str, v: f64) {
+pub(crate) fn set(axis: &mut AxisConfig, key: &str, v: f64) {
     crate::machine::keys::set(axis, key, v);
 }
 
@@ -333,7 +333,7 @@ fn travel_directions(positions_m: &[f64]) -> Vec<f64> {
 /// How strongly the residual `r` shows a cause's signature: the share of its variance
 /// (in the relevant samples) a least-squares fit of the signature's regressors explains,
 /// from 0 (none) to 1 (all). Cheap: no simulation.
-pub fn signature(cause: CauseId, r: &[f64], k: &Kinematics) -> f64 {
+pub(crate) fn signature(cause: CauseId, r: &[f64], k: &Kinematics) -> f64 {
     let n = r.len().min(k.pos_m.len());
     let all = |_: usize| true;
     match cause {

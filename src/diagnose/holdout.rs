@@ -200,7 +200,7 @@ pub struct Validation<'a> {
 
 impl<'a> Validation<'a> {
     /// Aligns the second record with the program and simulates the nominal machine on it.
-    pub fn new(
+    pub(crate) fn new(
         program: &Program,
         machine: &MachineConfig,
         measured: &'a MeasuredTrace,
@@ -248,7 +248,7 @@ impl<'a> Validation<'a> {
 
     /// Judges `cause` with `values` on `axis` of `current` on this record; `None` when the
     /// extended machine cannot be simulated on it.
-    pub fn judge(
+    pub(crate) fn judge(
         &self,
         current: &MachineConfig,
         axis: AxisName,

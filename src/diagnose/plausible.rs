@@ -48,7 +48,7 @@ const MODE_MARGIN: f64 = 0.025;
 
 /// Why fitted `values` of `cause` are implausible on `axis` (its nominal settings), or
 /// `None` when they are not.
-pub fn implausible(
+pub(crate) fn implausible(
     cause: CauseId,
     values: &[f64],
     axis: &AxisConfig,

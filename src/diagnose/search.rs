@@ -133,7 +133,7 @@ struct Chosen {
 }
 
 /// Searches for causes from the nominal traces `traces` at clock offset `offset_s`.
-pub fn search(
+pub(crate) fn search(
     ctx: &Context,
     machine: &MachineConfig,
     settings: &DiagnoseSettings,

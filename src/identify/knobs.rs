@@ -56,7 +56,7 @@ pub struct Knob {
 impl Knob {
     /// Whether an uncertainty `sigma` leaves `value` determined: within
     /// `undetermined_beyond` of its size (the value itself, or the knob's scale there).
-    pub fn determines(&self, sigma: f64, value: f64) -> bool {
+    pub(crate) fn determines(&self, sigma: f64, value: f64) -> bool {
         let size = if self.logarithmic {
             value.abs()
         } else {
@@ -72,7 +72,7 @@ impl Knob {
     /// lie several times off (a controller tuned on the machine): put back, it would leave
     /// the fit of the rest worse than either. Whether the corners are kept at all the
     /// held-out halves decide. (A fit at the noise puts back what it does not determine.)
-    pub fn stays_fitted(&self, sigma: f64, value: f64) -> bool {
+    pub(crate) fn stays_fitted(&self, sigma: f64, value: f64) -> bool {
         if self.is_corner() {
             sigma.is_finite() && sigma <= UNDETERMINED * value.abs()
         } else {
@@ -401,7 +401,7 @@ pub(crate) fn kept(axis: &AxisConfig) -> &'static str {
 
 /// A knob's value on an axis (the Coulomb friction as a force at the table; the others
 /// through the machine's key table).
-pub fn get(axis: &AxisConfig, key: &str) -> f64 {
+pub(crate) fn get(axis: &AxisConfig, key: &str) -> f64 {
     match key {
         "controller.gain" => match &axis.controller {
             Controller::TransferFunction(tf) => low_frequency_gain(tf),

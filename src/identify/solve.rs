@@ -84,7 +84,7 @@ impl Fitted {
 }
 
 impl<'c, 'a> Fit<'c, 'a> {
-    pub fn new(
+    pub(crate) fn new(
         ctx: &'c Context<'a>,
         template: &'c MachineConfig,
         axis: AxisName,
@@ -110,22 +110,22 @@ impl<'c, 'a> Fit<'c, 'a> {
     }
 
     /// The record's comparison.
-    pub fn ctx(&self) -> &'c Context<'a> {
+    pub(crate) fn ctx(&self) -> &'c Context<'a> {
         self.ctx
     }
 
     /// The axis fitted.
-    pub fn axis(&self) -> AxisName {
+    pub(crate) fn axis(&self) -> AxisName {
         self.axis
     }
 
     /// The record's clock offset (s).
-    pub fn offset(&self) -> f64 {
+    pub(crate) fn offset(&self) -> f64 {
         self.offset_s
     }
 
     /// The axis's residual at every compared sample with its configuration `config` (m).
-    pub fn residual(&self, config: &AxisConfig) -> Option<Vec<f64>> {
+    pub(crate) fn residual(&self, config: &AxisConfig) -> Option<Vec<f64>> {
         let mut machine = self.template.clone();
         *machine.axis_mut(self.axis) = config.clone();
         let trace = self.ctx.simulate_axis(&machine, self.axis)?;
@@ -134,7 +134,7 @@ impl<'c, 'a> Fit<'c, 'a> {
 
     /// The residual's sum of squares over the fits' samples (m²), or none where the model
     /// cannot run.
-    pub fn cost(&self, config: &AxisConfig) -> Option<f64> {
+    pub(crate) fn cost(&self, config: &AxisConfig) -> Option<f64> {
         let r = self.residual(config)?;
         Some(
             r.iter()
@@ -146,7 +146,7 @@ impl<'c, 'a> Fit<'c, 'a> {
     }
 
     /// Fits `knobs` from `base`'s values on the samples `use_sample` allows.
-    pub fn run(
+    pub(crate) fn run(
         &self,
         knobs: &[Knob],
         base: &AxisConfig,
@@ -166,7 +166,7 @@ impl<'c, 'a> Fit<'c, 'a> {
     }
 
     /// `base` with `knobs` at `values`.
-    pub fn config(knobs: &[Knob], base: &AxisConfig, values: &[f64]) -> AxisConfig {
+    pub(crate) fn config(knobs: &[Knob], base: &AxisConfig, values: &[f64]) -> AxisConfig {
         let mut c = base.clone();
         let keys: Vec<&str> = knobs.iter().map(|k| k.key).collect();
         set_all(&mut c, &keys, values);
