@@ -77,18 +77,22 @@ pub(crate) fn circles(segments: &[Segment]) -> Vec<Circle> {
 }
 
 /// The samples of a path on circle `c` (`segment[k]` the plan segment sample `k` lies
-/// nearest): each one's polar angle about the programmed centre (rad) and radial deviation
-/// from the programmed radius (m, outward positive).
-pub(crate) fn radial_points(
-    c: &Circle,
-    segment: &[u32],
-    x_m: &[f64],
-    y_m: &[f64],
-) -> Vec<(f64, f64)> {
-    (0..segment.len().min(x_m.len()).min(y_m.len()))
-        .filter(|&k| segment[k] as usize == c.segment && x_m[k].is_finite() && y_m[k].is_finite())
-        .map(|k| c.polar([x_m[k], y_m[k]]))
+/// nearest, `[x, y, z]` its position, m; `z` may be empty where the path has no Z): each
+/// one's polar angle about the programmed centre in the circle's plane (rad) and radial
+/// deviation from the programmed radius (m, outward positive). A circle outside XY gets
+/// none without Z.
+pub(crate) fn radial_points(c: &Circle, segment: &[u32], pos_m: [&[f64]; 3]) -> Vec<(f64, f64)> {
+    (0..segment.len())
+        .filter(|&k| segment[k] as usize == c.segment)
+        .map(|k| c.plane.coords(position(pos_m, k)))
+        .filter(|p| p[0].is_finite() && p[1].is_finite())
+        .map(|p| c.polar(p))
         .collect()
+}
+
+/// Sample `k` of a path given axis by axis, NaN on an axis that has none there.
+fn position(pos_m: [&[f64]; 3], k: usize) -> [f64; 3] {
+    pos_m.map(|v| v.get(k).copied().unwrap_or(f64::NAN))
 }
 
 impl Circle {
@@ -187,20 +191,20 @@ pub struct CircularTest {
 }
 
 /// Fewest samples on a circle for figures worth stating.
-const MIN_SAMPLES: usize = 36;
+pub(crate) const MIN_SAMPLES: usize = 36;
 
-/// The circular-test figures of an XY path: `segment[k]` is the plan segment sample `k`
-/// lies nearest to (as the contour search found it), `x_m`, `y_m` its position (circles in
-/// another plane than XY need Z, and get no points here).
+/// The circular-test figures of a path: `segment[k]` is the plan segment sample `k` lies
+/// nearest to (as the contour search found it), `[x, y, z]` its position (m). Each circle
+/// is measured in its own plane; `z` may be empty (a path without Z), and a circle in ZX or
+/// YZ then gets no figures.
 pub(crate) fn circular_test(
     circles: &[Circle],
     segment: &[u32],
-    x_m: &[f64],
-    y_m: &[f64],
+    pos_m: [&[f64]; 3],
 ) -> CircularTest {
     let mut gathered = CircleSamples::new(circles.to_vec());
-    for k in 0..segment.len().min(x_m.len()).min(y_m.len()) {
-        gathered.push(segment[k], [x_m[k], y_m[k], f64::NAN]);
+    for (k, &s) in segment.iter().enumerate() {
+        gathered.push(s, position(pos_m, k));
     }
     gathered.test().0
 }
@@ -683,7 +687,7 @@ mod tests {
     fn an_off_centre_circle_has_no_circular_deviation_but_a_radial_one() {
         // 5 µm off centre in X, 2 µm too small: G 0, F from −7 to +3 µm.
         let (x, y) = ring([5e-6, 0.0], |_| 0.1 - 2e-6);
-        let t = circular_test(&[circle(true, 0)], &vec![0; 360], &x, &y);
+        let t = circular_test(&[circle(true, 0)], &vec![0; 360], [&x, &y, &[]]);
         let c = t.circles[0];
         assert!(c.g_um < 1e-3, "{c:?}");
         assert!(
@@ -701,8 +705,7 @@ mod tests {
         let t = circular_test(
             &[circle(true, 0), circle(false, 1)],
             &segment,
-            &[x1, x2].concat(),
-            &[y1, y2].concat(),
+            [&[x1, x2].concat(), &[y1, y2].concat(), &[]],
         );
         assert!((t.circles[0].g_um - 8.0).abs() < 0.01, "{:?}", t.circles[0]);
         assert!((t.pairs[0].h_um - 3.0).abs() < 0.01, "{:?}", t.pairs[0]);
@@ -720,7 +723,7 @@ mod tests {
             let d = (a.to_degrees() - 90.5).abs();
             0.1 + if d <= 2.0 { 6e-6 } else { 0.0 }
         });
-        let t = circular_test(&[circle(true, 0)], &vec![0; 360], &x, &y);
+        let t = circular_test(&[circle(true, 0)], &vec![0; 360], [&x, &y, &[]]);
         let s = t.circles[0].reversal_spikes_um;
         assert!((s[1] - 6.0).abs() < 1e-6 && s[0].abs() < 1e-6, "{s:?}");
     }
@@ -809,8 +812,7 @@ mod tests {
         circular_test(
             &[circle(true, 0), circle(false, 1)],
             &segment,
-            &[x1, x2].concat(),
-            &[y1, y2].concat(),
+            [&[x1, x2].concat(), &[y1, y2].concat(), &[]],
         )
     }
 

@@ -16,6 +16,7 @@
 
 /// The catalogue of causes the diagnosis fits and synthetic records hide.
 pub mod causes;
+pub mod circular;
 pub mod compensation;
 pub mod fit;
 pub mod holdout;
@@ -31,7 +32,7 @@ pub mod z_axis;
 
 use serde::Serialize;
 
-use crate::analysis::circular::{Circle, CircularTest, circles, circular_test};
+use crate::analysis::circular::{Circle, circles};
 use crate::analysis::contour::{ContourSeries, contour_errors, contour_errors_in_space};
 use crate::compare::residual::{self, axis_residual};
 pub use crate::compare::residual::{AxisResidual, ResidualStats};
@@ -47,6 +48,7 @@ use crate::trace::measured::MeasuredTrace;
 use crate::trace::recorded::BeyondMachine;
 use crate::trace::signal::sample;
 use causes::{CauseId, CauseSet};
+pub use circular::{CircleLeftOut, CircularComparison};
 pub use holdout::{HeldOut, HeldOutMeasure, JudgedOn};
 pub use search::{Candidate, Rejected};
 use z_axis::ZSeries;
@@ -272,17 +274,6 @@ pub struct Diagnosis {
     pub z: z_axis::ZFindings,
 }
 
-/// Circular-test figures of the same circles three ways.
-#[derive(Debug, Clone, Default, PartialEq, Serialize)]
-pub struct CircularComparison {
-    /// From the measured path.
-    pub measured: CircularTest,
-    /// Predicted by the nominal model.
-    pub nominal: CircularTest,
-    /// Predicted by the extended model.
-    pub extended: CircularTest,
-}
-
 /// Diagnoses a measurement of `program` on `machine`.
 pub fn diagnose(
     program: &Program,
@@ -506,7 +497,7 @@ fn assemble(
         after: summary.after,
         places: summary.places,
         machine: outcome.machine,
-        circular: circular_comparison(ctx, &summary.series),
+        circular: circular::circular_comparison(ctx, &summary.series, &z),
         series: summary.series,
         samples: ctx.samples.len(),
         sample_step_s: ctx.measured.dt_s,
@@ -537,18 +528,6 @@ fn assemble(
         localized: Vec::new(),
         skipped: Vec::new(),
         searched: false,
-    }
-}
-
-/// The circular-test figures of the measured, nominal and extended paths, on the samples
-/// the measured path assigns to each circle.
-fn circular_comparison(ctx: &Context, s: &Series) -> CircularComparison {
-    let circles = circles(&ctx.plan.segments);
-    let of = |xy: &[Vec<f64>; 2]| circular_test(&circles, &s.segment, &xy[0], &xy[1]);
-    CircularComparison {
-        measured: of(&s.measured),
-        nominal: of(&s.nominal),
-        extended: of(&s.extended),
     }
 }
 

@@ -392,15 +392,28 @@ impl DiagnoseReport {
     /// The circular-test figures measured and by both models, and where they and a named cause seem to disagree, why.
     fn write_circular(&self, s: &mut String) {
         let c = &self.circular_test;
-        if !c.measured.circles.is_empty() {
+        if !c.measured.circles.is_empty() || !c.left_out.is_empty() {
             let _ = writeln!(s, "\nCircular test (ISO 230-4 figures)");
             for (label, t) in [
                 ("measured", &c.measured),
                 ("nominal model", &c.nominal),
                 ("extended model", &c.extended),
-            ] {
+            ]
+            .into_iter()
+            .filter(|_| !c.measured.circles.is_empty())
+            {
                 let _ = writeln!(s, " {label}");
                 s.push_str(&t.text());
+            }
+            for l in &c.left_out {
+                let _ = writeln!(
+                    s,
+                    " line {} ({} plane, {}): no figures: {}",
+                    l.line,
+                    l.plane.name(),
+                    l.plane.gcode(),
+                    l.reason
+                );
             }
             if let Some(sentence) = ballbar_and_causes(self) {
                 let _ = writeln!(s, " {sentence}");

@@ -267,9 +267,12 @@ fn residual_plots(d: &Diagnosis, name: &str) -> [PanelsPlot; 2] {
     [over_time, along_path]
 }
 
-/// Ballbar-style: each full circle's radial deviation, measured and by both models.
+/// Ballbar-style: each full circle's radial deviation in its plane, measured and by both
+/// models (a circle the record gives no points on is not drawn).
 fn polar_plots(d: &Diagnosis, name: &str, extended_name: &str) -> Vec<PolarPlot> {
     let s = &d.series;
+    let z = d.z.series.as_ref();
+    let none: &[f64] = &[];
     d.circles
         .iter()
         .map(|c| {
@@ -279,33 +282,63 @@ fn polar_plots(d: &Diagnosis, name: &str, extended_name: &str) -> Vec<PolarPlot>
                     .find(|f| f.line == c.line)
                     .map(|f| f.g_um)
             };
-            let trace = |label: &str, xy: &[Vec<f64>; 2], width: u32, g_um| PolarTrace {
-                label: label.to_string(),
-                width,
-                g_um,
-                points: radial_points(c, &s.segment, &xy[0], &xy[1])
-                    .into_iter()
-                    .map(|(a, r)| (a, um_from_m(r)))
-                    .collect(),
-            };
+            let trace =
+                |label: &str, xy: &[Vec<f64>; 2], z: Option<&Vec<f64>>, width: u32, g_um| {
+                    let pos_m = [&xy[0][..], &xy[1][..], z.map_or(none, |z| z)];
+                    PolarTrace {
+                        label: label.to_string(),
+                        width,
+                        g_um,
+                        points: radial_points(c, &s.segment, pos_m)
+                            .into_iter()
+                            .map(|(a, r)| (a, um_from_m(r)))
+                            .collect(),
+                    }
+                };
+            let circular = &d.circular;
+            let traces = vec![
+                trace(
+                    "measured",
+                    &s.measured,
+                    z.map(|z| &z.measured),
+                    1,
+                    g_of(&circular.measured),
+                ),
+                trace(
+                    "nominal model",
+                    &s.nominal,
+                    z.map(|z| &z.nominal),
+                    2,
+                    g_of(&circular.nominal),
+                ),
+                trace(
+                    extended_name,
+                    &s.extended,
+                    z.map(|z| &z.extended),
+                    2,
+                    g_of(&circular.extended),
+                ),
+            ];
             PolarPlot {
                 title: format!(
-                    "{name}: line {} ({}) R{:.1} mm — radial deviation",
+                    "{name}: line {} ({}{}) R{:.1} mm — radial deviation",
                     c.line,
                     if c.ccw {
                         "counter-clockwise"
                     } else {
                         "clockwise"
                     },
+                    if c.plane.is_xy() {
+                        String::new()
+                    } else {
+                        format!(", in {} ({})", c.plane.name(), c.plane.gcode())
+                    },
                     mm_from_m(c.radius_m)
                 ),
                 radius_mm: mm_from_m(c.radius_m),
-                traces: vec![
-                    trace("measured", &s.measured, 1, g_of(&d.circular.measured)),
-                    trace("nominal model", &s.nominal, 2, g_of(&d.circular.nominal)),
-                    trace(extended_name, &s.extended, 2, g_of(&d.circular.extended)),
-                ],
+                traces,
             }
         })
+        .filter(|p| !p.traces[0].points.is_empty())
         .collect()
 }
