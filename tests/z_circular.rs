@@ -17,12 +17,12 @@ use std::sync::OnceLock;
 use common::diagnosing::diagnose_nominal;
 use common::program_text;
 use common::reference::{Recording, record_xyz};
-use contourcheck::DiagnoseReport;
 use contourcheck::analysis::circular::{CircleFigures, CircularTest, Hysteresis};
 use contourcheck::diagnose::{DiagnoseSettings, Diagnosis, diagnose};
 use contourcheck::machine::{AxisName, MachineConfig, PlannedAxis, ZAxis};
 use contourcheck::path::Plane;
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
+use contourcheck::{DiagnoseReport, ReportInputs, diagnose_page};
 
 /// A clockwise and a counter-clockwise circle of 10 mm radius in ZX about X0 Z0, each
 /// entered and left along its tangent (Z) at X10 Z0, where Z moves fastest and X reverses.
@@ -195,5 +195,32 @@ fn circles_in_zx_without_z_compared_are_left_out_with_the_reason() {
             "line 4 (ZX plane, G18): no figures: Z is not compared: the machine file carries Z"
         ),
         "{said}"
+    );
+}
+
+/// The places of the largest contour residuals give Z, and lie on the circle in ZX where
+/// its two lags differ most: near the diagonals between Z and X (45° off each axis), where
+/// the ellipse of Z's lag less the model's stands out. From X alone the places would sit on
+/// the line the circle runs along seen from above.
+#[test]
+fn the_largest_contour_residuals_are_placed_in_space_on_the_diagonals() {
+    let (measured, d) = diagnosed();
+    let contour: Vec<_> = d.places.iter().filter(|p| p.what == "contour").collect();
+    assert!(!contour.is_empty(), "{:?}", d.places);
+    for p in &contour {
+        let z_mm = p.z_mm.unwrap_or_else(|| panic!("no Z: {p:?}"));
+        assert!(p.line == 4 || p.line == 7, "{p:?}");
+        assert!(p.y_mm.abs() < 0.01, "{p:?}");
+        assert!((p.x_mm.hypot(z_mm) - 10.0).abs() < 0.2, "{p:?}");
+        let off_axes_deg = z_mm.atan2(p.x_mm).to_degrees().rem_euclid(90.0);
+        assert!((off_axes_deg - 45.0).abs() < 15.0, "{off_axes_deg}° {p:?}");
+    }
+    let nominal = MachineConfig::default_preset();
+    let report = DiagnoseReport::new(d, "g18.nc", measured, &nominal);
+    assert!(report.summary_text().contains("Z (mm)"));
+    let page = diagnose_page(d, &report, &ReportInputs::default()).unwrap();
+    assert!(
+        page.contains("data-key=\"places[0].z_mm\""),
+        "no Z on the page"
     );
 }

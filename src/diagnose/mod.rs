@@ -174,6 +174,9 @@ pub struct Place {
     pub x_mm: f64,
     /// Measured Y (mm).
     pub y_mm: f64,
+    /// Measured Z (mm), where the contour is measured in space.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub z_mm: Option<f64>,
     /// Source line of the block being executed.
     pub line: u32,
     /// Residual there (µm).
@@ -791,7 +794,7 @@ fn summarize(
     };
     let before = stats(&s.nominal, &vs_nominal);
     let after = stats(&s.extended, &vs_extended);
-    let places = places_of(ctx, &s, &view.segment);
+    let places = places_of(ctx, &s, &view.segment, z.map(|z| z.measured.as_slice()));
     Summary {
         before,
         after,
@@ -801,8 +804,9 @@ fn summarize(
 }
 
 /// Where the nominal model's residual on X, on Y and on the contour is largest and clear
-/// of the noise; `segment` gives each sample's plan segment.
-fn places_of(ctx: &Context, s: &Series, segment: &[u32]) -> Vec<Place> {
+/// of the noise; `segment` gives each sample's plan segment, `z_m` the measured Z where the
+/// contour is measured in space.
+fn places_of(ctx: &Context, s: &Series, segment: &[u32], z_m: Option<&[f64]>) -> Vec<Place> {
     // An axis's residual where it is compared (not where it holds and hunts).
     let diff = |a: AxisName| -> Vec<f64> {
         (0..s.t_s.len())
@@ -838,6 +842,7 @@ fn places_of(ctx: &Context, s: &Series, segment: &[u32]) -> Vec<Place> {
                 t_s: s.t_s[k],
                 x_mm: mm_from_m(s.measured[0][k]),
                 y_mm: mm_from_m(s.measured[1][k]),
+                z_mm: z_m.map(|z| mm_from_m(z[k])).filter(|z| z.is_finite()),
                 line: ctx.plan.segments[segment[k] as usize].line,
                 residual_um: um_from_m(r[k]),
             });

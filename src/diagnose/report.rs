@@ -463,19 +463,32 @@ impl DiagnoseReport {
         }
     }
 
-    /// Where the nominal model's residual is largest.
+    /// Where the nominal model's residual is largest (with Z where the contour is measured
+    /// in space).
     fn write_places(&self, s: &mut String) {
         if !self.places.is_empty() {
+            let with_z = self.places.iter().any(|p| p.z_mm.is_some());
             let _ = writeln!(s, "\nLargest residuals of the nominal model:");
             let _ = writeln!(
                 s,
-                "  {:<8} {:>9} {:>10} {:>10} {:>6} {:>10}",
-                "what", "t (s)", "X (mm)", "Y (mm)", "line", "µm"
+                "  {:<8} {:>9} {:>10} {:>10}{} {:>6} {:>10}",
+                "what",
+                "t (s)",
+                "X (mm)",
+                "Y (mm)",
+                if with_z { "     Z (mm)" } else { "" },
+                "line",
+                "µm"
             );
             for p in &self.places {
+                let z = match p.z_mm {
+                    Some(z) => format!(" {z:>10.3}"),
+                    None if with_z => format!(" {:>10}", "—"),
+                    None => String::new(),
+                };
                 let _ = writeln!(
                     s,
-                    "  {:<8} {:>9.3} {:>10.3} {:>10.3} {:>6} {:>+10.3}",
+                    "  {:<8} {:>9.3} {:>10.3} {:>10.3}{z} {:>6} {:>+10.3}",
                     p.what, p.t_s, p.x_mm, p.y_mm, p.line, p.residual_um
                 );
             }

@@ -27,6 +27,10 @@ struct DiagnosePage {
     /// Z against its simulation, where the record has Z (the text summary's lines).
     z: Vec<String>,
     circles: Vec<Vec<Fig>>,
+    /// Where the nominal model's residual is largest: what, t, X, Y, (Z,) line, µm.
+    places: Vec<Vec<Fig>>,
+    /// Whether the places give Z (the contour measured in space).
+    places_z: bool,
     fit: Svg,
     over_time: Svg,
     polar: Vec<Svg>,
@@ -79,6 +83,8 @@ pub fn diagnose_page(
             .map(|l| l.trim().to_string())
             .collect(),
         circles: circle_rows(&json),
+        places: place_rows(&json),
+        places_z: report.places.iter().any(|p| p.z_mm.is_some()),
         fit: svg(
             "Each axis's position − command around where the nominal model misses most: \
              measured, nominal and extended model",
@@ -224,6 +230,23 @@ fn cause_view(rank: usize, i: usize, c: &CauseReport, json: &Json) -> CauseView 
             })
             .collect(),
     }
+}
+
+/// Per place of a large residual: what, time, X, Y, Z where given, line, residual.
+fn place_rows(json: &Json) -> Vec<Vec<Fig>> {
+    let places = json["places"].as_array().map_or(&[][..], Vec::as_slice);
+    let with_z = places.iter().any(|p| p.get("z_mm").is_some());
+    (0..places.len())
+        .map(|i| {
+            let f = |field: &str, d| fig(json, &format!("places[{i}].{field}"), d);
+            let mut row = vec![f("what", 0), f("t_s", 3), f("x_mm", 3), f("y_mm", 3)];
+            if with_z {
+                row.push(f("z_mm", 3));
+            }
+            row.extend([f("line", 0), f("residual_um", 3)]);
+            row
+        })
+        .collect()
 }
 
 /// Per circle: line, and G measured, by the nominal and by the extended model.
