@@ -40,7 +40,7 @@ pub use crate::compare::start::{Coverage, StartKind};
 pub use crate::compare::{CompareError, CompareSettings, Context, Stepping};
 use crate::compare::{Comparison, compare};
 use crate::gcode::Program;
-use crate::machine::{AxisName, MachineConfig};
+use crate::machine::{AxisName, MachineConfig, ZAxis};
 use crate::numeric::units::{mm_from_m, um_from_m};
 use crate::plan::Commands;
 use crate::sim::MeasuredAt;
@@ -424,12 +424,8 @@ fn keep_contour_no_worse(
         // Point by point, the whole-record RMS the report states, for every cause: one
         // fitted on stick-slip statistics too (which no model times) is not named if it
         // predicts the contour worse.
-        let contour_rms = |r: &[f64]| {
-            let finite: Vec<f64> = r.iter().copied().filter(|v| v.is_finite()).collect();
-            um_from_m(residual::averaged_rms(&finite, ctx.sample_dt_s, 0.0))
-        };
         let [before_r, after_r] = &summary.series.contour_residual;
-        let (b, a) = (contour_rms(before_r), contour_rms(after_r));
+        let (b, a) = (contour_rms_um(ctx, before_r), contour_rms_um(ctx, after_r));
         if a <= b * (1.0 + search::WORSE_TOLERANCE) || outcome.found.is_empty() {
             return summary;
         }
@@ -442,6 +438,50 @@ fn keep_contour_no_worse(
             format!("{seen}fits, but makes the contour residual worse ({b:.3} → {a:.3} µm RMS)");
         drop_last_cause(ctx, machine, outcome, models.nominal, reason);
     }
+}
+
+/// The whole-record RMS of a contour residual, point by point, where it is defined (µm).
+fn contour_rms_um(ctx: &Context, r: &[f64]) -> f64 {
+    let finite: Vec<f64> = r.iter().copied().filter(|v| v.is_finite()).collect();
+    um_from_m(residual::averaged_rms(&finite, ctx.sample_dt_s, 0.0))
+}
+
+/// The summary with Z's findings in it: where the contour is measured in space, again with
+/// Z's extended model — unless the cause named on Z predicts the contour worse than Z's
+/// nominal model does (as a cause on X or Y must not), which then goes, with the reason.
+fn with_z(
+    ctx: &Context,
+    outcome: &mut search::Outcome,
+    (summary, models): (Summary, &Models),
+    (z, z_nominal): (&mut z_axis::ZFindings, &ZAxis),
+) -> Summary {
+    let Some(zs) = z
+        .series
+        .as_ref()
+        .filter(|_| summary.series.contour_in_space)
+    else {
+        return summary;
+    };
+    let extended = Models {
+        z: Some(zs),
+        ..*models
+    }
+    .summarize(ctx, outcome);
+    if z.cause.is_none() {
+        return extended;
+    }
+    let (b, a) = (
+        contour_rms_um(ctx, &summary.series.contour_residual[1]),
+        contour_rms_um(ctx, &extended.series.contour_residual[1]),
+    );
+    if a <= b * (1.0 + search::WORSE_TOLERANCE) {
+        return extended;
+    }
+    outcome.machine.z = z_nominal.clone();
+    z.withdraw_cause(format!(
+        "fits, but makes the contour residual in space worse ({b:.3} → {a:.3} µm RMS)"
+    ));
+    summary
 }
 
 /// Extends the outcome's model with a term learned from each unexplained residual that one
@@ -474,16 +514,10 @@ fn assemble(
     (summary, models): (Summary, &Models),
     seek_z: bool,
 ) -> Diagnosis {
-    let z = z_axis::diagnose_z(ctx, &mut outcome.machine, outcome.offset_s, seek_z);
+    let z_nominal = outcome.machine.z.clone();
+    let mut z = z_axis::diagnose_z(ctx, &mut outcome.machine, outcome.offset_s, seek_z);
     // The contour in space again, now with Z's extended model.
-    let summary = match &z.series {
-        Some(zs) if summary.series.contour_in_space => Models {
-            z: Some(zs),
-            ..*models
-        }
-        .summarize(ctx, &outcome),
-        _ => summary,
-    };
+    let summary = with_z(ctx, &mut outcome, (summary, models), (&mut z, &z_nominal));
     // With recorded commands the simulation runs on the measurement's clock; the program
     // starts where the recorded commands start to move, less the plan's standing start.
     let program_start = if ctx.fixed_offset.is_some() {

@@ -19,6 +19,8 @@
 //! apart names neither. A cause that leaves more than a quarter of Z's residual (RMS) well
 //! above the noise, at a value more than twice or less than half the set one, is not named
 //! either: nothing else on Z takes what it leaves, and its value is bent towards that.
+//! Where the contour is measured in space the diagnosis also takes back a cause on Z that
+//! makes the contour residual worse ([`ZFindings::withdraw_cause`]), as it does on X and Y.
 
 use serde::Serialize;
 
@@ -134,6 +136,19 @@ impl ZFindings {
         ZFindings {
             not_compared: Some(why.to_owned()),
             ..ZFindings::default()
+        }
+    }
+
+    /// Takes the cause named on Z back (the machine's Z is restored by the caller): it is
+    /// listed as not named, with `reason`, and the extended model's Z is the nominal one.
+    pub(crate) fn withdraw_cause(&mut self, reason: String) {
+        let Some(c) = self.cause.take() else {
+            return;
+        };
+        self.not_named.insert(0, ZNotNamed { id: c.id, reason });
+        self.after_rms_um = self.before_rms_um;
+        if let Some(s) = &mut self.series {
+            s.extended = s.nominal.clone();
         }
     }
 
