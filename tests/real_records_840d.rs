@@ -245,4 +245,18 @@ fn identify_on_the_840d_trace_writes_a_machine_and_says_what_it_cannot_determine
     }
     let written = id.machine.axis(AxisName::X);
     assert!(written.position_loop.kv_m_per_min_per_mm > 0.0);
+    // Z: its compared stretch holds little more than its rapid to the part, which the
+    // preset's Z cannot follow; none of its values is determined, and the template's Z is
+    // what is written.
+    let z = id.axes.iter().find(|a| a.axis == AxisName::Z);
+    let z = z.unwrap_or_else(|| panic!("Z not fitted: {:?}", id.z_not_identified));
+    assert!(!z.values.is_empty());
+    for v in &z.values {
+        assert!(!v.determined, "Z {} determined: {v:?}", v.key);
+    }
+    assert_eq!(
+        id.machine.axis(AxisName::Z),
+        template.axis(AxisName::Z),
+        "Z written other than the template's"
+    );
 }

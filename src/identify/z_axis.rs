@@ -31,15 +31,17 @@ pub(super) fn identify(
         return Err(None);
     }
     let not = |why: String| Err(Some(why));
+    // A loop model starts from a table that carries Z: what to say is that the loop model
+    // leaves Z out, not that a template should simulate it.
+    if model == Model::Loop {
+        return not("a loop model (--template none) is made for X and Y only".into());
+    }
     if !template.simulates_z() {
         return not(
             "the template carries Z without simulating it: give it [z.*] sections to have Z \
              identified"
                 .into(),
         );
-    }
-    if model == Model::Loop {
-        return not("a loop model (--template none) is made for X and Y only".into());
     }
     if measured.z_cmd_m.is_none() {
         return not("the record holds no Z command (z_cmd): Z's lag cannot be measured".into());
