@@ -98,7 +98,7 @@ fn circles_in_zx_get_their_own_figures_named_by_their_plane() {
         assert_eq!(pair_of(t).plane, Plane::Zx, "{t:?}");
     }
     let nominal = MachineConfig::default_preset();
-    let said = DiagnoseReport::new(d, "g18.nc", &diagnosed().0, &nominal).summary_text();
+    let said = DiagnoseReport::new(d, "g18.nc", &diagnosed().0, &nominal).to_string();
     assert!(said.contains("ZX (G18)"), "{said}");
 }
 
@@ -190,7 +190,7 @@ fn circles_in_zx_without_z_compared_are_left_out_with_the_reason() {
     );
     let left: Vec<(u32, Plane)> = c.left_out.iter().map(|l| (l.line, l.plane)).collect();
     assert_eq!(left, [(4, Plane::Zx), (7, Plane::Zx)], "{c:?}");
-    let said = DiagnoseReport::new(&d, "g18.nc", measured, &carrying).summary_text();
+    let said = DiagnoseReport::new(&d, "g18.nc", measured, &carrying).to_string();
     assert!(
         said.contains(
             "line 4 (ZX plane, G18): no figures: Z is not compared: the machine file carries Z"
@@ -218,7 +218,7 @@ fn the_largest_contour_residuals_are_placed_in_space_on_the_diagonals() {
     }
     let nominal = MachineConfig::default_preset();
     let report = DiagnoseReport::new(d, "g18.nc", measured, &nominal);
-    assert!(report.summary_text().contains("Z (mm)"));
+    assert!(report.to_string().contains("Z (mm)"));
     let page = diagnose_page(d, &report, &ReportInputs::default()).unwrap();
     assert!(
         page.contains("data-key=\"places[0].z_mm\""),
