@@ -103,7 +103,34 @@ const START_AFTER_HUNTING_S: f64 = 0.2;
 /// that both halves see every kind of move.
 const HALF_BLOCK_S: f64 = 0.2;
 
+/// Why Z cannot be compared with a simulated Z.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum ZUncomparable {
+    /// The record has no Z.
+    NotRecorded,
+    /// The machine carries Z without simulating it.
+    Carried,
+    /// The record holds X's and Y's commands but not Z's: Z's lag cannot be measured.
+    NoCommand,
+}
+
 impl Context<'_> {
+    /// Whether the record's Z can be compared with `machine`'s simulated Z: the record
+    /// measured Z, the machine simulates it, and where the record holds X's and Y's
+    /// commands it holds Z's too.
+    pub(crate) fn z_comparable(&self, machine: &MachineConfig) -> Result<(), ZUncomparable> {
+        let m = self.measured;
+        if m.z_m.is_none() {
+            Err(ZUncomparable::NotRecorded)
+        } else if !machine.simulates_z() {
+            Err(ZUncomparable::Carried)
+        } else if m.commands.is_some() && m.z_cmd_m.is_none() {
+            Err(ZUncomparable::NoCommand)
+        } else {
+            Ok(())
+        }
+    }
+
     /// The record's noise floor (m), as [`super::compare`] estimated it.
     pub(crate) fn noise_m(&self) -> f64 {
         self.noise_sigma

@@ -99,6 +99,8 @@ pub struct Comparison<'a> {
     pub offset_s: f64,
     /// The nominal machine's X and Y traces on the context's commands (m).
     pub nominal: [Vec<f64>; 2],
+    /// Its Z trace, where Z can be compared ([`Context::z_comparable`]) and simulated (m).
+    pub nominal_z: Option<Vec<f64>>,
 }
 
 /// Places `measured` on `program`, simulates `machine` on it at `stepping` and estimates the
@@ -128,20 +130,19 @@ pub fn compare<'a>(
         ctx.holding[a.index()] = ctx.hunting_holds(a, &nominal[a.index()], offset_s);
         ctx.unsettled[a.index()] = ctx.unsettled_at_start(a, offset_s);
     }
-    // Z's own hunting holds where it is compared: a simulated Z the record measured (with
-    // its commands where the record holds X's and Y's). Its start is X's and Y's: it is
+    // Z's own hunting holds where it can be compared. Its start is X's and Y's: it is
     // compared where they are.
-    let z_measured =
-        measured.z_m.is_some() && (measured.commands.is_none() || measured.z_cmd_m.is_some());
-    if machine.simulates_z()
-        && z_measured
-        && let Some(z) = ctx.simulate_axis(machine, AxisName::Z)
-    {
-        ctx.holding[AxisName::Z.index()] = ctx.hunting_holds(AxisName::Z, &z, offset_s);
+    let nominal_z = ctx
+        .z_comparable(machine)
+        .ok()
+        .and_then(|()| ctx.simulate_axis(machine, AxisName::Z));
+    if let Some(z) = &nominal_z {
+        ctx.holding[AxisName::Z.index()] = ctx.hunting_holds(AxisName::Z, z, offset_s);
     }
     Ok(Comparison {
         ctx,
         offset_s,
         nominal,
+        nominal_z,
     })
 }

@@ -211,6 +211,7 @@ impl<'a> Validation<'a> {
             ctx,
             offset_s,
             nominal: traces,
+            ..
         } = compare(
             program,
             machine,

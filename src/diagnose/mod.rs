@@ -301,8 +301,9 @@ pub fn diagnose_validated(
         .transpose()?;
     let Comparison {
         ctx,
-        offset_s: offset,
+        offset_s,
         nominal,
+        nominal_z,
     } = compare(
         program,
         machine,
@@ -310,20 +311,20 @@ pub fn diagnose_validated(
         &settings.compare,
         Stepping::Full,
     )?;
-    let mut outcome = searched(
-        &ctx,
-        machine,
-        settings,
-        (&nominal, offset),
-        validation.as_mut(),
-    );
     let window_s = settings.event_window_s;
-    // The contour in space, until Z's causes are sought, with the nominal model's Z.
-    let z_nominal = z_axis::nominal_series(&ctx, machine, outcome.offset_s);
     let models = Models {
         nominal: &nominal,
+        nominal_z: nominal_z.as_deref(),
+        offset_s,
         window_s,
-        z: z_nominal.as_ref(),
+        z: None,
+    };
+    let mut outcome = searched(&ctx, machine, settings, &models, validation.as_mut());
+    // The contour in space, until Z's causes are sought, with the nominal model's Z.
+    let z_series = z_axis::nominal_series(&ctx, machine, models.nominal_z, outcome.offset_s);
+    let models = Models {
+        z: z_series.as_ref(),
+        ..models
     };
     let mut summary = keep_contour_no_worse(&ctx, machine, &mut outcome, &models);
     search::one_seen_per_axis(&mut outcome.rejected);
@@ -358,17 +359,17 @@ pub fn diagnose_validated(
                     .any(|a| tries_allowed(machine, settings, a, c))
             }),
         beyond_machine: beyond_machine_compared(measured, machine, &ctx, outcome.offset_s),
-        ..assemble(&ctx, outcome, (summary, &models), settings.max_causes > 0)
+        ..assemble(&ctx, outcome, summary, &models, settings.max_causes > 0)
     })
 }
 
-/// The causes the search finds from the nominal model's X and Y traces at the clock offset,
-/// their traces confirmed at full resolution.
+/// The causes the search finds from the nominal model's X and Y traces at the comparison's
+/// clock offset, their traces confirmed at full resolution.
 fn searched(
     ctx: &Context,
     machine: &MachineConfig,
     settings: &DiagnoseSettings,
-    (nominal, offset): (&[Vec<f64>; 2], f64),
+    models: &Models,
     validation: Option<&mut holdout::Validation<'_>>,
 ) -> search::Outcome {
     // The search's many fits simulate one step per cycle where that gives the same trace.
@@ -380,8 +381,8 @@ fn searched(
         &search_ctx,
         machine,
         settings,
-        nominal.clone(),
-        offset,
+        models.nominal.clone(),
+        models.offset_s,
         validation,
     );
     if !outcome.found.is_empty() {
@@ -448,12 +449,15 @@ fn contour_rms_um(ctx: &Context, r: &[f64]) -> f64 {
 
 /// The summary with Z's findings in it: where the contour is measured in space, again with
 /// Z's extended model — unless the cause named on Z predicts the contour worse than Z's
-/// nominal model does (as a cause on X or Y must not), which then goes, with the reason.
+/// nominal model does (as a cause on X or Y must not), which then goes, with the reason,
+/// and the machine's Z is `z_set` again.
 fn with_z(
     ctx: &Context,
     outcome: &mut search::Outcome,
-    (summary, models): (Summary, &Models),
-    (z, z_nominal): (&mut z_axis::ZFindings, &ZAxis),
+    summary: Summary,
+    models: &Models,
+    z: &mut z_axis::ZFindings,
+    z_set: &ZAxis,
 ) -> Summary {
     let Some(zs) = z
         .series
@@ -477,7 +481,7 @@ fn with_z(
     if a <= b * (1.0 + search::WORSE_TOLERANCE) {
         return extended;
     }
-    outcome.machine.z = z_nominal.clone();
+    outcome.machine.z = z_set.clone();
     z.withdraw_cause(format!(
         "fits, but makes the contour residual in space worse ({b:.3} → {a:.3} µm RMS)"
     ));
@@ -504,20 +508,26 @@ fn learn_unexplained(
     learned
 }
 
-/// The diagnosis of a finished search and its figures; the caller adds what needs the
-/// settings and the nominal machine.
-/// The diagnosis of X and Y from the search's outcome, and Z's where the record has it
-/// (its causes sought where `seek_z`).
+/// The diagnosis of X and Y from the search's outcome and its figures, and Z's where the
+/// record has it (its causes sought where `seek_z`); the caller adds what needs the settings
+/// and the nominal machine.
 fn assemble(
     ctx: &Context,
     mut outcome: search::Outcome,
-    (summary, models): (Summary, &Models),
+    summary: Summary,
+    models: &Models,
     seek_z: bool,
 ) -> Diagnosis {
-    let z_nominal = outcome.machine.z.clone();
-    let mut z = z_axis::diagnose_z(ctx, &mut outcome.machine, outcome.offset_s, seek_z);
+    let z_set = outcome.machine.z.clone();
+    let mut z = z_axis::diagnose_z(
+        ctx,
+        &mut outcome.machine,
+        models.nominal_z,
+        outcome.offset_s,
+        seek_z,
+    );
     // The contour in space again, now with Z's extended model.
-    let summary = with_z(ctx, &mut outcome, (summary, models), (&mut z, &z_nominal));
+    let summary = with_z(ctx, &mut outcome, summary, models, &mut z, &z_set);
     // With recorded commands the simulation runs on the measurement's clock; the program
     // starts where the recorded commands start to move, less the plan's standing start.
     let program_start = if ctx.fixed_offset.is_some() {
@@ -701,13 +711,20 @@ fn series_at_samples(
     s
 }
 
-/// What a summary compares the record with besides the extended model's X and Y: the
-/// nominal model's X and Y, the event window (s), and Z where compared (the contour is then
-/// measured in space).
+/// What the search and a summary compare the record with besides the extended model's X
+/// and Y: the nominal model's traces and the comparison's clock offset, the event window,
+/// and Z at the samples where compared (the contour is then measured in space).
 #[derive(Clone, Copy)]
 struct Models<'a> {
+    /// The nominal model's X and Y (m).
     nominal: &'a [Vec<f64>; 2],
+    /// Its Z, where Z can be compared (m): simulated once, by the comparison.
+    nominal_z: Option<&'a [f64]>,
+    /// The clock offset the comparison found (s).
+    offset_s: f64,
+    /// Half-width of the event windows (s).
     window_s: f64,
+    /// Z at the samples, where compared.
     z: Option<&'a ZSeries>,
 }
 

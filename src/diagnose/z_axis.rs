@@ -29,6 +29,7 @@ use super::fit::fit_cause;
 use super::plausible::{Observed, implausible};
 use super::search::starts;
 use super::{Context, FittedParam, Stepping};
+use crate::compare::context::ZUncomparable;
 use crate::compare::residual::{noise_floor, rms};
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::numeric::units::um_from_m;
@@ -207,28 +208,31 @@ impl ZFindings {
     }
 }
 
-/// The nominal model's Z where Z can be compared against the record, else why not (`None`
-/// for a record without Z: nothing to say).
-fn nominal_z(
+/// The nominal model's Z (`nominal`, as the comparison simulated it) where Z can be
+/// compared against the record, else why not (`None` for a record without Z: nothing to
+/// say).
+fn nominal_z<'n>(
     ctx: &Context,
     machine: &MachineConfig,
+    nominal: Option<&'n [f64]>,
     offset_s: f64,
-) -> Result<Vec<f64>, Option<&'static str>> {
-    if ctx.measured.z_m.is_none() {
-        return Err(None);
+) -> Result<&'n [f64], Option<&'static str>> {
+    match ctx.z_comparable(machine) {
+        Err(ZUncomparable::NotRecorded) => return Err(None),
+        Err(ZUncomparable::Carried) => {
+            return Err(Some(
+                "the machine file carries Z without simulating it (give it [z.*] sections to \
+                 simulate it)",
+            ));
+        }
+        Err(ZUncomparable::NoCommand) => {
+            return Err(Some(
+                "the record holds X and Y commands but no Z command (record z_cmd to compare Z)",
+            ));
+        }
+        Ok(()) => {}
     }
-    if !machine.simulates_z() {
-        return Err(Some(
-            "the machine file carries Z without simulating it (give it [z.*] sections to \
-             simulate it)",
-        ));
-    }
-    if ctx.measured.commands.is_some() && ctx.measured.z_cmd_m.is_none() {
-        return Err(Some(
-            "the record holds X and Y commands but no Z command (record z_cmd to compare Z)",
-        ));
-    }
-    let Some(nominal) = ctx.simulate_axis(machine, AxisName::Z) else {
+    let Some(nominal) = nominal else {
         return Err(Some("the nominal Z cannot be simulated on these commands"));
     };
     if ctx.command_travel_m(AxisName::Z, offset_s) < Z_MOVES_M {
@@ -242,26 +246,29 @@ fn nominal_z(
 pub(crate) fn nominal_series(
     ctx: &Context,
     machine: &MachineConfig,
+    nominal: Option<&[f64]>,
     offset_s: f64,
 ) -> Option<ZSeries> {
-    let nominal = nominal_z(ctx, machine, offset_s).ok()?;
-    Some(series_of(ctx, &nominal, &nominal, offset_s))
+    let nominal = nominal_z(ctx, machine, nominal, offset_s).ok()?;
+    Some(series_of(ctx, nominal, nominal, offset_s))
 }
 
-/// Z's findings: compared where `machine` simulates Z and the record measured it, its causes
-/// sought where `seek` allows; `machine` extended by the cause named.
+/// Z's findings: compared where `machine` simulates Z and the record measured it (`nominal`:
+/// its nominal Z as the comparison simulated it), its causes sought where `seek` allows;
+/// `machine` extended by the cause named.
 pub(crate) fn diagnose_z(
     ctx: &Context,
     machine: &mut MachineConfig,
+    nominal: Option<&[f64]>,
     offset_s: f64,
     seek: bool,
 ) -> ZFindings {
-    let nominal = match nominal_z(ctx, machine, offset_s) {
+    let nominal = match nominal_z(ctx, machine, nominal, offset_s) {
         Ok(nominal) => nominal,
         Err(None) => return ZFindings::default(),
         Err(Some(why)) => return ZFindings::not_compared(why),
     };
-    let r = compared_residual(ctx, &nominal, offset_s);
+    let r = compared_residual(ctx, nominal, offset_s);
     // Z's own noise, unless X's and Y's is lower: the same measuring system, where a Z that
     // hunts in its backlash would pass its chatter for noise.
     let noise = noise_floor(std::slice::from_ref(&r)).min(ctx.noise_m());
@@ -278,8 +285,8 @@ pub(crate) fn diagnose_z(
         series: None,
     };
     if seek && findings.beyond_machine.is_empty() && rms(&r) > ABOVE_NOISE * noise {
-        let before = half_sums(ctx, &nominal, offset_s);
-        let (tried, undetermined): (Vec<_>, Vec<_>) = try_causes(ctx, machine, offset_s, &nominal)
+        let before = half_sums(ctx, nominal, offset_s);
+        let (tried, undetermined): (Vec<_>, Vec<_>) = try_causes(ctx, machine, offset_s, nominal)
             .into_iter()
             .partition(Result::is_ok);
         findings
@@ -297,7 +304,7 @@ pub(crate) fn diagnose_z(
             following_error_max_m: following_error_max(ctx, offset_s),
         };
         let noise_ss = half_counts(ctx, offset_s).map(|n| n * noise * noise);
-        choose(&mut findings, machine, tried, (before, &observed, noise_ss));
+        choose(&mut findings, machine, tried, before, &observed, noise_ss);
     }
     let extended = match findings.cause {
         Some(_) => ctx.simulate_axis(machine, AxisName::Z),
@@ -306,8 +313,8 @@ pub(crate) fn diagnose_z(
     if let Some(full) = &extended {
         findings.after_rms_um = um_from_m(rms(&compared_residual(ctx, full, offset_s)));
     }
-    let extended = extended.as_deref().unwrap_or(&nominal);
-    findings.series = Some(series_of(ctx, &nominal, extended, offset_s));
+    let extended = extended.as_deref().unwrap_or(nominal);
+    findings.series = Some(series_of(ctx, nominal, extended, offset_s));
     findings
 }
 
@@ -487,12 +494,15 @@ fn try_causes(
 }
 
 /// Names the best cause that stands out, if the record tells it from the others; the rest
-/// are listed with why they are not named.
+/// are listed with why they are not named. `before` is Z's sum of squares on each half
+/// against the nominal model, `noise_ss` the noise's.
 fn choose(
     findings: &mut ZFindings,
     machine: &mut MachineConfig,
     tried: Vec<Tried>,
-    (before, observed, noise_ss): ([f64; 2], &Observed, [f64; 2]),
+    before: [f64; 2],
+    observed: &Observed,
+    noise_ss: [f64; 2],
 ) {
     let axis = machine.axis(AxisName::Z).clone();
     let share = |t: &Tried| [0, 1].map(|h| 1.0 - t.halves[h] / before[h].max(f64::MIN_POSITIVE));

@@ -12,6 +12,7 @@
 
 use super::{AxisIdentification, LEAST_TRAVEL_M, Model, identify_axis};
 use crate::compare::Context;
+use crate::compare::context::ZUncomparable;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::numeric::units::um_from_m;
 
@@ -26,25 +27,29 @@ pub(super) fn identify(
     offset_s: f64,
     model: Model,
 ) -> ZOutcome {
-    let measured = ctx.measured;
-    if measured.z_m.is_none() {
+    let not = |why: String| Err(Some(why));
+    let comparable = ctx.z_comparable(template);
+    if comparable == Err(ZUncomparable::NotRecorded) {
         return Err(None);
     }
-    let not = |why: String| Err(Some(why));
     // A loop model starts from a table that carries Z: what to say is that the loop model
     // leaves Z out, not that a template should simulate it.
     if model == Model::Loop {
         return not("a loop model (--template none) is made for X and Y only".into());
     }
-    if !template.simulates_z() {
-        return not(
-            "the template carries Z without simulating it: give it [z.*] sections to have Z \
-             identified"
-                .into(),
-        );
-    }
-    if measured.z_cmd_m.is_none() {
-        return not("the record holds no Z command (z_cmd): Z's lag cannot be measured".into());
+    match comparable {
+        Err(ZUncomparable::Carried) => {
+            return not(
+                "the template carries Z without simulating it: give it [z.*] sections to have \
+                 Z identified"
+                    .into(),
+            );
+        }
+        // A record identify takes holds X's and Y's commands.
+        Err(ZUncomparable::NoCommand) => {
+            return not("the record holds no Z command (z_cmd): Z's lag cannot be measured".into());
+        }
+        _ => {}
     }
     let travel_m = ctx.command_travel_m(AxisName::Z, offset_s);
     if travel_m < LEAST_TRAVEL_M {
