@@ -224,6 +224,9 @@ fn the_largest_contour_residuals_are_placed_in_space_on_the_diagonals() {
         page.contains("data-key=\"places[0].z_mm\""),
         "no Z on the page"
     );
+    // The circles' table names their plane.
+    let plane = "data-key=\"circular_test.measured.circles[0].plane\" data-value=\"ZX\">ZX<";
+    assert!(page.contains(plane), "no plane on the page");
 }
 
 /// With X's and Z's position gains both 8 % low, both axes lag alike and the circle in ZX

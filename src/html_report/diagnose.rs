@@ -249,7 +249,7 @@ fn place_rows(json: &Json) -> Vec<Vec<Fig>> {
         .collect()
 }
 
-/// Per circle: line, and G measured, by the nominal and by the extended model.
+/// Per circle: line, plane, and G measured, by the nominal and by the extended model.
 fn circle_rows(json: &Json) -> Vec<Vec<Fig>> {
     let n = json["circular_test"]["measured"]["circles"]
         .as_array()
@@ -263,8 +263,14 @@ fn circle_rows(json: &Json) -> Vec<Vec<Fig>> {
                     d,
                 )
             };
+            // The plane is left out of the report for XY.
+            let mut plane = f("measured", "plane", 0);
+            if plane.value.is_empty() {
+                plane.text = "XY".into();
+            }
             vec![
                 f("measured", "line", 0),
+                plane,
                 f("measured", "direction", 0),
                 f("measured", "radius_mm", 1),
                 f("measured", "g_um", 2),
