@@ -19,6 +19,8 @@
 //! see the switching instants' discontinuities, not the slope) and analytic for the offset.
 
 use std::cell::RefCell;
+use std::collections::VecDeque;
+use std::sync::{Arc, Mutex};
 
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
@@ -84,6 +86,7 @@ pub(crate) fn fit_cause(
         axis,
         cause,
         other,
+        simulated: Simulated::default(),
     };
     let start = best_start(ctx, starts, &|screen: &Context, s: &[f64]| {
         model.rss_on(screen, s, offset_s)
@@ -531,7 +534,28 @@ struct Model<'a> {
     axis: AxisName,
     cause: CauseId,
     other: &'a [f64],
+    simulated: Simulated,
 }
+
+/// A fit's latest simulations, by stepping and parameter values. The same values come back:
+/// Nelder–Mead tries points that differ in the clock offset alone (which moves the residual,
+/// not the simulation), Levenberg–Marquardt starts where Nelder–Mead ended, and the fit's
+/// trace is read where the solver last was. A simulation depends on its machine and stepping
+/// only, so the one kept is the one that would be run.
+#[derive(Default)]
+struct Simulated(Mutex<VecDeque<(SimulatedAt, Arc<Pair>)>>);
+
+/// Stepping and parameter values (bit for bit).
+type SimulatedAt = (Stepping, Vec<u64>);
+
+/// This axis's trace, and the other axis's where the cause changed it (else the fit's own).
+struct Pair {
+    trace: Vec<f64>,
+    other: Option<Vec<f64>>,
+}
+
+/// How many simulations a fit keeps: a simplex's points and a Jacobian's columns.
+const SIMULATIONS_KEPT: usize = 16;
 
 /// The fit as a least-squares problem, with the last evaluation kept: the solver asks for
 /// the residuals and then the Jacobian at the same point.
@@ -550,16 +574,45 @@ impl Model<'_> {
     /// Both axes' residual sum of squares on `on` at parameter values and an offset.
     fn rss_on(&self, on: &Context, values: &[f64], offset: f64) -> f64 {
         let sum_sq = |v: Vec<f64>| v.iter().map(|x| x * x).sum::<f64>();
+        self.pair_on(on, values).map_or(f64::INFINITY, |p| {
+            let other = match self.axis {
+                // Z is fitted on its own residual.
+                AxisName::Z => 0.0,
+                _ => sum_sq(on.residual(self.axis.other(), self.other_of(&p), offset)),
+            };
+            sum_sq(on.residual(self.axis, &p.trace, offset)) + other
+        })
+    }
+
+    /// The traces of `machine` with the cause at `values` on `on`: kept from this fit, or
+    /// simulated (and kept).
+    fn pair_on(&self, on: &Context, values: &[f64]) -> Option<Arc<Pair>> {
+        let at: SimulatedAt = (on.stepping, values.iter().map(|v| v.to_bits()).collect());
+        let kept = self.simulated.0.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, p)) = kept.iter().find(|(k, _)| *k == at) {
+            return Some(p.clone());
+        }
+        drop(kept);
         let m = with_cause(self.machine, self.axis, self.cause, values);
-        on.simulate_pair(&m, self.axis, self.other)
-            .map_or(f64::INFINITY, |(t, o)| {
-                let other = match self.axis {
-                    // Z is fitted on its own residual.
-                    AxisName::Z => 0.0,
-                    _ => sum_sq(on.residual(self.axis.other(), &o, offset)),
-                };
-                sum_sq(on.residual(self.axis, &t, offset)) + other
-            })
+        let (trace, other) = on.simulate_pair(&m, self.axis, self.other)?;
+        let pair = Arc::new(Pair {
+            trace,
+            other: match other {
+                std::borrow::Cow::Borrowed(_) => None,
+                std::borrow::Cow::Owned(o) => Some(o),
+            },
+        });
+        let mut kept = self.simulated.0.lock().unwrap_or_else(|e| e.into_inner());
+        if kept.len() == SIMULATIONS_KEPT {
+            kept.pop_front();
+        }
+        kept.push_back((at, pair.clone()));
+        Some(pair)
+    }
+
+    /// The other axis's trace in `pair`.
+    fn other_of<'p>(&'p self, pair: &'p Pair) -> &'p [f64] {
+        pair.other.as_deref().unwrap_or(self.other)
     }
 
     /// Nelder–Mead from `start` and `offset_s`: the values, the offset and their residual
@@ -637,10 +690,8 @@ impl Model<'_> {
 
     /// This axis's trace and the other's at parameter values.
     fn simulate(&self, values: &[f64]) -> Option<(Vec<f64>, Vec<f64>)> {
-        let m = with_cause(self.machine, self.axis, self.cause, values);
-        self.ctx
-            .simulate_pair(&m, self.axis, self.other)
-            .map(|(t, o)| (t, o.into_owned()))
+        let p = self.pair_on(self.ctx, values)?;
+        Some((p.trace.clone(), self.other_of(&p).to_vec()))
     }
 
     /// Residuals (both axes), this axis's trace and the other's at scaled parameters `p`.
