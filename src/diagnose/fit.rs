@@ -18,7 +18,6 @@
 //! re-simulations for the cause's parameters (1 % of each one's scale: smaller steps would
 //! see the switching instants' discontinuities, not the slope) and analytic for the offset.
 
-use std::cell::RefCell;
 use std::collections::VecDeque;
 use std::sync::{Arc, Mutex};
 
@@ -92,10 +91,7 @@ pub(crate) fn fit_cause(
         model.rss_on(screen, s, offset_s)
     })?;
     let (values, nm_offset, best) = model.nelder_mead_from(start, offset_s);
-    let problem = Problem {
-        model,
-        cache: RefCell::new(None),
-    };
+    let problem = Problem { model };
     let p0 = problem.model.scaled(&values, nm_offset);
     let end = lsq::minimise(&problem, p0.clone(), &problem.model.settings());
     // Nelder–Mead's values stand where Levenberg–Marquardt does not improve on them.
@@ -103,7 +99,7 @@ pub(crate) fn fit_cause(
         Some(e) => (e.p, e.cost, Some(e.jacobian)),
         None => (p0, best, None),
     };
-    let (r0, trace, other) = problem.evaluate(&p)?;
+    let (r0, trace, other) = problem.model.evaluate(&p)?;
     let jacobian = jacobian.or_else(|| lsq::Problem::jacobian(&problem, &p, &r0));
     let params = cause.params();
     let sigma = jacobian.map_or_else(
@@ -557,11 +553,10 @@ struct Pair {
 /// How many simulations a fit keeps: a simplex's points and a Jacobian's columns.
 const SIMULATIONS_KEPT: usize = 16;
 
-/// The fit as a least-squares problem, with the last evaluation kept: the solver asks for
-/// the residuals and then the Jacobian at the same point.
+/// The fit as a least-squares problem. The solver asks for the residuals and then the
+/// Jacobian at the same point: the model's kept simulations serve the second.
 struct Problem<'a> {
     model: Model<'a>,
-    cache: RefCell<Option<(DVector<f64>, Evaluation)>>,
 }
 
 /// Residuals, this axis's trace, the other axis's trace.
@@ -755,20 +750,9 @@ impl Model<'_> {
     }
 }
 
-impl Problem<'_> {
-    fn evaluate(&self, p: &DVector<f64>) -> Option<Evaluation> {
-        if let Some((_, e)) = self.cache.borrow().as_ref().filter(|(q, _)| q == p) {
-            return Some(e.clone());
-        }
-        let e = self.model.evaluate(p)?;
-        *self.cache.borrow_mut() = Some((p.clone(), e.clone()));
-        Some(e)
-    }
-}
-
 impl lsq::Problem for Problem<'_> {
     fn residuals(&self, p: &DVector<f64>) -> Option<DVector<f64>> {
-        self.evaluate(p).map(|(r, _, _)| r)
+        self.model.evaluate(p).map(|(r, _, _)| r)
     }
 
     fn jacobian(&self, p: &DVector<f64>, r0: &DVector<f64>) -> Option<DMatrix<f64>> {
@@ -779,7 +763,7 @@ impl lsq::Problem for Problem<'_> {
             model.evaluate(q).map(|(r, _, _)| r)
         })?;
         if model.fits_offset() {
-            let (_, trace, other) = self.evaluate(p)?;
+            let (_, trace, other) = model.evaluate(p)?;
             jac.set_column(n, &model.offset_column(p, &trace, &other));
         }
         Some(jac)
