@@ -98,6 +98,11 @@ pub struct IdentifiedValue {
     /// half of it. A determined value that is not measured is written because it predicts
     /// the record: a model's value, not a measurement.
     pub measured: bool,
+    /// Where the record does not determine the value alone (its uncertainty beyond half of
+    /// it) yet it is written — the fit with it predicts the held-out halves better than with
+    /// the template's put back —: the value it trades with most. Only their combination is
+    /// the record's; the value alone is neither a measurement nor certain.
+    pub traded_with: Option<&'static str>,
 }
 
 /// A current-commanding controller's gain over the whole drive's inertia: what a rigid
@@ -478,6 +483,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             uncertainty: f64::NAN,
             determined: false,
             measured: false,
+            traded_with: None,
         })
         .collect();
     Some((
@@ -517,6 +523,7 @@ fn not_reached(
     for v in &mut identified.values {
         v.determined = false;
         v.measured = false;
+        v.traded_with = None;
         v.uncertainty = f64::NAN;
         v.value = v.template;
     }
@@ -554,6 +561,7 @@ fn identify_ordered(
                 uncertainty: f64::NAN,
                 determined: false,
                 measured: false,
+                traded_with: None,
             });
         }
         (config, id)
@@ -687,6 +695,7 @@ fn fitted_values(
                 uncertainty: sigma.unwrap_or(f64::NAN),
                 determined: sigma.is_some(),
                 measured: sigma.is_some_and(|s| k.determines(s, value)),
+                traded_with: round.traded_with(k.key),
             }
         })
         .collect()

@@ -52,6 +52,13 @@ impl<'a> IdentifyReport<'a> {
 /// A value for the table: fitted with its uncertainty (said so where that is not a
 /// measurement), or the template's.
 pub fn shown(v: &IdentifiedValue) -> String {
+    if let (true, Some(other)) = (v.determined, v.traded_with) {
+        return format!(
+            "{} ± {} (not determined alone: traded with {other}; a model's value)",
+            sig(v.value),
+            sig(v.uncertainty)
+        );
+    }
     match (v.determined, v.measured) {
         (true, true) => format!("{} ± {}", sig(v.value), sig(v.uncertainty)),
         (true, false) => format!(
