@@ -162,6 +162,15 @@ pub struct AxisIdentification {
     /// The template already explains the record to its noise and the values fitted predict
     /// its held-out halves worse: the template's values stay (none is determined).
     pub template_holds: bool,
+    /// The held-out figures (and the following error beside them) are over the samples
+    /// while moving, of a fit on every sample: it reached the noise, and its halves
+    /// predicted each other to it while moving but not at standstill, where the axis hunts
+    /// on a limit cycle each half's fit times its own way.
+    pub held_out_while_moving: bool,
+    /// For a fit on every sample: the template's and the fit's held-out residuals and the
+    /// following error on the samples while moving (µm).
+    #[serde(skip)]
+    pub(crate) while_moving_um: Option<[f64; 3]>,
     /// Where the gain and the table's mass are both fitted on a controller commanding
     /// current: their ratio, which the record determines even where each alone is a
     /// model's value.
@@ -394,7 +403,9 @@ fn fit_axis(
     let Some(mut everywhere) = found else {
         return unfitted(Fit::new(ctx, template, axis, offset), template.axis(axis));
     };
-    if everywhere.1.reached {
+    if everywhere.1.reached
+        && verdict::judged_while_moving(&mut everywhere.1, um_from_m(ctx.noise_sigma))
+    {
         return Some(everywhere);
     }
     // Then the plant's nonlinear parts on top, where the template's values alone leave the
@@ -505,6 +516,8 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             held_out_identified_um: rms_um,
             gain_per_inertia: None,
             template_holds: false,
+            held_out_while_moving: false,
+            while_moving_um: None,
         },
     ))
 }
@@ -659,6 +672,10 @@ fn identify_on(
             held_out_identified_um,
             gain_per_inertia: gain_per_inertia(&round, &base),
             template_holds: false,
+            held_out_while_moving: false,
+            while_moving_um: (!moving_only)
+                .then(|| verdict::while_moving(fit, &round, &base, &fold, &template_residual))
+                .flatten(),
         },
     ))
 }
@@ -895,6 +912,8 @@ mod tests {
             held_out_identified_um: identified_um,
             gain_per_inertia: None,
             template_holds: false,
+            held_out_while_moving: false,
+            while_moving_um: None,
         }
     }
 

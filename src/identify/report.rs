@@ -112,7 +112,7 @@ pub fn summary_text(id: &Identification, template: &MachineConfig) -> String {
 fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
     let _ = writeln!(
         s,
-        "\n{} axis: residual {:.3} → {:.3} µm RMS{} (following error {:.1} µm); held out \
+        "\n{} axis: residual {:.3} → {:.3} µm RMS{} (following error {:.1} µm{}); held out{} \
          {:.3} → {:.3} µm",
         a.axis,
         a.rms_template_um,
@@ -123,6 +123,16 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
             ""
         },
         a.following_error_rms_um,
+        if a.held_out_while_moving {
+            " while moving"
+        } else {
+            ""
+        },
+        if a.held_out_while_moving {
+            " while moving (the axis hunts at standstill)"
+        } else {
+            ""
+        },
         a.held_out_template_um,
         a.held_out_identified_um
     );

@@ -211,7 +211,17 @@ impl Round {
     /// The RMS residual (m) of each half's fit on the other half's samples (of those `fit`
     /// compares): how well this round predicts what it did not see.
     pub(super) fn held_out_rms(&self, fit: &Fit, base: &AxisConfig, fold: &[bool]) -> Option<f64> {
-        let mask = fit.mask();
+        self.held_out_rms_on(fit, base, fold, fit.mask())
+    }
+
+    /// [`Round::held_out_rms`] on the samples `mask` allows.
+    pub(super) fn held_out_rms_on(
+        &self,
+        fit: &Fit,
+        base: &AxisConfig,
+        fold: &[bool],
+        mask: &[bool],
+    ) -> Option<f64> {
         let (mut ss, mut n) = (0.0, 0usize);
         for (k, side) in [true, false].into_iter().enumerate() {
             let r = fit.residual(&self.config(base, &self.halves[k]))?;
