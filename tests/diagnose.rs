@@ -585,7 +585,7 @@ fn two_causes_a_record_cannot_tell_apart_are_both_reported() {
     // The report names them together and says what would separate them.
     let text =
         contourcheck::diagnose::report::DiagnoseReport::new(&d, "line.nc", &measured, &machine)
-            .summary_text();
+            .to_string();
     assert!(
         text.contains("this record cannot tell them apart"),
         "{text}"
@@ -611,7 +611,7 @@ fn a_stick_slip_fit_that_predicts_the_record_worse_is_seen_and_not_named() {
     common::assert_seen_not_named(&d, CauseId::Stribeck, AxisName::X);
     let text =
         contourcheck::diagnose::report::DiagnoseReport::new(&d, "f20.nc", &measured, &machine)
-            .summary_text();
+            .to_string();
     assert!(
         text.contains("Seen, not determined: stribeck on X"),
         "{text}"
@@ -647,7 +647,7 @@ fn the_backlash_explanation_follows_the_axis_feedback_not_where_the_record_was_t
     );
     let text =
         contourcheck::diagnose::report::DiagnoseReport::new(&d, "circle.nc", &measured, &machine)
-            .summary_text();
+            .to_string();
     assert!(text.contains("behind the linear scale"), "{text}");
     assert!(!text.contains("closes on the motor"), "{text}");
 }

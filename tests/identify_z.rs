@@ -49,10 +49,6 @@ fn a_low_gain_on_z_is_identified_on_z_and_x_and_y_keep_their_values() {
     let measured = parse_trace(&csv, "helix.csv").unwrap();
     let settings = CompareSettings::for_machine(&template);
     let id = identify(&program, &template, &measured, &settings).unwrap();
-    eprintln!(
-        "{}",
-        contourcheck::identify::report::summary_text(&id, &template)
-    );
     assert_eq!(id.z_not_identified, None);
     let axes: Vec<AxisName> = id.axes.iter().map(|a| a.axis).collect();
     assert_eq!(axes, [AxisName::X, AxisName::Y, AxisName::Z]);

@@ -95,7 +95,7 @@ proptest! {
         let machine = MachineConfig::default_preset();
         let settings = DiagnoseSettings::for_machine(&machine);
         if let Ok(d) = diagnose(&program, &machine, &trace, &settings) {
-            let _ = DiagnoseReport::new(&d, "odd.nc", &trace, &machine).summary_text();
+            let _ = DiagnoseReport::new(&d, "odd.nc", &trace, &machine).to_string();
         }
         let _ = identify(&program, &machine, &trace, &settings.compare);
     }

@@ -194,7 +194,7 @@ fn the_840d_trace_from_home_is_diagnosed_from_where_its_commands_join_the_progra
         "{c:?}: file {file_lo}..{file_hi}"
     );
     assert!(hi - lo > 1.0, "{c:?}");
-    let said = c.describe().join("\n");
+    let said = c.to_string();
     assert!(said.contains("Z: moves"), "{said}");
     // The preset simulates Z, so Z is compared; but that rapid runs faster than the
     // preset's Z rapid rate (4000 mm/min) by the file's own rows in the stretch, so the

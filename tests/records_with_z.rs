@@ -107,13 +107,13 @@ fn a_records_z_is_read_its_travel_reported_and_x_and_y_analysed_as_without_it() 
         "{c:?}"
     );
     assert!(hi - lo > 0.5, "{c:?}");
-    let said = c.describe().join("\n");
+    let said = c.to_string();
     assert!(
         said.contains(&format!("Z: moves {:.3} mm", hi - lo)),
         "{said}"
     );
     assert!(said.contains("not compared, diagnosed or fitted"), "{said}");
-    assert!(!a.coverage.describe().join("\n").contains("Z:"));
+    assert!(!a.coverage.to_string().contains("Z:"));
     let z = b.z.describe().join("\n");
     assert!(
         z.contains("Z: not compared: the machine file carries Z"),
@@ -177,5 +177,5 @@ fn a_standing_z_in_a_record_is_not_worth_a_word() {
     assert!(trace.z_m.as_ref().unwrap().iter().all(|&z| z == -12.5e-3));
     let c = diagnosed(&trace).coverage;
     assert_eq!(c.z_span_mm, Some([-12.5, -12.5]));
-    assert!(!c.describe().join("\n").contains("Z:"));
+    assert!(!c.to_string().contains("Z:"));
 }

@@ -333,7 +333,7 @@ fn assert_tight_spot_localized(
         "{}",
         report.verdict
     );
-    assert!(report.summary_text().contains("localized on X: "));
+    assert!(report.to_string().contains("localized on X: "));
     // And the HTML page shows the same finding, not only the verdict that points to it.
     let page = diagnose_page(&d, &report, &ReportInputs::default()).unwrap();
     let finding =

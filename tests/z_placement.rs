@@ -52,7 +52,7 @@ fn diagnosed(z_kv: f64) -> Diagnosis {
 /// noise (0.3 µm): placed on the wrong stroke, the plan's segments would not be the ones
 /// the recorded commands run.
 fn assert_placed_on_the_whole_circle(d: &Diagnosis) {
-    let said = d.coverage.describe().join("\n");
+    let said = d.coverage.to_string();
     assert!(said.contains("compared: lines 3–5"), "{said}");
     assert!(d.z.compared, "{:?}", d.z);
     // The stretch compared covers the lap: 2π · 10 mm at 1000 mm/min is 3.77 s.

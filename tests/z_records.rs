@@ -61,7 +61,7 @@ fn low_gain_record() -> &'static (Diagnosis, MeasuredTrace) {
 #[test]
 fn the_nominal_machine_with_its_weighted_z_is_found_nominal_on_every_axis() {
     let d = nominal_record();
-    let text = d.coverage.describe().join("\n");
+    let text = d.coverage.to_string();
     assert!(d.z.compared, "{:?}\n{text}", d.z);
     assert!(text.contains("compared with the simulated Z"), "{text}");
     // Z runs at up to 1000 mm/min, a lag of 1 mm at Kv = 1 m/min/mm (F / Kv), reverses at

@@ -206,7 +206,7 @@ fn write_outputs(
     }
     let written = batch.destinations();
     batch.commit()?;
-    print!("{}", report.summary_text());
+    print!("{report}");
     if let Some(note) = compensation_note {
         println!("{note}");
     }

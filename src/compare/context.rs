@@ -105,13 +105,8 @@ const HALF_BLOCK_S: f64 = 0.2;
 
 impl Context<'_> {
     /// The record's noise floor (m), as [`super::compare`] estimated it.
-    pub fn noise_m(&self) -> f64 {
+    pub(crate) fn noise_m(&self) -> f64 {
         self.noise_sigma
-    }
-
-    /// How many of the record's samples are compared (one per command period at most).
-    pub fn compared_samples(&self) -> usize {
-        self.samples.len()
     }
 
     /// Program time of each compared sample (s).
@@ -733,7 +728,7 @@ impl Context<'_> {
 impl Context<'_> {
     /// Which stretch of the program the compared samples cover, and how the record's start
     /// was set, at clock offset `offset_s`.
-    pub fn coverage(&self, offset_s: f64) -> super::start::Coverage {
+    pub(crate) fn coverage(&self, offset_s: f64) -> super::start::Coverage {
         let segs = &self.plan.segments;
         let line_at = |t: f64| {
             let c = &self.commands;

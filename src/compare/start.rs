@@ -48,26 +48,6 @@ pub enum StartKind {
     Planned,
 }
 
-impl StartKind {
-    /// In words, for reports.
-    pub fn describe(self) -> &'static str {
-        match self {
-            StartKind::AtRest => "at rest on the program's path: the model starts there at rest",
-            StartKind::InMotion => {
-                "in motion: the model runs in on the record's first command speed, and a \
-                 settling stretch is simulated but not compared"
-            }
-            StartKind::BeforeProgram => {
-                "off the program's path, where the machine stood: its commands drive the model \
-                 from there, compared from where they join the program"
-            }
-            StartKind::Planned => {
-                "without recorded commands: the model runs the program's plan from its start"
-            }
-        }
-    }
-}
-
 /// How a record's start was set, on the simulation's timeline.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Start {
@@ -97,7 +77,7 @@ pub struct Start {
 
 impl Start {
     /// A record compared from its first sample on the plan's timeline.
-    pub fn planned() -> Start {
+    pub(crate) fn planned() -> Start {
         Start {
             kind: StartKind::Planned,
             run_in_s: 0.0,
@@ -434,6 +414,13 @@ pub struct Coverage {
 /// Z travel below this (mm) is a standing Z, not worth a word.
 const Z_STANDS_MM: f64 = 1e-3;
 
+/// Which stretch was compared and how the start was set, a line each: what the command prints.
+impl std::fmt::Display for Coverage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.describe().join("\n"))
+    }
+}
+
 impl Coverage {
     /// How long each axis was simulated but not compared at the start, in words.
     fn settling_text(&self) -> String {
@@ -444,7 +431,7 @@ impl Coverage {
     }
 
     /// Lines saying which stretch was compared and how the start was set.
-    pub fn describe(&self) -> Vec<String> {
+    pub(crate) fn describe(&self) -> Vec<String> {
         let mut lines = vec![format!(
             "compared: lines {}–{} of the program's {}–{} ({:.2}–{:.2} s on the record's clock){}",
             self.first_line,

@@ -111,7 +111,7 @@ impl CauseId {
 
     /// The fitted parameters: each a machine key, with a typical step and the bounds the
     /// fit searches within.
-    pub fn params(self) -> &'static [Param] {
+    pub(crate) fn params(self) -> &'static [Param] {
         match self {
             CauseId::Backlash => const { &[param("drive.backlash_um", 10.0, 0.0..=1000.0)] },
             CauseId::CoulombFriction => {

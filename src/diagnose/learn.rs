@@ -68,7 +68,7 @@ pub enum Term {
 
 impl Term {
     /// The machine keys it is written as.
-    pub fn keys(self) -> &'static str {
+    pub(crate) fn keys(self) -> &'static str {
         match self {
             Term::PositionMap => "errors.position_map_mm/_um",
             Term::FrictionMap => "errors.friction_map_mm/_n",
@@ -77,7 +77,7 @@ impl Term {
     }
 
     /// What it is, for a report.
-    pub fn describe(self) -> &'static str {
+    pub(crate) fn describe(self) -> &'static str {
         match self {
             Term::PositionMap => "position-dependent error",
             Term::FrictionMap => "position-dependent friction",
@@ -131,7 +131,7 @@ pub struct Learned {
 /// The machine extended by a term on the located axis, its traces, and what was learned —
 /// when the located variable has a term that stands for it, and the term, fitted on half
 /// the record, predicts the other half.
-pub fn learn(
+pub(crate) fn learn(
     ctx: &Context,
     machine: &MachineConfig,
     traces: &[Vec<f64>; 2],

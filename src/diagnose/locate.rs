@@ -42,7 +42,7 @@ pub enum Variable {
 
 impl Variable {
     /// Its name for a report.
-    pub fn describe(self) -> String {
+    pub(crate) fn describe(self) -> String {
         match self {
             Variable::Position(a) => format!("position on {a}"),
             Variable::PositionByDirection(a) => format!("position on {a} by direction of travel"),
@@ -67,7 +67,7 @@ impl Variable {
     }
 
     /// The unit its interval is given in.
-    pub fn unit(self) -> &'static str {
+    pub(crate) fn unit(self) -> &'static str {
         match self {
             Variable::Position(_) | Variable::PositionByDirection(_) | Variable::Period => "mm",
             Variable::Velocity => "mm/min",
@@ -108,7 +108,7 @@ const TIME_BINS: usize = 8;
 
 /// Locates the residual of each axis whose residual stands out from the noise (χ² excess
 /// over five standard deviations) with `traces` the model's final traces.
-pub fn locate(ctx: &Context, traces: &[Vec<f64>; 2], offset_s: f64) -> Vec<Located> {
+pub(crate) fn locate(ctx: &Context, traces: &[Vec<f64>; 2], offset_s: f64) -> Vec<Located> {
     AxisName::BOTH
         .into_iter()
         .filter_map(|axis| {

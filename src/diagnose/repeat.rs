@@ -98,7 +98,7 @@ struct Passes {
 }
 
 /// The repeating residual of each axis that has one, with `traces` the model's final traces.
-pub fn localize(
+pub(crate) fn localize(
     ctx: &Context,
     machine: &MachineConfig,
     traces: &[Vec<f64>; 2],

@@ -189,6 +189,14 @@ pub struct GainStats {
     pub contour: Gains,
 }
 
+/// The report in words, as the command prints it: the record, the verdict, each cause
+/// named or not, what the residual left shows, where the error lives.
+impl std::fmt::Display for DiagnoseReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.summary_text())
+    }
+}
+
 impl DiagnoseReport {
     /// Builds the report.
     pub fn new(
@@ -272,8 +280,8 @@ impl DiagnoseReport {
         writeln!(w)
     }
 
-    /// The summary for the terminal.
-    pub fn summary_text(&self) -> String {
+    /// The summary for the terminal (the report's [`Display`](std::fmt::Display)).
+    fn summary_text(&self) -> String {
         let mut s = String::new();
         self.write_record(&mut s);
         let _ = writeln!(s, "\n{}", self.verdict);
@@ -314,7 +322,7 @@ impl DiagnoseReport {
     /// What the record says of the residual no named cause took, a sentence each: effects
     /// learned as tables, where the residual left lives, and residuals that repeat at the
     /// same places on every pass. The text summary and the HTML page show the same lines.
-    pub fn residual_findings(&self) -> Vec<String> {
+    pub(crate) fn residual_findings(&self) -> Vec<String> {
         let learned = self.learned.iter().map(learned_line);
         let unexplained = self.unexplained.iter().map(unexplained_line);
         let localized = self.localized.iter().map(localized_line);
@@ -899,7 +907,7 @@ impl Diagnosis {
 }
 
 /// The extended machine as a machine file that `check`, `sweep` and `diagnose` load.
-pub fn machine_file(
+pub(crate) fn machine_file(
     machine: &MachineConfig,
     d: &Diagnosis,
     program_file: &str,

@@ -254,7 +254,7 @@ impl TableDiagnosis {
     }
 
     /// The summary for the terminal.
-    pub fn summary_text(&self, file: &str, machine: &str) -> String {
+    pub(crate) fn summary_text(&self, file: &str, machine: &str) -> String {
         use std::fmt::Write as _;
         let mut s = String::new();
         let _ = writeln!(

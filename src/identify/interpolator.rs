@@ -98,7 +98,7 @@ fn jerk(a: &[f64], dt: f64) -> f64 {
 
 /// The peaks of the context's commands, and what the template's planner demands on the
 /// same program.
-pub fn read(ctx: &Context) -> Interpolator {
+pub(crate) fn read(ctx: &Context) -> Interpolator {
     let c = &ctx.commands;
     let axes = [&c.x, &c.y];
     let planned = crate::plan::sample(&ctx.plan);

@@ -51,7 +51,7 @@ impl<'a> IdentifyReport<'a> {
 
 /// A value for the table: fitted with its uncertainty (said so where that is not a
 /// measurement), or the template's.
-pub fn shown(v: &IdentifiedValue) -> String {
+pub(crate) fn shown(v: &IdentifiedValue) -> String {
     if let (true, Some(other)) = (v.determined, v.traded_with) {
         return format!(
             "{} ± {} (not determined alone: traded with {other}; a model's value)",
@@ -80,7 +80,7 @@ pub(crate) fn sig(v: f64) -> String {
 }
 
 /// The identification as the terminal shows it.
-pub fn summary_text(id: &Identification, template: &MachineConfig) -> String {
+pub(crate) fn summary_text(id: &Identification, template: &MachineConfig) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -179,7 +179,7 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
 
 /// What the machine written predicts of the record's held-out halves, against the template
 /// and the plain regression on the command.
-pub fn prediction(a: &AxisIdentification) -> String {
+pub(crate) fn prediction(a: &AxisIdentification) -> String {
     let written = if a.better_than_template || a.template_holds {
         a.held_out_identified_um
     } else {
@@ -207,7 +207,7 @@ pub fn prediction(a: &AxisIdentification) -> String {
 }
 
 /// What the fit is, where it is not simply identified to the record's noise.
-pub fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
+pub(crate) fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
     if a.template_holds {
         return Some(
             "the template explains the record to its noise, and values fitted to it predict \
@@ -277,7 +277,11 @@ pub(crate) fn interpolator_lines(i: &Interpolator) -> Vec<String> {
 
 /// The identified machine as a machine file, its values and their uncertainties in the
 /// header.
-pub fn machine_file(id: &Identification, template: &MachineConfig, program_file: &str) -> String {
+pub(crate) fn machine_file(
+    id: &Identification,
+    template: &MachineConfig,
+    program_file: &str,
+) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,

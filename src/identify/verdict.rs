@@ -46,7 +46,7 @@ impl Place {
     ];
 
     /// In words, after "largest".
-    pub fn describe(self) -> &'static str {
+    pub(crate) fn describe(self) -> &'static str {
         match self {
             Place::StartsStopsReversals => "at starts, stops and reversals",
             Place::Accelerating => "while accelerating",
