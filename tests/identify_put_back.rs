@@ -101,7 +101,8 @@ fn values_that_trade_above_the_noise_are_written_flagged_where_they_predict_bett
     for v in &x.values {
         assert!(!v.measured, "{v:?}");
         let own_scale = v.template > 0.0;
-        if v.determined && own_scale && !(v.uncertainty <= 0.5 * v.value.abs()) {
+        let loose = v.uncertainty.is_nan() || v.uncertainty > 0.5 * v.value.abs();
+        if v.determined && own_scale && loose {
             let other = v
                 .traded_with
                 .unwrap_or_else(|| panic!("not flagged: {v:?}"));
