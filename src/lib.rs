@@ -70,6 +70,7 @@ pub mod plot;
 pub mod sim;
 pub mod sweep;
 pub mod trace;
+#[cfg(feature = "cli")]
 pub mod validate;
 
 pub use check::envelope::{EnvelopeError, check_fits};

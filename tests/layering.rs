@@ -16,10 +16,10 @@ const LAYERS: &[&[&str]] = &[
     &["sim"],
     &["plan"],
     &["analysis", "trace"],
-    &["check", "validate"],
+    &["check"],
     &["compare", "sweep"],
     &["diagnose", "identify"],
-    &["figures"],
+    &["figures", "validate"],
     &["html_report"],
     &["cli"],
 ];

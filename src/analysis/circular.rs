@@ -79,6 +79,7 @@ pub(crate) fn circles(segments: &[Segment]) -> Vec<Circle> {
 /// The samples of a path on circle `c` (`segment[k]` the plan segment sample `k` lies
 /// nearest): each one's polar angle about the programmed centre (rad) and radial deviation
 /// from the programmed radius (m, outward positive).
+#[cfg(feature = "html-report")]
 pub(crate) fn radial_points(
     c: &Circle,
     segment: &[u32],

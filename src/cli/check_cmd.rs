@@ -5,8 +5,9 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use super::Outcome;
+use super::check_text::{TraceCsv, summary_text};
 use super::common::{CliError, MachineArgs, PlanningArgs, load_program, progress};
-use crate::check::report::{CheckReport, TraceCsv, group_warnings, summary_text};
+use crate::check::report::{CheckReport, group_warnings};
 use crate::check::{CheckResult, CheckSettings, check_planned};
 use crate::cli::output::{OutputBatch, at_most_one_stdout};
 use crate::figures::CheckFigures;

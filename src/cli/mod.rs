@@ -4,6 +4,7 @@
 
 mod bode_cmd;
 mod check_cmd;
+mod check_text;
 mod common;
 mod diagnose_cmd;
 mod identify_cmd;

@@ -18,6 +18,7 @@
 //!   documentation (`[JOINT_n] COMP_FILE`) describes it. A joint with a compensation file
 //!   ignores its `BACKLASH`, so the backlash is in the file.
 
+#[cfg(feature = "cli")]
 use std::fmt::Write as _;
 
 use crate::machine::{AxisName, MachineConfig};
@@ -99,6 +100,7 @@ fn positions_mm(machine: &MachineConfig, axis: AxisName) -> Vec<f64> {
 }
 
 /// The tables as the control-neutral CSV.
+#[cfg(feature = "cli")]
 pub(crate) fn neutral_csv(tables: &[AxisCompensation]) -> String {
     let mut s = String::from("axis,position_mm,forward_um,reverse_um\n");
     for t in tables {
@@ -110,6 +112,7 @@ pub(crate) fn neutral_csv(tables: &[AxisCompensation]) -> String {
 }
 
 /// One axis's table as a LinuxCNC compensation file (type 1, mm).
+#[cfg(feature = "cli")]
 pub(crate) fn linuxcnc_file(table: &AxisCompensation) -> String {
     let mut s = String::new();
     for (p, f, r) in &table.points {

@@ -18,7 +18,8 @@
 //! re-simulations for the cause's parameters (1 % of each one's scale: smaller steps would
 //! see the switching instants' discontinuities, not the slope) and analytic for the offset.
 
-use std::cell::RefCell;
+use std::collections::VecDeque;
+use std::sync::{Arc, Mutex};
 
 use nalgebra::{DMatrix, DVector};
 use rayon::prelude::*;
@@ -84,15 +85,13 @@ pub(crate) fn fit_cause(
         axis,
         cause,
         other,
+        simulated: Simulated::default(),
     };
     let start = best_start(ctx, starts, &|screen: &Context, s: &[f64]| {
         model.rss_on(screen, s, offset_s)
     })?;
     let (values, nm_offset, best) = model.nelder_mead_from(start, offset_s);
-    let problem = Problem {
-        model,
-        cache: RefCell::new(None),
-    };
+    let problem = Problem { model };
     let p0 = problem.model.scaled(&values, nm_offset);
     let end = lsq::minimise(&problem, p0.clone(), &problem.model.settings());
     // Nelder–Mead's values stand where Levenberg–Marquardt does not improve on them.
@@ -100,7 +99,7 @@ pub(crate) fn fit_cause(
         Some(e) => (e.p, e.cost, Some(e.jacobian)),
         None => (p0, best, None),
     };
-    let (r0, trace, other) = problem.evaluate(&p)?;
+    let (r0, trace, other) = problem.model.evaluate(&p)?;
     let jacobian = jacobian.or_else(|| lsq::Problem::jacobian(&problem, &p, &r0));
     let params = cause.params();
     let sigma = jacobian.map_or_else(
@@ -531,13 +530,33 @@ struct Model<'a> {
     axis: AxisName,
     cause: CauseId,
     other: &'a [f64],
+    simulated: Simulated,
 }
 
-/// The fit as a least-squares problem, with the last evaluation kept: the solver asks for
-/// the residuals and then the Jacobian at the same point.
+/// A fit's latest simulations, by stepping and parameter values. The same values come back:
+/// Nelder–Mead tries points that differ in the clock offset alone (which moves the residual,
+/// not the simulation), Levenberg–Marquardt starts where Nelder–Mead ended, and the fit's
+/// trace is read where the solver last was. A simulation depends on its machine and stepping
+/// only, so the one kept is the one that would be run.
+#[derive(Default)]
+struct Simulated(Mutex<VecDeque<(SimulatedAt, Arc<Pair>)>>);
+
+/// Stepping and parameter values (bit for bit).
+type SimulatedAt = (Stepping, Vec<u64>);
+
+/// This axis's trace, and the other axis's where the cause changed it (else the fit's own).
+struct Pair {
+    trace: Vec<f64>,
+    other: Option<Vec<f64>>,
+}
+
+/// How many simulations a fit keeps: a simplex's points and a Jacobian's columns.
+const SIMULATIONS_KEPT: usize = 16;
+
+/// The fit as a least-squares problem. The solver asks for the residuals and then the
+/// Jacobian at the same point: the model's kept simulations serve the second.
 struct Problem<'a> {
     model: Model<'a>,
-    cache: RefCell<Option<(DVector<f64>, Evaluation)>>,
 }
 
 /// Residuals, this axis's trace, the other axis's trace.
@@ -550,16 +569,45 @@ impl Model<'_> {
     /// Both axes' residual sum of squares on `on` at parameter values and an offset.
     fn rss_on(&self, on: &Context, values: &[f64], offset: f64) -> f64 {
         let sum_sq = |v: Vec<f64>| v.iter().map(|x| x * x).sum::<f64>();
+        self.pair_on(on, values).map_or(f64::INFINITY, |p| {
+            let other = match self.axis {
+                // Z is fitted on its own residual.
+                AxisName::Z => 0.0,
+                _ => sum_sq(on.residual(self.axis.other(), self.other_of(&p), offset)),
+            };
+            sum_sq(on.residual(self.axis, &p.trace, offset)) + other
+        })
+    }
+
+    /// The traces of `machine` with the cause at `values` on `on`: kept from this fit, or
+    /// simulated (and kept).
+    fn pair_on(&self, on: &Context, values: &[f64]) -> Option<Arc<Pair>> {
+        let at: SimulatedAt = (on.stepping, values.iter().map(|v| v.to_bits()).collect());
+        let kept = self.simulated.0.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, p)) = kept.iter().find(|(k, _)| *k == at) {
+            return Some(p.clone());
+        }
+        drop(kept);
         let m = with_cause(self.machine, self.axis, self.cause, values);
-        on.simulate_pair(&m, self.axis, self.other)
-            .map_or(f64::INFINITY, |(t, o)| {
-                let other = match self.axis {
-                    // Z is fitted on its own residual.
-                    AxisName::Z => 0.0,
-                    _ => sum_sq(on.residual(self.axis.other(), &o, offset)),
-                };
-                sum_sq(on.residual(self.axis, &t, offset)) + other
-            })
+        let (trace, other) = on.simulate_pair(&m, self.axis, self.other)?;
+        let pair = Arc::new(Pair {
+            trace,
+            other: match other {
+                std::borrow::Cow::Borrowed(_) => None,
+                std::borrow::Cow::Owned(o) => Some(o),
+            },
+        });
+        let mut kept = self.simulated.0.lock().unwrap_or_else(|e| e.into_inner());
+        if kept.len() == SIMULATIONS_KEPT {
+            kept.pop_front();
+        }
+        kept.push_back((at, pair.clone()));
+        Some(pair)
+    }
+
+    /// The other axis's trace in `pair`.
+    fn other_of<'p>(&'p self, pair: &'p Pair) -> &'p [f64] {
+        pair.other.as_deref().unwrap_or(self.other)
     }
 
     /// Nelder–Mead from `start` and `offset_s`: the values, the offset and their residual
@@ -637,10 +685,8 @@ impl Model<'_> {
 
     /// This axis's trace and the other's at parameter values.
     fn simulate(&self, values: &[f64]) -> Option<(Vec<f64>, Vec<f64>)> {
-        let m = with_cause(self.machine, self.axis, self.cause, values);
-        self.ctx
-            .simulate_pair(&m, self.axis, self.other)
-            .map(|(t, o)| (t, o.into_owned()))
+        let p = self.pair_on(self.ctx, values)?;
+        Some((p.trace.clone(), self.other_of(&p).to_vec()))
     }
 
     /// Residuals (both axes), this axis's trace and the other's at scaled parameters `p`.
@@ -704,20 +750,9 @@ impl Model<'_> {
     }
 }
 
-impl Problem<'_> {
-    fn evaluate(&self, p: &DVector<f64>) -> Option<Evaluation> {
-        if let Some((_, e)) = self.cache.borrow().as_ref().filter(|(q, _)| q == p) {
-            return Some(e.clone());
-        }
-        let e = self.model.evaluate(p)?;
-        *self.cache.borrow_mut() = Some((p.clone(), e.clone()));
-        Some(e)
-    }
-}
-
 impl lsq::Problem for Problem<'_> {
     fn residuals(&self, p: &DVector<f64>) -> Option<DVector<f64>> {
-        self.evaluate(p).map(|(r, _, _)| r)
+        self.model.evaluate(p).map(|(r, _, _)| r)
     }
 
     fn jacobian(&self, p: &DVector<f64>, r0: &DVector<f64>) -> Option<DMatrix<f64>> {
@@ -728,7 +763,7 @@ impl lsq::Problem for Problem<'_> {
             model.evaluate(q).map(|(r, _, _)| r)
         })?;
         if model.fits_offset() {
-            let (_, trace, other) = self.evaluate(p)?;
+            let (_, trace, other) = model.evaluate(p)?;
             jac.set_column(n, &model.offset_column(p, &trace, &other));
         }
         Some(jac)

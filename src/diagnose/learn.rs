@@ -217,6 +217,7 @@ impl Learner<'_, '_> {
             ))
         };
         let whole = table(&|_| true);
+        let whole_machine = with_position_map(self.machine, self.axis, &whole);
         let periodic = located.variable == Some(Variable::Period);
         let learned = Learned {
             axis: self.axis,
@@ -227,7 +228,7 @@ impl Learner<'_, '_> {
             peak: um_from_m(largest(&whole)),
             ..self.blank(Term::PositionMap)
         };
-        self.keep_if_it_gains(&extended, learned)
+        self.keep_if_it_gains(whole_machine, &extended, learned)
     }
 
     /// A friction table over the table's position or speed, fitted on sensitivities.
@@ -243,14 +244,16 @@ impl Learner<'_, '_> {
             .into_iter()
             .filter_map(|n| self.sensitivities(term, lo, hi, n, f_c))
             .collect();
-        let best = candidates.iter().max_by(|a, b| {
-            let share = |s: &Sensitivities| {
-                held_out_share(&self.residual, &self.fold, |train| {
+        // Each candidate's held-out share once (a fit over the record per half).
+        let (_, best) = candidates
+            .iter()
+            .map(|s| {
+                let share = held_out_share(&self.residual, &self.fold, |train| {
                     s.fit(&self.residual, train)
-                })
-            };
-            share(a).total_cmp(&share(b))
-        })?;
+                });
+                (share, s)
+            })
+            .max_by(|a, b| a.0.total_cmp(&b.0))?;
         let table = |use_sample: &dyn Fn(usize) -> bool| {
             let fit = best.fit(&self.residual, use_sample);
             best.at
@@ -280,7 +283,8 @@ impl Learner<'_, '_> {
             peak: largest(&whole),
             ..self.blank(term)
         };
-        self.keep_if_it_gains(&extended, learned)
+        let whole_machine = with_friction_table(self.machine, self.axis, term, &whole);
+        self.keep_if_it_gains(whole_machine, &extended, learned)
     }
 
     /// The variable a friction table runs over, at each compared sample: the table's
@@ -359,15 +363,15 @@ impl Learner<'_, '_> {
         }
     }
 
-    /// Re-simulates the machine `extended` gives for the whole record and for each half
-    /// (fitted on the other half); keeps the term when the residual falls both in and out of
-    /// sample.
+    /// Re-simulates the machine extended by the term fitted on the whole record, `whole`, and
+    /// the one `extended` gives for each half (fitted on the other half); keeps the term when
+    /// the residual falls both in and out of sample.
     fn keep_if_it_gains(
         &self,
+        whole: MachineConfig,
         extended: &Extension,
         mut learned: Learned,
     ) -> Option<(MachineConfig, [Vec<f64>; 2], Learned)> {
-        let whole = extended(&|_| true)?;
         let trace = self.ctx.simulate_axis(&whole, self.axis)?;
         let after = self.ctx.residual(self.axis, &trace, self.offset_s);
         let (mut before_ss, mut after_ss, mut n) = (0.0, 0.0, 0usize);

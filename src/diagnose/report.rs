@@ -3,6 +3,7 @@
 //! terminal, and the extended machine as a machine file.
 
 use std::fmt::Write as _;
+#[cfg(feature = "cli")]
 use std::io::Write;
 
 use serde::Serialize;
@@ -275,6 +276,7 @@ impl DiagnoseReport {
     }
 
     /// Writes the report as pretty JSON.
+    #[cfg(feature = "cli")]
     pub(crate) fn write_json(&self, w: &mut dyn Write) -> std::io::Result<()> {
         serde_json::to_writer_pretty(&mut *w, self)?;
         writeln!(w)

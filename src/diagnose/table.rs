@@ -14,12 +14,33 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::diagnose::causes::CauseId;
-use crate::machine::MachineConfig;
+use crate::machine::{AxisConfig, MachineConfig};
 use crate::numeric::golden_section;
 use crate::numeric::units::{m_per_s_from_mm_per_min, mm_from_m};
-use crate::sim::{SimConfig, SimError};
+use crate::plan::AxisCommands;
+use crate::sim::{AxisModel, SimConfig, SimError, simulate};
 use crate::trace::measured::TableRow;
-use crate::validate::steady_following_error_m;
+
+/// How long a row's run lasts before its error is read (s): many times 1/Kv.
+pub(crate) const STEADY_AFTER_S: f64 = 4.0;
+
+/// The steady following error (m) of an axis after a velocity step from rest to `feed`.
+pub(crate) fn steady_following_error_m(
+    axis: &AxisConfig,
+    feed_m_per_s: f64,
+    sim: &SimConfig,
+) -> Result<f64, SimError> {
+    let model = AxisModel::from_config(axis);
+    let dt = 0.002;
+    let n = (STEADY_AFTER_S / dt).round() as usize + 1;
+    let trace = simulate(
+        &model,
+        &AxisCommands::ramp(0.0, feed_m_per_s, dt, n),
+        dt,
+        sim,
+    )?;
+    Ok(trace.following_error_m(n - 1))
+}
 
 /// One row with the model's predictions (mm).
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -227,6 +248,7 @@ pub const TABLE_SCHEMA: &str = "contourcheck.diagnose-table/1";
 
 impl TableDiagnosis {
     /// Writes the diagnosis as pretty JSON.
+    #[cfg(feature = "cli")]
     pub(crate) fn write_json(
         &self,
         w: &mut dyn std::io::Write,
@@ -254,6 +276,7 @@ impl TableDiagnosis {
     }
 
     /// The summary for the terminal.
+    #[cfg(feature = "cli")]
     pub(crate) fn summary_text(&self, file: &str, machine: &str) -> String {
         use std::fmt::Write as _;
         let mut s = String::new();
@@ -299,6 +322,7 @@ impl TableDiagnosis {
     }
 
     /// The verdict: the cause kept, or why none is.
+    #[cfg(feature = "cli")]
     fn verdict(&self) -> String {
         if let Some(id) = self.kept {
             return format!("Significant cause: {}.", id.as_str());
@@ -323,6 +347,7 @@ impl TableDiagnosis {
     }
 
     /// Each table's spread about both models.
+    #[cfg(feature = "cli")]
     fn tables_text(&self) -> String {
         use std::fmt::Write as _;
         let mut s = String::new();
@@ -347,6 +372,7 @@ impl TableDiagnosis {
     }
 
     /// Every row: its settings, the measured error and both models'.
+    #[cfg(feature = "cli")]
     fn rows_text(&self) -> String {
         use std::fmt::Write as _;
         let mut s = String::new();

@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use crate::identify::{AxisIdentification, Identification, IdentifiedValue, Interpolator};
+use crate::identify::{AxisIdentification, Identification, IdentifiedValue};
 use crate::machine::MachineConfig;
 
 impl Identification {
@@ -43,6 +43,7 @@ impl<'a> IdentifyReport<'a> {
     }
 
     /// Writes the report as pretty JSON.
+    #[cfg(feature = "cli")]
     pub(crate) fn write_json(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
         serde_json::to_writer_pretty(&mut *w, self).map_err(std::io::Error::other)?;
         w.write_all(b"\n")
@@ -80,6 +81,7 @@ pub(crate) fn sig(v: f64) -> String {
 }
 
 /// The identification as the terminal shows it.
+#[cfg(feature = "cli")]
 pub(crate) fn summary_text(id: &Identification, template: &MachineConfig) -> String {
     let mut s = String::new();
     let _ = writeln!(
@@ -109,6 +111,7 @@ pub(crate) fn summary_text(id: &Identification, template: &MachineConfig) -> Str
 
 /// One axis: its residuals, what they predict against the template and the regression, and
 /// its values.
+#[cfg(feature = "cli")]
 fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
     let _ = writeln!(
         s,
@@ -207,6 +210,7 @@ pub(crate) fn prediction(a: &AxisIdentification) -> String {
 }
 
 /// What the fit is, where it is not simply identified to the record's noise.
+#[cfg(feature = "cli")]
 pub(crate) fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
     if a.template_holds {
         return Some(
@@ -239,7 +243,8 @@ pub(crate) fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
 
 /// The record's interpolator in words: the path speed, then per axis its speed and its
 /// acceleration and jerk, each said to be held (written as the limit) or only a peak.
-pub(crate) fn interpolator_lines(i: &Interpolator) -> Vec<String> {
+#[cfg(feature = "html-report")]
+pub(crate) fn interpolator_lines(i: &crate::identify::Interpolator) -> Vec<String> {
     let limit = |value: f64, demanded: f64, unit: &str, held: bool| {
         if held {
             format!(

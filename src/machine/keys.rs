@@ -770,6 +770,7 @@ pub fn get_on_machine(m: &MachineConfig, key: &str) -> Option<f64> {
 }
 
 /// A full dotted key's unit (empty for a ratio); `None` for a key not in the table.
+#[cfg(feature = "cli")]
 pub(crate) fn unit_on_machine(key: &str) -> Option<&'static str> {
     let (part, rest) = key.split_once('.')?;
     match part {

@@ -261,6 +261,7 @@ pub fn open_loop(model: &AxisModel, which: Loop, freq_hz: f64) -> Complex<f64> {
 
 /// Magnitude (dB) and phase (degrees, unwrapped from 0 at low frequency) over a frequency
 /// list.
+#[cfg(feature = "cli")]
 pub(crate) fn bode(
     model: &AxisModel,
     which: Loop,
@@ -461,6 +462,7 @@ pub fn closed_loop_modes(model: &AxisModel) -> Vec<ModalFigure> {
 }
 
 /// The least damped oscillatory closed-loop mode (damping below 1).
+#[cfg(feature = "cli")]
 pub(crate) fn least_damped(model: &AxisModel) -> Option<ModalFigure> {
     closed_loop_modes(model)
         .into_iter()
@@ -487,6 +489,7 @@ pub fn check_stable(model: &AxisModel) -> Result<(), SimError> {
 /// that is stable with every other setting held, found by bisection on the linear model
 /// between a hundredth of a m/min/mm and the gain given; `None` for another controller, or
 /// when even the smallest gain is unstable (the velocity or current loop is).
+#[cfg(feature = "cli")]
 pub(crate) fn largest_stable_kv(config: &crate::machine::AxisConfig) -> Option<f64> {
     if !config.controller.is_cascade() {
         return None;

@@ -148,6 +148,7 @@ fn resonances(poles: &[Complex<f64>], mechanics: &[ModalFigure]) -> Vec<(f64, f6
 
 /// A logarithmic grid from `from_hz` to `to_hz`, `per_decade` points a decade, thickened
 /// around the loop's resonances: what a plot of the loop needs to show its peaks whole.
+#[cfg(feature = "cli")]
 pub(crate) fn response_grid(
     model: &AxisModel,
     which: Loop,

@@ -65,6 +65,7 @@ pub enum Dominant {
 
 impl Dominant {
     /// A few words for tables.
+    #[cfg(feature = "cli")]
     pub(crate) fn label(&self) -> String {
         match self {
             Dominant::ServoMismatch => "servo mismatch between axes".into(),

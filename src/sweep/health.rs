@@ -111,10 +111,12 @@ pub enum Flag {
 
 impl Flag {
     /// A few words for tables, the axis last: `position PM 6.3° (X)`.
+    #[cfg(feature = "cli")]
     pub(crate) fn label(&self) -> String {
         format!("{} ({})", self.what(), self.axis())
     }
 
+    #[cfg(feature = "cli")]
     fn axis(&self) -> AxisName {
         match *self {
             Flag::PhaseMargin { axis, .. }
@@ -125,6 +127,7 @@ impl Flag {
     }
 
     /// The flag without its axis.
+    #[cfg(feature = "cli")]
     fn what(&self) -> String {
         match self {
             Flag::PhaseMargin { which, deg, .. } => format!("{} PM {deg:.1}°", which.name()),
@@ -143,6 +146,7 @@ impl Flag {
 
 /// Flags as a table gives them: each figure once, with the axes that share it —
 /// `position PM 11.9° (X, Y), ζ 0.041 at 183 Hz (X)`.
+#[cfg(feature = "cli")]
 pub(crate) fn describe(flags: &[Flag]) -> String {
     let mut seen: Vec<(String, Vec<AxisName>)> = Vec::new();
     for f in flags {
@@ -267,6 +271,7 @@ impl Health {
     }
 
     /// The largest of a figure over both axes for one loop.
+    #[cfg(feature = "cli")]
     pub(crate) fn most(&self, which: Loop, figure: impl Fn(&LoopMargins) -> f64) -> Option<f64> {
         self.margins
             .iter()

@@ -288,6 +288,7 @@ pub struct TraceProfile {
 
 impl TraceProfile {
     /// Reads a profile file into a mapping.
+    #[cfg(feature = "cli")]
     pub(crate) fn load(path: &std::path::Path) -> Result<ColumnMap, MappingError> {
         let in_file = |problem: String| MappingError(format!("{}: {problem}", path.display()));
         let text = std::fs::read_to_string(path).map_err(|e| in_file(e.to_string()))?;

@@ -5,6 +5,7 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::diagnose::table::{STEADY_AFTER_S, steady_following_error_m};
 use crate::machine::{AxisConfig, MachineConfig};
 use crate::numeric::units::{
     m_per_s_from_mm_per_min, mm_from_m, per_s_from_kv_m_per_min_per_mm, um_from_m,
@@ -92,8 +93,6 @@ pub const PAPER_TABLES: [PaperTable; 3] = [
 
 /// Feed of Tables 4 and 5 (mm/min).
 const TABLE_FEED_MM_PER_MIN: f64 = 500.0;
-/// How long each table run lasts before the error is read (s): many times 1/Kv.
-const STEADY_AFTER_S: f64 = 4.0;
 
 /// One row of a table, with ours.
 #[derive(Debug, Clone, Copy, Serialize)]
@@ -144,24 +143,6 @@ fn table_setup(base: &AxisConfig, parameter: Parameter, value: f64) -> (AxisConf
         }
     };
     (axis, m_per_s_from_mm_per_min(feed))
-}
-
-/// The steady following error (m) of an axis after a velocity step from rest to `feed`.
-pub(crate) fn steady_following_error_m(
-    axis: &AxisConfig,
-    feed_m_per_s: f64,
-    sim: &SimConfig,
-) -> Result<f64, SimError> {
-    let model = AxisModel::from_config(axis);
-    let dt = 0.002;
-    let n = (STEADY_AFTER_S / dt).round() as usize + 1;
-    let trace = simulate(
-        &model,
-        &AxisCommands::ramp(0.0, feed_m_per_s, dt, n),
-        dt,
-        sim,
-    )?;
-    Ok(trace.following_error_m(n - 1))
 }
 
 /// Runs one of the paper's tables on the X axis of `machine`.

@@ -22,8 +22,12 @@ fn f_over_kv_mm(feed: f64, kv: f64) -> f64 {
 }
 
 fn steady_mm(axis: &crate::machine::AxisConfig, feed_mm_per_min: f64) -> f64 {
-    validate::steady_following_error_m(axis, mm_per_min(feed_mm_per_min), &SimConfig::default())
-        .unwrap()
+    crate::diagnose::table::steady_following_error_m(
+        axis,
+        mm_per_min(feed_mm_per_min),
+        &SimConfig::default(),
+    )
+    .unwrap()
         * 1e3
 }
 

@@ -89,6 +89,7 @@ impl SourceLine<'_> {
 
     /// The line as a table's column or a plot's label shows it: `29`, or `BOSS.SPF:8` in a
     /// subprogram's file (its name without the folder).
+    #[cfg(feature = "html-report")]
     pub(crate) fn short(&self) -> String {
         match self.file {
             Some(f) => {
