@@ -485,6 +485,25 @@ fn a_small_table_recorded_by_an_independent_integrator_is_predicted_as_its_truth
     };
     assert!(measured(0, "controller.gain"));
     assert!(!measured(1, "controller.position_gain_a_per_mm"));
+    // An axis read as reaching the noise predicts what each half's fit did not see to about
+    // the noise as well. X's integral action hunts about each stop, a limit cycle whose
+    // phase no model times: fitted on every sample it reached the noise while its halves
+    // missed each other tenfold; it is judged on the samples while moving.
+    for a in id.axes.iter().filter(|a| a.reached) {
+        eprintln!(
+            "{}: held out {:.3} µm (the design {:.3}, noise {:.3}), while moving: {}",
+            a.axis,
+            a.held_out_identified_um,
+            a.held_out_template_um,
+            id.noise_um,
+            a.held_out_while_moving
+        );
+        assert!(
+            a.held_out_identified_um < a.held_out_template_um.max(2.0 * id.noise_um),
+            "{a:?}"
+        );
+    }
+    assert!(id.axes[0].held_out_while_moving, "{:?}", id.axes[0]);
     let found = predicts_other_program(&truth, &id.machine, 93, REFERENCE);
     let hidden = predicts_other_program(&truth, &truth, 93, REFERENCE);
     let design = predicts_other_program(&truth, &template, 93, REFERENCE);

@@ -98,6 +98,11 @@ pub struct IdentifiedValue {
     /// half of it. A determined value that is not measured is written because it predicts
     /// the record: a model's value, not a measurement.
     pub measured: bool,
+    /// Where the record does not determine the value alone (its uncertainty beyond half of
+    /// it) yet it is written — the fit with it predicts the held-out halves better than with
+    /// the template's put back —: the value it trades with most. Only their combination is
+    /// the record's; the value alone is neither a measurement nor certain.
+    pub traded_with: Option<&'static str>,
 }
 
 /// A current-commanding controller's gain over the whole drive's inertia: what a rigid
@@ -157,6 +162,15 @@ pub struct AxisIdentification {
     /// The template already explains the record to its noise and the values fitted predict
     /// its held-out halves worse: the template's values stay (none is determined).
     pub template_holds: bool,
+    /// The held-out figures (and the following error beside them) are over the samples
+    /// while moving, of a fit on every sample: it reached the noise, and its halves
+    /// predicted each other to it while moving but not at standstill, where the axis hunts
+    /// on a limit cycle each half's fit times its own way.
+    pub held_out_while_moving: bool,
+    /// For a fit on every sample: the template's and the fit's held-out residuals and the
+    /// following error on the samples while moving (µm).
+    #[serde(skip)]
+    pub(crate) while_moving_um: Option<[f64; 3]>,
     /// Where the gain and the table's mass are both fitted on a controller commanding
     /// current: their ratio, which the record determines even where each alone is a
     /// model's value.
@@ -389,7 +403,9 @@ fn fit_axis(
     let Some(mut everywhere) = found else {
         return unfitted(Fit::new(ctx, template, axis, offset), template.axis(axis));
     };
-    if everywhere.1.reached {
+    if everywhere.1.reached
+        && verdict::judged_while_moving(&mut everywhere.1, um_from_m(ctx.noise_sigma))
+    {
         return Some(everywhere);
     }
     // Then the plant's nonlinear parts on top, where the template's values alone leave the
@@ -478,6 +494,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             uncertainty: f64::NAN,
             determined: false,
             measured: false,
+            traded_with: None,
         })
         .collect();
     Some((
@@ -499,6 +516,8 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             held_out_identified_um: rms_um,
             gain_per_inertia: None,
             template_holds: false,
+            held_out_while_moving: false,
+            while_moving_um: None,
         },
     ))
 }
@@ -517,6 +536,7 @@ fn not_reached(
     for v in &mut identified.values {
         v.determined = false;
         v.measured = false;
+        v.traded_with = None;
         v.uncertainty = f64::NAN;
         v.value = v.template;
     }
@@ -554,6 +574,7 @@ fn identify_ordered(
                 uncertainty: f64::NAN,
                 determined: false,
                 measured: false,
+                traded_with: None,
             });
         }
         (config, id)
@@ -651,6 +672,10 @@ fn identify_on(
             held_out_identified_um,
             gain_per_inertia: gain_per_inertia(&round, &base),
             template_holds: false,
+            held_out_while_moving: false,
+            while_moving_um: (!moving_only)
+                .then(|| verdict::while_moving(fit, &round, &base, &fold, &template_residual))
+                .flatten(),
         },
     ))
 }
@@ -687,6 +712,7 @@ fn fitted_values(
                 uncertainty: sigma.unwrap_or(f64::NAN),
                 determined: sigma.is_some(),
                 measured: sigma.is_some_and(|s| k.determines(s, value)),
+                traded_with: round.traded_with(k.key),
             }
         })
         .collect()
@@ -886,6 +912,8 @@ mod tests {
             held_out_identified_um: identified_um,
             gain_per_inertia: None,
             template_holds: false,
+            held_out_while_moving: false,
+            while_moving_um: None,
         }
     }
 

@@ -53,6 +53,13 @@ impl<'a> IdentifyReport<'a> {
 /// A value for the table: fitted with its uncertainty (said so where that is not a
 /// measurement), or the template's.
 pub(crate) fn shown(v: &IdentifiedValue) -> String {
+    if let (true, Some(other)) = (v.determined, v.traded_with) {
+        return format!(
+            "{} ± {} (not determined alone: traded with {other}; a model's value)",
+            sig(v.value),
+            sig(v.uncertainty)
+        );
+    }
     match (v.determined, v.measured) {
         (true, true) => format!("{} ± {}", sig(v.value), sig(v.uncertainty)),
         (true, false) => format!(
@@ -108,7 +115,7 @@ pub(crate) fn summary_text(id: &Identification, template: &MachineConfig) -> Str
 fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
     let _ = writeln!(
         s,
-        "\n{} axis: residual {:.3} → {:.3} µm RMS{} (following error {:.1} µm); held out \
+        "\n{} axis: residual {:.3} → {:.3} µm RMS{} (following error {:.1} µm{}); held out{} \
          {:.3} → {:.3} µm",
         a.axis,
         a.rms_template_um,
@@ -119,6 +126,16 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
             ""
         },
         a.following_error_rms_um,
+        if a.held_out_while_moving {
+            " while moving"
+        } else {
+            ""
+        },
+        if a.held_out_while_moving {
+            " while moving (the axis hunts at standstill)"
+        } else {
+            ""
+        },
         a.held_out_template_um,
         a.held_out_identified_um
     );

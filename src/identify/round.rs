@@ -109,6 +109,15 @@ impl Round {
                 return Some((round, base));
             }
             let next = round.put_back(fit, &base, &undetermined, template, fold)?;
+            // Above the noise the fit is judged by what it predicts: values the record
+            // leaves loose (a gain and a mass trading along their ratio) go back to the
+            // template's only where the rest, fitted again, predicts the held-out halves
+            // no worse. Put back one round after another regardless, they left the
+            // template's values predicting the record several times worse than the round
+            // that had them. The loose values kept are marked traded (`Round::traded_with`).
+            if !reached && round.predicts_better_than(&next, fit, &base, fold) {
+                return Some((round, base));
+            }
             let corners: Vec<&'static str> = undetermined
                 .iter()
                 .copied()
@@ -172,10 +181,47 @@ impl Round {
         Some((round, base))
     }
 
+    /// Whether this round (fitted about `base`) predicts the held-out halves better than
+    /// `other` (fitted about its own base).
+    fn predicts_better_than(
+        &self,
+        (other, other_base): &(Round, AxisConfig),
+        fit: &Fit,
+        base: &AxisConfig,
+        fold: &[bool],
+    ) -> bool {
+        let this = self.held_out_rms(fit, base, fold);
+        let that = other.held_out_rms(fit, other_base, fold);
+        this.zip(that).is_some_and(|(this, that)| this < that)
+    }
+
+    /// Where knob `key` stays fitted though the record does not determine it alone (its
+    /// uncertainty beyond half of itself: kept because putting it back predicts the
+    /// held-out halves worse), the knob it trades with most; none for a value the record
+    /// determines, or one not fitted in this round.
+    pub(super) fn traded_with(&self, key: &str) -> Option<&'static str> {
+        let p = self.knobs.iter().position(|k| k.key == key)?;
+        if self.knobs[p].stays_fitted(self.sigma[p], self.whole.values[p]) {
+            return None;
+        }
+        let other = self.whole.most_traded_with(p)?;
+        Some(self.knobs[other].key)
+    }
+
     /// The RMS residual (m) of each half's fit on the other half's samples (of those `fit`
     /// compares): how well this round predicts what it did not see.
     pub(super) fn held_out_rms(&self, fit: &Fit, base: &AxisConfig, fold: &[bool]) -> Option<f64> {
-        let mask = fit.mask();
+        self.held_out_rms_on(fit, base, fold, fit.mask())
+    }
+
+    /// [`Round::held_out_rms`] on the samples `mask` allows.
+    pub(super) fn held_out_rms_on(
+        &self,
+        fit: &Fit,
+        base: &AxisConfig,
+        fold: &[bool],
+        mask: &[bool],
+    ) -> Option<f64> {
         let (mut ss, mut n) = (0.0, 0usize);
         for (k, side) in [true, false].into_iter().enumerate() {
             let r = fit.residual(&self.config(base, &self.halves[k]))?;

@@ -81,6 +81,37 @@ impl Fitted {
             .fold(0.0, f64::max);
         ((raw * s.correlation).max(floor), raw * s.to_floor)
     }
+
+    /// The value (by knob index) whose fit is the most correlated with value `j`'s — the
+    /// one it trades with where the record does not tell them apart —, from the Jacobian's
+    /// covariance (a direction the record does not see at all weighed as a thousand times
+    /// less seen than the best). None where nothing was fitted or `j` is fitted alone.
+    pub(crate) fn most_traded_with(&self, j: usize) -> Option<usize> {
+        let s = self.spread.as_ref()?;
+        let n = s.jacobian.ncols();
+        let svd = s.jacobian.clone().svd(false, true);
+        let vt = svd.v_t?;
+        let largest = svd.singular_values.iter().copied().fold(0.0, f64::max);
+        if j >= n || largest <= 0.0 {
+            return None;
+        }
+        // Covariance in the scaled parameters, up to a factor: V·diag(1/s²)·Vᵀ.
+        let weights: Vec<f64> = svd
+            .singular_values
+            .iter()
+            .map(|&sv| sv.max(1e-3 * largest).powi(-2))
+            .collect();
+        let cov = |a: usize, b: usize| {
+            (0..vt.nrows())
+                .map(|k| weights[k] * vt[(k, a)] * vt[(k, b)])
+                .sum::<f64>()
+        };
+        (0..n)
+            .filter(|&k| k != j)
+            .map(|k| (k, cov(j, k).abs() / (cov(j, j) * cov(k, k)).sqrt()))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(k, _)| k)
+    }
 }
 
 impl<'c, 'a> Fit<'c, 'a> {

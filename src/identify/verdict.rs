@@ -5,8 +5,12 @@
 
 use serde::Serialize;
 
+use super::AxisIdentification;
+use super::round::Round;
+use super::solve::Fit;
 use crate::compare::Context;
-use crate::machine::AxisName;
+use crate::machine::{AxisConfig, AxisName};
+use crate::numeric::units::um_from_m;
 
 /// How much better than the template a fit must predict the held-out halves to be written
 /// when it stays above the noise (the same margin a larger model must show over a smaller
@@ -50,6 +54,67 @@ impl Place {
             Place::Standstill => "at standstill",
         }
     }
+}
+
+/// How far above the noise a fit at the noise may predict its held-out halves and count as
+/// reaching it whatever the template predicts: values the record determines predict the
+/// other half to about the noise (the model's floor adds a quarter of it in squares);
+/// halves that miss each other by twice it carry a systematic part of √3 times the noise.
+const HALVES_EXCESS: f64 = 2.0;
+
+/// Whether a fit at the noise (`noise_um`) on every sample is kept as reaching it: where
+/// its halves predict each other within [`HALVES_EXCESS`] of the noise, or better than the
+/// template predicts them; else where they do so while moving — by the twentieth a fit
+/// must earn over the template — and then its held-out figures are those while moving: at
+/// standstill an axis that hunts follows a limit cycle whose phase no model times, each
+/// half's fit its own way. Otherwise it has not reached the noise: marked so, it is judged
+/// as a fit above it (the fit while moving, and what each predicts).
+pub(crate) fn judged_while_moving(id: &mut AxisIdentification, noise_um: f64) -> bool {
+    let held_out = id.held_out_identified_um;
+    if held_out <= HALVES_EXCESS * noise_um || held_out < id.held_out_template_um {
+        return true;
+    }
+    match id.while_moving_um {
+        Some([template, identified, following]) if better_than_template(identified, template) => {
+            id.held_out_template_um = template;
+            id.held_out_identified_um = identified;
+            id.following_error_rms_um = following;
+            id.held_out_share = identified / following;
+            id.better_than_template = true;
+            id.held_out_while_moving = true;
+            true
+        }
+        _ => {
+            id.reached = false;
+            false
+        }
+    }
+}
+
+/// The template's and `round`'s held-out residuals and the following error on the samples
+/// `fit` compares while the axis moves (µm): `template_residual` is the template's.
+pub(crate) fn while_moving(
+    fit: &Fit,
+    round: &Round,
+    base: &AxisConfig,
+    fold: &[bool],
+    template_residual: &[f64],
+) -> Option<[f64; 3]> {
+    let (ctx, axis, offset) = (fit.ctx(), fit.axis(), fit.offset());
+    let mask: Vec<bool> = super::moving_samples(ctx, axis, offset)
+        .iter()
+        .zip(fit.mask())
+        .map(|(a, b)| *a && *b)
+        .collect();
+    let identified = round.held_out_rms_on(fit, base, fold, &mask)?;
+    let (ss, n) = template_residual
+        .iter()
+        .zip(&mask)
+        .filter(|(_, m)| **m)
+        .fold((0.0, 0usize), |(s, n), (v, _)| (s + v * v, n + 1));
+    let template = (ss / n.max(1) as f64).sqrt();
+    let following = super::following_error_rms(ctx, axis, offset, &mask);
+    Some([template, identified, following].map(um_from_m))
 }
 
 /// Whether a fit predicting the held-out halves to `identified` (µm RMS) is written over a
