@@ -200,13 +200,15 @@ impl Learner<'_, '_> {
     fn position_map(&self, located: &Located) -> Option<(MachineConfig, [Vec<f64>; 2], Learned)> {
         let z = positions_mm(self.ctx, &self.traces[self.axis.index()], self.offset_s);
         let r = &self.residual;
-        let count = MAP_BIN_COUNTS.into_iter().max_by(|&a, &b| {
-            let share = |n: usize| {
-                let bins = Bins::over(&z, n);
-                held_out_share(r, &self.fold, |train| bins.fit(&z, r, train))
-            };
-            share(a).total_cmp(&share(b))
-        })?;
+        let share = |n: usize| {
+            let bins = Bins::over(&z, n);
+            held_out_share(r, &self.fold, |train| bins.fit(&z, r, train))
+        };
+        // Each count's held-out share once (not again in every comparison).
+        let (count, _) = MAP_BIN_COUNTS
+            .into_iter()
+            .map(|n| (n, share(n)))
+            .max_by(|a, b| a.1.total_cmp(&b.1))?;
         let bins = Bins::over(&z, count);
         let table = |use_sample: &dyn Fn(usize) -> bool| bins.fit(&z, r, use_sample).centres();
         let extended = |use_sample: &dyn Fn(usize) -> bool| {

@@ -320,13 +320,20 @@ pub fn diagnose_validated(
         z: None,
     };
     let mut outcome = searched(&ctx, machine, settings, &models, validation.as_mut());
-    // The contour in space, until Z's causes are sought, with the nominal model's Z.
-    let z_series = z_axis::nominal_series(&ctx, machine, models.nominal_z, outcome.offset_s);
+    // Z's cause is sought on Z's own commands and record, whatever X's and Y's are.
+    let z_set = outcome.machine.z.clone();
+    let mut z = z_axis::diagnose_z(
+        &ctx,
+        &mut outcome.machine,
+        models.nominal_z,
+        outcome.offset_s,
+        settings.max_causes > 0,
+    );
+    let mut summary = judged_on_the_contour(&ctx, machine, &mut outcome, &models, &mut z, &z_set);
     let models = Models {
-        z: z_series.as_ref(),
+        z: z.series.as_ref(),
         ..models
     };
-    let mut summary = keep_contour_no_worse(&ctx, machine, &mut outcome, &models);
     search::one_seen_per_axis(&mut outcome.rejected);
     // What no cause explains: where it lives, and, where a term of the model can stand for
     // that variable, the term learned from it.
@@ -359,7 +366,7 @@ pub fn diagnose_validated(
                     .any(|a| tries_allowed(machine, settings, a, c))
             }),
         beyond_machine: beyond_machine_compared(measured, machine, &ctx, outcome.offset_s),
-        ..assemble(&ctx, outcome, summary, &models, settings.max_causes > 0)
+        ..assemble(&ctx, outcome, summary, z)
     })
 }
 
@@ -447,45 +454,43 @@ fn contour_rms_um(ctx: &Context, r: &[f64]) -> f64 {
     um_from_m(residual::averaged_rms(&finite, ctx.sample_dt_s, 0.0))
 }
 
-/// The summary with Z's findings in it: where the contour is measured in space, again with
-/// Z's extended model — unless the cause named on Z predicts the contour worse than Z's
-/// nominal model does (as a cause on X or Y must not), which then goes, with the reason,
-/// and the machine's Z is `z_set` again.
-fn with_z(
+/// X's and Y's causes and Z's judged together on the contour. Z's cause is found on Z's own
+/// record, so X's and Y's stay only where, with Z's extended model, the contour is predicted
+/// no worse than by the nominal model; then Z's cause stays only where it predicts the
+/// contour no worse than Z's nominal model with what stays of theirs. Judged one axis after
+/// the other against the nominal model instead, two right causes on the axes of one plane
+/// (both gains low on a ZX circle) would each predict the contour worse alone: neither
+/// would be named. Where Z's cause goes, the machine's Z is `z_set` again and X's and Y's
+/// causes are judged anew with Z's nominal model.
+fn judged_on_the_contour(
     ctx: &Context,
+    machine: &MachineConfig,
     outcome: &mut search::Outcome,
-    summary: Summary,
     models: &Models,
     z: &mut z_axis::ZFindings,
     z_set: &ZAxis,
 ) -> Summary {
-    let Some(zs) = z
-        .series
-        .as_ref()
-        .filter(|_| summary.series.contour_in_space)
-    else {
+    let summary = keep_contour_no_worse(ctx, machine, outcome, &models.with_z(z.series.as_ref()));
+    if z.cause.is_none() || !summary.series.contour_in_space {
         return summary;
-    };
-    let extended = Models {
-        z: Some(zs),
-        ..*models
     }
-    .summarize(ctx, outcome);
-    if z.cause.is_none() {
-        return extended;
-    }
+    let nominal_z = z.series.clone().map(|mut s| {
+        s.extended = s.nominal.clone();
+        s
+    });
+    let without = models.with_z(nominal_z.as_ref()).summarize(ctx, outcome);
     let (b, a) = (
+        contour_rms_um(ctx, &without.series.contour_residual[1]),
         contour_rms_um(ctx, &summary.series.contour_residual[1]),
-        contour_rms_um(ctx, &extended.series.contour_residual[1]),
     );
     if a <= b * (1.0 + search::WORSE_TOLERANCE) {
-        return extended;
+        return summary;
     }
     outcome.machine.z = z_set.clone();
     z.withdraw_cause(format!(
         "fits, but makes the contour residual in space worse ({b:.3} → {a:.3} µm RMS)"
     ));
-    summary
+    keep_contour_no_worse(ctx, machine, outcome, &models.with_z(z.series.as_ref()))
 }
 
 /// Extends the outcome's model with a term learned from each unexplained residual that one
@@ -508,26 +513,14 @@ fn learn_unexplained(
     learned
 }
 
-/// The diagnosis of X and Y from the search's outcome and its figures, and Z's where the
-/// record has it (its causes sought where `seek_z`); the caller adds what needs the settings
-/// and the nominal machine.
+/// The diagnosis from the search's outcome, its figures and Z's findings; the caller adds
+/// what needs the settings and the nominal machine.
 fn assemble(
     ctx: &Context,
-    mut outcome: search::Outcome,
+    outcome: search::Outcome,
     summary: Summary,
-    models: &Models,
-    seek_z: bool,
+    z: z_axis::ZFindings,
 ) -> Diagnosis {
-    let z_set = outcome.machine.z.clone();
-    let mut z = z_axis::diagnose_z(
-        ctx,
-        &mut outcome.machine,
-        models.nominal_z,
-        outcome.offset_s,
-        seek_z,
-    );
-    // The contour in space again, now with Z's extended model.
-    let summary = with_z(ctx, &mut outcome, summary, models, &mut z, &z_set);
     // With recorded commands the simulation runs on the measurement's clock; the program
     // starts where the recorded commands start to move, less the plan's standing start.
     let program_start = if ctx.fixed_offset.is_some() {
@@ -590,7 +583,11 @@ fn drop_last_cause(
     let Some(last) = outcome.found.pop() else {
         return;
     };
-    let mut machine = nominal_machine.clone();
+    // Z's cause is judged on its own (`judged_on_the_contour`): it stays.
+    let mut machine = MachineConfig {
+        z: outcome.machine.z.clone(),
+        ..nominal_machine.clone()
+    };
     for c in &outcome.found {
         let values: Vec<f64> = c.params.iter().map(|p| p.value).collect();
         causes::apply(machine.axis_mut(c.axis), c.id, &values);
@@ -728,7 +725,12 @@ struct Models<'a> {
     z: Option<&'a ZSeries>,
 }
 
-impl Models<'_> {
+impl<'a> Models<'a> {
+    /// These models with `z` as Z.
+    fn with_z(&self, z: Option<&'a ZSeries>) -> Self {
+        Models { z, ..*self }
+    }
+
     /// The summary of the outcome's extended X and Y against the record.
     fn summarize(&self, ctx: &Context, outcome: &search::Outcome) -> Summary {
         summarize(

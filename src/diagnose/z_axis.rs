@@ -241,18 +241,6 @@ fn nominal_z<'n>(
     Ok(nominal)
 }
 
-/// Z at the context's samples by the nominal model alone (as its extended model too), where
-/// Z is compared: what the contour in space is measured with before Z's causes are sought.
-pub(crate) fn nominal_series(
-    ctx: &Context,
-    machine: &MachineConfig,
-    nominal: Option<&[f64]>,
-    offset_s: f64,
-) -> Option<ZSeries> {
-    let nominal = nominal_z(ctx, machine, nominal, offset_s).ok()?;
-    Some(series_of(ctx, nominal, nominal, offset_s))
-}
-
 /// Z's findings: compared where `machine` simulates Z and the record measured it (`nominal`:
 /// its nominal Z as the comparison simulated it), its causes sought where `seek` allows;
 /// `machine` extended by the cause named.

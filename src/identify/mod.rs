@@ -164,8 +164,9 @@ pub struct AxisIdentification {
     pub template_holds: bool,
     /// The held-out figures (and the following error beside them) are over the samples
     /// while moving, of a fit on every sample: it reached the noise, and its halves
-    /// predicted each other to it while moving but not at standstill, where the axis hunts
-    /// on a limit cycle each half's fit times its own way.
+    /// predicted each other to it while moving but not at standstill (as where an axis
+    /// hunts on a limit cycle each half's fit times its own way: the halves' disagreement is
+    /// what is measured, not the hunting).
     pub held_out_while_moving: bool,
     /// For a fit on every sample: the template's and the fit's held-out residuals and the
     /// following error on the samples while moving (µm).

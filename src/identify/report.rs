@@ -132,7 +132,7 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
             ""
         },
         if a.held_out_while_moving {
-            " while moving (the axis hunts at standstill)"
+            " while moving (its halves' fits disagree at standstill)"
         } else {
             ""
         },
