@@ -24,22 +24,31 @@ use crate::trace::measured::TableRow;
 /// How long a row's run lasts before its error is read (s): many times 1/Kv.
 pub(crate) const STEADY_AFTER_S: f64 = 4.0;
 
+/// The following error (m) of an axis after a velocity step from rest to `feed`, every
+/// `START_UP_STEP_S` over `STEADY_AFTER_S`.
+pub(crate) fn start_up_following_error_m(
+    axis: &AxisConfig,
+    feed_m_per_s: f64,
+    sim: &SimConfig,
+) -> Result<Vec<f64>, SimError> {
+    let model = AxisModel::from_config(axis);
+    let n = (STEADY_AFTER_S / START_UP_STEP_S).round() as usize + 1;
+    let commands = AxisCommands::ramp(0.0, feed_m_per_s, START_UP_STEP_S, n);
+    let trace = simulate(&model, &commands, START_UP_STEP_S, sim)?;
+    Ok((0..n).map(|k| trace.following_error_m(k)).collect())
+}
+
+/// The sample step of a start-up (s): fine against 1/Kv.
+pub(crate) const START_UP_STEP_S: f64 = 0.002;
+
 /// The steady following error (m) of an axis after a velocity step from rest to `feed`.
 pub(crate) fn steady_following_error_m(
     axis: &AxisConfig,
     feed_m_per_s: f64,
     sim: &SimConfig,
 ) -> Result<f64, SimError> {
-    let model = AxisModel::from_config(axis);
-    let dt = 0.002;
-    let n = (STEADY_AFTER_S / dt).round() as usize + 1;
-    let trace = simulate(
-        &model,
-        &AxisCommands::ramp(0.0, feed_m_per_s, dt, n),
-        dt,
-        sim,
-    )?;
-    Ok(trace.following_error_m(n - 1))
+    let fe = start_up_following_error_m(axis, feed_m_per_s, sim)?;
+    Ok(fe[fe.len() - 1])
 }
 
 /// One row with the model's predictions (mm).

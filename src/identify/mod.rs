@@ -91,7 +91,8 @@ pub struct IdentifiedValue {
     pub value: f64,
     /// Its standard uncertainty (NaN where not determined).
     pub uncertainty: f64,
-    /// Whether the record determines it (the value is fitted; else the template's).
+    /// Whether the value is fitted to the record (else it is the template's). A fitted value
+    /// the record does not determine alone names the value it trades with (`traded_with`).
     pub determined: bool,
     /// Whether it reads as the machine's own value: determined, with an uncertainty —
     /// widened to what a modelling difference of half the noise could move it by — within

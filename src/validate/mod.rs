@@ -5,7 +5,9 @@
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::diagnose::table::{STEADY_AFTER_S, steady_following_error_m};
+use crate::diagnose::table::{
+    START_UP_STEP_S, STEADY_AFTER_S, start_up_following_error_m, steady_following_error_m,
+};
 use crate::machine::{AxisConfig, MachineConfig};
 use crate::numeric::units::{
     m_per_s_from_mm_per_min, mm_from_m, per_s_from_kv_m_per_min_per_mm, um_from_m,
@@ -262,17 +264,9 @@ pub(crate) fn start_up(
     feed_m_per_s: f64,
     sim: &SimConfig,
 ) -> Result<StartUp, SimError> {
-    let model = AxisModel::from_config(axis);
-    let dt = 0.002;
-    let n = (STEADY_AFTER_S / dt).round() as usize + 1;
-    let trace = simulate(
-        &model,
-        &AxisCommands::ramp(0.0, feed_m_per_s, dt, n),
-        dt,
-        sim,
-    )?;
-    let fe: Vec<f64> = (0..n).map(|k| trace.following_error_m(k)).collect();
-    let final_m = fe[n - 1];
+    let fe = start_up_following_error_m(axis, feed_m_per_s, sim)?;
+    let dt = START_UP_STEP_S;
+    let final_m = fe[fe.len() - 1];
     let outside = fe
         .iter()
         .rposition(|e| (e - final_m).abs() > 0.01 * final_m.abs());
