@@ -237,7 +237,7 @@ fn identify_on_the_840d_trace_writes_a_machine_and_says_what_it_cannot_determine
     for a in &id.axes {
         for v in &a.values {
             // A value the record does not determine is the template's, said so.
-            if !v.determined {
+            if !v.fitted() {
                 assert_eq!(v.value, v.template, "{:?} {}", a.axis, v.key);
             }
             assert!(v.value.is_finite(), "{:?} {}", a.axis, v.key);

@@ -25,6 +25,8 @@ struct AxisView {
     /// Template → identified on the whole record, and on the held-out halves.
     residual: [Fig; 2],
     held_out: [Fig; 2],
+    /// The held-out halves while moving, where the axis is judged on them.
+    held_out_while_moving: Option<[Fig; 2]>,
     following_error: Fig,
     notes: Vec<String>,
     values: Vec<ValueView>,
@@ -39,7 +41,7 @@ struct ValueView {
     template: Fig,
     value: Fig,
     uncertainty: Fig,
-    status: &'static str,
+    status: String,
 }
 
 /// The HTML report of an identification, from its JSON `report`.
@@ -86,24 +88,15 @@ pub fn identify_page(report: &IdentifyReport, inputs: &Inputs) -> Result<String,
 fn axis_view(report: &IdentifyReport, json: &Json, a: usize) -> AxisView {
     let axis = &report.identification.axes[a];
     let f = |field: &str, d| fig(json, &format!("axes[{a}].{field}"), d);
-    let mut notes = Vec::new();
-    if !axis.reached {
-        notes.push(
-            "NOT IDENTIFIED: the best fit stays above the record's noise — the template's \
-             controller or settings are not this machine's; the template's values are kept"
-                .to_string(),
-        );
-    }
-    if axis.template_holds {
-        notes.push(
-            "The template explains the record to its noise, and values fitted to it predict \
-             the held-out halves worse: the template's values stay"
-                .to_string(),
-        );
-    }
+    let mut notes = vec![crate::identify::report::prediction(axis)];
+    notes.extend(crate::identify::report::verdict(
+        axis,
+        report.identification.noise_um,
+    ));
     if axis.moving_only {
         notes.push("Compared while moving: the axis hunts at standstill.".to_string());
     }
+    notes.extend(crate::identify::report::while_moving_line(axis));
     notes.push(format!("Kept from the template: {}", axis.kept));
     let values = axis
         .values
@@ -117,10 +110,13 @@ fn axis_view(report: &IdentifyReport, json: &Json, a: usize) -> AxisView {
                 template: f(&format!("values[{k}].template"), 4),
                 value: f(&format!("values[{k}].value"), decimals),
                 uncertainty: f(&format!("values[{k}].uncertainty"), decimals),
-                status: match (v.determined, v.measured) {
-                    (true, true) => "identified",
-                    (true, false) => "a model's value, not a measurement",
-                    (false, _) => "not determined: the template's",
+                status: match (v.traded_with, v.determined, v.measured) {
+                    (Some(other), _, _) => {
+                        format!("not determined alone: traded with {other}; a model's value")
+                    }
+                    (None, true, true) => "identified".to_string(),
+                    (None, true, false) => "a model's value, not a measurement".to_string(),
+                    (None, false, _) => "not determined: the template's".to_string(),
                 },
             }
         })
@@ -129,6 +125,12 @@ fn axis_view(report: &IdentifyReport, json: &Json, a: usize) -> AxisView {
         axis: axis.axis.to_string(),
         residual: [f("rms_template_um", 3), f("rms_identified_um", 3)],
         held_out: [f("held_out_template_um", 3), f("held_out_identified_um", 3)],
+        held_out_while_moving: axis.judged_while_moving.then(|| {
+            [
+                f("while_moving.held_out_template_um", 3),
+                f("while_moving.held_out_identified_um", 3),
+            ]
+        }),
         following_error: f("following_error_rms_um", 1),
         notes,
         values,

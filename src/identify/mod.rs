@@ -42,7 +42,7 @@ use serde::Serialize;
 
 pub use baseline::Baseline;
 pub use interpolator::Interpolator;
-pub use verdict::Place;
+pub use verdict::{Place, WhileMoving};
 
 use crate::compare::start::Coverage;
 use crate::compare::{CompareError, CompareSettings, Comparison, Context, Stepping, compare};
@@ -89,10 +89,12 @@ pub struct IdentifiedValue {
     pub template: f64,
     /// The value written: fitted, or the template's where the record does not determine it.
     pub value: f64,
-    /// Its standard uncertainty (NaN where not determined).
+    /// Its standard uncertainty (NaN where the template's).
     pub uncertainty: f64,
-    /// Whether the value is fitted to the record (else it is the template's). A fitted value
-    /// the record does not determine alone names the value it trades with (`traded_with`).
+    /// Whether the record determines it: fitted, with an uncertainty within half of it (or
+    /// of its scale). A value fitted and written though the record leaves it looser than
+    /// that is not determined: it names the value it trades with (`traded_with`). Neither:
+    /// the template's.
     pub determined: bool,
     /// Whether it reads as the machine's own value: determined, with an uncertainty —
     /// widened to what a modelling difference of half the noise could move it by — within
@@ -102,8 +104,16 @@ pub struct IdentifiedValue {
     /// Where the record does not determine the value alone (its uncertainty beyond half of
     /// it) yet it is written — the fit with it predicts the held-out halves better than with
     /// the template's put back —: the value it trades with most. Only their combination is
-    /// the record's; the value alone is neither a measurement nor certain.
+    /// the record's; the value alone is neither determined, nor a measurement, nor certain.
     pub traded_with: Option<&'static str>,
+}
+
+impl IdentifiedValue {
+    /// Whether the value written is fitted to the record (determined, or traded with
+    /// another), rather than the template's.
+    pub fn fitted(&self) -> bool {
+        self.determined || self.traded_with.is_some()
+    }
 }
 
 /// A current-commanding controller's gain over the whole drive's inertia: what a rigid
@@ -163,16 +173,14 @@ pub struct AxisIdentification {
     /// The template already explains the record to its noise and the values fitted predict
     /// its held-out halves worse: the template's values stay (none is determined).
     pub template_holds: bool,
-    /// The held-out figures (and the following error beside them) are over the samples
-    /// while moving, of a fit on every sample: it reached the noise, and its halves
-    /// predicted each other to it while moving but not at standstill (as where an axis
-    /// hunts on a limit cycle each half's fit times its own way: the halves' disagreement is
-    /// what is measured, not the hunting).
-    pub held_out_while_moving: bool,
-    /// For a fit on every sample: the template's and the fit's held-out residuals and the
-    /// following error on the samples while moving (µm).
-    #[serde(skip)]
-    pub(crate) while_moving_um: Option<[f64; 3]>,
+    /// The fit on every sample reached the noise, but its halves predicted each other to
+    /// it only while moving (as where an axis hunts on a limit cycle each half's fit times
+    /// its own way: the halves' disagreement is what is measured, not the hunting): it is
+    /// judged by its held-out figures while moving (`while_moving`), not by the whole
+    /// record's above, which stay as they are.
+    pub judged_while_moving: bool,
+    /// For a fit on every sample: its held-out figures on the samples while the axis moves.
+    pub while_moving: Option<WhileMoving>,
     /// Where the gain and the table's mass are both fitted on a controller commanding
     /// current: their ratio, which the record determines even where each alone is a
     /// model's value.
@@ -381,7 +389,7 @@ fn identify_axis(
 fn template_holds(id: &AxisIdentification, noise_um: f64) -> bool {
     id.reached
         && id.held_out_template_um <= REACHED_EXCESS * noise_um
-        && id.held_out_identified_um > id.held_out_template_um / 0.95
+        && verdict::predicts_better(id.held_out_template_um, id.held_out_identified_um)
 }
 
 /// One axis: identified on every compared sample; where that leaves the residual well
@@ -518,8 +526,8 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             held_out_identified_um: rms_um,
             gain_per_inertia: None,
             template_holds: false,
-            held_out_while_moving: false,
-            while_moving_um: None,
+            judged_while_moving: false,
+            while_moving: None,
         },
     ))
 }
@@ -618,7 +626,7 @@ fn identify_loop_order(
 /// Whether the larger model `more` predicts the record's held-out halves better than
 /// `fewer` by more than a twentieth: only then is it kept over it.
 fn predicts_better(more: &AxisIdentification, fewer: &AxisIdentification) -> bool {
-    more.held_out_identified_um < 0.95 * fewer.held_out_identified_um
+    verdict::predicts_better(more.held_out_identified_um, fewer.held_out_identified_um)
 }
 
 /// One axis on the samples `fit` uses: a staged start, the fit on the whole record and each
@@ -660,7 +668,7 @@ fn identify_on(
             kept: knobs::kept(&template_axis).to_string(),
             moving_only,
             reached: rms(&identified_residual) <= REACHED_EXCESS * um_from_m(ctx.noise_sigma),
-            better_than_template: verdict::better_than_template(
+            better_than_template: verdict::predicts_better(
                 held_out_identified_um,
                 held_out_template_um,
             ),
@@ -674,8 +682,8 @@ fn identify_on(
             held_out_identified_um,
             gain_per_inertia: gain_per_inertia(&round, &base),
             template_holds: false,
-            held_out_while_moving: false,
-            while_moving_um: (!moving_only)
+            judged_while_moving: false,
+            while_moving: (!moving_only)
                 .then(|| verdict::while_moving(fit, &round, &base, &fold, &template_residual))
                 .flatten(),
         },
@@ -702,6 +710,7 @@ fn fitted_values(
             // A value the record does not determine is the template's, exactly (the
             // Coulomb force read back through a fitted mass would differ in its last bits).
             let template_value = get(template, k.key);
+            let traded_with = round.traded_with(k.key);
             IdentifiedValue {
                 key: k.key,
                 unit: k.unit,
@@ -712,9 +721,9 @@ fn fitted_values(
                     template_value
                 },
                 uncertainty: sigma.unwrap_or(f64::NAN),
-                determined: sigma.is_some(),
-                measured: sigma.is_some_and(|s| k.determines(s, value)),
-                traded_with: round.traded_with(k.key),
+                determined: sigma.is_some() && traded_with.is_none(),
+                measured: traded_with.is_none() && sigma.is_some_and(|s| k.determines(s, value)),
+                traded_with,
             }
         })
         .collect()
@@ -914,8 +923,8 @@ mod tests {
             held_out_identified_um: identified_um,
             gain_per_inertia: None,
             template_holds: false,
-            held_out_while_moving: false,
-            while_moving_um: None,
+            judged_while_moving: false,
+            while_moving: None,
         }
     }
 

@@ -53,7 +53,7 @@ impl<'a> IdentifyReport<'a> {
 /// A value for the table: fitted with its uncertainty (said so where that is not a
 /// measurement), or the template's.
 pub(crate) fn shown(v: &IdentifiedValue) -> String {
-    if let (true, Some(other)) = (v.determined, v.traded_with) {
+    if let Some(other) = v.traded_with {
         return format!(
             "{} ± {} (not determined alone: traded with {other}; a model's value)",
             sig(v.value),
@@ -115,7 +115,7 @@ pub(crate) fn summary_text(id: &Identification, template: &MachineConfig) -> Str
 fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
     let _ = writeln!(
         s,
-        "\n{} axis: residual {:.3} → {:.3} µm RMS{} (following error {:.1} µm{}); held out{} \
+        "\n{} axis: residual {:.3} → {:.3} µm RMS{} (following error {:.1} µm); held out \
          {:.3} → {:.3} µm",
         a.axis,
         a.rms_template_um,
@@ -126,24 +126,17 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
             ""
         },
         a.following_error_rms_um,
-        if a.held_out_while_moving {
-            " while moving"
-        } else {
-            ""
-        },
-        if a.held_out_while_moving {
-            " while moving (its halves' fits disagree at standstill)"
-        } else {
-            ""
-        },
         a.held_out_template_um,
         a.held_out_identified_um
     );
+    if let Some(line) = while_moving_line(a) {
+        let _ = writeln!(s, "  {line}");
+    }
     let _ = writeln!(s, "  {}", prediction(a));
     if let Some(verdict) = verdict(a, noise_um) {
         let _ = writeln!(s, "  {verdict}");
     }
-    if a.values.iter().all(|v| !v.determined) {
+    if a.values.iter().all(|v| !v.fitted()) {
         let _ = writeln!(
             s,
             "  the record determines none of {}'s values: what it compares (above) does not \
@@ -180,15 +173,33 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
     }
 }
 
-/// What the machine written predicts of the record's held-out halves, against the template
-/// and the plain regression on the command.
+/// Where the axis is judged by its held-out figures while moving: those, named so (the
+/// whole record's stay on the axis's first line).
+pub(crate) fn while_moving_line(a: &AxisIdentification) -> Option<String> {
+    let m = a.while_moving.as_ref().filter(|_| a.judged_while_moving)?;
+    Some(format!(
+        "judged while moving (its halves' fits disagree at standstill, where it hunts): held \
+         out {:.3} → {:.3} µm there (following error {:.1} µm)",
+        m.held_out_template_um, m.held_out_identified_um, m.following_error_rms_um
+    ))
+}
+
+/// What the machine written predicts of the record's held-out halves — while moving, said
+/// so, where the axis is judged there —, against the template and the plain regression on
+/// the command (whole record).
 pub(crate) fn prediction(a: &AxisIdentification) -> String {
+    let (template_um, fitted_um, following_um, _) = a.judged_held_out();
     let written = if a.better_than_template || a.template_holds {
-        a.held_out_identified_um
+        fitted_um
     } else {
-        a.held_out_template_um
+        template_um
     };
-    let share = |um: f64| 100.0 * um / a.following_error_rms_um;
+    let (on, regression_on) = if a.judged_while_moving {
+        (" while moving", " (whole record)")
+    } else {
+        ("", "")
+    };
+    let share = |um: f64| 100.0 * um / following_um;
     let place = a
         .largest_at
         .map_or(String::new(), |p| format!(", largest {}", p.describe()));
@@ -199,18 +210,18 @@ pub(crate) fn prediction(a: &AxisIdentification) -> String {
         format!("the model is {:.1}× WORSE than it", written / b.held_out_um)
     };
     format!(
-        "predicts held-out data to {:.1} % of the following error ({:.3} µm RMS left{place}); \
-         the template {:.0} %; a regression on the command's velocity, acceleration, jerk and \
-         direction {:.0} % ({against})",
+        "predicts held-out data{on} to {:.1} % of the following error ({:.3} µm RMS \
+         left{place}); the template {:.0} %; a regression on the command's velocity, \
+         acceleration, jerk and direction{regression_on} {:.0} % ({against})",
         share(written),
         written,
-        share(a.held_out_template_um),
+        share(template_um),
         100.0 * b.share,
     )
 }
 
 /// What the fit is, where it is not simply identified to the record's noise.
-#[cfg(feature = "cli")]
+#[cfg(feature = "html-report")]
 pub(crate) fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
     if a.template_holds {
         return Some(
@@ -222,7 +233,17 @@ pub(crate) fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
     if a.reached {
         return None;
     }
-    Some(if a.better_than_template {
+    Some(if a.better_than_template && a.judged_while_moving {
+        format!(
+            "written as a model: it follows the record to its noise ({:.3} µm against {:.3} \
+             µm), but its halves predict each other while moving only to {:.3} µm, more than \
+             twice the noise — the record leaves its values loose: they predict better than \
+             the template's, none is a measurement",
+            a.rms_identified_um,
+            noise_um,
+            a.judged_held_out().1
+        )
+    } else if a.better_than_template {
         format!(
             "written as a model: it stays at {:.3} µm against the record's noise of {:.3} µm \
              (the model lacks something of this machine: `diagnose` looks for effects beyond \
@@ -295,6 +316,13 @@ pub(crate) fn machine_file(
     );
     for a in &id.axes {
         let _ = writeln!(s, "#   {}: {}", a.axis, prediction(a));
+        if let Some(line) = while_moving_line(a) {
+            let _ = writeln!(
+                s,
+                "#   {}: {line}; on the whole record held out {:.3} → {:.3} µm",
+                a.axis, a.held_out_template_um, a.held_out_identified_um
+            );
+        }
         for v in &a.values {
             let _ = writeln!(s, "#   {}.{} = {} {}", a.axis, v.key, shown(v), v.unit);
         }

@@ -3,22 +3,21 @@
 //! determine go back to the template's.
 
 use super::REACHED_EXCESS;
-
-/// How much better than with the design's corner (on the held-out halves) the fit with a
-/// loose corner free must predict for the corner to stay: by more than a twentieth, as
-/// every larger model must.
-const HELD_OUT_GAIN: f64 = 0.95;
-/// And how close to the record's noise it must predict them: a corner the noise leaves
-/// loose is kept only because the fit with it reaches the noise where the design's does
-/// not, so it must reach it on the samples each half's fit did not see as well. Values the
-/// record determines predict the other half to about the noise (the model's floor adds a
-/// quarter of it in squares); halves that miss each other by twice it carry a systematic
-/// part of √3 times the noise — the loose corner wandered with the gain on each half,
-/// and the fit at the noise on every sample had it follow the noise.
-const HELD_OUT_EXCESS: f64 = 2.0;
 use super::knobs::{self, Knob, get, set_all};
 use super::solve::{Fit, Fitted};
+use super::verdict::predicts_better;
 use crate::machine::AxisConfig;
+
+/// How close to the record's noise the fit with a loose corner free must predict the
+/// held-out halves for the corner to stay (besides predicting them better than with the
+/// design's corner, as every larger model must): a corner the noise leaves loose is kept
+/// only because the fit with it reaches the noise where the design's does not, so it must
+/// reach it on the samples each half's fit did not see as well. Values the record
+/// determines predict the other half to about the noise (the model's floor adds a quarter
+/// of it in squares); halves that miss each other by twice it carry a systematic part of
+/// √3 times the noise — the loose corner wandered with the gain on each half, and the fit
+/// at the noise on every sample had it follow the noise.
+const HELD_OUT_EXCESS: f64 = 2.0;
 
 /// The fits of some knobs on the whole record and on each half.
 pub(super) struct Round {
@@ -110,11 +109,12 @@ impl Round {
             }
             let next = round.put_back(fit, &base, &undetermined, template, fold)?;
             // Above the noise the fit is judged by what it predicts: values the record
-            // leaves loose (a gain and a mass trading along their ratio) go back to the
-            // template's only where the rest, fitted again, predicts the held-out halves
-            // no worse. Put back one round after another regardless, they left the
-            // template's values predicting the record several times worse than the round
-            // that had them. The loose values kept are marked traded (`Round::traded_with`).
+            // leaves loose (a gain and a mass trading along their ratio) stay only where
+            // the round that has them predicts the held-out halves better than the rest
+            // fitted again without them, by the twentieth every larger model must earn.
+            // Put back one round after another regardless, they left the template's values
+            // predicting the record several times worse than the round that had them. The
+            // loose values kept are marked traded (`Round::traded_with`).
             if !reached && round.predicts_better_than(&next, fit, &base, fold) {
                 return Some((round, base));
             }
@@ -148,7 +148,7 @@ impl Round {
                     if held_out(&k)
                         .zip(held_out(&design_way))
                         .is_some_and(|(free, design)| {
-                            free <= HELD_OUT_EXCESS * noise && free < HELD_OUT_GAIN * design
+                            free <= HELD_OUT_EXCESS * noise && predicts_better(free, design)
                         }) =>
                 {
                     k
@@ -182,7 +182,8 @@ impl Round {
     }
 
     /// Whether this round (fitted about `base`) predicts the held-out halves better than
-    /// `other` (fitted about its own base).
+    /// `other` (fitted about its own base, with fewer values): by the twentieth of
+    /// [`predicts_better`].
     fn predicts_better_than(
         &self,
         (other, other_base): &(Round, AxisConfig),
@@ -192,7 +193,8 @@ impl Round {
     ) -> bool {
         let this = self.held_out_rms(fit, base, fold);
         let that = other.held_out_rms(fit, other_base, fold);
-        this.zip(that).is_some_and(|(this, that)| this < that)
+        this.zip(that)
+            .is_some_and(|(this, that)| predicts_better(this, that))
     }
 
     /// Where knob `key` stays fitted though the record does not determine it alone (its

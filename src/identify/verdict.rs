@@ -12,10 +12,11 @@ use crate::compare::Context;
 use crate::machine::{AxisConfig, AxisName};
 use crate::numeric::units::um_from_m;
 
-/// How much better than the template a fit must predict the held-out halves to be written
-/// when it stays above the noise (the same margin a larger model must show over a smaller
-/// one).
-pub(crate) const BETTER_THAN_TEMPLATE: f64 = 0.95;
+/// How much better on the held-out halves a model with more values fitted must predict than
+/// one with fewer to be kept over it — by more than a twentieth —: a fit over the template,
+/// a corner free over the design's, a higher order of a loop model, a round's loose values
+/// over the round with them put back, the nonlinear parts on top. One rule for all.
+pub(crate) const HELD_OUT_GAIN: f64 = 0.95;
 /// How long around a start, stop or reversal of the command counts as "at" it (s).
 const NEAR_EVENT_S: f64 = 0.05;
 /// Share of the peak acceleration above which the command counts as accelerating, and of
@@ -56,6 +57,43 @@ impl Place {
     }
 }
 
+/// A fit on every sample scored on the samples while its axis moves (away from the
+/// standstills, where an axis with integral action hunts): the held-out figures there,
+/// beside the whole record's.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WhileMoving {
+    /// The template's residual on those samples (µm RMS).
+    pub held_out_template_um: f64,
+    /// Each half's fit scored on the other half's samples among them (µm RMS).
+    pub held_out_identified_um: f64,
+    /// The following error's RMS on them (µm).
+    pub following_error_rms_um: f64,
+    /// `held_out_identified_um` as a share of it.
+    pub held_out_share: f64,
+}
+
+impl AxisIdentification {
+    /// The held-out figures the axis is judged by, as (the template's, the fit's, the
+    /// following error's, the fit's share of it) in µm: the whole record's, or those while
+    /// moving where it is judged on them.
+    pub fn judged_held_out(&self) -> (f64, f64, f64, f64) {
+        match (&self.while_moving, self.judged_while_moving) {
+            (Some(m), true) => (
+                m.held_out_template_um,
+                m.held_out_identified_um,
+                m.following_error_rms_um,
+                m.held_out_share,
+            ),
+            _ => (
+                self.held_out_template_um,
+                self.held_out_identified_um,
+                self.following_error_rms_um,
+                self.held_out_share,
+            ),
+        }
+    }
+}
+
 /// How far above the noise a fit at the noise may predict its held-out halves and count as
 /// reaching it whatever the template predicts: values the record determines predict the
 /// other half to about the noise (the model's floor adds a quarter of it in squares);
@@ -65,41 +103,45 @@ const HALVES_EXCESS: f64 = 2.0;
 /// Whether a fit at the noise (`noise_um`) on every sample is kept as reaching it: where
 /// its halves predict each other within [`HALVES_EXCESS`] of the noise, or better than the
 /// template predicts them; else where they do so while moving — by the twentieth a fit
-/// must earn over the template — and then its held-out figures are those while moving: at
-/// standstill an axis that hunts follows a limit cycle whose phase no model times, each
-/// half's fit its own way. Otherwise it has not reached the noise: marked so, it is judged
-/// as a fit above it (the fit while moving, and what each predicts).
+/// must earn over the template — and then it is judged by its held-out figures while moving
+/// (`while_moving`, beside the whole record's): at standstill an axis that hunts follows a
+/// limit cycle whose phase no model times, each half's fit its own way. Judged so, it is
+/// written; but where its halves miss each other while moving by more than
+/// [`HALVES_EXCESS`] of the noise, the record has not pinned its values down: they are a
+/// model's values (written because they predict), not measurements, and the fit is not
+/// counted as reaching the noise. Otherwise it has not reached the noise: marked so, it is
+/// judged as a fit above it (the fit while moving, and what each predicts).
 pub(crate) fn judged_while_moving(id: &mut AxisIdentification, noise_um: f64) -> bool {
     let held_out = id.held_out_identified_um;
     if held_out <= HALVES_EXCESS * noise_um || held_out < id.held_out_template_um {
         return true;
     }
-    match id.while_moving_um {
-        Some([template, identified, following]) if better_than_template(identified, template) => {
-            id.held_out_template_um = template;
-            id.held_out_identified_um = identified;
-            id.following_error_rms_um = following;
-            id.held_out_share = identified / following;
-            id.better_than_template = true;
-            id.held_out_while_moving = true;
-            true
-        }
-        _ => {
-            id.reached = false;
-            false
-        }
+    let Some(moving) = id.while_moving.as_ref() else {
+        id.reached = false;
+        return false;
+    };
+    if !predicts_better(moving.held_out_identified_um, moving.held_out_template_um) {
+        id.reached = false;
+        return false;
     }
+    id.judged_while_moving = true;
+    id.better_than_template = true;
+    if moving.held_out_identified_um > HALVES_EXCESS * noise_um {
+        id.reached = false;
+        id.values.iter_mut().for_each(|v| v.measured = false);
+    }
+    true
 }
 
 /// The template's and `round`'s held-out residuals and the following error on the samples
-/// `fit` compares while the axis moves (µm): `template_residual` is the template's.
+/// `fit` compares while the axis moves: `template_residual` is the template's.
 pub(crate) fn while_moving(
     fit: &Fit,
     round: &Round,
     base: &AxisConfig,
     fold: &[bool],
     template_residual: &[f64],
-) -> Option<[f64; 3]> {
+) -> Option<WhileMoving> {
     let (ctx, axis, offset) = (fit.ctx(), fit.axis(), fit.offset());
     let mask: Vec<bool> = super::moving_samples(ctx, axis, offset)
         .iter()
@@ -114,13 +156,19 @@ pub(crate) fn while_moving(
         .fold((0.0, 0usize), |(s, n), (v, _)| (s + v * v, n + 1));
     let template = (ss / n.max(1) as f64).sqrt();
     let following = super::following_error_rms(ctx, axis, offset, &mask);
-    Some([template, identified, following].map(um_from_m))
+    let [template, identified, following] = [template, identified, following].map(um_from_m);
+    Some(WhileMoving {
+        held_out_template_um: template,
+        held_out_identified_um: identified,
+        following_error_rms_um: following,
+        held_out_share: identified / following,
+    })
 }
 
-/// Whether a fit predicting the held-out halves to `identified` (µm RMS) is written over a
-/// template that predicts them to `template`.
-pub(crate) fn better_than_template(identified_um: f64, template_um: f64) -> bool {
-    identified_um < BETTER_THAN_TEMPLATE * template_um
+/// Whether a model that predicts the held-out halves to `more_um` (µm RMS; more values
+/// fitted) is kept over one that predicts them to `fewer_um`: by [`HELD_OUT_GAIN`].
+pub(crate) fn predicts_better(more_um: f64, fewer_um: f64) -> bool {
+    more_um < HELD_OUT_GAIN * fewer_um
 }
 
 /// The kind of motion at each command period of `axis`.
@@ -206,9 +254,9 @@ mod tests {
 
     #[test]
     fn a_fit_is_written_where_it_predicts_better_by_a_twentieth() {
-        assert!(better_than_template(11.0, 128.0));
-        assert!(better_than_template(0.94, 1.0));
-        assert!(!better_than_template(0.96, 1.0));
-        assert!(!better_than_template(1.2, 1.0));
+        assert!(predicts_better(11.0, 128.0));
+        assert!(predicts_better(0.94, 1.0));
+        assert!(!predicts_better(0.96, 1.0));
+        assert!(!predicts_better(1.2, 1.0));
     }
 }

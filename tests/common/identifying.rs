@@ -1,11 +1,30 @@
-//! What the identify tests share: the lead-lag table's machine file, and the independent
-//! integrator's record of it as its motor encoders read it.
+//! What the identify tests share: the programs fitted and predicted, the lead-lag table's
+//! machine file as designed and as it ran, the independent integrator's record of a machine
+//! as its motor encoders read it, and how well a machine predicts a record.
 
+use contourcheck::diagnose::{DiagnoseSettings, diagnose};
 use contourcheck::gcode::Program;
-use contourcheck::machine::MachineConfig;
+use contourcheck::machine::{AxisName, MachineConfig};
+use contourcheck::sim::MeasuredAt;
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 
+use super::program_text;
 use super::reference::{self, Recording};
+
+/// A 5 s program moving both axes both ways at several feeds, with an arc.
+pub fn fitted_program() -> Program {
+    program_text(
+        "G21 G17 G90 G94\nG0 X0 Y0\nG1 X20 F1000\nY12 F600\nG3 X8 Y12 I-6 J0 F800\n\
+         G1 X0 Y0 F1000\nM2\n",
+    )
+}
+
+/// Another program, for the prediction: other moves, other feeds.
+pub fn other_program() -> Program {
+    program_text(
+        "G21 G17 G90 G94\nG0 X0 Y0\nG1 X10 Y15 F900\nX25 F500\nG2 X25 Y0 I0 J-7.5 F700\nG1 X0 F1000\nM2\n",
+    )
+}
 
 /// The small table with a lead-lag controller and an integrator on X,
 /// `gain·(s + 2π·z₁)(s + 2π·z₂) / (s·(s + 2π·p))`, on a current amplifier, its corners in Hz;
@@ -21,10 +40,34 @@ pub fn lead_lag_toml(gain: f64, z1_hz: f64, z2_hz: f64, p_hz: f64) -> String {
     )
 }
 
+/// The lead-lag table as designed (the template) and as it ran. Designed: the lead zero at
+/// 12 Hz and its pole at 80 Hz, the integrator's zero at 5 Hz. Run: the gain 35 % higher,
+/// the integrator's zero 30 % lower, the lead zero 20 % higher, the lead pole 20 % lower,
+/// and more friction on X than the data sheet's.
+pub fn lead_lag_designed_and_run() -> (MachineConfig, MachineConfig) {
+    let template =
+        MachineConfig::from_toml_str(&lead_lag_toml(45.0, 5.0, 12.0, 80.0), "t.toml").unwrap();
+    let mut truth =
+        MachineConfig::from_toml_str(&lead_lag_toml(60.75, 3.5, 14.4, 64.0), "truth.toml").unwrap();
+    truth.x.friction.coulomb_coefficient = 0.08;
+    (template, truth)
+}
+
 /// `program` on `machine` integrated by the independent reference, driven by its own
 /// continuous interpolator, read at 10 kHz in 0.1 µm counts (0.05 µm of noise) with the
 /// commands beside.
 pub fn encoder_record(program: &Program, machine: &MachineConfig, seed: u64) -> MeasuredTrace {
+    encoder_record_with_tight_spot(program, machine, seed, None)
+}
+
+/// [`encoder_record`] with a tight spot on X's guideway: (from m, to m, factor on Coulomb
+/// friction).
+pub fn encoder_record_with_tight_spot(
+    program: &Program,
+    machine: &MachineConfig,
+    seed: u64,
+    tight_spot_x: Option<(f64, f64, f64)>,
+) -> MeasuredTrace {
     let rec = Recording {
         sample_s: 1e-4,
         noise_m: 0.05e-6,
@@ -32,10 +75,42 @@ pub fn encoder_record(program: &Program, machine: &MachineConfig, seed: u64) -> 
         step_s: 1e-5,
         seed,
         accel: 0.5,
-        tight_spot_x: None,
+        tight_spot_x,
         at_feedback: true,
         ..Recording::default()
     };
     let csv = reference::record(program, &machine.x, &machine.y, &rec);
     parse_trace(&csv, "reference.csv").unwrap()
+}
+
+/// How `machine` predicts `measured`, a record of `program` read at `at`: per axis (X, Y)
+/// the residual RMS and the record's following-error RMS (µm).
+pub fn predicted(
+    program: &Program,
+    machine: &MachineConfig,
+    measured: &MeasuredTrace,
+    at: MeasuredAt,
+) -> Vec<(AxisName, f64, f64)> {
+    let mut settings = DiagnoseSettings::for_machine(machine);
+    settings.max_causes = 0;
+    settings.compare.measured_at = at;
+    let d = diagnose(program, machine, measured, &settings).unwrap();
+    AxisName::BOTH
+        .iter()
+        .map(|&axis| {
+            let commanded = &measured.commands.as_ref().unwrap()[axis.index()];
+            let (actual, residual) = if axis == AxisName::X {
+                (&measured.x_m, d.before.x.rms_um)
+            } else {
+                (&measured.y_m, d.before.y.rms_um)
+            };
+            let squares: f64 = commanded
+                .iter()
+                .zip(actual)
+                .map(|(c, m)| (c - m).powi(2))
+                .sum();
+            let following_rms_um = 1e6 * (squares / commanded.len() as f64).sqrt();
+            (axis, residual, following_rms_um)
+        })
+        .collect()
 }
