@@ -2,6 +2,8 @@
 //! uncertainties both give; and the rounds by which the values the record does not
 //! determine go back to the template's.
 
+use std::sync::OnceLock;
+
 use super::REACHED_EXCESS;
 use super::knobs::{self, Knob, get, set_all};
 use super::solve::{Fit, Fitted};
@@ -29,6 +31,10 @@ pub(super) struct Round {
     /// a value traded against another) is not known better than that, however sharp the
     /// local curvature.
     pub(super) sigma: Vec<f64>,
+    /// Each half's fit simulated over the whole record (the residual at every compared
+    /// sample), about the base the round was fitted about: every held-out figure of the
+    /// round reads these, simulated once.
+    halves_simulated: OnceLock<Option<[Vec<f64>; 2]>>,
 }
 
 impl Round {
@@ -56,6 +62,7 @@ impl Round {
             whole,
             halves: [a, b],
             sigma,
+            halves_simulated: OnceLock::new(),
         })
     }
 
@@ -216,7 +223,8 @@ impl Round {
         self.held_out_rms_on(fit, base, fold, fit.mask())
     }
 
-    /// [`Round::held_out_rms`] on the samples `mask` allows.
+    /// [`Round::held_out_rms`] on the samples `mask` allows (`base`: the one the round was
+    /// fitted about).
     pub(super) fn held_out_rms_on(
         &self,
         fit: &Fit,
@@ -224,9 +232,13 @@ impl Round {
         fold: &[bool],
         mask: &[bool],
     ) -> Option<f64> {
+        let simulated = self.halves_simulated.get_or_init(|| {
+            let first = fit.residual(&self.config(base, &self.halves[0]))?;
+            let second = fit.residual(&self.config(base, &self.halves[1]))?;
+            Some([first, second])
+        });
         let (mut ss, mut n) = (0.0, 0usize);
-        for (k, side) in [true, false].into_iter().enumerate() {
-            let r = fit.residual(&self.config(base, &self.halves[k]))?;
+        for (r, side) in simulated.as_ref()?.iter().zip([true, false]) {
             for i in (0..r.len()).filter(|&i| fold[i] != side && mask[i]) {
                 ss += r[i] * r[i];
                 n += 1;
