@@ -135,6 +135,7 @@ fn the_check_report_shows_the_json_figures() {
         "within_tolerance",
         "tolerance_um",
         "circular_test.circles[0].g_um",
+        "circular_test.circles[0].plane",
         "circular_test.circles[1].f_min_um",
         "circular_test.pairs[0].h_um",
         "hotspots[0].error_um",

@@ -86,3 +86,54 @@ fn a_low_gain_on_z_is_identified_on_z_and_x_and_y_keep_their_values() {
         );
     }
 }
+
+/// A turn in XY at one height between plunges and retracts of Z alone at 1000 mm/min:
+/// Z starts and stops eight times.
+const PLUNGES: &str = "G21 G90 G94 G17\nG0 X3 Y0 Z0\nG1 Z-3 F1000\nG3 X3 Y0 I-3 J0 F2000\n\
+                       G1 Z0 F1000\nG1 Z-3\nG1 Z0\nM2\n";
+
+#[test]
+fn z_s_acceleration_limit_is_read_where_the_record_holds_it_below_the_demand() {
+    // The reference's interpolator ramps every block at 0.2 m/s²: a plunge of Z alone
+    // accelerates Z at that, flat for 83 ms (16.7 mm/s over 0.2 m/s²), at each of its eight
+    // starts and stops. The template's planner would ask more: its jerk limit (5 m/s³) lets
+    // a move that reaches only v = 16.7 mm/s accelerate at √(v·jerk) = 0.289 m/s², below Z's
+    // 0.5 m/s² limit. The control's limit is 0.2, written as Z's; its jerk is a step (no
+    // jerk limit): not read.
+    let program = program_text(PLUNGES);
+    let template = MachineConfig::default_preset();
+    let rec = Recording {
+        accel: 0.2,
+        sample_s: 2e-3,
+        ..Recording::default()
+    };
+    let csv = record_xyz(
+        &program,
+        [&template.x, &template.y, template.axis(AxisName::Z)],
+        &rec,
+    );
+    let measured = parse_trace(&csv, "plunges.csv").unwrap();
+    let settings = CompareSettings::for_machine(&template);
+    let id = identify(&program, &template, &measured, &settings).unwrap();
+    let i = &id.interpolator;
+    assert_eq!(i.accel_limited.len(), 3, "{i:?}");
+    let jerk = template.axis(AxisName::Z).limits.max_jerk_m_per_s3;
+    let demand = (1.0 / 60.0 * jerk).sqrt();
+    assert!(
+        (i.demanded_accel_m_per_s2[2] - demand).abs() < 0.01 * demand,
+        "{i:?}"
+    );
+    assert!(
+        (i.accel_m_per_s2[2] - rec.accel).abs() < 0.01 * rec.accel,
+        "{i:?}"
+    );
+    assert!(i.accel_limited[2] && !i.jerk_limited[2], "{i:?}");
+    let written = id.machine_file(&template, "plunges.nc");
+    let read = MachineConfig::from_toml_str(&written, "identified.toml").unwrap();
+    let z = &read.axis(AxisName::Z).limits;
+    assert!((z.max_accel_m_per_s2 - rec.accel).abs() < 0.005, "{z:?}");
+    assert_eq!(
+        z.max_jerk_m_per_s3,
+        template.axis(AxisName::Z).limits.max_jerk_m_per_s3
+    );
+}

@@ -16,9 +16,9 @@ use std::sync::OnceLock;
 use common::diagnosing::diagnose_nominal;
 use common::program_text;
 use common::reference::{Recording, record_xyz};
-use contourcheck::diagnose::Diagnosis;
-use contourcheck::diagnose::causes::CauseId;
+use contourcheck::diagnose::causes::{CauseId, CauseSet};
 use contourcheck::diagnose::report::DiagnoseReport;
+use contourcheck::diagnose::{DiagnoseSettings, Diagnosis, diagnose};
 use contourcheck::machine::{AxisName, MachineConfig};
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 use contourcheck::{ReportInputs, diagnose_page};
@@ -114,6 +114,35 @@ fn a_low_gain_on_z_is_named_on_z_at_its_value_and_nothing_on_x_or_y() {
         .position_loop
         .kv_m_per_min_per_mm;
     assert!((fitted - kv.value).abs() < 1e-12);
+}
+
+#[test]
+fn with_the_true_cause_excluded_z_names_nothing_and_says_it_was_not_tried() {
+    // The record of Z's gain 8 % low, diagnosed with `--exclude kv_gain`: friction or lost
+    // motion cannot stand for a lag proportional to Z's speed on both halves of the record,
+    // so nothing may be named on Z — a wrong cause named is the one outcome that must not be.
+    let (_, measured) = low_gain_record();
+    let program = program_text(PROGRAM);
+    let nominal = MachineConfig::default_preset();
+    let mut settings = DiagnoseSettings::for_machine(&nominal);
+    settings.causes = CauseSet::ALL.without(&[CauseId::KvGain]);
+    let d = diagnose(&program, &nominal, measured, &settings).unwrap();
+    assert!(d.z.compared, "{:?}", d.z);
+    assert!(d.z.cause.is_none(), "named on Z: {:?}", d.z.cause);
+    assert!(
+        d.z.not_named.iter().all(|n| n.id != CauseId::KvGain),
+        "{:?}",
+        d.z.not_named
+    );
+    assert_eq!(d.machine.z, nominal.z, "Z's machine extended");
+    let skipped = d
+        .skipped
+        .iter()
+        .find(|s| s.id == CauseId::KvGain)
+        .unwrap_or_else(|| panic!("{:?}", d.skipped));
+    assert!(skipped.axes.contains(&AxisName::Z), "{skipped:?}");
+    assert!(skipped.reason.contains("--exclude"), "{skipped:?}");
+    assert!(d.causes.is_empty(), "X or Y named: {:?}", d.causes);
 }
 
 #[test]

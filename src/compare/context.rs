@@ -812,6 +812,7 @@ impl Context<'_> {
                     .map(|(lo, hi)| [lo * 1e3, hi * 1e3]),
                 _ => None,
             },
+            // The command that compares Z says whether it did (see the field).
             z_compared: false,
         }
     }

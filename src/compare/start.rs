@@ -408,6 +408,14 @@ pub struct Coverage {
     /// machine simulates it (`z_compared`), and carried as read otherwise.
     pub z_span_mm: Option<[f64; 2]>,
     /// Whether Z was compared with a simulated Z (the diagnosis says how it compares).
+    ///
+    /// Set by the command that compared Z, not derived from the comparison's context: the
+    /// context knows whether Z *can* be compared (`Context::z_comparable`: the record has
+    /// Z, the machine simulates it, the commands drive it), but whether it *was* is each
+    /// command's own rule on the same record — `diagnose` compares a Z commanded to travel
+    /// 0.1 mm or more whose nominal simulation ran; `identify` compares (to fit) only a Z
+    /// commanded to travel 1 mm or more, on a template, not a loop model, whose Z follows
+    /// the record. A record whose Z moves 0.5 mm is compared by the one and not the other.
     pub z_compared: bool,
 }
 

@@ -268,7 +268,9 @@ fn curvature_sigma(
     // rises by less than the jitter: its variance adds to the statistical one (2·jitter/H
     // beside 2·birge/H).
     let level = birge + jitter;
-    let eigen = hessian.symmetric_eigen();
+    let Some(eigen) = crate::numeric::decompose::symmetric(hessian) else {
+        return vec![f64::NAN; n];
+    };
     // Along a direction in which χ² does not rise by 2·birge within the grid (flat, or
     // falling: a valley the data leave open), the data only say the value is not pinned
     // within the grid: its half-width stands for the uncertainty there.
@@ -363,7 +365,9 @@ fn quadratic_system(design: &[Vec<f64>], y: &[f64]) -> Option<(DMatrix<f64>, DVe
         }
     }
     let y = DVector::from_column_slice(y);
-    let coefficients = a.clone().svd(true, true).solve(&y, 1e-12).ok()?;
+    let coefficients = crate::numeric::decompose::svd(a.clone(), true, true)?
+        .solve(&y, 1e-12)
+        .ok()?;
     Some((a, coefficients))
 }
 
@@ -449,7 +453,7 @@ fn quadratic_minimum(design: &[Vec<f64>], y: &[f64], within: f64) -> Option<Vec<
     let n = design.first().map_or(0, Vec::len);
     let (hessian, _) = quadratic_fit(design, y)?;
     let gradient = quadratic_gradient(design, y)?;
-    let eigen = hessian.clone().symmetric_eigen();
+    let eigen = crate::numeric::decompose::symmetric(hessian.clone())?;
     if eigen.eigenvalues.iter().any(|&l| l <= 0.0) {
         return None;
     }

@@ -327,7 +327,7 @@ pub fn diagnose_validated(
         &mut outcome.machine,
         models.nominal_z,
         outcome.offset_s,
-        settings.max_causes > 0,
+        &|m, c| settings.max_causes > 0 && tries_allowed(m, settings, AxisName::Z, c),
     );
     let mut summary = judged_on_the_contour(&ctx, machine, &mut outcome, &models, &mut z, &z_set);
     let models = Models {
@@ -358,7 +358,7 @@ pub fn diagnose_validated(
         unexplained,
         learned,
         localized,
-        skipped: skipped_causes(machine, settings),
+        skipped: skipped_causes(machine, settings, z.compared),
         searched: settings.max_causes > 0
             && CauseId::ALL.into_iter().any(|c| {
                 AxisName::BOTH
@@ -645,11 +645,20 @@ pub(crate) fn tries_allowed(
     skip_reason(machine, settings, axis, cause).is_none()
 }
 
-/// The causes not tried, with the reason, axes merged where the reason is the same.
-fn skipped_causes(machine: &MachineConfig, settings: &DiagnoseSettings) -> Vec<Skipped> {
+/// The causes not tried, with the reason, axes merged where the reason is the same; on Z
+/// too where it was compared (`z_compared`), among the causes tried on Z.
+fn skipped_causes(
+    machine: &MachineConfig,
+    settings: &DiagnoseSettings,
+    z_compared: bool,
+) -> Vec<Skipped> {
     let mut out: Vec<Skipped> = Vec::new();
     for cause in CauseId::ALL {
-        for axis in AxisName::BOTH {
+        let on_z = z_compared && z_axis::Z_CAUSES.contains(&cause);
+        let axes = AxisName::BOTH
+            .into_iter()
+            .chain(on_z.then_some(AxisName::Z));
+        for axis in axes {
             let Some(reason) = skip_reason(machine, settings, axis, cause) else {
                 continue;
             };

@@ -36,8 +36,9 @@ use crate::numeric::units::um_from_m;
 use crate::plan::AxisCommands;
 use crate::trace::recorded::{BeyondMachine, axis_beyond};
 
-/// The causes tried on Z.
-const Z_CAUSES: [CauseId; 3] = [CauseId::KvGain, CauseId::CoulombFriction, CauseId::Backlash];
+/// The causes tried on Z (those the user allows: `--causes`, `--exclude`).
+pub(crate) const Z_CAUSES: [CauseId; 3] =
+    [CauseId::KvGain, CauseId::CoulombFriction, CauseId::Backlash];
 /// How far the commanded Z must travel over the stretch compared for it to be compared (m).
 const Z_MOVES_M: f64 = 0.1e-3;
 /// Z's residual must stand this many times above the noise for a cause to be sought.
@@ -242,14 +243,14 @@ fn nominal_z<'n>(
 }
 
 /// Z's findings: compared where `machine` simulates Z and the record measured it (`nominal`:
-/// its nominal Z as the comparison simulated it), its causes sought where `seek` allows;
-/// `machine` extended by the cause named.
+/// its nominal Z as the comparison simulated it), the causes of [`Z_CAUSES`] that `allowed`
+/// lets be tried sought (none allowed: none sought); `machine` extended by the cause named.
 pub(crate) fn diagnose_z(
     ctx: &Context,
     machine: &mut MachineConfig,
     nominal: Option<&[f64]>,
     offset_s: f64,
-    seek: bool,
+    allowed: &dyn Fn(&MachineConfig, CauseId) -> bool,
 ) -> ZFindings {
     let nominal = match nominal_z(ctx, machine, nominal, offset_s) {
         Ok(nominal) => nominal,
@@ -272,11 +273,16 @@ pub(crate) fn diagnose_z(
         not_named: Vec::new(),
         series: None,
     };
-    if seek && findings.beyond_machine.is_empty() && rms(&r) > ABOVE_NOISE * noise {
+    let causes: Vec<CauseId> = Z_CAUSES
+        .into_iter()
+        .filter(|&c| allowed(machine, c))
+        .collect();
+    if !causes.is_empty() && findings.beyond_machine.is_empty() && rms(&r) > ABOVE_NOISE * noise {
         let before = half_sums(ctx, nominal, offset_s);
-        let (tried, undetermined): (Vec<_>, Vec<_>) = try_causes(ctx, machine, offset_s, nominal)
-            .into_iter()
-            .partition(Result::is_ok);
+        let (tried, undetermined): (Vec<_>, Vec<_>) =
+            try_causes(ctx, machine, offset_s, nominal, &causes)
+                .into_iter()
+                .partition(Result::is_ok);
         findings
             .not_named
             .extend(undetermined.into_iter().filter_map(Result::err).map(|id| {
@@ -428,13 +434,14 @@ fn half_counts(ctx: &Context, offset_s: f64) -> [f64; 2] {
     counts
 }
 
-/// Each cause fitted on Z, side by side; `Err` for one whose fit determined nothing (a
-/// value run to its bound, or one the record leaves open).
+/// Each of `causes` fitted on Z, side by side; `Err` for one whose fit determined nothing
+/// (a value run to its bound, or one the record leaves open).
 fn try_causes(
     ctx: &Context,
     machine: &MachineConfig,
     offset_s: f64,
     nominal: &[f64],
+    causes: &[CauseId],
 ) -> Vec<Result<Tried, CauseId>> {
     use rayon::prelude::*;
     // Z is fitted on the program's clock as X and Y placed it.
@@ -444,7 +451,7 @@ fn try_causes(
         ..ctx.clone()
     };
     let axis = machine.axis(AxisName::Z);
-    Z_CAUSES
+    causes
         .par_iter()
         .filter_map(|&id| {
             let current: Vec<f64> = id

@@ -2,6 +2,7 @@
 //! and a ballbar-style polar plot per circular test — drawn as files by `check --plot` and
 //! inline in the HTML report.
 
+use crate::analysis::circular::too_sparse_for_a_plot;
 use crate::check::report::CheckReport;
 use crate::check::{CheckResult, CircleTest, circle_tests};
 use crate::gcode::SourceFile;
@@ -24,6 +25,9 @@ pub struct CheckFigures {
     pub along_path: AlongPathPlot,
     /// One polar plot per circle (both directions on one plot where the program runs both).
     pub circles: Vec<PolarPlot>,
+    /// The circles whose path gives too few points per turn for a polar plot: each one's
+    /// line and why it has none.
+    pub circles_not_drawn: Vec<(u32, String)>,
 }
 
 impl CheckFigures {
@@ -35,6 +39,7 @@ impl CheckFigures {
             .file_name()
             .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
         let figure = |view: &View| toolpath_figure(run, &name, report, &at, view);
+        let (tests, circles_not_drawn) = plottable_circles(run);
         CheckFigures {
             toolpath: figure(&FROM_ABOVE),
             side_views: side_views(run)
@@ -42,7 +47,8 @@ impl CheckFigures {
                 .map(|view| (view.file, figure(view)))
                 .collect(),
             along_path: along_path_figure(run, &name, &at),
-            circles: polar_figures(run, &name, &at),
+            circles: polar_figures(run, tests, &name, &at),
+            circles_not_drawn,
         }
     }
 }
@@ -164,11 +170,33 @@ fn along_path_figure(run: &CheckResult, name: &str, at: &dyn Fn(u32) -> String) 
     }
 }
 
-/// One polar plot per circle, both directions together when the program runs the same
-/// circle both ways.
-fn polar_figures(run: &CheckResult, name: &str, at: &dyn Fn(u32) -> String) -> Vec<PolarPlot> {
+/// The run's circles with enough points per turn for a polar plot, and the line of each
+/// other one with why it has none.
+fn plottable_circles(run: &CheckResult) -> (Vec<CircleTest>, Vec<(u32, String)>) {
+    let mut not_drawn = Vec::new();
+    let tests = circle_tests(run)
+        .into_iter()
+        .filter(|c| match too_sparse_for_a_plot(&c.points) {
+            Some(why) => {
+                not_drawn.push((c.line, why));
+                false
+            }
+            None => true,
+        })
+        .collect();
+    (tests, not_drawn)
+}
+
+/// One polar plot per circle of `tests`, both directions together when the program runs
+/// the same circle both ways.
+fn polar_figures(
+    run: &CheckResult,
+    tests: Vec<CircleTest>,
+    name: &str,
+    at: &dyn Fn(u32) -> String,
+) -> Vec<PolarPlot> {
     let mut groups: Vec<Vec<CircleTest>> = Vec::new();
-    for c in circle_tests(run) {
+    for c in tests {
         let same = |g: &Vec<CircleTest>| {
             let a = &g[0];
             (a.center_m[0] - c.center_m[0]).hypot(a.center_m[1] - c.center_m[1]) < 1e-6
@@ -209,7 +237,7 @@ fn polar_figures(run: &CheckResult, name: &str, at: &dyn Fn(u32) -> String) -> V
                             .circular
                             .circles
                             .iter()
-                            .find(|f| f.line == c.line)
+                            .find(|f| f.segment == c.segment)
                             .map(|f| f.g_um),
                     })
                     .collect(),

@@ -5,7 +5,7 @@
 
 use std::path::Path;
 
-use crate::analysis::circular::radial_points;
+use crate::analysis::circular::{Circle, CircularTest, radial_points, too_sparse_for_a_plot};
 use crate::diagnose::Diagnosis;
 use crate::numeric::units::{mm_from_m, um_from_m};
 use crate::plot::panels::{Curve, Panel, PanelsPlot};
@@ -22,6 +22,16 @@ pub struct DiagnoseFigures {
     pub along_path: PanelsPlot,
     /// Per full circle, its source line and its polar plot.
     pub circles: Vec<(u32, PolarPlot)>,
+    /// Per full circle the record gives too few points per turn for a polar plot, its
+    /// source line and why it has none.
+    pub circles_not_drawn: Vec<(u32, String)>,
+}
+
+/// The polar plots of a diagnosis's circles, and the circles without one.
+#[derive(Default)]
+struct Polar {
+    drawn: Vec<(u32, PolarPlot)>,
+    not_drawn: Vec<(u32, String)>,
 }
 
 impl DiagnoseFigures {
@@ -41,12 +51,13 @@ impl DiagnoseFigures {
             format!("extended: {}", found.join(", "))
         };
         let [over_time, along_path] = residual_plots(d, &name);
-        let circles = polar_plots(d, &name, &extended_name);
+        let polar = polar_plots(d, &name, &extended_name);
         DiagnoseFigures {
             fit: fit_plot(d, &name, &extended_name),
             over_time,
             along_path,
-            circles: d.circles.iter().map(|c| c.line).zip(circles).collect(),
+            circles: polar.drawn,
+            circles_not_drawn: polar.not_drawn,
         }
     }
 }
@@ -268,77 +279,92 @@ fn residual_plots(d: &Diagnosis, name: &str) -> [PanelsPlot; 2] {
 }
 
 /// Ballbar-style: each full circle's radial deviation in its plane, measured and by both
-/// models (a circle the record gives no points on is not drawn).
-fn polar_plots(d: &Diagnosis, name: &str, extended_name: &str) -> Vec<PolarPlot> {
+/// models, with its source line; a circle the record gives no points on is not drawn, and
+/// one it gives too few per turn for a plot is listed with why.
+fn polar_plots(d: &Diagnosis, name: &str, extended_name: &str) -> Polar {
     let s = &d.series;
     let z = d.z.series.as_ref();
     let none: &[f64] = &[];
-    d.circles
-        .iter()
-        .map(|c| {
-            let g_of = |test: &crate::analysis::circular::CircularTest| {
-                test.circles
-                    .iter()
-                    .find(|f| f.line == c.line)
-                    .map(|f| f.g_um)
-            };
-            let trace =
-                |label: &str, xy: &[Vec<f64>; 2], z: Option<&Vec<f64>>, width: u32, g_um| {
-                    let pos_m = [&xy[0][..], &xy[1][..], z.map_or(none, |z| z)];
-                    PolarTrace {
-                        label: label.to_string(),
-                        width,
-                        g_um,
-                        points: radial_points(c, &s.segment, pos_m)
-                            .into_iter()
-                            .map(|(a, r)| (a, um_from_m(r)))
-                            .collect(),
-                    }
-                };
-            let circular = &d.circular;
-            let traces = vec![
-                trace(
-                    "measured",
-                    &s.measured,
-                    z.map(|z| &z.measured),
-                    1,
-                    g_of(&circular.measured),
-                ),
-                trace(
-                    "nominal model",
-                    &s.nominal,
-                    z.map(|z| &z.nominal),
-                    2,
-                    g_of(&circular.nominal),
-                ),
-                trace(
-                    extended_name,
-                    &s.extended,
-                    z.map(|z| &z.extended),
-                    2,
-                    g_of(&circular.extended),
-                ),
-            ];
+    let mut polar = Polar::default();
+    for c in &d.circles {
+        // The figures of this circle, the same plan segment, where the path has them.
+        let g_of = |test: &CircularTest| {
+            test.circles
+                .iter()
+                .find(|f| f.segment == c.segment)
+                .map(|f| f.g_um)
+        };
+        let trace = |label: &str, xy: &[Vec<f64>; 2], z: Option<&Vec<f64>>, width: u32, g_um| {
+            let pos_m = [&xy[0][..], &xy[1][..], z.map_or(none, |z| z)];
+            PolarTrace {
+                label: label.to_string(),
+                width,
+                g_um,
+                points: radial_points(c, &s.segment, pos_m)
+                    .into_iter()
+                    .map(|(a, r)| (a, um_from_m(r)))
+                    .collect(),
+            }
+        };
+        let circular = &d.circular;
+        let measured = trace(
+            "measured",
+            &s.measured,
+            z.map(|z| &z.measured),
+            1,
+            g_of(&circular.measured),
+        );
+        if measured.points.is_empty() {
+            continue;
+        }
+        if let Some(why) = too_sparse_for_a_plot(&measured.points) {
+            polar.not_drawn.push((c.line, why));
+            continue;
+        }
+        let traces = vec![
+            measured,
+            trace(
+                "nominal model",
+                &s.nominal,
+                z.map(|z| &z.nominal),
+                2,
+                g_of(&circular.nominal),
+            ),
+            trace(
+                extended_name,
+                &s.extended,
+                z.map(|z| &z.extended),
+                2,
+                g_of(&circular.extended),
+            ),
+        ];
+        polar.drawn.push((
+            c.line,
             PolarPlot {
-                title: format!(
-                    "{name}: line {} ({}{}) R{:.1} mm — radial deviation",
-                    c.line,
-                    if c.ccw {
-                        "counter-clockwise"
-                    } else {
-                        "clockwise"
-                    },
-                    if c.plane.is_xy() {
-                        String::new()
-                    } else {
-                        format!(", in {} ({})", c.plane.name(), c.plane.gcode())
-                    },
-                    mm_from_m(c.radius_m)
-                ),
+                title: polar_title(name, c),
                 radius_mm: mm_from_m(c.radius_m),
                 traces,
-            }
-        })
-        .filter(|p| !p.traces[0].points.is_empty())
-        .collect()
+            },
+        ));
+    }
+    polar
+}
+
+/// A polar plot's title: the file, the circle's line, direction, plane and radius.
+fn polar_title(name: &str, c: &Circle) -> String {
+    format!(
+        "{name}: line {} ({}{}) R{:.1} mm — radial deviation",
+        c.line,
+        if c.ccw {
+            "counter-clockwise"
+        } else {
+            "clockwise"
+        },
+        if c.plane.is_xy() {
+            String::new()
+        } else {
+            format!(", in {} ({})", c.plane.name(), c.plane.gcode())
+        },
+        mm_from_m(c.radius_m)
+    )
 }

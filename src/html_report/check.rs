@@ -25,6 +25,8 @@ struct CheckPage {
     circles: Vec<Vec<Fig>>,
     pairs: Vec<Vec<Fig>>,
     polar: Vec<Svg>,
+    /// The circles without a polar plot: "line N: why".
+    polar_not_drawn: Vec<String>,
     hotspots: Vec<Vec<Fig>>,
     hotspots_more: usize,
     toolpath: Svg,
@@ -67,6 +69,11 @@ pub fn check_page(
             .iter()
             .map(|c| svg("Radial deviation, ballbar-style (outward positive)", c))
             .collect::<Result<_, _>>()?,
+        polar_not_drawn: figures
+            .circles_not_drawn
+            .iter()
+            .map(|(line, why)| format!("line {line}: {why}"))
+            .collect(),
         hotspots: hotspot_rows(&json),
         hotspots_more: report.hotspots.len().saturating_sub(HOTSPOTS_SHOWN),
         toolpath: svg(
@@ -213,7 +220,7 @@ fn headline(json: &Json) -> Vec<(&'static str, Fig, &'static str)> {
     ]
 }
 
-/// One row per circle: line, direction, radius, G, F, the four reversal spikes.
+/// One row per circle: line, plane, direction, radius, G, F, the four reversal spikes.
 fn circle_rows(json: &Json) -> Vec<Vec<Fig>> {
     let n = json["circular_test"]["circles"]
         .as_array()
@@ -223,6 +230,7 @@ fn circle_rows(json: &Json) -> Vec<Vec<Fig>> {
             let f = |field: &str, d| fig(json, &format!("circular_test.circles[{i}].{field}"), d);
             let mut row = vec![
                 f("line", 0),
+                f("plane", 0),
                 f("direction", 0),
                 f("radius_mm", 1),
                 f("g_um", 2),

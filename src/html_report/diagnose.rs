@@ -8,7 +8,9 @@ use serde_json::Value as Json;
 use super::{
     Fig, HtmlError, Inputs, Made, Row, Svg, decimals_for, fig, file_name, lookup, render, svg,
 };
+use crate::analysis::circular::CircularTest;
 use crate::diagnose::Diagnosis;
+use crate::diagnose::circular::CircularComparison;
 use crate::diagnose::report::{CauseReport, DiagnoseReport, next_step, strength};
 use crate::figures::DiagnoseFigures;
 
@@ -34,6 +36,8 @@ struct DiagnosePage {
     fit: Svg,
     over_time: Svg,
     polar: Vec<Svg>,
+    /// The circles without a polar plot: "line N: why".
+    polar_not_drawn: Vec<String>,
 }
 
 /// A named cause as the page shows it.
@@ -59,6 +63,7 @@ pub fn diagnose_page(
 ) -> Result<String, HtmlError> {
     let json = serde_json::to_value(report)?;
     let figures = DiagnoseFigures::of(d, &report.program);
+    let (places, places_z) = place_rows(&json);
     let page = DiagnosePage {
         title: format!(
             "Diagnosis of {} against {}",
@@ -82,9 +87,9 @@ pub fn diagnose_page(
             .iter()
             .map(|l| l.trim().to_string())
             .collect(),
-        circles: circle_rows(&json),
-        places: place_rows(&json),
-        places_z: report.places.iter().any(|p| p.z_mm.is_some()),
+        circles: circle_rows(&report.circular_test, &json),
+        places,
+        places_z,
         fit: svg(
             "Each axis's position − command around where the nominal model misses most: \
              measured, nominal and extended model",
@@ -99,6 +104,11 @@ pub fn diagnose_page(
             .iter()
             .map(|(line, c)| svg(format!("Circle of line {line}: radial deviation"), c))
             .collect::<Result<_, _>>()?,
+        polar_not_drawn: figures
+            .circles_not_drawn
+            .iter()
+            .map(|(line, why)| format!("line {line}: {why}"))
+            .collect(),
     };
     render("diagnose.html", page)
 }
@@ -232,11 +242,12 @@ fn cause_view(rank: usize, i: usize, c: &CauseReport, json: &Json) -> CauseView 
     }
 }
 
-/// Per place of a large residual: what, time, X, Y, Z where given, line, residual.
-fn place_rows(json: &Json) -> Vec<Vec<Fig>> {
+/// Per place of a large residual: what, time, X, Y, Z where given, line, residual; and
+/// whether the rows give Z (any place does: the contour measured in space).
+fn place_rows(json: &Json) -> (Vec<Vec<Fig>>, bool) {
     let places = json["places"].as_array().map_or(&[][..], Vec::as_slice);
     let with_z = places.iter().any(|p| p.get("z_mm").is_some());
-    (0..places.len())
+    let rows = (0..places.len())
         .map(|i| {
             let f = |field: &str, d| fig(json, &format!("places[{i}].{field}"), d);
             let mut row = vec![f("what", 0), f("t_s", 3), f("x_mm", 3), f("y_mm", 3)];
@@ -246,39 +257,106 @@ fn place_rows(json: &Json) -> Vec<Vec<Fig>> {
             row.extend([f("line", 0), f("residual_um", 3)]);
             row
         })
-        .collect()
+        .collect();
+    (rows, with_z)
 }
 
-/// Per circle: line, plane, and G measured, by the nominal and by the extended model.
-fn circle_rows(json: &Json) -> Vec<Vec<Fig>> {
-    let n = json["circular_test"]["measured"]["circles"]
-        .as_array()
-        .map_or(0, Vec::len);
-    (0..n)
-        .map(|i| {
-            let f = |model: &str, field: &str, d| {
-                fig(
-                    json,
-                    &format!("circular_test.{model}.circles[{i}].{field}"),
-                    d,
-                )
-            };
-            // The plane is left out of the report for XY.
-            let mut plane = f("measured", "plane", 0);
-            if plane.value.is_empty() {
-                plane.text = "XY".into();
-            }
+/// Per circle measured: line, plane, and G measured, by the nominal and by the extended
+/// model — each model's figures of the same circle (the same plan segment), found by that
+/// circle and not by its place in the list: a circle a model's path gives too few samples
+/// on is missing from that model's list alone, and its row shows "—" there.
+fn circle_rows(c: &CircularComparison, json: &Json) -> Vec<Vec<Fig>> {
+    let at = |model: &str, test: &CircularTest, segment: usize, field: &str, d| match test
+        .circles
+        .iter()
+        .position(|f| f.segment == segment)
+    {
+        Some(i) => fig(
+            json,
+            &format!("circular_test.{model}.circles[{i}].{field}"),
+            d,
+        ),
+        None => Fig::missing(),
+    };
+    c.measured
+        .circles
+        .iter()
+        .map(|m| {
+            let measured = |field: &str, d| at("measured", &c.measured, m.segment, field, d);
             vec![
-                f("measured", "line", 0),
-                plane,
-                f("measured", "direction", 0),
-                f("measured", "radius_mm", 1),
-                f("measured", "g_um", 2),
-                f("nominal", "g_um", 2),
-                f("extended", "g_um", 2),
-                f("measured", "f_min_um", 2),
-                f("measured", "f_max_um", 2),
+                measured("line", 0),
+                measured("plane", 0),
+                measured("direction", 0),
+                measured("radius_mm", 1),
+                measured("g_um", 2),
+                at("nominal", &c.nominal, m.segment, "g_um", 2),
+                at("extended", &c.extended, m.segment, "g_um", 2),
+                measured("f_min_um", 2),
+                measured("f_max_um", 2),
             ]
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::circle_rows;
+    use crate::analysis::circular::{CircleFigures, CircularTest};
+    use crate::diagnose::circular::CircularComparison;
+    use crate::path::Plane;
+
+    /// The figures of the circle of plan segment `segment` at line `line`, with G `g_um`.
+    fn circle(segment: usize, line: u32, g_um: f64) -> CircleFigures {
+        CircleFigures {
+            segment,
+            line,
+            plane: Plane::Xy,
+            direction: "ccw",
+            radius_mm: 10.0,
+            g_um,
+            f_max_um: 1.0,
+            f_min_um: -1.0,
+            reversal_spikes_um: [0.0; 4],
+            diagonal_ellipse_urad: 0.0,
+            scale_mismatch_ppm: 0.0,
+            samples: 100,
+        }
+    }
+
+    fn test(circles: Vec<CircleFigures>) -> CircularTest {
+        CircularTest {
+            circles,
+            pairs: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn each_row_shows_one_circle_s_figures_though_a_model_lacks_one() {
+        // Two circles measured; the nominal model's path gives the first too few samples
+        // (it is missing from its list alone), and one line runs twice (a subprogram called
+        // twice): the rows pair by circle, not by place in the lists.
+        let c = CircularComparison {
+            measured: test(vec![circle(3, 12, 5.0), circle(7, 12, 6.0)]),
+            nominal: test(vec![circle(7, 12, 16.0)]),
+            extended: test(vec![circle(3, 12, 25.0), circle(7, 12, 26.0)]),
+            left_out: Vec::new(),
+        };
+        let json = serde_json::json!({ "circular_test": c });
+        let rows = circle_rows(&c, &json);
+        let g: Vec<[&str; 3]> = rows
+            .iter()
+            .map(|r| [&r[4].text[..], &r[5].text[..], &r[6].text[..]])
+            .collect();
+        assert_eq!(
+            g,
+            [["5.00", "—", "25.00"], ["6.00", "16.00", "26.00"]],
+            "{rows:?}"
+        );
+        // The missing figure has no key to read back; the others their own.
+        assert!(rows[0][5].key.is_empty());
+        assert_eq!(rows[1][5].key, "circular_test.nominal.circles[0].g_um");
+        assert_eq!(rows[1][6].key, "circular_test.extended.circles[1].g_um");
+        // The plane's cell carries its value for sorting and filters.
+        assert_eq!((&rows[0][1].value[..], &rows[0][1].text[..]), ("XY", "XY"));
+    }
 }

@@ -80,6 +80,17 @@ fn fig(json: &Json, key: &str, decimals: usize) -> Fig {
     }
 }
 
+impl Fig {
+    /// A figure the report does not have (a model's path without it): no key, shown "—".
+    fn missing() -> Fig {
+        Fig {
+            key: String::new(),
+            value: String::new(),
+            text: "—".to_string(),
+        }
+    }
+}
+
 /// Decimals that show a value to its standard uncertainty's second significant digit (4
 /// where there is no uncertainty).
 fn decimals_for(uncertainty: f64) -> usize {

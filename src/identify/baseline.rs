@@ -4,11 +4,12 @@
 //! that know nothing of the machine; a physical model that predicts the held-out blocks no
 //! better than they do has not earned its parameters.
 
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{DMatrix, DVector, SMatrix, SVector};
 use serde::Serialize;
 
 use crate::compare::Context;
 use crate::machine::AxisName;
+use crate::numeric::decompose;
 use crate::numeric::units::um_from_m;
 use crate::trace::signal::sample;
 
@@ -123,7 +124,11 @@ fn fit<'r>(rows: impl Iterator<Item = &'r Row>) -> Option<SVector<f64, COLUMNS>>
         normal += x * x.transpose();
         rhs += x * r.error_m;
     }
-    let solved = normal.svd(true, true).solve(&rhs, 1e-12).ok()?;
+    let normal = DMatrix::from_column_slice(COLUMNS, COLUMNS, normal.as_slice());
+    let rhs = DVector::from_column_slice(rhs.as_slice());
+    let solved = decompose::svd(normal, true, true)?
+        .solve(&rhs, 1e-12)
+        .ok()?;
     Some(SVector::from_fn(|j, _| {
         if scale[j] > 0.0 {
             solved[j] / scale[j]

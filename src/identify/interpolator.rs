@@ -14,31 +14,33 @@ use serde::Serialize;
 use crate::compare::Context;
 use crate::machine::{AxisName, MachineConfig};
 use crate::numeric::units::mm_per_min_from_m_per_s;
+use crate::plan::{AxisCommands, Commands};
 
-/// The interpolator's peaks in a record.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+/// The interpolator's peaks in a record, per axis: X, Y, and Z where the record holds Z's
+/// commands and the template simulates Z (where a limit found can be written).
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Interpolator {
-    /// Peak path speed (mm/min).
+    /// Peak path speed (mm/min), in space where Z is read.
     pub path_speed_mm_per_min: f64,
-    /// Per axis (X, Y): peak velocity (mm/min).
-    pub velocity_mm_per_min: [f64; 2],
+    /// Per axis: peak velocity (mm/min).
+    pub velocity_mm_per_min: Vec<f64>,
     /// Peak acceleration (m/s²).
-    pub accel_m_per_s2: [f64; 2],
+    pub accel_m_per_s2: Vec<f64>,
     /// Peak jerk (m/s³): the 99.5th percentile of the acceleration's rate, so that the
     /// single cycles of a stepped acceleration (a trapezoidal interpolator has no jerk
     /// limit) are not taken for the control's jerk.
-    pub jerk_m_per_s3: [f64; 2],
+    pub jerk_m_per_s3: Vec<f64>,
     /// Per axis, the peak acceleration (m/s²) and jerk (m/s³) the template's planner gives
     /// the same program: what the moves demanded.
-    pub demanded_accel_m_per_s2: [f64; 2],
+    pub demanded_accel_m_per_s2: Vec<f64>,
     /// The same for the jerk.
-    pub demanded_jerk_m_per_s3: [f64; 2],
+    pub demanded_jerk_m_per_s3: Vec<f64>,
     /// Whether the record shows the acceleration held at its peak (flat for `PLATEAU_S`,
     /// in `PLATEAUS` stretches) where the moves demanded more: the control's limit, not
     /// only what these moves needed.
-    pub accel_limited: [bool; 2],
+    pub accel_limited: Vec<bool>,
     /// Whether it shows the jerk held at its peak.
-    pub jerk_limited: [bool; 2],
+    pub jerk_limited: Vec<bool>,
 }
 
 /// How long a peak must be held to count as the control's limit (s), how close to it, and
@@ -96,40 +98,76 @@ fn jerk(a: &[f64], dt: f64) -> f64 {
         .unwrap_or(0.0)
 }
 
-/// The peaks of the context's commands, and what the template's planner demands on the
-/// same program.
-pub(crate) fn read(ctx: &Context) -> Interpolator {
-    let c = &ctx.commands;
-    let axes = [&c.x, &c.y];
+/// The axes whose peaks a record shows: X and Y, and Z where the record holds its commands
+/// and `template` simulates it.
+fn axes_read(ctx: &Context, template: &MachineConfig) -> Vec<AxisName> {
+    let z = ctx.z_comparable(template).is_ok();
+    AxisName::BOTH
+        .into_iter()
+        .chain(z.then_some(AxisName::Z))
+        .collect()
+}
+
+/// The peaks of the context's commands, and what `template`'s planner demands on the same
+/// program.
+pub(crate) fn read(ctx: &Context, template: &MachineConfig) -> Interpolator {
+    let read = axes_read(ctx, template);
+    let commands = |c: &Commands| -> Vec<AxisCommands> {
+        read.iter()
+            .map(|a| match a {
+                AxisName::X => c.x.clone(),
+                AxisName::Y => c.y.clone(),
+                AxisName::Z => c.z.clone(),
+            })
+            .collect()
+    };
+    let axes = commands(&ctx.commands);
     let planned = crate::plan::sample(&ctx.plan);
+    let demanded = commands(&planned);
     let plan_dt = planned.dt_s;
-    let demanded = [&planned.x, &planned.y];
-    let demanded_accel = demanded.map(|a| peak(&a.acc_m_per_s2));
-    let demanded_jerk = demanded.map(|a| jerk(&a.acc_m_per_s2, plan_dt));
-    let accel = axes.map(|a| peak(&a.acc_m_per_s2));
-    let jerks = axes.map(|a| jerk(&a.acc_m_per_s2, ctx.dt));
-    let speed: Vec<f64> =
-        c.x.vel_m_per_s
-            .iter()
-            .zip(&c.y.vel_m_per_s)
-            .map(|(vx, vy)| vx.hypot(*vy))
-            .collect();
-    let path = peak(&speed);
+    let demanded_accel: Vec<f64> = demanded.iter().map(|a| peak(&a.acc_m_per_s2)).collect();
+    let demanded_jerk: Vec<f64> = demanded
+        .iter()
+        .map(|a| jerk(&a.acc_m_per_s2, plan_dt))
+        .collect();
+    let accel: Vec<f64> = axes.iter().map(|a| peak(&a.acc_m_per_s2)).collect();
+    let jerks: Vec<f64> = axes.iter().map(|a| jerk(&a.acc_m_per_s2, ctx.dt)).collect();
+    // The path speed over the axes read (a plunge of Z alone ramps it too).
+    let speed: Vec<f64> = (0..axes[0].vel_m_per_s.len())
+        .map(|k| {
+            axes.iter()
+                .map(|a| a.vel_m_per_s.get(k).map_or(0.0, |v| v * v))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .collect();
     Interpolator {
-        path_speed_mm_per_min: mm_per_min_from_m_per_s(path),
-        velocity_mm_per_min: axes.map(|a| mm_per_min_from_m_per_s(peak(&a.vel_m_per_s))),
+        path_speed_mm_per_min: mm_per_min_from_m_per_s(peak(&speed)),
+        velocity_mm_per_min: axes
+            .iter()
+            .map(|a| mm_per_min_from_m_per_s(peak(&a.vel_m_per_s)))
+            .collect(),
+        accel_limited: (0..axes.len())
+            .map(|i| {
+                held_at(
+                    &axes[i].acc_m_per_s2,
+                    accel[i],
+                    demanded_accel[i],
+                    ctx.dt,
+                    &speed,
+                )
+            })
+            .collect(),
+        jerk_limited: (0..axes.len())
+            .map(|i| {
+                let rates = rate(&axes[i].acc_m_per_s2, ctx.dt);
+                held_at(&rates, jerks[i], demanded_jerk[i], ctx.dt, &speed)
+            })
+            .collect(),
         accel_m_per_s2: accel,
         jerk_m_per_s3: jerks,
         demanded_accel_m_per_s2: demanded_accel,
         demanded_jerk_m_per_s3: demanded_jerk,
-        accel_limited: [0, 1].map(|i| {
-            let a = &axes[i].acc_m_per_s2;
-            held_at(a, accel[i], demanded_accel[i], ctx.dt, &speed)
-        }),
-        jerk_limited: [0, 1].map(|i| {
-            let rates = rate(&axes[i].acc_m_per_s2, ctx.dt);
-            held_at(&rates, jerks[i], demanded_jerk[i], ctx.dt, &speed)
-        }),
     }
 }
 
@@ -137,8 +175,8 @@ pub(crate) fn read(ctx: &Context) -> Interpolator {
 /// (rounded up to three significant digits); elsewhere the moves did not reach the control's
 /// limits and the template's stay.
 pub(crate) fn write_limits(machine: &mut MachineConfig, interpolator: &Interpolator) {
-    for axis in AxisName::BOTH {
-        let i = axis.index();
+    let axes = AxisName::BOTH.into_iter().chain([AxisName::Z]);
+    for (i, axis) in axes.take(interpolator.accel_limited.len()).enumerate() {
         let limits = &mut machine.axis_mut(axis).limits;
         if interpolator.accel_limited[i] {
             limits.max_accel_m_per_s2 = round_up(interpolator.accel_m_per_s2[i]);

@@ -41,6 +41,7 @@ use super::Sliding;
 use super::knobs::{Knob, TF_GAIN_KEY, corner_of, corners, get, set_all};
 use super::solve::Fit;
 use crate::machine::{AxisConfig, Controller, ControllerOutput};
+use crate::numeric::decompose;
 use crate::numeric::poly;
 use crate::numeric::units::mm_from_m;
 use crate::sim::AxisModel;
@@ -390,7 +391,7 @@ fn least_squares(
     for (c, norm) in norms.iter().enumerate() {
         m.column_mut(c).unscale_mut(*norm);
     }
-    let theta = m.svd(true, true).solve(&b, 1e-12).ok()?;
+    let theta = decompose::svd(m, true, true)?.solve(&b, 1e-12).ok()?;
     Some((0..columns).map(|c| theta[c] / norms[c]).collect())
 }
 

@@ -344,7 +344,7 @@ fn identify_as(
         axes.push(identified);
     }
     let z_not_identified = z_axis::write(z, &mut machine, &mut axes);
-    let interpolator = interpolator::read(&ctx);
+    let interpolator = interpolator::read(&ctx, template);
     interpolator::write_limits(&mut machine, &interpolator);
     Ok(Identification {
         file,

@@ -9,6 +9,7 @@ use nalgebra::{DMatrix, DVector};
 use super::knobs::{Knob, get, set_all};
 use crate::compare::Context;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
+use crate::numeric::decompose;
 use crate::numeric::lsq::{
     self, MODEL_FLOOR_SHARE, combination_uncertainty, correlation_time, forward_jacobian,
     uncertainties,
@@ -89,7 +90,7 @@ impl Fitted {
     pub(crate) fn most_traded_with(&self, j: usize) -> Option<usize> {
         let s = self.spread.as_ref()?;
         let n = s.jacobian.ncols();
-        let svd = s.jacobian.clone().svd(false, true);
+        let svd = decompose::svd(s.jacobian.clone(), false, true)?;
         let vt = svd.v_t?;
         let largest = svd.singular_values.iter().copied().fold(0.0, f64::max);
         if j >= n || largest <= 0.0 {

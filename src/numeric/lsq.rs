@@ -208,7 +208,9 @@ pub(crate) fn combination_uncertainty(
 ) -> f64 {
     let (rows, n) = jac.shape();
     let spread = (cost / (rows as f64 - n as f64).max(1.0)).sqrt().max(noise);
-    let svd = jac.clone().svd(false, true);
+    let Some(svd) = super::decompose::svd(jac.clone(), false, true) else {
+        return f64::INFINITY;
+    };
     let Some(vt) = svd.v_t else {
         return f64::INFINITY;
     };

@@ -2,6 +2,7 @@
 //! forward-difference Jacobian and the uncertainties that follow from it, and a
 //! one-dimensional minimum search. Each is tested here on problems with known answers.
 
+pub(crate) mod decompose;
 pub mod lookup;
 pub mod lsq;
 pub(crate) mod poly;

@@ -5,7 +5,7 @@
 use nalgebra::{Complex, DMatrix};
 
 /// The roots of `c[0]·sⁿ + c[1]·sⁿ⁻¹ + … + c[n]` (leading zeros dropped); none for a
-/// constant.
+/// constant, and none where a coefficient is not finite.
 pub(crate) fn roots(coefficients: &[f64]) -> Vec<Complex<f64>> {
     let c: Vec<f64> = coefficients
         .iter()
@@ -24,7 +24,7 @@ pub(crate) fn roots(coefficients: &[f64]) -> Vec<Complex<f64>> {
     for i in 1..n {
         m[(i, i - 1)] = 1.0;
     }
-    m.complex_eigenvalues().iter().copied().collect()
+    super::decompose::eigenvalues(m).unwrap_or_default()
 }
 
 /// The real polynomial `leading · Π (s − r)` over `roots` (complex ones in conjugate pairs),

@@ -11,6 +11,7 @@ use serde::Serialize;
 
 use super::SimError;
 use super::model::{AR, AxisModel, ClampMode, ContactMode, FrictionMode, Mode, Row, VR, XR, ZW};
+use crate::numeric::decompose;
 
 /// The loops of the cascade.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -234,7 +235,7 @@ pub(crate) fn feedback_response(model: &AxisModel, which: Loop) -> impl Fn(f64) 
 /// The eigenvalues of a loop's closed feedback system (1/s): where its response can peak.
 pub(crate) fn feedback_poles(model: &AxisModel, which: Loop) -> Vec<Complex<f64>> {
     let sys = loop_system(model, which, true);
-    sys.a.complex_eigenvalues().iter().copied().collect()
+    decompose::eigenvalues(sys.a).unwrap_or_default()
 }
 
 /// Closed-loop frequency response of a loop at `freq_hz`.
@@ -445,10 +446,11 @@ pub struct ModalFigure {
     pub real_per_s: f64,
 }
 
-/// Eigenvalues of the closed position loop (the whole linearised axis).
+/// Eigenvalues of the closed position loop (the whole linearised axis); none where a
+/// setting makes the loop's matrix non-finite ([`check_stable`] refuses such an axis).
 pub fn closed_loop_modes(model: &AxisModel) -> Vec<ModalFigure> {
-    let a = Restriction::of(model).matrix(&model.dynamics(nominal_mode()));
-    a.complex_eigenvalues()
+    closed_loop_eigenvalues(model)
+        .unwrap_or_default()
         .iter()
         .map(|l| {
             let norm = l.norm();
@@ -459,6 +461,11 @@ pub fn closed_loop_modes(model: &AxisModel) -> Vec<ModalFigure> {
             }
         })
         .collect()
+}
+
+/// The closed position loop's eigenvalues (1/s), `None` where they cannot be computed.
+fn closed_loop_eigenvalues(model: &AxisModel) -> Option<Vec<Complex<f64>>> {
+    decompose::eigenvalues(Restriction::of(model).matrix(&model.dynamics(nominal_mode())))
 }
 
 /// The least damped oscillatory closed-loop mode (damping below 1).
@@ -472,6 +479,9 @@ pub(crate) fn least_damped(model: &AxisModel) -> Option<ModalFigure> {
 
 /// An error when any closed-loop mode grows.
 pub fn check_stable(model: &AxisModel) -> Result<(), SimError> {
+    if closed_loop_eigenvalues(model).is_none() {
+        return Err(SimError::NoModes);
+    }
     let modes = closed_loop_modes(model);
     let worst = modes
         .iter()
@@ -533,5 +543,15 @@ mod tests {
         // The preset's Kv of 1 lies well inside; a stable setting has no edge to report.
         assert!(edge > 1.2 && edge < 2.0, "{edge}");
         assert_eq!(largest_stable_kv(&MachineConfig::default_preset().x), None);
+    }
+
+    #[test]
+    fn an_axis_with_a_setting_that_is_not_a_number_is_refused_at_once() {
+        // Inside a fit a candidate can come out NaN; the eigen-solver would spin on it for ever.
+        let mut x = MachineConfig::default_preset().x;
+        x.position_loop.kv_m_per_min_per_mm = f64::NAN;
+        let model = AxisModel::from_config(&x);
+        assert!(matches!(check_stable(&model), Err(SimError::NoModes)));
+        assert!(closed_loop_modes(&model).is_empty());
     }
 }

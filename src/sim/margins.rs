@@ -312,7 +312,8 @@ pub(crate) fn mechanical_modes(model: &AxisModel) -> Vec<ModalFigure> {
     let a = DMatrix::from_fn(states.len(), states.len(), |i, j| {
         full[(states[i], states[j])]
     });
-    a.complex_eigenvalues()
+    crate::numeric::decompose::eigenvalues(a)
+        .unwrap_or_default()
         .iter()
         .filter(|l| l.im > 0.0)
         .map(|l| ModalFigure {

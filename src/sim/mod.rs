@@ -66,6 +66,13 @@ pub enum SimError {
         /// Its growth rate (positive real part).
         growth_per_s: f64,
     },
+    /// The linearised closed loop's modes cannot be computed: a setting, or one derived from
+    /// the settings, is not a finite number.
+    #[error(
+        "the closed loop's modes cannot be computed: a setting of the axis, or one derived from \
+         its settings, is not a finite number"
+    )]
+    NoModes,
     /// The following error left every plausible bound.
     #[error("the axis diverged: following error {error_m:e} m at t = {t_s:.3} s")]
     Diverged {
@@ -126,7 +133,7 @@ impl SimError {
         match self {
             SimError::Diverged { t_s, .. } | SimError::Chattering { t_s, .. } => Some(*t_s),
             SimError::OnAxis { source, .. } => source.t_s(),
-            SimError::Unstable { .. } | SimError::TooLong { .. } => None,
+            SimError::Unstable { .. } | SimError::NoModes | SimError::TooLong { .. } => None,
         }
     }
 
