@@ -5,9 +5,6 @@
 //! changed in meaning without a new version. Lengths are in mm, errors in µm, times in s.
 
 use crate::analysis::circular::CircularTest;
-#[cfg(feature = "cli")]
-use std::io::Write;
-
 use serde::Serialize;
 
 use crate::analysis::hotspot::Hotspot;
@@ -312,13 +309,6 @@ impl CheckReport {
             accepted_codes: program.notes.clone(),
             circular_test: run.circular.clone(),
         }
-    }
-
-    /// The report as pretty JSON.
-    #[cfg(feature = "cli")]
-    pub(crate) fn write_json(&self, w: &mut dyn Write) -> std::io::Result<()> {
-        serde_json::to_writer_pretty(&mut *w, self).map_err(std::io::Error::other)?;
-        writeln!(w)
     }
 }
 

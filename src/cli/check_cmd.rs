@@ -9,7 +9,7 @@ use super::check_text::{TraceCsv, summary_text};
 use super::common::{CliError, MachineArgs, PlanningArgs, load_program, progress};
 use crate::check::report::{CheckReport, group_warnings};
 use crate::check::{CheckResult, CheckSettings, check_planned};
-use crate::cli::output::{OutputBatch, at_most_one_stdout};
+use crate::cli::output::{OutputBatch, at_most_one_stdout, write_json};
 use crate::figures::CheckFigures;
 use crate::gcode::SourceFile;
 use crate::plan::{KinematicLimits, plan_segments};
@@ -119,7 +119,7 @@ fn write_outputs(
     sources: &[SourceFile],
 ) -> Result<(), CliError> {
     if let Some(path) = &args.json {
-        batch.stage(path, |w| report.write_json(w))?;
+        batch.stage(path, |w| write_json(w, &report))?;
     }
     if let Some(path) = &args.report {
         let inputs = args.machine.report_inputs();

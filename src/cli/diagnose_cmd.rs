@@ -9,7 +9,7 @@ use clap::Args;
 use super::Outcome;
 use super::common::program_or_commands_path;
 use super::common::{CliError, MachineArgs, PlanningArgs, TraceArgs, spinner};
-use crate::cli::output::{OutputBatch, at_most_one_stdout};
+use crate::cli::output::{OutputBatch, at_most_one_stdout, write_json};
 use crate::diagnose::causes::{CauseId, CauseSet};
 use crate::diagnose::report::{DiagnoseReport, machine_file};
 use crate::diagnose::table::diagnose_table;
@@ -183,7 +183,7 @@ fn write_outputs(
     let report = DiagnoseReport::new(d, program_file, measured, machine);
     let mut batch = OutputBatch::new();
     if let Some(path) = &args.json {
-        batch.stage(path, |w| report.write_json(w))?;
+        batch.stage(path, |w| write_json(w, &report))?;
     }
     if let Some(path) = &args.report {
         let page = crate::html_report::diagnose_page(d, &report, &args.machine.report_inputs())?;
@@ -279,7 +279,9 @@ fn run_table(
     let file = path.display().to_string();
     if let Some(json) = &args.json {
         let mut batch = OutputBatch::new();
-        batch.stage(json, |w| d.write_json(w, &file, &machine.name))?;
+        batch.stage(json, |w| {
+            write_json(w, &d.json_document(&file, &machine.name))
+        })?;
         batch.commit()?;
     }
     print!("{}", d.summary_text(&file, &machine.name));

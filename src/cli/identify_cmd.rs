@@ -8,7 +8,7 @@ use clap::Args;
 use super::Outcome;
 use super::common::{CliError, PlanningArgs, TraceArgs, spinner};
 use super::common::{program_or_commands_path, warn_beyond_machine};
-use crate::cli::output::{OutputBatch, at_most_one_stdout};
+use crate::cli::output::{OutputBatch, at_most_one_stdout, write_json};
 use crate::compare::CompareSettings;
 use crate::identify::identify;
 use crate::identify::report::{IdentifyReport, machine_file, summary_text};
@@ -92,7 +92,7 @@ pub(crate) fn run(args: &IdentifyArgs) -> Result<Outcome, CliError> {
     batch.stage(&args.out, |w| w.write_all(machine_text.as_bytes()))?;
     let report = IdentifyReport::new(&id, &program_file, &template.name);
     if let Some(path) = &args.json {
-        batch.stage(path, |w| report.write_json(w))?;
+        batch.stage(path, |w| write_json(w, &report))?;
     }
     if let Some(path) = &args.report {
         let inputs = crate::html_report::Inputs {

@@ -12,6 +12,12 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+/// Writes `value` as pretty JSON ending in a newline: every command's `--json` output.
+pub(crate) fn write_json(w: &mut dyn Write, value: &impl serde::Serialize) -> std::io::Result<()> {
+    serde_json::to_writer_pretty(&mut *w, value).map_err(std::io::Error::other)?;
+    writeln!(w)
+}
+
 /// Every temporary file staged and not yet committed or removed, in this process.
 static STAGED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 

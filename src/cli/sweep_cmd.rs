@@ -224,10 +224,7 @@ pub(crate) fn run(args: &SweepArgs, m: &ArgMatches) -> Result<Outcome, CliError>
             dimensions: &dims,
             points: &points,
         };
-        batch.stage(path, |w| {
-            serde_json::to_writer_pretty(&mut *w, &doc).map_err(std::io::Error::other)?;
-            writeln!(w)
-        })?;
+        batch.stage(path, |w| super::output::write_json(w, &doc))?;
     }
     batch.commit()?;
     if let Some(dir) = &args.plot {

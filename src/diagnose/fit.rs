@@ -537,16 +537,39 @@ struct Model<'a> {
     simulated: Simulated,
 }
 
-/// A fit's latest simulations, by stepping and parameter values. The same values come back:
-/// Nelder–Mead tries points that differ in the clock offset alone (which moves the residual,
-/// not the simulation), Levenberg–Marquardt starts where Nelder–Mead ended, and the fit's
-/// trace is read where the solver last was. A simulation depends on its machine and stepping
-/// only, so the one kept is the one that would be run.
+/// A fit's latest simulations, by record, stepping and parameter values. The same values
+/// come back: Nelder–Mead tries points that differ in the clock offset alone (which moves the
+/// residual, not the simulation), Levenberg–Marquardt starts where Nelder–Mead ended, and the
+/// fit's trace is read where the solver last was. On one record's timeline a simulation
+/// depends on its machine and stepping only, so the one kept is the one that would be run.
 #[derive(Default)]
 struct Simulated(Mutex<VecDeque<(SimulatedAt, Arc<Pair>)>>);
 
-/// Stepping and parameter values (bit for bit).
-type SimulatedAt = (Stepping, Vec<u64>);
+/// Record, stepping and parameter values (bit for bit).
+type SimulatedAt = (RecordKey, Stepping, Vec<u64>);
+
+/// The record a simulation was run for and its timeline: the measurement (where it is and
+/// its length: a fit's contexts borrow it for the fit's life), how many commands drive the
+/// simulation and where the program starts on them. A simulation kept for one record never
+/// answers for another, whichever context a caller passes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct RecordKey {
+    measured_at_address: usize,
+    measured_samples: usize,
+    command_samples: usize,
+    program_start_s: u64,
+}
+
+impl RecordKey {
+    fn of(on: &Context) -> Self {
+        RecordKey {
+            measured_at_address: std::ptr::from_ref(on.measured).addr(),
+            measured_samples: on.measured.len(),
+            command_samples: on.commands.x.len(),
+            program_start_s: on.program_start_s.to_bits(),
+        }
+    }
+}
 
 /// This axis's trace, and the other axis's where the cause changed it (else the fit's own).
 struct Pair {
@@ -586,7 +609,11 @@ impl Model<'_> {
     /// The traces of `machine` with the cause at `values` on `on`: kept from this fit, or
     /// simulated (and kept).
     fn pair_on(&self, on: &Context, values: &[f64]) -> Option<Arc<Pair>> {
-        let at: SimulatedAt = (on.stepping, values.iter().map(|v| v.to_bits()).collect());
+        let at: SimulatedAt = (
+            RecordKey::of(on),
+            on.stepping,
+            values.iter().map(|v| v.to_bits()).collect(),
+        );
         let kept = self.simulated.0.lock().unwrap_or_else(|e| e.into_inner());
         if let Some((_, p)) = kept.iter().find(|(k, _)| *k == at) {
             return Some(p.clone());
@@ -771,5 +798,65 @@ impl lsq::Problem for Problem<'_> {
             jac.set_column(n, &model.offset_column(p, &trace, &other));
         }
         Some(jac)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::compare::compare;
+    use crate::diagnose::DiagnoseSettings;
+    use crate::diagnose::synth::{SynthSpec, synthesize};
+    use crate::gcode::{InterpretOptions, Program, parse_program};
+    use crate::trace::measured::{MeasuredTrace, parse_trace};
+
+    /// A record of `text` on `machine`, written as CSV and read back as a user's file.
+    fn record(text: &str, machine: &MachineConfig) -> (Program, MeasuredTrace) {
+        let program = parse_program(text, "line.nc", &InterpretOptions::default()).unwrap();
+        let mut csv = Vec::new();
+        synthesize(&program, machine, &SynthSpec::default())
+            .unwrap()
+            .write_csv(&mut csv)
+            .unwrap();
+        let csv = String::from_utf8(csv).unwrap();
+        (program, parse_trace(&csv, "line.csv").unwrap())
+    }
+
+    /// Two records of the same length and timing, lines in opposite directions: a fit's
+    /// simulation kept for the one is not what the other's context asks for at the same
+    /// stepping and values — the other record is simulated, and its own simulation stays kept.
+    #[test]
+    fn a_kept_simulation_never_answers_for_another_record() {
+        let machine = MachineConfig::default_preset();
+        let settings = DiagnoseSettings::for_machine(&machine).compare;
+        let line = |to: &str| format!("G21 G90 G17 G94\nG0 X0 Y0\nG1 {to} F1000\nM2\n");
+        let (forward, forward_record) = record(&line("X20 Y10"), &machine);
+        let (back, back_record) = record(&line("X-20 Y-10"), &machine);
+        let a = compare(
+            &forward,
+            &machine,
+            &forward_record,
+            &settings,
+            Stepping::Full,
+        )
+        .unwrap();
+        let b = compare(&back, &machine, &back_record, &settings, Stepping::Full).unwrap();
+        assert_eq!(a.nominal[1].len(), b.nominal[1].len());
+        let (axis, cause, values) = (AxisName::X, CauseId::Backlash, [8.0]);
+        let model = Model {
+            ctx: &a.ctx,
+            machine: &machine,
+            axis,
+            cause,
+            other: &a.nominal[1],
+            simulated: Simulated::default(),
+        };
+        let on_a = model.pair_on(&a.ctx, &values).unwrap();
+        let on_b = model.pair_on(&b.ctx, &values).unwrap();
+        let with = with_cause(&machine, axis, cause, &values);
+        let (fresh_b, _) = b.ctx.simulate_pair(&with, axis, model.other).unwrap();
+        assert_eq!(on_b.trace, fresh_b);
+        assert_ne!(on_b.trace, on_a.trace);
+        assert!(Arc::ptr_eq(&on_a, &model.pair_on(&a.ctx, &values).unwrap()));
     }
 }

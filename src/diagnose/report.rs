@@ -3,8 +3,6 @@
 //! terminal, and the extended machine as a machine file.
 
 use std::fmt::Write as _;
-#[cfg(feature = "cli")]
-use std::io::Write;
 
 use serde::Serialize;
 
@@ -273,13 +271,6 @@ impl DiagnoseReport {
             localized: d.localized.clone(),
             z: d.z.clone(),
         }
-    }
-
-    /// Writes the report as pretty JSON.
-    #[cfg(feature = "cli")]
-    pub(crate) fn write_json(&self, w: &mut dyn Write) -> std::io::Result<()> {
-        serde_json::to_writer_pretty(&mut *w, self)?;
-        writeln!(w)
     }
 
     /// The summary for the terminal (the report's [`Display`](std::fmt::Display)).

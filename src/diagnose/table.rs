@@ -256,14 +256,14 @@ pub fn diagnose_table(
 pub const TABLE_SCHEMA: &str = "contourcheck.diagnose-table/1";
 
 impl TableDiagnosis {
-    /// Writes the diagnosis as pretty JSON.
+    /// The diagnosis as its JSON document: the schema, the table file and the machine, then
+    /// the diagnosis itself.
     #[cfg(feature = "cli")]
-    pub(crate) fn write_json(
-        &self,
-        w: &mut dyn std::io::Write,
-        file: &str,
-        machine: &str,
-    ) -> std::io::Result<()> {
+    pub(crate) fn json_document<'a>(
+        &'a self,
+        file: &'a str,
+        machine: &'a str,
+    ) -> impl Serialize + 'a {
         #[derive(Serialize)]
         struct Doc<'a> {
             schema: &'static str,
@@ -272,16 +272,12 @@ impl TableDiagnosis {
             #[serde(flatten)]
             diagnosis: &'a TableDiagnosis,
         }
-        serde_json::to_writer_pretty(
-            &mut *w,
-            &Doc {
-                schema: TABLE_SCHEMA,
-                table_file: file,
-                machine,
-                diagnosis: self,
-            },
-        )?;
-        writeln!(w)
+        Doc {
+            schema: TABLE_SCHEMA,
+            table_file: file,
+            machine,
+            diagnosis: self,
+        }
     }
 
     /// The summary for the terminal.

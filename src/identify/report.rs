@@ -41,13 +41,6 @@ impl<'a> IdentifyReport<'a> {
             identification,
         }
     }
-
-    /// Writes the report as pretty JSON.
-    #[cfg(feature = "cli")]
-    pub(crate) fn write_json(&self, w: &mut dyn std::io::Write) -> std::io::Result<()> {
-        serde_json::to_writer_pretty(&mut *w, self).map_err(std::io::Error::other)?;
-        w.write_all(b"\n")
-    }
 }
 
 /// A value for the table: fitted with its uncertainty (said so where that is not a

@@ -2,9 +2,10 @@
 //! its feed, the sampling, the date and the tool's version — so that a figure cut out of a
 //! report still says what it shows.
 
-use plotters::coord::Shift;
-use plotters::prelude::*;
+#[cfg(feature = "cli")]
+use plotters::{coord::Shift, prelude::*};
 
+#[cfg(feature = "cli")]
 use super::{FONT, err};
 
 /// Height of the footer strip (px).
@@ -27,6 +28,7 @@ pub struct Footer {
     pub version: String,
 }
 
+#[cfg(feature = "cli")]
 impl Footer {
     /// A footer for a plot of `machine`, dated today, with this tool's version.
     pub(crate) fn new(machine: &str) -> Self {
@@ -77,6 +79,7 @@ impl Footer {
     }
 }
 
+#[cfg(feature = "cli")]
 /// Today's date (UTC), or the date of `SOURCE_DATE_EPOCH` where it is set, so that a
 /// build that must be reproducible can fix it.
 pub(crate) fn today() -> String {
@@ -87,12 +90,14 @@ pub(crate) fn today() -> String {
     date_of(fixed.unwrap_or_else(time::OffsetDateTime::now_utc))
 }
 
+#[cfg(feature = "cli")]
 /// A moment's date as YYYY-MM-DD.
 fn date_of(t: time::OffsetDateTime) -> String {
     let format = time::macros::format_description!("[year]-[month]-[day]");
     t.format(&format).unwrap_or_default()
 }
 
+#[cfg(feature = "cli")]
 /// Draws `footer` along the bottom of `root` — a thin rule and the line of text, left
 /// aligned — and returns the area above it for the figure.
 pub(crate) fn draw_footer<DB: DrawingBackend>(
@@ -119,9 +124,11 @@ pub(crate) fn draw_footer<DB: DrawingBackend>(
     Ok(upper)
 }
 
+#[cfg(feature = "cli")]
 /// Font size of the footer (px).
 const FOOTER_FONT_PX: u32 = 14;
 
+#[cfg(feature = "cli")]
 /// `text` cut with an ellipsis where it would run past `width_px`.
 fn fit_to_width(text: &str, width_px: u32, font_px: u32) -> String {
     let fits = |t: &str| super::labels::text_width(t, font_px) <= width_px as i32;

@@ -13,6 +13,7 @@ pub mod sweep;
 pub mod toolpath;
 pub mod xy;
 
+#[cfg(feature = "cli")]
 use std::path::Path;
 use std::sync::Once;
 
@@ -47,6 +48,7 @@ pub trait Figure {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> PlotResult;
 }
 
+#[cfg(feature = "cli")]
 /// Draws a figure into a PNG or SVG at `path` (chosen by extension; none means PNG), with
 /// `footer` along its foot: no plot is written without the conditions it was made under.
 pub(crate) fn render(path: &Path, figure: &impl Figure, footer: &Footer) -> PlotResult {
