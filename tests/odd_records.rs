@@ -145,7 +145,7 @@ proptest! {
                 // uncertainty (one it does not is the template's, its uncertainty NaN).
                 for v in id.axes.iter().flat_map(|a| &a.values) {
                     prop_assert!(v.value.is_finite(), "{v:?}");
-                    prop_assert!(!v.determined || v.uncertainty.is_finite(), "{v:?}");
+                    prop_assert!(!v.fitted() || v.uncertainty.is_finite(), "{v:?}");
                     prop_assert!(v.fitted() || v.value == v.template, "{v:?}");
                 }
             }

@@ -449,8 +449,11 @@ pub struct ModalFigure {
 /// Eigenvalues of the closed position loop (the whole linearised axis); none where a
 /// setting makes the loop's matrix non-finite ([`check_stable`] refuses such an axis).
 pub fn closed_loop_modes(model: &AxisModel) -> Vec<ModalFigure> {
-    closed_loop_eigenvalues(model)
-        .unwrap_or_default()
+    modal_figures(&closed_loop_eigenvalues(model).unwrap_or_default())
+}
+
+fn modal_figures(eigenvalues: &[Complex<f64>]) -> Vec<ModalFigure> {
+    eigenvalues
         .iter()
         .map(|l| {
             let norm = l.norm();
@@ -479,10 +482,10 @@ pub(crate) fn least_damped(model: &AxisModel) -> Option<ModalFigure> {
 
 /// An error when any closed-loop mode grows.
 pub fn check_stable(model: &AxisModel) -> Result<(), SimError> {
-    if closed_loop_eigenvalues(model).is_none() {
+    let Some(eigenvalues) = closed_loop_eigenvalues(model) else {
         return Err(SimError::NoModes);
-    }
-    let modes = closed_loop_modes(model);
+    };
+    let modes = modal_figures(&eigenvalues);
     let worst = modes
         .iter()
         .max_by(|a, b| a.real_per_s.total_cmp(&b.real_per_s));

@@ -67,10 +67,11 @@ pub enum SimError {
         growth_per_s: f64,
     },
     /// The linearised closed loop's modes cannot be computed: a setting, or one derived from
-    /// the settings, is not a finite number.
+    /// the settings, is not a finite number, or the eigenvalue sweeps did not settle.
     #[error(
         "the closed loop's modes cannot be computed: a setting of the axis, or one derived from \
-         its settings, is not a finite number"
+         its settings, is not a finite number, or the loop's matrix is too ill-conditioned for \
+         its eigenvalues to settle"
     )]
     NoModes,
     /// The following error left every plausible bound.
