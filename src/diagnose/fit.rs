@@ -537,34 +537,33 @@ struct Model<'a> {
     simulated: Simulated,
 }
 
-/// A fit's latest simulations, by record, stepping and parameter values. The same values
-/// come back: Nelder–Mead tries points that differ in the clock offset alone (which moves the
-/// residual, not the simulation), Levenberg–Marquardt starts where Nelder–Mead ended, and the
-/// fit's trace is read where the solver last was. On one record's timeline a simulation
-/// depends on its machine and stepping only, so the one kept is the one that would be run.
+/// A fit's latest simulations of its own record, by timeline, stepping and parameter values.
+/// The same values come back: Nelder–Mead tries points that differ in the clock offset alone
+/// (which moves the residual, not the simulation), Levenberg–Marquardt starts where
+/// Nelder–Mead ended, and the fit's trace is read where the solver last was. On one record's
+/// timeline a simulation depends on its machine and stepping only, so the one kept is the one
+/// that would be run.
 #[derive(Default)]
 struct Simulated(Mutex<VecDeque<(SimulatedAt, Arc<Pair>)>>);
 
-/// Record, stepping and parameter values (bit for bit).
-type SimulatedAt = (RecordKey, Stepping, Vec<u64>);
+/// Timeline, stepping and parameter values (bit for bit).
+type SimulatedAt = (Timeline, Stepping, Vec<u64>);
 
-/// The record a simulation was run for and its timeline: the measurement (where it is and
-/// its length: a fit's contexts borrow it for the fit's life), how many commands drive the
-/// simulation and where the program starts on them. A simulation kept for one record never
-/// answers for another, whichever context a caller passes.
+/// What a simulation of the model's own record was run on: how many commands drive it and
+/// where the program starts on them. The record itself is not in the key: only contexts over
+/// the measurement the model's context borrows (for the model's life) are kept or looked up;
+/// a context over any other record is simulated each time. Not in the key either: the
+/// simulator settings, waits and start of a context over the same record — a fit's contexts
+/// are its own and a clone of it at another stepping.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-struct RecordKey {
-    measured_at_address: usize,
-    measured_samples: usize,
+struct Timeline {
     command_samples: usize,
     program_start_s: u64,
 }
 
-impl RecordKey {
+impl Timeline {
     fn of(on: &Context) -> Self {
-        RecordKey {
-            measured_at_address: std::ptr::from_ref(on.measured).addr(),
-            measured_samples: on.measured.len(),
+        Timeline {
             command_samples: on.commands.x.len(),
             program_start_s: on.program_start_s.to_bits(),
         }
@@ -607,18 +606,20 @@ impl Model<'_> {
     }
 
     /// The traces of `machine` with the cause at `values` on `on`: kept from this fit, or
-    /// simulated (and kept).
+    /// simulated (and kept when `on` is over the model's own record).
     fn pair_on(&self, on: &Context, values: &[f64]) -> Option<Arc<Pair>> {
+        let own_record = std::ptr::eq(on.measured, self.ctx.measured);
         let at: SimulatedAt = (
-            RecordKey::of(on),
+            Timeline::of(on),
             on.stepping,
             values.iter().map(|v| v.to_bits()).collect(),
         );
-        let kept = self.simulated.0.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some((_, p)) = kept.iter().find(|(k, _)| *k == at) {
-            return Some(p.clone());
+        if own_record {
+            let kept = self.simulated.0.lock().unwrap_or_else(|e| e.into_inner());
+            if let Some((_, p)) = kept.iter().find(|(k, _)| *k == at) {
+                return Some(p.clone());
+            }
         }
-        drop(kept);
         let m = with_cause(self.machine, self.axis, self.cause, values);
         let (trace, other) = on.simulate_pair(&m, self.axis, self.other)?;
         let pair = Arc::new(Pair {
@@ -628,6 +629,9 @@ impl Model<'_> {
                 std::borrow::Cow::Owned(o) => Some(o),
             },
         });
+        if !own_record {
+            return Some(pair);
+        }
         let mut kept = self.simulated.0.lock().unwrap_or_else(|e| e.into_inner());
         if kept.len() == SIMULATIONS_KEPT {
             kept.pop_front();
@@ -824,7 +828,8 @@ mod tests {
 
     /// Two records of the same length and timing, lines in opposite directions: a fit's
     /// simulation kept for the one is not what the other's context asks for at the same
-    /// stepping and values — the other record is simulated, and its own simulation stays kept.
+    /// stepping and values — the other record is simulated (each time: it is not kept), and
+    /// the fit's own simulation stays kept.
     #[test]
     fn a_kept_simulation_never_answers_for_another_record() {
         let machine = MachineConfig::default_preset();
@@ -858,5 +863,9 @@ mod tests {
         assert_eq!(on_b.trace, fresh_b);
         assert_ne!(on_b.trace, on_a.trace);
         assert!(Arc::ptr_eq(&on_a, &model.pair_on(&a.ctx, &values).unwrap()));
+        assert!(!Arc::ptr_eq(
+            &on_b,
+            &model.pair_on(&b.ctx, &values).unwrap()
+        ));
     }
 }
