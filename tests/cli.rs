@@ -6,7 +6,7 @@ mod common;
 
 use std::path::Path;
 
-use common::cli::{bin, run, sample, text};
+use common::cli::{bin, run, run_ok, sample, text};
 
 #[test]
 fn check_writes_a_report_a_trace_and_plots_that_parse_back() {
@@ -16,7 +16,7 @@ fn check_writes_a_report_a_trace_and_plots_that_parse_back() {
         dir.path().join("t.csv"),
         dir.path().join("plots"),
     );
-    let o = run(&[
+    let o = run_ok(&[
         "check",
         sample("circle-test.nc").to_str().unwrap(),
         "--json",
@@ -28,7 +28,6 @@ fn check_writes_a_report_a_trace_and_plots_that_parse_back() {
         "--plot",
         plots.to_str().unwrap(),
     ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     assert!(text(&o.stdout).contains("hotspots"));
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
@@ -282,13 +281,12 @@ fn missing_files_and_unstable_gains_are_errors_not_panics() {
 fn plan_bode_stickslip_and_validate_run() {
     let dir = tempfile::tempdir().unwrap();
     let csv_path = dir.path().join("c.csv");
-    let o = run(&[
+    run_ok(&[
         "plan",
         sample("profile-pocket.nc").to_str().unwrap(),
         "--csv",
         csv_path.to_str().unwrap(),
     ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     assert!(csv::Reader::from_path(&csv_path).unwrap().records().count() > 1000);
     let plots = dir.path().join("plots");
     let o = run(&["bode", "--axis", "y", "--plot", plots.to_str().unwrap()]);
@@ -300,7 +298,7 @@ fn plan_bode_stickslip_and_validate_run() {
     assert!(std::fs::read_to_string(&bode).unwrap().contains("<svg"));
     assert!(plots.join("bode-y.png").exists());
     let ss = plots.clone();
-    let o = run(&[
+    let o = run_ok(&[
         "stickslip",
         "--feeds",
         "3,6",
@@ -309,7 +307,6 @@ fn plan_bode_stickslip_and_validate_run() {
         "--plot",
         ss.to_str().unwrap(),
     ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     assert!(text(&o.stdout).contains("stick-slip"));
     assert!(ss.join("stickslip-x.png").exists() && ss.join("stickslip-x.svg").exists());
     let o = run(&["validate"]);
@@ -365,13 +362,12 @@ fn interrupted_and_killed_runs_leave_nothing_behind() {
     let live = out.join(format!(".t.csv.tmp{}.csv", std::process::id()));
     std::fs::write(&dead, "half a trace").unwrap();
     std::fs::write(&live, "being written").unwrap();
-    let o = run(&[
+    run_ok(&[
         "check",
         sample("square.nc").to_str().unwrap(),
         "--trace",
         trace.to_str().unwrap(),
     ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     assert!(!dead.exists(), "a dead run's temporary file stayed");
     assert!(live.exists(), "a live run's temporary file was removed");
     assert!(trace.exists());
@@ -397,13 +393,12 @@ fn time_at_a_drive_limit_is_reported() {
 /// file sets it too low (0.05 A on an axis whose friction alone takes 0.12 A at F1000).
 #[test]
 fn the_small_table_preset_runs_by_name_and_its_amplifier_limit_is_reported() {
-    let o = run(&[
+    let o = run_ok(&[
         "check",
         sample("square.nc").to_str().unwrap(),
         "--machine",
         "small-table",
     ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     let out = text(&o.stdout);
     assert!(out.contains("machine   small-table"), "{out}");
     assert!(!out.contains("drive is at"), "{out}");
@@ -554,6 +549,38 @@ fn a_subprogram_files_lines_are_named_by_file_in_the_report_and_the_trace() {
     }
 }
 
+/// A sweep's CSV has a column for its conditions, flags and each loop's margins per axis;
+/// its JSON the thresholds, and the first (crowned) setting healthy with its margins.
+fn assert_sweep_files_carry_the_margins(csv_path: &Path, json: &Path) {
+    let mut reader = csv::Reader::from_path(csv_path).unwrap();
+    let headers = reader.headers().unwrap().clone();
+    for column in [
+        "loop_damping",
+        "dominated_by",
+        "flags",
+        "x_position_phase_margin_deg",
+        "y_velocity_gain_margin_db",
+        "x_current_peak_db",
+    ] {
+        assert!(
+            headers.iter().any(|h| h == column),
+            "{column} in {headers:?}"
+        );
+    }
+    let doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap();
+    assert_eq!(doc["schema"], "contourcheck.sweep/2");
+    assert_eq!(doc["thresholds"]["min_phase_margin_deg"], 30.0);
+    let first = &doc["points"][0]["result"];
+    assert_eq!(first["status"], "ok");
+    assert!(
+        first["health"]["margins"][0]["loops"][2]["phase_margin_deg"]
+            .as_f64()
+            .unwrap()
+            >= 30.0
+    );
+}
+
 /// The sweep a user compares gains with, the README's, on its small mill: each row says what dominates its error and whether
 /// it is flagged; the margins of every row follow, by rank; the CSV and JSON carry each
 /// loop's margins per axis, and the plot its conditions.
@@ -566,7 +593,7 @@ fn a_sweep_shows_each_settings_margins_and_flags_the_ringing_one() {
         dir.path().join("s.json"),
         dir.path().join("plots"),
     );
-    let o = run(&[
+    let o = run_ok(&[
         "sweep",
         sample("square.nc").to_str().unwrap(),
         "--machine",
@@ -584,7 +611,6 @@ fn a_sweep_shows_each_settings_margins_and_flags_the_ringing_one() {
         "--plot",
         plots.to_str().unwrap(),
     ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     let out = text(&o.stdout);
     assert!(
         out.contains("loop damping  dominated by") && out.contains("stability margins"),
@@ -604,33 +630,7 @@ fn a_sweep_shows_each_settings_margins_and_flags_the_ringing_one() {
         !best.contains("40.0000     4.0000") && !best.contains("flagged"),
         "{best}"
     );
-    let mut reader = csv::Reader::from_path(&csv_path).unwrap();
-    let headers = reader.headers().unwrap().clone();
-    for column in [
-        "loop_damping",
-        "dominated_by",
-        "flags",
-        "x_position_phase_margin_deg",
-        "y_velocity_gain_margin_db",
-        "x_current_peak_db",
-    ] {
-        assert!(
-            headers.iter().any(|h| h == column),
-            "{column} in {headers:?}"
-        );
-    }
-    let doc: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    assert_eq!(doc["schema"], "contourcheck.sweep/2");
-    assert_eq!(doc["thresholds"]["min_phase_margin_deg"], 30.0);
-    let first = &doc["points"][0]["result"];
-    assert_eq!(first["status"], "ok");
-    assert!(
-        first["health"]["margins"][0]["loops"][2]["phase_margin_deg"]
-            .as_f64()
-            .unwrap()
-            >= 30.0
-    );
+    assert_sweep_files_carry_the_margins(&csv_path, &json);
     let svg = std::fs::read_to_string(plots.join("sweep.svg")).unwrap();
     assert!(svg.contains("machine small") && svg.contains("program square.nc"));
     // Stricter thresholds are the user's: at 60° the crowned setting is flagged too.
@@ -663,14 +663,13 @@ fn a_machine_file_without_a_base_is_warned_about_and_named_after_itself() {
     let m = dir.path().join("my-table.toml");
     std::fs::write(&m, "[x.drive]\nbacklash_um = 3.0\n").unwrap();
     let plots = dir.path().join("plots");
-    let o = run(&[
+    let o = run_ok(&[
         "bode",
         "--machine",
         m.to_str().unwrap(),
         "--plot",
         plots.to_str().unwrap(),
     ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     let err = text(&o.stderr);
     assert!(
         err.contains("my-table.toml gives no `base`") && err.contains("`hvmc`"),

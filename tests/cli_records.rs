@@ -5,7 +5,7 @@ mod common;
 
 use std::path::Path;
 
-use common::cli::{run, sample, text};
+use common::cli::{run, run_ok, sample, text};
 
 /// A control's export — milliseconds, vendor column names, semicolons with decimal commas,
 /// a comment and an `EOF` trailer — is diagnosed as it is, with a column mapping, and gives
@@ -16,7 +16,7 @@ fn a_vendor_export_is_diagnosed_without_conversion() {
     let plain = dir.path().join("m.csv");
     // The circular test at half the radius: the same speed and reversals in half the record.
     let circle = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/circle-r50.nc");
-    let o = run(&[
+    run_ok(&[
         "synth",
         circle.to_str().unwrap(),
         "--out",
@@ -28,7 +28,6 @@ fn a_vendor_export_is_diagnosed_without_conversion() {
         "--values",
         "8",
     ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     let mut vendor =
         String::from("// servo trace, axis positions in mm\r\nTime;X_ActPos;Y_ActPos\r\n");
     for line in std::fs::read_to_string(&plain).unwrap().lines().skip(1) {
@@ -42,7 +41,7 @@ fn a_vendor_export_is_diagnosed_without_conversion() {
 
     let overview_dir = dir.path().join("overview");
     let overview = overview_dir.join("inspect.png");
-    let o = run(&[
+    let o = run_ok(&[
         "inspect",
         exported.to_str().unwrap(),
         "--columns",
@@ -50,7 +49,6 @@ fn a_vendor_export_is_diagnosed_without_conversion() {
         "--plot",
         overview_dir.to_str().unwrap(),
     ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     assert!(std::fs::read(&overview).unwrap().starts_with(b"\x89PNG"));
     let shown = text(&o.stdout);
     assert!(
@@ -60,8 +58,7 @@ fn a_vendor_export_is_diagnosed_without_conversion() {
     assert!(shown.contains("at 500.0 Hz"), "{shown}");
     // Without the mapping, the unit-less millisecond clock is read in ms — the only unit
     // giving a plausible step — and the mapping says so.
-    let o = run(&["inspect", exported.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let o = run_ok(&["inspect", exported.to_str().unwrap()]);
     let shown = text(&o.stdout);
     assert!(shown.contains("at 500.0 Hz"), "{shown}");
     assert!(
@@ -88,6 +85,17 @@ fn a_vendor_export_is_diagnosed_without_conversion() {
     assert_eq!(from_export, found(&plain, &[]));
 }
 
+/// The commands of a record `synth --with-commands` wrote at `planned`, re-timed 25 % slower
+/// in another control's columns (ms, mm), written to `commands`.
+fn write_slower_stream(planned: &Path, commands: &Path) {
+    let mut stream = String::from("time_ms,X_Traj,Y_Traj\n");
+    for line in std::fs::read_to_string(planned).unwrap().lines().skip(1) {
+        let f: Vec<f64> = line.split(',').map(|v| v.parse().unwrap()).collect();
+        stream.push_str(&format!("{:.3},{:.7},{:.7}\n", f[0] * 1.25e3, f[3], f[4]));
+    }
+    std::fs::write(commands, stream).unwrap();
+}
+
 /// Another interpolator's commands drive `synth` (a record at 5 kHz in 0.1 µm motor-encoder
 /// counts), and `diagnose` reads it at the motor: the hidden gain error is named, the
 /// causes a motor encoder cannot see are listed as not tried, and the user steers the
@@ -105,7 +113,7 @@ fn a_foreign_command_stream_at_the_motor_is_diagnosed_and_the_user_steers() {
     // Our plan's commands, re-timed 25 % slower on a 1 kHz clock: the same path at
     // another speed, as another control would run it.
     let planned = dir.path().join("planned.csv");
-    let o = run(&[
+    run_ok(&[
         "synth",
         program,
         "--out",
@@ -114,40 +122,16 @@ fn a_foreign_command_stream_at_the_motor_is_diagnosed_and_the_user_steers() {
         "--sample-ms",
         "1",
     ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
-    let mut stream = String::from("time_ms,X_Traj,Y_Traj\n");
-    for line in std::fs::read_to_string(&planned).unwrap().lines().skip(1) {
-        let f: Vec<f64> = line.split(',').map(|v| v.parse().unwrap()).collect();
-        stream.push_str(&format!("{:.3},{:.7},{:.7}\n", f[0] * 1.25e3, f[3], f[4]));
-    }
     let commands = dir.path().join("commands.csv");
-    std::fs::write(&commands, stream).unwrap();
+    write_slower_stream(&planned, &commands);
     let record = dir.path().join("record.csv");
-    let o = run(&[
-        "synth",
-        program,
-        "--out",
-        record.to_str().unwrap(),
-        "--commands",
-        commands.to_str().unwrap(),
-        "--columns",
-        "t=time_ms[ms],x=X_Traj[mm],y=Y_Traj[mm]",
-        "--rate-hz",
-        "5000",
-        "--quantization-um",
-        "0.1",
-        "--measured-at",
-        "motor",
-        "--noise-um",
-        "0.02",
-        "--effect",
-        "kv_gain",
-        "--axis",
-        "y",
-        "--values",
-        "0.9",
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let mut args = vec!["synth", program, "--out", record.to_str().unwrap()];
+    args.extend(["--commands", commands.to_str().unwrap()]);
+    let options = "--columns t=time_ms[ms],x=X_Traj[mm],y=Y_Traj[mm] --rate-hz 5000 \
+                   --quantization-um 0.1 --measured-at motor --noise-um 0.02 \
+                   --effect kv_gain --axis y --values 0.9";
+    args.extend(options.split_whitespace());
+    run_ok(&args);
 
     let diagnose = |extra: &[&str]| {
         let mut args = vec!["diagnose", program, "--measured", record.to_str().unwrap()];
@@ -177,6 +161,7 @@ fn a_foreign_command_stream_at_the_motor_is_diagnosed_and_the_user_steers() {
         excluded.contains("not tried: kv_gain on X, Y (left out"),
         "{excluded}"
     );
+    // An unknown id is refused with the ids there are.
     let o = run(&[
         "diagnose",
         program,
@@ -186,7 +171,6 @@ fn a_foreign_command_stream_at_the_motor_is_diagnosed_and_the_user_steers() {
         "lost_motion",
     ]);
     assert_eq!(o.status.code(), Some(2));
-    // An unknown id is refused with the ids there are.
     let err = text(&o.stderr);
     assert!(
         err.contains("invalid value 'lost_motion'") && err.contains("direction_offset"),
@@ -211,6 +195,37 @@ fn diagnose_takes_at_most_two_records() {
     let err = text(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("at most one to judge on"), "{err}");
+}
+
+/// `identify` of `program` on a record of the machine file `hidden` without its commands
+/// says what the record lacks and writes nothing (files in `dir`).
+fn assert_identify_refuses_a_record_without_commands(program: &str, hidden: &str, dir: &Path) {
+    let path = |name: &str| dir.join(name).to_str().unwrap().to_string();
+    run_ok(&[
+        "synth",
+        program,
+        "--machine",
+        hidden,
+        "--out",
+        &path("bare.csv"),
+    ]);
+    let o = run(&[
+        "identify",
+        program,
+        "--measured",
+        &path("bare.csv"),
+        "--template",
+        "small-table",
+        "--out",
+        &path("never.toml"),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o.stderr).contains("no commanded positions"),
+        "{}",
+        text(&o.stderr)
+    );
+    assert!(!dir.join("never.toml").exists());
 }
 
 /// From a record to a machine file in one command: a small table with heavier tables and
@@ -240,7 +255,7 @@ fn identify_writes_a_machine_file_check_takes_and_a_record_without_commands_is_r
     .unwrap();
     let program = sample("identify-moves.nc");
     let program = program.to_str().unwrap();
-    let o = run(&[
+    run_ok(&[
         "synth",
         program,
         "--machine",
@@ -255,8 +270,7 @@ fn identify_writes_a_machine_file_check_takes_and_a_record_without_commands_is_r
         "--noise-um",
         "0.05",
     ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
-    let o = run(&[
+    let o = run_ok(&[
         "identify",
         program,
         "--measured",
@@ -268,7 +282,6 @@ fn identify_writes_a_machine_file_check_takes_and_a_record_without_commands_is_r
         "--json",
         &path("id.json"),
     ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     let out = text(&o.stdout);
     assert!(
         out.contains("drive.table_mass_kg") && out.contains("machine written to"),
@@ -283,35 +296,8 @@ fn identify_writes_a_machine_file_check_takes_and_a_record_without_commands_is_r
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(path("id.json")).unwrap()).unwrap();
     assert_eq!(json["axes"][0]["axis"], "x");
-    let o = run(&["check", program, "--machine", &path("id.toml")]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
-    // Without the commands.
-    let o = run(&[
-        "synth",
-        program,
-        "--machine",
-        &path("hidden.toml"),
-        "--out",
-        &path("bare.csv"),
-    ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
-    let o = run(&[
-        "identify",
-        program,
-        "--measured",
-        &path("bare.csv"),
-        "--template",
-        "small-table",
-        "--out",
-        &path("never.toml"),
-    ]);
-    assert_eq!(o.status.code(), Some(2));
-    assert!(
-        text(&o.stderr).contains("no commanded positions"),
-        "{}",
-        text(&o.stderr)
-    );
-    assert!(!dir.path().join("never.toml").exists());
+    run_ok(&["check", program, "--machine", &path("id.toml")]);
+    assert_identify_refuses_a_record_without_commands(program, &path("hidden.toml"), dir.path());
 }
 
 /// docs/identify.md's example of a controller that is not its design: the documented commands,
@@ -331,7 +317,7 @@ fn the_readme_lead_lag_example_identifies_the_stand_in() {
     };
     let program = sample("small-circle.nc");
     let program = program.to_str().unwrap();
-    let o = run(&[
+    run_ok(&[
         "synth",
         program,
         "--machine",
@@ -346,8 +332,7 @@ fn the_readme_lead_lag_example_identifies_the_stand_in() {
         "--out",
         &path("record.csv"),
     ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
-    let o = run(&[
+    run_ok(&[
         "identify",
         program,
         "--measured",
@@ -359,7 +344,6 @@ fn the_readme_lead_lag_example_identifies_the_stand_in() {
         "--json",
         &path("id.json"),
     ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(path("id.json")).unwrap()).unwrap();
     let x = &json["axes"][0];
@@ -405,21 +389,20 @@ fn a_command_beyond_the_machine_is_warned_of_once() {
     )
     .unwrap();
     let record = dir.path().join("line.csv");
-    let o = run(&[
+    run_ok(&[
         "synth",
         program.to_str().unwrap(),
         "--with-commands",
         "--out",
         record.to_str().unwrap(),
     ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     let slow = dir.path().join("slow.toml");
     std::fs::write(
         &slow,
         "base = \"hvmc\"\n[x.limits]\nrapid_mm_per_min = 600\nmax_feed_mm_per_min = 600\n",
     )
     .unwrap();
-    let o = run(&[
+    let o = run_ok(&[
         "diagnose",
         program.to_str().unwrap(),
         "--measured",
@@ -427,7 +410,6 @@ fn a_command_beyond_the_machine_is_warned_of_once() {
         "--machine",
         slow.to_str().unwrap(),
     ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     let all = text(&o.stdout) + &text(&o.stderr);
     let warning = "beyond the rapid rate of 600 mm/min (x.limits.rapid_mm_per_min)";
     assert_eq!(all.matches(warning).count(), 1, "{all}");

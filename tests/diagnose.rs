@@ -335,6 +335,38 @@ fn record_with_x_reading(
     parse_trace(&out, "bumped.csv").unwrap()
 }
 
+/// The extended `machine` carries a bump of 6 µm on X around 30 mm, largest inside the
+/// bump, small away from it, and its compensation table says the same.
+fn assert_six_micrometres_carried_at_30_mm(machine: &MachineConfig) {
+    let e = &machine.x.errors;
+    let at = |x: f64| {
+        let k = e
+            .position_map_mm
+            .partition_point(|&p| p < x)
+            .min(e.position_map_mm.len() - 1);
+        e.position_map_um[k]
+    };
+    assert!(
+        (at(30.0).abs() - 6.0).abs() < 1.5,
+        "{} µm at 30 mm",
+        at(30.0)
+    );
+    assert!(at(-50.0).abs() < 0.5 && at(80.0).abs() < 0.5);
+    // As a compensation table: the table stands 6 µm beyond where it is told to at 30 mm —
+    // the direction the record was bumped — whichever way it travels.
+    let tables = contourcheck::diagnose::compensation::compensation(machine);
+    assert_eq!(tables.len(), 1);
+    let (_, forward, reverse) = *tables[0]
+        .points
+        .iter()
+        .min_by(|a, b| (a.0 - 30.0).abs().total_cmp(&(b.0 - 30.0).abs()))
+        .unwrap();
+    assert!(
+        (forward - 6.0).abs() < 1.5 && forward == reverse,
+        "{forward} {reverse}"
+    );
+}
+
 #[test]
 fn an_effect_outside_the_catalogue_is_placed_learned_and_measured() {
     let nominal = MachineConfig::default_preset();
@@ -357,34 +389,7 @@ fn an_effect_outside_the_catalogue_is_placed_learned_and_measured() {
     // the noise (0.3 µm).
     assert!(l.held_out_after_um <= 0.5 * l.held_out_before_um, "{l:?}");
     assert!(l.held_out_after_um < 0.4, "{l:?}");
-    // The extended machine carries it, largest inside the bump, small away from it.
-    let e = &d.machine.x.errors;
-    let at = |x: f64| {
-        let k = e
-            .position_map_mm
-            .partition_point(|&p| p < x)
-            .min(e.position_map_mm.len() - 1);
-        e.position_map_um[k]
-    };
-    assert!(
-        (at(30.0).abs() - 6.0).abs() < 1.5,
-        "{} µm at 30 mm",
-        at(30.0)
-    );
-    assert!(at(-50.0).abs() < 0.5 && at(80.0).abs() < 0.5);
-    // As a compensation table: the table stands 6 µm beyond where it is told to at 30 mm —
-    // the direction the record was bumped — whichever way it travels.
-    let tables = contourcheck::diagnose::compensation::compensation(&d.machine);
-    assert_eq!(tables.len(), 1);
-    let (_, forward, reverse) = *tables[0]
-        .points
-        .iter()
-        .min_by(|a, b| (a.0 - 30.0).abs().total_cmp(&(b.0 - 30.0).abs()))
-        .unwrap();
-    assert!(
-        (forward - 6.0).abs() < 1.5 && forward == reverse,
-        "{forward} {reverse}"
-    );
+    assert_six_micrometres_carried_at_30_mm(&d.machine);
     // What is left follows nothing in particular.
     assert!(
         d.unexplained

@@ -9,6 +9,7 @@ mod common;
 
 use std::process::Command;
 
+use common::cli::{run, run_ok};
 use common::diagnosing::{recorded, sample_path};
 use common::{program_text, sample_program as program};
 use contourcheck::diagnose::causes::CauseId;
@@ -323,69 +324,11 @@ fn a_record_with_its_commands_is_diagnosed_without_its_program() {
     );
 }
 
-#[test]
-fn the_command_line_round_trip_synth_diagnose_check() {
-    let dir = tempfile::tempdir().unwrap();
-    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
-    let circle = sample_path("circle-test.nc");
-    let circle = circle.to_str().unwrap();
-    let run = |args: &[&str]| {
-        Command::new(env!("CARGO_BIN_EXE_contourcheck"))
-            .args(args)
-            .env("CI", "1")
-            .output()
-            .unwrap()
-    };
-    let o = run(&[
-        "synth",
-        circle,
-        "--out",
-        &p("m.csv"),
-        "--effect",
-        "backlash",
-        "--axis",
-        "y",
-        "--values",
-        "12",
-    ]);
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let o = run(&[
-        "diagnose",
-        circle,
-        "--measured",
-        &p("m.csv"),
-        "--json",
-        &p("d.json"),
-        "--write-machine",
-        &p("fitted.toml"),
-        "--plot",
-        &p("plots"),
-    ]);
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    let shown = String::from_utf8_lossy(&o.stdout);
-    assert!(shown.contains("backlash on Y"));
-    // One story: the ballbar's small backlash step beside the 12 µm named is explained.
-    assert!(
-        shown.contains("The ballbar's backlash figure for Y") && shown.contains("reversal spikes"),
-        "{shown}"
-    );
-    // Every file written is said.
-    assert!(
-        shown.contains(&format!("wrote {}", p("fitted.toml"))),
-        "{shown}"
-    );
+/// The diagnosis's JSON at `path` names backlash on Y in µm, which lowers the residual, and
+/// carries the ballbar figures measured and by the extended model.
+fn assert_backlash_on_y_in_the_json(path: &str) {
     let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(p("d.json")).unwrap()).unwrap();
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
     assert_eq!(report["schema"], "contourcheck.diagnose/1");
     assert_eq!(report["causes"][0]["id"], "backlash");
     assert_eq!(report["causes"][0]["axis"], "y");
@@ -405,24 +348,68 @@ fn the_command_line_round_trip_synth_diagnose_check() {
             .unwrap()
             > 0.0
     );
-    for plot in [
-        "diagnose-fit.png",
-        "diagnose-residual-time.svg",
-        "diagnose-residual-path.png",
-        "diagnose-polar-line13.png",
-        "diagnose-polar-line16.svg",
-    ] {
-        assert!(
-            dir.path()
-                .join("plots")
-                .join(plot)
-                .metadata()
-                .unwrap()
-                .len()
-                > 1000,
-            "{plot}"
-        );
+}
+
+/// Each of `names` in `folder` is a plot written whole (over 1 kB).
+fn assert_plots_written(folder: &std::path::Path, names: &[&str]) {
+    for plot in names {
+        assert!(folder.join(plot).metadata().unwrap().len() > 1000, "{plot}");
     }
+}
+
+#[test]
+fn the_command_line_round_trip_synth_diagnose_check() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let circle = sample_path("circle-test.nc");
+    let circle = circle.to_str().unwrap();
+    run_ok(&[
+        "synth",
+        circle,
+        "--out",
+        &p("m.csv"),
+        "--effect",
+        "backlash",
+        "--axis",
+        "y",
+        "--values",
+        "12",
+    ]);
+    let o = run_ok(&[
+        "diagnose",
+        circle,
+        "--measured",
+        &p("m.csv"),
+        "--json",
+        &p("d.json"),
+        "--write-machine",
+        &p("fitted.toml"),
+        "--plot",
+        &p("plots"),
+    ]);
+    let shown = String::from_utf8_lossy(&o.stdout);
+    assert!(shown.contains("backlash on Y"));
+    // One story: the ballbar's small backlash step beside the 12 µm named is explained.
+    assert!(
+        shown.contains("The ballbar's backlash figure for Y") && shown.contains("reversal spikes"),
+        "{shown}"
+    );
+    // Every file written is said.
+    assert!(
+        shown.contains(&format!("wrote {}", p("fitted.toml"))),
+        "{shown}"
+    );
+    assert_backlash_on_y_in_the_json(&p("d.json"));
+    assert_plots_written(
+        &dir.path().join("plots"),
+        &[
+            "diagnose-fit.png",
+            "diagnose-residual-time.svg",
+            "diagnose-residual-path.png",
+            "diagnose-polar-line13.png",
+            "diagnose-polar-line16.svg",
+        ],
+    );
     // The fitted machine loads and predicts with the backlash.
     let fitted = MachineConfig::load(&dir.path().join("fitted.toml")).unwrap();
     assert!(
@@ -430,13 +417,7 @@ fn the_command_line_round_trip_synth_diagnose_check() {
         "{}",
         fitted.y.drive.backlash_um
     );
-    let o = run(&["check", circle, "--machine", &p("fitted.toml")]);
-    assert_eq!(
-        o.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    run_ok(&["check", circle, "--machine", &p("fitted.toml")]);
     // A control names nothing and says so; the JSON has an empty list.
     let o = run(&["synth", circle, "--out", &p("n.csv"), "--seed", "3"]);
     assert_eq!(o.status.code(), Some(0));

@@ -120,12 +120,9 @@ fn trace(dir: &std::path::Path, offset_mm: [f64; 2]) -> MeasuredTrace {
         .in_work_coordinates(offset_mm.map(|v| v * 1e-3))
 }
 
-#[test]
-fn the_840d_trace_from_home_is_diagnosed_from_where_its_commands_join_the_program() {
-    let Some(dir) = folder() else { return };
-    let f = facts(&dir);
-    // The facts themselves, against the folder's README: home at machine X200 Y118.1, the
-    // work offset puts the plate's corner a few hundred mm away from it.
+/// The facts themselves, against the folder's README: home at machine X200 Y118.1, the
+/// work offset puts the plate's corner a few hundred mm away from it.
+fn assert_the_facts_are_the_readmes(f: &Facts) {
     assert!(
         f.first_move_s > 1.8 && f.first_move_s < 2.0,
         "{}",
@@ -136,6 +133,39 @@ fn the_840d_trace_from_home_is_diagnosed_from_where_its_commands_join_the_progra
         "{}",
         f.cut_starts_s
     );
+}
+
+/// The lowest and highest Z of the file's `rows` (time s, Z mm) between `from_s` and `to_s`,
+/// its ends read between rows (the record is read on a regular clock, so its ends fall
+/// between the logger's rows).
+fn z_span_of_rows(rows: &[(f64, f64)], from_s: f64, to_s: f64) -> (f64, f64) {
+    let at = |t: f64| {
+        let k = rows.iter().position(|r| r.0 >= t).unwrap().max(1);
+        let ((t0, z0), (t1, z1)) = (rows[k - 1], rows[k]);
+        z0 + (z1 - z0) * (t - t0) / (t1 - t0)
+    };
+    rows.iter()
+        .filter(|&&(t, _)| t > from_s && t < to_s)
+        .map(|&(_, z)| z)
+        .chain([at(from_s), at(to_s)])
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), z| {
+            (l.min(z), h.max(z))
+        })
+}
+
+/// The fastest Z speed (mm/min) between two of the file's `rows` inside `from_s`..`to_s`.
+fn z_peak_speed_of_rows(rows: &[(f64, f64)], from_s: f64, to_s: f64) -> f64 {
+    rows.windows(2)
+        .filter(|w| w[0].0 > from_s && w[1].0 < to_s)
+        .map(|w| ((w[1].1 - w[0].1) / (w[1].0 - w[0].0)).abs() * 60.0)
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn the_840d_trace_from_home_is_diagnosed_from_where_its_commands_join_the_program() {
+    let Some(dir) = folder() else { return };
+    let f = facts(&dir);
+    assert_the_facts_are_the_readmes(&f);
     let nominal = MachineConfig::default_preset();
     let d = diagnose(
         &program(&dir),
@@ -173,22 +203,8 @@ fn the_840d_trace_from_home_is_diagnosed_from_where_its_commands_join_the_progra
     // columns are read, and the report says how far Z moved there, with the lowest and
     // highest commanded Z of the file's rows in that stretch.
     let [lo, hi] = c.z_span_mm.expect("the 840D trace has Z");
-    // The file's rows in the stretch, and its ends between rows (the record is read on a
-    // regular clock, so its ends fall between the logger's rows).
     let rows = commanded_z(&dir);
-    let at = |t: f64| {
-        let k = rows.iter().position(|r| r.0 >= t).unwrap().max(1);
-        let ((t0, z0), (t1, z1)) = (rows[k - 1], rows[k]);
-        z0 + (z1 - z0) * (t - t0) / (t1 - t0)
-    };
-    let (file_lo, file_hi) = rows
-        .iter()
-        .filter(|&&(t, _)| t > c.compared_from_s && t < c.compared_to_s)
-        .map(|&(_, z)| z)
-        .chain([at(c.compared_from_s), at(c.compared_to_s)])
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), z| {
-            (l.min(z), h.max(z))
-        });
+    let (file_lo, file_hi) = z_span_of_rows(&rows, c.compared_from_s, c.compared_to_s);
     assert!(
         (lo - file_lo).abs() < 0.01 && (hi - file_hi).abs() < 0.01,
         "{c:?}: file {file_lo}..{file_hi}"
@@ -199,11 +215,7 @@ fn the_840d_trace_from_home_is_diagnosed_from_where_its_commands_join_the_progra
     // The preset simulates Z, so Z is compared; but that rapid runs faster than the
     // preset's Z rapid rate (4000 mm/min) by the file's own rows in the stretch, so the
     // model cannot follow it: the diagnosis says so and seeks no cause on Z.
-    let file_peak_mm_per_min = rows
-        .windows(2)
-        .filter(|w| w[0].0 > c.compared_from_s && w[1].0 < c.compared_to_s)
-        .map(|w| ((w[1].1 - w[0].1) / (w[1].0 - w[0].0)).abs() * 60.0)
-        .fold(0.0, f64::max);
+    let file_peak_mm_per_min = z_peak_speed_of_rows(&rows, c.compared_from_s, c.compared_to_s);
     assert!(
         file_peak_mm_per_min > 1.05 * 4000.0,
         "{file_peak_mm_per_min}"

@@ -35,126 +35,67 @@ fn diagnose_reference_with_record(
     (diagnose_nominal(&program, &measured), measured)
 }
 
+/// A nominal record's path: a square of a side (mm), a line there and back to a point
+/// (mm), a circle of a radius (mm).
+#[derive(Clone, Copy)]
+enum Shape {
+    Square(f64),
+    Line(f64, f64),
+    Circle(f64),
+}
+
 /// The nominal records: programs with many stops and without, feeds, rates, noise levels and
-/// seeds.
+/// seeds. Each: name, path, feed (mm/min), sample period (s), noise (µm), seed.
+#[rustfmt::skip]
+const NOMINAL: [(&str, Shape, f64, f64, f64, u64); 20] = [
+    ("square 60 F1000 1 ms", Shape::Square(60.0), 1000.0, 1e-3, 0.3, 1),
+    ("square 60 F1000 2 ms", Shape::Square(60.0), 1000.0, 2e-3, 0.3, 2),
+    ("square 40 F600 1 ms", Shape::Square(40.0), 600.0, 1e-3, 0.3, 3),
+    ("square 40 F600 0.1 ms", Shape::Square(40.0), 600.0, 1e-4, 0.3, 4),
+    ("square 80 F1500 1 ms noise 0.1", Shape::Square(80.0), 1500.0, 1e-3, 0.1, 5),
+    ("square 30 F300 2 ms noise 0.5", Shape::Square(30.0), 300.0, 2e-3, 0.5, 6),
+    ("line 60° F500 1 ms", Shape::Line(30.0, 52.0), 500.0, 1e-3, 0.3, 7),
+    ("line X F800 2 ms", Shape::Line(80.0, 0.0), 800.0, 2e-3, 0.3, 8),
+    ("line Y F800 1 ms", Shape::Line(0.0, 80.0), 800.0, 1e-3, 0.3, 9),
+    ("line 30° F1200 0.1 ms", Shape::Line(60.0, 35.0), 1200.0, 1e-4, 0.3, 10),
+    ("circle R20 F800 1 ms", Shape::Circle(20.0), 800.0, 1e-3, 0.3, 11),
+    ("circle R30 F1000 2 ms", Shape::Circle(30.0), 1000.0, 2e-3, 0.3, 12),
+    ("circle R15 F400 1 ms noise 0.5", Shape::Circle(15.0), 400.0, 1e-3, 0.5, 13),
+    ("circle R40 F1500 1 ms noise 0.1", Shape::Circle(40.0), 1500.0, 1e-3, 0.1, 14),
+    ("circle R25 F600 0.1 ms", Shape::Circle(25.0), 600.0, 1e-4, 0.3, 15),
+    ("square 50 F800 1 ms seed 16", Shape::Square(50.0), 800.0, 1e-3, 0.3, 16),
+    ("square 50 F800 2 ms seed 17", Shape::Square(50.0), 800.0, 2e-3, 0.3, 17),
+    ("line 45° F1000 1 ms", Shape::Line(40.0, 40.0), 1000.0, 1e-3, 0.3, 18),
+    ("circle R20 F800 2 ms seed 19", Shape::Circle(20.0), 800.0, 2e-3, 0.3, 19),
+    ("square 60 F1000 1 ms seed 20", Shape::Square(60.0), 1000.0, 1e-3, 0.3, 20),
+];
+
+/// [`NOMINAL`]'s records: name, program and recording.
 fn nominal_cases() -> Vec<(&'static str, String, Recording)> {
-    let square = |side: f64, feed: f64| {
-        format!("G21 G90 G17 G94\nG0 X0 Y0\nG1 X{side} F{feed}\nY{side}\nX0\nY0\nM2\n")
-    };
-    let line = |x: f64, y: f64, feed: f64| {
-        format!("G21 G90 G17 G94\nG0 X0 Y0\nG1 X{x} Y{y} F{feed}\nG1 X0 Y0\nM2\n")
-    };
-    let circle = |r: f64, feed: f64| {
-        format!("G21 G90 G17 G94\nG0 X{r} Y0\nG3 X{r} Y0 I-{r} J0 F{feed}\nM2\n")
-    };
-    let rec = |sample_s: f64, noise_um: f64, seed: u64| Recording {
-        sample_s,
-        noise_m: noise_um * 1e-6,
-        seed,
-        ..Recording::default()
-    };
-    vec![
-        (
-            "square 60 F1000 1 ms",
-            square(60.0, 1000.0),
-            rec(1e-3, 0.3, 1),
-        ),
-        (
-            "square 60 F1000 2 ms",
-            square(60.0, 1000.0),
-            rec(2e-3, 0.3, 2),
-        ),
-        (
-            "square 40 F600 1 ms",
-            square(40.0, 600.0),
-            rec(1e-3, 0.3, 3),
-        ),
-        (
-            "square 40 F600 0.1 ms",
-            square(40.0, 600.0),
-            rec(1e-4, 0.3, 4),
-        ),
-        (
-            "square 80 F1500 1 ms noise 0.1",
-            square(80.0, 1500.0),
-            rec(1e-3, 0.1, 5),
-        ),
-        (
-            "square 30 F300 2 ms noise 0.5",
-            square(30.0, 300.0),
-            rec(2e-3, 0.5, 6),
-        ),
-        (
-            "line 60° F500 1 ms",
-            line(30.0, 52.0, 500.0),
-            rec(1e-3, 0.3, 7),
-        ),
-        (
-            "line X F800 2 ms",
-            line(80.0, 0.0, 800.0),
-            rec(2e-3, 0.3, 8),
-        ),
-        (
-            "line Y F800 1 ms",
-            line(0.0, 80.0, 800.0),
-            rec(1e-3, 0.3, 9),
-        ),
-        (
-            "line 30° F1200 0.1 ms",
-            line(60.0, 35.0, 1200.0),
-            rec(1e-4, 0.3, 10),
-        ),
-        (
-            "circle R20 F800 1 ms",
-            circle(20.0, 800.0),
-            rec(1e-3, 0.3, 11),
-        ),
-        (
-            "circle R30 F1000 2 ms",
-            circle(30.0, 1000.0),
-            rec(2e-3, 0.3, 12),
-        ),
-        (
-            "circle R15 F400 1 ms noise 0.5",
-            circle(15.0, 400.0),
-            rec(1e-3, 0.5, 13),
-        ),
-        (
-            "circle R40 F1500 1 ms noise 0.1",
-            circle(40.0, 1500.0),
-            rec(1e-3, 0.1, 14),
-        ),
-        (
-            "circle R25 F600 0.1 ms",
-            circle(25.0, 600.0),
-            rec(1e-4, 0.3, 15),
-        ),
-        (
-            "square 50 F800 1 ms seed 16",
-            square(50.0, 800.0),
-            rec(1e-3, 0.3, 16),
-        ),
-        (
-            "square 50 F800 2 ms seed 17",
-            square(50.0, 800.0),
-            rec(2e-3, 0.3, 17),
-        ),
-        (
-            "line 45° F1000 1 ms",
-            line(40.0, 40.0, 1000.0),
-            rec(1e-3, 0.3, 18),
-        ),
-        (
-            "circle R20 F800 2 ms seed 19",
-            circle(20.0, 800.0),
-            rec(2e-3, 0.3, 19),
-        ),
-        (
-            "square 60 F1000 1 ms seed 20",
-            square(60.0, 1000.0),
-            rec(1e-3, 0.3, 20),
-        ),
-    ]
+    let head = "G21 G90 G17 G94";
+    NOMINAL
+        .iter()
+        .map(|&(name, shape, feed, sample_s, noise_um, seed)| {
+            let text = match shape {
+                Shape::Square(side) => {
+                    format!("{head}\nG0 X0 Y0\nG1 X{side} F{feed}\nY{side}\nX0\nY0\nM2\n")
+                }
+                Shape::Line(x, y) => {
+                    format!("{head}\nG0 X0 Y0\nG1 X{x} Y{y} F{feed}\nG1 X0 Y0\nM2\n")
+                }
+                Shape::Circle(r) => {
+                    format!("{head}\nG0 X{r} Y0\nG3 X{r} Y0 I-{r} J0 F{feed}\nM2\n")
+                }
+            };
+            let rec = Recording {
+                sample_s,
+                noise_m: noise_um * 1e-6,
+                seed,
+                ..Recording::default()
+            };
+            (name, text, rec)
+        })
+        .collect()
 }
 
 /// The false-alarm test: twenty independent nominal records — squares whose axes hold while

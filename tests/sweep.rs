@@ -310,6 +310,40 @@ fn small_mill() -> MachineConfig {
     .unwrap()
 }
 
+/// In a sweep over both axes' K_v and K_s (in that order): every setting with a
+/// position-loop phase margin under 30° is flagged, and every setting's gain margin is its
+/// distance to the edge of stability of its own K_s.
+fn assert_margins_flagged_and_by_eigenvalues(
+    points: &[sweep::SweepPoint],
+    machine: &MachineConfig,
+) {
+    for q in points {
+        let PointResult::Ok { health, flags, .. } = &q.result else {
+            continue;
+        };
+        let pm = health
+            .least(Loop::Position, |m| m.phase_margin_deg)
+            .unwrap();
+        if pm < 30.0 {
+            assert!(
+                flags.iter().any(|f| matches!(f, Flag::PhaseMargin { .. })),
+                "{:?}: {pm}° not flagged",
+                q.values
+            );
+        }
+        // Each setting's gain margin against the edge of stability of its own K_s.
+        let mut at_ks = machine.clone();
+        at_ks.x.velocity_loop.as_mut().unwrap().ks_nm_s_per_rad = q.values[1];
+        let by_eigenvalues = 20.0 * (edge_of_stability_kv(&at_ks) / q.values[0]).log10();
+        let gm = health.least(Loop::Position, |m| m.gain_margin_db).unwrap();
+        assert!(
+            (gm - by_eigenvalues).abs() < 0.05,
+            "{:?}: {gm} against {by_eigenvalues}",
+            q.values
+        );
+    }
+}
+
 /// Comparing gains on the small machine: the stiffest position gain on the softest
 /// velocity loop (Kv 40, K_s 4) makes the smallest contour error — and rings, its position
 /// loop left with a phase margin near 12°. Every setting below 30° is flagged, and the
@@ -345,31 +379,7 @@ fn the_small_machines_sweep_crowns_a_setting_with_margins() {
         .unwrap();
     assert_eq!(by_error.values, stiffest);
     sweep::rank(&mut points, &Thresholds::default());
-    for q in &points {
-        let PointResult::Ok { health, flags, .. } = &q.result else {
-            continue;
-        };
-        let pm = health
-            .least(Loop::Position, |m| m.phase_margin_deg)
-            .unwrap();
-        if pm < 30.0 {
-            assert!(
-                flags.iter().any(|f| matches!(f, Flag::PhaseMargin { .. })),
-                "{:?}: {pm}° not flagged",
-                q.values
-            );
-        }
-        // Each setting's gain margin against the edge of stability of its own K_s.
-        let mut at_ks = machine.clone();
-        at_ks.x.velocity_loop.as_mut().unwrap().ks_nm_s_per_rad = q.values[1];
-        let by_eigenvalues = 20.0 * (edge_of_stability_kv(&at_ks) / q.values[0]).log10();
-        let gm = health.least(Loop::Position, |m| m.gain_margin_db).unwrap();
-        assert!(
-            (gm - by_eigenvalues).abs() < 0.05,
-            "{:?}: {gm} against {by_eigenvalues}",
-            q.values
-        );
-    }
+    assert_margins_flagged_and_by_eigenvalues(&points, &machine);
     let flags = flags_of(&points, &stiffest);
     assert!(
         flags.iter().any(

@@ -24,3 +24,12 @@ pub fn run(args: &[&str]) -> Output {
 pub fn text(o: &[u8]) -> String {
     String::from_utf8_lossy(o).into_owned()
 }
+
+/// The binary run with `args` as [`run`] runs it, which must succeed (what it wrote to
+/// stderr is shown if it does not).
+#[track_caller]
+pub fn run_ok(args: &[&str]) -> Output {
+    let o = run(args);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    o
+}
