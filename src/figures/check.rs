@@ -2,7 +2,7 @@
 //! and a ballbar-style polar plot per circular test — drawn as files by `check --plot` and
 //! inline in the HTML report.
 
-use crate::analysis::circular::too_sparse_for_a_plot;
+use crate::analysis::polar_points::too_sparse_for_a_plot;
 use crate::check::report::CheckReport;
 use crate::check::{CheckResult, CircleTest, circle_tests};
 use crate::gcode::SourceFile;

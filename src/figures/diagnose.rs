@@ -5,7 +5,8 @@
 
 use std::path::Path;
 
-use crate::analysis::circular::{Circle, CircularTest, radial_points, too_sparse_for_a_plot};
+use crate::analysis::circular::{Circle, CircularTest, radial_points};
+use crate::analysis::polar_points::too_sparse_for_a_plot;
 use crate::diagnose::Diagnosis;
 use crate::numeric::units::{mm_from_m, um_from_m};
 use crate::plot::panels::{Curve, Panel, PanelsPlot};
