@@ -102,12 +102,17 @@ pub fn diagnose_page(
         polar: figures
             .circles
             .iter()
-            .map(|(line, c)| svg(format!("Circle of line {line}: radial deviation"), c))
+            .map(|c| {
+                svg(
+                    format!("Circle of line {}: radial deviation", c.line),
+                    &c.plot,
+                )
+            })
             .collect::<Result<_, _>>()?,
         polar_not_drawn: figures
             .circles_not_drawn
             .iter()
-            .map(|(line, why)| format!("line {line}: {why}"))
+            .map(ToString::to_string)
             .collect(),
     };
     render("diagnose.html", page)
