@@ -144,9 +144,8 @@ pub struct CircleFigures {
 pub struct Hysteresis {
     /// Line of the counter-clockwise circle.
     pub ccw_line: u32,
-    /// The plane of the pair; left out for XY (the `x`/`y` figures are then its first and
-    /// second axes').
-    #[serde(skip_serializing_if = "Plane::is_xy")]
+    /// The plane of the pair (the `x`/`y` figures are its first and second axes'), written
+    /// for every pair as for every circle.
     pub plane: Plane,
     /// Line of the clockwise circle.
     pub cw_line: u32,
