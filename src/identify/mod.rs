@@ -475,7 +475,7 @@ fn identify_on(
     let template_axis = template.axis(axis).clone();
     let start = staged::start(fit, knobs, &template_axis);
     let (round, base) = Round::fit_determined(fit, knobs, &start, &template_axis, &fold)?;
-    let config = round.config(&base, &round.whole);
+    let config = round.config(&round.whole);
     let mask = fit.mask();
     let rms = |r: &[f64]| {
         let (ss, n) = r
@@ -488,9 +488,18 @@ fn identify_on(
     let template_residual = fit.residual(&template_axis)?;
     let identified_residual = fit.residual(&config)?;
     let values = fitted_values(knobs, &round, &config, &template_axis);
+    let reached = rms(&identified_residual) <= REACHED_EXCESS * um_from_m(ctx.noise_sigma);
     // Each half's fit scored on the other half; the template, fitted to neither, on all.
-    let held_out_identified_um = um_from_m(round.held_out_rms(fit, &base, &fold)?);
+    // Above the noise, where a fit is written as a model for what it predicts alone, only a
+    // half's fit with a point of its own counts (`Round::held_out_rms_own`): without one,
+    // the fit has not shown that it predicts data it was not fitted to.
+    let own = (!reached).then(|| round.held_out_rms_own(fit, &fold));
+    let held_out_identified_um = um_from_m(match own {
+        Some(Some(own)) => own,
+        _ => round.held_out_rms(fit, &fold)?,
+    });
     let held_out_template_um = rms(&template_residual);
+    let shown = own.is_none_or(|own| own.is_some());
     let following_error_um = um_from_m(following_error_rms(ctx, axis, offset, mask));
     Some((
         config,
@@ -499,11 +508,9 @@ fn identify_on(
             values,
             kept: knobs::kept(&template_axis).to_string(),
             moving_only,
-            reached: rms(&identified_residual) <= REACHED_EXCESS * um_from_m(ctx.noise_sigma),
-            better_than_template: verdict::predicts_better(
-                held_out_identified_um,
-                held_out_template_um,
-            ),
+            reached,
+            better_than_template: shown
+                && verdict::predicts_better(held_out_identified_um, held_out_template_um),
             following_error_rms_um: following_error_um,
             held_out_share: held_out_identified_um / following_error_um,
             baseline: baseline::regression(ctx, axis, offset, mask),
@@ -516,7 +523,7 @@ fn identify_on(
             template_holds: false,
             judged_while_moving: false,
             while_moving: (!moving_only)
-                .then(|| verdict::while_moving(fit, &round, &base, &fold, &template_residual))
+                .then(|| verdict::while_moving(fit, &round, &fold, &template_residual))
                 .flatten(),
         },
     ))
@@ -625,7 +632,7 @@ fn gain_per_inertia(round: &Round, base: &AxisConfig) -> Option<GainPerInertia> 
         .into_iter()
         .find_map(|key| Some((key, index(key)?)))?;
     let ratio = |fitted: &Fitted| {
-        let config = round.config(base, fitted);
+        let config = round.config(fitted);
         let inertia_kg = crate::sim::AxisModel::from_config(&config).mass_at_table_kg();
         (
             get(&config, gain_key) / inertia_kg,

@@ -9,7 +9,7 @@ use super::AxisIdentification;
 use super::round::Round;
 use super::solve::Fit;
 use crate::compare::Context;
-use crate::machine::{AxisConfig, AxisName};
+use crate::machine::AxisName;
 use crate::numeric::units::um_from_m;
 
 /// How much better on the held-out halves a model with more values fitted must predict than
@@ -138,7 +138,6 @@ pub(crate) fn judged_while_moving(id: &mut AxisIdentification, noise_um: f64) ->
 pub(crate) fn while_moving(
     fit: &Fit,
     round: &Round,
-    base: &AxisConfig,
     fold: &[bool],
     template_residual: &[f64],
 ) -> Option<WhileMoving> {
@@ -148,7 +147,7 @@ pub(crate) fn while_moving(
         .zip(fit.mask())
         .map(|(a, b)| *a && *b)
         .collect();
-    let identified = round.held_out_rms_on(fit, base, fold, &mask)?;
+    let identified = round.held_out_rms_on(fit, fold, &mask)?;
     let (ss, n) = template_residual
         .iter()
         .zip(&mask)
