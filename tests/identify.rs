@@ -453,6 +453,26 @@ fn a_small_table_recorded_by_an_independent_integrator_is_predicted_as_its_truth
         "{moving:?}"
     );
     assert!(!x.reached && x.values.iter().all(|v| !v.measured), "{x:?}");
+    // Nor determined: each value fitted is written loose, and says so wherever it is shown
+    // (the report's JSON and the machine file's header, which the HTML page's status shares).
+    assert!(
+        x.values
+            .iter()
+            .all(|v| !v.determined && (v.loose == v.fitted())),
+        "{x:?}"
+    );
+    let header = id.machine_file(&template, "fitted.nc");
+    let gain = header
+        .lines()
+        .find(|l| l.starts_with("#   X.controller.gain ="))
+        .unwrap();
+    assert!(
+        gain.contains("the record's halves leave it loose"),
+        "{gain}"
+    );
+    let json = serde_json::to_value(x).unwrap();
+    assert_eq!(json["values"][0]["loose"], true, "{json}");
+    assert_eq!(json["values"][0]["determined"], false, "{json}");
     // Another program's record (one, for the three machines).
     let other = other_program();
     let measured = encoder_record(&other, &truth, 93);

@@ -337,6 +337,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             determined: false,
             measured: false,
             traded_with: None,
+            loose: false,
         })
         .collect();
     Some((
@@ -379,6 +380,7 @@ fn not_reached(
         v.determined = false;
         v.measured = false;
         v.traded_with = None;
+        v.loose = false;
         v.uncertainty = f64::NAN;
         v.value = v.template;
     }
@@ -417,6 +419,7 @@ fn identify_ordered(
                 determined: false,
                 measured: false,
                 traded_with: None,
+                loose: false,
             });
         }
         (config, id)
@@ -563,6 +566,7 @@ fn fitted_values(
                 determined: sigma.is_some() && traded_with.is_none(),
                 measured: traded_with.is_none() && sigma.is_some_and(|s| k.determines(s, value)),
                 traded_with,
+                loose: false,
             }
         })
         .collect()
@@ -781,6 +785,50 @@ mod tests {
         let mut unreached = scored(0.063, 0.074);
         unreached.reached = false;
         assert!(!template_holds(&unreached, noise_um));
+    }
+
+    #[test]
+    fn values_whose_halves_miss_each_other_while_moving_are_written_loose() {
+        let noise_um = 0.06;
+        // At the noise on every sample, its halves ten times the noise apart there (it
+        // hunts), while moving better than the template but still 2.2 times the noise apart.
+        let mut id = scored(0.42, 0.54);
+        id.values = vec![IdentifiedValue {
+            key: "controller.gain",
+            unit: "",
+            template: 337.8,
+            value: 440.5,
+            uncertainty: 21.6,
+            determined: true,
+            measured: true,
+            traded_with: None,
+            loose: false,
+        }];
+        id.while_moving = Some(WhileMoving {
+            held_out_template_um: 0.28,
+            held_out_identified_um: 0.134,
+            following_error_rms_um: 1.1,
+            held_out_share: 0.12,
+        });
+        assert!(verdict::judged_while_moving(&mut id, noise_um));
+        assert!(id.judged_while_moving && id.better_than_template && !id.reached);
+        let v = &id.values[0];
+        assert!(
+            v.loose && v.fitted() && !v.determined && !v.measured,
+            "{v:?}"
+        );
+        assert!(report::shown(v).contains("the record's halves leave it loose"));
+        // Within twice the noise while moving, the same values are determined.
+        let mut close = scored(0.42, 0.54);
+        close.values = id.values.clone();
+        close.values[0].determined = true;
+        close.values[0].loose = false;
+        close.while_moving = Some(WhileMoving {
+            held_out_identified_um: 0.1,
+            ..id.while_moving.clone().unwrap()
+        });
+        assert!(verdict::judged_while_moving(&mut close, noise_um));
+        assert!(close.reached && close.values[0].determined && !close.values[0].loose);
     }
 
     #[test]

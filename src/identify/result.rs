@@ -27,9 +27,9 @@ pub struct IdentifiedValue {
     /// Its standard uncertainty (NaN where the template's).
     pub uncertainty: f64,
     /// Whether the record determines it: fitted, with an uncertainty within half of it (or
-    /// of its scale). A value fitted and written though the record leaves it looser than
-    /// that is not determined: it names the value it trades with (`traded_with`). Neither:
-    /// the template's.
+    /// of its scale), on a fit whose halves predict each other. A value fitted and written
+    /// though the record leaves it looser than that is not determined: it names the value
+    /// it trades with (`traded_with`), or is `loose`. None of these: the template's.
     pub determined: bool,
     /// Whether it reads as the machine's own value: determined, with an uncertainty —
     /// widened to what a modelling difference of half the noise could move it by — within
@@ -41,13 +41,19 @@ pub struct IdentifiedValue {
     /// the template's put back —: the value it trades with most. Only their combination is
     /// the record's; the value alone is neither determined, nor a measurement, nor certain.
     pub traded_with: Option<&'static str>,
+    /// Fitted and written, but the record leaves it loose: the fit on every sample reached
+    /// the record's noise, yet its halves' fits predict each other while the axis moves only
+    /// to more than twice the noise (the axis judged there) — each half put the values
+    /// elsewhere. Written because they predict better than the template; not determined,
+    /// not a measurement.
+    pub loose: bool,
 }
 
 impl IdentifiedValue {
-    /// Whether the value written is fitted to the record (determined, or traded with
-    /// another), rather than the template's.
+    /// Whether the value written is fitted to the record (determined, traded with another,
+    /// or loose), rather than the template's.
     pub fn fitted(&self) -> bool {
-        self.determined || self.traded_with.is_some()
+        self.determined || self.traded_with.is_some() || self.loose
     }
 }
 
