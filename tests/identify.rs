@@ -473,6 +473,32 @@ fn a_small_table_recorded_by_an_independent_integrator_is_predicted_as_its_truth
     let json = serde_json::to_value(x).unwrap();
     assert_eq!(json["values"][0]["loose"], true, "{json}");
     assert_eq!(json["values"][0]["determined"], false, "{json}");
+    // Not measurements, but the machine's values within what the report states of them:
+    // each value fitted on X lies within twice its standard uncertainty of the hidden one
+    // (a standard uncertainty that holds covers the truth at that width about 19 times in
+    // 20; here the gain and the mass land 1.5 of theirs low, along their ratio), and the
+    // gain over the whole inertia, which the record determines, within one.
+    let hidden_x = truth.axis(AxisName::X);
+    for v in x.values.iter().filter(|v| v.fitted()) {
+        let want = hidden_value(hidden_x, v.key);
+        assert!(
+            (v.value - want).abs() <= 2.0 * v.uncertainty,
+            "X: {} = {} ± {}, hidden {want}",
+            v.key,
+            v.value,
+            v.uncertainty
+        );
+    }
+    assert!(x.values.iter().filter(|v| v.fitted()).count() >= 4, "{x:?}");
+    let ratio = x.gain_per_inertia.as_ref().unwrap();
+    let want = gain_per_inertia(hidden_x, ratio.gain);
+    assert!(
+        (ratio.value - want).abs() <= ratio.uncertainty,
+        "X: {} per inertia {} ± {}, hidden {want}",
+        ratio.gain,
+        ratio.value,
+        ratio.uncertainty
+    );
     // Another program's record (one, for the three machines).
     let other = other_program();
     let measured = encoder_record(&other, &truth, 93);
