@@ -125,6 +125,10 @@ fn the_check_report_shows_the_json_figures() {
     ]);
     assert_eq!(o.status.code(), Some(1), "5.07 µm exceeds 4 µm");
     let report: Value = serde_json::from_str(&read(&json)).unwrap();
+    // The pair of circles in XY names its plane, as each of its circles does.
+    let pair = &report["circular_test"]["pairs"][0];
+    assert_eq!(pair["plane"], "XY", "{pair}");
+    assert_eq!(report["circular_test"]["circles"][0]["plane"], "XY");
     let text = read(&html);
     assert_self_contained(&text);
     let page = Html::parse_document(&text);

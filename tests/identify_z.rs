@@ -10,7 +10,7 @@ mod common;
 use common::program_text;
 use common::reference::{Recording, record_xyz};
 use contourcheck::compare::CompareSettings;
-use contourcheck::identify::{AxisIdentification, identify};
+use contourcheck::identify::{AxisIdentification, Identification, identify};
 use contourcheck::machine::{AxisName, MachineConfig};
 use contourcheck::trace::measured::parse_trace;
 
@@ -87,24 +87,26 @@ fn a_low_gain_on_z_is_identified_on_z_and_x_and_y_keep_their_values() {
     }
 }
 
-/// A turn in XY at one height between plunges and retracts of Z alone at 1000 mm/min:
-/// Z starts and stops eight times.
-const PLUNGES: &str = "G21 G90 G94 G17\nG0 X3 Y0 Z0\nG1 Z-3 F1000\nG3 X3 Y0 I-3 J0 F2000\n\
-                       G1 Z0 F1000\nG1 Z-3\nG1 Z0\nM2\n";
+/// A plunge and a retract of Z alone at 1000 mm/min (3 mm), between them moves of X alone
+/// and Y alone (3 mm each) at the same feed.
+const PLUNGES: &str = "G21 G90 G94 G17\nG0 X0 Y0 Z0\nG1 Z-3 F1000\nG1 X3\nG1 Y3\nG1 Z0\nM2\n";
 
-#[test]
-fn z_s_acceleration_limit_is_read_where_the_record_holds_it_below_the_demand() {
-    // The reference's interpolator ramps every block at 0.2 m/s²: a plunge of Z alone
-    // accelerates Z at that, flat for 83 ms (16.7 mm/s over 0.2 m/s²), at each of its eight
-    // starts and stops. The template's planner would ask more: its jerk limit (5 m/s³) lets
-    // a move that reaches only v = 16.7 mm/s accelerate at √(v·jerk) = 0.289 m/s², below Z's
-    // 0.5 m/s² limit. The control's limit is 0.2, written as Z's; its jerk is a step (no
-    // jerk limit): not read.
-    let program = program_text(PLUNGES);
-    let template = MachineConfig::default_preset();
+/// The same, then a fast retract of Z (25 mm, as a rapid).
+const PLUNGES_AND_RAPID: &str = "G21 G90 G94 G17\nG0 X0 Y0 Z0\nG1 Z-3 F1000\nG1 X3\nG1 Y3\n\
+                                 G1 Z0\nG0 Z25\nM2\n";
+
+/// The reference's interpolator ramps every block at this (m/s²).
+const RECORD_ACCEL: f64 = 0.1;
+
+/// `identify` on `text` recorded every `sample_s` by the reference on the nominal machine,
+/// from the nominal template with its interpolation cycle `cycle_ms`.
+fn plunges_identified(text: &str, sample_s: f64, cycle_ms: f64) -> (MachineConfig, Identification) {
+    let program = program_text(text);
+    let mut template = MachineConfig::default_preset();
+    template.interpolation.cycle_ms = cycle_ms;
     let rec = Recording {
-        accel: 0.2,
-        sample_s: 2e-3,
+        accel: RECORD_ACCEL,
+        sample_s,
         ..Recording::default()
     };
     let csv = record_xyz(
@@ -115,25 +117,79 @@ fn z_s_acceleration_limit_is_read_where_the_record_holds_it_below_the_demand() {
     let measured = parse_trace(&csv, "plunges.csv").unwrap();
     let settings = CompareSettings::for_machine(&template);
     let id = identify(&program, &template, &measured, &settings).unwrap();
+    (template, id)
+}
+
+/// What the template's planner asks of an axis moving alone to `feed` (mm/min): √(v·jerk)
+/// where its jerk limit caps the acceleration before it reaches its own limit, else that.
+fn jerk_capped_demand(template: &MachineConfig, axis: AxisName, feed_mm_per_min: f64) -> f64 {
+    let limits = &template.axis(axis).limits;
+    (feed_mm_per_min / 60e3 * limits.max_jerk_m_per_s3)
+        .sqrt()
+        .min(limits.max_accel_m_per_s2)
+}
+
+/// Every axis's acceleration limit read as the reference's ramp and written, its jerk (a
+/// step: a trapezoidal interpolator has no jerk limit) neither read nor written. Z's
+/// fastest move runs at `z_feed` (mm/min) in the template's plan.
+fn limits_read_as_the_ramp(template: &MachineConfig, id: &Identification, z_feed: f64) {
     let i = &id.interpolator;
     assert_eq!(i.accel_limited.len(), 3, "{i:?}");
-    let jerk = template.axis(AxisName::Z).limits.max_jerk_m_per_s3;
-    let demand = (1.0 / 60.0 * jerk).sqrt();
-    assert!(
-        (i.demanded_accel_m_per_s2[2] - demand).abs() < 0.01 * demand,
-        "{i:?}"
-    );
-    assert!(
-        (i.accel_m_per_s2[2] - rec.accel).abs() < 0.01 * rec.accel,
-        "{i:?}"
-    );
-    assert!(i.accel_limited[2] && !i.jerk_limited[2], "{i:?}");
-    let written = id.machine_file(&template, "plunges.nc");
+    let written = id.machine_file(template, "plunges.nc");
     let read = MachineConfig::from_toml_str(&written, "identified.toml").unwrap();
-    let z = &read.axis(AxisName::Z).limits;
-    assert!((z.max_accel_m_per_s2 - rec.accel).abs() < 0.005, "{z:?}");
-    assert_eq!(
-        z.max_jerk_m_per_s3,
-        template.axis(AxisName::Z).limits.max_jerk_m_per_s3
-    );
+    for (k, axis) in [AxisName::X, AxisName::Y, AxisName::Z]
+        .into_iter()
+        .enumerate()
+    {
+        // Each axis moved alone at 1000 mm/min: the template's planner asks √(v·jerk)
+        // = 0.289 m/s² of it, below its 0.5 m/s² limit — the apex of a triangle in the
+        // acceleration, sampled every cycle: up to jerk·cycle/2 below it. A rapid of Z at
+        // the template's 4000 mm/min asks its limit.
+        let feed = if axis == AxisName::Z { z_feed } else { 1000.0 };
+        let demand = jerk_capped_demand(template, axis, feed);
+        let sampled =
+            template.axis(axis).limits.max_jerk_m_per_s3 * template.interpolation.cycle_ms * 1e-3
+                / 2.0;
+        let demanded = i.demanded_accel_m_per_s2[k];
+        assert!(
+            demanded >= demand - sampled && demanded <= 1.01 * demand,
+            "{axis}: {i:?}"
+        );
+        assert!(
+            (i.accel_m_per_s2[k] - RECORD_ACCEL).abs() < 0.01 * RECORD_ACCEL,
+            "{axis}: {i:?}"
+        );
+        assert!(i.accel_limited[k] && !i.jerk_limited[k], "{axis}: {i:?}");
+        let limits = &read.axis(axis).limits;
+        assert!(
+            (limits.max_accel_m_per_s2 - RECORD_ACCEL).abs() < 0.005,
+            "{axis}: {limits:?}"
+        );
+        assert_eq!(
+            limits.max_jerk_m_per_s3,
+            template.axis(axis).limits.max_jerk_m_per_s3
+        );
+    }
+}
+
+#[test]
+fn acceleration_limits_are_read_where_the_record_holds_them_below_the_demand() {
+    // The reference's interpolator ramps every block at 0.1 m/s²: X, Y and Z each
+    // accelerate at that, flat for 167 ms (16.7 mm/s over 0.1 m/s²), at every start and
+    // stop of their own moves, where the template's planner would ask 0.289 m/s²: the
+    // control's limit, 0.1, is written for each. Z's fast retract reaches 50 mm/s (√(a·d)
+    // over 25 mm): over a 5 ms plateau the path speed changes by only 0.5 mm/s, 1 % of that
+    // top speed, yet each axis's own ramps still show its limit.
+    let (template, id) = plunges_identified(PLUNGES_AND_RAPID, 2e-3, 2.0);
+    let rapid = template.axis(AxisName::Z).limits.rapid_mm_per_min;
+    limits_read_as_the_ramp(&template, &id, rapid);
+}
+
+#[test]
+fn acceleration_limits_are_read_from_a_50_hz_record_on_a_coarse_cycle() {
+    // The same moves recorded at 50 Hz (a control's own trace), identified from a template
+    // whose control interpolates every 10 ms: a 5 ms plateau is shorter than a cycle, yet
+    // the ramps — 167 ms, eight samples each — show the limit.
+    let (template, id) = plunges_identified(PLUNGES, 0.02, 10.0);
+    limits_read_as_the_ramp(&template, &id, 1000.0);
 }

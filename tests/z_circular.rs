@@ -190,13 +190,18 @@ fn circles_in_zx_without_z_compared_are_left_out_with_the_reason() {
     );
     let left: Vec<(u32, Plane)> = c.left_out.iter().map(|l| (l.line, l.plane)).collect();
     assert_eq!(left, [(4, Plane::Zx), (7, Plane::Zx)], "{c:?}");
-    let said = DiagnoseReport::new(&d, "g18.nc", measured, &carrying).to_string();
-    assert!(
-        said.contains(
-            "line 4 (ZX plane, G18): no figures: Z is not compared: the machine file carries Z"
-        ),
-        "{said}"
-    );
+    let report = DiagnoseReport::new(&d, "g18.nc", measured, &carrying);
+    let said = report.to_string();
+    let why = "(ZX plane, G18): no figures: Z is not compared: the machine file carries Z";
+    assert!(said.contains(&format!("line 4 {why}")), "{said}");
+    // The HTML page lists them too, each with its reason.
+    let page = diagnose_page(&d, &report, &ReportInputs::default()).unwrap();
+    for line in [4, 7] {
+        assert!(
+            page.contains(&format!("Circle of line {line} {why}")),
+            "line {line} not listed on the page"
+        );
+    }
 }
 
 /// The places of the largest contour residuals give Z, and lie on the circle in ZX where

@@ -144,9 +144,8 @@ pub struct CircleFigures {
 pub struct Hysteresis {
     /// Line of the counter-clockwise circle.
     pub ccw_line: u32,
-    /// The plane of the pair; left out for XY (the `x`/`y` figures are then its first and
-    /// second axes').
-    #[serde(skip_serializing_if = "Plane::is_xy")]
+    /// The plane of the pair (the `x`/`y` figures are its first and second axes'), written
+    /// for every pair as for every circle.
     pub plane: Plane,
     /// Line of the clockwise circle.
     pub cw_line: u32,
@@ -195,49 +194,6 @@ pub struct CircularTest {
 
 /// Fewest samples on a circle for figures worth stating.
 pub(crate) const MIN_SAMPLES: usize = 36;
-
-/// Fewest points per turn for a polar plot: one every 10°. The plot is read for the
-/// reversal spikes, which stand within 5°–15° of the quadrant points; points farther apart
-/// than 10° leave that band empty on one side or the other of a quadrant point, and the
-/// plot draws a polygon whose corners are the samples, not the machine.
-#[cfg(feature = "html-report")]
-pub(crate) const MIN_POINTS_PER_TURN: f64 = 36.0;
-
-/// How many points a path gives per turn of a circle while it goes round: its points
-/// (angle rad, in the order taken) over the angle they go round, in turns — counting only
-/// the steps that move a tenth of the largest step or more, so that the samples of a
-/// standstill at the circle's ends (all at one angle) do not pass for resolution. Zero for
-/// points that do not go round.
-#[cfg(feature = "html-report")]
-pub(crate) fn points_per_turn(points: &[(f64, f64)]) -> f64 {
-    use std::f64::consts::{PI, TAU};
-    let steps: Vec<f64> = points
-        .windows(2)
-        .map(|w| ((w[1].0 - w[0].0 + PI).rem_euclid(TAU) - PI).abs())
-        .collect();
-    let top = steps.iter().fold(0.0f64, |m, s| m.max(*s));
-    let moving: Vec<f64> = steps.into_iter().filter(|s| *s >= 0.1 * top).collect();
-    let turns = moving.iter().sum::<f64>() / TAU;
-    if top <= 0.0 {
-        return 0.0;
-    }
-    moving.len() as f64 / turns
-}
-
-/// Why a circle's points make no polar plot, if they do not: fewer than
-/// [`MIN_POINTS_PER_TURN`].
-#[cfg(feature = "html-report")]
-pub(crate) fn too_sparse_for_a_plot(points: &[(f64, f64)]) -> Option<String> {
-    let per_turn = points_per_turn(points);
-    (per_turn < MIN_POINTS_PER_TURN).then(|| {
-        format!(
-            "no polar plot: {} points, {per_turn:.0} per turn, fewer than {MIN_POINTS_PER_TURN:.0} \
-             (one every 10°): the reversal spikes, 5°–15° from the quadrant points, would fall \
-             between them",
-            points.len()
-        )
-    })
-}
 
 /// The circular-test figures of a path: `segment[k]` is the plan segment sample `k` lies
 /// nearest to (as the contour search found it), `[x, y, z]` its position (m). Each circle
@@ -904,35 +860,5 @@ mod tests {
             near(p.backlash_x_um, 3.0) && near(p.backlash_y_um, 0.0),
             "{p:?}"
         );
-    }
-
-    #[cfg(feature = "html-report")]
-    #[test]
-    fn points_per_turn_is_the_points_over_the_angle_they_go_round() {
-        // One sample every `step` degrees from 0°, `n` of them, clockwise where `step` < 0.
-        let spaced = |step: f64, n: usize| -> Vec<(f64, f64)> {
-            (0..n)
-                .map(|k| {
-                    let a = (k as f64 * step).to_radians();
-                    (a.sin().atan2(a.cos()), 0.0)
-                })
-                .collect()
-        };
-        // Every 10° round one turn: 36 per turn, enough; every 12°: 30, too few.
-        assert!((points_per_turn(&spaced(10.0, 36)) - 36.0).abs() < 1e-9);
-        assert!(too_sparse_for_a_plot(&spaced(10.0, 36)).is_none());
-        assert!((points_per_turn(&spaced(-12.0, 30)) - 30.0).abs() < 1e-9);
-        let why = too_sparse_for_a_plot(&spaced(-12.0, 30)).unwrap();
-        assert!(why.contains("30 per turn, fewer than 36"), "{why}");
-        // 40 points over two turns (every 18°): 20 per turn, though more than 36 in all.
-        assert!((points_per_turn(&spaced(18.0, 40)) - 20.0).abs() < 1e-9);
-        assert!(too_sparse_for_a_plot(&spaced(18.0, 40)).is_some());
-        // A standstill at the end (20 samples at its last angle) adds no resolution.
-        let mut then_stands = spaced(-12.0, 30);
-        then_stands.extend([then_stands[29]; 20]);
-        assert!((points_per_turn(&then_stands) - 30.0).abs() < 1e-9);
-        // One point, or points that stand: none.
-        assert_eq!(points_per_turn(&spaced(10.0, 1)), 0.0);
-        assert_eq!(points_per_turn(&spaced(0.0, 50)), 0.0);
     }
 }

@@ -10,6 +10,8 @@ pub mod contour3d;
 pub mod hotspot;
 pub mod hotspot_cause;
 pub mod hotspot_merge;
+#[cfg(feature = "html-report")]
+pub mod polar_points;
 pub mod thinning;
 
 use serde::Serialize;

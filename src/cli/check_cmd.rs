@@ -6,7 +6,7 @@ use clap::Args;
 
 use super::Outcome;
 use super::check_text::{TraceCsv, summary_text};
-use super::common::{CliError, MachineArgs, PlanningArgs, load_program, progress};
+use super::common::{CliError, MachineArgs, PlanningArgs, load_program, not_drawn_notes, progress};
 use crate::check::report::{CheckReport, group_warnings};
 use crate::check::{CheckResult, CheckSettings, check_planned};
 use crate::cli::output::{OutputBatch, at_most_one_stdout, write_json};
@@ -126,13 +126,13 @@ fn write_outputs(
         let page = crate::html_report::check_page(run, report, sources, &inputs)?;
         batch.stage(path, |w| w.write_all(page.as_bytes()))?;
     }
-    let mut plots = Vec::new();
+    let (mut plots, mut not_drawn) = (Vec::new(), Vec::new());
     if let Some(dir) = &args.plot {
         std::fs::create_dir_all(dir).map_err(|e| CliError::Read {
             path: dir.display().to_string(),
             message: e.to_string(),
         })?;
-        plots = stage_plots(&mut batch, dir, run, report, sources)?;
+        (plots, not_drawn) = stage_plots(&mut batch, dir, run, report, sources)?;
     }
     batch.commit()?;
     for path in [&args.json, &args.report].into_iter().flatten() {
@@ -140,6 +140,9 @@ fn write_outputs(
     }
     for path in plots {
         println!("plot: {}", path.display());
+    }
+    for note in not_drawn {
+        println!("{note}");
     }
     Ok(())
 }
@@ -150,7 +153,7 @@ fn stage_plots(
     run: &CheckResult,
     report: &CheckReport,
     sources: &[SourceFile],
-) -> Result<Vec<std::path::PathBuf>, CliError> {
+) -> Result<(Vec<std::path::PathBuf>, Vec<String>), CliError> {
     let figures = CheckFigures::of(run, report, sources);
     let footer = super::common::run_footer(
         &report.machine.name,
@@ -175,11 +178,11 @@ fn stage_plots(
             crate::plot::render(p, &figures.along_path, &footer)
         })?;
         written.push(path);
-        for (i, c) in figures.circles.iter().enumerate() {
-            let path = dir.join(format!("circle-{}.{ext}", i + 1));
-            batch.stage_with_path(&path, |p| crate::plot::render(p, c, &footer))?;
+        for c in &figures.circles {
+            let path = dir.join(format!("{}.{ext}", c.file));
+            batch.stage_with_path(&path, |p| crate::plot::render(p, &c.plot, &footer))?;
             written.push(path);
         }
     }
-    Ok(written)
+    Ok((written, not_drawn_notes(&figures.circles_not_drawn)))
 }

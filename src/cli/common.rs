@@ -519,3 +519,12 @@ pub(crate) fn run_footer(
         .feed(feed_text(segments))
         .sampling(format!("IPO cycle {} ms", (cycle_s * 1e6).round() / 1e3))
 }
+
+/// What `--plot` says of each circle it draws no polar plot of: its line and why, as the
+/// HTML page says it.
+pub(crate) fn not_drawn_notes(circles: &[crate::figures::NotDrawn]) -> Vec<String> {
+    circles
+        .iter()
+        .map(|c| format!("plot: circle of {c}"))
+        .collect()
+}

@@ -8,7 +8,7 @@ use clap::Args;
 
 use super::Outcome;
 use super::common::program_or_commands_path;
-use super::common::{CliError, MachineArgs, PlanningArgs, TraceArgs, spinner};
+use super::common::{CliError, MachineArgs, PlanningArgs, TraceArgs, not_drawn_notes, spinner};
 use crate::cli::output::{OutputBatch, at_most_one_stdout, write_json};
 use crate::diagnose::causes::{CauseId, CauseSet};
 use crate::diagnose::report::{DiagnoseReport, machine_file};
@@ -197,12 +197,13 @@ fn write_outputs(
     if let Some(dir) = &args.write_compensation {
         compensation_note = Some(stage_compensation(&mut batch, dir, &d.machine)?);
     }
+    let mut not_drawn = Vec::new();
     if let Some(dir) = &args.plot {
         std::fs::create_dir_all(dir).map_err(|e| CliError::Read {
             path: dir.display().to_string(),
             message: e.to_string(),
         })?;
-        stage_plots(&mut batch, dir, d, program_file, footer)?;
+        not_drawn = stage_plots(&mut batch, dir, d, program_file, footer)?;
     }
     let written = batch.destinations();
     batch.commit()?;
@@ -212,6 +213,9 @@ fn write_outputs(
     }
     for path in written {
         println!("wrote {}", path.display());
+    }
+    for note in not_drawn {
+        println!("{note}");
     }
     Ok(())
 }
@@ -294,12 +298,12 @@ fn stage_plots(
     d: &Diagnosis,
     program_file: &str,
     footer: &crate::plot::Footer,
-) -> Result<(), CliError> {
+) -> Result<Vec<String>, CliError> {
     let figures = DiagnoseFigures::of(d, program_file);
     for ext in ["png", "svg"] {
-        for (line, figure) in &figures.circles {
-            batch.stage_with_path(&dir.join(format!("diagnose-polar-line{line}.{ext}")), |p| {
-                crate::plot::render(p, figure, footer)
+        for c in &figures.circles {
+            batch.stage_with_path(&dir.join(format!("{}.{ext}", c.file)), |p| {
+                crate::plot::render(p, &c.plot, footer)
             })?;
         }
         batch.stage_with_path(&dir.join(format!("diagnose-fit.{ext}")), |p| {
@@ -312,5 +316,5 @@ fn stage_plots(
             crate::plot::render(p, &figures.along_path, footer)
         })?;
     }
-    Ok(())
+    Ok(not_drawn_notes(&figures.circles_not_drawn))
 }

@@ -34,6 +34,20 @@ pub struct CircleLeftOut {
     pub reason: String,
 }
 
+impl std::fmt::Display for CircleLeftOut {
+    /// "line N (ZX plane, G18): no figures: why", as the text summary and the HTML page say it.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "line {} ({} plane, {}): no figures: {}",
+            self.line,
+            self.plane.name(),
+            self.plane.gcode(),
+            self.reason
+        )
+    }
+}
+
 /// The figures of the measured, nominal and extended paths, on the samples the measured
 /// path assigns to each circle; Z from `z` where it was compared.
 pub(crate) fn circular_comparison(ctx: &Context, s: &Series, z: &ZFindings) -> CircularComparison {

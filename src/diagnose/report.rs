@@ -407,14 +407,7 @@ impl DiagnoseReport {
                 s.push_str(&t.text());
             }
             for l in &c.left_out {
-                let _ = writeln!(
-                    s,
-                    " line {} ({} plane, {}): no figures: {}",
-                    l.line,
-                    l.plane.name(),
-                    l.plane.gcode(),
-                    l.reason
-                );
+                let _ = writeln!(s, " {l}");
             }
             if let Some(sentence) = ballbar_and_causes(self) {
                 let _ = writeln!(s, " {sentence}");

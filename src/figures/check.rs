@@ -2,7 +2,8 @@
 //! and a ballbar-style polar plot per circular test — drawn as files by `check --plot` and
 //! inline in the HTML report.
 
-use crate::analysis::circular::too_sparse_for_a_plot;
+use super::{CirclePlot, NotDrawn};
+use crate::analysis::polar_points::too_sparse_for_a_plot;
 use crate::check::report::CheckReport;
 use crate::check::{CheckResult, CircleTest, circle_tests};
 use crate::gcode::SourceFile;
@@ -23,11 +24,13 @@ pub struct CheckFigures {
     pub side_views: Vec<(&'static str, ToolpathPlot)>,
     /// The contour error against the path length.
     pub along_path: AlongPathPlot,
-    /// One polar plot per circle (both directions on one plot where the program runs both).
-    pub circles: Vec<PolarPlot>,
+    /// One polar plot per circle (both directions on one plot where the program runs
+    /// both), drawn to `circle-N`: N the circle's number among all the program's circles
+    /// in order, whether drawn or not.
+    pub circles: Vec<CirclePlot>,
     /// The circles whose path gives too few points per turn for a polar plot: each one's
     /// line and why it has none.
-    pub circles_not_drawn: Vec<(u32, String)>,
+    pub circles_not_drawn: Vec<NotDrawn>,
 }
 
 impl CheckFigures {
@@ -39,7 +42,7 @@ impl CheckFigures {
             .file_name()
             .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
         let figure = |view: &View| toolpath_figure(run, &name, report, &at, view);
-        let (tests, circles_not_drawn) = plottable_circles(run);
+        let (circles, circles_not_drawn) = polar_figures(run, &name, &at);
         CheckFigures {
             toolpath: figure(&FROM_ABOVE),
             side_views: side_views(run)
@@ -47,7 +50,7 @@ impl CheckFigures {
                 .map(|view| (view.file, figure(view)))
                 .collect(),
             along_path: along_path_figure(run, &name, &at),
-            circles: polar_figures(run, tests, &name, &at),
+            circles,
             circles_not_drawn,
         }
     }
@@ -170,33 +173,11 @@ fn along_path_figure(run: &CheckResult, name: &str, at: &dyn Fn(u32) -> String) 
     }
 }
 
-/// The run's circles with enough points per turn for a polar plot, and the line of each
-/// other one with why it has none.
-fn plottable_circles(run: &CheckResult) -> (Vec<CircleTest>, Vec<(u32, String)>) {
-    let mut not_drawn = Vec::new();
-    let tests = circle_tests(run)
-        .into_iter()
-        .filter(|c| match too_sparse_for_a_plot(&c.points) {
-            Some(why) => {
-                not_drawn.push((c.line, why));
-                false
-            }
-            None => true,
-        })
-        .collect();
-    (tests, not_drawn)
-}
-
-/// One polar plot per circle of `tests`, both directions together when the program runs
-/// the same circle both ways.
-fn polar_figures(
-    run: &CheckResult,
-    tests: Vec<CircleTest>,
-    name: &str,
-    at: &dyn Fn(u32) -> String,
-) -> Vec<PolarPlot> {
+/// The run's circles, both directions of one circle (the same centre and radius) together,
+/// in the program's order.
+fn circle_groups(run: &CheckResult) -> Vec<Vec<CircleTest>> {
     let mut groups: Vec<Vec<CircleTest>> = Vec::new();
-    for c in tests {
+    for c in circle_tests(run) {
         let same = |g: &Vec<CircleTest>| {
             let a = &g[0];
             (a.center_m[0] - c.center_m[0]).hypot(a.center_m[1] - c.center_m[1]) < 1e-6
@@ -208,40 +189,78 @@ fn polar_figures(
         }
     }
     groups
-        .into_iter()
-        .map(|g| {
-            let r = g[0].radius_m;
-            PolarPlot {
-                title: format!(
-                    "{name}: circular test R{:.1} mm, centre ({:.1}, {:.1}) — radial deviation",
-                    mm_from_m(r),
-                    mm_from_m(g[0].center_m[0]),
-                    mm_from_m(g[0].center_m[1])
+}
+
+/// One polar plot per circle, both directions together when the program runs the same
+/// circle both ways, numbered as the circles come (a number is kept by a circle drawn
+/// after one that is not); and each direction whose path gives too few points per turn
+/// for a plot, with why.
+fn polar_figures(
+    run: &CheckResult,
+    name: &str,
+    at: &dyn Fn(u32) -> String,
+) -> (Vec<CirclePlot>, Vec<NotDrawn>) {
+    let mut not_drawn = Vec::new();
+    let mut drawn = Vec::new();
+    for (number, group) in circle_groups(run).into_iter().enumerate() {
+        let group: Vec<CircleTest> = group
+            .into_iter()
+            .filter(|c| match too_sparse_for_a_plot(&c.points) {
+                Some(why) => {
+                    not_drawn.push(NotDrawn { line: c.line, why });
+                    false
+                }
+                None => true,
+            })
+            .collect();
+        if let Some(first) = group.first() {
+            drawn.push(CirclePlot {
+                line: first.line,
+                file: format!("circle-{}", number + 1),
+                plot: polar_figure(run, &group, name, at),
+            });
+        }
+    }
+    (drawn, not_drawn)
+}
+
+/// The polar plot of one circle's directions `g` (at least one).
+fn polar_figure(
+    run: &CheckResult,
+    g: &[CircleTest],
+    name: &str,
+    at: &dyn Fn(u32) -> String,
+) -> PolarPlot {
+    let r = g[0].radius_m;
+    PolarPlot {
+        title: format!(
+            "{name}: circular test R{:.1} mm, centre ({:.1}, {:.1}) — radial deviation",
+            mm_from_m(r),
+            mm_from_m(g[0].center_m[0]),
+            mm_from_m(g[0].center_m[1])
+        ),
+        radius_mm: mm_from_m(r),
+        traces: g
+            .iter()
+            .map(|c| PolarTrace {
+                label: format!(
+                    "{} (line {})",
+                    if c.ccw {
+                        "counter-clockwise"
+                    } else {
+                        "clockwise"
+                    },
+                    at(c.line)
                 ),
-                radius_mm: mm_from_m(r),
-                traces: g
+                points: c.points.iter().map(|&(a, d)| (a, um_from_m(d))).collect(),
+                width: 2,
+                g_um: run
+                    .circular
+                    .circles
                     .iter()
-                    .map(|c| PolarTrace {
-                        label: format!(
-                            "{} (line {})",
-                            if c.ccw {
-                                "counter-clockwise"
-                            } else {
-                                "clockwise"
-                            },
-                            at(c.line)
-                        ),
-                        points: c.points.iter().map(|&(a, d)| (a, um_from_m(d))).collect(),
-                        width: 2,
-                        g_um: run
-                            .circular
-                            .circles
-                            .iter()
-                            .find(|f| f.segment == c.segment)
-                            .map(|f| f.g_um),
-                    })
-                    .collect(),
-            }
-        })
-        .collect()
+                    .find(|f| f.segment == c.segment)
+                    .map(|f| f.g_um),
+            })
+            .collect(),
+    }
 }

@@ -5,7 +5,9 @@
 
 use std::path::Path;
 
-use crate::analysis::circular::{Circle, CircularTest, radial_points, too_sparse_for_a_plot};
+use super::{CirclePlot, NotDrawn};
+use crate::analysis::circular::{Circle, CircularTest, radial_points};
+use crate::analysis::polar_points::too_sparse_for_a_plot;
 use crate::diagnose::Diagnosis;
 use crate::numeric::units::{mm_from_m, um_from_m};
 use crate::plot::panels::{Curve, Panel, PanelsPlot};
@@ -20,18 +22,20 @@ pub struct DiagnoseFigures {
     pub over_time: PanelsPlot,
     /// The contour residual along the path.
     pub along_path: PanelsPlot,
-    /// Per full circle, its source line and its polar plot.
-    pub circles: Vec<(u32, PolarPlot)>,
+    /// Per full circle, its source line and its polar plot, drawn to
+    /// `diagnose-polar-lineN` (`-2`, `-3`, … after it for further circles of one line: a
+    /// subprogram's or a repeated block's).
+    pub circles: Vec<CirclePlot>,
     /// Per full circle the record gives too few points per turn for a polar plot, its
     /// source line and why it has none.
-    pub circles_not_drawn: Vec<(u32, String)>,
+    pub circles_not_drawn: Vec<NotDrawn>,
 }
 
 /// The polar plots of a diagnosis's circles, and the circles without one.
 #[derive(Default)]
 struct Polar {
-    drawn: Vec<(u32, PolarPlot)>,
-    not_drawn: Vec<(u32, String)>,
+    drawn: Vec<CirclePlot>,
+    not_drawn: Vec<NotDrawn>,
 }
 
 impl DiagnoseFigures {
@@ -318,7 +322,7 @@ fn polar_plots(d: &Diagnosis, name: &str, extended_name: &str) -> Polar {
             continue;
         }
         if let Some(why) = too_sparse_for_a_plot(&measured.points) {
-            polar.not_drawn.push((c.line, why));
+            polar.not_drawn.push(NotDrawn { line: c.line, why });
             continue;
         }
         let traces = vec![
@@ -338,16 +342,26 @@ fn polar_plots(d: &Diagnosis, name: &str, extended_name: &str) -> Polar {
                 g_of(&circular.extended),
             ),
         ];
-        polar.drawn.push((
-            c.line,
-            PolarPlot {
+        let before = polar.drawn.iter().filter(|p| p.line == c.line).count();
+        polar.drawn.push(CirclePlot {
+            line: c.line,
+            file: polar_file(c.line, before),
+            plot: PolarPlot {
                 title: polar_title(name, c),
                 radius_mm: mm_from_m(c.radius_m),
                 traces,
             },
-        ));
+        });
     }
     polar
+}
+
+/// The file a circle of `line` is drawn to, after `before` others of the same line.
+fn polar_file(line: u32, before: usize) -> String {
+    match before {
+        0 => format!("diagnose-polar-line{line}"),
+        n => format!("diagnose-polar-line{line}-{}", n + 1),
+    }
 }
 
 /// A polar plot's title: the file, the circle's line, direction, plane and radius.
@@ -367,4 +381,25 @@ fn polar_title(name: &str, c: &Circle) -> String {
         },
         mm_from_m(c.radius_m)
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::polar_file;
+
+    #[test]
+    fn circles_of_one_line_are_drawn_to_files_of_their_own() {
+        // A block run twice (a loop, a subprogram called twice) makes two circles of one
+        // line: the first keeps the line's name, the next ones are counted after it.
+        let names: Vec<String> = (0..3).map(|before| polar_file(13, before)).collect();
+        assert_eq!(
+            names,
+            [
+                "diagnose-polar-line13",
+                "diagnose-polar-line13-2",
+                "diagnose-polar-line13-3"
+            ]
+        );
+        assert_eq!(polar_file(16, 0), "diagnose-polar-line16");
+    }
 }

@@ -67,12 +67,17 @@ pub fn check_page(
         polar: figures
             .circles
             .iter()
-            .map(|c| svg("Radial deviation, ballbar-style (outward positive)", c))
+            .map(|c| {
+                svg(
+                    "Radial deviation, ballbar-style (outward positive)",
+                    &c.plot,
+                )
+            })
             .collect::<Result<_, _>>()?,
         polar_not_drawn: figures
             .circles_not_drawn
             .iter()
-            .map(|(line, why)| format!("line {line}: {why}"))
+            .map(ToString::to_string)
             .collect(),
         hotspots: hotspot_rows(&json),
         hotspots_more: report.hotspots.len().saturating_sub(HOTSPOTS_SHOWN),

@@ -29,6 +29,8 @@ struct DiagnosePage {
     /// Z against its simulation, where the record has Z (the text summary's lines).
     z: Vec<String>,
     circles: Vec<Vec<Fig>>,
+    /// The circles without figures: "line N (plane): no figures: why".
+    circles_left_out: Vec<String>,
     /// Where the nominal model's residual is largest: what, t, X, Y, (Z,) line, µm.
     places: Vec<Vec<Fig>>,
     /// Whether the places give Z (the contour measured in space).
@@ -88,6 +90,12 @@ pub fn diagnose_page(
             .map(|l| l.trim().to_string())
             .collect(),
         circles: circle_rows(&report.circular_test, &json),
+        circles_left_out: report
+            .circular_test
+            .left_out
+            .iter()
+            .map(ToString::to_string)
+            .collect(),
         places,
         places_z,
         fit: svg(
@@ -102,12 +110,17 @@ pub fn diagnose_page(
         polar: figures
             .circles
             .iter()
-            .map(|(line, c)| svg(format!("Circle of line {line}: radial deviation"), c))
+            .map(|c| {
+                svg(
+                    format!("Circle of line {}: radial deviation", c.line),
+                    &c.plot,
+                )
+            })
             .collect::<Result<_, _>>()?,
         polar_not_drawn: figures
             .circles_not_drawn
             .iter()
-            .map(|(line, why)| format!("line {line}: {why}"))
+            .map(ToString::to_string)
             .collect(),
     };
     render("diagnose.html", page)

@@ -281,11 +281,7 @@ pub(crate) fn interpolator_lines(i: &crate::identify::Interpolator) -> Vec<Strin
         "path speed up to {:.0} mm/min",
         i.path_speed_mm_per_min
     )];
-    for (k, axis) in ["X", "Y", "Z"]
-        .iter()
-        .enumerate()
-        .take(i.velocity_mm_per_min.len())
-    {
+    for (k, axis) in i.axes.iter().enumerate() {
         lines.push(format!(
             "{axis}: up to {:.0} mm/min, acceleration {}, jerk {}",
             i.velocity_mm_per_min[k],

@@ -1,0 +1,64 @@
+//! `--plot` and the circles it draws no polar plot of: `check` says which and why, as the
+//! HTML page does, and the circles it draws keep their numbers in the program's order.
+//!
+//! Two circles at 300 mm/min (5 mm/s) on a control interpolating every 20 ms: each cycle
+//! moves the path 0.1 mm. Round R 0.5 mm that is 0.2 rad, 11.5°, a step: 2π·0.5 / 0.1 =
+//! 31.4 points per turn at full feed, fewer than one every 10°, and the servo's start, which
+//! lags the command and goes round slower, only adds shorter steps (at most 36 — else a
+//! plot). Round R 20 mm it is 0.29°: 1257 per turn, drawn.
+
+mod common;
+
+use common::cli::{run, text};
+
+const PROGRAM: &str = "G21 G90 G94 G17\nG0 X0.5 Y0\nG3 X0.5 Y0 I-0.5 J0 F300\nG0 X20 Y0\n\
+                       G3 X20 Y0 I-20 J0 F300\nM2\n";
+
+#[test]
+fn check_plot_says_why_a_circle_has_no_polar_plot_and_numbers_the_others_in_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let (program, plots) = (dir.path().join("two.nc"), dir.path().join("plots"));
+    std::fs::write(&program, PROGRAM).unwrap();
+    let o = run(&[
+        "check",
+        program.to_str().unwrap(),
+        "--cycle-ms",
+        "20",
+        "--plot",
+        plots.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let out = text(&o.stdout);
+    // Full feed's points per turn on the small circle: the circumference over a cycle's path.
+    let per_turn_at_feed = std::f64::consts::TAU * 0.5 / (300.0 / 60.0 * 0.020);
+    let note = out
+        .lines()
+        .find_map(|l| l.strip_prefix("plot: circle of line 3: no polar plot: "))
+        .unwrap_or_else(|| panic!("no word on the small circle:\n{out}"));
+    let per_turn: f64 = note
+        .split(" per turn")
+        .next()
+        .and_then(|s| s.rsplit(", ").next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("{note}"));
+    assert!(
+        per_turn >= per_turn_at_feed.round() && per_turn < 36.0,
+        "{per_turn} per turn, {per_turn_at_feed:.1} at full feed"
+    );
+    assert!(note.contains("fewer than 36 (one every 10°)"), "{note}");
+    assert!(!out.contains("circle of line 5"), "{out}");
+    // The large circle is the program's second: drawn as circle-2, and nothing as circle-1.
+    let files: Vec<String> = std::fs::read_dir(&plots)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("circle-"))
+        .collect();
+    let mut files = files;
+    files.sort();
+    assert_eq!(files, ["circle-2.png", "circle-2.svg"]);
+    let svg = std::fs::read_to_string(plots.join("circle-2.svg")).unwrap();
+    assert!(
+        svg.contains("R20.0 mm"),
+        "circle-2 is not the R 20 mm circle"
+    );
+}
