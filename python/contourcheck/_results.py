@@ -181,16 +181,47 @@ class Identification(_Result):
         return str(self._native.machine_toml())
 
     def values(self) -> Dict[str, Dict[str, Dict[str, Any]]]:
-        """Per axis (``"x"``, ``"y"``) and key: ``template``, ``value``, ``uncertainty``
-        (NaN where not determined), ``unit``, ``determined``, ``measured``."""
+        """Per axis (``"x"``, ``"y"``, ``"z"``) and key: ``template``, ``value``,
+        ``uncertainty`` (NaN where the template's value is written, not fitted), ``unit``,
+        ``determined`` (fitted, the record determining it alone), ``measured`` (and read as
+        the machine's own value, not a model's), ``traded_with`` (where the record does not
+        determine it alone yet it is written: the key it trades with most; else None),
+        ``loose`` (written though the record leaves it loose: the fit's halves predict each
+        other while moving to more than twice the noise) and ``fitted`` (the value written
+        is fitted to the record — determined, traded or loose — rather than the
+        template's)."""
         out: Dict[str, Dict[str, Dict[str, Any]]] = {}
         for a in self.report["axes"]:
-            out[a["axis"]] = {
-                v["key"]: {
+            values: Dict[str, Dict[str, Any]] = {}
+            for v in a["values"]:
+                row = {
                     k: (float("nan") if k == "uncertainty" and v[k] is None else v[k])
                     for k in ("template", "value", "uncertainty", "unit", "determined", "measured")
                 }
-                for v in a["values"]
+                row["traded_with"] = v.get("traded_with")
+                row["loose"] = bool(v.get("loose", False))
+                row["fitted"] = row["determined"] or row["traded_with"] is not None or row["loose"]
+                values[v["key"]] = row
+            out[a["axis"]] = values
+        return out
+
+    def held_out(self) -> Dict[str, Dict[str, Any]]:
+        """Per axis, the held-out figures the axis is judged by (µm, and the fit's share of
+        the following error): ``template_um``, ``identified_um``, ``following_error_um``,
+        ``share`` — the whole record's, or those on the samples while the axis moves where it
+        is judged there (``while_moving`` True: its fit reached the noise but its halves'
+        fits disagree at standstill, where it hunts) — and ``better_than_template``."""
+        out: Dict[str, Dict[str, Any]] = {}
+        for a in self.report["axes"]:
+            moving = a.get("while_moving") if a.get("judged_while_moving") else None
+            src = moving if moving is not None else a
+            out[a["axis"]] = {
+                "template_um": src["held_out_template_um"],
+                "identified_um": src["held_out_identified_um"],
+                "following_error_um": src["following_error_rms_um"],
+                "share": src["held_out_share"],
+                "while_moving": moving is not None,
+                "better_than_template": a["better_than_template"],
             }
         return out
 

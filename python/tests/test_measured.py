@@ -122,5 +122,10 @@ def test_identify_finds_the_gain_the_record_ran_with_as_the_cli_does(cli, tmp_pa
          "--out", str(out), "--json", str(json_out)])
     theirs = read_json(json_out)
     assert found.report["axes"] == theirs["axes"]
+    # Every value's state as values() reads it, from the fields the report writes.
+    for axis in theirs["axes"]:
+        for v in axis["values"]:
+            mine = found.values()[axis["axis"]][v["key"]]
+            assert (mine["traded_with"], mine["loose"]) == (v["traded_with"], v["loose"])
     # The same file but for the record's name.
     assert found.machine_toml.replace("<arrays>", str(path)) == out.read_text()

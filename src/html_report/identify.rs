@@ -110,14 +110,7 @@ fn axis_view(report: &IdentifyReport, json: &Json, a: usize) -> AxisView {
                 template: f(&format!("values[{k}].template"), 4),
                 value: f(&format!("values[{k}].value"), decimals),
                 uncertainty: f(&format!("values[{k}].uncertainty"), decimals),
-                status: match (v.traded_with, v.determined, v.measured) {
-                    (Some(other), _, _) => {
-                        format!("not determined alone: traded with {other}; a model's value")
-                    }
-                    (None, true, true) => "identified".to_string(),
-                    (None, true, false) => "a model's value, not a measurement".to_string(),
-                    (None, false, _) => "not determined: the template's".to_string(),
-                },
+                status: crate::identify::report::status(v),
             }
         })
         .collect();

@@ -30,6 +30,7 @@ mod knobs;
 mod linear;
 mod loop_model;
 pub mod report;
+mod result;
 mod round;
 mod solve;
 mod staged;
@@ -38,14 +39,16 @@ mod verdict;
 mod z_axis;
 
 use rayon::prelude::*;
-use serde::Serialize;
 
 pub use baseline::Baseline;
 pub use interpolator::Interpolator;
+pub use result::{
+    AxisIdentification, GainPerInertia, Identification, IdentifiedValue, IdentifyError,
+};
 pub use verdict::{Place, WhileMoving};
 
 use crate::compare::start::Coverage;
-use crate::compare::{CompareError, CompareSettings, Comparison, Context, Stepping, compare};
+use crate::compare::{CompareSettings, Comparison, Context, Stepping, compare};
 use crate::gcode::Program;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::numeric::units::um_from_m;
@@ -76,182 +79,6 @@ const MOVING_SHARE: f64 = 0.01;
 /// systematic — values fitted to absorb it are not the machine's. On every sample first;
 /// above it, away from the standstills; above it there too, nothing is identified.
 const REACHED_EXCESS: f64 = 1.1;
-
-/// One identified value.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct IdentifiedValue {
-    /// Key below the axis (`friction.coulomb_n`: the Coulomb force, written to the machine
-    /// file as the coefficient).
-    pub key: &'static str,
-    /// Unit.
-    pub unit: &'static str,
-    /// The template's value.
-    pub template: f64,
-    /// The value written: fitted, or the template's where the record does not determine it.
-    pub value: f64,
-    /// Its standard uncertainty (NaN where the template's).
-    pub uncertainty: f64,
-    /// Whether the record determines it: fitted, with an uncertainty within half of it (or
-    /// of its scale). A value fitted and written though the record leaves it looser than
-    /// that is not determined: it names the value it trades with (`traded_with`). Neither:
-    /// the template's.
-    pub determined: bool,
-    /// Whether it reads as the machine's own value: determined, with an uncertainty —
-    /// widened to what a modelling difference of half the noise could move it by — within
-    /// half of it. A determined value that is not measured is written because it predicts
-    /// the record: a model's value, not a measurement.
-    pub measured: bool,
-    /// Where the record does not determine the value alone (its uncertainty beyond half of
-    /// it) yet it is written — the fit with it predicts the held-out halves better than with
-    /// the template's put back —: the value it trades with most. Only their combination is
-    /// the record's; the value alone is neither determined, nor a measurement, nor certain.
-    pub traded_with: Option<&'static str>,
-}
-
-impl IdentifiedValue {
-    /// Whether the value written is fitted to the record (determined, or traded with
-    /// another), rather than the template's.
-    pub fn fitted(&self) -> bool {
-        self.determined || self.traded_with.is_some()
-    }
-}
-
-/// A current-commanding controller's gain over the whole drive's inertia: what a rigid
-/// drive's loop depends on. The record tells the gain from the table's mass only through
-/// the rotor's and screw's share of the inertia (which the template gives) and the drive's
-/// compliance, and a modelling difference moves both along their ratio; the ratio itself it
-/// determines.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct GainPerInertia {
-    /// The gain's key.
-    pub gain: &'static str,
-    /// The drive's inertia as a mass at the table, identified: the rotor's and screw's
-    /// (the template's) with the table's (kg).
-    pub inertia_kg: f64,
-    /// The gain over it (the gain's unit per kg).
-    pub value: f64,
-    /// Its standard uncertainty, with the model's floor as every value's.
-    pub uncertainty: f64,
-}
-
-/// One axis identified.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct AxisIdentification {
-    /// The axis.
-    pub axis: AxisName,
-    /// Its values.
-    pub values: Vec<IdentifiedValue>,
-    /// What is taken from the template as the user's setting, not fitted.
-    pub kept: String,
-    /// Compared only while moving (away from standstills, where the axis hunts): the
-    /// residuals below are over those samples.
-    pub moving_only: bool,
-    /// Whether the fit reached the record's noise. Where it did not, no value reads as a
-    /// measurement: the fit is written as a model's values where it predicts the held-out
-    /// halves better than the template (`better_than_template`), else the template's stay.
-    pub reached: bool,
-    /// Whether the values written predict the record's held-out halves better than the
-    /// template's (by more than a twentieth): the fit is written, reached or not.
-    pub better_than_template: bool,
-    /// RMS of the following error in the record (µm): the yardstick of the residuals.
-    pub following_error_rms_um: f64,
-    /// The held-out residual as a share of the following error on the same samples.
-    pub held_out_share: f64,
-    /// The plain regression of the following error on the command (the baseline a model
-    /// must beat), scored on blocks it was not fitted on.
-    pub baseline: Baseline,
-    /// Where the residual the written values leave is largest.
-    pub largest_at: Option<Place>,
-    /// The residual RMS with the template, whole record (µm).
-    pub rms_template_um: f64,
-    /// With the identified values.
-    pub rms_identified_um: f64,
-    /// On each half of the record, the template's residual …
-    pub held_out_template_um: f64,
-    /// … and that of the values fitted on the other half (µm).
-    pub held_out_identified_um: f64,
-    /// The template already explains the record to its noise and the values fitted predict
-    /// its held-out halves worse: the template's values stay (none is determined).
-    pub template_holds: bool,
-    /// The fit on every sample reached the noise, but its halves predicted each other to
-    /// it only while moving (as where an axis hunts on a limit cycle each half's fit times
-    /// its own way: the halves' disagreement is what is measured, not the hunting): it is
-    /// judged by its held-out figures while moving (`while_moving`), not by the whole
-    /// record's above, which stay as they are.
-    pub judged_while_moving: bool,
-    /// For a fit on every sample: its held-out figures on the samples while the axis moves.
-    pub while_moving: Option<WhileMoving>,
-    /// Where the gain and the table's mass are both fitted on a controller commanding
-    /// current: their ratio, which the record determines even where each alone is a
-    /// model's value.
-    pub gain_per_inertia: Option<GainPerInertia>,
-}
-
-/// The identification of a machine from a record.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct Identification {
-    /// The record's file.
-    pub file: String,
-    /// The identified machine (the template with the values and the interpolator's limits
-    /// written).
-    #[serde(skip)]
-    pub machine: MachineConfig,
-    /// Per axis.
-    pub axes: Vec<AxisIdentification>,
-    /// The interpolator's peaks in the record.
-    pub interpolator: Interpolator,
-    /// The record's noise floor (µm).
-    pub noise_um: f64,
-    /// Which stretch of the program the record was compared on, and how its start was set
-    /// (a trace that begins at the machine's home is compared from where its commands join
-    /// the program).
-    pub coverage: Coverage,
-    /// Why Z was not identified, where the record measured Z (its template's values stay);
-    /// `None` where it was, or where the record has no Z.
-    pub z_not_identified: Option<String>,
-}
-
-/// Why a record cannot identify a machine.
-#[derive(Debug, thiserror::Error)]
-pub enum IdentifyError {
-    /// The record has no commanded positions.
-    #[error(
-        "{file}: the record holds no commanded positions (x_cmd, y_cmd columns): identification \
-         compares what the axes did with what they were told — record the control's setpoints \
-         too, or map them with --columns"
-    )]
-    NoCommands {
-        /// The record.
-        file: String,
-    },
-    /// An axis does not move in the record's commands.
-    #[error(
-        "{file}: {axis} is commanded to move {travel_um:.1} µm in the record: there is nothing to \
-         identify it from — record a program that moves both axes"
-    )]
-    StillAxis {
-        /// The record.
-        file: String,
-        /// The axis.
-        axis: AxisName,
-        /// How far it was commanded (µm).
-        travel_um: f64,
-    },
-    /// The record could not be placed on the program.
-    #[error(transparent)]
-    Compare(#[from] CompareError),
-    /// The template cannot be simulated on the record's commands.
-    #[error(
-        "{file}: the template machine cannot follow the record's commands on {axis} (its loop is \
-         unstable or diverges): start from a template closer to the machine"
-    )]
-    CannotSimulate {
-        /// The record.
-        file: String,
-        /// The axis.
-        axis: AxisName,
-    },
-}
 
 /// What the identification starts from and fits.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -510,6 +337,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             determined: false,
             measured: false,
             traded_with: None,
+            loose: false,
         })
         .collect();
     Some((
@@ -552,6 +380,7 @@ fn not_reached(
         v.determined = false;
         v.measured = false;
         v.traded_with = None;
+        v.loose = false;
         v.uncertainty = f64::NAN;
         v.value = v.template;
     }
@@ -590,6 +419,7 @@ fn identify_ordered(
                 determined: false,
                 measured: false,
                 traded_with: None,
+                loose: false,
             });
         }
         (config, id)
@@ -648,7 +478,7 @@ fn identify_on(
     let template_axis = template.axis(axis).clone();
     let start = staged::start(fit, knobs, &template_axis);
     let (round, base) = Round::fit_determined(fit, knobs, &start, &template_axis, &fold)?;
-    let config = round.config(&base, &round.whole);
+    let config = round.config(&round.whole);
     let mask = fit.mask();
     let rms = |r: &[f64]| {
         let (ss, n) = r
@@ -661,9 +491,18 @@ fn identify_on(
     let template_residual = fit.residual(&template_axis)?;
     let identified_residual = fit.residual(&config)?;
     let values = fitted_values(knobs, &round, &config, &template_axis);
+    let reached = rms(&identified_residual) <= REACHED_EXCESS * um_from_m(ctx.noise_sigma);
     // Each half's fit scored on the other half; the template, fitted to neither, on all.
-    let held_out_identified_um = um_from_m(round.held_out_rms(fit, &base, &fold)?);
+    // Above the noise, where a fit is written as a model for what it predicts alone, only a
+    // half's fit with a point of its own counts (`Round::held_out_rms_own`): without one,
+    // the fit has not shown that it predicts data it was not fitted to.
+    let own = (!reached).then(|| round.held_out_rms_own(fit, &fold));
+    let held_out_identified_um = um_from_m(match own {
+        Some(Some(own)) => own,
+        _ => round.held_out_rms(fit, &fold)?,
+    });
     let held_out_template_um = rms(&template_residual);
+    let shown = own.is_none_or(|own| own.is_some());
     let following_error_um = um_from_m(following_error_rms(ctx, axis, offset, mask));
     Some((
         config,
@@ -672,11 +511,9 @@ fn identify_on(
             values,
             kept: knobs::kept(&template_axis).to_string(),
             moving_only,
-            reached: rms(&identified_residual) <= REACHED_EXCESS * um_from_m(ctx.noise_sigma),
-            better_than_template: verdict::predicts_better(
-                held_out_identified_um,
-                held_out_template_um,
-            ),
+            reached,
+            better_than_template: shown
+                && verdict::predicts_better(held_out_identified_um, held_out_template_um),
             following_error_rms_um: following_error_um,
             held_out_share: held_out_identified_um / following_error_um,
             baseline: baseline::regression(ctx, axis, offset, mask),
@@ -689,7 +526,7 @@ fn identify_on(
             template_holds: false,
             judged_while_moving: false,
             while_moving: (!moving_only)
-                .then(|| verdict::while_moving(fit, &round, &base, &fold, &template_residual))
+                .then(|| verdict::while_moving(fit, &round, &fold, &template_residual))
                 .flatten(),
         },
     ))
@@ -729,6 +566,7 @@ fn fitted_values(
                 determined: sigma.is_some() && traded_with.is_none(),
                 measured: traded_with.is_none() && sigma.is_some_and(|s| k.determines(s, value)),
                 traded_with,
+                loose: false,
             }
         })
         .collect()
@@ -798,7 +636,7 @@ fn gain_per_inertia(round: &Round, base: &AxisConfig) -> Option<GainPerInertia> 
         .into_iter()
         .find_map(|key| Some((key, index(key)?)))?;
     let ratio = |fitted: &Fitted| {
-        let config = round.config(base, fitted);
+        let config = round.config(fitted);
         let inertia_kg = crate::sim::AxisModel::from_config(&config).mass_at_table_kg();
         (
             get(&config, gain_key) / inertia_kg,
@@ -947,6 +785,50 @@ mod tests {
         let mut unreached = scored(0.063, 0.074);
         unreached.reached = false;
         assert!(!template_holds(&unreached, noise_um));
+    }
+
+    #[test]
+    fn values_whose_halves_miss_each_other_while_moving_are_written_loose() {
+        let noise_um = 0.06;
+        // At the noise on every sample, its halves ten times the noise apart there (it
+        // hunts), while moving better than the template but still 2.2 times the noise apart.
+        let mut id = scored(0.42, 0.54);
+        id.values = vec![IdentifiedValue {
+            key: "controller.gain",
+            unit: "",
+            template: 337.8,
+            value: 440.5,
+            uncertainty: 21.6,
+            determined: true,
+            measured: true,
+            traded_with: None,
+            loose: false,
+        }];
+        id.while_moving = Some(WhileMoving {
+            held_out_template_um: 0.28,
+            held_out_identified_um: 0.134,
+            following_error_rms_um: 1.1,
+            held_out_share: 0.12,
+        });
+        assert!(verdict::judged_while_moving(&mut id, noise_um));
+        assert!(id.judged_while_moving && id.better_than_template && !id.reached);
+        let v = &id.values[0];
+        assert!(
+            v.loose && v.fitted() && !v.determined && !v.measured,
+            "{v:?}"
+        );
+        assert!(report::shown(v).contains("the record's halves leave it loose"));
+        // Within twice the noise while moving, the same values are determined.
+        let mut close = scored(0.42, 0.54);
+        close.values = id.values.clone();
+        close.values[0].determined = true;
+        close.values[0].loose = false;
+        close.while_moving = Some(WhileMoving {
+            held_out_identified_um: 0.1,
+            ..id.while_moving.clone().unwrap()
+        });
+        assert!(verdict::judged_while_moving(&mut close, noise_um));
+        assert!(close.reached && close.values[0].determined && !close.values[0].loose);
     }
 
     #[test]

@@ -46,21 +46,29 @@ impl<'a> IdentifyReport<'a> {
 /// A value for the table: fitted with its uncertainty (said so where that is not a
 /// measurement), or the template's.
 pub(crate) fn shown(v: &IdentifiedValue) -> String {
+    if !v.fitted() {
+        return format!("{} ({})", sig(v.value), status(v));
+    }
+    match v.measured {
+        true => format!("{} ± {}", sig(v.value), sig(v.uncertainty)),
+        false => format!("{} ± {} ({})", sig(v.value), sig(v.uncertainty), status(v)),
+    }
+}
+
+/// How the record holds a value, in words (the report's, the HTML page's and the machine
+/// file's header's): identified, a model's value (traded with another, left loose by the
+/// halves, or determined but not a measurement), or the template's.
+pub(crate) fn status(v: &IdentifiedValue) -> String {
     if let Some(other) = v.traded_with {
-        return format!(
-            "{} ± {} (not determined alone: traded with {other}; a model's value)",
-            sig(v.value),
-            sig(v.uncertainty)
-        );
+        return format!("not determined alone: traded with {other}; a model's value");
+    }
+    if v.loose {
+        return "not determined: the record's halves leave it loose; a model's value".to_string();
     }
     match (v.determined, v.measured) {
-        (true, true) => format!("{} ± {}", sig(v.value), sig(v.uncertainty)),
-        (true, false) => format!(
-            "{} ± {} (a model's value, not a measurement)",
-            sig(v.value),
-            sig(v.uncertainty)
-        ),
-        (false, _) => format!("{} (not determined: the template's)", sig(v.value)),
+        (true, true) => "identified".to_string(),
+        (true, false) => "a model's value, not a measurement".to_string(),
+        (false, _) => "not determined: the template's".to_string(),
     }
 }
 

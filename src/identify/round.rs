@@ -31,9 +31,11 @@ pub(super) struct Round {
     /// a value traded against another) is not known better than that, however sharp the
     /// local curvature.
     pub(super) sigma: Vec<f64>,
+    /// The values the round was fitted about (those of the knobs not fitted in it).
+    base: AxisConfig,
     /// Each half's fit simulated over the whole record (the residual at every compared
-    /// sample), about the base the round was fitted about: every held-out figure of the
-    /// round reads these, simulated once.
+    /// sample), about the round's own `base`: every held-out figure of the round reads
+    /// these, simulated once — no call can ask them about another base.
     halves_simulated: OnceLock<Option<[Vec<f64>; 2]>>,
 }
 
@@ -62,6 +64,7 @@ impl Round {
             whole,
             halves: [a, b],
             sigma,
+            base: base.clone(),
             halves_simulated: OnceLock::new(),
         })
     }
@@ -122,7 +125,7 @@ impl Round {
             // Put back one round after another regardless, they left the template's values
             // predicting the record several times worse than the round that had them. The
             // loose values kept are marked traded (`Round::traded_with`).
-            if !reached && round.predicts_better_than(&next, fit, &base, fold) {
+            if !reached && round.predicts_better_than(&next.0, fit, fold) {
                 return Some((round, base));
             }
             let corners: Vec<&'static str> = undetermined
@@ -148,7 +151,7 @@ impl Round {
             };
             let refuted: Vec<&'static str> = refuted.iter().copied().chain(corners).collect();
             let kept_way = kept.and_then(|k| Round::settled(fit, k, template, fold, &refuted));
-            let held_out = |(r, b): &(Round, AxisConfig)| r.held_out_rms(fit, b, fold);
+            let held_out = |(r, _): &(Round, AxisConfig)| r.held_out_rms(fit, fold);
             let noise = fit.ctx().noise_sigma;
             return Some(match kept_way {
                 Some(k)
@@ -188,18 +191,11 @@ impl Round {
         Some((round, base))
     }
 
-    /// Whether this round (fitted about `base`) predicts the held-out halves better than
-    /// `other` (fitted about its own base, with fewer values): by the twentieth of
-    /// [`predicts_better`].
-    fn predicts_better_than(
-        &self,
-        (other, other_base): &(Round, AxisConfig),
-        fit: &Fit,
-        base: &AxisConfig,
-        fold: &[bool],
-    ) -> bool {
-        let this = self.held_out_rms(fit, base, fold);
-        let that = other.held_out_rms(fit, other_base, fold);
+    /// Whether this round predicts the held-out halves better than `other` (with fewer
+    /// values): by the twentieth of [`predicts_better`].
+    fn predicts_better_than(&self, other: &Round, fit: &Fit, fold: &[bool]) -> bool {
+        let this = self.held_out_rms(fit, fold);
+        let that = other.held_out_rms(fit, fold);
         this.zip(that)
             .is_some_and(|(this, that)| predicts_better(this, that))
     }
@@ -219,32 +215,42 @@ impl Round {
 
     /// The RMS residual (m) of each half's fit on the other half's samples (of those `fit`
     /// compares): how well this round predicts what it did not see.
-    pub(super) fn held_out_rms(&self, fit: &Fit, base: &AxisConfig, fold: &[bool]) -> Option<f64> {
-        self.held_out_rms_on(fit, base, fold, fit.mask())
+    pub(super) fn held_out_rms(&self, fit: &Fit, fold: &[bool]) -> Option<f64> {
+        self.held_out_rms_on(fit, fold, fit.mask())
     }
 
-    /// [`Round::held_out_rms`] on the samples `mask` allows (`base`: the one the round was
-    /// fitted about).
-    pub(super) fn held_out_rms_on(
-        &self,
-        fit: &Fit,
-        base: &AxisConfig,
-        fold: &[bool],
-        mask: &[bool],
-    ) -> Option<f64> {
+    /// [`Round::held_out_rms`] on the samples `mask` allows.
+    pub(super) fn held_out_rms_on(&self, fit: &Fit, fold: &[bool], mask: &[bool]) -> Option<f64> {
+        self.held_out_of(fit, fold, mask, false)
+    }
+
+    /// [`Round::held_out_rms`] of the halves' fits that found a point of their own only
+    /// (`Fitted::own_point`): a half's search that found no step stayed where the fit on the
+    /// whole landed, at values fitted to the other half as well, and its residual there is
+    /// not held out. None where neither half's is: the round has no held-out figure.
+    pub(super) fn held_out_rms_own(&self, fit: &Fit, fold: &[bool]) -> Option<f64> {
+        self.held_out_of(fit, fold, fit.mask(), true)
+    }
+
+    fn held_out_of(&self, fit: &Fit, fold: &[bool], mask: &[bool], own: bool) -> Option<f64> {
         let simulated = self.halves_simulated.get_or_init(|| {
-            let first = fit.residual(&self.config(base, &self.halves[0]))?;
-            let second = fit.residual(&self.config(base, &self.halves[1]))?;
+            let first = fit.residual(&self.config(&self.halves[0]))?;
+            let second = fit.residual(&self.config(&self.halves[1]))?;
             Some([first, second])
         });
         let (mut ss, mut n) = (0.0, 0usize);
-        for (r, side) in simulated.as_ref()?.iter().zip([true, false]) {
+        let sides = simulated
+            .as_ref()?
+            .iter()
+            .zip(&self.halves)
+            .zip([true, false]);
+        for ((r, _), side) in sides.filter(|((_, half), _)| !own || half.own_point) {
             for i in (0..r.len()).filter(|&i| fold[i] != side && mask[i]) {
                 ss += r[i] * r[i];
                 n += 1;
             }
         }
-        Some((ss / n.max(1) as f64).sqrt())
+        (n > 0 || !own).then(|| (ss / n.max(1) as f64).sqrt())
     }
 
     /// Whether the fit on the whole record reaches the record's noise.
@@ -270,8 +276,8 @@ impl Round {
             .collect()
     }
 
-    /// `base` with the values of one of the fits.
-    pub(super) fn config(&self, base: &AxisConfig, fitted: &Fitted) -> AxisConfig {
-        Fit::config(&self.knobs, base, &fitted.values)
+    /// The round's base with the values of one of its fits.
+    pub(super) fn config(&self, fitted: &Fitted) -> AxisConfig {
+        Fit::config(&self.knobs, &self.base, &fitted.values)
     }
 }

@@ -46,6 +46,11 @@ pub struct Fitted {
     /// value by, the others refitted (machine units).
     pub model_sigma: Vec<f64>,
     pub cost: f64,
+    /// Whether the values are this fit's own: its search left the values it started from
+    /// (a step lowered the residual on its samples), or it had nothing to fit. A search
+    /// that found no step stays where it started — for a half of the record started where
+    /// the fit on the whole landed, at values fitted to the other half as well.
+    pub own_point: bool,
     /// What the uncertainties were computed from, for those of combinations of the values.
     spread: Option<Spread>,
 }
@@ -276,6 +281,7 @@ impl Problem<'_, '_, '_> {
         let settings = lsq::Settings::with_bounds((0..n).map(|j| self.bounds(j)).collect());
         let end = lsq::minimise(self, DVector::zeros(n), &settings)?;
         let values = values_at(self.knobs, self.base, &end.p);
+        let own_point = n == 0 || end.p.iter().any(|u| *u != 0.0);
         // Nothing to fit, or no sample to fit it on (a half of a record that is all
         // standstill): the values stay, and with no sample they are undetermined.
         if n == 0 || self.keep.is_empty() {
@@ -284,6 +290,7 @@ impl Problem<'_, '_, '_> {
                 sigma: vec![f64::INFINITY; n],
                 model_sigma: vec![f64::INFINITY; n],
                 cost: end.cost,
+                own_point,
                 spread: None,
             });
         }
@@ -332,6 +339,7 @@ impl Problem<'_, '_, '_> {
             sigma,
             model_sigma,
             cost: end.cost,
+            own_point,
             spread: Some(Spread {
                 jacobian: end.jacobian,
                 noise,

@@ -9,7 +9,7 @@ use super::AxisIdentification;
 use super::round::Round;
 use super::solve::Fit;
 use crate::compare::Context;
-use crate::machine::{AxisConfig, AxisName};
+use crate::machine::AxisName;
 use crate::numeric::units::um_from_m;
 
 /// How much better on the held-out halves a model with more values fitted must predict than
@@ -107,9 +107,9 @@ const HALVES_EXCESS: f64 = 2.0;
 /// (`while_moving`, beside the whole record's): at standstill an axis that hunts follows a
 /// limit cycle whose phase no model times, each half's fit its own way. Judged so, it is
 /// written; but where its halves miss each other while moving by more than
-/// [`HALVES_EXCESS`] of the noise, the record has not pinned its values down: they are a
-/// model's values (written because they predict), not measurements, and the fit is not
-/// counted as reaching the noise. Otherwise it has not reached the noise: marked so, it is
+/// [`HALVES_EXCESS`] of the noise, the record has not pinned its values down: they are
+/// written because they predict, loose (`IdentifiedValue::loose`: neither determined nor
+/// measurements), and the fit is not counted as reaching the noise. Otherwise it has not reached the noise: marked so, it is
 /// judged as a fit above it (the fit while moving, and what each predicts).
 pub(crate) fn judged_while_moving(id: &mut AxisIdentification, noise_um: f64) -> bool {
     let held_out = id.held_out_identified_um;
@@ -128,7 +128,11 @@ pub(crate) fn judged_while_moving(id: &mut AxisIdentification, noise_um: f64) ->
     id.better_than_template = true;
     if moving.held_out_identified_um > HALVES_EXCESS * noise_um {
         id.reached = false;
-        id.values.iter_mut().for_each(|v| v.measured = false);
+        for v in id.values.iter_mut().filter(|v| v.determined) {
+            v.determined = false;
+            v.measured = false;
+            v.loose = true;
+        }
     }
     true
 }
@@ -138,7 +142,6 @@ pub(crate) fn judged_while_moving(id: &mut AxisIdentification, noise_um: f64) ->
 pub(crate) fn while_moving(
     fit: &Fit,
     round: &Round,
-    base: &AxisConfig,
     fold: &[bool],
     template_residual: &[f64],
 ) -> Option<WhileMoving> {
@@ -148,7 +151,7 @@ pub(crate) fn while_moving(
         .zip(fit.mask())
         .map(|(a, b)| *a && *b)
         .collect();
-    let identified = round.held_out_rms_on(fit, base, fold, &mask)?;
+    let identified = round.held_out_rms_on(fit, fold, &mask)?;
     let (ss, n) = template_residual
         .iter()
         .zip(&mask)

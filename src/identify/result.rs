@@ -1,0 +1,195 @@
+//! What an identification is: each value written (fitted, traded or the template's) with its
+//! uncertainty, each axis with the figures it is judged by, the whole machine, and why a
+//! record cannot identify one. The search and the judging live beside it; these are what
+//! the report, the JSON, the HTML page and the machine file's header read.
+
+use serde::Serialize;
+
+use super::baseline::Baseline;
+use super::interpolator::Interpolator;
+use super::verdict::{Place, WhileMoving};
+use crate::compare::CompareError;
+use crate::compare::start::Coverage;
+use crate::machine::{AxisName, MachineConfig};
+
+/// One identified value.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct IdentifiedValue {
+    /// Key below the axis (`friction.coulomb_n`: the Coulomb force, written to the machine
+    /// file as the coefficient).
+    pub key: &'static str,
+    /// Unit.
+    pub unit: &'static str,
+    /// The template's value.
+    pub template: f64,
+    /// The value written: fitted, or the template's where the record does not determine it.
+    pub value: f64,
+    /// Its standard uncertainty (NaN where the template's).
+    pub uncertainty: f64,
+    /// Whether the record determines it: fitted, with an uncertainty within half of it (or
+    /// of its scale), on a fit whose halves predict each other. A value fitted and written
+    /// though the record leaves it looser than that is not determined: it names the value
+    /// it trades with (`traded_with`), or is `loose`. None of these: the template's.
+    pub determined: bool,
+    /// Whether it reads as the machine's own value: determined, with an uncertainty —
+    /// widened to what a modelling difference of half the noise could move it by — within
+    /// half of it. A determined value that is not measured is written because it predicts
+    /// the record: a model's value, not a measurement.
+    pub measured: bool,
+    /// Where the record does not determine the value alone (its uncertainty beyond half of
+    /// it) yet it is written — the fit with it predicts the held-out halves better than with
+    /// the template's put back —: the value it trades with most. Only their combination is
+    /// the record's; the value alone is neither determined, nor a measurement, nor certain.
+    pub traded_with: Option<&'static str>,
+    /// Fitted and written, but the record leaves it loose: the fit on every sample reached
+    /// the record's noise, yet its halves' fits predict each other while the axis moves only
+    /// to more than twice the noise (the axis judged there) — each half put the values
+    /// elsewhere. Written because they predict better than the template; not determined,
+    /// not a measurement.
+    pub loose: bool,
+}
+
+impl IdentifiedValue {
+    /// Whether the value written is fitted to the record (determined, traded with another,
+    /// or loose), rather than the template's.
+    pub fn fitted(&self) -> bool {
+        self.determined || self.traded_with.is_some() || self.loose
+    }
+}
+
+/// A current-commanding controller's gain over the whole drive's inertia: what a rigid
+/// drive's loop depends on. The record tells the gain from the table's mass only through
+/// the rotor's and screw's share of the inertia (which the template gives) and the drive's
+/// compliance, and a modelling difference moves both along their ratio; the ratio itself it
+/// determines.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GainPerInertia {
+    /// The gain's key.
+    pub gain: &'static str,
+    /// The drive's inertia as a mass at the table, identified: the rotor's and screw's
+    /// (the template's) with the table's (kg).
+    pub inertia_kg: f64,
+    /// The gain over it (the gain's unit per kg).
+    pub value: f64,
+    /// Its standard uncertainty, with the model's floor as every value's.
+    pub uncertainty: f64,
+}
+
+/// One axis identified.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AxisIdentification {
+    /// The axis.
+    pub axis: AxisName,
+    /// Its values.
+    pub values: Vec<IdentifiedValue>,
+    /// What is taken from the template as the user's setting, not fitted.
+    pub kept: String,
+    /// Compared only while moving (away from standstills, where the axis hunts): the
+    /// residuals below are over those samples.
+    pub moving_only: bool,
+    /// Whether the fit reached the record's noise. Where it did not, no value reads as a
+    /// measurement: the fit is written as a model's values where it predicts the held-out
+    /// halves better than the template (`better_than_template`), else the template's stay.
+    pub reached: bool,
+    /// Whether the values written predict the record's held-out halves better than the
+    /// template's (by more than a twentieth): the fit is written, reached or not.
+    pub better_than_template: bool,
+    /// RMS of the following error in the record (µm): the yardstick of the residuals.
+    pub following_error_rms_um: f64,
+    /// The held-out residual as a share of the following error on the same samples.
+    pub held_out_share: f64,
+    /// The plain regression of the following error on the command (the baseline a model
+    /// must beat), scored on blocks it was not fitted on.
+    pub baseline: Baseline,
+    /// Where the residual the written values leave is largest.
+    pub largest_at: Option<Place>,
+    /// The residual RMS with the template, whole record (µm).
+    pub rms_template_um: f64,
+    /// With the identified values.
+    pub rms_identified_um: f64,
+    /// On each half of the record, the template's residual …
+    pub held_out_template_um: f64,
+    /// … and that of the values fitted on the other half (µm).
+    pub held_out_identified_um: f64,
+    /// The template already explains the record to its noise and the values fitted predict
+    /// its held-out halves worse: the template's values stay (none is determined).
+    pub template_holds: bool,
+    /// The fit on every sample reached the noise, but its halves predicted each other to
+    /// it only while moving (as where an axis hunts on a limit cycle each half's fit times
+    /// its own way: the halves' disagreement is what is measured, not the hunting): it is
+    /// judged by its held-out figures while moving (`while_moving`), not by the whole
+    /// record's above, which stay as they are.
+    pub judged_while_moving: bool,
+    /// For a fit on every sample: its held-out figures on the samples while the axis moves.
+    pub while_moving: Option<WhileMoving>,
+    /// Where the gain and the table's mass are both fitted on a controller commanding
+    /// current: their ratio, which the record determines even where each alone is a
+    /// model's value.
+    pub gain_per_inertia: Option<GainPerInertia>,
+}
+
+/// The identification of a machine from a record.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Identification {
+    /// The record's file.
+    pub file: String,
+    /// The identified machine (the template with the values and the interpolator's limits
+    /// written).
+    #[serde(skip)]
+    pub machine: MachineConfig,
+    /// Per axis.
+    pub axes: Vec<AxisIdentification>,
+    /// The interpolator's peaks in the record.
+    pub interpolator: Interpolator,
+    /// The record's noise floor (µm).
+    pub noise_um: f64,
+    /// Which stretch of the program the record was compared on, and how its start was set
+    /// (a trace that begins at the machine's home is compared from where its commands join
+    /// the program).
+    pub coverage: Coverage,
+    /// Why Z was not identified, where the record measured Z (its template's values stay);
+    /// `None` where it was, or where the record has no Z.
+    pub z_not_identified: Option<String>,
+}
+
+/// Why a record cannot identify a machine.
+#[derive(Debug, thiserror::Error)]
+pub enum IdentifyError {
+    /// The record has no commanded positions.
+    #[error(
+        "{file}: the record holds no commanded positions (x_cmd, y_cmd columns): identification \
+         compares what the axes did with what they were told — record the control's setpoints \
+         too, or map them with --columns"
+    )]
+    NoCommands {
+        /// The record.
+        file: String,
+    },
+    /// An axis does not move in the record's commands.
+    #[error(
+        "{file}: {axis} is commanded to move {travel_um:.1} µm in the record: there is nothing to \
+         identify it from — record a program that moves both axes"
+    )]
+    StillAxis {
+        /// The record.
+        file: String,
+        /// The axis.
+        axis: AxisName,
+        /// How far it was commanded (µm).
+        travel_um: f64,
+    },
+    /// The record could not be placed on the program.
+    #[error(transparent)]
+    Compare(#[from] CompareError),
+    /// The template cannot be simulated on the record's commands.
+    #[error(
+        "{file}: the template machine cannot follow the record's commands on {axis} (its loop is \
+         unstable or diverges): start from a template closer to the machine"
+    )]
+    CannotSimulate {
+        /// The record.
+        file: String,
+        /// The axis.
+        axis: AxisName,
+    },
+}
