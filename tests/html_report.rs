@@ -307,6 +307,54 @@ fn chromium() -> Option<PathBuf> {
     path.exists().then_some(path)
 }
 
+/// Seconds one rendering may take: a page renders in a few; headless Chromium now and then
+/// stalls on its screenshot with nothing to do (seen on a page it rendered in seconds on
+/// other runs), and a stalled browser must fail or retry, never hold the suite.
+const RENDER_LIMIT_S: u32 = 60;
+
+/// Headless Chromium's screenshot of `page` into `shot`, under `timeout` (which stops the
+/// browser's whole process group): a stalled run is tried again, up to three times, each in a
+/// fresh profile.
+fn screenshot(chromium: &Path, page: &Path, profile: &Path, shot: &Path) -> Output {
+    for attempt in 1..=3 {
+        let user_data = profile.join(format!("profile-{attempt}"));
+        let o = Command::new("timeout")
+            .args(["-k", "5", &RENDER_LIMIT_S.to_string()])
+            .arg(chromium)
+            .args([
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--disable-quic",
+                "--no-first-run",
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+                "--hide-scrollbars",
+                "--enable-logging=stderr",
+                "--v=0",
+                "--window-size=900,1800",
+            ])
+            .arg(format!("--user-data-dir={}", user_data.display()))
+            .arg(format!("--screenshot={}", shot.display()))
+            .arg(format!("file://{}", page.display()))
+            .output()
+            .unwrap();
+        // `timeout` exits 124 when it stopped the browser, 137 when it had to kill it.
+        if !matches!(o.status.code(), Some(124 | 137)) {
+            return o;
+        }
+        eprintln!(
+            "chromium stalled on {} (attempt {attempt}); again",
+            page.display()
+        );
+    }
+    panic!(
+        "headless chromium did not render {} within {RENDER_LIMIT_S} s, three times",
+        page.display()
+    );
+}
+
 /// Renders `page` in headless Chromium: the screenshot is not blank and the page logged no
 /// error (no console message, no resource that failed to load).
 fn assert_renders(page: &Path) {
@@ -316,26 +364,7 @@ fn assert_renders(page: &Path) {
     };
     let profile = tempfile::tempdir().unwrap();
     let shot = profile.path().join("shot.png");
-    let o = Command::new(chromium)
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--disable-quic",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            "--hide-scrollbars",
-            "--enable-logging=stderr",
-            "--v=0",
-            "--window-size=900,1800",
-        ])
-        .arg(format!("--user-data-dir={}", profile.path().display()))
-        .arg(format!("--screenshot={}", shot.display()))
-        .arg(format!("file://{}", page.display()))
-        .output()
-        .unwrap();
+    let o = screenshot(&chromium, page, profile.path(), &shot);
     let log = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "chromium failed: {log}");
     let page_errors: Vec<&str> = log

@@ -21,7 +21,8 @@ pub(crate) fn points_per_turn(points: &[(f64, f64)]) -> f64 {
         .map(|w| ((w[1].0 - w[0].0 + PI).rem_euclid(TAU) - PI).abs())
         .collect();
     let travelled: f64 = steps.iter().sum();
-    if travelled <= 0.0 {
+    // A non-finite angle (a NaN sample) gives no resolution, not an unbounded one.
+    if !travelled.is_finite() || travelled <= 0.0 {
         return 0.0;
     }
     steps.sort_by(f64::total_cmp);
@@ -105,5 +106,15 @@ mod tests {
         let mut most_missing = spaced(0.5, 121);
         most_missing.extend(spaced_from(300.0, 0.5, 61));
         assert!(too_sparse_for_a_plot(&most_missing).is_some());
+    }
+
+    #[test]
+    fn a_nan_angle_makes_no_plot() {
+        // A NaN sample among dense points: its steps are NaN, so the turn's resolution is
+        // unknown — refused, never taken for an unbounded number of points per turn.
+        let mut points = spaced(1.0, 360);
+        points[100].0 = f64::NAN;
+        assert_eq!(points_per_turn(&points), 0.0);
+        assert!(too_sparse_for_a_plot(&points).is_some());
     }
 }

@@ -290,7 +290,7 @@ fn polar_plots(d: &Diagnosis, name: &str, extended_name: &str) -> Polar {
     let z = d.z.series.as_ref();
     let none: &[f64] = &[];
     let mut polar = Polar::default();
-    for c in &d.circles {
+    for (i, c) in d.circles.iter().enumerate() {
         // The figures of this circle, the same plan segment, where the path has them.
         let g_of = |test: &CircularTest| {
             test.circles
@@ -342,7 +342,8 @@ fn polar_plots(d: &Diagnosis, name: &str, extended_name: &str) -> Polar {
                 g_of(&circular.extended),
             ),
         ];
-        let before = polar.drawn.iter().filter(|p| p.line == c.line).count();
+        // Every earlier circle of the line counts, drawn or not: a name stays with its circle.
+        let before = d.circles[..i].iter().filter(|o| o.line == c.line).count();
         polar.drawn.push(CirclePlot {
             line: c.line,
             file: polar_file(c.line, before),

@@ -1,5 +1,5 @@
-//! What an identification is: each value written (fitted, traded or the template's) with its
-//! uncertainty, each axis with the figures it is judged by, the whole machine, and why a
+//! What an identification is: each value written (fitted, traded, loose or the template's)
+//! with its uncertainty, each axis with the figures it is judged by, the whole machine, and why a
 //! record cannot identify one. The search and the judging live beside it; these are what
 //! the report, the JSON, the HTML page and the machine file's header read.
 
