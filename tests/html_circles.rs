@@ -13,8 +13,8 @@
 mod common;
 
 use common::diagnosing::diagnose_nominal;
-use common::program_text;
 use common::reference::{Recording, record};
+use common::{program_text, stated_points_per_turn};
 use contourcheck::diagnose::report::DiagnoseReport;
 use contourcheck::machine::MachineConfig;
 use contourcheck::trace::measured::parse_trace;
@@ -78,12 +78,7 @@ fn a_circle_sampled_too_sparsely_has_no_polar_plot_and_says_why() {
         .split("Circle of line 5: no polar plot: ")
         .nth(1)
         .unwrap_or_else(|| panic!("no reason for the small circle"));
-    let per_turn: f64 = note
-        .split(" per turn")
-        .next()
-        .and_then(|s| s.rsplit(", ").next())
-        .and_then(|s| s.parse().ok())
-        .unwrap_or_else(|| panic!("{note}"));
+    let per_turn = stated_points_per_turn(note);
     assert!(
         // Shown to the unit.
         (per_turn - small_cruise).abs() <= 0.5,

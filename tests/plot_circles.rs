@@ -10,6 +10,7 @@
 mod common;
 
 use common::cli::{run, text};
+use common::stated_points_per_turn;
 
 const PROGRAM: &str = "G21 G90 G94 G17\nG0 X0.5 Y0\nG3 X0.5 Y0 I-0.5 J0 F300\nG0 X20 Y0\n\
                        G3 X20 Y0 I-20 J0 F300\nM2\n";
@@ -35,12 +36,7 @@ fn check_plot_says_why_a_circle_has_no_polar_plot_and_numbers_the_others_in_orde
         .lines()
         .find_map(|l| l.strip_prefix("plot: circle of line 3: no polar plot: "))
         .unwrap_or_else(|| panic!("no word on the small circle:\n{out}"));
-    let per_turn: f64 = note
-        .split(" per turn")
-        .next()
-        .and_then(|s| s.rsplit(", ").next())
-        .and_then(|s| s.parse().ok())
-        .unwrap_or_else(|| panic!("{note}"));
+    let per_turn = stated_points_per_turn(note);
     assert!(
         per_turn >= per_turn_at_feed.round() && per_turn < 36.0,
         "{per_turn} per turn, {per_turn_at_feed:.1} at full feed"

@@ -61,6 +61,17 @@ pub fn program_text(text: &str) -> Program {
     parse_program(text, "test.nc", &InterpretOptions::default()).unwrap()
 }
 
+/// The points per turn a "no polar plot" reason states ("…, N per turn, fewer than …"), as
+/// the terminal and the HTML page word it.
+pub fn stated_points_per_turn(reason: &str) -> f64 {
+    reason
+        .split(" per turn")
+        .next()
+        .and_then(|s| s.rsplit(", ").next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no points per turn in: {reason}"))
+}
+
 /// The foreign interpolator ([`reference::Trapezoids`]: each block on its own trapezoidal
 /// profile at `accel`, stopping at its end) with `pre_s` of standstill before and 0.5 s after,
 /// sampled every `dt_s`.
