@@ -198,31 +198,26 @@ class Identification(_Result):
                     k: (float("nan") if k == "uncertainty" and v[k] is None else v[k])
                     for k in ("template", "value", "uncertainty", "unit", "determined", "measured")
                 }
-                row["traded_with"] = v.get("traded_with")
-                row["loose"] = bool(v.get("loose", False))
-                row["fitted"] = row["determined"] or row["traded_with"] is not None or row["loose"]
+                row["traded_with"] = v["traded_with"]
+                row["loose"] = v["loose"]
+                row["fitted"] = v["fitted"]
                 values[v["key"]] = row
             out[a["axis"]] = values
         return out
 
     def held_out(self) -> Dict[str, Dict[str, Any]]:
         """Per axis, the held-out figures the axis is judged by (µm, and the fit's share of
-        the following error): ``template_um``, ``identified_um``, ``following_error_um``,
+        the following error): ``template_um``, ``identified_um`` (None where the fit has no
+        held-out figure: neither half's fit left the whole fit's point), ``following_error_um``,
         ``share`` — the whole record's, or those on the samples while the axis moves where it
         is judged there (``while_moving`` True: its fit reached the noise but its halves'
-        fits disagree at standstill, where it hunts) — and ``better_than_template``."""
+        fits disagree at standstill, where it hunts) — and ``better_than_template``; as the
+        report's ``judged_held_out`` states them."""
         out: Dict[str, Dict[str, Any]] = {}
         for a in self.report["axes"]:
-            moving = a.get("while_moving") if a.get("judged_while_moving") else None
-            src = moving if moving is not None else a
-            out[a["axis"]] = {
-                "template_um": src["held_out_template_um"],
-                "identified_um": src["held_out_identified_um"],
-                "following_error_um": src["following_error_rms_um"],
-                "share": src["held_out_share"],
-                "while_moving": moving is not None,
-                "better_than_template": a["better_than_template"],
-            }
+            row = dict(a["judged_held_out"])
+            row["better_than_template"] = a["better_than_template"]
+            out[a["axis"]] = row
         return out
 
     def __repr__(self) -> str:

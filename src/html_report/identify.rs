@@ -110,7 +110,11 @@ fn axis_view(report: &IdentifyReport, json: &Json, a: usize) -> AxisView {
                 template: f(&format!("values[{k}].template"), 4),
                 value: f(&format!("values[{k}].value"), decimals),
                 uncertainty: f(&format!("values[{k}].uncertainty"), decimals),
-                status: crate::identify::report::status(v),
+                // A corner gone complex has no value to show: its pair, in words.
+                status: match v.complex_pair {
+                    Some(_) => crate::identify::report::shown(v),
+                    None => crate::identify::report::status(v),
+                },
             }
         })
         .collect();
@@ -127,15 +131,6 @@ fn axis_view(report: &IdentifyReport, json: &Json, a: usize) -> AxisView {
         following_error: f("following_error_rms_um", 1),
         notes,
         values,
-        gain_per_inertia: axis.gain_per_inertia.as_ref().map(|r| {
-            format!(
-                "{} per inertia: {} ± {} per kg, of {:.1} kg at the table — what the record \
-                 determines where the gain and the mass trade",
-                r.gain,
-                crate::identify::report::sig(r.value),
-                crate::identify::report::sig(r.uncertainty),
-                r.inertia_kg
-            )
-        }),
+        gain_per_inertia: crate::identify::report::gain_per_inertia_line(axis),
     }
 }

@@ -4,6 +4,7 @@
 
 use nalgebra::Complex;
 
+use super::ComplexPair;
 use crate::machine::{AxisConfig, Controller, DriveKind, Feedback, TransferFunction};
 use crate::numeric::poly;
 use crate::numeric::units::GRAVITY_M_PER_S2;
@@ -294,6 +295,29 @@ fn corner_hz(coefficients: &[f64], k: usize) -> f64 {
         .map_or(f64::NAN, |&i| -groups[i].0.re / std::f64::consts::TAU)
 }
 
+/// Where corner `key` of `axis`'s transfer function is no longer a real root (the fit took
+/// two real corners into a complex pair): the lowest complex pair of that polynomial. None
+/// for a real corner, another key or another controller.
+pub(crate) fn complex_pair(axis: &AxisConfig, key: &str) -> Option<ComplexPair> {
+    let (zero, _) = corner_of(key)?;
+    let Controller::TransferFunction(tf) = &axis.controller else {
+        return None;
+    };
+    if get(axis, key).is_finite() {
+        return None;
+    }
+    let (groups, _) = corners(if zero { &tf.numerator } else { &tf.denominator });
+    groups
+        .iter()
+        .map(|g| g.0)
+        .filter(|r| r.im > 0.0)
+        .min_by(|a, b| a.norm().total_cmp(&b.norm()))
+        .map(|r| ComplexPair {
+            natural_hz: r.norm() / std::f64::consts::TAU,
+            damping: -r.re / r.norm(),
+        })
+}
+
 /// `coefficients` with its real roots set to the corners given (by index, lowest first as
 /// they were), the leading coefficient and the other roots kept.
 fn with_corners(coefficients: &[f64], set: &[(usize, f64)]) -> Vec<f64> {
@@ -512,6 +536,44 @@ mod tests {
                 assert!(get(&axis, k.key).is_finite(), "{}", k.key);
             }
         }
+    }
+
+    #[test]
+    fn corners_gone_complex_are_shown_as_their_pair() {
+        // A lead-lag whose two zeros became the pair s² + 2ζω s + ω², ω = 2π·50 Hz, ζ = 0.3
+        // (roots −15π ± 5π·√91·i), over a pole at 200 Hz and an integrator.
+        let w = std::f64::consts::TAU * 50.0;
+        let mut axis = MachineConfig::preset("small-table").unwrap().x;
+        let Controller::TransferFunction(tf) = &mut axis.controller else {
+            panic!("the small table runs a transfer function");
+        };
+        tf.numerator = vec![1.0, 2.0 * 0.3 * w, w * w];
+        tf.denominator = vec![1.0, std::f64::consts::TAU * 200.0, 0.0];
+        assert!(get(&axis, "controller.zero_1_hz").is_nan());
+        for key in ["controller.zero_1_hz", "controller.zero_2_hz"] {
+            let pair = complex_pair(&axis, key).unwrap();
+            assert!((pair.natural_hz - 50.0).abs() < 1e-9 && (pair.damping - 0.3).abs() < 1e-12);
+        }
+        // The pole is real: its corner is a value, no pair.
+        assert!((get(&axis, "controller.pole_1_hz") - 200.0).abs() < 1e-9);
+        assert!(complex_pair(&axis, "controller.pole_1_hz").is_none());
+        let shown = crate::identify::report::shown(&crate::identify::IdentifiedValue {
+            key: "controller.zero_1_hz",
+            unit: "Hz",
+            template: 30.0,
+            value: f64::NAN,
+            uncertainty: f64::NAN,
+            determined: false,
+            measured: false,
+            traded_with: Some("controller.gain"),
+            loose: false,
+            complex_pair: complex_pair(&axis, "controller.zero_1_hz"),
+        });
+        assert!(
+            shown.starts_with("complex pair near 50.00 Hz, damping 0.300")
+                && !shown.contains("NaN"),
+            "{shown}"
+        );
     }
 
     #[test]

@@ -43,7 +43,7 @@ use rayon::prelude::*;
 pub use baseline::Baseline;
 pub use interpolator::Interpolator;
 pub use result::{
-    AxisIdentification, GainPerInertia, Identification, IdentifiedValue, IdentifyError,
+    AxisIdentification, ComplexPair, GainPerInertia, Identification, IdentifiedValue, IdentifyError,
 };
 pub use verdict::{Place, WhileMoving};
 
@@ -338,6 +338,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             measured: false,
             traded_with: None,
             loose: false,
+            complex_pair: None,
         })
         .collect();
     Some((
@@ -420,6 +421,7 @@ fn identify_ordered(
                 measured: false,
                 traded_with: None,
                 loose: false,
+                complex_pair: None,
             });
         }
         (config, id)
@@ -567,6 +569,10 @@ fn fitted_values(
                 measured: traded_with.is_none() && sigma.is_some_and(|s| k.determines(s, value)),
                 traded_with,
                 loose: false,
+                complex_pair: sigma
+                    .is_some()
+                    .then(|| knobs::complex_pair(config, k.key))
+                    .flatten(),
             }
         })
         .collect()
@@ -803,6 +809,7 @@ mod tests {
             measured: true,
             traded_with: None,
             loose: false,
+            complex_pair: None,
         }];
         id.while_moving = Some(WhileMoving {
             held_out_template_um: 0.28,
@@ -829,6 +836,106 @@ mod tests {
         });
         assert!(verdict::judged_while_moving(&mut close, noise_um));
         assert!(close.reached && close.values[0].determined && !close.values[0].loose);
+    }
+
+    /// A fitted gain of 440.5 ± 21.6 over a table of 120 kg: a ratio of 3.67 per kg.
+    fn with_gain(uncertainty_per_kg: f64, loose: bool) -> AxisIdentification {
+        let mut id = scored(0.50, 0.06);
+        id.values = vec![IdentifiedValue {
+            key: "controller.gain",
+            unit: "",
+            template: 337.8,
+            value: 440.5,
+            uncertainty: 21.6,
+            determined: !loose,
+            measured: !loose,
+            traded_with: None,
+            loose,
+            complex_pair: None,
+        }];
+        id.gain_per_inertia = Some(GainPerInertia {
+            gain: "controller.gain",
+            inertia_kg: 120.0,
+            value: 440.5 / 120.0,
+            uncertainty: uncertainty_per_kg,
+        });
+        id
+    }
+
+    #[test]
+    fn the_gain_per_inertia_is_written_as_determined_only_where_the_record_determines_it() {
+        let determined = "what the record determines";
+        // Within half of itself (0.1 against 3.67 per kg), no value loose: determined.
+        let line = report::gain_per_inertia_line(&with_gain(0.1, false)).unwrap();
+        assert!(line.contains(determined), "{line}");
+        // The same rule as a value's `determined`: an uncertainty over half of the value
+        // (2.0 against 3.67 / 2 = 1.84 per kg), or none, leaves it a model's figure.
+        for uncertainty in [2.0, f64::NAN] {
+            let line = report::gain_per_inertia_line(&with_gain(uncertainty, false)).unwrap();
+            assert!(
+                line.contains("uncertainty exceeds half") && !line.contains(determined),
+                "{line}"
+            );
+        }
+        // A value the record's halves leave loose: the ratio is not determined either,
+        // however small its uncertainty.
+        let line = report::gain_per_inertia_line(&with_gain(0.1, true)).unwrap();
+        assert!(
+            line.contains("leave it loose") && !line.contains(determined),
+            "{line}"
+        );
+        // No gain per inertia, no line.
+        assert!(report::gain_per_inertia_line(&scored(0.5, 0.06)).is_none());
+    }
+
+    #[test]
+    fn the_json_states_each_values_state_and_the_figures_its_axis_is_judged_by() {
+        let mut id = with_gain(0.1, true);
+        let mut template_value = id.values[0].clone();
+        template_value.key = "controller.pole_1_hz";
+        template_value.uncertainty = f64::NAN;
+        (template_value.determined, template_value.measured) = (false, false);
+        template_value.loose = false;
+        id.values.push(template_value);
+        id.while_moving = Some(WhileMoving {
+            held_out_template_um: 0.28,
+            held_out_identified_um: 0.134,
+            following_error_rms_um: 1.1,
+            held_out_share: 0.12,
+        });
+        /// The report's axes, as the JSON report writes them.
+        #[derive(serde::Serialize)]
+        struct Report {
+            #[serde(serialize_with = "result::axes_json")]
+            axes: Vec<AxisIdentification>,
+        }
+        for judged_while_moving in [false, true] {
+            id.judged_while_moving = judged_while_moving;
+            let report = serde_json::to_value(Report {
+                axes: vec![id.clone()],
+            });
+            let json = &report.unwrap()["axes"][0];
+            let fitted: Vec<_> = json["values"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| &v["fitted"])
+                .collect();
+            assert_eq!(fitted, [true, false], "{json}");
+            let judged = &json["judged_held_out"];
+            let (template_um, identified_um, following_error_um, share) = if judged_while_moving {
+                (0.28, 0.134, 1.1, 0.12)
+            } else {
+                (0.50, 0.06, 3.0, 0.06 / 3.0)
+            };
+            assert_eq!(judged["template_um"], template_um, "{json}");
+            assert_eq!(judged["identified_um"], identified_um, "{json}");
+            assert_eq!(judged["following_error_um"], following_error_um, "{json}");
+            assert_eq!(judged["share"], share, "{json}");
+            assert_eq!(judged["while_moving"], judged_while_moving, "{json}");
+            // The axis's own figures stay beside them as they were.
+            assert_eq!(json["held_out_identified_um"], 0.06, "{json}");
+        }
     }
 
     #[test]

@@ -46,6 +46,14 @@ impl<'a> IdentifyReport<'a> {
 /// A value for the table: fitted with its uncertainty (said so where that is not a
 /// measurement), or the template's.
 pub(crate) fn shown(v: &IdentifiedValue) -> String {
+    if let Some(pair) = v.complex_pair {
+        return format!(
+            "complex pair near {} Hz, damping {:.3} ({})",
+            sig(pair.natural_hz),
+            pair.damping,
+            status(v)
+        );
+    }
     if !v.fitted() {
         return format!("{} ({})", sig(v.value), status(v));
     }
@@ -156,22 +164,37 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
             v.unit
         );
     }
-    if let Some(r) = &a.gain_per_inertia {
-        let _ = writeln!(
-            s,
-            "  {} per inertia: {} ± {} per kg, of {:.1} kg at the table (rotor, screw and \
-             table) — what the record determines where the gain and the mass trade",
-            r.gain,
-            sig(r.value),
-            sig(r.uncertainty),
-            r.inertia_kg
-        );
+    if let Some(line) = gain_per_inertia_line(a) {
+        let _ = writeln!(s, "  {line}");
     }
     if a.kept.starts_with("no template") {
         let _ = writeln!(s, "  {}", a.kept);
     } else {
         let _ = writeln!(s, "  kept from the template: {}", a.kept);
     }
+}
+
+/// The gain over the drive's inertia, where fitted, and how the record holds it: what the
+/// record determines where the gain and the mass trade — only where it does (within half of
+/// itself, on an axis none of whose values the record's halves leave loose); else a model's
+/// figure, said why.
+pub(crate) fn gain_per_inertia_line(a: &AxisIdentification) -> Option<String> {
+    let r = a.gain_per_inertia.as_ref()?;
+    let how = if a.values.iter().any(|v| v.loose) {
+        "not determined: the record's halves leave it loose; a model's figure"
+    } else if r.uncertainty.is_nan() || r.uncertainty > 0.5 * r.value.abs() {
+        "not determined: its uncertainty exceeds half of it; a model's figure"
+    } else {
+        "what the record determines where the gain and the mass trade"
+    };
+    Some(format!(
+        "{} per inertia: {} ± {} per kg, of {:.1} kg at the table (rotor, screw and table) — \
+         {how}",
+        r.gain,
+        sig(r.value),
+        sig(r.uncertainty),
+        r.inertia_kg
+    ))
 }
 
 /// Where the axis is judged by its held-out figures while moving: those, named so (the
@@ -327,16 +350,8 @@ pub(crate) fn machine_file(
         for v in &a.values {
             let _ = writeln!(s, "#   {}.{} = {} {}", a.axis, v.key, shown(v), v.unit);
         }
-        if let Some(r) = &a.gain_per_inertia {
-            let _ = writeln!(
-                s,
-                "#   {}.{} per inertia = {} ± {} per kg (of {:.1} kg)",
-                a.axis,
-                r.gain,
-                sig(r.value),
-                sig(r.uncertainty),
-                r.inertia_kg
-            );
+        if let Some(line) = gain_per_inertia_line(a) {
+            let _ = writeln!(s, "#   {}.{line}", a.axis);
         }
     }
     if let Some(why) = &id.z_not_identified {

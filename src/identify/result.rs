@@ -47,6 +47,78 @@ pub struct IdentifiedValue {
     /// elsewhere. Written because they predict better than the template; not determined,
     /// not a measurement.
     pub loose: bool,
+    /// Where a corner the fit moved is no longer a real root — two real corners of the
+    /// template's went into a complex pair —: that pair (the value is then NaN, though the
+    /// coefficients written are finite).
+    pub complex_pair: Option<ComplexPair>,
+}
+
+/// A complex pair of roots of a transfer function's numerator or denominator.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ComplexPair {
+    /// Its natural frequency, the roots' modulus (Hz).
+    pub natural_hz: f64,
+    /// Its damping ratio (the real part's share of the modulus, negated).
+    pub damping: f64,
+}
+
+/// A value as the JSON report writes it: its fields and whether it is [`fitted`]
+/// (`IdentifiedValue::fitted`), so that readers of the report do not derive it again.
+#[derive(Serialize)]
+struct ValueJson<'a> {
+    #[serde(flatten)]
+    value: &'a IdentifiedValue,
+    fitted: bool,
+}
+
+fn values_json<S: serde::Serializer>(
+    values: &[IdentifiedValue],
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    serializer.collect_seq(values.iter().map(|value| ValueJson {
+        value,
+        fitted: value.fitted(),
+    }))
+}
+
+/// The held-out figures an axis is judged by ([`AxisIdentification::judged_held_out`]), as
+/// the JSON report writes them.
+#[derive(Serialize)]
+struct JudgedHeldOut {
+    template_um: f64,
+    identified_um: f64,
+    following_error_um: f64,
+    share: f64,
+    /// Whether these are the figures while the axis moves.
+    while_moving: bool,
+}
+
+/// An axis as the JSON report writes it: its fields and the held-out figures it is judged
+/// by (`judged_held_out`).
+#[derive(Serialize)]
+struct AxisJson<'a> {
+    #[serde(flatten)]
+    axis: &'a AxisIdentification,
+    judged_held_out: JudgedHeldOut,
+}
+
+pub(super) fn axes_json<S: serde::Serializer>(
+    axes: &[AxisIdentification],
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    serializer.collect_seq(axes.iter().map(|axis| {
+        let (template_um, identified_um, following_error_um, share) = axis.judged_held_out();
+        AxisJson {
+            axis,
+            judged_held_out: JudgedHeldOut {
+                template_um,
+                identified_um,
+                following_error_um,
+                share,
+                while_moving: axis.judged_while_moving && axis.while_moving.is_some(),
+            },
+        }
+    }))
 }
 
 impl IdentifiedValue {
@@ -81,6 +153,7 @@ pub struct AxisIdentification {
     /// The axis.
     pub axis: AxisName,
     /// Its values.
+    #[serde(serialize_with = "values_json")]
     pub values: Vec<IdentifiedValue>,
     /// What is taken from the template as the user's setting, not fitted.
     pub kept: String,
@@ -138,6 +211,7 @@ pub struct Identification {
     #[serde(skip)]
     pub machine: MachineConfig,
     /// Per axis.
+    #[serde(serialize_with = "axes_json")]
     pub axes: Vec<AxisIdentification>,
     /// The interpolator's peaks in the record.
     pub interpolator: Interpolator,
