@@ -141,7 +141,7 @@ fn solve(
         cr += c[i] * r0[i];
     }
     let det = ss * cc - sc * sc;
-    if !(det > 0.0) {
+    if det.is_nan() || det <= 0.0 {
         return None;
     }
     // Minimising Σ (r0 + a·s + b·c)².
