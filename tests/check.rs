@@ -213,7 +213,10 @@ fn semi_closed_backlash_steps_the_radius_by_the_whole_gap() {
     let r = circle_test(&machine);
     let f_c = 0.01 * 6000.0 * 9.81;
     let expected_um = b_um + 2.0 * f_c / 3.6e8 * 1e6;
-    let circle = circle_tests(&r.result).into_iter().find(|c| c.ccw).unwrap();
+    let circle = circle_tests(&r.result)
+        .into_iter()
+        .find(|c| c.circle.ccw)
+        .unwrap();
     let mean_near = |deg: f64| {
         let v: Vec<f64> = circle
             .points

@@ -1,6 +1,7 @@
 //! The circles on the HTML pages: each circle's row names its plane with a value a filter
 //! can read, and a circle a record gives too few points per turn for a polar plot gets the
-//! reason instead of a polygon drawn from its samples.
+//! reason instead of a polygon drawn from its samples; `diagnose --plot` says the same on
+//! the terminal.
 //!
 //! The record is the independent reference's (`common::reference`): two circles at
 //! 3000 mm/min sampled at 50 Hz, as a SINUMERIK trace is. Round R 10 mm the path runs
@@ -12,6 +13,7 @@
 
 mod common;
 
+use common::cli::{run_ok, text};
 use common::diagnosing::diagnose_nominal;
 use common::reference::{Recording, record};
 use common::{program_text, stated_points_per_turn};
@@ -88,5 +90,57 @@ fn a_circle_sampled_too_sparsely_has_no_polar_plot_and_says_why() {
     assert!(
         !page.contains("Circle of line 3: no polar plot"),
         "{large:.1} per turn refused"
+    );
+}
+
+/// The same record handed to `diagnose --plot` as a user hands it over: the terminal says
+/// which circle has no polar plot and why, in the words and figures of the page, and the
+/// plot files are the drawn circle's only.
+#[test]
+fn diagnose_plot_says_why_the_sparse_circle_has_no_polar_plot() {
+    let program = program_text(PROGRAM);
+    let machine = MachineConfig::default_preset();
+    let rec = Recording {
+        sample_s: 0.02,
+        ..Recording::default()
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let p = |name: &str| dir.path().join(name).to_string_lossy().into_owned();
+    std::fs::write(p("circles.nc"), PROGRAM).unwrap();
+    std::fs::write(
+        p("reference-50hz.csv"),
+        record(&program, &machine.x, &machine.y, &rec),
+    )
+    .unwrap();
+    let o = run_ok(&[
+        "diagnose",
+        &p("circles.nc"),
+        "--measured",
+        &p("reference-50hz.csv"),
+        "--plot",
+        &p("plots"),
+    ]);
+    let out = text(&o.stdout);
+    let tau_s = 60.0 / (1000.0 * machine.x.position_loop.kv_m_per_min_per_mm);
+    let [small_cruise, _] = samples_per_turn(3.0, 3000.0, 0.02, rec.accel, tau_s);
+    let note = out
+        .lines()
+        .find_map(|l| l.strip_prefix("plot: circle of line 5: no polar plot: "))
+        .unwrap_or_else(|| panic!("no word on the small circle:\n{out}"));
+    let per_turn = stated_points_per_turn(note);
+    assert!(
+        (per_turn - small_cruise).abs() <= 0.5,
+        "{per_turn} per turn, {small_cruise:.1} expected"
+    );
+    assert!(note.contains("fewer than 36 (one every 10°)"), "{note}");
+    assert!(!out.contains("circle of line 3: no polar plot"), "{out}");
+    let polar: Vec<String> = std::fs::read_dir(p("plots"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("diagnose-polar"))
+        .collect();
+    assert!(
+        !polar.is_empty() && polar.iter().all(|n| n.starts_with("diagnose-polar-line3.")),
+        "{polar:?}"
     );
 }

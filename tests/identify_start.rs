@@ -8,7 +8,8 @@
 
 mod common;
 
-use common::identifying::{encoder_record, lead_lag_toml};
+use common::assert_within_k_sigma;
+use common::identifying::{corners_hz, encoder_record, hidden_value, lead_lag_toml};
 use common::program_text;
 use contourcheck::compare::CompareSettings;
 use contourcheck::gcode::Program;
@@ -63,25 +64,11 @@ fn a_controller_tuned_three_times_off_its_design_is_found_from_trial_starts() {
     let Controller::TransferFunction(found) = &id.machine.x.controller else {
         panic!("a transfer function");
     };
-    let corner = |coefficients: &[f64]| -> Vec<f64> {
-        // A quadratic a·s² + b·s + c (or b·s + 0): its real roots as corners (Hz), lowest first.
-        let (a, b, c) = (coefficients[0], coefficients[1], coefficients[2]);
-        let mut hz: Vec<f64> = if a == 0.0 || c == 0.0 {
-            vec![(if a == 0.0 { c / b } else { b / a }) / std::f64::consts::TAU]
-        } else {
-            let d = (b * b - 4.0 * a * c).sqrt();
-            vec![(b - d) / (2.0 * a), (b + d) / (2.0 * a)]
-                .into_iter()
-                .map(|w| w / std::f64::consts::TAU)
-                .collect()
-        };
-        hz.sort_by(f64::total_cmp);
-        hz
-    };
-    let found_corners: Vec<f64> = corner(&found.numerator)
+    let found_corners: Vec<f64> = corners_hz(&found.numerator)
         .into_iter()
-        .chain(corner(&found.denominator))
+        .chain(corners_hz(&found.denominator))
         .collect();
+    assert_eq!(found_corners.len(), run.len(), "corners {found_corners:?}");
     for (f, want) in found_corners.iter().zip(run) {
         assert!(
             (f / want - 1.0).abs() < 0.2,
@@ -93,29 +80,27 @@ fn a_controller_tuned_three_times_off_its_design_is_found_from_trial_starts() {
     // Nothing reads as a measurement that is not the machine's: every value marked measured
     // lies within 4 of its stated uncertainties of the machine that ran (the gain at low
     // frequency K·z₁·z₂/p, in the units of the template's numerator; the small table's
-    // 30 kg and 29.43 N; no dead time).
-    let tau = std::f64::consts::TAU;
-    let truth_of = |key: &str| match key {
-        "controller.gain" => Some(90.0 * tau * run[0] * run[1] / run[2]),
-        "controller.zero_1_hz" => Some(run[0]),
-        "controller.zero_2_hz" => Some(run[1]),
-        "controller.pole_1_hz" => Some(run[2]),
-        "drive.table_mass_kg" => Some(30.0),
-        "friction.viscous_n_s_per_m" => Some(200.0),
-        "friction.coulomb_n" => Some(29.43),
-        "position_loop.dead_time_ms" => Some(0.0),
-        _ => None,
-    };
+    // 30 kg and 29.43 N, a third of the data sheet's viscous friction; no dead time).
     for v in x.values.iter().filter(|v| v.measured) {
-        let Some(truth) = truth_of(v.key) else {
-            continue;
-        };
-        assert!(
-            (v.value - truth).abs() <= 4.0 * v.uncertainty,
-            "{} read as measured at {} ± {}, the machine's {truth}",
-            v.key,
-            v.value,
-            v.uncertainty
-        );
+        let what = format!("X: {} (measured)", v.key);
+        let machine = hidden_value(&truth.x, v.key);
+        assert_within_k_sigma(&what, machine, v.value, v.uncertainty, 4.0);
     }
+}
+
+/// The message of a value outside kσ names the value, the truth, the estimate, σ and k.
+#[test]
+#[should_panic(
+    expected = "X: drive.table_mass_kg: the estimate 34 ± 1.5 (σ) lies 2.67σ from the truth 30, more than k = 2"
+)]
+fn a_value_outside_k_sigma_is_named_with_its_truth_estimate_sigma_and_k() {
+    assert_within_k_sigma("X: drive.table_mass_kg", 30.0, 34.0, 1.5, 4.0);
+    assert_within_k_sigma("X: drive.table_mass_kg", 30.0, 34.0, 1.5, 2.0);
+}
+
+/// A σ that is not a number holds nothing: it fails.
+#[test]
+#[should_panic(expected = "the estimate 30 ± NaN")]
+fn an_uncertainty_that_is_not_a_number_fails() {
+    assert_within_k_sigma("X: drive.table_mass_kg", 30.0, 30.0, f64::NAN, 4.0);
 }

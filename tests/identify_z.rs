@@ -4,11 +4,13 @@
 //! moves X and Y on circles and Z on two ramps with a reversal between them. The machine
 //! is the nominal one but for Z's position gain, 8 % low: identify finds it on Z within
 //! its uncertainty, writes it in the machine file, and leaves X and Y at their values.
+//! The interpolator's limits are read from such records too: an acceleration held on every
+//! axis's ramps, and a jerk held by an interpolator that limits one.
 
 mod common;
 
 use common::program_text;
-use common::reference::{Recording, record_xyz};
+use common::reference::{Recording, record, record_xyz};
 use contourcheck::compare::CompareSettings;
 use contourcheck::identify::{AxisIdentification, Identification, identify};
 use contourcheck::machine::{AxisName, MachineConfig};
@@ -192,4 +194,50 @@ fn acceleration_limits_are_read_from_a_50_hz_record_on_a_coarse_cycle() {
     // the ramps — 167 ms, eight samples each — show the limit.
     let (template, id) = plunges_identified(PLUNGES, 0.02, 10.0);
     limits_read_as_the_ramp(&template, &id, 1000.0);
+}
+
+/// A square of 50 mm at F3000 run by the reference with a jerk-limited interpolator: each
+/// side's acceleration ramps at 2 m/s³ to 0.2 m/s² and back, rest to rest — a jerk held for
+/// 100 ms (0.2 / 2) four times a side — where the template's planner (5 m/s³, 0.5 m/s²)
+/// asks more of both. Both limits are read and written for X and Y.
+#[test]
+fn a_jerk_limit_is_read_where_the_record_holds_it_below_the_demand() {
+    const JERK: f64 = 2.0;
+    const ACCEL: f64 = 0.2;
+    let program = program_text("G21 G90 G94 G17\nG0 X0 Y0\nG1 X50 F3000\nY50\nX0\nY0\nM2\n");
+    let template = MachineConfig::default_preset();
+    let rec = Recording {
+        accel: ACCEL,
+        jerk: Some(JERK),
+        ..Recording::default()
+    };
+    let csv = record(&program, &template.x, &template.y, &rec);
+    let measured = parse_trace(&csv, "s-curves.csv").unwrap();
+    let settings = CompareSettings::for_machine(&template);
+    let id = identify(&program, &template, &measured, &settings).unwrap();
+    let i = &id.interpolator;
+    let read =
+        MachineConfig::from_toml_str(&id.machine_file(&template, "square.nc"), "identified.toml")
+            .unwrap();
+    // The commands are written to 0.1 nm (±0.05 nm of rounding) every 1 ms; their
+    // acceleration is a parabola's through ±3 ms of them (seven samples: weights
+    // 2·(j² − 4)/84/dt², |·| summing to 40/84/dt²), off by at most 40/84 · 0.05 nm / (1 ms)²
+    // = 2.4e-5 m/s², and the jerk, its change over at least a sample, by at most twice that
+    // over 1 ms: 0.048 m/s³. The file rounds the limit up to three digits: 0.01 more.
+    let read_within = 2.0 * (40.0 / 84.0) * 0.05e-9 / 1e-6 / 1e-3;
+    for (k, axis) in AxisName::BOTH.into_iter().enumerate() {
+        assert!(i.jerk_limited[k] && i.accel_limited[k], "{axis}: {i:?}");
+        assert!(
+            (i.jerk_m_per_s3[k] - JERK).abs() <= read_within,
+            "{axis}: jerk read {} m/s³, the record's {JERK} (within {read_within:.3}): {i:?}",
+            i.jerk_m_per_s3[k]
+        );
+        let written = read.axis(axis).limits.max_jerk_m_per_s3;
+        assert!(
+            written >= JERK - read_within && written <= JERK + read_within + 0.01,
+            "{axis}: jerk written {written} m/s³, the record's {JERK}"
+        );
+        let accel = read.axis(axis).limits.max_accel_m_per_s2;
+        assert!((accel - ACCEL).abs() < 0.005, "{axis}: {accel} m/s²");
+    }
 }

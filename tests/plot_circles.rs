@@ -58,3 +58,48 @@ fn check_plot_says_why_a_circle_has_no_polar_plot_and_numbers_the_others_in_orde
         "circle-2 is not the R 20 mm circle"
     );
 }
+
+/// Three circles of R 10 mm about the origin of their plane's coordinates: in XY at Z 0, in
+/// ZX (about Z 0, X 0) at Y 0, and in XY again at Z −5. Each in-plane centre and radius is
+/// the same; the circles are not: three polar plots, each titled with its plane and height.
+const ONE_FIGURE_THREE_CIRCLES: &str = "G21 G90 G94 G17\nG0 X10 Y0 Z0\n\
+                                        G3 X10 Y0 I-10 J0 F1000\n\
+                                        G18 G3 X10 Z0 I-10 K0\n\
+                                        G17 G0 Z-5\n\
+                                        G3 X10 Y0 I-10 J0\nM2\n";
+
+#[test]
+fn check_plot_draws_circles_of_other_planes_or_heights_apart() {
+    let dir = tempfile::tempdir().unwrap();
+    let (program, plots) = (dir.path().join("three.nc"), dir.path().join("plots"));
+    std::fs::write(&program, ONE_FIGURE_THREE_CIRCLES).unwrap();
+    let o = run(&[
+        "check",
+        program.to_str().unwrap(),
+        "--plot",
+        plots.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let mut files: Vec<String> = std::fs::read_dir(&plots)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("circle-") && n.ends_with(".svg"))
+        .collect();
+    files.sort();
+    assert_eq!(files, ["circle-1.svg", "circle-2.svg", "circle-3.svg"]);
+    let svg = |n: u32| std::fs::read_to_string(plots.join(format!("circle-{n}.svg"))).unwrap();
+    for (n, place, line) in [
+        (1, "XY at Z 0.0", 3),
+        (2, "ZX at Y 0.0", 4),
+        (3, "XY at Z -5.0", 6),
+    ] {
+        let drawn = svg(n);
+        assert!(
+            drawn.contains("R10.0 mm") && drawn.contains(place),
+            "circle-{n} is not the circle {place}"
+        );
+        // One direction each: the line it runs on, and no other.
+        assert_eq!(drawn.matches("(line ").count(), 1, "circle-{n}");
+        assert!(drawn.contains(&format!("(line {line})")), "circle-{n}");
+    }
+}

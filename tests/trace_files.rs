@@ -98,8 +98,13 @@ fn columns(csv: &str) -> [Vec<f64>; 5] {
 }
 
 fn read(bytes: &[u8], map: Option<&str>) -> Result<MeasuredTrace, String> {
+    read_named(bytes, "capture.mat", map)
+}
+
+/// `bytes` read from a file named `name`.
+fn read_named(bytes: &[u8], name: &str, map: Option<&str>) -> Result<MeasuredTrace, String> {
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("capture.mat");
+    let path = dir.path().join(name);
     std::fs::write(&path, bytes).unwrap();
     let map = map.map(|m| ColumnMap::parse(m).unwrap());
     read_trace_with(&path, map.as_ref()).map_err(|e| e.to_string())
@@ -206,6 +211,32 @@ fn bad_mat_files_are_refused_with_the_reason() {
     hdf5.extend([0u8; 64]);
     let v73 = read(&hdf5, None).unwrap_err();
     assert!(v73.contains("7.3") && v73.contains("-v7"), "{v73}");
+}
+
+#[test]
+fn an_empty_or_headerless_mat_file_is_refused_as_a_mat_file() {
+    // No bytes at all: the MAT reader's word, naming the file, not a text table's.
+    let empty = read(&[], None).unwrap_err();
+    assert!(
+        empty.contains("capture.mat: an empty file (0 bytes)"),
+        "{empty}"
+    );
+    assert!(!empty.contains("header line"), "{empty}");
+    // A MATLAB 4 file (binary, no text header: a matrix header of five 32-bit integers).
+    let v4: Vec<u8> = [0u32, 1, 1, 0, 2]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .chain(*b"x\0")
+        .chain(1.5f64.to_le_bytes())
+        .collect();
+    let level4 = read(&v4, None).unwrap_err();
+    assert!(
+        level4.contains("capture.mat: not a MATLAB level-5 MAT-file: no 128-byte header"),
+        "{level4}"
+    );
+    // A `*.mat` of text (MATLAB's `save -ascii`) is read as the table it is.
+    let (csv, expected) = record();
+    assert_same(&read(csv.as_bytes(), None).unwrap(), &expected);
 }
 
 proptest::proptest! {
@@ -395,7 +426,7 @@ fn undocumented_control_formats_are_refused_with_what_to_export_instead() {
     assert!(xml.contains("XML") && xml.contains("CSV"), "{xml}");
     let mut binary = b"DTA\x00\x01\x02".to_vec();
     binary.extend([0u8; 64]);
-    let dta = read(&binary, None).unwrap_err();
+    let dta = read_named(&binary, "capture.dta", None).unwrap_err();
     assert!(dta.contains("binary") && dta.contains("CSV"), "{dta}");
 }
 

@@ -30,7 +30,7 @@ use crate::numeric::units::{mm_from_m, um_from_m};
 use crate::path::{Geometry, Motion, Plane, Segment};
 
 /// A full circle of the program.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Circle {
     /// Index into the plan's segments.
     pub segment: usize,
@@ -46,6 +46,8 @@ pub struct Circle {
     pub feed_m_per_s: f64,
     /// The plane it lies in; its centre is in that plane's coordinates.
     pub plane: Plane,
+    /// Where the plane lies along its normal (m): Z for an XY circle, Y for ZX, X for YZ.
+    pub height_m: f64,
 }
 
 /// The full circles among `segments`: feed arcs of constant radius, in their plane (not
@@ -69,6 +71,7 @@ pub(crate) fn circles(segments: &[Segment]) -> Vec<Circle> {
                     ccw: a.sweep_rad > 0.0,
                     feed_m_per_s: s.feed_m_per_s,
                     plane: s.plane(),
+                    height_m: s.start_m[s.plane().axes()[2]],
                 })
             }
             _ => None,
@@ -96,6 +99,17 @@ fn position(pos_m: [&[f64]; 3], k: usize) -> [f64; 3] {
 }
 
 impl Circle {
+    /// Whether `other` runs round the same circle as this one, in either direction: the same
+    /// plane at the same height, the same centre and radius (to a nanometre).
+    pub fn is_same_circle(&self, other: &Circle) -> bool {
+        const SAME_M: f64 = 1e-9;
+        self.plane == other.plane
+            && (self.height_m - other.height_m).abs() < SAME_M
+            && (self.radius_m - other.radius_m).abs() < SAME_M
+            && (self.center_m[0] - other.center_m[0]).hypot(self.center_m[1] - other.center_m[1])
+                < SAME_M
+    }
+
     /// A point's polar angle about the programmed centre (rad) and its radial deviation from
     /// the programmed radius (m, outward positive).
     pub(crate) fn polar(&self, p: [f64; 2]) -> (f64, f64) {
@@ -284,12 +298,9 @@ impl CircleSamples {
             out.circles.push(figures(c, p));
         }
         for (i, (a, pa)) in kept.iter().enumerate() {
-            let partner = kept[i + 1..].iter().find(|(b, _)| {
-                b.ccw != a.ccw
-                    && b.plane == a.plane
-                    && (b.radius_m - a.radius_m).abs() < 1e-9
-                    && (b.center_m[0] - a.center_m[0]).hypot(b.center_m[1] - a.center_m[1]) < 1e-9
-            });
+            let partner = kept[i + 1..]
+                .iter()
+                .find(|(b, _)| b.ccw != a.ccw && b.is_same_circle(a));
             if let Some((b, pb)) = partner {
                 let (ccw, cw) = if a.ccw {
                     ((a, pa), (b, pb))
@@ -671,6 +682,7 @@ mod tests {
             ccw,
             feed_m_per_s: 1000.0 / 60_000.0,
             plane: Plane::Xy,
+            height_m: 0.0,
         }
     }
 
@@ -717,6 +729,34 @@ mod tests {
             "{:?}",
             t.pairs[0]
         );
+    }
+
+    #[test]
+    fn opposite_circles_in_planes_apart_are_no_pair() {
+        // The same centre and radius in the plane's coordinates, run both ways: one pair
+        // where both lie at one height in one plane; none at heights 5 mm apart, nor for a
+        // ZX circle beside an XY one.
+        let (x, y) = ring([0.0, 0.0], |_| 0.1);
+        let segment: Vec<u32> = [vec![0; 360], vec![1; 360]].concat();
+        let (xs, ys) = ([x.clone(), x].concat(), [y.clone(), y].concat());
+        let pairs = |second: Circle| {
+            let z = vec![0.0; 720];
+            circular_test(&[circle(true, 0), second], &segment, [&xs, &ys, &z])
+                .pairs
+                .len()
+        };
+        assert_eq!(pairs(circle(false, 1)), 1);
+        let lower = Circle {
+            height_m: -0.005,
+            ..circle(false, 1)
+        };
+        assert_eq!(pairs(lower), 0);
+        let upright = Circle {
+            plane: Plane::Zx,
+            ..circle(false, 1)
+        };
+        assert!(!upright.is_same_circle(&circle(true, 0)));
+        assert!(!lower.is_same_circle(&circle(true, 0)));
     }
 
     #[test]

@@ -12,7 +12,7 @@ pub mod report;
 use serde::Serialize;
 
 use crate::analysis::RunAnalyser;
-use crate::analysis::circular::CirclePath;
+use crate::analysis::circular::{Circle, CirclePath};
 use crate::analysis::contour::{ContourPoint, ContourSeries};
 pub use crate::analysis::{CheckResult, RunPlace, Summary};
 use crate::gcode::Program;
@@ -159,16 +159,10 @@ pub(crate) fn plan_commands(
 /// A full circle in the program: the ISO 230-4 circular test a ballbar would measure.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct CircleTest {
-    /// Index of the arc segment.
-    pub segment: usize,
-    /// Source line.
-    pub line: u32,
-    /// Centre (m).
-    pub center_m: [f64; 2],
-    /// Nominal radius (m).
-    pub radius_m: f64,
-    /// Counter-clockwise (G3) or clockwise (G2).
-    pub ccw: bool,
+    /// The programmed circle: its segment, source line, plane and height along the plane's
+    /// normal, centre in the plane (m), radius (m) and direction.
+    #[serde(flatten)]
+    pub circle: Circle,
     /// (angle rad, radial deviation m) of every sample on the circle.
     pub points: Vec<(f64, f64)>,
 }
@@ -183,11 +177,7 @@ pub fn circle_tests(result: &CheckResult) -> Vec<CircleTest> {
                  circle: c,
                  points_m,
              }| CircleTest {
-                segment: c.segment,
-                line: c.line,
-                center_m: c.center_m,
-                radius_m: c.radius_m,
-                ccw: c.ccw,
+                circle: *c,
                 points: points_m.iter().map(|&p| c.polar(p)).collect(),
             },
         )

@@ -173,17 +173,15 @@ fn along_path_figure(run: &CheckResult, name: &str, at: &dyn Fn(u32) -> String) 
     }
 }
 
-/// The run's circles, both directions of one circle (the same centre and radius) together,
-/// in the program's order.
+/// The run's circles, both directions of one circle (the same plane, height, centre and
+/// radius) together, in the program's order.
 fn circle_groups(run: &CheckResult) -> Vec<Vec<CircleTest>> {
     let mut groups: Vec<Vec<CircleTest>> = Vec::new();
     for c in circle_tests(run) {
-        let same = |g: &Vec<CircleTest>| {
-            let a = &g[0];
-            (a.center_m[0] - c.center_m[0]).hypot(a.center_m[1] - c.center_m[1]) < 1e-6
-                && (a.radius_m - c.radius_m).abs() < 1e-6
-        };
-        match groups.iter_mut().find(|g| same(g)) {
+        match groups
+            .iter_mut()
+            .find(|g| g[0].circle.is_same_circle(&c.circle))
+        {
             Some(g) => g.push(c),
             None => groups.push(vec![c]),
         }
@@ -207,7 +205,10 @@ fn polar_figures(
             .into_iter()
             .filter(|c| match too_sparse_for_a_plot(&c.points) {
                 Some(why) => {
-                    not_drawn.push(NotDrawn { line: c.line, why });
+                    not_drawn.push(NotDrawn {
+                        line: c.circle.line,
+                        why,
+                    });
                     false
                 }
                 None => true,
@@ -215,7 +216,7 @@ fn polar_figures(
             .collect();
         if let Some(first) = group.first() {
             drawn.push(CirclePlot {
-                line: first.line,
+                line: first.circle.line,
                 file: format!("circle-{}", number + 1),
                 plot: polar_figure(run, &group, name, at),
             });
@@ -231,13 +232,18 @@ fn polar_figure(
     name: &str,
     at: &dyn Fn(u32) -> String,
 ) -> PolarPlot {
-    let r = g[0].radius_m;
+    let c = &g[0].circle;
+    let r = c.radius_m;
+    let [.., normal] = c.plane.axes().map(|i| ['X', 'Y', 'Z'][i]);
     PolarPlot {
         title: format!(
-            "{name}: circular test R{:.1} mm, centre ({:.1}, {:.1}) — radial deviation",
+            "{name}: circular test R{:.1} mm, centre ({:.1}, {:.1}), {} at {normal} {:.1} \
+             — radial deviation",
             mm_from_m(r),
-            mm_from_m(g[0].center_m[0]),
-            mm_from_m(g[0].center_m[1])
+            mm_from_m(c.center_m[0]),
+            mm_from_m(c.center_m[1]),
+            c.plane.name(),
+            mm_from_m(c.height_m)
         ),
         radius_mm: mm_from_m(r),
         traces: g
@@ -245,12 +251,12 @@ fn polar_figure(
             .map(|c| PolarTrace {
                 label: format!(
                     "{} (line {})",
-                    if c.ccw {
+                    if c.circle.ccw {
                         "counter-clockwise"
                     } else {
                         "clockwise"
                     },
-                    at(c.line)
+                    at(c.circle.line)
                 ),
                 points: c.points.iter().map(|&(a, d)| (a, um_from_m(d))).collect(),
                 width: 2,
@@ -258,7 +264,7 @@ fn polar_figure(
                     .circular
                     .circles
                     .iter()
-                    .find(|f| f.segment == c.segment)
+                    .find(|f| f.segment == c.circle.segment)
                     .map(|f| f.g_um),
             })
             .collect(),

@@ -32,6 +32,17 @@ pub(crate) fn is_mat_file(bytes: &[u8]) -> bool {
     bytes.starts_with(mat5::SIGNATURE)
 }
 
+/// Whether a file that does not start as a MAT-file is still one to the user: named
+/// `*.mat` and empty or binary (a NUL among its first bytes). Its reader's refusal then says
+/// what is wrong with it as a MAT-file, where a text table's reader would speak of headers.
+/// (A `*.mat` of text, as MATLAB's `save -ascii` writes, is read as the text table it is.)
+pub(crate) fn is_named_as_mat_file(path: &std::path::Path, bytes: &[u8]) -> bool {
+    let named = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mat"));
+    named && (bytes.is_empty() || bytes[..bytes.len().min(512)].contains(&0))
+}
+
 /// The columns of a MAT file: (name, values), in the file's order; a sample's row is its
 /// index in the variable.
 pub(crate) fn mat_columns(bytes: &[u8], file: &str) -> Result<NamedColumns, MeasuredError> {
@@ -47,7 +58,12 @@ pub(crate) fn mat_columns(bytes: &[u8], file: &str) -> Result<NamedColumns, Meas
                 .into(),
         ));
     }
-    let variables = mat5::read(bytes).map_err(|e| error(e.to_string()))?;
+    let variables = mat5::read(bytes).map_err(|e| match e {
+        mat5::Mat5Error::NotLevel5(_) => error(format!(
+            "{e}: save it with `save(file, '-v7')` or export the signals as a text table (CSV)"
+        )),
+        e => error(e.to_string()),
+    })?;
     let mut found = Found::default();
     for variable in &variables {
         collect(&variable.name, &variable.value, 0, &mut found);

@@ -254,7 +254,7 @@ pub fn read_trace_with(
         file: file.clone(),
         message: e.to_string(),
     })?;
-    if mat::is_mat_file(&bytes) {
+    if mat::is_mat_file(&bytes) || mat::is_named_as_mat_file(path, &bytes) {
         return parse_mat_trace(&bytes, &file, map);
     }
     let text = sinumerik::decode(&bytes);

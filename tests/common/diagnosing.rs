@@ -4,6 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::assert_within_k_sigma;
 use super::sample_program as program;
 use contourcheck::diagnose::causes::CauseId;
 use contourcheck::diagnose::synth::{SynthSpec, synthesize};
@@ -115,13 +116,8 @@ pub fn assert_found(
             p.uncertainty
         );
         // An honest uncertainty covers the hidden value.
-        assert!(
-            (p.value - truth).abs() <= 4.0 * p.uncertainty,
-            "{name}: {} = {} ± {} leaves the hidden {truth} outside 4σ",
-            p.key,
-            p.value,
-            p.uncertainty
-        );
+        let what = format!("{name}: {}", p.key);
+        assert_within_k_sigma(&what, truth, p.value, p.uncertainty, 4.0);
     }
     let (before, after) = (measure(cause, &found.before), measure(cause, &found.after));
     assert!(

@@ -4,7 +4,7 @@
 
 use contourcheck::diagnose::{DiagnoseSettings, diagnose};
 use contourcheck::gcode::Program;
-use contourcheck::machine::{AxisName, MachineConfig};
+use contourcheck::machine::{AxisConfig, AxisName, Controller, MachineConfig};
 use contourcheck::sim::MeasuredAt;
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 
@@ -113,4 +113,67 @@ pub fn predicted(
             (axis, residual, following_rms_um)
         })
         .collect()
+}
+
+/// The value a key has on the hidden axis.
+pub fn hidden_value(hidden: &AxisConfig, key: &str) -> f64 {
+    match key {
+        "friction.coulomb_n" => {
+            hidden.friction.coulomb_coefficient * hidden.drive.table_mass_kg * 9.81
+        }
+        "position_loop.kv_m_per_min_per_mm" => hidden.position_loop.kv_m_per_min_per_mm,
+        "position_loop.velocity_feedforward" => hidden.position_loop.velocity_feedforward,
+        "velocity_loop.ts_ms" => hidden.velocity_loop.as_ref().unwrap().ts_ms,
+        "drive.table_mass_kg" => hidden.drive.table_mass_kg,
+        "friction.viscous_n_s_per_m" => hidden.friction.viscous_n_s_per_m,
+        "position_loop.dead_time_ms" => hidden.position_loop.dead_time_ms,
+        "controller.zero_1_hz" | "controller.zero_2_hz" | "controller.pole_1_hz" => {
+            let Controller::TransferFunction(tf) = &hidden.controller else {
+                panic!("{key}");
+            };
+            let p = if key.contains("zero") {
+                &tf.numerator
+            } else {
+                &tf.denominator
+            };
+            corners_hz(p)[usize::from(key.contains("_2_"))]
+        }
+        // The gain at low frequency: the lowest-order coefficients' ratio.
+        "controller.gain" => match &hidden.controller {
+            Controller::TransferFunction(tf) => {
+                let last = |c: &[f64]| *c.iter().rev().find(|v| **v != 0.0).unwrap();
+                last(&tf.numerator) / last(&tf.denominator)
+            }
+            other => panic!("{other:?}"),
+        },
+        other => {
+            contourcheck::machine::keys::get(hidden, other).unwrap_or_else(|| panic!("{other}"))
+        }
+    }
+}
+
+/// A current-commanding controller's gain `key` over the whole drive's inertia as a mass at
+/// the table (per kg): what a rigid drive's loop depends on.
+pub fn gain_per_inertia(axis: &AxisConfig, key: &str) -> f64 {
+    let lead_m = axis.drive.lead_mm * 1e-3 / std::f64::consts::TAU;
+    let rotating_kg = (axis.motor.jm_kg_m2 + axis.drive.js_kg_m2) / (lead_m * lead_m);
+    hidden_value(axis, key) / (rotating_kg + axis.drive.table_mass_kg)
+}
+
+/// The corners (Hz, lowest first) of a quadratic `a·s² + b·s + c` given as `[a, b, c]`: its
+/// two roots' magnitudes, or the one of `b·s + c` (a = 0) or of `a·s² + b·s` (c = 0, the
+/// integrator's root at 0 not counted). Complex roots give NaN: no corners to compare.
+pub fn corners_hz(coefficients: &[f64]) -> Vec<f64> {
+    let (a, b, c) = (coefficients[0], coefficients[1], coefficients[2]);
+    let mut hz: Vec<f64> = if a == 0.0 || c == 0.0 {
+        vec![(if a == 0.0 { c / b } else { b / a }) / std::f64::consts::TAU]
+    } else {
+        let d = (b * b - 4.0 * a * c).sqrt();
+        vec![(b - d) / (2.0 * a), (b + d) / (2.0 * a)]
+            .into_iter()
+            .map(|w| w / std::f64::consts::TAU)
+            .collect()
+    };
+    hz.sort_by(f64::total_cmp);
+    hz
 }

@@ -132,3 +132,16 @@ pub fn assert_seen_not_named(d: &Diagnosis, cause: contourcheck::CauseId, axis: 
     assert_eq!(d.after.x.rms_um, d.before.x.rms_um);
     assert_eq!(d.after.y.rms_um, d.before.y.rms_um);
 }
+
+/// That an estimate stated as `estimate ± sigma` (a standard uncertainty) lies within `k` of
+/// its σ of `truth`, the value the hidden machine has. The message names the value, the
+/// truth, the estimate, σ, k and how many σ apart they landed. A σ that is not a number fails.
+pub fn assert_within_k_sigma(what: &str, truth: f64, estimate: f64, sigma: f64, k: f64) {
+    let off = (estimate - truth).abs();
+    assert!(
+        off <= k * sigma,
+        "{what}: the estimate {estimate} ± {sigma} (σ) lies {:.2}σ from the truth {truth}, \
+         more than k = {k}",
+        off / sigma
+    );
+}

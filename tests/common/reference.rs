@@ -522,12 +522,85 @@ impl<'p> Axis<'p> {
     }
 }
 
-/// A continuous trapezoidal interpolator: each block accelerates at `accel`, cruises at its
-/// feed and stops at its end (rapids at 10 m/min); a dwell stands. Positions are exact at any
-/// time, speed and acceleration along the path by differences over a microsecond.
 /// A block of the interpolator: its duration and its XYZ position at a time into it.
 type Block = (f64, Box<dyn Fn(f64) -> [f64; 3]>);
 
+/// A block's distance travelled (m) at a time into it (s).
+type Distance = Box<dyn Fn(f64) -> f64>;
+
+/// A trapezoidal profile over `length` at feed `v` and `accel`: its duration and distance.
+fn trapezoid(length: f64, v: f64, accel: f64) -> (f64, Distance) {
+    let v = v.min((accel * length).sqrt());
+    let t_acc = v / accel;
+    let t_cruise = (length - v * t_acc) / v;
+    let total = 2.0 * t_acc + t_cruise;
+    let distance = move |t: f64| {
+        if t < t_acc {
+            0.5 * accel * t * t
+        } else if t < t_acc + t_cruise {
+            0.5 * v * t_acc + v * (t - t_acc)
+        } else {
+            let r = (total - t).max(0.0);
+            length - 0.5 * accel * r * r
+        }
+    };
+    (total, Box::new(distance))
+}
+
+/// A jerk-limited profile over `length` at feed `v`, rest to rest: the acceleration ramps at
+/// `jerk` to `accel` (or to √(v·jerk) where the feed is reached before), holds, and ramps
+/// back; the feed lowered where the block is too short to reach it. Its duration and
+/// distance, exact (the jerk piecewise constant, each phase's motion a cubic).
+fn s_curve(length: f64, v: f64, accel: f64, jerk: f64) -> (f64, Distance) {
+    // The distance to reach `v` from rest and stop again.
+    let there_and_back = |v: f64| {
+        let a = accel.min((v * jerk).sqrt());
+        v * (v / a + a / jerk)
+    };
+    let mut v = v;
+    if there_and_back(v) > length {
+        let (mut lo, mut hi) = (0.0, v);
+        for _ in 0..100 {
+            let mid = 0.5 * (lo + hi);
+            if there_and_back(mid) > length {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        v = lo;
+    }
+    let a = accel.min((v * jerk).sqrt());
+    let (ramp, hold) = (a / jerk, v / a - a / jerk);
+    let cruise = (length - there_and_back(v)) / v;
+    let phases = [
+        (jerk, ramp),
+        (0.0, hold),
+        (-jerk, ramp),
+        (0.0, cruise),
+        (-jerk, ramp),
+        (0.0, hold),
+        (jerk, ramp),
+    ];
+    let total = phases.iter().map(|p| p.1).sum();
+    let distance = move |t: f64| {
+        let (mut s, mut v, mut a, mut left) = (0.0, 0.0, 0.0, t);
+        for (j, d) in phases {
+            let h = left.min(d);
+            s += v * h + a * h * h / 2.0 + j * h * h * h / 6.0;
+            v += a * h + j * h * h / 2.0;
+            a += j * h;
+            left -= h;
+        }
+        s.min(length)
+    };
+    (total, Box::new(distance))
+}
+
+/// A continuous interpolator: each block accelerates at `accel` (its acceleration stepped,
+/// or ramped at a jerk: [`Trapezoids::s_curves`]), cruises at its feed and stops at its end
+/// (rapids at 10 m/min); a dwell stands. Positions are exact at any time, speed and
+/// acceleration along the path by differences over a microsecond.
 pub struct Trapezoids {
     blocks: Vec<Block>,
     /// Total duration (s).
@@ -547,6 +620,26 @@ impl Trapezoids {
     pub fn from_home(
         program: &Program,
         accel: f64,
+        pre_s: f64,
+        post_s: f64,
+        home: Option<[f64; 2]>,
+    ) -> Trapezoids {
+        let ramp = move |length, v| trapezoid(length, v, accel);
+        Trapezoids::build(program, &ramp, pre_s, post_s, home)
+    }
+
+    /// The same blocks, each on a jerk-limited profile (an S-curve): its acceleration
+    /// ramps at `jerk` to at most `accel` and back, rest to rest.
+    pub fn s_curves(program: &Program, accel: f64, jerk: f64, pre_s: f64, post_s: f64) -> Self {
+        let ramp = move |length, v| s_curve(length, v, accel, jerk);
+        Trapezoids::build(program, &ramp, pre_s, post_s, None)
+    }
+
+    /// The blocks of `program`, each moved along by `profile` (of its length and feed: its
+    /// duration and the distance travelled at a time into it).
+    fn build(
+        program: &Program,
+        profile: &dyn Fn(f64, f64) -> (f64, Distance),
         pre_s: f64,
         post_s: f64,
         home: Option<[f64; 2]>,
@@ -584,20 +677,7 @@ impl Trapezoids {
             } else {
                 seg.feed_m_per_s.min(RAPID_M_PER_S)
             };
-            let v = v.min((accel * length).sqrt());
-            let t_acc = v / accel;
-            let t_cruise = (length - v * t_acc) / v;
-            let total = 2.0 * t_acc + t_cruise;
-            let distance = move |t: f64| {
-                if t < t_acc {
-                    0.5 * accel * t * t
-                } else if t < t_acc + t_cruise {
-                    0.5 * v * t_acc + v * (t - t_acc)
-                } else {
-                    let r = (total - t).max(0.0);
-                    length - 0.5 * accel * r * r
-                }
-            };
+            let (total, distance) = profile(length, v);
             blocks.push((
                 total,
                 Box::new(move |t| seg.eval(distance(t.clamp(0.0, total)), length).pos),
@@ -648,6 +728,9 @@ pub struct Recording {
     pub seed: u64,
     /// The interpolator's path acceleration (m/s²).
     pub accel: f64,
+    /// The interpolator's path jerk (m/s³), where it limits one: each block's acceleration
+    /// then ramps at it (an S-curve); `None` steps it (a trapezoid).
+    pub jerk: Option<f64>,
     /// A tight spot on X: (from m, to m, factor on Coulomb friction).
     pub tight_spot_x: Option<(f64, f64, f64)>,
     /// The position is read where the control reads it (the motor's encoder on a
@@ -671,6 +754,7 @@ impl Default for Recording {
             step_s: 5e-6,
             seed: 1,
             accel: 0.5,
+            jerk: None,
             tight_spot_x: None,
             at_feedback: false,
             home_m: None,
@@ -693,7 +777,10 @@ pub fn record_xyz(program: &Program, [x, y, z]: [&AxisConfig; 3], rec: &Recordin
 
 /// A record of the first `configs.len()` axes (X, Y and perhaps Z).
 fn record_axes(program: &Program, configs: &[&AxisConfig], rec: &Recording) -> String {
-    let interpolator = Trapezoids::from_home(program, rec.accel, 0.3, 0.5, rec.home_m);
+    let interpolator = match rec.jerk {
+        Some(jerk) => Trapezoids::s_curves(program, rec.accel, jerk, 0.3, 0.5),
+        None => Trapezoids::from_home(program, rec.accel, 0.3, 0.5, rec.home_m),
+    };
     let plants: Vec<Plant> = configs.iter().map(|c| Plant::new(c)).collect();
     let start = interpolator.position(0.0);
     let mut axes: Vec<Axis> = plants

@@ -123,6 +123,9 @@ pub struct Variable {
 /// Why a file could not be decoded.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum Mat5Error {
+    /// The file has no bytes at all.
+    #[error("an empty file (0 bytes): no MAT-file header, no variables")]
+    Empty,
     /// The header is not a level-5 header.
     #[error("not a MATLAB level-5 MAT-file: {0}")]
     NotLevel5(String),
@@ -182,6 +185,9 @@ pub(crate) fn read(bytes: &[u8]) -> Result<Vec<Variable>, Mat5Error> {
 
 /// The byte order the header declares (the text `MI` written as a 16-bit number).
 fn header_byte_order(bytes: &[u8]) -> Result<Order, Mat5Error> {
+    if bytes.is_empty() {
+        return Err(Mat5Error::Empty);
+    }
     if bytes.len() < HEADER_BYTES || !bytes.starts_with(SIGNATURE) {
         return Err(Mat5Error::NotLevel5(
             "no 128-byte header starting 'MATLAB 5.0 MAT-file'".into(),
