@@ -171,8 +171,11 @@ fn sum_of_squares(r: &[f64], use_sample: impl Fn(usize) -> bool) -> f64 {
 
 /// The amplitude and phase fitted on the whole record, each with half the halves'
 /// disagreement as its uncertainty (a ripple the halves place apart is not known better than
-/// that); determined where the held-out halves kept the ripple and the amplitude's
-/// uncertainty is within half of it. Not kept, the template's values stay, not determined.
+/// that). Kept, they are written as a model's values, never as determined: the record fixes
+/// the force only per unit of the fitted mass (which trades with the gain), and a cyclic
+/// error of the encoder at the same period predicts the record nearly as well (on the course
+/// table's record within the halves' spread), so which of the two the table has is not
+/// known from the record. Not kept, the template's values stay, not determined.
 fn values(
     template: &AxisConfig,
     whole: (f64, f64),
@@ -184,16 +187,15 @@ fn values(
     let amplitude_sigma = 0.5 * (amplitude(halves[0]) - amplitude(halves[1])).abs();
     let turn = (phase_deg(halves[0]) - phase_deg(halves[1]) + 540.0).rem_euclid(360.0) - 180.0;
     let phase_sigma = 0.5 * turn.abs();
-    let determined = kept && amplitude_sigma < 0.5 * amplitude(whole);
-    let value = |key, unit, template: f64, fitted: f64, sigma: f64| IdentifiedValue {
+    let value = |key, unit, template: f64, fitted: f64, sigma: f64, traded| IdentifiedValue {
         key,
         unit,
         template,
         value: if kept { fitted } else { template },
         uncertainty: if kept { sigma } else { f64::NAN },
-        determined,
+        determined: false,
         measured: false,
-        traded_with: None,
+        traded_with: kept.then_some(traded),
         loose: false,
     };
     [
@@ -203,6 +205,8 @@ fn values(
             template.errors.force_ripple_n,
             amplitude(whole),
             amplitude_sigma,
+            "drive.table_mass_kg (the record fixes the force per mass) and with a cyclic \
+             encoder error of the same period",
         ),
         value(
             PHASE_KEY,
@@ -210,6 +214,8 @@ fn values(
             template.errors.force_ripple_phase_deg,
             phase_deg(whole),
             phase_sigma,
+            "a cyclic encoder error of the same period (the record does not tell a force \
+             from it)",
         ),
     ]
 }
