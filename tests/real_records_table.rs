@@ -92,6 +92,11 @@ fn course_design(j_kg_m2: f64, b_nm_s_per_rad: f64) -> ([f64; 3], [f64; 3]) {
     )
 }
 
+/// A motor turn's travel (mm): the encoder gain of 1.59 mm/rad times 2π. A torque ripple
+/// or a screw's eccentricity repeats with it; the template names it so that `identify`
+/// fits a ripple of that period where the record's held-out halves keep one.
+const MOTOR_TURN_MM: f64 = 1.59 * TAU;
+
 /// The template a user writes from the course's facts: each axis a rigid body (the
 /// equivalent inertia and viscous friction at the motor, as a mass and a damper at the
 /// table through 1.59 mm/rad), read at its motor's encoder, driven by the designed
@@ -107,7 +112,7 @@ fn course_template() -> MachineConfig {
              [{name}.controller]\nstructure = \"transfer_function\"\n\
              numerator = [{}, {}, {}]\ndenominator = [{}, {}, {}]\noutput = \"current\"\n\
              accel_feedforward = 0.0\n[{name}.limits]\nmax_feed_mm_per_min = 15000.0\n\
-             rapid_mm_per_min = 15000.0\n",
+             rapid_mm_per_min = 15000.0\n[{name}.errors]\nforce_ripple_period_mm = {}\n",
             j / (r * r),
             0.49 / r,
             b / (r * r),
@@ -117,6 +122,7 @@ fn course_template() -> MachineConfig {
             den[0],
             den[1],
             den[2],
+            MOTOR_TURN_MM,
         )
     };
     let text = format!(
@@ -145,6 +151,43 @@ fn predicts_better_than_template_and_regression(a: &AxisIdentification) {
         a.held_out_identified_um,
         a.baseline.held_out_um
     );
+}
+
+/// Y's residual holds a force once per motor turn that the held-out halves confirm; X's
+/// does not (measured in the separate model of the table: on Y the halves find 13 and 22 N
+/// against the handout's 118.7 kg — 0.11 and 0.18 m/s² —, written as a force towards −,
+/// A·sin(2π·x/turn + φ), with φ at −35° and −53°; on X 1 and 10 N, their phases 70° apart, the held-out blocks no
+/// better by a twentieth). The fit's mass trades with its gain, so the ripple is compared
+/// as the acceleration it gives the fitted mass. And with it Y predicts its held-out
+/// halves to under a third of its following error: 36 to 38 % without it here, and the
+/// separate model gains 6 to 8 % of the residual from the ripple on top of its own fit.
+fn per_turn_ripple_on_y_only(axes: &[AxisIdentification]) {
+    let value = |a: &AxisIdentification, key: &str| {
+        a.values
+            .iter()
+            .find(|v| v.key == key)
+            .cloned()
+            .unwrap_or_else(|| panic!("{}: no {key} in {:?}", a.axis, a.values))
+    };
+    let (x, y) = (&axes[0], &axes[1]);
+    assert!(!value(x, "errors.force_ripple_n").fitted(), "{x:?}");
+    let ripple = value(y, "errors.force_ripple_n");
+    let mass = value(y, "drive.table_mass_kg");
+    let phase = value(y, "errors.force_ripple_phase_deg");
+    // Written as a model's value, never as found: the record fixes the force only per
+    // mass, and cannot tell a force per turn from a cyclic encoder error of that period.
+    assert!(ripple.fitted() && !ripple.determined, "{ripple:?}");
+    assert!(
+        ripple.traded_with.is_some() && !phase.determined,
+        "{ripple:?} {phase:?}"
+    );
+    let accel = ripple.value / mass.value;
+    assert!(
+        (0.08..0.25).contains(&accel),
+        "{accel} m/s² ({ripple:?}, {mass:?})"
+    );
+    assert!((-75.0..-15.0).contains(&phase.value), "{phase:?}");
+    assert!(y.held_out_share < 1.0 / 3.0, "{:.3}", y.held_out_share);
 }
 
 #[test]
@@ -199,7 +242,18 @@ fn the_real_table_is_identified_from_the_course_template_and_without_one() {
         );
         // Nothing read as a measurement: no model of this table reaches its counts' noise.
         assert!(!a.reached && a.values.iter().all(|v| !v.measured), "{a:?}");
+        // The rigid body behind the lead-lag, however its values are fitted, leaves 34 to
+        // 41 % of X's following error on held-out blocks and 38 to 46 % of Y's (a separate
+        // model of the table run as a Tustin filter behind a zero-order hold, fitted on
+        // alternate 0.2 s blocks: docs/identify.md): the fit must do as well.
+        assert!(
+            a.held_out_share < 0.41,
+            "{}: {:.3}",
+            a.axis,
+            a.held_out_share
+        );
     }
+    per_turn_ripple_on_y_only(&id.axes);
     let start = loop_template(&measured);
     let mut settings = CompareSettings::for_machine(&start);
     settings.measured_at = MeasuredAt::Motor;

@@ -31,6 +31,7 @@ mod linear;
 mod loop_model;
 pub mod report;
 mod result;
+mod ripple;
 mod round;
 mod solve;
 mod staged;
@@ -492,17 +493,27 @@ fn identify_on(
     };
     let template_residual = fit.residual(&template_axis)?;
     let identified_residual = fit.residual(&config)?;
-    let values = fitted_values(knobs, &round, &config, &template_axis);
+    let mut values = fitted_values(knobs, &round, &config, &template_axis);
     let reached = rms(&identified_residual) <= REACHED_EXCESS * um_from_m(ctx.noise_sigma);
     // Each half's fit scored on the other half; the template, fitted to neither, on all.
     // Above the noise, where a fit is written as a model for what it predicts alone, only a
     // half's fit with a point of its own counts (`Round::held_out_rms_own`): without one,
     // the fit has not shown that it predicts data it was not fitted to.
     let own = (!reached).then(|| round.held_out_rms_own(fit, &fold));
-    let held_out_identified_um = um_from_m(match own {
+    let mut held_out_identified_um = um_from_m(match own {
         Some(Some(own)) => own,
         _ => round.held_out_rms(fit, &fold)?,
     });
+    let counted = ripple::counted(&round, own);
+    let (config, identified_residual) = match ripple::on_top(fit, &round, &config, &fold, counted) {
+        None => (config, identified_residual),
+        Some(r) => r.apply(
+            fit,
+            (config, identified_residual),
+            &mut values,
+            &mut held_out_identified_um,
+        )?,
+    };
     let held_out_template_um = rms(&template_residual);
     let shown = own.is_none_or(|own| own.is_some());
     let following_error_um = um_from_m(following_error_rms(ctx, axis, offset, mask));

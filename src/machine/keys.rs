@@ -491,6 +491,30 @@ pub const AXIS_KEYS: &[AxisKey] = &[
         |a| a.errors.cyclic_phase_deg
     ),
     key!(
+        "errors.force_ripple_n",
+        "N",
+        NonNegative(1e7),
+        Always,
+        "a force repeating with position (torque ripple, cogging, a screw's eccentricity)",
+        |a| a.errors.force_ripple_n
+    ),
+    key!(
+        "errors.force_ripple_period_mm",
+        "mm",
+        NonNegative(1e4),
+        Always,
+        "its period (a motor turn's travel); set, identify fits the ripple",
+        |a| a.errors.force_ripple_period_mm
+    ),
+    key!(
+        "errors.force_ripple_phase_deg",
+        "°",
+        Range(-1e6, 1e6),
+        Always,
+        "its phase at position 0",
+        |a| a.errors.force_ripple_phase_deg
+    ),
+    key!(
         "errors.resonance_hz",
         "Hz",
         Range(0.0, 1e4),

@@ -254,6 +254,16 @@ pub struct Errors {
     /// … and the sliding friction added there (N at the table, against the motion).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub friction_speed_n: Vec<f64>,
+    /// A force that repeats with the table's position (N at the table): a motor's torque
+    /// ripple or cogging, a screw's eccentricity or a preload that varies over each turn.
+    /// It pushes the table towards − by `force_ripple_n`·sin(2π·x/period + phase), moving
+    /// or standing; 0 = none.
+    pub force_ripple_n: f64,
+    /// Its period (mm): a motor turn's travel for a ripple per turn. Needed with a ripple;
+    /// it also asks `identify` to fit one.
+    pub force_ripple_period_mm: f64,
+    /// Its phase at position 0 (degrees).
+    pub force_ripple_phase_deg: f64,
 }
 
 impl Default for Errors {
@@ -276,6 +286,9 @@ impl Default for Errors {
             friction_map_n: Vec::new(),
             friction_speed_mm_per_min: Vec::new(),
             friction_speed_n: Vec::new(),
+            force_ripple_n: 0.0,
+            force_ripple_period_mm: 0.0,
+            force_ripple_phase_deg: 0.0,
         }
     }
 }

@@ -132,6 +132,12 @@ fn validate_mechanics(
             "must be positive when errors.resonance_hz is set".into(),
         ));
     }
+    if e.force_ripple_n > 0.0 && e.force_ripple_period_mm <= 0.0 {
+        return Err(c.inconsistent(
+            &k("errors.force_ripple_period_mm"),
+            "must be positive when errors.force_ripple_n is set".into(),
+        ));
+    }
     if let Some(ls) = &a.lateral_shift {
         c.check(
             &k("lateral_shift.holder_at_zero_m"),

@@ -635,16 +635,20 @@ fn unit(i: usize) -> Row {
 
 /// The friction inputs for `mode` at the state `x`: beyond Coulomb's while sliding (the
 /// Stribeck excess and what the maps add, against the motion), none while stuck, and the
-/// static friction the map adds where the table is.
+/// static friction the map adds where the table is; a force ripple in every mode.
 pub(super) fn friction_inputs(model: &AxisModel, x: &mut Aug, mode: Mode) {
     let (v, stribeck) = (x[V2], model.stribeck);
     let excess = stribeck.map_or(0.0, |(level, v_s)| level * (-(v / v_s).powi(2)).exp());
     let (added_sliding, added_static) = model.friction_added_n(x[X2], v);
-    x[FX] = match mode.friction {
-        FrictionMode::SlipPos => excess + added_sliding,
-        FrictionMode::SlipNeg => -(excess + added_sliding),
-        FrictionMode::Stick => 0.0,
-    };
+    // The ripple pushes whether the table slides or stands (a standing table breaks away
+    // from the nut's force less the ripple there).
+    let ripple = model.force_ripple.map_or(0.0, |r| r.at(x[X2]));
+    x[FX] = ripple
+        + match mode.friction {
+            FrictionMode::SlipPos => excess + added_sliding,
+            FrictionMode::SlipNeg => -(excess + added_sliding),
+            FrictionMode::Stick => 0.0,
+        };
     x[FSX] = added_static;
 }
 

@@ -20,6 +20,9 @@ use crate::machine::{ControllerOutput, Feedback};
 use crate::numeric::lookup::Lookup;
 
 mod config;
+mod ripple;
+
+pub use ripple::ForceRipple;
 
 /// Number of states.
 pub const N: usize = 13;
@@ -155,6 +158,8 @@ pub struct AxisModel {
     pub friction_map: Lookup,
     /// Sliding friction added by the table's speed: N by m/s.
     pub friction_speed: Lookup,
+    /// A force repeating with the table's position; `None` when off.
+    pub force_ripple: Option<ForceRipple>,
     /// Error of the measuring system (scale, or lead in semi-closed loop).
     pub measuring: MeasuringError,
     /// Structural mode between the table and the measured point: ω (rad/s) and ζ.
@@ -270,10 +275,10 @@ impl AxisModel {
         self.has_friction_inputs() || self.measuring.is_active()
     }
 
-    /// Whether friction beyond Coulomb's and the viscous term is held per sub-step
-    /// (Stribeck, friction maps).
+    /// Whether friction beyond Coulomb's and the viscous term, or a force ripple, is held
+    /// per sub-step (Stribeck, friction maps, the ripple).
     pub(crate) fn has_friction_inputs(&self) -> bool {
-        self.stribeck.is_some() || self.has_friction_maps()
+        self.stribeck.is_some() || self.has_friction_maps() || self.force_ripple.is_some()
     }
 
     /// Whether friction maps (by position or speed) add to the friction.

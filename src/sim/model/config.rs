@@ -79,6 +79,7 @@ impl AxisModel {
             }),
             friction_map,
             friction_speed,
+            force_ripple: super::ForceRipple::from_config(&c.errors),
             measuring: MeasuringError::from_config(&c.errors, c.drive.lead_mm),
             resonance: (c.errors.resonance_hz > 0.0).then_some({
                 (
