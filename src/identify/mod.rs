@@ -46,6 +46,7 @@ pub use interpolator::Interpolator;
 pub use result::{
     AxisIdentification, ComplexPair, GainPerInertia, Identification, IdentifiedValue, IdentifyError,
 };
+pub use ripple::RippleVerdict;
 pub use verdict::{Place, WhileMoving};
 
 use crate::compare::start::Coverage;
@@ -363,6 +364,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             template_holds: false,
             judged_while_moving: false,
             while_moving: None,
+            force_ripple: None,
         },
     ))
 }
@@ -378,6 +380,7 @@ fn not_reached(
     identified.reached = false;
     identified.better_than_template = false;
     identified.gain_per_inertia = None;
+    ripple::not_written(&mut identified.force_ripple);
     for v in &mut identified.values {
         v.determined = false;
         v.measured = false;
@@ -505,13 +508,14 @@ fn identify_on(
         _ => round.held_out_rms(fit, &fold)?,
     });
     let counted = ripple::counted(&round, own);
-    let (config, identified_residual) = match ripple::on_top(fit, &round, &config, &fold, counted) {
+    let ripple = ripple::on_top(fit, &round, &config, &fold, counted);
+    let (config, identified_residual) = match &ripple {
         None => (config, identified_residual),
         Some(r) => r.apply(
             fit,
             (config, identified_residual),
             &mut values,
-            &mut held_out_identified_um,
+            (&mut held_out_identified_um, &template_axis),
         )?,
     };
     let held_out_template_um = rms(&template_residual);
@@ -540,7 +544,9 @@ fn identify_on(
             judged_while_moving: false,
             while_moving: (!moving_only)
                 .then(|| verdict::while_moving(fit, &round, &fold, &template_residual))
-                .flatten(),
+                .flatten()
+                .map(|m| ripple::while_moving(ripple.as_ref(), fit, &fold, m)),
+            force_ripple: ripple.map(|r| r.verdict),
         },
     ))
 }
@@ -785,6 +791,7 @@ mod tests {
             template_holds: false,
             judged_while_moving: false,
             while_moving: None,
+            force_ripple: None,
         }
     }
 

@@ -104,6 +104,9 @@ pub(crate) fn summary_text(id: &Identification, template: &MachineConfig) -> Str
     for a in &id.axes {
         axis_summary(&mut s, a, id.noise_um);
     }
+    if let Some(line) = no_ripple_period_line(&id.axes) {
+        let _ = writeln!(s, "\n{line}");
+    }
     if let Some(why) = &id.z_not_identified {
         let _ = writeln!(
             s,
@@ -167,6 +170,9 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
     if let Some(line) = gain_per_inertia_line(a) {
         let _ = writeln!(s, "  {line}");
     }
+    if let Some(r) = &a.force_ripple {
+        let _ = writeln!(s, "  {}", r.statement);
+    }
     if a.kept.starts_with("no template") {
         let _ = writeln!(s, "  {}", a.kept);
     } else {
@@ -195,6 +201,23 @@ pub(crate) fn gain_per_inertia_line(a: &AxisIdentification) -> Option<String> {
         sig(r.uncertainty),
         r.inertia_kg
     ))
+}
+
+/// Once for the axes whose template names no force ripple's period: no ripple is fitted
+/// there, said so rather than left out.
+pub(crate) fn no_ripple_period_line(axes: &[AxisIdentification]) -> Option<String> {
+    let without: Vec<String> = axes
+        .iter()
+        .filter(|a| a.force_ripple.is_none())
+        .map(|a| a.axis.to_string())
+        .collect();
+    (!without.is_empty()).then(|| {
+        format!(
+            "force ripple: not fitted on {}: the template names no period \
+             (errors.force_ripple_period_mm)",
+            without.join(", ")
+        )
+    })
 }
 
 /// Where the axis is judged by its held-out figures while moving: those, named so (the
@@ -353,6 +376,12 @@ pub(crate) fn machine_file(
         if let Some(line) = gain_per_inertia_line(a) {
             let _ = writeln!(s, "#   {}.{line}", a.axis);
         }
+        if let Some(r) = &a.force_ripple {
+            let _ = writeln!(s, "#   {}: {}", a.axis, r.statement);
+        }
+    }
+    if let Some(line) = no_ripple_period_line(&id.axes) {
+        let _ = writeln!(s, "#   {line}");
     }
     if let Some(why) = &id.z_not_identified {
         let _ = writeln!(s, "#   Z: not identified ({why}): the template's");

@@ -199,6 +199,9 @@ pub struct AxisIdentification {
     /// current: their ratio, which the record determines even where each alone is a
     /// model's value.
     pub gain_per_inertia: Option<GainPerInertia>,
+    /// Where the template names a force ripple's period: what the record says of it,
+    /// written or not determined and why. `None` where the template names no period.
+    pub force_ripple: Option<super::RippleVerdict>,
 }
 
 /// The identification of a machine from a record.

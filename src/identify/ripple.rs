@@ -1,45 +1,80 @@
-//! A force ripple that repeats with the table's position (a motor's torque ripple or
-//! cogging, a screw's eccentricity), fitted on top of an axis's fit where the template names
-//! its period (`errors.force_ripple_period_mm`: a motor turn's travel).
+//! A force that repeats with the table's position (a motor's torque ripple or cogging, a
+//! screw's eccentricity), fitted on top of an axis's fit where the template names its period
+//! (`errors.force_ripple_period_mm`: a motor turn's travel).
 //!
 //! The ripple's sine and cosine parts act on the residual nearly linearly (the loop is linear
 //! but for friction switching), so each is found by least squares from two simulations more,
 //! with a trial ripple at phase 0° and at 90°: cheap beside the search. Each half's fit gets
 //! the ripple fitted on its own samples and is scored on the other half's, like every value
 //! `identify` writes; the ripple stays only where those held-out figures are better than the
-//! same halves' without it by the twentieth every larger model must earn. Otherwise it is
-//! listed as not determined and nothing is written.
+//! same halves' without it by the twentieth every larger model must earn.
+//!
+//! A cyclic error of the encoder at the same period is fitted alongside, as what the encoder
+//! adds to the position it reads (`tie`): where it predicts the held-out halves as well as the
+//! force does, the record cannot tell the two apart, and where it predicts them clearly
+//! better the force is not written. Whatever the outcome, the axis carries a statement of it
+//! ([`RippleVerdict`]): a ripple not written is "not determined" with its reason, never
+//! silently dropped.
 
 use rayon::prelude::*;
+use serde::Serialize;
 
 use super::result::IdentifiedValue;
 use super::round::Round;
 use super::solve::Fit;
-use super::verdict;
+use super::verdict::WhileMoving;
 use crate::machine::AxisConfig;
-use crate::numeric::units::um_from_m;
+use crate::numeric::units::{mm_from_m, um_from_m};
+
+mod columns;
+mod tie;
+
+use columns::Columns;
+use tie::{PhaseMark, Tie};
 
 /// The keys the ripple is written under.
 pub(super) const AMPLITUDE_KEY: &str = "errors.force_ripple_n";
 pub(super) const PHASE_KEY: &str = "errors.force_ripple_phase_deg";
 
-/// The trial ripple's amplitude (N): small against the forces of any table that moves, so
-/// that the residual answers it linearly, large against the simulation's rounding.
-const TRIAL_N: f64 = 1.0;
+/// What the record says of the force ripple on one axis whose template names its period.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RippleVerdict {
+    /// Whether the force ripple is written to the machine file (as a model's value).
+    pub written: bool,
+    /// The statement, one line: "force ripple: …", "not determined (<reason>)" where not
+    /// written.
+    pub statement: String,
+    /// The held-out RMS (µm) without a ripple (NaN where none was fitted) …
+    pub held_out_without_um: f64,
+    /// … with the force ripple …
+    pub held_out_force_um: f64,
+    /// … and with a cyclic encoder error of the same period in its place.
+    pub held_out_encoder_um: f64,
+}
 
 /// A ripple fitted on top of an axis's fit, and whether the held-out halves kept it.
 pub(super) struct RippleFit {
     /// The axis's configuration with the ripple, where kept.
-    pub(super) config: Option<AxisConfig>,
+    config: Option<AxisConfig>,
+    /// The residuals (m) of the halves' fits with their own ripples, where kept: what the
+    /// written model predicts of the samples each half did not see.
+    halves_with: Option<[Vec<f64>; 2]>,
+    /// The loop's values fitted again with the ripple in place, where it is written.
+    refit: Option<Round>,
     /// The held-out RMS (m) of the halves' fits with their ripples.
-    pub(super) held_out_with_m: f64,
+    held_out_with_m: f64,
     /// The amplitude and phase as values, determined or not.
-    pub(super) values: [IdentifiedValue; 2],
+    values: [IdentifiedValue; 2],
+    /// What the report says of it.
+    pub(super) verdict: RippleVerdict,
 }
+
+/// Why a ripple could not be fitted at all.
+type Reason = String;
 
 /// The ripple on top of `round` (whose fit on the whole record is `whole`), scored on the
 /// halves `fold` tells apart, of the halves' fits `counted` allows; none where the template
-/// names no period or the axis cannot be simulated with one.
+/// names no period.
 pub(super) fn on_top(
     fit: &Fit,
     round: &Round,
@@ -47,35 +82,149 @@ pub(super) fn on_top(
     fold: &[bool],
     counted: [bool; 2],
 ) -> Option<RippleFit> {
-    if whole.errors.force_ripple_period_mm <= 0.0 {
+    let period_mm = whole.errors.force_ripple_period_mm;
+    if period_mm <= 0.0 {
         return None;
     }
-    let mask = fit.mask();
-    let halves: Vec<_> = [(0, true), (1, false)]
-        .into_par_iter()
-        .map(|(h, side)| {
-            let config = round.config(&round.halves[h]);
-            let parts = solve(fit, &config, &|i| mask[i] && fold[i] == side)?;
-            let with = fit.residual(&with_ripple(&config, parts.ab))?;
-            let held_out = |i: usize| mask[i] && fold[i] != side && counted[h];
-            let without = sum_of_squares(&parts.r0, held_out);
-            Some((parts.ab, sum_of_squares(&with, held_out), without))
-        })
-        .collect::<Option<_>>()?;
-    let n = (0..mask.len())
-        .filter(|&i| mask[i] && counted[usize::from(fold[i])])
-        .count()
-        .max(1) as f64;
-    let held_out_with_m = (halves.iter().map(|h| h.1).sum::<f64>() / n).sqrt();
-    let held_out_without_m = (halves.iter().map(|h| h.2).sum::<f64>() / n).sqrt();
-    let whole_parts = solve(fit, whole, &|i| mask[i])?;
-    let kept = verdict::predicts_better(um_from_m(held_out_with_m), um_from_m(held_out_without_m));
-    let values = values(whole, whole_parts.ab, [halves[0].0, halves[1].0], kept);
-    Some(RippleFit {
-        config: kept.then(|| with_ripple(whole, whole_parts.ab)),
-        held_out_with_m,
+    Some(
+        fitted(fit, round, whole, fold, counted)
+            .unwrap_or_else(|reason| RippleFit::not_determined(whole, reason)),
+    )
+}
+
+/// [`on_top`] where the template names a period, or why the ripple cannot be fitted.
+///
+/// Fitted on top of the loop's values, the ripple is judged against the same halves
+/// without it. Where it is written, the loop's values are fitted again with it in place —
+/// fitted without it, they had bent to explain part of it (on a record of a known ripple,
+/// the gain and mass 17 % and 21 % low and the ripple with them) — and the ripple on top of
+/// those once more.
+fn fitted(
+    fit: &Fit,
+    round: &Round,
+    whole: &AxisConfig,
+    fold: &[bool],
+    counted: [bool; 2],
+) -> Result<RippleFit, Reason> {
+    let period_m = whole.errors.force_ripple_period_mm * 1e-3;
+    columns::travel_covers(fit, period_m)?;
+    let encoder = Columns::encoder(fit, period_m);
+    let first = Pass::of(fit, round, whole, fold, &encoder)?;
+    let tie = Tie::of(&first.halves, counted);
+    if !tie.force_written() {
+        let values = values(whole, first.ab, first.halves_ab(), &tie);
+        let verdict = tie.verdict(&values, first.encoder_whole, period_m);
+        return Ok(RippleFit {
+            config: None,
+            halves_with: None,
+            refit: None,
+            held_out_with_m: tie.force_m,
+            values,
+            verdict,
+        });
+    }
+    let refit = Round::fit(
+        fit,
+        round.knobs.clone(),
+        &with_ripple(whole, first.ab),
+        fold,
+    )
+    .ok_or("the loop's values cannot be fitted again with the ripple in place")?;
+    let refit_whole = refit.config(&refit.whole);
+    let second = Pass::of(fit, &refit, &refit_whole, fold, &encoder)?;
+    let tie = tie.with_force_m(Tie::of(&second.halves, counted).force_m);
+    let values = values(&refit_whole, second.ab, second.halves_ab(), &tie);
+    let verdict = tie.verdict(&values, first.encoder_whole, period_m);
+    let [h0, h1] = [0, 1].map(|h| second.halves[h].with.clone());
+    Ok(RippleFit {
+        config: Some(with_ripple(&refit_whole, second.ab)),
+        halves_with: Some([h0, h1]),
+        refit: Some(refit),
+        held_out_with_m: tie.force_m,
         values,
+        verdict,
     })
+}
+
+/// The ripple fitted on top of a round: on each half's fit (on its own samples, scored on
+/// the other's) and on the whole's, with the encoder's cyclic error on the whole's beside.
+struct Pass {
+    halves: Vec<Half>,
+    ab: (f64, f64),
+    encoder_whole: Option<(f64, f64)>,
+}
+
+impl Pass {
+    fn of(
+        fit: &Fit,
+        round: &Round,
+        whole: &AxisConfig,
+        fold: &[bool],
+        encoder: &Columns,
+    ) -> Result<Pass, Reason> {
+        let mask = fit.mask();
+        let halves: Vec<Half> = [(0, true), (1, false)]
+            .into_par_iter()
+            .map(|(h, side)| {
+                let config = round.config(&round.halves[h]);
+                let own = |i: usize| mask[i] && fold[i] == side;
+                let held_out = |i: usize| mask[i] && fold[i] != side;
+                Half::fitted(fit, &config, encoder, own, held_out)
+            })
+            .collect::<Result<_, _>>()?;
+        let parts = Columns::force(fit, whole)?;
+        let ab = parts.solve(&|i| mask[i])?;
+        let encoder_whole = encoder.on(&parts.r0).solve(&|i| mask[i]).ok();
+        Ok(Pass {
+            halves,
+            ab,
+            encoder_whole,
+        })
+    }
+
+    fn halves_ab(&self) -> [(f64, f64); 2] {
+        [self.halves[0].ab, self.halves[1].ab]
+    }
+}
+
+/// One half's fit with a ripple fitted on its own samples: the residual it leaves
+/// everywhere (m), with the force and without, and the sums of squares on the samples it did
+/// not see — without a ripple, with the force, with the encoder's cyclic error instead —
+/// with how many there are.
+struct Half {
+    ab: (f64, f64),
+    with: Vec<f64>,
+    held_out: [f64; 3],
+    n: usize,
+}
+
+impl Half {
+    fn fitted(
+        fit: &Fit,
+        config: &AxisConfig,
+        encoder: &Columns,
+        own: impl Fn(usize) -> bool + Sync,
+        held_out: impl Fn(usize) -> bool,
+    ) -> Result<Half, Reason> {
+        let parts = Columns::force(fit, config)?;
+        let ab = parts.solve(&own)?;
+        let with = fit
+            .residual(&with_ripple(config, ab))
+            .ok_or("the axis cannot be simulated with the ripple fitted to a half")?;
+        let encoder_ab = encoder.on(&parts.r0).solve(&own)?;
+        let corrected = encoder.corrected(&parts.r0, encoder_ab);
+        let n = (0..with.len()).filter(|&i| held_out(i)).count();
+        Ok(Half {
+            ab,
+            held_out: [
+                sum_of_squares(&parts.r0, &held_out),
+                sum_of_squares(&with, &held_out),
+                sum_of_squares(&corrected, &held_out),
+            ],
+            with,
+            n,
+        })
+    }
 }
 
 /// Which halves' fits a held-out figure counts: those with a point of their own where the
@@ -89,68 +238,90 @@ pub(super) fn counted(round: &Round, own: Option<Option<f64>>) -> [bool; 2] {
 }
 
 impl RippleFit {
-    /// The axis's fit with the ripple where the halves kept it: its configuration, residual
-    /// and held-out figure (µm) replaced; the ripple's values added to `values` either way.
+    /// Not fitted, for `reason`: the template's values stay, listed as not determined.
+    fn not_determined(template: &AxisConfig, reason: Reason) -> RippleFit {
+        let values = values(template, (0.0, 0.0), [(0.0, 0.0); 2], &Tie::none());
+        RippleFit {
+            config: None,
+            halves_with: None,
+            refit: None,
+            held_out_with_m: f64::NAN,
+            values,
+            verdict: RippleVerdict {
+                written: false,
+                statement: format!("force ripple: not determined ({reason})"),
+                held_out_without_um: f64::NAN,
+                held_out_force_um: f64::NAN,
+                held_out_encoder_um: f64::NAN,
+            },
+        }
+    }
+
+    /// The axis's fit with the ripple where the halves kept it: its configuration, residual,
+    /// held-out figure (µm) and the loop's values (fitted again with the ripple, against
+    /// `template`) replaced; the ripple's values added to `values` either way.
     pub(super) fn apply(
-        self,
+        &self,
         fit: &Fit,
         written: (AxisConfig, Vec<f64>),
         values: &mut Vec<IdentifiedValue>,
-        held_out_um: &mut f64,
+        (held_out_um, template): (&mut f64, &AxisConfig),
     ) -> Option<(AxisConfig, Vec<f64>)> {
-        values.extend(self.values);
-        let Some(config) = self.config else {
+        let (Some(config), Some(refit)) = (&self.config, &self.refit) else {
+            values.extend(self.values.iter().cloned());
             return Some(written);
         };
+        // The knobs of the round fitted again; those the record did not determine stay the
+        // template's, as listed.
+        for refitted in super::fitted_values(&refit.knobs, refit, config, template) {
+            if let Some(v) = values.iter_mut().find(|v| v.key == refitted.key) {
+                *v = refitted;
+            }
+        }
+        values.extend(self.values.iter().cloned());
         *held_out_um = um_from_m(self.held_out_with_m);
-        let residual = fit.residual(&config)?;
-        Some((config, residual))
+        let residual = fit.residual(config)?;
+        Some((config.clone(), residual))
     }
 }
 
-/// The residual without a ripple and the ripple's sine and cosine parts (N) that explain it
-/// best on the samples `use_sample` allows.
-struct Parts {
-    r0: Vec<f64>,
-    ab: (f64, f64),
-}
-
-fn solve(
+/// The held-out figures while moving (`without`: of the fit without the ripple) of the model
+/// written: with the halves' ripples where one is kept.
+pub(super) fn while_moving(
+    ripple: Option<&RippleFit>,
     fit: &Fit,
-    config: &AxisConfig,
-    use_sample: &(dyn Fn(usize) -> bool + Sync),
-) -> Option<Parts> {
-    let runs: Vec<Vec<f64>> = [None, Some((TRIAL_N, 0.0)), Some((0.0, TRIAL_N))]
-        .into_par_iter()
-        .map(|ab| match ab {
-            None => fit.residual(&with_ripple(config, (0.0, 0.0))),
-            Some(ab) => fit.residual(&with_ripple(config, ab)),
-        })
-        .collect::<Option<_>>()?;
-    let r0 = &runs[0];
-    // The residual's change per newton of each part: its columns of the least squares.
-    let column =
-        |r: &[f64]| -> Vec<f64> { r.iter().zip(r0).map(|(a, b)| (a - b) / TRIAL_N).collect() };
-    let (s, c) = (column(&runs[1]), column(&runs[2]));
-    let (mut ss, mut sc, mut cc, mut sr, mut cr) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    for i in (0..r0.len()).filter(|&i| use_sample(i)) {
-        ss += s[i] * s[i];
-        sc += s[i] * c[i];
-        cc += c[i] * c[i];
-        sr += s[i] * r0[i];
-        cr += c[i] * r0[i];
+    fold: &[bool],
+    without: WhileMoving,
+) -> WhileMoving {
+    let Some(halves) = ripple.and_then(|r| r.halves_with.as_ref()) else {
+        return without;
+    };
+    let moving = super::moving_samples(fit.ctx(), fit.axis(), fit.offset());
+    let (mut ss, mut n) = (0.0, 0usize);
+    for (r, side) in halves.iter().zip([true, false]) {
+        let held_out = |i: usize| moving[i] && fit.mask()[i] && fold[i] != side;
+        for i in (0..r.len()).filter(|&i| held_out(i)) {
+            ss += r[i] * r[i];
+            n += 1;
+        }
     }
-    let det = ss * cc - sc * sc;
-    if det.is_nan() || det <= 0.0 {
-        return None;
+    let identified = um_from_m((ss / n.max(1) as f64).sqrt());
+    WhileMoving {
+        held_out_identified_um: identified,
+        held_out_share: identified / without.following_error_rms_um,
+        ..without
     }
-    // Minimising Σ (r0 + a·s + b·c)².
-    let a = -(cc * sr - sc * cr) / det;
-    let b = -(ss * cr - sc * sr) / det;
-    Some(Parts {
-        r0: runs.into_iter().next()?,
-        ab: (a, b),
-    })
+}
+
+/// Where the template's values are written for the axis in place of its fit, no ripple is:
+/// a statement that says one is written is turned into why not.
+pub(super) fn not_written(verdict: &mut Option<RippleVerdict>) {
+    if let Some(v) = verdict.as_mut().filter(|v| v.written) {
+        v.written = false;
+        v.statement = "force ripple: not determined (the axis's fit is not written: the \
+                       template's values stay)"
+            .to_string();
+    }
 }
 
 /// `config` with the ripple a·sin(k·x) + b·cos(k·x) = A·sin(k·x + φ) (N), A = |(a, b)|,
@@ -169,25 +340,37 @@ fn sum_of_squares(r: &[f64], use_sample: impl Fn(usize) -> bool) -> f64 {
         .sum()
 }
 
-/// The amplitude and phase fitted on the whole record, each with half the halves'
-/// disagreement as its uncertainty (a ripple the halves place apart is not known better than
-/// that). Kept, they are written as a model's values, never as determined: the record fixes
-/// the force only per unit of the fitted mass (which trades with the gain), and a cyclic
-/// error of the encoder at the same period predicts the record nearly as well (on the course
-/// table's record within the halves' spread), so which of the two the table has is not
-/// known from the record. Not kept, the template's values stay, not determined.
+/// The spread of a ripple the two halves found, `(a, b)` each: half their vectors'
+/// distance, the amplitude's uncertainty (N), and the phase's (°) that follows from it — the
+/// largest turn a vector of that length moves the whole's by, all of 180° where it is as long
+/// as the whole's itself.
+fn spread(whole: (f64, f64), halves: [(f64, f64); 2]) -> (f64, f64) {
+    let ((a0, b0), (a1, b1)) = (halves[0], halves[1]);
+    let sigma = 0.5 * (a0 - a1).hypot(b0 - b1);
+    let amplitude = whole.0.hypot(whole.1);
+    let phase_deg = if sigma < amplitude {
+        (sigma / amplitude).asin().to_degrees()
+    } else {
+        180.0
+    };
+    (sigma, phase_deg)
+}
+
+/// The amplitude and phase fitted on the whole record, with their spread between the halves
+/// as their uncertainty (a ripple the halves place apart is not known better than that).
+/// Written, they are a model's values, never determined: the record fixes the force only
+/// per unit of the fitted mass (which trades with the gain), and — unless the force predicts
+/// the halves clearly better — a cyclic encoder error of the same period could be what the
+/// table has. Not written, the template's values stay, not determined.
 fn values(
     template: &AxisConfig,
     whole: (f64, f64),
     halves: [(f64, f64); 2],
-    kept: bool,
+    tie: &Tie,
 ) -> [IdentifiedValue; 2] {
-    let amplitude = |(a, b): (f64, f64)| a.hypot(b);
-    let phase_deg = |(a, b): (f64, f64)| b.atan2(a).to_degrees();
-    let amplitude_sigma = 0.5 * (amplitude(halves[0]) - amplitude(halves[1])).abs();
-    let turn = (phase_deg(halves[0]) - phase_deg(halves[1]) + 540.0).rem_euclid(360.0) - 180.0;
-    let phase_sigma = 0.5 * turn.abs();
-    let value = |key, unit, template: f64, fitted: f64, sigma: f64, traded| IdentifiedValue {
+    let kept = tie.force_written();
+    let (amplitude_sigma, phase_sigma) = spread(whole, halves);
+    let value = |key, unit, template: f64, fitted: f64, sigma: f64| IdentifiedValue {
         key,
         unit,
         template,
@@ -195,28 +378,55 @@ fn values(
         uncertainty: if kept { sigma } else { f64::NAN },
         determined: false,
         measured: false,
-        traded_with: kept.then_some(traded),
+        traded_with: None,
         loose: false,
         complex_pair: None,
     };
-    [
-        value(
-            AMPLITUDE_KEY,
-            "N",
-            template.errors.force_ripple_n,
-            amplitude(whole),
-            amplitude_sigma,
-            "drive.table_mass_kg (the record fixes the force per mass) and with a cyclic \
-             encoder error of the same period",
-        ),
-        value(
-            PHASE_KEY,
-            "°",
-            template.errors.force_ripple_phase_deg,
-            phase_deg(whole),
-            phase_sigma,
-            "a cyclic encoder error of the same period (the record does not tell a force \
-             from it)",
-        ),
-    ]
+    let mut amplitude = value(
+        AMPLITUDE_KEY,
+        "N",
+        template.errors.force_ripple_n,
+        whole.0.hypot(whole.1),
+        amplitude_sigma,
+    );
+    let mut phase = value(
+        PHASE_KEY,
+        "°",
+        template.errors.force_ripple_phase_deg,
+        whole.1.atan2(whole.0).to_degrees(),
+        phase_sigma,
+    );
+    if kept {
+        let (mass_trade, phase_mark) = tie.marks(phase_sigma);
+        amplitude.traded_with = Some(mass_trade);
+        match phase_mark {
+            PhaseMark::Determined => phase.determined = true,
+            PhaseMark::Loose => phase.loose = true,
+            PhaseMark::Traded(with) => phase.traded_with = Some(with),
+        }
+    }
+    [amplitude, phase]
+}
+
+/// A length in mm for the statements.
+fn mm(m: f64) -> f64 {
+    mm_from_m(m)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_halves_spread_is_measured_on_the_vector_and_the_phase_follows_from_it() {
+        // Two halves that find the same amplitude (10 N) a quarter turn apart: their
+        // amplitudes agree, their vectors (10, 0) and (0, 10) lie √200 apart; half of it,
+        // 7.07 N, against the whole's 10 N turns the phase by asin(0.707) = 45°.
+        let (sigma, phase) = spread((7.0711, 7.0711), [(10.0, 0.0), (0.0, 10.0)]);
+        assert!((sigma - 50f64.sqrt()).abs() < 1e-9, "{sigma}");
+        assert!((phase - 45.0).abs() < 1e-3, "{phase}");
+        // Halves apart by more than the whole's length: the phase is not known at all.
+        let (_, phase) = spread((1.0, 0.0), [(5.0, 0.0), (-5.0, 0.0)]);
+        assert_eq!(phase, 180.0);
+    }
 }

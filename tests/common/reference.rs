@@ -57,6 +57,28 @@ pub struct Plant {
     motor_encoder: bool,
     /// A vertical axis's weight less its counterbalance, pulling the table down (N).
     load: f64,
+    /// A force repeating with the table's position, towards −: A·sin(2π·x/period + φ).
+    ripple: Cycle,
+    /// A cyclic error of the encoder: it reads the axis e·sin(2π·x/period + φ) too far.
+    encoder_error: Cycle,
+}
+
+/// Something that repeats with position: amplitude (N or m) · sin(2π·x/period + phase).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Cycle {
+    pub amplitude: f64,
+    pub period_m: f64,
+    pub phase_rad: f64,
+}
+
+impl Cycle {
+    /// Its value with the axis at `x_m`; zero where it has no period.
+    fn at(&self, x_m: f64) -> f64 {
+        if self.period_m <= 0.0 {
+            return 0.0;
+        }
+        self.amplitude * (std::f64::consts::TAU * x_m / self.period_m + self.phase_rad).sin()
+    }
 }
 
 /// How the motor's current is commanded.
@@ -222,6 +244,12 @@ impl Plant {
                 .gravity
                 .as_ref()
                 .map_or(0.0, |g| mt * GRAVITY - g.counterbalance_n),
+            ripple: Cycle {
+                amplitude: c.errors.force_ripple_n,
+                period_m: c.errors.force_ripple_period_mm * 1e-3,
+                phase_rad: c.errors.force_ripple_phase_deg.to_radians(),
+            },
+            encoder_error: Cycle::default(),
         }
     }
 
@@ -324,11 +352,12 @@ impl<'p> Axis<'p> {
 
     fn read_at(&self, x: &State) -> f64 {
         let p = self.plant;
-        if p.motor_encoder {
+        let at = if p.motor_encoder {
             x[TH_M] * p.r * p.it
         } else {
             x[X2]
-        }
+        };
+        at + p.encoder_error.at(at)
     }
 
     /// A controller on a current amplifier: the current command (limited), whether it is at
@@ -476,7 +505,7 @@ impl<'p> Axis<'p> {
         if !stuck {
             dx[X2] = x[V2];
             let friction = p.f_v * x[V2] + f_c * sliding_sign;
-            dx[V2] = (f_n - friction - p.load) / p.mt;
+            dx[V2] = (f_n - friction - p.load - p.ripple.at(x[X2])) / p.mt;
         }
     }
 
@@ -505,8 +534,8 @@ impl<'p> Axis<'p> {
             next[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
         }
         let (_, f_s) = self.plant.friction_at(next[X2], self.spot);
-        // What friction must hold: the nut's force less the weight.
-        let f_n = self.nut_force(&next) - self.plant.load;
+        // What friction must hold: the nut's force less the weight and the ripple.
+        let f_n = self.nut_force(&next) - self.plant.load - self.plant.ripple.at(next[X2]);
         if stuck {
             next[V2] = 0.0;
             if f_n.abs() >= f_s {
@@ -733,6 +762,8 @@ pub struct Recording {
     pub jerk: Option<f64>,
     /// A tight spot on X: (from m, to m, factor on Coulomb friction).
     pub tight_spot_x: Option<(f64, f64, f64)>,
+    /// A cyclic error of X's encoder (amplitude in m), which the control reads too.
+    pub encoder_error_x: Cycle,
     /// The position is read where the control reads it (the motor's encoder on a
     /// semi-closed loop), else at the table.
     pub at_feedback: bool,
@@ -756,6 +787,7 @@ impl Default for Recording {
             accel: 0.5,
             jerk: None,
             tight_spot_x: None,
+            encoder_error_x: Cycle::default(),
             at_feedback: false,
             home_m: None,
             keep_s: None,
@@ -781,7 +813,8 @@ fn record_axes(program: &Program, configs: &[&AxisConfig], rec: &Recording) -> S
         Some(jerk) => Trapezoids::s_curves(program, rec.accel, jerk, 0.3, 0.5),
         None => Trapezoids::from_home(program, rec.accel, 0.3, 0.5, rec.home_m),
     };
-    let plants: Vec<Plant> = configs.iter().map(|c| Plant::new(c)).collect();
+    let mut plants: Vec<Plant> = configs.iter().map(|c| Plant::new(c)).collect();
+    plants[0].encoder_error = rec.encoder_error_x;
     let start = interpolator.position(0.0);
     let mut axes: Vec<Axis> = plants
         .iter()

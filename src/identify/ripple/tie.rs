@@ -1,0 +1,206 @@
+//! The force ripple against a cyclic encoder error of the same period: which of the two the
+//! held-out halves keep, and whether the record tells them apart.
+
+use super::{Half, IdentifiedValue, RippleVerdict, mm};
+use crate::identify::verdict::predicts_better;
+use crate::numeric::units::um_from_m;
+
+/// The largest phase uncertainty (°) of a ripple whose phase is written as determined: a
+/// twelfth of a turn. Beyond it the halves place the ripple too far apart for its phase to
+/// say where on the turn it pushes.
+const PHASE_DETERMINED_DEG: f64 = 30.0;
+
+/// What the held-out halves say of a ripple of the template's period.
+#[derive(Clone, Copy, PartialEq, Debug)]
+enum Outcome {
+    /// Not fitted.
+    None,
+    /// Neither the force nor the encoder's error predicts the halves better by a twentieth.
+    NeitherHelps,
+    /// The force does, and predicts each half better than the encoder's error by a
+    /// twentieth.
+    Force,
+    /// The force does, and the encoder's error predicts the halves within a twentieth of it
+    /// on some half: the record cannot tell them apart.
+    CannotTell,
+    /// The encoder's error does and predicts each half better than the force by a twentieth.
+    Encoder,
+    /// The encoder's error does, the force does not, and the halves do not tell them apart.
+    EncoderOnly,
+}
+
+/// The held-out figures of a ripple on the halves counted, and what they say.
+pub(super) struct Tie {
+    /// Held-out RMS (m) over the halves counted: without a ripple, with the force, with the
+    /// encoder's error.
+    without_m: f64,
+    pub(super) force_m: f64,
+    encoder_m: f64,
+    outcome: Outcome,
+}
+
+impl Tie {
+    /// No ripple fitted.
+    pub(super) fn none() -> Tie {
+        Tie {
+            without_m: f64::NAN,
+            force_m: f64::NAN,
+            encoder_m: f64::NAN,
+            outcome: Outcome::None,
+        }
+    }
+
+    /// The halves' figures, of the halves `counted` allows.
+    pub(super) fn of(halves: &[Half], counted: [bool; 2]) -> Tie {
+        let counted: Vec<&Half> = halves
+            .iter()
+            .zip(counted)
+            .filter(|(_, c)| *c)
+            .map(|(h, _)| h)
+            .collect();
+        let n = counted.iter().map(|h| h.n).sum::<usize>();
+        if n == 0 {
+            return Tie::none();
+        }
+        let rms = |k: usize| (counted.iter().map(|h| h.held_out[k]).sum::<f64>() / n as f64).sqrt();
+        let [without_m, force_m, encoder_m] = [0, 1, 2].map(rms);
+        // Each half on its own samples: one alternative wins only where it predicts every
+        // half better than the other by the twentieth a larger model must earn.
+        let on_each = |k: usize, other: usize| {
+            counted.iter().all(|h| {
+                let per = |j: usize| (h.held_out[j] / h.n.max(1) as f64).sqrt();
+                predicts_better(per(k), per(other))
+            })
+        };
+        let force_helps = predicts_better(force_m, without_m);
+        let encoder_helps = predicts_better(encoder_m, without_m);
+        let outcome = if force_helps && on_each(1, 2) {
+            Outcome::Force
+        } else if encoder_helps && on_each(2, 1) {
+            Outcome::Encoder
+        } else if force_helps {
+            Outcome::CannotTell
+        } else if encoder_helps {
+            Outcome::EncoderOnly
+        } else {
+            Outcome::NeitherHelps
+        };
+        Tie {
+            without_m,
+            force_m,
+            encoder_m,
+            outcome,
+        }
+    }
+
+    /// The same outcome with the force's held-out figure `force_m` (m): that of the values
+    /// fitted again with the ripple in place.
+    pub(super) fn with_force_m(self, force_m: f64) -> Tie {
+        Tie { force_m, ..self }
+    }
+
+    /// Whether the force ripple is written.
+    pub(super) fn force_written(&self) -> bool {
+        matches!(self.outcome, Outcome::Force | Outcome::CannotTell)
+    }
+
+    /// How the written amplitude and phase are marked: the amplitude's trade (the record
+    /// fixes a force only per unit of the fitted mass, which trades with the gain), the
+    /// phase's where the record does not tell the force from the encoder's error.
+    pub(super) fn marks(&self, phase_sigma_deg: f64) -> (&'static str, PhaseMark) {
+        let mass = "drive.table_mass_kg (the record fixes the force per mass)";
+        if self.outcome == Outcome::CannotTell {
+            let both = "drive.table_mass_kg (the record fixes the force per mass) and with a \
+                        cyclic encoder error of the same period";
+            return (
+                both,
+                PhaseMark::Traded(
+                    "a cyclic encoder error of the same period (the record does not tell a \
+                     force from it)",
+                ),
+            );
+        }
+        if phase_sigma_deg <= PHASE_DETERMINED_DEG {
+            (mass, PhaseMark::Determined)
+        } else {
+            (mass, PhaseMark::Loose)
+        }
+    }
+
+    /// The statement of the outcome: `values` the force's amplitude and phase as written,
+    /// `encoder` the encoder's error fitted on the whole record instead (m; none where it
+    /// could not be).
+    pub(super) fn verdict(
+        &self,
+        values: &[IdentifiedValue; 2],
+        encoder: Option<(f64, f64)>,
+        period_m: f64,
+    ) -> RippleVerdict {
+        let [w, f, e] = [self.without_m, self.force_m, self.encoder_m].map(um_from_m);
+        let figures =
+            format!("held out {f:.3} µm with it, {e:.3} µm as an encoder error, {w:.3} µm without");
+        let encoder = encoder.map_or("not fitted".to_string(), |(a, b)| {
+            format!(
+                "{:.3} µm at {:.1}° as the record shows it: below the loop's crossover the \
+                 loop follows the error, and the encoder's own is larger",
+                um_from_m(a.hypot(b)),
+                b.atan2(a).to_degrees()
+            )
+        });
+        let [amplitude, phase] = values;
+        let force = format!(
+            "{:.4} ± {:.2} N at {:.1} ± {:.1}° every {:.3} mm",
+            amplitude.value,
+            amplitude.uncertainty,
+            phase.value,
+            phase.uncertainty,
+            mm(period_m)
+        );
+        let statement = match self.outcome {
+            Outcome::None => {
+                "force ripple: not determined (no half's fit holds a held-out figure)".to_string()
+            }
+            Outcome::Force => format!(
+                "force ripple: {force}, a model's value: a force rather than a cyclic encoder \
+                 error — it predicts each held-out half better by a twentieth ({figures})"
+            ),
+            Outcome::CannotTell => format!(
+                "force ripple: {force}, a model's value: the record cannot tell it from a \
+                 cyclic encoder error of the same period ({encoder}), which predicts some \
+                 held-out half within a twentieth of it ({figures})"
+            ),
+            Outcome::Encoder => format!(
+                "force ripple: not determined (a cyclic encoder error of the same period, \
+                 {encoder}, predicts each held-out half better than a force by a twentieth: \
+                 the record shows the encoder's error, not a force; {figures})"
+            ),
+            Outcome::EncoderOnly => format!(
+                "force ripple: not determined (as a force it predicts the held-out halves no \
+                 better by a twentieth; as a cyclic encoder error of the same period, \
+                 {encoder}, it does, but not each half clearly better than the force; \
+                 {figures})"
+            ),
+            Outcome::NeitherHelps => format!(
+                "force ripple: not determined (the held-out halves predict no better with it \
+                 by a twentieth, as a force or as an encoder error: {figures})"
+            ),
+        };
+        RippleVerdict {
+            written: self.force_written(),
+            statement,
+            held_out_without_um: w,
+            held_out_force_um: f,
+            held_out_encoder_um: e,
+        }
+    }
+}
+
+/// How a written phase is marked.
+pub(super) enum PhaseMark {
+    /// Fitted within `PHASE_DETERMINED_DEG` where the force clearly wins.
+    Determined,
+    /// The halves place it further apart.
+    Loose,
+    /// It trades with another explanation.
+    Traded(&'static str),
+}

@@ -1,0 +1,159 @@
+//! `identify`'s force ripple against records of the independent integrator of
+//! `common::reference`, which pushes the table with its own ripple or reads it through an
+//! encoder with its own cyclic error: the lead-lag table of the identify tests, whose
+//! template names a 2.5 mm period on both axes.
+//!
+//! A ripple of known amplitude and phase on X is found within the uncertainty stated, and
+//! none on Y, which has none; an encoder's cyclic error of that period is not reported as a
+//! force found.
+
+mod common;
+
+use std::f64::consts::TAU;
+
+use common::assert_within_k_sigma;
+use common::identifying::lead_lag_toml;
+use common::program_text;
+use common::reference::{self, Cycle, Recording};
+use contourcheck::compare::CompareSettings;
+use contourcheck::gcode::Program;
+use contourcheck::identify::{AxisIdentification, Identification, IdentifiedValue, identify};
+use contourcheck::machine::MachineConfig;
+use contourcheck::sim::MeasuredAt;
+use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
+
+const PERIOD_MM: f64 = 2.5;
+
+/// Out and back on each axis at feeds that put a 2.5 mm ripple at 5 to 10 Hz.
+fn program() -> Program {
+    program_text("G21 G17 G90 G94\nG0 X0 Y0\nG1 X12 F1200\nY8 F900\nX0 F1500\nY0 F1200\nM2\n")
+}
+
+/// The lead-lag table as it runs, its template naming the ripple's period on both axes, and
+/// `ripple_x` (N, °) pushing X's table.
+fn machine(ripple_x: Option<(f64, f64)>) -> MachineConfig {
+    let (amplitude, phase) = ripple_x.unwrap_or((0.0, 0.0));
+    let text = format!(
+        "{}[x.errors]\nforce_ripple_period_mm = {PERIOD_MM}\nforce_ripple_n = {amplitude}\n\
+         force_ripple_phase_deg = {phase}\n[y.errors]\nforce_ripple_period_mm = {PERIOD_MM}\n",
+        lead_lag_toml(60.75, 3.5, 14.4, 64.0)
+    );
+    MachineConfig::from_toml_str(&text, "ripple-table.toml").unwrap()
+}
+
+/// The reference's record of the program on `truth`, read at the motor's encoder at 10 kHz
+/// in 0.1 µm counts, X's encoder with `encoder_error`.
+fn record(truth: &MachineConfig, encoder_error: Cycle) -> MeasuredTrace {
+    let rec = Recording {
+        sample_s: 1e-4,
+        noise_m: 0.05e-6,
+        count_m: 0.1e-6,
+        step_s: 1e-5,
+        seed: 38,
+        accel: 0.5,
+        at_feedback: true,
+        encoder_error_x: encoder_error,
+        ..Recording::default()
+    };
+    let csv = reference::record(&program(), &truth.x, &truth.y, &rec);
+    parse_trace(&csv, "reference.csv").unwrap()
+}
+
+fn identified(measured: &MeasuredTrace) -> Identification {
+    let template = machine(None);
+    let mut settings = CompareSettings::for_machine(&template);
+    settings.measured_at = MeasuredAt::Motor;
+    identify(&program(), &template, measured, &settings).unwrap()
+}
+
+fn value<'a>(a: &'a AxisIdentification, key: &str) -> &'a IdentifiedValue {
+    a.values
+        .iter()
+        .find(|v| v.key == key)
+        .unwrap_or_else(|| panic!("{}: no {key} in {:?}", a.axis, a.values))
+}
+
+#[test]
+fn a_ripple_of_known_amplitude_and_phase_is_found_where_it_is_and_nowhere_else() {
+    let (amplitude_n, phase_deg) = (12.0, 40.0);
+    let id = identified(&record(
+        &machine(Some((amplitude_n, phase_deg))),
+        Cycle::default(),
+    ));
+    let axes = &id.axes;
+    let (x, y) = (&axes[0], &axes[1]);
+    for a in axes {
+        eprintln!("{}: {:?}", a.axis, a.force_ripple);
+    }
+    let ripple = value(x, "errors.force_ripple_n");
+    let phase = value(x, "errors.force_ripple_phase_deg");
+    let gain = value(x, "controller.gain");
+    let verdict = x.force_ripple.as_ref().unwrap();
+    assert!(verdict.written && ripple.fitted(), "{verdict:?} {ripple:?}");
+    // The record fixes a force only per unit of the inertia the loop moves, and so the
+    // controller's gain: the fit trades both with the table's mass (here the mass lands at a
+    // tenth of the truth's, the gain and the ripple a quarter low with it). Their ratio —
+    // the position error at which the controller's integral would answer the ripple — is
+    // free of that trade; its uncertainty is the two relative ones combined.
+    let truth_gain = 60.75 * (TAU * 3.5) * (TAU * 14.4) / (TAU * 64.0);
+    let ratio = ripple.value / gain.value;
+    let relative = (ripple.uncertainty / ripple.value).hypot(gain.uncertainty / gain.value);
+    assert_within_k_sigma(
+        "ripple per gain (N per A/(mm·s))",
+        amplitude_n / truth_gain,
+        ratio,
+        relative * ratio,
+        3.0,
+    );
+    assert_within_k_sigma("phase (°)", phase_deg, phase.value, phase.uncertainty, 3.0);
+    // The model written is the machine's own structure: it predicts the held-out halves to
+    // within twice the record's noise (its floor and the halves' scatter).
+    assert!(
+        x.held_out_identified_um < 2.0 * id.noise_um,
+        "{} µm held out against {} µm of noise",
+        x.held_out_identified_um,
+        id.noise_um
+    );
+    // Y has none: the template's zero stays, said not determined.
+    let y_verdict = y.force_ripple.as_ref().unwrap();
+    let y_ripple = value(y, "errors.force_ripple_n");
+    assert!(!y_verdict.written && !y_ripple.fitted(), "{y_verdict:?}");
+    assert_eq!(y_ripple.value, 0.0);
+    assert!(
+        y_verdict.statement.contains("not determined ("),
+        "{}",
+        y_verdict.statement
+    );
+}
+
+#[test]
+fn an_encoders_cyclic_error_is_not_reported_as_a_force_found() {
+    // 1.5 µm every 2.5 mm on X's encoder, which the control reads too.
+    let error = Cycle {
+        amplitude: 1.5e-6,
+        period_m: PERIOD_MM * 1e-3,
+        phase_rad: 40f64.to_radians(),
+    };
+    let axes = identified(&record(&machine(None), error)).axes;
+    let x = &axes[0];
+    eprintln!("X: {:?}", x.force_ripple);
+    let ripple = value(x, "errors.force_ripple_n");
+    let verdict = x.force_ripple.as_ref().unwrap();
+    assert!(!ripple.determined, "{ripple:?}");
+    if verdict.written {
+        // Written only as a model's value the record cannot tell from the encoder's error.
+        assert!(
+            ripple
+                .traded_with
+                .is_some_and(|t| t.contains("encoder error")),
+            "{ripple:?}"
+        );
+        assert!(verdict.statement.contains("cannot tell"), "{verdict:?}");
+    } else {
+        assert!(
+            verdict.statement.contains("encoder"),
+            "{}",
+            verdict.statement
+        );
+    }
+}
