@@ -159,7 +159,7 @@ fn predicts_better_than_template_and_regression(a: &AxisIdentification) {
 /// A·sin(2π·x/turn + φ), with φ at −35° and −53°; on X 1 and 10 N, their phases 70° apart, the held-out blocks no
 /// better by a twentieth). The fit's mass trades with its gain, so the ripple is compared
 /// as the acceleration it gives the fitted mass. And with it Y predicts its held-out
-/// halves to under a third of its following error: 36 to 38 % without it here, and the
+/// halves to under a third of its following error: 40 % without it here, and the
 /// separate model gains 6 to 8 % of the residual from the ripple on top of its own fit.
 fn per_turn_ripple_on_y_only(axes: &[AxisIdentification]) {
     let value = |a: &AxisIdentification, key: &str| {
@@ -175,7 +175,8 @@ fn per_turn_ripple_on_y_only(axes: &[AxisIdentification]) {
     let mass = value(y, "drive.table_mass_kg");
     let phase = value(y, "errors.force_ripple_phase_deg");
     // Written as a model's value, never as found: the record fixes the force only per
-    // mass, and cannot tell a force per turn from a cyclic encoder error of that period.
+    // mass, and does not exclude a cyclic encoder error of that period which the loop
+    // reads (below its crossover the loop follows it as it would a force).
     assert!(ripple.fitted() && !ripple.determined, "{ripple:?}");
     assert!(
         ripple.traded_with.is_some() && !phase.determined,
@@ -230,6 +231,9 @@ fn the_real_table_is_identified_from_the_course_template_and_without_one() {
             a.baseline.held_out_um,
             100.0 * a.baseline.share
         );
+        if let Some(r) = &a.force_ripple {
+            eprintln!("  {}", r.statement);
+        }
         predicts_better_than_template_and_regression(a);
         // And clearly, not by a hair: by a fifth at least. (A search that stays at the
         // design's corners leaves X at 66 % of its following error, the regression 67 %.)

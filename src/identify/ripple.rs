@@ -30,7 +30,7 @@ mod columns;
 mod tie;
 
 use columns::Columns;
-use tie::{PhaseMark, Tie};
+use tie::Tie;
 
 /// The keys the ripple is written under.
 pub(super) const AMPLITUDE_KEY: &str = "errors.force_ripple_n";
@@ -359,9 +359,9 @@ fn spread(whole: (f64, f64), halves: [(f64, f64); 2]) -> (f64, f64) {
 /// The amplitude and phase fitted on the whole record, with their spread between the halves
 /// as their uncertainty (a ripple the halves place apart is not known better than that).
 /// Written, they are a model's values, never determined: the record fixes the force only
-/// per unit of the fitted mass (which trades with the gain), and — unless the force predicts
-/// the halves clearly better — a cyclic encoder error of the same period could be what the
-/// table has. Not written, the template's values stay, not determined.
+/// per unit of the fitted mass (which trades with the gain), and a cyclic encoder error of
+/// the same period that the loop reads could be what the table has (`Tie::trades`). Not
+/// written, the template's values stay, not determined.
 fn values(
     template: &AxisConfig,
     whole: (f64, f64),
@@ -397,13 +397,9 @@ fn values(
         phase_sigma,
     );
     if kept {
-        let (mass_trade, phase_mark) = tie.marks(phase_sigma);
-        amplitude.traded_with = Some(mass_trade);
-        match phase_mark {
-            PhaseMark::Determined => phase.determined = true,
-            PhaseMark::Loose => phase.loose = true,
-            PhaseMark::Traded(with) => phase.traded_with = Some(with),
-        }
+        let (amplitude_trade, phase_trade) = tie.trades();
+        amplitude.traded_with = Some(amplitude_trade);
+        phase.traded_with = Some(phase_trade);
     }
     [amplitude, phase]
 }

@@ -5,11 +5,6 @@ use super::{Half, IdentifiedValue, RippleVerdict, mm};
 use crate::identify::verdict::predicts_better;
 use crate::numeric::units::um_from_m;
 
-/// The largest phase uncertainty (°) of a ripple whose phase is written as determined: a
-/// twelfth of a turn. Beyond it the halves place the ripple too far apart for its phase to
-/// say where on the turn it pushes.
-const PHASE_DETERMINED_DEG: f64 = 30.0;
-
 /// What the held-out halves say of a ripple of the template's period.
 #[derive(Clone, Copy, PartialEq, Debug)]
 enum Outcome {
@@ -104,27 +99,19 @@ impl Tie {
         matches!(self.outcome, Outcome::Force | Outcome::CannotTell)
     }
 
-    /// How the written amplitude and phase are marked: the amplitude's trade (the record
-    /// fixes a force only per unit of the fitted mass, which trades with the gain), the
-    /// phase's where the record does not tell the force from the encoder's error.
-    pub(super) fn marks(&self, phase_sigma_deg: f64) -> (&'static str, PhaseMark) {
-        let mass = "drive.table_mass_kg (the record fixes the force per mass)";
-        if self.outcome == Outcome::CannotTell {
-            let both = "drive.table_mass_kg (the record fixes the force per mass) and with a \
-                        cyclic encoder error of the same period";
-            return (
-                both,
-                PhaseMark::Traded(
-                    "a cyclic encoder error of the same period (the record does not tell a \
-                     force from it)",
-                ),
-            );
-        }
-        if phase_sigma_deg <= PHASE_DETERMINED_DEG {
-            (mass, PhaseMark::Determined)
-        } else {
-            (mass, PhaseMark::Loose)
-        }
+    /// What the written amplitude and phase trade with: the amplitude with the fitted mass
+    /// (the record fixes a force only per unit of the inertia it moves, which trades with
+    /// the gain), both with a cyclic encoder error of the same period. Even where the force
+    /// predicts the halves clearly better than that error taken on the record's output, an
+    /// error the loop reads too is not excluded: below the crossover the loop follows it,
+    /// and it moves the table as a force of the same period would.
+    pub(super) fn trades(&self) -> (&'static str, &'static str) {
+        (
+            "drive.table_mass_kg (the record fixes the force per mass) and with a cyclic \
+             encoder error of the same period",
+            "a cyclic encoder error of the same period (the record does not tell a force from \
+             one the loop reads)",
+        )
     }
 
     /// The statement of the outcome: `values` the force's amplitude and phase as written,
@@ -161,8 +148,10 @@ impl Tie {
                 "force ripple: not determined (no half's fit holds a held-out figure)".to_string()
             }
             Outcome::Force => format!(
-                "force ripple: {force}, a model's value: a force rather than a cyclic encoder \
-                 error — it predicts each held-out half better by a twentieth ({figures})"
+                "force ripple: {force}, a model's value: as a force it predicts each held-out \
+                 half better by a twentieth than a cyclic encoder error of the same period \
+                 taken on the record's output ({figures}); an error the loop reads too is \
+                 not excluded (below the crossover it acts as a force would)"
             ),
             Outcome::CannotTell => format!(
                 "force ripple: {force}, a model's value: the record cannot tell it from a \
@@ -193,14 +182,4 @@ impl Tie {
             held_out_encoder_um: e,
         }
     }
-}
-
-/// How a written phase is marked.
-pub(super) enum PhaseMark {
-    /// Fitted within `PHASE_DETERMINED_DEG` where the force clearly wins.
-    Determined,
-    /// The halves place it further apart.
-    Loose,
-    /// It trades with another explanation.
-    Traded(&'static str),
 }
