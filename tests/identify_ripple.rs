@@ -114,6 +114,14 @@ fn a_ripple_of_known_amplitude_and_phase_is_found_where_it_is_and_nowhere_else()
         x.held_out_identified_um,
         id.noise_um
     );
+    // The figures while moving are those of the model written, the ripple in it.
+    let moving = x.while_moving.as_ref().expect("X fitted on every sample");
+    assert!(
+        moving.held_out_identified_um < 2.0 * id.noise_um,
+        "while moving {} µm held out against {} µm of noise",
+        moving.held_out_identified_um,
+        id.noise_um
+    );
     // Y has none: the template's zero stays, said not determined.
     let y_verdict = y.force_ripple.as_ref().unwrap();
     let y_ripple = value(y, "errors.force_ripple_n");
