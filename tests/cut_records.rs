@@ -8,8 +8,8 @@
 
 mod common;
 
-use common::program_text;
 use common::reference::{Recording, record};
+use common::{assert_within_k_sigma_and_share, program_text};
 use contourcheck::diagnose::causes::CauseId;
 use contourcheck::diagnose::{DiagnoseSettings, Diagnosis, StartKind, diagnose};
 use contourcheck::gcode::Program;
@@ -237,14 +237,8 @@ fn a_delay_seen_only_at_speed_is_said_to_be_indistinguishable_from_a_gain() {
         c.alternatives
     );
     let p = &c.params[0];
-    let err = (p.value - hidden).abs();
-    assert!(
-        err <= 4.0 * p.uncertainty && err <= 0.01 * hidden,
-        "{:?}: {} ± {}, expected {hidden}",
-        c.id,
-        p.value,
-        p.uncertainty
-    );
+    let what = format!("{:?}", c.id);
+    assert_within_k_sigma_and_share(&what, hidden, p.value, p.uncertainty, 4.0, 0.01);
 }
 
 /// A square recorded in 0.1 µm encoder counts under plain headers, as a logger writes them:

@@ -9,7 +9,7 @@
 
 mod common;
 
-use common::{foreign_commands, program_text, sample_program};
+use common::{assert_within_k_sigma_and_share, foreign_commands, program_text, sample_program};
 use contourcheck::diagnose::causes::CauseId;
 use contourcheck::diagnose::synth::{SynthSpec, synthesize};
 use contourcheck::diagnose::{DiagnoseError, DiagnoseSettings, Diagnosis, diagnose};
@@ -94,14 +94,9 @@ fn assert_found_through_foreign_commands(
             .collect::<Vec<_>>()
     );
     for (p, &truth) in d.causes[0].params.iter().zip(hidden) {
-        let err = (p.value - truth).abs();
-        assert!(
-            err <= relative_tolerance(cause) * truth.abs() && err <= 4.0 * p.uncertainty,
-            "{name}: {} = {} ± {}, hidden {truth}",
-            p.key,
-            p.value,
-            p.uncertainty
-        );
+        let what = format!("{name}: {}", p.key);
+        let share = relative_tolerance(cause);
+        assert_within_k_sigma_and_share(&what, truth, p.value, p.uncertainty, 4.0, share);
     }
     // Held out: the half of the record the cause was not fitted on is predicted better.
     // (On stick-slip, whose slips no model times, on the window statistics' χ².)

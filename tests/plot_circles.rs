@@ -72,14 +72,37 @@ const ONE_FIGURE_THREE_CIRCLES: &str = "G21 G90 G94 G17\nG0 X10 Y0 Z0\n\
 fn check_plot_draws_circles_of_other_planes_or_heights_apart() {
     let dir = tempfile::tempdir().unwrap();
     let (program, plots) = (dir.path().join("three.nc"), dir.path().join("plots"));
+    let json = dir.path().join("report.json");
     std::fs::write(&program, ONE_FIGURE_THREE_CIRCLES).unwrap();
     let o = run(&[
         "check",
         program.to_str().unwrap(),
         "--plot",
         plots.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    // The report names each circle's plane and height as the program placed them.
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let places: Vec<(String, f64)> = report["circular_test"]["circles"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| {
+            let plane = c["plane"].as_str().unwrap().to_owned();
+            (plane, c["height_mm"].as_f64().unwrap())
+        })
+        .collect();
+    let expected = [("XY", 0.0), ("ZX", 0.0), ("XY", -5.0)];
+    assert_eq!(places.len(), 3, "{places:?}");
+    for ((plane, height), (want_plane, want_height)) in places.iter().zip(expected) {
+        assert!(
+            plane == want_plane && (height - want_height).abs() < 1e-9,
+            "{places:?}"
+        );
+    }
     let mut files: Vec<String> = std::fs::read_dir(&plots)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -89,9 +112,9 @@ fn check_plot_draws_circles_of_other_planes_or_heights_apart() {
     assert_eq!(files, ["circle-1.svg", "circle-2.svg", "circle-3.svg"]);
     let svg = |n: u32| std::fs::read_to_string(plots.join(format!("circle-{n}.svg"))).unwrap();
     for (n, place, line) in [
-        (1, "XY at Z 0.0", 3),
-        (2, "ZX at Y 0.0", 4),
-        (3, "XY at Z -5.0", 6),
+        (1, "XY at Z 0.0 mm", 3),
+        (2, "ZX at Y 0.0 mm", 4),
+        (3, "XY at Z -5.0 mm", 6),
     ] {
         let drawn = svg(n);
         assert!(

@@ -7,8 +7,8 @@
 mod common;
 
 use common::diagnosing::diagnose_nominal;
-use common::program_text;
 use common::reference::{Recording, record};
+use common::{assert_within_k_sigma_and_share, program_text};
 use contourcheck::diagnose::Diagnosis;
 use contourcheck::diagnose::causes::CauseId;
 use contourcheck::diagnose::report::DiagnoseReport;
@@ -165,13 +165,9 @@ fn assert_found_in_reference(
     // A machine-wide effect is not a local one.
     assert!(d.localized.is_empty(), "{:#?}", d.localized);
     let p = &d.causes[0].params[0];
-    assert!(
-        (p.value - truth).abs() <= (4.0 * p.uncertainty).max(1e-12)
-            && (p.value - truth).abs() <= 0.02 * truth.abs(),
-        "{cause:?}: {} ± {}, hidden {truth}",
-        p.value,
-        p.uncertainty
-    );
+    let what = format!("{cause:?}");
+    let sigma = p.uncertainty.max(0.25e-12);
+    assert_within_k_sigma_and_share(&what, truth, p.value, sigma, 4.0, 0.02);
     assert!(d.after.x.rms_um <= 1.1 * d.noise_floor_um, "{:?}", d.after);
     assert!(d.after.y.rms_um <= 1.1 * d.noise_floor_um, "{:?}", d.after);
     assert!(d.localized.is_empty(), "{:#?}", d.localized);
@@ -332,13 +328,8 @@ fn three_effects_in_an_independent_record_are_found_in_one_run() {
         (CauseId::KvGain, 0.95, 0.01),
     ] {
         let p = &d.causes.iter().find(|c| c.id == cause).unwrap().params[0];
-        let err = (p.value - hidden).abs();
-        assert!(
-            err <= 2.0 * p.uncertainty && err <= share * hidden,
-            "{cause:?}: {} ± {}, hidden {hidden}",
-            p.value,
-            p.uncertainty
-        );
+        let what = format!("{cause:?}");
+        assert_within_k_sigma_and_share(&what, hidden, p.value, p.uncertainty, 2.0, share);
     }
     assert!(d.after.x.rms_um <= 1.1 * d.noise_floor_um, "{:?}", d.after);
     assert!(d.after.y.rms_um <= 1.1 * d.noise_floor_um, "{:?}", d.after);

@@ -129,6 +129,10 @@ pub struct CircleFigures {
     pub line: u32,
     /// The plane of the circle (`XY`, `ZX`, `YZ`).
     pub plane: Plane,
+    /// Where the plane lies along its normal (mm): Z for an XY circle, Y for ZX, X for YZ.
+    /// Two circles of one line at different heights (a subprogram called at two depths)
+    /// are told apart by it.
+    pub height_mm: f64,
     /// `ccw` or `cw`.
     pub direction: &'static str,
     /// Programmed radius (mm).
@@ -329,6 +333,7 @@ fn figures(c: &Circle, p: &[[f64; 2]]) -> CircleFigures {
         segment: c.segment,
         line: c.line,
         plane: c.plane,
+        height_mm: mm_from_m(c.height_m),
         direction: if c.ccw { "ccw" } else { "cw" },
         radius_mm: mm_from_m(c.radius_m),
         g_um: um_from_m(hi - lo),

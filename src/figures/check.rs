@@ -237,7 +237,7 @@ fn polar_figure(
     let [.., normal] = c.plane.axes().map(|i| ['X', 'Y', 'Z'][i]);
     PolarPlot {
         title: format!(
-            "{name}: circular test R{:.1} mm, centre ({:.1}, {:.1}), {} at {normal} {:.1} \
+            "{name}: circular test R{:.1} mm, centre ({:.1}, {:.1}) mm, {} at {normal} {:.1} mm \
              — radial deviation",
             mm_from_m(r),
             mm_from_m(c.center_m[0]),

@@ -324,6 +324,7 @@ mod tests {
             segment,
             line,
             plane: Plane::Xy,
+            height_mm: 0.0,
             direction: "ccw",
             radius_mm: 10.0,
             g_um,

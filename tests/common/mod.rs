@@ -145,3 +145,24 @@ pub fn assert_within_k_sigma(what: &str, truth: f64, estimate: f64, sigma: f64, 
         off / sigma
     );
 }
+
+/// As [`assert_within_k_sigma`], and also within `share` of the truth's size: a value found
+/// to a tight σ that misses by more than a user could use (a σ the fit understates) fails too.
+pub fn assert_within_k_sigma_and_share(
+    what: &str,
+    truth: f64,
+    estimate: f64,
+    sigma: f64,
+    k: f64,
+    share: f64,
+) {
+    assert_within_k_sigma(what, truth, estimate, sigma, k);
+    let off = (estimate - truth).abs();
+    assert!(
+        off <= share * truth.abs(),
+        "{what}: the estimate {estimate} misses the truth {truth} by {:.2} % of it, more than \
+         {:.2} %",
+        100.0 * off / truth.abs(),
+        100.0 * share
+    );
+}

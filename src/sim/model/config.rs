@@ -21,13 +21,7 @@ impl AxisModel {
         let drive = DriveLoops::of(c);
         let (friction_map, friction_speed) = friction_maps(&c.errors);
         AxisModel {
-            kp: match c.controller {
-                Controller::Cascade => {
-                    per_s_from_kv_m_per_min_per_mm(c.position_loop.kv_m_per_min_per_mm)
-                        / (m.r * m.it)
-                }
-                _ => 0.0,
-            },
+            kp: cascade_position_gain(c, &m),
             kf,
             ka,
             // A linear motor's position is read where it pushes: at the table.
@@ -65,18 +59,11 @@ impl AxisModel {
             b_screw: m.b_screw,
             half_gap: 0.5 * m_from_um(c.drive.backlash_um),
             f_c,
-            // With a Stribeck excess the friction at rest is f_c + level: the break-away
-            // force cannot be lower than that (the Stribeck curve starts at static friction).
-            f_s: (c.friction.static_to_coulomb * f_c).max(f_c + c.friction.stribeck_level_n),
+            f_s: breakaway_force(c, f_c),
             f_v: c.friction.viscous_n_s_per_m,
             lateral: c.lateral_shift.as_ref().map(LateralShiftModel::from_config),
             dead_time_s: s_from_ms(c.position_loop.dead_time_ms),
-            stribeck: (c.friction.stribeck_level_n > 0.0).then(|| {
-                (
-                    c.friction.stribeck_level_n,
-                    m_per_s_from_mm_per_min(c.friction.stribeck_velocity_mm_per_min),
-                )
-            }),
+            stribeck: stribeck(c),
             friction_map,
             friction_speed,
             force_ripple: super::ForceRipple::from_config(&c.errors),
@@ -93,6 +80,34 @@ impl AxisModel {
                 .map_or(0.0, |g| m.mt * GRAVITY_M_PER_S2 - g.counterbalance_n),
         }
     }
+}
+
+/// The position loop's gain in the motor's own units (1/s per rad of the lead's radius and
+/// gear), for the cascade only: another controller closes its loop itself.
+fn cascade_position_gain(c: &AxisConfig, m: &Mechanics) -> f64 {
+    match c.controller {
+        Controller::Cascade => {
+            per_s_from_kv_m_per_min_per_mm(c.position_loop.kv_m_per_min_per_mm) / (m.r * m.it)
+        }
+        _ => 0.0,
+    }
+}
+
+/// The force friction holds at rest (N). With a Stribeck excess the friction at rest is
+/// f_c + level: the break-away force cannot be lower than that (the Stribeck curve starts
+/// at static friction).
+fn breakaway_force(c: &AxisConfig, f_c: f64) -> f64 {
+    (c.friction.static_to_coulomb * f_c).max(f_c + c.friction.stribeck_level_n)
+}
+
+/// The Stribeck excess (N) and the speed it falls over (m/s), where there is one.
+fn stribeck(c: &AxisConfig) -> Option<(f64, f64)> {
+    (c.friction.stribeck_level_n > 0.0).then(|| {
+        (
+            c.friction.stribeck_level_n,
+            m_per_s_from_mm_per_min(c.friction.stribeck_velocity_mm_per_min),
+        )
+    })
 }
 
 /// The drive's mechanics in SI: lead radius and gear ratio, inertias and mass, springs and
