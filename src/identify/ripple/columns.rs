@@ -114,7 +114,8 @@ impl Parts {
         }
         let det = ss * cc - sc * sc;
         let correlation = sc / (ss * cc).sqrt();
-        if !(det > 0.0) || correlation.abs() > MAX_CORRELATION || correlation.is_nan() {
+        if det.is_nan() || det <= 0.0 || correlation.is_nan() || correlation.abs() > MAX_CORRELATION
+        {
             return Err(format!(
                 "its sine and cosine parts act alike on the samples (correlation {:.3}): the \
                  record cannot place its phase",
