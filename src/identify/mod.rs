@@ -364,7 +364,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             template_holds: false,
             judged_while_moving: false,
             while_moving: None,
-            force_ripple: None,
+            force_ripple: ripple::unfitted(template),
         },
     ))
 }
@@ -508,15 +508,15 @@ fn identify_on(
         _ => round.held_out_rms(fit, &fold)?,
     });
     let counted = ripple::counted(&round, own);
-    let ripple = ripple::on_top(fit, &round, &config, &fold, counted);
-    let (config, identified_residual) = match &ripple {
+    let mut ripple = ripple::on_top(fit, &round, &config, &fold, counted);
+    let (config, identified_residual) = match &mut ripple {
         None => (config, identified_residual),
         Some(r) => r.apply(
             fit,
             (config, identified_residual),
             &mut values,
             (&mut held_out_identified_um, &template_axis),
-        )?,
+        ),
     };
     let held_out_template_um = rms(&template_residual);
     let shown = own.is_none_or(|own| own.is_some());
@@ -539,7 +539,7 @@ fn identify_on(
             rms_identified_um: rms(&identified_residual),
             held_out_template_um,
             held_out_identified_um,
-            gain_per_inertia: gain_per_inertia(&round, &base),
+            gain_per_inertia: gain_per_inertia(ripple::loop_round(ripple.as_ref(), &round), &base),
             template_holds: false,
             judged_while_moving: false,
             while_moving: (!moving_only)

@@ -4,9 +4,10 @@
 
 use rayon::prelude::*;
 
-use super::{Reason, mm, with_ripple};
+use super::{Reason, with_ripple};
 use crate::identify::solve::Fit;
 use crate::machine::AxisConfig;
+use crate::numeric::units::mm_from_m;
 
 /// The trial ripple's amplitude (N): small against the forces of any table that moves, so
 /// that the residual answers it linearly, large against the simulation's rounding.
@@ -42,11 +43,8 @@ impl Columns {
             .map(|ab| fit.residual(&with_ripple(config, ab)))
             .collect::<Option<_>>()
             .ok_or("the axis cannot be simulated with a trial ripple")?;
-        let mut runs = runs.into_iter();
-        let (r0, r1, r2) = (runs.next(), runs.next(), runs.next());
-        let (Some(r0), Some(r1), Some(r2)) = (r0, r1, r2) else {
-            unreachable!("three runs");
-        };
+        let [r0, r1, r2] = <[Vec<f64>; 3]>::try_from(runs)
+            .map_err(|_| "the trial ripple's simulations did not all return".to_string())?;
         let column =
             |r: &[f64]| -> Vec<f64> { r.iter().zip(&r0).map(|(a, b)| (a - b) / TRIAL_N).collect() };
         let (s, c) = (column(&r1), column(&r2));
@@ -103,15 +101,8 @@ impl Parts {
         &self,
         use_sample: &(dyn Fn(usize) -> bool + Sync),
     ) -> Result<(f64, f64), Reason> {
-        let (s, c, r0) = (&self.s, &self.c, &self.r0);
-        let (mut ss, mut sc, mut cc, mut sr, mut cr) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for i in (0..r0.len()).filter(|&i| use_sample(i)) {
-            ss += s[i] * s[i];
-            sc += s[i] * c[i];
-            cc += c[i] * c[i];
-            sr += s[i] * r0[i];
-            cr += c[i] * r0[i];
-        }
+        let normal = self.normal(use_sample);
+        let [ss, sc, cc, sr, cr] = normal.sums;
         let det = ss * cc - sc * sc;
         let correlation = sc / (ss * cc).sqrt();
         if det.is_nan() || det <= 0.0 || correlation.is_nan() || correlation.abs() > MAX_CORRELATION
@@ -123,6 +114,64 @@ impl Parts {
             ));
         }
         Ok((-(cc * sr - sc * cr) / det, -(ss * cr - sc * sr) / det))
+    }
+
+    /// The least-squares standard deviation (N) of the parts `(a, b)` fitted on the samples
+    /// `use_sample` allows, along the direction the record fixes worst: the largest
+    /// eigenvalue of s²·(XᵀX)⁻¹, s² the residual's variance left by the fit. The samples'
+    /// errors are correlated, so this is a floor on the uncertainty, not all of it.
+    pub(super) fn least_squares_sigma(
+        &self,
+        use_sample: &(dyn Fn(usize) -> bool + Sync),
+        (a, b): (f64, f64),
+    ) -> f64 {
+        let normal = self.normal(use_sample);
+        let [ss, sc, cc, ..] = normal.sums;
+        let det = ss * cc - sc * sc;
+        let variance = normal.left(a, b) / (normal.n.saturating_sub(2).max(1) as f64);
+        let largest = 0.5 * ((ss + cc) + (ss - cc).hypot(2.0 * sc)) / det;
+        (variance * largest).sqrt()
+    }
+
+    /// The normal equations' sums on the samples `use_sample` allows.
+    fn normal(&self, use_sample: &(dyn Fn(usize) -> bool + Sync)) -> Normal {
+        let (s, c, r0) = (&self.s, &self.c, &self.r0);
+        let mut normal = Normal {
+            sums: [0.0; 5],
+            rr: 0.0,
+            n: 0,
+        };
+        for i in (0..r0.len()).filter(|&i| use_sample(i)) {
+            let terms = [
+                s[i] * s[i],
+                s[i] * c[i],
+                c[i] * c[i],
+                s[i] * r0[i],
+                c[i] * r0[i],
+            ];
+            for (sum, t) in normal.sums.iter_mut().zip(terms) {
+                *sum += t;
+            }
+            normal.rr += r0[i] * r0[i];
+            normal.n += 1;
+        }
+        normal
+    }
+}
+
+/// The sums Σs², Σsc, Σc², Σs·r0, Σc·r0 of a fit's columns and residual, Σr0², and how
+/// many samples they are over.
+struct Normal {
+    sums: [f64; 5],
+    rr: f64,
+    n: usize,
+}
+
+impl Normal {
+    /// Σ (r0 + a·s + b·c)²: the sum of squares the parts `(a, b)` leave.
+    fn left(&self, a: f64, b: f64) -> f64 {
+        let [ss, sc, cc, sr, cr] = self.sums;
+        (self.rr + 2.0 * (a * sr + b * cr) + a * a * ss + 2.0 * a * b * sc + b * b * cc).max(0.0)
     }
 }
 
@@ -145,7 +194,7 @@ pub(super) fn travel_covers(fit: &Fit, period_m: f64) -> Result<(), Reason> {
     }
     Err(format!(
         "the axis travels {:.3} mm on the samples compared, less than one period of {:.3} mm",
-        mm((hi - lo).max(0.0)),
-        mm(period_m)
+        mm_from_m((hi - lo).max(0.0)),
+        mm_from_m(period_m)
     ))
 }

@@ -1,9 +1,9 @@
 //! The force ripple against a cyclic encoder error of the same period: which of the two the
 //! held-out halves keep, and whether the record tells them apart.
 
-use super::{Half, IdentifiedValue, RippleVerdict, mm};
+use super::{Half, IdentifiedValue, RippleVerdict};
 use crate::identify::verdict::predicts_better;
-use crate::numeric::units::um_from_m;
+use crate::numeric::units::{mm_from_m, um_from_m};
 
 /// What the held-out halves say of a ripple of the template's period.
 #[derive(Clone, Copy, PartialEq, Debug)]
@@ -15,8 +15,9 @@ enum Outcome {
     /// The force does, and predicts each half better than the encoder's error by a
     /// twentieth.
     Force,
-    /// The force does, and the encoder's error predicts the halves within a twentieth of it
-    /// on some half: the record cannot tell them apart.
+    /// The force does, and neither it nor the encoder's error predicts each half better than
+    /// the other by a twentieth: the record cannot tell them apart (the force is written as
+    /// the model's value only, whichever held-out figure is the lower).
     CannotTell,
     /// The encoder's error does and predicts each half better than the force by a twentieth.
     Encoder,
@@ -124,12 +125,14 @@ impl Tie {
         period_m: f64,
     ) -> RippleVerdict {
         let [w, f, e] = [self.without_m, self.force_m, self.encoder_m].map(um_from_m);
-        let figures =
-            format!("held out {f:.3} µm with it, {e:.3} µm as an encoder error, {w:.3} µm without");
+        let figures = format!(
+            "held out {f:.3} µm with it, {e:.3} µm as a cyclic error in the positions \
+             recorded, {w:.3} µm without"
+        );
         let encoder = encoder.map_or("not fitted".to_string(), |(a, b)| {
             format!(
                 "{:.3} µm at {:.1}° as the record shows it: below the loop's crossover the \
-                 loop follows the error, and the encoder's own is larger",
+                 loop follows an error it reads, and the encoder's own is larger",
                 um_from_m(a.hypot(b)),
                 b.atan2(a).to_degrees()
             )
@@ -141,7 +144,7 @@ impl Tie {
             amplitude.uncertainty,
             phase.value,
             phase.uncertainty,
-            mm(period_m)
+            mm_from_m(period_m)
         );
         let statement = match self.outcome {
             Outcome::None => {
@@ -154,24 +157,26 @@ impl Tie {
                  not excluded (below the crossover it acts as a force would)"
             ),
             Outcome::CannotTell => format!(
-                "force ripple: {force}, a model's value: the record cannot tell it from a \
-                 cyclic encoder error of the same period ({encoder}), which predicts some \
-                 held-out half within a twentieth of it ({figures})"
+                "force ripple: the record cannot tell a force from a cyclic error in the \
+                 positions recorded of the same period ({encoder}): neither predicts each \
+                 held-out half better than the other by a twentieth ({figures}); written as \
+                 a force, {force}, the model's value only"
             ),
             Outcome::Encoder => format!(
-                "force ripple: not determined (a cyclic encoder error of the same period, \
-                 {encoder}, predicts each held-out half better than a force by a twentieth: \
-                 the record shows the encoder's error, not a force; {figures})"
+                "force ripple: not determined (a cyclic error in the positions recorded of the \
+                 same period, {encoder}, predicts each held-out half better than a force by a \
+                 twentieth; {figures})"
             ),
             Outcome::EncoderOnly => format!(
                 "force ripple: not determined (as a force it predicts the held-out halves no \
-                 better by a twentieth; as a cyclic encoder error of the same period, \
-                 {encoder}, it does, but not each half clearly better than the force; \
-                 {figures})"
+                 better by a twentieth; as a cyclic error in the positions recorded of the \
+                 same period, {encoder}, it does, but not each half clearly better than the \
+                 force; {figures})"
             ),
             Outcome::NeitherHelps => format!(
                 "force ripple: not determined (the held-out halves predict no better with it \
-                 by a twentieth, as a force or as an encoder error: {figures})"
+                 by a twentieth, as a force or as a cyclic error in the positions recorded: \
+                 {figures})"
             ),
         };
         RippleVerdict {
