@@ -511,7 +511,8 @@ pub const AXIS_KEYS: &[AxisKey] = &[
         "°",
         Range(-1e6, 1e6),
         Always,
-        "its phase at position 0",
+        "its phase φ at position 0: the force F = A·sin(2π·x/period + φ) pushes the table \
+         towards − (a positive F acts against the + direction)",
         |a| a.errors.force_ripple_phase_deg
     ),
     key!(
