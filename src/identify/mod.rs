@@ -817,18 +817,7 @@ mod tests {
         // At the noise on every sample, its halves ten times the noise apart there (it
         // hunts), while moving better than the template but still 2.2 times the noise apart.
         let mut id = scored(0.42, 0.54);
-        id.values = vec![IdentifiedValue {
-            key: "controller.gain",
-            unit: "",
-            template: 337.8,
-            value: 440.5,
-            uncertainty: 21.6,
-            determined: true,
-            measured: true,
-            traded_with: None,
-            loose: false,
-            complex_pair: None,
-        }];
+        id.values = vec![fitted_gain(false)];
         id.while_moving = Some(WhileMoving {
             held_out_template_um: 0.28,
             held_out_identified_um: 0.134,
@@ -856,10 +845,9 @@ mod tests {
         assert!(close.reached && close.values[0].determined && !close.values[0].loose);
     }
 
-    /// A fitted gain of 440.5 ± 21.6 over a table of 120 kg: a ratio of 3.67 per kg.
-    fn with_gain(uncertainty_per_kg: f64, loose: bool) -> AxisIdentification {
-        let mut id = scored(0.50, 0.06);
-        id.values = vec![IdentifiedValue {
+    /// A gain fitted at 440.5 ± 21.6 from a template's 337.8: determined, or loose.
+    fn fitted_gain(loose: bool) -> IdentifiedValue {
+        IdentifiedValue {
             key: "controller.gain",
             unit: "",
             template: 337.8,
@@ -870,7 +858,13 @@ mod tests {
             traded_with: None,
             loose,
             complex_pair: None,
-        }];
+        }
+    }
+
+    /// A fitted gain of 440.5 ± 21.6 over a table of 120 kg: a ratio of 3.67 per kg.
+    fn with_gain(uncertainty_per_kg: f64, loose: bool) -> AxisIdentification {
+        let mut id = scored(0.50, 0.06);
+        id.values = vec![fitted_gain(loose)];
         id.gain_per_inertia = Some(GainPerInertia {
             gain: "controller.gain",
             inertia_kg: 120.0,
