@@ -25,6 +25,7 @@
 //! then scored on the other half, which it was not fitted on.
 
 mod baseline;
+mod held_out;
 mod interpolator;
 mod knobs;
 mod linear;
@@ -360,6 +361,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             rms_identified_um: rms_um,
             held_out_template_um: rms_um,
             held_out_identified_um: rms_um,
+            held_out_in_sample: false,
             gain_per_inertia: None,
             template_holds: false,
             judged_while_moving: false,
@@ -503,10 +505,8 @@ fn identify_on(
     // half's fit with a point of its own counts (`Round::held_out_rms_own`): without one,
     // the fit has not shown that it predicts data it was not fitted to.
     let own = (!reached).then(|| round.held_out_rms_own(fit, &fold));
-    let mut held_out_identified_um = um_from_m(match own {
-        Some(Some(own)) => own,
-        _ => round.held_out_rms(fit, &fold)?,
-    });
+    let (mut held_out_identified_um, held_out_in_sample) =
+        held_out::figure(own, || round.held_out_rms(fit, &fold))?;
     let counted = ripple::counted(&round, own);
     let mut ripple = ripple::on_top(fit, &round, &config, &fold, counted);
     let (config, identified_residual) = match &mut ripple {
@@ -539,6 +539,7 @@ fn identify_on(
             rms_identified_um: rms(&identified_residual),
             held_out_template_um,
             held_out_identified_um,
+            held_out_in_sample,
             gain_per_inertia: gain_per_inertia(ripple::loop_round(ripple.as_ref(), &round), &base),
             template_holds: false,
             judged_while_moving: false,
@@ -769,30 +770,7 @@ mod tests {
     use super::*;
 
     fn scored(template_um: f64, identified_um: f64) -> AxisIdentification {
-        AxisIdentification {
-            axis: AxisName::Y,
-            values: Vec::new(),
-            kept: String::new(),
-            moving_only: false,
-            reached: true,
-            better_than_template: false,
-            following_error_rms_um: 3.0,
-            held_out_share: identified_um / 3.0,
-            baseline: Baseline {
-                held_out_um: 1.0,
-                share: 0.3,
-            },
-            largest_at: None,
-            rms_template_um: template_um,
-            rms_identified_um: identified_um,
-            held_out_template_um: template_um,
-            held_out_identified_um: identified_um,
-            gain_per_inertia: None,
-            template_holds: false,
-            judged_while_moving: false,
-            while_moving: None,
-            force_ripple: None,
-        }
+        AxisIdentification::scored(template_um, identified_um)
     }
 
     #[test]
@@ -845,20 +823,8 @@ mod tests {
         assert!(close.reached && close.values[0].determined && !close.values[0].loose);
     }
 
-    /// A gain fitted at 440.5 ± 21.6 from a template's 337.8: determined, or loose.
     fn fitted_gain(loose: bool) -> IdentifiedValue {
-        IdentifiedValue {
-            key: "controller.gain",
-            unit: "",
-            template: 337.8,
-            value: 440.5,
-            uncertainty: 21.6,
-            determined: !loose,
-            measured: !loose,
-            traded_with: None,
-            loose,
-            complex_pair: None,
-        }
+        IdentifiedValue::fitted_gain(loose)
     }
 
     /// A fitted gain of 440.5 ± 21.6 over a table of 120 kg: a ratio of 3.67 per kg.

@@ -1,6 +1,7 @@
 //! An identification for people (the terminal's table), for scripts (JSON) and for the
 //! control (the machine file with the values and their uncertainties in its header).
 
+pub(crate) use super::held_out::in_sample_note;
 use std::fmt::Write as _;
 
 use crate::identify::{AxisIdentification, Identification, IdentifiedValue};
@@ -128,7 +129,7 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
     let _ = writeln!(
         s,
         "\n{} axis: residual {:.3} → {:.3} µm RMS{} (following error {:.1} µm); held out \
-         {:.3} → {:.3} µm",
+         {:.3} {}",
         a.axis,
         a.rms_template_um,
         a.rms_identified_um,
@@ -139,7 +140,7 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
         },
         a.following_error_rms_um,
         a.held_out_template_um,
-        a.held_out_identified_um
+        super::held_out::identified_words(a)
     );
     if let Some(line) = while_moving_line(a) {
         let _ = writeln!(s, "  {line}");
@@ -280,12 +281,18 @@ pub(crate) fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
     if a.reached {
         return None;
     }
-    Some(if a.better_than_template && a.judged_while_moving {
+    let on = if a.judged_while_moving {
+        " while moving"
+    } else {
+        ""
+    };
+    let loose = a.judged_while_moving || a.values.iter().any(|v| v.loose);
+    Some(if a.better_than_template && loose {
         format!(
             "written as a model: it follows the record to its noise ({:.3} µm against {:.3} \
-             µm), but its halves predict each other while moving only to {:.3} µm, more than \
-             twice the noise — the record leaves its values loose: they predict better than \
-             the template's, none is a measurement",
+             µm), but its halves predict each other{on} only to {:.3} µm, more than twice \
+             the noise — the record leaves its values loose: they predict better than the \
+             template's, none is a measurement",
             a.rms_identified_um,
             noise_um,
             a.judged_held_out().1
@@ -363,6 +370,15 @@ pub(crate) fn machine_file(
     );
     for a in &id.axes {
         let _ = writeln!(s, "#   {}: {}", a.axis, prediction(a));
+        if a.held_out_in_sample {
+            let _ = writeln!(
+                s,
+                "#   {}: held out {:.3} (template) {}",
+                a.axis,
+                a.held_out_template_um,
+                super::held_out::identified_words(a)
+            );
+        }
         if let Some(line) = while_moving_line(a) {
             let _ = writeln!(
                 s,

@@ -91,6 +91,8 @@ struct JudgedHeldOut {
     share: f64,
     /// Whether these are the figures while the axis moves.
     while_moving: bool,
+    /// Whether `identified_um` is in-sample (no half's fit had a point of its own).
+    in_sample: bool,
 }
 
 /// An axis as the JSON report writes it: its fields and the held-out figures it is judged
@@ -108,6 +110,7 @@ pub(super) fn axes_json<S: serde::Serializer>(
 ) -> Result<S::Ok, S::Error> {
     serializer.collect_seq(axes.iter().map(|axis| {
         let (template_um, identified_um, following_error_um, share) = axis.judged_held_out();
+        let while_moving = axis.judged_while_moving && axis.while_moving.is_some();
         AxisJson {
             axis,
             judged_held_out: JudgedHeldOut {
@@ -115,7 +118,8 @@ pub(super) fn axes_json<S: serde::Serializer>(
                 identified_um,
                 following_error_um,
                 share,
-                while_moving: axis.judged_while_moving && axis.while_moving.is_some(),
+                while_moving,
+                in_sample: axis.held_out_in_sample && !while_moving,
             },
         }
     }))
@@ -184,6 +188,10 @@ pub struct AxisIdentification {
     pub held_out_template_um: f64,
     /// … and that of the values fitted on the other half (µm).
     pub held_out_identified_um: f64,
+    /// Whether `held_out_identified_um` is in-sample, not held out: neither half's fit moved
+    /// from the whole fit's values (fitted to both halves), so the figure is the whole fit's
+    /// on samples it was fitted to. Such a fit has shown nothing about data it did not see.
+    pub held_out_in_sample: bool,
     /// The template already explains the record to its noise and the values fitted predict
     /// its held-out halves worse: the template's values stay (none is determined).
     pub template_holds: bool,
@@ -269,4 +277,57 @@ pub enum IdentifyError {
         /// The axis.
         axis: AxisName,
     },
+}
+
+#[cfg(test)]
+impl AxisIdentification {
+    /// A Y axis at the noise on every sample, no values, whose template and fit predict the
+    /// held-out halves to `template_um` and `identified_um`, against a following error of
+    /// 3 µm.
+    pub(super) fn scored(template_um: f64, identified_um: f64) -> AxisIdentification {
+        AxisIdentification {
+            axis: AxisName::Y,
+            values: Vec::new(),
+            kept: String::new(),
+            moving_only: false,
+            reached: true,
+            better_than_template: false,
+            following_error_rms_um: 3.0,
+            held_out_share: identified_um / 3.0,
+            baseline: super::Baseline {
+                held_out_um: 1.0,
+                share: 0.3,
+            },
+            largest_at: None,
+            rms_template_um: template_um,
+            rms_identified_um: identified_um,
+            held_out_template_um: template_um,
+            held_out_identified_um: identified_um,
+            held_out_in_sample: false,
+            gain_per_inertia: None,
+            template_holds: false,
+            judged_while_moving: false,
+            while_moving: None,
+            force_ripple: None,
+        }
+    }
+}
+
+#[cfg(test)]
+impl IdentifiedValue {
+    /// A gain fitted at 440.5 ± 21.6 from a template's 337.8: determined, or loose.
+    pub(super) fn fitted_gain(loose: bool) -> IdentifiedValue {
+        IdentifiedValue {
+            key: "controller.gain",
+            unit: "",
+            template: 337.8,
+            value: 440.5,
+            uncertainty: 21.6,
+            determined: !loose,
+            measured: !loose,
+            traded_with: None,
+            loose,
+            complex_pair: None,
+        }
+    }
 }

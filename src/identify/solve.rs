@@ -23,6 +23,16 @@ const FACTOR_RANGE: f64 = 10.0;
 /// unstable loop) cost far more than any fit, so that the search steps back from them.
 const FAILED_M: f64 = 1.0;
 
+/// The least step from where a fit started, in its values' standard uncertainties, that
+/// makes the point it ends at its own (`Fitted::own_point`). A half of the record started
+/// where the fit on the whole landed and fitting its own samples moves by about the whole
+/// fit's σ (the whole fit is the mean of the two halves', each √2 σ from it), some 0.7 of a
+/// half's own σ; a step a tenth of that or less — the search stopping on its tolerance, or
+/// a rounding at 1e-300 — moves the residual's sum of squares by under a hundredth of one
+/// noise variance: nothing a held-out figure could show, and the values are still the
+/// whole fit's.
+const OWN_STEP_SIGMA: f64 = 0.1;
+
 /// Step of the Jacobian's differences in the scaled parameters: large against the
 /// switching instants' rounding, small against the values.
 const STEP: f64 = 0.01;
@@ -46,10 +56,11 @@ pub struct Fitted {
     /// value by, the others refitted (machine units).
     pub model_sigma: Vec<f64>,
     pub cost: f64,
-    /// Whether the values are this fit's own: its search left the values it started from
-    /// (a step lowered the residual on its samples), or it had nothing to fit. A search
-    /// that found no step stays where it started — for a half of the record started where
-    /// the fit on the whole landed, at values fitted to the other half as well.
+    /// Whether the values are this fit's own: its search left the values it started from by
+    /// at least a tenth of some value's σ ([`OWN_STEP_SIGMA`]), or it had nothing to fit. A
+    /// search that found no such step stays where it started — for a half of the record
+    /// started where the fit on the whole landed, at values fitted to the other half as
+    /// well.
     pub own_point: bool,
     /// What the uncertainties were computed from, for those of combinations of the values.
     spread: Option<Spread>,
@@ -281,7 +292,6 @@ impl Problem<'_, '_, '_> {
         let settings = lsq::Settings::with_bounds((0..n).map(|j| self.bounds(j)).collect());
         let end = lsq::minimise(self, DVector::zeros(n), &settings)?;
         let values = values_at(self.knobs, self.base, &end.p);
-        let own_point = n == 0 || end.p.iter().any(|u| *u != 0.0);
         // Nothing to fit, or no sample to fit it on (a half of a record that is all
         // standstill): the values stay, and with no sample they are undetermined.
         if n == 0 || self.keep.is_empty() {
@@ -290,7 +300,7 @@ impl Problem<'_, '_, '_> {
                 sigma: vec![f64::INFINITY; n],
                 model_sigma: vec![f64::INFINITY; n],
                 cost: end.cost,
-                own_point,
+                own_point: n == 0,
                 spread: None,
             });
         }
@@ -300,6 +310,8 @@ impl Problem<'_, '_, '_> {
         let noise = self.fit.ctx.noise_sigma;
         let raw = uncertainties(&end.jacobian, end.cost, noise);
         let sigma_scaled: Vec<f64> = raw.iter().map(|s| s * correlation).collect();
+        let floors: Vec<f64> = self.knobs.iter().map(|k| k.input_floor).collect();
+        let own_point = stepped_beyond_noise(end.p.as_slice(), &sigma_scaled, &floors);
         // The statistical uncertainty answers a rise of the residual's sum of squares by one
         // spread²; the model's floor, by the number of samples times its own square (the
         // samples' correlation cancels between the two).
@@ -345,10 +357,20 @@ impl Problem<'_, '_, '_> {
                 noise,
                 correlation,
                 to_floor,
-                input_floors: self.knobs.iter().map(|k| k.input_floor).collect(),
+                input_floors: floors,
             }),
         })
     }
+}
+
+/// Whether a fit's step `p` from where it started (scaled parameters) leaves it by at least
+/// [`OWN_STEP_SIGMA`] of some value's standard uncertainty there (`sigma_scaled`, in the
+/// same units, floored at the knob's least relative uncertainty `floors`). A value the fit
+/// does not determine (an infinite or undefined σ) cannot make the point its own.
+fn stepped_beyond_noise(p: &[f64], sigma_scaled: &[f64], floors: &[f64]) -> bool {
+    p.iter()
+        .zip(sigma_scaled.iter().zip(floors))
+        .any(|(u, (s, floor))| s.is_finite() && u.abs() >= OWN_STEP_SIGMA * s.max(*floor))
 }
 
 impl lsq::Problem for Problem<'_, '_, '_> {
@@ -367,5 +389,37 @@ impl lsq::Problem for Problem<'_, '_, '_> {
                 keep.iter().map(|&i| full[i]),
             ))
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_a_step_of_a_tenth_of_sigma_makes_a_point_its_own() {
+        let floor = [1e-4];
+        // A step rounded off the start, however small, is not a point of the fit's own.
+        assert!(!stepped_beyond_noise(&[1e-300], &[0.02], &floor));
+        assert!(!stepped_beyond_noise(&[-0.0019], &[0.02], &floor));
+        // A tenth of σ = 0.02 is 0.002: from there on, either way.
+        assert!(stepped_beyond_noise(&[0.002], &[0.02], &floor));
+        assert!(stepped_beyond_noise(&[-0.015], &[0.02], &floor));
+        // One value of two moved far enough suffices.
+        assert!(stepped_beyond_noise(
+            &[1e-9, 0.05],
+            &[0.02, 0.3],
+            &[1e-4; 2]
+        ));
+        assert!(!stepped_beyond_noise(
+            &[1e-9, 0.02],
+            &[0.02, 0.3],
+            &[1e-4; 2]
+        ));
+        // A σ below the knob's floor (1e-3) counts as the floor: 1e-5 is no step.
+        assert!(!stepped_beyond_noise(&[1e-5], &[1e-7], &[1e-3]));
+        // A value the fit does not determine moves nothing of its own.
+        assert!(!stepped_beyond_noise(&[0.5], &[f64::INFINITY], &floor));
+        assert!(!stepped_beyond_noise(&[0.5], &[f64::NAN], &floor));
     }
 }

@@ -100,20 +100,25 @@ impl AxisIdentification {
 /// halves that miss each other by twice it carry a systematic part of √3 times the noise.
 const HALVES_EXCESS: f64 = 2.0;
 
-/// Whether a fit at the noise (`noise_um`) on every sample is kept as reaching it: where
-/// its halves predict each other within [`HALVES_EXCESS`] of the noise, or better than the
-/// template predicts them; else where they do so while moving — by the twentieth a fit
-/// must earn over the template — and then it is judged by its held-out figures while moving
-/// (`while_moving`, beside the whole record's): at standstill an axis that hunts follows a
-/// limit cycle whose phase no model times, each half's fit its own way. Judged so, it is
-/// written; but where its halves miss each other while moving by more than
-/// [`HALVES_EXCESS`] of the noise, the record has not pinned its values down: they are
-/// written because they predict, loose (`IdentifiedValue::loose`: neither determined nor
-/// measurements), and the fit is not counted as reaching the noise. Otherwise it has not reached the noise: marked so, it is
-/// judged as a fit above it (the fit while moving, and what each predicts).
+/// Whether a fit at the noise (`noise_um`) on every sample is kept and written: where its
+/// halves predict each other within [`HALVES_EXCESS`] of the noise (its values determined),
+/// or better than the template predicts them by the twentieth a fit must earn over it; else
+/// where they do so while moving — and then it is judged by its held-out figures while
+/// moving (`while_moving`, beside the whole record's): at standstill an axis that hunts
+/// follows a limit cycle whose phase no model times, each half's fit its own way. Whichever
+/// figure keeps it, where its halves miss each other there by more than [`HALVES_EXCESS`]
+/// of the noise the record has not pinned its values down: they are written because they
+/// predict, loose (`IdentifiedValue::loose`: neither determined nor measurements), and the
+/// fit is not counted as reaching the noise. Otherwise it has not reached the noise: marked
+/// so, it is judged as a fit above it (the fit while moving, and what each predicts).
 pub(crate) fn judged_while_moving(id: &mut AxisIdentification, noise_um: f64) -> bool {
     let held_out = id.held_out_identified_um;
-    if held_out <= HALVES_EXCESS * noise_um || held_out < id.held_out_template_um {
+    if held_out <= HALVES_EXCESS * noise_um {
+        return true;
+    }
+    if predicts_better(held_out, id.held_out_template_um) {
+        id.better_than_template = true;
+        written_loose(id);
         return true;
     }
     let Some(moving) = id.while_moving.as_ref() else {
@@ -127,14 +132,20 @@ pub(crate) fn judged_while_moving(id: &mut AxisIdentification, noise_um: f64) ->
     id.judged_while_moving = true;
     id.better_than_template = true;
     if moving.held_out_identified_um > HALVES_EXCESS * noise_um {
-        id.reached = false;
-        for v in id.values.iter_mut().filter(|v| v.determined) {
-            v.determined = false;
-            v.measured = false;
-            v.loose = true;
-        }
+        written_loose(id);
     }
     true
+}
+
+/// A fit whose halves miss each other by more than the noise allows, written because it
+/// predicts: not reaching the noise, and none of its values determined or measured.
+fn written_loose(id: &mut AxisIdentification) {
+    id.reached = false;
+    for v in id.values.iter_mut().filter(|v| v.determined) {
+        v.determined = false;
+        v.measured = false;
+        v.loose = true;
+    }
 }
 
 /// The template's and `round`'s held-out residuals and the following error on the samples
@@ -254,6 +265,7 @@ pub(crate) fn largest_at(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::identify::IdentifiedValue;
 
     #[test]
     fn a_fit_is_written_where_it_predicts_better_by_a_twentieth() {
@@ -261,5 +273,33 @@ mod tests {
         assert!(predicts_better(0.94, 1.0));
         assert!(!predicts_better(0.96, 1.0));
         assert!(!predicts_better(1.2, 1.0));
+    }
+
+    #[test]
+    fn halves_that_miss_each_other_leave_values_loose_on_the_whole_record_too() {
+        let noise_um = 0.06;
+        // At the noise on every sample; its halves predict each other to 0.2 µm, 3.3 times
+        // the noise (beyond the 2 that determined values reach), a fifth of the template's
+        // 1.0 µm: written as a model, but no value is determined.
+        let mut id = AxisIdentification::scored(1.0, 0.2);
+        id.values = vec![IdentifiedValue::fitted_gain(false)];
+        assert!(judged_while_moving(&mut id, noise_um));
+        assert!(!id.reached && id.better_than_template && !id.judged_while_moving);
+        let v = &id.values[0];
+        assert!(v.loose && !v.determined && !v.measured, "{v:?}");
+        let said = super::super::report::verdict(&id, noise_um).expect("a verdict");
+        assert!(said.contains("more than twice the noise"), "{said}");
+        assert!(!said.contains("while moving"), "{said}");
+        // Within twice the noise (0.11 µm), the same value stays determined and reached.
+        let mut close = AxisIdentification::scored(1.0, 0.11);
+        close.values = vec![IdentifiedValue::fitted_gain(false)];
+        assert!(judged_while_moving(&mut close, noise_um));
+        assert!(close.reached && close.values[0].determined && !close.values[0].loose);
+        // Better than the template by less than a twentieth (0.97 against 1.0), with nothing
+        // while moving: not kept, not reached, and nothing is determined by it.
+        let mut barely = AxisIdentification::scored(1.0, 0.97);
+        barely.values = vec![IdentifiedValue::fitted_gain(false)];
+        assert!(!judged_while_moving(&mut barely, noise_um));
+        assert!(!barely.reached);
     }
 }

@@ -1,0 +1,110 @@
+//! Whether an axis's held-out figure was measured on samples its fit did not see.
+//!
+//! Each half's fit starts where the fit on the whole record landed. A half whose search
+//! finds no step of its own (`Fitted::own_point`) stays at values fitted to the other half
+//! as well: its residual there is not held out. Above the noise, where only such halves
+//! count, a round whose halves both stayed has no held-out figure at all; the figure then
+//! shown is the whole fit scored on samples it was fitted to, and it is said so.
+
+use super::AxisIdentification;
+use crate::numeric::units::um_from_m;
+
+/// The held-out figure of a fit (µm) and whether it is in-sample, from `own` — the RMS (m)
+/// of the halves' fits with a point of their own, `Some(None)` where neither has one, `None`
+/// where only such halves were not asked for (a fit at the noise) — and `all_halves`, the
+/// RMS of both halves' fits whatever their points. None where that cannot be simulated.
+pub(super) fn figure(
+    own: Option<Option<f64>>,
+    all_halves: impl FnOnce() -> Option<f64>,
+) -> Option<(f64, bool)> {
+    match own {
+        Some(Some(own_m)) => Some((um_from_m(own_m), false)),
+        Some(None) => Some((um_from_m(all_halves()?), true)),
+        None => Some((um_from_m(all_halves()?), false)),
+    }
+}
+
+/// The fit's held-out figure in words, after the template's: "→ 0.300 µm", or where it is
+/// in-sample, that no held-out figure was measured and what the in-sample one is.
+pub(crate) fn identified_words(a: &AxisIdentification) -> String {
+    if a.held_out_in_sample {
+        format!(
+            "→ not measured (the halves' fits did not move from the whole fit's; in-sample \
+             {:.3} µm)",
+            a.held_out_identified_um
+        )
+    } else {
+        format!("→ {:.3} µm", a.held_out_identified_um)
+    }
+}
+
+/// Where the fit's held-out figure is in-sample, a note saying so beside a table that shows
+/// it in the held-out row.
+pub(crate) fn in_sample_note(a: &AxisIdentification) -> Option<String> {
+    a.held_out_in_sample.then(|| {
+        format!(
+            "Held out not measured: the halves' fits did not move from the whole fit's, so the \
+             fit's figure in the held-out row ({:.3} µm) is in-sample.",
+            a.held_out_identified_um
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_figure_of_halves_that_stayed_at_the_whole_fit_is_marked_in_sample() {
+        // Neither half moved: the figure of both halves, 2 µm, is the whole fit's on its
+        // own samples.
+        assert_eq!(figure(Some(None), || Some(2e-6)), Some((2.0, true)));
+        // A half of its own: its figure, held out.
+        assert_eq!(figure(Some(Some(3e-6)), || Some(2e-6)), Some((3.0, false)));
+        // At the noise both halves count, as held out.
+        assert_eq!(figure(None, || Some(5e-7)), Some((0.5, false)));
+        // Halves that cannot be simulated give no figure.
+        assert_eq!(figure(Some(None), || None), None);
+    }
+
+    /// An axis fitted above the noise whose halves' fits stayed at the whole fit's values:
+    /// the template predicts its halves to 0.42 µm, the fit its own samples to 0.31 µm.
+    fn stayed() -> AxisIdentification {
+        AxisIdentification {
+            reached: false,
+            held_out_in_sample: true,
+            ..AxisIdentification::scored(0.42, 0.31)
+        }
+    }
+
+    #[test]
+    fn an_in_sample_figure_is_never_shown_as_held_out() {
+        let a = stayed();
+        let words = identified_words(&a);
+        assert!(words.contains("not measured"), "{words}");
+        assert!(words.contains("in-sample 0.310 µm"), "{words}");
+        let note = in_sample_note(&a).expect("a note where the figure is in-sample");
+        assert!(note.contains("(0.310 µm) is in-sample"), "{note}");
+        /// The axes as the JSON report writes them.
+        #[derive(serde::Serialize)]
+        struct Report {
+            #[serde(serialize_with = "crate::identify::result::axes_json")]
+            axes: Vec<AxisIdentification>,
+        }
+        let json = serde_json::to_value(Report {
+            axes: vec![a.clone()],
+        })
+        .unwrap();
+        let axis = &json["axes"][0];
+        assert_eq!(axis["held_out_in_sample"], true, "{json}");
+        assert_eq!(axis["judged_held_out"]["in_sample"], true, "{json}");
+        assert_eq!(axis["judged_held_out"]["identified_um"], 0.31, "{json}");
+        // Held out, it is shown as it is, with no note.
+        let measured = AxisIdentification {
+            held_out_in_sample: false,
+            ..a
+        };
+        assert_eq!(identified_words(&measured), "→ 0.310 µm");
+        assert!(in_sample_note(&measured).is_none());
+    }
+}
