@@ -541,6 +541,8 @@ fn lost_motion_beyond_the_scale_is_found_in_a_trace_with_its_commands() {
         d.rejected
     );
     let p = &d.causes[0].params[0];
+    // A σ the fit could not give (NaN) must fail here, not pass as the floor below.
+    assert!(p.uncertainty.is_finite(), "X's direction offset σ: {p:?}");
     // σ floored at 0.05 µm: the offset is fitted on a record with no noise.
     assert_within_k_sigma(
         "X's direction offset",
