@@ -248,9 +248,8 @@ fn fit_axis(
     let Some(mut everywhere) = found else {
         return unfitted(Fit::new(ctx, template, axis, offset), template.axis(axis));
     };
-    if everywhere.1.reached
-        && verdict::judged_while_moving(&mut everywhere.1, um_from_m(ctx.noise_sigma))
-    {
+    let noise_um = um_from_m(ctx.noise_sigma);
+    if everywhere.1.reached && verdict::judged_while_moving(&mut everywhere.1, noise_um) {
         return Some(everywhere);
     }
     // Then the plant's nonlinear parts on top, where the template's values alone leave the
@@ -259,9 +258,9 @@ fn fit_axis(
     let nonlinear = knobs::nonlinear_for(template.axis(axis), ctx.measured_at);
     if model == Model::Template
         && nonlinear_helps(&fit, template.axis(axis), &everywhere.0, &nonlinear)
-        && let Some(extended) = identify_ordered(&fit, template, false, &nonlinear)
+        && let Some(mut extended) = identify_ordered(&fit, template, false, &nonlinear)
     {
-        if extended.1.reached {
+        if extended.1.reached && verdict::judged_while_moving(&mut extended.1, noise_um) {
             return Some(extended);
         }
         if predicts_better(&extended.1, &everywhere.1) {
@@ -273,7 +272,8 @@ fn fit_axis(
     let while_moving = match model {
         Model::Template => identify_ordered(&fit, template, true, &[]),
         Model::Loop => identify_loop_order(&fit, template, true),
-    };
+    }
+    .map(|found| verdict::judged(found, noise_um));
     Some(best_written(everywhere, while_moving, template.axis(axis)))
 }
 

@@ -9,7 +9,7 @@ use super::AxisIdentification;
 use super::round::Round;
 use super::solve::Fit;
 use crate::compare::Context;
-use crate::machine::AxisName;
+use crate::machine::{AxisConfig, AxisName};
 use crate::numeric::units::um_from_m;
 
 /// How much better on the held-out halves a model with more values fitted must predict than
@@ -135,6 +135,19 @@ pub(crate) fn judged_while_moving(id: &mut AxisIdentification, noise_um: f64) ->
         written_loose(id);
     }
     true
+}
+
+/// A fit on the samples while moving, judged as [`judged_while_moving`] judges one on every
+/// sample where it reached the noise: it keeps reaching it only where its halves predict
+/// each other within [`HALVES_EXCESS`] of the noise.
+pub(crate) fn judged(
+    (config, mut id): (AxisConfig, AxisIdentification),
+    noise_um: f64,
+) -> (AxisConfig, AxisIdentification) {
+    if id.reached {
+        judged_while_moving(&mut id, noise_um);
+    }
+    (config, id)
 }
 
 /// A fit whose halves miss each other by more than the noise allows, written because it
@@ -301,5 +314,22 @@ mod tests {
         barely.values = vec![IdentifiedValue::fitted_gain(false)];
         assert!(!judged_while_moving(&mut barely, noise_um));
         assert!(!barely.reached);
+    }
+
+    #[test]
+    fn a_fit_while_moving_at_the_noise_is_held_to_its_halves_as_well() {
+        let noise_um = 0.06;
+        // Reached on the moving samples, its halves 0.2 µm apart (3.3 times the noise):
+        // not reached, its value loose; 0.1 µm apart (within twice it): as it was.
+        let config = crate::machine::MachineConfig::default_preset().x;
+        for (apart_um, pinned) in [(0.2, false), (0.1, true)] {
+            let mut id = AxisIdentification::scored(1.0, apart_um);
+            id.moving_only = true;
+            id.values = vec![IdentifiedValue::fitted_gain(false)];
+            let (_, id) = judged((config.clone(), id), noise_um);
+            assert_eq!(id.reached, pinned, "{apart_um} µm");
+            assert_eq!(id.values[0].determined, pinned, "{apart_um} µm");
+            assert_eq!(id.values[0].loose, !pinned, "{apart_um} µm");
+        }
     }
 }
