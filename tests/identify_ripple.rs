@@ -121,6 +121,8 @@ fn a_ripple_of_known_amplitude_and_phase_is_found_where_it_is_and_nowhere_else()
         relative * ratio,
         3.0,
     );
+    // Listed against the template's values (zero), not the first pass's ripple.
+    assert_eq!((ripple.template, phase.template), (0.0, 0.0));
     // A phase known only to tens of degrees would pass any kσ test: the record fixes it far
     // better than that.
     assert!(phase.uncertainty < 20.0, "{phase:?}");
@@ -179,12 +181,13 @@ fn an_encoders_cyclic_error_is_not_reported_as_a_force_found() {
 }
 
 #[test]
-fn a_template_with_a_ripple_judges_the_fitted_one_against_a_fit_without_any() {
+fn a_template_with_a_ripple_keeps_the_tables_against_fits_without_any() {
     // The template names a ripple on X the table does not have (6 N at 100°; it has 12 N at
-    // 40°): the loop's values are fitted with it in place. What the ripple fitted on top is
-    // judged against is the loop fitted without any — the same model the template without a
-    // ripple starts from — not that fit with its ripple taken out, which would make any
-    // ripple look needed.
+    // 40°): the loop's values are fitted with it in place. The ripple fitted on top is
+    // judged against the loop fitted again without any, not against that fit with its
+    // ripple taken out. Fitted again from where the template's ripple bent it, that loop
+    // may settle short of the fit the template without a ripple reaches (measured: 1.62
+    // against 0.93 µm held out); the ripple kept must beat that one too, by the twentieth.
     let (measured, without_template) = known();
     let mut template = machine(None);
     template.x.errors.force_ripple_n = 6.0;
@@ -193,16 +196,15 @@ fn a_template_with_a_ripple_judges_the_fitted_one_against_a_fit_without_any() {
     let [baseline, judged] = [without_template, &with_template]
         .map(|id| id.axes[0].force_ripple.clone().expect("X names a period"));
     eprintln!("template without: {baseline:?}\ntemplate with: {judged:?}");
-    // Both figures without a ripple are of a loop fitted without one, from starts a search
-    // apart: they agree to the halves' scatter, a tenth.
-    let ratio = judged.held_out_without_um / baseline.held_out_without_um;
+    assert!(judged.written, "{judged:?}");
+    let best_without = judged.held_out_without_um.min(baseline.held_out_without_um);
     assert!(
-        (0.9..1.1).contains(&ratio),
+        judged.held_out_force_um < 0.95 * best_without,
         "{judged:?} against {baseline:?}"
     );
-    // The ripple the record has is kept against it, at the table's phase, not the template's.
-    assert!(judged.written, "{judged:?}");
+    // At the table's phase, not the template's, which is listed beside it.
     let phase = value(&with_template.axes[0], "errors.force_ripple_phase_deg");
+    assert_eq!(phase.template, 100.0);
     assert!(phase.uncertainty < 20.0, "{phase:?}");
     assert_within_k_sigma("phase (°)", KNOWN.1, phase.value, phase.uncertainty, 3.0);
 }
