@@ -416,6 +416,22 @@ pub const AXIS_KEYS: &[AxisKey] = &[
         "speed over which the Stribeck friction fades",
         |a| a.friction.stribeck_velocity_mm_per_min
     ),
+    key!(
+        "friction.bristle_stiffness_n_per_um",
+        "N/µm",
+        NonNegative(1e6),
+        Always,
+        "presliding (LuGre) bristle stiffness σ0; 0 = stick or slide, no presliding",
+        |a| a.friction.bristle_stiffness_n_per_um
+    ),
+    key!(
+        "friction.bristle_damping_n_s_per_m",
+        "N·s/m",
+        NonNegative(1e8),
+        Always,
+        "presliding (LuGre) bristle damping σ1",
+        |a| a.friction.bristle_damping_n_s_per_m
+    ),
     optional!("gravity.counterbalance_n", "N", NonNegative(1e7), Always,
         "force of a counterbalance holding a vertical axis up", |a| a.gravity, g => g.counterbalance_n),
     optional!("lateral_shift.beam_length_m", "m", Positive(100.0), Always,

@@ -444,6 +444,24 @@ pub struct Friction {
     /// Stribeck velocity v_s (mm/min).
     #[serde(default)]
     pub stribeck_velocity_mm_per_min: f64,
+    /// Presliding (LuGre) bristle stiffness σ0 (N/µm); 0: friction sticks or slides, with no
+    /// presliding state.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub bristle_stiffness_n_per_um: f64,
+    /// Presliding bristle damping σ1 (N·s/m); only with a bristle stiffness.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub bristle_damping_n_s_per_m: f64,
+}
+
+impl Friction {
+    /// Whether the friction has a presliding (bristle) state.
+    pub fn has_presliding(&self) -> bool {
+        self.bristle_stiffness_n_per_um > 0.0
+    }
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// Beam sag that tilts the screw and scales its lead (docs/model.md §1.7).

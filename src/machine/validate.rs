@@ -109,7 +109,8 @@ fn validate_mechanics(
         }
     }
     let f = &a.friction;
-    if f.static_to_coulomb < 1.0 {
+    validate_presliding(c, k, f)?;
+    if f.static_to_coulomb < 1.0 && !f.has_presliding() {
         return Err(c.inconsistent(
             &k("friction.static_to_coulomb"),
             format!(
@@ -144,6 +145,59 @@ fn validate_mechanics(
             ls.holder_at_zero_m,
             Rule::Range(0.0, ls.beam_length_m),
         )?;
+    }
+    Ok(())
+}
+
+/// Presliding friction's keys: a damping needs the bristles it damps; friction near rest may
+/// lie below Coulomb's only with bristles (a stuck table of the hybrid model would then slide
+/// under less force than a sliding one needs), not below a tenth of it, and not together
+/// with a Stribeck excess above it; a level near rest other than Coulomb's needs the speed
+/// it fades over.
+fn validate_presliding(
+    c: &Checker,
+    k: &dyn Fn(&str) -> String,
+    f: &super::Friction,
+) -> Result<(), ConfigError> {
+    if !f.has_presliding() {
+        if f.bristle_damping_n_s_per_m > 0.0 {
+            return Err(c.inconsistent(
+                &k("friction.bristle_damping_n_s_per_m"),
+                "damps the presliding bristles: it needs friction.bristle_stiffness_n_per_um"
+                    .into(),
+            ));
+        }
+        return Ok(());
+    }
+    if f.static_to_coulomb < 0.1 {
+        return Err(c.inconsistent(
+            &k("friction.static_to_coulomb"),
+            format!(
+                "is {}: friction near rest below a tenth of Coulomb friction is no guideway's \
+                 (must be at least 0.1 with presliding bristles)",
+                f.static_to_coulomb
+            ),
+        ));
+    }
+    if f.static_to_coulomb < 1.0 && f.stribeck_level_n > 0.0 {
+        return Err(c.inconsistent(
+            &k("friction.static_to_coulomb"),
+            format!(
+                "is {} while friction.stribeck_level_n puts friction near rest above Coulomb's: \
+                 give one of the two",
+                f.static_to_coulomb
+            ),
+        ));
+    }
+    if (f.static_to_coulomb != 1.0 || f.stribeck_level_n > 0.0)
+        && f.stribeck_velocity_mm_per_min <= 0.0
+    {
+        return Err(c.inconsistent(
+            &k("friction.stribeck_velocity_mm_per_min"),
+            "must be positive with presliding bristles whose level near rest differs from \
+             Coulomb friction: it is the speed over which that level passes into Coulomb's"
+                .into(),
+        ));
     }
     Ok(())
 }

@@ -168,6 +168,8 @@ impl<'a> AxisSim<'a> {
         let mut g = Vec::new();
         let one = unit(ONE);
         match mode.friction {
+            // Presliding friction never sticks: no speed or breakaway guard.
+            _ if m.presliding.is_some() => {}
             FrictionMode::SlipPos => g.push(Guard {
                 row: unit(V2),
                 tol: TOL_SPEED,
@@ -227,6 +229,7 @@ impl<'a> AxisSim<'a> {
             let guards = self.build_guards(mode);
             let map = *self.cache.map(self.model, mode, level);
             let sign = match mode.friction {
+                _ if self.model.presliding.is_some() => None,
                 FrictionMode::SlipPos => Some(1.0),
                 FrictionMode::SlipNeg => Some(-1.0),
                 FrictionMode::Stick => None,
@@ -360,6 +363,9 @@ impl<'a> AxisSim<'a> {
 
     fn switch_friction(&mut self, x: &mut Aug, mode: &mut Mode) -> bool {
         let m = self.model;
+        if m.presliding.is_some() {
+            return false;
+        }
         let f_e = (m.breakaway_force(&self.signals, mode.contact) * *x)[0];
         let v = x[V2];
         let f_s = m.f_s + x[FSX];
@@ -637,12 +643,18 @@ fn unit(i: usize) -> Row {
 /// Stribeck excess and what the maps add, against the motion), none while stuck, and the
 /// static friction the map adds where the table is; a force ripple in every mode.
 pub(super) fn friction_inputs(model: &AxisModel, x: &mut Aug, mode: Mode) {
+    let ripple = model.force_ripple.map_or(0.0, |r| r.at(x[X2]));
+    if model.presliding.is_some() {
+        // The bristles' force is added by the run, which keeps their state.
+        x[FX] = ripple;
+        x[FSX] = 0.0;
+        return;
+    }
     let (v, stribeck) = (x[V2], model.stribeck);
     let excess = stribeck.map_or(0.0, |(level, v_s)| level * (-(v / v_s).powi(2)).exp());
     let (added_sliding, added_static) = model.friction_added_n(x[X2], v);
     // The ripple pushes whether the table slides or stands (a standing table breaks away
     // from the nut's force less the ripple there).
-    let ripple = model.force_ripple.map_or(0.0, |r| r.at(x[X2]));
     x[FX] = ripple
         + match mode.friction {
             FrictionMode::SlipPos => excess + added_sliding,

@@ -16,6 +16,7 @@ pub(crate) mod hybrid;
 pub mod linear;
 pub mod margins;
 pub mod model;
+pub mod presliding;
 pub mod simulate;
 pub mod stickslip;
 

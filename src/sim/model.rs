@@ -160,6 +160,8 @@ pub struct AxisModel {
     pub friction_speed: Lookup,
     /// A force repeating with the table's position; `None` when off.
     pub force_ripple: Option<ForceRipple>,
+    /// Presliding (LuGre) friction in place of stick and slip; `None` when off.
+    pub presliding: Option<super::presliding::Presliding>,
     /// Error of the measuring system (scale, or lead in semi-closed loop).
     pub measuring: MeasuringError,
     /// Structural mode between the table and the measured point: ω (rad/s) and ζ.
@@ -278,7 +280,10 @@ impl AxisModel {
     /// Whether friction beyond Coulomb's and the viscous term, or a force ripple, is held
     /// per sub-step (Stribeck, friction maps, the ripple).
     pub(crate) fn has_friction_inputs(&self) -> bool {
-        self.stribeck.is_some() || self.has_friction_maps() || self.force_ripple.is_some()
+        self.stribeck.is_some()
+            || self.has_friction_maps()
+            || self.force_ripple.is_some()
+            || self.presliding.is_some()
     }
 
     /// Whether friction maps (by position or speed) add to the friction.
@@ -740,7 +745,13 @@ impl AxisModel {
                     -1.0
                 };
                 set(X2, unit(V2));
-                let friction = unit(V2) * self.f_v + unit(ONE) * (sign * self.f_c);
+                // Presliding friction is all in the held input FX (sim::presliding).
+                let coulomb = if self.presliding.is_some() {
+                    0.0
+                } else {
+                    sign * self.f_c
+                };
+                let friction = unit(V2) * self.f_v + unit(ONE) * coulomb;
                 set(V2, (f_n - friction - self.external_force()) / self.mt);
             }
         }

@@ -5,8 +5,8 @@
 
 use super::hybrid::{AxisSim, friction_inputs};
 use super::model::{
-    AR, Aug, AxisModel, ClampMode, ContactMode, DL, FB, FrictionMode, Mode, ONE, Row, TH_S, VR, X2,
-    XR,
+    AR, Aug, AxisModel, ClampMode, ContactMode, DL, FB, FX, FrictionMode, Mode, ONE, Row, TH_S, V2,
+    VR, X2, XR,
 };
 use super::{AxisTrace, FrictionEvent, SimConfig, SimError};
 use crate::machine::Feedback;
@@ -60,6 +60,10 @@ pub(crate) fn rest_state(model: &AxisModel, x0: f64) -> (Aug, Mode) {
     };
     // A vertical axis stands where its loops hold its weight.
     super::gravity::hold_load(model, &mut x, &mut mode);
+    if model.presliding.is_some() {
+        // Presliding friction has no stuck mode: the bristles hold the table.
+        mode.friction = FrictionMode::SlipPos;
+    }
     (x, mode)
 }
 
@@ -114,6 +118,8 @@ pub struct AxisRun<'a> {
     structure: Option<StructuralFilter>,
     /// Cycles whose samples were taken out with [`AxisRun::take_trace`].
     taken: usize,
+    /// The presliding bristles' deflection (m), when the axis has them.
+    bristle_m: Option<f64>,
 }
 
 impl<'a> AxisRun<'a> {
@@ -126,7 +132,10 @@ impl<'a> AxisRun<'a> {
         config: &SimConfig,
     ) -> Result<Self, SimError> {
         super::linear::check_stable(model)?;
-        let substeps = config.substeps.max(1) as usize;
+        let substeps = match &model.presliding {
+            Some(p) => p.substeps(dt_s, model.mt).max(config.substeps as usize),
+            None => config.substeps.max(1) as usize,
+        };
         let (x, mode) = rest_state(model, x0_m);
         Ok(AxisRun {
             model,
@@ -146,6 +155,7 @@ impl<'a> AxisRun<'a> {
                 .resonance
                 .map(|(omega, zeta)| StructuralFilter::new(omega, zeta, dt_s)),
             taken: 0,
+            bristle_m: model.presliding.map(|_| 0.0),
         })
     }
 
@@ -194,12 +204,14 @@ impl<'a> AxisRun<'a> {
                 substep_inputs(self.model, &mut self.x, self.mode, self.lateral_dl);
             }
             let t = (k as f64 + sub as f64 / self.substeps as f64) * self.dt_s;
+            let bristles = self.bristles_push();
             self.sim.step(
                 &mut self.x,
                 &mut self.mode,
                 t,
                 self.friction_events.as_mut(),
             )?;
+            self.bristles_follow(bristles);
         }
         let lag = self.x[XR] - self.x[X2];
         if !lag.is_finite() || lag.abs() > self.divergence_limit_m {
@@ -209,6 +221,38 @@ impl<'a> AxisRun<'a> {
             });
         }
         Ok(())
+    }
+
+    /// Adds the presliding bristles' force, held over the next sub-step, to the table's
+    /// external force; returns where the table starts it (m) and the sliding level (N).
+    fn bristles_push(&mut self) -> Option<(f64, f64)> {
+        let (p, z) = (self.model.presliding.as_ref()?, self.bristle_m?);
+        let (x, v) = (self.x[X2], self.x[V2]);
+        let level = p.level_n(v, self.maps_sliding_n(x, v));
+        let h = self.dt_s / self.substeps as f64;
+        self.x[FX] += p.held_force_n(z, v, h, level);
+        Some((x, level))
+    }
+
+    /// Bends the bristles by the table's travel over the sub-step just taken, which started
+    /// at `start`: what [`AxisRun::bristles_push`] returned.
+    fn bristles_follow(&mut self, start: Option<(f64, f64)>) {
+        if let (Some(p), Some(z), Some((x0, level))) = (
+            self.model.presliding.as_ref(),
+            self.bristle_m.as_mut(),
+            start,
+        ) {
+            *z = p.bent(*z, self.x[X2] - x0, level);
+        }
+    }
+
+    /// What the friction maps add to sliding friction at `x` m and `v` m/s (N).
+    fn maps_sliding_n(&self, x: f64, v: f64) -> f64 {
+        if self.model.has_friction_maps() {
+            self.model.friction_added_n(x, v).0
+        } else {
+            0.0
+        }
     }
 
     /// Advances through `commands[range]`, one cycle per sample.

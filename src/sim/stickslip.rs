@@ -101,7 +101,11 @@ pub fn run(
     let mut sim = cfg.sim;
     sim.record_friction_events = true;
     let trace = simulate(model, &commands, cfg.dt_s, &sim)?;
-    let slips = slips_of(&trace.friction_events);
+    let slips = if model.presliding.is_some() {
+        slips_of(&standing_switches(&trace.pos_m, cfg.dt_s, feed_m_per_s))
+    } else {
+        slips_of(&trace.friction_events)
+    };
     let half = 0.5 * cfg.run_s;
     let max_counted_slip_m = slips
         .iter()
@@ -139,6 +143,35 @@ pub(crate) fn slips_of(events: &[FrictionEvent]) -> Vec<Slip> {
         }
     }
     slips
+}
+
+/// Presliding friction has no stuck mode to switch from, so the switches are read off the
+/// trace: the table counts as standing over a sample interval in which it moves slower than
+/// a hundredth of the feed (loading bristles creep far slower than that, a slip runs far
+/// faster), and as sliding otherwise, in the direction it moves.
+fn standing_switches(pos_m: &[f64], dt_s: f64, feed_m_per_s: f64) -> Vec<FrictionEvent> {
+    let creep_m = 0.01 * feed_m_per_s.abs() * dt_s;
+    let mut events = Vec::new();
+    let mut now = FrictionMode::Stick;
+    for (k, pair) in pos_m.windows(2).enumerate() {
+        let dx = pair[1] - pair[0];
+        let mode = if dx.abs() < creep_m {
+            FrictionMode::Stick
+        } else if dx > 0.0 {
+            FrictionMode::SlipPos
+        } else {
+            FrictionMode::SlipNeg
+        };
+        if mode != now {
+            events.push(FrictionEvent {
+                t_s: k as f64 * dt_s,
+                x_m: pair[0],
+                to: mode,
+            });
+            now = mode;
+        }
+    }
+    events
 }
 
 /// The critical stick-slip velocity and how it was bracketed.
@@ -188,4 +221,36 @@ pub fn critical_velocity(
         first_smooth_m_per_s: hi,
         scan,
     }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A table read every 2 ms at a feed of 0.1 µm per sample: standing (creeping 1 pm a
+    /// sample) for 0.2 s, a slip of 10 samples of 0.3 µm, standing again, then a slip back:
+    /// two slips of 3 µm and 1.5 µm, at the samples where they start and end.
+    #[test]
+    fn a_presliding_table_stands_below_a_hundredth_of_the_feed() {
+        let dt = 2e-3;
+        let feed = 0.1e-6 / dt;
+        let mut pos = vec![0.0];
+        let mut go = |n: usize, step: f64| {
+            for _ in 0..n {
+                let last = *pos.last().unwrap();
+                pos.push(last + step);
+            }
+        };
+        go(100, 1e-12);
+        go(10, 0.3e-6);
+        go(100, 1e-12);
+        go(5, -0.3e-6);
+        go(50, -1e-12);
+        let slips = slips_of(&standing_switches(&pos, dt, feed));
+        assert_eq!(slips.len(), 2, "{slips:?}");
+        assert!((slips[0].travel_m - 3e-6).abs() < 1e-9, "{slips:?}");
+        assert!((slips[0].start_s - 100.0 * dt).abs() < 1e-12);
+        assert!((slips[0].end_s - 110.0 * dt).abs() < 1e-12);
+        assert!((slips[1].travel_m - 1.5e-6).abs() < 1e-9, "{slips:?}");
+    }
 }

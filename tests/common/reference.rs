@@ -61,6 +61,9 @@ pub struct Plant {
     ripple: Cycle,
     /// A cyclic error of the encoder: it reads the axis e·sin(2π·x/period + φ) too far.
     encoder_error: Cycle,
+    /// LuGre bristles: stiffness σ0 (N/m, 0 = stick and slip instead), damping σ1 (N·s/m)
+    /// and the speed over which friction at rest passes into Coulomb's (m/s).
+    bristles: (f64, f64, f64),
 }
 
 /// Something that repeats with position: amplitude (N or m) · sin(2π·x/period + phase).
@@ -250,6 +253,11 @@ impl Plant {
                 phase_rad: c.errors.force_ripple_phase_deg.to_radians(),
             },
             encoder_error: Cycle::default(),
+            bristles: (
+                c.friction.bristle_stiffness_n_per_um * 1e6,
+                c.friction.bristle_damping_n_s_per_m,
+                c.friction.stribeck_velocity_mm_per_min / 60_000.0,
+            ),
         }
     }
 
@@ -280,7 +288,9 @@ const F_I: usize = 10;
 /// A transfer function's states (up to four), and state feedback's error integral.
 const C0: usize = 11;
 const Z_E: usize = 15;
-const STATES: usize = 16;
+/// The LuGre bristles' mean deflection (m).
+const Z_B: usize = 16;
+const STATES: usize = 17;
 
 type State = [f64; STATES];
 
@@ -311,7 +321,8 @@ impl<'p> Axis<'p> {
         Axis {
             plant,
             x,
-            stuck: true,
+            // Bristles never stick: they bend.
+            stuck: plant.bristles.0 == 0.0,
             direction: 1.0,
             spot,
         }
@@ -502,7 +513,22 @@ impl<'p> Axis<'p> {
         dx[W_M] = (p.kt * x[I] - p.it * t_c) / p.jm;
         dx[TH_S] = x[W_S];
         dx[W_S] = (t_c - p.b_screw * x[W_S] - p.r * f_n) / p.js;
-        if !stuck {
+        let (sigma0, sigma1, fade) = p.bristles;
+        if sigma0 > 0.0 {
+            // LuGre: dz/dt = v − σ0·|v|·z/g(v), F = σ0·z + σ1·dz/dt + f_v·v, with
+            // g(v) = f_c + (f_s − f_c)·exp(−(v/v_s)²).
+            let v = x[V2];
+            let at_rest = if fade > 0.0 {
+                (-(v / fade).powi(2)).exp()
+            } else {
+                0.0
+            };
+            let g = f_c + (p.f_s - p.f_c) * at_rest;
+            dx[Z_B] = v - sigma0 * v.abs() * x[Z_B] / g;
+            let friction = sigma0 * x[Z_B] + sigma1 * dx[Z_B] + p.f_v * v;
+            dx[X2] = v;
+            dx[V2] = (f_n - friction - p.load - p.ripple.at(x[X2])) / p.mt;
+        } else if !stuck {
             dx[X2] = x[V2];
             let friction = p.f_v * x[V2] + f_c * sliding_sign;
             dx[V2] = (f_n - friction - p.load - p.ripple.at(x[X2])) / p.mt;
@@ -532,6 +558,10 @@ impl<'p> Axis<'p> {
         let mut next = x;
         for i in 0..STATES {
             next[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+        }
+        if self.plant.bristles.0 > 0.0 {
+            self.x = next;
+            return;
         }
         let (_, f_s) = self.plant.friction_at(next[X2], self.spot);
         // What friction must hold: the nut's force less the weight and the ripple.

@@ -19,6 +19,7 @@ impl AxisModel {
         let f_c = c.friction.coulomb_coefficient * m.mt * GRAVITY_M_PER_S2;
         let (kf, ka) = feedforward(c);
         let drive = DriveLoops::of(c);
+        let f_s = breakaway_force(c, f_c);
         let (friction_map, friction_speed) = friction_maps(&c.errors);
         AxisModel {
             kp: cascade_position_gain(c, &m),
@@ -59,7 +60,7 @@ impl AxisModel {
             b_screw: m.b_screw,
             half_gap: 0.5 * m_from_um(c.drive.backlash_um),
             f_c,
-            f_s: breakaway_force(c, f_c),
+            f_s,
             f_v: c.friction.viscous_n_s_per_m,
             lateral: c.lateral_shift.as_ref().map(LateralShiftModel::from_config),
             dead_time_s: s_from_ms(c.position_loop.dead_time_ms),
@@ -67,6 +68,7 @@ impl AxisModel {
             friction_map,
             friction_speed,
             force_ripple: super::ForceRipple::from_config(&c.errors),
+            presliding: crate::sim::presliding::Presliding::from_config(c, f_c, f_s),
             measuring: MeasuringError::from_config(&c.errors, c.drive.lead_mm),
             resonance: (c.errors.resonance_hz > 0.0).then_some({
                 (

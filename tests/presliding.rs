@@ -1,0 +1,217 @@
+//! Presliding (LuGre) friction against physics and against the independent integrator of
+//! `common::reference`, which carries its own bristle state integrated by Runge–Kutta.
+//!
+//! The table of the `small-table` preset, read at a linear scale so that the loop holds the
+//! table itself where it is commanded: 30 kg, Coulomb friction f_c = 0.1·30 kg·g = 29.4 N,
+//! bristles of σ0 = 15 N/µm (a presliding range g/σ0 of about 2 µm).
+
+mod common;
+
+use common::reference::{Axis, Plant};
+use contourcheck::machine::MachineConfig;
+use contourcheck::sim::{AxisCommands, AxisModel, SimConfig, simulate};
+
+const SIGMA0_N_PER_M: f64 = 15e6;
+const CYCLE_S: f64 = 1e-3;
+
+/// The small table with bristles, friction at rest `static_to_coulomb` of Coulomb's
+/// passing into it over `fade_mm_per_min`.
+fn machine(static_to_coulomb: f64, fade_mm_per_min: f64) -> MachineConfig {
+    let text = format!(
+        "base = \"small-table\"\n[x.position_loop]\nfeedback = \"linear_scale\"\n\
+         [x.friction]\nstatic_to_coulomb = {static_to_coulomb}\n\
+         stribeck_velocity_mm_per_min = {fade_mm_per_min}\n\
+         bristle_stiffness_n_per_um = {}\nbristle_damping_n_s_per_m = 5000.0\n",
+        SIGMA0_N_PER_M * 1e-6
+    );
+    MachineConfig::from_toml_str(&text, "bristles.toml").unwrap()
+}
+
+/// A reference through the knots (s, m), straight between them, held after the last.
+fn path(knots: &[(f64, f64)]) -> impl Fn(f64) -> (f64, f64, f64) + '_ {
+    move |t| {
+        let last = knots[knots.len() - 1];
+        if t >= last.0 {
+            return (last.1, 0.0, 0.0);
+        }
+        let k = knots.iter().rposition(|&(tk, _)| tk <= t).unwrap_or(0);
+        let ((t0, p0), (t1, p1)) = (knots[k], knots[k + 1]);
+        let v = (p1 - p0) / (t1 - t0);
+        (p0 + v * (t - t0).max(0.0), v, 0.0)
+    }
+}
+
+/// The reference sampled every cycle for `duration_s`, as the control sends it.
+fn commands(reference: &dyn Fn(f64) -> (f64, f64, f64), duration_s: f64) -> AxisCommands {
+    let n = (duration_s / CYCLE_S).round() as usize;
+    let samples: Vec<_> = (0..n).map(|k| reference(k as f64 * CYCLE_S)).collect();
+    AxisCommands {
+        pos_m: samples.iter().map(|s| s.0).collect(),
+        vel_m_per_s: samples.iter().map(|s| s.1).collect(),
+        acc_m_per_s2: samples.iter().map(|s| s.2).collect(),
+    }
+}
+
+/// Mean of `values` over the samples from `from_s` to `to_s`.
+fn mean(values: &[f64], from_s: f64, to_s: f64) -> f64 {
+    let (a, b) = ((from_s / CYCLE_S) as usize, (to_s / CYCLE_S) as usize);
+    values[a..b].iter().sum::<f64>() / (b - a) as f64
+}
+
+/// Out by 1.2 presliding ranges and back, slowly, holding in between: a table whose loop
+/// holds it still carries exactly the bristles' force, which the drive's current shows
+/// (F = K_t·i / r on a direct drive). From rest the bristles load along
+/// F = g·(1 − exp(−σ0·x/g)); coming back they unload along their own curve, so that at the
+/// start position they pull back with −g + (F_out + g)·exp(−σ0·Δx/g): the same place, a
+/// different force — the presliding hysteresis.
+#[test]
+fn bristles_load_and_unload_along_the_lugre_curves() {
+    let config = machine(1.0, 0.0);
+    let model = AxisModel::from_config(&config.x);
+    let g = model.f_c;
+    let out = 1.2 * g / SIGMA0_N_PER_M;
+    let knots = [(0.1, 0.0), (0.3, out), (1.3, out), (1.5, 0.0), (2.5, 0.0)];
+    let trace = simulate(
+        &model,
+        &commands(&path(&knots), 2.5),
+        CYCLE_S,
+        &SimConfig::default(),
+    )
+    .unwrap();
+    let force = |i: f64| model.kt * i / (model.r * model.it);
+    let current = &trace.current_a;
+    let (x0, x_out, x_back) = (
+        mean(&trace.pos_m, 0.0, 0.1),
+        mean(&trace.pos_m, 1.2, 1.3),
+        mean(&trace.pos_m, 2.4, 2.5),
+    );
+    let f_out = force(mean(current, 1.2, 1.3));
+    let f_back = force(mean(current, 2.4, 2.5));
+    let loaded = g * (1.0 - (-SIGMA0_N_PER_M * (x_out - x0) / g).exp());
+    let unloaded = -g + (loaded + g) * (-SIGMA0_N_PER_M * (x_out - x_back) / g).exp();
+    // Held still, nothing but the bristles pushes: what remains is the loop's settling, a
+    // few hundredths of a newton after 0.9 s (the integrator's zero is at 62.5 rad/s).
+    let tolerance = 0.002 * g;
+    assert!((x_out - x0 - out).abs() < 0.01 * out, "{x0} {x_out}");
+    assert!(
+        (f_out - loaded).abs() < tolerance,
+        "{f_out} N vs {loaded} N"
+    );
+    assert!(
+        (f_back - unloaded).abs() < tolerance,
+        "{f_back} N vs {unloaded} N"
+    );
+    // At its start again, the table is held against −0.49 g: no stick-slip model has that.
+    assert!(unloaded < -0.4 * g, "{unloaded}");
+}
+
+/// The independent integrator, the same machine: out by a presliding range and back, then
+/// 60 µm slowly (breaking away after about 3·g/σ0 of bending), then back 60 µm faster, the
+/// friction at rest at 0.6 of Coulomb's passing into it over 6 mm/min. The two integrations
+/// solve the same equations by different means (held force and exact bristle update over
+/// sub-steps of a tenth of the bristles' time scale √(m/σ0), Runge–Kutta at 2 µs): the held
+/// push errs by about (ω·h)²/2 = 0.5 % of the bristle force, so they agree to that share of
+/// the presliding range g/σ0 wherever the table is.
+#[test]
+fn the_simulator_follows_the_independent_integrator() {
+    let config = machine(0.6, 6.0);
+    let model = AxisModel::from_config(&config.x);
+    let range = model.f_c / SIGMA0_N_PER_M;
+    let knots = [
+        (0.1, 0.0),
+        (0.3, range),
+        (0.6, 0.0),
+        (0.8, 0.0),
+        (1.8, 60e-6),
+        (2.0, 60e-6),
+        (2.2, 0.0),
+        (2.6, 0.0),
+    ];
+    let duration = 2.6;
+    let reference = path(&knots);
+    let trace = simulate(
+        &model,
+        &commands(&reference, duration),
+        CYCLE_S,
+        &SimConfig::default(),
+    )
+    .unwrap();
+    let plant = Plant::new(&config.x);
+    let mut axis = Axis::at_rest(&plant, 0.0, None);
+    let h = 2e-6;
+    let per_cycle = (CYCLE_S / h).round() as usize;
+    let mut worst: f64 = 0.0;
+    let mut moved: f64 = 0.0;
+    for (k, &simulated) in trace.pos_m.iter().enumerate() {
+        worst = worst.max((simulated - axis.table()).abs());
+        moved = moved.max(axis.table().abs());
+        for j in 0..per_cycle {
+            axis.step((k * per_cycle + j) as f64 * h, h, &reference);
+        }
+    }
+    assert!(moved > 50e-6, "the table slid: {moved}");
+    assert!(
+        worst < 0.005 * range,
+        "{worst} m against a range of {range} m"
+    );
+}
+
+/// With the level at rest below Coulomb's, the keys are refused without bristles, and with
+/// bristles need the speed the level fades over; a damping needs bristles to damp.
+#[test]
+fn validation_names_the_key_a_machine_could_not_have() {
+    let refused = |text: &str, key: &str| {
+        let e = MachineConfig::from_toml_str(&format!("base = \"small-table\"\n{text}"), "m.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(key), "{e}");
+    };
+    refused(
+        "[x.friction]\nstatic_to_coulomb = 0.6\n",
+        "x.friction.static_to_coulomb",
+    );
+    refused(
+        "[x.friction]\nstatic_to_coulomb = 0.6\nbristle_stiffness_n_per_um = 15.0\n",
+        "x.friction.stribeck_velocity_mm_per_min",
+    );
+    refused(
+        "[x.friction]\nstatic_to_coulomb = 0.05\nbristle_stiffness_n_per_um = 15.0\n\
+         stribeck_velocity_mm_per_min = 6.0\n",
+        "x.friction.static_to_coulomb",
+    );
+    refused(
+        "[y.friction]\nbristle_damping_n_s_per_m = 100.0\n",
+        "y.friction.bristle_damping_n_s_per_m",
+    );
+    assert!(machine(0.6, 6.0).x.friction.has_presliding());
+}
+
+/// Bristle keys at zero are the hybrid friction: the same model, the same trace.
+#[test]
+fn zero_bristles_are_stick_and_slip() {
+    let plain = MachineConfig::from_toml_str("base = \"small-table\"\n", "a.toml").unwrap();
+    let zeros = MachineConfig::from_toml_str(
+        "base = \"small-table\"\n[x.friction]\nbristle_stiffness_n_per_um = 0.0\n\
+         bristle_damping_n_s_per_m = 0.0\n",
+        "b.toml",
+    )
+    .unwrap();
+    let (a, b) = (
+        AxisModel::from_config(&plain.x),
+        AxisModel::from_config(&zeros.x),
+    );
+    assert_eq!(a, b);
+    assert!(a.presliding.is_none());
+    let knots = [(0.0, 0.0), (0.5, 2e-3), (1.0, 2e-3)];
+    let run = |m: &AxisModel| {
+        simulate(
+            m,
+            &commands(&path(&knots), 1.0),
+            CYCLE_S,
+            &SimConfig::default(),
+        )
+        .unwrap()
+        .pos_m
+    };
+    assert_eq!(run(&a), run(&b));
+}
