@@ -175,8 +175,8 @@ fn per_turn_ripple_on_y_only(axes: &[AxisIdentification]) {
     let mass = value(y, "drive.table_mass_kg");
     let phase = value(y, "errors.force_ripple_phase_deg");
     // Written as a model's value, never as found: the record fixes the force only per
-    // mass, and does not exclude a cyclic encoder error of that period which the loop
-    // reads (below its crossover the loop follows it as it would a force).
+    // mass, and does not exclude a cyclic error in the positions recorded of that period
+    // which the loop reads (below its crossover the loop follows it as it would a force).
     assert!(ripple.fitted() && !ripple.determined, "{ripple:?}");
     assert!(
         ripple.traded_with.is_some() && !phase.determined,

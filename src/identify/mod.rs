@@ -508,18 +508,18 @@ fn identify_on(
     let (mut held_out_identified_um, held_out_in_sample) =
         held_out::figure(own, || round.held_out_rms(fit, &fold))?;
     let counted = ripple::counted(&round, own);
-    let mut ripple = ripple::on_top(fit, &round, &config, &fold, counted);
-    let (config, identified_residual) = match &mut ripple {
+    let ripple = ripple::on_top(fit, &round, &config, &fold, counted);
+    let (config, identified_residual) = match &ripple {
         None => (config, identified_residual),
         Some(r) => r.apply(
-            fit,
             (config, identified_residual),
             &mut values,
             (&mut held_out_identified_um, &template_axis),
         ),
     };
     let held_out_template_um = rms(&template_residual);
-    let shown = own.is_none_or(|own| own.is_some());
+    let (reached, shown) =
+        ripple::judged(ripple.as_ref(), (reached, own.is_none_or(|o| o.is_some())));
     let following_error_um = um_from_m(following_error_rms(ctx, axis, offset, mask));
     Some((
         config,

@@ -33,6 +33,9 @@ pub(super) struct Round {
     pub(super) sigma: Vec<f64>,
     /// The values the round was fitted about (those of the knobs not fitted in it).
     base: AxisConfig,
+    /// Those each half's fit was made about: the round's `base` but where a half carries
+    /// values of its own fitted on its samples alone ([`Round::fit_apart`]).
+    half_bases: [AxisConfig; 2],
     /// Each half's fit simulated over the whole record (the residual at every compared
     /// sample), about the round's own `base`: every held-out figure of the round reads
     /// these, simulated once — no call can ask them about another base.
@@ -46,14 +49,27 @@ impl Round {
         base: &AxisConfig,
         fold: &[bool],
     ) -> Option<Round> {
+        Round::fit_apart(fit, knobs, base, [base.clone(), base.clone()], fold)
+    }
+
+    /// [`Round::fit`] with each half's fit made about `half_bases` (the first half's samples
+    /// are those `fold` marks): values fitted on a half's own samples beforehand (a ripple)
+    /// stay its own, so that its held-out figure has not seen the other half's.
+    pub(super) fn fit_apart(
+        fit: &Fit,
+        knobs: Vec<Knob>,
+        base: &AxisConfig,
+        half_bases: [AxisConfig; 2],
+        fold: &[bool],
+    ) -> Option<Round> {
         let whole = fit.run(&knobs, base, &|_| true)?;
         // Each half's fit starts where the whole record's landed: their difference then
         // measures how far the halves pull the values apart, not which valley a search
         // from further off happens to fall into on one of them.
-        let landed = Fit::config(&knobs, base, &whole.values);
+        let landed = |b: &AxisConfig| Fit::config(&knobs, b, &whole.values);
         let (a, b) = rayon::join(
-            || fit.run(&knobs, &landed, &|i| fold[i]),
-            || fit.run(&knobs, &landed, &|i| !fold[i]),
+            || fit.run(&knobs, &landed(&half_bases[0]), &|i| fold[i]),
+            || fit.run(&knobs, &landed(&half_bases[1]), &|i| !fold[i]),
         );
         let (a, b) = (a?, b?);
         let sigma = (0..knobs.len())
@@ -65,6 +81,7 @@ impl Round {
             halves: [a, b],
             sigma,
             base: base.clone(),
+            half_bases,
             halves_simulated: OnceLock::new(),
         })
     }
@@ -234,8 +251,8 @@ impl Round {
 
     fn held_out_of(&self, fit: &Fit, fold: &[bool], mask: &[bool], own: bool) -> Option<f64> {
         let simulated = self.halves_simulated.get_or_init(|| {
-            let first = fit.residual(&self.config(&self.halves[0]))?;
-            let second = fit.residual(&self.config(&self.halves[1]))?;
+            let first = fit.residual(&self.half_config(0))?;
+            let second = fit.residual(&self.half_config(1))?;
             Some([first, second])
         });
         let (mut ss, mut n) = (0.0, 0usize);
@@ -279,5 +296,10 @@ impl Round {
     /// The round's base with the values of one of its fits.
     pub(super) fn config(&self, fitted: &Fitted) -> AxisConfig {
         Fit::config(&self.knobs, &self.base, &fitted.values)
+    }
+
+    /// Half `h`'s fit (0: the samples the fold marks) about its own base.
+    pub(super) fn half_config(&self, h: usize) -> AxisConfig {
+        Fit::config(&self.knobs, &self.half_bases[h], &self.halves[h].values)
     }
 }

@@ -1,7 +1,7 @@
-//! The force ripple against a cyclic encoder error of the same period: which of the two the
+//! The force ripple against a cyclic error in the positions recorded of the same period: which of the two the
 //! held-out halves keep, and whether the record tells them apart.
 
-use super::{Half, IdentifiedValue, RippleVerdict};
+use super::{IdentifiedValue, RippleVerdict};
 use crate::identify::verdict::predicts_better;
 use crate::numeric::units::{mm_from_m, um_from_m};
 
@@ -46,25 +46,27 @@ impl Tie {
         }
     }
 
-    /// The halves' figures, of the halves `counted` allows.
-    pub(super) fn of(halves: &[Half], counted: [bool; 2]) -> Tie {
-        let counted: Vec<&Half> = halves
+    /// The halves' figures (each half's held-out sums of squares without a ripple, with the
+    /// force, with the positions' cyclic error, and how many samples they are over), of the
+    /// halves `counted` allows.
+    pub(super) fn of(halves: &[([f64; 3], usize); 2], counted: [bool; 2]) -> Tie {
+        let counted: Vec<&([f64; 3], usize)> = halves
             .iter()
             .zip(counted)
             .filter(|(_, c)| *c)
             .map(|(h, _)| h)
             .collect();
-        let n = counted.iter().map(|h| h.n).sum::<usize>();
+        let n = counted.iter().map(|h| h.1).sum::<usize>();
         if n == 0 {
             return Tie::none();
         }
-        let rms = |k: usize| (counted.iter().map(|h| h.held_out[k]).sum::<f64>() / n as f64).sqrt();
+        let rms = |k: usize| (counted.iter().map(|h| h.0[k]).sum::<f64>() / n as f64).sqrt();
         let [without_m, force_m, encoder_m] = [0, 1, 2].map(rms);
         // Each half on its own samples: one alternative wins only where it predicts every
         // half better than the other by the twentieth a larger model must earn.
         let on_each = |k: usize, other: usize| {
             counted.iter().all(|h| {
-                let per = |j: usize| (h.held_out[j] / h.n.max(1) as f64).sqrt();
+                let per = |j: usize| (h.0[j] / h.1.max(1) as f64).sqrt();
                 predicts_better(per(k), per(other))
             })
         };
@@ -89,12 +91,6 @@ impl Tie {
         }
     }
 
-    /// The same outcome with the force's held-out figure `force_m` (m): that of the values
-    /// fitted again with the ripple in place.
-    pub(super) fn with_force_m(self, force_m: f64) -> Tie {
-        Tie { force_m, ..self }
-    }
-
     /// Whether the force ripple is written.
     pub(super) fn force_written(&self) -> bool {
         matches!(self.outcome, Outcome::Force | Outcome::CannotTell)
@@ -102,16 +98,16 @@ impl Tie {
 
     /// What the written amplitude and phase trade with: the amplitude with the fitted mass
     /// (the record fixes a force only per unit of the inertia it moves, which trades with
-    /// the gain), both with a cyclic encoder error of the same period. Even where the force
-    /// predicts the halves clearly better than that error taken on the record's output, an
-    /// error the loop reads too is not excluded: below the crossover the loop follows it,
-    /// and it moves the table as a force of the same period would.
+    /// the gain), both with a cyclic error in the positions recorded of the same period.
+    /// Even where the force predicts the halves clearly better than that error, one the
+    /// loop reads as well is not excluded: below the crossover the loop follows it, and it
+    /// moves the table as a force of the same period would.
     pub(super) fn trades(&self) -> (&'static str, &'static str) {
         (
-            "drive.table_mass_kg (the record fixes the force per mass) and with a cyclic \
-             encoder error of the same period",
-            "a cyclic encoder error of the same period (the record does not tell a force from \
-             one the loop reads)",
+            "drive.table_mass_kg (the record fixes the force per mass) and with a cyclic error \
+             in the positions recorded of the same period, read by the loop",
+            "a cyclic error in the positions recorded of the same period, read by the loop \
+             (the record does not tell a force from it)",
         )
     }
 
@@ -152,9 +148,9 @@ impl Tie {
             }
             Outcome::Force => format!(
                 "force ripple: {force}, a model's value: as a force it predicts each held-out \
-                 half better by a twentieth than a cyclic encoder error of the same period \
-                 taken on the record's output ({figures}); an error the loop reads too is \
-                 not excluded (below the crossover it acts as a force would)"
+                 half better by a twentieth than a cyclic error in the positions recorded of \
+                 the same period ({figures}); one the loop reads as well is not excluded \
+                 (below the crossover it acts as a force would)"
             ),
             Outcome::CannotTell => format!(
                 "force ripple: the record cannot tell a force from a cyclic error in the \
