@@ -9,18 +9,19 @@
 use super::AxisIdentification;
 use crate::numeric::units::um_from_m;
 
-/// The held-out figure of a fit (µm) and whether it is in-sample, from `own` — the RMS (m)
-/// of the halves' fits with a point of their own, `Some(None)` where neither has one, `None`
-/// where only such halves were not asked for (a fit at the noise) — and `all_halves`, the
-/// RMS of both halves' fits whatever their points. None where that cannot be simulated.
+/// The held-out figure of a fit (µm), from `own` — the RMS (m) of the halves' fits with a
+/// point of its own, `Some(None)` where neither has one, `None` where only such halves were
+/// not asked for (a fit at the noise) — and `all_halves`, the RMS of both halves' fits
+/// whatever their points: where neither half has a point of its own, that is the whole fit's
+/// in-sample figure, which the axis then marks (`held_out_in_sample`, from whether the
+/// figure written is shown by such a half). None where it cannot be simulated.
 pub(super) fn figure(
     own: Option<Option<f64>>,
     all_halves: impl FnOnce() -> Option<f64>,
-) -> Option<(f64, bool)> {
+) -> Option<f64> {
     match own {
-        Some(Some(own_m)) => Some((um_from_m(own_m), false)),
-        Some(None) => Some((um_from_m(all_halves()?), true)),
-        None => Some((um_from_m(all_halves()?), false)),
+        Some(Some(own_m)) => Some(um_from_m(own_m)),
+        _ => all_halves().map(um_from_m),
     }
 }
 
@@ -55,14 +56,13 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_figure_of_halves_that_stayed_at_the_whole_fit_is_marked_in_sample() {
-        // Neither half moved: the figure of both halves, 2 µm, is the whole fit's on its
-        // own samples.
-        assert_eq!(figure(Some(None), || Some(2e-6)), Some((2.0, true)));
+    fn a_figure_of_halves_that_stayed_at_the_whole_fit_is_theirs_on_all_samples() {
+        // Neither half moved: the figure of both halves, 2 µm (the whole fit's, in-sample).
+        assert_eq!(figure(Some(None), || Some(2e-6)), Some(2.0));
         // A half of its own: its figure, held out.
-        assert_eq!(figure(Some(Some(3e-6)), || Some(2e-6)), Some((3.0, false)));
-        // At the noise both halves count, as held out.
-        assert_eq!(figure(None, || Some(5e-7)), Some((0.5, false)));
+        assert_eq!(figure(Some(Some(3e-6)), || Some(2e-6)), Some(3.0));
+        // At the noise both halves count.
+        assert_eq!(figure(None, || Some(5e-7)), Some(0.5));
         // Halves that cannot be simulated give no figure.
         assert_eq!(figure(Some(None), || None), None);
     }

@@ -505,8 +505,7 @@ fn identify_on(
     // half's fit with a point of its own counts (`Round::held_out_rms_own`): without one,
     // the fit has not shown that it predicts data it was not fitted to.
     let own = (!reached).then(|| round.held_out_rms_own(fit, &fold));
-    let (mut held_out_identified_um, held_out_in_sample) =
-        held_out::figure(own, || round.held_out_rms(fit, &fold))?;
+    let mut held_out_identified_um = held_out::figure(own, || round.held_out_rms(fit, &fold))?;
     let counted = ripple::counted(&round, own);
     let ripple = ripple::on_top(fit, &round, &config, &fold, counted);
     let (config, identified_residual) = match &ripple {
@@ -539,7 +538,7 @@ fn identify_on(
             rms_identified_um: rms(&identified_residual),
             held_out_template_um,
             held_out_identified_um,
-            held_out_in_sample,
+            held_out_in_sample: !shown,
             gain_per_inertia: gain_per_inertia(ripple::loop_round(ripple.as_ref(), &round), &base),
             template_holds: false,
             judged_while_moving: false,
