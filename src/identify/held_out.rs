@@ -7,6 +7,7 @@
 //! shown is the whole fit scored on samples it was fitted to, and it is said so.
 
 use super::AxisIdentification;
+use super::verdict;
 use crate::numeric::units::um_from_m;
 
 /// The held-out figure of a fit (µm), from `own` — the RMS (m) of the halves' fits with a
@@ -22,6 +23,21 @@ pub(super) fn figure(
     match own {
         Some(Some(own_m)) => Some(um_from_m(own_m)),
         _ => all_halves().map(um_from_m),
+    }
+}
+
+/// Whether the larger model `more` is kept over `fewer`: where both figures are of one kind
+/// (held out, or both in-sample), where it predicts the held-out halves better by more than
+/// a twentieth ([`verdict::predicts_better`]). A figure measured on samples the fit did not
+/// see always wins over an in-sample one, whatever the two numbers: an in-sample figure is
+/// lower than the same fit's held-out one would be, and the candidate it belongs to is
+/// never written (`better_than_template` needs a figure shown held out), so letting it win
+/// would leave the axis NOT IDENTIFIED where the other candidate was a valid model.
+pub(super) fn predicts_better(more: &AxisIdentification, fewer: &AxisIdentification) -> bool {
+    match (more.held_out_in_sample, fewer.held_out_in_sample) {
+        (true, false) => false,
+        (false, true) => true,
+        _ => verdict::predicts_better(more.held_out_identified_um, fewer.held_out_identified_um),
     }
 }
 
@@ -106,5 +122,31 @@ mod tests {
         };
         assert_eq!(identified_words(&measured), "→ 0.310 µm");
         assert!(in_sample_note(&measured).is_none());
+    }
+
+    /// An axis above the noise whose fit predicts its halves to `identified_um` (µm),
+    /// held out or in-sample, against the template's 1.0 µm.
+    fn candidate(identified_um: f64, in_sample: bool) -> AxisIdentification {
+        AxisIdentification {
+            reached: false,
+            held_out_in_sample: in_sample,
+            better_than_template: !in_sample,
+            ..AxisIdentification::scored(1.0, identified_um)
+        }
+    }
+
+    #[test]
+    fn an_in_sample_figure_never_wins_against_a_held_out_one() {
+        let held_out = candidate(0.8, false);
+        // In-sample at a quarter of the held-out figure: still not kept over it.
+        let in_sample = candidate(0.2, true);
+        assert!(!predicts_better(&in_sample, &held_out));
+        // And the held-out one is kept over it though its figure is four times higher.
+        assert!(predicts_better(&held_out, &in_sample));
+        // Of one kind, by the twentieth: 0.75 < 0.95 × 0.8 = 0.76; 0.77 is not.
+        assert!(predicts_better(&candidate(0.75, false), &held_out));
+        assert!(!predicts_better(&candidate(0.77, false), &held_out));
+        assert!(predicts_better(&candidate(0.15, true), &in_sample));
+        assert!(!predicts_better(&candidate(0.195, true), &in_sample));
     }
 }

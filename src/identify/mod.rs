@@ -56,12 +56,13 @@ use crate::gcode::Program;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::numeric::units::um_from_m;
 use crate::trace::measured::MeasuredTrace;
+use held_out::predicts_better;
 use knobs::{
     BACKLASH_KEY, KV_KEY, Knob, MASS_KEY, SF_INTEGRAL_KEY, SF_POSITION_KEY, SF_VELOCITY_KEY,
     STATIC_KEY, TF_GAIN_KEY, get, set_all,
 };
 use round::Round;
-use solve::{Fit, Fitted};
+use solve::{Fit, Fitted, masked_rms};
 
 /// Least travel an axis's commands must have to identify it (m).
 const LEAST_TRAVEL_M: f64 = 1e-3;
@@ -322,12 +323,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
     let (ctx, axis, offset) = (fit.ctx(), fit.axis(), fit.offset());
     let residual = fit.residual(template)?;
     let mask = fit.mask();
-    let (ss, n) = residual
-        .iter()
-        .zip(mask)
-        .filter(|(_, m)| **m)
-        .fold((0.0, 0usize), |(s, n), (v, _)| (s + v * v, n + 1));
-    let rms_um = um_from_m((ss / n.max(1) as f64).sqrt());
+    let rms_um = um_from_m(masked_rms(&residual, mask));
     let following_error_um = um_from_m(following_error_rms(ctx, axis, offset, mask));
     let values = knobs::for_axis(template)
         .iter()
@@ -466,12 +462,6 @@ fn identify_loop_order(
     })
 }
 
-/// Whether the larger model `more` predicts the record's held-out halves better than
-/// `fewer` by more than a twentieth: only then is it kept over it.
-fn predicts_better(more: &AxisIdentification, fewer: &AxisIdentification) -> bool {
-    verdict::predicts_better(more.held_out_identified_um, fewer.held_out_identified_um)
-}
-
 /// One axis on the samples `fit` uses: a staged start, the fit on the whole record and each
 /// half, undetermined values put back and the rest fitted again, each half's fit scored on
 /// the other half.
@@ -488,14 +478,7 @@ fn identify_on(
     let (round, base) = Round::fit_determined(fit, knobs, &start, &template_axis, &fold)?;
     let config = round.config(&round.whole);
     let mask = fit.mask();
-    let rms = |r: &[f64]| {
-        let (ss, n) = r
-            .iter()
-            .zip(mask)
-            .filter(|(_, m)| **m)
-            .fold((0.0, 0usize), |(s, n), (v, _)| (s + v * v, n + 1));
-        um_from_m((ss / n.max(1) as f64).sqrt())
-    };
+    let rms = |r: &[f64]| um_from_m(masked_rms(r, mask));
     let template_residual = fit.residual(&template_axis)?;
     let identified_residual = fit.residual(&config)?;
     let mut values = fitted_values(knobs, &round, &config, &template_axis);

@@ -101,13 +101,8 @@ struct Judged {
 impl Judged {
     /// `round`'s halves judged as the whole record's `residual` (m) places the model.
     fn of(fit: &Fit, round: &Round, residual: &[f64]) -> Judged {
-        let (ss, n) = residual
-            .iter()
-            .zip(fit.mask())
-            .filter(|(_, m)| **m)
-            .fold((0.0, 0usize), |(s, n), (v, _)| (s + v * v, n + 1));
-        let reached =
-            (ss / n.max(1) as f64).sqrt() <= super::REACHED_EXCESS * fit.ctx().noise_sigma;
+        let reached = super::solve::masked_rms(residual, fit.mask())
+            <= super::REACHED_EXCESS * fit.ctx().noise_sigma;
         let own = [round.halves[0].own_point, round.halves[1].own_point];
         let shown = reached || own.contains(&true);
         let counted = if reached || !shown { [true, true] } else { own };
@@ -185,6 +180,11 @@ fn fitted(
         .ok_or("the axis cannot be simulated on the whole record with the ripple written")?;
     // The force is judged again as written: the refitted halves with their ripples against
     // the first pass's halves without one and with the positions' cyclic error instead.
+    // The halves counted are the refit's (those with a point of their own), also for the
+    // first pass's two figures, whose halves may have found none: such a half's figures
+    // without a ripple and with the cyclic error are then scored on samples its values were
+    // partly fitted to, lower than held out. That errs conservative: the force must beat
+    // alternatives the mix flatters, never the other way.
     let judged = Judged::of(fit, &refit, &residual);
     let tie = Tie::of(&first.figures_with_force_of(&second), judged.counted);
     if !tie.force_written() {

@@ -27,10 +27,16 @@ const FAILED_M: f64 = 1.0;
 /// makes the point it ends at its own (`Fitted::own_point`). A half of the record started
 /// where the fit on the whole landed and fitting its own samples moves by about the whole
 /// fit's σ (the whole fit is the mean of the two halves', each √2 σ from it), some 0.7 of a
-/// half's own σ; a step a tenth of that or less — the search stopping on its tolerance, or
-/// a rounding at 1e-300 — moves the residual's sum of squares by under a hundredth of one
-/// noise variance: nothing a held-out figure could show, and the values are still the
-/// whole fit's.
+/// half's own σ. That σ is the one that scatters a half's values: the least-squares σ
+/// widened by the square root of the residual's correlation time τ (in samples), as the
+/// threshold is taken (`sigma_scaled`); on the raw σ a step √τ times smaller would count,
+/// a few hundredths of the expected move on a residual that keeps its sign for tens of
+/// samples. A step of a tenth of the scaled σ — along the valley, the other values
+/// refitted — raises the residual's sum of squares by 0.01·τ of its variance per sample
+/// (its spread², never below the noise's): a hundredth of what one stretch of τ correlated
+/// samples carries, so of one independent sample's worth. A step below it — the search
+/// stopping on its tolerance, or a rounding at 1e-300 — is nothing a held-out figure could
+/// show, and the values are still the whole fit's.
 const OWN_STEP_SIGMA: f64 = 0.1;
 
 /// Step of the Jacobian's differences in the scaled parameters: large against the
@@ -311,6 +317,7 @@ impl Problem<'_, '_, '_> {
         let raw = uncertainties(&end.jacobian, end.cost, noise);
         let sigma_scaled: Vec<f64> = raw.iter().map(|s| s * correlation).collect();
         let floors: Vec<f64> = self.knobs.iter().map(|k| k.input_floor).collect();
+        // On the widened σ, the one a half's values scatter by ([`OWN_STEP_SIGMA`]).
         let own_point = stepped_beyond_noise(end.p.as_slice(), &sigma_scaled, &floors);
         // The statistical uncertainty answers a rise of the residual's sum of squares by one
         // spread²; the model's floor, by the number of samples times its own square (the
@@ -363,6 +370,16 @@ impl Problem<'_, '_, '_> {
     }
 }
 
+/// RMS of `values` over the samples `mask` allows (in their unit); zero where it allows none.
+pub(crate) fn masked_rms(values: &[f64], mask: &[bool]) -> f64 {
+    let (ss, n) = values
+        .iter()
+        .zip(mask)
+        .filter(|(_, m)| **m)
+        .fold((0.0, 0usize), |(s, n), (v, _)| (s + v * v, n + 1));
+    (ss / n.max(1) as f64).sqrt()
+}
+
 /// Whether a fit's step `p` from where it started (scaled parameters) leaves it by at least
 /// [`OWN_STEP_SIGMA`] of some value's standard uncertainty there (`sigma_scaled`, in the
 /// same units, floored at the knob's least relative uncertainty `floors`). A value the fit
@@ -395,6 +412,14 @@ impl lsq::Problem for Problem<'_, '_, '_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_masked_rms_counts_only_the_samples_allowed() {
+        // √((3² + 4²) / 2) = √12.5; the 100 left out.
+        let rms = masked_rms(&[3.0, 100.0, 4.0], &[true, false, true]);
+        assert!((rms - 12.5f64.sqrt()).abs() < 1e-12, "{rms}");
+        assert_eq!(masked_rms(&[3.0, 4.0], &[false, false]), 0.0);
+    }
 
     #[test]
     fn only_a_step_of_a_tenth_of_sigma_makes_a_point_its_own() {

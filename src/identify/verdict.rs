@@ -176,12 +176,7 @@ pub(crate) fn while_moving(
         .map(|(a, b)| *a && *b)
         .collect();
     let identified = round.held_out_rms_on(fit, fold, &mask)?;
-    let (ss, n) = template_residual
-        .iter()
-        .zip(&mask)
-        .filter(|(_, m)| **m)
-        .fold((0.0, 0usize), |(s, n), (v, _)| (s + v * v, n + 1));
-    let template = (ss / n.max(1) as f64).sqrt();
+    let template = super::solve::masked_rms(template_residual, &mask);
     let following = super::following_error_rms(ctx, axis, offset, &mask);
     let [template, identified, following] = [template, identified, following].map(um_from_m);
     Some(WhileMoving {
