@@ -208,3 +208,25 @@ fn a_template_with_a_ripple_keeps_the_tables_against_fits_without_any() {
     assert!(phase.uncertainty < 20.0, "{phase:?}");
     assert_within_k_sigma("phase (°)", KNOWN.1, phase.value, phase.uncertainty, 3.0);
 }
+
+#[test]
+fn a_template_naming_a_ripple_the_table_lacks_gets_none_written() {
+    // The table has no ripple; the template names 6 N at 100° on X. The loop's values are
+    // fitted with that ripple in place and bend to it: judged against that fit with its
+    // ripple taken out, any ripple fitted on top would explain what the bending left, not
+    // the table. The record holds no ripple, so none is written, and the value listed is
+    // not a fitted one.
+    let measured = record(&machine(None), Cycle::default());
+    let mut template = machine(None);
+    template.x.errors.force_ripple_n = 6.0;
+    template.x.errors.force_ripple_phase_deg = 100.0;
+    let id = identified_from(&template, &measured);
+    let x = &id.axes[0];
+    let verdict = x.force_ripple.as_ref().expect("X names a period");
+    eprintln!("X: {verdict:?}");
+    let ripple = value(x, "errors.force_ripple_n");
+    assert!(
+        !verdict.written && !ripple.fitted(),
+        "{verdict:?} {ripple:?}"
+    );
+}
