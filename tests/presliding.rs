@@ -186,9 +186,49 @@ fn validation_names_the_key_a_machine_could_not_have() {
     assert!(machine(0.6, 6.0).x.friction.has_presliding());
 }
 
-/// Bristle keys at zero are the hybrid friction: the same model, the same trace.
+/// Bristles whose time scale against the table's mass, √(m/σ0) or m/σ1, is so short that a
+/// tenth of it (the simulation step they need) falls under a microsecond are refused, naming
+/// the key; bristles just inside that limit are taken.
 #[test]
-fn zero_bristles_are_stick_and_slip() {
+fn bristles_too_fast_to_simulate_are_refused() {
+    let plain = MachineConfig::from_toml_str("base = \"small-table\"\n", "a.toml").unwrap();
+    let mass_kg = plain.x.drive.table_mass_kg;
+    // √(m/σ0)/10 = 1 µs at σ0 = m/(10 µs)², and m/σ1/10 = 1 µs at σ1 = m/10 µs.
+    let stiffest_n_per_um = mass_kg / (10e-6f64).powi(2) * 1e-6;
+    let most_damping = mass_kg / 10e-6;
+    let with = |stiffness: f64, damping: f64| {
+        MachineConfig::from_toml_str(
+            &format!(
+                "base = \"small-table\"\n[x.friction]\nbristle_stiffness_n_per_um = {stiffness}\n\
+                 bristle_damping_n_s_per_m = {damping}\n\
+                 stribeck_velocity_mm_per_min = 6.0\n"
+            ),
+            "m.toml",
+        )
+        .map_err(|e| e.to_string())
+    };
+    let e = with(1.2 * stiffest_n_per_um, 0.0).unwrap_err();
+    assert!(e.contains("x.friction.bristle_stiffness_n_per_um"), "{e}");
+    assert!(e.contains("microsecond"), "{e}");
+    let e = with(15.0, 1.2 * most_damping).unwrap_err();
+    assert!(e.contains("x.friction.bristle_damping_n_s_per_m"), "{e}");
+    let taken = with(0.8 * stiffest_n_per_um, 0.8 * most_damping).unwrap();
+    // The run divides a cycle into steps no longer than the bristles allow.
+    let model = AxisModel::from_config(&taken.x);
+    let n = model.substeps(CYCLE_S, &SimConfig::default());
+    let step_s = CYCLE_S / n as f64;
+    let allowed_s = (mass_kg / (0.8 * stiffest_n_per_um * 1e6)).sqrt() / 10.0;
+    assert!(step_s <= allowed_s && step_s > 0.99 * allowed_s * (n - 1) as f64 / n as f64);
+}
+
+/// Bristle keys at zero are the hybrid friction: the same model. Very stiff bristles whose
+/// level near rest is Coulomb's (no fade) approach the hybrid friction: where the table has
+/// settled they hold it within the presliding range f_c/σ0 of where stick and slip holds it
+/// (they carry at most f_c), and the transients at a start or a stop, which last a few of the
+/// bristles' time scale √(m/σ0), part the two traces less as the bristles stiffen — by at
+/// least that time scale's √10 for ten times the stiffness.
+#[test]
+fn stiff_bristles_approach_stick_and_slip() {
     let plain = MachineConfig::from_toml_str("base = \"small-table\"\n", "a.toml").unwrap();
     let zeros = MachineConfig::from_toml_str(
         "base = \"small-table\"\n[x.friction]\nbristle_stiffness_n_per_um = 0.0\n\
@@ -196,22 +236,88 @@ fn zero_bristles_are_stick_and_slip() {
         "b.toml",
     )
     .unwrap();
-    let (a, b) = (
+    assert_eq!(
         AxisModel::from_config(&plain.x),
-        AxisModel::from_config(&zeros.x),
+        AxisModel::from_config(&zeros.x)
     );
-    assert_eq!(a, b);
-    assert!(a.presliding.is_none());
-    let knots = [(0.0, 0.0), (0.5, 2e-3), (1.0, 2e-3)];
-    let run = |m: &AxisModel| {
-        simulate(
-            m,
-            &commands(&path(&knots), 1.0),
-            CYCLE_S,
-            &SimConfig::default(),
+    let mass_kg = plain.x.drive.table_mass_kg;
+    let f_c = plain.x.friction.coulomb_coefficient * mass_kg * 9.81;
+    // Out 1 mm, hold, back, hold: two starts, two stops.
+    let knots = [(0.0, 0.0), (0.3, 1e-3), (0.4, 1e-3), (0.7, 0.0), (1.0, 0.0)];
+    let settled = [399, 999];
+    let gaps = |sigma0_n_per_m: f64| {
+        // Bristles damped at half the critical: σ1 = √(σ0·m).
+        let stiff = MachineConfig::from_toml_str(
+            &format!(
+                "base = \"small-table\"\n[x.position_loop]\nfeedback = \"linear_scale\"\n\
+                 [x.friction]\nstatic_to_coulomb = 1.0\nstribeck_velocity_mm_per_min = 0.0\n\
+                 bristle_stiffness_n_per_um = {}\nbristle_damping_n_s_per_m = {}\n",
+                sigma0_n_per_m * 1e-6,
+                (sigma0_n_per_m * mass_kg).sqrt()
+            ),
+            "c.toml",
         )
-        .unwrap()
-        .pos_m
+        .unwrap();
+        let mut hybrid = stiff.x.clone();
+        hybrid.friction.bristle_stiffness_n_per_um = 0.0;
+        hybrid.friction.bristle_damping_n_s_per_m = 0.0;
+        let run = |c: &contourcheck::machine::AxisConfig| {
+            let m = AxisModel::from_config(c);
+            let cmd = commands(&path(&knots), 1.0);
+            simulate(&m, &cmd, CYCLE_S, &SimConfig::default())
+                .unwrap()
+                .pos_m
+        };
+        let (a, b) = (run(&stiff.x), run(&hybrid));
+        let gap: Vec<f64> = a.iter().zip(&b).map(|(p, q)| (p - q).abs()).collect();
+        let range_m = f_c / sigma0_n_per_m;
+        for k in settled {
+            assert!(
+                gap[k] < range_m,
+                "{} m at {k} ms, range {range_m} m",
+                gap[k]
+            );
+        }
+        gap.iter().copied().fold(0.0, f64::max)
     };
-    assert_eq!(run(&a), run(&b));
+    let (worst, stiffer) = (gaps(1e10), gaps(1e11));
+    assert!(
+        stiffer < worst / 10f64.sqrt(),
+        "{stiffer} m against {worst} m"
+    );
+}
+
+/// The check report gives the finest simulation step any axis took: on the bristle axis the
+/// cycle is cut into steps of at most a tenth of √(m/σ0), finer than the settings' sub-steps.
+#[test]
+fn the_report_gives_the_bristles_step() {
+    use contourcheck::check::{CheckSettings, check, report::CheckReport};
+    use contourcheck::gcode::{InterpretOptions, parse_program};
+    let program = parse_program(
+        "G90 G1 X0.2 Y0.1 F600\nM30\n",
+        "t.nc",
+        &InterpretOptions::default(),
+    )
+    .unwrap();
+    let step_ms = |m: &MachineConfig| {
+        let settings = CheckSettings::for_machine(m);
+        let run = check(&program, m, &settings).unwrap();
+        let report = CheckReport::new(&run.result, &settings, &program, m, None);
+        (report.settings.simulation_step_ms, run.result.dt_s * 1e3)
+    };
+    let plain = MachineConfig::from_toml_str("base = \"small-table\"\n", "a.toml").unwrap();
+    let (plain_ms, cycle_ms) = step_ms(&plain);
+    assert_eq!(
+        plain_ms,
+        cycle_ms / f64::from(SimConfig::default().substeps)
+    );
+    let bristles = machine(0.6, 6.0);
+    let allowed_ms = (bristles.x.drive.table_mass_kg / SIGMA0_N_PER_M).sqrt() / 10.0 * 1e3;
+    let (step, cycle_ms) = step_ms(&bristles);
+    let n = (cycle_ms / allowed_ms).ceil();
+    assert!(n > f64::from(SimConfig::default().substeps), "{n}");
+    assert!(
+        (step - cycle_ms / n).abs() < 1e-12,
+        "{step} ms against {allowed_ms} ms"
+    );
 }

@@ -12,6 +12,7 @@ use crate::check::{CheckResult, CheckSettings, RunPlace, Summary};
 use crate::gcode::{CodeNote, Program, Warning};
 use crate::machine::MachineConfig;
 use crate::numeric::units::{mm_from_m, um_from_m};
+use crate::sim::AxisModel;
 
 /// Version tag of the JSON report.
 pub const SCHEMA: &str = "contourcheck.check/1";
@@ -83,7 +84,7 @@ pub struct SettingsInfo {
     pub profile: crate::plan::ProfileKind,
     /// Interpolation cycle (ms).
     pub interpolation_cycle_ms: f64,
-    /// Simulation step (ms).
+    /// Simulation step (ms): the finest any axis took.
     pub simulation_step_ms: f64,
 }
 
@@ -184,12 +185,19 @@ fn placed(program: &Program, line: u32) -> (Option<String>, u32) {
 }
 
 impl SettingsInfo {
-    /// The planner's and simulator's settings a run used.
-    fn of(run: &CheckResult, settings: &CheckSettings) -> Self {
+    /// The planner's and simulator's settings a run used; the simulation step is the finest
+    /// any axis took (presliding bristles may divide the cycle more finely than the settings).
+    fn of(run: &CheckResult, settings: &CheckSettings, machine: &MachineConfig) -> Self {
+        let substeps = machine
+            .simulated_configs()
+            .into_iter()
+            .map(|c| AxisModel::from_config(c).substeps(run.dt_s, &settings.sim))
+            .max()
+            .unwrap_or(1);
         SettingsInfo {
             profile: run.plan.config.profile,
             interpolation_cycle_ms: run.plan.config.cycle_s * 1e3,
-            simulation_step_ms: run.dt_s * 1e3 / f64::from(settings.sim.substeps.max(1)),
+            simulation_step_ms: run.dt_s * 1e3 / substeps as f64,
         }
     }
 }
@@ -284,7 +292,7 @@ impl CheckReport {
                 name: machine.name.clone(),
                 description: machine.description.clone(),
             },
-            settings: SettingsInfo::of(run, settings),
+            settings: SettingsInfo::of(run, settings, machine),
             cycle_time_s: s.cycle_time_s,
             path_length_mm: mm_from_m(s.path_length_m),
             cut_length_mm: mm_from_m(s.cut_length_m),

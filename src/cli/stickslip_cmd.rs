@@ -84,6 +84,12 @@ pub(crate) fn run(args: &StickSlipArgs) -> Result<Outcome, CliError> {
             mm_per_min_from_m_per_s(c.last_sticking_m_per_s),
             mm_per_min_from_m_per_s(c.first_smooth_m_per_s)
         ),
+        None if model.presliding.is_some() => {
+            println!(
+                "critical stick-slip velocity: {}",
+                stickslip::NOT_DETERMINED
+            )
+        }
         None => println!("critical stick-slip velocity: not bracketed by these feeds"),
     }
     if let Some(path) = &args.plot {

@@ -86,6 +86,10 @@ pub(crate) fn run(args: &ValidateArgs) -> Result<Outcome, CliError> {
     }
     match ss.critical_mm_per_min {
         Some(v) => println!("  critical stick-slip velocity: {v:.2} mm/min"),
+        None if machine.x.friction.has_presliding() => println!(
+            "  critical stick-slip velocity: {}",
+            stickslip::NOT_DETERMINED
+        ),
         None => println!("  critical stick-slip velocity: not found in the scan"),
     }
     print_trends(&machine, &sim)?;

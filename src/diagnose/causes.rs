@@ -175,6 +175,14 @@ impl CauseId {
             CauseId::Backlash if linear_motor => {
                 Some("a linear motor has no screw and nut to leave play")
             }
+            CauseId::Stribeck
+                if axis.friction.has_presliding() && axis.friction.static_to_coulomb < 1.0 =>
+            {
+                Some(
+                    "the axis's presliding bristles put friction near rest below Coulomb's: a \
+                     Stribeck excess above it contradicts the machine file",
+                )
+            }
             _ => None,
         }
     }
@@ -511,5 +519,23 @@ mod tests {
         linear.drive.kind = crate::machine::DriveKind::LinearMotor;
         assert!(CauseId::Backlash.inapplicable_to(&linear).is_some());
         assert!(CauseId::Backlash.inapplicable_to(&hvmc.x).is_none());
+    }
+
+    /// Bristles with friction near rest below Coulomb's leave no room for a Stribeck excess:
+    /// even its least level makes a machine file that validation refuses, so it is not tried.
+    #[test]
+    fn no_stribeck_excess_over_bristles_below_coulomb() {
+        let mut m = MachineConfig::preset("small-table").unwrap();
+        let f = &mut m.x.friction;
+        (f.bristle_stiffness_n_per_um, f.static_to_coulomb) = (50.0, 0.7);
+        f.stribeck_velocity_mm_per_min = 600.0;
+        m.validate("m.toml").unwrap();
+        assert!(CauseId::Stribeck.inapplicable_to(&m.x).is_some());
+        let least: Vec<f64> = CauseId::Stribeck.params().iter().map(|p| p.min).collect();
+        apply(&mut m.x, CauseId::Stribeck, &least);
+        assert!(m.validate("m.toml").is_err());
+        m.x.friction.static_to_coulomb = 1.0;
+        assert!(CauseId::Stribeck.inapplicable_to(&m.x).is_none());
+        m.validate("m.toml").unwrap();
     }
 }

@@ -186,6 +186,9 @@ const STATIC: Knob = Knob {
     min: 1.0,
     max: 5.0,
 };
+/// The same on an axis with presliding bristles, where friction near rest may lie below
+/// Coulomb's down to the tenth the machine file allows.
+const STATIC_WITH_BRISTLES: Knob = Knob { min: 0.1, ..STATIC };
 
 /// A transfer-function controller's gain at low frequency: the ratio of the lowest-order
 /// coefficients of numerator and denominator (an integrating controller's integral gain, a
@@ -366,8 +369,15 @@ pub(crate) fn nonlinear_for(axis: &AxisConfig, measured_at: MeasuredAt) -> Vec<K
     if screw && table_seen {
         knobs.push(BACKLASH);
     }
-    if axis.friction.coulomb_coefficient > 0.0 {
-        knobs.push(STATIC);
+    let f = &axis.friction;
+    if f.coulomb_coefficient > 0.0 {
+        if !f.has_presliding() {
+            knobs.push(STATIC);
+        } else if f.stribeck_velocity_mm_per_min > 0.0 {
+            // Bristles without a fade speed slide at Coulomb's level from rest: the level
+            // near rest acts nowhere, so there is nothing to fit.
+            knobs.push(STATIC_WITH_BRISTLES);
+        }
     }
     knobs
 }
@@ -594,6 +604,34 @@ mod tests {
         let mut smooth = small.clone();
         smooth.friction.coulomb_coefficient = 0.0;
         assert!(keys(&smooth, MeasuredAt::Motor).is_empty());
+    }
+
+    /// Bristles allow friction near rest down to a tenth of Coulomb's: a template's 0.7
+    /// stays 0.7 where the fit has not moved it, and the fit may search down to 0.1. Without
+    /// a fade speed the level near rest acts nowhere and is not fitted.
+    #[test]
+    fn a_presliding_level_below_coulomb_is_kept() {
+        let mut axis = MachineConfig::preset("small-table").unwrap().x;
+        axis.friction.bristle_stiffness_n_per_um = 50.0;
+        axis.friction.static_to_coulomb = 0.7;
+        axis.friction.stribeck_level_n = 0.0;
+        axis.friction.stribeck_velocity_mm_per_min = 600.0;
+        let knobs = nonlinear_for(&axis, MeasuredAt::Motor);
+        let j = knobs.iter().position(|k| k.key == STATIC_KEY).unwrap();
+        let at_zero = crate::identify::solve::values_at(
+            &knobs,
+            &axis,
+            &nalgebra::DVector::zeros(knobs.len()),
+        );
+        assert_eq!(at_zero[j], 0.7);
+        assert_eq!(knobs[j].min, 0.1);
+        axis.friction.static_to_coulomb = 1.0;
+        axis.friction.stribeck_velocity_mm_per_min = 0.0;
+        assert!(
+            !nonlinear_for(&axis, MeasuredAt::Motor)
+                .iter()
+                .any(|k| k.key == STATIC_KEY)
+        );
     }
 
     #[test]

@@ -70,6 +70,8 @@ const LEAST_TRAVEL_M: f64 = 1e-3;
 /// grid, where they are fitted.
 const BACKLASH_SCAN_UM: [f64; 9] = [0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0];
 const STATIC_SCAN: [f64; 8] = [1.0, 1.1, 1.25, 1.5, 1.75, 2.0, 2.5, 3.0];
+/// With presliding bristles friction near rest may lie below Coulomb's, down to a tenth.
+const STATIC_SCAN_WITH_BRISTLES: [f64; 8] = [0.1, 0.25, 0.5, 0.75, 1.0, 1.25, 1.5, 2.0];
 /// How much lower one of them alone, scanned on the template with the gains fitted without
 /// them, must bring the residual's sum of squares for the axis to be fitted again with them.
 const NONLINEAR_GAIN: f64 = 0.9;
@@ -583,6 +585,7 @@ fn fitted_values(
 fn scanned(fit: &Fit, config: &AxisConfig, key: &'static str) -> Option<(f64, AxisConfig)> {
     let scan: &[f64] = match key {
         BACKLASH_KEY => &BACKLASH_SCAN_UM,
+        STATIC_KEY if config.friction.has_presliding() => &STATIC_SCAN_WITH_BRISTLES,
         STATIC_KEY => &STATIC_SCAN,
         _ => return None,
     };

@@ -240,7 +240,7 @@ struct Problem<'f, 'c, 'a> {
 }
 
 /// Machine values of `knobs` at parameters `p` about `base`, within their ranges.
-fn values_at(knobs: &[Knob], base: &AxisConfig, p: &DVector<f64>) -> Vec<f64> {
+pub(crate) fn values_at(knobs: &[Knob], base: &AxisConfig, p: &DVector<f64>) -> Vec<f64> {
     knobs
         .iter()
         .zip(p.iter())

@@ -389,7 +389,7 @@ pub const AXIS_KEYS: &[AxisKey] = &[
         "",
         Positive(10.0),
         Always,
-        "static friction over Coulomb friction (≥ 1)",
+        "static friction over Coulomb friction: at least 1 without presliding bristles, 0.1 with them (the level near rest)",
         |a| a.friction.static_to_coulomb
     ),
     key!(

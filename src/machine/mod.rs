@@ -433,7 +433,7 @@ impl DriveKind {
 pub struct Friction {
     /// Coulomb coefficient c: f_c = c·M_T·g.
     pub coulomb_coefficient: f64,
-    /// Static-to-Coulomb ratio f_s/f_c (≥ 1).
+    /// Static-to-Coulomb ratio f_s/f_c: ≥ 1, or ≥ 0.1 with presliding bristles.
     pub static_to_coulomb: f64,
     /// Viscous coefficient f_v (N·s/m).
     pub viscous_n_s_per_m: f64,
@@ -458,6 +458,27 @@ impl Friction {
     pub fn has_presliding(&self) -> bool {
         self.bristle_stiffness_n_per_um > 0.0
     }
+}
+
+/// Simulation steps per bristle time scale (√(m/σ0) or m/σ1): the bristles' push, held over
+/// a step, then errs by about (ω·h)²/2 < 1 % of their force per step and the loop is far
+/// inside its stability limit (ω·h < 2).
+const BRISTLE_STEPS_PER_TIME_SCALE: f64 = 10.0;
+
+/// The shortest simulation step a machine file may ask for through its bristles (s).
+pub(crate) const SHORTEST_BRISTLE_STEP_S: f64 = 1e-6;
+
+/// The longest simulation steps (s) that presliding bristles of stiffness `sigma0_n_per_m`
+/// and damping `sigma1_n_s_per_m` allow on a table of `mass_kg`: for the spring, a tenth of
+/// √(m/σ0); for the damper, a tenth of m/σ1 (unbounded without damping).
+pub fn bristle_steps_s(mass_kg: f64, sigma0_n_per_m: f64, sigma1_n_s_per_m: f64) -> [f64; 2] {
+    let spring_s = (mass_kg / sigma0_n_per_m).sqrt();
+    let damper_s = if sigma1_n_s_per_m > 0.0 {
+        mass_kg / sigma1_n_s_per_m
+    } else {
+        f64::INFINITY
+    };
+    [spring_s, damper_s].map(|t| t / BRISTLE_STEPS_PER_TIME_SCALE)
 }
 
 fn is_zero(v: &f64) -> bool {

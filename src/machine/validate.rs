@@ -110,6 +110,7 @@ fn validate_mechanics(
     }
     let f = &a.friction;
     validate_presliding(c, k, f)?;
+    validate_bristle_step(c, k, f, a.drive.table_mass_kg)?;
     if f.static_to_coulomb < 1.0 && !f.has_presliding() {
         return Err(c.inconsistent(
             &k("friction.static_to_coulomb"),
@@ -200,6 +201,57 @@ fn validate_presliding(
         ));
     }
     Ok(())
+}
+
+/// Bristles so stiff or so strongly damped against the table's mass that their time scale
+/// (√(m/σ0) or m/σ1) asks for simulation steps under a microsecond: no guideway's, and no
+/// simulation would follow them accurately in a useful time.
+fn validate_bristle_step(
+    c: &Checker,
+    k: &dyn Fn(&str) -> String,
+    f: &super::Friction,
+    mass_kg: f64,
+) -> Result<(), ConfigError> {
+    if !f.has_presliding() {
+        return Ok(());
+    }
+    let [spring_s, damper_s] = super::bristle_steps_s(
+        mass_kg,
+        f.bristle_stiffness_n_per_um * 1e6,
+        f.bristle_damping_n_s_per_m,
+    );
+    let shortest = super::SHORTEST_BRISTLE_STEP_S;
+    let (key, value, unit, scale, step_s) = if spring_s <= damper_s {
+        let v = f.bristle_stiffness_n_per_um;
+        (
+            "friction.bristle_stiffness_n_per_um",
+            v,
+            "N/µm",
+            "√(m/σ0)",
+            spring_s,
+        )
+    } else {
+        let v = f.bristle_damping_n_s_per_m;
+        (
+            "friction.bristle_damping_n_s_per_m",
+            v,
+            "N·s/m",
+            "m/σ1",
+            damper_s,
+        )
+    };
+    if step_s >= shortest {
+        return Ok(());
+    }
+    Err(c.inconsistent(
+        &k(key),
+        format!(
+            "is {value} {unit}: on a table of {mass_kg} kg the bristles' time scale {scale} is \
+             {:.3} µs, which needs simulation steps under a microsecond (a tenth of it); \
+             no guideway's bristles are that fast",
+            step_s * 10.0 * 1e6
+        ),
+    ))
 }
 
 /// The sections the controller structure needs: a velocity loop where it commands one, a

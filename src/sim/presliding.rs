@@ -21,13 +21,8 @@
 //! stable and accurate while the step is short against √(m/σ0) and m/σ1 — the run divides
 //! its cycle finely enough ([`Presliding::substeps`]).
 
-use crate::machine::AxisConfig;
+use crate::machine::{AxisConfig, bristle_steps_s};
 use crate::numeric::units::m_per_s_from_mm_per_min;
-
-/// Steps per bristle time scale (√(m/σ0) or m/σ1): the explicit push then errs by about
-/// (ω·h)²/2 < 1 % of the bristle force per step and the loop is far inside its stability
-/// limit (ω·h < 2).
-const STEPS_PER_TIME_SCALE: f64 = 10.0;
 
 /// The presliding parameters of one axis, in SI.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -72,14 +67,10 @@ impl Presliding {
 
     /// Sub-steps a cycle of `dt_s` needs for the bristles on a table of `mass_kg`.
     pub(crate) fn substeps(&self, dt_s: f64, mass_kg: f64) -> usize {
-        let spring_s = (mass_kg / self.sigma0_n_per_m).sqrt();
-        let damper_s = if self.sigma1_n_s_per_m > 0.0 {
-            mass_kg / self.sigma1_n_s_per_m
-        } else {
-            f64::INFINITY
-        };
-        let h_max = spring_s.min(damper_s) / STEPS_PER_TIME_SCALE;
-        (dt_s / h_max).ceil().clamp(1.0, 1e6) as usize
+        let [spring_s, damper_s] =
+            bristle_steps_s(mass_kg, self.sigma0_n_per_m, self.sigma1_n_s_per_m);
+        // Validation keeps the step at a microsecond or longer; the cap guards the count.
+        (dt_s / spring_s.min(damper_s)).ceil().clamp(1.0, 1e6) as usize
     }
 
     /// The bristles' deflection after the table travels `dx_m` from deflection `z_m`, with

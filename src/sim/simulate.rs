@@ -122,6 +122,18 @@ pub struct AxisRun<'a> {
     bristle_m: Option<f64>,
 }
 
+impl AxisModel {
+    /// The sub-steps a cycle of `dt_s` (s) is divided into on this axis: the settings'
+    /// count, or more where presliding bristles need a finer step.
+    pub fn substeps(&self, dt_s: f64, config: &SimConfig) -> usize {
+        let set = config.substeps.max(1) as usize;
+        match &self.presliding {
+            Some(p) => p.substeps(dt_s, self.mt).max(set),
+            None => set,
+        }
+    }
+}
+
 impl<'a> AxisRun<'a> {
     /// An axis at rest at `x0_m` (m), advanced in cycles of `dt_s` (s). An unstable gain
     /// setting is refused here, before any step.
@@ -132,10 +144,7 @@ impl<'a> AxisRun<'a> {
         config: &SimConfig,
     ) -> Result<Self, SimError> {
         super::linear::check_stable(model)?;
-        let substeps = match &model.presliding {
-            Some(p) => p.substeps(dt_s, model.mt).max(config.substeps as usize),
-            None => config.substeps.max(1) as usize,
-        };
+        let substeps = model.substeps(dt_s, config);
         let (x, mode) = rest_state(model, x0_m);
         Ok(AxisRun {
             model,
