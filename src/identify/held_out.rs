@@ -57,6 +57,7 @@ pub(crate) fn identified_words(a: &AxisIdentification) -> String {
 
 /// Where the fit's held-out figure is in-sample, a note saying so beside a table that shows
 /// it in the held-out row.
+#[cfg(any(test, feature = "html-report"))]
 pub(crate) fn in_sample_note(a: &AxisIdentification) -> Option<String> {
     a.held_out_in_sample.then(|| {
         format!(

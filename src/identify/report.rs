@@ -1,6 +1,8 @@
 //! An identification for people (the terminal's table), for scripts (JSON) and for the
 //! control (the machine file with the values and their uncertainties in its header).
 
+// The HTML page's note; the terminal and the file header word it in their own lines.
+#[cfg(feature = "html-report")]
 pub(crate) use super::held_out::in_sample_note;
 use std::fmt::Write as _;
 
