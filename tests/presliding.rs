@@ -105,6 +105,43 @@ fn bristles_load_and_unload_along_the_lugre_curves() {
     assert!(unloaded < -0.4 * g, "{unloaded}");
 }
 
+/// With friction near rest at 0.6 of Coulomb's, fading into it over 6 mm/min, bristles
+/// pulled out at a creep (a twentieth of the fade speed) carry that lower level while they
+/// creep: g(v) = f_c·(1 − 0.4·exp(−(v/v_s)²)), loaded along g·(1 − exp(−σ0·x/g)) (plus the
+/// viscous f_v·v, a millinewton here) — not Coulomb's. (Read while creeping: at the stop a
+/// few nanometres of the loop's settling back would unload the bristles along their steep
+/// curve, σ0 = 15 N/µm.)
+#[test]
+fn a_level_near_rest_below_coulomb_is_what_creeping_bristles_carry() {
+    let config = machine(0.6, 6.0);
+    let model = AxisModel::from_config(&config.x);
+    let f_c = model.f_c;
+    let fade_m_per_s = 6.0 / 60_000.0;
+    let out = 6.0 * 0.6 * f_c / SIGMA0_N_PER_M;
+    let creep = 0.05 * fade_m_per_s;
+    let t_out = 0.1 + out / creep;
+    let knots = [(0.1, 0.0), (t_out, out), (t_out + 1.0, out)];
+    let duration = t_out + 1.0;
+    let trace = simulate(
+        &model,
+        &commands(&path(&knots), duration),
+        CYCLE_S,
+        &SimConfig::default(),
+    )
+    .unwrap();
+    let force = |i: f64| model.kt * i / (model.r * model.it);
+    let (from, to) = (t_out - 0.3, t_out - 0.1);
+    let held = force(mean(&trace.current_a, from, to));
+    let g = f_c * (1.0 - 0.4 * (-(0.05f64).powi(2)).exp());
+    let travelled = mean(&trace.pos_m, from, to) - mean(&trace.pos_m, 0.0, 0.1);
+    let loaded = g * (1.0 - (-SIGMA0_N_PER_M * travelled / g).exp()) + model.f_v * creep;
+    assert!(
+        (held - loaded).abs() < 0.01 * f_c,
+        "{held} N held against {loaded} N (Coulomb {f_c} N)"
+    );
+    assert!(held < 0.7 * f_c, "{held} N: the level near rest acts");
+}
+
 /// The independent integrator, the same machine: out by a presliding range and back, then
 /// 60 µm slowly (breaking away after about 3·g/σ0 of bending), then back 60 µm faster, the
 /// friction at rest at 0.6 of Coulomb's passing into it over 6 mm/min. The two integrations

@@ -238,7 +238,11 @@ impl Plant {
             b_screw: d.screw_viscous_nm_s_per_rad,
             half_gap: 0.5e-6 * d.backlash_um,
             f_c,
-            f_s: (c.friction.static_to_coulomb * f_c).max(f_c + c.friction.stribeck_level_n),
+            f_s: if c.friction.has_presliding() && c.friction.static_to_coulomb < 1.0 {
+                c.friction.static_to_coulomb * f_c
+            } else {
+                (c.friction.static_to_coulomb * f_c).max(f_c + c.friction.stribeck_level_n)
+            },
             f_v: c.friction.viscous_n_s_per_m,
             dead_time: c.position_loop.dead_time_ms * 1e-3,
             law: Law::Cascade,

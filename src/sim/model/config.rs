@@ -99,7 +99,13 @@ fn cascade_position_gain(c: &AxisConfig, m: &Mechanics) -> f64 {
 /// f_c + level: the break-away force cannot be lower than that (the Stribeck curve starts
 /// at static friction).
 fn breakaway_force(c: &AxisConfig, f_c: f64) -> f64 {
-    (c.friction.static_to_coulomb * f_c).max(f_c + c.friction.stribeck_level_n)
+    let f = &c.friction;
+    if f.has_presliding() && f.static_to_coulomb < 1.0 {
+        // Bristles carry a level near rest below Coulomb's (validation refuses a Stribeck
+        // excess with it): friction that grows with speed at low speed.
+        return f.static_to_coulomb * f_c;
+    }
+    (f.static_to_coulomb * f_c).max(f_c + f.stribeck_level_n)
 }
 
 /// The Stribeck excess (N) and the speed it falls over (m/s), where there is one.
