@@ -190,7 +190,8 @@ fn least_squares_2(u: &[f64], v: &[f64], r: &[f64]) -> Option<(f64, f64)> {
         }
     }
     let det = uu * vv - uv * uv;
-    if !(det > 1e-12 * uu * vv) {
+    // Also none where a column is not finite (det NaN).
+    if det.is_nan() || det <= 1e-12 * uu * vv {
         return None;
     }
     Some(((-ur * vv + vr * uv) / det, (-vr * uu + ur * uv) / det))
