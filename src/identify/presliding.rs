@@ -131,14 +131,12 @@ pub(super) fn tried(
         return (config, id);
     };
     let fold = fit.ctx().halves(fit.offset());
-    let rounds: Vec<Tried> = SHAPES
-        .par_iter()
-        .filter_map(|&shape| {
-            let base = shape.on(&config, coulomb_start(fit, shape, &config)?);
-            let round = Round::fit(fit, knobs.clone(), &base, &fold)?;
-            Some(Tried { shape, round, base })
-        })
-        .collect();
+    let Some(rounds) = rounds(fit, &config, &knobs, &fold) else {
+        let reason = "no shape, the loop's values fitted again with it, fits the whole record \
+                      better by a twentieth";
+        id.presliding = Some(not(reason, f64::NAN));
+        return (config, id);
+    };
     let Some((with_m, agree)) = held_out(fit, &rounds, &fold, id.reached) else {
         let reason = "no shape's halves could be simulated or moved from the whole fit's";
         id.presliding = Some(not(reason, f64::NAN));
@@ -165,6 +163,30 @@ pub(super) fn tried(
             (config, id)
         }
     }
+}
+
+/// The rounds of the shapes worth scoring on the halves: each shape's fit on the whole
+/// record first, and only those whose residual's RMS there lies below the fit's without
+/// bristles (`config`) by the twentieth a larger model must earn fitted on each half — a
+/// shape that does not fit the samples it was fitted to better cannot predict those it was
+/// not (the halves' fits are two thirds of a round's cost). None where no shape is.
+fn rounds(fit: &Fit, config: &AxisConfig, knobs: &[Knob], fold: &[bool]) -> Option<Vec<Tried>> {
+    let without = fit.cost(config)?;
+    let rounds: Vec<Tried> = SHAPES
+        .par_iter()
+        .filter_map(|&shape| {
+            let base = shape.on(config, coulomb_start(fit, shape, config)?);
+            let whole = fit.run(knobs, &base, &|_| true)?;
+            if !verdict::predicts_better(whole.cost.sqrt(), without.sqrt()) {
+                return None;
+            }
+            // The round's fit on the whole record starts where this one landed: a step.
+            let base = Fit::config(knobs, &base, &whole.values);
+            let round = Round::fit(fit, knobs.to_vec(), &base, fold)?;
+            Some(Tried { shape, round, base })
+        })
+        .collect();
+    (!rounds.is_empty()).then_some(rounds)
 }
 
 /// The knobs of `knobs_all` the fit `id` fitted in its last round (those with an
