@@ -38,11 +38,15 @@ pub enum CauseId {
     LateralPlay,
     /// Lost motion beyond the scale: this axis reads more travelling one way than the other.
     DirectionOffset,
+    /// A force that repeats with the table's position (a motor's torque ripple or cogging, a
+    /// screw's eccentricity), at the period the machine file names or the drive's turn gives
+    /// (`diagnose::ripple`).
+    ForceRipple,
 }
 
 impl CauseId {
     /// Every cause.
-    pub const ALL: [CauseId; 12] = [
+    pub const ALL: [CauseId; 13] = [
         CauseId::Backlash,
         CauseId::CoulombFriction,
         CauseId::Stribeck,
@@ -55,6 +59,7 @@ impl CauseId {
         CauseId::Straightness,
         CauseId::LateralPlay,
         CauseId::DirectionOffset,
+        CauseId::ForceRipple,
     ];
 
     /// What kind of record would tell this cause from `other` where a record explains both
@@ -84,6 +89,10 @@ impl CauseId {
              the axis's own position, out-of-squareness the other axis's"
         } else if pair(Squareness, Straightness) {
             "a stroke over the whole travel: out-of-squareness grows along it, a bow returns"
+        } else if pair(ForceRipple, CyclicError) {
+            "records at several feeds: the loop answers a force at the ripple's frequency \
+             (feed over period) more or less with the speed, an error of the positions read \
+             follows the position alone"
         } else if pair(ScaleError, CyclicError) {
             "a stroke over many screw turns: a scale error grows along it, a cyclic error repeats"
         } else {
@@ -106,6 +115,7 @@ impl CauseId {
             CauseId::Straightness => "straightness",
             CauseId::LateralPlay => "lateral_play",
             CauseId::DirectionOffset => "direction_offset",
+            CauseId::ForceRipple => "force_ripple",
         }
     }
 
@@ -159,6 +169,14 @@ impl CauseId {
             CauseId::LateralPlay => const { &[param("errors.lateral_play_um", 5.0, -1e4..=1e4)] },
             CauseId::DirectionOffset => {
                 const { &[param("errors.direction_offset_um", 5.0, -1e4..=1e4)] }
+            }
+            CauseId::ForceRipple => {
+                const {
+                    &[
+                        param("errors.force_ripple_n", 5.0, 0.0..=1e5),
+                        param("errors.force_ripple_phase_deg", 30.0, -1e6..=1e6),
+                    ]
+                }
             }
         }
     }
@@ -316,6 +334,9 @@ pub struct Kinematics<'a> {
     pub dt_s: f64,
     /// The cyclic error's period (m).
     pub cyclic_period_m: f64,
+    /// The force ripple's period (m): the machine file's, or the one `diagnose::ripple`
+    /// chose for the search.
+    pub ripple_period_m: f64,
     /// The other axis's position (m).
     pub other_pos_m: &'a [f64],
 }
@@ -346,8 +367,13 @@ pub(crate) fn signature(cause: CauseId, r: &[f64], k: &Kinematics) -> f64 {
     let all = |_: usize| true;
     match cause {
         CauseId::ScaleError => explained(r, n, &[&|i| k.pos_m[i]], &all),
-        CauseId::CyclicError => {
-            let w = std::f64::consts::TAU / k.cyclic_period_m;
+        CauseId::CyclicError | CauseId::ForceRipple => {
+            let period_m = if cause == CauseId::CyclicError {
+                k.cyclic_period_m
+            } else {
+                k.ripple_period_m
+            };
+            let w = std::f64::consts::TAU / period_m;
             explained(
                 r,
                 n,
@@ -399,7 +425,7 @@ pub(crate) fn signature(cause: CauseId, r: &[f64], k: &Kinematics) -> f64 {
 }
 
 /// Share of the variance of r (over samples where `keep`) that regressors explain.
-fn explained(
+pub(crate) fn explained(
     r: &[f64],
     n: usize,
     regressors: &[&dyn Fn(usize) -> f64],

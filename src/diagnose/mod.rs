@@ -25,6 +25,7 @@ pub mod locate;
 pub mod plausible;
 pub mod repeat;
 pub mod report;
+pub mod ripple;
 pub mod search;
 pub mod synth;
 pub mod table;
@@ -592,6 +593,7 @@ fn drop_last_cause(
         let values: Vec<f64> = c.params.iter().map(|p| p.value).collect();
         causes::apply(machine.axis_mut(c.axis), c.id, &values);
     }
+    ripple::periods_kept(&mut machine, &outcome.machine, nominal_machine);
     let traces = AxisName::BOTH.map(|a| ctx.simulate_axis(&machine, a));
     outcome.traces = match traces {
         [Some(x), Some(y)] => [x, y],

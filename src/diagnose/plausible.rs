@@ -78,6 +78,17 @@ fn implausible_mechanics(
                 )
             })
         }
+        // A ripple is a share of what the drive can push; beyond all of it, no motor has it.
+        CauseId::ForceRipple => {
+            let peak_n = super::ripple::peak_force_n(axis)?;
+            (values[0] > peak_n).then(|| {
+                format!(
+                    "a force ripple of {:.0} N exceeds the most the axis's drive can push \
+                     ({peak_n:.0} N: its current limit through the motor's torque constant)",
+                    values[0]
+                )
+            })
+        }
         CauseId::CoulombFriction => (values[0] > COULOMB_COEFFICIENT_MAX).then(|| {
             format!(
                 "a friction coefficient of {:.3} exceeds any guideway's ({COULOMB_COEFFICIENT_MAX})",

@@ -706,6 +706,11 @@ pub(crate) fn next_step(c: &CauseReport) -> String {
             "a geometric error between the axes, seen on {axis}: compensate it \
              (--write-compensation DIR) or realign the axes"
         ),
+        CauseId::ForceRipple => format!(
+            "a force on the {axis} table repeats with its position (its period in the machine \
+             file written): check the motor's torque ripple and cogging, the screw's run-out and \
+             the drive's ripple compensation; the fitted machine file predicts with it"
+        ),
         CauseId::Resonance => format!(
             "a structural mode at {value:.1} Hz shows on {axis}: check the velocity loop's filters \
              and the machine's mounting; the fitted machine file predicts with it"

@@ -15,7 +15,7 @@ use serde::Serialize;
 use super::fit::{self, Fitted};
 use super::holdout::{HeldOut, JudgedOn, Validation, held_out};
 use super::plausible::{Observed, implausible};
-use super::{Alternative, DiagnoseSettings, FittedParam, FoundCause};
+use super::{Alternative, DiagnoseSettings, FittedParam, FoundCause, ripple};
 use crate::compare::context::Context;
 use crate::compare::residual::{
     CHATTER_AVERAGE_HALF_S, averaged_rms, axis_residual, chatter_mismatch, independent_share, rms,
@@ -149,6 +149,11 @@ pub(crate) fn search(
         candidates: Vec::new(),
         rejected: Vec::new(),
     };
+    // Where the machine file names no ripple period, the one the residual shows of those
+    // the drive gives: inert (no force) until a ripple is named, and not kept otherwise.
+    let may_ripple = |a| super::tries_allowed(machine, settings, a, CauseId::ForceRipple);
+    let now = (&outcome.traces, offset_s);
+    ripple::choose_periods(ctx, &mut outcome.machine, now, &may_ripple);
     let observed = AxisName::BOTH.map(|a| observed_on(ctx, a, offset_s));
     // Only an axis seen to stick is compared on statistics; one whose measurement chatters
     // is compared on them throughout.
@@ -205,6 +210,8 @@ pub(crate) fn search(
             validation.as_deref_mut(),
         );
     }
+    let searched = outcome.machine.clone();
+    ripple::periods_kept(&mut outcome.machine, &searched, machine);
     outcome
 }
 
@@ -238,10 +245,29 @@ fn choose(
         })
         .collect();
     eligible.sort_by(|a, b| b.evidence.total_cmp(&a.evidence));
+    let rivals: Vec<_> = eligible
+        .iter()
+        .map(|s| (s.try_.cause, s.try_.axis, s.evidence))
+        .collect();
     let mut eligible = eligible.into_iter();
     let mut chosen = None;
     for s in eligible.by_ref() {
-        match judge(ctx, settings, outcome.current(), observed, &s, validation) {
+        let told = |s: &Scored| {
+            let margin = (0.01 * s.evidence).max(settings.evidence);
+            let axis = s.try_.axis;
+            let config = outcome.machine.axis(axis);
+            let read = (s.try_.cause == CauseId::ForceRipple).then(|| {
+                let r = ctx.residual(axis, &outcome.traces[axis.index()], outcome.offset_s);
+                let period_m = config.errors.force_ripple_period_mm * 1e-3;
+                let n = 2.0 * ctx.samples.len() as f64;
+                ripple::positions_read_evidence(ctx, axis, &r, period_m, n)
+            });
+            let fit = (s.try_.cause, axis, s.evidence);
+            ripple::cannot_tell(fit, config, (&rivals, read), margin).map_or(Ok(()), Err)
+        };
+        let judged = told(&s)
+            .and_then(|()| judge(ctx, settings, outcome.current(), observed, &s, validation));
+        match judged {
             Ok(held_out) => {
                 chosen = Some((s, held_out));
                 break;
@@ -668,10 +694,10 @@ fn tries_on_axis(
         .collect();
     let (reversal, _) = ctx.event_masks(axis, offset_s, settings.event_window_s);
     let ax = current.axis(axis);
-    let period_mm = if ax.errors.cyclic_period_mm > 0.0 {
-        ax.errors.cyclic_period_mm
-    } else {
-        ax.drive.lead_mm
+    let period_mm = ripple::cyclic_period_mm(ax);
+    let ripple_period_mm = match ax.errors.force_ripple_period_mm {
+        p if p > 0.0 => p,
+        _ => period_mm,
     };
     let kin = Kinematics {
         pos_m: &pos,
@@ -679,6 +705,7 @@ fn tries_on_axis(
         near_reversal: &reversal,
         dt_s: ctx.sample_dt_s,
         cyclic_period_m: period_mm * 1e-3,
+        ripple_period_m: ripple_period_mm * 1e-3,
         other_pos_m: &other_pos,
     };
     CauseId::ALL
@@ -690,10 +717,18 @@ fn tries_on_axis(
                 .iter()
                 .map(|p| causes::get(ax, p.key))
                 .collect();
+            let guess = match cause {
+                CauseId::ForceRipple => {
+                    let other = &traces[axis.other().index()];
+                    ripple::linear_start(ctx, current, (axis, other), offset_s, &r)
+                        .unwrap_or_else(|| now.clone())
+                }
+                _ => initial_guess(cause, ax, &r, &kin),
+            };
             Try {
                 axis,
                 cause,
-                starts: starts(cause, initial_guess(cause, ax, &r, &kin), &now),
+                starts: starts(cause, guess, &now),
                 signature: causes::signature(cause, &r, &kin),
                 statistical,
             }
@@ -848,6 +883,11 @@ fn initial_guess(cause: CauseId, axis: &AxisConfig, r: &[f64], k: &Kinematics) -
             let dir = k.own_direction();
             vec![2.0 * slope(&|i| dir[i]) * 1e6]
         }
+        // Found from two simulations instead (`ripple::linear_start`): the machine's.
+        CauseId::ForceRipple => vec![
+            axis.errors.force_ripple_n,
+            axis.errors.force_ripple_phase_deg,
+        ],
     }
 }
 

@@ -30,6 +30,7 @@ mod interpolator;
 mod knobs;
 mod linear;
 mod loop_model;
+mod presliding;
 pub mod report;
 mod result;
 mod ripple;
@@ -44,6 +45,7 @@ use rayon::prelude::*;
 
 pub use baseline::Baseline;
 pub use interpolator::Interpolator;
+pub use presliding::PreslidingVerdict;
 pub use result::{
     AxisIdentification, ComplexPair, GainPerInertia, Identification, IdentifiedValue, IdentifyError,
 };
@@ -253,7 +255,7 @@ fn fit_axis(
     };
     let noise_um = um_from_m(ctx.noise_sigma);
     if everywhere.1.reached && verdict::judged_while_moving(&mut everywhere.1, noise_um) {
-        return Some(everywhere);
+        return Some(presliding::at_noise(everywhere, template.axis(axis)));
     }
     // Then the plant's nonlinear parts on top, where the template's values alone leave the
     // record above its noise: a healthy machine never gets them fitted (a value found in
@@ -264,11 +266,16 @@ fn fit_axis(
         && let Some(mut extended) = identify_ordered(&fit, template, false, &nonlinear)
     {
         if extended.1.reached && verdict::judged_while_moving(&mut extended.1, noise_um) {
-            return Some(extended);
+            return Some(presliding::at_noise(extended, template.axis(axis)));
         }
         if predicts_better(&extended.1, &everywhere.1) {
             everywhere = extended;
         }
+    }
+    let candidates = presliding::candidate_knobs(template.axis(axis), &nonlinear);
+    everywhere = presliding::tried(&fit, template.axis(axis), everywhere, &candidates);
+    if everywhere.1.reached && verdict::judged_while_moving(&mut everywhere.1, noise_um) {
+        return Some(everywhere);
     }
     let moving = moving_samples(ctx, axis, offset);
     let fit = Fit::new(ctx, template, axis, offset).masked(moving);
@@ -277,7 +284,14 @@ fn fit_axis(
         Model::Loop => identify_loop_order(&fit, template, true),
     }
     .map(|found| verdict::judged(found, noise_um));
-    Some(best_written(everywhere, while_moving, template.axis(axis)))
+    let verdict = everywhere.1.presliding.clone();
+    let mut written = best_written(everywhere, while_moving, template.axis(axis));
+    if written.1.moving_only {
+        written.1.presliding = verdict;
+        let why = "the fit away from the standstills, without them, is written";
+        presliding::not_written(&mut written.1.presliding, why);
+    }
+    Some(written)
 }
 
 /// What is written for an axis whose fit on every sample stayed above the record's noise:
@@ -365,6 +379,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             judged_while_moving: false,
             while_moving: None,
             force_ripple: ripple::unfitted(template),
+            presliding: None,
         },
     ))
 }
@@ -381,6 +396,7 @@ fn not_reached(
     identified.better_than_template = false;
     identified.gain_per_inertia = None;
     ripple::not_written(&mut identified.force_ripple);
+    presliding::not_written(&mut identified.presliding, "the axis's fit is not written");
     for v in &mut identified.values {
         v.determined = false;
         v.measured = false;
@@ -532,6 +548,7 @@ fn identify_on(
                 .flatten()
                 .map(|m| ripple::while_moving(ripple.as_ref(), fit, &fold, m)),
             force_ripple: ripple.map(|r| r.verdict),
+            presliding: None,
         },
     ))
 }

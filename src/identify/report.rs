@@ -176,6 +176,9 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
     if let Some(r) = &a.force_ripple {
         let _ = writeln!(s, "  {}", r.statement);
     }
+    if let Some(p) = &a.presliding {
+        let _ = writeln!(s, "  {}", p.statement);
+    }
     if a.kept.starts_with("no template") {
         let _ = writeln!(s, "  {}", a.kept);
     } else {
@@ -396,6 +399,9 @@ pub(crate) fn machine_file(
         }
         if let Some(r) = &a.force_ripple {
             let _ = writeln!(s, "#   {}: {}", a.axis, r.statement);
+        }
+        if let Some(p) = &a.presliding {
+            let _ = writeln!(s, "#   {}: {}", a.axis, p.statement);
         }
     }
     if let Some(line) = no_ripple_period_line(&id.axes) {

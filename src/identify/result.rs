@@ -210,6 +210,9 @@ pub struct AxisIdentification {
     /// Where the template names a force ripple's period: what the record says of it,
     /// written or not determined and why. `None` where the template names no period.
     pub force_ripple: Option<super::RippleVerdict>,
+    /// Where the template names no presliding bristles: whether bristles are written, or
+    /// not determined and why (`None` where the template names them).
+    pub presliding: Option<super::PreslidingVerdict>,
 }
 
 /// The identification of a machine from a record.
@@ -309,6 +312,7 @@ impl AxisIdentification {
             judged_while_moving: false,
             while_moving: None,
             force_ripple: None,
+            presliding: None,
         }
     }
 }

@@ -1,0 +1,389 @@
+//! The force ripple as a cause ([`CauseId::ForceRipple`]): a force that repeats with the
+//! table's position, F = A·sin(2π·x/period + φ) (docs/model.md §5).
+//!
+//! Its period is the machine file's where it names one (`errors.force_ripple_period_mm`).
+//! Otherwise it is chosen among the periods the drive's mechanics give a ripple — a motor
+//! turn's travel and its first harmonics (unbalance and eccentricity once a turn, torque
+//! ripple and cogging a few times), and the screw's lead where a gear lies between — as the
+//! one whose sine and cosine in position explain most of the residual. A free scan of the
+//! residual's spectrum against position is not used: a record covers a few tens of periods
+//! at most, its spectrum is coarse, and a free period bends towards whatever else the model
+//! misses (a bow, a drift) with nothing that ties it to the machine; a period the drive
+//! gives is one a user can check and compensate.
+//!
+//! The amplitude and phase move the residual nearly linearly (the loop is linear but for
+//! friction switching): the force's sine and cosine parts are found by least squares from
+//! two simulations with a trial part added each, and the search's fit polishes them and
+//! gives their uncertainties. A cyclic error in the positions recorded of the same period
+//! (`CauseId::CyclicError`) is the other hypothesis: where the record explains both alike,
+//! neither is named ([`cannot_tell`]).
+
+use std::f64::consts::TAU;
+
+use super::causes::{self, CauseId};
+use crate::compare::context::Context;
+use crate::machine::{AxisConfig, AxisName, MachineConfig};
+use crate::sim::AxisModel;
+use crate::trace::signal::sample;
+
+/// How many periods the travel compared must span for a period to be chosen: fewer, and a
+/// sine in position is a drift or a bow as much as a ripple.
+const PERIODS_SPANNED_MIN: f64 = 3.0;
+
+/// The harmonics of a turn's travel a ripple is looked for at.
+const TURN_HARMONICS: [f64; 4] = [1.0, 2.0, 3.0, 4.0];
+
+/// The trial force (N) of each part in [`linear_start`]: large beside the noise's worth of
+/// force, small beside friction, so that switching instants barely move.
+const TRIAL_N: f64 = 10.0;
+
+/// The periods (m) a ripple of `axis` is looked for at where the machine file names none: a
+/// motor turn's travel and its harmonics, and the screw's lead (a screw turn) and its
+/// harmonics where a gear makes it another.
+pub(crate) fn candidate_periods_m(axis: &AxisConfig) -> Vec<f64> {
+    let turn_m = TAU * AxisModel::from_config(axis).travel_per_motor_rad();
+    let lead_m = axis.drive.lead_mm * 1e-3;
+    let mut turns = vec![turn_m];
+    if lead_m > 0.0 && (lead_m - turn_m).abs() > 1e-6 * turn_m {
+        turns.push(lead_m);
+    }
+    turns
+        .into_iter()
+        .filter(|t| t.is_finite() && *t > 0.0)
+        .flat_map(|t| TURN_HARMONICS.map(|h| t / h))
+        .collect()
+}
+
+/// Of `candidates` (m), the period whose sine and cosine in the positions `pos_m` explain
+/// most of the residual `r`, among those the travel spans [`PERIODS_SPANNED_MIN`] times;
+/// none where the travel spans none so often.
+pub(crate) fn chosen_period_m(candidates: &[f64], r: &[f64], pos_m: &[f64]) -> Option<f64> {
+    let finite = pos_m.iter().copied().filter(|p| p.is_finite());
+    let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+        (lo.min(p), hi.max(p))
+    });
+    let span_m = hi - lo;
+    candidates
+        .iter()
+        .copied()
+        .filter(|p| span_m >= PERIODS_SPANNED_MIN * p)
+        .map(|p| {
+            let w = TAU / p;
+            let n = r.len().min(pos_m.len());
+            let share = causes::explained(
+                r,
+                n,
+                &[&|i| (w * pos_m[i]).sin(), &|i| (w * pos_m[i]).cos()],
+                &|_| true,
+            );
+            (share, p)
+        })
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, p)| p)
+}
+
+/// Gives each of X and Y that `may_try` and whose machine file names no ripple period the
+/// period chosen from its residual under `traces` at `offset_s`; the axes given one.
+pub(crate) fn choose_periods(
+    ctx: &Context,
+    machine: &mut MachineConfig,
+    (traces, offset_s): (&[Vec<f64>; 2], f64),
+    may_try: &dyn Fn(AxisName) -> bool,
+) -> [bool; 2] {
+    AxisName::BOTH.map(|a| {
+        let axis = machine.axis(a);
+        if axis.errors.force_ripple_period_mm > 0.0 || !may_try(a) {
+            return false;
+        }
+        let trace = &traces[a.index()];
+        let r = ctx.residual(a, trace, offset_s);
+        let pos: Vec<f64> = ctx
+            .samples
+            .iter()
+            .map(|&i| sample(trace, ctx.dt, ctx.prog_time(i, offset_s)))
+            .collect();
+        let Some(period_m) = chosen_period_m(&candidate_periods_m(axis), &r, &pos) else {
+            return false;
+        };
+        machine.axis_mut(a).errors.force_ripple_period_mm = period_m * 1e3;
+        true
+    })
+}
+
+/// `machine`'s ripple periods as the search left them in `searched` on the axes that carry a
+/// ripple, the nominal machine's elsewhere: a period chosen for a ripple not named is not
+/// written.
+pub(crate) fn periods_kept(
+    machine: &mut MachineConfig,
+    searched: &MachineConfig,
+    nominal: &MachineConfig,
+) {
+    for a in AxisName::BOTH {
+        let from = if machine.axis(a).errors.force_ripple_n > 0.0 {
+            searched
+        } else {
+            nominal
+        };
+        let period_mm = from.axis(a).errors.force_ripple_period_mm;
+        machine.axis_mut(a).errors.force_ripple_period_mm = period_mm;
+    }
+}
+
+/// The cyclic error's period (mm) on `axis`: the machine file's, else the screw's lead.
+pub(crate) fn cyclic_period_mm(axis: &AxisConfig) -> f64 {
+    if axis.errors.cyclic_period_mm > 0.0 {
+        axis.errors.cyclic_period_mm
+    } else {
+        axis.drive.lead_mm
+    }
+}
+
+/// The ripple's amplitude (N) and phase (°) where it best explains the residual `r_now` of
+/// `axis` under `machine` (its ripple as it is): the force a·sin(kx) + b·cos(kx) moves the
+/// residual nearly linearly in (a, b), so one simulation with a trial sine part added and
+/// one with a trial cosine part give each part's column, and least squares their sizes.
+/// None where a trial cannot be simulated or the columns do not tell the parts apart.
+pub(crate) fn linear_start(
+    ctx: &Context,
+    machine: &MachineConfig,
+    (axis, other): (AxisName, &[f64]),
+    offset_s: f64,
+    r_now: &[f64],
+) -> Option<Vec<f64>> {
+    let now = &machine.axis(axis).errors;
+    let (a0, b0) = parts(now.force_ripple_n, now.force_ripple_phase_deg);
+    let column = |(a, b): (f64, f64)| -> Option<Vec<f64>> {
+        let mut m = machine.clone();
+        let (amplitude, phase) = amplitude_phase(a, b);
+        let errors = &mut m.axis_mut(axis).errors;
+        (errors.force_ripple_n, errors.force_ripple_phase_deg) = (amplitude, phase);
+        let (trace, _) = ctx.simulate_pair(&m, axis, other)?;
+        let r = ctx.residual(axis, &trace, offset_s);
+        Some(r.iter().zip(r_now).map(|(x, y)| x - y).collect())
+    };
+    let (sine, cosine) = rayon::join(|| column((a0 + TRIAL_N, b0)), || column((a0, b0 + TRIAL_N)));
+    let (alpha, beta) = least_squares_2(&sine?, &cosine?, r_now)?;
+    let (a, b) = (a0 + alpha * TRIAL_N, b0 + beta * TRIAL_N);
+    let (amplitude, phase) = amplitude_phase(a, b);
+    Some(vec![amplitude, phase])
+}
+
+/// The sine and cosine parts (a, b) of A·sin(kx + φ): a = A cos φ, b = A sin φ.
+fn parts(amplitude: f64, phase_deg: f64) -> (f64, f64) {
+    let (s, c) = phase_deg.to_radians().sin_cos();
+    (amplitude * c, amplitude * s)
+}
+
+/// A and φ (°) of a·sin(kx) + b·cos(kx) = A·sin(kx + φ).
+fn amplitude_phase(a: f64, b: f64) -> (f64, f64) {
+    (a.hypot(b), b.atan2(a).to_degrees())
+}
+
+/// The (α, β) that make r + α·u + β·v least in squares, over the samples where all three
+/// are finite; none where u and v are (nearly) parallel.
+fn least_squares_2(u: &[f64], v: &[f64], r: &[f64]) -> Option<(f64, f64)> {
+    let (mut uu, mut uv, mut vv, mut ur, mut vr) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for ((&x, &y), &z) in u.iter().zip(v).zip(r) {
+        if x.is_finite() && y.is_finite() && z.is_finite() {
+            (uu, uv, vv) = (uu + x * x, uv + x * y, vv + y * y);
+            (ur, vr) = (ur + x * z, vr + y * z);
+        }
+    }
+    let det = uu * vv - uv * uv;
+    // Also none where a column is not finite (det NaN).
+    if det.is_nan() || det <= 1e-12 * uu * vv {
+        return None;
+    }
+    Some(((-ur * vv + vr * uv) / det, (-vr * uu + ur * uv) / det))
+}
+
+/// The evidence (as the search counts it, in noise variances less ln n per value, over
+/// `samples_counted`) of a cyclic error of period `period_m` added to the positions recorded
+/// on `axis`, against the residual `r` of the model so far: an error of the positions read
+/// only, which the record shows as it is — least squares on the sine and cosine of the
+/// position measured, no simulation. Counted on every sample, not on independent ones as a
+/// fit's is: it errs towards the positions' error, so that a force must beat it clearly.
+pub(crate) fn positions_read_evidence(
+    ctx: &Context,
+    axis: AxisName,
+    r: &[f64],
+    period_m: f64,
+    samples_counted: f64,
+) -> f64 {
+    let x = ctx.measured_axis(axis);
+    let k = TAU / period_m;
+    let n = r.len().min(ctx.samples.len());
+    let position = |j: usize| x[ctx.samples[j]];
+    let compared = |j: usize| ctx.compared(axis, j) && r[j].is_finite();
+    let sum_sq: f64 = (0..n).filter(|&j| compared(j)).map(|j| r[j] * r[j]).sum();
+    let share = causes::explained(
+        r,
+        n,
+        &[&|j| (k * position(j)).sin(), &|j| (k * position(j)).cos()],
+        &compared,
+    );
+    share * sum_sq / (ctx.noise_sigma * ctx.noise_sigma) - 2.0 * samples_counted.ln()
+}
+
+/// Why `cause` — the force ripple or the cyclic error — on `axis` is not named though it
+/// fits with `evidence`: where the other of the two, at the same period, fits the record
+/// with evidence within `margin` of it or more (`rivals`: the evidence of each cause fitted
+/// on each axis this round; for the ripple also `positions_read`, the evidence of a cyclic
+/// error of the positions recorded at its period, [`positions_read_evidence`]), the record
+/// cannot tell a force pushing the table from an error of the positions read, and naming
+/// either would be a guess.
+pub(crate) fn cannot_tell(
+    (cause, axis, evidence): (CauseId, AxisName, f64),
+    config: &AxisConfig,
+    (rivals, positions_read): (&[(CauseId, AxisName, f64)], Option<f64>),
+    margin: f64,
+) -> Option<String> {
+    if let Some(read) =
+        positions_read.filter(|&e| cause == CauseId::ForceRipple && e >= evidence - margin)
+    {
+        return Some(format!(
+            "cannot tell: a cyclic error in the positions recorded of the ripple's period \
+             ({:.4} mm) explains the record as well or better (evidence {read:.1} against \
+             {evidence:.1}); told apart by {}",
+            config.errors.force_ripple_period_mm,
+            cause.told_apart_from(CauseId::CyclicError)
+        ));
+    }
+    let other = match cause {
+        CauseId::ForceRipple => CauseId::CyclicError,
+        CauseId::CyclicError => CauseId::ForceRipple,
+        _ => return None,
+    };
+    let (ripple_mm, cyclic_mm) = (
+        config.errors.force_ripple_period_mm,
+        cyclic_period_mm(config),
+    );
+    if (ripple_mm - cyclic_mm).abs() > 1e-6 * cyclic_mm {
+        return None;
+    }
+    let (_, _, rival) = rivals
+        .iter()
+        .find(|(c, a, e)| *c == other && *a == axis && *e >= evidence - margin)?;
+    Some(format!(
+        "cannot tell: {} of the same period ({cyclic_mm:.4} mm) explains the record as well or \
+         better (evidence {rival:.1} against {evidence:.1}); told apart by {}",
+        match other {
+            CauseId::CyclicError => "a cyclic error in the positions recorded",
+            _ => "a force ripple pushing the table",
+        },
+        cause.told_apart_from(other)
+    ))
+}
+
+/// The largest force the axis's drive can put on the table (N): its current limit through
+/// the motor's torque constant and the travel per motor radian; none where the file gives
+/// no finite one.
+pub(crate) fn peak_force_n(axis: &AxisConfig) -> Option<f64> {
+    let model = AxisModel::from_config(axis);
+    let peak = model.i_max * model.kt / model.travel_per_motor_rad();
+    (peak.is_finite() && peak > 0.0).then_some(peak)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_peak_force_is_the_current_limit_through_the_torque_constant_and_the_turn() {
+        // The nominal machine's X: 60 A × 2.34 N·m/A over 16 mm × 0.25 / 2π of travel per
+        // motor radian = 140.4 N·m / 0.6366 mm = 220.5 kN.
+        let x = MachineConfig::default_preset().x;
+        let expected = 60.0 * 2.34 / (16e-3 * 0.25 / TAU);
+        let peak = peak_force_n(&x).unwrap();
+        assert!(
+            (peak / expected - 1.0).abs() < 1e-9,
+            "{peak} against {expected}"
+        );
+        let observed = super::super::plausible::Observed {
+            following_error_max_m: 1e-3,
+        };
+        let why = super::super::plausible::implausible(
+            CauseId::ForceRipple,
+            &[1.01 * expected, 0.0],
+            &x,
+            &observed,
+        );
+        assert!(why.is_some_and(|w| w.contains("exceeds the most")));
+        let fine = super::super::plausible::implausible(
+            CauseId::ForceRipple,
+            &[0.99 * expected, 0.0],
+            &x,
+            &observed,
+        );
+        assert!(fine.is_none(), "{fine:?}");
+    }
+
+    #[test]
+    fn two_trial_columns_give_the_parts_back() {
+        // r = −(2·u − 3·v): the parts that cancel it are α = 2, β = −3.
+        let u: Vec<f64> = (0..50).map(|i| (0.3 * i as f64).sin()).collect();
+        let v: Vec<f64> = (0..50).map(|i| (0.3 * i as f64).cos() + 0.1).collect();
+        let r: Vec<f64> = u
+            .iter()
+            .zip(&v)
+            .map(|(x, y)| -(2.0 * x - 3.0 * y))
+            .collect();
+        let (alpha, beta) = least_squares_2(&u, &v, &r).unwrap();
+        assert!((alpha - 2.0).abs() < 1e-9 && (beta + 3.0).abs() < 1e-9);
+        // Parallel columns tell nothing apart.
+        assert!(least_squares_2(&u, &u, &r).is_none());
+        // 12 N at 40°: a = 12 cos 40°, b = 12 sin 40°, and back.
+        let (a, b) = parts(12.0, 40.0);
+        assert!((a - 9.1925).abs() < 1e-4 && (b - 7.7135).abs() < 1e-4);
+        let (amplitude, phase) = amplitude_phase(a, b);
+        assert!((amplitude - 12.0).abs() < 1e-12 && (phase - 40.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_period_chosen_is_the_one_in_the_residual_and_spanned_often_enough() {
+        // Positions over 60 mm; a residual at 5 mm of period.
+        let pos: Vec<f64> = (0..6000).map(|i| i as f64 * 1e-5).collect();
+        let r: Vec<f64> = pos.iter().map(|x| (TAU * x / 5e-3 + 0.4).sin()).collect();
+        let candidates = [20e-3, 10e-3, 20e-3 / 3.0, 5e-3];
+        assert_eq!(chosen_period_m(&candidates, &r, &pos), Some(5e-3));
+        // Over 12 mm only the shorter periods are spanned three times.
+        let short = &pos[..1200];
+        assert_eq!(chosen_period_m(&[20e-3, 10e-3], &r[..1200], short), None);
+    }
+
+    #[test]
+    fn the_candidates_are_a_turns_travel_and_its_harmonics() {
+        let m = MachineConfig::default_preset();
+        let lead_m = m.x.drive.lead_mm * 1e-3 * m.x.drive.gear_ratio;
+        let c = candidate_periods_m(&m.x);
+        assert!((c[0] - lead_m).abs() < 1e-12 * lead_m, "{c:?} {lead_m}");
+        assert!((c[3] - lead_m / 4.0).abs() < 1e-12 * lead_m, "{c:?}");
+    }
+
+    #[test]
+    fn a_ripple_and_a_cyclic_error_of_one_period_explained_alike_are_not_told_apart() {
+        let mut x = MachineConfig::default_preset().x;
+        x.errors.force_ripple_period_mm = x.drive.lead_mm;
+        let rivals = [
+            (CauseId::CyclicError, AxisName::X, 995.0),
+            (CauseId::ForceRipple, AxisName::X, 1000.0),
+        ];
+        let ripple = (CauseId::ForceRipple, AxisName::X, 1000.0);
+        let why = cannot_tell(ripple, &x, (&rivals, None), 10.0).expect("within the margin");
+        assert!(why.starts_with("cannot tell"), "{why}");
+        let cyclic = (CauseId::CyclicError, AxisName::X, 995.0);
+        assert!(cannot_tell(cyclic, &x, (&rivals, None), 10.0).is_some());
+        // Beyond the margin the record tells them apart.
+        assert!(cannot_tell(ripple, &x, (&rivals, None), 4.0).is_none());
+        // At another period, so does it …
+        x.errors.force_ripple_period_mm = x.drive.lead_mm / 3.0;
+        assert!(cannot_tell(ripple, &x, (&rivals, None), 10.0).is_none());
+        // … but not where an error of the positions read at the ripple's own period
+        // explains the record as well, or better.
+        for read in [991.0, 2000.0] {
+            let why = cannot_tell(ripple, &x, (&rivals, Some(read)), 10.0).unwrap();
+            assert!(why.contains("positions recorded"), "{why}");
+        }
+        assert!(cannot_tell(ripple, &x, (&rivals, Some(989.0)), 10.0).is_none());
+    }
+}

@@ -1,0 +1,443 @@
+//! Presliding friction (docs/model.md §1.9) tried where the template names no bristles: a
+//! table that yields by micrometres before it slides, and whose friction near rest may lie
+//! below Coulomb's, shapes every start and stop of a record.
+//!
+//! The bristles are not searched value by value: their stiffness, the level near rest and
+//! the speed that level fades over trade with each other and with Coulomb friction through
+//! the few starts a record holds. A small set of shapes is tried instead ([`SHAPES`]), and
+//! with each the loop's values and Coulomb friction are fitted again (a round: the whole
+//! record and each half), from the axis's fit without bristles — fitted without them, those
+//! values bent to the starts (on the real table X's Coulomb friction went to zero, leaving
+//! bristles nothing to bend: tried on top of that fit they found nothing). Coulomb friction
+//! starts from the best of a short scan, since the fit without bristles may hold none.
+//!
+//! Each half picks the shape that fits its own samples best and is scored on the other
+//! half's, like every value `identify` writes; the record's fit takes the shape that fits it
+//! best. The bristles are written only where those held-out figures beat the fit without
+//! them by the twentieth every larger model must earn, and then as a model's values (a
+//! shape from a grid, not a measurement). Otherwise the axis says "not determined" and why.
+
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::knobs::{self, COULOMB_KEY, Knob, STATIC_KEY, get, set_all};
+use super::result::{AxisIdentification, IdentifiedValue};
+use super::round::Round;
+use super::solve::{Fit, masked_rms};
+use super::{REACHED_EXCESS, verdict};
+use crate::machine::AxisConfig;
+use crate::numeric::units::{GRAVITY_M_PER_S2, um_from_m};
+use crate::sim::AxisModel;
+
+/// The shapes tried: bristle stiffness (N/µm) and friction near rest over Coulomb's. The
+/// separate model of the real table found a level near rest about a third below Coulomb's;
+/// bristles of 50 N/µm give presliding ranges of a few µm at Coulomb forces of 100-300 N,
+/// the magnitude ball-screw tables show (a few µm before gross sliding). A softer and a
+/// stiffer spring at 0.7, and 50 N/µm at Coulomb's level, span it.
+const SHAPES: [Shape; 4] = [
+    Shape::new(50.0, 0.7),
+    Shape::new(50.0, 1.0),
+    Shape::new(15.0, 0.7),
+    Shape::new(150.0, 0.7),
+];
+/// The speed over which friction near rest is regained (mm/min): 10 mm/s, where the
+/// separate model of the real table found 9 and 13 mm/s on its halves.
+const FADE_MM_PER_MIN: f64 = 600.0;
+/// Bristle damping as a share of the critical damping of the bristle spring with the moving
+/// mass: a tenth leaves the presliding oscillation visible for a few periods, as measured
+/// presliding responses show, and it is the ratio of the 20,000 N·s/m measured with on the
+/// real table at 50 N/µm on X's 172 kg.
+const DAMPING_SHARE: f64 = 0.1;
+/// The Coulomb forces tried as the fit's start, as shares of the moving mass's weight
+/// (besides the fit's own): ball-screw guideways run at some hundredths to a few tenths.
+const COULOMB_SCAN_OF_WEIGHT: [f64; 3] = [0.03, 0.1, 0.3];
+
+/// What the record says of presliding friction on one axis whose template names none.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PreslidingVerdict {
+    /// Whether bristles are written to the machine file (as a model's values).
+    pub written: bool,
+    /// One line: "presliding friction: …", "not determined (<reason>)" where not written.
+    pub statement: String,
+    /// The held-out RMS (µm) of the fit without bristles …
+    pub held_out_without_um: f64,
+    /// … and with the shape each half chose (NaN where not tried).
+    pub held_out_with_um: f64,
+}
+
+/// One shape of bristles.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Shape {
+    stiffness_n_per_um: f64,
+    level: f64,
+}
+
+impl Shape {
+    const fn new(stiffness_n_per_um: f64, level: f64) -> Shape {
+        Shape {
+            stiffness_n_per_um,
+            level,
+        }
+    }
+
+    /// `config` with these bristles and Coulomb friction `coulomb_n`.
+    fn on(self, config: &AxisConfig, coulomb_n: f64) -> AxisConfig {
+        let mut c = config.clone();
+        set_all(&mut c, &[COULOMB_KEY], &[coulomb_n]);
+        let moving_kg = AxisModel::from_config(config)
+            .mass_at_table_kg()
+            .max(config.drive.table_mass_kg);
+        let sigma0 = self.stiffness_n_per_um * 1e6;
+        let f = &mut c.friction;
+        f.bristle_stiffness_n_per_um = self.stiffness_n_per_um;
+        f.bristle_damping_n_s_per_m = DAMPING_SHARE * 2.0 * (sigma0 * moving_kg).sqrt();
+        f.static_to_coulomb = self.level;
+        f.stribeck_level_n = 0.0;
+        f.stribeck_velocity_mm_per_min = FADE_MM_PER_MIN;
+        c
+    }
+}
+
+/// A shape's round: the loop's values and Coulomb friction fitted with it in place.
+struct Tried {
+    shape: Shape,
+    round: Round,
+    base: AxisConfig,
+}
+
+/// The fit `hybrid` (without bristles, of `knobs_all`' knobs that it fitted) kept, or
+/// replaced by the fit with bristles where the held-out halves keep them; its verdict set
+/// either way. Where the template names bristles, `hybrid` as it is (no verdict).
+pub(super) fn tried(
+    fit: &Fit,
+    template: &AxisConfig,
+    hybrid: (AxisConfig, AxisIdentification),
+    knobs_all: &[Knob],
+) -> (AxisConfig, AxisIdentification) {
+    if template.friction.has_presliding() {
+        return hybrid;
+    }
+    let (config, mut id) = hybrid;
+    let without_um = id.held_out_identified_um;
+    let not = |reason: &str, with_um: f64| PreslidingVerdict {
+        written: false,
+        statement: format!("presliding friction: not determined ({reason})"),
+        held_out_without_um: without_um,
+        held_out_with_um: with_um,
+    };
+    let Some(knobs) = refitted(&id, knobs_all) else {
+        let reason = "the model fitted has no Coulomb friction for bristles to carry";
+        id.presliding = Some(not(reason, f64::NAN));
+        return (config, id);
+    };
+    let fold = fit.ctx().halves(fit.offset());
+    let Some(rounds) = rounds(fit, &config, &knobs, &fold) else {
+        let reason = "no shape, the loop's values fitted again with it, fits the whole record \
+                      better by a twentieth";
+        id.presliding = Some(not(reason, f64::NAN));
+        return (config, id);
+    };
+    let Some((with_m, agree)) = held_out(fit, &rounds, &fold, id.reached) else {
+        let reason = "no shape's halves could be simulated or moved from the whole fit's";
+        id.presliding = Some(not(reason, f64::NAN));
+        return (config, id);
+    };
+    let with_um = um_from_m(with_m);
+    if !(id.held_out_in_sample || verdict::predicts_better(with_um, without_um)) {
+        let reason = format!(
+            "held out {with_um:.3} µm with them against {without_um:.3} µm without: not \
+             better by a twentieth"
+        );
+        id.presliding = Some(not(&reason, with_um));
+        return (config, id);
+    }
+    let best = rounds
+        .iter()
+        .min_by(|a, b| a.round.whole.cost.total_cmp(&b.round.whole.cost))
+        .expect("a shape's halves were scored");
+    match written(fit, (template, &fold), &id, best, (with_um, agree)) {
+        Some(w) => w,
+        None => {
+            let reason = "the axis cannot be simulated on the whole record with them";
+            id.presliding = Some(not(reason, with_um));
+            (config, id)
+        }
+    }
+}
+
+/// The rounds of the shapes worth scoring on the halves: each shape's fit on the whole
+/// record first, and only those whose residual's RMS there lies below the fit's without
+/// bristles (`config`) by the twentieth a larger model must earn fitted on each half — a
+/// shape that does not fit the samples it was fitted to better cannot predict those it was
+/// not (the halves' fits are two thirds of a round's cost). None where no shape is.
+fn rounds(fit: &Fit, config: &AxisConfig, knobs: &[Knob], fold: &[bool]) -> Option<Vec<Tried>> {
+    let without = fit.cost(config)?;
+    let rounds: Vec<Tried> = SHAPES
+        .par_iter()
+        .filter_map(|&shape| {
+            let base = shape.on(config, coulomb_start(fit, shape, config)?);
+            let whole = fit.run(knobs, &base, &|_| true)?;
+            if !verdict::predicts_better(whole.cost.sqrt(), without.sqrt()) {
+                return None;
+            }
+            // The round's fit on the whole record starts where this one landed: a step.
+            let base = Fit::config(knobs, &base, &whole.values);
+            let round = Round::fit(fit, knobs.to_vec(), &base, fold)?;
+            Some(Tried { shape, round, base })
+        })
+        .collect();
+    (!rounds.is_empty()).then_some(rounds)
+}
+
+/// The knobs of `knobs_all` the fit `id` fitted in its last round (those with an
+/// uncertainty), but the level near rest, which each shape sets; and Coulomb friction,
+/// whatever the fit without bristles made of it (put back to the template's where the
+/// record did not determine it without them). None where the model has no Coulomb friction.
+fn refitted(id: &AxisIdentification, knobs_all: &[Knob]) -> Option<Vec<Knob>> {
+    let mut knobs: Vec<Knob> = Vec::new();
+    for k in knobs_all {
+        let fitted = id
+            .values
+            .iter()
+            .any(|v| v.key == k.key && (v.uncertainty.is_finite() || k.key == COULOMB_KEY));
+        if fitted && k.key != STATIC_KEY && !knobs.iter().any(|q| q.key == k.key) {
+            knobs.push(*k);
+        }
+    }
+    knobs.iter().any(|k| k.key == COULOMB_KEY).then_some(knobs)
+}
+
+/// The Coulomb force (N) a shape's fit starts from: of the fit's own and the scan's, the one
+/// that explains the record best with the shape; none where none can be simulated.
+fn coulomb_start(fit: &Fit, shape: Shape, config: &AxisConfig) -> Option<f64> {
+    let weight_n = config.drive.table_mass_kg * GRAVITY_M_PER_S2;
+    std::iter::once(get(config, COULOMB_KEY))
+        .chain(COULOMB_SCAN_OF_WEIGHT.iter().map(|s| s * weight_n))
+        .filter_map(|f| Some((fit.cost(&shape.on(config, f))?, f)))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, f)| f)
+}
+
+/// The held-out RMS (m) of the halves' fits with bristles: each half takes the shape whose
+/// fit on its own samples is best and is scored on the other half's samples. Above the
+/// noise (`reached` false) only a half whose fit found a point of its own counts, as for
+/// every held-out figure. With whether the two halves chose the same shape; none where no
+/// half counts.
+fn held_out(fit: &Fit, rounds: &[Tried], fold: &[bool], reached: bool) -> Option<(f64, bool)> {
+    let mask = fit.mask();
+    let chosen: Vec<Option<(usize, [f64; 2])>> = [(0usize, true), (1, false)]
+        .into_par_iter()
+        .map(|(h, side)| {
+            let (i, t) = rounds.iter().enumerate().min_by(|a, b| {
+                a.1.round.halves[h]
+                    .cost
+                    .total_cmp(&b.1.round.halves[h].cost)
+            })?;
+            if !reached && !t.round.halves[h].own_point {
+                return None;
+            }
+            let r = fit.residual(&t.round.half_config(h))?;
+            let (mut ss, mut n) = (0.0, 0.0);
+            for k in (0..r.len()).filter(|&k| mask[k] && fold[k] != side) {
+                ss += r[k] * r[k];
+                n += 1.0;
+            }
+            Some((i, [ss, n]))
+        })
+        .collect();
+    let counted: Vec<(usize, [f64; 2])> = chosen.iter().flatten().copied().collect();
+    let (ss, n) = counted
+        .iter()
+        .fold((0.0, 0.0), |(s, m), (_, [a, b])| (s + a, m + b));
+    let agree = matches!(chosen.as_slice(), [Some((a, _)), Some((b, _))] if a == b);
+    (n > 0.0).then(|| ((ss / n).sqrt(), agree))
+}
+
+/// The axis with bristles written: `best`'s fit on the whole record, its values replacing
+/// those fitted again and the bristles' added, judged on the held-out figure `with_um`.
+fn written(
+    fit: &Fit,
+    (template, fold): (&AxisConfig, &[bool]),
+    id: &AxisIdentification,
+    best: &Tried,
+    (with_um, agree): (f64, bool),
+) -> Option<(AxisConfig, AxisIdentification)> {
+    let round = &best.round;
+    let config = round.config(&round.whole);
+    let residual = fit.residual(&config)?;
+    let mask = fit.mask();
+    let mut id = id.clone();
+    for v in super::fitted_values(&round.knobs, round, &config, template) {
+        match id.values.iter_mut().find(|w| w.key == v.key) {
+            Some(w) => *w = v,
+            None => id.values.push(v),
+        }
+    }
+    for (key, unit) in BRISTLE_KEYS {
+        let value = model_value(key, unit, template, &config);
+        match id.values.iter_mut().find(|w| w.key == key) {
+            Some(w) => *w = value,
+            None => id.values.push(value),
+        }
+    }
+    let (ctx, axis, offset) = (fit.ctx(), fit.axis(), fit.offset());
+    let rms_um = um_from_m(masked_rms(&residual, mask));
+    let without_um = id.held_out_identified_um;
+    id.reached = rms_um <= REACHED_EXCESS * um_from_m(ctx.noise_sigma);
+    id.rms_identified_um = rms_um;
+    id.held_out_identified_um = with_um;
+    id.held_out_in_sample = false;
+    id.held_out_share = with_um / id.following_error_rms_um;
+    id.better_than_template = verdict::predicts_better(with_um, id.held_out_template_um);
+    id.largest_at = verdict::largest_at(ctx, axis, offset, &residual, mask);
+    id.gain_per_inertia = super::gain_per_inertia(round, &best.base);
+    if id.while_moving.is_some() {
+        let template_residual = fit.residual(template)?;
+        id.while_moving = verdict::while_moving(fit, round, fold, &template_residual);
+    }
+    let f = &config.friction;
+    id.presliding = Some(PreslidingVerdict {
+        written: true,
+        statement: format!(
+            "presliding friction: bristles of {} N/µm, damping {:.0} N·s/m, friction near rest \
+             {} of Coulomb's ({:.0} N) regained over {} mm/s, a model's shape ({}); held out \
+             {with_um:.3} µm against {without_um:.3} µm without",
+            best.shape.stiffness_n_per_um,
+            f.bristle_damping_n_s_per_m,
+            best.shape.level,
+            get(&config, COULOMB_KEY),
+            FADE_MM_PER_MIN / 60.0,
+            if agree {
+                "both halves chose it"
+            } else {
+                "the halves chose different shapes"
+            },
+        ),
+        held_out_without_um: without_um,
+        held_out_with_um: with_um,
+    });
+    Some((config, id))
+}
+
+/// The keys the bristles are written under, with their units.
+const BRISTLE_KEYS: [(&str, &str); 4] = [
+    ("friction.bristle_stiffness_n_per_um", "N/µm"),
+    ("friction.bristle_damping_n_s_per_m", "N·s/m"),
+    (STATIC_KEY, ""),
+    ("friction.stribeck_velocity_mm_per_min", "mm/min"),
+];
+
+/// A bristle value written as a model's: picked from a grid, with no uncertainty of its own.
+fn model_value(
+    key: &'static str,
+    unit: &'static str,
+    template: &AxisConfig,
+    config: &AxisConfig,
+) -> IdentifiedValue {
+    IdentifiedValue {
+        key,
+        unit,
+        template: get(template, key),
+        value: get(config, key),
+        uncertainty: f64::NAN,
+        determined: false,
+        measured: false,
+        traded_with: None,
+        loose: true,
+        complex_pair: None,
+    }
+}
+
+/// An axis whose fit without bristles reaches the record's noise: bristles are not tried
+/// (nothing is left for them to explain), said so where the template names none.
+pub(super) fn at_noise(
+    (config, mut id): (AxisConfig, AxisIdentification),
+    template: &AxisConfig,
+) -> (AxisConfig, AxisIdentification) {
+    if !template.friction.has_presliding() {
+        id.presliding = Some(PreslidingVerdict {
+            written: false,
+            statement: "presliding friction: not determined (not tried: the fit without \
+                        bristles reaches the record's noise)"
+                .to_string(),
+            held_out_without_um: id.held_out_identified_um,
+            held_out_with_um: f64::NAN,
+        });
+    }
+    (config, id)
+}
+
+/// Where bristles are no longer written (the template's values stay, or another fit is
+/// written): a statement that says they are is turned into why not.
+pub(super) fn not_written(verdict: &mut Option<PreslidingVerdict>, why: &str) {
+    if let Some(v) = verdict.as_mut().filter(|v| v.written) {
+        v.written = false;
+        v.statement = format!("presliding friction: not determined ({why})");
+    }
+}
+
+/// The candidate knobs a fit may have fitted: the template's, its nonlinear parts and the
+/// loop models'.
+pub(super) fn candidate_knobs(template: &AxisConfig, nonlinear: &[Knob]) -> Vec<Knob> {
+    let mut all = knobs::for_axis(template);
+    all.extend_from_slice(nonlinear);
+    all.extend(super::loop_model::orders(template).concat());
+    all
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::machine::MachineConfig;
+
+    #[test]
+    fn a_shape_sets_its_bristles_damped_at_a_tenth_of_critical_on_the_coulomb_force_given() {
+        let x = MachineConfig::preset("small-table").unwrap().x;
+        let c = Shape::new(50.0, 0.7).on(&x, 88.3);
+        let f = &c.friction;
+        // The small table's X moves its 30 kg table and, through 10 mm a turn, the rotor's
+        // and screw's 2.05e-4 kg·m²: 30 + 2.05e-4 / (0.01 / 2π)² = 110.9 kg. A tenth of the
+        // critical damping 2·√(σ0·m) of 50 N/µm on it.
+        let r = 0.01 / std::f64::consts::TAU;
+        let moving_kg = 30.0 + 2.05e-4 / (r * r);
+        let expected = 0.1 * 2.0 * (50e6 * moving_kg).sqrt();
+        assert!(
+            (f.bristle_damping_n_s_per_m - expected).abs() < 1e-3 * expected,
+            "{} against {expected}",
+            f.bristle_damping_n_s_per_m
+        );
+        assert_eq!(f.bristle_stiffness_n_per_um, 50.0);
+        assert_eq!(f.static_to_coulomb, 0.7);
+        assert_eq!(f.stribeck_velocity_mm_per_min, 600.0);
+        assert!((get(&c, COULOMB_KEY) - 88.3).abs() < 1e-9);
+    }
+
+    #[test]
+    fn bristles_not_written_or_not_tried_say_why() {
+        let mut x = MachineConfig::preset("small-table").unwrap().x;
+        let id = AxisIdentification::scored(0.4, 0.1);
+        let (_, at) = at_noise((x.clone(), id.clone()), &x);
+        let v = at
+            .presliding
+            .expect("a template without bristles gets a verdict");
+        assert!(!v.written);
+        assert!(v.statement.contains("not tried"), "{}", v.statement);
+        // Written, then the template's values written instead: taken back, with the reason.
+        let mut written = Some(PreslidingVerdict {
+            written: true,
+            statement: "presliding friction: bristles of 50 N/µm".to_string(),
+            ..v
+        });
+        not_written(&mut written, "the axis's fit is not written");
+        let w = written.unwrap();
+        assert!(!w.written);
+        assert_eq!(
+            w.statement,
+            "presliding friction: not determined (the axis's fit is not written)"
+        );
+        // A template that names bristles keeps them: no verdict.
+        x.friction.bristle_stiffness_n_per_um = 50.0;
+        let (_, named) = at_noise((x.clone(), id), &x);
+        assert_eq!(named.presliding, None);
+    }
+}
