@@ -175,6 +175,34 @@ impl Context<'_> {
         }
     }
 
+    /// The context's commands up to the one the sample at program time `until_s` (s) is
+    /// read from, for [`Context::simulate_axis_on`]; none where that is all of them. The
+    /// simulator steps cycle by cycle on each cycle's command alone, so a trace on them is
+    /// the whole run's bit for bit up to there: a caller that reads no sample after it
+    /// needs nothing later.
+    pub(crate) fn commands_until(&self, until_s: f64) -> Option<Commands> {
+        // A sample between cycles i and i + 1 is interpolated from cycles i − 1 to i + 2
+        // (`sample`); the run-in is moved on its own commands, which are kept whole.
+        let run_in = (self.start.run_in_s / self.dt).round() as usize;
+        let cycles = ((until_s / self.dt).floor().max(0.0) as usize + 3).max(run_in + 1);
+        (cycles < self.commands.len()).then(|| self.commands.first(cycles))
+    }
+
+    /// [`Context::simulate_axis`] on `commands`, the first of the context's
+    /// ([`Context::commands_until`]): the trace ends with them. A machine that runs on its
+    /// own plan's clock is simulated whole.
+    pub(crate) fn simulate_axis_on(
+        &self,
+        machine: &MachineConfig,
+        axis: AxisName,
+        commands: &Commands,
+    ) -> Option<Vec<f64>> {
+        match self.replanned(machine) {
+            None => self.read_on(machine, axis, commands, None),
+            Some(commands) => self.read_on(machine, axis, &commands, None),
+        }
+    }
+
     /// `axis` of `machine` on `commands` as the measurement sees it: with the axes'
     /// squareness, from `other` (the other axis on the same commands) or, when not given
     /// and needed, a simulation of it.

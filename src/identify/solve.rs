@@ -3,6 +3,7 @@
 //! or increments) kept inside their box.
 
 use std::cell::RefCell;
+use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector};
 
@@ -14,6 +15,11 @@ use crate::numeric::lsq::{
     self, MODEL_FLOOR_SHARE, combination_uncertainty, correlation_time, forward_jacobian,
     uncertainties,
 };
+use crate::plan::Commands;
+
+mod memo;
+
+use memo::Memo;
 
 /// How far a positive value is searched from where the fit starts, as a factor either way:
 /// a template is a machine of the same kind, and a flat valley must not carry the search
@@ -51,6 +57,11 @@ pub struct Fit<'c, 'a> {
     offset_s: f64,
     /// The compared samples the fits use.
     mask: Vec<bool>,
+    /// Costs and searches already computed on those samples.
+    memo: Arc<Memo>,
+    /// Where the simulations stop early: the last compared sample the fits use, and the
+    /// commands up to it.
+    early: Option<(usize, Commands)>,
 }
 
 /// Values fitted and their standard uncertainties (machine units), and the residual's sum
@@ -150,12 +161,36 @@ impl<'c, 'a> Fit<'c, 'a> {
             axis,
             offset_s,
             mask: vec![true; ctx.samples.len()],
+            memo: Arc::default(),
+            early: None,
         }
+        .stopping_early()
     }
 
     /// The same fits on the samples `mask` allows only.
     pub(crate) fn masked(self, mask: Vec<bool>) -> Self {
-        Fit { mask, ..self }
+        Fit {
+            mask,
+            memo: Arc::default(),
+            ..self
+        }
+        .stopping_early()
+    }
+
+    /// These fits with their simulations stopped after the last sample they use that the
+    /// axis's residual compares (none where that is the record's last): after it the
+    /// residual is zero where the axis is not compared, whatever the model does (a hunting
+    /// hold), and not read where the fits leave samples out.
+    fn stopping_early(self) -> Self {
+        let (ctx, axis) = (self.ctx, self.axis);
+        let last = (0..ctx.samples.len())
+            .rev()
+            .find(|&k| self.mask[k] && ctx.compared(axis, k));
+        let early = last.filter(|&k| k + 1 < ctx.samples.len()).and_then(|k| {
+            let until_s = ctx.prog_time(ctx.samples[k], self.offset_s);
+            Some((k, ctx.commands_until(until_s)?))
+        });
+        Fit { early, ..self }
     }
 
     /// The samples the fits use.
@@ -178,25 +213,51 @@ impl<'c, 'a> Fit<'c, 'a> {
         self.offset_s
     }
 
-    /// The axis's residual at every compared sample with its configuration `config` (m).
+    /// The axis's residual at every compared sample with its configuration `config` (m):
+    /// where the simulation stopped early, NaN at the samples after it that the fits leave
+    /// out and the axis compares (no fit, figure or ripple of these fits reads one).
     pub(crate) fn residual(&self, config: &AxisConfig) -> Option<Vec<f64>> {
         let mut machine = self.template.clone();
         *machine.axis_mut(self.axis) = config.clone();
-        let trace = self.ctx.simulate_axis(&machine, self.axis)?;
-        Some(self.ctx.residual(self.axis, &trace, self.offset_s))
+        let ctx = self.ctx;
+        let trace = match &self.early {
+            None => ctx.simulate_axis(&machine, self.axis),
+            Some((_, commands)) => ctx.simulate_axis_on(&machine, self.axis, commands),
+        }?;
+        let mut r = ctx.residual(self.axis, &trace, self.offset_s);
+        if let Some((last, _)) = self.early {
+            for (k, v) in r.iter_mut().enumerate().skip(last + 1) {
+                if ctx.compared(self.axis, k) {
+                    *v = f64::NAN;
+                }
+            }
+        }
+        Some(r)
     }
 
     /// The residual's sum of squares over the fits' samples (m²), or none where the model
     /// cannot run.
     pub(crate) fn cost(&self, config: &AxisConfig) -> Option<f64> {
-        let r = self.residual(config)?;
-        Some(
-            r.iter()
-                .zip(&self.mask)
-                .filter(|(_, m)| **m)
-                .map(|(v, _)| v * v)
-                .sum(),
-        )
+        self.memo.cost(config, || {
+            let r = self.residual(config)?;
+            Some(
+                r.iter()
+                    .zip(&self.mask)
+                    .filter(|(_, m)| **m)
+                    .map(|(v, _)| v * v)
+                    .sum(),
+            )
+        })
+    }
+
+    /// Fits `knobs` from `base` on every sample the fits use: the residual's sum of squares
+    /// and the configuration the search ended at.
+    pub(crate) fn searched(&self, knobs: &[Knob], base: &AxisConfig) -> Option<(f64, AxisConfig)> {
+        let keys = knobs.iter().map(|k| k.key).collect();
+        let (cost, values) = self.memo.search(keys, base, || {
+            self.run(knobs, base, &|_| true).map(|f| (f.cost, f.values))
+        })?;
+        Some((cost, Fit::config(knobs, base, &values)))
     }
 
     /// Fits `knobs` from `base`'s values on the samples `use_sample` allows.

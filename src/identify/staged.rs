@@ -162,7 +162,5 @@ fn pick(knobs: &[Knob], keys: &[&str]) -> Vec<Knob> {
 
 /// `staged` fitted from `from`: the cost and the configuration it landed on.
 fn fitted_from(fit: &Fit, from: &AxisConfig, staged: &[Knob]) -> Option<(f64, AxisConfig)> {
-    let f = fit.run(staged, from, &|_| true)?;
-    let c = Fit::config(staged, from, &f.values);
-    Some((f.cost, c))
+    fit.searched(staged, from)
 }

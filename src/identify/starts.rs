@@ -56,11 +56,7 @@ pub(super) fn candidates(fit: &Fit, knobs: &[Knob], design: &AxisConfig) -> Vec<
     );
     let mut scored: Vec<(f64, AxisConfig)> = pool
         .par_iter()
-        .filter_map(|c| {
-            let f = fit.run(std::slice::from_ref(gain), c, &|_| true)?;
-            let c = Fit::config(std::slice::from_ref(gain), c, &f.values);
-            Some((f.cost, c))
-        })
+        .filter_map(|c| fit.searched(std::slice::from_ref(gain), c))
         .filter(|(cost, _)| cost.is_finite())
         .collect();
     scored.sort_by(|a, b| a.0.total_cmp(&b.0));

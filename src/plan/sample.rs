@@ -37,6 +37,17 @@ impl Commands {
         self.x.len()
     }
 
+    /// The first `n` samples (all of them where there are fewer).
+    pub(crate) fn first(&self, n: usize) -> Commands {
+        Commands {
+            dt_s: self.dt_s,
+            x: self.x.first(n),
+            y: self.y.first(n),
+            z: self.z.first(n),
+            segment: self.segment[..n.min(self.segment.len())].to_vec(),
+        }
+    }
+
     /// True when there are no samples.
     pub fn is_empty(&self) -> bool {
         self.x.is_empty()

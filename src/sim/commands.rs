@@ -24,6 +24,16 @@ impl AxisCommands {
         self.pos_m.is_empty()
     }
 
+    /// The first `n` samples (all of them where there are fewer).
+    pub(crate) fn first(&self, n: usize) -> AxisCommands {
+        let n = n.min(self.len());
+        AxisCommands {
+            pos_m: self.pos_m[..n].to_vec(),
+            vel_m_per_s: self.vel_m_per_s[..n].to_vec(),
+            acc_m_per_s2: self.acc_m_per_s2[..n].to_vec(),
+        }
+    }
+
     /// Appends the samples of `next`.
     pub(crate) fn append(&mut self, next: &AxisCommands) {
         self.pos_m.extend_from_slice(&next.pos_m);
