@@ -150,8 +150,12 @@ fn a_cyclic_error_of_the_positions_read_at_the_ripples_period_is_not_named_a_rip
     let named: Vec<CauseId> = d.causes.iter().map(|c| c.id).collect();
     assert!(!named.contains(&CauseId::ForceRipple), "{named:?}");
     assert_eq!(d.machine.x.errors.force_ripple_n, 0.0);
-    // Where it fitted well enough to be weighed, it is said why it is not named.
-    if let Some(r) = d.rejected.iter().find(|r| r.id == CauseId::ForceRipple) {
-        assert!(r.reason.starts_with("cannot tell"), "{}", r.reason);
-    }
+    // The ripple explains this record well (a sine of the period the file gives), so it is
+    // weighed, and it is said why it is not named: the read error explains it as well.
+    let r = d
+        .rejected
+        .iter()
+        .find(|r| r.id == CauseId::ForceRipple)
+        .expect("the force ripple is weighed and rejected with its reason");
+    assert!(r.reason.starts_with("cannot tell"), "{}", r.reason);
 }
