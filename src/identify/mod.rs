@@ -297,8 +297,16 @@ fn fit_axis(
             everywhere = extended;
         }
     }
-    let candidates = presliding::candidate_knobs(template.axis(axis), &nonlinear);
-    everywhere = presliding::tried(&fit, template.axis(axis), everywhere, &candidates);
+    everywhere = match model {
+        Model::Template => {
+            let candidates = presliding::candidate_knobs(template.axis(axis), &nonlinear);
+            presliding::tried(&fit, template.axis(axis), everywhere, &candidates)
+        }
+        Model::Loop => {
+            let why = presliding::WITHOUT_TEMPLATE;
+            presliding::not_tried(everywhere, template.axis(axis), why)
+        }
+    };
     if everywhere.1.reached && verdict::judged_while_moving(&mut everywhere.1, noise_um) {
         return Some(everywhere);
     }
