@@ -141,8 +141,9 @@ pub(super) fn tried(
         return (config, id);
     };
     let Some(fits) = rounds(fit, &config, &knobs, &ranking, &fold) else {
-        let reason = "no shape gained on the whole record: none, with Coulomb friction fitted \
-                      again, fits it better by a twentieth";
+        let reason = "no shape gained on the whole record: the one ranked best, the loop's \
+                      values and Coulomb friction fitted again with it, does not fit it better \
+                      by a twentieth";
         id.presliding = Some(not(reason, f64::NAN));
         return (config, id);
     };
@@ -173,13 +174,11 @@ pub(super) fn tried(
 
 /// The shapes ranked by a fit of Coulomb friction alone (the loop's values held at the fit
 /// without bristles): the best on the whole record and on each half's own samples, each
-/// shape's configuration with the Coulomb force its whole-record fit found, and the whole
-/// record's best residual sum of squares (m²).
+/// shape's configuration with the Coulomb force its whole-record fit found.
 struct Ranking {
     whole: usize,
     halves: [usize; 2],
     bases: Vec<AxisConfig>,
-    whole_cost: f64,
 }
 
 /// The shapes ranked cheaply: a one-value search each (Coulomb friction, from the best of a
@@ -195,10 +194,9 @@ fn ranked(fit: &Fit, config: &AxisConfig, coulomb: Knob, fold: &[bool]) -> Optio
         .map(|&shape| {
             let start = shape.on(config, coulomb_start(fit, shape, config)?);
             let whole = fit.run(&knobs, &start, parts[0])?;
-            let base = Fit::config(&knobs, &start, &whole.values);
             let half = |h: usize| fit.run(&knobs, &start, parts[h]).map(|f| f.cost);
             let (a, b) = rayon::join(|| half(1), || half(2));
-            Some((base, [whole.cost, a?, b?]))
+            Some((start, [whole.cost, a?, b?]))
         })
         .collect::<Option<_>>()?;
     let best = |part: usize| {
@@ -210,7 +208,6 @@ fn ranked(fit: &Fit, config: &AxisConfig, coulomb: Knob, fold: &[bool]) -> Optio
     Some(Ranking {
         whole,
         halves: [best(1), best(2)],
-        whole_cost: fitted[whole].1[0],
         bases: fitted.into_iter().map(|(c, _)| c).collect(),
     })
 }
@@ -224,13 +221,15 @@ struct Fits {
 }
 
 /// The loop's values and Coulomb friction fitted with the shapes the ranking chose, from the
-/// Coulomb force it found: the whole record's shape on the whole record and each half (a
-/// round), a half's own other shape on that half alone — the other parts' fits with it
-/// would be read by nothing. None where the whole record's choice gains less than the
-/// twentieth every larger model must earn over the fit without bristles (`config`): a shape
-/// that does not fit the samples it was fitted to better cannot predict those it was not,
-/// and its fits are the stage's cost. The cheap fit's gain is the one compared: the loop's
-/// values fitted again from it can only lower the residual further.
+/// Coulomb force it found: the whole record's shape on the whole record, then — where that
+/// fit is better than the fit without bristles (`config`) by the twentieth every larger
+/// model must earn — on each half (a round, started where the whole record's fit landed),
+/// and a half's own other shape on that half alone: the other parts' fits with it would be
+/// read by nothing. None where the whole record's fit gains less: a shape that does not fit
+/// the samples it was fitted to better cannot predict those it was not, and the halves'
+/// fits are most of the stage's cost. The gate is the fit with the loop's values, not the
+/// ranking's: fitted without bristles those values bent to the starts, and Coulomb friction
+/// alone on top of them may gain nothing where the bristles with the loop fitted again do.
 fn rounds(
     fit: &Fit,
     config: &AxisConfig,
@@ -239,7 +238,9 @@ fn rounds(
     fold: &[bool],
 ) -> Option<Fits> {
     let without = fit.cost(config)?;
-    if !verdict::predicts_better(ranking.whole_cost.sqrt(), without.sqrt()) {
+    let start = &ranking.bases[ranking.whole];
+    let whole = fit.run(knobs, start, &|_| true)?;
+    if !verdict::predicts_better(whole.cost.sqrt(), without.sqrt()) {
         return None;
     }
     let own_half = |h: usize| -> Option<Option<(AxisConfig, bool)>> {
@@ -256,7 +257,8 @@ fn rounds(
     };
     let (best, (a, b)) = rayon::join(
         || {
-            let base = ranking.bases[ranking.whole].clone();
+            // The round's fit on the whole record starts where this one landed: a step.
+            let base = Fit::config(knobs, start, &whole.values);
             let round = Round::fit(fit, knobs.to_vec(), &base, fold)?;
             let shape = SHAPES[ranking.whole];
             Some(Tried { shape, round, base })
