@@ -131,23 +131,13 @@ pub(super) fn tried(
         return (config, id);
     };
     let fold = fit.ctx().halves(fit.offset());
-    let coulomb = *knobs
-        .iter()
-        .find(|k| k.key == COULOMB_KEY)
-        .expect("refitted knobs hold Coulomb friction");
-    let Some(ranking) = ranked(fit, &config, coulomb, &fold) else {
-        let reason = "no shape could be simulated on the record and its halves";
+    let Some(rounds) = rounds(fit, &config, &knobs, &fold) else {
+        let reason = "no shape, the loop's values fitted again with it, fits the whole record \
+                      better by a twentieth";
         id.presliding = Some(not(reason, f64::NAN));
         return (config, id);
     };
-    let Some(fits) = rounds(fit, &config, &knobs, &ranking, &fold) else {
-        let reason = "no shape gained on the whole record: the one ranked best, the loop's \
-                      values and Coulomb friction fitted again with it, does not fit it better \
-                      by a twentieth";
-        id.presliding = Some(not(reason, f64::NAN));
-        return (config, id);
-    };
-    let Some(with_m) = held_out(fit, &fits.halves, &fold, id.reached) else {
+    let Some((with_m, agree)) = held_out(fit, &rounds, &fold, id.reached) else {
         let reason = "no shape's halves could be simulated or moved from the whole fit's";
         id.presliding = Some(not(reason, f64::NAN));
         return (config, id);
@@ -161,8 +151,11 @@ pub(super) fn tried(
         id.presliding = Some(not(&reason, with_um));
         return (config, id);
     }
-    let agree = ranking.halves[0] == ranking.halves[1];
-    match written(fit, (template, &fold), &id, &fits.best, (with_um, agree)) {
+    let best = rounds
+        .iter()
+        .min_by(|a, b| a.round.whole.cost.total_cmp(&b.round.whole.cost))
+        .expect("a shape's halves were scored");
+    match written(fit, (template, &fold), &id, best, (with_um, agree)) {
         Some(w) => w,
         None => {
             let reason = "the axis cannot be simulated on the whole record with them";
@@ -172,106 +165,28 @@ pub(super) fn tried(
     }
 }
 
-/// The shapes ranked by a fit of Coulomb friction alone (the loop's values held at the fit
-/// without bristles): the best on the whole record and on each half's own samples, each
-/// shape's configuration with the Coulomb force its whole-record fit found.
-struct Ranking {
-    whole: usize,
-    halves: [usize; 2],
-    bases: Vec<AxisConfig>,
-}
-
-/// The shapes ranked cheaply: a one-value search each (Coulomb friction, from the best of a
-/// short scan) on the whole record and on each half, against a round of every loop value
-/// per shape — the ranking needs only which shape fits each part best, and the shapes
-/// differ where the table starts and stops, which Coulomb friction and the bristles shape
-/// and the loop's values barely do. None where some shape or part cannot be fitted.
-fn ranked(fit: &Fit, config: &AxisConfig, coulomb: Knob, fold: &[bool]) -> Option<Ranking> {
-    let knobs = [coulomb];
-    let parts: [&(dyn Fn(usize) -> bool + Sync); 3] = [&|_| true, &|i| fold[i], &|i| !fold[i]];
-    let fitted: Vec<(AxisConfig, [f64; 3])> = SHAPES
-        .par_iter()
-        .map(|&shape| {
-            let start = shape.on(config, coulomb_start(fit, shape, config)?);
-            let whole = fit.run(&knobs, &start, parts[0])?;
-            let half = |h: usize| fit.run(&knobs, &start, parts[h]).map(|f| f.cost);
-            let (a, b) = rayon::join(|| half(1), || half(2));
-            Some((start, [whole.cost, a?, b?]))
-        })
-        .collect::<Option<_>>()?;
-    let best = |part: usize| {
-        (0..fitted.len())
-            .min_by(|&a, &b| fitted[a].1[part].total_cmp(&fitted[b].1[part]))
-            .expect("four shapes")
-    };
-    let whole = best(0);
-    Some(Ranking {
-        whole,
-        halves: [best(1), best(2)],
-        bases: fitted.into_iter().map(|(c, _)| c).collect(),
-    })
-}
-
-/// The fits with bristles the judgement reads: the round of the shape the whole record
-/// chose, and each half's fit with the shape its own samples chose (the round's half where
-/// it is the same shape), with whether that half's search found a point of its own.
-struct Fits {
-    best: Tried,
-    halves: [(AxisConfig, bool); 2],
-}
-
-/// The loop's values and Coulomb friction fitted with the shapes the ranking chose, from the
-/// Coulomb force it found: the whole record's shape on the whole record, then — where that
-/// fit is better than the fit without bristles (`config`) by the twentieth every larger
-/// model must earn — on each half (a round, started where the whole record's fit landed),
-/// and a half's own other shape on that half alone: the other parts' fits with it would be
-/// read by nothing. None where the whole record's fit gains less: a shape that does not fit
-/// the samples it was fitted to better cannot predict those it was not, and the halves'
-/// fits are most of the stage's cost. The gate is the fit with the loop's values, not the
-/// ranking's: fitted without bristles those values bent to the starts, and Coulomb friction
-/// alone on top of them may gain nothing where the bristles with the loop fitted again do.
-fn rounds(
-    fit: &Fit,
-    config: &AxisConfig,
-    knobs: &[Knob],
-    ranking: &Ranking,
-    fold: &[bool],
-) -> Option<Fits> {
+/// The rounds of the shapes worth scoring on the halves: each shape's fit on the whole
+/// record first, and only those whose residual's RMS there lies below the fit's without
+/// bristles (`config`) by the twentieth a larger model must earn fitted on each half — a
+/// shape that does not fit the samples it was fitted to better cannot predict those it was
+/// not (the halves' fits are two thirds of a round's cost). None where no shape is.
+fn rounds(fit: &Fit, config: &AxisConfig, knobs: &[Knob], fold: &[bool]) -> Option<Vec<Tried>> {
     let without = fit.cost(config)?;
-    let start = &ranking.bases[ranking.whole];
-    let whole = fit.run(knobs, start, &|_| true)?;
-    if !verdict::predicts_better(whole.cost.sqrt(), without.sqrt()) {
-        return None;
-    }
-    let own_half = |h: usize| -> Option<Option<(AxisConfig, bool)>> {
-        let i = ranking.halves[h];
-        if i == ranking.whole {
-            return Some(None);
-        }
-        let side = h == 0;
-        let f = fit.run(knobs, &ranking.bases[i], &|k| fold[k] == side)?;
-        Some(Some((
-            Fit::config(knobs, &ranking.bases[i], &f.values),
-            f.own_point,
-        )))
-    };
-    let (best, (a, b)) = rayon::join(
-        || {
+    let rounds: Vec<Tried> = SHAPES
+        .par_iter()
+        .filter_map(|&shape| {
+            let base = shape.on(config, coulomb_start(fit, shape, config)?);
+            let whole = fit.run(knobs, &base, &|_| true)?;
+            if !verdict::predicts_better(whole.cost.sqrt(), without.sqrt()) {
+                return None;
+            }
             // The round's fit on the whole record starts where this one landed: a step.
-            let base = Fit::config(knobs, start, &whole.values);
+            let base = Fit::config(knobs, &base, &whole.values);
             let round = Round::fit(fit, knobs.to_vec(), &base, fold)?;
-            let shape = SHAPES[ranking.whole];
             Some(Tried { shape, round, base })
-        },
-        || rayon::join(|| own_half(0), || own_half(1)),
-    );
-    let best = best?;
-    let from_round = |h: usize| (best.round.half_config(h), best.round.halves[h].own_point);
-    let halves = [
-        a?.unwrap_or_else(|| from_round(0)),
-        b?.unwrap_or_else(|| from_round(1)),
-    ];
-    Some(Fits { best, halves })
+        })
+        .collect();
+    (!rounds.is_empty()).then_some(rounds)
 }
 
 /// The knobs of `knobs_all` the fit `id` fitted in its last round (those with an
@@ -303,37 +218,39 @@ fn coulomb_start(fit: &Fit, shape: Shape, config: &AxisConfig) -> Option<f64> {
         .map(|(_, f)| f)
 }
 
-/// The held-out RMS (m) of the halves' fits with bristles, each with the shape its own
-/// samples ranked best and scored on the other half's samples. Above the noise (`reached`
-/// false) only a half whose fit found a point of its own counts, as for every held-out
-/// figure. None where no half counts.
-fn held_out(
-    fit: &Fit,
-    halves: &[(AxisConfig, bool); 2],
-    fold: &[bool],
-    reached: bool,
-) -> Option<f64> {
+/// The held-out RMS (m) of the halves' fits with bristles: each half takes the shape whose
+/// fit on its own samples is best and is scored on the other half's samples. Above the
+/// noise (`reached` false) only a half whose fit found a point of its own counts, as for
+/// every held-out figure. With whether the two halves chose the same shape; none where no
+/// half counts.
+fn held_out(fit: &Fit, rounds: &[Tried], fold: &[bool], reached: bool) -> Option<(f64, bool)> {
     let mask = fit.mask();
-    let counted: Vec<[f64; 2]> = [(0usize, true), (1, false)]
+    let chosen: Vec<Option<(usize, [f64; 2])>> = [(0usize, true), (1, false)]
         .into_par_iter()
-        .filter_map(|(h, side)| {
-            let (config, own_point) = &halves[h];
-            if !reached && !own_point {
+        .map(|(h, side)| {
+            let (i, t) = rounds.iter().enumerate().min_by(|a, b| {
+                a.1.round.halves[h]
+                    .cost
+                    .total_cmp(&b.1.round.halves[h].cost)
+            })?;
+            if !reached && !t.round.halves[h].own_point {
                 return None;
             }
-            let r = fit.residual(config)?;
+            let r = fit.residual(&t.round.half_config(h))?;
             let (mut ss, mut n) = (0.0, 0.0);
             for k in (0..r.len()).filter(|&k| mask[k] && fold[k] != side) {
                 ss += r[k] * r[k];
                 n += 1.0;
             }
-            Some([ss, n])
+            Some((i, [ss, n]))
         })
         .collect();
+    let counted: Vec<(usize, [f64; 2])> = chosen.iter().flatten().copied().collect();
     let (ss, n) = counted
         .iter()
-        .fold((0.0, 0.0), |(s, m), [a, b]| (s + a, m + b));
-    (n > 0.0).then(|| (ss / n).sqrt())
+        .fold((0.0, 0.0), |(s, m), (_, [a, b])| (s + a, m + b));
+    let agree = matches!(chosen.as_slice(), [Some((a, _)), Some((b, _))] if a == b);
+    (n > 0.0).then(|| ((ss / n).sqrt(), agree))
 }
 
 /// The axis with bristles written: `best`'s fit on the whole record, its values replacing
