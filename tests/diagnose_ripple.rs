@@ -150,8 +150,44 @@ fn a_cyclic_error_of_the_positions_read_at_the_ripples_period_is_not_named_a_rip
     let named: Vec<CauseId> = d.causes.iter().map(|c| c.id).collect();
     assert!(!named.contains(&CauseId::ForceRipple), "{named:?}");
     assert_eq!(d.machine.x.errors.force_ripple_n, 0.0);
-    // Where it fitted well enough to be weighed, it is said why it is not named.
-    if let Some(r) = d.rejected.iter().find(|r| r.id == CauseId::ForceRipple) {
-        assert!(r.reason.starts_with("cannot tell"), "{}", r.reason);
-    }
+    // The ripple explains this record well (a sine of the period the file gives), so it is
+    // weighed, and it is said why it is not named: the read error explains it as well.
+    let r = d
+        .rejected
+        .iter()
+        .find(|r| r.id == CauseId::ForceRipple)
+        .expect("the force ripple is weighed and rejected with its reason");
+    assert!(r.reason.starts_with("cannot tell"), "{}", r.reason);
+}
+
+/// `synth` hides a force ripple on a machine whose file names no period at a motor turn's
+/// travel (16 mm lead × 0.25 gear = 4 mm), and the record holds it: X moves away from the
+/// nominal machine's record, Y (no ripple) does not.
+#[test]
+fn synth_hides_a_ripple_at_a_motor_turn_where_the_file_names_no_period() {
+    use contourcheck::diagnose::synth::{SynthSpec, synthesize};
+    let nominal = MachineConfig::default_preset();
+    assert_eq!(nominal.x.errors.force_ripple_period_mm, 0.0);
+    let quiet = SynthSpec {
+        noise_m: 0.0,
+        ..SynthSpec::default()
+    };
+    let hidden = SynthSpec {
+        effect: Some((CauseId::ForceRipple, AxisName::X, vec![2000.0, 30.0])),
+        ..quiet.clone()
+    };
+    let plain = synthesize(&two_feeds(), &nominal, &quiet).unwrap();
+    let rippled = synthesize(&two_feeds(), &nominal, &hidden).unwrap();
+    assert_eq!(rippled.machine.x.errors.force_ripple_period_mm, TURN_MM);
+    let largest = |col: usize| {
+        plain
+            .rows
+            .iter()
+            .zip(&rippled.rows)
+            .map(|(a, b)| (a[col] - b[col]).abs())
+            .fold(0.0f64, f64::max)
+    };
+    // A 2 kN ripple on the nominal X moves it by micrometres; Y is the same run.
+    assert!(largest(1) > 0.5e-6, "X moved {} m", largest(1));
+    assert_eq!(largest(2), 0.0);
 }

@@ -38,9 +38,9 @@ fn table_record() -> Option<MeasuredTrace> {
     // at about 1.9 s and the axes stand within a count of their commands by 2.5 s; the
     // 2.6 s of standstill after that make each identification half as long again. What
     // the assertions below ask holds on either stretch; the shares move with the samples
-    // compared (from the template X 37.4 % on both, Y 37.5 % against 35.5 % — Y's 37.5 %
-    // scored on the one half whose fit left where the whole record's landed; the loop model
-    // X 31.9 % on both, Y 35.6 % against 40.1 %).
+    // compared (from the template X 26.2 % against 26.3 % with presliding bristles, Y 28.0 %
+    // against 28.1 % with the force ripple; the loop model X 30.6 % on both, Y 36.5 % against
+    // 43.4 %).
     let kept: String = text
         .lines()
         .enumerate()

@@ -11,7 +11,7 @@ use super::common::{CliError, MachineArgs, TraceArgs, load_program};
 use crate::cli::output::OutputBatch;
 use crate::diagnose::causes::CauseId;
 use crate::diagnose::synth::{CommandStream, SynthSpec, synthesize};
-use crate::machine::AxisName;
+use crate::machine::{AxisName, MachineConfig};
 use crate::numeric::units::{m_from_um, s_from_ms};
 use crate::sim::MeasuredAt;
 use crate::trace::format::ColumnMap;
@@ -122,7 +122,7 @@ pub(crate) fn run(args: &SynthArgs) -> Result<Outcome, CliError> {
         sample_ms,
         args.noise_um,
         args.offset_s,
-        describe_hidden(&spec.effect)
+        describe_hidden(&spec.effect, &synthetic.machine)
     );
     Ok(Outcome::Ok)
 }
@@ -181,7 +181,10 @@ fn checked_measurement(args: &SynthArgs) -> Result<f64, CliError> {
 }
 
 /// What was hidden, in words.
-fn describe_hidden(effect: &Option<(CauseId, AxisName, Vec<f64>)>) -> String {
+fn describe_hidden(
+    effect: &Option<(CauseId, AxisName, Vec<f64>)>,
+    truth: &MachineConfig,
+) -> String {
     match effect {
         None => "nothing hidden (the nominal machine)".to_string(),
         Some((cause, axis, values)) => {
@@ -191,6 +194,11 @@ fn describe_hidden(effect: &Option<(CauseId, AxisName, Vec<f64>)>) -> String {
                 .zip(values)
                 .map(|(p, v)| format!("{} = {v} {}", p.key, p.unit).trim_end().to_string())
                 .collect();
+            let mut params = params;
+            if *cause == CauseId::ForceRipple {
+                let period_mm = truth.axis(*axis).errors.force_ripple_period_mm;
+                params.push(format!("errors.force_ripple_period_mm = {period_mm} mm"));
+            }
             format!("{} on {axis}: {}", cause.as_str(), params.join(", "))
         }
     }

@@ -95,7 +95,15 @@ pub fn synthesize(
 ) -> Result<Synthetic, SimError> {
     let mut machine = nominal.clone();
     if let Some((cause, axis, values)) = &spec.effect {
-        causes::apply(machine.axis_mut(*axis), *cause, values);
+        let hidden = machine.axis_mut(*axis);
+        causes::apply(hidden, *cause, values);
+        // A ripple needs a period: where the machine file names none, a motor turn's travel
+        // (the period diagnose looks at first), so the record holds what was asked for.
+        let errors = &hidden.errors;
+        if *cause == CauseId::ForceRipple && errors.force_ripple_period_mm <= 0.0 {
+            let turn_m = super::ripple::candidate_periods_m(hidden).first().copied();
+            hidden.errors.force_ripple_period_mm = turn_m.unwrap_or(f64::NAN) * 1e3;
+        }
     }
     let settings = CheckSettings::for_machine(&machine);
     let (_, planned) = plan_commands(program, &machine, &settings)?;

@@ -206,7 +206,13 @@ fn identify_axis(
     offset: f64,
     model: Model,
 ) -> Option<(AxisConfig, AxisIdentification)> {
-    let found = fit_axis(ctx, template, axis, offset, model)?;
+    let found = runs_whole_record(
+        ctx,
+        template,
+        axis,
+        offset,
+        fit_axis(ctx, template, axis, offset, model)?,
+    )?;
     if model != Model::Template || !template_holds(&found.1, um_from_m(ctx.noise_sigma)) {
         return Some(found);
     }
@@ -220,6 +226,25 @@ fn identify_axis(
     kept.held_out_identified_um = kept.held_out_template_um;
     kept.held_out_share = kept.held_out_template_um / kept.following_error_rms_um;
     Some((template.axis(axis).clone(), kept))
+}
+
+/// `found` where its configuration runs the whole record; else the template's values, as an
+/// axis the search could not fit. The searches stop a simulation after the last sample they
+/// read, so a configuration that diverges or chatters later (in a hold the fits leave out)
+/// reaches them as one that runs: the configuration written is run once more over all of it.
+fn runs_whole_record(
+    ctx: &Context,
+    template: &MachineConfig,
+    axis: AxisName,
+    offset: f64,
+    found: (AxisConfig, AxisIdentification),
+) -> Option<(AxisConfig, AxisIdentification)> {
+    let mut machine = template.clone();
+    *machine.axis_mut(axis) = found.0.clone();
+    if ctx.simulate_axis(&machine, axis).is_some() {
+        return Some(found);
+    }
+    unfitted(Fit::new(ctx, template, axis, offset), template.axis(axis))
 }
 
 /// Whether the template explains the record to its noise while the values fitted predict
@@ -272,8 +297,16 @@ fn fit_axis(
             everywhere = extended;
         }
     }
-    let candidates = presliding::candidate_knobs(template.axis(axis), &nonlinear);
-    everywhere = presliding::tried(&fit, template.axis(axis), everywhere, &candidates);
+    everywhere = match model {
+        Model::Template => {
+            let candidates = presliding::candidate_knobs(template.axis(axis), &nonlinear);
+            presliding::tried(&fit, template.axis(axis), everywhere, &candidates)
+        }
+        Model::Loop => {
+            let why = presliding::WITHOUT_TEMPLATE;
+            presliding::not_tried(everywhere, template.axis(axis), why)
+        }
+    };
     if everywhere.1.reached && verdict::judged_while_moving(&mut everywhere.1, noise_um) {
         return Some(everywhere);
     }

@@ -52,6 +52,13 @@ const DAMPING_SHARE: f64 = 0.1;
 /// (besides the fit's own): ball-screw guideways run at some hundredths to a few tenths.
 const COULOMB_SCAN_OF_WEIGHT: [f64; 3] = [0.03, 0.1, 0.3];
 
+/// Why bristles are not tried on the loop model (`--template none`): each shape would refit
+/// the loop's values, searched from afar without a template, again — about the cost of the
+/// whole identification once more (on the real table's 5 s record it took that run from 57
+/// to 106 s of processor time for under a tenth of the residual).
+pub(super) const WITHOUT_TEMPLATE: &str =
+    "without a template, a shape's refit of the loop model would cost a second identification";
+
 /// What the record says of presliding friction on one axis whose template names none.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PreslidingVerdict {
@@ -351,15 +358,27 @@ fn model_value(
 /// An axis whose fit without bristles reaches the record's noise: bristles are not tried
 /// (nothing is left for them to explain), said so where the template names none.
 pub(super) fn at_noise(
+    found: (AxisConfig, AxisIdentification),
+    template: &AxisConfig,
+) -> (AxisConfig, AxisIdentification) {
+    not_tried(
+        found,
+        template,
+        "the fit without bristles reaches the record's noise",
+    )
+}
+
+/// An axis whose fit without bristles is kept as it is, bristles not tried (`why`), said so
+/// where the template names none.
+pub(super) fn not_tried(
     (config, mut id): (AxisConfig, AxisIdentification),
     template: &AxisConfig,
+    why: &str,
 ) -> (AxisConfig, AxisIdentification) {
     if !template.friction.has_presliding() {
         id.presliding = Some(PreslidingVerdict {
             written: false,
-            statement: "presliding friction: not determined (not tried: the fit without \
-                        bristles reaches the record's noise)"
-                .to_string(),
+            statement: format!("presliding friction: not determined (not tried: {why})"),
             held_out_without_um: id.held_out_identified_um,
             held_out_with_um: f64::NAN,
         });
