@@ -34,35 +34,10 @@ pub(super) fn figure(
 /// never written (`better_than_template` needs a figure shown held out), so letting it win
 /// would leave the axis NOT IDENTIFIED where the other candidate was a valid model.
 pub(super) fn predicts_better(more: &AxisIdentification, fewer: &AxisIdentification) -> bool {
-    Figure::of(more).predicts_better_than(Figure::of(fewer))
-}
-
-/// A held-out figure (any unit, the same for the figures compared) and whether it is
-/// in-sample: the figure of a fit whose halves' fits both stayed at the whole fit's values
-/// where only halves with a point of their own count ([`figure`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct Figure {
-    pub(super) rms: f64,
-    pub(super) in_sample: bool,
-}
-
-impl Figure {
-    fn of(a: &AxisIdentification) -> Figure {
-        Figure {
-            rms: a.held_out_identified_um,
-            in_sample: a.held_out_in_sample,
-        }
-    }
-
-    /// Whether the model this figure belongs to (the larger one) is kept over `fewer`'s: a
-    /// held-out figure always wins over an in-sample one and an in-sample one never wins over
-    /// a held-out one, whatever the numbers; of one kind, by [`verdict::predicts_better`].
-    pub(super) fn predicts_better_than(self, fewer: Figure) -> bool {
-        match (self.in_sample, fewer.in_sample) {
-            (true, false) => false,
-            (false, true) => true,
-            _ => verdict::predicts_better(self.rms, fewer.rms),
-        }
+    match (more.held_out_in_sample, fewer.held_out_in_sample) {
+        (true, false) => false,
+        (false, true) => true,
+        _ => verdict::predicts_better(more.held_out_identified_um, fewer.held_out_identified_um),
     }
 }
 

@@ -5,9 +5,9 @@
 use std::sync::OnceLock;
 
 use super::REACHED_EXCESS;
-use super::held_out::Figure;
 use super::knobs::{self, Knob, get, set_all};
 use super::solve::{Fit, Fitted};
+use super::verdict::predicts_better;
 use crate::machine::AxisConfig;
 
 /// How close to the record's noise the fit with a loose corner free must predict the
@@ -20,14 +20,6 @@ use crate::machine::AxisConfig;
 /// √3 times the noise — the loose corner wandered with the gain on each half, and the fit
 /// at the noise on every sample had it follow the noise.
 const HELD_OUT_EXCESS: f64 = 2.0;
-
-/// Whether a loose corner kept where the fit put it (`free`, the held-out figure of the way
-/// that keeps it) stays over the design's (`design`), on a record of noise `noise_m` (m):
-/// within [`HELD_OUT_EXCESS`] of the noise and predicting the held-out halves better
-/// ([`Figure::predicts_better_than`]: an in-sample figure never wins over a held-out one).
-fn corner_stays(free: Figure, design: Figure, noise_m: f64) -> bool {
-    free.rms <= HELD_OUT_EXCESS * noise_m && free.predicts_better_than(design)
-}
 
 /// The fits of some knobs on the whole record and on each half.
 pub(super) struct Round {
@@ -176,13 +168,15 @@ impl Round {
             };
             let refuted: Vec<&'static str> = refuted.iter().copied().chain(corners).collect();
             let kept_way = kept.and_then(|k| Round::settled(fit, k, template, fold, &refuted));
-            let held_out = |(r, _): &(Round, AxisConfig)| r.held_out_figure(fit, fold);
+            let held_out = |(r, _): &(Round, AxisConfig)| r.held_out_rms(fit, fold);
             let noise = fit.ctx().noise_sigma;
             return Some(match kept_way {
                 Some(k)
                     if held_out(&k)
                         .zip(held_out(&design_way))
-                        .is_some_and(|(free, design)| corner_stays(free, design, noise)) =>
+                        .is_some_and(|(free, design)| {
+                            free <= HELD_OUT_EXCESS * noise && predicts_better(free, design)
+                        }) =>
                 {
                     k
                 }
@@ -215,29 +209,12 @@ impl Round {
     }
 
     /// Whether this round predicts the held-out halves better than `other` (with fewer
-    /// values): by [`Figure::predicts_better_than`] — an in-sample figure never wins over a
-    /// held-out one.
+    /// values): by the twentieth of [`predicts_better`].
     fn predicts_better_than(&self, other: &Round, fit: &Fit, fold: &[bool]) -> bool {
-        let this = self.held_out_figure(fit, fold);
-        let that = other.held_out_figure(fit, fold);
+        let this = self.held_out_rms(fit, fold);
+        let that = other.held_out_rms(fit, fold);
         this.zip(that)
-            .is_some_and(|(this, that)| this.predicts_better_than(that))
-    }
-
-    /// The round's held-out figure (m) as an axis's is judged: above the noise only the
-    /// halves' fits with a point of their own count ([`Round::held_out_rms_own`]); where
-    /// neither has one, the figure of both halves is the whole fit's values on samples they
-    /// were fitted to, and is marked in-sample. At the noise both halves count.
-    pub(super) fn held_out_figure(&self, fit: &Fit, fold: &[bool]) -> Option<Figure> {
-        let own = (!self.reaches_noise(fit)).then(|| self.held_out_rms_own(fit, fold));
-        let rms = match own {
-            Some(Some(own_m)) => own_m,
-            _ => self.held_out_rms(fit, fold)?,
-        };
-        Some(Figure {
-            rms,
-            in_sample: own == Some(None),
-        })
+            .is_some_and(|(this, that)| predicts_better(this, that))
     }
 
     /// Where knob `key` stays fitted though the record does not determine it alone (its
@@ -324,44 +301,5 @@ impl Round {
     /// Half `h`'s fit (0: the samples the fold marks) about its own base.
     pub(super) fn half_config(&self, h: usize) -> AxisConfig {
         Fit::config(&self.knobs, &self.half_bases[h], &self.halves[h].values)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn figure(rms_um: f64, in_sample: bool) -> Figure {
-        Figure {
-            rms: rms_um * 1e-6,
-            in_sample,
-        }
-    }
-
-    #[test]
-    fn a_corner_kept_on_an_in_sample_figure_never_stays_over_a_held_out_design() {
-        let noise = 0.5e-6;
-        let design = figure(1.5, false);
-        // Held out, within twice the noise (1.0 µm) and under 0.95 × 1.5 = 1.425 µm: stays.
-        assert!(corner_stays(figure(0.9, false), design, noise));
-        // The same number in-sample (the halves' fits stayed at the whole fit's values):
-        // it is lower than the fit's held-out one would be, and does not keep the corner.
-        assert!(!corner_stays(figure(0.9, true), design, noise));
-        assert!(!corner_stays(figure(0.1, true), design, noise));
-        // A held-out way over an in-sample design's, but above twice the noise: goes back.
-        assert!(corner_stays(figure(0.99, false), figure(0.2, true), noise));
-        assert!(!corner_stays(figure(1.01, false), figure(3.0, true), noise));
-        // Both in-sample: by the twentieth, 0.9 < 0.95 × 1.0 = 0.95; 0.96 is not.
-        assert!(corner_stays(figure(0.9, true), figure(1.0, true), noise));
-        assert!(!corner_stays(figure(0.96, true), figure(1.0, true), noise));
-    }
-
-    #[test]
-    fn a_round_with_an_in_sample_figure_never_predicts_better_than_a_held_out_one() {
-        let held_out = figure(4.0, false);
-        assert!(!figure(1.0, true).predicts_better_than(held_out));
-        assert!(figure(3.7, false).predicts_better_than(held_out));
-        assert!(!figure(3.9, false).predicts_better_than(held_out));
-        assert!(figure(9.0, false).predicts_better_than(figure(1.0, true)));
     }
 }
