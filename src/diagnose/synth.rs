@@ -17,7 +17,7 @@ use rand_distr::{Distribution, Normal};
 use crate::check::{CheckSettings, plan_commands};
 use crate::diagnose::causes::{self, CauseId};
 use crate::gcode::Program;
-use crate::machine::{AxisName, MachineConfig};
+use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::sim::{AxisModel, MeasuredAt, SimError, simulate};
 use crate::trace::format::{ColumnMap, Signal, Unit};
 use crate::trace::recorded::commands_from_record;
@@ -87,6 +87,17 @@ pub struct Synthetic {
     pub with_commands: bool,
 }
 
+/// `cause` with `values` hidden in `axis`. A ripple needs a period: where the machine file
+/// names none, a motor turn's travel (the period diagnose looks at first), so the record
+/// holds what was asked for.
+fn hide(axis: &mut AxisConfig, cause: CauseId, values: &[f64]) {
+    causes::apply(axis, cause, values);
+    if cause == CauseId::ForceRipple && axis.errors.force_ripple_period_mm <= 0.0 {
+        let turn_m = super::ripple::candidate_periods_m(axis).first().copied();
+        axis.errors.force_ripple_period_mm = turn_m.unwrap_or(f64::NAN) * 1e3;
+    }
+}
+
 /// Runs `program` on `nominal` with the hidden effect and measures it.
 pub fn synthesize(
     program: &Program,
@@ -95,15 +106,7 @@ pub fn synthesize(
 ) -> Result<Synthetic, SimError> {
     let mut machine = nominal.clone();
     if let Some((cause, axis, values)) = &spec.effect {
-        let hidden = machine.axis_mut(*axis);
-        causes::apply(hidden, *cause, values);
-        // A ripple needs a period: where the machine file names none, a motor turn's travel
-        // (the period diagnose looks at first), so the record holds what was asked for.
-        let errors = &hidden.errors;
-        if *cause == CauseId::ForceRipple && errors.force_ripple_period_mm <= 0.0 {
-            let turn_m = super::ripple::candidate_periods_m(hidden).first().copied();
-            hidden.errors.force_ripple_period_mm = turn_m.unwrap_or(f64::NAN) * 1e3;
-        }
+        hide(machine.axis_mut(*axis), *cause, values);
     }
     let settings = CheckSettings::for_machine(&machine);
     let (_, planned) = plan_commands(program, &machine, &settings)?;
