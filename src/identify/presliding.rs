@@ -334,7 +334,9 @@ const BRISTLE_KEYS: [(&str, &str); 4] = [
     ("friction.stribeck_velocity_mm_per_min", "mm/min"),
 ];
 
-/// A bristle value written as a model's: picked from a grid, with no uncertainty of its own.
+/// A bristle value written as a model's: picked from a grid, which spans threefold steps and
+/// more about it, so its uncertainty is stated as its own size (every value written loose
+/// carries a finite one).
 fn model_value(
     key: &'static str,
     unit: &'static str,
@@ -346,7 +348,7 @@ fn model_value(
         unit,
         template: get(template, key),
         value: get(config, key),
-        uncertainty: f64::NAN,
+        uncertainty: get(config, key).abs(),
         determined: false,
         measured: false,
         traded_with: None,
