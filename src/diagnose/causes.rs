@@ -173,7 +173,7 @@ impl CauseId {
             CauseId::ForceRipple => {
                 const {
                     &[
-                        param("errors.force_ripple_n", 5.0, 0.0..=1e5),
+                        param("errors.force_ripple_n", 5.0, 0.0..=1e7),
                         param("errors.force_ripple_phase_deg", 30.0, -1e6..=1e6),
                     ]
                 }

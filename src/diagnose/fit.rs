@@ -207,12 +207,24 @@ pub(crate) fn fit_statistical(
 }
 
 /// A parameter pinned at a bound, or one the data cannot determine, is no identification.
-fn accept(params: &[Param], f: Fitted) -> Option<Fitted> {
+/// Phases come back within (−180°, 180°].
+fn accept(params: &[Param], mut f: Fitted) -> Option<Fitted> {
+    wrap_phases(params, &mut f.values);
     let pinned = params.iter().zip(&f.values).any(|(q, v)| {
         let span = (q.max - q.min).abs().max(1.0);
         ((*v - q.min).abs() <= 1e-9 * span && q.min > 0.0) || (*v - q.max).abs() <= 1e-9 * span
     });
     (!pinned && f.sigma.iter().all(|s| s.is_finite())).then_some(f)
+}
+
+/// The search moves a phase freely (its range is wide so that no bound stops it), so a
+/// phase found at 400° is written as the 40° it means.
+fn wrap_phases(params: &[Param], values: &mut [f64]) {
+    for (p, v) in params.iter().zip(values) {
+        if p.key.ends_with("_phase_deg") {
+            *v = 180.0 - (180.0 - *v).rem_euclid(360.0);
+        }
+    }
 }
 
 /// Standard uncertainties of a statistical fit from the curvature of its χ² (a −2
@@ -813,6 +825,27 @@ mod tests {
     use crate::diagnose::synth::{SynthSpec, synthesize};
     use crate::gcode::{InterpretOptions, Program, parse_program};
     use crate::trace::measured::{MeasuredTrace, parse_trace};
+
+    #[test]
+    fn a_phase_found_beyond_a_turn_is_written_as_the_angle_it_means() {
+        let params = CauseId::ForceRipple.params();
+        // Amplitude, then phase: 400° is 40°, −190° is 170°, 180° stays, −180° is 180°.
+        for (found, meant) in [
+            (400.0, 40.0),
+            (-190.0, 170.0),
+            (180.0, 180.0),
+            (-180.0, 180.0),
+        ] {
+            let mut values = vec![250.0, found];
+            wrap_phases(params, &mut values);
+            assert_eq!(values[0], 250.0, "the amplitude is not a phase");
+            assert!(
+                (values[1] - meant).abs() < 1e-9,
+                "{found}° gave {}°",
+                values[1]
+            );
+        }
+    }
 
     /// A record of `text` on `machine`, written as CSV and read back as a user's file.
     fn record(text: &str, machine: &MachineConfig) -> (Program, MeasuredTrace) {

@@ -21,6 +21,11 @@ pub struct Observed {
 /// Largest Stribeck excess relative to the Coulomb force: guideway and screw friction
 /// rises towards standstill by tens of percent, not by multiples.
 const STRIBECK_OVER_COULOMB_MAX: f64 = 2.0;
+/// Largest force ripple as a share of the drive's peak force. A servo motor's torque ripple
+/// and cogging together stay within a few percent of its rated torque, and its peak torque is
+/// about three times the rated one: a quarter of the peak (three quarters of the rated torque)
+/// is far beyond any motor's ripple.
+const RIPPLE_OVER_PEAK_MAX: f64 = 0.25;
 /// Largest Coulomb coefficient of a machine-tool guideway (plain slideways reach 0.2).
 const COULOMB_COEFFICIENT_MAX: f64 = 0.3;
 /// Largest delay between interpolator and position loop (s): a few interpolation cycles.
@@ -78,13 +83,14 @@ fn implausible_mechanics(
                 )
             })
         }
-        // A ripple is a share of what the drive can push; beyond all of it, no motor has it.
+        // A ripple is a small share of what the drive can push.
         CauseId::ForceRipple => {
             let peak_n = super::ripple::peak_force_n(axis)?;
-            (values[0] > peak_n).then(|| {
+            (values[0] > RIPPLE_OVER_PEAK_MAX * peak_n).then(|| {
                 format!(
-                    "a force ripple of {:.0} N exceeds the most the axis's drive can push \
-                     ({peak_n:.0} N: its current limit through the motor's torque constant)",
+                    "a force ripple of {:.0} N exceeds {RIPPLE_OVER_PEAK_MAX} × the most the \
+                     axis's drive can push ({peak_n:.0} N: its current limit through the motor's \
+                     torque constant); a motor's ripple is a few percent of its rated force",
                     values[0]
                 )
             })
@@ -200,4 +206,32 @@ fn loop_frequency_near(model: &AxisModel, freq_hz: f64) -> Option<(String, f64)>
         .into_iter()
         .find(|m| m.damping < 0.3 && near(m.frequency_hz, MODE_MARGIN))
         .map(|m| ("closed-loop mode".to_string(), m.frequency_hz))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::machine::MachineConfig;
+
+    fn ripple_verdict(amplitude_n: f64) -> Option<String> {
+        let machine = MachineConfig::default_preset();
+        let observed = Observed {
+            following_error_max_m: 1e-3,
+        };
+        implausible(
+            CauseId::ForceRipple,
+            &[amplitude_n, 0.0],
+            &machine.x,
+            &observed,
+        )
+    }
+
+    #[test]
+    fn a_ripple_of_a_third_of_the_peak_force_is_no_motors_but_one_of_a_tenth_may_be() {
+        // The nominal machine's X: 60 A × 2.34 N·m/A over 16 mm × 0.25 / 2π of travel per
+        // motor radian = 220.5 kN of peak force.
+        let peak_n = 60.0 * 2.34 / (16e-3 * 0.25 / std::f64::consts::TAU);
+        assert!(ripple_verdict(peak_n / 3.0).is_some());
+        assert!(ripple_verdict(peak_n / 10.0).is_none());
+    }
 }

@@ -492,23 +492,6 @@ mod tests {
             (peak / expected - 1.0).abs() < 1e-9,
             "{peak} against {expected}"
         );
-        let observed = super::super::plausible::Observed {
-            following_error_max_m: 1e-3,
-        };
-        let why = super::super::plausible::implausible(
-            CauseId::ForceRipple,
-            &[1.01 * expected, 0.0],
-            &x,
-            &observed,
-        );
-        assert!(why.is_some_and(|w| w.contains("exceeds the most")));
-        let fine = super::super::plausible::implausible(
-            CauseId::ForceRipple,
-            &[0.99 * expected, 0.0],
-            &x,
-            &observed,
-        );
-        assert!(fine.is_none(), "{fine:?}");
     }
 
     #[test]
