@@ -41,6 +41,8 @@ mod starts;
 mod verdict;
 mod z_axis;
 
+use std::sync::OnceLock;
+
 use rayon::prelude::*;
 
 pub use baseline::Baseline;
@@ -297,10 +299,26 @@ fn fit_axis(
             everywhere = extended;
         }
     }
+    // The fit away from the standstills, made once where it is first asked for: by the
+    // bristles' stage (the share it must beat) or for the choice below.
+    let moving_fit = OnceLock::new();
+    let while_moving = || {
+        let fit = Fit::new(ctx, template, axis, offset).masked(moving_samples(ctx, axis, offset));
+        match model {
+            Model::Template => identify_ordered(&fit, template, true, &[]),
+            Model::Loop => identify_loop_order(&fit, template, true),
+        }
+        .map(|found| verdict::judged(found, noise_um))
+    };
+    let moving_share = || {
+        let m = moving_fit.get_or_init(while_moving).as_ref();
+        m.filter(|m| m.1.reached || m.1.better_than_template)
+            .map(|m| m.1.held_out_share)
+    };
     everywhere = match model {
         Model::Template => {
             let candidates = presliding::candidate_knobs(template.axis(axis), &nonlinear);
-            presliding::tried(&fit, template.axis(axis), everywhere, &candidates)
+            presliding::tried(&fit, template.axis(axis), everywhere, &candidates, &moving_share)
         }
         Model::Loop => {
             let why = presliding::WITHOUT_TEMPLATE;
@@ -310,13 +328,7 @@ fn fit_axis(
     if everywhere.1.reached && verdict::judged_while_moving(&mut everywhere.1, noise_um) {
         return Some(everywhere);
     }
-    let moving = moving_samples(ctx, axis, offset);
-    let fit = Fit::new(ctx, template, axis, offset).masked(moving);
-    let while_moving = match model {
-        Model::Template => identify_ordered(&fit, template, true, &[]),
-        Model::Loop => identify_loop_order(&fit, template, true),
-    }
-    .map(|found| verdict::judged(found, noise_um));
+    let while_moving = moving_fit.into_inner().unwrap_or_else(while_moving);
     let verdict = everywhere.1.presliding.clone();
     let mut written = best_written(everywhere, while_moving, template.axis(axis));
     if written.1.moving_only {
