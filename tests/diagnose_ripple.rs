@@ -4,25 +4,40 @@
 //! motor turn's 4 mm travel and its harmonics, the screw's 16 mm lead and its harmonics).
 //!
 //! A ripple of known amplitude and phase on X is named, its values within their stated
-//! uncertainties; a record without one names none; a record whose positions read carry a
-//! cyclic error at the period the machine file gives the ripple names no ripple.
+//! uncertainties and its period the one the record was made with, said to be chosen (or the
+//! machine file's, where the file names it); a record without one names none, and an axis
+//! whose travel spans none of the drive's periods three times is not tried for one; a
+//! record whose positions read carry a cyclic error at the period the machine file gives
+//! the ripple names no ripple.
 
 mod common;
 
 use common::reference::{Cycle, Recording, record};
 use common::{assert_within_k_sigma, program_text};
 use contourcheck::diagnose::causes::CauseId;
+use contourcheck::diagnose::report::DiagnoseReport;
+use contourcheck::diagnose::ripple::PeriodSource;
 use contourcheck::diagnose::{DiagnoseSettings, Diagnosis, diagnose};
 use contourcheck::gcode::Program;
 use contourcheck::machine::{AxisName, MachineConfig};
-use contourcheck::trace::measured::parse_trace;
+use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 
-/// A motor turn's travel on the nominal machine: a 16 mm lead at a gear of 0.25.
-const TURN_MM: f64 = 4.0;
+/// A motor turn's travel on the nominal machine's X (mm): the screw's lead through the
+/// gear, 16 mm × 0.25 = 4 mm.
+fn turn_mm() -> f64 {
+    let x = MachineConfig::default_preset().x;
+    x.drive.lead_mm * x.drive.gear_ratio
+}
 
-/// Along X and back at two feeds (a 4 mm ripple at 4.2 and 8.3 Hz), then along Y.
+/// Along X and back at two feeds (a 4 mm ripple at 4.2 and 8.3 Hz), then `y_mm` along Y.
+fn two_feeds_then_y(y_mm: f64) -> Program {
+    program_text(&format!(
+        "G21 G17 G90 G94\nG0 X0 Y0\nG1 X60 F1000\nX0 F2000\nY{y_mm} F1000\nM2\n"
+    ))
+}
+
 fn two_feeds() -> Program {
-    program_text("G21 G17 G90 G94\nG0 X0 Y0\nG1 X60 F1000\nX0 F2000\nY20 F1000\nM2\n")
+    two_feeds_then_y(20.0)
 }
 
 /// The nominal machine with `ripple_x` (N, period mm, °) pushing X's table.
@@ -44,6 +59,16 @@ fn diagnosed(
     nominal: &MachineConfig,
     rec: &Recording,
 ) -> Diagnosis {
+    diagnosed_with_record(program, truth, nominal, rec).0
+}
+
+/// As [`diagnosed`], with the record read.
+fn diagnosed_with_record(
+    program: &Program,
+    truth: &MachineConfig,
+    nominal: &MachineConfig,
+    rec: &Recording,
+) -> (Diagnosis, MeasuredTrace) {
     let csv = record(program, &truth.x, &truth.y, rec);
     let measured = parse_trace(&csv, "reference.csv").unwrap();
     let settings = DiagnoseSettings::for_machine(nominal);
@@ -63,20 +88,25 @@ fn diagnosed(
             r.id, r.axis, r.reason, r.params
         );
     }
-    d
+    for l in &d.learned {
+        eprintln!("learned {l:?}");
+    }
+    (d, measured)
 }
 
 /// The ripple every test of a known ripple hides: 5 kN at 40°, once a motor turn — about
 /// 2 % of the 220 kN the drive can push (60 A through 2.34 N·m/A at 4 mm a turn), a torque
 /// ripple of the size servo motors have.
-const KNOWN: (f64, f64, f64) = (5000.0, TURN_MM, 40.0);
+fn known() -> (f64, f64, f64) {
+    (5000.0, turn_mm(), 40.0)
+}
 
 #[test]
 fn a_ripple_of_known_amplitude_and_phase_is_named_with_its_values() {
     let nominal = MachineConfig::default_preset();
-    let d = diagnosed(
+    let (d, measured) = diagnosed_with_record(
         &two_feeds(),
-        &truth(Some(KNOWN)),
+        &truth(Some(known())),
         &nominal,
         &Recording::default(),
     );
@@ -86,7 +116,7 @@ fn a_ripple_of_known_amplitude_and_phase_is_named_with_its_values() {
         .find(|c| c.id == CauseId::ForceRipple)
         .unwrap_or_else(|| panic!("no ripple named: {:#?}", d.rejected));
     assert_eq!(found.axis, AxisName::X);
-    let (amplitude, period_mm, phase_deg) = KNOWN;
+    let (amplitude, period_mm, phase_deg) = known();
     let [a, phase] = [0, 1].map(|i| &found.params[i]);
     assert_eq!(a.key, "errors.force_ripple_n");
     assert_eq!(phase.key, "errors.force_ripple_phase_deg");
@@ -112,12 +142,76 @@ fn a_ripple_of_known_amplitude_and_phase_is_named_with_its_values() {
     assert_eq!(d.machine.y.errors.force_ripple_n, 0.0);
     assert_eq!(d.machine.y.errors.force_ripple_period_mm, 0.0);
     assert!(d.after.x.rms_um <= 1.2 * d.noise_floor_um, "{:?}", d.after);
+    // The period is stated with the cause, and that it was chosen, among the drive's
+    // periods X's 60 mm spans three times: a turn's 4 mm and the screw's 16 mm lead, each
+    // over 1 to 4 (16 / 4 is the turn again) — all seven.
+    let p = &found.period;
+    assert_eq!(p.period_source, Some(PeriodSource::Chosen), "{p:?}");
+    assert!((p.period_mm.unwrap() - period_mm).abs() < 1e-9, "{p:?}");
+    let lead_mm = nominal.x.drive.lead_mm;
+    let mut among: Vec<f64> = [period_mm, lead_mm]
+        .iter()
+        .flat_map(|t| [1.0, 2.0, 3.0, 4.0].map(|h| t / h))
+        .collect();
+    among.sort_by(f64::total_cmp);
+    among.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    let mut listed = p.period_chosen_among_mm.clone();
+    listed.sort_by(f64::total_cmp);
+    assert_eq!(listed.len(), among.len(), "{listed:?} against {among:?}");
+    assert!(listed.iter().zip(&among).all(|(a, b)| (a - b).abs() < 1e-9));
+    // In the JSON and on the cause's line of the report.
+    let report = DiagnoseReport::new(&d, "two_feeds.nc", &measured, &nominal);
+    let json = serde_json::to_value(&report).unwrap();
+    let k = d
+        .causes
+        .iter()
+        .position(|c| c.id == CauseId::ForceRipple)
+        .unwrap();
+    let cause = &json["causes"][k];
+    assert!(
+        (cause["period_mm"].as_f64().unwrap() - period_mm).abs() < 1e-9,
+        "{cause}"
+    );
+    assert_eq!(cause["period_source"], "chosen");
+    let text = report.to_string();
+    let line = text
+        .lines()
+        .find(|l| l.contains("force_ripple on X:"))
+        .unwrap_or_else(|| panic!("{text}"));
+    assert!(
+        line.contains(&format!("at a period of {period_mm:.4} mm (chosen among")),
+        "{line}"
+    );
+}
+
+#[test]
+fn a_ripple_at_the_period_the_machine_file_names_says_so() {
+    let mut nominal = MachineConfig::default_preset();
+    nominal.x.errors.force_ripple_period_mm = turn_mm();
+    let d = diagnosed(
+        &two_feeds(),
+        &truth(Some(known())),
+        &nominal,
+        &Recording::default(),
+    );
+    let found = d
+        .causes
+        .iter()
+        .find(|c| c.id == CauseId::ForceRipple)
+        .unwrap_or_else(|| panic!("no ripple named: {:#?}", d.rejected));
+    let p = &found.period;
+    assert_eq!(p.period_source, Some(PeriodSource::MachineFile), "{p:?}");
+    assert_eq!(p.period_mm, Some(turn_mm()));
+    assert!(p.period_chosen_among_mm.is_empty(), "{p:?}");
 }
 
 #[test]
 fn a_record_without_a_ripple_names_none_and_writes_no_period() {
+    // Y travels 2 mm: less than three times the shortest period the drive gives (a turn's
+    // 4 mm over 4 = 1 mm), so no ripple on Y is tried and the report says why.
     let nominal = MachineConfig::default_preset();
-    let d = diagnosed(&two_feeds(), &truth(None), &nominal, &Recording::default());
+    let program = two_feeds_then_y(2.0);
+    let d = diagnosed(&program, &truth(None), &nominal, &Recording::default());
     assert!(
         d.causes.iter().all(|c| c.id != CauseId::ForceRipple),
         "{:?}",
@@ -127,6 +221,19 @@ fn a_record_without_a_ripple_names_none_and_writes_no_period() {
         assert_eq!(a.errors.force_ripple_n, 0.0);
         assert_eq!(a.errors.force_ripple_period_mm, 0.0);
     }
+    let not_tried = d
+        .skipped
+        .iter()
+        .find(|s| s.id == CauseId::ForceRipple)
+        .unwrap_or_else(|| panic!("{:#?}", d.skipped));
+    assert_eq!(not_tried.axes, [AxisName::Y], "{not_tried:?}");
+    assert!(not_tried.reason.contains("fits 3 times"), "{not_tried:?}");
+    let ripples_on = |a| {
+        d.candidates
+            .iter()
+            .any(|c| c.id == CauseId::ForceRipple && c.axis == a)
+    };
+    assert!(!ripples_on(AxisName::Y), "{:?}", d.candidates);
 }
 
 #[test]
@@ -135,12 +242,12 @@ fn a_cyclic_error_of_the_positions_read_at_the_ripples_period_is_not_named_a_rip
     // record holds no force ripple, but the scale the control reads X by reads 2 µm too far
     // at 4 mm of period, and the record is what the control read.
     let mut nominal = MachineConfig::default_preset();
-    nominal.x.errors.force_ripple_period_mm = TURN_MM;
-    nominal.x.errors.cyclic_period_mm = TURN_MM;
+    nominal.x.errors.force_ripple_period_mm = turn_mm();
+    nominal.x.errors.cyclic_period_mm = turn_mm();
     let rec = Recording {
         encoder_error_x: Cycle {
             amplitude: 2e-6,
-            period_m: TURN_MM * 1e-3,
+            period_m: turn_mm() * 1e-3,
             phase_rad: 0.7,
         },
         at_feedback: true,
@@ -178,7 +285,7 @@ fn synth_hides_a_ripple_at_a_motor_turn_where_the_file_names_no_period() {
     };
     let plain = synthesize(&two_feeds(), &nominal, &quiet).unwrap();
     let rippled = synthesize(&two_feeds(), &nominal, &hidden).unwrap();
-    assert_eq!(rippled.machine.x.errors.force_ripple_period_mm, TURN_MM);
+    assert_eq!(rippled.machine.x.errors.force_ripple_period_mm, turn_mm());
     let largest = |col: usize| {
         plain
             .rows

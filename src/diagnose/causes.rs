@@ -424,6 +424,15 @@ pub(crate) fn signature(cause: CauseId, r: &[f64], k: &Kinematics) -> f64 {
     }
 }
 
+/// The evidence of a hypothesis, as every one is weighed against another: the fall of the
+/// residual's sum of squares it gives, `gain` (in noise variances), counted on the
+/// independent share of the residual it leaves, `left` — a hypothesis that leaves a smooth
+/// residual has bent towards a larger error it does not model — less ln n for each of its
+/// `params` values, with n the `values` compared.
+pub(crate) fn evidence(gain: f64, left: &[f64], params: usize, values: f64) -> f64 {
+    gain * crate::compare::residual::independent_share(left) - params as f64 * values.ln()
+}
+
 /// Share of the variance of r (over samples where `keep`) that regressors explain.
 pub(crate) fn explained(
     r: &[f64],

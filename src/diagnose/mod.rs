@@ -113,6 +113,8 @@ pub struct FoundCause {
     pub axis: AxisName,
     /// Fitted parameters.
     pub params: Vec<FittedParam>,
+    /// The period it acts at, for a cause that repeats with position.
+    pub period: ripple::Period,
     /// Evidence (BIC units) when it was added, fitted on the whole record.
     pub evidence: f64,
     /// Fitted on half of the record and judged on the other half.
@@ -359,7 +361,7 @@ pub fn diagnose_validated(
         unexplained,
         learned,
         localized,
-        skipped: skipped_causes(machine, settings, z.compared),
+        skipped: skipped_causes(machine, settings, z.compared, &outcome.not_weighed),
         searched: settings.max_causes > 0
             && CauseId::ALL.into_iter().any(|c| {
                 AxisName::BOTH
@@ -503,6 +505,9 @@ fn learn_unexplained(
 ) -> Vec<learn::Learned> {
     let mut learned = Vec::new();
     for u in unexplained {
+        if ripple::untold_period(u, &outcome.rejected, &outcome.ripple_periods) {
+            continue;
+        }
         if let Some((extended, traces, l)) =
             learn::learn(ctx, &outcome.machine, &outcome.traces, outcome.offset_s, u)
         {
@@ -648,11 +653,13 @@ pub(crate) fn tries_allowed(
 }
 
 /// The causes not tried, with the reason, axes merged where the reason is the same; on Z
-/// too where it was compared (`z_compared`), among the causes tried on Z.
+/// too where it was compared (`z_compared`), among the causes tried on Z; then those the
+/// search did not weigh on an axis whose record cannot show them (`not_weighed`).
 fn skipped_causes(
     machine: &MachineConfig,
     settings: &DiagnoseSettings,
     z_compared: bool,
+    not_weighed: &[Skipped],
 ) -> Vec<Skipped> {
     let mut out: Vec<Skipped> = Vec::new();
     for cause in CauseId::ALL {
@@ -674,6 +681,7 @@ fn skipped_causes(
             }
         }
     }
+    out.extend_from_slice(not_weighed);
     out
 }
 

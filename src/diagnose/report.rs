@@ -9,6 +9,7 @@ use serde::Serialize;
 use super::learn::Learned;
 use super::locate::{Located, Variable};
 use super::repeat::Localized;
+use super::ripple::Period;
 
 use super::{
     Alternative, AxisResidual, Candidate, CircularComparison, Coverage, Diagnosis, ExtraWait,
@@ -117,6 +118,9 @@ pub struct CauseReport {
     /// Fitted parameters, as machine keys below the axis, with units and standard
     /// uncertainties.
     pub params: Vec<FittedParam>,
+    /// For a cause that repeats with position: its period and where that came from.
+    #[serde(flatten)]
+    pub period: Period,
     /// Evidence (BIC units).
     pub evidence: f64,
     /// `points` (point-by-point residual) or `statistics` (stick-slip chatter compared on
@@ -211,6 +215,7 @@ impl DiagnoseReport {
                 id: c.id,
                 axis: c.axis,
                 params: c.params.clone(),
+                period: c.period.clone(),
                 evidence: c.evidence,
                 fitted_on: if c.statistical {
                     "statistics"
@@ -512,9 +517,13 @@ fn write_cause(s: &mut String, i: usize, c: &CauseReport) {
     } else {
         format!(", fitted on the {}", c.fitted_on)
     };
+    let period = c
+        .period
+        .describe()
+        .map_or(String::new(), |p| format!(", {p}"));
     let _ = writeln!(
         s,
-        "  {}. {} on {}: {}{statistical}",
+        "  {}. {} on {}: {}{period}{statistical}",
         i + 1,
         c.id.as_str(),
         c.axis,
@@ -707,9 +716,10 @@ pub(crate) fn next_step(c: &CauseReport) -> String {
              (--write-compensation DIR) or realign the axes"
         ),
         CauseId::ForceRipple => format!(
-            "a force on the {axis} table repeats with its position (its period in the machine \
-             file written): check the motor's torque ripple and cogging, the screw's run-out and \
-             the drive's ripple compensation; the fitted machine file predicts with it"
+            "a force on the {axis} table repeats with its position every {} mm: check the \
+             motor's torque ripple and cogging, the screw's run-out and the drive's ripple \
+             compensation; the fitted machine file predicts with it",
+            c.period.period_mm.map_or_else(|| "?".into(), sig)
         ),
         CauseId::Resonance => format!(
             "a structural mode at {value:.1} Hz shows on {axis}: check the velocity loop's filters \

@@ -20,7 +20,11 @@
 
 use std::f64::consts::TAU;
 
+use serde::Serialize;
+
 use super::causes::{self, CauseId};
+use super::locate::{Located, Variable};
+use super::search::Rejected;
 use crate::compare::context::Context;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::sim::AxisModel;
@@ -33,13 +37,97 @@ const PERIODS_SPANNED_MIN: f64 = 3.0;
 /// The harmonics of a turn's travel a ripple is looked for at.
 const TURN_HARMONICS: [f64; 4] = [1.0, 2.0, 3.0, 4.0];
 
+/// How a reason begins where the record cannot tell a force ripple from an error of the
+/// positions read.
+pub(crate) const CANNOT_TELL: &str = "cannot tell";
+
 /// The trial force (N) of each part in [`linear_start`]: large beside the noise's worth of
 /// force, small beside friction, so that switching instants barely move.
 const TRIAL_N: f64 = 10.0;
 
+/// The period a cause that repeats with position was fitted at, and where it came from; all
+/// empty for a cause that does not repeat with position.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Period {
+    /// The period (mm).
+    pub period_mm: Option<f64>,
+    /// Where it came from.
+    pub period_source: Option<PeriodSource>,
+    /// Where it was chosen: the periods (mm) it was chosen among — those the drive gives
+    /// that the travel compared spans three times; empty otherwise.
+    pub period_chosen_among_mm: Vec<f64>,
+}
+
+/// Where a cause's period came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PeriodSource {
+    /// The machine file names it.
+    MachineFile,
+    /// Chosen from the residual among the periods the drive gives.
+    Chosen,
+    /// The screw's lead: the machine file names no cyclic error's period.
+    ScrewLead,
+}
+
+impl Period {
+    fn from(period_mm: f64, source: PeriodSource, among_mm: Vec<f64>) -> Period {
+        Period {
+            period_mm: Some(period_mm),
+            period_source: Some(source),
+            period_chosen_among_mm: among_mm,
+        }
+    }
+
+    /// The period a named `cause` acts at on `config`: the ripple's as `ripple` holds it
+    /// (where the search chose or was given it), the cyclic error's from the machine file
+    /// or the screw's lead; none for other causes.
+    pub(crate) fn of(cause: CauseId, config: &AxisConfig, ripple: Option<&Period>) -> Period {
+        match cause {
+            CauseId::ForceRipple => ripple.cloned().unwrap_or_default(),
+            CauseId::CyclicError => {
+                let source = if config.errors.cyclic_period_mm > 0.0 {
+                    PeriodSource::MachineFile
+                } else {
+                    PeriodSource::ScrewLead
+                };
+                Period::from(cyclic_period_mm(config), source, Vec::new())
+            }
+            _ => Period::default(),
+        }
+    }
+
+    /// In words: "at a period of 4.000 mm, chosen among …"; none without a period.
+    pub fn describe(&self) -> Option<String> {
+        let mm = self.period_mm?;
+        let source = match self.period_source? {
+            PeriodSource::MachineFile => "the machine file's".to_string(),
+            PeriodSource::ScrewLead => "the screw's lead".to_string(),
+            PeriodSource::Chosen => format!(
+                "chosen among the drive's {} mm (a motor turn's travel, the screw's lead and \
+                 their harmonics the travel compared spans three times)",
+                mm_list(&self.period_chosen_among_mm)
+            ),
+        };
+        Some(format!("at a period of {mm:.4} mm ({source})"))
+    }
+}
+
+/// Periods (mm) as a list: "16, 8, 5.333, 4".
+fn mm_list(periods_mm: &[f64]) -> String {
+    let each: Vec<String> = periods_mm
+        .iter()
+        .map(|p| {
+            let s = format!("{p:.3}");
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        })
+        .collect();
+    each.join(", ")
+}
+
 /// The periods (m) a ripple of `axis` is looked for at where the machine file names none: a
 /// motor turn's travel and its harmonics, and the screw's lead (a screw turn) and its
-/// harmonics where a gear makes it another.
+/// harmonics where a gear makes it another; each once.
 pub(crate) fn candidate_periods_m(axis: &AxisConfig) -> Vec<f64> {
     let turn_m = TAU * AxisModel::from_config(axis).travel_per_motor_rad();
     let lead_m = axis.drive.lead_mm * 1e-3;
@@ -47,26 +135,43 @@ pub(crate) fn candidate_periods_m(axis: &AxisConfig) -> Vec<f64> {
     if lead_m > 0.0 && (lead_m - turn_m).abs() > 1e-6 * turn_m {
         turns.push(lead_m);
     }
-    turns
+    let mut periods: Vec<f64> = Vec::new();
+    let harmonics = turns
         .into_iter()
         .filter(|t| t.is_finite() && *t > 0.0)
-        .flat_map(|t| TURN_HARMONICS.map(|h| t / h))
-        .collect()
+        .flat_map(|t| TURN_HARMONICS.map(|h| t / h));
+    for p in harmonics {
+        // A screw turn's fourth harmonic is a motor turn where the gear is 1:4.
+        if periods.iter().all(|q| (p - q).abs() > 1e-6 * q) {
+            periods.push(p);
+        }
+    }
+    periods
+}
+
+/// Of `candidates` (m), those the travel over the positions `pos_m` spans
+/// [`PERIODS_SPANNED_MIN`] times, and that travel (m).
+pub(crate) fn spanned_m(candidates: &[f64], pos_m: &[f64]) -> (Vec<f64>, f64) {
+    let finite = pos_m.iter().copied().filter(|p| p.is_finite());
+    let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+        (lo.min(p), hi.max(p))
+    });
+    let span_m = (hi - lo).max(0.0);
+    let spanned = candidates
+        .iter()
+        .copied()
+        .filter(|p| span_m >= PERIODS_SPANNED_MIN * p)
+        .collect();
+    (spanned, span_m)
 }
 
 /// Of `candidates` (m), the period whose sine and cosine in the positions `pos_m` explain
 /// most of the residual `r`, among those the travel spans [`PERIODS_SPANNED_MIN`] times;
 /// none where the travel spans none so often.
 pub(crate) fn chosen_period_m(candidates: &[f64], r: &[f64], pos_m: &[f64]) -> Option<f64> {
-    let finite = pos_m.iter().copied().filter(|p| p.is_finite());
-    let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-        (lo.min(p), hi.max(p))
-    });
-    let span_m = hi - lo;
-    candidates
-        .iter()
-        .copied()
-        .filter(|p| span_m >= PERIODS_SPANNED_MIN * p)
+    spanned_m(candidates, pos_m)
+        .0
+        .into_iter()
         .map(|p| {
             let w = TAU / p;
             let n = r.len().min(pos_m.len());
@@ -82,31 +187,55 @@ pub(crate) fn chosen_period_m(candidates: &[f64], r: &[f64], pos_m: &[f64]) -> O
         .map(|(_, p)| p)
 }
 
-/// Gives each of X and Y that `may_try` and whose machine file names no ripple period the
-/// period chosen from its residual under `traces` at `offset_s`; the axes given one.
+/// Where the ripple of each of X and Y acts, the search being allowed to try it
+/// (`may_try`): the machine file's period, else the one of those the drive gives that the
+/// residual under `traces` at `offset_s` shows most, given to `machine`. Not tried where not
+/// allowed (`Err(None)`), nor where the travel compared spans none of the drive's periods
+/// three times (`Err(Some(why))`): there no period is one the record can show.
 pub(crate) fn choose_periods(
     ctx: &Context,
     machine: &mut MachineConfig,
     (traces, offset_s): (&[Vec<f64>; 2], f64),
     may_try: &dyn Fn(AxisName) -> bool,
-) -> [bool; 2] {
+) -> [Result<Period, Option<String>>; 2] {
     AxisName::BOTH.map(|a| {
         let axis = machine.axis(a);
-        if axis.errors.force_ripple_period_mm > 0.0 || !may_try(a) {
-            return false;
+        if !may_try(a) {
+            return Err(None);
         }
+        let given_mm = axis.errors.force_ripple_period_mm;
+        if given_mm > 0.0 {
+            return Ok(Period::from(
+                given_mm,
+                PeriodSource::MachineFile,
+                Vec::new(),
+            ));
+        }
+        // On the samples compared alone: the travel is the one the residual covers.
         let trace = &traces[a.index()];
-        let r = ctx.residual(a, trace, offset_s);
-        let pos: Vec<f64> = ctx
-            .samples
-            .iter()
-            .map(|&i| sample(trace, ctx.dt, ctx.prog_time(i, offset_s)))
-            .collect();
-        let Some(period_m) = chosen_period_m(&candidate_periods_m(axis), &r, &pos) else {
-            return false;
+        let r_all = ctx.residual(a, trace, offset_s);
+        let (r, pos): (Vec<f64>, Vec<f64>) = (0..ctx.samples.len())
+            .filter(|&k| ctx.compared(a, k))
+            .map(|k| {
+                let t = ctx.prog_time(ctx.samples[k], offset_s);
+                (r_all[k], sample(trace, ctx.dt, t))
+            })
+            .unzip();
+        let candidates = candidate_periods_m(axis);
+        let (spanned, span_m) = spanned_m(&candidates, &pos);
+        let Some(period_m) = chosen_period_m(&spanned, &r, &pos) else {
+            let mm: Vec<f64> = candidates.iter().map(|p| p * 1e3).collect();
+            return Err(Some(format!(
+                "none of the periods the drive gives ({} mm) fits {PERIODS_SPANNED_MIN:.0} \
+                 times into the {:.3} mm {a} travels where compared, and the machine file \
+                 names none",
+                mm_list(&mm),
+                span_m * 1e3
+            )));
         };
         machine.axis_mut(a).errors.force_ripple_period_mm = period_m * 1e3;
-        true
+        let among_mm = spanned.iter().map(|p| p * 1e3).collect();
+        Ok(Period::from(period_m * 1e3, PeriodSource::Chosen, among_mm))
     })
 }
 
@@ -197,32 +326,65 @@ fn least_squares_2(u: &[f64], v: &[f64], r: &[f64]) -> Option<(f64, f64)> {
     Some(((-ur * vv + vr * uv) / det, (-vr * uu + ur * uv) / det))
 }
 
-/// The evidence (as the search counts it, in noise variances less ln n per value, over
-/// `samples_counted`) of a cyclic error of period `period_m` added to the positions recorded
-/// on `axis`, against the residual `r` of the model so far: an error of the positions read
+/// The evidence of a cyclic error of period `period_m` added to the positions recorded on
+/// `axis`, against the residual `r` of the model so far: an error of the positions read
 /// only, which the record shows as it is — least squares on the sine and cosine of the
-/// position measured, no simulation. Counted on every sample, not on independent ones as a
-/// fit's is: it errs towards the positions' error, so that a force must beat it clearly.
+/// position measured, no simulation. Counted as the search counts a fit's
+/// ([`causes::evidence`]): on the same samples (the axis's compared ones, the other axis
+/// unchanged), in the same noise variances, on the independent share of what it leaves, less
+/// ln n for each of its two values with n `values_counted`, the fits' own count — so that
+/// the two hypotheses are weighed in one currency.
 pub(crate) fn positions_read_evidence(
     ctx: &Context,
     axis: AxisName,
     r: &[f64],
     period_m: f64,
-    samples_counted: f64,
+    values_counted: f64,
 ) -> f64 {
     let x = ctx.measured_axis(axis);
-    let k = TAU / period_m;
     let n = r.len().min(ctx.samples.len());
-    let position = |j: usize| x[ctx.samples[j]];
-    let compared = |j: usize| ctx.compared(axis, j) && r[j].is_finite();
-    let sum_sq: f64 = (0..n).filter(|&j| compared(j)).map(|j| r[j] * r[j]).sum();
-    let share = causes::explained(
-        r,
-        n,
-        &[&|j| (k * position(j)).sin(), &|j| (k * position(j)).cos()],
-        &compared,
-    );
-    share * sum_sq / (ctx.noise_sigma * ctx.noise_sigma) - 2.0 * samples_counted.ln()
+    let compared: Vec<bool> = (0..n)
+        .map(|j| ctx.compared(axis, j) && r[j].is_finite())
+        .collect();
+    let positions: Vec<f64> = (0..n).map(|j| x[ctx.samples[j]]).collect();
+    let read = Read {
+        positions_m: &positions,
+        compared: &compared,
+        period_m,
+    };
+    read.evidence(&r[..n], ctx.noise_sigma, values_counted)
+}
+
+/// A cyclic error of the positions read, as a hypothesis on a residual: the positions
+/// measured, the samples compared, the period.
+struct Read<'a> {
+    positions_m: &'a [f64],
+    compared: &'a [bool],
+    period_m: f64,
+}
+
+impl Read<'_> {
+    /// The evidence of the error against `r` (see [`positions_read_evidence`]), noise of
+    /// standard deviation `sigma_m`; −∞ where its sine and cosine cannot be told apart.
+    fn evidence(&self, r: &[f64], sigma_m: f64, values_counted: f64) -> f64 {
+        let k = TAU / self.period_m;
+        let kept = |j: usize, v: f64| if self.compared[j] { v } else { 0.0 };
+        let column = |f: fn(f64) -> f64| -> Vec<f64> {
+            let x = self.positions_m.iter().enumerate();
+            x.map(|(j, &x)| kept(j, f(k * x))).collect()
+        };
+        let (sine, cosine) = (column(f64::sin), column(f64::cos));
+        let r: Vec<f64> = r.iter().enumerate().map(|(j, &v)| kept(j, v)).collect();
+        let Some((alpha, beta)) = least_squares_2(&sine, &cosine, &r) else {
+            return f64::NEG_INFINITY;
+        };
+        let left: Vec<f64> = (0..r.len())
+            .map(|j| r[j] + alpha * sine[j] + beta * cosine[j])
+            .collect();
+        let squares = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>();
+        let gain = (squares(&r) - squares(&left)) / (sigma_m * sigma_m);
+        causes::evidence(gain, &left, 2, values_counted)
+    }
 }
 
 /// Why `cause` — the force ripple or the cyclic error — on `axis` is not named though it
@@ -242,7 +404,7 @@ pub(crate) fn cannot_tell(
         positions_read.filter(|&e| cause == CauseId::ForceRipple && e >= evidence - margin)
     {
         return Some(format!(
-            "cannot tell: a cyclic error in the positions recorded of the ripple's period \
+            "{CANNOT_TELL}: a cyclic error in the positions recorded of the ripple's period \
              ({:.4} mm) explains the record as well or better (evidence {read:.1} against \
              {evidence:.1}); told apart by {}",
             config.errors.force_ripple_period_mm,
@@ -265,7 +427,7 @@ pub(crate) fn cannot_tell(
         .iter()
         .find(|(c, a, e)| *c == other && *a == axis && *e >= evidence - margin)?;
     Some(format!(
-        "cannot tell: {} of the same period ({cyclic_mm:.4} mm) explains the record as well or \
+        "{CANNOT_TELL}: {} of the same period ({cyclic_mm:.4} mm) explains the record as well or \
          better (evidence {rival:.1} against {evidence:.1}); told apart by {}",
         match other {
             CauseId::CyclicError => "a cyclic error in the positions recorded",
@@ -274,6 +436,37 @@ pub(crate) fn cannot_tell(
         cause.told_apart_from(other)
     ))
 }
+
+/// Whether the residual `located` finds periodic in position repeats at the period of a
+/// ripple or cyclic error its axis's record could not tell apart (`rejected` as
+/// [`CANNOT_TELL`]; the ripple's period in `periods`, X and Y): a position map learned there
+/// would adopt the error of the positions read, the one hypothesis the record cannot back.
+pub(crate) fn untold_period(
+    located: &Located,
+    rejected: &[Rejected],
+    periods: &[Option<Period>; 2],
+) -> bool {
+    let axis = located.axis;
+    let untold = rejected.iter().any(|r| {
+        r.axis == axis
+            && matches!(r.id, CauseId::ForceRipple | CauseId::CyclicError)
+            && r.reason.starts_with(CANNOT_TELL)
+    });
+    let period_mm = periods
+        .get(axis.index())
+        .and_then(|p| p.as_ref()?.period_mm);
+    match (located.variable, located.interval, period_mm) {
+        (Some(Variable::Period), Some((found_mm, _)), Some(p)) if untold => {
+            (found_mm / p - 1.0).abs() < UNTOLD_PERIOD_TOLERANCE
+        }
+        _ => false,
+    }
+}
+
+/// How near a period found in the residual must lie to one the record could not tell a
+/// force from an error of the positions read at to be taken for it: the residual's period
+/// is found on a grid of a few per cent.
+const UNTOLD_PERIOD_TOLERANCE: f64 = 0.05;
 
 /// The largest force the axis's drive can put on the table (N): its current limit through
 /// the motor's torque constant and the travel per motor radian; none where the file gives
@@ -358,6 +551,128 @@ mod tests {
         let c = candidate_periods_m(&m.x);
         assert!((c[0] - lead_m).abs() < 1e-12 * lead_m, "{c:?} {lead_m}");
         assert!((c[3] - lead_m / 4.0).abs() < 1e-12 * lead_m, "{c:?}");
+        // A 16 mm lead behind a 1:4 gear: its fourth harmonic is the 4 mm turn, listed once.
+        let expected_mm = [4.0, 2.0, 4.0 / 3.0, 1.0, 16.0, 8.0, 16.0 / 3.0];
+        assert_eq!(c.len(), expected_mm.len(), "{c:?}");
+        for (got, want) in c.iter().zip(expected_mm) {
+            assert!((got * 1e3 - want).abs() < 1e-9, "{c:?}");
+        }
+    }
+
+    #[test]
+    fn evidence_counts_the_gain_on_the_independent_share_less_ln_n_per_value() {
+        // A white residual left (lag-one correlation clamped at 0) counts all of the gain:
+        // 1000 − 2 ln 100 = 990.790.
+        let white: Vec<f64> = (0..100)
+            .map(|i| if i % 2 == 0 { 1.0 } else { -1.0 })
+            .collect();
+        let e = causes::evidence(1000.0, &white, 2, 100.0);
+        assert!((e - 990.790).abs() < 1e-3, "{e}");
+        // A constant one of 10 samples: ρ = 9/10, (1 − ρ)/(1 + ρ) = 1/19.
+        let e = causes::evidence(1000.0, &[3e-6; 10], 1, 100.0);
+        assert!((e - (1000.0 / 19.0 - 100f64.ln())).abs() < 1e-9, "{e}");
+    }
+
+    /// Positions 10 µm apart over 20 mm; a residual of a 2 µm sine of 1 mm period in them
+    /// on a constant 1 µm the sine does not explain.
+    fn sine_on_a_constant() -> (Vec<f64>, Vec<f64>) {
+        let x: Vec<f64> = (0..2000).map(|j| j as f64 * 10e-6).collect();
+        let r = x
+            .iter()
+            .map(|x| 2e-6 * (TAU * x / 1e-3).sin() + 1e-6)
+            .collect();
+        (x, r)
+    }
+
+    #[test]
+    fn an_error_of_the_positions_read_is_counted_as_a_fit_is() {
+        let (x, r) = sine_on_a_constant();
+        let compared = vec![true; x.len()];
+        let read = Read {
+            positions_m: &x,
+            compared: &compared,
+            period_m: 1e-3,
+        };
+        // The sine is taken out whole (20 whole periods: the constant is orthogonal to it):
+        // a gain of (2 µm)² × 1000 / (0.1 µm)² = 400 000 noise variances. What it leaves is
+        // the constant, whose lag-one correlation over 2000 samples is 1999/2000: counted on
+        // 1/3999 of it. Less ln n for each of two values, n = 4000 (both axes' samples).
+        let expected = 400_000.0 / 3999.0 - 2.0 * 4000f64.ln();
+        let e = read.evidence(&r, 0.1e-6, 4000.0);
+        assert!(
+            (e - expected).abs() < 1e-6 * expected,
+            "{e} against {expected}"
+        );
+        // Counted on every sample as before, it would have read 600 000 less the same ln n:
+        // four thousand times the fit's currency.
+        assert!(e < 100.0, "{e}");
+        // Samples not compared count neither in the gain nor in what is left: the first
+        // period left out (however large there), 19 periods and 1900 samples remain.
+        let mut kept = compared.clone();
+        let mut far = r.clone();
+        for j in 0..100 {
+            (kept[j], far[j]) = (false, 1e-3);
+        }
+        let read = Read {
+            compared: &kept,
+            ..read
+        };
+        let expected = 380_000.0 / 3799.0 - 2.0 * 4000f64.ln();
+        let e = read.evidence(&far, 0.1e-6, 4000.0);
+        assert!(
+            (e - expected).abs() < 1e-6 * expected,
+            "{e} against {expected}"
+        );
+    }
+
+    #[test]
+    fn no_position_map_is_learned_at_a_period_the_record_could_not_tell() {
+        let located = |axis, period_mm: f64| Located {
+            axis,
+            residual_rms_um: 1.5,
+            variable: Some(Variable::Period),
+            share: 0.6,
+            interval: Some((period_mm, period_mm)),
+            peak_um: 2.0,
+        };
+        let rejected = |reason: &str| Rejected {
+            id: CauseId::ForceRipple,
+            axis: AxisName::X,
+            params: Vec::new(),
+            evidence: 4000.0,
+            reason: reason.to_string(),
+            seen: false,
+        };
+        let periods = [
+            Some(Period::from(4.0, PeriodSource::Chosen, vec![4.0])),
+            None,
+        ];
+        let untold = [rejected("cannot tell: a cyclic error …")];
+        assert!(untold_period(
+            &located(AxisName::X, 4.03),
+            &untold,
+            &periods
+        ));
+        // Another period (12 % off), another axis, or a ripple rejected for another reason
+        // leave the map to be learned.
+        assert!(!untold_period(
+            &located(AxisName::X, 4.5),
+            &untold,
+            &periods
+        ));
+        assert!(!untold_period(
+            &located(AxisName::Y, 4.0),
+            &untold,
+            &periods
+        ));
+        let other = [rejected(
+            "no gain on the half of the record it was not fitted on",
+        )];
+        assert!(!untold_period(&located(AxisName::X, 4.0), &other, &periods));
+        // A map over the position, not a period, is not this case.
+        let mut by_position = located(AxisName::X, 4.0);
+        by_position.variable = Some(Variable::Position(AxisName::X));
+        assert!(!untold_period(&by_position, &untold, &periods));
     }
 
     #[test]

@@ -15,7 +15,7 @@ use serde::Serialize;
 use super::fit::{self, Fitted};
 use super::holdout::{HeldOut, JudgedOn, Validation, held_out};
 use super::plausible::{Observed, implausible};
-use super::{Alternative, DiagnoseSettings, FittedParam, FoundCause, ripple};
+use super::{Alternative, DiagnoseSettings, FittedParam, FoundCause, Skipped, ripple};
 use crate::compare::context::Context;
 use crate::compare::residual::{
     CHATTER_AVERAGE_HALF_S, averaged_rms, axis_residual, chatter_mismatch, independent_share, rms,
@@ -57,6 +57,10 @@ pub struct Outcome {
     pub candidates: Vec<Candidate>,
     /// Causes that fitted with enough evidence but were not named, and why.
     pub rejected: Vec<Rejected>,
+    /// Causes not weighed on an axis whose record cannot show them, and why.
+    pub not_weighed: Vec<Skipped>,
+    /// Where each of X and Y was given a ripple's period, the period and its source.
+    pub ripple_periods: [Option<ripple::Period>; 2],
 }
 
 /// A cause that fitted with evidence but is not named.
@@ -148,12 +152,25 @@ pub(crate) fn search(
         found: Vec::new(),
         candidates: Vec::new(),
         rejected: Vec::new(),
+        not_weighed: Vec::new(),
+        ripple_periods: [None, None],
     };
     // Where the machine file names no ripple period, the one the residual shows of those
     // the drive gives: inert (no force) until a ripple is named, and not kept otherwise.
     let may_ripple = |a| super::tries_allowed(machine, settings, a, CauseId::ForceRipple);
     let now = (&outcome.traces, offset_s);
-    ripple::choose_periods(ctx, &mut outcome.machine, now, &may_ripple);
+    let periods = ripple::choose_periods(ctx, &mut outcome.machine, now, &may_ripple);
+    for (axis, period) in AxisName::BOTH.into_iter().zip(periods) {
+        match period {
+            Ok(p) => outcome.ripple_periods[axis.index()] = Some(p),
+            Err(Some(reason)) => outcome.not_weighed.push(Skipped {
+                id: CauseId::ForceRipple,
+                axes: vec![axis],
+                reason,
+            }),
+            Err(None) => {}
+        }
+    }
     let observed = AxisName::BOTH.map(|a| observed_on(ctx, a, offset_s));
     // Only an axis seen to stick is compared on statistics; one whose measurement chatters
     // is compared on them throughout.
@@ -178,6 +195,8 @@ pub(crate) fn search(
                         .iter()
                         .any(|f| f.axis == axis && f.id == cause)
                     || (statistical && !cause.is_local())
+                    || (cause == CauseId::ForceRipple
+                        && outcome.ripple_periods[axis.index()].is_none())
             };
             tries.extend(tries_on_axis(ctx, now, axis, settings, statistical, &skip));
         }
@@ -354,10 +373,12 @@ fn name(
     outcome.traces[axis.index()] = fitted.trace.clone();
     outcome.traces[axis.other().index()] = fitted.other.clone();
     outcome.offset_s = fitted.offset_s;
+    let ripple_period = outcome.ripple_periods[axis.index()].as_ref();
     outcome.found.push(FoundCause {
         id: cause,
         axis,
         params: fitted_params(cause, &fitted),
+        period: ripple::Period::of(cause, outcome.machine.axis(axis), ripple_period),
         evidence: best.evidence,
         held_out,
         statistical: best.try_.statistical,
@@ -758,7 +779,7 @@ fn score(ctx: &Context, now: Current, tries: Vec<Try>) -> Vec<Scored> {
         .into_par_iter()
         .map(|t| {
             let other = &traces[t.axis.other().index()];
-            let k = t.cause.params().len() as f64;
+            let k = t.cause.params().len();
             let (fitted, evidence, share) = if t.statistical {
                 let chi2 = |trace: &[f64]| {
                     ctx.statistical_residual(t.axis, trace, offset_s)
@@ -772,7 +793,7 @@ fn score(ctx: &Context, now: Current, tries: Vec<Try>) -> Vec<Scored> {
                     .len() as f64;
                 // Uncertainties only for a fit that can be named: one whose χ² falls by
                 // less than its penalty never is.
-                let needed = fit::Uncertainty::IfGainAtLeast(k * m.ln());
+                let needed = fit::Uncertainty::IfGainAtLeast(k as f64 * m.ln());
                 let fitted = fit::fit_statistical(
                     ctx,
                     current,
@@ -786,21 +807,21 @@ fn score(ctx: &Context, now: Current, tries: Vec<Try>) -> Vec<Scored> {
                 let gain = fitted
                     .as_ref()
                     .map_or(f64::NEG_INFINITY, |f| before - f.chi2_stat);
-                (fitted, gain - k * m.ln(), gain / (before - m))
+                (fitted, gain - k as f64 * m.ln(), gain / (before - m))
             } else {
                 let fitted =
                     fit::fit_cause(ctx, current, t.axis, t.cause, &t.starts, offset_s, other);
                 let gain = fitted
                     .as_ref()
                     .map_or(f64::NEG_INFINITY, |f| (rss_now - f.rss) / sigma2);
-                // Evidence is counted on independent samples: a fit that leaves a smooth
-                // residual has only bent towards a larger model error. Its share is what it
+                // Evidence is counted on independent samples; the share is what the fit
                 // explains of the residual beyond the noise, however smooth the rest.
-                let independent = fitted.as_ref().map_or(0.0, |f| {
-                    independent_share(&ctx.residual(t.axis, &f.trace, f.offset_s))
-                });
+                let left = fitted
+                    .as_ref()
+                    .map_or_else(Vec::new, |f| ctx.residual(t.axis, &f.trace, f.offset_s));
+                let evidence = causes::evidence(gain, &left, k, n_total);
                 let excess = rss_now / sigma2 - n_total;
-                (fitted, gain * independent - k * n_total.ln(), gain / excess)
+                (fitted, evidence, gain / excess)
             };
             Scored {
                 try_: t,

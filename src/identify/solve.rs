@@ -253,8 +253,7 @@ impl<'c, 'a> Fit<'c, 'a> {
     /// Fits `knobs` from `base` on every sample the fits use: the residual's sum of squares
     /// and the configuration the search ended at.
     pub(crate) fn searched(&self, knobs: &[Knob], base: &AxisConfig) -> Option<(f64, AxisConfig)> {
-        let keys = knobs.iter().map(|k| k.key).collect();
-        let (cost, values) = self.memo.search(keys, base, || {
+        let (cost, values) = self.memo.search(knobs, base, || {
             self.run(knobs, base, &|_| true).map(|f| (f.cost, f.values))
         })?;
         Some((cost, Fit::config(knobs, base, &values)))
