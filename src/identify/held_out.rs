@@ -41,7 +41,10 @@ pub(super) fn predicts_better(more: &AxisIdentification, fewer: &AxisIdentificat
 }
 
 /// [`predicts_better`] on the figures alone: each (µm, whether it is in-sample).
-pub(super) fn kept_over((more_um, more_in): (f64, bool), (fewer_um, fewer_in): (f64, bool)) -> bool {
+pub(super) fn kept_over(
+    (more_um, more_in): (f64, bool),
+    (fewer_um, fewer_in): (f64, bool),
+) -> bool {
     match (more_in, fewer_in) {
         (true, false) => false,
         (false, true) => true,

@@ -299,17 +299,9 @@ fn fit_axis(
             everywhere = extended;
         }
     }
-    // The fit away from the standstills, made once where it is first asked for: by the
-    // bristles' stage (the share it must beat) or for the choice below.
+    // The fit away from the standstills: made once, by the bristles' stage or below.
     let moving_fit = OnceLock::new();
-    let while_moving = || {
-        let fit = Fit::new(ctx, template, axis, offset).masked(moving_samples(ctx, axis, offset));
-        match model {
-            Model::Template => identify_ordered(&fit, template, true, &[]),
-            Model::Loop => identify_loop_order(&fit, template, true),
-        }
-        .map(|found| verdict::judged(found, noise_um))
-    };
+    let while_moving = || fit_while_moving(ctx, template, (axis, offset), model);
     let moving_share = || {
         let m = moving_fit.get_or_init(while_moving).as_ref();
         m.filter(|m| m.1.reached || m.1.better_than_template)
@@ -317,8 +309,8 @@ fn fit_axis(
     };
     everywhere = match model {
         Model::Template => {
-            let candidates = presliding::candidate_knobs(template.axis(axis), &nonlinear);
-            presliding::tried(&fit, template.axis(axis), everywhere, &candidates, &moving_share)
+            let all = presliding::candidate_knobs(template.axis(axis), &nonlinear);
+            presliding::tried(&fit, template.axis(axis), everywhere, &all, &moving_share)
         }
         Model::Loop => {
             let why = presliding::WITHOUT_TEMPLATE;
@@ -337,6 +329,21 @@ fn fit_axis(
         presliding::not_written(&mut written.1.presliding, why);
     }
     Some(written)
+}
+
+/// The axis fitted away from its standstills ([`moving_samples`]), judged.
+fn fit_while_moving(
+    ctx: &Context,
+    template: &MachineConfig,
+    (axis, offset): (AxisName, f64),
+    model: Model,
+) -> Option<(AxisConfig, AxisIdentification)> {
+    let fit = Fit::new(ctx, template, axis, offset).masked(moving_samples(ctx, axis, offset));
+    match model {
+        Model::Template => identify_ordered(&fit, template, true, &[]),
+        Model::Loop => identify_loop_order(&fit, template, true),
+    }
+    .map(|found| verdict::judged(found, um_from_m(ctx.noise_sigma)))
 }
 
 /// What is written for an axis whose fit on every sample stayed above the record's noise:

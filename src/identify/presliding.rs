@@ -23,8 +23,8 @@ use serde::Serialize;
 use super::knobs::{self, COULOMB_KEY, Knob, STATIC_KEY, get, set_all};
 use super::result::{AxisIdentification, IdentifiedValue};
 use super::round::Round;
-use super::solve::{Fit, masked_rms};
 use super::solve::Fitted;
+use super::solve::{Fit, masked_rms};
 use super::{REACHED_EXCESS, held_out, verdict};
 use crate::machine::AxisConfig;
 use crate::numeric::units::{GRAVITY_M_PER_S2, um_from_m};
@@ -203,14 +203,18 @@ fn rounds(
         })
         .collect();
     if wholes.is_empty() {
-        return Err("no shape, the loop's values fitted again with it, fits the whole record \
+        return Err(
+            "no shape, the loop's values fitted again with it, fits the whole record \
                     better by a twentieth"
-            .to_string());
+                .to_string(),
+        );
     }
     let samples = fit.mask().iter().filter(|m| **m).count().max(1) as f64;
     let rms_um = |w: &Fitted| um_from_m((w.cost / samples).sqrt());
     let noise_um = um_from_m(fit.ctx().noise_sigma);
-    if !wholes.iter().any(|w| rms_um(&w.2) <= REACHED_EXCESS * noise_um)
+    if !wholes
+        .iter()
+        .any(|w| rms_um(&w.2) <= REACHED_EXCESS * noise_um)
         && let Some(share) = moving_share()
     {
         wholes.retain(|w| rms_um(&w.2) < share * id.following_error_rms_um);
