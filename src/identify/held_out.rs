@@ -34,10 +34,21 @@ pub(super) fn figure(
 /// never written (`better_than_template` needs a figure shown held out), so letting it win
 /// would leave the axis NOT IDENTIFIED where the other candidate was a valid model.
 pub(super) fn predicts_better(more: &AxisIdentification, fewer: &AxisIdentification) -> bool {
-    match (more.held_out_in_sample, fewer.held_out_in_sample) {
+    kept_over(
+        (more.held_out_identified_um, more.held_out_in_sample),
+        (fewer.held_out_identified_um, fewer.held_out_in_sample),
+    )
+}
+
+/// [`predicts_better`] on the figures alone: each (µm, whether it is in-sample).
+pub(super) fn kept_over(
+    (more_um, more_in): (f64, bool),
+    (fewer_um, fewer_in): (f64, bool),
+) -> bool {
+    match (more_in, fewer_in) {
         (true, false) => false,
         (false, true) => true,
-        _ => verdict::predicts_better(more.held_out_identified_um, fewer.held_out_identified_um),
+        _ => verdict::predicts_better(more_um, fewer_um),
     }
 }
 

@@ -41,6 +41,8 @@ mod starts;
 mod verdict;
 mod z_axis;
 
+use std::sync::OnceLock;
+
 use rayon::prelude::*;
 
 pub use baseline::Baseline;
@@ -297,10 +299,18 @@ fn fit_axis(
             everywhere = extended;
         }
     }
+    // The fit away from the standstills: made once, by the bristles' stage or below.
+    let moving_fit = OnceLock::new();
+    let while_moving = || fit_while_moving(ctx, template, (axis, offset), model);
+    let moving_share = || {
+        let m = moving_fit.get_or_init(while_moving).as_ref();
+        m.filter(|m| m.1.reached || m.1.better_than_template)
+            .map(|m| m.1.held_out_share)
+    };
     everywhere = match model {
         Model::Template => {
-            let candidates = presliding::candidate_knobs(template.axis(axis), &nonlinear);
-            presliding::tried(&fit, template.axis(axis), everywhere, &candidates)
+            let all = presliding::candidate_knobs(template.axis(axis), &nonlinear);
+            presliding::tried(&fit, template.axis(axis), everywhere, &all, &moving_share)
         }
         Model::Loop => {
             let why = presliding::WITHOUT_TEMPLATE;
@@ -310,13 +320,7 @@ fn fit_axis(
     if everywhere.1.reached && verdict::judged_while_moving(&mut everywhere.1, noise_um) {
         return Some(everywhere);
     }
-    let moving = moving_samples(ctx, axis, offset);
-    let fit = Fit::new(ctx, template, axis, offset).masked(moving);
-    let while_moving = match model {
-        Model::Template => identify_ordered(&fit, template, true, &[]),
-        Model::Loop => identify_loop_order(&fit, template, true),
-    }
-    .map(|found| verdict::judged(found, noise_um));
+    let while_moving = moving_fit.into_inner().unwrap_or_else(while_moving);
     let verdict = everywhere.1.presliding.clone();
     let mut written = best_written(everywhere, while_moving, template.axis(axis));
     if written.1.moving_only {
@@ -325,6 +329,21 @@ fn fit_axis(
         presliding::not_written(&mut written.1.presliding, why);
     }
     Some(written)
+}
+
+/// The axis fitted away from its standstills ([`moving_samples`]), judged.
+fn fit_while_moving(
+    ctx: &Context,
+    template: &MachineConfig,
+    (axis, offset): (AxisName, f64),
+    model: Model,
+) -> Option<(AxisConfig, AxisIdentification)> {
+    let fit = Fit::new(ctx, template, axis, offset).masked(moving_samples(ctx, axis, offset));
+    match model {
+        Model::Template => identify_ordered(&fit, template, true, &[]),
+        Model::Loop => identify_loop_order(&fit, template, true),
+    }
+    .map(|found| verdict::judged(found, um_from_m(ctx.noise_sigma)))
 }
 
 /// What is written for an axis whose fit on every sample stayed above the record's noise:

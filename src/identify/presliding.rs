@@ -23,8 +23,9 @@ use serde::Serialize;
 use super::knobs::{self, COULOMB_KEY, Knob, STATIC_KEY, get, set_all};
 use super::result::{AxisIdentification, IdentifiedValue};
 use super::round::Round;
+use super::solve::Fitted;
 use super::solve::{Fit, masked_rms};
-use super::{REACHED_EXCESS, verdict};
+use super::{REACHED_EXCESS, held_out, verdict};
 use crate::machine::AxisConfig;
 use crate::numeric::units::{GRAVITY_M_PER_S2, um_from_m};
 use crate::sim::AxisModel;
@@ -115,11 +116,15 @@ struct Tried {
 /// The fit `hybrid` (without bristles, of `knobs_all`' knobs that it fitted) kept, or
 /// replaced by the fit with bristles where the held-out halves keep them; its verdict set
 /// either way. Where the template names bristles, `hybrid` as it is (no verdict).
+/// `moving_share` gives the held-out share of the fit away from the standstills, asked for
+/// only where no shape's fit reaches the record's noise: a shape whose fit on every sample
+/// does not come below it even on the samples it was fitted to cannot be written.
 pub(super) fn tried(
     fit: &Fit,
     template: &AxisConfig,
     hybrid: (AxisConfig, AxisIdentification),
     knobs_all: &[Knob],
+    moving_share: &dyn Fn() -> Option<f64>,
 ) -> (AxisConfig, AxisIdentification) {
     if template.friction.has_presliding() {
         return hybrid;
@@ -138,19 +143,22 @@ pub(super) fn tried(
         return (config, id);
     };
     let fold = fit.ctx().halves(fit.offset());
-    let Some(rounds) = rounds(fit, &config, &knobs, &fold) else {
-        let reason = "no shape, the loop's values fitted again with it, fits the whole record \
-                      better by a twentieth";
+    let rounds = match rounds(fit, &config, &knobs, &fold, (&id, moving_share)) {
+        Ok(rounds) => rounds,
+        Err(reason) => {
+            id.presliding = Some(not(&reason, f64::NAN));
+            return (config, id);
+        }
+    };
+    let Some(scored) = scored(fit, &rounds, &fold, id.reached) else {
+        let reason = "the halves' fits of the shapes chosen, or of the one that fits the whole \
+                      record best, could not be simulated or did not move from its whole fit's";
         id.presliding = Some(not(reason, f64::NAN));
         return (config, id);
     };
-    let Some((with_m, agree)) = held_out(fit, &rounds, &fold, id.reached) else {
-        let reason = "no shape's halves could be simulated or moved from the whole fit's";
-        id.presliding = Some(not(reason, f64::NAN));
-        return (config, id);
-    };
-    let with_um = um_from_m(with_m);
-    if !(id.held_out_in_sample || verdict::predicts_better(with_um, without_um)) {
+    let with_um = scored.figure_um();
+    let kept = held_out::kept_over((with_um, false), (without_um, id.held_out_in_sample));
+    if !kept {
         let reason = format!(
             "held out {with_um:.3} µm with them against {without_um:.3} µm without: not \
              better by a twentieth"
@@ -158,11 +166,7 @@ pub(super) fn tried(
         id.presliding = Some(not(&reason, with_um));
         return (config, id);
     }
-    let best = rounds
-        .iter()
-        .min_by(|a, b| a.round.whole.cost.total_cmp(&b.round.whole.cost))
-        .expect("a shape's halves were scored");
-    match written(fit, (template, &fold), &id, best, (with_um, agree)) {
+    match written(fit, (template, &fold), &id, &rounds[scored.best], &scored) {
         Some(w) => w,
         None => {
             let reason = "the axis cannot be simulated on the whole record with them";
@@ -176,24 +180,70 @@ pub(super) fn tried(
 /// record first, and only those whose residual's RMS there lies below the fit's without
 /// bristles (`config`) by the twentieth a larger model must earn fitted on each half — a
 /// shape that does not fit the samples it was fitted to better cannot predict those it was
-/// not (the halves' fits are two thirds of a round's cost). None where no shape is.
-fn rounds(fit: &Fit, config: &AxisConfig, knobs: &[Knob], fold: &[bool]) -> Option<Vec<Tried>> {
-    let without = fit.cost(config)?;
-    let rounds: Vec<Tried> = SHAPES
+/// not (the halves' fits are two thirds of a round's cost). Where none of them reaches the
+/// noise, only those whose RMS there, as a share of the following error, lies below the
+/// held-out share of the fit away from the standstills (`moving_share`): that fit is written
+/// otherwise, whatever the halves make of them. Why none is, where none is.
+fn rounds(
+    fit: &Fit,
+    config: &AxisConfig,
+    knobs: &[Knob],
+    fold: &[bool],
+    (id, moving_share): (&AxisIdentification, &dyn Fn() -> Option<f64>),
+) -> Result<Vec<Tried>, String> {
+    let unsimulated = || "the fit without bristles cannot be simulated".to_string();
+    let without = fit.cost(config).ok_or_else(unsimulated)?;
+    let mut wholes: Vec<(Shape, AxisConfig, Fitted)> = SHAPES
         .par_iter()
         .filter_map(|&shape| {
             let base = shape.on(config, coulomb_start(fit, shape, config)?);
             let whole = fit.run(knobs, &base, &|_| true)?;
-            if !verdict::predicts_better(whole.cost.sqrt(), without.sqrt()) {
-                return None;
-            }
-            // The round's fit on the whole record starts where this one landed: a step.
-            let base = Fit::config(knobs, &base, &whole.values);
-            let round = Round::fit(fit, knobs.to_vec(), &base, fold)?;
-            Some(Tried { shape, round, base })
+            verdict::predicts_better(whole.cost.sqrt(), without.sqrt())
+                .then_some((shape, base, whole))
         })
         .collect();
-    (!rounds.is_empty()).then_some(rounds)
+    if wholes.is_empty() {
+        return Err(
+            "no shape, the loop's values fitted again with it, fits the whole record \
+                    better by a twentieth"
+                .to_string(),
+        );
+    }
+    let samples = fit.mask().iter().filter(|m| **m).count().max(1) as f64;
+    let rms_um = |w: &Fitted| um_from_m((w.cost / samples).sqrt());
+    let noise_um = um_from_m(fit.ctx().noise_sigma);
+    if !wholes
+        .iter()
+        .any(|w| rms_um(&w.2) <= REACHED_EXCESS * noise_um)
+        && let Some(share) = moving_share()
+    {
+        wholes.retain(|w| rms_um(&w.2) < share * id.following_error_rms_um);
+        if wholes.is_empty() {
+            return Err(format!(
+                "no shape's fit comes below {:.1} % of the following error even on the samples \
+                 it was fitted to, where the fit away from the standstills predicts its \
+                 held-out halves to that: it is written",
+                100.0 * share
+            ));
+        }
+    }
+    let rounds: Vec<Tried> = wholes
+        .into_par_iter()
+        .filter_map(|(shape, base, whole)| {
+            // The round's fit on the whole record starts where this one landed: a step.
+            let landed = Fit::config(knobs, &base, &whole.values);
+            let round = Round::fit(fit, knobs.to_vec(), &landed, fold)?;
+            Some(Tried {
+                shape,
+                round,
+                base: landed,
+            })
+        })
+        .collect();
+    if rounds.is_empty() {
+        return Err("no shape's halves could be fitted".to_string());
+    }
+    Ok(rounds)
 }
 
 /// The knobs of `knobs_all` the fit `id` fitted in its last round (those with an
@@ -225,16 +275,37 @@ fn coulomb_start(fit: &Fit, shape: Shape, config: &AxisConfig) -> Option<f64> {
         .map(|(_, f)| f)
 }
 
-/// The held-out RMS (m) of the halves' fits with bristles: each half takes the shape whose
-/// fit on its own samples is best and is scored on the other half's samples. Above the
-/// noise (`reached` false) only a half whose fit found a point of its own counts, as for
-/// every held-out figure. With whether the two halves chose the same shape; none where no
-/// half counts.
-fn held_out(fit: &Fit, rounds: &[Tried], fold: &[bool], reached: bool) -> Option<(f64, bool)> {
+/// The held-out figures of the shapes tried.
+struct Scored {
+    /// The RMS (µm) of the halves' fits with bristles on the other halves' samples: each
+    /// half takes the shape whose fit on its own samples is best.
+    chosen_um: f64,
+    /// Whether the two halves chose the same shape.
+    agree: bool,
+    /// The shape whose fit on the whole record is best (by index): the one written …
+    best: usize,
+    /// … and its own held-out figure (µm): its halves' fits on the other halves' samples.
+    best_um: f64,
+}
+
+impl Scored {
+    /// The figure the bristles are judged by and reported with: the worse of the halves'
+    /// choice and the written shape's own — where the halves chose another shape than the
+    /// whole record did, the written one has not shown its own figure otherwise.
+    fn figure_um(&self) -> f64 {
+        self.chosen_um.max(self.best_um)
+    }
+}
+
+/// The held-out figures of `rounds`. Above the noise (`reached` false) only a half whose
+/// fit found a point of its own counts, as for every held-out figure
+/// ([`Round::held_out_rms_own`]). None where no half counts for the halves' choice or for
+/// the shape written, or they cannot be simulated.
+fn scored(fit: &Fit, rounds: &[Tried], fold: &[bool], reached: bool) -> Option<Scored> {
     let mask = fit.mask();
-    let chosen: Vec<Option<(usize, [f64; 2])>> = [(0usize, true), (1, false)]
+    let chosen: Vec<Option<(usize, (f64, usize))>> = [0usize, 1]
         .into_par_iter()
-        .map(|(h, side)| {
+        .map(|h| {
             let (i, t) = rounds.iter().enumerate().min_by(|a, b| {
                 a.1.round.halves[h]
                     .cost
@@ -243,21 +314,34 @@ fn held_out(fit: &Fit, rounds: &[Tried], fold: &[bool], reached: bool) -> Option
             if !reached && !t.round.halves[h].own_point {
                 return None;
             }
-            let r = fit.residual(&t.round.half_config(h))?;
-            let (mut ss, mut n) = (0.0, 0.0);
-            for k in (0..r.len()).filter(|&k| mask[k] && fold[k] != side) {
-                ss += r[k] * r[k];
-                n += 1.0;
-            }
-            Some((i, [ss, n]))
+            Some((i, t.round.half_held_out(fit, fold, mask, h)?))
         })
         .collect();
-    let counted: Vec<(usize, [f64; 2])> = chosen.iter().flatten().copied().collect();
-    let (ss, n) = counted
+    let (ss, n) = chosen
         .iter()
-        .fold((0.0, 0.0), |(s, m), (_, [a, b])| (s + a, m + b));
-    let agree = matches!(chosen.as_slice(), [Some((a, _)), Some((b, _))] if a == b);
-    (n > 0.0).then(|| ((ss / n).sqrt(), agree))
+        .flatten()
+        .fold((0.0, 0usize), |(s, m), (_, (a, b))| (s + a, m + b));
+    if n == 0 {
+        return None;
+    }
+    let best = (0..rounds.len()).min_by(|&a, &b| {
+        let cost = |i: usize| rounds[i].round.whole.cost;
+        cost(a).total_cmp(&cost(b))
+    })?;
+    let round = &rounds[best].round;
+    // Above the noise, a written shape whose halves both stayed at its whole fit's values
+    // has no held-out figure of its own: the shape is not written.
+    let own = (!reached).then(|| round.held_out_rms_own(fit, fold));
+    if own == Some(None) {
+        return None;
+    }
+    let best_um = held_out::figure(own, || round.held_out_rms(fit, fold))?;
+    Some(Scored {
+        chosen_um: um_from_m((ss / n as f64).sqrt()),
+        agree: matches!(chosen.as_slice(), [Some((a, _)), Some((b, _))] if a == b),
+        best,
+        best_um,
+    })
 }
 
 /// The axis with bristles written: `best`'s fit on the whole record, its values replacing
@@ -267,8 +351,9 @@ fn written(
     (template, fold): (&AxisConfig, &[bool]),
     id: &AxisIdentification,
     best: &Tried,
-    (with_um, agree): (f64, bool),
+    scored: &Scored,
 ) -> Option<(AxisConfig, AxisIdentification)> {
+    let with_um = scored.figure_um();
     let round = &best.round;
     let config = round.config(&round.whole);
     let residual = fit.residual(&config)?;
@@ -314,16 +399,29 @@ fn written(
             best.shape.level,
             get(&config, COULOMB_KEY),
             FADE_MM_PER_MIN / 60.0,
-            if agree {
-                "both halves chose it"
-            } else {
-                "the halves chose different shapes"
-            },
+            chosen_words(scored),
         ),
         held_out_without_um: without_um,
         held_out_with_um: with_um,
     });
     Some((config, id))
+}
+
+/// Which shapes the halves chose, and the figure the written one is given.
+fn chosen_words(scored: &Scored) -> String {
+    if scored.agree && scored.chosen_um == scored.best_um {
+        return "both halves chose it".to_string();
+    }
+    let (chosen, own) = (scored.chosen_um, scored.best_um);
+    let which = if scored.agree {
+        "both halves chose another"
+    } else {
+        "the halves chose different shapes"
+    };
+    format!(
+        "{which}: held out {chosen:.3} µm with the halves' choice, {own:.3} µm with its own \
+         halves; the worse is given"
+    )
 }
 
 /// The keys the bristles are written under, with their units.

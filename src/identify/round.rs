@@ -250,24 +250,37 @@ impl Round {
     }
 
     fn held_out_of(&self, fit: &Fit, fold: &[bool], mask: &[bool], own: bool) -> Option<f64> {
+        let (mut ss, mut n) = (0.0, 0usize);
+        for h in (0..2).filter(|&h| !own || self.halves[h].own_point) {
+            let (s, m) = self.half_held_out(fit, fold, mask, h)?;
+            ss += s;
+            n += m;
+        }
+        (n > 0 || !own).then(|| (ss / n.max(1) as f64).sqrt())
+    }
+
+    /// Half `h`'s fit on the other half's samples that `mask` allows: the residual's sum of
+    /// squares (m²) and the samples counted. Both halves are simulated once, on first ask.
+    pub(super) fn half_held_out(
+        &self,
+        fit: &Fit,
+        fold: &[bool],
+        mask: &[bool],
+        h: usize,
+    ) -> Option<(f64, usize)> {
         let simulated = self.halves_simulated.get_or_init(|| {
             let first = fit.residual(&self.half_config(0))?;
             let second = fit.residual(&self.half_config(1))?;
             Some([first, second])
         });
+        let r = &simulated.as_ref()?[h];
+        let side = h == 0;
         let (mut ss, mut n) = (0.0, 0usize);
-        let sides = simulated
-            .as_ref()?
-            .iter()
-            .zip(&self.halves)
-            .zip([true, false]);
-        for ((r, _), side) in sides.filter(|((_, half), _)| !own || half.own_point) {
-            for i in (0..r.len()).filter(|&i| fold[i] != side && mask[i]) {
-                ss += r[i] * r[i];
-                n += 1;
-            }
+        for i in (0..r.len()).filter(|&i| fold[i] != side && mask[i]) {
+            ss += r[i] * r[i];
+            n += 1;
         }
-        (n > 0 || !own).then(|| (ss / n.max(1) as f64).sqrt())
+        Some((ss, n))
     }
 
     /// Whether the fit on the whole record reaches the record's noise.
