@@ -17,7 +17,7 @@ use common::{assert_within_k_sigma, program_text};
 use contourcheck::diagnose::causes::CauseId;
 use contourcheck::diagnose::report::DiagnoseReport;
 use contourcheck::diagnose::ripple::PeriodSource;
-use contourcheck::diagnose::{DiagnoseSettings, Diagnosis, diagnose};
+use contourcheck::diagnose::{DiagnoseSettings, Diagnosis, FoundCause, diagnose};
 use contourcheck::gcode::Program;
 use contourcheck::machine::{AxisName, MachineConfig};
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
@@ -97,6 +97,14 @@ fn diagnosed_with_record(
 /// The ripple every test of a known ripple hides: 5 kN at 40°, once a motor turn — about
 /// 2 % of the 220 kN the drive can push (60 A through 2.34 N·m/A at 4 mm a turn), a torque
 /// ripple of the size servo motors have.
+/// The force ripple `d` names; the test fails with what was rejected where it names none.
+fn named_ripple(d: &Diagnosis) -> &FoundCause {
+    d.causes
+        .iter()
+        .find(|c| c.id == CauseId::ForceRipple)
+        .unwrap_or_else(|| panic!("no ripple named: {:#?}", d.rejected))
+}
+
 fn known() -> (f64, f64, f64) {
     (5000.0, turn_mm(), 40.0)
 }
@@ -110,11 +118,7 @@ fn a_ripple_of_known_amplitude_and_phase_is_named_with_its_values() {
         &nominal,
         &Recording::default(),
     );
-    let found = d
-        .causes
-        .iter()
-        .find(|c| c.id == CauseId::ForceRipple)
-        .unwrap_or_else(|| panic!("no ripple named: {:#?}", d.rejected));
+    let found = named_ripple(&d);
     assert_eq!(found.axis, AxisName::X);
     let (amplitude, period_mm, phase_deg) = known();
     let [a, phase] = [0, 1].map(|i| &found.params[i]);
@@ -194,11 +198,7 @@ fn a_ripple_at_the_period_the_machine_file_names_says_so() {
         &nominal,
         &Recording::default(),
     );
-    let found = d
-        .causes
-        .iter()
-        .find(|c| c.id == CauseId::ForceRipple)
-        .unwrap_or_else(|| panic!("no ripple named: {:#?}", d.rejected));
+    let found = named_ripple(&d);
     let p = &found.period;
     assert_eq!(p.period_source, Some(PeriodSource::MachineFile), "{p:?}");
     assert_eq!(p.period_mm, Some(turn_mm()));
