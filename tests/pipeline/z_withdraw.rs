@@ -12,7 +12,7 @@
 //! on the diagonals. The nominal model misses only the radius both lags take (a few µm),
 //! so Z's gain, right on Z, makes the contour worse by that ellipse and is taken back.
 
-mod common;
+use crate::common;
 
 use common::program_text;
 use common::reference::{Recording, record_xyz};

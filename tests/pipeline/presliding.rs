@@ -5,7 +5,7 @@
 //! table itself where it is commanded: 30 kg, Coulomb friction f_c = 0.1·30 kg·g = 29.4 N,
 //! bristles of σ0 = 15 N/µm (a presliding range g/σ0 of about 2 µm).
 
-mod common;
+use crate::common;
 
 use common::reference::{Axis, Plant};
 use contourcheck::machine::MachineConfig;

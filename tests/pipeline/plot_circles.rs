@@ -7,7 +7,7 @@
 //! lags the command and goes round slower, only adds shorter steps (at most 36 — else a
 //! plot). Round R 20 mm it is 0.29°: 1257 per turn, drawn.
 
-mod common;
+use crate::common;
 
 use common::cli::{run, text};
 use common::stated_points_per_turn;

@@ -1,7 +1,7 @@
 //! The command line on measured records: `diagnose` and `identify` with their exit
 //! statuses, outputs written whole, and warnings given once.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

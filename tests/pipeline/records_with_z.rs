@@ -2,7 +2,7 @@
 //! read, how far Z moves over the stretch compared is reported, and the analysis of X and Y
 //! is the one the same record without Z gets. On a machine that carries Z without
 //! simulating it, Z is read, not compared or fitted; where Z is simulated it is compared
-//! (tests/z_records.rs), and Z that no servo could give names nothing.
+//! (z_records.rs beside this file), and Z that no servo could give names nothing.
 //!
 //! The Z the tests write is their own: a steady descent at a known rate, so the travel the
 //! report must give follows from the times it compared.

@@ -9,7 +9,7 @@
 //! position gain 8 % low, the diagnosis names that gain on Z at its value within its
 //! uncertainty, and nothing on X or Y.
 
-mod common;
+use crate::common;
 
 use std::sync::OnceLock;
 

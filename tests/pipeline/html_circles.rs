@@ -11,7 +11,7 @@
 //! full feed most of the angle: the typical step is the full feed's, 19 per turn, fewer than
 //! one every 10°, not drawn.
 
-mod common;
+use crate::common;
 
 use common::cli::{run_ok, text};
 use common::diagnosing::diagnose_nominal;

@@ -10,7 +10,7 @@
 //! inner loops add lags of their own, the same in the record and in the nominal model: the
 //! measured figures less the nominal model's are the position gains' alone.
 
-mod common;
+use crate::common;
 
 use std::sync::OnceLock;
 

@@ -6,7 +6,7 @@
 //! and the CSV text. What is hidden it must find at its value; with nothing hidden it must
 //! name nothing; and its report must say which stretch it compared and how it set the start.
 
-mod common;
+use crate::common;
 
 use common::reference::{Recording, record};
 use common::{assert_within_k_sigma_and_share, program_text};

@@ -2,7 +2,7 @@
 //! `check` and the commands on a machine and a program (`plan`, `bode`, `stickslip`,
 //! `validate`, `sweep`). The commands on measured records are in `cli_records.rs`.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -9,7 +9,7 @@ use contourcheck::plan::AxisCommands;
 use contourcheck::sim::linear::{self, Loop};
 use contourcheck::sim::{AxisModel, SimConfig, simulate};
 
-mod common;
+use crate::common;
 
 fn machine(toml: &str) -> MachineConfig {
     MachineConfig::from_toml_str(toml, "test.toml").unwrap()

@@ -12,7 +12,7 @@
 //! the record's noise; with Z's gain low it is the radial error the two axes' lags give a
 //! circle (each axis a first-order lag of its own gain at the circle's frequency).
 
-mod common;
+use crate::common;
 
 use common::diagnosing::diagnose_nominal;
 use common::program_text;
