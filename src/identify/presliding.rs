@@ -284,7 +284,8 @@ fn near_the_best(wholes: Vec<(Shape, AxisConfig, Fitted)>) -> Vec<(Shape, AxisCo
 /// their stiffness, so at no Coulomb friction they carry no force — whatever such a fit gains
 /// is the other values' refit, not the bristles'. (Such fits are also the costly ones: the
 /// loop's values wander where nothing holds the table, its mass with them, and the bristle
-/// damping set for the template's mass then asks for sub-steps of microseconds.)
+/// damping set for the template's mass then asks for sub-steps of some ten microseconds
+/// where the record has one per millisecond.)
 fn carries_coulomb(knobs: &[Knob], whole: &Fitted) -> bool {
     knobs
         .iter()
