@@ -55,7 +55,11 @@ impl TwoColumns {
     pub(crate) fn solve(&self, max_correlation: f64) -> Option<(f64, f64)> {
         let det = self.determinant();
         let correlation = self.correlation();
-        if !det.is_finite() || det <= 0.0 || !(correlation.abs() <= max_correlation) {
+        if !det.is_finite()
+            || det <= 0.0
+            || correlation.is_nan()
+            || correlation.abs() > max_correlation
+        {
             return None;
         }
         Some((
