@@ -16,6 +16,7 @@
 
 use super::Context;
 use crate::machine::AxisName;
+use crate::numeric::two_columns::{PARALLEL, TwoColumns};
 use crate::numeric::units::um_from_m;
 use crate::trace::signal::sample;
 
@@ -488,24 +489,15 @@ impl<'x> Sinusoid<'x> {
         use_sample: &dyn Fn(usize) -> bool,
     ) -> Sinusoid<'x> {
         let w = std::f64::consts::TAU / period;
-        let (mut ss, mut cc, mut sc, mut sr, mut cr) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        let mut sums = TwoColumns::default();
         for (i, (&xi, &r)) in x.iter().zip(residual).enumerate() {
-            if !use_sample(i) {
-                continue;
+            if use_sample(i) {
+                let (s, c) = (w * xi).sin_cos();
+                sums.add(s, c, r);
             }
-            let (s, c) = (w * xi).sin_cos();
-            ss += s * s;
-            cc += c * c;
-            sc += s * c;
-            sr += s * r;
-            cr += c * r;
         }
-        let det = ss * cc - sc * sc;
-        let (a, b) = if det.abs() > 1e-12 * (ss * cc).max(1e-300) {
-            ((sr * cc - cr * sc) / det, (cr * ss - sr * sc) / det)
-        } else {
-            (0.0, 0.0)
-        };
+        // Where the period's sine and cosine cannot be told apart, no sinusoid.
+        let (a, b) = sums.solve(PARALLEL).unwrap_or((0.0, 0.0));
         Sinusoid { x, period, a, b }
     }
 

@@ -27,6 +27,7 @@ use super::locate::{Located, Variable};
 use super::search::Rejected;
 use crate::compare::context::Context;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
+use crate::numeric::two_columns::{PARALLEL, TwoColumns};
 use crate::sim::AxisModel;
 use crate::trace::signal::sample;
 
@@ -311,19 +312,10 @@ fn amplitude_phase(a: f64, b: f64) -> (f64, f64) {
 /// The (α, β) that make r + α·u + β·v least in squares, over the samples where all three
 /// are finite; none where u and v are (nearly) parallel.
 fn least_squares_2(u: &[f64], v: &[f64], r: &[f64]) -> Option<(f64, f64)> {
-    let (mut uu, mut uv, mut vv, mut ur, mut vr) = (0.0, 0.0, 0.0, 0.0, 0.0);
-    for ((&x, &y), &z) in u.iter().zip(v).zip(r) {
-        if x.is_finite() && y.is_finite() && z.is_finite() {
-            (uu, uv, vv) = (uu + x * x, uv + x * y, vv + y * y);
-            (ur, vr) = (ur + x * z, vr + y * z);
-        }
-    }
-    let det = uu * vv - uv * uv;
-    // Also none where a column is not finite (det NaN).
-    if det.is_nan() || det <= 1e-12 * uu * vv {
-        return None;
-    }
-    Some(((-ur * vv + vr * uv) / det, (-vr * uu + ur * uv) / det))
+    let finite = |i: usize| u[i].is_finite() && v[i].is_finite() && r[i].is_finite();
+    let (alpha, beta) = TwoColumns::over(u, v, r, finite).solve(PARALLEL)?;
+    // The pair that cancels r is the fit of −r.
+    Some((-alpha, -beta))
 }
 
 /// The evidence of a cyclic error of period `period_m` added to the positions recorded on

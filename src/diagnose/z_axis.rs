@@ -26,8 +26,8 @@ use serde::Serialize;
 
 use super::causes::{self, CauseId};
 use super::fit::fit_cause;
+use super::fit_starts::starts;
 use super::plausible::{Observed, implausible};
-use super::search::starts;
 use super::{Context, FittedParam, Stepping};
 use crate::compare::context::ZUncomparable;
 use crate::compare::residual::{noise_floor, rms};

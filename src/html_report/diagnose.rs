@@ -10,8 +10,9 @@ use super::{
 };
 use crate::analysis::circular::CircularTest;
 use crate::diagnose::Diagnosis;
+use crate::diagnose::cause_text::{next_step, strength};
 use crate::diagnose::circular::CircularComparison;
-use crate::diagnose::report::{CauseReport, DiagnoseReport, next_step, strength};
+use crate::diagnose::report::{CauseReport, DiagnoseReport};
 use crate::figures::DiagnoseFigures;
 
 /// The page's view of a diagnosis.

@@ -39,6 +39,7 @@ mod solve;
 mod staged;
 mod starts;
 mod verdict;
+mod whole_record;
 mod z_axis;
 
 use std::sync::OnceLock;
@@ -67,6 +68,7 @@ use knobs::{
 };
 use round::Round;
 use solve::{Fit, Fitted, masked_rms};
+use whole_record::runs_whole_record;
 
 /// Least travel an axis's commands must have to identify it (m).
 const LEAST_TRAVEL_M: f64 = 1e-3;
@@ -228,25 +230,6 @@ fn identify_axis(
     kept.held_out_identified_um = kept.held_out_template_um;
     kept.held_out_share = kept.held_out_template_um / kept.following_error_rms_um;
     Some((template.axis(axis).clone(), kept))
-}
-
-/// `found` where its configuration runs the whole record; else the template's values, as an
-/// axis the search could not fit. The searches stop a simulation after the last sample they
-/// read, so a configuration that diverges or chatters later (in a hold the fits leave out)
-/// reaches them as one that runs: the configuration written is run once more over all of it.
-fn runs_whole_record(
-    ctx: &Context,
-    template: &MachineConfig,
-    axis: AxisName,
-    offset: f64,
-    found: (AxisConfig, AxisIdentification),
-) -> Option<(AxisConfig, AxisIdentification)> {
-    let mut machine = template.clone();
-    *machine.axis_mut(axis) = found.0.clone();
-    if ctx.simulate_axis(&machine, axis).is_some() {
-        return Some(found);
-    }
-    unfitted(Fit::new(ctx, template, axis, offset), template.axis(axis))
 }
 
 /// Whether the template explains the record to its noise while the values fitted predict

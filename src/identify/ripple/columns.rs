@@ -7,6 +7,7 @@ use rayon::prelude::*;
 use super::{Reason, with_ripple};
 use crate::identify::solve::Fit;
 use crate::machine::AxisConfig;
+use crate::numeric::two_columns::TwoColumns;
 use crate::numeric::units::mm_from_m;
 
 /// The trial ripple's amplitude (N): small against the forces of any table that moves, so
@@ -101,77 +102,32 @@ impl Parts {
         &self,
         use_sample: &(dyn Fn(usize) -> bool + Sync),
     ) -> Result<(f64, f64), Reason> {
-        let normal = self.normal(use_sample);
-        let [ss, sc, cc, sr, cr] = normal.sums;
-        let det = ss * cc - sc * sc;
-        let correlation = sc / (ss * cc).sqrt();
-        if det.is_nan() || det <= 0.0 || correlation.is_nan() || correlation.abs() > MAX_CORRELATION
-        {
+        let sums = self.sums(use_sample);
+        let Some((alpha, beta)) = sums.solve(MAX_CORRELATION) else {
             return Err(format!(
                 "its sine and cosine parts act alike on the samples (correlation {:.3}): the \
                  record cannot place its phase",
-                correlation
+                sums.correlation()
             ));
-        }
-        Ok((-(cc * sr - sc * cr) / det, -(ss * cr - sc * sr) / det))
+        };
+        // The parts cancel the residual: they are the fit of −r0.
+        Ok((-alpha, -beta))
     }
 
     /// The least-squares standard deviation (N) of the parts `(a, b)` fitted on the samples
-    /// `use_sample` allows, along the direction the record fixes worst: the largest
-    /// eigenvalue of s²·(XᵀX)⁻¹, s² the residual's variance left by the fit. The samples'
-    /// errors are correlated, so this is a floor on the uncertainty, not all of it.
+    /// `use_sample` allows, along the direction the record fixes worst. The samples' errors
+    /// are correlated, so this is a floor on the uncertainty, not all of it.
     pub(super) fn least_squares_sigma(
         &self,
         use_sample: &(dyn Fn(usize) -> bool + Sync),
         (a, b): (f64, f64),
     ) -> f64 {
-        let normal = self.normal(use_sample);
-        let [ss, sc, cc, ..] = normal.sums;
-        let det = ss * cc - sc * sc;
-        let variance = normal.left(a, b) / (normal.n.saturating_sub(2).max(1) as f64);
-        let largest = 0.5 * ((ss + cc) + (ss - cc).hypot(2.0 * sc)) / det;
-        (variance * largest).sqrt()
+        self.sums(use_sample).worst_sigma(-a, -b)
     }
 
     /// The normal equations' sums on the samples `use_sample` allows.
-    fn normal(&self, use_sample: &(dyn Fn(usize) -> bool + Sync)) -> Normal {
-        let (s, c, r0) = (&self.s, &self.c, &self.r0);
-        let mut normal = Normal {
-            sums: [0.0; 5],
-            rr: 0.0,
-            n: 0,
-        };
-        for i in (0..r0.len()).filter(|&i| use_sample(i)) {
-            let terms = [
-                s[i] * s[i],
-                s[i] * c[i],
-                c[i] * c[i],
-                s[i] * r0[i],
-                c[i] * r0[i],
-            ];
-            for (sum, t) in normal.sums.iter_mut().zip(terms) {
-                *sum += t;
-            }
-            normal.rr += r0[i] * r0[i];
-            normal.n += 1;
-        }
-        normal
-    }
-}
-
-/// The sums Σs², Σsc, Σc², Σs·r0, Σc·r0 of a fit's columns and residual, Σr0², and how
-/// many samples they are over.
-struct Normal {
-    sums: [f64; 5],
-    rr: f64,
-    n: usize,
-}
-
-impl Normal {
-    /// Σ (r0 + a·s + b·c)²: the sum of squares the parts `(a, b)` leave.
-    fn left(&self, a: f64, b: f64) -> f64 {
-        let [ss, sc, cc, sr, cr] = self.sums;
-        (self.rr + 2.0 * (a * sr + b * cr) + a * a * ss + 2.0 * a * b * sc + b * b * cc).max(0.0)
+    fn sums(&self, use_sample: &(dyn Fn(usize) -> bool + Sync)) -> TwoColumns {
+        TwoColumns::over(&self.s, &self.c, &self.r0, use_sample)
     }
 }
 

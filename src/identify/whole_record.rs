@@ -1,0 +1,89 @@
+//! The last check on an axis's values before they are written: that they run the whole
+//! record. The searches stop a simulation after the last sample they read, so a
+//! configuration that diverges or chatters later (in a hold the fits leave out) reaches them
+//! as one that runs; run once more over all of it, it shows itself.
+
+use super::{AxisIdentification, unfitted};
+use crate::compare::Context;
+use crate::identify::solve::Fit;
+use crate::machine::{AxisConfig, AxisName, MachineConfig};
+
+/// `found` where its configuration runs the whole record; else the template's values, as an
+/// axis the search could not fit (none where even the template cannot be simulated).
+pub(super) fn runs_whole_record(
+    ctx: &Context,
+    template: &MachineConfig,
+    axis: AxisName,
+    offset: f64,
+    found: (AxisConfig, AxisIdentification),
+) -> Option<(AxisConfig, AxisIdentification)> {
+    let mut machine = template.clone();
+    *machine.axis_mut(axis) = found.0.clone();
+    if ctx.simulate_axis(&machine, axis).is_some() {
+        return Some(found);
+    }
+    unfitted(Fit::new(ctx, template, axis, offset), template.axis(axis))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::check::{CheckSettings, check};
+    use crate::compare::{CompareSettings, Stepping, compare};
+    use crate::gcode::{InterpretOptions, parse_program};
+    use crate::trace::measured::parse_trace;
+
+    /// The nominal machine's own X and Y on a line out and back, sampled every 2 ms from
+    /// 0.5 s on the record's clock, written as a user's CSV.
+    fn record_of(machine: &MachineConfig, program: &crate::gcode::Program) -> String {
+        let run = check(program, machine, &CheckSettings::for_machine(machine)).unwrap();
+        let step = (2e-3 / run.x.dt_s).round().max(1.0) as usize;
+        let mut csv = String::from("t_s,x_mm,y_mm\n");
+        for k in (0..run.x.pos_m.len().min(run.y.pos_m.len())).step_by(step) {
+            let t_s = 0.5 + k as f64 * run.x.dt_s;
+            let (x_mm, y_mm) = (run.x.pos_m[k] * 1e3, run.y.pos_m[k] * 1e3);
+            csv.push_str(&format!("{t_s:.6},{x_mm:.7},{y_mm:.7}\n"));
+        }
+        csv
+    }
+
+    #[test]
+    fn values_that_run_are_kept_and_values_that_diverge_give_the_template_back() {
+        let template = MachineConfig::default_preset();
+        let text = "G21 G90 G17 G94\nG0 X0 Y0\nG1 X20 Y10 F1000\nG1 X0 Y0\nM2\n";
+        let program = parse_program(text, "line.nc", &InterpretOptions::default()).unwrap();
+        let measured = parse_trace(&record_of(&template, &program), "line.csv").unwrap();
+        let settings = CompareSettings::for_machine(&template);
+        let comparison = compare(&program, &template, &measured, &settings, Stepping::Full);
+        let comparison = comparison.unwrap();
+        let (ctx, offset) = (&comparison.ctx, comparison.offset_s);
+        let axis = AxisName::X;
+        // A position gain a tenth lower: a stable loop, which runs any record. What was found
+        // comes back as it was, its figures too.
+        let mut slower = template.axis(axis).clone();
+        slower.position_loop.kv_m_per_min_per_mm *= 0.9;
+        let marker = AxisIdentification::scored(0.5, 0.06);
+        let kept = runs_whole_record(ctx, &template, axis, offset, (slower.clone(), marker));
+        let (config, identification) = kept.expect("a stable loop runs");
+        assert_eq!(config, slower);
+        assert_eq!(identification, AxisIdentification::scored(0.5, 0.06));
+        // A negative position gain feeds the error back with its sign: it grows as e^(Kv·t),
+        // Kv = 1 m/min/mm = 16.7 /s, from a micrometre to a metre in ln 10⁶ / 16.7 = 0.83 s,
+        // well within the record's 2.7 s of motion. Those values cannot be written: the
+        // template's are, as an axis not fitted — each value the template's, none determined.
+        let mut unstable = template.axis(axis).clone();
+        unstable.position_loop.kv_m_per_min_per_mm = -1.0;
+        let marker = AxisIdentification::scored(0.5, 0.06);
+        let back = runs_whole_record(ctx, &template, axis, offset, (unstable, marker));
+        let (config, identification) = back.expect("the template runs");
+        assert_eq!(&config, template.axis(axis));
+        assert_eq!(identification.axis, axis);
+        assert!(!identification.reached && !identification.values.is_empty());
+        for v in &identification.values {
+            assert!(
+                v.value == v.template && !v.determined && !v.measured,
+                "{v:?}"
+            );
+        }
+    }
+}
