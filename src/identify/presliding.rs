@@ -92,6 +92,14 @@ impl Shape {
         }
     }
 
+    /// The shape as a reason names it.
+    fn describe(self) -> String {
+        format!(
+            "bristles of {} N/µm, friction near rest {} of Coulomb's",
+            self.stiffness_n_per_um, self.level
+        )
+    }
+
     /// `config` with these bristles and Coulomb friction `coulomb_n`.
     fn on(self, config: &AxisConfig, coulomb_n: f64) -> AxisConfig {
         let mut c = config.clone();
@@ -121,8 +129,9 @@ struct Tried {
 /// replaced by the fit with bristles where the held-out halves keep them; its verdict set
 /// either way. Where the template names bristles, `hybrid` as it is (no verdict).
 /// `moving_share` gives the held-out share of the fit away from the standstills, asked for
-/// only where no shape's fit reaches the record's noise: a shape whose fit on every sample
-/// does not come below it even on the samples it was fitted to cannot be written.
+/// only where a shape's fit on every sample stays above the record's noise (the first
+/// shape's, then all of them): a shape whose fit does not come below it even on the samples
+/// it was fitted to cannot be written.
 pub(super) fn tried(
     fit: &Fit,
     template: &AxisConfig,
@@ -170,6 +179,15 @@ pub(super) fn tried(
         id.presliding = Some(not(&reason, with_um));
         return (config, id);
     }
+    let round = &rounds[scored.best].round;
+    if !holds_coulomb(&round.knobs, &round.whole.values, &round.sigma) {
+        // The round's fit on the whole record may move Coulomb friction again from where
+        // the shape's first fit held it: bristles bent by no friction carry no force.
+        let reason = "the fit with them holds no Coulomb force above its uncertainty, and \
+                      bristles bent by no friction carry no force";
+        id.presliding = Some(not(reason, with_um));
+        return (config, id);
+    }
     match written(fit, (template, &fold), &id, &rounds[scored.best], &scored) {
         Some(w) => w,
         None => {
@@ -180,14 +198,17 @@ pub(super) fn tried(
     }
 }
 
-/// The rounds of the shapes worth scoring on the halves: each shape's fit on the whole
-/// record first, and only those whose residual's RMS there lies below the fit's without
-/// bristles (`config`) by the twentieth a larger model must earn fitted on each half — a
-/// shape that does not fit the samples it was fitted to better cannot predict those it was
-/// not (the halves' fits are two thirds of a round's cost). Where none of them reaches the
-/// noise, only those whose RMS there, as a share of the following error, lies below the
-/// held-out share of the fit away from the standstills (`moving_share`): that fit is written
-/// otherwise, whatever the halves make of them. Why none is, where none is.
+/// The rounds of the shapes worth scoring on the halves. Each shape's fit on the whole
+/// record comes first, the shape ranked best at the loop's values without bristles before
+/// the others, which are not fitted where its fit stays above the noise and does not come
+/// below the held-out share of the fit away from the standstills (`moving_share`): that fit
+/// is written otherwise, whatever the halves make of the bristles. Then only the shapes
+/// whose fit there (a) lies below the fit's without bristles (`config`) by the twentieth a
+/// larger model must earn — a shape that does not fit the samples it was fitted to better
+/// cannot predict those it was not (the halves' fits are two thirds of a round's cost) —,
+/// (b) holds Coulomb friction above its uncertainty, (c) where none reaches the noise, lies
+/// below that held-out share, and (d) is not beaten by another shape's fit by a twentieth.
+/// Why none is, where none is.
 fn rounds(
     fit: &Fit,
     config: &AxisConfig,
@@ -201,21 +222,26 @@ fn rounds(
     let rms_um = |w: &Fitted| um_from_m((w.cost / samples).sqrt());
     let noise_um = um_from_m(fit.ctx().noise_sigma);
     let reaches = |w: &Fitted| rms_um(w) <= REACHED_EXCESS * noise_um;
-    let below_share = |share: f64| {
+    let below_share = |which: &str, share: f64| {
         format!(
-            "no shape's fit comes below {:.1} % of the following error even on the samples \
-             it was fitted to, where the fit away from the standstills predicts its held-out \
-             halves to that: it is written",
+            "{which} comes below {:.1} % of the following error even on the samples it was \
+             fitted to, where the fit away from the standstills predicts its held-out halves \
+             to that: it is written",
             100.0 * share
         )
     };
-    let mut wholes = gated_wholes(fit, knobs, config, &|first| {
+    let mut wholes = gated_wholes(fit, knobs, config, &|shape, first| {
         if reaches(first) {
             return Ok(());
         }
         match moving_share() {
             Some(share) if rms_um(first) >= share * id.following_error_rms_um => {
-                Err(below_share(share))
+                let which = format!(
+                    "the fit of the shape that explains the record best at the loop's values \
+                     without bristles ({}; the other shapes not fitted) never",
+                    shape.describe()
+                );
+                Err(below_share(&which, share))
             }
             _ => Ok(()),
         }
@@ -231,8 +257,8 @@ fn rounds(
     wholes.retain(|w| carries_coulomb(knobs, &w.2));
     if wholes.is_empty() {
         return Err(
-            "no shape's fit holds a Coulomb force the record tells from none, and bristles \
-             bent by no friction carry no force"
+            "no shape whose fit beats the fit without bristles holds a Coulomb force above \
+             its own uncertainty, and bristles bent by no friction carry no force"
                 .to_string(),
         );
     }
@@ -241,7 +267,7 @@ fn rounds(
     {
         wholes.retain(|w| rms_um(&w.2) < share * id.following_error_rms_um);
         if wholes.is_empty() {
-            return Err(below_share(share));
+            return Err(below_share("no shape's fit", share));
         }
     }
     let rounds: Vec<Tried> = near_the_best(wholes)
@@ -287,10 +313,15 @@ fn near_the_best(wholes: Vec<(Shape, AxisConfig, Fitted)>) -> Vec<(Shape, AxisCo
 /// damping set for the template's mass then asks for sub-steps of some ten microseconds
 /// where the record has one per millisecond.)
 fn carries_coulomb(knobs: &[Knob], whole: &Fitted) -> bool {
+    holds_coulomb(knobs, &whole.values, &whole.sigma)
+}
+
+/// Whether `values` (of `knobs`) put Coulomb friction above its uncertainty in `sigma`.
+fn holds_coulomb(knobs: &[Knob], values: &[f64], sigma: &[f64]) -> bool {
     knobs
         .iter()
         .position(|k| k.key == COULOMB_KEY)
-        .is_some_and(|j| whole.values[j] > whole.sigma[j])
+        .is_some_and(|j| values[j] > sigma[j])
 }
 
 /// Each shape's fit on the whole record (the loop's values and Coulomb friction fitted
@@ -303,7 +334,7 @@ fn gated_wholes(
     fit: &Fit,
     knobs: &[Knob],
     config: &AxisConfig,
-    gate: &dyn Fn(&Fitted) -> Result<(), String>,
+    gate: &dyn Fn(Shape, &Fitted) -> Result<(), String>,
 ) -> Result<Vec<(Shape, AxisConfig, Fitted)>, String> {
     let mut ranked: Vec<(f64, Shape, AxisConfig)> = SHAPES
         .par_iter()
@@ -320,7 +351,7 @@ fn gated_wholes(
     let mut rest = ranked.into_iter();
     let first = rest.next().and_then(whole);
     if let Some(first) = &first {
-        gate(&first.2)?;
+        gate(first.0, &first.2)?;
     }
     let others: Vec<(Shape, AxisConfig, Fitted)> = rest
         .collect::<Vec<_>>()
@@ -613,6 +644,39 @@ mod tests {
         assert_eq!(f.static_to_coulomb, 0.7);
         assert_eq!(f.stribeck_velocity_mm_per_min, 600.0);
         assert!((get(&c, COULOMB_KEY) - 88.3).abs() < 1e-9);
+    }
+
+    #[test]
+    fn bristles_need_a_coulomb_force_the_fit_tells_from_none() {
+        let x = MachineConfig::preset("small-table").unwrap().x;
+        let knobs = knobs::for_axis(&x);
+        let j = knobs
+            .iter()
+            .position(|k| k.key == COULOMB_KEY)
+            .expect("the small table's axis fits Coulomb friction");
+        let at = |coulomb_n: f64, sigma_n: f64| {
+            let mut values = vec![1.0; knobs.len()];
+            let mut sigma = vec![0.1; knobs.len()];
+            values[j] = coulomb_n;
+            sigma[j] = sigma_n;
+            holds_coulomb(&knobs, &values, &sigma)
+        };
+        // 90 N known to ±5 N holds the bristles; 20 N known to ±51 N (the record cannot tell
+        // it from none) and none at all do not.
+        assert!(at(90.0, 5.0));
+        assert!(!at(20.0, 51.0));
+        assert!(!at(0.0, 0.0));
+        // No Coulomb knob among those fitted: nothing holds them.
+        let without: Vec<Knob> = knobs
+            .iter()
+            .copied()
+            .filter(|k| k.key != COULOMB_KEY)
+            .collect();
+        assert!(!holds_coulomb(
+            &without,
+            &vec![90.0; without.len()],
+            &vec![1.0; without.len()]
+        ));
     }
 
     #[test]

@@ -4,8 +4,8 @@
 //! (α, β) is not fixed by the data — any point on a ridge fits — and the answer is none,
 //! never a NaN or a pair of huge opposite values.
 
-/// A correlation that only rounding tells from ±1: the determinant Σu²·Σv² − (Σuv)² within
-/// 10⁻¹² of Σu²·Σv². A caller that needs no stricter bound passes this one.
+/// A correlation within a hair of ±1 (|cos| ≥ 1 − 5·10⁻¹³): the determinant Σu²·Σv² − (Σuv)²
+/// at most 10⁻¹² of Σu²·Σv². A caller that needs no stricter bound passes this one.
 pub(crate) const PARALLEL: f64 = 1.0 - 5e-13;
 
 /// The sums Σu², Σuv, Σv², Σur, Σvr and Σr² over the samples added, and their count.
@@ -162,7 +162,7 @@ mod tests {
 
     #[test]
     fn columns_that_act_alike_give_none_not_nan() {
-        let (u, _, r) = worked();
+        let (u, v, r) = worked();
         // One column twice: correlation 1, determinant 0.
         assert_eq!(TwoColumns::over(&u, &u, &r, |_| true).solve(0.99), None);
         // A multiple, of the opposite sign: correlation −1.
@@ -174,7 +174,7 @@ mod tests {
             None
         );
         // No samples at all.
-        assert_eq!(TwoColumns::over(&u, &u, &r, |_| false).solve(0.99), None);
+        assert_eq!(TwoColumns::over(&u, &v, &r, |_| false).solve(0.99), None);
         // A non-finite value.
         let bad = [1.0, f64::NAN, 0.0];
         assert_eq!(TwoColumns::over(&u, &bad, &r, |_| true).solve(0.99), None);
