@@ -339,8 +339,8 @@ fn gated_wholes(
     let mut ranked: Vec<(f64, Shape, AxisConfig)> = SHAPES
         .par_iter()
         .filter_map(|&shape| {
-            let (cost, coulomb_n) = coulomb_start(fit, shape, config)?;
-            Some((cost, shape, shape.on(config, coulomb_n)))
+            let start = coulomb_start(fit, shape, config)?;
+            Some((start.cost, shape, shape.on(config, start.coulomb_n)))
         })
         .collect();
     ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -379,15 +379,26 @@ fn refitted(id: &AxisIdentification, knobs_all: &[Knob]) -> Option<Vec<Knob>> {
     knobs.iter().any(|k| k.key == COULOMB_KEY).then_some(knobs)
 }
 
-/// The Coulomb force (N) a shape's fit starts from: of the fit's own and the scan's, the one
-/// that explains the record best with the shape, with its cost; none where none can be
-/// simulated.
-fn coulomb_start(fit: &Fit, shape: Shape, config: &AxisConfig) -> Option<(f64, f64)> {
+/// Where a shape's fit starts: a Coulomb force and what the record makes of it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct CoulombStart {
+    /// The residual's sum of squares (m²) over the samples the fit compares, with the shape
+    /// at this force and the loop's values of the fit without bristles.
+    cost: f64,
+    coulomb_n: f64,
+}
+
+/// The Coulomb force a shape's fit starts from: of the fit's own and the scan's, the one
+/// that explains the record best with the shape; none where none can be simulated.
+fn coulomb_start(fit: &Fit, shape: Shape, config: &AxisConfig) -> Option<CoulombStart> {
     let weight_n = config.drive.table_mass_kg * GRAVITY_M_PER_S2;
     std::iter::once(get(config, COULOMB_KEY))
         .chain(COULOMB_SCAN_OF_WEIGHT.iter().map(|s| s * weight_n))
-        .filter_map(|f| Some((fit.cost(&shape.on(config, f))?, f)))
-        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .filter_map(|coulomb_n| {
+            let cost = fit.cost(&shape.on(config, coulomb_n))?;
+            Some(CoulombStart { cost, coulomb_n })
+        })
+        .min_by(|a, b| a.cost.total_cmp(&b.cost))
 }
 
 /// The held-out figures of the shapes tried.
