@@ -21,6 +21,41 @@ use crate::machine::AxisConfig;
 /// at the noise on every sample had it follow the noise.
 const HELD_OUT_EXCESS: f64 = 2.0;
 
+/// One half's fit scored on the samples of the other half: the residual's sum of squares
+/// (m²), the samples counted, and whether the half's search found a point of its own
+/// (`Fitted::own_point`; where it did not, the residual is the whole fit's, in-sample).
+#[derive(Clone, Copy, Debug)]
+struct HalfScore {
+    ss_m2: f64,
+    n: usize,
+    own_point: bool,
+}
+
+/// The held-out RMS (m) of two rounds, `this` and `that`, each over the same halves: those
+/// where both rounds' fits found a point of their own. A half only one of them holds out
+/// would score that one on samples it did not see and the other on samples it was fitted
+/// to, and a round whose one half moved would be judged on that half against both of the
+/// other's. Where no half is held out by both (or those shared count no sample), both
+/// rounds are scored on both halves, as before any moved.
+fn compared_rms(this: [HalfScore; 2], that: [HalfScore; 2]) -> (f64, f64) {
+    let shared = [0, 1].map(|h| this[h].own_point && that[h].own_point);
+    let rms_over = |s: &[HalfScore; 2], counted: [bool; 2]| -> Option<f64> {
+        let (mut ss, mut n) = (0.0, 0usize);
+        for h in (0..2).filter(|&h| counted[h]) {
+            ss += s[h].ss_m2;
+            n += s[h].n;
+        }
+        (n > 0).then(|| (ss / n as f64).sqrt())
+    };
+    match (rms_over(&this, shared), rms_over(&that, shared)) {
+        (Some(a), Some(b)) => (a, b),
+        _ => {
+            let both = |s: &[HalfScore; 2]| rms_over(s, [true, true]).unwrap_or(0.0);
+            (both(&this), both(&that))
+        }
+    }
+}
+
 /// The fits of some knobs on the whole record and on each half.
 pub(super) struct Round {
     pub(super) knobs: Vec<Knob>,
@@ -168,15 +203,14 @@ impl Round {
             };
             let refuted: Vec<&'static str> = refuted.iter().copied().chain(corners).collect();
             let kept_way = kept.and_then(|k| Round::settled(fit, k, template, fold, &refuted));
-            let held_out = |(r, _): &(Round, AxisConfig)| r.held_out_rms(fit, fold);
             let noise = fit.ctx().noise_sigma;
             return Some(match kept_way {
                 Some(k)
-                    if held_out(&k)
-                        .zip(held_out(&design_way))
-                        .is_some_and(|(free, design)| {
+                    if k.0.held_out_against(&design_way.0, fit, fold).is_some_and(
+                        |(free, design)| {
                             free <= HELD_OUT_EXCESS * noise && predicts_better(free, design)
-                        }) =>
+                        },
+                    ) =>
                 {
                     k
                 }
@@ -209,12 +243,33 @@ impl Round {
     }
 
     /// Whether this round predicts the held-out halves better than `other` (with fewer
-    /// values): by the twentieth of [`predicts_better`].
+    /// values): by the twentieth of [`predicts_better`], on the halves both rounds hold out
+    /// ([`Round::held_out_against`]).
     fn predicts_better_than(&self, other: &Round, fit: &Fit, fold: &[bool]) -> bool {
-        let this = self.held_out_rms(fit, fold);
-        let that = other.held_out_rms(fit, fold);
-        this.zip(that)
+        self.held_out_against(other, fit, fold)
             .is_some_and(|(this, that)| predicts_better(this, that))
+    }
+
+    /// This round's and `other`'s held-out RMS (m), each over the same halves
+    /// ([`compared_rms`]): those where both rounds' fits found a point of their own, else
+    /// both halves. None where either round's halves cannot be simulated.
+    fn held_out_against(&self, other: &Round, fit: &Fit, fold: &[bool]) -> Option<(f64, f64)> {
+        let this = self.half_scores(fit, fold)?;
+        let that = other.half_scores(fit, fold)?;
+        Some(compared_rms(this, that))
+    }
+
+    /// Each half's fit scored on the other half's samples (of those `fit` compares).
+    fn half_scores(&self, fit: &Fit, fold: &[bool]) -> Option<[HalfScore; 2]> {
+        let score = |h: usize| -> Option<HalfScore> {
+            let (ss_m2, n) = self.half_held_out(fit, fold, fit.mask(), h)?;
+            Some(HalfScore {
+                ss_m2,
+                n,
+                own_point: self.halves[h].own_point,
+            })
+        };
+        Some([score(0)?, score(1)?])
     }
 
     /// Where knob `key` stays fitted though the record does not determine it alone (its
@@ -314,5 +369,94 @@ impl Round {
     /// Half `h`'s fit (0: the samples the fold marks) about its own base.
     pub(super) fn half_config(&self, h: usize) -> AxisConfig {
         Fit::config(&self.knobs, &self.half_bases[h], &self.halves[h].values)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A half's fit that predicts the other half's `n` samples to `rms_um` (µm).
+    fn half(rms_um: f64, n: usize, own_point: bool) -> HalfScore {
+        let rms_m = rms_um * 1e-6;
+        HalfScore {
+            ss_m2: rms_m * rms_m * n as f64,
+            n,
+            own_point,
+        }
+    }
+
+    fn um((a, b): (f64, f64)) -> (f64, f64) {
+        (a * 1e6, b * 1e6)
+    }
+
+    fn close((a, b): (f64, f64), (x, y): (f64, f64)) -> bool {
+        (a - x).abs() < 1e-9 && (b - y).abs() < 1e-9
+    }
+
+    #[test]
+    fn both_halves_held_out_by_both_rounds_count_weighted_by_their_samples() {
+        // 100 samples at 1 µm and 300 at 3 µm: √((100·1 + 300·9) / 400) = √7 µm.
+        let this = [half(1.0, 100, true), half(3.0, 300, true)];
+        let that = [half(2.0, 100, true), half(2.0, 300, true)];
+        let got = um(compared_rms(this, that));
+        assert!(close(got, (7f64.sqrt(), 2.0)), "{got:?}");
+    }
+
+    #[test]
+    fn a_half_only_one_round_holds_out_is_left_out_of_both() {
+        // The second round's second half stayed at the whole fit's values (0.5 µm
+        // in-sample): both rounds are scored on the first half alone.
+        let this = [half(1.0, 100, true), half(3.0, 100, true)];
+        let that = [half(2.0, 100, true), half(0.5, 100, false)];
+        let got = um(compared_rms(this, that));
+        assert!(close(got, (1.0, 2.0)), "{got:?}");
+        // The same with the halves' roles swapped between the rounds.
+        let got = um(compared_rms(that, this));
+        assert!(close(got, (2.0, 1.0)), "{got:?}");
+    }
+
+    #[test]
+    fn where_no_half_is_held_out_by_both_both_halves_count() {
+        let this = [half(1.0, 100, true), half(3.0, 100, false)];
+        let that = [half(2.0, 100, false), half(0.5, 100, true)];
+        // √((1 + 9) / 2) = √5 and √((4 + 0.25) / 2) = √2.125 µm.
+        let got = um(compared_rms(this, that));
+        assert!(close(got, (5f64.sqrt(), 2.125f64.sqrt())), "{got:?}");
+        // Neither round holds out any half: the same.
+        let none = |s: [HalfScore; 2]| {
+            s.map(|h| HalfScore {
+                own_point: false,
+                ..h
+            })
+        };
+        let got = um(compared_rms(none(this), none(that)));
+        assert!(close(got, (5f64.sqrt(), 2.125f64.sqrt())), "{got:?}");
+        // A shared half that counts no sample (the mask leaves none): both halves.
+        let empty = [half(1.0, 0, true), half(3.0, 100, true)];
+        let other = [half(2.0, 0, true), half(1.0, 100, false)];
+        let got = um(compared_rms(empty, other));
+        assert!(close(got, (3.0, 1.0)), "{got:?}");
+    }
+
+    #[test]
+    fn a_round_better_only_on_a_half_it_was_fitted_to_loses() {
+        // Its first half predicts the second to 2.0 µm; its second half stayed at the
+        // whole fit's values, 0.1 µm on samples it was fitted to. Over both halves it
+        // reads √((4 + 0.01) / 2) = 1.416 µm, under 0.95 × 1.5 = 1.425 µm of the other
+        // round whose halves both moved: it would win.
+        let this = [half(2.0, 100, true), half(0.1, 100, false)];
+        let that = [half(1.5, 100, true), half(1.5, 100, true)];
+        let both = |s: &[HalfScore; 2]| {
+            let ss: f64 = s.iter().map(|h| h.ss_m2).sum();
+            (ss / 200.0).sqrt()
+        };
+        assert!(predicts_better(both(&this), both(&that)));
+        // On the half both hold out it predicts 2.0 against 1.5 µm: it loses.
+        let (a, b) = compared_rms(this, that);
+        assert!(close(um((a, b)), (2.0, 1.5)), "{:?}", um((a, b)));
+        assert!(!predicts_better(a, b));
+        // And the other round, better there by more than a twentieth, wins.
+        assert!(predicts_better(b, a));
     }
 }

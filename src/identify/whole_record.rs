@@ -31,6 +31,8 @@ mod tests {
     use crate::check::{CheckSettings, check};
     use crate::compare::{CompareSettings, Stepping, compare};
     use crate::gcode::{InterpretOptions, parse_program};
+    use crate::plan::InPosition;
+    use crate::sim::{AxisModel, SimError, simulate};
     use crate::trace::measured::parse_trace;
 
     /// The nominal machine's own X and Y on a line out and back, sampled every 2 ms from
@@ -47,8 +49,53 @@ mod tests {
         csv
     }
 
+    /// That `unstable` (axis `axis` of `template` with its velocity loop's gain negated) is
+    /// refused by the simulation itself. Its position gain stays the template's, so the
+    /// in-position waits, and with them the commands the record is simulated on, stay those
+    /// of the plan the context was built on (no other plan is made for these values): the
+    /// only step that can refuse them is the simulation on those commands, and it does so
+    /// before its first step, as a loop with a growing mode. The rigid drive's speed grows as
+    /// e^(s·t) with J·s² = K_s·s + K_s/T_s (the PI loop of gain K_s on the whole inertia J,
+    /// the current loop taken as instant): from the template's K_s = 16 N·m·s/rad, T_s =
+    /// 10 ms and J = 0.0246 kg·m², s = 740 /s; the current loop's lag slows it, not below
+    /// half K_s/J = 651 /s.
+    fn assert_refused_by_the_simulation(
+        ctx: &Context,
+        template: &MachineConfig,
+        axis: AxisName,
+        unstable: &AxisConfig,
+    ) {
+        let mut machine = template.clone();
+        *machine.axis_mut(axis) = unstable.clone();
+        assert_eq!(
+            InPosition::kv_per_s_of_cascades(&machine),
+            InPosition::kv_per_s_of_cascades(template)
+        );
+        let d = &unstable.drive;
+        let r_m_per_rad = d.lead_mm * 1e-3 / std::f64::consts::TAU * d.gear_ratio;
+        let j = unstable.motor.jm_kg_m2
+            + d.gear_ratio.powi(2) * d.js_kg_m2
+            + r_m_per_rad.powi(2) * d.table_mass_kg;
+        let velocity = template.axis(axis).velocity_loop.as_ref().unwrap();
+        let (ks, ts) = (velocity.ks_nm_s_per_rad, velocity.ts_ms * 1e-3);
+        let rigid = (ks + (ks * ks + 4.0 * j * ks / ts).sqrt()) / (2.0 * j);
+        let on = |c: &AxisConfig| {
+            let model = AxisModel::from_config(c);
+            simulate(&model, ctx.commands.axis(axis), ctx.dt, &ctx.sim)
+        };
+        match on(unstable) {
+            Err(SimError::Unstable { growth_per_s, .. }) => assert!(
+                growth_per_s > 0.5 * ks / j && growth_per_s < 1.1 * rigid,
+                "{growth_per_s} /s against K_s/J = {} and {rigid} /s",
+                ks / j
+            ),
+            other => panic!("not refused as unstable: {other:?}"),
+        }
+        assert!(on(template.axis(axis)).is_ok());
+    }
+
     #[test]
-    fn values_that_run_are_kept_and_values_that_diverge_give_the_template_back() {
+    fn values_that_run_are_kept_and_values_the_simulation_refuses_give_the_template_back() {
         let template = MachineConfig::default_preset();
         let text = "G21 G90 G17 G94\nG0 X0 Y0\nG1 X20 Y10 F1000\nG1 X0 Y0\nM2\n";
         let program = parse_program(text, "line.nc", &InterpretOptions::default()).unwrap();
@@ -67,12 +114,15 @@ mod tests {
         let (config, identification) = kept.expect("a stable loop runs");
         assert_eq!(config, slower);
         assert_eq!(identification, AxisIdentification::scored(0.5, 0.06));
-        // A negative position gain feeds the error back with its sign: it grows as e^(Kv·t),
-        // Kv = 1 m/min/mm = 16.7 /s, from a micrometre to a metre in ln 10⁶ / 16.7 = 0.83 s,
-        // well within the record's 2.7 s of motion. Those values cannot be written: the
-        // template's are, as an axis not fitted — each value the template's, none determined.
+        // The velocity loop's gain negated: the speed error is fed back with its sign and
+        // drives the motor faster. The simulation refuses these values on the context's own
+        // commands (`refused_by_the_simulation`).
         let mut unstable = template.axis(axis).clone();
-        unstable.position_loop.kv_m_per_min_per_mm = -1.0;
+        let velocity = unstable.velocity_loop.as_mut().unwrap();
+        velocity.ks_nm_s_per_rad = -velocity.ks_nm_s_per_rad;
+        assert_refused_by_the_simulation(ctx, &template, axis, &unstable);
+        // Those values cannot be written: the template's are, as an axis not fitted — each
+        // value the template's, none determined.
         let marker = AxisIdentification::scored(0.5, 0.06);
         let back = runs_whole_record(ctx, &template, axis, offset, (unstable, marker));
         let (config, identification) = back.expect("the template runs");

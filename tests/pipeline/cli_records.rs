@@ -5,7 +5,9 @@ use crate::common;
 
 use std::path::Path;
 
-use common::cli::{run, run_ok, sample, text};
+use common::cli::{
+    read_json, run, run_ok, sample, synth_backlash_on_x, synth_on_a_scale_with_commands, text,
+};
 
 /// A control's export — milliseconds, vendor column names, semicolons with decimal commas,
 /// a comment and an `EOF` trailer — is diagnosed as it is, with a column mapping, and gives
@@ -16,18 +18,7 @@ fn a_vendor_export_is_diagnosed_without_conversion() {
     let plain = dir.path().join("m.csv");
     // The circular test at half the radius: the same speed and reversals in half the record.
     let circle = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/circle-r50.nc");
-    run_ok(&[
-        "synth",
-        circle.to_str().unwrap(),
-        "--out",
-        plain.to_str().unwrap(),
-        "--effect",
-        "backlash",
-        "--axis",
-        "x",
-        "--values",
-        "8",
-    ]);
+    synth_backlash_on_x(&circle, &plain, "8");
     let mut vendor =
         String::from("// servo trace, axis positions in mm\r\nTime;X_ActPos;Y_ActPos\r\n");
     for line in std::fs::read_to_string(&plain).unwrap().lines().skip(1) {
@@ -255,21 +246,7 @@ fn identify_writes_a_machine_file_check_takes_and_a_record_without_commands_is_r
     .unwrap();
     let program = sample("identify-moves.nc");
     let program = program.to_str().unwrap();
-    run_ok(&[
-        "synth",
-        program,
-        "--machine",
-        &path("hidden.toml"),
-        "--out",
-        &path("rec.csv"),
-        "--with-commands",
-        "--rate-hz",
-        "10000",
-        "--quantization-um",
-        "0.1",
-        "--noise-um",
-        "0.05",
-    ]);
+    synth_on_a_scale_with_commands(program, &path("hidden.toml"), &path("rec.csv"));
     let o = run_ok(&[
         "identify",
         program,
@@ -293,8 +270,7 @@ fn identify_writes_a_machine_file_check_takes_and_a_record_without_commands_is_r
         (masses.0 - 45.0).abs() < 0.5 && (masses.1 - 70.0).abs() < 0.7,
         "{masses:?}"
     );
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(path("id.json")).unwrap()).unwrap();
+    let json = read_json(Path::new(&path("id.json")));
     assert_eq!(json["axes"][0]["axis"], "x");
     run_ok(&["check", program, "--machine", &path("id.toml")]);
     assert_identify_refuses_a_record_without_commands(program, &path("hidden.toml"), dir.path());
@@ -317,21 +293,11 @@ fn the_readme_lead_lag_example_identifies_the_stand_in() {
     };
     let program = sample("small-circle.nc");
     let program = program.to_str().unwrap();
-    run_ok(&[
-        "synth",
+    synth_on_a_scale_with_commands(
         program,
-        "--machine",
         &example("lead-lag-table.toml"),
-        "--with-commands",
-        "--rate-hz",
-        "10000",
-        "--quantization-um",
-        "0.1",
-        "--noise-um",
-        "0.05",
-        "--out",
         &path("record.csv"),
-    ]);
+    );
     run_ok(&[
         "identify",
         program,
@@ -344,8 +310,7 @@ fn the_readme_lead_lag_example_identifies_the_stand_in() {
         "--json",
         &path("id.json"),
     ]);
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(path("id.json")).unwrap()).unwrap();
+    let json = read_json(Path::new(&path("id.json")));
     let x = &json["axes"][0];
     let value = |key: &str| {
         let v = x["values"]

@@ -2,31 +2,15 @@
 //! JSON report's (read back from the page's markup), the page is self-contained and prints
 //! on A4, and headless Chromium renders it — not blank, no error logged.
 
+use crate::common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use scraper::{Html, Selector};
 use serde_json::Value;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_contourcheck"))
-}
-
-fn sample(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("gcode-samples")
-        .join(name)
-}
-
-fn run(args: &[&str]) -> Output {
-    let o = bin().args(args).env("CI", "1").output().unwrap();
-    assert!(
-        matches!(o.status.code(), Some(0 | 1)),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    o
-}
+use common::cli::{read_json, run_to_a_verdict, sample, synth_backlash_on_x};
 
 /// The value at a dotted key with indices (`hotspots[0].error_um`).
 fn lookup<'a>(json: &'a Value, key: &str) -> &'a Value {
@@ -113,7 +97,7 @@ fn the_check_report_shows_the_json_figures() {
     let dir = tempfile::tempdir().unwrap();
     let (json, html) = (dir.path().join("r.json"), dir.path().join("r.html"));
     let circle = sample("circle-test.nc");
-    let o = run(&[
+    let o = run_to_a_verdict(&[
         "check",
         circle.to_str().unwrap(),
         "--json",
@@ -124,7 +108,7 @@ fn the_check_report_shows_the_json_figures() {
         "4",
     ]);
     assert_eq!(o.status.code(), Some(1), "5.07 µm exceeds 4 µm");
-    let report: Value = serde_json::from_str(&read(&json)).unwrap();
+    let report = read_json(&json);
     // The pair of circles in XY names its plane, as each of its circles does.
     let pair = &report["circular_test"]["pairs"][0];
     assert_eq!(pair["plane"], "XY", "{pair}");
@@ -180,20 +164,9 @@ fn the_check_report_shows_the_json_figures() {
 fn diagnosed(dir: &Path) -> (Value, String) {
     let record = dir.join("m.csv");
     let circle = sample("circle-test.nc");
-    run(&[
-        "synth",
-        circle.to_str().unwrap(),
-        "--out",
-        record.to_str().unwrap(),
-        "--effect",
-        "backlash",
-        "--axis",
-        "x",
-        "--values",
-        "8",
-    ]);
+    synth_backlash_on_x(&circle, &record, "8");
     let (json, html) = (dir.join("d.json"), dir.join("d.html"));
-    run(&[
+    run_to_a_verdict(&[
         "diagnose",
         circle.to_str().unwrap(),
         "--measured",
@@ -203,7 +176,7 @@ fn diagnosed(dir: &Path) -> (Value, String) {
         "--report",
         html.to_str().unwrap(),
     ]);
-    (serde_json::from_str(&read(&json)).unwrap(), read(&html))
+    (read_json(&json), read(&html))
 }
 
 #[test]
@@ -244,7 +217,7 @@ fn identified(dir: &Path) -> (Value, String) {
     .unwrap();
     let record = dir.join("r.csv");
     let circle = sample("small-circle.nc");
-    run(&[
+    run_to_a_verdict(&[
         "synth",
         circle.to_str().unwrap(),
         "--machine",
@@ -256,7 +229,7 @@ fn identified(dir: &Path) -> (Value, String) {
         record.to_str().unwrap(),
     ]);
     let (json, html, out) = (dir.join("i.json"), dir.join("i.html"), dir.join("m.toml"));
-    run(&[
+    run_to_a_verdict(&[
         "identify",
         circle.to_str().unwrap(),
         "--measured",
@@ -270,7 +243,7 @@ fn identified(dir: &Path) -> (Value, String) {
         "--report",
         html.to_str().unwrap(),
     ]);
-    (serde_json::from_str(&read(&json)).unwrap(), read(&html))
+    (read_json(&json), read(&html))
 }
 
 #[test]
