@@ -31,14 +31,16 @@ struct HalfScore {
     own_point: bool,
 }
 
-/// The held-out RMS (m) of two rounds, `this` and `that`, each over the same halves: those
-/// where both rounds' fits found a point of their own. A half only one of them holds out
-/// would score that one on samples it did not see and the other on samples it was fitted
-/// to, and a round whose one half moved would be judged on that half against both of the
-/// other's. Where no half is held out by both (or those shared count no sample), both
-/// rounds are scored on both halves, as before any moved.
-fn compared_rms(this: [HalfScore; 2], that: [HalfScore; 2]) -> (f64, f64) {
-    let shared = [0, 1].map(|h| this[h].own_point && that[h].own_point);
+/// The held-out RMS (m) of two rounds, the `larger` (more values fitted) and the
+/// `smaller`, each over the same halves: those where the larger round's fit found a point
+/// of its own. A half whose search stayed at the whole fit's values scores its round on
+/// samples that round was fitted to; left in, it would let the larger model win on
+/// samples it saw. The smaller round is scored on those same halves whether or not its own
+/// fit moved there, so the burden of proof stays on the larger model, and every half the
+/// larger round does hold out counts, however badly it predicts. Where the larger round
+/// holds out no half (or those count no sample) both halves count for both, as when every
+/// half's search stays at an exact whole fit.
+fn compared_rms(larger: [HalfScore; 2], smaller: [HalfScore; 2]) -> (f64, f64) {
     let rms_over = |s: &[HalfScore; 2], counted: [bool; 2]| -> Option<f64> {
         let (mut ss, mut n) = (0.0, 0usize);
         for h in (0..2).filter(|&h| counted[h]) {
@@ -47,11 +49,14 @@ fn compared_rms(this: [HalfScore; 2], that: [HalfScore; 2]) -> (f64, f64) {
         }
         (n > 0).then(|| (ss / n as f64).sqrt())
     };
-    match (rms_over(&this, shared), rms_over(&that, shared)) {
+    let held_out = [0, 1].map(|h| larger[h].own_point);
+    match (rms_over(&larger, held_out), rms_over(&smaller, held_out)) {
         (Some(a), Some(b)) => (a, b),
         _ => {
+            // No sample at all scores as no residual: only a record with no compared
+            // sample gets here, and there both rounds read the same.
             let both = |s: &[HalfScore; 2]| rms_over(s, [true, true]).unwrap_or(0.0);
-            (both(&this), both(&that))
+            (both(&larger), both(&smaller))
         }
     }
 }
@@ -243,16 +248,16 @@ impl Round {
     }
 
     /// Whether this round predicts the held-out halves better than `other` (with fewer
-    /// values): by the twentieth of [`predicts_better`], on the halves both rounds hold out
+    /// values): by the twentieth of [`predicts_better`], on the halves this round holds out
     /// ([`Round::held_out_against`]).
     fn predicts_better_than(&self, other: &Round, fit: &Fit, fold: &[bool]) -> bool {
         self.held_out_against(other, fit, fold)
             .is_some_and(|(this, that)| predicts_better(this, that))
     }
 
-    /// This round's and `other`'s held-out RMS (m), each over the same halves
-    /// ([`compared_rms`]): those where both rounds' fits found a point of their own, else
-    /// both halves. None where either round's halves cannot be simulated.
+    /// This round's and `other`'s (with fewer values) held-out RMS (m), each over the same
+    /// halves ([`compared_rms`]): those where this round's fits found a point of their own,
+    /// else both halves. None where either round's halves cannot be simulated.
     fn held_out_against(&self, other: &Round, fit: &Fit, fold: &[bool]) -> Option<(f64, f64)> {
         let this = self.half_scores(fit, fold)?;
         let that = other.half_scores(fit, fold)?;
@@ -404,36 +409,42 @@ mod tests {
     }
 
     #[test]
-    fn a_half_only_one_round_holds_out_is_left_out_of_both() {
-        // The second round's second half stayed at the whole fit's values (0.5 µm
-        // in-sample): both rounds are scored on the first half alone.
-        let this = [half(1.0, 100, true), half(3.0, 100, true)];
-        let that = [half(2.0, 100, true), half(0.5, 100, false)];
-        let got = um(compared_rms(this, that));
-        assert!(close(got, (1.0, 2.0)), "{got:?}");
-        // The same with the halves' roles swapped between the rounds.
-        let got = um(compared_rms(that, this));
+    fn the_halves_the_larger_round_holds_out_count_for_both() {
+        // The smaller round's second half stayed at the whole fit's values (0.5 µm
+        // in-sample); the larger round holds out both halves, so both count for both:
+        // √((1 + 9) / 2) = √5 µm and √((4 + 0.25) / 2) = √2.125 µm.
+        let larger = [half(1.0, 100, true), half(3.0, 100, true)];
+        let smaller = [half(2.0, 100, true), half(0.5, 100, false)];
+        let got = um(compared_rms(larger, smaller));
+        assert!(close(got, (5f64.sqrt(), 2.125f64.sqrt())), "{got:?}");
+        // Roles swapped: the larger round holds out the first half only, and both rounds
+        // are scored there (2 µm against 1 µm).
+        let got = um(compared_rms(smaller, larger));
         assert!(close(got, (2.0, 1.0)), "{got:?}");
     }
 
     #[test]
-    fn where_no_half_is_held_out_by_both_both_halves_count() {
-        let this = [half(1.0, 100, true), half(3.0, 100, false)];
-        let that = [half(2.0, 100, false), half(0.5, 100, true)];
+    fn a_half_the_larger_round_predicts_badly_is_never_left_out() {
+        // The larger round predicts its second half to 13 µm; the smaller round's second
+        // half stayed at the whole fit. Scored on the first half alone the larger would
+        // win (1 against 2 µm); over both it reads √((1 + 169) / 2) = √85 µm against
+        // √((4 + 0.25) / 2) µm and loses.
+        let larger = [half(1.0, 100, true), half(13.0, 100, true)];
+        let smaller = [half(2.0, 100, true), half(0.5, 100, false)];
+        let (a, b) = compared_rms(larger, smaller);
+        assert!(close(um((a, b)), (85f64.sqrt(), 2.125f64.sqrt())));
+        assert!(!predicts_better(a, b));
+    }
+
+    #[test]
+    fn where_the_larger_round_holds_out_no_half_both_halves_count() {
+        let larger = [half(1.0, 100, false), half(3.0, 100, false)];
+        let smaller = [half(2.0, 100, false), half(0.5, 100, true)];
         // √((1 + 9) / 2) = √5 and √((4 + 0.25) / 2) = √2.125 µm.
-        let got = um(compared_rms(this, that));
+        let got = um(compared_rms(larger, smaller));
         assert!(close(got, (5f64.sqrt(), 2.125f64.sqrt())), "{got:?}");
-        // Neither round holds out any half: the same.
-        let none = |s: [HalfScore; 2]| {
-            s.map(|h| HalfScore {
-                own_point: false,
-                ..h
-            })
-        };
-        let got = um(compared_rms(none(this), none(that)));
-        assert!(close(got, (5f64.sqrt(), 2.125f64.sqrt())), "{got:?}");
-        // A shared half that counts no sample (the mask leaves none): both halves.
-        let empty = [half(1.0, 0, true), half(3.0, 100, true)];
+        // A held-out half that counts no sample (the mask leaves none): both halves.
+        let empty = [half(1.0, 0, true), half(3.0, 100, false)];
         let other = [half(2.0, 0, true), half(1.0, 100, false)];
         let got = um(compared_rms(empty, other));
         assert!(close(got, (3.0, 1.0)), "{got:?}");
@@ -452,7 +463,7 @@ mod tests {
             (ss / 200.0).sqrt()
         };
         assert!(predicts_better(both(&this), both(&that)));
-        // On the half both hold out it predicts 2.0 against 1.5 µm: it loses.
+        // On the one half it holds out it predicts 2.0 against 1.5 µm: it loses.
         let (a, b) = compared_rms(this, that);
         assert!(close(um((a, b)), (2.0, 1.5)), "{:?}", um((a, b)));
         assert!(!predicts_better(a, b));
