@@ -340,7 +340,7 @@ fn gated_wholes(
         .par_iter()
         .filter_map(|&shape| {
             let start = coulomb_start(fit, shape, config)?;
-            Some((start.cost, shape, shape.on(config, start.coulomb_n)))
+            Some((start.cost_m2, shape, shape.on(config, start.coulomb_n)))
         })
         .collect();
     ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -384,7 +384,7 @@ fn refitted(id: &AxisIdentification, knobs_all: &[Knob]) -> Option<Vec<Knob>> {
 struct CoulombStart {
     /// The residual's sum of squares (m²) over the samples the fit compares, with the shape
     /// at this force and the loop's values of the fit without bristles.
-    cost: f64,
+    cost_m2: f64,
     coulomb_n: f64,
 }
 
@@ -395,10 +395,10 @@ fn coulomb_start(fit: &Fit, shape: Shape, config: &AxisConfig) -> Option<Coulomb
     std::iter::once(get(config, COULOMB_KEY))
         .chain(COULOMB_SCAN_OF_WEIGHT.iter().map(|s| s * weight_n))
         .filter_map(|coulomb_n| {
-            let cost = fit.cost(&shape.on(config, coulomb_n))?;
-            Some(CoulombStart { cost, coulomb_n })
+            let cost_m2 = fit.cost(&shape.on(config, coulomb_n))?;
+            Some(CoulombStart { cost_m2, coulomb_n })
         })
-        .min_by(|a, b| a.cost.total_cmp(&b.cost))
+        .min_by(|a, b| a.cost_m2.total_cmp(&b.cost_m2))
 }
 
 /// The held-out figures of the shapes tried.

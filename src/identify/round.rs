@@ -39,8 +39,8 @@ struct HalfScore {
 /// fit moved there, so the burden of proof stays on the larger model, and every half the
 /// larger round does hold out counts, however badly it predicts. Where the larger round
 /// holds out no half (or those count no sample) both halves count for both, as when every
-/// half's search stays at an exact whole fit.
-fn compared_rms(larger: [HalfScore; 2], smaller: [HalfScore; 2]) -> (f64, f64) {
+/// half's search stays at an exact whole fit. None where no half counts a sample.
+fn compared_rms_m(larger: [HalfScore; 2], smaller: [HalfScore; 2]) -> Option<(f64, f64)> {
     let rms_over = |s: &[HalfScore; 2], counted: [bool; 2]| -> Option<f64> {
         let (mut ss, mut n) = (0.0, 0usize);
         for h in (0..2).filter(|&h| counted[h]) {
@@ -50,15 +50,9 @@ fn compared_rms(larger: [HalfScore; 2], smaller: [HalfScore; 2]) -> (f64, f64) {
         (n > 0).then(|| (ss / n as f64).sqrt())
     };
     let held_out = [0, 1].map(|h| larger[h].own_point);
-    match (rms_over(&larger, held_out), rms_over(&smaller, held_out)) {
-        (Some(a), Some(b)) => (a, b),
-        _ => {
-            // No sample at all scores as no residual: only a record with no compared
-            // sample gets here, and there both rounds read the same.
-            let both = |s: &[HalfScore; 2]| rms_over(s, [true, true]).unwrap_or(0.0);
-            (both(&larger), both(&smaller))
-        }
-    }
+    rms_over(&larger, held_out)
+        .zip(rms_over(&smaller, held_out))
+        .or_else(|| rms_over(&larger, [true, true]).zip(rms_over(&smaller, [true, true])))
 }
 
 /// The fits of some knobs on the whole record and on each half.
@@ -256,12 +250,13 @@ impl Round {
     }
 
     /// This round's and `other`'s (with fewer values) held-out RMS (m), each over the same
-    /// halves ([`compared_rms`]): those where this round's fits found a point of their own,
-    /// else both halves. None where either round's halves cannot be simulated.
+    /// halves ([`compared_rms_m`]): those where this round's fits found a point of their own,
+    /// else both halves. None where either round's halves cannot be simulated or no half
+    /// counts a sample.
     fn held_out_against(&self, other: &Round, fit: &Fit, fold: &[bool]) -> Option<(f64, f64)> {
         let this = self.half_scores(fit, fold)?;
         let that = other.half_scores(fit, fold)?;
-        Some(compared_rms(this, that))
+        compared_rms_m(this, that)
     }
 
     /// Each half's fit scored on the other half's samples (of those `fit` compares).
@@ -395,6 +390,11 @@ mod tests {
         (a * 1e6, b * 1e6)
     }
 
+    /// Both rounds' figures (µm), where some half counts a sample.
+    fn um_of(figures: Option<(f64, f64)>) -> (f64, f64) {
+        um(figures.expect("some half counts a sample"))
+    }
+
     fn close((a, b): (f64, f64), (x, y): (f64, f64)) -> bool {
         (a - x).abs() < 1e-9 && (b - y).abs() < 1e-9
     }
@@ -404,7 +404,7 @@ mod tests {
         // 100 samples at 1 µm and 300 at 3 µm: √((100·1 + 300·9) / 400) = √7 µm.
         let this = [half(1.0, 100, true), half(3.0, 300, true)];
         let that = [half(2.0, 100, true), half(2.0, 300, true)];
-        let got = um(compared_rms(this, that));
+        let got = um_of(compared_rms_m(this, that));
         assert!(close(got, (7f64.sqrt(), 2.0)), "{got:?}");
     }
 
@@ -415,11 +415,11 @@ mod tests {
         // √((1 + 9) / 2) = √5 µm and √((4 + 0.25) / 2) = √2.125 µm.
         let larger = [half(1.0, 100, true), half(3.0, 100, true)];
         let smaller = [half(2.0, 100, true), half(0.5, 100, false)];
-        let got = um(compared_rms(larger, smaller));
+        let got = um_of(compared_rms_m(larger, smaller));
         assert!(close(got, (5f64.sqrt(), 2.125f64.sqrt())), "{got:?}");
         // Roles swapped: the larger round holds out the first half only, and both rounds
         // are scored there (2 µm against 1 µm).
-        let got = um(compared_rms(smaller, larger));
+        let got = um_of(compared_rms_m(smaller, larger));
         assert!(close(got, (2.0, 1.0)), "{got:?}");
     }
 
@@ -431,7 +431,7 @@ mod tests {
         // √((4 + 0.25) / 2) µm and loses.
         let larger = [half(1.0, 100, true), half(13.0, 100, true)];
         let smaller = [half(2.0, 100, true), half(0.5, 100, false)];
-        let (a, b) = compared_rms(larger, smaller);
+        let (a, b) = compared_rms_m(larger, smaller).unwrap();
         assert!(close(um((a, b)), (85f64.sqrt(), 2.125f64.sqrt())));
         assert!(!predicts_better(a, b));
     }
@@ -441,13 +441,16 @@ mod tests {
         let larger = [half(1.0, 100, false), half(3.0, 100, false)];
         let smaller = [half(2.0, 100, false), half(0.5, 100, true)];
         // √((1 + 9) / 2) = √5 and √((4 + 0.25) / 2) = √2.125 µm.
-        let got = um(compared_rms(larger, smaller));
+        let got = um_of(compared_rms_m(larger, smaller));
         assert!(close(got, (5f64.sqrt(), 2.125f64.sqrt())), "{got:?}");
         // A held-out half that counts no sample (the mask leaves none): both halves.
         let empty = [half(1.0, 0, true), half(3.0, 100, false)];
         let other = [half(2.0, 0, true), half(1.0, 100, false)];
-        let got = um(compared_rms(empty, other));
+        let got = um_of(compared_rms_m(empty, other));
         assert!(close(got, (3.0, 1.0)), "{got:?}");
+        // No half counts a sample: no figure at all, never a perfect one.
+        let nothing = [half(1.0, 0, true), half(1.0, 0, false)];
+        assert!(compared_rms_m(nothing, nothing).is_none());
     }
 
     #[test]
@@ -464,7 +467,7 @@ mod tests {
         };
         assert!(predicts_better(both(&this), both(&that)));
         // On the one half it holds out it predicts 2.0 against 1.5 µm: it loses.
-        let (a, b) = compared_rms(this, that);
+        let (a, b) = compared_rms_m(this, that).unwrap();
         assert!(close(um((a, b)), (2.0, 1.5)), "{:?}", um((a, b)));
         assert!(!predicts_better(a, b));
         // And the other round, better there by more than a twentieth, wins.

@@ -10,7 +10,7 @@ use std::process::{Command, Output};
 use scraper::{Html, Selector};
 use serde_json::Value;
 
-use common::cli::{read_json, run_to_a_verdict, sample, synth_backlash_on_x};
+use common::cli::{read_json, run_ok, run_to_a_verdict, sample, synth_backlash_on_x};
 
 /// The value at a dotted key with indices (`hotspots[0].error_um`).
 fn lookup<'a>(json: &'a Value, key: &str) -> &'a Value {
@@ -217,7 +217,7 @@ fn identified(dir: &Path) -> (Value, String) {
     .unwrap();
     let record = dir.join("r.csv");
     let circle = sample("small-circle.nc");
-    run_to_a_verdict(&[
+    run_ok(&[
         "synth",
         circle.to_str().unwrap(),
         "--machine",
