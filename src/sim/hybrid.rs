@@ -120,6 +120,27 @@ impl Kernel {
     /// Next state and guard values.
     #[inline]
     fn apply(&self, x: &Aug) -> [f64; ROWS] {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the processor has just been found to have AVX.
+            return unsafe { self.apply_avx(x) };
+        }
+        self.apply_in_order(x)
+    }
+
+    /// [`Kernel::apply`] compiled for AVX's four-wide registers: the product a step takes
+    /// most of its time in, twice as many of its rows at once. The same bits as without:
+    /// each row is still one multiply and one add per column, in the columns' order (no
+    /// fused multiply-add, no sum reordered) — only rows side by side share an instruction.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn apply_avx(&self, x: &Aug) -> [f64; ROWS] {
+        self.apply_in_order(x)
+    }
+
+    /// The product itself, inlined wherever it is compiled.
+    #[inline(always)]
+    fn apply_in_order(&self, x: &Aug) -> [f64; ROWS] {
         let mut y = [0.0; ROWS];
         for (col, &xj) in self.cols.iter().zip(x.iter()) {
             // Inputs and controller states a model does not use stay zero: a quarter of
