@@ -14,11 +14,12 @@ use crate::machine::AxisConfig;
 /// held-out halves for the corner to stay (besides predicting them better than with the
 /// design's corner, as every larger model must): a corner the noise leaves loose is kept
 /// only because the fit with it reaches the noise where the design's does not, so it must
-/// reach it on the samples each half's fit did not see as well. Values the record
-/// determines predict the other half to about the noise (the model's floor adds a quarter
-/// of it in squares); halves that miss each other by twice it carry a systematic part of
-/// √3 times the noise — the loose corner wandered with the gain on each half, and the fit
-/// at the noise on every sample had it follow the noise.
+/// reach it on the samples each half's fit did not see as well — or, where no half's search
+/// left the whole fit's point, on every sample ([`compared_rms_m`] at the noise). Values
+/// the record determines predict the other half to about the noise (the model's floor adds
+/// a quarter of it in squares); halves that miss each other by twice it carry a systematic
+/// part of √3 times the noise — the loose corner wandered with the gain on each half, and
+/// the fit at the noise on every sample had it follow the noise.
 const HELD_OUT_EXCESS: f64 = 2.0;
 
 /// One half's fit scored on the samples of the other half: the residual's sum of squares
@@ -36,11 +37,23 @@ struct HalfScore {
 /// of its own. A half whose search stayed at the whole fit's values scores its round on
 /// samples that round was fitted to; left in, it would let the larger model win on
 /// samples it saw. The smaller round is scored on those same halves whether or not its own
-/// fit moved there, so the burden of proof stays on the larger model, and every half the
-/// larger round does hold out counts, however badly it predicts. Where the larger round
-/// holds out no half (or those count no sample) both halves count for both, as when every
-/// half's search stays at an exact whole fit. None where no half counts a sample.
-fn compared_rms_m(larger: [HalfScore; 2], smaller: [HalfScore; 2]) -> Option<(f64, f64)> {
+/// fit moved there: its in-sample halves raise the bar, so the burden of proof stays on
+/// the larger model (which can lose where it predicts its held-out halves better), and
+/// every half the larger round does hold out counts, however badly it predicts.
+///
+/// Where the larger round holds out no half: above the noise (`at_noise` false), it has no
+/// figure to win with against a smaller round that holds out one (none: as
+/// `held_out::kept_over` rules for axes, an in-sample figure never wins); otherwise both
+/// halves count for both. At the noise that is the common case, not a leak: a half's
+/// search moves only by a step of a tenth of a value's uncertainty or its search floor,
+/// which on a long clean record the halves' noise does not reach, and there a fit's
+/// in-sample and held-out figures differ by a few values' share of the samples.
+/// None too where no half counts a sample.
+fn compared_rms_m(
+    larger: [HalfScore; 2],
+    smaller: [HalfScore; 2],
+    at_noise: bool,
+) -> Option<(f64, f64)> {
     let rms_over = |s: &[HalfScore; 2], counted: [bool; 2]| -> Option<f64> {
         let (mut ss, mut n) = (0.0, 0usize);
         for h in (0..2).filter(|&h| counted[h]) {
@@ -50,9 +63,14 @@ fn compared_rms_m(larger: [HalfScore; 2], smaller: [HalfScore; 2]) -> Option<(f6
         (n > 0).then(|| (ss / n as f64).sqrt())
     };
     let held_out = [0, 1].map(|h| larger[h].own_point);
-    rms_over(&larger, held_out)
-        .zip(rms_over(&smaller, held_out))
-        .or_else(|| rms_over(&larger, [true, true]).zip(rms_over(&smaller, [true, true])))
+    if let Some(figures) = rms_over(&larger, held_out).zip(rms_over(&smaller, held_out)) {
+        return Some(figures);
+    }
+    let smaller_holds_out = rms_over(&smaller, [0, 1].map(|h| smaller[h].own_point)).is_some();
+    if !at_noise && smaller_holds_out {
+        return None;
+    }
+    rms_over(&larger, [true, true]).zip(rms_over(&smaller, [true, true]))
 }
 
 /// The fits of some knobs on the whole record and on each half.
@@ -202,14 +220,14 @@ impl Round {
             };
             let refuted: Vec<&'static str> = refuted.iter().copied().chain(corners).collect();
             let kept_way = kept.and_then(|k| Round::settled(fit, k, template, fold, &refuted));
-            let noise = fit.ctx().noise_sigma;
+            let noise_m = fit.ctx().noise_sigma;
             return Some(match kept_way {
                 Some(k)
-                    if k.0.held_out_against(&design_way.0, fit, fold).is_some_and(
-                        |(free, design)| {
-                            free <= HELD_OUT_EXCESS * noise && predicts_better(free, design)
-                        },
-                    ) =>
+                    if k.0
+                        .held_out_against(&design_way.0, fit, fold, true)
+                        .is_some_and(|(free_m, design_m)| {
+                            free_m <= HELD_OUT_EXCESS * noise_m && predicts_better(free_m, design_m)
+                        }) =>
                 {
                     k
                 }
@@ -242,21 +260,32 @@ impl Round {
     }
 
     /// Whether this round predicts the held-out halves better than `other` (with fewer
-    /// values): by the twentieth of [`predicts_better`], on the halves this round holds out
-    /// ([`Round::held_out_against`]).
+    /// values), above the record's noise: by the twentieth of [`predicts_better`], on the
+    /// halves the larger round holds out ([`Round::held_out_against`]).
     fn predicts_better_than(&self, other: &Round, fit: &Fit, fold: &[bool]) -> bool {
-        self.held_out_against(other, fit, fold)
-            .is_some_and(|(this, that)| predicts_better(this, that))
+        self.held_out_against(other, fit, fold, false)
+            .is_some_and(|(this_m, that_m)| predicts_better(this_m, that_m))
     }
 
-    /// This round's and `other`'s (with fewer values) held-out RMS (m), each over the same
-    /// halves ([`compared_rms_m`]): those where this round's fits found a point of their own,
-    /// else both halves. None where either round's halves cannot be simulated or no half
-    /// counts a sample.
-    fn held_out_against(&self, other: &Round, fit: &Fit, fold: &[bool]) -> Option<(f64, f64)> {
+    /// This round's and `other`'s held-out RMS (m), each over the same halves
+    /// ([`compared_rms_m`]): those where the round with more values found a point of its
+    /// own (this round where both have as many). None where either round's halves cannot be
+    /// simulated, where no half counts a sample, or where above the noise the larger round
+    /// holds out no half and the smaller does.
+    fn held_out_against(
+        &self,
+        other: &Round,
+        fit: &Fit,
+        fold: &[bool],
+        at_noise: bool,
+    ) -> Option<(f64, f64)> {
         let this = self.half_scores(fit, fold)?;
         let that = other.half_scores(fit, fold)?;
-        compared_rms_m(this, that)
+        if self.knobs.len() >= other.knobs.len() {
+            compared_rms_m(this, that, at_noise)
+        } else {
+            compared_rms_m(that, this, at_noise).map(|(that_m, this_m)| (this_m, that_m))
+        }
     }
 
     /// Each half's fit scored on the other half's samples (of those `fit` compares).
@@ -399,12 +428,15 @@ mod tests {
         (a - x).abs() < 1e-9 && (b - y).abs() < 1e-9
     }
 
+    /// Above the noise (the put-back comparison).
+    const ABOVE: bool = false;
+
     #[test]
     fn both_halves_held_out_by_both_rounds_count_weighted_by_their_samples() {
         // 100 samples at 1 µm and 300 at 3 µm: √((100·1 + 300·9) / 400) = √7 µm.
         let this = [half(1.0, 100, true), half(3.0, 300, true)];
         let that = [half(2.0, 100, true), half(2.0, 300, true)];
-        let got = um_of(compared_rms_m(this, that));
+        let got = um_of(compared_rms_m(this, that, ABOVE));
         assert!(close(got, (7f64.sqrt(), 2.0)), "{got:?}");
     }
 
@@ -415,12 +447,19 @@ mod tests {
         // √((1 + 9) / 2) = √5 µm and √((4 + 0.25) / 2) = √2.125 µm.
         let larger = [half(1.0, 100, true), half(3.0, 100, true)];
         let smaller = [half(2.0, 100, true), half(0.5, 100, false)];
-        let got = um_of(compared_rms_m(larger, smaller));
+        let got = um_of(compared_rms_m(larger, smaller, ABOVE));
         assert!(close(got, (5f64.sqrt(), 2.125f64.sqrt())), "{got:?}");
         // Roles swapped: the larger round holds out the first half only, and both rounds
         // are scored there (2 µm against 1 µm).
-        let got = um_of(compared_rms_m(smaller, larger));
+        let got = um_of(compared_rms_m(smaller, larger, ABOVE));
         assert!(close(got, (2.0, 1.0)), "{got:?}");
+        // Each round holds out the half the other does not: the larger is scored on its
+        // own held-out half, the smaller on the same samples, in-sample for it (3 against
+        // 0.5 µm).
+        let larger = [half(1.0, 100, false), half(3.0, 100, true)];
+        let smaller = [half(2.0, 100, true), half(0.5, 100, false)];
+        let got = um_of(compared_rms_m(larger, smaller, ABOVE));
+        assert!(close(got, (3.0, 0.5)), "{got:?}");
     }
 
     #[test]
@@ -431,26 +470,34 @@ mod tests {
         // √((4 + 0.25) / 2) µm and loses.
         let larger = [half(1.0, 100, true), half(13.0, 100, true)];
         let smaller = [half(2.0, 100, true), half(0.5, 100, false)];
-        let (a, b) = compared_rms_m(larger, smaller).unwrap();
+        let (a, b) = compared_rms_m(larger, smaller, ABOVE).unwrap();
         assert!(close(um((a, b)), (85f64.sqrt(), 2.125f64.sqrt())));
         assert!(!predicts_better(a, b));
     }
 
     #[test]
-    fn where_the_larger_round_holds_out_no_half_both_halves_count() {
+    fn a_larger_round_that_holds_out_no_half_cannot_win_above_the_noise() {
+        // Its halves both stayed at the whole fit (1 and 3 µm in-sample); the smaller
+        // round's second half holds out 0.5 µm. Above the noise it has no figure to win with.
         let larger = [half(1.0, 100, false), half(3.0, 100, false)];
         let smaller = [half(2.0, 100, false), half(0.5, 100, true)];
-        // √((1 + 9) / 2) = √5 and √((4 + 0.25) / 2) = √2.125 µm.
-        let got = um_of(compared_rms_m(larger, smaller));
+        assert!(compared_rms_m(larger, smaller, ABOVE).is_none());
+        // At the noise both halves count for both: √((1 + 9) / 2) = √5 and
+        // √((4 + 0.25) / 2) = √2.125 µm.
+        let got = um_of(compared_rms_m(larger, smaller, true));
         assert!(close(got, (5f64.sqrt(), 2.125f64.sqrt())), "{got:?}");
-        // A held-out half that counts no sample (the mask leaves none): both halves.
+        // Neither round holds out a half: both halves, above the noise too.
+        let stayed = [half(2.0, 100, false), half(0.5, 100, false)];
+        let got = um_of(compared_rms_m(larger, stayed, ABOVE));
+        assert!(close(got, (5f64.sqrt(), 2.125f64.sqrt())), "{got:?}");
+        // A held-out half that counts no sample (the mask leaves none) holds out nothing.
         let empty = [half(1.0, 0, true), half(3.0, 100, false)];
         let other = [half(2.0, 0, true), half(1.0, 100, false)];
-        let got = um_of(compared_rms_m(empty, other));
+        let got = um_of(compared_rms_m(empty, other, ABOVE));
         assert!(close(got, (3.0, 1.0)), "{got:?}");
         // No half counts a sample: no figure at all, never a perfect one.
         let nothing = [half(1.0, 0, true), half(1.0, 0, false)];
-        assert!(compared_rms_m(nothing, nothing).is_none());
+        assert!(compared_rms_m(nothing, nothing, true).is_none());
     }
 
     #[test]
@@ -467,10 +514,18 @@ mod tests {
         };
         assert!(predicts_better(both(&this), both(&that)));
         // On the one half it holds out it predicts 2.0 against 1.5 µm: it loses.
-        let (a, b) = compared_rms_m(this, that).unwrap();
+        let (a, b) = compared_rms_m(this, that, ABOVE).unwrap();
         assert!(close(um((a, b)), (2.0, 1.5)), "{:?}", um((a, b)));
         assert!(!predicts_better(a, b));
-        // And the other round, better there by more than a twentieth, wins.
-        assert!(predicts_better(b, a));
+        // The burden of proof: were the other round the larger, it would be scored on
+        // both halves it holds out (1.5 µm) against this round's 1.416 µm, its in-sample
+        // half included, and lose too, though it predicts held-out data better.
+        let (a, b) = compared_rms_m(that, this, ABOVE).unwrap();
+        assert!(
+            close(um((a, b)), (1.5, 2.005f64.sqrt())),
+            "{:?}",
+            um((a, b))
+        );
+        assert!(!predicts_better(a, b));
     }
 }

@@ -187,10 +187,11 @@ pub(crate) fn while_moving(
     })
 }
 
-/// Whether a model that predicts the held-out halves to `more_um` (µm RMS; more values
-/// fitted) is kept over one that predicts them to `fewer_um`: by [`HELD_OUT_GAIN`].
-pub(crate) fn predicts_better(more_um: f64, fewer_um: f64) -> bool {
-    more_um < HELD_OUT_GAIN * fewer_um
+/// Whether a model that predicts the held-out halves to `more_rms` (RMS; more values
+/// fitted) is kept over one that predicts them to `fewer_rms` (in the same unit, µm or m):
+/// by [`HELD_OUT_GAIN`].
+pub(crate) fn predicts_better(more_rms: f64, fewer_rms: f64) -> bool {
+    more_rms < HELD_OUT_GAIN * fewer_rms
 }
 
 /// The kind of motion at each command period of `axis`.
