@@ -41,19 +41,16 @@ struct HalfScore {
 /// the larger model (which can lose where it predicts its held-out halves better), and
 /// every half the larger round does hold out counts, however badly it predicts.
 ///
-/// Where the larger round holds out no half: above the noise (`at_noise` false), it has no
-/// figure to win with against a smaller round that holds out one (none: as
-/// `held_out::kept_over` rules for axes, an in-sample figure never wins); otherwise both
-/// halves count for both. At the noise that is the common case, not a leak: a half's
-/// search moves only by a step of a tenth of a value's uncertainty or its search floor,
-/// which on a long clean record the halves' noise does not reach, and there a fit's
-/// in-sample and held-out figures differ by a few values' share of the samples.
-/// None too where no half counts a sample.
-fn compared_rms_m(
-    larger: [HalfScore; 2],
-    smaller: [HalfScore; 2],
-    at_noise: bool,
-) -> Option<(f64, f64)> {
+/// Where the larger round holds out no half, both halves count for both. At the noise (the
+/// corner check) that is the common case, not a leak: a half's search moves only by a step
+/// of a tenth of a value's uncertainty or its search floor, which on a long clean record
+/// the halves' noise does not reach, and there a fit's in-sample and held-out figures
+/// differ by a few values' share of the samples. Above the noise it lets the larger
+/// round's in-sample figure count (docs/identify.md says so): a stricter rule (refusing it
+/// there, the larger round taken by its count of values) put back values until, on a record of a controller the template does not hold, the file
+/// written predicted another program worse than the template. None where no half counts a
+/// sample.
+fn compared_rms_m(larger: [HalfScore; 2], smaller: [HalfScore; 2]) -> Option<(f64, f64)> {
     let rms_over = |s: &[HalfScore; 2], counted: [bool; 2]| -> Option<f64> {
         let (mut ss, mut n) = (0.0, 0usize);
         for h in (0..2).filter(|&h| counted[h]) {
@@ -63,14 +60,9 @@ fn compared_rms_m(
         (n > 0).then(|| (ss / n as f64).sqrt())
     };
     let held_out = [0, 1].map(|h| larger[h].own_point);
-    if let Some(figures) = rms_over(&larger, held_out).zip(rms_over(&smaller, held_out)) {
-        return Some(figures);
-    }
-    let smaller_holds_out = rms_over(&smaller, [0, 1].map(|h| smaller[h].own_point)).is_some();
-    if !at_noise && smaller_holds_out {
-        return None;
-    }
-    rms_over(&larger, [true, true]).zip(rms_over(&smaller, [true, true]))
+    rms_over(&larger, held_out)
+        .zip(rms_over(&smaller, held_out))
+        .or_else(|| rms_over(&larger, [true, true]).zip(rms_over(&smaller, [true, true])))
 }
 
 /// The fits of some knobs on the whole record and on each half.
@@ -223,11 +215,11 @@ impl Round {
             let noise_m = fit.ctx().noise_sigma;
             return Some(match kept_way {
                 Some(k)
-                    if k.0
-                        .held_out_against(&design_way.0, fit, fold, true)
-                        .is_some_and(|(free_m, design_m)| {
+                    if k.0.held_out_against(&design_way.0, fit, fold).is_some_and(
+                        |(free_m, design_m)| {
                             free_m <= HELD_OUT_EXCESS * noise_m && predicts_better(free_m, design_m)
-                        }) =>
+                        },
+                    ) =>
                 {
                     k
                 }
@@ -260,32 +252,21 @@ impl Round {
     }
 
     /// Whether this round predicts the held-out halves better than `other` (with fewer
-    /// values), above the record's noise: by the twentieth of [`predicts_better`], on the
-    /// halves the larger round holds out ([`Round::held_out_against`]).
+    /// values): by the twentieth of [`predicts_better`], on the halves this round holds out
+    /// ([`Round::held_out_against`]).
     fn predicts_better_than(&self, other: &Round, fit: &Fit, fold: &[bool]) -> bool {
-        self.held_out_against(other, fit, fold, false)
+        self.held_out_against(other, fit, fold)
             .is_some_and(|(this_m, that_m)| predicts_better(this_m, that_m))
     }
 
-    /// This round's and `other`'s held-out RMS (m), each over the same halves
-    /// ([`compared_rms_m`]): those where the round with more values found a point of its
-    /// own (this round where both have as many). None where either round's halves cannot be
-    /// simulated, where no half counts a sample, or where above the noise the larger round
-    /// holds out no half and the smaller does.
-    fn held_out_against(
-        &self,
-        other: &Round,
-        fit: &Fit,
-        fold: &[bool],
-        at_noise: bool,
-    ) -> Option<(f64, f64)> {
+    /// This round's and `other`'s (with fewer values) held-out RMS (m), each over the same
+    /// halves ([`compared_rms_m`]): those where this round's fits found a point of their own,
+    /// else both halves. None where either round's halves cannot be simulated or no half
+    /// counts a sample.
+    fn held_out_against(&self, other: &Round, fit: &Fit, fold: &[bool]) -> Option<(f64, f64)> {
         let this = self.half_scores(fit, fold)?;
         let that = other.half_scores(fit, fold)?;
-        if self.knobs.len() >= other.knobs.len() {
-            compared_rms_m(this, that, at_noise)
-        } else {
-            compared_rms_m(that, this, at_noise).map(|(that_m, this_m)| (this_m, that_m))
-        }
+        compared_rms_m(this, that)
     }
 
     /// Each half's fit scored on the other half's samples (of those `fit` compares).
@@ -428,15 +409,12 @@ mod tests {
         (a - x).abs() < 1e-9 && (b - y).abs() < 1e-9
     }
 
-    /// Above the noise (the put-back comparison).
-    const ABOVE: bool = false;
-
     #[test]
     fn both_halves_held_out_by_both_rounds_count_weighted_by_their_samples() {
         // 100 samples at 1 µm and 300 at 3 µm: √((100·1 + 300·9) / 400) = √7 µm.
         let this = [half(1.0, 100, true), half(3.0, 300, true)];
         let that = [half(2.0, 100, true), half(2.0, 300, true)];
-        let got = um_of(compared_rms_m(this, that, ABOVE));
+        let got = um_of(compared_rms_m(this, that));
         assert!(close(got, (7f64.sqrt(), 2.0)), "{got:?}");
     }
 
@@ -447,18 +425,18 @@ mod tests {
         // √((1 + 9) / 2) = √5 µm and √((4 + 0.25) / 2) = √2.125 µm.
         let larger = [half(1.0, 100, true), half(3.0, 100, true)];
         let smaller = [half(2.0, 100, true), half(0.5, 100, false)];
-        let got = um_of(compared_rms_m(larger, smaller, ABOVE));
+        let got = um_of(compared_rms_m(larger, smaller));
         assert!(close(got, (5f64.sqrt(), 2.125f64.sqrt())), "{got:?}");
         // Roles swapped: the larger round holds out the first half only, and both rounds
         // are scored there (2 µm against 1 µm).
-        let got = um_of(compared_rms_m(smaller, larger, ABOVE));
+        let got = um_of(compared_rms_m(smaller, larger));
         assert!(close(got, (2.0, 1.0)), "{got:?}");
         // Each round holds out the half the other does not: the larger is scored on its
         // own held-out half, the smaller on the same samples, in-sample for it (3 against
         // 0.5 µm).
         let larger = [half(1.0, 100, false), half(3.0, 100, true)];
         let smaller = [half(2.0, 100, true), half(0.5, 100, false)];
-        let got = um_of(compared_rms_m(larger, smaller, ABOVE));
+        let got = um_of(compared_rms_m(larger, smaller));
         assert!(close(got, (3.0, 0.5)), "{got:?}");
     }
 
@@ -470,34 +448,28 @@ mod tests {
         // √((4 + 0.25) / 2) µm and loses.
         let larger = [half(1.0, 100, true), half(13.0, 100, true)];
         let smaller = [half(2.0, 100, true), half(0.5, 100, false)];
-        let (a, b) = compared_rms_m(larger, smaller, ABOVE).unwrap();
+        let (a, b) = compared_rms_m(larger, smaller).unwrap();
         assert!(close(um((a, b)), (85f64.sqrt(), 2.125f64.sqrt())));
         assert!(!predicts_better(a, b));
     }
 
     #[test]
-    fn a_larger_round_that_holds_out_no_half_cannot_win_above_the_noise() {
+    fn where_the_larger_round_holds_out_no_half_both_halves_count() {
         // Its halves both stayed at the whole fit (1 and 3 µm in-sample); the smaller
-        // round's second half holds out 0.5 µm. Above the noise it has no figure to win with.
+        // round's second half holds out 0.5 µm: √((1 + 9) / 2) = √5 and
+        // √((4 + 0.25) / 2) = √2.125 µm.
         let larger = [half(1.0, 100, false), half(3.0, 100, false)];
         let smaller = [half(2.0, 100, false), half(0.5, 100, true)];
-        assert!(compared_rms_m(larger, smaller, ABOVE).is_none());
-        // At the noise both halves count for both: √((1 + 9) / 2) = √5 and
-        // √((4 + 0.25) / 2) = √2.125 µm.
-        let got = um_of(compared_rms_m(larger, smaller, true));
-        assert!(close(got, (5f64.sqrt(), 2.125f64.sqrt())), "{got:?}");
-        // Neither round holds out a half: both halves, above the noise too.
-        let stayed = [half(2.0, 100, false), half(0.5, 100, false)];
-        let got = um_of(compared_rms_m(larger, stayed, ABOVE));
+        let got = um_of(compared_rms_m(larger, smaller));
         assert!(close(got, (5f64.sqrt(), 2.125f64.sqrt())), "{got:?}");
         // A held-out half that counts no sample (the mask leaves none) holds out nothing.
         let empty = [half(1.0, 0, true), half(3.0, 100, false)];
         let other = [half(2.0, 0, true), half(1.0, 100, false)];
-        let got = um_of(compared_rms_m(empty, other, ABOVE));
+        let got = um_of(compared_rms_m(empty, other));
         assert!(close(got, (3.0, 1.0)), "{got:?}");
         // No half counts a sample: no figure at all, never a perfect one.
         let nothing = [half(1.0, 0, true), half(1.0, 0, false)];
-        assert!(compared_rms_m(nothing, nothing, true).is_none());
+        assert!(compared_rms_m(nothing, nothing).is_none());
     }
 
     #[test]
@@ -514,13 +486,13 @@ mod tests {
         };
         assert!(predicts_better(both(&this), both(&that)));
         // On the one half it holds out it predicts 2.0 against 1.5 µm: it loses.
-        let (a, b) = compared_rms_m(this, that, ABOVE).unwrap();
+        let (a, b) = compared_rms_m(this, that).unwrap();
         assert!(close(um((a, b)), (2.0, 1.5)), "{:?}", um((a, b)));
         assert!(!predicts_better(a, b));
         // The burden of proof: were the other round the larger, it would be scored on
         // both halves it holds out (1.5 µm) against this round's 1.416 µm, its in-sample
         // half included, and lose too, though it predicts held-out data better.
-        let (a, b) = compared_rms_m(that, this, ABOVE).unwrap();
+        let (a, b) = compared_rms_m(that, this).unwrap();
         assert!(
             close(um((a, b)), (1.5, 2.005f64.sqrt())),
             "{:?}",
