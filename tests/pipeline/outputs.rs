@@ -2,44 +2,42 @@
 //! people on the standard error); a symbolic link is written through and stays a link; a
 //! device or a FIFO is written to in place, not replaced.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Output;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_contourcheck"))
-}
+use crate::common;
 
-fn square() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("gcode-samples/square.nc")
-}
+use common::cli::{read_json, run, sample, text};
 
+/// `check` of the square sample with `extra` arguments, as [`run`] runs it.
 fn check(extra: &[&str]) -> Output {
-    bin()
-        .arg("check")
-        .arg(square())
-        .args(extra)
-        .env("CI", "1")
-        .output()
-        .unwrap()
+    let square = sample("square.nc");
+    let args: Vec<&str> = ["check", square.to_str().unwrap()]
+        .into_iter()
+        .chain(extra.iter().copied())
+        .collect();
+    run(&args)
 }
 
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
+/// [`check`], which must succeed (what it wrote to stderr is shown if it does not).
+#[track_caller]
+fn check_ok(extra: &[&str]) -> Output {
+    let o = check(extra);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    o
 }
 
 /// The report a plain file gets, to compare with.
 fn plain_report(dir: &Path) -> serde_json::Value {
     let path = dir.join("plain.json");
-    let o = check(&["--json", path.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+    check_ok(&["--json", path.to_str().unwrap()]);
+    read_json(&path)
 }
 
 #[test]
 fn a_dash_writes_the_data_alone_to_standard_output() {
     let dir = tempfile::tempdir().unwrap();
-    let o = check(&["--json", "-"]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let o = check_ok(&["--json", "-"]);
     let report: serde_json::Value =
         serde_json::from_slice(&o.stdout).expect("stdout is the JSON alone");
     assert_eq!(report, plain_report(dir.path()));
@@ -49,14 +47,12 @@ fn a_dash_writes_the_data_alone_to_standard_output() {
     );
     assert!(!Path::new("-").exists());
 
-    let o = check(&["--trace", "-", "--trace-every", "100"]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let o = check_ok(&["--trace", "-", "--trace-every", "100"]);
     let mut rows = csv::Reader::from_reader(&o.stdout[..]);
     assert_eq!(rows.headers().unwrap().get(0), Some("t_s"));
     assert!(rows.records().all(|r| r.unwrap().len() == 9));
 
-    let o = check(&["--report", "-"]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let o = check_ok(&["--report", "-"]);
     let page = text(&o.stdout);
     assert!(page.starts_with("<!DOCTYPE html>") && page.trim_end().ends_with("</html>"));
 
@@ -75,17 +71,14 @@ fn a_symbolic_link_is_written_through_and_stays_a_link() {
     std::fs::write(&target, "an older report").unwrap();
     let link = dir.path().join("link.json");
     std::os::unix::fs::symlink(&target, &link).unwrap();
-    let o = check(&["--json", link.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    check_ok(&["--json", link.to_str().unwrap()]);
     assert!(
         std::fs::symlink_metadata(&link)
             .unwrap()
             .file_type()
             .is_symlink()
     );
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&target).unwrap()).unwrap();
-    assert_eq!(report, plain_report(dir.path()));
+    assert_eq!(read_json(&target), plain_report(dir.path()));
     // Staged beside the target and renamed: nothing else left in either folder.
     assert_eq!(
         std::fs::read_dir(target.parent().unwrap()).unwrap().count(),
@@ -95,8 +88,7 @@ fn a_symbolic_link_is_written_through_and_stays_a_link() {
     let dangling = dir.path().join("to-be.json");
     let later = target.with_file_name("later.json");
     std::os::unix::fs::symlink(&later, &dangling).unwrap();
-    let o = check(&["--json", dangling.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    check_ok(&["--json", dangling.to_str().unwrap()]);
     assert!(
         std::fs::symlink_metadata(&dangling)
             .unwrap()
@@ -121,8 +113,7 @@ fn a_fifo_and_dev_stdout_are_written_to_not_replaced() {
         let fifo = fifo.clone();
         std::thread::spawn(move || std::fs::read_to_string(fifo).unwrap())
     };
-    let o = check(&["--json", fifo.to_str().unwrap()]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    check_ok(&["--json", fifo.to_str().unwrap()]);
     let read: serde_json::Value = serde_json::from_str(&reader.join().unwrap()).unwrap();
     assert_eq!(read, plain_report(dir.path()));
     use std::os::unix::fs::FileTypeExt;
@@ -134,8 +125,7 @@ fn a_fifo_and_dev_stdout_are_written_to_not_replaced() {
     );
 
     // `/dev/stdout` (a link to the process's descriptor) is written to, before the summary.
-    let o = check(&["--json", "/dev/stdout"]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    let o = check_ok(&["--json", "/dev/stdout"]);
     let mut stream =
         serde_json::Deserializer::from_slice(&o.stdout).into_iter::<serde_json::Value>();
     let first = stream.next().unwrap().expect("the report first on stdout");

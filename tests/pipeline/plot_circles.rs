@@ -9,7 +9,7 @@
 
 use crate::common;
 
-use common::cli::{run, text};
+use common::cli::{read_json, run_ok, text};
 use common::stated_points_per_turn;
 
 const PROGRAM: &str = "G21 G90 G94 G17\nG0 X0.5 Y0\nG3 X0.5 Y0 I-0.5 J0 F300\nG0 X20 Y0\n\
@@ -20,7 +20,7 @@ fn check_plot_says_why_a_circle_has_no_polar_plot_and_numbers_the_others_in_orde
     let dir = tempfile::tempdir().unwrap();
     let (program, plots) = (dir.path().join("two.nc"), dir.path().join("plots"));
     std::fs::write(&program, PROGRAM).unwrap();
-    let o = run(&[
+    let o = run_ok(&[
         "check",
         program.to_str().unwrap(),
         "--cycle-ms",
@@ -28,7 +28,6 @@ fn check_plot_says_why_a_circle_has_no_polar_plot_and_numbers_the_others_in_orde
         "--plot",
         plots.to_str().unwrap(),
     ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     let out = text(&o.stdout);
     // Full feed's points per turn on the small circle: the circumference over a cycle's path.
     let per_turn_at_feed = std::f64::consts::TAU * 0.5 / (300.0 / 60.0 * 0.020);
@@ -74,7 +73,7 @@ fn check_plot_draws_circles_of_other_planes_or_heights_apart() {
     let (program, plots) = (dir.path().join("three.nc"), dir.path().join("plots"));
     let json = dir.path().join("report.json");
     std::fs::write(&program, ONE_FIGURE_THREE_CIRCLES).unwrap();
-    let o = run(&[
+    run_ok(&[
         "check",
         program.to_str().unwrap(),
         "--plot",
@@ -82,10 +81,8 @@ fn check_plot_draws_circles_of_other_planes_or_heights_apart() {
         "--json",
         json.to_str().unwrap(),
     ]);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
     // The report names each circle's plane and height as the program placed them.
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let report = read_json(&json);
     let places: Vec<(String, f64)> = report["circular_test"]["circles"]
         .as_array()
         .unwrap()
