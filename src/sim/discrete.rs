@@ -7,12 +7,15 @@
 //! simulates one axis hundreds of times, and a value such as a dead time or a friction
 //! force leaves most modes' matrices as they were).
 
+mod expm;
+
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
 
 use nalgebra::SMatrix;
 
 use super::model::{AugMatrix, AxisModel, Mode, N, NA};
+use expm::DyadicExp;
 
 /// Top rows of exp(A·h): x' = M·[x; u].
 pub type StepMap = SMatrix<f64, N, NA>;
@@ -62,15 +65,16 @@ impl MapCache {
 
 /// One mode's maps at every level for one step h, computed as asked for.
 struct ModeMaps {
-    /// A·h balanced (its entries span many orders of magnitude: metres of travel, amperes,
-    /// newtons through stiffnesses of 10¹⁰ N/m — unbalanced, a stiff drive's step map loses its
-    /// small entries to the rounding of its large ones, a rigid table's speed drifting by 30
-    /// ppm), and the diagonal that balanced it. A·h/2^k is
-    /// balanced by the same diagonal: halving every entry leaves the rows' and columns'
-    /// ratios as they were, bit for bit.
-    balanced: AugMatrix,
+    /// The diagonal that balanced A·h (its entries span many orders of magnitude: metres of
+    /// travel, amperes, newtons through stiffnesses of 10¹⁰ N/m — unbalanced, a stiff drive's
+    /// step map loses its small entries to the rounding of its large ones, a rigid table's
+    /// speed drifting by 30 ppm). A·h/2^k is balanced by the same diagonal: halving every
+    /// entry leaves the rows' and columns' ratios as they were, bit for bit.
     diagonal: nalgebra::SVector<f64, NA>,
     levels: [OnceLock<StepMap>; LEVELS + 1],
+    /// The exponentials of the balanced A·h at every level, sharing their powers, their
+    /// order-13 approximants and squares (the levels' steps differ by powers of two).
+    exps: Mutex<DyadicExp>,
 }
 
 impl ModeMaps {
@@ -84,16 +88,17 @@ impl ModeMaps {
             nalgebra::SVector::repeat(1.0)
         };
         ModeMaps {
-            balanced,
             diagonal,
             levels: std::array::from_fn(|_| OnceLock::new()),
+            exps: Mutex::new(DyadicExp::new(balanced)),
         }
     }
 
     fn at(&self, level: usize) -> &StepMap {
         self.levels[level].get_or_init(|| {
-            let m = self.balanced * (1.0 / (1u64 << level) as f64);
-            let mut top = m.exp().fixed_view::<N, NA>(0, 0).into_owned();
+            // A panic elsewhere while the lock was held leaves whole matrices only.
+            let mut exps = self.exps.lock().unwrap_or_else(|e| e.into_inner());
+            let mut top = exps.at(level).fixed_view::<N, NA>(0, 0).into_owned();
             // D·E·D⁻¹, as nalgebra's `unbalance` does it, on the rows kept.
             for (j, mut col) in top.column_iter_mut().enumerate() {
                 let denom = 1.0 / self.diagonal[j];
@@ -106,14 +111,63 @@ impl ModeMaps {
     }
 }
 
+/// The maps of every level of one mode, computed afresh (not shared with the simulations):
+/// the sum of their entries, for the benches.
+pub(crate) fn all_levels(a: &AugMatrix, h: f64) -> f64 {
+    let maps = ModeMaps::new(a, h);
+    (0..=LEVELS).map(|level| maps.at(level).sum()).sum()
+}
+
 /// A dynamics matrix and a step, bit for bit: the same key gives the same maps.
 type MapKey = (Vec<u64>, u64);
 
-type Shared = HashMap<MapKey, Arc<ModeMaps>>;
+/// The shared maps in two generations: a map is found in either, and one found in the older
+/// is moved to the newer. When the newer is full it becomes the older and the older is
+/// dropped, so the maps in use (found since the last turn) survive it, and a fit that walks
+/// through many values never holds more than two generations.
+struct Generations<V> {
+    newer: HashMap<MapKey, Arc<V>>,
+    older: HashMap<MapKey, Arc<V>>,
+}
 
-/// Modes' maps kept before the shared ones are cleared: about 55 kB an entry (its key and
-/// room for every level), so under 30 MB for the process.
-const SHARED_MAX: usize = 512;
+type Shared = Generations<ModeMaps>;
+
+/// Modes' maps in one generation: an entry is about 110 kB (its key, room for every level
+/// and the products its levels share), so under 60 MB for the process.
+const GENERATION_MAX: usize = 256;
+
+impl<V> Generations<V> {
+    fn new() -> Self {
+        Generations {
+            newer: HashMap::new(),
+            older: HashMap::new(),
+        }
+    }
+
+    fn find(&mut self, key: &MapKey) -> Option<Arc<V>> {
+        if let Some(m) = self.newer.get(key) {
+            return Some(Arc::clone(m));
+        }
+        let (key, m) = self.older.remove_entry(key)?;
+        Some(self.keep(key, m))
+    }
+
+    /// Keeps `maps` in the newer generation (or the ones kept first, where another
+    /// simulation built them at the same time).
+    fn insert(&mut self, key: MapKey, maps: Arc<V>) -> Arc<V> {
+        match self.find(&key) {
+            Some(kept) => kept,
+            None => self.keep(key, maps),
+        }
+    }
+
+    fn keep(&mut self, key: MapKey, maps: Arc<V>) -> Arc<V> {
+        if self.newer.len() >= GENERATION_MAX {
+            self.older = std::mem::take(&mut self.newer);
+        }
+        Arc::clone(self.newer.entry(key).or_insert(maps))
+    }
+}
 
 static SHARED: OnceLock<Mutex<Shared>> = OnceLock::new();
 
@@ -121,20 +175,16 @@ static SHARED: OnceLock<Mutex<Shared>> = OnceLock::new();
 /// simulation has them.
 fn shared_maps(a: &AugMatrix, h: f64) -> Arc<ModeMaps> {
     let key: MapKey = (a.iter().map(|v| v.to_bits()).collect(), h.to_bits());
-    let shared = SHARED.get_or_init(|| Mutex::new(Shared::default()));
+    let shared = SHARED.get_or_init(|| Mutex::new(Shared::new()));
     // A panic elsewhere while the lock was held leaves whole entries only.
     let lock = || shared.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some(m) = lock().get(&key) {
-        return Arc::clone(m);
+    if let Some(m) = lock().find(&key) {
+        return m;
     }
-    // Balanced outside the lock, so one slow mode holds up no other simulation; two threads
+    // Built outside the lock, so one slow mode holds up no other simulation; two threads
     // that build the same maps at once build equal ones, and the first kept is used.
     let built = Arc::new(ModeMaps::new(a, h));
-    let mut maps = lock();
-    if maps.len() >= SHARED_MAX {
-        maps.clear();
-    }
-    Arc::clone(maps.entry(key).or_insert(built))
+    lock().insert(key, built)
 }
 
 #[cfg(test)]
@@ -178,29 +228,81 @@ mod tests {
         assert!((full[XR] - (0.1 + 0.01 * h + 0.1 * h * h)).abs() < 1e-16);
     }
 
-    /// Each level's map is the one balancing that level's matrix on its own gives, bit for
-    /// bit: halving a matrix leaves its balancing as it was.
+    /// A map asked for again within a generation's worth of others is never dropped; one not
+    /// asked for over two generations is; the two hold no more than their sizes.
     #[test]
-    fn maps_balanced_once_are_those_balanced_at_each_level() {
-        let mode = Mode {
-            friction: FrictionMode::SlipPos,
-            contact: ContactMode::Pos,
-            current: ClampMode::Linear,
-            voltage: ClampMode::Linear,
-        };
+    fn maps_in_use_survive_a_turn_of_generations() {
+        let mut shared = Generations::new();
+        let key = |i: usize| -> MapKey { (vec![i as u64], 0) };
+        let in_use = shared.insert(key(0), Arc::new(0));
+        for i in 1..4 * GENERATION_MAX {
+            shared.insert(key(i), Arc::new(i));
+            if i % (GENERATION_MAX / 2) == 0 {
+                let found = shared.find(&key(0)).expect("in use");
+                assert!(Arc::ptr_eq(&found, &in_use), "after {i} others");
+            }
+            assert!(shared.newer.len() + shared.older.len() <= 2 * GENERATION_MAX);
+        }
+        assert!(shared.find(&key(1)).is_none());
+        let last = 4 * GENERATION_MAX - 1;
+        assert_eq!(shared.find(&key(last)).as_deref(), Some(&last));
+    }
+
+    /// Each level's map is the one nalgebra's exponential of that level's balanced matrix
+    /// gives, bit for bit: halving a matrix leaves its balancing as it was, and the shared
+    /// powers, approximants and squares are exactly what each level would have formed (only
+    /// subnormal entries could round otherwise; these dynamics have none). Every friction and
+    /// contact mode, limits off, held and sliding, both presets' axes, steps needing from no
+    /// squaring to a dozen.
+    #[test]
+    fn maps_at_every_level_are_each_levels_own_exponential() {
+        use crate::sim::model::ClampMode::*;
+        use crate::sim::model::ContactMode::*;
+        use crate::sim::model::FrictionMode::*;
+        let (mut checked, mut squarings) = (0, 0);
         for preset in ["hvmc", "small-table"] {
             let machine = MachineConfig::preset(preset).unwrap();
-            let model = AxisModel::from_config(&machine.x);
-            let (a, h) = (model.dynamics(mode), 1e-4);
-            let maps = ModeMaps::new(&a, h);
-            for level in 0..=LEVELS {
-                let mut m = a * (h / (1u64 << level) as f64);
-                let d = nalgebra::linalg::balancing::balance_parlett_reinsch(&mut m);
-                let mut e = m.exp();
-                nalgebra::linalg::balancing::unbalance(&mut e, &d);
-                let want = e.fixed_view::<N, NA>(0, 0).into_owned();
-                assert_eq!(maps.at(level), &want, "{preset} level {level}");
+            for axis in [&machine.x, &machine.y] {
+                let model = AxisModel::from_config(axis);
+                for friction in [SlipPos, SlipNeg, Stick] {
+                    for contact in [Pos, Free, Neg] {
+                        for current in [Linear, HeldHi, SlideLo] {
+                            let mode = Mode {
+                                friction,
+                                contact,
+                                current,
+                                voltage: Linear,
+                            };
+                            for h in [1e-4, 1e-3] {
+                                let (levels, squared) = check_levels(&model, mode, h);
+                                checked += levels;
+                                squarings += squared;
+                            }
+                        }
+                    }
+                }
             }
         }
+        assert_eq!(checked, 2 * 2 * 3 * 3 * 3 * 2 * (LEVELS + 1));
+        // The coarse levels of the stiff drives came from shared squares.
+        assert!(squarings > 100, "{squarings} squarings");
+    }
+
+    /// The levels checked and the squarings they shared.
+    fn check_levels(model: &AxisModel, mode: Mode, h: f64) -> (usize, usize) {
+        let a = model.dynamics(mode);
+        let maps = ModeMaps::new(&a, h);
+        // Asked for out of order, as a bisection after a first full step does.
+        let order = std::iter::once(LEVELS / 2).chain(0..=LEVELS);
+        for level in order {
+            let mut m = a * (h / (1u64 << level) as f64);
+            let d = nalgebra::linalg::balancing::balance_parlett_reinsch(&mut m);
+            let mut e = m.exp();
+            nalgebra::linalg::balancing::unbalance(&mut e, &d);
+            let want = e.fixed_view::<N, NA>(0, 0).into_owned();
+            assert_eq!(maps.at(level), &want, "{mode} h {h} level {level}");
+        }
+        let squarings = maps.exps.lock().unwrap().squarings();
+        (LEVELS + 1, squarings)
     }
 }

@@ -101,7 +101,7 @@ impl Kernel {
 
     /// Whether a sliding table's speed passes through zero strictly inside the chunk from
     /// `x` to `y` (the end itself is the guards' business).
-    #[inline]
+    #[inline(always)]
     fn dips_through_zero(&self, x: &Aug, y: &[f64; ROWS]) -> bool {
         let Some(d) = &self.dip else {
             return false;
@@ -117,32 +117,13 @@ impl Kernel {
         dips_below_tolerance(d.sign * x[V2], d.sign * y[V2], a0 * d.dt, a1 * d.dt)
     }
 
-    /// Next state and guard values.
-    #[inline]
-    fn apply(&self, x: &Aug) -> [f64; ROWS] {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx") {
-            // SAFETY: the processor has just been found to have AVX.
-            return unsafe { self.apply_avx(x) };
-        }
-        self.apply_in_order(x)
-    }
-
-    /// [`Kernel::apply`] compiled for AVX's four-wide registers: the product a step takes
-    /// most of its time in, twice as many of its rows at once. The same bits as without:
-    /// each row is still one multiply and one add per column, in the columns' order (no
-    /// fused multiply-add, no sum reordered) — only rows side by side share an instruction.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx")]
-    fn apply_avx(&self, x: &Aug) -> [f64; ROWS] {
-        self.apply_in_order(x)
-    }
-
-    /// The product itself. Always inlined: compiled inside [`Kernel::apply_avx`] it takes
-    /// that function's AVX instructions; called out of line it would be the portable copy,
-    /// and the AVX path would gain nothing.
+    /// Next state and guard values. Always inlined: compiled inside [`AxisSim::step_avx`]
+    /// it takes that function's AVX instructions, twice as many of its rows per instruction
+    /// as the portable copy. The same bits either way: each row is still one multiply and
+    /// one add per column, in the columns' order (AVX brings no fused multiply-add, and no
+    /// sum is reordered) — only rows side by side share an instruction.
     #[inline(always)]
-    fn apply_in_order(&self, x: &Aug) -> [f64; ROWS] {
+    fn apply(&self, x: &Aug) -> [f64; ROWS] {
         let mut y = [0.0; ROWS];
         for (col, &xj) in self.cols.iter().zip(x.iter()) {
             // Inputs and controller states a model does not use stay zero: a quarter of
@@ -157,7 +138,7 @@ impl Kernel {
         y
     }
 
-    #[inline]
+    #[inline(always)]
     fn guards_hold(&self, y: &[f64; ROWS]) -> bool {
         (0..self.guards).all(|k| y[N + k] >= -self.tol[k])
     }
@@ -170,6 +151,9 @@ pub struct AxisSim<'a> {
     cache: MapCache,
     kernels: Vec<Option<Box<Kernel>>>,
     events_in_step: usize,
+    /// Whether the steps run in the copy compiled for AVX (asked once, here, so that the
+    /// step's loop is compiled for one instruction set whole, its product inlined).
+    avx: bool,
 }
 
 impl<'a> AxisSim<'a> {
@@ -181,6 +165,23 @@ impl<'a> AxisSim<'a> {
             cache: MapCache::new(h),
             kernels: (0..Mode::COUNT * (LEVELS + 1)).map(|_| None).collect(),
             events_in_step: 0,
+            #[cfg(target_arch = "x86_64")]
+            avx: std::arch::is_x86_feature_detected!("avx"),
+            #[cfg(not(target_arch = "x86_64"))]
+            avx: false,
+        }
+    }
+
+    /// Runs the steps in the copy compiled for AVX (where the processor has it) or not.
+    pub(crate) fn use_avx(&mut self, avx: bool) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            self.avx = avx && std::arch::is_x86_feature_detected!("avx");
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = avx;
+            self.avx = false;
         }
     }
 
@@ -246,31 +247,38 @@ impl<'a> AxisSim<'a> {
         g
     }
 
+    #[inline(always)]
     fn kernel(&mut self, mode: Mode, level: usize) -> &Kernel {
         let slot = mode.index() * (LEVELS + 1) + level;
         if self.kernels[slot].is_none() {
-            let guards = self.build_guards(mode);
-            let map = *self.cache.map(self.model, mode, level);
-            let sign = match mode.friction {
-                _ if self.model.presliding.is_some() => None,
-                FrictionMode::SlipPos => Some(1.0),
-                FrictionMode::SlipNeg => Some(-1.0),
-                FrictionMode::Stick => None,
-            };
-            // At the finest level the end guard alone resolves the crossing.
-            let dip = sign.filter(|_| level < LEVELS).map(|sign| DipWatch {
-                accel_row: self.cache.dynamics(self.model, mode).row(V2).into_owned(),
-                sign,
-                dt: self.cache.step_s() / (1u64 << level) as f64,
-            });
-            self.kernels[slot] = Some(Box::new(Kernel::new(&map, &guards, dip)));
+            self.build_kernel(mode, level, slot);
         }
         self.kernels[slot].as_ref().expect("just built")
     }
 
+    /// The kernel of a mode and level the simulator meets for the first time.
+    #[cold]
+    fn build_kernel(&mut self, mode: Mode, level: usize, slot: usize) {
+        let guards = self.build_guards(mode);
+        let map = *self.cache.map(self.model, mode, level);
+        let sign = match mode.friction {
+            _ if self.model.presliding.is_some() => None,
+            FrictionMode::SlipPos => Some(1.0),
+            FrictionMode::SlipNeg => Some(-1.0),
+            FrictionMode::Stick => None,
+        };
+        // At the finest level the end guard alone resolves the crossing.
+        let dip = sign.filter(|_| level < LEVELS).map(|sign| DipWatch {
+            accel_row: self.cache.dynamics(self.model, mode).row(V2).into_owned(),
+            sign,
+            dt: self.cache.step_s() / (1u64 << level) as f64,
+        });
+        self.kernels[slot] = Some(Box::new(Kernel::new(&map, &guards, dip)));
+    }
+
     /// One step of h/2^level in place when the mode's guards hold at its end (returns true);
     /// otherwise `x` is left as it was (returns false).
-    #[inline]
+    #[inline(always)]
     fn try_step(&mut self, mode: Mode, level: usize, x: &mut Aug) -> bool {
         let kernel = self.kernel(mode, level);
         let y = kernel.apply(x);
@@ -282,6 +290,7 @@ impl<'a> AxisSim<'a> {
     }
 
     /// One step of h/2^level in place, whatever the guards say.
+    #[inline(always)]
     fn force_step(&mut self, mode: Mode, level: usize, x: &mut Aug) {
         let y = self.kernel(mode, level).apply(x);
         x.as_mut_slice()[..N].copy_from_slice(&y[..N]);
@@ -289,6 +298,37 @@ impl<'a> AxisSim<'a> {
 
     /// Advances `x` by one full step h in `mode`, switching modes where guards demand.
     pub(crate) fn step(
+        &mut self,
+        x: &mut Aug,
+        mode: &mut Mode,
+        t: f64,
+        events: Option<&mut Vec<FrictionEvent>>,
+    ) -> Result<(), SimError> {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx {
+            // SAFETY: the processor was found to have AVX when the simulator was made.
+            return unsafe { self.step_avx(x, mode, t, events) };
+        }
+        self.step_in_order(x, mode, t, events)
+    }
+
+    /// [`AxisSim::step`] compiled for AVX's four-wide registers, its products inlined.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn step_avx(
+        &mut self,
+        x: &mut Aug,
+        mode: &mut Mode,
+        t: f64,
+        events: Option<&mut Vec<FrictionEvent>>,
+    ) -> Result<(), SimError> {
+        self.step_in_order(x, mode, t, events)
+    }
+
+    /// The step itself, inlined into each instruction set's copy. Mode switches and kernels
+    /// built for the first time are called out of line: they are rare.
+    #[inline(always)]
+    fn step_in_order(
         &mut self,
         x: &mut Aug,
         mode: &mut Mode,
@@ -691,7 +731,7 @@ pub(super) fn friction_inputs(model: &AxisModel, x: &mut Aug, mode: Mode) {
 mod tests {
     use super::*;
     use crate::machine::MachineConfig;
-    use crate::sim::model::TH_S;
+    use crate::sim::model::{AR, TH_S, VR, XR};
     use crate::sim::simulate::rest_state;
 
     /// Regression: a standing Y axis chattered (`SimError::Chattering` at t = 191.6 s of a
@@ -738,43 +778,45 @@ mod tests {
         assert!(by_hull > 10_000 && dips > 10_000, "{by_hull} {dips}");
     }
 
-    /// The AVX copy of the step's product gives the portable copy's bits: every row one
+    /// The step compiled for AVX gives the portable step's bits: every row of a product one
     /// multiply and one add per column in the same order, no fused multiply-add. Checked on
-    /// kernels and states of mixed signs and magnitudes, with the zero inputs the product
-    /// skips.
+    /// a backlash axis with friction following a reference that reverses again and again
+    /// (so sticking, breakaway, the gap's crossings and bisection at every level), state and
+    /// mode after every step.
     #[cfg(target_arch = "x86_64")]
     #[test]
-    fn the_avx_product_gives_the_portable_products_bits() {
+    fn the_avx_step_gives_the_portable_steps_bits() {
         if !std::arch::is_x86_feature_detected!("avx") {
             return;
         }
-        // A linear congruential sequence: reproducible values over many decades.
-        let mut seed: u64 = 0x9e37_79b9_7f4a_7c15;
-        let mut next = || {
-            seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
-            let unit = (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
-            unit * 10f64.powi(((seed >> 3) % 13) as i32 - 6)
-        };
-        for trial in 0..200 {
-            let mut cols = [[0.0; ROWS]; NA];
-            for col in cols.iter_mut() {
-                for c in col.iter_mut() {
-                    *c = next();
-                }
+        let mut machine = MachineConfig::default_preset();
+        machine.x.drive.backlash_um = 10.0;
+        let model = AxisModel::from_config(&machine.x);
+        let h = 1e-4;
+        let mut avx = AxisSim::new(&model, h);
+        let mut portable = AxisSim::new(&model, h);
+        portable.use_avx(false);
+        let (mut xa, mut ma) = rest_state(&model, 0.0);
+        let (mut xp, mut mp) = (xa, ma);
+        let mut switches = 0;
+        for k in 0..20_000 {
+            // 5 mm at 5 Hz: reversals every 0.1 s.
+            let t = k as f64 * h;
+            let w = std::f64::consts::TAU * 5.0;
+            for x in [&mut xa, &mut xp] {
+                x[XR] = 5e-3 * (w * t).sin();
+                x[VR] = 5e-3 * w * (w * t).cos();
+                x[AR] = -5e-3 * w * w * (w * t).sin();
             }
-            let kernel = Kernel {
-                cols,
-                guards: 0,
-                tol: [0.0; ROWS - N],
-                dip: None,
-            };
-            let x = Aug::from_fn(|j, _| if (j + trial) % 4 == 0 { 0.0 } else { next() });
-            // SAFETY: the processor was found to have AVX above.
-            let avx = unsafe { kernel.apply_avx(&x) };
-            let portable = kernel.apply_in_order(&x);
-            for (a, b) in avx.iter().zip(&portable) {
-                assert_eq!(a.to_bits(), b.to_bits(), "trial {trial}: {a} against {b}");
+            let before = mp;
+            avx.step(&mut xa, &mut ma, t, None).unwrap();
+            portable.step(&mut xp, &mut mp, t, None).unwrap();
+            assert_eq!(ma, mp, "step {k}");
+            for (a, b) in xa.iter().zip(xp.iter()) {
+                assert_eq!(a.to_bits(), b.to_bits(), "step {k}: {a} against {b}");
             }
+            switches += usize::from(mp != before);
         }
+        assert!(switches > 20, "{switches} mode switches");
     }
 }

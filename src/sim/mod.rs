@@ -8,6 +8,8 @@
 //! mode switches. [`linear`] gives the linearised loops (Bode, stability) and [`stickslip`] the
 //! paper's stick-slip criterion.
 
+#[doc(hidden)]
+pub mod bench;
 pub mod commands;
 pub(crate) mod discrete;
 pub mod geometry;
