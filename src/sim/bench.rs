@@ -38,16 +38,15 @@ pub fn step_maps_shared(model: &AxisModel, h: f64) -> f64 {
 }
 
 /// The same maps with each level's exponential computed on its own (nalgebra's `exp` of
-/// each level's balanced matrix), as the simulator once did.
+/// the balanced matrix halved level by level: balanced once, as the simulator once did).
 pub fn step_maps_each_level(model: &AxisModel, h: f64) -> f64 {
     use nalgebra::linalg::balancing::{balance_parlett_reinsch, unbalance};
     let mut sum = 0.0;
     for mode in modes() {
-        let a = model.dynamics(mode);
+        let mut balanced = model.dynamics(mode) * h;
+        let d = balance_parlett_reinsch(&mut balanced);
         for level in 0..=LEVELS {
-            let mut m = a * (h / (1u64 << level) as f64);
-            let d = balance_parlett_reinsch(&mut m);
-            let mut e = m.exp();
+            let mut e = (balanced * (1.0 / (1u64 << level) as f64)).exp();
             unbalance(&mut e, &d);
             sum += e
                 .fixed_view::<{ super::model::N }, { super::model::NA }>(0, 0)

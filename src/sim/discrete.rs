@@ -63,6 +63,9 @@ impl MapCache {
     }
 }
 
+/// The largest entry of A·h that is balanced: 19 squares of it sum to a finite number.
+const BALANCED_MAX: f64 = 1e150;
+
 /// One mode's maps at every level for one step h, computed as asked for.
 struct ModeMaps {
     /// The diagonal that balanced A·h (its entries span many orders of magnitude: metres of
@@ -80,9 +83,10 @@ struct ModeMaps {
 impl ModeMaps {
     fn new(a: &AugMatrix, h: f64) -> Self {
         let mut balanced = a * h;
-        // Balancing never ends on an infinite entry; such dynamics step to non-finite states,
-        // which the simulation reports as not simulable, balanced or not.
-        let diagonal = if balanced.iter().all(|v| v.is_finite()) {
+        // Balancing never ends where a row's or column's squared norm is infinite (an entry
+        // of 10¹⁵⁴ or more: no machine's); such dynamics step to non-finite states, which the
+        // simulation reports as not simulable, balanced or not.
+        let diagonal = if balanced.iter().all(|v| v.abs() < BALANCED_MAX) {
             nalgebra::linalg::balancing::balance_parlett_reinsch(&mut balanced)
         } else {
             nalgebra::SVector::repeat(1.0)
@@ -96,9 +100,14 @@ impl ModeMaps {
 
     fn at(&self, level: usize) -> &StepMap {
         self.levels[level].get_or_init(|| {
-            // A panic elsewhere while the lock was held leaves whole matrices only.
-            let mut exps = self.exps.lock().unwrap_or_else(|e| e.into_inner());
-            let mut top = exps.at(level).fixed_view::<N, NA>(0, 0).into_owned();
+            // A panic elsewhere while the lock was held leaves whole matrices only. The lock
+            // is let go before the unbalancing: only the shared products need it.
+            let full = self
+                .exps
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .at(level);
+            let mut top = full.fixed_view::<N, NA>(0, 0).into_owned();
             // D·E·D⁻¹, as nalgebra's `unbalance` does it, on the rows kept.
             for (j, mut col) in top.column_iter_mut().enumerate() {
                 let denom = 1.0 / self.diagonal[j];
@@ -132,8 +141,9 @@ struct Generations<V> {
 
 type Shared = Generations<ModeMaps>;
 
-/// Modes' maps in one generation: an entry is about 110 kB (its key, room for every level
-/// and the products its levels share), so under 60 MB for the process.
+/// Modes' maps in one generation: an entry is about 70 to 120 kB at the presets' steps (its
+/// key, room for every level and the products its levels share; up to ~160 kB for a mode
+/// needing 16 or more squarings), so some 60 MB for the two generations at the presets' steps.
 const GENERATION_MAX: usize = 256;
 
 impl<V> Generations<V> {
@@ -286,6 +296,26 @@ mod tests {
         assert_eq!(checked, 2 * 2 * 3 * 3 * 3 * 2 * (LEVELS + 1));
         // The coarse levels of the stiff drives came from shared squares.
         assert!(squarings > 100, "{squarings} squarings");
+    }
+
+    /// Dynamics with an infinite entry, or finite ones whose powers overflow, give maps that
+    /// are not finite (which the simulation reports) at once: no squaring is attempted.
+    #[test]
+    fn dynamics_beyond_any_machine_give_maps_that_are_not_finite() {
+        for v in [f64::INFINITY, 1e200] {
+            let mut a = AugMatrix::zeros();
+            a[(0, 1)] = 1.0;
+            a[(1, 0)] = -v;
+            let maps = ModeMaps::new(&a, 1e-4);
+            for level in [0, LEVELS / 2, LEVELS] {
+                assert!(
+                    maps.at(level).iter().any(|x| !x.is_finite()),
+                    "{v} level {level}"
+                );
+            }
+            let exps = maps.exps.lock().unwrap();
+            assert_eq!(exps.squarings(), 0, "{v}");
+        }
     }
 
     /// The levels checked and the squarings they shared.

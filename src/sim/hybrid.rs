@@ -165,24 +165,13 @@ impl<'a> AxisSim<'a> {
             cache: MapCache::new(h),
             kernels: (0..Mode::COUNT * (LEVELS + 1)).map(|_| None).collect(),
             events_in_step: 0,
-            #[cfg(target_arch = "x86_64")]
-            avx: std::arch::is_x86_feature_detected!("avx"),
-            #[cfg(not(target_arch = "x86_64"))]
-            avx: false,
+            avx: avx_available(),
         }
     }
 
     /// Runs the steps in the copy compiled for AVX (where the processor has it) or not.
     pub(crate) fn use_avx(&mut self, avx: bool) {
-        #[cfg(target_arch = "x86_64")]
-        {
-            self.avx = avx && std::arch::is_x86_feature_detected!("avx");
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            let _ = avx;
-            self.avx = false;
-        }
+        self.avx = avx && avx_available();
     }
 
     fn build_guards(&mut self, mode: Mode) -> Vec<Guard> {
@@ -325,8 +314,8 @@ impl<'a> AxisSim<'a> {
         self.step_in_order(x, mode, t, events)
     }
 
-    /// The step itself, inlined into each instruction set's copy. Mode switches and kernels
-    /// built for the first time are called out of line: they are rare.
+    /// The step itself, inlined into each instruction set's copy (mode switches and kernels
+    /// built for the first time are rare: whether the compiler inlines them matters little).
     #[inline(always)]
     fn step_in_order(
         &mut self,
@@ -547,6 +536,18 @@ impl<'a> AxisSim<'a> {
             Limit::Voltage => mode.voltage = want,
         }
         true
+    }
+}
+
+/// Whether this processor runs the step loop's AVX copy (asked once per simulator).
+fn avx_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
     }
 }
 
@@ -794,8 +795,14 @@ mod tests {
         let model = AxisModel::from_config(&machine.x);
         let h = 1e-4;
         let mut avx = AxisSim::new(&model, h);
+        avx.use_avx(true);
+        assert!(
+            avx.avx,
+            "the processor has AVX: the AVX copy must be the one stepping"
+        );
         let mut portable = AxisSim::new(&model, h);
         portable.use_avx(false);
+        assert!(!portable.avx);
         let (mut xa, mut ma) = rest_state(&model, 0.0);
         let (mut xp, mut mp) = (xa, ma);
         let mut switches = 0;

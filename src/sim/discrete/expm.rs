@@ -11,14 +11,17 @@
 //! - the powers M², M⁴, … of the level-k matrix are those of level 0 times 2^(−2k), 2^(−4k), …,
 //!   so they are formed once, not at every level;
 //! - where level k needs s squarings, its order-13 approximant is taken of M·2^−(k+s). The
-//!   coarser levels choose s one larger per level, landing on the same matrix: its approximant
-//!   is solved once, and level k − 1's exponential is level k's squared — the product the
-//!   method would have formed anyway, not an extra one.
+//!   coarser levels usually choose s one larger per level, landing on the same matrix: its
+//!   approximant is solved once, and level k − 1's exponential is level k's squared — the
+//!   product the method would have formed anyway, not an extra one (where rounding picks
+//!   another s, the scale 2^−(k+s) is another key, computed on its own).
 //!
 //! The only error this adds is where the normal range is left: an entry below ~10⁻³⁰⁸ (a
 //! product of a power and a scale of up to 2⁻²⁴⁰) is rounded as a subnormal, an absolute
 //! change of at most ~10⁻³²³ against entries of order one. The tests compare every level with
-//! nalgebra's exponential of that level's matrix.
+//! nalgebra's exponential of that level's matrix. Dynamics no machine has — an infinite
+//! entry, or powers that overflow — give a map that is not finite at once (the simulation
+//! reports it), rather than squarings without end.
 
 use nalgebra::{SMatrix, SVector};
 
@@ -79,6 +82,10 @@ const THETA: [f64; 4] = [
     2.097_847_961_257_068e0,
 ];
 const THETA_13: f64 = 4.25;
+
+/// The most squarings an order-13 approximant is taken for: with a level's k ≤ 24 its scale
+/// j = k + s ≤ 124 keeps 2^−6j (its sixth power's scaling) within the normal range.
+const MAX_SCALE: i32 = 100;
 
 /// 2^e, exactly (e within the normal range).
 fn pow2(e: i32) -> f64 {
@@ -181,8 +188,13 @@ impl DyadicExp {
         (one_norm(&self.power(i)) * pow2(-(2 * i as i32 + 2) * k)).powf(root)
     }
 
-    /// exp(M·2^−k).
+    /// exp(M·2^−k); not finite where M is not, or where its norm (above ~10²³ at the
+    /// finest level, no machine's dynamics) would need more squarings than the exact scalings
+    /// by powers of two allow.
     pub(super) fn at(&mut self, k: usize) -> Square {
+        if !self.a.iter().all(|v| v.is_finite()) {
+            return Square::repeat(f64::NAN);
+        }
         let k = k as i32;
         let m = self.a * pow2(-k);
         let d4 = self.norm_root(1, k);
@@ -204,13 +216,22 @@ impl DyadicExp {
         }
         let eta_4 = d8.max(self.norm_root(4, k));
         let eta_5 = eta_3.min(eta_4);
+        if !eta_5.is_finite() {
+            // Finite entries whose powers overflow: no number of squarings brings them back.
+            return Square::repeat(f64::NAN);
+        }
         let mut s = if eta_5 == 0.0 {
             0
         } else {
             let l2 = (eta_5 / THETA_13).log2().ceil();
             if l2 < 0.0 { 0 } else { l2 as u64 }
         };
-        s += extra_squarings(&(m * 2_f64.powf(-(s as f64))), 13);
+        s = s.saturating_add(extra_squarings(&(m * 2_f64.powf(-(s as f64))), 13));
+        // The order-13 matrix's scale 2^−j enters as 2^−6j in its sixth power: j stays where
+        // that is a normal number.
+        if s > MAX_SCALE as u64 {
+            return Square::repeat(f64::NAN);
+        }
         self.squared_order13(k + s as i32, s as usize)
     }
 
