@@ -611,6 +611,13 @@ mod tests {
         );
         let e = MachineConfig::from_toml_str("base = \"none\"\nname = \"a\"\n", "m.toml");
         assert!(matches!(e.unwrap_err(), ConfigError::Missing { .. }));
+        // A mass no table has (its dynamics would overflow the simulation) is the key's error.
+        let e = MachineConfig::from_toml_str("[y.drive]\ntable_mass_kg = 1e-200\n", "m.toml");
+        let e = e.unwrap_err().to_string();
+        assert!(
+            e.starts_with("m.toml:2:1: key `y.drive.table_mass_kg` must lie between 0.001 and 1e6"),
+            "{e}"
+        );
         let e = MachineConfig::from_toml_str("[x.motor]\nra_ohm = \"a\"\n", "m.toml");
         assert!(e.unwrap_err().to_string().contains("x.motor.ra_ohm"));
         let e = MachineConfig::from_toml_str("[x.motor\n", "m.toml");

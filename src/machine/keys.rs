@@ -288,10 +288,13 @@ pub const AXIS_KEYS: &[AxisKey] = &[
     ),
     optional!("motor.ke_v_s_per_rad", "V·s/rad", NonNegative(1e3), Always,
         "back-EMF constant K_e (with a current loop)", |a| a.motor.ke_v_s_per_rad, k => *k),
+    // Inertias, masses, the lead and the gear ratio have floors far below any machine's:
+    // near zero they make the dynamics' entries too large to simulate, and the error would
+    // then name the simulation, not the key.
     key!(
         "motor.jm_kg_m2",
         "kg·m²",
-        Positive(1e3),
+        Range(1e-9, 1e3),
         Always,
         "rotor inertia J_m",
         |a| a.motor.jm_kg_m2
@@ -299,7 +302,7 @@ pub const AXIS_KEYS: &[AxisKey] = &[
     key!(
         "drive.js_kg_m2",
         "kg·m²",
-        Positive(1e3),
+        Range(1e-9, 1e3),
         Always,
         "screw inertia J_s",
         |a| a.drive.js_kg_m2
@@ -339,7 +342,7 @@ pub const AXIS_KEYS: &[AxisKey] = &[
     key!(
         "drive.lead_mm",
         "mm",
-        Positive(1e4),
+        Range(1e-3, 1e4),
         Always,
         "screw lead",
         |a| a.drive.lead_mm
@@ -347,7 +350,7 @@ pub const AXIS_KEYS: &[AxisKey] = &[
     key!(
         "drive.gear_ratio",
         "",
-        Positive(1e3),
+        Range(1e-3, 1e3),
         Always,
         "motor turns per screw turn",
         |a| a.drive.gear_ratio
@@ -355,7 +358,7 @@ pub const AXIS_KEYS: &[AxisKey] = &[
     key!(
         "drive.table_mass_kg",
         "kg",
-        Positive(1e6),
+        Range(1e-3, 1e6),
         Always,
         "moving mass (table and load)",
         |a| a.drive.table_mass_kg
