@@ -36,7 +36,7 @@ use crate::sim::AxisModel;
 
 mod gates;
 
-use gates::{Bars, Refusal, WholeFigures, carried, coulomb_held, first_stops, reaches};
+use gates::{Bars, Refusal, WholeFigures, carried, coulomb_held, first_stops};
 
 /// The shapes tried: bristle stiffness (N/µm) and friction near rest over Coulomb's. The
 /// separate model of the real table found a level near rest about a third below Coulomb's;
@@ -229,17 +229,13 @@ fn rounds(
         following_um: id.following_error_rms_um,
     };
     let figures = |w: &Fitted| WholeFigures::of(knobs, w, samples);
-    let wholes = gated_wholes(fit, knobs, config, &|shape, first| {
-        let first = figures(first);
-        if reaches(first.rms_um, bars.noise_um) {
-            return Ok(());
-        }
-        match moving_share() {
-            Some(share) if first_stops(first.rms_um, &bars, Some(share)) => {
-                Err(Refusal::FirstBelowShare(shape, share).reason())
-            }
-            _ => Ok(()),
-        }
+    let wholes = gated_wholes(fit, knobs, config, &|shape, first| match first_stops(
+        figures(first).rms_um,
+        &bars,
+        moving_share,
+    ) {
+        Some(share) => Err(Refusal::FirstBelowShare(shape, share).reason()),
+        None => Ok(()),
     })?;
     let all: Vec<WholeFigures> = wholes.iter().map(|w| figures(&w.2)).collect();
     let kept = carried(&all, &bars, moving_share).map_err(Refusal::reason)?;

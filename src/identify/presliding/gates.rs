@@ -95,12 +95,21 @@ pub(super) fn reaches(rms_um: f64, noise_um: f64) -> bool {
     rms_um <= REACHED_EXCESS * noise_um
 }
 
-/// Whether the first-ranked shape's fit (to `rms_um`) keeps the others from being fitted:
-/// it stays above the noise, and does not come below the held-out `share` of the fit away
-/// from the standstills (where that fit is written: none where it is not) even on the
-/// samples it was fitted to — then no shape can win, and that fit is written.
-pub(super) fn first_stops(rms_um: f64, bars: &Bars, share: Option<f64>) -> bool {
-    !reaches(rms_um, bars.noise_um) && share.is_some_and(|s| rms_um >= s * bars.following_um)
+/// The held-out share of the fit away from the standstills that the first-ranked shape's
+/// fit (to `rms_um`) does not come below even on the samples it was fitted to, where that
+/// keeps the others from being fitted: the fit stays above the noise, and `share` (none
+/// where the fit away from the standstills is not written) is not beaten — then no shape can
+/// win, and that fit is written. `share` costs that fit's halves: asked for only above the
+/// noise, as in [`carried`].
+pub(super) fn first_stops(
+    rms_um: f64,
+    bars: &Bars,
+    share: &dyn Fn() -> Option<f64>,
+) -> Option<f64> {
+    if reaches(rms_um, bars.noise_um) {
+        return None;
+    }
+    share().filter(|s| rms_um >= s * bars.following_um)
 }
 
 /// The shapes (by index into `wholes`) carried to the halves: those whose fit (a) beats
@@ -192,14 +201,34 @@ mod tests {
         let b = bars(20.0);
         // At 1.1 times the noise (1.1 µm) a fit reaches it: never stops, whatever the share.
         assert!(reaches(1.1, 1.0) && !reaches(1.1001, 1.0));
-        assert!(!first_stops(1.1, &b, Some(0.001)));
+        let never = || -> Option<f64> { panic!("the fit reaches the noise") };
+        assert_eq!(first_stops(1.1, &b, &never), None);
         // Above it, with the fit away from the standstills written at 12.5 % of the 100 µm
         // following error: a fit to 12.5 µm or more stops the others, one just below does not.
-        assert!(first_stops(12.5, &b, Some(0.125)));
-        assert!(first_stops(15.0, &b, Some(0.125)));
-        assert!(!first_stops(12.499, &b, Some(0.125)));
+        let share = || Some(0.125);
+        assert_eq!(first_stops(12.5, &b, &share), Some(0.125));
+        assert_eq!(first_stops(15.0, &b, &share), Some(0.125));
+        assert_eq!(first_stops(12.499, &b, &share), None);
         // No fit away from the standstills written: nothing to compare with, the others fitted.
-        assert!(!first_stops(15.0, &b, None));
+        assert_eq!(first_stops(15.0, &b, &|| None), None);
+    }
+
+    #[test]
+    fn the_share_is_asked_for_only_where_the_first_fit_stays_above_the_noise() {
+        // The share costs the fit away from the standstills its halves: a first fit at the
+        // 1 µm noise (1.1 times it or less) decides without it, one above asks once.
+        let b = bars(20.0);
+        let asked = std::cell::Cell::new(0);
+        let share = || {
+            asked.set(asked.get() + 1);
+            Some(0.001)
+        };
+        for rms_um in [0.5, 1.0, 1.1] {
+            assert_eq!(first_stops(rms_um, &b, &share), None);
+        }
+        assert_eq!(asked.get(), 0);
+        assert_eq!(first_stops(1.2, &b, &share), Some(0.001));
+        assert_eq!(asked.get(), 1);
     }
 
     #[test]
