@@ -92,6 +92,12 @@ const MOVING_SHARE: f64 = 0.01;
 /// above it, away from the standstills; above it there too, nothing is identified.
 const REACHED_EXCESS: f64 = 1.1;
 
+/// Whether a fit's residual RMS `rms` reaches the record's noise `noise` (its standard
+/// deviation, in the same unit): within [`REACHED_EXCESS`] of it.
+fn within_noise(rms: f64, noise: f64) -> bool {
+    rms <= REACHED_EXCESS * noise
+}
+
 /// What the identification starts from and fits.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Model {
@@ -238,7 +244,7 @@ fn identify_axis(
 fn template_holds(id: &AxisIdentification, noise_um: f64) -> bool {
     let (template_um, identified_um, _, _) = id.judged_held_out();
     id.reached
-        && template_um <= REACHED_EXCESS * noise_um
+        && within_noise(template_um, noise_um)
         && verdict::predicts_better(template_um, identified_um)
 }
 
@@ -535,7 +541,7 @@ fn identify_on(
     let template_residual = fit.residual(&template_axis)?;
     let identified_residual = fit.residual(&config)?;
     let mut values = fitted_values(knobs, &round, &config, &template_axis);
-    let reached = rms(&identified_residual) <= REACHED_EXCESS * um_from_m(ctx.noise_sigma);
+    let reached = within_noise(rms(&identified_residual), um_from_m(ctx.noise_sigma));
     // Each half's fit scored on the other half; the template, fitted to neither, on all.
     // Above the noise, where a fit is written as a model for what it predicts alone, only a
     // half's fit with a point of its own counts (`Round::held_out_rms_own`): without one,

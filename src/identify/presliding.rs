@@ -29,7 +29,7 @@ use super::result::{AxisIdentification, IdentifiedValue};
 use super::round::Round;
 use super::solve::Fitted;
 use super::solve::{Fit, masked_rms};
-use super::{REACHED_EXCESS, held_out, verdict};
+use super::{held_out, verdict, within_noise};
 use crate::machine::AxisConfig;
 use crate::numeric::units::{GRAVITY_M_PER_S2, um_from_m};
 use crate::sim::AxisModel;
@@ -449,7 +449,7 @@ fn written(
     let (ctx, axis, offset) = (fit.ctx(), fit.axis(), fit.offset());
     let rms_um = um_from_m(masked_rms(&residual, mask));
     let without_um = id.held_out_identified_um;
-    id.reached = rms_um <= REACHED_EXCESS * um_from_m(ctx.noise_sigma);
+    id.reached = within_noise(rms_um, um_from_m(ctx.noise_sigma));
     id.rms_identified_um = rms_um;
     id.held_out_identified_um = with_um;
     id.held_out_in_sample = false;

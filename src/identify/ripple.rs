@@ -101,8 +101,10 @@ struct Judged {
 impl Judged {
     /// `round`'s halves judged as the whole record's `residual` (m) places the model.
     fn of(fit: &Fit, round: &Round, residual: &[f64]) -> Judged {
-        let reached = super::solve::masked_rms(residual, fit.mask())
-            <= super::REACHED_EXCESS * fit.ctx().noise_sigma;
+        let reached = super::within_noise(
+            super::solve::masked_rms(residual, fit.mask()),
+            fit.ctx().noise_sigma,
+        );
         let own = [round.halves[0].own_point, round.halves[1].own_point];
         let shown = reached || own.contains(&true);
         let counted = if reached || !shown { [true, true] } else { own };

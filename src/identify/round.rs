@@ -4,10 +4,10 @@
 
 use std::sync::OnceLock;
 
-use super::REACHED_EXCESS;
 use super::knobs::{self, Knob, get, set_all};
 use super::solve::{Fit, Fitted};
 use super::verdict::predicts_better;
+use super::within_noise;
 use crate::machine::AxisConfig;
 
 /// How close to the record's noise the fit with a loose corner free must predict the
@@ -219,6 +219,9 @@ impl Round {
             };
             let refuted: Vec<&'static str> = refuted.iter().copied().chain(corners).collect();
             let kept_way = kept.and_then(|k| Round::settled(fit, k, template, fold, &refuted));
+            // Held-out figures, so twice the noise ([`HELD_OUT_EXCESS`]) and not
+            // `within_noise`'s tenth above it, which is for a fit on its own samples: a
+            // half's fit scored on samples it did not see carries their noise as well.
             let noise_m = fit.ctx().noise_sigma;
             return Some(match kept_way {
                 Some(k)
@@ -358,7 +361,10 @@ impl Round {
     /// Whether the fit on the whole record reaches the record's noise.
     fn reaches_noise(&self, fit: &Fit) -> bool {
         let samples = fit.mask().iter().filter(|m| **m).count().max(1);
-        (self.whole.cost / samples as f64).sqrt() <= REACHED_EXCESS * fit.ctx().noise_sigma
+        within_noise(
+            (self.whole.cost / samples as f64).sqrt(),
+            fit.ctx().noise_sigma,
+        )
     }
 
     /// The knobs whose uncertainty leaves them undetermined.

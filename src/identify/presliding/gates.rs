@@ -5,10 +5,10 @@
 //! which bar no shape cleared.
 
 use super::Shape;
-use crate::identify::REACHED_EXCESS;
 use crate::identify::knobs::{COULOMB_KEY, Knob};
 use crate::identify::solve::Fitted;
 use crate::identify::verdict;
+use crate::identify::within_noise;
 use crate::numeric::units::um_from_m;
 
 /// A shape's fit on the whole record, as the gates read it.
@@ -89,12 +89,6 @@ impl Refusal {
     }
 }
 
-/// Whether a fit to `rms_um` reaches the record's noise (`noise_um`): nothing is left for a
-/// larger model to explain.
-pub(super) fn reaches(rms_um: f64, noise_um: f64) -> bool {
-    rms_um <= REACHED_EXCESS * noise_um
-}
-
 /// The held-out share of the fit away from the standstills that the first-ranked shape's
 /// fit (to `rms_um`) does not come below even on the samples it was fitted to, where that
 /// keeps the others from being fitted: the fit stays above the noise, and `share` (none
@@ -106,7 +100,7 @@ pub(super) fn first_stops(
     bars: &Bars,
     share: &dyn Fn() -> Option<f64>,
 ) -> Option<f64> {
-    if reaches(rms_um, bars.noise_um) {
+    if within_noise(rms_um, bars.noise_um) {
         return None;
     }
     share().filter(|s| rms_um >= s * bars.following_um)
@@ -135,7 +129,7 @@ pub(super) fn carried(
     }
     if !kept
         .iter()
-        .any(|&i| reaches(wholes[i].rms_um, bars.noise_um))
+        .any(|&i| within_noise(wholes[i].rms_um, bars.noise_um))
         && let Some(share) = share()
     {
         kept.retain(|&i| wholes[i].rms_um < share * bars.following_um);
@@ -200,7 +194,7 @@ mod tests {
     fn the_first_shape_stops_the_others_only_above_the_noise_and_the_moving_share() {
         let b = bars(20.0);
         // At 1.1 times the noise (1.1 µm) a fit reaches it: never stops, whatever the share.
-        assert!(reaches(1.1, 1.0) && !reaches(1.1001, 1.0));
+        assert!(within_noise(1.1, 1.0) && !within_noise(1.1001, 1.0));
         let never = || -> Option<f64> { panic!("the fit reaches the noise") };
         assert_eq!(first_stops(1.1, &b, &never), None);
         // Above it, with the fit away from the standstills written at 12.5 % of the 100 µm
