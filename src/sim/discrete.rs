@@ -10,6 +10,7 @@
 mod expm;
 
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, OnceLock};
 
 use nalgebra::SMatrix;
@@ -75,6 +76,8 @@ struct ModeMaps {
     /// entry leaves the rows' and columns' ratios as they were, bit for bit.
     diagonal: nalgebra::SVector<f64, NA>,
     levels: [OnceLock<StepMap>; LEVELS + 1],
+    /// The levels filled: at the last, the products the levels share are let go.
+    filled: AtomicUsize,
     /// The exponentials of the balanced A·h at every level, sharing their powers, their
     /// order-13 approximants and squares (the levels' steps differ by powers of two).
     exps: Mutex<DyadicExp>,
@@ -94,6 +97,7 @@ impl ModeMaps {
         ModeMaps {
             diagonal,
             levels: std::array::from_fn(|_| OnceLock::new()),
+            filled: AtomicUsize::new(0),
             exps: Mutex::new(DyadicExp::new(balanced)),
         }
     }
@@ -102,11 +106,13 @@ impl ModeMaps {
         self.levels[level].get_or_init(|| {
             // A panic elsewhere while the lock was held leaves whole matrices only. The lock
             // is let go before the unbalancing: only the shared products need it.
-            let full = self
-                .exps
-                .lock()
-                .unwrap_or_else(|e| e.into_inner())
-                .at(level);
+            let mut exps = self.exps.lock().unwrap_or_else(|e| e.into_inner());
+            let full = exps.at(level);
+            // Each level is filled once: after the last, no level asks for the products.
+            if self.filled.fetch_add(1, Ordering::Relaxed) == LEVELS {
+                exps.release();
+            }
+            drop(exps);
             let mut top = full.fixed_view::<N, NA>(0, 0).into_owned();
             // D·E·D⁻¹, as nalgebra's `unbalance` does it, on the rows kept.
             for (j, mut col) in top.column_iter_mut().enumerate() {
@@ -137,6 +143,10 @@ type MapKey = (Vec<u64>, u64);
 struct Generations<V> {
     newer: HashMap<MapKey, Arc<V>>,
     older: HashMap<MapKey, Arc<V>>,
+    /// The older generations a turn let go, to be dropped by whoever holds the lock once it
+    /// has let go of it: freeing up to [`GENERATION_MAX`] modes' maps holds up no other
+    /// simulation.
+    retired: Vec<HashMap<MapKey, Arc<V>>>,
 }
 
 type Shared = Generations<ModeMaps>;
@@ -151,6 +161,7 @@ impl<V> Generations<V> {
         Generations {
             newer: HashMap::new(),
             older: HashMap::new(),
+            retired: Vec::new(),
         }
     }
 
@@ -173,9 +184,15 @@ impl<V> Generations<V> {
 
     fn keep(&mut self, key: MapKey, maps: Arc<V>) -> Arc<V> {
         if self.newer.len() >= GENERATION_MAX {
-            self.older = std::mem::take(&mut self.newer);
+            let newer = std::mem::take(&mut self.newer);
+            self.retired.push(std::mem::replace(&mut self.older, newer));
         }
         Arc::clone(self.newer.entry(key).or_insert(maps))
+    }
+
+    /// The generations let go since last asked, for the caller to drop outside the lock.
+    fn take_retired(&mut self) -> Vec<HashMap<MapKey, Arc<V>>> {
+        std::mem::take(&mut self.retired)
     }
 }
 
@@ -186,15 +203,31 @@ static SHARED: OnceLock<Mutex<Shared>> = OnceLock::new();
 fn shared_maps(a: &AugMatrix, h: f64) -> Arc<ModeMaps> {
     let key: MapKey = (a.iter().map(|v| v.to_bits()).collect(), h.to_bits());
     let shared = SHARED.get_or_init(|| Mutex::new(Shared::new()));
+    shared_in(shared, key, || ModeMaps::new(a, h))
+}
+
+/// The value under `key` in `shared`, built where it has none. Neither the building nor the
+/// dropping of a generation let go is done with the lock held.
+fn shared_in<V>(shared: &Mutex<Generations<V>>, key: MapKey, build: impl FnOnce() -> V) -> Arc<V> {
     // A panic elsewhere while the lock was held leaves whole entries only.
     let lock = || shared.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some(m) = lock().find(&key) {
+    let (found, retired) = {
+        let mut g = lock();
+        (g.find(&key), g.take_retired())
+    };
+    drop(retired);
+    if let Some(m) = found {
         return m;
     }
     // Built outside the lock, so one slow mode holds up no other simulation; two threads
     // that build the same maps at once build equal ones, and the first kept is used.
-    let built = Arc::new(ModeMaps::new(a, h));
-    lock().insert(key, built)
+    let built = Arc::new(build());
+    let (kept, retired) = {
+        let mut g = lock();
+        (g.insert(key, built), g.take_retired())
+    };
+    drop(retired);
+    kept
 }
 
 #[cfg(test)]
@@ -256,6 +289,42 @@ mod tests {
         assert!(shared.find(&key(1)).is_none());
         let last = 4 * GENERATION_MAX - 1;
         assert_eq!(shared.find(&key(last)).as_deref(), Some(&last));
+    }
+
+    /// A value that counts whether it was dropped with [`PROBED`]'s lock held.
+    struct Probe;
+
+    static PROBED: OnceLock<Mutex<Generations<Probe>>> = OnceLock::new();
+    static DROPS: [std::sync::atomic::AtomicUsize; 2] = [AtomicUsize::new(0), AtomicUsize::new(0)];
+
+    impl Drop for Probe {
+        fn drop(&mut self) {
+            let locked = matches!(
+                PROBED.get().map(Mutex::try_lock),
+                Some(Err(std::sync::TryLockError::WouldBlock))
+            );
+            DROPS[usize::from(locked)].fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    /// The maps a turn of generations lets go are dropped once the lock is let go: none
+    /// with it held, and every one of the older generation's (on one thread, the lock is
+    /// held only by it).
+    #[test]
+    fn a_generation_let_go_is_dropped_outside_the_lock() {
+        let shared = PROBED.get_or_init(|| Mutex::new(Generations::new()));
+        let key = |i: usize| -> MapKey { (vec![i as u64], 1) };
+        // Three generations' worth: the second turn lets go of the first generation.
+        for i in 0..3 * GENERATION_MAX {
+            shared_in(shared, key(i), || Probe);
+        }
+        assert_eq!(
+            DROPS[1].load(Ordering::Relaxed),
+            0,
+            "dropped with the lock held"
+        );
+        assert!(DROPS[0].load(Ordering::Relaxed) >= GENERATION_MAX);
+        assert!(shared.lock().unwrap().retired.is_empty());
     }
 
     /// Each level's map is the one nalgebra's exponential of that level's balanced matrix
@@ -324,6 +393,7 @@ mod tests {
         let maps = ModeMaps::new(&a, h);
         // Asked for out of order, as a bisection after a first full step does.
         let order = std::iter::once(LEVELS / 2).chain(0..=LEVELS);
+        let mut filled = std::collections::BTreeSet::new();
         for level in order {
             let mut m = a * (h / (1u64 << level) as f64);
             let d = nalgebra::linalg::balancing::balance_parlett_reinsch(&mut m);
@@ -331,6 +401,10 @@ mod tests {
             nalgebra::linalg::balancing::unbalance(&mut e, &d);
             let want = e.fixed_view::<N, NA>(0, 0).into_owned();
             assert_eq!(maps.at(level), &want, "{mode} h {h} level {level}");
+            // The shared products are held until the last level is filled, not after.
+            filled.insert(level);
+            let held = maps.exps.lock().unwrap().holds_products();
+            assert_eq!(held, filled.len() <= LEVELS, "{mode} h {h} level {level}");
         }
         let squarings = maps.exps.lock().unwrap().squarings();
         (LEVELS + 1, squarings)

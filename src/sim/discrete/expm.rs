@@ -140,6 +140,8 @@ pub(super) struct DyadicExp {
     powers: [Option<Square>; 5],
     /// Order-13 approximants by the scale 2^−j they were taken at, each with its squares.
     squared: Vec<(i32, Vec<Square>)>,
+    /// The squarings formed, those let go included.
+    squarings: usize,
 }
 
 impl DyadicExp {
@@ -148,16 +150,28 @@ impl DyadicExp {
             a,
             powers: [None; 5],
             squared: Vec::new(),
+            squarings: 0,
         }
     }
 
     /// The squarings formed so far (shared by the levels that needed them).
     #[cfg(test)]
     pub(super) fn squarings(&self) -> usize {
-        self.squared
-            .iter()
-            .map(|(_, squares)| squares.len() - 1)
-            .sum()
+        self.squarings
+    }
+
+    /// Lets go of the shared powers, approximants and squares (most of the memory: some
+    /// 15 to 100 kB), where no level is asked for again. A level asked for after all forms
+    /// them again from the matrix, as it would have the first time.
+    pub(super) fn release(&mut self) {
+        self.powers = [None; 5];
+        self.squared = Vec::new();
+    }
+
+    /// Whether the shared products are held.
+    #[cfg(test)]
+    pub(super) fn holds_products(&self) -> bool {
+        self.powers.iter().any(Option::is_some) || !self.squared.is_empty()
     }
 
     /// M^(2i+2) of level 0, formed as the method forms it (M⁴ = M²·M², M⁶ = M⁴·M²,
@@ -266,6 +280,7 @@ impl DyadicExp {
         while squares.len() <= s {
             let x = *squares.last().expect("never empty");
             squares.push(x * x);
+            self.squarings += 1;
         }
         squares[s]
     }
