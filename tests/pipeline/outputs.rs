@@ -7,24 +7,27 @@ use std::process::Output;
 
 use crate::common;
 
-use common::cli::{read_json, run, sample, text};
+use common::cli::{read_json, run, run_ok, sample, text};
 
-/// `check` of the square sample with `extra` arguments, as [`run`] runs it.
-fn check(extra: &[&str]) -> Output {
+/// `check` of the square sample with `extra` arguments, run by `runner` ([`run`] or
+/// [`run_ok`]).
+fn check_with(extra: &[&str], runner: fn(&[&str]) -> Output) -> Output {
     let square = sample("square.nc");
     let args: Vec<&str> = ["check", square.to_str().unwrap()]
         .into_iter()
         .chain(extra.iter().copied())
         .collect();
-    run(&args)
+    runner(&args)
 }
 
-/// [`check`], which must succeed (what it wrote to stderr is shown if it does not).
-#[track_caller]
+/// [`check_with`] as [`run`] runs it.
+fn check(extra: &[&str]) -> Output {
+    check_with(extra, run)
+}
+
+/// [`check_with`] as [`run_ok`] runs it: it must succeed.
 fn check_ok(extra: &[&str]) -> Output {
-    let o = check(extra);
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
-    o
+    check_with(extra, run_ok)
 }
 
 /// The report a plain file gets, to compare with.
