@@ -331,40 +331,124 @@ mod tests {
     /// gives, bit for bit: halving a matrix leaves its balancing as it was, and the shared
     /// powers, approximants and squares are exactly what each level would have formed (only
     /// subnormal entries could round otherwise; these dynamics have none). Every friction and
-    /// contact mode, limits off, held and sliding, both presets' axes, steps needing from no
-    /// squaring to a dozen.
+    /// contact mode, current and voltage limits off, held and sliding, both presets' axes and
+    /// one with presliding bristles, steps needing from no squaring to a dozen. Each level
+    /// takes the Padé order the paper's bounds give for its matrix, and every order is taken.
     #[test]
     fn maps_at_every_level_are_each_levels_own_exponential() {
         use crate::sim::model::ClampMode::*;
         use crate::sim::model::ContactMode::*;
         use crate::sim::model::FrictionMode::*;
-        let (mut checked, mut squarings) = (0, 0);
+        let mut axes = Vec::new();
         for preset in ["hvmc", "small-table"] {
             let machine = MachineConfig::preset(preset).unwrap();
-            for axis in [&machine.x, &machine.y] {
-                let model = AxisModel::from_config(axis);
-                for friction in [SlipPos, SlipNeg, Stick] {
-                    for contact in [Pos, Free, Neg] {
-                        for current in [Linear, HeldHi, SlideLo] {
-                            let mode = Mode {
-                                friction,
-                                contact,
-                                current,
-                                voltage: Linear,
-                            };
-                            for h in [1e-4, 1e-3] {
-                                let (levels, squared) = check_levels(&model, mode, h);
-                                checked += levels;
-                                squarings += squared;
-                            }
+            axes.extend([machine.x, machine.y]);
+        }
+        axes.push(bristled());
+        let limits = [
+            (Linear, Linear),
+            (HeldHi, Linear),
+            (SlideLo, Linear),
+            (Linear, HeldHi),
+            (Linear, SlideLo),
+            (HeldLo, SlideHi),
+        ];
+        let (mut checked, mut squarings) = (0, 0);
+        let mut orders = [[0usize; 5]; LEVELS + 1];
+        for axis in &axes {
+            let model = AxisModel::from_config(axis);
+            for friction in [SlipPos, SlipNeg, Stick] {
+                for contact in [Pos, Free, Neg] {
+                    for (current, voltage) in limits {
+                        let mode = Mode {
+                            friction,
+                            contact,
+                            current,
+                            voltage,
+                        };
+                        for h in [1e-4, 1e-3] {
+                            let (levels, squared) = check_levels(&model, mode, h, &mut orders);
+                            checked += levels;
+                            squarings += squared;
                         }
                     }
                 }
             }
         }
-        assert_eq!(checked, 2 * 2 * 3 * 3 * 3 * 2 * (LEVELS + 1));
+        assert_eq!(checked, 5 * 3 * 3 * 6 * 2 * (LEVELS + 1));
         // The coarse levels of the stiff drives came from shared squares.
         assert!(squarings > 100, "{squarings} squarings");
+        for (i, order) in PADE_ORDERS.iter().enumerate() {
+            assert!(orders.iter().any(|o| o[i] > 0), "order {order}: {orders:?}");
+        }
+    }
+
+    /// The Padé orders, and the bounds on the norms of a matrix's powers below which orders
+    /// 3, 5, 7 and 9 reach unit roundoff (Al-Mohy and Higham 2009, table 3.1); order 13 above.
+    const PADE_ORDERS: [usize; 5] = [3, 5, 7, 9, 13];
+    const PADE_BOUNDS: [f64; 4] = [
+        1.495_585_217_958_292e-2,
+        2.539_398_330_063_23e-1,
+        9.504_178_996_162_932e-1,
+        2.097_847_961_257_068e0,
+    ];
+
+    /// The order the bounds give for `m`: 3 or 5 where max(‖M⁴‖^¼, ‖M⁶‖^⅙) is below theirs, 7
+    /// or 9 where max(‖M⁶‖^⅙, ‖M⁸‖^⅛) is (1-norms), else 13 (the paper's algorithm 5.1, its
+    /// extra squarings for rounding aside).
+    fn pade_order(m: &AugMatrix) -> usize {
+        let norm = |p: &AugMatrix| {
+            p.column_iter()
+                .map(|c| c.iter().map(|v| v.abs()).sum::<f64>())
+                .fold(0.0, f64::max)
+        };
+        let m2 = m * m;
+        let m4 = m2 * m2;
+        let m6 = m4 * m2;
+        let m8 = m6 * m2;
+        let (d4, d6, d8) = (
+            norm(&m4).powf(0.25),
+            norm(&m6).powf(1.0 / 6.0),
+            norm(&m8).powf(0.125),
+        );
+        let eta = [d4.max(d6), d4.max(d6), d6.max(d8), d6.max(d8)];
+        (0..4)
+            .find(|&i| eta[i] < PADE_BOUNDS[i])
+            .map_or(13, |i| PADE_ORDERS[i])
+    }
+
+    /// hvmc's X (a modelled current loop, so its voltage limit acts) with presliding
+    /// bristles of 50 N/µm: its friction is the bristles', not a Coulomb term in the maps.
+    fn bristled() -> crate::machine::AxisConfig {
+        let mut x = MachineConfig::preset("hvmc").unwrap().x;
+        let f = &mut x.friction;
+        f.bristle_stiffness_n_per_um = 50.0;
+        f.bristle_damping_n_s_per_m = 2e4;
+        f.static_to_coulomb = 0.7;
+        f.stribeck_velocity_mm_per_min = 600.0;
+        x
+    }
+
+    /// The bristled axis's and the voltage-limited modes' maps are of other dynamics than
+    /// those of the same modes without: the test above covers them.
+    #[test]
+    fn bristles_and_a_voltage_limit_change_the_dynamics() {
+        use crate::sim::model::ClampMode::*;
+        let plain = AxisModel::from_config(&MachineConfig::preset("hvmc").unwrap().x);
+        let bristles = AxisModel::from_config(&bristled());
+        assert!(bristles.presliding.is_some());
+        let mode = |voltage| Mode {
+            friction: FrictionMode::SlipPos,
+            contact: ContactMode::Pos,
+            current: Linear,
+            voltage,
+        };
+        assert_ne!(
+            plain.dynamics(mode(Linear)),
+            bristles.dynamics(mode(Linear))
+        );
+        assert_ne!(plain.dynamics(mode(Linear)), plain.dynamics(mode(HeldHi)));
+        assert_ne!(plain.dynamics(mode(HeldHi)), plain.dynamics(mode(SlideLo)));
     }
 
     /// Dynamics with an infinite entry, or finite ones whose powers overflow, give maps that
@@ -387,8 +471,14 @@ mod tests {
         }
     }
 
-    /// The levels checked and the squarings they shared.
-    fn check_levels(model: &AxisModel, mode: Mode, h: f64) -> (usize, usize) {
+    /// The levels checked and the squarings they shared; the orders the levels took counted
+    /// into `orders` (by level, as [`PADE_ORDERS`]), each the one [`pade_order`] gives.
+    fn check_levels(
+        model: &AxisModel,
+        mode: Mode,
+        h: f64,
+        orders: &mut [[usize; 5]; LEVELS + 1],
+    ) -> (usize, usize) {
         let a = model.dynamics(mode);
         let maps = ModeMaps::new(&a, h);
         // Asked for out of order, as a bisection after a first full step does.
@@ -406,7 +496,18 @@ mod tests {
             let held = maps.exps.lock().unwrap().holds_products();
             assert_eq!(held, filled.len() <= LEVELS, "{mode} h {h} level {level}");
         }
-        let squarings = maps.exps.lock().unwrap().squarings();
-        (LEVELS + 1, squarings)
+        let exps = maps.exps.lock().unwrap();
+        for &(level, order) in &exps.orders {
+            let mut m = a * (h / (1u64 << level) as f64);
+            nalgebra::linalg::balancing::balance_parlett_reinsch(&mut m);
+            assert_eq!(order, pade_order(&m), "{mode} h {h} level {level}");
+            let i = PADE_ORDERS
+                .iter()
+                .position(|&o| o == order)
+                .expect("a Padé order");
+            orders[level][i] += 1;
+        }
+        assert_eq!(exps.orders.len(), LEVELS + 1, "each level once");
+        (LEVELS + 1, exps.squarings())
     }
 }

@@ -142,6 +142,9 @@ pub(super) struct DyadicExp {
     squared: Vec<(i32, Vec<Square>)>,
     /// The squarings formed, those let go included.
     squarings: usize,
+    /// The approximant's order each level took (0 where the map is not finite), as asked.
+    #[cfg(test)]
+    pub(super) orders: Vec<(usize, usize)>,
 }
 
 impl DyadicExp {
@@ -151,6 +154,8 @@ impl DyadicExp {
             powers: [None; 5],
             squared: Vec::new(),
             squarings: 0,
+            #[cfg(test)]
+            orders: Vec::new(),
         }
     }
 
@@ -206,8 +211,17 @@ impl DyadicExp {
     /// finest level, no machine's dynamics) would need more squarings than the exact scalings
     /// by powers of two allow.
     pub(super) fn at(&mut self, k: usize) -> Square {
+        let (e, _order) = self.with_order(k);
+        #[cfg(test)]
+        self.orders.push((k, _order));
+        e
+    }
+
+    /// [`DyadicExp::at`] and the order of the approximant taken (0 where it is not finite).
+    fn with_order(&mut self, k: usize) -> (Square, usize) {
+        let not_finite = (Square::repeat(f64::NAN), 0);
         if !self.a.iter().all(|v| v.is_finite()) {
-            return Square::repeat(f64::NAN);
+            return not_finite;
         }
         let k = k as i32;
         let m = self.a * pow2(-k);
@@ -215,24 +229,24 @@ impl DyadicExp {
         let d6 = self.norm_root(2, k);
         let eta_1 = d4.max(d6);
         if eta_1 < THETA[0] && extra_squarings(&m, 3) == 0 {
-            return self.low_order(&m, k, &B3);
+            return (self.low_order(&m, k, &B3), 3);
         }
         if eta_1 < THETA[1] && extra_squarings(&m, 5) == 0 {
-            return self.low_order(&m, k, &B5);
+            return (self.low_order(&m, k, &B5), 5);
         }
         let d8 = self.norm_root(3, k);
         let eta_3 = d6.max(d8);
         if eta_3 < THETA[2] && extra_squarings(&m, 7) == 0 {
-            return self.low_order(&m, k, &B7);
+            return (self.low_order(&m, k, &B7), 7);
         }
         if eta_3 < THETA[3] && extra_squarings(&m, 9) == 0 {
-            return self.low_order(&m, k, &B9);
+            return (self.low_order(&m, k, &B9), 9);
         }
         let eta_4 = d8.max(self.norm_root(4, k));
         let eta_5 = eta_3.min(eta_4);
         if !eta_5.is_finite() {
             // Finite entries whose powers overflow: no number of squarings brings them back.
-            return Square::repeat(f64::NAN);
+            return not_finite;
         }
         let mut s = if eta_5 == 0.0 {
             0
@@ -244,9 +258,9 @@ impl DyadicExp {
         // The order-13 matrix's scale 2^−j enters as 2^−6j in its sixth power: j stays where
         // that is a normal number.
         if s > MAX_SCALE as u64 {
-            return Square::repeat(f64::NAN);
+            return not_finite;
         }
-        self.squared_order13(k + s as i32, s as usize)
+        (self.squared_order13(k + s as i32, s as usize), 13)
     }
 
     /// The approximant of order 3, 5, 7 or 9 (its coefficients `b`) at level k: U = M·Σ
