@@ -199,10 +199,12 @@ use Rule::{NonNegative, Positive, Range};
 
 /// Every scalar key of an axis (`[x]`, `[y]`), in the machine file's order.
 pub const AXIS_KEYS: &[AxisKey] = &[
+    // A loop 0.001 m/min/mm (0.017 1/s) closes over a minute, where machines' close within
+    // a tenth of a second (0.5 m/min/mm and more): below it a program never ends its waits.
     key!(
         "position_loop.kv_m_per_min_per_mm",
         "m/min/mm",
-        Positive(100.0),
+        Range(1e-3, 100.0),
         Cascade,
         "position-loop gain K_v (1 m/min/mm = 16.667 1/s)",
         |a| a.position_loop.kv_m_per_min_per_mm
@@ -243,21 +245,29 @@ pub const AXIS_KEYS: &[AxisKey] = &[
         "state feedback or transfer function: acceleration feed-forward share", StateFeedback | TransferFunction => accel_feedforward),
     controller!("controller.sample_ms", "ms", Range(0.0, 100.0),
         "transfer function: sampling period in z (0: given in s)", TransferFunction => sample_ms),
-    optional!("velocity_loop.ks_nm_s_per_rad", "N·m·s/rad", Positive(1e5), VelocityLoop,
+    // The loops' gains and times have floors far below any drive's, each said why: near zero
+    // a loop has no gain, or its dynamics' entries (a time's inverse) are too large to
+    // simulate, and the error would name the stability or the simulation, not the key.
+    // K_s: a drive's is some 0.01 N·m·s/rad and more.
+    optional!("velocity_loop.ks_nm_s_per_rad", "N·m·s/rad", Range(1e-6, 1e5), VelocityLoop,
         "velocity-loop proportional gain K_s as set on the control", |a| a.velocity_loop, l => l.ks_nm_s_per_rad),
-    optional!("velocity_loop.ts_ms", "ms", Positive(1e6), VelocityLoop,
+    // T_s: 1 µs, a tenth of the fastest velocity loop's sampling period.
+    optional!("velocity_loop.ts_ms", "ms", Range(1e-3, 1e6), VelocityLoop,
         "velocity-loop integral time T_s", |a| a.velocity_loop, l => l.ts_ms),
     optional!("velocity_loop.i_max_a", "A", Positive(1e5), VelocityLoop,
         "current command limit", |a| a.velocity_loop, l => l.i_max_a),
-    optional!("current_loop.ki_v_per_a", "V/A", Positive(1e5), Always,
+    // K_i: a current loop's is some volts per ampere, a microvolt per ampere is none.
+    optional!("current_loop.ki_v_per_a", "V/A", Range(1e-6, 1e5), Always,
         "current-loop proportional gain K_i", |a| a.current_loop, l => l.ki_v_per_a),
-    optional!("current_loop.ti_ms", "ms", Positive(1e6), Always,
+    // T_i and the filters' time constant: 1 µs, below any current loop's sampling period.
+    optional!("current_loop.ti_ms", "ms", Range(1e-3, 1e6), Always,
         "current-loop integral time T_i", |a| a.current_loop, l => l.ti_ms),
-    optional!("current_loop.tcf_ms", "ms", Positive(1e3), Always,
+    optional!("current_loop.tcf_ms", "ms", Range(1e-3, 1e3), Always,
         "time constant of the current filters", |a| a.current_loop, l => l.tcf_ms),
     optional!("current_loop.u_max_v", "V", Positive(1e5), Always,
         "voltage limit", |a| a.current_loop, l => l.u_max_v),
-    optional!("amplifier.current_bandwidth_hz", "Hz", Positive(1e5), Always,
+    // A current amplifier's bandwidth is hundreds of hertz and more: 1 Hz is none's.
+    optional!("amplifier.current_bandwidth_hz", "Hz", Range(1.0, 1e5), Always,
         "current amplifier's bandwidth", |a| a.amplifier, l => l.current_bandwidth_hz),
     Key {
         path: "amplifier.i_max_a",
@@ -274,14 +284,18 @@ pub const AXIS_KEYS: &[AxisKey] = &[
             None => false,
         },
     },
-    optional!("motor.ra_ohm", "Ω", Positive(1e3), Always,
+    // R_a and L_a: a winding's are some 0.1 Ω and 1 mH; a microohm and a microhenry are no
+    // motor's (near zero the current's equation divides by L_a).
+    optional!("motor.ra_ohm", "Ω", Range(1e-6, 1e3), Always,
         "armature resistance R_a (with a current loop)", |a| a.motor.ra_ohm, r => *r),
-    optional!("motor.la_mh", "mH", Positive(1e4), Always,
+    optional!("motor.la_mh", "mH", Range(1e-3, 1e4), Always,
         "armature inductance L_a (with a current loop)", |a| a.motor.la_mh, l => *l),
+    // K_t: the smallest servo motors give some 0.01 N·m/A; at 1e-4 no feed drive's current
+    // moves its table (near zero the gains `identify` finds relative to it grow without bound).
     key!(
         "motor.kt_nm_per_a",
         "N·m/A",
-        Positive(1e3),
+        Range(1e-4, 1e3),
         Always,
         "torque constant K_t (force constant in N/A on a linear motor)",
         |a| a.motor.kt_nm_per_a
@@ -307,10 +321,12 @@ pub const AXIS_KEYS: &[AxisKey] = &[
         "screw inertia J_s",
         |a| a.drive.js_kg_m2
     ),
+    // Stiffnesses: a coupling and screw twist at some 10³ N·m/rad and more, a screw, nut and
+    // bearings yield at some 10⁷ N/m and more; 1 N·m/rad and 1 N/mm hold no table.
     key!(
         "drive.k_theta_nm_per_rad",
         "N·m/rad",
-        Positive(1e12),
+        Range(1.0, 1e12),
         Always,
         "torsional stiffness of coupling and screw",
         |a| a.drive.k_theta_nm_per_rad
@@ -318,7 +334,7 @@ pub const AXIS_KEYS: &[AxisKey] = &[
     key!(
         "drive.k_m_n_per_m",
         "N/m",
-        Positive(1e12),
+        Range(1e3, 1e12),
         Always,
         "axial stiffness of screw, nut and bearings",
         |a| a.drive.k_m_n_per_m
@@ -870,6 +886,41 @@ pub fn reference_markdown() -> String {
 mod tests {
     use super::*;
     use crate::machine::MachineConfig;
+
+    /// A value near zero of a key with a floor is the key's error, naming it, not a
+    /// simulation that cannot run; the floor itself is read.
+    #[test]
+    fn a_value_near_zero_is_the_keys_error() {
+        let floored = [
+            ("hvmc", "position_loop", "kv_m_per_min_per_mm", 1e-3),
+            ("hvmc", "velocity_loop", "ks_nm_s_per_rad", 1e-6),
+            ("hvmc", "velocity_loop", "ts_ms", 1e-3),
+            ("hvmc", "current_loop", "ki_v_per_a", 1e-6),
+            ("hvmc", "current_loop", "ti_ms", 1e-3),
+            ("hvmc", "current_loop", "tcf_ms", 1e-3),
+            ("small-table", "amplifier", "current_bandwidth_hz", 1.0),
+            ("hvmc", "motor", "ra_ohm", 1e-6),
+            ("hvmc", "motor", "la_mh", 1e-3),
+            ("hvmc", "motor", "kt_nm_per_a", 1e-4),
+            ("hvmc", "drive", "k_theta_nm_per_rad", 1.0),
+            ("hvmc", "drive", "k_m_n_per_m", 1e3),
+        ];
+        let file = |base: &str, section: &str, key: &str, value: f64| {
+            let text =
+                format!("base = \"{base}\"\nname = \"m\"\n[x.{section}]\n{key} = {value:e}\n");
+            MachineConfig::from_toml_str(&text, "m.toml")
+        };
+        for (base, section, key, floor) in floored {
+            for near_zero in [1e-200, 0.5 * floor] {
+                let e = file(base, section, key, near_zero)
+                    .expect_err(key)
+                    .to_string();
+                let named = format!("m.toml:4:1: key `x.{section}.{key}` must lie between");
+                assert!(e.starts_with(&named), "{e}");
+            }
+            assert!(file(base, section, key, floor).is_ok(), "{key} at {floor}");
+        }
+    }
 
     #[test]
     fn every_key_reads_back_what_was_set() {
