@@ -152,8 +152,9 @@ struct Generations<V> {
 type Shared = Generations<ModeMaps>;
 
 /// Modes' maps in one generation: an entry is about 70 to 120 kB at the presets' steps (its
-/// key, room for every level and the products its levels share; up to ~160 kB for a mode
-/// needing 16 or more squarings), so some 60 MB for the two generations at the presets' steps.
+/// key, room for every level and the products its levels share, which are let go once every
+/// level is filled; up to ~160 kB for a mode needing 16 or more squarings), so at most some
+/// 60 MB for the two generations at the presets' steps.
 const GENERATION_MAX: usize = 256;
 
 impl<V> Generations<V> {
