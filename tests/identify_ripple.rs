@@ -175,8 +175,11 @@ fn without_a_template_the_ripple_is_found_at_its_lead_on_the_axis_that_has_it() 
     assert_eq!(id.machine.x.errors.force_ripple_period_mm, PERIOD_MM);
     let verdict = x.force_ripple.as_ref().expect("X's period chosen");
     assert!(verdict.written, "{verdict:?}");
+    // The loop model's mass is not the table's, so the force is not compared; its phase
+    // against the position is the table's whatever carries it.
     let phase = value(x, "errors.force_ripple_phase_deg");
-    eprintln!("phase {phase:?}");
+    assert!(phase.uncertainty < 20.0, "{phase:?}");
+    assert_within_k_sigma("phase (°)", KNOWN.1, phase.value, phase.uncertainty, 3.0);
     assert!(
         y.force_ripple.as_ref().is_none_or(|v| !v.written),
         "{:?}",

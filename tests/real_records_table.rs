@@ -39,8 +39,8 @@ fn table_record() -> Option<MeasuredTrace> {
     // 2.6 s of standstill after that make each identification half as long again. What
     // the assertions below ask holds on either stretch; the shares move with the samples
     // compared (from the template X 26.2 % against 26.3 % with presliding bristles, Y 28.0 %
-    // against 28.1 % with the force ripple; the loop model X 30.6 % on both, Y 36.5 % against
-    // 43.4 %).
+    // against 28.1 % with the force ripple; the loop model, with the ripple at the lead its
+    // halves take, X 23.8 % and Y 32.7 % on both).
     let kept: String = text
         .lines()
         .enumerate()
