@@ -489,7 +489,7 @@ fn identify_ordered(
 
 /// The loop model of the order the held-out halves choose: each order is kept over the one
 /// below only where it predicts them better by more than a twentieth. The record names no
-/// ripple's period: where both halves choose one on the fit (`ripple::period`), the orders
+/// ripple's period: where both halves gain from a lead's on the fit (`ripple::period`), the orders
 /// are fitted again with it, the ripple on top judged as a template's period would be.
 fn identify_loop_order(
     fit: &Fit,

@@ -1,5 +1,5 @@
 //! A ripple's period where no template names one (`--template none`): looked for among the
-//! leads ball screws are made with, each half of the record choosing on its own samples.
+//! leads ball screws are made with, each half of the record's gain counted on its own samples.
 //!
 //! A motor's torque ripple and a screw's eccentricity repeat once per motor turn — on a
 //! direct-driven ball screw, once per lead. The leads makers offer are few, so each is
