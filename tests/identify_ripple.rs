@@ -18,7 +18,9 @@ use common::program_text;
 use common::reference::{self, Cycle, Recording};
 use contourcheck::compare::CompareSettings;
 use contourcheck::gcode::Program;
-use contourcheck::identify::{AxisIdentification, Identification, IdentifiedValue, identify};
+use contourcheck::identify::{
+    AxisIdentification, Identification, IdentifiedValue, identify, identify_loop, loop_template,
+};
 use contourcheck::machine::MachineConfig;
 use contourcheck::sim::MeasuredAt;
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
@@ -152,6 +154,36 @@ fn a_ripple_of_known_amplitude_and_phase_is_found_where_it_is_and_nowhere_else()
         y_verdict.statement.contains("not determined ("),
         "{}",
         y_verdict.statement
+    );
+}
+
+#[test]
+fn without_a_template_the_ripple_is_found_at_its_lead_on_the_axis_that_has_it() {
+    // No template names a period: each half of the record chooses, on its own samples, the
+    // lead whose ripple on top of the loop model lowers its residual most. X's 12 N every
+    // 2.5 mm (a lead ball screws are made with) is found at 2.5 mm and written, at the
+    // table's phase; Y, which has none, gets none written.
+    let measured = &known().0;
+    let start = loop_template(measured);
+    let mut settings = CompareSettings::for_machine(&start);
+    settings.measured_at = MeasuredAt::Motor;
+    let id = identify_loop(&program(), &start, measured, &settings).unwrap();
+    let (x, y) = (&id.axes[0], &id.axes[1]);
+    for a in [x, y] {
+        eprintln!("{}: {:?}", a.axis, a.force_ripple);
+    }
+    assert_eq!(id.machine.x.errors.force_ripple_period_mm, PERIOD_MM);
+    let verdict = x.force_ripple.as_ref().expect("X's period chosen");
+    assert!(verdict.written, "{verdict:?}");
+    // The loop model's mass is not the table's, so the force is not compared; its phase
+    // against the position is the table's whatever carries it.
+    let phase = value(x, "errors.force_ripple_phase_deg");
+    assert!(phase.uncertainty < 20.0, "{phase:?}");
+    assert_within_k_sigma("phase (°)", KNOWN.1, phase.value, phase.uncertainty, 3.0);
+    assert!(
+        y.force_ripple.as_ref().is_none_or(|v| !v.written),
+        "{:?}",
+        y.force_ripple
     );
 }
 

@@ -6,7 +6,9 @@
 //! friction — whose values stand for the loop's behaviour, not for the machine's parts: a
 //! table run by a PID on a current amplifier is described by the cascade that follows its
 //! commands alike. It is fitted in increasing order, each order kept only where it predicts
-//! the record's held-out halves better than the one below it (see [`orders`]).
+//! the record's held-out halves better than the one below it (see [`orders`]). A force
+//! ripple's period, which a template would name, is looked for among the leads ball screws
+//! are made with (`super::ripple::period`).
 
 use super::knobs::{self, Knob};
 use crate::machine::{AxisName, Controller, MachineConfig, VelocityLoop};

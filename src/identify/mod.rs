@@ -494,7 +494,9 @@ fn identify_ordered(
 }
 
 /// The loop model of the order the held-out halves choose: each order is kept over the one
-/// below only where it predicts them better by more than a twentieth.
+/// below only where it predicts them better by more than a twentieth. The record names no
+/// ripple's period: where both halves gain from a lead's on the fit (`ripple::period`), the orders
+/// are fitted again with it, the ripple on top judged as a template's period would be.
 fn identify_loop_order(
     fit: &Fit,
     template: &MachineConfig,
@@ -514,6 +516,18 @@ fn identify_loop_order(
         if better {
             chosen = Some((i + 1, found));
         }
+    }
+    if template.axis(fit.axis()).errors.force_ripple_period_mm <= 0.0
+        && let Some(period_mm) = chosen
+            .as_ref()
+            .and_then(|(_, (config, _))| ripple::period::chosen_mm(fit, config))
+    {
+        let mut with_period = template.clone();
+        with_period
+            .axis_mut(fit.axis())
+            .errors
+            .force_ripple_period_mm = period_mm;
+        return identify_loop_order(fit, &with_period, moving_only);
     }
     chosen.map(|(order, (config, mut id))| {
         id.kept = loop_model::describes(order);

@@ -1,6 +1,7 @@
 //! A force that repeats with the table's position (a motor's torque ripple or cogging, a
 //! screw's eccentricity), fitted on top of an axis's fit where the template names its period
-//! (`errors.force_ripple_period_mm`: a motor turn's travel).
+//! (`errors.force_ripple_period_mm`: a motor turn's travel) — without a template, where both
+//! halves of the record choose the same lead ([`period`]).
 //!
 //! The ripple's sine and cosine parts act on the residual nearly linearly (the loop is linear
 //! but for friction switching), so each is found by least squares from two simulations more,
@@ -33,6 +34,7 @@ use crate::machine::AxisConfig;
 use crate::numeric::units::um_from_m;
 
 mod columns;
+pub(super) mod period;
 mod tie;
 
 use columns::Columns;

@@ -114,6 +114,22 @@ impl Parts {
         Ok((-alpha, -beta))
     }
 
+    /// How much the parts `(a, b)` lower the residual's sum of squares (m²) on the samples
+    /// `use_sample` allows.
+    pub(super) fn gain(
+        &self,
+        use_sample: &(dyn Fn(usize) -> bool + Sync),
+        (a, b): (f64, f64),
+    ) -> f64 {
+        (0..self.r0.len())
+            .filter(|&i| use_sample(i))
+            .map(|i| {
+                let left = self.r0[i] + a * self.s[i] + b * self.c[i];
+                self.r0[i] * self.r0[i] - left * left
+            })
+            .sum()
+    }
+
     /// The least-squares standard deviation (N) of the parts `(a, b)` fitted on the samples
     /// `use_sample` allows, along the direction the record fixes worst. The samples' errors
     /// are correlated, so this is a floor on the uncertainty, not all of it.
