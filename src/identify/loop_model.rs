@@ -10,8 +10,10 @@
 //! ripple's period, which a template would name, is looked for among the leads ball screws
 //! are made with (`super::ripple::period`).
 
+use super::AxisIdentification;
 use super::knobs::{self, Knob};
-use crate::machine::{AxisName, Controller, MachineConfig, VelocityLoop};
+use super::solve::Fit;
+use crate::machine::{AxisConfig, AxisName, Controller, MachineConfig, VelocityLoop};
 use crate::trace::measured::MeasuredTrace;
 
 /// The velocity loop's bandwidth the model starts from (Hz): well above a position loop's,
@@ -90,7 +92,7 @@ fn lag_gain_m_per_min_per_mm(command: &[f64], actual: &[f64], dt: f64) -> Option
 /// The orders tried, lowest first: the position loop (Kv, feed-forward, dead time) with
 /// friction; then the velocity loop's bandwidth too (the moving mass against K_s); then its
 /// integral action.
-pub(crate) fn orders(axis: &crate::machine::AxisConfig) -> Vec<Vec<Knob>> {
+pub(crate) fn orders(axis: &AxisConfig) -> Vec<Vec<Knob>> {
     let all = knobs::for_axis(axis);
     let pick = |keys: &[&str]| -> Vec<Knob> {
         all.iter()
@@ -138,4 +140,47 @@ mod tests {
         assert!((kv - 2.0).abs() < 1e-9, "{kv}");
         assert_eq!(lag_gain_m_per_min_per_mm(&command, &command, dt), None);
     }
+}
+
+/// The loop model of the order the held-out halves choose: each order is kept over the one
+/// below only where it predicts them better by more than a twentieth. The record names no
+/// ripple's period: where both halves gain from a lead's on the fit (`ripple::period`), the orders
+/// are fitted again with it, the ripple on top judged as a template's period would be.
+pub(super) fn identified(
+    fit: &Fit,
+    template: &MachineConfig,
+    moving_only: bool,
+) -> Option<(AxisConfig, AxisIdentification)> {
+    let mut chosen: Option<(usize, (AxisConfig, AxisIdentification))> = None;
+    for (i, knobs) in orders(template.axis(fit.axis())).iter().enumerate() {
+        let Some(found) = super::identify_on(fit, template, moving_only, knobs) else {
+            continue;
+        };
+        let better = chosen
+            .as_ref()
+            .is_none_or(|(_, c)| super::predicts_better(&found.1, &c.1));
+        if better {
+            chosen = Some((i + 1, found));
+        }
+    }
+    let looked_for = template.axis(fit.axis()).errors.force_ripple_period_mm <= 0.0;
+    if looked_for
+        && let Some(period_mm) = chosen
+            .as_ref()
+            .and_then(|(_, (config, _))| super::ripple::period::chosen_mm(fit, config))
+    {
+        let mut with_period = template.clone();
+        with_period
+            .axis_mut(fit.axis())
+            .errors
+            .force_ripple_period_mm = period_mm;
+        return identified(fit, &with_period, moving_only);
+    }
+    chosen.map(|(order, (config, mut id))| {
+        id.kept = describes(order);
+        if looked_for {
+            id.force_ripple = Some(super::ripple::period::none_found());
+        }
+        (config, id)
+    })
 }

@@ -264,7 +264,7 @@ fn fit_axis(
     let fit = Fit::new(ctx, template, axis, offset);
     let found = match model {
         Model::Template => identify_ordered(&fit, template, false, &[]),
-        Model::Loop => identify_loop_order(&fit, template, false),
+        Model::Loop => loop_model::identified(&fit, template, false),
     };
     let Some(mut everywhere) = found else {
         return unfitted(Fit::new(ctx, template, axis, offset), template.axis(axis));
@@ -330,7 +330,7 @@ fn fit_while_moving(
     let fit = Fit::new(ctx, template, axis, offset).masked(moving_samples(ctx, axis, offset));
     match model {
         Model::Template => identify_ordered(&fit, template, true, &[]),
-        Model::Loop => identify_loop_order(&fit, template, true),
+        Model::Loop => loop_model::identified(&fit, template, true),
     }
     .map(|found| verdict::judged(found, um_from_m(ctx.noise_sigma)))
 }
@@ -491,48 +491,6 @@ fn identify_ordered(
         (Some(f), Some(k)) => Some(if predicts_better(&f.1, &k.1) { f } else { k }),
         (f, k) => f.or(k),
     }
-}
-
-/// The loop model of the order the held-out halves choose: each order is kept over the one
-/// below only where it predicts them better by more than a twentieth. The record names no
-/// ripple's period: where both halves gain from a lead's on the fit (`ripple::period`), the orders
-/// are fitted again with it, the ripple on top judged as a template's period would be.
-fn identify_loop_order(
-    fit: &Fit,
-    template: &MachineConfig,
-    moving_only: bool,
-) -> Option<(AxisConfig, AxisIdentification)> {
-    let mut chosen: Option<(usize, (AxisConfig, AxisIdentification))> = None;
-    for (i, knobs) in loop_model::orders(template.axis(fit.axis()))
-        .iter()
-        .enumerate()
-    {
-        let Some(found) = identify_on(fit, template, moving_only, knobs) else {
-            continue;
-        };
-        let better = chosen
-            .as_ref()
-            .is_none_or(|(_, c)| predicts_better(&found.1, &c.1));
-        if better {
-            chosen = Some((i + 1, found));
-        }
-    }
-    if template.axis(fit.axis()).errors.force_ripple_period_mm <= 0.0
-        && let Some(period_mm) = chosen
-            .as_ref()
-            .and_then(|(_, (config, _))| ripple::period::chosen_mm(fit, config))
-    {
-        let mut with_period = template.clone();
-        with_period
-            .axis_mut(fit.axis())
-            .errors
-            .force_ripple_period_mm = period_mm;
-        return identify_loop_order(fit, &with_period, moving_only);
-    }
-    chosen.map(|(order, (config, mut id))| {
-        id.kept = loop_model::describes(order);
-        (config, id)
-    })
 }
 
 /// One axis on the samples `fit` uses: a staged start, the fit on the whole record and each

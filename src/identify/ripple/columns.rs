@@ -130,6 +130,24 @@ impl Parts {
             .sum()
     }
 
+    /// [`Parts::gain`] as a share of the residual's energy on the same samples (0 where they
+    /// hold none).
+    pub(super) fn share_gained(
+        &self,
+        use_sample: &(dyn Fn(usize) -> bool + Sync),
+        ab: (f64, f64),
+    ) -> f64 {
+        let energy: f64 = (0..self.r0.len())
+            .filter(|&i| use_sample(i))
+            .map(|i| self.r0[i] * self.r0[i])
+            .sum();
+        if energy > 0.0 {
+            self.gain(use_sample, ab) / energy
+        } else {
+            0.0
+        }
+    }
+
     /// The least-squares standard deviation (N) of the parts `(a, b)` fitted on the samples
     /// `use_sample` allows, along the direction the record fixes worst. The samples' errors
     /// are correlated, so this is a floor on the uncertainty, not all of it.
