@@ -180,7 +180,7 @@ pub(crate) fn uncertainties(jac: &DMatrix<f64>, cost: f64, noise: f64) -> Vec<f6
 
 /// No model is the machine: two faithful integrations of one small table — this tool's and
 /// an independent Runge–Kutta reference — differ by 20 to 35 nm on its record, half the
-/// noise of 0.1 µm counts (`tests/identify.rs`). A value is known no better than the change
+/// noise of 0.1 µm counts (`tests/identify/hidden_machines.rs`). A value is known no better than the change
 /// that raises the residual by that much in quadrature, with the other values refitted;
 /// identification and diagnosis both floor their uncertainties so.
 pub const MODEL_FLOOR_SHARE: f64 = 0.5;

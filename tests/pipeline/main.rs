@@ -1,9 +1,10 @@
 //! The tests of the pipeline from the G-code front end to the command line's outputs, and of
 //! the records with Z, in one test binary: one link instead of one per file, and their tests
 //! run side by side on every core. Each module is a former test file of its own; `common` is
-//! the helpers the test binaries share. The long identifications and diagnoses keep binaries
-//! of their own (`identify*`, `diagnose*`, `odd_records`, `reference_records`, the corpora and
-//! the real records), as do `layering` and `docs`, which read the sources.
+//! the helpers the test binaries share. The long identifications and diagnoses have binaries
+//! of the same kind (`tests/identify/`, `tests/diagnose/`); the corpora and the real records,
+//! which `.ci/run` runs alone with a variable set, `memory`, which measures its own process,
+//! and `layering` and `docs`, which read the sources, keep binaries of their own.
 
 #[path = "../common/mod.rs"]
 mod common;

@@ -15,10 +15,8 @@
 //! the design; judged by what it predicts, the fit that has them is written — each loose
 //! value flagged as traded with another, none read as a measurement — and it predicts
 //! another program's record better than the design does.
-//!
-//! (The two searches are tests of one binary so that they run side by side.)
 
-mod common;
+use crate::common;
 
 use common::assert_within_k_sigma;
 use common::identifying::{

@@ -4,7 +4,7 @@
 //! independent reference (`common::reference`) serves all four: a line out in X, Y and Z and
 //! back, Z going down 0.5 mm — half the travel Z's values need.
 
-mod common;
+use crate::common;
 
 use std::sync::OnceLock;
 

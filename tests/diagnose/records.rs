@@ -2,10 +2,10 @@
 //! recorded commands or by their own clock, in machine coordinates, at 50 Hz, with waits
 //! longer than planned, of another program (refused with the reason), without a program,
 //! and through the command line (`synth`, `diagnose`, `check` round trip; bad rows named).
-//! The records are made as in `diagnose.rs`: a hidden effect, 0.3 µm of noise, a clock
+//! The records are made as in `hidden_effects.rs`: a hidden effect, 0.3 µm of noise, a clock
 //! offset nobody tells the diagnosis.
 
-mod common;
+use crate::common;
 
 use std::process::Command;
 

@@ -7,7 +7,7 @@
 //! X's bristles are written, as a model's shape, and predict the record's held-out halves
 //! better than the fit without them; Y's hybrid friction gets none, and says why.
 
-mod common;
+use crate::common;
 
 use std::sync::OnceLock;
 

@@ -10,7 +10,7 @@
 //! record whose positions read carry a cyclic error at the period the machine file gives
 //! the ripple names no ripple.
 
-mod common;
+use crate::common;
 
 use common::reference::{Cycle, Recording, record};
 use common::{assert_within_k_sigma, program_text};

@@ -9,7 +9,7 @@
 //! recorded by the independent integrator of `common::reference` — neither the tool's
 //! simulator nor its interpolator — and identified from that record alike.
 
-mod common;
+use crate::common;
 
 use common::identifying::{
     encoder_record, fitted_program, gain_per_inertia, hidden_value, lead_lag_designed_and_run,
@@ -492,9 +492,10 @@ fn a_record_without_commands_or_with_a_still_axis_says_what_it_lacks() {
 /// machine has none), on a record of the independent integrator: no fit reaches the noise,
 /// so nothing is reported as a measurement. The machine written is the fit where it
 /// predicts the held-out halves better than the template (by a twentieth), its values a
-/// model's; otherwise the template's values stay (NOT IDENTIFIED).
+/// model's; otherwise the template's values stay (NOT IDENTIFIED). (One of the binary's
+/// longest searches: named to sort first in this file, see `main.rs`.)
 #[test]
-fn a_template_with_another_controller_measures_nothing() {
+fn a_controller_unlike_the_templates_measures_nothing() {
     let truth = MachineConfig::from_toml_str(
         "base = \"small-table\"\n[x.controller]\naccel_feedforward = 0.0\n\
          [y.controller]\naccel_feedforward = 0.0\n",
@@ -673,8 +674,8 @@ fn a_lead_lag_controller_far_from_its_design_is_found_from_it() {
 /// from the record alone: it predicts the halves of
 /// the record each fit did not see to within 15 % of their following error, another
 /// program's record to within 30 %, and says that it describes the loop rather than the
-/// machine's parts. (Among this file's longest searches, it is named to sort first, so that
-/// the two threads the tests run on start it first and end together.)
+/// machine's parts. (One of the binary's longest searches: named to sort second in this
+/// file, see `main.rs`.)
 #[test]
 fn a_controller_with_no_template_gets_a_loop_model_that_predicts_the_machine() {
     let mut truth =

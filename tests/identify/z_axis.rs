@@ -7,7 +7,7 @@
 //! The interpolator's limits are read from such records too: an acceleration held on every
 //! axis's ramps, and a jerk held by an interpolator that limits one.
 
-mod common;
+use crate::common;
 
 use common::program_text;
 use common::reference::{Recording, record, record_xyz};

@@ -7,7 +7,7 @@
 //! commands; with nothing hidden nothing may be named; a record decimated to other rates
 //! must give the same answer.
 
-mod common;
+use crate::common;
 
 use common::{assert_within_k_sigma_and_share, foreign_commands, program_text, sample_program};
 use contourcheck::diagnose::causes::CauseId;

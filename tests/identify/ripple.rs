@@ -7,7 +7,7 @@
 //! none on Y, which has none; an encoder's cyclic error of that period is not reported as a
 //! force found.
 
-mod common;
+use crate::common;
 
 use std::f64::consts::TAU;
 use std::sync::OnceLock;

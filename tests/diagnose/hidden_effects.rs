@@ -8,7 +8,7 @@
 //! whole-record RMS for causes that act everywhere, the RMS in windows around events for
 //! local ones, the mismatch of chatter amplitude for stick-slip. With nothing hidden it must name nothing.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::sync::OnceLock;

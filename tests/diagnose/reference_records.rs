@@ -4,7 +4,7 @@
 //! On nominal records the diagnosis must find the nominal model at the noise and name
 //! nothing; on the others it must name the effect, at its value within its uncertainty.
 
-mod common;
+use crate::common;
 
 use common::diagnosing::diagnose_nominal;
 use common::reference::{Recording, record};

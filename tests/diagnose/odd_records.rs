@@ -4,7 +4,7 @@
 //! inspecting, diagnosing and identifying each may refuse it, but only with an error: none
 //! may panic.
 
-mod common;
+use crate::common;
 
 use common::program_text;
 use contourcheck::diagnose::report::DiagnoseReport;
