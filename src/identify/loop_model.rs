@@ -124,24 +124,6 @@ pub(crate) fn describes(order: usize) -> String {
     )
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_lag_gives_the_gain() {
-        // A ramp followed at a lag of v/Kv with Kv 2 m/min/mm = 33.3 /s.
-        let dt = 1e-3;
-        let kv_per_s = 2.0 * 1000.0 / 60.0;
-        let v = 0.01;
-        let command: Vec<f64> = (0..1000).map(|k| v * k as f64 * dt).collect();
-        let actual: Vec<f64> = command.iter().map(|c| c - v / kv_per_s).collect();
-        let kv = lag_gain_m_per_min_per_mm(&command, &actual, dt).unwrap();
-        assert!((kv - 2.0).abs() < 1e-9, "{kv}");
-        assert_eq!(lag_gain_m_per_min_per_mm(&command, &command, dt), None);
-    }
-}
-
 /// The loop model of the order the held-out halves choose: each order is kept over the one
 /// below only where it predicts them better by more than a twentieth. The record names no
 /// ripple's period: where both halves gain from a lead's on the fit (`ripple::period`), the orders
@@ -183,4 +165,22 @@ pub(super) fn identified(
         }
         (config, id)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_lag_gives_the_gain() {
+        // A ramp followed at a lag of v/Kv with Kv 2 m/min/mm = 33.3 /s.
+        let dt = 1e-3;
+        let kv_per_s = 2.0 * 1000.0 / 60.0;
+        let v = 0.01;
+        let command: Vec<f64> = (0..1000).map(|k| v * k as f64 * dt).collect();
+        let actual: Vec<f64> = command.iter().map(|c| c - v / kv_per_s).collect();
+        let kv = lag_gain_m_per_min_per_mm(&command, &actual, dt).unwrap();
+        assert!((kv - 2.0).abs() < 1e-9, "{kv}");
+        assert_eq!(lag_gain_m_per_min_per_mm(&command, &command, dt), None);
+    }
 }

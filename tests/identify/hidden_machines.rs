@@ -695,6 +695,17 @@ fn a_controller_with_no_template_gets_a_loop_model_that_predicts_the_machine() {
     assert_eq!((&back.x, &back.y), (&id.machine.x, &id.machine.y));
     for a in &id.axes {
         assert!(a.kept.starts_with("no template"), "{}", a.kept);
+        // The table has no force repeating with position: no ball-screw lead is taken for
+        // one, and the report says so.
+        assert!(
+            a.force_ripple
+                .as_ref()
+                .is_some_and(|r| !r.written && r.statement.starts_with("force ripple: none found")),
+            "{}: {:?}",
+            a.axis,
+            a.force_ripple
+        );
+        assert_eq!(id.machine.axis(a.axis).errors.force_ripple_n, 0.0);
         assert!(
             a.held_out_identified_um <= 0.15 * a.following_error_rms_um,
             "{}: held out {} µm against a following error of {} µm",

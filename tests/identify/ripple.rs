@@ -180,8 +180,11 @@ fn without_a_template_the_ripple_is_found_at_its_lead_on_the_axis_that_has_it() 
     let phase = value(x, "errors.force_ripple_phase_deg");
     assert!(phase.uncertainty < 20.0, "{phase:?}");
     assert_within_k_sigma("phase (°)", KNOWN.1, phase.value, phase.uncertainty, 3.0);
+    // Y's best lead takes less than a tenth off one of the halves: none is taken, said so.
     assert!(
-        y.force_ripple.as_ref().is_none_or(|v| !v.written),
+        y.force_ripple
+            .as_ref()
+            .is_some_and(|v| !v.written && v.statement.starts_with("force ripple: none found")),
         "{:?}",
         y.force_ripple
     );

@@ -78,8 +78,7 @@ pub(in crate::identify) fn none_found() -> RippleVerdict {
         written: false,
         statement: format!(
             "force ripple: none found (no ball-screw lead from {} to {} mm takes a tenth off \
-             both halves' residual; the template names no period: \
-             errors.force_ripple_period_mm)",
+             both halves' residual)",
             LEADS_MM[0],
             LEADS_MM[LEADS_MM.len() - 1]
         ),
