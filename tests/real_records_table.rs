@@ -40,7 +40,7 @@ fn table_record() -> Option<MeasuredTrace> {
     // the assertions below ask holds on either stretch; the shares move with the samples
     // compared (from the template X 26.2 % against 26.3 % with presliding bristles, Y 28.0 %
     // against 28.1 % with the force ripple; the loop model, with the ripple at the lead its
-    // halves take, X 23.8 % and Y 32.7 % on both).
+    // halves take, X 23.8 % and Y 32.7 % read at the motors on either stretch).
     let kept: String = text
         .lines()
         .enumerate()

@@ -126,8 +126,9 @@ pub(crate) fn describes(order: usize) -> String {
 
 /// The loop model of the order the held-out halves choose: each order is kept over the one
 /// below only where it predicts them better by more than a twentieth. The record names no
-/// ripple's period: where both halves gain from a lead's on the fit (`ripple::period`), the orders
-/// are fitted again with it, the ripple on top judged as a template's period would be.
+/// ripple's period: where a lead's ripple on the fit predicts each half from the other
+/// (`ripple::period`), the orders are fitted again with it, the ripple on top judged as a
+/// template's period would be.
 pub(super) fn identified(
     fit: &Fit,
     template: &MachineConfig,
@@ -145,26 +146,43 @@ pub(super) fn identified(
             chosen = Some((i + 1, found));
         }
     }
-    let looked_for = template.axis(fit.axis()).errors.force_ripple_period_mm <= 0.0;
-    if looked_for
-        && let Some(period_mm) = chosen
-            .as_ref()
-            .and_then(|(_, (config, _))| super::ripple::period::chosen_mm(fit, config))
-    {
-        let mut with_period = template.clone();
-        with_period
-            .axis_mut(fit.axis())
-            .errors
-            .force_ripple_period_mm = period_mm;
-        return identified(fit, &with_period, moving_only);
-    }
-    chosen.map(|(order, (config, mut id))| {
+    let chosen = chosen.map(|(order, (config, mut id))| {
         id.kept = describes(order);
-        if looked_for {
-            id.force_ripple = Some(super::ripple::period::none_found());
-        }
         (config, id)
-    })
+    });
+    if template.axis(fit.axis()).errors.force_ripple_period_mm > 0.0 {
+        return chosen;
+    }
+    let (config, mut id) = chosen?;
+    match super::ripple::period::chosen_mm(fit, &config) {
+        Ok(period_mm) => {
+            let mut with_period = template.clone();
+            let axis = with_period.axis_mut(fit.axis());
+            axis.errors.force_ripple_period_mm = period_mm;
+            match identified(fit, &with_period, moving_only) {
+                Some(found) => Some(without_a_period_not_kept(found)),
+                // The refit with a ripple found nothing: the loop without one stands.
+                None => Some((config, id)),
+            }
+        }
+        Err(why) => {
+            id.force_ripple = Some(super::ripple::period::not_taken(why));
+            Some((config, id))
+        }
+    }
+}
+
+/// A loop fitted again with a lead's ripple that the held-out halves did not keep: its
+/// file names no period (a period named there would read as a template's when the file is
+/// used as one).
+fn without_a_period_not_kept(
+    (mut config, id): (AxisConfig, AxisIdentification),
+) -> (AxisConfig, AxisIdentification) {
+    if !id.force_ripple.as_ref().is_some_and(|r| r.written) {
+        config.errors.force_ripple_period_mm = 0.0;
+        config.errors.force_ripple_n = 0.0;
+    }
+    (config, id)
 }
 
 #[cfg(test)]

@@ -267,7 +267,14 @@ fn fit_axis(
         Model::Loop => loop_model::identified(&fit, template, false),
     };
     let Some(mut everywhere) = found else {
-        return unfitted(Fit::new(ctx, template, axis, offset), template.axis(axis));
+        let mut none = unfitted(Fit::new(ctx, template, axis, offset), template.axis(axis));
+        if model == Model::Loop
+            && let Some((_, id)) = none.as_mut()
+        {
+            // A lead's period was to be looked for: the report says why there is none.
+            id.force_ripple.get_or_insert_with(ripple::not_fitted);
+        }
+        return none;
     };
     let noise_um = um_from_m(ctx.noise_sigma);
     if everywhere.1.reached && verdict::judged_while_moving(&mut everywhere.1, noise_um) {

@@ -442,13 +442,18 @@ pub(super) fn loop_round<'a>(ripple: Option<&'a RippleFit>, round: &'a Round) ->
 /// Where the axis could not be fitted at all and its template names a ripple's period: the
 /// ripple is not determined either (none where the template names no period).
 pub(super) fn unfitted(template: &AxisConfig) -> Option<RippleVerdict> {
-    (template.errors.force_ripple_period_mm > 0.0).then(|| RippleVerdict {
+    (template.errors.force_ripple_period_mm > 0.0).then(not_fitted)
+}
+
+/// The ripple of an axis whose fit is not written: not determined.
+pub(super) fn not_fitted() -> RippleVerdict {
+    RippleVerdict {
         written: false,
         statement: "force ripple: not determined (the axis's fit is not written)".to_string(),
         held_out_without_um: f64::NAN,
         held_out_force_um: f64::NAN,
         held_out_encoder_um: f64::NAN,
-    })
+    }
 }
 
 /// The held-out figures while moving (`without`: of the fit without the ripple) of the model

@@ -39,12 +39,25 @@ impl Columns {
     /// The force ripple's columns on `config` (per newton), from two simulations with a
     /// trial ripple at 0° and at 90° beside the one without.
     pub(super) fn force(fit: &Fit, config: &AxisConfig) -> Result<Parts, Reason> {
-        let runs: Vec<Vec<f64>> = [(0.0, 0.0), (TRIAL_N, 0.0), (0.0, TRIAL_N)]
+        let r0 = fit
+            .residual(&with_ripple(config, (0.0, 0.0)))
+            .ok_or("the axis cannot be simulated with a trial ripple")?;
+        Self::force_beside(fit, config, r0)
+    }
+
+    /// [`Columns::force`] beside `r0`, the residual of `config` without a ripple (which
+    /// does not depend on the period): the two trial simulations only.
+    pub(super) fn force_beside(
+        fit: &Fit,
+        config: &AxisConfig,
+        r0: Vec<f64>,
+    ) -> Result<Parts, Reason> {
+        let runs: Vec<Vec<f64>> = [(TRIAL_N, 0.0), (0.0, TRIAL_N)]
             .into_par_iter()
             .map(|ab| fit.residual(&with_ripple(config, ab)))
             .collect::<Option<_>>()
             .ok_or("the axis cannot be simulated with a trial ripple")?;
-        let [r0, r1, r2] = <[Vec<f64>; 3]>::try_from(runs)
+        let [r1, r2] = <[Vec<f64>; 2]>::try_from(runs)
             .map_err(|_| "the trial ripple's simulations did not all return".to_string())?;
         let column =
             |r: &[f64]| -> Vec<f64> { r.iter().zip(&r0).map(|(a, b)| (a - b) / TRIAL_N).collect() };
@@ -131,7 +144,7 @@ impl Parts {
     }
 
     /// [`Parts::gain`] as a share of the residual's energy on the same samples (0 where they
-    /// hold none).
+    /// hold none, or where either is not finite: no gain is claimed from a failed number).
     pub(super) fn share_gained(
         &self,
         use_sample: &(dyn Fn(usize) -> bool + Sync),
@@ -141,8 +154,9 @@ impl Parts {
             .filter(|&i| use_sample(i))
             .map(|i| self.r0[i] * self.r0[i])
             .sum();
-        if energy > 0.0 {
-            self.gain(use_sample, ab) / energy
+        let share = self.gain(use_sample, ab) / energy;
+        if energy > 0.0 && share.is_finite() {
+            share
         } else {
             0.0
         }
