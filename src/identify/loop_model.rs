@@ -160,9 +160,12 @@ pub(super) fn identified(
             let axis = with_period.axis_mut(fit.axis());
             axis.errors.force_ripple_period_mm = period_mm;
             match identified(fit, &with_period, moving_only) {
-                Some(found) => Some(without_a_period_not_kept(found)),
+                Some(found) => Some(as_looked_for(found)),
                 // The refit with a ripple found nothing: the loop without one stands.
-                None => Some((config, id)),
+                None => {
+                    id.force_ripple = Some(super::ripple::period::refit_failed(period_mm));
+                    Some((config, id))
+                }
             }
         }
         Err(why) => {
@@ -172,15 +175,18 @@ pub(super) fn identified(
     }
 }
 
-/// A loop fitted again with a lead's ripple that the held-out halves did not keep: its
-/// file names no period (a period named there would read as a template's when the file is
-/// used as one).
-fn without_a_period_not_kept(
-    (mut config, id): (AxisConfig, AxisIdentification),
+/// A loop fitted again with a lead's ripple: where the held-out halves kept it, its
+/// statement says the period was looked for; where they did not, the file names no period
+/// (a period named there would read as a template's when the file is used as one).
+fn as_looked_for(
+    (mut config, mut id): (AxisConfig, AxisIdentification),
 ) -> (AxisConfig, AxisIdentification) {
-    if !id.force_ripple.as_ref().is_some_and(|r| r.written) {
-        config.errors.force_ripple_period_mm = 0.0;
-        config.errors.force_ripple_n = 0.0;
+    match id.force_ripple.as_mut() {
+        Some(r) if r.written => r.statement.push_str(super::ripple::period::LOOKED_FOR),
+        _ => {
+            config.errors.force_ripple_period_mm = 0.0;
+            config.errors.force_ripple_n = 0.0;
+        }
     }
     (config, id)
 }

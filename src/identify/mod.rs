@@ -216,13 +216,17 @@ fn identify_axis(
     offset: f64,
     model: Model,
 ) -> Option<(AxisConfig, AxisIdentification)> {
-    let found = runs_whole_record(
+    let mut found = runs_whole_record(
         ctx,
         template,
         axis,
         offset,
         fit_axis(ctx, template, axis, offset, model)?,
     )?;
+    if model == Model::Loop {
+        // A lead's period was to be looked for: an axis whose fit is not written says so.
+        found.1.force_ripple.get_or_insert_with(ripple::not_fitted);
+    }
     if model != Model::Template || !template_holds(&found.1, um_from_m(ctx.noise_sigma)) {
         return Some(found);
     }
@@ -267,14 +271,7 @@ fn fit_axis(
         Model::Loop => loop_model::identified(&fit, template, false),
     };
     let Some(mut everywhere) = found else {
-        let mut none = unfitted(Fit::new(ctx, template, axis, offset), template.axis(axis));
-        if model == Model::Loop
-            && let Some((_, id)) = none.as_mut()
-        {
-            // A lead's period was to be looked for: the report says why there is none.
-            id.force_ripple.get_or_insert_with(ripple::not_fitted);
-        }
-        return none;
+        return unfitted(Fit::new(ctx, template, axis, offset), template.axis(axis));
     };
     let noise_um = um_from_m(ctx.noise_sigma);
     if everywhere.1.reached && verdict::judged_while_moving(&mut everywhere.1, noise_um) {

@@ -1,7 +1,8 @@
 //! A force that repeats with the table's position (a motor's torque ripple or cogging, a
 //! screw's eccentricity), fitted on top of an axis's fit where the template names its period
-//! (`errors.force_ripple_period_mm`: a motor turn's travel) — without a template, where both
-//! halves of the record choose the same lead ([`period`]).
+//! (`errors.force_ripple_period_mm`: a motor turn's travel) — without a template, at the
+//! ball-screw lead whose ripple fitted on either half of the record predicts the other
+//! ([`period`]).
 //!
 //! The ripple's sine and cosine parts act on the residual nearly linearly (the loop is linear
 //! but for friction switching), so each is found by least squares from two simulations more,

@@ -159,10 +159,11 @@ fn a_ripple_of_known_amplitude_and_phase_is_found_where_it_is_and_nowhere_else()
 
 #[test]
 fn without_a_template_the_ripple_is_found_at_its_lead_on_the_axis_that_has_it() {
-    // No template names a period: each half of the record chooses, on its own samples, the
-    // lead whose ripple on top of the loop model lowers its residual most. X's 12 N every
-    // 2.5 mm (a lead ball screws are made with) is found at 2.5 mm and written, at the
-    // table's phase; Y, which has none, gets none written.
+    // No template names a period: the lead is the one whose ripple on top of the loop
+    // model, fitted on either half of the record, lowers the other half's residual most.
+    // X's 12 N every 2.5 mm (a lead ball screws are made with) is found at 2.5 mm and
+    // written, at the table's phase, and said to be a period looked for; Y, which has none,
+    // gets none.
     let measured = &known().0;
     let start = loop_template(measured);
     let mut settings = CompareSettings::for_machine(&start);
@@ -175,6 +176,10 @@ fn without_a_template_the_ripple_is_found_at_its_lead_on_the_axis_that_has_it() 
     assert_eq!(id.machine.x.errors.force_ripple_period_mm, PERIOD_MM);
     let verdict = x.force_ripple.as_ref().expect("X's period chosen");
     assert!(verdict.written, "{verdict:?}");
+    assert!(
+        verdict.statement.contains("period looked for"),
+        "{verdict:?}"
+    );
     // The loop model's mass is not the table's, so the force is not compared; its phase
     // against the position is the table's whatever carries it.
     let phase = value(x, "errors.force_ripple_phase_deg");

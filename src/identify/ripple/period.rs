@@ -1,5 +1,6 @@
 //! A ripple's period where no template names one (`--template none`): looked for among the
-//! leads ball screws are made with, each half of the record's gain counted on its own samples.
+//! leads ball screws are made with, each lead's ripple fitted on one half of the record and
+//! scored on the other.
 //!
 //! A motor's torque ripple and a screw's eccentricity repeat once per motor turn — on a
 //! direct-driven ball screw, once per lead. The leads makers offer are few, so each is
@@ -75,9 +76,9 @@ pub(in crate::identify) fn chosen_mm(fit: &Fit, config: &AxisConfig) -> Result<f
             Some((p, held_out_share(&parts, mask, &fold)))
         })
         .collect();
-    // The lead the half that gains less from it gains most from: one that only one half
-    // gains from never wins, and a near tie of one half's (6 and 10 mm within 4 % on one
-    // half of a real table's record, 10 mm clearly on the other) does not throw it out.
+    // The lead whose weaker direction gains most: one that only the parts fitted on one
+    // half carry to the other never wins, and a near tie in one direction does not throw
+    // out a lead the other direction prefers clearly.
     let best = shares.into_iter().max_by(|a, b| a.1.total_cmp(&b.1));
     match best {
         None => Err(NoLead::NotSimulated),
@@ -105,11 +106,16 @@ fn held_out_share(parts: &Parts, mask: &[bool], fold: &[bool]) -> f64 {
 pub(in crate::identify) fn not_taken(why: NoLead) -> RippleVerdict {
     let (first, last) = (LEADS_MM[0], LEADS_MM[LEADS_MM.len() - 1]);
     let statement = match why {
-        NoLead::Weak { lead_mm, share } => format!(
-            "force ripple: none found (no ball-screw lead from {first} to {last} mm, fitted \
-             on one half of the record, takes a tenth off the other half's residual: the \
-             best, {lead_mm} mm, {:.0} %)",
-            100.0 * share.max(0.0)
+        NoLead::Weak { lead_mm, share } if share > 0.0 => format!(
+            "force ripple: none found (no ball-screw lead tried, {first} to {last} mm where \
+             the axis travels two periods, fitted on either half of the record takes a tenth \
+             off the other half's residual: the best, {lead_mm} mm, {:.0} %)",
+            100.0 * share
+        ),
+        NoLead::Weak { .. } => format!(
+            "force ripple: none found (no ball-screw lead tried, {first} to {last} mm where \
+             the axis travels two periods, fitted on either half of the record takes \
+             anything off the other half's residual)"
         ),
         NoLead::TooShort => format!(
             "force ripple: not looked for (the axis travels less than two periods of the \
@@ -128,3 +134,22 @@ pub(in crate::identify) fn not_taken(why: NoLead) -> RippleVerdict {
         held_out_encoder_um: f64::NAN,
     }
 }
+
+/// What the report says of an axis whose loop could not be fitted again with the ripple of
+/// the lead taken: the loop without a ripple is written.
+pub(in crate::identify) fn refit_failed(lead_mm: f64) -> RippleVerdict {
+    RippleVerdict {
+        statement: format!(
+            "force ripple: not determined (the loop could not be fitted again with a ripple \
+             every {lead_mm} mm, the lead taken)"
+        ),
+        ..not_taken(NoLead::NotSimulated)
+    }
+}
+
+/// The clause a ripple written at a lead looked for adds to its statement: the record's
+/// halves run the same program, so an error of the loop model that repeats with the
+/// program's positions would pass as well.
+pub(in crate::identify) const LOOKED_FOR: &str = "; its period looked for among ball-screw \
+    leads without a template: it may be the loop model's own error repeating with the \
+    program's positions";
