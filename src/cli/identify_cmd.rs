@@ -13,6 +13,7 @@ use crate::compare::CompareSettings;
 use crate::identify::identify;
 use crate::identify::report::{IdentifyReport, machine_file, summary_text};
 use crate::numeric::units::m_from_um;
+use crate::sim::MeasuredAt;
 
 /// Arguments of `identify`.
 #[derive(Debug, Args)]
@@ -48,6 +49,10 @@ pub struct IdentifyArgs {
     /// How far recorded commands may lie from the programmed geometry (µm).
     #[arg(long, default_value_t = 25.0, value_name = "UM")]
     pub command_tolerance_um: f64,
+    /// Where the measurement read the positions: a linear scale on the table, the motor's
+    /// encoder, or at the tool (laser, ballbar). The model is compared at that point.
+    #[arg(long, value_enum, default_value_t = MeasuredAt::Table)]
+    pub measured_at: MeasuredAt,
 }
 
 pub(crate) fn run(args: &IdentifyArgs) -> Result<Outcome, CliError> {
@@ -79,6 +84,7 @@ pub(crate) fn run(args: &IdentifyArgs) -> Result<Outcome, CliError> {
     let mut settings = CompareSettings::for_machine(&template);
     settings.check.plan = args.planning.config(&template)?;
     settings.command_tolerance_m = m_from_um(args.command_tolerance_um);
+    settings.measured_at = args.measured_at;
     let bar = spinner("identifying");
     let id = if without_template {
         crate::identify::identify_loop(&program, &template, &measured, &settings)?

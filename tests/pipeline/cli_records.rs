@@ -379,3 +379,63 @@ fn a_command_beyond_the_machine_is_warned_of_once() {
     let warning = "beyond the rapid rate of 600 mm/min (x.limits.rapid_mm_per_min)";
     assert_eq!(all.matches(warning).count(), 1, "{all}");
 }
+
+/// `identify --measured-at motor` compares the model where a motor-encoder record read the
+/// axes. The stock `hvmc` machine (a linear scale closes its loops) recorded at its motors
+/// is its own template: read at the motors, only the record's noise is left on the held-out
+/// halves. Read as the table (the default), the screw's wind-up stays: while moving, the
+/// screw carries the Coulomb friction f_c = c·M_T·g and stretches by f_c / k_m, which the
+/// motor's reading holds and the table's does not, with the direction's sign.
+#[test]
+fn identify_compares_a_motor_record_at_the_motor() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let program = sample("identify-moves.nc");
+    let program = program.to_str().unwrap();
+    let noise_um = 0.2;
+    run_ok(&[
+        "synth",
+        program,
+        "--out",
+        &path("motor.csv"),
+        "--with-commands",
+        "--rate-hz",
+        "1000",
+        "--noise-um",
+        &noise_um.to_string(),
+        "--measured-at",
+        "motor",
+    ]);
+    let held_out = |extra: &[&str], json: &str| -> Vec<f64> {
+        let mut args = vec!["identify", program, "--measured"];
+        let (record, out, json) = (path("motor.csv"), path("id.toml"), path(json));
+        args.extend([
+            record.as_str(),
+            "--out",
+            out.as_str(),
+            "--json",
+            json.as_str(),
+        ]);
+        args.extend_from_slice(extra);
+        run_ok(&args);
+        let report = read_json(Path::new(&json));
+        let axes = report["axes"].as_array().unwrap();
+        assert_eq!(axes.len(), 2, "{report}");
+        axes.iter()
+            .map(|a| a["held_out_identified_um"].as_f64().unwrap())
+            .collect()
+    };
+    let at_motor = held_out(&["--measured-at", "motor"], "motor.json");
+    let as_table = held_out(&[], "table.json");
+    // hvmc.toml: c = 0.010, M_T = 6000 kg, k_m = 3.6e8 N/m on both axes: 1.6 µm of wind-up,
+    // eight times the noise. A fit may pass part of it for lag (the feeds are steady), so
+    // half of it is what the table's reading must keep.
+    let wind_up_um = 0.010 * 6000.0 * 9.81 / 3.6e8 * 1e6;
+    for (motor, table) in at_motor.iter().zip(&as_table) {
+        assert!(*motor < 1.5 * noise_um, "{at_motor:?}");
+        assert!(
+            *table > 0.5 * wind_up_um,
+            "{as_table:?} against {wind_up_um} µm"
+        );
+    }
+}
