@@ -317,6 +317,7 @@ def identify(
     command_tolerance_um: float = 25.0,
     profile: Optional[str] = None,
     cycle_ms: Optional[float] = None,
+    measured_at: str = "table",
     report: Optional[PathLike] = None,
 ) -> Identification:
     """A machine fitted to a record with its commands (``contourcheck identify``).
@@ -326,6 +327,8 @@ def identify(
         measured: the record, with its commands.
         template: where to start (see :func:`load_machine`); ``"none"``: no template, a model of
             each loop from command to position.
+        measured_at: where the record read the positions, ``"table"`` (a linear scale),
+            ``"motor"`` (the motor's encoder) or ``"tool"``: the model is compared there.
         report: write the one-page HTML report there.
 
     Returns:
@@ -340,5 +343,6 @@ def identify(
         command_tolerance_um,
         profile,
         cycle_ms,
+        measured_at,
     )
     return _report(Identification(native), report)

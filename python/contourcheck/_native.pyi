@@ -128,4 +128,5 @@ def identify(
     command_tolerance_um: float = 25.0,
     profile: Optional[str] = None,
     cycle_ms: Optional[float] = None,
+    measured_at: str = "table",
 ) -> IdentifyOutcome: ...

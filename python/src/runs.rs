@@ -403,7 +403,11 @@ pub struct IdentifyOutcome {
 /// A machine fitted to a record with its commands (`identify`), from `template`, or with
 /// None a model of each loop from command to position.
 #[pyfunction]
-#[pyo3(signature = (program, template, trace, command_tolerance_um = 25.0, profile = None, cycle_ms = None))]
+#[pyo3(signature = (
+    program, template, trace, command_tolerance_um = 25.0, profile = None, cycle_ms = None,
+    measured_at = "table".to_string()
+))]
+#[allow(clippy::too_many_arguments)] // one per keyword of the Python function
 pub fn identify(
     py: Python<'_>,
     program: Option<&Program>,
@@ -412,6 +416,7 @@ pub fn identify(
     command_tolerance_um: f64,
     profile: Option<String>,
     cycle_ms: Option<f64>,
+    measured_at: String,
 ) -> PyResult<IdentifyOutcome> {
     let program = program.map(|p| p.program.clone());
     let given = template.map(|m| (m.config.clone(), m.file.clone()));
@@ -431,6 +436,7 @@ pub fn identify(
         let mut settings = CompareSettings::for_machine(&template);
         settings.check = plan_settings(&template, profile.as_deref(), cycle_ms, None)?;
         settings.command_tolerance_m = command_tolerance_um * 1e-6;
+        settings.measured_at = self::measured_at(&measured_at)?;
         let identification = if without_template {
             contourcheck::identify_loop(&program, &template, &record, &settings)?
         } else {
