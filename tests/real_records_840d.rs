@@ -255,8 +255,18 @@ fn identify_on_the_840d_trace_writes_a_machine_and_says_what_it_cannot_determine
             assert!(v.value.is_finite(), "{:?} {}", a.axis, v.key);
         }
     }
+    // The compared stretch is the cutting block's first 0.26 s at 50 Hz, less each axis's
+    // run-in of 0.15 s: about five samples of a block in which X stands. Too few to fit
+    // the preset's seven values on two halves (at least 28), so no axis is identified, and
+    // none is said to reach the record's noise on the nothing it compared.
+    for a in &id.axes {
+        let why = a.too_little.as_deref().unwrap_or_else(|| panic!("{a:?}"));
+        assert!(why.contains("fewer than the 28"), "{why}");
+        assert!(!a.reached && !a.better_than_template, "{a:?}");
+    }
     let written = id.machine.axis(AxisName::X);
     assert!(written.position_loop.kv_m_per_min_per_mm > 0.0);
+    offset_told_where_not_given(&dir, &f);
     // Z: its compared stretch holds little more than its rapid to the part, which the
     // preset's Z cannot follow; none of its values is determined, and the template's Z is
     // what is written.
@@ -270,5 +280,28 @@ fn identify_on_the_840d_trace_writes_a_machine_and_says_what_it_cannot_determine
         id.machine.axis(AxisName::Z),
         template.axis(AxisName::Z),
         "Z written other than the template's"
+    );
+}
+
+/// The same trace in its machine coordinates, no offset given: refused, and told the offset
+/// that puts it on the program (the facts' own, from the cutting block's start) — as the
+/// offset of a record begun at the program's start, the record being too short to tell it
+/// from the places further on where the program moves the same way in the plane.
+fn offset_told_where_not_given(dir: &std::path::Path, f: &Facts) {
+    let template = MachineConfig::default_preset();
+    let raw = read_trace(&dir.join(TRACE)).unwrap();
+    let err = identify(
+        &program(dir),
+        &template,
+        &raw,
+        &DiagnoseSettings::for_machine(&template).compare,
+    )
+    .expect_err("machine coordinates are not the program's");
+    let said = err.to_string();
+    let flag = format!("--work-offset {:.3},{:.3}", f.offset_mm[0], f.offset_mm[1]);
+    assert!(said.contains(&flag), "{said}\nexpected {flag}");
+    assert!(
+        said.contains("if the record begins at the program's start"),
+        "{said}"
     );
 }

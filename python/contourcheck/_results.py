@@ -211,12 +211,15 @@ class Identification(_Result):
         held-out figure: neither half's fit left the whole fit's point), ``following_error_um``,
         ``share`` — the whole record's, or those on the samples while the axis moves where it
         is judged there (``while_moving`` True: its fit reached the noise but its halves'
-        fits disagree at standstill, where it hunts) — and ``better_than_template``; as the
-        report's ``judged_held_out`` states them."""
+        fits disagree at standstill, where it hunts) — ``better_than_template``, and
+        ``too_little`` (why the record holds too little of the axis to fit or judge it, its
+        figures then not to be read; None where it was identified); as the report's
+        ``judged_held_out`` states them."""
         out: Dict[str, Dict[str, Any]] = {}
         for a in self.report["axes"]:
             row = dict(a["judged_held_out"])
             row["better_than_template"] = a["better_than_template"]
+            row["too_little"] = a.get("too_little")
             out[a["axis"]] = row
         return out
 

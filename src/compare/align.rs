@@ -22,46 +22,6 @@ use crate::trace::placement::{Departure, place_in_space, place_on_path};
 use crate::trace::recorded::{commands_from_record, local_derivatives};
 use crate::trace::signal::sample;
 
-/// The constant offset (m) by which a record's commands run beside the program, if shifting
-/// them back by it puts them on the program's path: the centres of the two ranges of travel,
-/// confirmed by placing the shifted commands on the path within the tolerance.
-fn parallel_offset(
-    plan: &Plan,
-    planned: &Commands,
-    measured: &MeasuredTrace,
-    dt: f64,
-    settings: &CompareSettings,
-) -> Option<[f64; 2]> {
-    let [xc, yc] = measured.commands.as_ref()?;
-    let centre = |v: &[f64]| {
-        let (lo, hi) = v
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
-                (l.min(x), h.max(x))
-            });
-        0.5 * (lo + hi)
-    };
-    let offset = [
-        centre(xc) - centre(&planned.x.pos_m),
-        centre(yc) - centre(&planned.y.pos_m),
-    ];
-    if !offset.iter().all(|o| o.is_finite()) {
-        return None;
-    }
-    let shift = |v: &[f64], o: f64| v.iter().map(|p| p - o).collect::<Vec<f64>>();
-    let mut shifted = commands_from_record(
-        &shift(xc, offset[0]),
-        &shift(yc, offset[1]),
-        measured.dt_s,
-        dt,
-    );
-    let placed = place_on_path(&plan.segments, &mut shifted, settings.command_tolerance_m);
-    match placed.worst {
-        Some(worst) if worst.distance_m > settings.command_tolerance_m || !placed.joined => None,
-        _ => Some(offset),
-    }
-}
-
 /// The share of the record (at 500 samples spread over it) whose measured XY position lies
 /// more than 1 mm from every segment of the program: a record of another program, or in
 /// other coordinates, whatever its timing — which no alignment of waits can mend.
@@ -487,17 +447,8 @@ fn off_path(
     worst: Departure,
 ) -> CompareError {
     let dt = plan_commands.dt_s;
-    let hint = match parallel_offset(plan, plan_commands, measured, dt, settings) {
-        Some([x, y]) => format!(
-            "the commands run parallel to the program, offset by X {:.3} mm, Y {:.3} \
-             mm — a work offset; give it with --work-offset {:.3},{:.3}",
-            x * 1e3,
-            y * 1e3,
-            x * 1e3,
-            y * 1e3
-        ),
-        None => "is this a record of this program, in the same coordinates?".into(),
-    };
+    let offsets = super::offset::work_offsets(plan, plan_commands, measured, dt, settings);
+    let hint = offset_hint(&offsets);
     let hint = match measured.counts_hint() {
         Some(counts) => format!("{counts}; else {hint}"),
         None => hint,
@@ -509,6 +460,51 @@ fn off_path(
         distance_um: um_from_m(worst.distance_m),
         tolerance_um: um_from_m(settings.command_tolerance_m),
         hint,
+    }
+}
+
+/// What a user may pass as the record's work offset, from the offsets that put its commands
+/// on the program (`offset::work_offsets`).
+fn offset_hint(offsets: &[super::offset::Offset]) -> String {
+    let words = |o: &super::offset::Offset| format!("X {:.3} mm, Y {:.3} mm", o.mm[0], o.mm[1]);
+    let flag = |o: &super::offset::Offset| format!("--work-offset {:.3},{:.3}", o.mm[0], o.mm[1]);
+    match offsets {
+        [] => "is this a record of this program, in the same coordinates?".into(),
+        [one] => format!(
+            "the commands run parallel to the program, offset by {} — a work offset; give it \
+             with {}",
+            words(one),
+            flag(one)
+        ),
+        [first, others @ ..]
+            if first.at_program_start
+                && (!others[0].at_program_start || others[0].join > first.join) =>
+        {
+            format!(
+                "the commands run parallel to the program, offset by {} if the record begins at \
+             the program's start, where it joins the program earliest — a work offset; give \
+             it with {} (a record begun within the program would fit {} as well)",
+                words(first),
+                flag(first),
+                others
+                    .iter()
+                    .take(3)
+                    .map(words)
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            )
+        }
+        several => format!(
+            "the commands run parallel to the program offset by one of {} — a work offset the \
+             record alone does not tell (it holds too little of the program); give the \
+             program's with --work-offset X,Y",
+            several
+                .iter()
+                .take(4)
+                .map(words)
+                .collect::<Vec<_>>()
+                .join("; ")
+        ),
     }
 }
 

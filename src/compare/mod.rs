@@ -9,6 +9,7 @@
 
 mod align;
 pub mod context;
+mod offset;
 pub mod residual;
 pub mod start;
 

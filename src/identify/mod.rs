@@ -38,6 +38,7 @@ mod round;
 mod solve;
 mod staged;
 mod starts;
+mod too_little;
 mod verdict;
 mod whole_record;
 mod z_axis;
@@ -149,20 +150,21 @@ fn identify_as(
     let Some(commands) = &measured.commands else {
         return Err(IdentifyError::NoCommands { file });
     };
-    for axis in AxisName::BOTH {
-        let travel = commands[axis.index()]
+    let travel_m = AxisName::BOTH.map(|axis| {
+        let (lo, hi) = commands[axis.index()]
             .iter()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
                 (l.min(v), h.max(v))
             });
-        let travel = travel.1 - travel.0;
-        if travel.is_nan() || travel < LEAST_TRAVEL_M {
-            return Err(IdentifyError::StillAxis {
-                file,
-                axis,
-                travel_um: um_from_m(travel.max(0.0)),
-            });
-        }
+        if hi >= lo { hi - lo } else { 0.0 }
+    });
+    // An axis that stands while the other moves is said so (`too_little`); a record in
+    // which neither moves holds nothing to identify.
+    if travel_m.iter().all(|t| t.is_nan() || *t < LEAST_TRAVEL_M) {
+        return Err(IdentifyError::StillAxes {
+            file,
+            travel_um: travel_m.map(um_from_m),
+        });
     }
     let Comparison {
         ctx,
@@ -216,6 +218,9 @@ fn identify_axis(
     offset: f64,
     model: Model,
 ) -> Option<(AxisConfig, AxisIdentification)> {
+    if let Some(why) = too_little::why(ctx, template.axis(axis), axis, offset) {
+        return too_little::not_identified(ctx, template, axis, offset, why);
+    }
     let mut found = runs_whole_record(
         ctx,
         template,
@@ -425,6 +430,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             while_moving: None,
             force_ripple: ripple::unfitted(template),
             presliding: None,
+            too_little: None,
         },
     ))
 }
@@ -566,6 +572,7 @@ fn identify_on(
                 .map(|m| ripple::while_moving(ripple.as_ref(), fit, &fold, m)),
             force_ripple: ripple.map(|r| r.verdict),
             presliding: None,
+            too_little: None,
         },
     ))
 }

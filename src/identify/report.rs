@@ -128,6 +128,10 @@ pub(crate) fn summary_text(id: &Identification, template: &MachineConfig) -> Str
 /// its values.
 #[cfg(feature = "cli")]
 fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
+    if let Some(why) = &a.too_little {
+        let _ = writeln!(s, "\n{} axis: {}", a.axis, too_little_words(why));
+        return;
+    }
     let _ = writeln!(
         s,
         "\n{} axis: residual {:.3} → {:.3} µm RMS{} (following error {:.1} µm); held out \
@@ -241,6 +245,9 @@ pub(crate) fn while_moving_line(a: &AxisIdentification) -> Option<String> {
 /// so, where the axis is judged there —, against the template and the plain regression on
 /// the command (whole record).
 pub(crate) fn prediction(a: &AxisIdentification) -> String {
+    if let Some(why) = &a.too_little {
+        return too_little_words(why);
+    }
     let (template_um, fitted_um, following_um, _) = a.judged_held_out();
     let written = if a.better_than_template || a.template_holds {
         fitted_um
@@ -271,6 +278,11 @@ pub(crate) fn prediction(a: &AxisIdentification) -> String {
         share(template_um),
         100.0 * b.share,
     )
+}
+
+/// An axis the record holds too little of: why, and what is written.
+fn too_little_words(why: &str) -> String {
+    format!("not identified: {why}; the template's values are written")
 }
 
 /// What the fit is, where it is not simply identified to the record's noise.

@@ -213,6 +213,11 @@ pub struct AxisIdentification {
     /// Where the template names no presliding bristles: whether bristles are written, or
     /// not determined and why (`None` where the template names them).
     pub presliding: Option<super::PreslidingVerdict>,
+    /// Why the stretch compared holds too little of the axis to fit or judge it (too few
+    /// samples, or it stands throughout), where it does: its template's values are written
+    /// and its figures are ratios of nothing, not shown.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub too_little: Option<String>,
 }
 
 /// The identification of a machine from a record.
@@ -253,18 +258,18 @@ pub enum IdentifyError {
         /// The record.
         file: String,
     },
-    /// An axis does not move in the record's commands.
+    /// Neither X nor Y moves in the record's commands.
     #[error(
-        "{file}: {axis} is commanded to move {travel_um:.1} µm in the record: there is nothing to \
-         identify it from — record a program that moves both axes"
+        "{file}: X is commanded to move {:.1} µm in the record and Y {:.1} µm: there is \
+         nothing to identify them from — record a program that moves an axis",
+        travel_um[0],
+        travel_um[1]
     )]
-    StillAxis {
+    StillAxes {
         /// The record.
         file: String,
-        /// The axis.
-        axis: AxisName,
-        /// How far it was commanded (µm).
-        travel_um: f64,
+        /// How far X and Y were commanded (µm).
+        travel_um: [f64; 2],
     },
     /// The record could not be placed on the program.
     #[error(transparent)]
@@ -313,6 +318,7 @@ impl AxisIdentification {
             while_moving: None,
             force_ripple: None,
             presliding: None,
+            too_little: None,
         }
     }
 }
