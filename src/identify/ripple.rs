@@ -20,7 +20,11 @@
 //! A cyclic error in the positions recorded of the same period is fitted alongside, as what
 //! the encoder adds to the position it reads (`tie`): where it predicts the held-out halves
 //! as well as the force does, the record cannot tell the two apart, and where it predicts
-//! them clearly better the force is not written. Whatever the outcome, the axis carries a
+//! them clearly better the force is not written. A force of the position acts at the same
+//! phase of it whichever way the axis moves: where the record passes a period of travel each
+//! way, the ripple's phase is fitted on each direction's samples apart, and a ripple whose two
+//! phases differ beyond their uncertainty is not written ([`directions`]) — an error tied to
+//! time or to the program, not to the position. Whatever the outcome, the axis carries a
 //! statement of it ([`RippleVerdict`]): a ripple not written is "not determined" with its
 //! reason, never silently dropped.
 
@@ -35,10 +39,12 @@ use crate::machine::AxisConfig;
 use crate::numeric::units::um_from_m;
 
 mod columns;
+mod directions;
 pub(super) mod period;
 mod tie;
 
 use columns::Columns;
+use directions::Directions;
 use tie::Tie;
 
 /// The keys the ripple is written under.
@@ -167,6 +173,14 @@ fn fitted(
     if !tie.force_written() {
         return Ok(RippleFit::kept_out(whole, &first, &tie, period_m));
     }
+    if let Some(why) = first.directions.differ() {
+        return Ok(RippleFit::kept_out(
+            whole,
+            &first,
+            &tie.refused(why),
+            period_m,
+        ));
+    }
     // Each half's loop is fitted again about its own ripple, so that the figure it is
     // scored by has seen nothing of the other half.
     let refit = Round::fit_apart(
@@ -195,10 +209,19 @@ fn fitted(
     if !tie.force_written() {
         return Ok(RippleFit::kept_out(whole, &first, &tie, period_m));
     }
+    if let Some(why) = second.directions.differ() {
+        return Ok(RippleFit::kept_out(
+            whole,
+            &first,
+            &tie.refused(why),
+            period_m,
+        ));
+    }
     // Listed against `whole`: the refit's base carries the first pass's ripple, not the
     // template's.
     let values = values(whole, second.ab, second.ab_floor, second.halves_ab(), &tie);
-    let verdict = tie.verdict(&values, first.encoder_whole, period_m);
+    let mut verdict = tie.verdict(&values, first.encoder_whole, period_m);
+    verdict.statement.push_str(&second.directions.clause());
     let [h0, h1] = [0, 1].map(|h| second.halves[h].with.clone());
     Ok(RippleFit {
         written: Some(Written {
@@ -248,6 +271,8 @@ struct Pass {
     /// The least-squares floor on `ab`'s uncertainty (N).
     ab_floor: f64,
     encoder_whole: Option<(f64, f64)>,
+    /// The ripple's phase fitted on each direction's samples apart.
+    directions: Directions,
 }
 
 impl Pass {
@@ -278,6 +303,8 @@ impl Pass {
         let parts = Columns::force(fit, whole)?;
         let ab = parts.solve(&|i| mask[i])?;
         let ab_floor = parts.least_squares_sigma(&|i| mask[i], ab);
+        let period_m = whole.errors.force_ripple_period_mm * 1e-3;
+        let directions = Directions::of(fit, &parts, fold, period_m);
         let bare_whole = bare
             .map(|b| bare_residual(b.config(&b.whole)))
             .transpose()?;
@@ -290,6 +317,7 @@ impl Pass {
             ab,
             ab_floor,
             encoder_whole,
+            directions,
         })
     }
 

@@ -146,8 +146,39 @@ fn validate_mechanics(
             ls.holder_at_zero_m,
             Rule::Range(0.0, ls.beam_length_m),
         )?;
+        validate_beam(c, k, ls)?;
     }
     Ok(())
+}
+
+/// The largest share of its length a beam may sag by under the holder it carries at
+/// mid-span: the sag formula (`docs/model.md` §1.7) is a small deflection's, and a machine's
+/// beam sags micrometres; one bent by a hundredth of its length is a stiffness or a load
+/// given in the wrong unit.
+pub(crate) const MAX_BEAM_SAG_SHARE: f64 = 0.01;
+
+/// The holder's weight at mid-span, F·l³/(48·EI), sags the beam by less than
+/// [`MAX_BEAM_SAG_SHARE`] of its length.
+fn validate_beam(
+    c: &Checker,
+    k: &dyn Fn(&str) -> String,
+    ls: &super::LateralShift,
+) -> Result<(), ConfigError> {
+    let l = ls.beam_length_m;
+    let sag_m = ls.holder_load_n * l.powi(3) / (48.0 * ls.bending_stiffness_n_m2);
+    if sag_m <= MAX_BEAM_SAG_SHARE * l {
+        return Ok(());
+    }
+    Err(c.inconsistent(
+        &k("lateral_shift.bending_stiffness_n_m2"),
+        format!(
+            "is {} N·m²: the holder's {} N would sag the {l} m beam by {} mm at mid-span, \
+             more than a hundredth of its length (no machine's beam bends so; is a unit off?)",
+            number(ls.bending_stiffness_n_m2),
+            number(ls.holder_load_n),
+            number(sag_m * 1e3)
+        ),
+    ))
 }
 
 /// Presliding friction's keys: a damping needs the bristles it damps; friction near rest may
@@ -369,6 +400,59 @@ fn validate_limits(c: &Checker, prefix: &str, l: &Limits) -> Result<(), ConfigEr
             ),
         ));
     }
+    validate_stopping(c, &k, l)
+}
+
+/// The distance (m) an axis stops in from `v` (m/s) braking at up to `accel` (m/s²), its
+/// braking ramped in and out at `jerk` (m/s³): v·(v/a + a/j)/2 where it reaches `accel`
+/// (v ≥ a²/j), else v·√(v/j) (the braking ramps up and straight back down).
+pub(crate) fn stopping_distance_m(v: f64, accel: f64, jerk: f64) -> f64 {
+    if v * jerk >= accel * accel {
+        0.5 * v * (v / accel + accel / jerk)
+    } else {
+        v * (v / jerk).sqrt()
+    }
+}
+
+/// Where the travel is given, the axis stops from its rapid within it: at less acceleration
+/// or jerk no machine could brake before its end, whatever the program.
+fn validate_stopping(
+    c: &Checker,
+    k: &dyn Fn(&str) -> String,
+    l: &Limits,
+) -> Result<(), ConfigError> {
+    let Some([lo, hi]) = l.travel_mm else {
+        return Ok(());
+    };
+    let travel_m = (hi - lo) * 1e-3;
+    let v = l.rapid_mm_per_min / 60e3;
+    let (a, j) = (l.max_accel_m_per_s2, l.max_jerk_m_per_s3);
+    let rapid = format!("{} mm/min", number(l.rapid_mm_per_min));
+    let travel = format!("{} mm of travel", number(hi - lo));
+    if v * v / (2.0 * a) > travel_m {
+        return Err(c.inconsistent(
+            &k("max_accel_m_per_s2"),
+            format!(
+                "is {} m/s²: braking at it from the rapid of {rapid} takes {} mm, more than \
+                 the axis's {travel}",
+                number(a),
+                number(v * v / (2.0 * a) * 1e3)
+            ),
+        ));
+    }
+    let stop = stopping_distance_m(v, a, j);
+    if stop > travel_m {
+        return Err(c.inconsistent(
+            &k("max_jerk_m_per_s3"),
+            format!(
+                "is {} m/s³: braking from the rapid of {rapid} at {} m/s² ramped at it takes \
+                 {} mm, more than the axis's {travel}",
+                number(j),
+                number(a),
+                number(stop * 1e3)
+            ),
+        ));
+    }
     Ok(())
 }
 
@@ -447,3 +531,6 @@ fn validate_tables(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests;

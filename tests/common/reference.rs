@@ -61,6 +61,8 @@ pub struct Plant {
     ripple: Cycle,
     /// A cyclic error of the encoder: it reads the axis e·sin(2π·x/period + φ) too far.
     encoder_error: Cycle,
+    /// A force repeating with time, towards −: A·sin(2π·t/period + φ).
+    timed_force: Timed,
     /// LuGre bristles: stiffness σ0 (N/m, 0 = stick and slip instead), damping σ1 (N·s/m)
     /// and the speed over which friction at rest passes into Coulomb's (m/s).
     bristles: (f64, f64, f64),
@@ -81,6 +83,25 @@ impl Cycle {
             return 0.0;
         }
         self.amplitude * (std::f64::consts::TAU * x_m / self.period_m + self.phase_rad).sin()
+    }
+}
+
+/// A force that repeats with time, whatever the axis does (a pump's pulse, a machine beside
+/// it): amplitude (N) · sin(2π·t/period + phase), t from the run's start.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Timed {
+    pub amplitude_n: f64,
+    pub period_s: f64,
+    pub phase_rad: f64,
+}
+
+impl Timed {
+    /// Its value at `t_s`; zero where it has no period.
+    fn at(&self, t_s: f64) -> f64 {
+        if self.period_s <= 0.0 {
+            return 0.0;
+        }
+        self.amplitude_n * (std::f64::consts::TAU * t_s / self.period_s + self.phase_rad).sin()
     }
 }
 
@@ -257,6 +278,7 @@ impl Plant {
                 phase_rad: c.errors.force_ripple_phase_deg.to_radians(),
             },
             encoder_error: Cycle::default(),
+            timed_force: Timed::default(),
             bristles: (
                 c.friction.bristle_stiffness_n_per_um * 1e6,
                 c.friction.bristle_damping_n_s_per_m,
@@ -311,6 +333,8 @@ pub struct Axis<'p> {
     direction: f64,
     /// A tight spot: (from m, to m, factor on Coulomb friction).
     spot: Option<(f64, f64, f64)>,
+    /// The time (s) of the step being taken: what the force repeating with time reads.
+    now: f64,
 }
 
 impl<'p> Axis<'p> {
@@ -329,6 +353,7 @@ impl<'p> Axis<'p> {
             stuck: plant.bristles.0 == 0.0,
             direction: 1.0,
             spot,
+            now: 0.0,
         }
     }
 
@@ -531,12 +556,19 @@ impl<'p> Axis<'p> {
             dx[Z_B] = v - sigma0 * v.abs() * x[Z_B] / g;
             let friction = sigma0 * x[Z_B] + sigma1 * dx[Z_B] + p.f_v * v;
             dx[X2] = v;
-            dx[V2] = (f_n - friction - p.load - p.ripple.at(x[X2])) / p.mt;
+            dx[V2] = (f_n - friction - self.pushed(x[X2])) / p.mt;
         } else if !stuck {
             dx[X2] = x[V2];
             let friction = p.f_v * x[V2] + f_c * sliding_sign;
-            dx[V2] = (f_n - friction - p.load - p.ripple.at(x[X2])) / p.mt;
+            dx[V2] = (f_n - friction - self.pushed(x[X2])) / p.mt;
         }
+    }
+
+    /// The forces towards − other than the nut's and friction (N), the table at `x2`: the
+    /// weight, the ripple with the position and the force with time.
+    fn pushed(&self, x2: f64) -> f64 {
+        let p = self.plant;
+        p.load + p.ripple.at(x2) + p.timed_force.at(self.now)
     }
 
     /// One Runge–Kutta step of `h` from time `t`, then the friction's switches: a table that
@@ -553,6 +585,8 @@ impl<'p> Axis<'p> {
         };
         let stuck = self.stuck;
         let x = self.x;
+        // Held over the step, a few microseconds against the force's period.
+        self.now = t + 0.5 * h;
         // The controller sees the interpolator's reference a dead time late.
         let t = t - self.plant.dead_time;
         let k1 = self.rates(&x, reference(t), stuck);
@@ -569,7 +603,7 @@ impl<'p> Axis<'p> {
         }
         let (_, f_s) = self.plant.friction_at(next[X2], self.spot);
         // What friction must hold: the nut's force less the weight and the ripple.
-        let f_n = self.nut_force(&next) - self.plant.load - self.plant.ripple.at(next[X2]);
+        let f_n = self.nut_force(&next) - self.pushed(next[X2]);
         if stuck {
             next[V2] = 0.0;
             if f_n.abs() >= f_s {
@@ -798,6 +832,8 @@ pub struct Recording {
     pub tight_spot_x: Option<(f64, f64, f64)>,
     /// A cyclic error of X's encoder (amplitude in m), which the control reads too.
     pub encoder_error_x: Cycle,
+    /// A force on X's table that repeats with time, not with its position.
+    pub timed_force_x: Timed,
     /// The position is read where the control reads it (the motor's encoder on a
     /// semi-closed loop), else at the table.
     pub at_feedback: bool,
@@ -822,6 +858,7 @@ impl Default for Recording {
             jerk: None,
             tight_spot_x: None,
             encoder_error_x: Cycle::default(),
+            timed_force_x: Timed::default(),
             at_feedback: false,
             home_m: None,
             keep_s: None,
@@ -849,6 +886,7 @@ fn record_axes(program: &Program, configs: &[&AxisConfig], rec: &Recording) -> S
     };
     let mut plants: Vec<Plant> = configs.iter().map(|c| Plant::new(c)).collect();
     plants[0].encoder_error = rec.encoder_error_x;
+    plants[0].timed_force = rec.timed_force_x;
     let start = interpolator.position(0.0);
     let mut axes: Vec<Axis> = plants
         .iter()

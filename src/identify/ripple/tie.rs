@@ -6,7 +6,7 @@ use crate::identify::verdict::predicts_better;
 use crate::numeric::units::{mm_from_m, um_from_m};
 
 /// What the held-out halves say of a ripple of the template's period.
-#[derive(Clone, Copy, PartialEq, Debug)]
+#[derive(Clone, PartialEq, Debug)]
 enum Outcome {
     /// Not fitted.
     None,
@@ -23,6 +23,9 @@ enum Outcome {
     Encoder,
     /// The encoder's error does, the force does not, and the halves do not tell them apart.
     EncoderOnly,
+    /// The halves kept the force, but the record says it is not a force of the position,
+    /// for the reason given.
+    Refused(String),
 }
 
 /// The held-out figures of a ripple on the halves counted, and what they say.
@@ -91,6 +94,14 @@ impl Tie {
         }
     }
 
+    /// The same figures with the force not written, for `why`.
+    pub(super) fn refused(&self, why: String) -> Tie {
+        Tie {
+            outcome: Outcome::Refused(why),
+            ..*self
+        }
+    }
+
     /// Whether the force ripple is written.
     pub(super) fn force_written(&self) -> bool {
         matches!(self.outcome, Outcome::Force | Outcome::CannotTell)
@@ -142,7 +153,7 @@ impl Tie {
             phase.uncertainty,
             mm_from_m(period_m)
         );
-        let statement = match self.outcome {
+        let statement = match &self.outcome {
             Outcome::None => {
                 "force ripple: not determined (no half's fit holds a held-out figure)".to_string()
             }
@@ -169,6 +180,9 @@ impl Tie {
                  same period, {encoder}, it does, but not each half clearly better than the \
                  force; {figures})"
             ),
+            Outcome::Refused(why) => {
+                format!("force ripple: not determined ({why}; {figures})")
+            }
             Outcome::NeitherHelps => format!(
                 "force ripple: not determined (the held-out halves predict no better with it \
                  by a twentieth, as a force or as a cyclic error in the positions recorded: \
