@@ -466,8 +466,22 @@ fn off_path(
 /// What a user may pass as the record's work offset, from the offsets that put its commands
 /// on the program (`offset::work_offsets`).
 fn offset_hint(offsets: &[super::offset::Offset]) -> String {
-    let words = |o: &super::offset::Offset| format!("X {:.3} mm, Y {:.3} mm", o.mm[0], o.mm[1]);
-    let flag = |o: &super::offset::Offset| format!("--work-offset {:.3},{:.3}", o.mm[0], o.mm[1]);
+    use super::offset::Offset;
+    let words = |o: &Offset| format!("X {:.3} mm, Y {:.3} mm", o.mm[0], o.mm[1]);
+    let flag = |o: &Offset| format!("--work-offset {:.3},{:.3}", o.mm[0], o.mm[1]);
+    // At most `shown` of them in words, and how many more there are.
+    let listed = |all: &[Offset], shown: usize| {
+        let mut text = all
+            .iter()
+            .take(shown)
+            .map(words)
+            .collect::<Vec<_>>()
+            .join("; ");
+        if all.len() > shown {
+            text.push_str(&format!(" and {} more", all.len() - shown));
+        }
+        text
+    };
     match offsets {
         [] => "is this a record of this program, in the same coordinates?".into(),
         [one] => format!(
@@ -481,29 +495,19 @@ fn offset_hint(offsets: &[super::offset::Offset]) -> String {
                 && (!others[0].at_program_start || others[0].join > first.join) =>
         {
             format!(
-                "the commands run parallel to the program, offset by {} if the record begins at \
-             the program's start, where it joins the program earliest — a work offset; give \
-             it with {} (a record begun within the program would fit {} as well)",
+                "the commands run parallel to the program, offset by {} if the record begins \
+                 at the program's start, where it joins the program earliest — a work offset; \
+                 give it with {} (a record begun further into the program would fit {} as well)",
                 words(first),
                 flag(first),
-                others
-                    .iter()
-                    .take(3)
-                    .map(words)
-                    .collect::<Vec<_>>()
-                    .join("; ")
+                listed(others, 3)
             )
         }
         several => format!(
             "the commands run parallel to the program offset by one of {} — a work offset the \
              record alone does not tell (it holds too little of the program); give the \
              program's with --work-offset X,Y",
-            several
-                .iter()
-                .take(4)
-                .map(words)
-                .collect::<Vec<_>>()
-                .join("; ")
+            listed(several, 4)
         ),
     }
 }

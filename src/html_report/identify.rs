@@ -87,7 +87,11 @@ pub fn identify_page(report: &IdentifyReport, inputs: &Inputs) -> Result<String,
 
 fn axis_view(report: &IdentifyReport, json: &Json, a: usize) -> AxisView {
     let axis = &report.identification.axes[a];
-    let f = |field: &str, d| fig(json, &format!("axes[{a}].{field}"), d);
+    // An axis the record holds too little of has figures of nothing: shown "—".
+    let f = |field: &str, d| match &axis.too_little {
+        Some(_) if !field.starts_with("values[") => super::Fig::missing(),
+        _ => fig(json, &format!("axes[{a}].{field}"), d),
+    };
     let mut notes = vec![crate::identify::report::prediction(axis)];
     notes.extend(crate::identify::report::verdict(
         axis,

@@ -288,6 +288,10 @@ fn too_little_words(why: &str) -> String {
 /// What the fit is, where it is not simply identified to the record's noise.
 #[cfg(feature = "html-report")]
 pub(crate) fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
+    // Too little compared to judge: `prediction` says why, and nothing is claimed.
+    if a.too_little.is_some() {
+        return None;
+    }
     if a.template_holds {
         return Some(
             "the template explains the record to its noise, and values fitted to it predict \

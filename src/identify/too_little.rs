@@ -48,8 +48,8 @@ pub(super) fn why(
     let noise_um = um_from_m(ctx.noise_sigma);
     (following_um.is_nan() || following_um <= noise_um).then(|| {
         format!(
-            "it does not move in the stretch compared (its following error there {following_um:.3} \
-             µm, within the record's noise of {noise_um:.3} µm)"
+            "its following error in the stretch compared ({following_um:.3} µm) stays within the \
+             record's noise ({noise_um:.3} µm): its loop's response is not seen"
         )
     })
 }
