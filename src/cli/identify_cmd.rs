@@ -29,8 +29,9 @@ pub struct IdentifyArgs {
     /// Where to start: a machine file, or a preset's name (`hvmc`, `small-table`). Its
     /// controller structure is kept; the controller's gains (and a transfer function's real
     /// corners), the mass, friction and dead time are fitted. `none`: no template — a model
-    /// of each axis's loop from command to position, of the order the record's held-out
-    /// halves choose, whose values describe the loop rather than the machine's parts.
+    /// of each axis's loop from command to position (a cascade, or an integrating lead-lag
+    /// commanding current), of the family and order the record's held-out halves choose,
+    /// whose values describe the loop rather than the machine's parts.
     #[arg(long, value_name = "FILE|PRESET", default_value = "hvmc")]
     pub template: PathBuf,
     /// Write the identified machine here (a machine file `check` and `diagnose` take).

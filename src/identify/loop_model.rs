@@ -6,15 +6,21 @@
 //! friction — whose values stand for the loop's behaviour, not for the machine's parts: a
 //! table run by a PID on a current amplifier is described by the cascade that follows its
 //! commands alike. It is fitted in increasing order, each order kept only where it predicts
-//! the record's held-out halves better than the one below it (see [`orders`]). A force
-//! ripple's period, which a template would name, is looked for among the leads ball screws
-//! are made with (`super::ripple::period`).
+//! the record's held-out halves better than the one below it (see [`orders`]). Beside it a
+//! second family is fitted (`transfer`): an integrating lead-lag commanding current on a
+//! rigid body, the structure many such tables run, written where it predicts the held-out
+//! halves better than the cascade by a twentieth — the cascade follows an integrating
+//! controller's commands alike but not its shape. A force ripple's period, which a template
+//! would name, is looked for among the leads ball screws are made with
+//! (`super::ripple::period`), for each family on its own fit.
 
 use super::AxisIdentification;
 use super::knobs::{self, Knob};
 use super::solve::Fit;
 use crate::machine::{AxisConfig, AxisName, Controller, MachineConfig, VelocityLoop};
 use crate::trace::measured::MeasuredTrace;
+
+mod transfer;
 
 /// The velocity loop's bandwidth the model starts from (Hz): well above a position loop's,
 /// so that the lowest order is the position loop alone.
@@ -124,32 +130,70 @@ pub(crate) fn describes(order: usize) -> String {
     )
 }
 
-/// The loop model of the order the held-out halves choose: each order is kept over the one
-/// below only where it predicts them better by more than a twentieth. The record names no
-/// ripple's period: where a lead's ripple on the fit predicts each half from the other
-/// (`ripple::period`), the orders are fitted again with it, the ripple on top judged as a
-/// template's period would be.
+/// The model of the family and order the held-out halves choose: the cascade's orders
+/// ([`orders`]) and the integrating lead-lag on current ([`transfer`]), each with the
+/// ripple its halves keep; the lead-lag is kept over the cascade only where it predicts
+/// them better by more than a twentieth, and the report says which family and why.
 pub(super) fn identified(
     fit: &Fit,
     template: &MachineConfig,
     moving_only: bool,
 ) -> Option<(AxisConfig, AxisIdentification)> {
-    let mut chosen: Option<(usize, (AxisConfig, AxisIdentification))> = None;
-    for (i, knobs) in orders(template.axis(fit.axis())).iter().enumerate() {
-        let Some(found) = super::identify_on(fit, template, moving_only, knobs) else {
-            continue;
-        };
-        let better = chosen
-            .as_ref()
-            .is_none_or(|(_, c)| super::predicts_better(&found.1, &c.1));
-        if better {
-            chosen = Some((i + 1, found));
-        }
-    }
-    let chosen = chosen.map(|(order, (config, mut id))| {
-        id.kept = describes(order);
-        (config, id)
-    });
+    let cascade = with_ripple(fit, template, moving_only, Family::Cascade);
+    let lead_lag = transfer::template(template, fit)
+        .and_then(|start| with_ripple(fit, &start, moving_only, Family::LeadLag));
+    chosen_family(cascade, lead_lag)
+}
+
+/// The two families a machine without a template is fitted as.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Family {
+    /// The cascade of [`template`], in the orders of [`orders`].
+    Cascade,
+    /// An integrating lead-lag commanding current on a rigid body (`transfer`).
+    LeadLag,
+}
+
+/// Of the two families' fits, the one written: the lead-lag where it predicts the held-out
+/// halves better than the cascade by more than a twentieth (or the cascade has none), with
+/// both figures said.
+fn chosen_family(
+    cascade: Option<(AxisConfig, AxisIdentification)>,
+    lead_lag: Option<(AxisConfig, AxisIdentification)>,
+) -> Option<(AxisConfig, AxisIdentification)> {
+    let (Some(c), Some(l)) = (&cascade, &lead_lag) else {
+        return cascade.or(lead_lag);
+    };
+    let figures = format!(
+        "held out {:.3} µm as the cascade, {:.3} µm as the lead-lag on current",
+        c.1.held_out_identified_um, l.1.held_out_identified_um
+    );
+    let lead_lag_kept = super::predicts_better(&l.1, &c.1);
+    let (config, mut id, start) = if lead_lag_kept {
+        let (config, mut id) = lead_lag.expect("matched above");
+        // Judged against the start every family's figures are compared with: the cascade's.
+        id.rms_template_um = c.1.rms_template_um;
+        id.held_out_template_um = c.1.held_out_template_um;
+        id.better_than_template = !id.held_out_in_sample
+            && super::verdict::predicts_better(id.held_out_identified_um, id.held_out_template_um);
+        (config, id, "kept: better by more than a twentieth")
+    } else {
+        let (config, id) = cascade.expect("matched above");
+        (config, id, "the lead-lag not better by a twentieth")
+    };
+    id.kept = format!("{}; families compared: {figures} ({start})", id.kept);
+    Some((config, id))
+}
+
+/// One family's fit at `template`, with a ripple at the lead its halves take where the
+/// template names no period.
+fn with_ripple(
+    fit: &Fit,
+    template: &MachineConfig,
+    moving_only: bool,
+    family: Family,
+) -> Option<(AxisConfig, AxisIdentification)> {
+    let chosen = fitted(fit, template, moving_only, family);
     if template.axis(fit.axis()).errors.force_ripple_period_mm > 0.0 {
         return chosen;
     }
@@ -159,7 +203,7 @@ pub(super) fn identified(
             let mut with_period = template.clone();
             let axis = with_period.axis_mut(fit.axis());
             axis.errors.force_ripple_period_mm = period_mm;
-            match identified(fit, &with_period, moving_only) {
+            match fitted(fit, &with_period, moving_only, family) {
                 Some(found) => Some(as_looked_for(found)),
                 // The refit with a ripple found nothing: the loop without one stands.
                 None => {
@@ -173,6 +217,42 @@ pub(super) fn identified(
             Some((config, id))
         }
     }
+}
+
+/// One family's fit at `template` (a ripple's period in it fitted as a template's): the
+/// cascade in the order the held-out halves choose, each order kept over the one below only
+/// where it predicts them better by more than a twentieth; the lead-lag with its gain,
+/// corners, dead time, mass and friction free.
+fn fitted(
+    fit: &Fit,
+    template: &MachineConfig,
+    moving_only: bool,
+    family: Family,
+) -> Option<(AxisConfig, AxisIdentification)> {
+    if family == Family::LeadLag {
+        // The corners free: a design's corners, which the template path also tries, are
+        // here only a start's (and trying them too would double the family's time).
+        let knobs = super::knobs::for_axis(template.axis(fit.axis()));
+        let (config, mut id) = super::identify_on(fit, template, moving_only, &knobs)?;
+        id.kept = transfer::DESCRIBES.to_string();
+        return Some((config, id));
+    }
+    let mut chosen: Option<(usize, (AxisConfig, AxisIdentification))> = None;
+    for (i, knobs) in orders(template.axis(fit.axis())).iter().enumerate() {
+        let Some(found) = super::identify_on(fit, template, moving_only, knobs) else {
+            continue;
+        };
+        let better = chosen
+            .as_ref()
+            .is_none_or(|(_, c)| super::predicts_better(&found.1, &c.1));
+        if better {
+            chosen = Some((i + 1, found));
+        }
+    }
+    chosen.map(|(order, (config, mut id))| {
+        id.kept = describes(order);
+        (config, id)
+    })
 }
 
 /// A loop fitted again with a lead's ripple: where the held-out halves kept it, its

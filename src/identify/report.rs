@@ -419,6 +419,10 @@ pub(crate) fn machine_file(
         if let Some(p) = &a.presliding {
             let _ = writeln!(s, "#   {}: {}", a.axis, p.statement);
         }
+        // Without a template, the family and order the held-out halves chose, and why.
+        if a.kept.starts_with("no template") {
+            let _ = writeln!(s, "#   {}: {}", a.axis, a.kept);
+        }
     }
     if let Some(line) = no_ripple_period_line(&id.axes) {
         let _ = writeln!(s, "#   {line}");
