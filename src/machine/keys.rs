@@ -234,7 +234,7 @@ pub const AXIS_KEYS: &[AxisKey] = &[
         |a| a.position_loop.dead_time_ms
     ),
     // Below 1e-5 A/mm the position error that gives the current carrying a table's friction
-    // (a tenth of an ampere and more) runs to kilometres: no loop that holds a position.
+    // (a tenth of an ampere and more) runs to 10 m and more: no loop that holds a position.
     controller!("controller.position_gain_a_per_mm", "A/mm", Range(1e-5, 1e6),
         "state feedback: current per millimetre of position error", StateFeedback => position_gain_a_per_mm),
     controller!("controller.integral_gain_a_per_mm_s", "A/(mm·s)", NonNegative(1e9),
@@ -470,8 +470,8 @@ pub const AXIS_KEYS: &[AxisKey] = &[
         "where the holder is on the beam at position 0 (within the beam)", |a| a.lateral_shift, l => l.holder_at_zero_m),
     // The limits' floors: no machine's highest feed or rapid is below 1 mm/min (the heavy
     // machine's slowest cutting feed is 0.1), no axis accelerates at less than 1 mm/s² or
-    // with less jerk than 0.01 m/s³ (a tenth of a second to 1 mm/s²); each axis's
-    // acceleration and jerk must also stop it from its rapid within its travel (`validate`).
+    // with less jerk than 0.01 m/s³ (a tenth of a second to 1 mm/s²). A rapid the axis
+    // cannot brake from within its travel is allowed: a short axis never reaches it.
     key!(
         "limits.max_feed_mm_per_min",
         "mm/min",

@@ -400,59 +400,6 @@ fn validate_limits(c: &Checker, prefix: &str, l: &Limits) -> Result<(), ConfigEr
             ),
         ));
     }
-    validate_stopping(c, &k, l)
-}
-
-/// The distance (m) an axis stops in from `v` (m/s) braking at up to `accel` (m/s²), its
-/// braking ramped in and out at `jerk` (m/s³): v·(v/a + a/j)/2 where it reaches `accel`
-/// (v ≥ a²/j), else v·√(v/j) (the braking ramps up and straight back down).
-pub(crate) fn stopping_distance_m(v: f64, accel: f64, jerk: f64) -> f64 {
-    if v * jerk >= accel * accel {
-        0.5 * v * (v / accel + accel / jerk)
-    } else {
-        v * (v / jerk).sqrt()
-    }
-}
-
-/// Where the travel is given, the axis stops from its rapid within it: at less acceleration
-/// or jerk no machine could brake before its end, whatever the program.
-fn validate_stopping(
-    c: &Checker,
-    k: &dyn Fn(&str) -> String,
-    l: &Limits,
-) -> Result<(), ConfigError> {
-    let Some([lo, hi]) = l.travel_mm else {
-        return Ok(());
-    };
-    let travel_m = (hi - lo) * 1e-3;
-    let v = l.rapid_mm_per_min / 60e3;
-    let (a, j) = (l.max_accel_m_per_s2, l.max_jerk_m_per_s3);
-    let rapid = format!("{} mm/min", number(l.rapid_mm_per_min));
-    let travel = format!("{} mm of travel", number(hi - lo));
-    if v * v / (2.0 * a) > travel_m {
-        return Err(c.inconsistent(
-            &k("max_accel_m_per_s2"),
-            format!(
-                "is {} m/s²: braking at it from the rapid of {rapid} takes {} mm, more than \
-                 the axis's {travel}",
-                number(a),
-                number(v * v / (2.0 * a) * 1e3)
-            ),
-        ));
-    }
-    let stop = stopping_distance_m(v, a, j);
-    if stop > travel_m {
-        return Err(c.inconsistent(
-            &k("max_jerk_m_per_s3"),
-            format!(
-                "is {} m/s³: braking from the rapid of {rapid} at {} m/s² ramped at it takes \
-                 {} mm, more than the axis's {travel}",
-                number(j),
-                number(a),
-                number(stop * 1e3)
-            ),
-        ));
-    }
     Ok(())
 }
 

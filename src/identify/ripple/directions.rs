@@ -93,26 +93,30 @@ impl Directions {
             format!(
                 "the phase differs between directions: {:.1} ± {:.1}° moving +, {:.1} ± \
                  {:.1}° moving −, {d:.1}° apart where a force that repeats with the \
-                 position acts at the same phase either way; an error tied to time or to \
-                 the program would not",
+                 position acts at the same phase either way (the model's own lag at the \
+                 ripple's frequency shifts the two apart as well): not shown to be a force of \
+                 the position",
                 plus.0, plus.1, minus.0, minus.1
             )
         })
     }
 
-    /// The clause a ripple written adds to its statement: that its phases agree, or that
-    /// they were not told apart where [`K_SIGMA`] of their uncertainty spans half a turn
-    /// (no difference could have shown).
+    /// The clause a ripple written adds to its statement: that its phases show no difference,
+    /// or that they were not compared where [`K_SIGMA`] of their uncertainty spans a quarter
+    /// turn (no difference that matters could have shown).
     pub(super) fn clause(&self) -> String {
         match (self, self.difference()) {
-            (Directions::Compared { .. }, Some((d, sigma))) if K_SIGMA * sigma >= 180.0 => {
+            (Directions::Compared { .. }, Some((d, sigma))) if K_SIGMA * sigma >= 90.0 => {
                 format!(
                     "; its phase moving + and moving − not compared: each direction alone fixes \
                      it too loosely ({d:.1} ± {sigma:.1}° apart)"
                 )
             }
             (Directions::Compared { .. }, Some((d, sigma))) => {
-                format!("; its phase moving + and moving − agrees ({d:.1} ± {sigma:.1}° apart)")
+                format!(
+                    "; its phase moving + and moving − shows no difference ({d:.1} ± {sigma:.1}° \
+                     apart)"
+                )
             }
             (Directions::NotCompared(why), _) => {
                 format!("; its phase not compared between directions ({why})")
