@@ -139,9 +139,14 @@ pub(super) fn identified(
     template: &MachineConfig,
     moving_only: bool,
 ) -> Option<(AxisConfig, AxisIdentification)> {
-    let cascade = with_ripple(fit, template, moving_only, Family::Cascade);
-    let lead_lag = transfer::template(template, fit)
-        .and_then(|start| with_ripple(fit, &start, moving_only, Family::LeadLag));
+    // Side by side: where the other axis's search ends first, its core takes one family.
+    let (cascade, lead_lag) = rayon::join(
+        || with_ripple(fit, template, moving_only, Family::Cascade),
+        || {
+            transfer::template(template, fit)
+                .and_then(|start| with_ripple(fit, &start, moving_only, Family::LeadLag))
+        },
+    );
     chosen_family(cascade, lead_lag)
 }
 
