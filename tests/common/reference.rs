@@ -882,6 +882,8 @@ pub struct Recording {
     /// logger started late or stopped early, its clock starting at zero where it starts.
     /// `None` keeps the whole run.
     pub keep_s: Option<(f64, f64)>,
+    /// The force X's loops push with at the start, friction holding it (N, towards +).
+    pub held_x_n: f64,
 }
 
 impl Default for Recording {
@@ -900,6 +902,7 @@ impl Default for Recording {
             at_feedback: false,
             home_m: None,
             keep_s: None,
+            held_x_n: 0.0,
         }
     }
 }
@@ -925,6 +928,7 @@ fn record_axes(program: &Program, configs: &[&AxisConfig], rec: &Recording) -> S
     let mut plants: Vec<Plant> = configs.iter().map(|c| Plant::new(c)).collect();
     plants[0].encoder_error = rec.encoder_error_x;
     plants[0].timed_force = rec.timed_force_x;
+    plants[0] = plants[0].holding(rec.held_x_n);
     let start = interpolator.position(0.0);
     let mut axes: Vec<Axis> = plants
         .iter()
