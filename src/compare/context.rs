@@ -168,10 +168,27 @@ impl Context<'_> {
         machine: &MachineConfig,
         axis: AxisName,
     ) -> Option<Vec<f64>> {
+        self.simulate_axis_holding(machine, axis, 0.0)
+    }
+
+    /// [`Context::simulate_axis`] with the axis holding `held_n` (N) at rest at the record's
+    /// start where the record starts at rest (docs/model.md §1.10); elsewhere the start's
+    /// unknown state is left out of the comparison, and the force is not held.
+    pub(crate) fn simulate_axis_holding(
+        &self,
+        machine: &MachineConfig,
+        axis: AxisName,
+        held_n: f64,
+    ) -> Option<Vec<f64>> {
+        let held_n = if self.start.kind == super::start::StartKind::AtRest {
+            held_n
+        } else {
+            0.0
+        };
         match self.replanned(machine) {
-            None => self.read_on(machine, axis, &self.commands, None),
+            None => self.read_on(machine, axis, &self.commands, None, held_n),
             // The machine runs on its own plan's clock.
-            Some(commands) => self.read_on(machine, axis, &commands, None),
+            Some(commands) => self.read_on(machine, axis, &commands, None, held_n),
         }
     }
 
@@ -198,29 +215,30 @@ impl Context<'_> {
         commands: &Commands,
     ) -> Option<Vec<f64>> {
         match self.replanned(machine) {
-            None => self.read_on(machine, axis, commands, None),
-            Some(commands) => self.read_on(machine, axis, &commands, None),
+            None => self.read_on(machine, axis, commands, None, 0.0),
+            Some(commands) => self.read_on(machine, axis, &commands, None, 0.0),
         }
     }
 
-    /// `axis` of `machine` on `commands` as the measurement sees it: with the axes'
-    /// squareness, from `other` (the other axis on the same commands) or, when not given
-    /// and needed, a simulation of it.
+    /// `axis` of `machine` on `commands` as the measurement sees it, holding `held_n` (N) at
+    /// its start: with the axes' squareness, from `other` (the other axis on the same
+    /// commands) or, when not given and needed, a simulation of it (holding nothing).
     fn read_on(
         &self,
         machine: &MachineConfig,
         axis: AxisName,
         commands: &Commands,
         other: Option<&[f64]>,
+        held_n: f64,
     ) -> Option<Vec<f64>> {
-        let mut own = self.simulate_on(machine, axis, commands)?;
+        let mut own = self.simulate_on(machine, axis, commands, held_n)?;
         let cross = geometry::CrossTerms::of(machine, axis);
         if !cross.is_zero() && self.measured_at != MeasuredAt::Motor {
             let simulated;
             let other = match other {
                 Some(o) => o,
                 None => {
-                    simulated = self.simulate_on(machine, axis.other(), commands)?;
+                    simulated = self.simulate_on(machine, axis.other(), commands, 0.0)?;
                     &simulated
                 }
             };
@@ -240,12 +258,12 @@ impl Context<'_> {
     ) -> Option<(Vec<f64>, std::borrow::Cow<'b, [f64]>)> {
         Some(match self.replanned(machine) {
             None => (
-                self.read_on(machine, axis, &self.commands, Some(other))?,
+                self.read_on(machine, axis, &self.commands, Some(other), 0.0)?,
                 std::borrow::Cow::Borrowed(other),
             ),
             Some(commands) => {
-                let raw_own = self.simulate_on(machine, axis, &commands)?;
-                let mut other = self.simulate_on(machine, axis.other(), &commands)?;
+                let raw_own = self.simulate_on(machine, axis, &commands, 0.0)?;
+                let mut other = self.simulate_on(machine, axis.other(), &commands, 0.0)?;
                 let mut own = raw_own.clone();
                 if self.measured_at != MeasuredAt::Motor {
                     geometry::CrossTerms::of(machine, axis).add(&mut own, &other);
@@ -257,14 +275,16 @@ impl Context<'_> {
     }
 
     /// One axis of `machine` on `commands`, read where the measurement was taken, stepped as
-    /// the context says.
+    /// the context says, holding `held_n` (N) at its start.
     fn simulate_on(
         &self,
         machine: &MachineConfig,
         axis: AxisName,
         commands: &Commands,
+        held_n: f64,
     ) -> Option<Vec<f64>> {
-        let model = AxisModel::from_config(machine.axis(axis));
+        let mut model = AxisModel::from_config(machine.axis(axis));
+        model.held_at_start_n = held_n;
         let per_cycle = match self.stepping {
             Stepping::Full => false,
             Stepping::PerCycleWhereExact => !model.inputs_vary_within_cycle(),

@@ -9,6 +9,7 @@
 
 mod align;
 pub mod context;
+mod held;
 mod offset;
 pub mod residual;
 pub mod start;
@@ -21,6 +22,7 @@ use crate::trace::measured::{MeasuredError, MeasuredTrace};
 
 pub(crate) use align::context;
 pub use context::{Context, Stepping};
+pub use held::HeldAtStart;
 
 /// How a record is placed on a program and compared with a model.
 #[derive(Debug, Clone, Copy, PartialEq)]

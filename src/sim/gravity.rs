@@ -1,14 +1,16 @@
-//! A vertical axis's weight (docs/model.md §1.8): the load enters the table's equation and the
-//! break-away guard through [`AxisModel::external_force`]; here is the state in which the
-//! loops already hold it, where a standing axis starts.
+//! A vertical axis's weight (docs/model.md §1.8), and the force an axis holds at rest at the
+//! start of a run (§1.10): the load enters the table's equation and the break-away guard
+//! through [`AxisModel::external_force`]; here is the state in which the loops already hold
+//! it, where a standing axis starts.
 //!
-//! At rest every rate is zero, the table stuck with no friction force: the nut (or a linear
-//! motor) carries the load, the motor's torque balances the nut through the coupling, the
-//! current loop's integral holds the voltage that drives that current and the velocity
-//! loop's (or a controller's) integral the current command. Those conditions are linear in
-//! the states, so the state is one linear solve: each used state's rate set to zero, plus
-//! the nut force equal to the load. A structure without an integral (a PD controller) holds
-//! the load only with a position error; the solve gives that sag.
+//! At rest every rate is zero, the table stuck: the nut (or a linear motor) carries the load
+//! and the force held, friction the force held; the motor's torque balances the nut through
+//! the coupling, the current loop's integral holds the voltage that drives that current and
+//! the velocity loop's (or a controller's) integral the current command. Those conditions
+//! are linear in the states, so the state is one linear solve: each used state's rate set to
+//! zero, plus the nut force equal to the load and the force held. A structure without an
+//! integral (a PD controller) holds them only with a position error; the solve gives that
+//! sag.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -17,17 +19,18 @@ use super::model::{
 };
 
 /// Turns `x`, a state of the axis at rest with nothing loaded (everything aligned, no
-/// current), into the one where its loops hold its load, and `mode` into that state's mode
-/// (stuck, the nut on the flank that carries the load). Leaves both as they are when the
-/// axis has no load, or when no state holds it (a loop that cannot: the run then shows the
-/// axis sagging from its start).
-pub(crate) fn hold_load(model: &AxisModel, x: &mut Aug, mode: &mut Mode) {
-    if model.load_n == 0.0 {
+/// current), into the one where its loops hold its load and push with `held_n` (N, + towards
+/// +) against stuck friction, and `mode` into that state's mode (stuck, the nut on the flank
+/// that carries the two). Leaves both as they are when the axis carries neither, or when no
+/// state holds them (a loop that cannot: the run then shows the axis sagging from its start).
+pub(crate) fn hold_load(model: &AxisModel, x: &mut Aug, mode: &mut Mode, held_n: f64) {
+    let nut_n = model.load_n + held_n;
+    if model.load_n == 0.0 && held_n == 0.0 {
         return;
     }
     let held_mode = Mode {
         friction: FrictionMode::Stick,
-        contact: if model.load_n > 0.0 || !model.has_backlash() {
+        contact: if nut_n > 0.0 || !model.has_backlash() {
             ContactMode::Pos
         } else {
             ContactMode::Neg
@@ -35,7 +38,7 @@ pub(crate) fn hold_load(model: &AxisModel, x: &mut Aug, mode: &mut Mode) {
         current: ClampMode::Linear,
         voltage: ClampMode::Linear,
     };
-    if let Some(held) = solve_held(model, x, held_mode) {
+    if let Some(held) = solve_held(model, x, held_mode, nut_n) {
         *x = held;
         *mode = held_mode;
     }
@@ -43,8 +46,8 @@ pub(crate) fn hold_load(model: &AxisModel, x: &mut Aug, mode: &mut Mode) {
 
 /// The held state: the used states but the table's speed are the unknowns; the equations
 /// are their rates (but the table's position's, which a stuck table does not have) set to
-/// zero and the force on the nut equal to the load.
-fn solve_held(model: &AxisModel, rest: &Aug, mode: Mode) -> Option<Aug> {
+/// zero and the force on the nut equal to `nut_n` (N).
+fn solve_held(model: &AxisModel, rest: &Aug, mode: Mode, nut_n: f64) -> Option<Aug> {
     let a = model.dynamics(mode);
     let signals = model.signals();
     let nut = model.nut_force(&signals, mode.contact);
@@ -74,7 +77,7 @@ fn solve_held(model: &AxisModel, rest: &Aug, mode: Mode) -> Option<Aug> {
     for (u, &j) in unknowns.iter().enumerate() {
         m[(last, u)] = nut[j];
     }
-    rhs[last] = model.load_n - known(&|j| nut[j]);
+    rhs[last] = nut_n - known(&|j| nut[j]);
     let solution = m.clone().lu().solve(&rhs)?;
     let residual = (&m * &solution - &rhs).amax();
     if !solution.iter().all(|v| v.is_finite()) || residual > 1e-6 * (1.0 + rhs.amax()) {
@@ -125,7 +128,7 @@ mod tests {
     fn the_held_state_is_at_rest_with_the_weight_on_the_motor() {
         let m = hanging();
         let (mut x, mut mode) = at_rest(&m, 0.25);
-        hold_load(&m, &mut x, &mut mode);
+        hold_load(&m, &mut x, &mut mode, 0.0);
         // Every rate zero, and nothing left for friction to hold: the nut carries the load.
         // (A 98 rad screw angle times K_θ = 4e7 N·m/rad rounds to ~1e-5 N·m: the
         // accelerations are zero to that.)
@@ -142,6 +145,102 @@ mod tests {
         assert!((x[X2] - 0.25).abs() < 1e-12);
         assert!((m.ks * x[ZW] / m.ts - expected_a).abs() < 1e-6 * expected_a);
         assert_eq!(x[FX], 0.0);
+    }
+
+    /// hvmc's X (a modelled current loop), with presliding bristles of 50 N/µm where asked,
+    /// holding `share` of its friction's level at rest at its start.
+    fn holding(share: f64, bristles: bool) -> AxisModel {
+        let mut c = MachineConfig::preset("hvmc").unwrap().x;
+        if bristles {
+            let f = &mut c.friction;
+            f.bristle_stiffness_n_per_um = 50.0;
+            f.bristle_damping_n_s_per_m = 2e4;
+        }
+        let mut m = AxisModel::from_config(&c);
+        m.held_at_start_n = share * m.f_s;
+        m
+    }
+
+    /// `model` standing at 0.1 m for `seconds` with its command there: the table's
+    /// positions (m) and the motor's currents (A) every cycle.
+    fn standing(model: &AxisModel, seconds: f64) -> (Vec<f64>, Vec<f64>) {
+        let dt = 1e-3;
+        let commands = crate::sim::AxisCommands::ramp(0.1, 0.0, dt, (seconds / dt) as usize);
+        let t = crate::sim::simulate(model, &commands, dt, &crate::sim::SimConfig::default())
+            .expect("a stable axis");
+        (t.pos_m, t.current_a)
+    }
+
+    #[test]
+    fn an_axis_holding_a_force_at_its_start_stands_with_friction_carrying_it() {
+        let m = holding(-0.6, false);
+        let held = -0.6 * m.f_s;
+        assert!(held < -1.0, "a force to hold: {held} N");
+        let (x, mode) = crate::sim::simulate::rest_state(&m, 0.1);
+        // At rest: the drive's rates are zero, and the push on the stuck table is the force
+        // held — friction carries it.
+        let dx = m.dynamics(mode) * x;
+        for i in 0..crate::sim::model::N {
+            assert!(dx[i].abs() < 1e-3, "state {i}: rate {}", dx[i]);
+        }
+        let f_e = (m.breakaway_force(&m.signals(), mode.contact) * x)[0];
+        assert!((f_e - held).abs() < 1e-6 * held.abs(), "F_e = {f_e} N");
+        // Torque balance at the motor: K_t·I = F·r·i_t (to the solve's rounding: a screw
+        // angle of 10³ rad times stiffnesses of 10⁷ N·m/rad).
+        let expected_a = held * m.r * m.it / m.kt;
+        assert!(
+            (x[I] - expected_a).abs() < 1e-5 * expected_a.abs(),
+            "{} A",
+            x[I]
+        );
+        // Left standing, nothing moves and the current stays: the loops were at rest.
+        let (pos, current) = standing(&m, 0.3);
+        let moved = pos.iter().map(|p| (p - 0.1).abs()).fold(0.0, f64::max);
+        assert!(moved < 1e-9, "the table moved {moved:e} m");
+        let drift = current
+            .iter()
+            .map(|c| (c - expected_a).abs())
+            .fold(0.0, f64::max);
+        assert!(
+            drift < 1e-3 * expected_a.abs(),
+            "the current drifted {drift} A"
+        );
+    }
+
+    #[test]
+    fn a_force_held_beyond_the_friction_at_rest_is_held_at_that_level() {
+        let m = holding(3.0, false);
+        let (x, _) = crate::sim::simulate::rest_state(&m, 0.1);
+        let expected_a = m.f_s * m.r * m.it / m.kt;
+        assert!(
+            (x[I] - expected_a).abs() < 1e-5 * expected_a,
+            "{} A, {expected_a} A",
+            x[I]
+        );
+    }
+
+    #[test]
+    fn bristles_holding_a_force_at_the_start_are_bent_by_it_and_the_table_stands() {
+        let m = holding(0.8, true);
+        let sigma0 = m.presliding.expect("bristles").sigma0_n_per_m;
+        // Unbent bristles would let the push move the table by held/σ0 before they carry it.
+        let yield_m = 0.8 * m.f_s / sigma0;
+        assert!(yield_m > 0.1e-6, "a yield to see: {yield_m:e} m");
+        let (pos, current) = standing(&m, 0.3);
+        let moved = pos.iter().map(|p| (p - 0.1).abs()).fold(0.0, f64::max);
+        assert!(
+            moved < 0.02 * yield_m,
+            "moved {moved:e} m of a yield of {yield_m:e} m"
+        );
+        let expected_a = 0.8 * m.f_s * m.r * m.it / m.kt;
+        let last = current[current.len() - 1];
+        assert!(
+            (last - expected_a).abs() < 0.01 * expected_a,
+            "{last} A, {expected_a} A"
+        );
+        // The bristles hold it, in their sliding mode: no stuck mode to carry it.
+        let (_, mode) = crate::sim::simulate::rest_state(&m, 0.1);
+        assert_eq!(mode.friction, FrictionMode::SlipPos);
     }
 
     /// The preset's ram released with its loops not yet holding it (integrators empty, no

@@ -169,6 +169,13 @@ pub struct AxisModel {
     /// A vertical axis's load F_g = M_T·g − F_cb (N), pulling the table towards −; zero on
     /// a horizontal axis (docs/model.md §1.8).
     pub load_n: f64,
+    /// A force the axis holds at rest at the start of its run (N, + pushing the table
+    /// towards +): its integral action pushing against the friction that keeps the table
+    /// where an earlier move left it (docs/model.md §1.10). A state of a record's start, not
+    /// of the machine: no machine file sets it; zero from [`AxisModel::from_config`]. The
+    /// run starts with at most the friction's level at rest of it
+    /// ([`AxisModel::held_at_start_bounded_n`]).
+    pub held_at_start_n: f64,
 }
 
 /// How the axis is controlled, in SI units.
@@ -317,6 +324,26 @@ impl AxisModel {
     /// The position gain as the CNC shows it, Kv = Kp·r·i_t (1/s).
     pub fn kv_per_s(&self) -> f64 {
         self.kp * self.r * self.it
+    }
+
+    /// The friction's level at rest with the table at `x` m (N): the most that stuck
+    /// friction (or the bristles) holds against a push before the table slides — the static
+    /// level (below Coulomb's where the bristles have it so) plus what the position's map adds.
+    pub fn rest_friction_n(&self, x: f64) -> f64 {
+        let mapped = if self.has_friction_maps() {
+            self.friction_added_n(x, 0.0).1
+        } else {
+            0.0
+        };
+        (self.f_s + mapped).max(0.0)
+    }
+
+    /// The force held at the start (N), within the friction's level at rest at `x` m: a
+    /// table held by friction holds no more than that, and a push beyond it would have moved
+    /// the table before the run began.
+    pub fn held_at_start_bounded_n(&self, x: f64) -> f64 {
+        let level = self.rest_friction_n(x);
+        self.held_at_start_n.clamp(-level, level)
     }
 
     /// True when the axis has backlash (a gap to cross at reversals).

@@ -13,7 +13,8 @@ use crate::machine::Feedback;
 use crate::sim::AxisCommands;
 
 /// The state of an axis at rest at `x0` (m): everything aligned, no current, stuck, the nut
-/// in the middle of its gap — or, on a vertical axis, as its loops hold its weight.
+/// in the middle of its gap — or, on a vertical axis or one that holds a force at its start
+/// ([`AxisModel::held_at_start_n`]), as its loops hold its weight and that force.
 ///
 /// "At rest" means where the loop holds the axis: the feedback reads `x0`. With a measuring
 /// error that is not where the table is — a scale reading e too long holds the table at
@@ -58,13 +59,21 @@ pub(crate) fn rest_state(model: &AxisModel, x0: f64) -> (Aug, Mode) {
         current: ClampMode::Linear,
         voltage: ClampMode::Linear,
     };
-    // A vertical axis stands where its loops hold its weight.
-    super::gravity::hold_load(model, &mut x, &mut mode);
+    // A vertical axis stands where its loops hold its weight, and every axis with the
+    // force its integral action holds against friction at the start.
+    let held_n = model.held_at_start_bounded_n(x[X2]);
+    super::gravity::hold_load(model, &mut x, &mut mode, held_n);
     if model.presliding.is_some() {
         // Presliding friction has no stuck mode: the bristles hold the table.
         mode.friction = FrictionMode::SlipPos;
     }
     (x, mode)
+}
+
+/// The presliding bristles' deflection at rest (m) where the loops push with `held_n` (N):
+/// the bristles carry that push, σ0·z = held.
+fn bristles_at_rest_m(model: &AxisModel, held_n: f64) -> Option<f64> {
+    model.presliding.map(|p| held_n / p.sigma0_n_per_m)
 }
 
 /// Simulates one axis following its commands (sampled every `dt_s`), recording the trace
@@ -164,7 +173,7 @@ impl<'a> AxisRun<'a> {
                 .resonance
                 .map(|(omega, zeta)| StructuralFilter::new(omega, zeta, dt_s)),
             taken: 0,
-            bristle_m: model.presliding.map(|_| 0.0),
+            bristle_m: bristles_at_rest_m(model, model.held_at_start_bounded_n(x[X2])),
         })
     }
 

@@ -57,6 +57,8 @@ pub struct Plant {
     motor_encoder: bool,
     /// A vertical axis's weight less its counterbalance, pulling the table down (N).
     load: f64,
+    /// The force the loops push with at the start, friction holding it (N, towards +).
+    held: f64,
     /// A force repeating with the table's position, towards −: A·sin(2π·x/period + φ).
     ripple: Cycle,
     /// A cyclic error of the encoder: it reads the axis e·sin(2π·x/period + φ) too far.
@@ -272,6 +274,7 @@ impl Plant {
                 .gravity
                 .as_ref()
                 .map_or(0.0, |g| mt * GRAVITY - g.counterbalance_n),
+            held: 0.0,
             ripple: Cycle {
                 amplitude: c.errors.force_ripple_n,
                 period_m: c.errors.force_ripple_period_mm * 1e-3,
@@ -284,6 +287,15 @@ impl Plant {
                 c.friction.bristle_damping_n_s_per_m,
                 c.friction.stribeck_velocity_mm_per_min / 60_000.0,
             ),
+        }
+    }
+
+    /// The same plant standing at its start with its loops pushing `held_n` (N, towards +)
+    /// against the friction that holds the table there.
+    pub fn holding(self, held_n: f64) -> Plant {
+        Plant {
+            held: held_n,
+            ..self
         }
     }
 
@@ -343,7 +355,7 @@ impl<'p> Axis<'p> {
         x[X2] = x0;
         x[TH_S] = x0 / plant.r;
         x[TH_M] = x[TH_S] / plant.it;
-        if plant.load != 0.0 {
+        if plant.load != 0.0 || plant.held != 0.0 {
             Axis::holding_load(plant, &mut x);
         }
         Axis {
@@ -357,26 +369,52 @@ impl<'p> Axis<'p> {
         }
     }
 
-    /// The rest state in which the cascade holds a vertical axis's weight with the table
-    /// where it stands and friction carrying nothing: the nut pushes the weight up through
-    /// its flank (the gap closed), the screw's and the coupling's torque pass it to the
-    /// motor, whose current the velocity loop's integral commands and the current loop's
-    /// integral drives (its voltage the resistive drop, the motor standing).
+    /// The rest state in which the loops hold a vertical axis's weight and the force held
+    /// at the start, friction carrying the force held (bent bristles, where there are any):
+    /// the nut pushes the two through its flank (the gap closed), the screw's and the
+    /// coupling's torque pass them to the motor, whose current an integral holds with no
+    /// error — the cascade's velocity loop's (its current loop's integral the resistive
+    /// drop), or a controller's on an amplifier. Where the control reads the motor's
+    /// encoder, the motor stands at the command and the springs' give moves the table.
     fn holding_load(p: &Plant, x: &mut State) {
-        assert!(
-            matches!(p.law, Law::Cascade),
-            "the reference holds a weight with the cascade only"
-        );
-        let gap = p.half_gap * p.load.signum();
-        x[TH_S] = (x[X2] + gap + p.load / p.k_m) / p.r;
-        let torque = p.r * p.load;
-        x[TH_M] = (x[TH_S] + torque / p.k_theta) / p.it;
+        let force = p.load + p.held;
+        if p.bristles.0 > 0.0 {
+            x[Z_B] = p.held / p.bristles.0;
+        }
+        let gap = p.half_gap * force.signum();
+        let torque = p.r * force;
+        if p.motor_encoder && !matches!(p.law, Law::Cascade) {
+            x[TH_S] = p.it * x[TH_M] - torque / p.k_theta;
+            x[X2] = p.r * x[TH_S] - gap - force / p.k_m;
+        } else {
+            x[TH_S] = (x[X2] + gap + force / p.k_m) / p.r;
+            x[TH_M] = (x[TH_S] + torque / p.k_theta) / p.it;
+        }
         let current = p.it * torque / p.kt;
         x[I] = current;
-        x[F_CMD] = current;
-        x[F_I] = current;
-        x[Z_I] = p.ra * current * p.ti / p.ki;
-        x[Z_V] = current * p.ts / p.ks;
+        match p.law {
+            Law::Cascade => {
+                x[F_CMD] = current;
+                x[F_I] = current;
+                x[Z_I] = p.ra * current * p.ti / p.ki;
+                x[Z_V] = current * p.ts / p.ks;
+            }
+            // With no error only the integral's state stands off zero: i = c₁·z₁.
+            Law::Amplified {
+                control: CurrentLaw::Transfer { a, c, .. },
+                ..
+            } => {
+                assert!(
+                    a[0] == 0.0,
+                    "the reference holds a force with an integral only"
+                );
+                x[C0] = current / c[0];
+            }
+            Law::Amplified {
+                control: CurrentLaw::State { kz, .. },
+                ..
+            } => x[Z_E] = current / kz,
+        }
     }
 
     /// The table's position (m).
@@ -844,6 +882,8 @@ pub struct Recording {
     /// logger started late or stopped early, its clock starting at zero where it starts.
     /// `None` keeps the whole run.
     pub keep_s: Option<(f64, f64)>,
+    /// The force X's loops push with at the start, friction holding it (N, towards +).
+    pub held_x_n: f64,
 }
 
 impl Default for Recording {
@@ -862,6 +902,7 @@ impl Default for Recording {
             at_feedback: false,
             home_m: None,
             keep_s: None,
+            held_x_n: 0.0,
         }
     }
 }
@@ -887,6 +928,7 @@ fn record_axes(program: &Program, configs: &[&AxisConfig], rec: &Recording) -> S
     let mut plants: Vec<Plant> = configs.iter().map(|c| Plant::new(c)).collect();
     plants[0].encoder_error = rec.encoder_error_x;
     plants[0].timed_force = rec.timed_force_x;
+    plants[0] = plants[0].holding(rec.held_x_n);
     let start = interpolator.position(0.0);
     let mut axes: Vec<Axis> = plants
         .iter()

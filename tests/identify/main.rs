@@ -19,6 +19,7 @@
 mod common;
 
 mod hard_searches;
+mod held_start;
 mod hidden_machines;
 mod leads;
 mod presliding;

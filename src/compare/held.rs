@@ -1,0 +1,139 @@
+//! The force an axis holds at rest at a record's start (docs/model.md §1.10), estimated with
+//! the machine's values fixed: a state of the record, not of the machine.
+//!
+//! An axis that came to rest against friction before the record began holds whatever force
+//! its integral action stopped at, anywhere within the friction's level at rest, and the
+//! record does not show its history. With the machine given, the force is one number: it is
+//! found by a bounded search on the residual's sum of squares over the samples asked for (a
+//! golden-section search; the residual's dependence on it is smooth and has one valley
+//! within the bound), its standard uncertainty from the residual's slope in it (the
+//! Gauss–Newton one of a one-value fit), widened for a residual whose samples are not
+//! independent: what the model misses of a machine runs on over many samples, and the
+//! samples count as n·(1 − ρ)/(1 + ρ) independent ones (ρ the residual's correlation from
+//! one sample to the next, as for a first-order autoregressive series). Only a record that
+//! starts at rest holds it; one that starts in motion or before the program leaves its
+//! start's state out already.
+
+use super::context::Context;
+use super::start::StartKind;
+use crate::machine::{AxisName, MachineConfig};
+use crate::sim::AxisModel;
+
+/// Golden-section steps: the bound's width shrinks by 0.618 a step, to under a
+/// ten-thousandth of it — far below any uncertainty a record leaves.
+const STEPS: usize = 20;
+
+/// The force held at a record's start, as estimated.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeldAtStart {
+    /// The force (N, + pushing the table towards +).
+    pub force_n: f64,
+    /// Its standard uncertainty (N).
+    pub uncertainty_n: f64,
+    /// The bound searched within: the friction's level at rest where the axis starts (N).
+    pub level_n: f64,
+}
+
+impl Context<'_> {
+    /// The force `axis` of `machine` holds at rest at the record's start, estimated on the
+    /// compared samples `use_sample` allows (by their index among the compared samples).
+    /// None where the record does not start at rest, the axis's friction holds nothing at
+    /// rest, no sample is used, or the axis cannot be simulated.
+    pub fn held_at_start(
+        &self,
+        machine: &MachineConfig,
+        axis: AxisName,
+        offset_s: f64,
+        use_sample: &dyn Fn(usize) -> bool,
+    ) -> Option<HeldAtStart> {
+        if self.start.kind != StartKind::AtRest || axis == AxisName::Z {
+            return None;
+        }
+        let x0 = self.start.first_command_m[axis.index()];
+        let level_n = AxisModel::from_config(machine.axis(axis)).rest_friction_n(x0);
+        let used: Vec<usize> = (0..self.samples.len())
+            .filter(|&k| self.compared(axis, k) && use_sample(k))
+            .collect();
+        if level_n <= 0.0 || used.is_empty() {
+            return None;
+        }
+        let residual = |held_n: f64| -> Option<Vec<f64>> {
+            let trace = self.simulate_axis_holding(machine, axis, held_n)?;
+            let r = self.residual(axis, &trace, offset_s);
+            Some(used.iter().map(|&k| r[k]).collect())
+        };
+        let cost =
+            |held_n: f64| -> Option<f64> { Some(residual(held_n)?.iter().map(|v| v * v).sum()) };
+        let force_n = golden_section(&cost, -level_n, level_n)?;
+        let uncertainty_n = slope_uncertainty(&residual, force_n, level_n)?;
+        Some(HeldAtStart {
+            force_n,
+            uncertainty_n,
+            level_n,
+        })
+    }
+}
+
+/// The minimum of `cost` on [lo, hi] by golden-section search (the ends included: a force
+/// at the bound is a table on the verge of breaking away, a state it can be in).
+fn golden_section(cost: &dyn Fn(f64) -> Option<f64>, lo: f64, hi: f64) -> Option<f64> {
+    let ratio = (5f64.sqrt() - 1.0) / 2.0;
+    let (mut a, mut b) = (lo, hi);
+    let mut c = b - ratio * (b - a);
+    let mut d = a + ratio * (b - a);
+    let (mut fc, mut fd) = (cost(c)?, cost(d)?);
+    for _ in 0..STEPS {
+        if fc <= fd {
+            (b, d, fd) = (d, c, fc);
+            c = b - ratio * (b - a);
+            fc = cost(c)?;
+        } else {
+            (a, c, fc) = (c, d, fd);
+            d = a + ratio * (b - a);
+            fd = cost(d)?;
+        }
+    }
+    let inside = if fc <= fd { (c, fc) } else { (d, fd) };
+    // The ends are where a force pinned at the bound is found.
+    let ends = [(lo, cost(lo)?), (hi, cost(hi)?)];
+    let best = ends
+        .into_iter()
+        .chain([inside])
+        .min_by(|p, q| p.1.total_cmp(&q.1))?;
+    Some(best.0)
+}
+
+/// The standard uncertainty (N) of a one-value least-squares fit at `force_n`: the
+/// residual's RMS over the root of the sum of its squared slopes, the slope taken by
+/// central difference over a thousandth of `level_n` (one-sided at the bound), widened by
+/// √((1 + ρ)/(1 − ρ)) for the residual's correlation ρ between neighbouring samples.
+fn slope_uncertainty(
+    residual: &dyn Fn(f64) -> Option<Vec<f64>>,
+    force_n: f64,
+    level_n: f64,
+) -> Option<f64> {
+    let step = 1e-3 * level_n;
+    let up = (force_n + step).min(level_n);
+    let down = (force_n - step).max(-level_n);
+    let (r_up, r_down, r) = (residual(up)?, residual(down)?, residual(force_n)?);
+    let slope_ss: f64 = r_up
+        .iter()
+        .zip(&r_down)
+        .map(|(u, d)| ((u - d) / (up - down)).powi(2))
+        .sum();
+    let dof = r.len().saturating_sub(1).max(1) as f64;
+    let ss = r.iter().map(|v| v * v).sum::<f64>();
+    let variance = ss / dof;
+    let rho = if ss > 0.0 {
+        let lagged: f64 = r.windows(2).map(|w| w[0] * w[1]).sum();
+        (lagged / ss).clamp(0.0, 0.9999)
+    } else {
+        0.0
+    };
+    let widening = ((1.0 + rho) / (1.0 - rho)).sqrt();
+    Some(if slope_ss > 0.0 {
+        widening * (variance / slope_ss).sqrt()
+    } else {
+        f64::INFINITY
+    })
+}
