@@ -170,19 +170,22 @@ mod tests {
             minus: (-175.0, 5.0),
         };
         assert_eq!(d.differ(), None);
-        assert!(d.clause().contains("agrees (-10.0 ±"), "{}", d.clause());
-        // Each known to 45°: three of their 63.6° span more than half a turn, and nothing
-        // differs or agrees.
-        let d = Directions::Compared {
-            plus: (10.0, 45.0),
-            minus: (50.0, 45.0),
-        };
-        assert_eq!(d.differ(), None);
         assert!(
-            d.clause().contains("too loosely (-40.0 ±"),
+            d.clause().contains("shows no difference (-10.0 ±"),
             "{}",
             d.clause()
         );
+        // Each known to 25°: three of their 35.4° span more than a quarter turn, and nothing
+        // is said of a difference; at 20° (three of 28.3° = 85°) no difference is shown.
+        let loose = |sigma: f64| Directions::Compared {
+            plus: (10.0, sigma),
+            minus: (50.0, sigma),
+        };
+        assert_eq!(loose(25.0).differ(), None);
+        let clause = loose(25.0).clause();
+        assert!(clause.contains("too loosely (-40.0 ±"), "{clause}");
+        let clause = loose(20.0).clause();
+        assert!(clause.contains("shows no difference (-40.0 ±"), "{clause}");
     }
 
     #[test]
