@@ -87,7 +87,7 @@ pub struct Context<'a> {
 
 /// A command slower than this stands (m/s): recorded commands' speeds are fitted and carry
 /// their rounding.
-const STILL_M_PER_S: f64 = 1e-7;
+pub(super) const STILL_M_PER_S: f64 = 1e-7;
 /// How close to its command a holding axis must have come to count as settled (m): beyond
 /// the approach, which the comparison keeps, and wide enough for any hunting.
 const SETTLED_M: f64 = 2e-6;
@@ -163,33 +163,32 @@ impl Context<'_> {
     }
 
     /// Simulates one axis of a machine on the context's commands; `None` if it cannot run.
+    /// The axis holds its configuration's force at rest at the record's start where the
+    /// record starts at rest (docs/model.md §1.10); elsewhere the start's unknown state is
+    /// left out of the comparison, and the force is not held.
     pub(crate) fn simulate_axis(
         &self,
         machine: &MachineConfig,
         axis: AxisName,
     ) -> Option<Vec<f64>> {
-        self.simulate_axis_holding(machine, axis, 0.0)
+        match self.replanned(machine) {
+            None => self.read_on(machine, axis, &self.commands, None),
+            // The machine runs on its own plan's clock.
+            Some(commands) => self.read_on(machine, axis, &commands, None),
+        }
     }
 
     /// [`Context::simulate_axis`] with the axis holding `held_n` (N) at rest at the record's
-    /// start where the record starts at rest (docs/model.md §1.10); elsewhere the start's
-    /// unknown state is left out of the comparison, and the force is not held.
+    /// start.
     pub(crate) fn simulate_axis_holding(
         &self,
         machine: &MachineConfig,
         axis: AxisName,
         held_n: f64,
     ) -> Option<Vec<f64>> {
-        let held_n = if self.start.kind == super::start::StartKind::AtRest {
-            held_n
-        } else {
-            0.0
-        };
-        match self.replanned(machine) {
-            None => self.read_on(machine, axis, &self.commands, None, held_n),
-            // The machine runs on its own plan's clock.
-            Some(commands) => self.read_on(machine, axis, &commands, None, held_n),
-        }
+        let mut holding = machine.clone();
+        holding.axis_mut(axis).held_at_start_n = held_n;
+        self.simulate_axis(&holding, axis)
     }
 
     /// The context's commands up to the one the sample at program time `until_s` (s) is
@@ -215,30 +214,29 @@ impl Context<'_> {
         commands: &Commands,
     ) -> Option<Vec<f64>> {
         match self.replanned(machine) {
-            None => self.read_on(machine, axis, commands, None, 0.0),
-            Some(commands) => self.read_on(machine, axis, &commands, None, 0.0),
+            None => self.read_on(machine, axis, commands, None),
+            Some(commands) => self.read_on(machine, axis, &commands, None),
         }
     }
 
-    /// `axis` of `machine` on `commands` as the measurement sees it, holding `held_n` (N) at
-    /// its start: with the axes' squareness, from `other` (the other axis on the same
-    /// commands) or, when not given and needed, a simulation of it (holding nothing).
+    /// `axis` of `machine` on `commands` as the measurement sees it: with the axes'
+    /// squareness, from `other` (the other axis on the same commands) or, when not given and
+    /// needed, a simulation of it.
     fn read_on(
         &self,
         machine: &MachineConfig,
         axis: AxisName,
         commands: &Commands,
         other: Option<&[f64]>,
-        held_n: f64,
     ) -> Option<Vec<f64>> {
-        let mut own = self.simulate_on(machine, axis, commands, held_n)?;
+        let mut own = self.simulate_on(machine, axis, commands)?;
         let cross = geometry::CrossTerms::of(machine, axis);
         if !cross.is_zero() && self.measured_at != MeasuredAt::Motor {
             let simulated;
             let other = match other {
                 Some(o) => o,
                 None => {
-                    simulated = self.simulate_on(machine, axis.other(), commands, 0.0)?;
+                    simulated = self.simulate_on(machine, axis.other(), commands)?;
                     &simulated
                 }
             };
@@ -258,12 +256,12 @@ impl Context<'_> {
     ) -> Option<(Vec<f64>, std::borrow::Cow<'b, [f64]>)> {
         Some(match self.replanned(machine) {
             None => (
-                self.read_on(machine, axis, &self.commands, Some(other), 0.0)?,
+                self.read_on(machine, axis, &self.commands, Some(other))?,
                 std::borrow::Cow::Borrowed(other),
             ),
             Some(commands) => {
-                let raw_own = self.simulate_on(machine, axis, &commands, 0.0)?;
-                let mut other = self.simulate_on(machine, axis.other(), &commands, 0.0)?;
+                let raw_own = self.simulate_on(machine, axis, &commands)?;
+                let mut other = self.simulate_on(machine, axis.other(), &commands)?;
                 let mut own = raw_own.clone();
                 if self.measured_at != MeasuredAt::Motor {
                     geometry::CrossTerms::of(machine, axis).add(&mut own, &other);
@@ -275,16 +273,18 @@ impl Context<'_> {
     }
 
     /// One axis of `machine` on `commands`, read where the measurement was taken, stepped as
-    /// the context says, holding `held_n` (N) at its start.
+    /// the context says, holding its configuration's force at its start where the record
+    /// starts at rest.
     fn simulate_on(
         &self,
         machine: &MachineConfig,
         axis: AxisName,
         commands: &Commands,
-        held_n: f64,
     ) -> Option<Vec<f64>> {
         let mut model = AxisModel::from_config(machine.axis(axis));
-        model.held_at_start_n = held_n;
+        if self.start.kind != super::start::StartKind::AtRest {
+            model.held_at_start_n = 0.0;
+        }
         let per_cycle = match self.stepping {
             Stepping::Full => false,
             Stepping::PerCycleWhereExact => !model.inputs_vary_within_cycle(),

@@ -14,7 +14,7 @@
 //! starts at rest holds it; one that starts in motion or before the program leaves its
 //! start's state out already.
 
-use super::context::Context;
+use super::context::{Context, STILL_M_PER_S};
 use super::start::StartKind;
 use crate::machine::{AxisName, MachineConfig};
 use crate::sim::AxisModel;
@@ -46,6 +46,57 @@ impl Context<'_> {
         offset_s: f64,
         use_sample: &dyn Fn(usize) -> bool,
     ) -> Option<HeldAtStart> {
+        let search = self.held_search(machine, axis, offset_s, use_sample)?;
+        let force_n = golden_section(&search.cost(), -search.level_n, search.level_n)?;
+        let residual = |held_n: f64| search.residual(held_n);
+        let uncertainty_n = slope_uncertainty(&residual, force_n, search.level_n)?;
+        Some(HeldAtStart {
+            force_n,
+            uncertainty_n,
+            level_n: search.level_n,
+        })
+    }
+
+    /// The first compared sample of `axis` at or after its command first moves from rest at
+    /// the record's start: the sample whose neighbours show the force held there (before it
+    /// the force stands balanced by friction and shows nothing). None where the record does
+    /// not start at rest, for Z, or where the axis's command never moves within the samples.
+    pub(crate) fn first_start_sample(&self, axis: AxisName, offset_s: f64) -> Option<usize> {
+        if self.start.kind != StartKind::AtRest || axis == AxisName::Z {
+            return None;
+        }
+        let velocity = &self.commands.axis(axis).vel_m_per_s;
+        let begin = ((self.start.run_in_s / self.dt).round() as usize).min(velocity.len());
+        let moves_s = (begin..velocity.len())
+            .find(|&i| velocity[i].abs() >= STILL_M_PER_S)
+            .map(|i| i as f64 * self.dt)?;
+        (0..self.samples.len()).find(|&k| {
+            self.compared(axis, k) && self.prog_time(self.samples[k], offset_s) >= moves_s
+        })
+    }
+
+    /// [`Context::held_at_start`]'s force alone (N), without its uncertainty: what a fit's
+    /// prediction of samples it did not see is scored with, where they hold the start.
+    pub(crate) fn held_at_start_n(
+        &self,
+        machine: &MachineConfig,
+        axis: AxisName,
+        offset_s: f64,
+        use_sample: &dyn Fn(usize) -> bool,
+    ) -> Option<f64> {
+        let search = self.held_search(machine, axis, offset_s, use_sample)?;
+        golden_section(&search.cost(), -search.level_n, search.level_n)
+    }
+
+    /// What the held force's search needs: none where the record does not start at rest,
+    /// the axis's friction holds nothing at rest, or no sample is used.
+    fn held_search<'s>(
+        &'s self,
+        machine: &'s MachineConfig,
+        axis: AxisName,
+        offset_s: f64,
+        use_sample: &dyn Fn(usize) -> bool,
+    ) -> Option<HeldSearch<'s>> {
         if self.start.kind != StartKind::AtRest || axis == AxisName::Z {
             return None;
         }
@@ -54,23 +105,42 @@ impl Context<'_> {
         let used: Vec<usize> = (0..self.samples.len())
             .filter(|&k| self.compared(axis, k) && use_sample(k))
             .collect();
-        if level_n <= 0.0 || used.is_empty() {
-            return None;
-        }
-        let residual = |held_n: f64| -> Option<Vec<f64>> {
-            let trace = self.simulate_axis_holding(machine, axis, held_n)?;
-            let r = self.residual(axis, &trace, offset_s);
-            Some(used.iter().map(|&k| r[k]).collect())
-        };
-        let cost =
-            |held_n: f64| -> Option<f64> { Some(residual(held_n)?.iter().map(|v| v * v).sum()) };
-        let force_n = golden_section(&cost, -level_n, level_n)?;
-        let uncertainty_n = slope_uncertainty(&residual, force_n, level_n)?;
-        Some(HeldAtStart {
-            force_n,
-            uncertainty_n,
+        (level_n > 0.0 && !used.is_empty()).then_some(HeldSearch {
+            ctx: self,
+            machine,
+            axis,
+            offset_s,
+            used,
             level_n,
         })
+    }
+}
+
+/// One axis's held force searched on some samples with the machine given.
+struct HeldSearch<'s> {
+    ctx: &'s Context<'s>,
+    machine: &'s MachineConfig,
+    axis: AxisName,
+    offset_s: f64,
+    /// The compared samples used (by index).
+    used: Vec<usize>,
+    /// The friction's level at rest where the axis starts (N): the bound.
+    level_n: f64,
+}
+
+impl HeldSearch<'_> {
+    /// The residual at the samples used with the axis holding `held_n` (N).
+    fn residual(&self, held_n: f64) -> Option<Vec<f64>> {
+        let trace = self
+            .ctx
+            .simulate_axis_holding(self.machine, self.axis, held_n)?;
+        let r = self.ctx.residual(self.axis, &trace, self.offset_s);
+        Some(self.used.iter().map(|&k| r[k]).collect())
+    }
+
+    /// The residual's sum of squares as a function of the force held.
+    fn cost(&self) -> impl Fn(f64) -> Option<f64> + '_ {
+        |held_n| Some(self.residual(held_n)?.iter().map(|v| v * v).sum())
     }
 }
 

@@ -163,6 +163,23 @@ const COULOMB: Knob = Knob {
     max: 1e6,
 };
 
+/// The force the axis holds at rest at the record's start (docs/model.md §1.10): a state of
+/// the record, not of the machine. Fitted beside the machine's values where the samples
+/// fitted hold the axis's first start from rest ([`Fit::holds_start`]), searched within the
+/// friction's level at rest (`Fit`'s bounds), never written to a file.
+///
+/// [`Fit::holds_start`]: super::solve::Fit::holds_start
+pub(crate) const HELD_AT_START: Knob = Knob {
+    key: "held_at_start_n",
+    unit: "N",
+    logarithmic: false,
+    least_scale: 10.0,
+    undetermined_beyond: UNDETERMINED,
+    input_floor: INPUT_FLOOR,
+    min: -1e6,
+    max: 1e6,
+};
+
 /// The nut's free play, in the screw's travel: seen where the record or the control reads
 /// the table (between motor and table it is lost motion at each reversal).
 const BACKLASH: Knob = Knob {
@@ -449,6 +466,7 @@ pub(crate) fn get(axis: &AxisConfig, key: &str) -> f64 {
         "friction.coulomb_n" => {
             axis.friction.coulomb_coefficient * axis.drive.table_mass_kg * GRAVITY_M_PER_S2
         }
+        "held_at_start_n" => axis.held_at_start_n,
         other => crate::machine::keys::get(axis, other).unwrap_or(f64::NAN),
     }
 }
@@ -479,6 +497,8 @@ pub(crate) fn set_all(axis: &mut AxisConfig, keys: &[&str], values: &[f64]) {
         }
         if key == "friction.coulomb_n" {
             coulomb_n = v;
+        } else if key == HELD_AT_START.key {
+            axis.held_at_start_n = v;
         } else if key == "controller.gain" {
             if let Controller::TransferFunction(tf) = &mut axis.controller {
                 scale_to_gain(tf, v);

@@ -25,6 +25,7 @@
 //! then scored on the other half, which it was not fitted on.
 
 mod baseline;
+mod held;
 mod held_out;
 mod interpolator;
 mod knobs;
@@ -51,7 +52,8 @@ pub use baseline::Baseline;
 pub use interpolator::Interpolator;
 pub use presliding::PreslidingVerdict;
 pub use result::{
-    AxisIdentification, ComplexPair, GainPerInertia, Identification, IdentifiedValue, IdentifyError,
+    AxisIdentification, ComplexPair, GainPerInertia, HeldForce, Identification, IdentifiedValue,
+    IdentifyError,
 };
 pub use ripple::RippleVerdict;
 pub use verdict::{Place, WhileMoving};
@@ -187,7 +189,7 @@ fn identify_as(
             file: file.clone(),
             axis,
         })?;
-        *machine.axis_mut(axis) = config;
+        *machine.axis_mut(axis) = held::unwritten(config);
         axes.push(identified);
     }
     let z_not_identified = z_axis::write(z, &mut machine, &mut axes);
@@ -241,6 +243,7 @@ fn identify_axis(
     // The template's values are written: the fit's figures while moving are not theirs.
     kept.judged_while_moving = false;
     kept.while_moving = None;
+    kept.held_at_start = None;
     kept.rms_identified_um = kept.rms_template_um;
     kept.held_out_identified_um = kept.held_out_template_um;
     kept.held_out_share = kept.held_out_template_um / kept.following_error_rms_um;
@@ -315,6 +318,8 @@ fn fit_axis(
             presliding::not_tried(everywhere, template.axis(axis), why)
         }
     };
+    let candidates = presliding::candidate_knobs(template.axis(axis), &nonlinear);
+    everywhere = held::on_top(&fit, template.axis(axis), &candidates, everywhere);
     if everywhere.1.reached && verdict::judged_while_moving(&mut everywhere.1, noise_um) {
         return Some(everywhere);
     }
@@ -431,6 +436,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             force_ripple: ripple::unfitted(template),
             presliding: None,
             too_little: None,
+            held_at_start: None,
         },
     ))
 }
@@ -446,6 +452,7 @@ fn not_reached(
     identified.reached = false;
     identified.better_than_template = false;
     identified.gain_per_inertia = None;
+    identified.held_at_start = None;
     ripple::not_written(&mut identified.force_ripple);
     presliding::not_written(&mut identified.presliding, "the axis's fit is not written");
     for v in &mut identified.values {
@@ -564,6 +571,7 @@ fn identify_on(
             held_out_identified_um,
             held_out_in_sample: !shown,
             gain_per_inertia: gain_per_inertia(ripple::loop_round(ripple.as_ref(), &round), &base),
+            held_at_start: None,
             template_holds: false,
             judged_while_moving: false,
             while_moving: (!moving_only)

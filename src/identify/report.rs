@@ -6,7 +6,7 @@
 pub(crate) use super::held_out::in_sample_note;
 use std::fmt::Write as _;
 
-use crate::identify::{AxisIdentification, Identification, IdentifiedValue};
+use crate::identify::{AxisIdentification, HeldForce, Identification, IdentifiedValue};
 use crate::machine::MachineConfig;
 
 impl Identification {
@@ -81,6 +81,31 @@ pub(crate) fn status(v: &IdentifiedValue) -> String {
         (true, false) => "a model's value, not a measurement".to_string(),
         (false, _) => "not determined: the template's".to_string(),
     }
+}
+
+/// The force an axis held at rest at the record's start, in words (the terminal's and the
+/// file header's).
+pub(crate) fn held_line(h: &HeldForce) -> String {
+    let what = "force held at rest at the record's start";
+    if h.uncertainty_n.is_nan() {
+        return format!(
+            "{what}: none — fitted with it (within the friction's ±{} N at rest), the values do \
+             not predict the held-out halves better by a twentieth",
+            sig(h.level_n)
+        );
+    }
+    let how = if h.determined {
+        "a state of the record, not of the machine: not written"
+    } else {
+        "not determined alone: kept because the held-out halves are predicted better with it; \
+         a state of the record, not written"
+    };
+    format!(
+        "{what}: {} ± {} N, within the friction's ±{} N at rest ({how})",
+        sig(h.force_n),
+        sig(h.uncertainty_n),
+        sig(h.level_n)
+    )
 }
 
 /// Four significant digits.
@@ -182,6 +207,9 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
     }
     if let Some(p) = &a.presliding {
         let _ = writeln!(s, "  {}", p.statement);
+    }
+    if let Some(h) = &a.held_at_start {
+        let _ = writeln!(s, "  {}", held_line(h));
     }
     if a.kept.starts_with("no template") {
         let _ = writeln!(s, "  {}", a.kept);
@@ -418,6 +446,9 @@ pub(crate) fn machine_file(
         }
         if let Some(p) = &a.presliding {
             let _ = writeln!(s, "#   {}: {}", a.axis, p.statement);
+        }
+        if let Some(h) = &a.held_at_start {
+            let _ = writeln!(s, "#   {}: {}", a.axis, held_line(h));
         }
         // Without a template, the family and order the held-out halves chose, and why.
         if a.kept.starts_with("no template") {

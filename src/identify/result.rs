@@ -218,6 +218,27 @@ pub struct AxisIdentification {
     /// and its figures are ratios of nothing, not shown.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub too_little: Option<String>,
+    /// Where the record starts at rest and the samples fitted hold the axis's first start:
+    /// the force it held there, fitted beside its values (never written to the file).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub held_at_start: Option<HeldForce>,
+}
+
+/// The force an axis held at rest at the record's start, fitted beside its values: a state
+/// of the record (where its integral action stopped before the record began), not of the
+/// machine — never written to the machine file; another record starts holding its own.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct HeldForce {
+    /// The force (N, + pushing the table towards +); 0 where the fit holds none.
+    pub force_n: f64,
+    /// Its standard uncertainty (N); NaN where the fit holds none.
+    pub uncertainty_n: f64,
+    /// The friction's level at rest the force lies within (N).
+    pub level_n: f64,
+    /// Whether the record determines it (its uncertainty within half of it). A force the
+    /// record does not determine is held only where the fit with it predicts the held-out
+    /// halves better; else none is.
+    pub determined: bool,
 }
 
 /// The identification of a machine from a record.
@@ -319,6 +340,7 @@ impl AxisIdentification {
             force_ripple: None,
             presliding: None,
             too_little: None,
+            held_at_start: None,
         }
     }
 }

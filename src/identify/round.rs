@@ -106,6 +106,10 @@ impl Round {
     /// [`Round::fit`] with each half's fit made about `half_bases` (the first half's samples
     /// are those `fold` marks): values fitted on a half's own samples beforehand (a ripple)
     /// stay its own, so that its held-out figure has not seen the other half's.
+    ///
+    /// The force held at the record's start ([`knobs::HELD_AT_START`]), where among the
+    /// knobs, is fitted by the whole fit and the half that holds the start; the other half
+    /// keeps the whole fit's ([`Fit::run`]).
     pub(super) fn fit_apart(
         fit: &Fit,
         knobs: Vec<Knob>,
@@ -344,8 +348,8 @@ impl Round {
         h: usize,
     ) -> Option<(f64, usize)> {
         let simulated = self.halves_simulated.get_or_init(|| {
-            let first = fit.residual(&self.half_config(0))?;
-            let second = fit.residual(&self.half_config(1))?;
+            let first = fit.residual(&self.scored_config(fit, fold, 0))?;
+            let second = fit.residual(&self.scored_config(fit, fold, 1))?;
             Some([first, second])
         });
         let r = &simulated.as_ref()?[h];
@@ -356,6 +360,24 @@ impl Round {
             n += 1;
         }
         Some((ss, n))
+    }
+
+    /// Half `h`'s fit as it is scored on the other half: where this round fits the force held
+    /// at the record's start and the other half holds the start, that force estimated on the
+    /// other half's samples with the half's machine values fixed — a state of the record,
+    /// which the half's own samples did not show, while the machine's values are what is
+    /// scored.
+    fn scored_config(&self, fit: &Fit, fold: &[bool], h: usize) -> AxisConfig {
+        let mut config = self.half_config(h);
+        let fits_held = self.knobs.iter().any(|k| k.key == knobs::HELD_AT_START.key);
+        let scored = |k: usize| fold[k] != (h == 0) && fit.mask()[k];
+        if fits_held
+            && fit.holds_start(&scored)
+            && let Some(held_n) = fit.held_on(&config, &scored)
+        {
+            config.held_at_start_n = held_n;
+        }
+        config
     }
 
     /// Whether the fit on the whole record reaches the record's noise.

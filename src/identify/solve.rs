@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector};
 
-use super::knobs::{Knob, get, set_all};
+use super::knobs::{HELD_AT_START, Knob, get, set_all};
 use crate::compare::Context;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::numeric::decompose;
@@ -62,6 +62,10 @@ pub struct Fit<'c, 'a> {
     /// Where the simulations stop early: the last compared sample the fits use, and the
     /// commands up to it.
     early: Option<(usize, Commands)>,
+    /// The axis's first start from rest at the record's start
+    /// ([`Context::first_start_sample`]) where the fits use it; none where the record does not
+    /// start at rest or the fits leave that sample out.
+    start_sample: Option<usize>,
 }
 
 /// Values fitted and their standard uncertainties (machine units), and the residual's sum
@@ -92,8 +96,29 @@ struct Spread {
     correlation: f64,
     /// From the statistical uncertainty to the model's floor.
     to_floor: f64,
-    /// Each knob's least relative uncertainty.
+    /// Each fitted knob's least relative uncertainty (by the Jacobian's column).
     input_floors: Vec<f64>,
+    /// The knob (by index) the fit held at its start's value, which has no column.
+    fixed: Option<usize>,
+}
+
+impl Spread {
+    /// The Jacobian's column of knob `j`; none for the knob held fixed.
+    fn column(&self, j: usize) -> Option<usize> {
+        match self.fixed {
+            Some(f) if j == f => None,
+            Some(f) if j > f => Some(j - 1),
+            _ => Some(j),
+        }
+    }
+
+    /// The knob of the Jacobian's column `c`.
+    fn knob(&self, c: usize) -> usize {
+        match self.fixed {
+            Some(f) if c >= f => c + 1,
+            _ => c,
+        }
+    }
 }
 
 impl Fitted {
@@ -105,14 +130,15 @@ impl Fitted {
             return (f64::INFINITY, f64::INFINITY);
         };
         let mut w = DVector::zeros(s.jacobian.ncols());
+        let mut floor: f64 = 0.0;
         for &(j, power) in powers {
-            w[j] = power;
+            let Some(c) = s.column(j).filter(|&c| c < w.len()) else {
+                return (f64::INFINITY, f64::INFINITY);
+            };
+            w[c] = power;
+            floor = floor.max(s.input_floors[c] * power.abs());
         }
         let raw = combination_uncertainty(&s.jacobian, self.cost, s.noise, &w);
-        let floor = powers
-            .iter()
-            .map(|&(j, power)| s.input_floors[j] * power.abs())
-            .fold(0.0, f64::max);
         ((raw * s.correlation).max(floor), raw * s.to_floor)
     }
 
@@ -122,6 +148,7 @@ impl Fitted {
     /// less seen than the best). None where nothing was fitted or `j` is fitted alone.
     pub(crate) fn most_traded_with(&self, j: usize) -> Option<usize> {
         let s = self.spread.as_ref()?;
+        let j = s.column(j)?;
         let n = s.jacobian.ncols();
         let svd = decompose::svd(s.jacobian.clone(), false, true)?;
         let vt = svd.v_t?;
@@ -144,7 +171,18 @@ impl Fitted {
             .filter(|&k| k != j)
             .map(|k| (k, cov(j, k).abs() / (cov(j, j) * cov(k, k)).sqrt()))
             .max_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(k, _)| k)
+            .map(|(k, _)| s.knob(k))
+    }
+
+    /// These values with knob `j` inserted at `value`, held there (not fitted: no
+    /// uncertainty of this fit's).
+    fn insert_fixed(&mut self, j: usize, value: f64) {
+        self.values.insert(j, value);
+        self.sigma.insert(j, f64::INFINITY);
+        self.model_sigma.insert(j, f64::INFINITY);
+        if let Some(s) = &mut self.spread {
+            s.fixed = Some(j);
+        }
     }
 }
 
@@ -163,6 +201,7 @@ impl<'c, 'a> Fit<'c, 'a> {
             mask: vec![true; ctx.samples.len()],
             memo: Arc::default(),
             early: None,
+            start_sample: None,
         }
         .stopping_early()
     }
@@ -190,7 +229,48 @@ impl<'c, 'a> Fit<'c, 'a> {
             let until_s = ctx.prog_time(ctx.samples[k], self.offset_s);
             Some((k, ctx.commands_until(until_s)?))
         });
-        Fit { early, ..self }
+        // Only fits that use the start itself: one that leaves out the breakaways after
+        // standstills (`moving_samples`) leaves out where the force shows, as it leaves out
+        // what every standstill within the record leaves behind.
+        let start_sample = ctx
+            .first_start_sample(axis, self.offset_s)
+            .filter(|&k| self.mask[k]);
+        Fit {
+            early,
+            start_sample,
+            ..self
+        }
+    }
+
+    /// Whether the samples `use_sample` allows hold the axis's first start from rest at the
+    /// record's start, where the force it held there shows: only a fit of those fits that
+    /// force ([`super::knobs::HELD_AT_START`]). Fitted on samples that do not hold it, it
+    /// only soaks up what the model misses elsewhere and wanders to its bound.
+    pub(crate) fn holds_start(&self, use_sample: &dyn Fn(usize) -> bool) -> bool {
+        self.start_sample.is_some_and(use_sample)
+    }
+
+    /// The friction's level at rest where the axis starts with `config` (N): the bound of the
+    /// force held there ([`crate::sim::AxisModel::rest_friction_n`]).
+    pub(crate) fn held_level_n(&self, config: &AxisConfig) -> f64 {
+        let x0 = (self.ctx.start.first_command_m)
+            .get(self.axis.index())
+            .copied()
+            .unwrap_or(0.0);
+        crate::sim::AxisModel::from_config(config).rest_friction_n(x0)
+    }
+
+    /// The force held at the record's start estimated on the samples `use_sample` allows
+    /// with the axis's other values at `config`'s ([`Context::held_at_start_n`]).
+    pub(crate) fn held_on(
+        &self,
+        config: &AxisConfig,
+        use_sample: &dyn Fn(usize) -> bool,
+    ) -> Option<f64> {
+        let mut machine = self.template.clone();
+        *machine.axis_mut(self.axis) = config.clone();
+        self.ctx
+            .held_at_start_n(&machine, self.axis, self.offset_s, use_sample)
     }
 
     /// The samples the fits use.
@@ -259,8 +339,30 @@ impl<'c, 'a> Fit<'c, 'a> {
         Some((cost, Fit::config(knobs, base, &values)))
     }
 
-    /// Fits `knobs` from `base`'s values on the samples `use_sample` allows.
+    /// Fits `knobs` from `base`'s values on the samples `use_sample` allows. The force held
+    /// at the record's start stays at `base`'s where those samples do not hold the start
+    /// ([`Fit::holds_start`]): reported with no uncertainty of its own, it is not this fit's.
     pub(crate) fn run(
+        &self,
+        knobs: &[Knob],
+        base: &AxisConfig,
+        use_sample: &(dyn Fn(usize) -> bool + Sync),
+    ) -> Option<Fitted> {
+        let held = knobs.iter().position(|k| k.key == HELD_AT_START.key);
+        match held {
+            Some(j) if !self.holds_start(&|k| self.mask[k] && use_sample(k)) => {
+                let mut free = knobs.to_vec();
+                free.remove(j);
+                let mut fitted = self.run_all(&free, base, use_sample)?;
+                fitted.insert_fixed(j, get(base, HELD_AT_START.key));
+                Some(fitted)
+            }
+            _ => self.run_all(knobs, base, use_sample),
+        }
+    }
+
+    /// Fits every one of `knobs` from `base`'s values on the samples `use_sample` allows.
+    fn run_all(
         &self,
         knobs: &[Knob],
         base: &AxisConfig,
@@ -322,7 +424,12 @@ impl Problem<'_, '_, '_> {
     fn bounds(&self, j: usize) -> (f64, f64) {
         let k = &self.knobs[j];
         let t = get(self.base, k.key);
-        if k.logarithmic {
+        if k.key == HELD_AT_START.key {
+            // Within the friction's level at rest: beyond it the table would have slid.
+            let level = self.fit.held_level_n(self.base);
+            let s = k.scale_at(t);
+            ((-level - t).min(0.0) / s, (level - t).max(0.0) / s)
+        } else if k.logarithmic {
             (
                 (-FACTOR_RANGE.ln()).max((k.min / t).ln()),
                 FACTOR_RANGE.ln().min((k.max / t).ln()),
@@ -425,6 +532,7 @@ impl Problem<'_, '_, '_> {
                 correlation,
                 to_floor,
                 input_floors: floors,
+                fixed: None,
             }),
         })
     }

@@ -178,6 +178,11 @@ pub struct AxisConfig {
     /// one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gravity: Option<Gravity>,
+    /// The force the axis holds at rest at a record's start (N, + pushing the table towards
+    /// +; docs/model.md §1.10): a state of one record, not of the machine — set in memory
+    /// while a record is identified, never read from or written to a machine file.
+    #[serde(skip)]
+    pub held_at_start_n: f64,
 }
 
 /// The weight a vertical axis carries: the moving mass's, less a counterbalance.

@@ -9,13 +9,11 @@ use common::reference::{self, Recording};
 use contourcheck::compare::{CompareSettings, Comparison, HeldAtStart, Stepping, compare};
 use contourcheck::machine::{AxisName, MachineConfig};
 use contourcheck::sim::{AxisModel, MeasuredAt};
-use contourcheck::trace::measured::parse_trace;
+use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 
 /// The lead-lag table as it ran, recorded at its motor encoders (10 kHz, 0.1 µm counts)
-/// with X holding `held_n` (N) at its start; the force estimated on the whole record with
-/// the machine's values given.
-fn estimated(machine: &MachineConfig, held_n: f64) -> HeldAtStart {
-    let program = fitted_program();
+/// with X holding `held_n` (N) at its start, and the settings it is compared with.
+fn recorded(machine: &MachineConfig, held_n: f64) -> (MeasuredTrace, CompareSettings) {
     let rec = Recording {
         sample_s: 1e-4,
         noise_m: 0.05e-6,
@@ -27,10 +25,17 @@ fn estimated(machine: &MachineConfig, held_n: f64) -> HeldAtStart {
         held_x_n: held_n,
         ..Recording::default()
     };
-    let csv = reference::record(&program, &machine.x, &machine.y, &rec);
+    let csv = reference::record(&fitted_program(), &machine.x, &machine.y, &rec);
     let measured = parse_trace(&csv, "held.csv").unwrap();
     let mut settings = CompareSettings::for_machine(machine);
     settings.measured_at = MeasuredAt::Motor;
+    (measured, settings)
+}
+
+/// [`recorded`]'s force estimated on the whole record with the machine's values given.
+fn estimated(machine: &MachineConfig, held_n: f64) -> HeldAtStart {
+    let program = fitted_program();
+    let (measured, settings) = recorded(machine, held_n);
     let Comparison { ctx, offset_s, .. } =
         compare(&program, machine, &measured, &settings, Stepping::Full).unwrap();
     ctx.held_at_start(machine, AxisName::X, offset_s, &|_| true)

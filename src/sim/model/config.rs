@@ -80,8 +80,8 @@ impl AxisModel {
                 .gravity
                 .as_ref()
                 .map_or(0.0, |g| m.mt * GRAVITY_M_PER_S2 - g.counterbalance_n),
-            // A record's start sets it, never the machine file.
-            held_at_start_n: 0.0,
+            // A record's start sets it (in memory), never the machine file.
+            held_at_start_n: c.held_at_start_n,
         }
     }
 }

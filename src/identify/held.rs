@@ -1,0 +1,144 @@
+//! The force an axis held at rest at the record's start, as identification fits it on top of
+//! an axis's values (docs/model.md §1.10): reported with its uncertainty, never written.
+//!
+//! A record that starts with the axis at rest starts it wherever its integral action stopped
+//! against friction before the record began: a force anywhere within the friction's level at
+//! rest that the record does not show until the axis first moves. Left at none, the first
+//! start's transient is fitted by the machine's values — the gain, the friction, the
+//! bristles bend to a state of one record. But the force also trades with whatever else
+//! shapes a start (the nut's place in its gap, the bristles' stiffness, a controller unlike
+//! the machine's): fitted in every search, it took the place of backlash and of the bristles
+//! an independent integrator's records had, where none was held. So it comes last, like
+//! every element beyond the template: on an axis whose fit on every sample stays above the
+//! noise, that fit's values are fitted again with the force beside them — by the whole fit
+//! and the half of the record that holds the first start ([`Fit::holds_start`]); the other
+//! half keeps the whole fit's (fitted there it only soaks up what the model misses elsewhere
+//! and runs to its bound) — and a half's fit is scored on the other half with the force
+//! estimated on that half's samples where they hold the start (`Round::scored_config`): a
+//! state of the record, not a value the half predicts. Kept only where that predicts the
+//! held-out halves better by the twentieth every larger model must earn.
+
+use super::knobs::{self, HELD_AT_START, Knob, get};
+use super::result::{AxisIdentification, HeldForce};
+use super::round::Round;
+use super::solve::{Fit, masked_rms};
+use super::{fitted_values, gain_per_inertia, verdict};
+use crate::machine::AxisConfig;
+use crate::numeric::units::um_from_m;
+
+/// `found` (an axis's fit on every sample) with its values fitted again beside the force held
+/// at the record's start, where that predicts the held-out halves better by a twentieth;
+/// else `found` as it is. Tried only above the noise, on a fit whose held-out figure is held
+/// out, where the record starts at rest and the fit uses the axis's first start.
+pub(super) fn on_top(
+    fit: &Fit,
+    template: &AxisConfig,
+    candidates: &[Knob],
+    found: (AxisConfig, AxisIdentification),
+) -> (AxisConfig, AxisIdentification) {
+    let (config, id) = &found;
+    let tried = !id.reached
+        && !id.moving_only
+        && !id.held_out_in_sample
+        && fit.holds_start(&|_| true)
+        && fit.held_level_n(config) > 0.0;
+    if !tried {
+        return found;
+    }
+    refitted(fit, template, candidates, config, id).unwrap_or_else(|| {
+        let (config, mut id) = found;
+        id.held_at_start = Some(not_kept(fit, &config));
+        (config, id)
+    })
+}
+
+/// The knobs among `candidates` that `id` lists as fitted, each once, where `config`'s value
+/// lies within its range (a shape's value set outside a knob's range stays as set).
+fn fitted_knobs(candidates: &[Knob], config: &AxisConfig, id: &AxisIdentification) -> Vec<Knob> {
+    let mut knobs: Vec<Knob> = Vec::new();
+    for v in id.values.iter().filter(|v| v.fitted()) {
+        let within = |k: &&Knob| k.key == v.key && (k.min..=k.max).contains(&get(config, k.key));
+        if let Some(k) = candidates.iter().find(within)
+            && !knobs.iter().any(|q| q.key == k.key)
+        {
+            knobs.push(*k);
+        }
+    }
+    knobs
+}
+
+/// [`on_top`]'s fit with the force, where it predicts the held-out halves better.
+fn refitted(
+    fit: &Fit,
+    template: &AxisConfig,
+    candidates: &[Knob],
+    config: &AxisConfig,
+    id: &AxisIdentification,
+) -> Option<(AxisConfig, AxisIdentification)> {
+    let (ctx, axis, offset) = (fit.ctx(), fit.axis(), fit.offset());
+    // The controller's knobs as the fit's configuration has it (a family of its own, where
+    // written without a template), besides the template's.
+    let mut all = candidates.to_vec();
+    all.extend(knobs::for_axis(config));
+    let values = fitted_knobs(&all, config, id);
+    let mut knobs = values.clone();
+    knobs.push(HELD_AT_START);
+    let fold = ctx.halves(offset);
+    let round = Round::fit(fit, knobs, config, &fold)?;
+    let held_out_um = um_from_m(round.held_out_rms_own(fit, &fold)?);
+    if !verdict::predicts_better(held_out_um, id.held_out_identified_um) {
+        return None;
+    }
+    let written = round.config(&round.whole);
+    let residual = fit.residual(&written)?;
+    let mask = fit.mask();
+    let mut with = id.clone();
+    for v in fitted_values(&values, &round, &written, template) {
+        if let Some(slot) = with.values.iter_mut().find(|s| s.key == v.key) {
+            *slot = v;
+        }
+    }
+    with.rms_identified_um = um_from_m(masked_rms(&residual, mask));
+    with.held_out_identified_um = held_out_um;
+    with.held_out_share = held_out_um / with.following_error_rms_um;
+    with.better_than_template = verdict::predicts_better(held_out_um, with.held_out_template_um);
+    with.largest_at = verdict::largest_at(ctx, axis, offset, &residual, mask);
+    with.gain_per_inertia = gain_per_inertia(&round, config);
+    with.held_at_start = reported(fit, &round, &written);
+    let template_residual = fit.residual(template)?;
+    with.while_moving = verdict::while_moving(fit, &round, &fold, &template_residual);
+    Some((written, with))
+}
+
+/// The force held at the start as `round` (which fits it) put it into `config`.
+fn reported(fit: &Fit, round: &Round, config: &AxisConfig) -> Option<HeldForce> {
+    let p = round
+        .knobs
+        .iter()
+        .position(|k| k.key == HELD_AT_START.key)?;
+    let level_n = fit.held_level_n(config);
+    let force_n = config.held_at_start_n.clamp(-level_n, level_n);
+    let uncertainty_n = round.sigma[p].max(round.whole.model_sigma[p]);
+    Some(HeldForce {
+        force_n,
+        uncertainty_n,
+        level_n,
+        determined: HELD_AT_START.determines(uncertainty_n, force_n),
+    })
+}
+
+/// Where [`on_top`] tried the force and did not keep it: none, said so.
+fn not_kept(fit: &Fit, config: &AxisConfig) -> HeldForce {
+    HeldForce {
+        force_n: 0.0,
+        uncertainty_n: f64::NAN,
+        level_n: fit.held_level_n(config),
+        determined: false,
+    }
+}
+
+/// `config` as written: the force a record's start held is that record's, not the machine's.
+pub(super) fn unwritten(mut config: AxisConfig) -> AxisConfig {
+    config.held_at_start_n = 0.0;
+    config
+}
