@@ -26,7 +26,7 @@ use super::{fitted_values, gain_per_inertia, verdict};
 use crate::machine::AxisConfig;
 use crate::numeric::units::um_from_m;
 
-/// `found` (an axis's fit on every sample) with its values fitted again beside the force held
+/// `found` (an axis's fit on the samples `fit` uses) with its values fitted again beside the force held
 /// at the record's start, where that predicts the held-out halves better by a twentieth;
 /// else `found` as it is. Tried only above the noise, on a fit whose held-out figure is held
 /// out, where the record starts at rest and the fit uses the axis's first start.
@@ -38,7 +38,6 @@ pub(super) fn on_top(
 ) -> (AxisConfig, AxisIdentification) {
     let (config, id) = &found;
     let tried = !id.reached
-        && !id.moving_only
         && !id.held_out_in_sample
         && fit.holds_start(&|_| true)
         && fit.held_level_n(config) > 0.0;

@@ -342,10 +342,12 @@ fn fit_while_moving(
     model: Model,
 ) -> Option<(AxisConfig, AxisIdentification)> {
     let fit = Fit::new(ctx, template, axis, offset).masked(moving_samples(ctx, axis, offset));
+    let candidates = presliding::candidate_knobs(template.axis(axis), &[]);
     match model {
         Model::Template => identify_ordered(&fit, template, true, &[]),
         Model::Loop => loop_model::identified(&fit, template, true),
     }
+    .map(|found| held::on_top(&fit, template.axis(axis), &candidates, found))
     .map(|found| verdict::judged(found, um_from_m(ctx.noise_sigma)))
 }
 

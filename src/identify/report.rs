@@ -100,6 +100,14 @@ pub(crate) fn held_line(h: &HeldForce) -> String {
         "not determined alone: kept because the held-out halves are predicted better with it; \
          a state of the record, not written"
     };
+    if !h.uncertainty_n.is_finite() {
+        // Pressed against the bound, where the residual no longer changes with it.
+        return format!(
+            "{what}: {} N, the friction's level at rest (the table on the verge of breaking \
+             away; the record bounds it from one side only — {how})",
+            sig(h.force_n)
+        );
+    }
     format!(
         "{what}: {} ± {} N, within the friction's ±{} N at rest ({how})",
         sig(h.force_n),

@@ -62,9 +62,9 @@ pub struct Fit<'c, 'a> {
     /// Where the simulations stop early: the last compared sample the fits use, and the
     /// commands up to it.
     early: Option<(usize, Commands)>,
-    /// The axis's first start from rest at the record's start
-    /// ([`Context::first_start_sample`]) where the fits use it; none where the record does not
-    /// start at rest or the fits leave that sample out.
+    /// The first sample the fits use from the axis's first start from rest at the record's
+    /// start on ([`Context::first_start_sample`]); none where the record does not start at
+    /// rest.
     start_sample: Option<usize>,
 }
 
@@ -229,12 +229,13 @@ impl<'c, 'a> Fit<'c, 'a> {
             let until_s = ctx.prog_time(ctx.samples[k], self.offset_s);
             Some((k, ctx.commands_until(until_s)?))
         });
-        // Only fits that use the start itself: one that leaves out the breakaways after
-        // standstills (`moving_samples`) leaves out where the force shows, as it leaves out
-        // what every standstill within the record leaves behind.
+        // A fit that leaves out the breakaways after standstills (`moving_samples`) starts
+        // at its first sample after the start: the force held shows there too, in what the
+        // integrator carries from it.
+        let used = |k: usize| self.mask[k] && ctx.compared(axis, k);
         let start_sample = ctx
             .first_start_sample(axis, self.offset_s)
-            .filter(|&k| self.mask[k]);
+            .and_then(|first| (first..ctx.samples.len()).find(|&k| used(k)));
         Fit {
             early,
             start_sample,
