@@ -169,17 +169,9 @@ fn fitted(
     let encoder = Columns::encoder(fit, period_m);
     let bare = bare_round(fit, round, whole, fold)?;
     let first = Pass::of(fit, (round, bare.as_ref()), whole, fold, &encoder)?;
-    let tie = Tie::of(&first.figures(), counted);
-    if !tie.force_written() {
-        return Ok(RippleFit::kept_out(whole, &first, &tie, period_m));
-    }
-    if let Some(why) = first.directions.differ() {
-        return Ok(RippleFit::kept_out(
-            whole,
-            &first,
-            &tie.refused(why),
-            period_m,
-        ));
+    let kept_out = |tie: &Tie| RippleFit::kept_out(whole, &first, tie, period_m);
+    if let Err(tie) = judge(Tie::of(&first.figures(), counted), &first) {
+        return Ok(kept_out(&tie));
     }
     // Each half's loop is fitted again about its own ripple, so that the figure it is
     // scored by has seen nothing of the other half.
@@ -205,18 +197,13 @@ fn fitted(
     // partly fitted to, lower than held out. That errs conservative: the force must beat
     // alternatives the mix flatters, never the other way.
     let judged = Judged::of(fit, &refit, &residual);
-    let tie = Tie::of(&first.figures_with_force_of(&second), judged.counted);
-    if !tie.force_written() {
-        return Ok(RippleFit::kept_out(whole, &first, &tie, period_m));
-    }
-    if let Some(why) = second.directions.differ() {
-        return Ok(RippleFit::kept_out(
-            whole,
-            &first,
-            &tie.refused(why),
-            period_m,
-        ));
-    }
+    let tie = match judge(
+        Tie::of(&first.figures_with_force_of(&second), judged.counted),
+        &second,
+    ) {
+        Ok(tie) => tie,
+        Err(tie) => return Ok(kept_out(&tie)),
+    };
     // Listed against `whole`: the refit's base carries the first pass's ripple, not the
     // template's.
     let values = values(whole, second.ab, second.ab_floor, second.halves_ab(), &tie);
@@ -235,6 +222,20 @@ fn fitted(
         values,
         verdict,
     })
+}
+
+/// Whether the held-out halves' verdict `tie` keeps the force `pass` fitted: `Ok` with it
+/// where it does and the ripple's phase agrees between the two directions of travel, else
+/// `Err` with the verdict that keeps it out (refused, with the directions' reason, where
+/// the halves kept it but the phases differ).
+fn judge(tie: Tie, pass: &Pass) -> Result<Tie, Tie> {
+    if !tie.force_written() {
+        return Err(tie);
+    }
+    match pass.directions.differ() {
+        Some(why) => Err(tie.refused(why)),
+        None => Ok(tie),
+    }
 }
 
 /// Where the template names a ripple of its own, the loop's values fitted again without it,
