@@ -4,12 +4,11 @@
 
 use crate::common;
 
-use common::identifying::fitted_program;
-use common::reference::{self, Recording};
+use common::identifying::{encoder_recording, fitted_program, reference_trace};
+use common::reference::Recording;
 use contourcheck::compare::{CompareSettings, Comparison, HeldAtStart, Stepping, compare};
 use contourcheck::machine::{AxisName, MachineConfig};
 use contourcheck::sim::{AxisModel, MeasuredAt};
-use contourcheck::trace::measured::parse_trace;
 
 /// The lead-lag table as it ran, recorded at its motor encoders (10 kHz, 0.1 µm counts)
 /// with X holding `held_n` (N) at its start; the force estimated on the whole record with
@@ -17,18 +16,10 @@ use contourcheck::trace::measured::parse_trace;
 fn estimated(machine: &MachineConfig, held_n: f64) -> HeldAtStart {
     let program = fitted_program();
     let rec = Recording {
-        sample_s: 1e-4,
-        noise_m: 0.05e-6,
-        count_m: 0.1e-6,
-        step_s: 1e-5,
-        seed: 7,
-        accel: 0.5,
-        at_feedback: true,
         held_x_n: held_n,
-        ..Recording::default()
+        ..encoder_recording(7)
     };
-    let csv = reference::record(&program, &machine.x, &machine.y, &rec);
-    let measured = parse_trace(&csv, "held.csv").unwrap();
+    let measured = reference_trace(&program, machine, &rec);
     let mut settings = CompareSettings::for_machine(machine);
     settings.measured_at = MeasuredAt::Motor;
     let Comparison { ctx, offset_s, .. } =
