@@ -153,3 +153,79 @@ pub(in crate::identify) fn refit_failed(lead_mm: f64) -> RippleVerdict {
 pub(in crate::identify) const LOOKED_FOR: &str = "; its period looked for among ball-screw \
     leads without a template: it may be the loop model's own error repeating with the \
     program's positions";
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What a report or JSON reader is shown of an axis whose loop could not be fitted again
+    /// with the ripple of the lead taken (docs/report-schema.md, `axes[].force_ripple`): not
+    /// written, "not determined" with the lead named, and no held-out figures (`null`).
+    ///
+    /// Only reachable here: the refit runs the same search on the same template but for the
+    /// period of a ripple of zero amplitude, which the simulation does not see, so every
+    /// stage before the ripple's succeeds as it did without the period, and the ripple's own
+    /// failures are said "not determined" by it rather than failing the fit.
+    #[test]
+    fn a_lead_whose_refit_fails_is_said_not_determined_with_the_lead_and_no_figures() {
+        let v = refit_failed(12.0);
+        assert!(!v.written, "{v:?}");
+        assert!(
+            v.statement.starts_with("force ripple: not determined ("),
+            "{}",
+            v.statement
+        );
+        assert!(v.statement.contains("every 12 mm"), "{}", v.statement);
+        assert!(v.statement.ends_with(')'), "{}", v.statement);
+        let json = serde_json::to_value(&v).unwrap();
+        assert_eq!(json["written"], serde_json::Value::Bool(false));
+        for key in [
+            "held_out_without_um",
+            "held_out_force_um",
+            "held_out_encoder_um",
+        ] {
+            assert!(json[key].is_null(), "{key}: {json}");
+        }
+    }
+
+    /// Why no lead was taken, said with the figures that decided it: the best lead's share
+    /// in whole percent, the leads' span (2 to 50 mm) and the shortest lead where the travel
+    /// is too short for any.
+    #[test]
+    fn no_lead_taken_says_why_with_the_figures() {
+        let weak = not_taken(NoLead::Weak {
+            lead_mm: 5.0,
+            share: 0.064,
+        });
+        assert!(!weak.written);
+        assert!(
+            weak.statement.starts_with("force ripple: none found (")
+                && weak.statement.contains("2 to 50 mm")
+                && weak.statement.contains("the best, 5 mm, 6 %)"),
+            "{}",
+            weak.statement
+        );
+        let nothing = not_taken(NoLead::Weak {
+            lead_mm: 5.0,
+            share: 0.0,
+        });
+        assert!(
+            nothing.statement.starts_with("force ripple: none found (")
+                && !nothing.statement.contains('%'),
+            "{}",
+            nothing.statement
+        );
+        let short = not_taken(NoLead::TooShort);
+        assert!(
+            short
+                .statement
+                .starts_with("force ripple: not looked for (")
+                && short.statement.contains("shortest ball-screw lead, 2 mm"),
+            "{}",
+            short.statement
+        );
+        for v in [weak, nothing, short] {
+            assert!(v.held_out_force_um.is_nan() && v.held_out_without_um.is_nan());
+        }
+    }
+}
