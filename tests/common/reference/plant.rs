@@ -70,10 +70,7 @@ pub struct Cycle {
 impl Cycle {
     /// Its value with the axis at `x_m`; zero where it has no period.
     pub(super) fn at(&self, x_m: f64) -> f64 {
-        if self.period_m <= 0.0 {
-            return 0.0;
-        }
-        self.amplitude * (std::f64::consts::TAU * x_m / self.period_m + self.phase_rad).sin()
+        sine(self.amplitude, x_m, self.period_m, self.phase_rad)
     }
 }
 
@@ -89,11 +86,17 @@ pub struct Timed {
 impl Timed {
     /// Its value at `t_s`; zero where it has no period.
     pub(super) fn at(&self, t_s: f64) -> f64 {
-        if self.period_s <= 0.0 {
-            return 0.0;
-        }
-        self.amplitude_n * (std::f64::consts::TAU * t_s / self.period_s + self.phase_rad).sin()
+        sine(self.amplitude_n, t_s, self.period_s, self.phase_rad)
     }
+}
+
+/// `amplitude · sin(2π·at/period + phase)` (`at` and `period` in one unit: m or s); zero
+/// where there is no period.
+fn sine(amplitude: f64, at: f64, period: f64, phase_rad: f64) -> f64 {
+    if period <= 0.0 {
+        return 0.0;
+    }
+    amplitude * (std::f64::consts::TAU * at / period + phase_rad).sin()
 }
 
 impl Plant {
