@@ -625,6 +625,73 @@ mod tests {
         axis
     }
 
+    /// Two halves of 100 held-out samples each: 2 µm RMS without a ripple, `force_um` with
+    /// the force, 2 µm with the positions' cyclic error in its place.
+    fn tie_with_force(force_um: f64) -> Tie {
+        let ss = |um: f64| 100.0 * (um * 1e-6_f64).powi(2);
+        let half = ([ss(2.0), ss(force_um), ss(2.0)], 100);
+        Tie::of(&[half, half], [true, true])
+    }
+
+    /// A pass whose only say is the ripple's phase each way.
+    fn pass_with(directions: Directions) -> Pass {
+        Pass {
+            halves: Vec::new(),
+            ab: (0.0, 0.0),
+            ab_floor: 0.0,
+            encoder_whole: None,
+            directions,
+        }
+    }
+
+    fn statement(tie: &Tie) -> String {
+        let values = values(&template(), (0.0, 0.0), 0.0, [(0.0, 0.0); 2], tie);
+        tie.verdict(&values, None, 2.5e-3).statement
+    }
+
+    #[test]
+    fn the_force_is_kept_only_where_the_halves_keep_it_and_its_phase_agrees_both_ways() {
+        // 1 µm held out with the force against 2 µm without it and with the cyclic error:
+        // better by far more than a twentieth on each half. The phases 40 ± 2° moving + and
+        // 44 ± 2° moving − lie 4° apart, within three of their combined 2√2 = 2.83°: kept.
+        let agree = Directions::Compared {
+            plus: (40.0, 2.0),
+            minus: (44.0, 2.0),
+        };
+        let kept = judge(tie_with_force(1.0), &pass_with(agree.clone()))
+            .unwrap_or_else(|t| panic!("kept out: {}", statement(&t)));
+        assert!(kept.force_written());
+        // Where the phases were not compared (too little travel one way), that alone keeps
+        // nothing out.
+        let unknown = Directions::NotCompared("moving − the axis travels too little".into());
+        assert!(judge(tie_with_force(1.0), &pass_with(unknown)).is_ok());
+        // 130° against 40°: 90° apart, beyond 3 × 2.83° = 8.5°: kept out, for that reason.
+        let differ = Directions::Compared {
+            plus: (40.0, 2.0),
+            minus: (130.0, 2.0),
+        };
+        let refused = judge(tie_with_force(1.0), &pass_with(differ))
+            .err()
+            .expect("phases 90° apart");
+        assert!(!refused.force_written());
+        let said = statement(&refused);
+        assert!(
+            said.starts_with("force ripple: not determined (the phase differs between directions"),
+            "{said}"
+        );
+        // 1.95 µm against 2 µm is 2.5 % better, short of the twentieth: kept out however the
+        // phases agree, with what the halves said.
+        let weak = judge(tie_with_force(1.95), &pass_with(agree))
+            .err()
+            .expect("no gain by a twentieth");
+        assert!(!weak.force_written());
+        let said = statement(&weak);
+        assert!(
+            said.starts_with("force ripple: not determined (the held-out halves predict no better"),
+            "{said}"
+        );
+    }
+
     #[test]
     fn a_ripple_that_cannot_be_simulated_is_dropped_with_its_reason_and_the_fit_stays() {
         let template = template();
