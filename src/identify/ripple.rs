@@ -670,26 +670,28 @@ mod tests {
             plus: (40.0, 2.0),
             minus: (130.0, 2.0),
         };
-        let refused = judge(tie_with_force(1.0), &pass_with(differ))
-            .err()
-            .expect("phases 90° apart");
-        assert!(!refused.force_written());
-        let said = statement(&refused);
-        assert!(
-            said.starts_with("force ripple: not determined (the phase differs between directions"),
-            "{said}"
+        kept_out_saying(
+            tie_with_force(1.0),
+            differ,
+            "force ripple: not determined (the phase differs between directions",
         );
         // 1.95 µm against 2 µm is 2.5 % better, short of the twentieth: kept out however the
         // phases agree, with what the halves said.
-        let weak = judge(tie_with_force(1.95), &pass_with(agree))
-            .err()
-            .expect("no gain by a twentieth");
-        assert!(!weak.force_written());
-        let said = statement(&weak);
-        assert!(
-            said.starts_with("force ripple: not determined (the held-out halves predict no better"),
-            "{said}"
+        kept_out_saying(
+            tie_with_force(1.95),
+            agree,
+            "force ripple: not determined (the held-out halves predict no better",
         );
+    }
+
+    /// `judge` keeps the force out, and the statement shown begins with `begins`.
+    fn kept_out_saying(tie: Tie, directions: Directions, begins: &str) {
+        let out = judge(tie, &pass_with(directions))
+            .err()
+            .unwrap_or_else(|| panic!("kept where it should say: {begins}"));
+        assert!(!out.force_written());
+        let said = statement(&out);
+        assert!(said.starts_with(begins), "{said}");
     }
 
     #[test]
