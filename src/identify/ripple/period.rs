@@ -188,6 +188,46 @@ mod tests {
         }
     }
 
+    /// 400 samples, the first 200 one half and the rest the other; columns of a ripple 50
+    /// samples long, and the residual `r0` given.
+    fn ripple_parts(r0: impl Fn(usize, f64, f64) -> f64) -> (Parts, Vec<bool>) {
+        let phase = |i: usize| std::f64::consts::TAU * i as f64 / 50.0;
+        let (s, c): (Vec<f64>, Vec<f64>) =
+            (0..400).map(|i| (phase(i).sin(), phase(i).cos())).unzip();
+        let r = (0..400).map(|i| r0(i, s[i], c[i])).collect();
+        let fold = (0..400).map(|i| i < 200).collect();
+        (Parts::given(r, s, c), fold)
+    }
+
+    /// A lead is judged by the half that gains less from the parts fitted on the other.
+    #[test]
+    fn a_lead_is_judged_by_the_half_that_gains_less_from_the_others_parts() {
+        let mask = vec![true; 400];
+        // The residual is a ripple of parts (3, 1) all along: fitted on either half, the
+        // parts are (3, 1) and take all of the other half's residual off.
+        let (both, fold) = ripple_parts(|_, s, c| -(3.0 * s + c));
+        let share = held_out_share(&both, &mask, &fold);
+        assert!((share - 1.0).abs() < 1e-9, "{share}");
+        // The second half holds half of that ripple beside a wave of another period
+        // (orthogonal to the ripple's columns over its 200 samples, four of their periods).
+        // Its parts, (1.5, 0.5), take three quarters off the first half; the first's, (3, 1),
+        // overshoot the second's ripple by as much as they take off it: nothing gained. The
+        // half that gains less decides.
+        let wave = |i: usize| (std::f64::consts::TAU * i as f64 / 25.0).sin();
+        let (unequal, fold) = ripple_parts(|i, s, c| {
+            if i < 200 {
+                -(3.0 * s + c)
+            } else {
+                -0.5 * (3.0 * s + c) + wave(i)
+            }
+        });
+        let second = unequal.solve(&|i| !fold[i]).unwrap();
+        let first_gains = unequal.share_gained(&|i| fold[i], second);
+        assert!((first_gains - 0.75).abs() < 1e-9, "{first_gains}");
+        let share = held_out_share(&unequal, &mask, &fold);
+        assert!(share.abs() < 1e-9 && share < MIN_SHARE_GAINED, "{share}");
+    }
+
     /// Why no lead was taken, said with the figures that decided it: the best lead's share
     /// in whole percent, the leads' span (2 to 50 mm) and the shortest lead where the travel
     /// is too short for any.
