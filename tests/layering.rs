@@ -220,3 +220,80 @@ fn the_python_package_uses_only_the_root_interface() {
         "python/src takes names lib.rs does not re-export: {outside:?}"
     );
 }
+
+/// The top-level modules of this crate that `text` (another crate's code, a test's) names as
+/// `contourcheck::name`, grouped imports (`contourcheck::{a::X, b}`) included; comments left
+/// out.
+fn library_modules_named(text: &str) -> BTreeSet<String> {
+    let code: String = text
+        .lines()
+        .map(|line| line.split("//").next().unwrap_or(""))
+        .collect::<Vec<_>>()
+        .join("\n");
+    let ident = |s: &str| -> String {
+        s.trim_start()
+            .chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect()
+    };
+    let mut named = BTreeSet::new();
+    let mut rest = code.as_str();
+    while let Some(at) = rest.find("contourcheck::") {
+        rest = &rest[at + "contourcheck::".len()..];
+        let Some(group) = rest.strip_prefix('{') else {
+            named.insert(ident(rest));
+            continue;
+        };
+        // Each path at the group's own depth starts after its `{` or a comma.
+        let mut depth = 1;
+        named.insert(ident(group));
+        for (i, c) in group.char_indices() {
+            match c {
+                '{' => depth += 1,
+                '}' if depth == 1 => break,
+                '}' => depth -= 1,
+                ',' if depth == 1 => {
+                    named.insert(ident(&group[i + 1..]));
+                }
+                _ => {}
+            }
+        }
+    }
+    named.retain(|n| !n.is_empty());
+    named
+}
+
+#[test]
+fn the_library_reader_sees_grouped_imports_and_skips_comments() {
+    let text = "use contourcheck::{sim::{AxisModel, X}, gcode,\n  machine::Y};\n\
+                // contourcheck::plan\nlet p = contourcheck::path::Geometry::Line;\n";
+    let named = library_modules_named(text);
+    let expected = ["gcode", "machine", "path", "sim"].map(String::from);
+    assert_eq!(named, BTreeSet::from(expected));
+}
+
+/// The tests' reference (`tests/common/reference/`) integrates the model's equations apart
+/// from the tool, so that its records check the simulator rather than repeat it: it takes
+/// from the library only what a user gives the tool — the program and the machine file —
+/// never the simulator, the planner or anything built on them.
+#[test]
+fn the_tests_reference_takes_only_the_program_and_the_machine_file() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/common/reference");
+    let mut files = Vec::new();
+    rust_files(&dir, &mut files);
+    let mut named = BTreeSet::new();
+    for file in &files {
+        named.extend(library_modules_named(&fs::read_to_string(file).unwrap()));
+    }
+    // The reader must see what is there, or the check below passes vacuously.
+    assert!(named.contains("machine"), "{named:?}");
+    let allowed = ["gcode", "machine", "path"];
+    let other: Vec<&String> = named
+        .iter()
+        .filter(|n| !allowed.contains(&n.as_str()))
+        .collect();
+    assert!(
+        other.is_empty(),
+        "the reference names the library's {other:?}: it must stay independent of it"
+    );
+}

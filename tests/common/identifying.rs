@@ -69,17 +69,39 @@ pub fn encoder_record_with_tight_spot(
     tight_spot_x: Option<(f64, f64, f64)>,
 ) -> MeasuredTrace {
     let rec = Recording {
+        tight_spot_x,
+        ..encoder_recording(seed)
+    };
+    reference_trace(program, machine, &rec)
+}
+
+/// The interpolator's path acceleration (m/s²) of [`encoder_recording`].
+pub const ENCODER_RECORDING_ACCEL: f64 = 0.5;
+
+/// How the identify tests' reference records are taken: the motor's encoder (where the
+/// control reads its feedback) at 10 kHz in 0.1 µm counts with 0.05 µm of noise, the
+/// integrator stepping at 10 µs, its interpolator at [`ENCODER_RECORDING_ACCEL`]; `seed`
+/// for the noise. A test adds the effect it hides by struct update.
+pub fn encoder_recording(seed: u64) -> Recording {
+    Recording {
         sample_s: 1e-4,
         noise_m: 0.05e-6,
         count_m: 0.1e-6,
         step_s: 1e-5,
         seed,
-        accel: 0.5,
-        tight_spot_x,
+        accel: ENCODER_RECORDING_ACCEL,
         at_feedback: true,
         ..Recording::default()
-    };
-    let csv = reference::record(program, &machine.x, &machine.y, &rec);
+    }
+}
+
+/// The reference's record `rec` of `program` on `machine`'s X and Y, read as a user's file.
+pub fn reference_trace(
+    program: &Program,
+    machine: &MachineConfig,
+    rec: &Recording,
+) -> MeasuredTrace {
+    let csv = reference::record(program, &machine.x, &machine.y, rec);
     parse_trace(&csv, "reference.csv").unwrap()
 }
 

@@ -4,38 +4,24 @@
 
 use crate::common;
 
-use common::identifying::fitted_program;
-use common::reference::{self, Recording};
+use common::identifying::{encoder_recording, fitted_program, reference_trace};
+use common::reference::Recording;
 use contourcheck::compare::{CompareSettings, Comparison, HeldAtStart, Stepping, compare};
 use contourcheck::machine::{AxisName, MachineConfig};
 use contourcheck::sim::{AxisModel, MeasuredAt};
-use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
 
 /// The lead-lag table as it ran, recorded at its motor encoders (10 kHz, 0.1 µm counts)
-/// with X holding `held_n` (N) at its start, and the settings it is compared with.
-fn recorded(machine: &MachineConfig, held_n: f64) -> (MeasuredTrace, CompareSettings) {
-    let rec = Recording {
-        sample_s: 1e-4,
-        noise_m: 0.05e-6,
-        count_m: 0.1e-6,
-        step_s: 1e-5,
-        seed: 7,
-        accel: 0.5,
-        at_feedback: true,
-        held_x_n: held_n,
-        ..Recording::default()
-    };
-    let csv = reference::record(&fitted_program(), &machine.x, &machine.y, &rec);
-    let measured = parse_trace(&csv, "held.csv").unwrap();
-    let mut settings = CompareSettings::for_machine(machine);
-    settings.measured_at = MeasuredAt::Motor;
-    (measured, settings)
-}
-
-/// [`recorded`]'s force estimated on the whole record with the machine's values given.
+/// with X holding `held_n` (N) at its start; the force estimated on the whole record with
+/// the machine's values given.
 fn estimated(machine: &MachineConfig, held_n: f64) -> HeldAtStart {
     let program = fitted_program();
-    let (measured, settings) = recorded(machine, held_n);
+    let rec = Recording {
+        held_x_n: held_n,
+        ..encoder_recording(7)
+    };
+    let measured = reference_trace(&program, machine, &rec);
+    let mut settings = CompareSettings::for_machine(machine);
+    settings.measured_at = MeasuredAt::Motor;
     let Comparison { ctx, offset_s, .. } =
         compare(&program, machine, &measured, &settings, Stepping::Full).unwrap();
     ctx.held_at_start(machine, AxisName::X, offset_s, &|_| true)

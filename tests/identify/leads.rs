@@ -10,19 +10,21 @@ use crate::common;
 
 use std::f64::consts::{PI, TAU};
 
-use common::identifying::lead_lag_toml;
+use common::identifying::{
+    ENCODER_RECORDING_ACCEL, encoder_recording, lead_lag_toml, reference_trace,
+};
 use common::program_text;
-use common::reference::{self, Recording, Timed, Trapezoids};
+use common::reference::{Recording, Timed, Trapezoids};
 use contourcheck::compare::CompareSettings;
 use contourcheck::gcode::Program;
 use contourcheck::identify::{Identification, identify_loop, loop_template};
 use contourcheck::machine::MachineConfig;
 use contourcheck::sim::MeasuredAt;
-use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
+use contourcheck::trace::measured::MeasuredTrace;
 
 /// The interpolator's path acceleration (m/s²), and the time it waits before the program
 /// and after it (s), as the reference's record runs it.
-const ACCEL: f64 = 0.5;
+const ACCEL: f64 = ENCODER_RECORDING_ACCEL;
 const PRE_S: f64 = 0.3;
 const POST_S: f64 = 0.5;
 
@@ -35,19 +37,10 @@ fn machine() -> MachineConfig {
 /// in 0.1 µm counts, X's table pushed by `timed`.
 fn record(program: &Program, timed: Timed) -> MeasuredTrace {
     let rec = Recording {
-        sample_s: 1e-4,
-        noise_m: 0.05e-6,
-        count_m: 0.1e-6,
-        step_s: 1e-5,
-        seed: 38,
-        accel: ACCEL,
-        at_feedback: true,
         timed_force_x: timed,
-        ..Recording::default()
+        ..encoder_recording(38)
     };
-    let m = machine();
-    let csv = reference::record(program, &m.x, &m.y, &rec);
-    parse_trace(&csv, "reference.csv").unwrap()
+    reference_trace(program, &machine(), &rec)
 }
 
 /// `identify` without a template, compared at the motors.

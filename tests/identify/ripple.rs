@@ -13,9 +13,9 @@ use std::f64::consts::TAU;
 use std::sync::OnceLock;
 
 use common::assert_within_k_sigma;
-use common::identifying::lead_lag_toml;
+use common::identifying::{encoder_recording, lead_lag_toml, reference_trace};
 use common::program_text;
-use common::reference::{self, Cycle, Recording};
+use common::reference::{Cycle, Recording};
 use contourcheck::compare::CompareSettings;
 use contourcheck::gcode::Program;
 use contourcheck::identify::{
@@ -23,7 +23,7 @@ use contourcheck::identify::{
 };
 use contourcheck::machine::MachineConfig;
 use contourcheck::sim::MeasuredAt;
-use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
+use contourcheck::trace::measured::MeasuredTrace;
 
 const PERIOD_MM: f64 = 2.5;
 
@@ -48,18 +48,10 @@ fn machine(ripple_x: Option<(f64, f64)>) -> MachineConfig {
 /// in 0.1 µm counts, X's encoder with `encoder_error`.
 fn record(truth: &MachineConfig, encoder_error: Cycle) -> MeasuredTrace {
     let rec = Recording {
-        sample_s: 1e-4,
-        noise_m: 0.05e-6,
-        count_m: 0.1e-6,
-        step_s: 1e-5,
-        seed: 38,
-        accel: 0.5,
-        at_feedback: true,
         encoder_error_x: encoder_error,
-        ..Recording::default()
+        ..encoder_recording(38)
     };
-    let csv = reference::record(&program(), &truth.x, &truth.y, &rec);
-    parse_trace(&csv, "reference.csv").unwrap()
+    reference_trace(&program(), truth, &rec)
 }
 
 fn identified(measured: &MeasuredTrace) -> Identification {

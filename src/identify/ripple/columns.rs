@@ -108,6 +108,14 @@ impl Columns {
     }
 }
 
+#[cfg(test)]
+impl Parts {
+    /// Parts given outright: the residual without a ripple and its columns.
+    pub(super) fn given(r0: Vec<f64>, s: Vec<f64>, c: Vec<f64>) -> Parts {
+        Parts { r0, s, c }
+    }
+}
+
 impl Parts {
     /// The sine and cosine parts that minimise Σ (r0 + a·s + b·c)² on the samples
     /// `use_sample` allows; not where the two columns act alike (`MAX_CORRELATION`).

@@ -153,3 +153,119 @@ pub(in crate::identify) fn refit_failed(lead_mm: f64) -> RippleVerdict {
 pub(in crate::identify) const LOOKED_FOR: &str = "; its period looked for among ball-screw \
     leads without a template: it may be the loop model's own error repeating with the \
     program's positions";
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// What a report or JSON reader is shown of an axis whose loop could not be fitted again
+    /// with the ripple of the lead taken (docs/report-schema.md, `axes[].force_ripple`): not
+    /// written, "not determined" with the lead named, and no held-out figures (`null`).
+    ///
+    /// Only reachable here: the refit runs the same search on the same template but for the
+    /// period of a ripple of zero amplitude, which the simulation does not see, so every
+    /// stage before the ripple's succeeds as it did without the period, and the ripple's own
+    /// failures are said "not determined" by it rather than failing the fit.
+    #[test]
+    fn a_lead_whose_refit_fails_is_said_not_determined_with_the_lead_and_no_figures() {
+        let v = refit_failed(12.0);
+        assert!(!v.written, "{v:?}");
+        assert!(
+            v.statement.starts_with("force ripple: not determined ("),
+            "{}",
+            v.statement
+        );
+        assert!(v.statement.contains("every 12 mm"), "{}", v.statement);
+        assert!(v.statement.ends_with(')'), "{}", v.statement);
+        let json = serde_json::to_value(&v).unwrap();
+        assert_eq!(json["written"], serde_json::Value::Bool(false));
+        for key in [
+            "held_out_without_um",
+            "held_out_force_um",
+            "held_out_encoder_um",
+        ] {
+            assert!(json[key].is_null(), "{key}: {json}");
+        }
+    }
+
+    /// 400 samples, the first 200 one half and the rest the other; columns of a ripple 50
+    /// samples long, and the residual `r0` given.
+    fn ripple_parts(r0: impl Fn(usize, f64, f64) -> f64) -> (Parts, Vec<bool>) {
+        let phase = |i: usize| std::f64::consts::TAU * i as f64 / 50.0;
+        let (s, c): (Vec<f64>, Vec<f64>) =
+            (0..400).map(|i| (phase(i).sin(), phase(i).cos())).unzip();
+        let r = (0..400).map(|i| r0(i, s[i], c[i])).collect();
+        let fold = (0..400).map(|i| i < 200).collect();
+        (Parts::given(r, s, c), fold)
+    }
+
+    /// A lead is judged by the half that gains less from the parts fitted on the other.
+    #[test]
+    fn a_lead_is_judged_by_the_half_that_gains_less_from_the_others_parts() {
+        let mask = vec![true; 400];
+        // The residual is a ripple of parts (3, 1) all along: fitted on either half, the
+        // parts are (3, 1) and take all of the other half's residual off.
+        let (both, fold) = ripple_parts(|_, s, c| -(3.0 * s + c));
+        let share = held_out_share(&both, &mask, &fold);
+        assert!((share - 1.0).abs() < 1e-9, "{share}");
+        // The second half holds half of that ripple beside a wave of another period
+        // (orthogonal to the ripple's columns over its 200 samples, four of their periods).
+        // Its parts, (1.5, 0.5), take three quarters off the first half; the first's, (3, 1),
+        // overshoot the second's ripple by as much as they take off it: nothing gained. The
+        // half that gains less decides.
+        let wave = |i: usize| (std::f64::consts::TAU * i as f64 / 25.0).sin();
+        let (unequal, fold) = ripple_parts(|i, s, c| {
+            if i < 200 {
+                -(3.0 * s + c)
+            } else {
+                -0.5 * (3.0 * s + c) + wave(i)
+            }
+        });
+        let second = unequal.solve(&|i| !fold[i]).unwrap();
+        let first_gains = unequal.share_gained(&|i| fold[i], second);
+        assert!((first_gains - 0.75).abs() < 1e-9, "{first_gains}");
+        let share = held_out_share(&unequal, &mask, &fold);
+        assert!(share.abs() < 1e-9 && share < MIN_SHARE_GAINED, "{share}");
+    }
+
+    /// Why no lead was taken, said with the figures that decided it: the best lead's share
+    /// in whole percent, the leads' span (2 to 50 mm) and the shortest lead where the travel
+    /// is too short for any.
+    #[test]
+    fn no_lead_taken_says_why_with_the_figures() {
+        let weak = not_taken(NoLead::Weak {
+            lead_mm: 5.0,
+            share: 0.064,
+        });
+        assert!(!weak.written);
+        assert!(
+            weak.statement.starts_with("force ripple: none found (")
+                && weak.statement.contains("2 to 50 mm")
+                && weak.statement.contains("the best, 5 mm, 6 %)"),
+            "{}",
+            weak.statement
+        );
+        let nothing = not_taken(NoLead::Weak {
+            lead_mm: 5.0,
+            share: 0.0,
+        });
+        assert!(
+            nothing.statement.starts_with("force ripple: none found (")
+                && !nothing.statement.contains('%'),
+            "{}",
+            nothing.statement
+        );
+        let short = not_taken(NoLead::TooShort);
+        assert!(
+            short
+                .statement
+                .starts_with("force ripple: not looked for (")
+                && short.statement.contains("shortest ball-screw lead, 2 mm"),
+            "{}",
+            short.statement
+        );
+        for v in [weak, nothing, short] {
+            assert!(v.held_out_force_um.is_nan() && v.held_out_without_um.is_nan());
+        }
+    }
+}
