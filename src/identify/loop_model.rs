@@ -9,9 +9,8 @@
 //! the record's held-out halves better than the one below it (see [`orders`]). Beside it a
 //! second family is fitted (`transfer`): an integrating lead-lag commanding current on the
 //! template's screw drive or a rigid body, the structure many such tables run, written where
-//! it predicts the held-out
-//! halves better than the cascade by a twentieth — the cascade follows an integrating
-//! controller's commands alike but not its shape. A force ripple's period, which a template
+//! it predicts the held-out halves better than the cascade by a twentieth — the cascade
+//! follows an integrating controller's commands alike but not its shape. A force ripple's period, which a template
 //! would name, is looked for among the leads ball screws are made with
 //! (`super::ripple::period`), for each family on its own fit.
 
