@@ -14,12 +14,13 @@
 //! controller on such a drive is not reached by the rigid mass however its controller is
 //! fitted (0.6 µm left at the very values it runs, against 0.06 µm of noise). Where the
 //! record shows no such strain (a stiffer screw, forces unlike the preset's), the rigid mass
-//! may start closer: the start says which.
+//! is kept: it holds no stiffness the record did not give.
 //!
 //! Where it starts: the usual design of such a controller on the rigid mass — gain crossover
 //! ω_c with 60° of phase margin, the integral corner at a tenth of ω_c, the lead making up the
 //! phase the body and the integrator take — for each crossover of [`CROSSOVERS_HZ`] on either
-//! drive, the one whose loop leaves the record's least residual. The fit
+//! drive, the one whose loop leaves the record's least residual, the screw drive only where
+//! its best start leaves a twentieth less than the rigid mass's (RMS). The fit
 //! (`super::super::identify_on`) then solves the record's equation for the controller and
 //! searches its corners.
 
@@ -53,24 +54,36 @@ const INTEGRAL_SHARE: f64 = 0.1;
 /// so far apart that the design's gain at high frequency would amplify the counts' noise.
 const MAX_LEAD_DEG: f64 = 75.0;
 
+/// How much less residual (RMS) the screw drive's best start must leave than the rigid
+/// mass's to be taken: a twentieth, as the families are compared by. The rigid mass holds no
+/// stiffness the record did not give; the screw's is the preset's, taken only where the
+/// record shows a strain of its size.
+const SCREW_SHOWN: f64 = 0.95;
+
 /// `base` with `fit`'s axis under an integrating lead-lag on current, designed at the
-/// crossover of [`CROSSOVERS_HZ`] on the rigid mass, on the drive (the template's or the
-/// rigid mass) and at the crossover whose loop follows the record best; none where no design
-/// can be simulated.
+/// crossover of [`CROSSOVERS_HZ`] on the rigid mass whose loop follows the record best: on
+/// the template's screw drive where that follows it better by [`SCREW_SHOWN`], else on the
+/// rigid mass; none where no design can be simulated.
 pub(super) fn template(base: &MachineConfig, fit: &Fit) -> Option<MachineConfig> {
     let rigid = rigid_body(base.axis(fit.axis()));
     let screw = on_current(base.axis(fit.axis()));
-    let (_, axis) = CROSSOVERS_HZ
-        .iter()
-        .flat_map(|&fc| [(fc, &screw), (fc, &rigid)])
-        .filter_map(|(fc, drive)| {
-            let mut a = drive.clone();
-            // The same controller on either: the rigid mass is the screw drive's inertia.
-            a.controller = Controller::TransferFunction(designed(&rigid, fc));
-            Some((fit.cost(&a)?, a))
-        })
-        .filter(|(cost, _)| cost.is_finite())
-        .min_by(|a, b| a.0.total_cmp(&b.0))?;
+    // The same controller on either: the rigid mass is the screw drive's inertia.
+    let best = |drive: &AxisConfig| {
+        CROSSOVERS_HZ
+            .iter()
+            .filter_map(|&fc| {
+                let mut a = drive.clone();
+                a.controller = Controller::TransferFunction(designed(&rigid, fc));
+                Some((fit.cost(&a)?, a))
+            })
+            .filter(|(cost, _)| cost.is_finite())
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+    };
+    let axis = match (best(&rigid), best(&screw)) {
+        (Some(r), Some(s)) if s.0 < SCREW_SHOWN * SCREW_SHOWN * r.0 => s.1,
+        (Some(r), _) => r.1,
+        (None, s) => s?.1,
+    };
     let mut m = base.clone();
     *m.axis_mut(fit.axis()) = axis;
     Some(m)
