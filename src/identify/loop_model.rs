@@ -7,10 +7,10 @@
 //! table run by a PID on a current amplifier is described by the cascade that follows its
 //! commands alike. It is fitted in increasing order, each order kept only where it predicts
 //! the record's held-out halves better than the one below it (see [`orders`]). Beside it a
-//! second family is fitted (`transfer`): an integrating lead-lag commanding current on a
-//! rigid body, the structure many such tables run, written where it predicts the held-out
-//! halves better than the cascade by a twentieth — the cascade follows an integrating
-//! controller's commands alike but not its shape. A force ripple's period, which a template
+//! second family is fitted (`transfer`): an integrating lead-lag commanding current on the
+//! template's screw drive or a rigid body, the structure many such tables run, written where
+//! it predicts the held-out halves better than the cascade by a twentieth — the cascade
+//! follows an integrating controller's commands alike but not its shape. A force ripple's period, which a template
 //! would name, is looked for among the leads ball screws are made with
 //! (`super::ripple::period`), for each family on its own fit.
 
@@ -155,7 +155,8 @@ pub(super) fn identified(
 enum Family {
     /// The cascade of [`template`], in the orders of [`orders`].
     Cascade,
-    /// An integrating lead-lag commanding current on a rigid body (`transfer`).
+    /// An integrating lead-lag commanding current on the screw drive or a rigid body
+    /// (`transfer`).
     LeadLag,
 }
 
@@ -239,7 +240,7 @@ fn fitted(
         // here only a start's (and trying them too would double the family's time).
         let knobs = super::knobs::for_axis(template.axis(fit.axis()));
         let (config, mut id) = super::identify_on(fit, template, moving_only, &knobs)?;
-        id.kept = transfer::DESCRIBES.to_string();
+        id.kept = transfer::describes(&config);
         return Some((config, id));
     }
     let mut chosen: Option<(usize, (AxisConfig, AxisIdentification))> = None;

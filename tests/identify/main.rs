@@ -21,6 +21,7 @@ mod common;
 mod hard_searches;
 mod held_start;
 mod hidden_machines;
+mod lead_lag_family;
 mod leads;
 mod presliding;
 mod ripple;
