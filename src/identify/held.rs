@@ -9,14 +9,16 @@
 //! shapes a start (the nut's place in its gap, the bristles' stiffness, a controller unlike
 //! the machine's): fitted in every search, it took the place of backlash and of the bristles
 //! an independent integrator's records had, where none was held. So it comes last, like
-//! every element beyond the template: on an axis whose fit on every sample stays above the
-//! noise, that fit's values are fitted again with the force beside them — by the whole fit
+//! every element beyond the template: on an axis whose fit (on every sample, or away from the
+//! standstills) stays above the noise, that fit's values are fitted again with the force beside them — by the whole fit
 //! and the half of the record that holds the first start ([`Fit::holds_start`]); the other
 //! half keeps the whole fit's (fitted there it only soaks up what the model misses elsewhere
 //! and runs to its bound) — and a half's fit is scored on the other half with the force
 //! estimated on that half's samples where they hold the start (`Round::scored_config`): a
-//! state of the record, not a value the half predicts. Kept only where that predicts the
-//! held-out halves better by the twentieth every larger model must earn.
+//! state of the record, not a value the half predicts. Kept only where those values predict
+//! the held-out halves better by the twentieth every larger model must earn than the same
+//! values fitted again without it, scored the same way (the force estimated on each half
+//! scored): what is judged is the machine's values, which the file holds.
 
 use super::knobs::{self, HELD_AT_START, Knob, get};
 use super::result::{AxisIdentification, HeldForce};
@@ -26,9 +28,9 @@ use super::{fitted_values, gain_per_inertia, verdict};
 use crate::machine::AxisConfig;
 use crate::numeric::units::um_from_m;
 
-/// `found` (an axis's fit on the samples `fit` uses) with its values fitted again beside the force held
-/// at the record's start, where that predicts the held-out halves better by a twentieth;
-/// else `found` as it is. Tried only above the noise, on a fit whose held-out figure is held
+/// `found` (an axis's fit on the samples `fit` uses) with its values fitted again beside the
+/// force held at the record's start, where they predict the held-out halves better by a
+/// twentieth than fitted again without it; else `found` as it is. Tried only above the noise, on a fit whose held-out figure is held
 /// out, where the record starts at rest and the fit uses the axis's first start.
 pub(super) fn on_top(
     fit: &Fit,
@@ -83,11 +85,19 @@ fn refitted(
     let mut knobs = values.clone();
     knobs.push(HELD_AT_START);
     let fold = ctx.halves(offset);
-    let round = Round::fit(fit, knobs, config, &fold)?;
-    let held_out_um = um_from_m(round.held_out_rms_own(fit, &fold)?);
-    if !verdict::predicts_better(held_out_um, id.held_out_identified_um) {
+    // The values fitted again without the force too, from the same point: both rounds' halves
+    // scored with the force estimated on the half scored, so that what is compared is what
+    // the machine's values predict, not what a value fitted on the samples scored takes.
+    let (with_force, without) = rayon::join(
+        || Round::fit(fit, knobs, config, &fold),
+        || Round::fit(fit, values.clone(), config, &fold).map(Round::estimating_held),
+    );
+    let (round, without) = (with_force?, without?);
+    let (with_m, without_m) = round.held_out_against(&without, fit, &fold)?;
+    if !verdict::predicts_better(with_m, without_m) {
         return None;
     }
+    let held_out_um = um_from_m(with_m);
     let written = round.config(&round.whole);
     let residual = fit.residual(&written)?;
     let mask = fit.mask();
@@ -100,12 +110,15 @@ fn refitted(
     with.rms_identified_um = um_from_m(masked_rms(&residual, mask));
     with.held_out_identified_um = held_out_um;
     with.held_out_share = held_out_um / with.following_error_rms_um;
-    with.better_than_template = verdict::predicts_better(held_out_um, with.held_out_template_um);
+    // Against the template as before: the template is scored holding none, and the force is
+    // not written.
     with.largest_at = verdict::largest_at(ctx, axis, offset, &residual, mask);
     with.gain_per_inertia = gain_per_inertia(&round, config);
     with.held_at_start = reported(fit, &round, &written);
-    let template_residual = fit.residual(template)?;
-    with.while_moving = verdict::while_moving(fit, &round, &fold, &template_residual);
+    if id.while_moving.is_some() {
+        let template_residual = fit.residual(template)?;
+        with.while_moving = verdict::while_moving(fit, &round, &fold, &template_residual);
+    }
     Some((written, with))
 }
 
@@ -117,12 +130,23 @@ fn reported(fit: &Fit, round: &Round, config: &AxisConfig) -> Option<HeldForce> 
         .position(|k| k.key == HELD_AT_START.key)?;
     let level_n = fit.held_level_n(config);
     let force_n = config.held_at_start_n.clamp(-level_n, level_n);
-    let uncertainty_n = round.sigma[p].max(round.whole.model_sigma[p]);
+    // The half without the start kept the whole fit's force: the halves' difference is the
+    // start half's step from it whole, not half of two halves' independent spread.
+    let apart = (round.halves[0].values[p] - round.halves[1].values[p]).abs();
+    let uncertainty_n = round.whole.sigma[p]
+        .max(round.whole.model_sigma[p])
+        .max(apart);
+    let at_level = force_n.abs() >= level_n * (1.0 - 1e-6);
     Some(HeldForce {
         force_n,
-        uncertainty_n,
+        uncertainty_n: if uncertainty_n.is_finite() || at_level {
+            uncertainty_n
+        } else {
+            f64::NAN
+        },
         level_n,
         determined: HELD_AT_START.determines(uncertainty_n, force_n),
+        at_level,
     })
 }
 
@@ -133,6 +157,7 @@ fn not_kept(fit: &Fit, config: &AxisConfig) -> HeldForce {
         uncertainty_n: f64::NAN,
         level_n: fit.held_level_n(config),
         determined: false,
+        at_level: false,
     }
 }
 

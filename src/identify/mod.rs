@@ -308,17 +308,17 @@ fn fit_axis(
         m.filter(|m| m.1.reached || m.1.better_than_template)
             .map(|m| m.1.held_out_share)
     };
+    let candidates = presliding::candidate_knobs(template.axis(axis), &nonlinear);
     everywhere = match model {
         Model::Template => {
-            let all = presliding::candidate_knobs(template.axis(axis), &nonlinear);
-            presliding::tried(&fit, template.axis(axis), everywhere, &all, &moving_share)
+            let all = &candidates;
+            presliding::tried(&fit, template.axis(axis), everywhere, all, &moving_share)
         }
         Model::Loop => {
             let why = presliding::WITHOUT_TEMPLATE;
             presliding::not_tried(everywhere, template.axis(axis), why)
         }
     };
-    let candidates = presliding::candidate_knobs(template.axis(axis), &nonlinear);
     everywhere = held::on_top(&fit, template.axis(axis), &candidates, everywhere);
     if everywhere.1.reached && verdict::judged_while_moving(&mut everywhere.1, noise_um) {
         return Some(everywhere);

@@ -89,18 +89,22 @@ pub(crate) fn held_line(h: &HeldForce) -> String {
     let what = "force held at rest at the record's start";
     if h.uncertainty_n.is_nan() {
         return format!(
-            "{what}: none — fitted with it (within the friction's ±{} N at rest), the values do \
-             not predict the held-out halves better by a twentieth",
+            "{what}: none kept — fitted with it (within the friction's ±{} N at rest), the \
+             values do not predict the held-out halves better by a twentieth (or could not be \
+             fitted again)",
             sig(h.level_n)
         );
     }
     let how = if h.determined {
-        "a state of the record, not of the machine: not written"
+        "a state of the record, not of the machine: not written; fitted on top, after the \
+         ripple's and the bristles' figures above; the held-out figures estimate it on each \
+         half scored"
     } else {
         "not determined alone: kept because the held-out halves are predicted better with it; \
-         a state of the record, not written"
+         a state of the record, not written; fitted on top, after the ripple's and the \
+         bristles' figures above; the held-out figures estimate it on each half scored"
     };
-    if !h.uncertainty_n.is_finite() {
+    if h.at_level {
         // Pressed against the bound, where the residual no longer changes with it.
         return format!(
             "{what}: {} N, the friction's level at rest (the table on the verge of breaking \

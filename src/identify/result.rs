@@ -231,7 +231,8 @@ pub struct AxisIdentification {
 pub struct HeldForce {
     /// The force (N, + pushing the table towards +); 0 where the fit holds none.
     pub force_n: f64,
-    /// Its standard uncertainty (N); NaN where the fit holds none.
+    /// Its standard uncertainty (N); NaN where the fit holds none; infinite (JSON `null`) where
+    /// it lies at the level (`at_level`), bounded from one side only.
     pub uncertainty_n: f64,
     /// The friction's level at rest the force lies within (N).
     pub level_n: f64,
@@ -239,6 +240,9 @@ pub struct HeldForce {
     /// record does not determine is held only where the fit with it predicts the held-out
     /// halves better; else none is.
     pub determined: bool,
+    /// Whether it lies at the friction's level at rest: the table on the verge of breaking
+    /// away, the residual unchanged by a larger force (the simulator holds no more).
+    pub at_level: bool,
 }
 
 /// The identification of a machine from a record.

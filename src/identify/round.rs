@@ -91,6 +91,10 @@ pub(super) struct Round {
     /// sample), about the round's own `base`: every held-out figure of the round reads
     /// these, simulated once — no call can ask them about another base.
     halves_simulated: OnceLock<Option<[Vec<f64>; 2]>>,
+    /// Whether a half's fit is scored with the force held at the record's start estimated on
+    /// the half scored ([`Round::scored_config`]): a round that fits that force, or one
+    /// compared with such a round on the same footing.
+    estimates_held: bool,
 }
 
 impl Round {
@@ -130,6 +134,7 @@ impl Round {
         let sigma = (0..knobs.len())
             .map(|j| whole.sigma[j].max(0.5 * (a.values[j] - b.values[j]).abs()))
             .collect();
+        let estimates_held = knobs.iter().any(|k| k.key == knobs::HELD_AT_START.key);
         Some(Round {
             knobs,
             whole,
@@ -137,6 +142,7 @@ impl Round {
             sigma,
             base: base.clone(),
             half_bases,
+            estimates_held,
             halves_simulated: OnceLock::new(),
         })
     }
@@ -277,7 +283,12 @@ impl Round {
     /// halves ([`compared_rms_m`]): those where this round's fits found a point of their own,
     /// else both halves. None where either round's halves cannot be simulated or no half
     /// counts a sample.
-    fn held_out_against(&self, other: &Round, fit: &Fit, fold: &[bool]) -> Option<(f64, f64)> {
+    pub(super) fn held_out_against(
+        &self,
+        other: &Round,
+        fit: &Fit,
+        fold: &[bool],
+    ) -> Option<(f64, f64)> {
         let this = self.half_scores(fit, fold)?;
         let that = other.half_scores(fit, fold)?;
         compared_rms_m(this, that)
@@ -306,7 +317,19 @@ impl Round {
             return None;
         }
         let other = self.whole.most_traded_with(p)?;
-        Some(self.knobs[other].key)
+        Some(match self.knobs[other].key {
+            // A state of the record, not a key of the machine file.
+            k if k == knobs::HELD_AT_START.key => "the force held at the record's start",
+            k => k,
+        })
+    }
+
+    /// This round, its halves scored with the force held at the record's start estimated on
+    /// each half scored, as a round that fits it is: the footing a round without that force
+    /// is compared with one that has it on. Before any figure of it is read.
+    pub(super) fn estimating_held(mut self) -> Round {
+        self.estimates_held = true;
+        self
     }
 
     /// The RMS residual (m) of each half's fit on the other half's samples (of those `fit`
@@ -362,16 +385,15 @@ impl Round {
         Some((ss, n))
     }
 
-    /// Half `h`'s fit as it is scored on the other half: where this round fits the force held
-    /// at the record's start and the other half holds the start, that force estimated on the
+    /// Half `h`'s fit as it is scored on the other half: where this round estimates the force
+    /// held at the record's start (`estimates_held`) and the other half holds the start, that force estimated on the
     /// other half's samples with the half's machine values fixed — a state of the record,
     /// which the half's own samples did not show, while the machine's values are what is
     /// scored.
     fn scored_config(&self, fit: &Fit, fold: &[bool], h: usize) -> AxisConfig {
         let mut config = self.half_config(h);
-        let fits_held = self.knobs.iter().any(|k| k.key == knobs::HELD_AT_START.key);
         let scored = |k: usize| fold[k] != (h == 0) && fit.mask()[k];
-        if fits_held
+        if self.estimates_held
             && fit.holds_start(&scored)
             && let Some(held_n) = fit.held_on(&config, &scored)
         {

@@ -590,6 +590,58 @@ mod tests {
         assert_eq!(masked_rms(&[3.0, 4.0], &[false, false]), 0.0);
     }
 
+    /// A fit of three knobs whose Jacobian's columns are independent, with knob `fixed`
+    /// inserted at 7.0 as a fixed one: four values.
+    fn with_fixed(fixed: usize) -> Fitted {
+        let jacobian =
+            DMatrix::from_row_slice(3, 3, &[1.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 4.0]);
+        let mut f = Fitted {
+            values: vec![1.0, 2.0, 3.0],
+            sigma: vec![0.1; 3],
+            model_sigma: vec![0.01; 3],
+            cost: 1.0,
+            own_point: true,
+            spread: Some(Spread {
+                jacobian,
+                noise: 1.0,
+                correlation: 1.0,
+                to_floor: 1.0,
+                input_floors: vec![0.0; 3],
+                fixed: None,
+            }),
+        };
+        f.insert_fixed(fixed, 7.0);
+        f
+    }
+
+    #[test]
+    fn a_knob_held_fixed_has_no_column_and_the_others_keep_theirs() {
+        for fixed in 0..4 {
+            let f = with_fixed(fixed);
+            assert_eq!(f.values.len(), 4);
+            assert_eq!(f.values[fixed], 7.0);
+            assert!(f.sigma[fixed].is_infinite() && f.model_sigma[fixed].is_infinite());
+            let s = f.spread.as_ref().unwrap();
+            assert_eq!(s.column(fixed), None);
+            // Every other knob maps to a column and back to itself, in order.
+            let others: Vec<usize> = (0..4).filter(|&j| j != fixed).collect();
+            for (c, &j) in others.iter().enumerate() {
+                assert_eq!(s.column(j), Some(c), "fixed {fixed}, knob {j}");
+                assert_eq!(s.knob(c), j, "fixed {fixed}, column {c}");
+            }
+            // A combination of the fixed knob has no uncertainty of this fit's.
+            assert!(f.relative_uncertainty(&[(fixed, 1.0)]).0.is_infinite());
+            // The columns' scales (1, 2, 4) show through the mapping: the knob of the column
+            // scaled 4 is the best seen, so its uncertainty is the least.
+            let last = others[2];
+            let first = others[0];
+            assert!(
+                f.relative_uncertainty(&[(last, 1.0)]).0
+                    < f.relative_uncertainty(&[(first, 1.0)]).0
+            );
+        }
+    }
+
     #[test]
     fn only_a_step_of_a_tenth_of_sigma_makes_a_point_its_own() {
         let floor = [1e-4];
