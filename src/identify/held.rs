@@ -94,10 +94,13 @@ fn refitted(
     );
     let (round, without) = (with_force?, without?);
     let (with_m, without_m) = round.held_out_against(&without, fit, &fold)?;
-    if !verdict::predicts_better(with_m, without_m) {
+    // And the values as the file holds them (no force at any start) must predict the held-out
+    // halves no worse than those written before: that figure is the axis's, on the footing of
+    // every other candidate's and the template's.
+    let held_out_um = um_from_m(round.held_out_holding_none(fit, &fold)?);
+    if !verdict::predicts_better(with_m, without_m) || held_out_um > id.held_out_identified_um {
         return None;
     }
-    let held_out_um = um_from_m(with_m);
     let written = round.config(&round.whole);
     let residual = fit.residual(&written)?;
     let mask = fit.mask();
@@ -110,11 +113,14 @@ fn refitted(
     with.rms_identified_um = um_from_m(masked_rms(&residual, mask));
     with.held_out_identified_um = held_out_um;
     with.held_out_share = held_out_um / with.following_error_rms_um;
-    // Against the template as before: the template is scored holding none, and the force is
-    // not written.
+    with.better_than_template = verdict::predicts_better(held_out_um, with.held_out_template_um);
     with.largest_at = verdict::largest_at(ctx, axis, offset, &residual, mask);
     with.gain_per_inertia = gain_per_inertia(&round, config);
-    with.held_at_start = reported(fit, &round, &written);
+    with.held_at_start = reported(fit, &round, (config, &written)).map(|h| HeldForce {
+        held_out_with_um: um_from_m(with_m),
+        held_out_refit_um: um_from_m(without_m),
+        ..h
+    });
     if id.while_moving.is_some() {
         let template_residual = fit.residual(template)?;
         with.while_moving = verdict::while_moving(fit, &round, &fold, &template_residual);
@@ -122,31 +128,41 @@ fn refitted(
     Some((written, with))
 }
 
-/// The force held at the start as `round` (which fits it) put it into `config`.
-fn reported(fit: &Fit, round: &Round, config: &AxisConfig) -> Option<HeldForce> {
+/// The force held at the start as `round` (which fits it, from `base`) put it into `config`.
+/// At the friction's level at rest (of either: the search's bound is `base`'s) the record
+/// bounds it from one side only: no uncertainty, not determined.
+fn reported(
+    fit: &Fit,
+    round: &Round,
+    (base, config): (&AxisConfig, &AxisConfig),
+) -> Option<HeldForce> {
     let p = round
         .knobs
         .iter()
         .position(|k| k.key == HELD_AT_START.key)?;
     let level_n = fit.held_level_n(config);
     let force_n = config.held_at_start_n.clamp(-level_n, level_n);
+    let bound_n = level_n.min(fit.held_level_n(base));
+    let at_level = force_n.abs() >= bound_n * (1.0 - 1e-6);
     // The half without the start kept the whole fit's force: the halves' difference is the
     // start half's step from it whole, not half of two halves' independent spread.
     let apart = (round.halves[0].values[p] - round.halves[1].values[p]).abs();
-    let uncertainty_n = round.whole.sigma[p]
-        .max(round.whole.model_sigma[p])
-        .max(apart);
-    let at_level = force_n.abs() >= level_n * (1.0 - 1e-6);
+    let uncertainty_n = if at_level {
+        f64::INFINITY
+    } else {
+        round.whole.sigma[p]
+            .max(round.whole.model_sigma[p])
+            .max(apart)
+    };
     Some(HeldForce {
         force_n,
-        uncertainty_n: if uncertainty_n.is_finite() || at_level {
-            uncertainty_n
-        } else {
-            f64::NAN
-        },
+        uncertainty_n,
         level_n,
         determined: HELD_AT_START.determines(uncertainty_n, force_n),
         at_level,
+        kept: true,
+        held_out_with_um: f64::NAN,
+        held_out_refit_um: f64::NAN,
     })
 }
 
@@ -158,6 +174,9 @@ fn not_kept(fit: &Fit, config: &AxisConfig) -> HeldForce {
         level_n: fit.held_level_n(config),
         determined: false,
         at_level: false,
+        kept: false,
+        held_out_with_um: f64::NAN,
+        held_out_refit_um: f64::NAN,
     }
 }
 

@@ -87,36 +87,45 @@ pub(crate) fn status(v: &IdentifiedValue) -> String {
 /// file header's).
 pub(crate) fn held_line(h: &HeldForce) -> String {
     let what = "force held at rest at the record's start";
-    if h.uncertainty_n.is_nan() {
+    if !h.kept {
         return format!(
             "{what}: none kept — fitted with it (within the friction's ±{} N at rest), the \
-             values do not predict the held-out halves better by a twentieth (or could not be \
-             fitted again)",
+             values do not predict the held-out halves better by a twentieth, or predict them \
+             worse holding none (or could not be fitted again)",
             sig(h.level_n)
         );
     }
-    let how = if h.determined {
-        "a state of the record, not of the machine: not written; fitted on top, after the \
-         ripple's and the bristles' figures above; the held-out figures estimate it on each \
-         half scored"
-    } else {
-        "not determined alone: kept because the held-out halves are predicted better with it; \
-         a state of the record, not written; fitted on top, after the ripple's and the \
-         bristles' figures above; the held-out figures estimate it on each half scored"
-    };
-    if h.at_level {
-        // Pressed against the bound, where the residual no longer changes with it.
-        return format!(
-            "{what}: {} N, the friction's level at rest (the table on the verge of breaking \
-             away; the record bounds it from one side only — {how})",
+    let value = if h.at_level {
+        format!(
+            "{} N, the friction's level at rest (the table on the verge of breaking away; the \
+             record bounds it from one side only)",
             sig(h.force_n)
-        );
-    }
+        )
+    } else if !h.uncertainty_n.is_finite() {
+        format!(
+            "{} N (not determined: the record does not see it)",
+            sig(h.force_n)
+        )
+    } else {
+        format!(
+            "{} ± {} N, within the friction's ±{} N at rest{}",
+            sig(h.force_n),
+            sig(h.uncertainty_n),
+            sig(h.level_n),
+            if h.determined {
+                ""
+            } else {
+                " (not determined alone)"
+            }
+        )
+    };
     format!(
-        "{what}: {} ± {} N, within the friction's ±{} N at rest ({how})",
-        sig(h.force_n),
-        sig(h.uncertainty_n),
-        sig(h.level_n)
+        "{what}: {value} — a state of the record, not of the machine: not written; fitted on top \
+         of the values (after the ripple's and the bristles' figures above), which with it \
+         estimated on each half scored predict the held-out halves to {} µm against {} µm \
+         fitted again without it; the figures above hold none, as the file does",
+        sig(h.held_out_with_um),
+        sig(h.held_out_refit_um)
     )
 }
 

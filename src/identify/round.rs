@@ -385,6 +385,25 @@ impl Round {
         Some((ss, n))
     }
 
+    /// This round's held-out RMS (m) with each half's fit holding no force at the record's
+    /// start, as a machine file holds its values: over the halves whose fits found a point of
+    /// their own. None where no half has one (the figure would be in-sample) or no sample
+    /// counts.
+    pub(super) fn held_out_holding_none(&self, fit: &Fit, fold: &[bool]) -> Option<f64> {
+        let (mut ss, mut n) = (0.0, 0usize);
+        for h in (0..2).filter(|&h| self.halves[h].own_point) {
+            let mut config = self.half_config(h);
+            config.held_at_start_n = 0.0;
+            let r = fit.residual(&config)?;
+            let side = h == 0;
+            for i in (0..r.len()).filter(|&i| fold[i] != side && fit.mask()[i]) {
+                ss += r[i] * r[i];
+                n += 1;
+            }
+        }
+        (n > 0).then(|| (ss / n as f64).sqrt())
+    }
+
     /// Half `h`'s fit as it is scored on the other half: where this round estimates the force
     /// held at the record's start (`estimates_held`) and the other half holds the start, that force estimated on the
     /// other half's samples with the half's machine values fixed — a state of the record,
