@@ -171,7 +171,14 @@ fn per_turn_ripple_on_y_only(axes: &[AxisIdentification]) {
             .unwrap_or_else(|| panic!("{}: no {key} in {:?}", a.axis, a.values))
     };
     let (x, y) = (&axes[0], &axes[1]);
-    assert!(!value(x, "errors.force_ripple_n").fitted(), "{x:?}");
+    // Where X's loop model is written in the structure's place (below), its ripple is the
+    // loop model's, a model's value, not X's found.
+    let x_ripple = value(x, "errors.force_ripple_n");
+    let x_loop = x.structure_compared.is_some_and(|c| c.written);
+    assert!(
+        !x_ripple.determined && (x_loop || !x_ripple.fitted()),
+        "{x:?}"
+    );
     let ripple = value(y, "errors.force_ripple_n");
     let mass = value(y, "drive.table_mass_kg");
     let phase = value(y, "errors.force_ripple_phase_deg");
@@ -259,7 +266,43 @@ fn the_real_table_is_identified_from_the_course_template_and_without_one() {
         );
     }
     per_turn_ripple_on_y_only(&id.axes);
+    x_written_as_its_loop(&id.axes[0]);
     identified_without_a_template(&program, &measured, &id.axes[1]);
+}
+
+/// X from the course template: the design's structure — the lead-lag on the rigid body —,
+/// its values fitted, leaves about a quarter of X's following error on the held-out halves
+/// (26 %), where a separate model of the table with the same structure, fitted on
+/// alternate blocks, leaves 28 % with presliding friction and 34 to 41 % without. The loop
+/// model fitted from the record alone (below: X under a fifth without a template) predicts
+/// X better than that by far more than a twentieth, and is written in the structure's place
+/// — the goal of a fifth of the following error reached from the template too.
+fn x_written_as_its_loop(x: &AxisIdentification) {
+    let compared = x
+        .structure_compared
+        .expect("X's structure compared with the loop model");
+    eprintln!("X (template): {compared:?}");
+    // Whichever is written, X predicts its held-out halves to under a fifth; the loop model
+    // only where it predicts them better than the structure by a twentieth.
+    assert!(x.held_out_share < 0.2, "X: {:.3}", x.held_out_share);
+    let share = if compared.written {
+        assert!(
+            x.kept.starts_with("in place of the template's structure"),
+            "{}",
+            x.kept
+        );
+        assert!(
+            compared.loop_share < 0.95 * compared.template_share,
+            "{compared:?}"
+        );
+        compared.loop_share
+    } else {
+        compared.template_share
+    };
+    assert!(
+        (share - x.judged_held_out().3).abs() < 1e-12,
+        "{compared:?}"
+    );
 }
 
 /// The no-template half of the test above: the loop model beats the regression, stays

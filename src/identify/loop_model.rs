@@ -17,7 +17,9 @@
 use super::AxisIdentification;
 use super::knobs::{self, Knob};
 use super::solve::Fit;
-use crate::machine::{AxisConfig, AxisName, Controller, MachineConfig, VelocityLoop};
+use crate::machine::{
+    AxisConfig, AxisName, Controller, ControllerOutput, MachineConfig, VelocityLoop,
+};
 use crate::trace::measured::MeasuredTrace;
 
 mod transfer;
@@ -120,10 +122,13 @@ pub(crate) fn orders(axis: &AxisConfig) -> Vec<Vec<Knob>> {
     vec![pick(&first), pick(&second), pick(&third)]
 }
 
+/// How the report introduces a loop model fitted without a template.
+pub(crate) const WITHOUT_TEMPLATE: &str = "no template:";
+
 /// What the report says the model is, at `order` (1-based).
 pub(crate) fn describes(order: usize) -> String {
     format!(
-        "no template: a model of the loop from command to position, order {order} of 3 \
+        "{WITHOUT_TEMPLATE} a model of the loop from command to position, order {order} of 3 \
          (1: the position loop; 2: and its velocity loop's bandwidth; 3: and integral action), \
          chosen on the record's held-out halves — its values describe the loop, not the \
          machine's parts"
@@ -138,16 +143,61 @@ pub(super) fn identified(
     fit: &Fit,
     template: &MachineConfig,
     moving_only: bool,
+    families: Families,
 ) -> Option<(AxisConfig, AxisIdentification)> {
     // Side by side: where the other axis's search ends first, its core takes one family.
     let (cascade, lead_lag) = rayon::join(
-        || with_ripple(fit, template, moving_only, Family::Cascade),
         || {
-            transfer::template(template, fit)
+            families
+                .cascade
+                .then(|| with_ripple(fit, template, moving_only, Family::Cascade))
+                .flatten()
+        },
+        || {
+            families
+                .lead_lag
+                .then(|| transfer::template(template, fit))
+                .flatten()
                 .and_then(|start| with_ripple(fit, &start, moving_only, Family::LeadLag))
         },
     );
     chosen_family(cascade, lead_lag)
+}
+
+/// Which of the two families are fitted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) struct Families {
+    /// The cascade, in its orders.
+    pub cascade: bool,
+    /// The integrating lead-lag on current.
+    pub lead_lag: bool,
+}
+
+impl Families {
+    /// Both: a machine without a template.
+    pub const BOTH: Families = Families {
+        cascade: true,
+        lead_lag: true,
+    };
+
+    /// Those a template's structure `controller` is not already: a template's lead-lag
+    /// fitted on its own plant leaves nothing the loop model's lead-lag would add but a
+    /// second search's cost.
+    pub fn besides(controller: &Controller) -> Families {
+        match controller {
+            Controller::Cascade => Families {
+                cascade: false,
+                lead_lag: true,
+            },
+            Controller::TransferFunction(tf) if tf.output == ControllerOutput::Current => {
+                Families {
+                    cascade: true,
+                    lead_lag: false,
+                }
+            }
+            _ => Families::BOTH,
+        }
+    }
 }
 
 /// The two families a machine without a template is fitted as.

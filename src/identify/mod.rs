@@ -36,9 +36,11 @@ pub mod report;
 mod result;
 mod ripple;
 mod round;
+mod samples;
 mod solve;
 mod staged;
 mod starts;
+mod structure;
 mod too_little;
 mod verdict;
 mod whole_record;
@@ -56,6 +58,7 @@ pub use result::{
     IdentifyError,
 };
 pub use ripple::RippleVerdict;
+pub use structure::StructureCompared;
 pub use verdict::{Place, WhileMoving};
 
 use crate::compare::start::Coverage;
@@ -70,6 +73,7 @@ use knobs::{
     STATIC_KEY, TF_GAIN_KEY, get, set_all,
 };
 use round::Round;
+use samples::{Sliding, following_error_rms, moving_samples};
 use solve::{Fit, Fitted, masked_rms};
 use whole_record::runs_whole_record;
 
@@ -84,10 +88,6 @@ const STATIC_SCAN_WITH_BRISTLES: [f64; 8] = [0.1, 0.25, 0.5, 0.75, 1.0, 1.25, 1.
 /// How much lower one of them alone, scanned on the template with the gains fitted without
 /// them, must bring the residual's sum of squares for the axis to be fitted again with them.
 const NONLINEAR_GAIN: f64 = 0.9;
-/// How long after a standstill the record is compared, and the speed (a share of the
-/// axis's peak) below which a command counts as standing.
-const SETTLE_S: f64 = 0.1;
-const MOVING_SHARE: f64 = 0.01;
 /// How far above the record's noise a fit's residual RMS may stay and still count as
 /// reaching it. A fit of the right model lands within a percent of the noise (the RMS of
 /// thousands of samples scatters by less); one a tenth above it leaves something
@@ -106,8 +106,9 @@ fn within_noise(rms: f64, noise: f64) -> bool {
 enum Model {
     /// The template's structure, its values fitted.
     Template,
-    /// No template: a model of the loop, of the order the record's held-out halves choose.
-    Loop,
+    /// No template: a model of the loop, of the order the record's held-out halves choose,
+    /// of the families given.
+    Loop(loop_model::Families),
 }
 
 /// Identifies `template`'s values from `measured`, a record of `program` with its commands.
@@ -132,7 +133,13 @@ pub fn identify_loop(
     measured: &MeasuredTrace,
     settings: &CompareSettings,
 ) -> Result<Identification, IdentifyError> {
-    identify_as(program, start, measured, settings, Model::Loop)
+    identify_as(
+        program,
+        start,
+        measured,
+        settings,
+        Model::Loop(loop_model::Families::BOTH),
+    )
 }
 
 /// Where a loop model of `measured` starts: a cascade on a stiff small drive per axis, its
@@ -182,6 +189,14 @@ fn identify_as(
         },
         || z_axis::identify(&ctx, template, offset, model),
     );
+    // A rough template's structure may be what is wrong: compared with the loop model.
+    let [x, y] = match model {
+        Model::Template => {
+            let noise_um = um_from_m(ctx.noise_sigma);
+            structure::compared(program, template, measured, settings, ([x, y], noise_um))
+        }
+        Model::Loop(_) => [x, y],
+    };
     let mut machine = template.clone();
     let mut axes = Vec::new();
     for (axis, result) in [(AxisName::X, x), (AxisName::Y, y)] {
@@ -230,7 +245,7 @@ fn identify_axis(
         offset,
         fit_axis(ctx, template, axis, offset, model)?,
     )?;
-    if model == Model::Loop {
+    if matches!(model, Model::Loop(_)) {
         // A lead's period was to be looked for: an axis whose fit is not written says so.
         found.1.force_ripple.get_or_insert_with(ripple::not_fitted);
     }
@@ -276,7 +291,7 @@ fn fit_axis(
     let fit = Fit::new(ctx, template, axis, offset);
     let found = match model {
         Model::Template => identify_ordered(&fit, template, false, &[]),
-        Model::Loop => loop_model::identified(&fit, template, false),
+        Model::Loop(families) => loop_model::identified(&fit, template, false, families),
     };
     let Some(mut everywhere) = found else {
         return unfitted(Fit::new(ctx, template, axis, offset), template.axis(axis));
@@ -314,7 +329,7 @@ fn fit_axis(
             let all = &candidates;
             presliding::tried(&fit, template.axis(axis), everywhere, all, &moving_share)
         }
-        Model::Loop => {
+        Model::Loop(_) => {
             let why = presliding::WITHOUT_TEMPLATE;
             presliding::not_tried(everywhere, template.axis(axis), why)
         }
@@ -345,7 +360,7 @@ fn fit_while_moving(
     let candidates = presliding::candidate_knobs(template.axis(axis), &[]);
     match model {
         Model::Template => identify_ordered(&fit, template, true, &[]),
-        Model::Loop => loop_model::identified(&fit, template, true),
+        Model::Loop(families) => loop_model::identified(&fit, template, true, families),
     }
     .map(|found| held::on_top(&fit, template.axis(axis), &candidates, found))
     .map(|found| verdict::judged(found, um_from_m(ctx.noise_sigma)))
@@ -439,6 +454,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             presliding: None,
             too_little: None,
             held_at_start: None,
+            structure_compared: None,
         },
     ))
 }
@@ -574,6 +590,7 @@ fn identify_on(
             held_out_in_sample: !shown,
             gain_per_inertia: gain_per_inertia(ripple::loop_round(ripple.as_ref(), &round), &base),
             held_at_start: None,
+            structure_compared: None,
             template_holds: false,
             judged_while_moving: false,
             while_moving: (!moving_only)
@@ -716,89 +733,6 @@ fn gain_per_inertia(round: &Round, base: &AxisConfig) -> Option<GainPerInertia> 
         value,
         uncertainty: (sigma.max(model_sigma) * value).max(halves),
     })
-}
-
-/// Samples at which the axis's command has been moving for `SETTLE_S` and still moves:
-/// away from the standstills, where an axis with integral action and friction hunts about
-/// its target on a limit cycle whose phase no model times (as stick-slip), and from the
-/// breakaways that follow them, which inherit that phase.
-fn moving_samples(ctx: &Context, axis: AxisName, offset: f64) -> Vec<bool> {
-    let sliding = Sliding::of(ctx, axis);
-    ctx.samples
-        .iter()
-        .map(|&i| sliding.settled_at(ctx, ctx.prog_time(i, offset)))
-        .collect()
-}
-
-/// An axis's commands as sliding: per command period, the direction it is told to move
-/// (−1, +1; 0 below `MOVING_SHARE` of its peak speed), and whether it has moved for
-/// `SETTLE_S` without standing.
-struct Sliding {
-    direction: Vec<f64>,
-    settled: Vec<bool>,
-}
-
-impl Sliding {
-    fn of(ctx: &Context, axis: AxisName) -> Sliding {
-        let c = ctx.commands.axis(axis);
-        let peak = c.vel_m_per_s.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let settle = (SETTLE_S / ctx.dt).ceil() as usize;
-        let direction: Vec<f64> = c
-            .vel_m_per_s
-            .iter()
-            .map(|v| {
-                if v.abs() > MOVING_SHARE * peak {
-                    v.signum()
-                } else {
-                    0.0
-                }
-            })
-            .collect();
-        let mut run = 0usize;
-        let settled = direction
-            .iter()
-            .map(|d| {
-                run = if *d != 0.0 { run + 1 } else { 0 };
-                run > settle
-            })
-            .collect();
-        Sliding { direction, settled }
-    }
-
-    /// The command period at program time `t` (s), where the commands have one.
-    fn period(ctx: &Context, t: f64) -> Option<usize> {
-        let k = (t / ctx.dt).round();
-        (k >= 0.0).then_some(k as usize)
-    }
-
-    /// Whether the command at `t` has slid for `SETTLE_S`.
-    fn settled_at(&self, ctx: &Context, t: f64) -> bool {
-        Self::period(ctx, t).is_some_and(|k| self.settled.get(k).copied().unwrap_or(false))
-    }
-
-    /// The commanded direction at `t` (0 standing or beyond the commands).
-    fn direction_at(&self, ctx: &Context, t: f64) -> f64 {
-        Self::period(ctx, t).map_or(0.0, |k| self.direction.get(k).copied().unwrap_or(0.0))
-    }
-}
-
-/// RMS of commanded − measured over the compared samples `mask` allows (m): the samples the
-/// held-out residuals are counted on (those left out for hunting among them, where every
-/// model's residual is zero).
-fn following_error_rms(ctx: &Context, axis: AxisName, offset: f64, mask: &[bool]) -> f64 {
-    let measured = ctx.measured_at_samples(axis);
-    let (mut ss, mut n) = (0.0, 0usize);
-    for (k, (&i, m)) in ctx.samples.iter().zip(measured).enumerate() {
-        if !mask.get(k).copied().unwrap_or(false) {
-            continue;
-        }
-        let e = ctx.command_at(axis, ctx.prog_time(i, offset)).0 - m;
-        if e.is_finite() {
-            ss += e * e;
-            n += 1;
-        }
-    }
-    (ss / n.max(1) as f64).sqrt()
 }
 
 #[cfg(test)]

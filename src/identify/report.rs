@@ -232,7 +232,10 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
     if let Some(h) = &a.held_at_start {
         let _ = writeln!(s, "  {}", held_line(h));
     }
-    if a.kept.starts_with("no template") {
+    if let Some(c) = &a.structure_compared {
+        let _ = writeln!(s, "  {}", super::structure::line(c));
+    }
+    if super::structure::describes_a_loop(&a.kept) {
         let _ = writeln!(s, "  {}", a.kept);
     } else {
         let _ = writeln!(s, "  kept from the template: {}", a.kept);
@@ -471,8 +474,11 @@ pub(crate) fn machine_file(
         if let Some(h) = &a.held_at_start {
             let _ = writeln!(s, "#   {}: {}", a.axis, held_line(h));
         }
-        // Without a template, the family and order the held-out halves chose, and why.
-        if a.kept.starts_with("no template") {
+        if let Some(c) = &a.structure_compared {
+            let _ = writeln!(s, "#   {}: {}", a.axis, super::structure::line(c));
+        }
+        // A loop model: the family and order the held-out halves chose, and why.
+        if super::structure::describes_a_loop(&a.kept) {
             let _ = writeln!(s, "#   {}: {}", a.axis, a.kept);
         }
     }

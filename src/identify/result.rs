@@ -222,6 +222,11 @@ pub struct AxisIdentification {
     /// the force it held there, fitted beside its values (never written to the file).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub held_at_start: Option<HeldForce>,
+    /// From a template whose structure, fitted, leaves more than a tenth of the following
+    /// error on the held-out halves: how the loop model fitted from the record alone
+    /// compared, and whether it is written in the structure's place.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub structure_compared: Option<super::StructureCompared>,
 }
 
 /// The force an axis held at rest at the record's start, fitted beside its values: a state
@@ -357,6 +362,7 @@ impl AxisIdentification {
             presliding: None,
             too_little: None,
             held_at_start: None,
+            structure_compared: None,
         }
     }
 }

@@ -34,7 +34,7 @@ pub(super) fn identify(
     }
     // A loop model starts from a table that carries Z: what to say is that the loop model
     // leaves Z out, not that a template should simulate it.
-    if model == Model::Loop {
+    if matches!(model, Model::Loop(_)) {
         return not("a loop model (--template none) is made for X and Y only".into());
     }
     match comparable {

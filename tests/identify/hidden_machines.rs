@@ -500,8 +500,9 @@ fn a_record_without_commands_or_with_a_still_axis_says_what_it_lacks() {
 }
 
 /// A template whose controller is not the machine's (full acceleration feed-forward where the
-/// machine has none), on a record of the independent integrator: no fit reaches the noise,
-/// so nothing is reported as a measurement. The machine written is the fit where it
+/// machine has none), on a record of the independent integrator: no fit of that structure
+/// reaches the noise, so nothing is reported as a measurement; a loop model written in its
+/// place (`structure_compared`) describes the loop, not the parts. The machine written is the fit where it
 /// predicts the held-out halves better than the template (by a twentieth), its values a
 /// model's; otherwise the template's values stay (NOT IDENTIFIED). (One of the binary's
 /// longest searches: named to sort first in this file, see `main.rs`.)
@@ -530,8 +531,20 @@ fn a_controller_unlike_the_templates_measures_nothing() {
     let found = predicted(&other, &id.machine, &measured, REFERENCE.at);
     let design = predicted(&other, &template, &measured, REFERENCE.at);
     for a in &id.axes {
-        assert!(!a.reached, "{a:?}");
-        assert!(a.rms_identified_um > 10.0 * id.noise_um, "{a:?}");
+        // The template's structure cannot reach the noise. Where the loop model fitted from
+        // the record alone is written in its place (the structure left more than a tenth of
+        // the following error and the loop model predicts better by a twentieth), that may:
+        // its values describe the loop, and none reads as a measurement either way.
+        match a.structure_compared {
+            Some(c) if c.written => {
+                assert!(c.template_share > 0.1, "{c:?}");
+                assert!(c.loop_share < 0.95 * c.template_share, "{c:?}");
+            }
+            _ => {
+                assert!(!a.reached, "{a:?}");
+                assert!(a.rms_identified_um > 10.0 * id.noise_um, "{a:?}");
+            }
+        }
         assert!(a.values.iter().all(|v| !v.measured), "{a:?}");
         let written = id.machine.axis(a.axis);
         let (f, d) = (found[a.axis.index()].1, design[a.axis.index()].1);

@@ -38,9 +38,10 @@ pub(super) fn describes(axis: &AxisConfig) -> String {
         _ => "the template's screw drive (its stiffness the template's)",
     };
     format!(
-        "no template: a model of the loop from command to position as an integrating \
+        "{} a model of the loop from command to position as an integrating \
          lead-lag commanding current on {body} with Coulomb and viscous friction — its values \
-         describe the loop, not the machine's parts"
+         describe the loop, not the machine's parts",
+        super::WITHOUT_TEMPLATE
     )
 }
 
