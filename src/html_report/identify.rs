@@ -102,7 +102,12 @@ fn axis_view(report: &IdentifyReport, json: &Json, a: usize) -> AxisView {
     }
     notes.extend(crate::identify::report::while_moving_line(axis));
     notes.extend(crate::identify::report::in_sample_note(axis));
-    notes.push(format!("Kept from the template: {}", axis.kept));
+    notes.extend(crate::identify::report::structure_line(axis));
+    let kept = crate::identify::report::kept_line(axis);
+    let mut first = kept.chars();
+    notes.push(first.next().map_or(String::new(), |c| {
+        c.to_uppercase().chain(first).collect::<String>()
+    }));
     let values = axis
         .values
         .iter()

@@ -232,13 +232,24 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
     if let Some(h) = &a.held_at_start {
         let _ = writeln!(s, "  {}", held_line(h));
     }
-    if let Some(c) = &a.structure_compared {
-        let _ = writeln!(s, "  {}", super::structure::line(c));
+    if let Some(line) = structure_line(a) {
+        let _ = writeln!(s, "  {line}");
     }
+    let _ = writeln!(s, "  {}", kept_line(a));
+}
+
+/// How the template's structure compared with the loop model, where it was.
+pub(crate) fn structure_line(a: &AxisIdentification) -> Option<String> {
+    a.structure_compared.as_ref().map(super::structure::line)
+}
+
+/// What the axis kept: a loop model's family and order, or what it took from the template.
+#[cfg(feature = "html-report")]
+pub(crate) fn kept_line(a: &AxisIdentification) -> String {
     if super::structure::describes_a_loop(&a.kept) {
-        let _ = writeln!(s, "  {}", a.kept);
+        a.kept.clone()
     } else {
-        let _ = writeln!(s, "  kept from the template: {}", a.kept);
+        format!("kept from the template: {}", a.kept)
     }
 }
 
@@ -474,8 +485,8 @@ pub(crate) fn machine_file(
         if let Some(h) = &a.held_at_start {
             let _ = writeln!(s, "#   {}: {}", a.axis, held_line(h));
         }
-        if let Some(c) = &a.structure_compared {
-            let _ = writeln!(s, "#   {}: {}", a.axis, super::structure::line(c));
+        if let Some(line) = structure_line(a) {
+            let _ = writeln!(s, "#   {}: {line}", a.axis);
         }
         // A loop model: the family and order the held-out halves chose, and why.
         if super::structure::describes_a_loop(&a.kept) {

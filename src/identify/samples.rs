@@ -77,7 +77,12 @@ impl Sliding {
 /// RMS of commanded − measured over the compared samples `mask` allows (m): the samples the
 /// held-out residuals are counted on (those left out for hunting among them, where every
 /// model's residual is zero).
-pub(super) fn following_error_rms(ctx: &Context, axis: AxisName, offset: f64, mask: &[bool]) -> f64 {
+pub(super) fn following_error_rms(
+    ctx: &Context,
+    axis: AxisName,
+    offset: f64,
+    mask: &[bool],
+) -> f64 {
     let measured = ctx.measured_at_samples(axis);
     let (mut ss, mut n) = (0.0, 0usize);
     for (k, (&i, m)) in ctx.samples.iter().zip(measured).enumerate() {
