@@ -24,7 +24,7 @@ use super::knobs::{self, HELD_AT_START, Knob, get};
 use super::result::{AxisIdentification, HeldForce};
 use super::round::Round;
 use super::solve::{Fit, masked_rms};
-use super::{fitted_values, gain_per_inertia, verdict};
+use super::{fitted_values, gain_per_inertia, verdict, within_noise};
 use crate::machine::AxisConfig;
 use crate::numeric::units::um_from_m;
 
@@ -111,6 +111,9 @@ fn refitted(
         }
     }
     with.rms_identified_um = um_from_m(masked_rms(&residual, mask));
+    // The fit refitted with the force is the one whose residual is said: whether it reaches
+    // the record's noise is its own, not the fit's before.
+    with.reached = within_noise(with.rms_identified_um, um_from_m(ctx.noise_sigma));
     with.held_out_identified_um = held_out_um;
     with.held_out_share = held_out_um / with.following_error_rms_um;
     with.better_than_template = verdict::predicts_better(held_out_um, with.held_out_template_um);
