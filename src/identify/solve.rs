@@ -78,7 +78,8 @@ pub struct Fitted {
     pub model_sigma: Vec<f64>,
     pub cost: f64,
     /// Whether the values are this fit's own: its search left the values it started from by
-    /// at least a tenth of some value's σ ([`OWN_STEP_SIGMA`]), or it had nothing to fit. A
+    /// at least a tenth of some machine value's σ ([`OWN_STEP_SIGMA`]; the force held at the
+    /// record's start, a state of the record, not counted), or it had nothing to fit. A
     /// search that found no such step stays where it started — for a half of the record
     /// started where the fit on the whole landed, at values fitted to the other half as
     /// well.
