@@ -15,16 +15,22 @@
 //! half keeps the whole fit's (fitted there it only soaks up what the model misses elsewhere
 //! and runs to its bound) — and a half's fit is scored on the other half with the force
 //! estimated on that half's samples where they hold the start (`Round::scored_config`): a
-//! state of the record, not a value the half predicts. Kept only where those values predict
-//! the held-out halves better by the twentieth every larger model must earn than the same
-//! values fitted again without it, scored the same way (the force estimated on each half
-//! scored): what is judged is the machine's values, which the file holds.
+//! state of the record, not a value the half predicts. Each half's fit starts from the
+//! ripple and the bristles' shape of its own samples where the axis's fit wrote them
+//! (`half_bases`), never from the whole fit's, which has seen the other half. Kept only where
+//! those values predict the held-out halves better by the twentieth every larger model must
+//! earn than the same values fitted again without it, scored the same way (the force
+//! estimated on each half scored): what is judged is the machine's values, which the file
+//! holds. A step of the force alone does not make a half's point its own
+//! (`Fitted::own_point`): its machine values are still the whole fit's.
+
+use rayon::prelude::*;
 
 use super::knobs::{self, HELD_AT_START, Knob, get};
 use super::result::{AxisIdentification, HeldForce};
 use super::round::Round;
 use super::solve::{Fit, masked_rms};
-use super::{fitted_values, gain_per_inertia, verdict};
+use super::{fitted_values, gain_per_inertia, presliding, ripple, verdict, within_noise};
 use crate::machine::AxisConfig;
 use crate::numeric::units::um_from_m;
 
@@ -32,11 +38,18 @@ use crate::numeric::units::um_from_m;
 /// force held at the record's start, where they predict the held-out halves better by a
 /// twentieth than fitted again without it; else `found` as it is. Tried only above the noise, on a fit whose held-out figure is held
 /// out, where the record starts at rest and the fit uses the axis's first start.
+///
+/// `unbent` (for the fit away from the standstills: the values fitted on every sample) is a
+/// second start for the refits where it is of the fit's structure: leaving out the
+/// breakaways, that fit's values bend to the force the integrator carries past them, and a
+/// refit from there may stay bent. Each refit keeps whichever start ends lower on the fit's
+/// own samples ([`lowest_round`]).
 pub(super) fn on_top(
     fit: &Fit,
     template: &AxisConfig,
     candidates: &[Knob],
     found: (AxisConfig, AxisIdentification),
+    unbent: Option<&AxisConfig>,
 ) -> (AxisConfig, AxisIdentification) {
     let (config, id) = &found;
     let tried = !id.reached
@@ -46,7 +59,7 @@ pub(super) fn on_top(
     if !tried {
         return found;
     }
-    refitted(fit, template, candidates, config, id).unwrap_or_else(|| {
+    refitted(fit, (template, unbent), candidates, config, id).unwrap_or_else(|| {
         let (config, mut id) = found;
         id.held_at_start = Some(not_kept(fit, &config));
         (config, id)
@@ -71,7 +84,7 @@ fn fitted_knobs(candidates: &[Knob], config: &AxisConfig, id: &AxisIdentificatio
 /// [`on_top`]'s fit with the force, where it predicts the held-out halves better.
 fn refitted(
     fit: &Fit,
-    template: &AxisConfig,
+    (template, unbent): (&AxisConfig, Option<&AxisConfig>),
     candidates: &[Knob],
     config: &AxisConfig,
     id: &AxisIdentification,
@@ -85,14 +98,18 @@ fn refitted(
     let mut knobs = values.clone();
     knobs.push(HELD_AT_START);
     let fold = ctx.halves(offset);
-    // The values fitted again without the force too, from the same point: both rounds' halves
-    // scored with the force estimated on the half scored, so that what is compared is what
-    // the machine's values predict, not what a value fitted on the samples scored takes.
+    let bases = half_bases(fit, config, id, &fold)?;
+    let starts: Vec<AxisConfig> = std::iter::once(config.clone())
+        .chain(unbent_start(config, unbent, &values))
+        .collect();
+    // The values fitted again without the force too, from the same starts: both rounds'
+    // halves scored with the force estimated on the half scored, so that what is compared is
+    // what the machine's values predict, not what a value fitted on the samples scored takes.
     let (with_force, without) = rayon::join(
-        || Round::fit(fit, knobs, config, &fold),
-        || Round::fit(fit, values.clone(), config, &fold).map(Round::estimating_held),
+        || lowest_round(fit, knobs, &starts, &bases, &fold),
+        || lowest_round(fit, values.clone(), &starts, &bases, &fold),
     );
-    let (round, without) = (with_force?, without?);
+    let ((round, base), without) = (with_force?, without?.0.estimating_held());
     let (with_m, without_m) = round.held_out_against(&without, fit, &fold)?;
     // And the values as the file holds them (no force at any start) must predict the held-out
     // halves no worse than those written before: that figure is the axis's, on the footing of
@@ -111,12 +128,15 @@ fn refitted(
         }
     }
     with.rms_identified_um = um_from_m(masked_rms(&residual, mask));
+    // The fit refitted with the force is the one whose residual is said: whether it reaches
+    // the record's noise is its own, not the fit's before.
+    with.reached = within_noise(with.rms_identified_um, um_from_m(ctx.noise_sigma));
     with.held_out_identified_um = held_out_um;
     with.held_out_share = held_out_um / with.following_error_rms_um;
     with.better_than_template = verdict::predicts_better(held_out_um, with.held_out_template_um);
     with.largest_at = verdict::largest_at(ctx, axis, offset, &residual, mask);
     with.gain_per_inertia = gain_per_inertia(&round, config);
-    with.held_at_start = reported(fit, &round, (config, &written)).map(|h| HeldForce {
+    with.held_at_start = reported(fit, &round, (&base, &written)).map(|h| HeldForce {
         held_out_with_um: um_from_m(with_m),
         held_out_refit_um: um_from_m(without_m),
         ..h
@@ -126,6 +146,84 @@ fn refitted(
         with.while_moving = verdict::while_moving(fit, &round, &fold, &template_residual);
     }
     Some((written, with))
+}
+
+/// `knobs` fitted on the whole record from each of `starts`, and their round (each half's
+/// fit made about its own base of `bases`) from where the whole fit that ends lowest on the
+/// fit's own samples landed — never chosen by a held-out figure —, with that point. One
+/// start: its round, from it.
+fn lowest_round(
+    fit: &Fit,
+    knobs: Vec<Knob>,
+    starts: &[AxisConfig],
+    bases: &[AxisConfig; 2],
+    fold: &[bool],
+) -> Option<(Round, AxisConfig)> {
+    let start = match starts {
+        [one] => one.clone(),
+        _ => {
+            starts
+                .par_iter()
+                .filter_map(|s| {
+                    let whole = fit.run(&knobs, s, &|_| true)?;
+                    Some((whole.cost, Fit::config(&knobs, s, &whole.values)))
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0))?
+                .1
+        }
+    };
+    let round = Round::fit_apart(fit, knobs, &start, bases.clone(), fold)?;
+    Some((round, start))
+}
+
+/// The start at `unbent`'s values of `knobs` (the values fitted on every sample), the rest
+/// `config`'s (the fit's ripple, bristles and values not fitted), where `unbent` is of
+/// `config`'s structure (its controller and knobs) and its values differ; none otherwise.
+fn unbent_start(
+    config: &AxisConfig,
+    unbent: Option<&AxisConfig>,
+    knobs: &[Knob],
+) -> Option<AxisConfig> {
+    let unbent = unbent?;
+    let keys = |c: &AxisConfig| -> Vec<&str> { knobs::for_axis(c).iter().map(|k| k.key).collect() };
+    let same = std::mem::discriminant(&unbent.controller)
+        == std::mem::discriminant(&config.controller)
+        && keys(unbent) == keys(config);
+    let values: Vec<f64> = knobs.iter().map(|k| get(unbent, k.key)).collect();
+    let differ = knobs
+        .iter()
+        .zip(&values)
+        .any(|(k, v)| get(config, k.key) != *v);
+    (same && differ).then(|| Fit::config(knobs, config, &values))
+}
+
+/// What each half's fits start from besides the values fitted ([`Round::fit_apart`]; the
+/// first half's samples are those `fold` marks): `config` with, where the axis's fit `id`
+/// wrote them, the bristles' shape and the ripple that half's own samples give. Started
+/// from the whole fit's, a half's held-out figure would have seen the other half's samples.
+/// None where a half's cannot be simulated.
+fn half_bases(
+    fit: &Fit,
+    config: &AxisConfig,
+    id: &AxisIdentification,
+    fold: &[bool],
+) -> Option<[AxisConfig; 2]> {
+    let bristles = id.presliding.as_ref().is_some_and(|p| p.written);
+    let ripple = id.force_ripple.as_ref().is_some_and(|r| r.written);
+    let mask = fit.mask();
+    let base = |h: usize| -> Option<AxisConfig> {
+        let own = |k: usize| mask[k] && fold[k] == (h == 0);
+        let mut c = config.clone();
+        if bristles {
+            c = presliding::own_shape(fit, &c, &own)?;
+        }
+        if ripple {
+            c = ripple::own_ripple(fit, &c, &own).ok()?;
+        }
+        Some(c)
+    };
+    let (first, second) = rayon::join(|| base(0), || base(1));
+    Some([first?, second?])
 }
 
 /// The force held at the start as `round` (which fits it, from `base`) put it into `config`.

@@ -317,7 +317,9 @@ fn fit_axis(
     }
     // The fit away from the standstills: made once, by the bristles' stage or below.
     let moving_fit = OnceLock::new();
-    let while_moving = || fit_while_moving(ctx, template, (axis, offset), model);
+    // Its force refit also starts from the values fitted on every sample, before they bend.
+    let unbent = everywhere.0.clone();
+    let while_moving = || fit_while_moving(ctx, template, (axis, offset), model, &unbent);
     let moving_share = || {
         let m = moving_fit.get_or_init(while_moving).as_ref();
         m.filter(|m| m.1.reached || m.1.better_than_template)
@@ -334,7 +336,7 @@ fn fit_axis(
             presliding::not_tried(everywhere, template.axis(axis), why)
         }
     };
-    everywhere = held::on_top(&fit, template.axis(axis), &candidates, everywhere);
+    everywhere = held::on_top(&fit, template.axis(axis), &candidates, everywhere, None);
     if everywhere.1.reached && verdict::judged_while_moving(&mut everywhere.1, noise_um) {
         return Some(everywhere);
     }
@@ -349,12 +351,15 @@ fn fit_axis(
     Some(written)
 }
 
-/// The axis fitted away from its standstills ([`moving_samples`]), judged.
+/// The axis fitted away from its standstills ([`moving_samples`]), judged; its refit with the
+/// force held at the record's start also started from `unbent`, the values fitted on every
+/// sample ([`held::on_top`]).
 fn fit_while_moving(
     ctx: &Context,
     template: &MachineConfig,
     (axis, offset): (AxisName, f64),
     model: Model,
+    unbent: &AxisConfig,
 ) -> Option<(AxisConfig, AxisIdentification)> {
     let fit = Fit::new(ctx, template, axis, offset).masked(moving_samples(ctx, axis, offset));
     let candidates = presliding::candidate_knobs(template.axis(axis), &[]);
@@ -362,7 +367,7 @@ fn fit_while_moving(
         Model::Template => identify_ordered(&fit, template, true, &[]),
         Model::Loop(families) => loop_model::identified(&fit, template, true, families),
     }
-    .map(|found| held::on_top(&fit, template.axis(axis), &candidates, found))
+    .map(|found| held::on_top(&fit, template.axis(axis), &candidates, found, Some(unbent)))
     .map(|found| verdict::judged(found, um_from_m(ctx.noise_sigma)))
 }
 

@@ -265,6 +265,29 @@ fn rounds(
     Ok(rounds)
 }
 
+/// `config`, whose bristles the fit on the whole record chose, with the shape of [`SHAPES`]
+/// that explains the samples `own` allows best at its other values (its Coulomb force as it
+/// is): where a half's fit starts from a whole fit with bristles written, the shape that
+/// half's own samples choose, as each half chose its own here. None where none can be
+/// simulated.
+pub(super) fn own_shape(
+    fit: &Fit,
+    config: &AxisConfig,
+    own: &(dyn Fn(usize) -> bool + Sync),
+) -> Option<AxisConfig> {
+    let coulomb_n = get(config, COULOMB_KEY);
+    SHAPES
+        .par_iter()
+        .filter_map(|shape| {
+            let c = shape.on(config, coulomb_n);
+            let r = fit.residual(&c)?;
+            let ss: f64 = (0..r.len()).filter(|&i| own(i)).map(|i| r[i] * r[i]).sum();
+            Some((ss, c))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, c)| c)
+}
+
 /// Whether `values` (of `knobs`) put Coulomb friction above its uncertainty in `sigma`.
 fn holds_coulomb(knobs: &[Knob], values: &[f64], sigma: &[f64]) -> bool {
     knobs

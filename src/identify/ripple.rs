@@ -530,6 +530,20 @@ pub(super) fn not_written(verdict: &mut Option<RippleVerdict>) {
 
 /// `config` with the ripple a·sin(k·x) + b·cos(k·x) = A·sin(k·x + φ) (N), A = |(a, b)|,
 /// φ = atan2(b, a).
+/// `config` with its ripple fitted again on the samples `own` allows alone, about its other
+/// values: where a half's fit starts from a whole fit with a ripple written, the ripple that
+/// half's own samples give (as this stage starts each half's refit from its own), so that the
+/// figure the half is scored by has seen nothing of the other half's. Why not, where the
+/// ripple cannot be fitted there.
+pub(super) fn own_ripple(
+    fit: &Fit,
+    config: &AxisConfig,
+    own: &(dyn Fn(usize) -> bool + Sync),
+) -> Result<AxisConfig, Reason> {
+    let ab = Columns::force(fit, config)?.solve(own)?;
+    Ok(with_ripple(config, ab))
+}
+
 fn with_ripple(config: &AxisConfig, (a, b): (f64, f64)) -> AxisConfig {
     let mut c = config.clone();
     c.errors.force_ripple_n = a.hypot(b);

@@ -78,7 +78,8 @@ pub struct Fitted {
     pub model_sigma: Vec<f64>,
     pub cost: f64,
     /// Whether the values are this fit's own: its search left the values it started from by
-    /// at least a tenth of some value's σ ([`OWN_STEP_SIGMA`]), or it had nothing to fit. A
+    /// at least a tenth of some machine value's σ ([`OWN_STEP_SIGMA`]; the force held at the
+    /// record's start, a state of the record, not counted), or it had nothing to fit. A
     /// search that found no such step stays where it started — for a half of the record
     /// started where the fit on the whole landed, at values fitted to the other half as
     /// well.
@@ -486,7 +487,7 @@ impl Problem<'_, '_, '_> {
         let sigma_scaled: Vec<f64> = raw.iter().map(|s| s * correlation).collect();
         let floors: Vec<f64> = self.knobs.iter().map(|k| k.input_floor).collect();
         // On the widened σ, the one a half's values scatter by ([`OWN_STEP_SIGMA`]).
-        let own_point = stepped_beyond_noise(end.p.as_slice(), &sigma_scaled, &floors);
+        let own_point = machine_stepped(self.knobs, end.p.as_slice(), &sigma_scaled, &floors);
         // The statistical uncertainty answers a rise of the residual's sum of squares by one
         // spread²; the model's floor, by the number of samples times its own square (the
         // samples' correlation cancels between the two).
@@ -557,6 +558,18 @@ fn stepped_beyond_noise(p: &[f64], sigma_scaled: &[f64], floors: &[f64]) -> bool
     p.iter()
         .zip(sigma_scaled.iter().zip(floors))
         .any(|(u, (s, floor))| s.is_finite() && u.abs() >= OWN_STEP_SIGMA * s.max(*floor))
+}
+
+/// [`stepped_beyond_noise`] on the machine's values among `knobs` alone: the force held at
+/// the record's start ([`HELD_AT_START`]) is a state of the record, not a value of the
+/// machine, and a half whose only step is that force has found no values of its own — the
+/// machine's are still where the fit on the whole landed.
+fn machine_stepped(knobs: &[Knob], p: &[f64], sigma_scaled: &[f64], floors: &[f64]) -> bool {
+    let machine: Vec<usize> = (0..knobs.len())
+        .filter(|&j| knobs[j].key != HELD_AT_START.key)
+        .collect();
+    let of = |v: &[f64]| -> Vec<f64> { machine.iter().map(|&j| v[j]).collect() };
+    stepped_beyond_noise(&of(p), &of(sigma_scaled), &of(floors))
 }
 
 impl lsq::Problem for Problem<'_, '_, '_> {
@@ -667,5 +680,22 @@ mod tests {
         // A value the fit does not determine moves nothing of its own.
         assert!(!stepped_beyond_noise(&[0.5], &[f64::INFINITY], &floor));
         assert!(!stepped_beyond_noise(&[0.5], &[f64::NAN], &floor));
+    }
+
+    #[test]
+    fn a_step_of_the_held_force_alone_makes_no_point_its_own() {
+        let gain = crate::identify::knobs::for_axis(&MachineConfig::default_preset().x)[0];
+        assert_ne!(gain.key, HELD_AT_START.key);
+        let knobs = [gain, HELD_AT_START];
+        let (sigma, floors) = ([0.02, 0.02], [1e-4, 1e-4]);
+        // The force stepped by ten of its σ, the machine's value by nothing: not its own.
+        assert!(!machine_stepped(&knobs, &[1e-9, 0.2], &sigma, &floors));
+        // The same step of the machine's value is (a tenth of σ = 0.002 is enough).
+        assert!(machine_stepped(&knobs, &[0.002, 0.0], &sigma, &floors));
+        assert!(machine_stepped(&knobs, &[0.002, 0.2], &sigma, &floors));
+        // Knobs in the other order: the force's column is left out wherever it lies.
+        let swapped = [HELD_AT_START, gain];
+        assert!(!machine_stepped(&swapped, &[0.2, 1e-9], &sigma, &floors));
+        assert!(machine_stepped(&swapped, &[0.0, -0.003], &sigma, &floors));
     }
 }

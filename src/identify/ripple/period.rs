@@ -135,18 +135,6 @@ pub(in crate::identify) fn not_taken(why: NoLead) -> RippleVerdict {
     }
 }
 
-/// What the report says of an axis whose loop could not be fitted again with the ripple of
-/// the lead taken: the loop without a ripple is written.
-pub(in crate::identify) fn refit_failed(lead_mm: f64) -> RippleVerdict {
-    RippleVerdict {
-        statement: format!(
-            "force ripple: not determined (the loop could not be fitted again with a ripple \
-             every {lead_mm} mm, the lead taken)"
-        ),
-        ..not_taken(NoLead::NotSimulated)
-    }
-}
-
 /// The clause a ripple written at a lead looked for adds to its statement: the record's
 /// halves run the same program, so an error of the loop model that repeats with the
 /// program's positions would pass as well.
@@ -157,36 +145,6 @@ pub(in crate::identify) const LOOKED_FOR: &str = "; its period looked for among 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// What a report or JSON reader is shown of an axis whose loop could not be fitted again
-    /// with the ripple of the lead taken (docs/report-schema.md, `axes[].force_ripple`): not
-    /// written, "not determined" with the lead named, and no held-out figures (`null`).
-    ///
-    /// Only reachable here: the refit runs the same search on the same template but for the
-    /// period of a ripple of zero amplitude, which the simulation does not see, so every
-    /// stage before the ripple's succeeds as it did without the period, and the ripple's own
-    /// failures are said "not determined" by it rather than failing the fit.
-    #[test]
-    fn a_lead_whose_refit_fails_is_said_not_determined_with_the_lead_and_no_figures() {
-        let v = refit_failed(12.0);
-        assert!(!v.written, "{v:?}");
-        assert!(
-            v.statement.starts_with("force ripple: not determined ("),
-            "{}",
-            v.statement
-        );
-        assert!(v.statement.contains("every 12 mm"), "{}", v.statement);
-        assert!(v.statement.ends_with(')'), "{}", v.statement);
-        let json = serde_json::to_value(&v).unwrap();
-        assert_eq!(json["written"], serde_json::Value::Bool(false));
-        for key in [
-            "held_out_without_um",
-            "held_out_force_um",
-            "held_out_encoder_um",
-        ] {
-            assert!(json[key].is_null(), "{key}: {json}");
-        }
-    }
 
     /// 400 samples, the first 200 one half and the rest the other; columns of a ripple 50
     /// samples long, and the residual `r0` given.
