@@ -180,16 +180,23 @@ impl Families {
         lead_lag: true,
     };
 
-    /// Those a template's structure `controller` is not already: a template's lead-lag
-    /// fitted on its own plant leaves nothing the loop model's lead-lag would add but a
-    /// second search's cost.
-    pub fn besides(controller: &Controller) -> Families {
-        match controller {
-            Controller::Cascade => Families {
+    /// Those a template's axis is not already, up to the values its fit frees: a template's
+    /// continuous lead-lag on current without feed-forward, fitted on its own plant, leaves
+    /// nothing the loop model's lead-lag would add but a second search's cost; nor does a
+    /// cascade without acceleration feed-forward the loop model's cascade. A structure with
+    /// what its fit does not free (a feed-forward, a discrete controller's fixed corners)
+    /// is compared with both.
+    pub fn besides(axis: &AxisConfig) -> Families {
+        match &axis.controller {
+            Controller::Cascade if axis.position_loop.accel_feedforward == 0.0 => Families {
                 cascade: false,
                 lead_lag: true,
             },
-            Controller::TransferFunction(tf) if tf.output == ControllerOutput::Current => {
+            Controller::TransferFunction(tf)
+                if tf.output == ControllerOutput::Current
+                    && tf.sample_ms == 0.0
+                    && tf.accel_feedforward == 0.0 =>
+            {
                 Families {
                     cascade: true,
                     lead_lag: false,

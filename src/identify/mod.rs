@@ -191,10 +191,7 @@ fn identify_as(
     );
     // A rough template's structure may be what is wrong: compared with the loop model.
     let [x, y] = match model {
-        Model::Template => {
-            let noise_um = um_from_m(ctx.noise_sigma);
-            structure::compared(program, template, measured, settings, ([x, y], noise_um))
-        }
+        Model::Template => structure::compared((&ctx, offset), template, measured, [x, y]),
         Model::Loop(_) => [x, y],
     };
     let mut machine = template.clone();

@@ -535,7 +535,7 @@ fn a_controller_unlike_the_templates_measures_nothing() {
         // the record alone is written in its place (the structure left more than a tenth of
         // the following error and the loop model predicts better by a twentieth), that may:
         // its values describe the loop, and none reads as a measurement either way.
-        match a.structure_compared {
+        match &a.structure_compared {
             Some(c) if c.written => {
                 assert!(c.template_share > 0.1, "{c:?}");
                 assert!(c.loop_share < 0.95 * c.template_share, "{c:?}");
