@@ -36,8 +36,10 @@ use crate::numeric::units::um_from_m;
 
 /// `found` (an axis's fit on the samples `fit` uses) with its values fitted again beside the
 /// force held at the record's start, where they predict the held-out halves better by a
-/// twentieth than fitted again without it; else `found` as it is. Tried only above the noise, on a fit whose held-out figure is held
-/// out, where the record starts at rest and the fit uses the axis's first start.
+/// twentieth than fitted again without it; else `found` as it is. Tried only above the
+/// noise, on a fit whose held-out figure is held out, where the record starts at rest and
+/// the fit uses the axis's first start; fitted again with the force, the fit may reach the
+/// noise, and whether it does is then the refit's.
 ///
 /// `unbent` (for the fit away from the standstills: the values fitted on every sample) is a
 /// second start for the refits where it is of the fit's structure: leaving out the
