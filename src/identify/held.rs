@@ -36,8 +36,10 @@ use crate::numeric::units::um_from_m;
 
 /// `found` (an axis's fit on the samples `fit` uses) with its values fitted again beside the
 /// force held at the record's start, where they predict the held-out halves better by a
-/// twentieth than fitted again without it; else `found` as it is. Tried only above the noise, on a fit whose held-out figure is held
-/// out, where the record starts at rest and the fit uses the axis's first start.
+/// twentieth than fitted again without it; else `found` as it is. Tried only above the
+/// noise, on a fit whose held-out figure is held out, where the record starts at rest and
+/// the fit uses the axis's first start; fitted again with the force, the fit may reach the
+/// noise, and whether it does is then the refit's.
 ///
 /// `unbent` (for the fit away from the standstills: the values fitted on every sample) is a
 /// second start for the refits where it is of the fit's structure: leaving out the
@@ -282,4 +284,44 @@ fn not_kept(fit: &Fit, config: &AxisConfig) -> HeldForce {
 pub(super) fn unwritten(mut config: AxisConfig) -> AxisConfig {
     config.held_at_start_n = 0.0;
     config
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::machine::{Controller, MachineConfig};
+
+    #[test]
+    fn the_second_start_takes_the_values_fitted_on_every_sample_where_the_structure_is_one() {
+        let config = MachineConfig::preset("small-table").unwrap().x;
+        let keys = [knobs::TF_GAIN_KEY, knobs::MASS_KEY];
+        let chosen: Vec<Knob> = knobs::for_axis(&config)
+            .into_iter()
+            .filter(|k| keys.contains(&k.key))
+            .collect();
+        assert_eq!(chosen.len(), 2);
+        // Fitted on every sample: a gain half as high again and a table twice as heavy, and a
+        // ripple the fit away from the standstills does not have.
+        let mut unbent = config.clone();
+        let values = [1.5 * get(&config, keys[0]), 2.0 * get(&config, keys[1])];
+        knobs::set_all(&mut unbent, &keys, &values);
+        unbent.errors.force_ripple_n = 7.0;
+        let start = unbent_start(&config, Some(&unbent), &chosen).expect("one structure");
+        for (key, value) in keys.iter().zip(values) {
+            let got = get(&start, key);
+            assert!(
+                (got - value).abs() <= 1e-12 * value,
+                "{key}: {got} against {value}"
+            );
+        }
+        // What the refit does not fit stays the fit's own.
+        assert_eq!(start.errors.force_ripple_n, config.errors.force_ripple_n);
+        // The same values, or none given: no second start.
+        assert!(unbent_start(&config, Some(&config), &chosen).is_none());
+        assert!(unbent_start(&config, None, &chosen).is_none());
+        // Another controller's values mean other things: no start from them.
+        let mut other = unbent.clone();
+        other.controller = Controller::Cascade;
+        assert!(unbent_start(&config, Some(&other), &chosen).is_none());
+    }
 }

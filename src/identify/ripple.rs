@@ -528,8 +528,6 @@ pub(super) fn not_written(verdict: &mut Option<RippleVerdict>) {
     }
 }
 
-/// `config` with the ripple a·sin(k·x) + b·cos(k·x) = A·sin(k·x + φ) (N), A = |(a, b)|,
-/// φ = atan2(b, a).
 /// `config` with its ripple fitted again on the samples `own` allows alone, about its other
 /// values: where a half's fit starts from a whole fit with a ripple written, the ripple that
 /// half's own samples give (as this stage starts each half's refit from its own), so that the
@@ -544,6 +542,8 @@ pub(super) fn own_ripple(
     Ok(with_ripple(config, ab))
 }
 
+/// `config` with the ripple a·sin(k·x) + b·cos(k·x) = A·sin(k·x + φ) (N), A = |(a, b)|,
+/// φ = atan2(b, a).
 fn with_ripple(config: &AxisConfig, (a, b): (f64, f64)) -> AxisConfig {
     let mut c = config.clone();
     c.errors.force_ripple_n = a.hypot(b);
