@@ -8,7 +8,7 @@
 //! lead-lag on current, `super::loop_model`) is fitted on that axis too — beside the
 //! template's errors (a ripple's period it names is fitted as the template's), kinematic
 //! limits, lateral shift and weight, which the loop model does not replace — and written in
-//! the structure's place where it predicts the held-out halves better by a twentieth. The
+//! the structure's place where it predicts the held-out halves better by a quarter. The
 //! report says which was written and both figures; the loop model's values describe the
 //! loop, not the machine's parts.
 
@@ -26,6 +26,14 @@ use crate::trace::measured::MeasuredTrace;
 /// at. A structure that predicts the record better than that is kept without the cost of a
 /// second search.
 pub(super) const TRIED_ABOVE_SHARE: f64 = 0.1;
+/// How much lower the loop model's held-out figure must lie than the structure's for it to
+/// be written in its place: a quarter, five times the twentieth one more value must earn.
+/// The two are not nested — each is fitted with its own half-dozen values — and a loop model
+/// of more freedom gains on a structure that is the machine's by shaping what both lack: on
+/// a record of the independent integrator whose template holds the machine's structure and
+/// whose guideway has a tight spot neither models, the cascade predicted the held-out halves
+/// 12 % better (70.5 % of the following error against 80.0 %).
+const STRUCTURE_GAIN: f64 = 0.75;
 
 /// How a loop model written in a structure's place introduces what it is.
 const IN_PLACE: &str = "in place of the template's structure:";
@@ -51,7 +59,7 @@ pub struct StructureCompared {
     pub loop_share: f64,
     /// Whether the loop model is written in the structure's place: a fit (better than its
     /// own start and than the template, with a point of its own on each half) predicting
-    /// the held-out halves better than the structure by a twentieth.
+    /// the held-out halves better than the structure by a quarter.
     pub written: bool,
     /// Why it is written, or why not, in words.
     pub why: String,
@@ -203,8 +211,8 @@ fn better_than_template(beat_its_start: bool, id: &AxisIdentification) -> bool {
 
 /// Of the structure's fit and the loop model's, the one written: the loop model where it is
 /// a fit (better than the template, with a point of its own on each half) predicting the
-/// held-out halves while moving better by a twentieth than what the structure writes; both
-/// figures said.
+/// held-out halves while moving better by a quarter ([`STRUCTURE_GAIN`]) than what the
+/// structure writes; both figures said.
 fn chosen(
     (config, mut structure): (AxisConfig, AxisIdentification),
     loop_fit: Found,
@@ -217,7 +225,7 @@ fn chosen(
     let is_fit = loop_fit
         .as_ref()
         .is_some_and(|l| (l.1.reached || l.1.better_than_template) && !l.1.held_out_in_sample);
-    let better = super::verdict::predicts_better(loop_share, template_share);
+    let better = loop_share < STRUCTURE_GAIN * template_share;
     let why = match (loop_fit.is_some(), is_fit, better) {
         (false, _, _) => "a model of the loop could not be fitted on this record",
         _ if template_share.is_nan() || loop_share.is_nan() => {
@@ -227,8 +235,8 @@ fn chosen(
             "the loop model is not a fit that predicts the held-out halves better than the \
              template (or a half's fit had no point of its own)"
         }
-        (_, true, false) => "not better by a twentieth",
-        (_, true, true) => "better by more than a twentieth",
+        (_, true, false) => "not better by a quarter",
+        (_, true, true) => "better by more than a quarter",
     };
     let compared = StructureCompared {
         template_share,
@@ -299,34 +307,34 @@ mod tests {
     }
 
     #[test]
-    fn the_loop_model_is_written_only_where_it_predicts_better_by_a_twentieth() {
-        // 0.25 against 0.30: better by a sixth, written; 0.29 against 0.30: by a thirtieth.
-        let (_, id) = chosen(fitted(0.30), Some(fitted(0.25)));
+    fn the_loop_model_is_written_only_where_it_predicts_better_by_a_quarter() {
+        // 0.20 against 0.30: better by a third, written; 0.25 against 0.30: by a sixth only.
+        let (_, id) = chosen(fitted(0.30), Some(fitted(0.20)));
         let c = id.structure_compared.expect("compared");
         assert!(c.written, "{c:?}");
-        assert!((id.held_out_share - 0.25).abs() < 1e-12);
-        let (_, id) = chosen(fitted(0.30), Some(fitted(0.29)));
+        assert!((id.held_out_share - 0.20).abs() < 1e-12);
+        let (_, id) = chosen(fitted(0.30), Some(fitted(0.25)));
         let c = id.structure_compared.expect("compared");
-        assert!(!c.written && c.why.contains("twentieth"), "{c:?}");
+        assert!(!c.written && c.why.contains("quarter"), "{c:?}");
         assert!((id.held_out_share - 0.30).abs() < 1e-12);
-        assert!((c.loop_share - 0.29).abs() < 1e-12);
+        assert!((c.loop_share - 0.25).abs() < 1e-12);
     }
 
     #[test]
     fn a_structure_not_identified_is_judged_by_the_template_it_writes() {
         // The structure's fit leaves 0.30 but is not better than its template, which is
-        // written and leaves 0.20 (0.6 µm of 3): a loop model at 0.25 predicts worse than
-        // what the structure writes, and is not written.
+        // written and leaves 0.20 (0.6 µm of 3): a loop model at 0.18 predicts better than
+        // the fit by far but not than what the structure writes by a quarter.
         let mut not_identified = fitted(0.30);
         not_identified.1.better_than_template = false;
         not_identified.1.held_out_template_um = 0.6;
-        let (_, id) = chosen(not_identified.clone(), Some(fitted(0.25)));
+        let (_, id) = chosen(not_identified.clone(), Some(fitted(0.18)));
         let c = id.structure_compared.expect("compared");
         assert!(
             !c.written && (c.template_share - 0.2).abs() < 1e-12,
             "{c:?}"
         );
-        let (_, id) = chosen(not_identified, Some(fitted(0.15)));
+        let (_, id) = chosen(not_identified, Some(fitted(0.10)));
         assert!(id.structure_compared.expect("compared").written);
     }
 
@@ -341,9 +349,9 @@ mod tests {
             following_error_rms_um: 3.0,
             held_out_share: 0.3,
         });
-        // A loop model at 0.29 while moving is not a twentieth better than 0.30, though it
-        // is than the 0.40 on every sample.
-        let (_, id) = chosen(everywhere.clone(), Some(fitted(0.29)));
+        // A loop model at 0.28 while moving is not a quarter better than 0.30, though it is
+        // than the 0.40 on every sample.
+        let (_, id) = chosen(everywhere.clone(), Some(fitted(0.28)));
         let c = id.structure_compared.expect("compared");
         assert!(
             !c.written && (c.template_share - 0.3).abs() < 1e-12,
