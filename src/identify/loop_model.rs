@@ -181,8 +181,8 @@ impl Families {
     };
 
     /// Those a template's axis is not already, up to the values its fit frees: a template's
-    /// continuous integrating controller on current without feed-forward (the loop model's
-    /// lead-lag is one), fitted on its own plant, leaves
+    /// continuous integrator × lead-lag on current without feed-forward (two zeros, a pole
+    /// and the integrator: the loop model's lead-lag), fitted on its own plant, leaves
     /// nothing the loop model's lead-lag would add but a second search's cost; nor does a
     /// cascade without acceleration feed-forward the loop model's cascade. A structure with
     /// what its fit does not free (a feed-forward, a discrete controller's fixed corners)
@@ -195,6 +195,8 @@ impl Families {
             },
             Controller::TransferFunction(tf)
                 if tf.output == ControllerOutput::Current
+                    && tf.numerator.len() == 3
+                    && tf.denominator.len() == 3
                     && tf.denominator.last() == Some(&0.0)
                     && tf.sample_ms == 0.0
                     && tf.accel_feedforward == 0.0 =>

@@ -276,8 +276,8 @@ pub(crate) fn line(c: &StructureCompared) -> String {
     let outcome = if c.written {
         "the loop model is written in the structure's place: its values describe the loop, \
          not the machine's parts (the template's errors, limits, lateral shift, weight and \
-         feedback stay; its motor, drive and friction are the loop model's); the template's \
-         column above is the loop model's start"
+         feedback stay; its motor, drive, friction and current limits are the loop model's, \
+         the values' template figures its start's)"
     } else {
         "the structure is written"
     };

@@ -61,14 +61,16 @@ fn a_force_held_at_the_start_is_recovered_and_none_is_found_where_none_is_held()
 /// level at rest towards − (−18.4 N), identified from its design. Fitted holding nothing,
 /// X's values bend to the start (the fit on every sample stays at 0.46 µm held out, eight
 /// times the noise); fitted again with the force beside them, they reach the record's noise:
-/// the force is kept, within its uncertainty of the force held, and the values the file
+/// the force is kept, within two uncertainties of the force held, and the values the file
 /// holds come back to the run's — each within twice its uncertainty (Coulomb friction
 /// 22.3 ± 2.0 N of 23.5, the controller's corners within a few percent), the gain and the
 /// table's mass, which trade, as their ratio — while the file holds no force at the start.
 ///
-/// Not on every record of this table: on other noise seeds the fit away from the
-/// standstills, its values bent, reaches the noise first (seed 7: Coulomb friction 36 of
-/// 23.5 N) or is written without the force, which its refit from either start does not
+/// Not on every record of this table: of five noise seeds tried, three keep the force
+/// (seed 3 at −14.8 ± 2.3 N, 11 at −16.3 ± 2.5 N, this one's 13 at −17.3 ± 2.8 N: within two
+/// uncertainties of the force held, which is what is asserted); on the other two the fit away
+/// from the standstills, its values bent, reaches the noise first (seed 7: Coulomb friction
+/// 36 of 23.5 N) or is written without the force, which its refit from either start does not
 /// better by a twentieth there (seed 5), and the force is not tried or not kept
 /// (docs/identify.md).
 #[test]
@@ -89,7 +91,7 @@ fn identification_keeps_the_force_held_at_the_start_and_writes_none() {
     let h = x.held_at_start.expect("the force tried on X");
     assert!(h.kept && h.determined && !h.at_level, "{h:?}");
     assert!(
-        (h.force_n - held).abs() <= h.uncertainty_n,
+        (h.force_n - held).abs() <= 2.0 * h.uncertainty_n && h.uncertainty_n < 0.25 * held.abs(),
         "{h:?} against {held} N"
     );
     assert_eq!(id.machine.x.held_at_start_n, 0.0);
