@@ -23,23 +23,28 @@
 //! estimated on each half scored): what is judged is the machine's values, which the file
 //! holds. A step of the force alone does not make a half's point its own
 //! (`Fitted::own_point`): its machine values are still the whole fit's.
+//!
+//! A fit that reaches the noise earns no force, but may owe its values to it: fitted at the
+//! noise on values bent to the start, it is fitted again with the force beside them
+//! ([`told_apart`]), and a value that refit, at the noise too, moves beyond its uncertainty
+//! is one the record cannot tell from the force — not called determined.
 
 use rayon::prelude::*;
 
 use super::knobs::{self, HELD_AT_START, Knob, get};
 use super::result::{AxisIdentification, HeldForce};
 use super::round::Round;
-use super::solve::{Fit, masked_rms};
+use super::solve::{Fit, Fitted, masked_rms};
 use super::{fitted_values, gain_per_inertia, presliding, ripple, verdict, within_noise};
 use crate::machine::AxisConfig;
 use crate::numeric::units::um_from_m;
 
 /// `found` (an axis's fit on the samples `fit` uses) with its values fitted again beside the
 /// force held at the record's start, where they predict the held-out halves better by a
-/// twentieth than fitted again without it; else `found` as it is. Tried only above the
-/// noise, on a fit whose held-out figure is held out, where the record starts at rest and
-/// the fit uses the axis's first start; fitted again with the force, the fit may reach the
-/// noise, and whether it does is then the refit's.
+/// twentieth than fitted again without it; else `found` as it is. Tried on a fit whose
+/// held-out figure is held out, where the record starts at rest and the fit uses the axis's
+/// first start; above the noise (fitted again with the force, the fit may reach the noise,
+/// and whether it does is then the refit's) — at the noise, [`told_apart`] instead.
 ///
 /// `unbent` (for the fit away from the standstills: the values fitted on every sample) is a
 /// second start for the refits where it is of the fit's structure: leaving out the
@@ -54,12 +59,13 @@ pub(super) fn on_top(
     unbent: Option<&AxisConfig>,
 ) -> (AxisConfig, AxisIdentification) {
     let (config, id) = &found;
-    let tried = !id.reached
-        && !id.held_out_in_sample
-        && fit.holds_start(&|_| true)
-        && fit.held_level_n(config) > 0.0;
+    let tried =
+        !id.held_out_in_sample && fit.holds_start(&|_| true) && fit.held_level_n(config) > 0.0;
     if !tried {
         return found;
+    }
+    if id.reached {
+        return told_apart(fit, unbent, candidates, found);
     }
     refitted(fit, (template, unbent), candidates, config, id).unwrap_or_else(|| {
         let (config, mut id) = found;
@@ -148,6 +154,79 @@ fn refitted(
         with.while_moving = verdict::while_moving(fit, &round, &fold, &template_residual);
     }
     Some((written, with))
+}
+
+/// `found`, a fit that reaches the record's noise without the force, where the force cannot
+/// take the place of its values: fitted again with it beside them (on the fit's samples,
+/// from its values and from `unbent`'s), the values that stay within the two fits' combined
+/// uncertainty are the record's either way. Where the refit reaches the noise too and moves
+/// a value beyond that, the record cannot tell that value from a force held at its start —
+/// one of two hypotheses it does not decide —: the value is not determined alone, traded
+/// with the force, and the force is reported beside it, not kept (the values written stay
+/// the fit's: the file holds no force). Else `found` as it is.
+fn told_apart(
+    fit: &Fit,
+    unbent: Option<&AxisConfig>,
+    candidates: &[Knob],
+    found: (AxisConfig, AxisIdentification),
+) -> (AxisConfig, AxisIdentification) {
+    let (config, id) = &found;
+    let mut all = candidates.to_vec();
+    all.extend(knobs::for_axis(config));
+    let values = fitted_knobs(&all, config, id);
+    let mut knobs = values.clone();
+    knobs.push(HELD_AT_START);
+    let starts: Vec<AxisConfig> = std::iter::once(config.clone())
+        .chain(unbent_start(config, unbent, &values))
+        .collect();
+    let lowest = starts
+        .par_iter()
+        .filter_map(|s| Some((fit.run(&knobs, s, &|_| true)?, s)))
+        .min_by(|a, b| a.0.cost.total_cmp(&b.0.cost));
+    let Some((with, start)) = lowest else {
+        return found;
+    };
+    let refit = Fit::config(&knobs, start, &with.values);
+    let noise_um = um_from_m(fit.ctx().noise_sigma);
+    let at_noise = fit
+        .residual(&refit)
+        .is_some_and(|r| within_noise(um_from_m(masked_rms(&r, fit.mask())), noise_um));
+    let moved = moved_values(&knobs, &with, id);
+    if !at_noise || moved.is_empty() {
+        return found;
+    }
+    let (config, mut id) = found;
+    for v in id.values.iter_mut().filter(|v| moved.contains(&v.key)) {
+        v.determined = false;
+        v.measured = false;
+        v.traded_with = Some(HELD_AT_START.key);
+    }
+    let p = knobs.len() - 1;
+    let level_n = fit.held_level_n(&refit);
+    id.held_at_start = Some(HeldForce {
+        force_n: refit.held_at_start_n.clamp(-level_n, level_n),
+        uncertainty_n: with.sigma[p].max(with.model_sigma[p]),
+        told_apart_from_values: false,
+        ..not_kept(fit, &config)
+    });
+    (config, id)
+}
+
+/// The keys of `id`'s fitted values that `with` (`knobs`' values fitted again beside the
+/// force, on the same samples) puts beyond their uncertainty of where `id` has them. The
+/// refit's own uncertainties do not widen that: both fits see the same noise, so their
+/// difference is what the force takes, and the refit's values, trading with it, are loose
+/// by that very trade.
+fn moved_values(knobs: &[Knob], with: &Fitted, id: &AxisIdentification) -> Vec<&'static str> {
+    id.values
+        .iter()
+        .filter(|v| v.fitted() && v.uncertainty.is_finite())
+        .filter(|v| {
+            let p = knobs.iter().position(|k| k.key == v.key);
+            p.is_some_and(|p| (with.values[p] - v.value).abs() > v.uncertainty)
+        })
+        .map(|v| v.key)
+        .collect()
 }
 
 /// `knobs` fitted on the whole record from each of `starts`, and their round (each half's
@@ -263,6 +342,7 @@ fn reported(
         kept: true,
         held_out_with_um: f64::NAN,
         held_out_refit_um: f64::NAN,
+        told_apart_from_values: true,
     })
 }
 
@@ -277,6 +357,7 @@ fn not_kept(fit: &Fit, config: &AxisConfig) -> HeldForce {
         kept: false,
         held_out_with_um: f64::NAN,
         held_out_refit_um: f64::NAN,
+        told_apart_from_values: true,
     }
 }
 

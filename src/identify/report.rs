@@ -6,6 +6,7 @@
 pub(crate) use super::held_out::in_sample_note;
 use std::fmt::Write as _;
 
+use super::knobs::HELD_AT_START;
 use crate::identify::{AxisIdentification, HeldForce, Identification, IdentifiedValue};
 use crate::machine::MachineConfig;
 
@@ -85,8 +86,24 @@ pub(crate) fn status(v: &IdentifiedValue) -> String {
 
 /// The force an axis held at rest at the record's start, in words (the terminal's and the
 /// file header's).
-pub(crate) fn held_line(h: &HeldForce) -> String {
+pub(crate) fn held_line(h: &HeldForce, values: &[IdentifiedValue]) -> String {
     let what = "force held at rest at the record's start";
+    if !h.told_apart_from_values {
+        let traded: Vec<&str> = values
+            .iter()
+            .filter(|v| v.traded_with == Some(HELD_AT_START.key))
+            .map(|v| v.key)
+            .collect();
+        return format!(
+            "{what}: not told apart — the fit reaches the noise without it, and fitted again \
+             with it ({} ± {} N, within the friction's ±{} N at rest) reaches it too, moving {} \
+             beyond the two fits' uncertainty: those are not determined alone; none kept",
+            sig(h.force_n),
+            sig(h.uncertainty_n),
+            sig(h.level_n),
+            traded.join(", ")
+        );
+    }
     if !h.kept {
         return format!(
             "{what}: none kept — fitted with it (within the friction's ±{} N at rest), the \
@@ -230,7 +247,7 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
         let _ = writeln!(s, "  {}", p.statement);
     }
     if let Some(h) = &a.held_at_start {
-        let _ = writeln!(s, "  {}", held_line(h));
+        let _ = writeln!(s, "  {}", held_line(h, &a.values));
     }
     if let Some(line) = structure_line(a) {
         let _ = writeln!(s, "  {line}");
@@ -261,6 +278,9 @@ pub(crate) fn gain_per_inertia_line(a: &AxisIdentification) -> Option<String> {
     let r = a.gain_per_inertia.as_ref()?;
     let how = if a.values.iter().any(|v| v.loose) {
         "not determined: the record's halves leave it loose; a model's figure"
+    } else if a.held_at_start.is_some_and(|h| !h.told_apart_from_values) {
+        "not determined: the record cannot tell the axis's values from a force held at its \
+         start; a model's figure"
     } else if r.uncertainty.is_nan() || r.uncertainty > 0.5 * r.value.abs() {
         "not determined: its uncertainty exceeds half of it; a model's figure"
     } else {
@@ -483,7 +503,7 @@ pub(crate) fn machine_file(
             let _ = writeln!(s, "#   {}: {}", a.axis, p.statement);
         }
         if let Some(h) = &a.held_at_start {
-            let _ = writeln!(s, "#   {}: {}", a.axis, held_line(h));
+            let _ = writeln!(s, "#   {}: {}", a.axis, held_line(h, &a.values));
         }
         if let Some(line) = structure_line(a) {
             let _ = writeln!(s, "#   {}: {line}", a.axis);

@@ -58,8 +58,8 @@ pub struct StructureCompared {
     /// it could not be fitted or scored).
     pub loop_share: f64,
     /// Whether the loop model is written in the structure's place: a fit (better than its
-    /// own start and than the template, with a point of its own on each half) predicting
-    /// the held-out halves better than the structure by a quarter.
+    /// own start and than the template while moving, with a point of its own on each half)
+    /// predicting the held-out halves while moving better than the structure by a quarter.
     pub written: bool,
     /// Why it is written, or why not, in words.
     pub why: String,
