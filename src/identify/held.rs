@@ -43,8 +43,8 @@ use crate::numeric::units::um_from_m;
 /// force held at the record's start, where they predict the held-out halves better by a
 /// twentieth than fitted again without it; else `found` as it is. Tried on a fit whose
 /// held-out figure is held out, where the record starts at rest and the fit uses the axis's
-/// first start; above the noise (fitted again with the force, the fit may reach the noise,
-/// and whether it does is then the refit's) — at the noise, [`told_apart`] instead.
+/// first start, above the noise; fitted again with the force, the fit may reach the noise,
+/// and whether it does is then the refit's. At the noise, [`told_apart`] instead.
 ///
 /// `unbent` (for the fit away from the standstills: the values fitted on every sample) is a
 /// second start for the refits where it is of the fit's structure: leaving out the
@@ -61,11 +61,8 @@ pub(super) fn on_top(
     let (config, id) = &found;
     let tried =
         !id.held_out_in_sample && fit.holds_start(&|_| true) && fit.held_level_n(config) > 0.0;
-    if !tried {
+    if !tried || id.reached {
         return found;
-    }
-    if id.reached {
-        return told_apart(fit, unbent, candidates, found);
     }
     refitted(fit, (template, unbent), candidates, config, id).unwrap_or_else(|| {
         let (config, mut id) = found;
@@ -156,21 +153,32 @@ fn refitted(
     Some((written, with))
 }
 
-/// `found`, a fit that reaches the record's noise without the force, where the force cannot
-/// take the place of its values: fitted again with it beside them (on the fit's samples,
-/// from its values and from `unbent`'s), the values that stay within the two fits' combined
-/// uncertainty are the record's either way. Where the refit reaches the noise too and moves
-/// a value beyond that, the record cannot tell that value from a force held at its start —
-/// one of two hypotheses it does not decide —: the value is not determined alone, traded
-/// with the force, and the force is reported beside it, not kept (the values written stay
-/// the fit's: the file holds no force). Else `found` as it is.
-fn told_apart(
+/// `found`, a fit judged at the record's noise without the force (`id.reached`, after
+/// `verdict::judged`), where the force could take the place of its values: those fitted
+/// again with it beside them (on the fit's samples, from its values and from `unbent`'s, the
+/// lower kept). Started from the fit's own values, the refit explains those samples at least
+/// as well — the noise it reaches is no evidence; what it says is where else the values can
+/// stand. A determined value it moves beyond its uncertainty, by more than the noise alone
+/// moves a value that trades with one more free one ([`moved_values`]), is one the record
+/// cannot tell from a force held at its start — two hypotheses it does not decide —: not
+/// determined alone, traded with the force, its uncertainty widened to the move; the force is
+/// reported beside it, not kept (the values written stay the fit's: the file holds no
+/// force). Else `found` as it is. Only where the record starts at rest, the fit uses the
+/// axis's first start and the friction holds a force at rest.
+pub(super) fn told_apart(
     fit: &Fit,
     unbent: Option<&AxisConfig>,
     candidates: &[Knob],
     found: (AxisConfig, AxisIdentification),
 ) -> (AxisConfig, AxisIdentification) {
     let (config, id) = &found;
+    let tried = id.reached
+        && !id.held_out_in_sample
+        && fit.holds_start(&|_| true)
+        && fit.held_level_n(config) > 0.0;
+    if !tried {
+        return found;
+    }
     let mut all = candidates.to_vec();
     all.extend(knobs::for_axis(config));
     let values = fitted_knobs(&all, config, id);
@@ -186,46 +194,59 @@ fn told_apart(
     let Some((with, start)) = lowest else {
         return found;
     };
-    let refit = Fit::config(&knobs, start, &with.values);
-    let noise_um = um_from_m(fit.ctx().noise_sigma);
-    let at_noise = fit
-        .residual(&refit)
-        .is_some_and(|r| within_noise(um_from_m(masked_rms(&r, fit.mask())), noise_um));
     let moved = moved_values(&knobs, &with, id);
-    if !at_noise || moved.is_empty() {
+    if moved.is_empty() {
         return found;
     }
     let (config, mut id) = found;
-    for v in id.values.iter_mut().filter(|v| moved.contains(&v.key)) {
-        v.determined = false;
-        v.measured = false;
-        v.traded_with = Some(HELD_AT_START.key);
+    for v in &mut id.values {
+        if let Some((_, shift)) = moved.iter().find(|(key, _)| *key == v.key) {
+            v.uncertainty = v.uncertainty.max(*shift);
+            v.determined = false;
+            v.measured = false;
+            v.traded_with = Some(HELD_AT_START.key);
+        }
     }
+    let refit = Fit::config(&knobs, start, &with.values);
     let p = knobs.len() - 1;
     let level_n = fit.held_level_n(&refit);
+    let force_n = refit.held_at_start_n.clamp(-level_n, level_n);
+    let at_level = force_n.abs() >= level_n * (1.0 - 1e-6);
     id.held_at_start = Some(HeldForce {
-        force_n: refit.held_at_start_n.clamp(-level_n, level_n),
-        uncertainty_n: with.sigma[p].max(with.model_sigma[p]),
+        force_n,
+        uncertainty_n: match at_level {
+            true => f64::INFINITY,
+            false => with.sigma[p].max(with.model_sigma[p]),
+        },
+        at_level,
         told_apart_from_values: false,
         ..not_kept(fit, &config)
     });
     (config, id)
 }
 
-/// The keys of `id`'s fitted values that `with` (`knobs`' values fitted again beside the
-/// force, on the same samples) puts beyond their uncertainty of where `id` has them. The
-/// refit's own uncertainties do not widen that: both fits see the same noise, so their
-/// difference is what the force takes, and the refit's values, trading with it, are loose
-/// by that very trade.
-fn moved_values(knobs: &[Knob], with: &Fitted, id: &AxisIdentification) -> Vec<&'static str> {
+/// The keys of `id`'s determined values that `with` (`knobs`' values fitted again beside the
+/// force, on the same samples) moves beyond their uncertainty, with each move. Both fits see
+/// the same noise: their difference is what the force takes, plus what noise alone moves a
+/// value by once one more value trades with it — a spread of √(σ_with² − σ²) (σ_with the
+/// refit's statistical uncertainty, σ the value's) —, so a move counts only beyond twice
+/// that too, which noise alone passes about one time in twenty whatever the trade.
+fn moved_values(
+    knobs: &[Knob],
+    with: &Fitted,
+    id: &AxisIdentification,
+) -> Vec<(&'static str, f64)> {
     id.values
         .iter()
-        .filter(|v| v.fitted() && v.uncertainty.is_finite())
-        .filter(|v| {
-            let p = knobs.iter().position(|k| k.key == v.key);
-            p.is_some_and(|p| (with.values[p] - v.value).abs() > v.uncertainty)
+        .filter(|v| v.determined && v.uncertainty.is_finite())
+        .filter_map(|v| {
+            let p = knobs.iter().position(|k| k.key == v.key)?;
+            let shift = (with.values[p] - v.value).abs();
+            let by_noise = (with.sigma[p].powi(2) - v.uncertainty.powi(2))
+                .max(0.0)
+                .sqrt();
+            (shift > v.uncertainty && shift > 2.0 * by_noise).then_some((v.key, shift))
         })
-        .map(|v| v.key)
         .collect()
 }
 

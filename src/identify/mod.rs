@@ -350,7 +350,8 @@ fn fit_axis(
 
 /// The axis fitted away from its standstills ([`moving_samples`]), judged; its refit with the
 /// force held at the record's start also started from `unbent`, the values fitted on every
-/// sample ([`held::on_top`]).
+/// sample ([`held::on_top`]) — above the noise to be kept, at it to tell the values from the
+/// force ([`held::told_apart`]).
 fn fit_while_moving(
     ctx: &Context,
     template: &MachineConfig,
@@ -366,6 +367,7 @@ fn fit_while_moving(
     }
     .map(|found| held::on_top(&fit, template.axis(axis), &candidates, found, Some(unbent)))
     .map(|found| verdict::judged(found, um_from_m(ctx.noise_sigma)))
+    .map(|found| held::told_apart(&fit, Some(unbent), &candidates, found))
 }
 
 /// What is written for an axis whose fit on every sample stayed above the record's noise:

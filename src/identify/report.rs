@@ -94,13 +94,20 @@ pub(crate) fn held_line(h: &HeldForce, values: &[IdentifiedValue]) -> String {
             .filter(|v| v.traded_with == Some(HELD_AT_START.key))
             .map(|v| v.key)
             .collect();
+        let force = match h.at_level {
+            true => format!("{} N, the friction's level at rest", sig(h.force_n)),
+            false => format!(
+                "{} ± {} N, within the friction's ±{} N at rest",
+                sig(h.force_n),
+                sig(h.uncertainty_n),
+                sig(h.level_n)
+            ),
+        };
         return format!(
-            "{what}: not told apart — the fit reaches the noise without it, and fitted again \
-             with it ({} ± {} N, within the friction's ±{} N at rest) reaches it too, moving {} \
-             beyond the two fits' uncertainty: those are not determined alone; none kept",
-            sig(h.force_n),
-            sig(h.uncertainty_n),
-            sig(h.level_n),
+            "{what}: not told apart — the fit reaches the noise without it, and its values \
+             fitted again beside it ({force}) move {} beyond their uncertainty by more than \
+             noise alone would: those are not determined alone, their uncertainty widened to \
+             the move; none kept",
             traded.join(", ")
         );
     }
@@ -278,7 +285,10 @@ pub(crate) fn gain_per_inertia_line(a: &AxisIdentification) -> Option<String> {
     let r = a.gain_per_inertia.as_ref()?;
     let how = if a.values.iter().any(|v| v.loose) {
         "not determined: the record's halves leave it loose; a model's figure"
-    } else if a.held_at_start.is_some_and(|h| !h.told_apart_from_values) {
+    } else if a.values.iter().any(|v| {
+        v.traded_with == Some(HELD_AT_START.key)
+            && (v.key == r.gain || v.key == "drive.table_mass_kg")
+    }) {
         "not determined: the record cannot tell the axis's values from a force held at its \
          start; a model's figure"
     } else if r.uncertainty.is_nan() || r.uncertainty > 0.5 * r.value.abs() {

@@ -40,8 +40,9 @@ pub struct IdentifiedValue {
     /// it) yet it is written — the fit with it predicts the held-out halves better than with
     /// the template's put back —: the value it trades with most. Only their combination is
     /// the record's; the value alone is neither determined, nor a measurement, nor certain.
-    /// `held_at_start_n` where a fit at the noise, fitted again beside the force held at the
-    /// record's start, reaches the noise too with this value moved beyond its uncertainty.
+    /// `held_at_start_n` where a fit away from the standstills at the noise, fitted again
+    /// beside the force held at the record's start, moves this value beyond its uncertainty
+    /// and beyond what noise alone would (the uncertainty then widened to the move).
     pub traded_with: Option<&'static str>,
     /// Fitted and written, but the record leaves it loose: the fit on every sample reached
     /// the record's noise, yet its halves' fits predict each other while the axis moves only
@@ -262,11 +263,11 @@ pub struct HeldForce {
     /// … and of the same values fitted again without it, scored the same way (the axis's own
     /// held-out figures hold none, as the file does).
     pub held_out_refit_um: f64,
-    /// Whether the record cannot tell the force from the axis's values: the fit reaches the
-    /// record's noise without it, and fitted again with it reaches it too, moving values
-    /// beyond the two fits' combined uncertainty (those name the force as what they trade
-    /// with: `traded_with` `held_at_start_n`). `force_n` and `uncertainty_n` are then the
-    /// refit's; the force is not kept.
+    /// False where the record cannot tell the force from the axis's values: the fit away from
+    /// the standstills reaches the record's noise without it, and fitted again beside it
+    /// moves values beyond their uncertainty and beyond what noise alone would (those name the
+    /// force as what they trade with: `traded_with` `held_at_start_n`). `force_n`,
+    /// `uncertainty_n` and `at_level` are then the refit's; the force is not kept.
     pub told_apart_from_values: bool,
 }
 
