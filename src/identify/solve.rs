@@ -10,10 +10,8 @@ use nalgebra::{DMatrix, DVector};
 use super::knobs::{HELD_AT_START, Knob, get, set_all};
 use crate::compare::Context;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
-use crate::numeric::decompose;
 use crate::numeric::lsq::{
-    self, MODEL_FLOOR_SHARE, combination_uncertainty, correlation_time, forward_jacobian,
-    uncertainties,
+    self, JacobianSvd, MODEL_FLOOR_SHARE, correlation_time, forward_jacobian,
 };
 use crate::plan::Commands;
 
@@ -70,6 +68,7 @@ pub struct Fit<'c, 'a> {
 
 /// Values fitted and their standard uncertainties (machine units), and the residual's sum
 /// of squares on the samples fitted (m²).
+#[derive(Clone)]
 pub struct Fitted {
     pub values: Vec<f64>,
     pub sigma: Vec<f64>,
@@ -88,10 +87,11 @@ pub struct Fitted {
     spread: Option<Spread>,
 }
 
-/// The fit's Jacobian in its scaled parameters, with what turns its uncertainties into the
-/// reported ones.
+/// The fit's Jacobian in its scaled parameters (decomposed once: what its uncertainties are
+/// read from), with what turns its uncertainties into the reported ones.
+#[derive(Clone)]
 struct Spread {
-    jacobian: DMatrix<f64>,
+    jacobian: JacobianSvd,
     noise: f64,
     /// √ of the residual's correlation time (samples).
     correlation: f64,
@@ -130,7 +130,7 @@ impl Fitted {
         let Some(s) = &self.spread else {
             return (f64::INFINITY, f64::INFINITY);
         };
-        let mut w = DVector::zeros(s.jacobian.ncols());
+        let mut w = DVector::zeros(s.jacobian.cols);
         let mut floor: f64 = 0.0;
         for &(j, power) in powers {
             let Some(c) = s.column(j).filter(|&c| c < w.len()) else {
@@ -139,7 +139,7 @@ impl Fitted {
             w[c] = power;
             floor = floor.max(s.input_floors[c] * power.abs());
         }
-        let raw = combination_uncertainty(&s.jacobian, self.cost, s.noise, &w);
+        let raw = s.jacobian.combination_uncertainty(self.cost, s.noise, &w);
         ((raw * s.correlation).max(floor), raw * s.to_floor)
     }
 
@@ -150,16 +150,14 @@ impl Fitted {
     pub(crate) fn most_traded_with(&self, j: usize) -> Option<usize> {
         let s = self.spread.as_ref()?;
         let j = s.column(j)?;
-        let n = s.jacobian.ncols();
-        let svd = decompose::svd(s.jacobian.clone(), false, true)?;
-        let vt = svd.v_t?;
-        let largest = svd.singular_values.iter().copied().fold(0.0, f64::max);
+        let n = s.jacobian.cols;
+        let (singular_values, vt) = s.jacobian.svd.as_ref()?;
+        let largest = singular_values.iter().copied().fold(0.0, f64::max);
         if j >= n || largest <= 0.0 {
             return None;
         }
         // Covariance in the scaled parameters, up to a factor: V·diag(1/s²)·Vᵀ.
-        let weights: Vec<f64> = svd
-            .singular_values
+        let weights: Vec<f64> = singular_values
             .iter()
             .map(|&sv| sv.max(1e-3 * largest).powi(-2))
             .collect();
@@ -373,14 +371,16 @@ impl<'c, 'a> Fit<'c, 'a> {
         let keep: Vec<usize> = (0..self.ctx.samples.len())
             .filter(|&i| self.mask[i] && use_sample(i))
             .collect();
-        Problem {
-            fit: self,
-            knobs,
-            base,
-            keep: &keep,
-            cache: RefCell::new(None),
-        }
-        .solve()
+        self.memo.run(knobs, base, &keep, || {
+            Problem {
+                fit: self,
+                knobs,
+                base,
+                keep: &keep,
+                cache: RefCell::new(None),
+            }
+            .solve()
+        })
     }
 
     /// `base` with `knobs` at `values`.
@@ -483,7 +483,8 @@ impl Problem<'_, '_, '_> {
         // independent samples than they number.
         let correlation = correlation_time(&end.residuals).sqrt();
         let noise = self.fit.ctx.noise_sigma;
-        let raw = uncertainties(&end.jacobian, end.cost, noise);
+        let jacobian = JacobianSvd::of(&end.jacobian);
+        let raw = jacobian.uncertainties(end.cost, noise);
         let sigma_scaled: Vec<f64> = raw.iter().map(|s| s * correlation).collect();
         let floors: Vec<f64> = self.knobs.iter().map(|k| k.input_floor).collect();
         // On the widened σ, the one a half's values scatter by ([`OWN_STEP_SIGMA`]).
@@ -529,7 +530,7 @@ impl Problem<'_, '_, '_> {
             cost: end.cost,
             own_point,
             spread: Some(Spread {
-                jacobian: end.jacobian,
+                jacobian,
                 noise,
                 correlation,
                 to_floor,
@@ -615,7 +616,7 @@ mod tests {
             cost: 1.0,
             own_point: true,
             spread: Some(Spread {
-                jacobian,
+                jacobian: JacobianSvd::of(&jacobian),
                 noise: 1.0,
                 correlation: 1.0,
                 to_floor: 1.0,

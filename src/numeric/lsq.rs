@@ -165,17 +165,7 @@ pub(crate) fn forward_jacobian(
 /// freedom, `cost / (rows − n)`, and never below `noise`. A direction the data do not see
 /// at all gives an infinite uncertainty.
 pub(crate) fn uncertainties(jac: &DMatrix<f64>, cost: f64, noise: f64) -> Vec<f64> {
-    let n = jac.ncols();
-    (0..n)
-        .map(|j| {
-            combination_uncertainty(
-                jac,
-                cost,
-                noise,
-                &DVector::from_fn(n, |i, _| f64::from(i == j)),
-            )
-        })
-        .collect()
+    JacobianSvd::of(jac).uncertainties(cost, noise)
 }
 
 /// No model is the machine: two faithful integrations of one small table — this tool's and
@@ -196,39 +186,66 @@ pub(crate) fn model_floor(jac: &DMatrix<f64>, noise: f64, rows: usize) -> Vec<f6
         .collect()
 }
 
-/// The standard uncertainty of the combination `w · p` of the parameters, as
-/// [`uncertainties`] gives each: √(s²·wᵀ(JᵀJ)⁺w) over every direction — a ratio of two
-/// values (a difference of their logarithms) the data see although each alone trades with
-/// the other comes out small.
-pub(crate) fn combination_uncertainty(
-    jac: &DMatrix<f64>,
-    cost: f64,
-    noise: f64,
-    w: &DVector<f64>,
-) -> f64 {
-    let (rows, n) = jac.shape();
-    let spread = (cost / (rows as f64 - n as f64).max(1.0)).sqrt().max(noise);
-    let Some(svd) = super::decompose::svd(jac.clone(), false, true) else {
-        return f64::INFINITY;
-    };
-    let Some(vt) = svd.v_t else {
-        return f64::INFINITY;
-    };
-    svd.singular_values
-        .iter()
-        .enumerate()
-        .map(|(k, &s)| {
-            let along = vt.row(k).transpose().dot(w);
-            if s > 0.0 {
-                (along * spread / s).powi(2)
-            } else if along != 0.0 {
-                f64::INFINITY
-            } else {
-                0.0
-            }
-        })
-        .sum::<f64>()
-        .sqrt()
+/// What every uncertainty is read from: a Jacobian's shape, its singular values and right
+/// singular vectors (none where the decomposition failed). Decomposed once, it gives each
+/// uncertainty the same bits as decomposing the Jacobian for it again, and is kept in place
+/// of the Jacobian (a few numbers per value fitted, against one per sample).
+#[derive(Debug, Clone)]
+pub(crate) struct JacobianSvd {
+    pub rows: usize,
+    pub cols: usize,
+    /// The singular values and Vᵀ.
+    pub svd: Option<(DVector<f64>, DMatrix<f64>)>,
+}
+
+impl JacobianSvd {
+    pub(crate) fn of(jac: &DMatrix<f64>) -> JacobianSvd {
+        let (rows, cols) = jac.shape();
+        let svd = super::decompose::svd(jac.clone(), false, true)
+            .and_then(|svd| Some((svd.singular_values, svd.v_t?)));
+        JacobianSvd { rows, cols, svd }
+    }
+
+    /// [`uncertainties`] of the Jacobian decomposed (one decomposition for every parameter).
+    pub(crate) fn uncertainties(&self, cost: f64, noise: f64) -> Vec<f64> {
+        let n = self.cols;
+        (0..n)
+            .map(|j| {
+                self.combination_uncertainty(
+                    cost,
+                    noise,
+                    &DVector::from_fn(n, |i, _| f64::from(i == j)),
+                )
+            })
+            .collect()
+    }
+
+    /// The standard uncertainty of the combination `w · p` of the parameters, as
+    /// [`uncertainties`] gives each: √(s²·wᵀ(JᵀJ)⁺w) over every direction — a ratio of two
+    /// values (a difference of their logarithms) the data see although each alone trades with
+    /// the other comes out small.
+    pub(crate) fn combination_uncertainty(&self, cost: f64, noise: f64, w: &DVector<f64>) -> f64 {
+        let (rows, n) = (self.rows, self.cols);
+        let spread = (cost / (rows as f64 - n as f64).max(1.0)).sqrt().max(noise);
+        let Some((singular_values, vt)) = &self.svd else {
+            return f64::INFINITY;
+        };
+        singular_values
+            .iter()
+            .enumerate()
+            .map(|(k, &s)| {
+                let along = vt.row(k).transpose().dot(w);
+                if s > 0.0 {
+                    (along * spread / s).powi(2)
+                } else if along != 0.0 {
+                    f64::INFINITY
+                } else {
+                    0.0
+                }
+            })
+            .sum::<f64>()
+            .sqrt()
+    }
 }
 
 /// The residual's integrated correlation time in samples, 1 + 2 Σ ρₖ over the lags until
