@@ -24,9 +24,9 @@
 //! holds. A step of the force alone does not make a half's point its own
 //! (`Fitted::own_point`): its machine values are still the whole fit's.
 //!
-//! A fit that reaches the noise earns no force, but may owe its values to it: fitted at the
-//! noise on values bent to the start, it is fitted again with the force beside them
-//! ([`told_apart`]), and a value that refit, at the noise too, moves beyond its uncertainty
+//! A fit away from the standstills that reaches the noise earns no force, but may owe its
+//! values to it: its values are fitted again with the force beside them ([`told_apart`]),
+//! and a value that refit moves beyond its uncertainty, and beyond what noise alone would,
 //! is one the record cannot tell from the force — not called determined.
 
 use rayon::prelude::*;
@@ -173,6 +173,7 @@ pub(super) fn told_apart(
 ) -> (AxisConfig, AxisIdentification) {
     let (config, id) = &found;
     let tried = id.reached
+        && id.held_at_start.is_none()
         && !id.held_out_in_sample
         && fit.holds_start(&|_| true)
         && fit.held_level_n(config) > 0.0;
@@ -211,7 +212,8 @@ pub(super) fn told_apart(
     let p = knobs.len() - 1;
     let level_n = fit.held_level_n(&refit);
     let force_n = refit.held_at_start_n.clamp(-level_n, level_n);
-    let at_level = force_n.abs() >= level_n * (1.0 - 1e-6);
+    // The search's bound is its start's level: at the lower of the two, bounded from one side.
+    let at_level = force_n.abs() >= level_n.min(fit.held_level_n(start)) * (1.0 - 1e-6);
     id.held_at_start = Some(HeldForce {
         force_n,
         uncertainty_n: match at_level {
@@ -228,9 +230,10 @@ pub(super) fn told_apart(
 /// The keys of `id`'s determined values that `with` (`knobs`' values fitted again beside the
 /// force, on the same samples) moves beyond their uncertainty, with each move. Both fits see
 /// the same noise: their difference is what the force takes, plus what noise alone moves a
-/// value by once one more value trades with it — a spread of √(σ_with² − σ²) (σ_with the
-/// refit's statistical uncertainty, σ the value's) —, so a move counts only beyond twice
-/// that too, which noise alone passes about one time in twenty whatever the trade.
+/// value by once one more value trades with it — a spread of √(σ_with² − σ_fit²), the two
+/// fits' statistical uncertainties, never above σ_with —, so a move counts only beyond
+/// twice σ_with too, which noise alone passes at most about one time in twenty whatever
+/// the trade (the value's reported uncertainty holds the model's floor, no measure of noise).
 fn moved_values(
     knobs: &[Knob],
     with: &Fitted,
@@ -242,10 +245,7 @@ fn moved_values(
         .filter_map(|v| {
             let p = knobs.iter().position(|k| k.key == v.key)?;
             let shift = (with.values[p] - v.value).abs();
-            let by_noise = (with.sigma[p].powi(2) - v.uncertainty.powi(2))
-                .max(0.0)
-                .sqrt();
-            (shift > v.uncertainty && shift > 2.0 * by_noise).then_some((v.key, shift))
+            (shift > v.uncertainty && shift > 2.0 * with.sigma[p]).then_some((v.key, shift))
         })
         .collect()
 }
