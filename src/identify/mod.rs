@@ -294,19 +294,23 @@ fn fit_axis(
         return unfitted(Fit::new(ctx, template, axis, offset), template.axis(axis));
     };
     let noise_um = um_from_m(ctx.noise_sigma);
+    let nonlinear = knobs::nonlinear_for(template.axis(axis), ctx.measured_at);
+    let candidates = presliding::candidate_knobs(template.axis(axis), &nonlinear);
+    // A fit at the noise on every sample may still owe its values to a force held at the
+    // record's start, as one away from the standstills may.
+    let told_apart = |found| held::told_apart(&fit, None, &candidates, found);
     if everywhere.1.reached && verdict::judged_while_moving(&mut everywhere.1, noise_um) {
-        return Some(presliding::at_noise(everywhere, template.axis(axis)));
+        return Some(told_apart(presliding::at_noise(everywhere, template.axis(axis))));
     }
     // Then the plant's nonlinear parts on top, where the template's values alone leave the
     // record above its noise: a healthy machine never gets them fitted (a value found in
     // the noise would be a false alarm), one with play or sticking the template lacks does.
-    let nonlinear = knobs::nonlinear_for(template.axis(axis), ctx.measured_at);
     if model == Model::Template
         && nonlinear_helps(&fit, template.axis(axis), &everywhere.0, &nonlinear)
         && let Some(mut extended) = identify_ordered(&fit, template, false, &nonlinear)
     {
         if extended.1.reached && verdict::judged_while_moving(&mut extended.1, noise_um) {
-            return Some(presliding::at_noise(extended, template.axis(axis)));
+            return Some(told_apart(presliding::at_noise(extended, template.axis(axis))));
         }
         if predicts_better(&extended.1, &everywhere.1) {
             everywhere = extended;
@@ -322,7 +326,6 @@ fn fit_axis(
         m.filter(|m| m.1.reached || m.1.better_than_template)
             .map(|m| m.1.held_out_share)
     };
-    let candidates = presliding::candidate_knobs(template.axis(axis), &nonlinear);
     everywhere = match model {
         Model::Template => {
             let all = &candidates;
@@ -335,7 +338,7 @@ fn fit_axis(
     };
     everywhere = held::on_top(&fit, template.axis(axis), &candidates, everywhere, None);
     if everywhere.1.reached && verdict::judged_while_moving(&mut everywhere.1, noise_um) {
-        return Some(everywhere);
+        return Some(told_apart(everywhere));
     }
     let while_moving = moving_fit.into_inner().unwrap_or_else(while_moving);
     let verdict = everywhere.1.presliding.clone();
