@@ -35,6 +35,7 @@ use super::knobs::{self, HELD_AT_START, Knob, get};
 use super::result::{AxisIdentification, HeldForce};
 use super::round::Round;
 use super::solve::{Fit, Fitted, masked_rms};
+use super::verdict::moved;
 use super::{fitted_values, gain_per_inertia, presliding, ripple, verdict, within_noise};
 use crate::machine::AxisConfig;
 use crate::numeric::units::um_from_m;
@@ -248,13 +249,6 @@ fn moved_values(
             moved(shift, v.uncertainty, with.sigma[p]).then_some((v.key, shift))
         })
         .collect()
-}
-
-/// Whether a value's `shift` between its fit and its refit beside one more value counts as
-/// a move: beyond its `uncertainty` and beyond twice the refit's statistical uncertainty
-/// `refit_sigma` ([`moved_values`]).
-fn moved(shift: f64, uncertainty: f64, refit_sigma: f64) -> bool {
-    shift > uncertainty && shift > 2.0 * refit_sigma
 }
 
 /// `knobs` fitted on the whole record from each of `starts`, and their round (each half's

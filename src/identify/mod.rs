@@ -300,7 +300,10 @@ fn fit_axis(
     // record's start, as one away from the standstills may.
     let told_apart = |found| held::told_apart(&fit, None, &candidates, found);
     if everywhere.1.reached && verdict::judged_while_moving(&mut everywhere.1, noise_um) {
-        return Some(told_apart(presliding::at_noise(everywhere, template.axis(axis))));
+        return Some(told_apart(presliding::at_noise(
+            everywhere,
+            template.axis(axis),
+        )));
     }
     // Then the plant's nonlinear parts on top, where the template's values alone leave the
     // record above its noise: a healthy machine never gets them fitted (a value found in
@@ -310,7 +313,10 @@ fn fit_axis(
         && let Some(mut extended) = identify_ordered(&fit, template, false, &nonlinear)
     {
         if extended.1.reached && verdict::judged_while_moving(&mut extended.1, noise_um) {
-            return Some(told_apart(presliding::at_noise(extended, template.axis(axis))));
+            return Some(told_apart(presliding::at_noise(
+                extended,
+                template.axis(axis),
+            )));
         }
         if predicts_better(&extended.1, &everywhere.1) {
             everywhere = extended;
@@ -627,7 +633,10 @@ fn fitted_values(
                 .knobs
                 .iter()
                 .position(|q| q.key == k.key)
-                .map(|p| round.sigma[p].max(round.whole.model_sigma[p]));
+                .map(|p| round.sigma[p].max(round.whole.model_sigma[p]))
+                // A value fitted about the template's value of one it trades with is not
+                // known closer than that value moved it.
+                .map(|s| s.max(round.put_back_shift(k.key).unwrap_or(0.0)));
             // A value the record does not determine is the template's, exactly (the
             // Coulomb force read back through a fitted mass would differ in its last bits).
             let template_value = get(template, k.key);

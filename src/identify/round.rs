@@ -6,7 +6,7 @@ use std::sync::OnceLock;
 
 use super::knobs::{self, Knob, get, set_all};
 use super::solve::{Fit, Fitted};
-use super::verdict::predicts_better;
+use super::verdict::{self, predicts_better};
 use super::within_noise;
 use crate::machine::AxisConfig;
 
@@ -95,6 +95,19 @@ pub(super) struct Round {
     /// the half scored ([`Round::scored_config`]): a round that fits that force, or one
     /// compared with such a round on the same footing.
     estimates_held: bool,
+    /// Values this round fits that moved when a value the record left loose was put back to
+    /// the template's in an earlier round at the noise ([`Round::put_back`]): each with the
+    /// key put back and how far it moved. Fitted about the template's value of a knob they
+    /// trade with, they are not determined alone.
+    put_back_trades: Vec<PutBackTrade>,
+}
+
+/// A value that moved beyond what noise explains when `with` was put back to the template's.
+#[derive(Clone, Copy, Debug)]
+struct PutBackTrade {
+    key: &'static str,
+    with: &'static str,
+    shift: f64,
 }
 
 impl Round {
@@ -144,6 +157,7 @@ impl Round {
             half_bases,
             estimates_held,
             halves_simulated: OnceLock::new(),
+            put_back_trades: Vec::new(),
         })
     }
 
@@ -267,8 +281,62 @@ impl Round {
             .copied()
             .filter(|k| !keys.contains(&k.key))
             .collect();
-        let round = Round::fit(fit, kept, &base, fold)?;
+        let mut round = Round::fit(fit, kept, &base, fold)?;
+        round.put_back_trades = self.trades_after_putting_back(&round, keys, fit);
         Some((round, base))
+    }
+
+    /// The values of `next` (this round with `keys` put back to the template's) that trade
+    /// with a key put back: those of this round's trades still fitted, and — where this round
+    /// reaches the noise, so that its values are the record's and `next`'s would be called
+    /// measurements — each value `next` moves from this round's beyond what noise explains
+    /// ([`verdict::moved`]: beyond its uncertainty in `next`, the model's floor included, and
+    /// twice its statistical one here). The template's value of a loose corner can lie as
+    /// far from the machine's as the record leaves it loose, and the values that trade with
+    /// it follow it there: a lead-lag table whose pole the record put at 64 ± 12 Hz, put back
+    /// to its design's 80 Hz, took its upper zero from 14.5 ± 0.6 Hz (the run's 14.4) to
+    /// 16.2 ± 0.4 Hz and still reached the noise.
+    fn trades_after_putting_back(
+        &self,
+        next: &Round,
+        keys: &[&'static str],
+        fit: &Fit,
+    ) -> Vec<PutBackTrade> {
+        let position = |r: &Round, key: &str| r.knobs.iter().position(|k| k.key == key);
+        let mut trades: Vec<PutBackTrade> = self
+            .put_back_trades
+            .iter()
+            .filter(|t| position(next, t.key).is_some())
+            .copied()
+            .collect();
+        if !self.reaches_noise(fit) {
+            return trades;
+        }
+        for (p, knob) in next.knobs.iter().enumerate() {
+            let Some(q) = position(self, knob.key) else {
+                continue;
+            };
+            let shift = (next.whole.values[p] - self.whole.values[q]).abs();
+            let uncertainty = next.sigma[p].max(next.whole.model_sigma[p]);
+            if !verdict::moved(shift, uncertainty, self.whole.sigma[q]) {
+                continue;
+            }
+            // The key put back it trades with most in this round, where both were free.
+            let put_back = |o: usize| keys.contains(&self.knobs[o].key);
+            let traded = self.whole.most_traded_among(q, &put_back);
+            let Some(with) = traded.map(|o| self.knobs[o].key).or(keys.first().copied()) else {
+                continue;
+            };
+            match trades.iter_mut().find(|t| t.key == knob.key) {
+                Some(t) => t.shift = t.shift.max(shift),
+                None => trades.push(PutBackTrade {
+                    key: knob.key,
+                    with,
+                    shift,
+                }),
+            }
+        }
+        trades
     }
 
     /// Whether this round predicts the held-out halves better than `other` (with fewer
@@ -313,6 +381,9 @@ impl Round {
     /// determines, or one not fitted in this round.
     pub(super) fn traded_with(&self, key: &str) -> Option<&'static str> {
         let p = self.knobs.iter().position(|k| k.key == key)?;
+        if let Some(t) = self.put_back_trades.iter().find(|t| t.key == key) {
+            return Some(t.with);
+        }
         if self.knobs[p].stays_fitted(self.sigma[p], self.whole.values[p]) {
             return None;
         }
@@ -322,6 +393,13 @@ impl Round {
             k if k == knobs::HELD_AT_START.key => "the force held at the record's start",
             k => k,
         })
+    }
+
+    /// How far `key` moved when a value it trades with was put back to the template's
+    /// ([`Round::put_back`]); none where it did not move beyond what noise explains.
+    pub(super) fn put_back_shift(&self, key: &str) -> Option<f64> {
+        let t = self.put_back_trades.iter().find(|t| t.key == key)?;
+        Some(t.shift)
     }
 
     /// This round, its halves scored with the force held at the record's start estimated on

@@ -148,6 +148,15 @@ impl Fitted {
     /// covariance (a direction the record does not see at all weighed as a thousand times
     /// less seen than the best). None where nothing was fitted or `j` is fitted alone.
     pub(crate) fn most_traded_with(&self, j: usize) -> Option<usize> {
+        self.most_traded_among(j, &|_| true)
+    }
+
+    /// [`Fitted::most_traded_with`] among the values (by knob index) `among` accepts.
+    pub(crate) fn most_traded_among(
+        &self,
+        j: usize,
+        among: &dyn Fn(usize) -> bool,
+    ) -> Option<usize> {
         let s = self.spread.as_ref()?;
         let j = s.column(j)?;
         let n = s.jacobian.cols;
@@ -167,7 +176,7 @@ impl Fitted {
                 .sum::<f64>()
         };
         (0..n)
-            .filter(|&k| k != j)
+            .filter(|&k| k != j && among(s.knob(k)))
             .map(|k| (k, cov(j, k).abs() / (cov(j, j) * cov(k, k)).sqrt()))
             .max_by(|a, b| a.1.total_cmp(&b.1))
             .map(|(k, _)| s.knob(k))

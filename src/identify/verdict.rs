@@ -150,6 +150,16 @@ pub(crate) fn judged(
     (config, id)
 }
 
+/// Whether a value's `shift` between a fit and the same fit with one more value free counts
+/// as a move the record makes, not its noise: beyond the value's reported `uncertainty` in
+/// the fit with fewer values, and beyond twice `freer_sigma`, its statistical uncertainty in
+/// the fit with more. Noise alone moves a value by √(σ_freer² − σ_fit²) once one more value
+/// trades with it, never above σ_freer, so it passes this at most about one time in twenty
+/// whatever the trade (`held::tests` counts it).
+pub(crate) fn moved(shift: f64, uncertainty: f64, freer_sigma: f64) -> bool {
+    shift > uncertainty && shift > 2.0 * freer_sigma
+}
+
 /// A fit whose halves miss each other by more than the noise allows, written because it
 /// predicts: not reaching the noise, and none of its values determined or measured.
 fn written_loose(id: &mut AxisIdentification) {
