@@ -6,7 +6,7 @@
 pub(crate) use super::held_out::in_sample_note;
 use std::fmt::Write as _;
 
-use super::knobs::{HELD_AT_START, MASS_KEY};
+use super::knobs::{self, HELD_AT_START, MASS_KEY};
 use crate::identify::{AxisIdentification, HeldForce, Identification, IdentifiedValue};
 use crate::machine::MachineConfig;
 
@@ -283,19 +283,27 @@ pub(crate) fn kept_line(a: &AxisIdentification) -> String {
 /// figure, said why.
 pub(crate) fn gain_per_inertia_line(a: &AxisIdentification) -> Option<String> {
     let r = a.gain_per_inertia.as_ref()?;
-    let how =
-        if a.values.iter().any(|v| v.loose) {
-            "not determined: the record's halves leave it loose; a model's figure"
-        } else if a.values.iter().any(|v| {
-            v.traded_with == Some(HELD_AT_START.key) && (v.key == r.gain || v.key == MASS_KEY)
-        }) {
-            "not determined: the record cannot tell the axis's values from a force held at its \
+    // The gain and the mass trade with each other (their ratio is what the record sees);
+    // traded with the force held at the start, or with a corner put back to the template's,
+    // the ratio is bent with them.
+    let pair_traded_with = |with: &dyn Fn(&str) -> bool| {
+        a.values
+            .iter()
+            .any(|v| (v.key == r.gain || v.key == MASS_KEY) && v.traded_with.is_some_and(with))
+    };
+    let how = if a.values.iter().any(|v| v.loose) {
+        "not determined: the record's halves leave it loose; a model's figure"
+    } else if pair_traded_with(&|w| w == HELD_AT_START.key) {
+        "not determined: the record cannot tell the axis's values from a force held at its \
          start; a model's figure"
-        } else if r.uncertainty.is_nan() || r.uncertainty > 0.5 * r.value.abs() {
-            "not determined: its uncertainty exceeds half of it; a model's figure"
-        } else {
-            "what the record determines where the gain and the mass trade"
-        };
+    } else if pair_traded_with(&|w| knobs::corner_of(w).is_some()) {
+        "not determined: fitted about the template's value of a corner the record leaves \
+         loose, which moves it; a model's figure"
+    } else if r.uncertainty.is_nan() || r.uncertainty > 0.5 * r.value.abs() {
+        "not determined: its uncertainty exceeds half of it; a model's figure"
+    } else {
+        "what the record determines where the gain and the mass trade"
+    };
     Some(format!(
         "{} per inertia: {} ± {} per kg, of {:.1} kg at the table (rotor, screw and table) — \
          {how}",
