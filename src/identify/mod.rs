@@ -848,6 +848,18 @@ mod tests {
             line.contains("leave it loose") && !line.contains(determined),
             "{line}"
         );
+        // The gain traded with the mass is what the ratio is for; traded with a corner put
+        // back to the template's or with the force held at the start, the ratio is bent too.
+        for (with, said) in [
+            ("drive.table_mass_kg", determined),
+            ("controller.pole_1_hz", "a corner the record leaves loose"),
+            (knobs::HELD_AT_START.key, "a force held at its start"),
+        ] {
+            let mut id = with_gain(0.1, false);
+            id.values[0].traded_with = Some(with);
+            let line = report::gain_per_inertia_line(&id).unwrap();
+            assert!(line.contains(said), "{with}: {line}");
+        }
         // No gain per inertia, no line.
         assert!(report::gain_per_inertia_line(&scored(0.5, 0.06)).is_none());
     }
