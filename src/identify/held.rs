@@ -36,7 +36,9 @@ use super::result::{AxisIdentification, HeldForce};
 use super::round::Round;
 use super::solve::{Fit, Fitted, masked_rms};
 use super::verdict::moved;
-use super::{fitted_values, gain_per_inertia, presliding, ripple, verdict, within_noise};
+use super::{
+    fitted_values, gain_per_inertia, presliding, refitted_value, ripple, verdict, within_noise,
+};
 use crate::machine::AxisConfig;
 use crate::numeric::units::um_from_m;
 
@@ -130,7 +132,7 @@ fn refitted(
     let mut with = id.clone();
     for v in fitted_values(&values, &round, &written, template) {
         if let Some(slot) = with.values.iter_mut().find(|s| s.key == v.key) {
-            *slot = v;
+            *slot = refitted_value(slot, v, &round.knobs);
         }
     }
     with.rms_identified_um = um_from_m(masked_rms(&residual, mask));

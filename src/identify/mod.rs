@@ -678,6 +678,30 @@ fn fitted_values(
         .collect()
 }
 
+/// `refitted`, a value fitted again in a round of `knobs` (a ripple's, the bristles', the
+/// force's), where it replaces `before`: a value traded with one that round does not fit —
+/// put back to the template's in an earlier round (`Round::put_back`) — is still fitted about
+/// that template's value, so it stays traded with it, its uncertainty no narrower than before.
+fn refitted_value(
+    before: &IdentifiedValue,
+    refitted: IdentifiedValue,
+    knobs: &[Knob],
+) -> IdentifiedValue {
+    let put_back = before
+        .traded_with
+        .filter(|with| refitted.traded_with.is_none() && !knobs.iter().any(|k| k.key == *with));
+    let Some(with) = put_back else {
+        return refitted;
+    };
+    IdentifiedValue {
+        traded_with: Some(with),
+        determined: false,
+        measured: false,
+        uncertainty: refitted.uncertainty.max(before.uncertainty),
+        ..refitted
+    }
+}
+
 /// `config` with the nonlinear part `key` at the value of its scan that explains the record
 /// best, and that cost; none for a key that is not scanned.
 fn scanned(fit: &Fit, config: &AxisConfig, key: &'static str) -> Option<(f64, AxisConfig)> {
@@ -877,11 +901,11 @@ mod tests {
             line.contains("leave it loose") && !line.contains(determined),
             "{line}"
         );
-        // The gain traded with the mass is what the ratio is for; traded with a corner put
+        // The gain traded with the mass is what the ratio is for; traded with a value put
         // back to the template's or with the force held at the start, the ratio is bent too.
         for (with, said) in [
             ("drive.table_mass_kg", determined),
-            ("controller.pole_1_hz", "a corner the record leaves loose"),
+            ("controller.pole_1_hz", "one the record leaves loose"),
             (knobs::HELD_AT_START.key, "a force held at its start"),
         ] {
             let mut id = with_gain(0.1, false);

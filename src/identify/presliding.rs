@@ -459,7 +459,7 @@ fn written(
     let mut id = id.clone();
     for v in super::fitted_values(&round.knobs, round, &config, template) {
         match id.values.iter_mut().find(|w| w.key == v.key) {
-            Some(w) => *w = v,
+            Some(w) => *w = super::refitted_value(w, v, &round.knobs),
             None => id.values.push(v),
         }
     }

@@ -6,7 +6,7 @@
 pub(crate) use super::held_out::in_sample_note;
 use std::fmt::Write as _;
 
-use super::knobs::{self, HELD_AT_START, MASS_KEY};
+use super::knobs::{HELD_AT_START, MASS_KEY};
 use crate::identify::{AxisIdentification, HeldForce, Identification, IdentifiedValue};
 use crate::machine::MachineConfig;
 
@@ -284,7 +284,7 @@ pub(crate) fn kept_line(a: &AxisIdentification) -> String {
 pub(crate) fn gain_per_inertia_line(a: &AxisIdentification) -> Option<String> {
     let r = a.gain_per_inertia.as_ref()?;
     // The gain and the mass trade with each other (their ratio is what the record sees);
-    // traded with the force held at the start, or with a corner put back to the template's,
+    // traded with the force held at the start, or with a value put back to the template's,
     // the ratio is bent with them.
     let pair_traded_with = |with: &dyn Fn(&str) -> bool| {
         a.values
@@ -296,9 +296,9 @@ pub(crate) fn gain_per_inertia_line(a: &AxisIdentification) -> Option<String> {
     } else if pair_traded_with(&|w| w == HELD_AT_START.key) {
         "not determined: the record cannot tell the axis's values from a force held at its \
          start; a model's figure"
-    } else if pair_traded_with(&|w| knobs::corner_of(w).is_some()) {
-        "not determined: fitted about the template's value of a corner the record leaves \
-         loose, which moves it; a model's figure"
+    } else if pair_traded_with(&|w| w != r.gain && w != MASS_KEY) {
+        "not determined: fitted about the template's value of one the record leaves loose, \
+         which moves it; a model's figure"
     } else if r.uncertainty.is_nan() || r.uncertainty > 0.5 * r.value.abs() {
         "not determined: its uncertainty exceeds half of it; a model's figure"
     } else {
@@ -396,7 +396,8 @@ pub(crate) fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
     if a.template_holds {
         return Some(
             "the template explains the record to its noise, and values fitted to it predict \
-             its held-out halves worse than the template does: the template's values stay"
+             its held-out halves no better than the template does (none of them determined \
+             away from the template's, or worse by a twentieth): the template's values stay"
                 .to_string(),
         );
     }

@@ -40,9 +40,10 @@ pub struct IdentifiedValue {
     /// it) yet it is written — the fit with it predicts the held-out halves better than with
     /// the template's put back —: the value it trades with most. Only their combination is
     /// the record's; the value alone is neither determined, nor a measurement, nor certain.
-    /// `held_at_start_n` where a fit away from the standstills at the noise, fitted again
-    /// beside the force held at the record's start, moves this value beyond its uncertainty
-    /// and beyond what noise alone would (the uncertainty then widened to the move).
+    /// `held_at_start_n` where a fit at the noise, fitted again beside the force held at the
+    /// record's start, moves this value beyond its uncertainty and beyond what noise alone
+    /// would; the key of a value put back to the template's where, fitted again about it at
+    /// the noise, this value moved so (the uncertainty then widened to the move).
     pub traded_with: Option<&'static str>,
     /// Fitted and written, but the record leaves it loose: the fit on every sample reached
     /// the record's noise, yet its halves' fits predict each other while the axis moves only

@@ -442,7 +442,7 @@ impl RippleFit {
         // template's, as listed.
         for refitted in super::fitted_values(&w.refit.knobs, &w.refit, &w.config, template) {
             if let Some(v) = values.iter_mut().find(|v| v.key == refitted.key) {
-                *v = refitted;
+                *v = super::refitted_value(v, refitted, &w.refit.knobs);
             }
         }
         values.extend(self.values.iter().cloned());
