@@ -24,10 +24,11 @@
 //! holds. A step of the force alone does not make a half's point its own
 //! (`Fitted::own_point`): its machine values are still the whole fit's.
 //!
-//! A fit that reaches the noise (on every sample or away from the standstills) earns no force, but may owe its
-//! values to it: its values are fitted again with the force beside them ([`told_apart`]),
-//! and a value that refit moves beyond its uncertainty, and beyond what noise alone would,
-//! is one the record cannot tell from the force — not called determined.
+//! A fit that reaches the noise (on every sample or away from the standstills) earns no
+//! force, but may owe its values to it: its values are fitted again with the force beside
+//! them ([`told_apart`]), and a value that refit moves beyond its uncertainty, and beyond
+//! what noise alone would, is one the record cannot tell from the force — not called
+//! determined.
 
 use rayon::prelude::*;
 
