@@ -626,7 +626,8 @@ impl CircularTest {
                 "  line {:>4} {:<3} R{:<8} {}G {:>7.2} µm   F {:+.2} / {:+.2} µm   reversal spikes 0/90/180/270°: {} µm\n",
                 c.line,
                 c.direction,
-                c.radius_mm,
+                // To the µm, as the plots give it: the arc's end-point rounding is no radius.
+                format!("{}", (c.radius_mm * 1e3).round() / 1e3),
                 plane_label(c.plane),
                 c.g_um,
                 c.f_max_um,

@@ -392,8 +392,8 @@ fn cut_length_m(plan: &Plan) -> f64 {
         .iter()
         .zip(&plan.plans)
         .filter(|(s, _)| s.motion == Motion::Feed)
-        .map(|(_, p)| p.length_m)
-        .sum()
+        // Folded from +0: an empty float sum is −0, which prints as "-0.0 mm cutting".
+        .fold(0.0, |total, (_, p)| total + p.length_m)
 }
 
 /// A drive that spends time at its current or voltage limit cannot follow its command

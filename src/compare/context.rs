@@ -821,8 +821,17 @@ impl Context<'_> {
             .collect();
         let line = |j: usize| segs.get(j).map_or(0, |s| s.line);
         let start = &self.start;
+        // Where the program's first feed move begins by the plan: a record compared from
+        // there (after the rapids that open a program) covers it from its start.
+        let first_feed_t = feeds.first().map_or(0.0, |&f| {
+            let c = &self.commands;
+            c.segment
+                .iter()
+                .position(|&s| s as usize >= f)
+                .map_or(0.0, |k| k as f64 * c.dt_s)
+        });
         let from_program_start = match start.kind {
-            super::start::StartKind::Planned => first_t <= 0.5,
+            super::start::StartKind::Planned => first_t <= first_feed_t + 0.5,
             _ => start.at_program_start,
         };
         super::start::Coverage {

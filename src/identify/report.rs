@@ -396,8 +396,7 @@ pub(crate) fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
     if a.template_holds {
         return Some(
             "the template explains the record to its noise, and values fitted to it predict \
-             its held-out halves no better than the template does (none of them determined \
-             away from the template's, or worse by a twentieth): the template's values stay"
+             its held-out halves worse than the template does: the template's values stay"
                 .to_string(),
         );
     }

@@ -63,13 +63,11 @@ impl MeasuredTrace {
         &self,
         machine: &crate::machine::MachineConfig,
     ) -> Vec<crate::trace::recorded::BeyondMachine> {
-        self.commands.as_ref().map_or_else(Vec::new, |c| {
-            crate::trace::recorded::beyond_machine(c, self.dt_s, machine)
-        })
+        self.beyond_machine_from(machine, 0.0)
     }
 
     /// As [`MeasuredTrace::beyond_machine`], on the commands from `from_s` after the
-    /// record's first sample on (the times still on the record's clock): an approach before
+    /// record's first sample on (the times on the record's clock, as every time it reports): an approach before
     /// the program that the model does not follow asks nothing of it.
     pub(crate) fn beyond_machine_from(
         &self,
@@ -86,8 +84,9 @@ impl MeasuredTrace {
                 .clone()
                 .map(|v| v.get(skip..).map_or_else(Vec::new, <[f64]>::to_vec));
             let mut found = crate::trace::recorded::beyond_machine(&tail, self.dt_s, machine);
+            // From the tail's first sample to the record's clock.
             for b in &mut found {
-                b.t_s += skip as f64 * self.dt_s;
+                b.t_s += self.t0_s + skip as f64 * self.dt_s;
             }
             found
         })
@@ -130,10 +129,10 @@ impl MeasuredTrace {
             .mapped
             .iter()
             .map(|m| {
-                let unit = if m.signal == Signal::Time {
-                    m.unit.label
-                } else {
-                    "counts:0.1um"
+                let unit = match m.signal {
+                    Signal::Time => m.unit.label,
+                    Signal::XCmd | Signal::YCmd => self.command_unit_beside_counts(m),
+                    _ => "counts:0.1um",
                 };
                 format!("{}={}[{unit}]", m.signal.key(), m.header)
             })
@@ -150,6 +149,53 @@ impl MeasuredTrace {
             column(Signal::X).map_or("mm", |m| m.unit.label),
             spelling.join(",")
         ))
+    }
+
+    /// The unit a command column `m` is in where the measured positions beside it are 0.1 µm
+    /// counts: the one that makes its span the measured X's (or Y's) span — a control often
+    /// logs its commands in a length unit and its encoders in counts.
+    fn command_unit_beside_counts(&self, m: &crate::trace::format::Mapped) -> &'static str {
+        let (measured, axis) = match m.signal {
+            Signal::YCmd => (&self.y_m, 1),
+            _ => (&self.x_m, 0),
+        };
+        let span = |v: &[f64]| {
+            let (lo, hi) = v
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+                    (lo.min(*x), hi.max(*x))
+                });
+            hi - lo
+        };
+        // Read as counts of 0.1 µm, the measured span in m; the command's as read, in its
+        // column's own numbers.
+        let signal = if axis == 1 { Signal::Y } else { Signal::X };
+        let measured_m = span(measured) / self.unit_to_si(signal) * 1e-7;
+        let command_read = self
+            .commands
+            .as_ref()
+            .map_or(0.0, |c| span(&c[axis]) / m.unit.to_si);
+        if !(measured_m > 0.0 && command_read > 0.0) {
+            return "counts:0.1um";
+        }
+        [
+            ("m", 1.0),
+            ("mm", 1e-3),
+            ("um", 1e-6),
+            ("counts:0.1um", 1e-7),
+        ]
+        .into_iter()
+        .min_by(|a, b| {
+            let off = |scale: f64| (command_read * scale / measured_m).ln().abs();
+            off(a.1).total_cmp(&off(b.1))
+        })
+        .map_or("counts:0.1um", |(label, _)| label)
+    }
+
+    /// The factor from the unit a measured position column was read in to metres.
+    fn unit_to_si(&self, signal: Signal) -> f64 {
+        let column = self.layout.mapped.iter().find(|m| m.signal == signal);
+        column.map_or(1e-3, |m| m.unit.to_si)
     }
 
     /// The trace in the program's coordinates: `offset_m` (the program origin's place in
@@ -402,8 +448,9 @@ fn assemble(file: &str, table: Table, layout: TraceLayout) -> Result<MeasuredTra
         return Err(MeasuredError::Row {
             file: file.into(),
             row: rows[i],
+            // In the column's own unit: which unit that is, the clock's step decides later.
             problem: format!(
-                "time {} s does not increase (previous row: {} s)",
+                "the time column's {} does not increase (previous row: {})",
                 t[i],
                 t[i - 1]
             ),
@@ -645,6 +692,36 @@ mod tests {
 
     /// A vendor export: BOM, CRLF, semicolons and decimal commas, time in ms, vendor
     /// names, positions in µm counts of 0.1 µm, a comment, and an `EOF` trailer.
+    /// Encoders logged in 0.1 µm counts and commands in µm with decimals (a lab's export, no
+    /// units in the header): the hint reads the positions as counts and the commands as µm,
+    /// whose span (4.9 mm) matches the counts' (49,000 × 0.1 µm).
+    #[test]
+    fn the_counts_hint_reads_commands_in_the_unit_their_span_gives() {
+        let mut text = String::from("Time [ms];X_ActPos;Y_ActPos;X_Traj;Y_Traj\n");
+        for k in 0..50 {
+            let counts = (k * 1000) as f64;
+            let um = counts / 10.0 + 0.25;
+            text.push_str(&format!(
+                "{};{counts};{};{um};{}\n",
+                k as f64 * 0.5,
+                -counts,
+                -um
+            ));
+        }
+        let hint = parse_trace(&text, "lab.csv")
+            .unwrap()
+            .counts_hint()
+            .unwrap();
+        for spelled in [
+            "x=X_ActPos[counts:0.1um]",
+            "y=Y_ActPos[counts:0.1um]",
+            "x_cmd=X_Traj[um]",
+            "y_cmd=Y_Traj[um]",
+        ] {
+            assert!(hint.contains(spelled), "{spelled}: {hint}");
+        }
+    }
+
     #[test]
     fn a_vendor_export_reads_without_conversion() {
         let mut text = String::from("\u{feff}// exported by the control\r\n");
@@ -767,6 +844,35 @@ mod tests {
             ));
         }
         s
+    }
+
+    /// Commands whose X speed peaks at 2 m/s (120,000 mm/min, beyond any rapid rate) 0.25 s
+    /// after the record's first sample, on a clock that starts at 1 s: the peak is said at
+    /// 1.25 s, the time every other line of a report gives for it.
+    #[test]
+    fn commands_beyond_the_machine_are_timed_on_the_records_clock() {
+        let (dt, peak_row, half_width) = (1e-3, 250.0, 50.0);
+        let speed = |i: f64| 2.0 * (1.0 - (i - peak_row).abs() / half_width).max(0.0);
+        let mut text = String::from("t_s,x_mm,y_mm,x_cmd_mm,y_cmd_mm\n");
+        let mut x_mm = 0.0;
+        for i in 0..500 {
+            let t = 1.0 + i as f64 * dt;
+            text.push_str(&format!("{t},{x_mm},0,{x_mm},0\n"));
+            x_mm += speed(i as f64) * dt * 1e3;
+        }
+        let m = parse_trace(&text, "late.csv").unwrap();
+        let machine = crate::machine::MachineConfig::preset("hvmc").unwrap();
+        let rapid = m
+            .beyond_machine(&machine)
+            .into_iter()
+            .find(|b| b.key == "limits.rapid_mm_per_min")
+            .expect("beyond the rapid rate");
+        assert!((rapid.t_s - 1.25).abs() < 2.0 * dt, "{rapid:?}");
+        let from = m.beyond_machine_from(&machine, 0.1);
+        assert!(
+            from.iter().any(|b| (b.t_s - 1.25).abs() < 2.0 * dt),
+            "{from:?}"
+        );
     }
 
     #[test]
