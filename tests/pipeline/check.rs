@@ -499,3 +499,51 @@ fn squareness_tilts_the_circle_at_the_tool_not_the_servo() {
     assert!((pair.squareness_urad - 50.0).abs() < 0.5, "{pair:?}");
     assert!(pair.servo_mismatch_ms.abs() < 0.05, "{pair:?}");
 }
+
+/// A program stop (M0, M1, M60) or a dwell between two moves: the axes stand there, so the
+/// block before it ends in an exact stop — RS274/NGC starts a dwell only once the axes are
+/// in position, and a stop holds them until the operator restarts. Every block after the
+/// motion before it (the stop itself and the move that follows) starts with every axis
+/// within the exact-stop window, and the move errs no more than with no stop at all.
+#[test]
+fn a_program_stop_or_dwell_waits_for_the_axes_in_position() {
+    let machine = MachineConfig::default_preset();
+    let window = machine.interpolation.in_position_window_mm * 1e-3;
+    // A rapid (an exact stop in RS274/NGC) and a G61 feed move, each turning 90° after.
+    let programs = [
+        ("G21 G90\nG0 X50 Y20\n", "G1 X50 Y30 F1000\nM2\n"),
+        (
+            "G21 G90 G61\nG1 X25.4 Y25.4 F1000\n",
+            "G1 X25.4 Y30.48\nM2\n",
+        ),
+    ];
+    for (before, after) in programs {
+        let plain = run(&format!("{before}{after}"), &machine, ProfileKind::SCurve);
+        let max_plain = plain.result.summary.max_contour_error_m;
+        for stop in ["M0", "M1", "M60", "G4 P0", "G4 P0.2"] {
+            let r = run(
+                &format!("{before}{stop}\n{after}"),
+                &machine,
+                ProfileKind::SCurve,
+            );
+            let plans = &r.result.plan.plans;
+            assert_eq!(plans.len(), 3, "{stop}: move, stop, move");
+            let dt = r.commands.dt_s;
+            for i in [1, 2] {
+                let k = (plans[i].t_start_s / dt).round() as usize;
+                let off = [&r.x, &r.y].map(|t| t.following_error_m(k).abs() * 1e6);
+                assert!(
+                    off.iter().all(|&e| e <= window * 1e6),
+                    "{stop}: block {i} starts {off:?} µm from the end point"
+                );
+            }
+            let max = r.result.summary.max_contour_error_m;
+            assert!(
+                max <= max_plain * 1.01 + 0.1e-6,
+                "{stop}: {} µm against {} µm with no stop",
+                max * 1e6,
+                max_plain * 1e6
+            );
+        }
+    }
+}
