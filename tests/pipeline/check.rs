@@ -547,3 +547,28 @@ fn a_program_stop_or_dwell_waits_for_the_axes_in_position() {
         }
     }
 }
+
+/// A dwell cuts nothing. With no in-position check (the next block starts as soon as the
+/// interpolator stops), X is still arriving from a 100 mm rapid while the program dwells;
+/// that settling is a positioning error, and the following error while cutting is the one
+/// cut's steady lag: F/Kv = (100 mm/min)/(1 m/min/mm) = 100 µm.
+#[test]
+fn a_dwell_s_settling_is_not_following_error_while_cutting() {
+    let machine = MachineConfig::default_preset();
+    let src = "G21 G90\nG0 X100 Y0\nG4 P0.5\nG1 X110 F100\nM2\n";
+    let program = parse_program(src, "t.nc", &InterpretOptions::default()).unwrap();
+    let mut settings = CheckSettings::for_machine(&machine);
+    settings.plan.in_position = None;
+    let r = check(&program, &machine, &settings).unwrap();
+    let s = &r.result.summary;
+    let lag_um = 100.0 / machine.x.position_loop.kv_m_per_min_per_mm;
+    let cut_um = s.max_following_error_cutting_m[0] * 1e6;
+    assert!(
+        (cut_um / lag_um - 1.0).abs() < 0.02,
+        "{cut_um} µm while cutting, the cut's lag is {lag_um} µm"
+    );
+    // The settling shows where it belongs, far outside the window.
+    let window_um = machine.interpolation.in_position_window_mm * 1e3;
+    assert!(s.max_positioning_error_m * 1e6 > 10.0 * window_um);
+    assert_eq!(s.max_positioning_at.map(|(line, _)| line), Some(3));
+}
