@@ -138,6 +138,8 @@ pub struct Interpreter {
     blocks: usize,
     block_numbers: Vec<(u32, u32)>,
     lines_after_end: usize,
+    /// What ended the program: `M2/M30`, or the closing `%` of a `%`-demarcated program.
+    end_word: &'static str,
 }
 impl Interpreter {
     /// A fresh interpreter in RS274/NGC's start-up state: G17 G21 G40 G49 G54 G64 G80 G90
@@ -174,6 +176,7 @@ impl Interpreter {
             blocks: 0,
             block_numbers: Vec::new(),
             lines_after_end: 0,
+            end_word: "M2/M30",
             opts,
         }
     }
@@ -225,6 +228,16 @@ impl Interpreter {
         self.lines_after_end += n;
     }
 
+    /// Ends the program at its closing `%` (RS274/NGC: a program opened by a `%` line ends
+    /// at the next), unless it ended before; `n` lines with words follow it.
+    pub(crate) fn end_at_tape_marker(&mut self, n: usize) {
+        if !self.ended {
+            self.ended = true;
+            self.end_word = "the closing %";
+        }
+        self.lines_after_end += n;
+    }
+
     pub(crate) fn warn(&mut self, line: u32, message: String) {
         self.warnings.push(Warning { line, message });
     }
@@ -239,8 +252,8 @@ impl Interpreter {
             self.warnings.push(Warning {
                 line: 0,
                 message: format!(
-                    "{} block(s) after the program end (M2/M30) were not executed",
-                    self.lines_after_end
+                    "{} block(s) after the program end ({}) were not executed",
+                    self.lines_after_end, self.end_word
                 ),
             });
         }
