@@ -108,6 +108,9 @@ pub struct Interpreter {
     opts: InterpretOptions,
     file: String,
     mm_per_unit: f64,
+    /// Millimetres per unit of the feed where it does not follow `mm_per_unit` (SINUMERIK
+    /// `G70`/`G71`: the feed stays in the basic system, metric here).
+    feed_mm_per_unit: Option<f64>,
     absolute: bool,
     arc_absolute: bool,
     motion: Option<MotionMode>,
@@ -148,6 +151,7 @@ impl Interpreter {
         Interpreter {
             file: file.to_string(),
             mm_per_unit: 1.0,
+            feed_mm_per_unit: None,
             absolute: true,
             arc_absolute: false,
             motion: None,
@@ -216,6 +220,13 @@ impl Interpreter {
     /// each in an exact stop.
     pub(crate) fn blend_rapids(&mut self) {
         self.rapids_blend = true;
+    }
+
+    /// Keeps feeds in the basic system (metric) whatever the length unit of the geometry
+    /// (`true`: SINUMERIK `G70`/`G71`), or lets them follow it (`false`: `G700`/`G710`, and
+    /// RS274/NGC's `G20`/`G21`).
+    pub(crate) fn feed_in_basic_system(&mut self, basic: bool) {
+        self.feed_mm_per_unit = basic.then_some(1.0);
     }
 
     /// Whether the program has ended (`M2`, `M30`).
@@ -435,7 +446,7 @@ impl Interpreter {
                     GcodeErrorKind::Invalid("negative feed rate".into()),
                 );
             }
-            self.feed_mm_per_min = f * self.mm_per_unit;
+            self.feed_mm_per_min = f * self.feed_mm_per_unit.unwrap_or(self.mm_per_unit);
         }
         Ok(())
     }

@@ -612,3 +612,38 @@ fn what_cam_posts_write_around_the_path_is_read() {
         );
     }
 }
+
+/// 840D programming manual, "Inch/metric dimensioning": G70/G71 switch the geometric data
+/// alone, the feed staying in the basic system (metric here); G700/G710 switch the feed
+/// too. X1 is 25.4 mm under either inch code; F10 is 10 mm/min under G70, 254 mm/min
+/// (10 inch/min) under G700, and back to 10 mm/min under G710 and G71.
+#[test]
+fn g70_switches_the_geometry_to_inch_and_g700_the_feed_too() {
+    let mm_per_min = |v_m_per_s: f64| v_m_per_s * 60_000.0;
+    for (code, feed_mm_per_min) in [("G70", 10.0), ("G700", 254.0)] {
+        let p = parse(&format!("G90 G17\n{code}\nG1 X1 Y0 F10\nM30\n"), "u.mpf");
+        let s = &p.segments[0];
+        assert!((s.end_m[0] - 0.0254).abs() < 1e-12, "{code}: {:?}", s.end_m);
+        assert!(
+            (mm_per_min(s.feed_m_per_s) - feed_mm_per_min).abs() < 1e-9,
+            "{code}: {} mm/min",
+            mm_per_min(s.feed_m_per_s)
+        );
+    }
+    let back = parse(
+        "G90 G17\nG700\nG1 X1 F10\nG710\nG1 X2 F10\nG700 G1 X3\nG71\nG1 X4 F10\nM30\n",
+        "u.mpf",
+    );
+    let feeds: Vec<f64> = back
+        .segments
+        .iter()
+        .map(|s| mm_per_min(s.feed_m_per_s))
+        .collect();
+    let ends: Vec<f64> = back.segments.iter().map(|s| s.end_m[0] * 1e3).collect();
+    for (got, want) in feeds.iter().zip([254.0, 10.0, 10.0, 10.0]) {
+        assert!((got - want).abs() < 1e-9, "{feeds:?}");
+    }
+    for (got, want) in ends.iter().zip([25.4, 2.0, 76.2, 4.0]) {
+        assert!((got - want).abs() < 1e-9, "{ends:?}");
+    }
+}

@@ -281,6 +281,12 @@ impl Translator {
         }
         for &(offset, g) in g_codes {
             dwell |= g == 4;
+            // On the 840D G70/G71 switch the geometric data alone; G700/G710 the feeds too.
+            match g {
+                70 | 71 => out.feed_in_basic_system = Some(true),
+                700 | 710 => out.feed_in_basic_system = Some(false),
+                _ => {}
+            }
             if let Some(rs) = self.code(offset, g, &mut modes) {
                 pieces.push((offset, rs));
             }
