@@ -275,7 +275,7 @@ impl Translator {
             offset: g_codes.first().map_or(usize::MAX, |g| g.0),
         };
         let mut dwell = false;
-        const REWRITTEN: [u32; 12] = [710, 71, 700, 70, 60, 9, 64, 641, 642, 500, 153, 4];
+        const REWRITTEN: [u32; 14] = [710, 71, 700, 70, 60, 9, 64, 641, 642, 500, 153, 4, 601, 602];
         if g_codes.iter().any(|(_, g)| REWRITTEN.contains(g)) {
             out.plain = false;
         }
@@ -323,7 +323,8 @@ impl Translator {
                 modes.offset = offset;
                 None
             }
-            500 => None,
+            // The exact-stop window, fine or coarse: the machine file's one window serves.
+            500 | 601 | 602 => None,
             153 => Some(Piece::Text("G53")),
             4 => Some(Piece::Text("G4")),
             90 | 91 => {
