@@ -46,7 +46,8 @@ pub struct Summary {
     pub max_contour_sample: Option<usize>,
     /// RMS contour error while cutting (m).
     pub rms_contour_error_m: f64,
-    /// Largest |following error| of X and Y while cutting (m).
+    /// Largest |following error| of X and Y while cutting (m): over the feed moves, not the
+    /// dwells (the axes settling there count as positioning).
     pub max_following_error_cutting_m: [f64; 2],
     /// Z's largest |following error| while cutting and over the whole run (m), where Z is
     /// simulated.
@@ -239,10 +240,12 @@ impl RunAnalyser {
                 [reference[0], reference[1], c.z.pos_m[i]],
                 [pos_m[0], pos_m[1], z_m],
             );
-            let cutting = plan.segments[seg].motion == Motion::Feed;
-            let line = plan.segments[seg].line;
-            self.tally_errors(&traces, i, cutting);
-            if cutting && !contour::is_contour(&plan.segments[seg]) {
+            let block = &plan.segments[seg];
+            let feed_block = block.motion == Motion::Feed;
+            let line = block.line;
+            // A dwell cuts nothing: the axes settling there are positioning, counted below.
+            self.tally_errors(&traces, i, feed_block && !block.is_dwell());
+            if feed_block && !contour::is_contour(block) {
                 let off = (pos_m[0] - reference[0]).hypot(pos_m[1] - reference[1]);
                 if off > self.positioning.0 {
                     self.positioning = (off, Some((line, t_s)));

@@ -154,9 +154,9 @@ pub struct FollowingInfo {
 /// One axis's following error.
 #[derive(Debug, Clone, Serialize)]
 pub struct AxisFollowing {
-    /// Largest |error| while cutting (µm).
+    /// Largest |error| while cutting (µm): feed moves, not dwells.
     pub max_cutting: f64,
-    /// Largest |error| including rapids (µm).
+    /// Largest |error| including rapids, waits and dwells (µm).
     pub max: f64,
 }
 

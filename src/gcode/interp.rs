@@ -108,6 +108,9 @@ pub struct Interpreter {
     opts: InterpretOptions,
     file: String,
     mm_per_unit: f64,
+    /// Millimetres per unit of the feed where it does not follow `mm_per_unit` (SINUMERIK
+    /// `G70`/`G71`: the feed stays in the basic system, metric here).
+    feed_mm_per_unit: Option<f64>,
     absolute: bool,
     arc_absolute: bool,
     motion: Option<MotionMode>,
@@ -138,6 +141,8 @@ pub struct Interpreter {
     blocks: usize,
     block_numbers: Vec<(u32, u32)>,
     lines_after_end: usize,
+    /// What ended the program: `M2/M30`, or the closing `%` of a `%`-demarcated program.
+    end_word: &'static str,
 }
 impl Interpreter {
     /// A fresh interpreter in RS274/NGC's start-up state: G17 G21 G40 G49 G54 G64 G80 G90
@@ -146,6 +151,7 @@ impl Interpreter {
         Interpreter {
             file: file.to_string(),
             mm_per_unit: 1.0,
+            feed_mm_per_unit: None,
             absolute: true,
             arc_absolute: false,
             motion: None,
@@ -174,6 +180,7 @@ impl Interpreter {
             blocks: 0,
             block_numbers: Vec::new(),
             lines_after_end: 0,
+            end_word: "M2/M30",
             opts,
         }
     }
@@ -215,6 +222,13 @@ impl Interpreter {
         self.rapids_blend = true;
     }
 
+    /// Keeps feeds in the basic system (metric) whatever the length unit of the geometry
+    /// (`true`: SINUMERIK `G70`/`G71`), or lets them follow it (`false`: `G700`/`G710`, and
+    /// RS274/NGC's `G20`/`G21`).
+    pub(crate) fn feed_in_basic_system(&mut self, basic: bool) {
+        self.feed_mm_per_unit = basic.then_some(1.0);
+    }
+
     /// Whether the program has ended (`M2`, `M30`).
     pub(crate) fn has_ended(&self) -> bool {
         self.ended
@@ -222,6 +236,16 @@ impl Interpreter {
 
     /// Counts `n` blocks left unrun after the program's end.
     pub(crate) fn skipped_after_end(&mut self, n: usize) {
+        self.lines_after_end += n;
+    }
+
+    /// Ends the program at its closing `%` (RS274/NGC: a program opened by a `%` line ends
+    /// at the next), unless it ended before; `n` lines with words follow it.
+    pub(crate) fn end_at_tape_marker(&mut self, n: usize) {
+        if !self.ended {
+            self.ended = true;
+            self.end_word = "the closing %";
+        }
         self.lines_after_end += n;
     }
 
@@ -239,8 +263,8 @@ impl Interpreter {
             self.warnings.push(Warning {
                 line: 0,
                 message: format!(
-                    "{} block(s) after the program end (M2/M30) were not executed",
-                    self.lines_after_end
+                    "{} block(s) after the program end ({}) were not executed",
+                    self.lines_after_end, self.end_word
                 ),
             });
         }
@@ -422,7 +446,7 @@ impl Interpreter {
                     GcodeErrorKind::Invalid("negative feed rate".into()),
                 );
             }
-            self.feed_mm_per_min = f * self.mm_per_unit;
+            self.feed_mm_per_min = f * self.feed_mm_per_unit.unwrap_or(self.mm_per_unit);
         }
         Ok(())
     }

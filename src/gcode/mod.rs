@@ -117,17 +117,49 @@ impl Errors<'_> {
     }
 }
 
-/// Runs an RS274/NGC program line after line.
+/// Runs an RS274/NGC program line after line. A program that opens with a `%` line (only
+/// blank or comment lines before it) ends at the next `%` line: what follows is not run,
+/// and lines there with anything but blanks and comments are counted for a warning.
 fn run_rs274(lines: &[&str], interp: &mut Interpreter, errors: &mut Errors) {
     let mut lexed = LexedLine::default();
+    let mut opened = false;
+    let mut only_blank_so_far = true;
     for (index, text) in lines.iter().enumerate() {
         let line_no = u32::try_from(index + 1).unwrap_or(u32::MAX);
-        if let Err((offset, kind)) = run_line(interp, text, line_no, &mut lexed)
-            && !errors.push(index, text, offset, kind)
-        {
-            return;
+        let run = lexer::lex_line(text, &mut lexed)
+            .map_err(|e| (e.offset, e.kind))
+            .and_then(|()| {
+                if lexed.tape_marker && opened {
+                    return Ok(true);
+                }
+                opened |= lexed.tape_marker && only_blank_so_far;
+                only_blank_so_far &= lexed.words.is_empty() && !lexed.tape_marker;
+                interp
+                    .execute(line_no, &lexed.words, lexed.block_delete)
+                    .map(|()| false)
+                    .map_err(|e| (e.offset as usize, e.kind))
+            });
+        match run {
+            Ok(true) => {
+                let rest = &lines[index + 1..];
+                let left = rest.iter().filter(|t| !is_blank(t, &mut lexed)).count();
+                interp.end_at_tape_marker(left);
+                return;
+            }
+            Ok(false) => {}
+            Err((offset, kind)) => {
+                only_blank_so_far = false;
+                if !errors.push(index, text, offset, kind) {
+                    return;
+                }
+            }
         }
     }
+}
+
+/// Whether a line holds nothing but blanks and comments.
+fn is_blank(text: &str, lexed: &mut LexedLine) -> bool {
+    lexer::lex_line(text, lexed).is_ok() && lexed.words.is_empty() && !lexed.tape_marker
 }
 
 /// Lexes and runs one RS274/NGC line; a failure's byte offset in it.

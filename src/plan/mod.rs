@@ -446,15 +446,16 @@ pub(crate) fn plan_segments(
     }
 }
 
-/// A motion segment the control stops exactly after: before a next block that moves, when
-/// it is in exact-stop mode (as the interpreter marks the rapids of a dialect whose rapids
-/// stop), and always at the program's end (the program is done when the axes are in
-/// position).
+/// A motion segment the control stops exactly after: when it is in exact-stop mode (as the
+/// interpreter marks the rapids of a dialect whose rapids stop), before a dwell or program
+/// stop (RS274/NGC: a dwell begins once the axes are in position; a program stop holds
+/// them until restarted, at least an exact stop), and at the program's end (the program is
+/// done when the axes are in position).
 pub(crate) fn ends_in_exact_stop(segments: &[Segment], i: usize) -> bool {
     let seg = &segments[i];
-    let next_moves = segments.get(i + 1).is_some_and(|n| !n.is_dwell());
+    let before_dwell = segments.get(i + 1).is_some_and(Segment::is_dwell);
     let program_end = i + 1 == segments.len();
-    !seg.is_dwell() && (program_end || next_moves && seg.blend == Blend::ExactStop)
+    !seg.is_dwell() && (program_end || before_dwell || seg.blend == Blend::ExactStop)
 }
 
 /// How long the axes need after segment `i` to come within the window: each axis's lag at

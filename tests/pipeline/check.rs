@@ -499,3 +499,76 @@ fn squareness_tilts_the_circle_at_the_tool_not_the_servo() {
     assert!((pair.squareness_urad - 50.0).abs() < 0.5, "{pair:?}");
     assert!(pair.servo_mismatch_ms.abs() < 0.05, "{pair:?}");
 }
+
+/// A program stop (M0, M1, M60) or a dwell between two moves: the axes stand there, so the
+/// block before it ends in an exact stop — RS274/NGC starts a dwell only once the axes are
+/// in position, and a stop holds them until the operator restarts. Every block after the
+/// motion before it (the stop itself and the move that follows) starts with every axis
+/// within the exact-stop window, and the move errs no more than with no stop at all.
+#[test]
+fn a_program_stop_or_dwell_waits_for_the_axes_in_position() {
+    let machine = MachineConfig::default_preset();
+    let window = machine.interpolation.in_position_window_mm * 1e-3;
+    // A rapid (an exact stop in RS274/NGC) and a G61 feed move, each turning 90° after.
+    let programs = [
+        ("G21 G90\nG0 X50 Y20\n", "G1 X50 Y30 F1000\nM2\n"),
+        (
+            "G21 G90 G61\nG1 X25.4 Y25.4 F1000\n",
+            "G1 X25.4 Y30.48\nM2\n",
+        ),
+    ];
+    for (before, after) in programs {
+        let plain = run(&format!("{before}{after}"), &machine, ProfileKind::SCurve);
+        let max_plain = plain.result.summary.max_contour_error_m;
+        for stop in ["M0", "M1", "M60", "G4 P0", "G4 P0.2"] {
+            let r = run(
+                &format!("{before}{stop}\n{after}"),
+                &machine,
+                ProfileKind::SCurve,
+            );
+            let plans = &r.result.plan.plans;
+            assert_eq!(plans.len(), 3, "{stop}: move, stop, move");
+            let dt = r.commands.dt_s;
+            for i in [1, 2] {
+                let k = (plans[i].t_start_s / dt).round() as usize;
+                let off = [&r.x, &r.y].map(|t| t.following_error_m(k).abs() * 1e6);
+                assert!(
+                    off.iter().all(|&e| e <= window * 1e6),
+                    "{stop}: block {i} starts {off:?} µm from the end point"
+                );
+            }
+            let max = r.result.summary.max_contour_error_m;
+            assert!(
+                max <= max_plain * 1.01 + 0.1e-6,
+                "{stop}: {} µm against {} µm with no stop",
+                max * 1e6,
+                max_plain * 1e6
+            );
+        }
+    }
+}
+
+/// A dwell cuts nothing. With no in-position check (the next block starts as soon as the
+/// interpolator stops), X is still arriving from a 100 mm rapid while the program dwells;
+/// that settling is a positioning error, and the following error while cutting is the one
+/// cut's steady lag: F/Kv = (100 mm/min)/(1 m/min/mm) = 100 µm.
+#[test]
+fn a_dwell_s_settling_is_not_following_error_while_cutting() {
+    let machine = MachineConfig::default_preset();
+    let src = "G21 G90\nG0 X100 Y0\nG4 P0.5\nG1 X110 F100\nM2\n";
+    let program = parse_program(src, "t.nc", &InterpretOptions::default()).unwrap();
+    let mut settings = CheckSettings::for_machine(&machine);
+    settings.plan.in_position = None;
+    let r = check(&program, &machine, &settings).unwrap();
+    let s = &r.result.summary;
+    let lag_um = 100.0 / machine.x.position_loop.kv_m_per_min_per_mm;
+    let cut_um = s.max_following_error_cutting_m[0] * 1e6;
+    assert!(
+        (cut_um / lag_um - 1.0).abs() < 0.02,
+        "{cut_um} µm while cutting, the cut's lag is {lag_um} µm"
+    );
+    // The settling shows where it belongs, far outside the window.
+    let window_um = machine.interpolation.in_position_window_mm * 1e3;
+    assert!(s.max_positioning_error_m * 1e6 > 10.0 * window_um);
+    assert_eq!(s.max_positioning_at.map(|(line, _)| line), Some(3));
+}

@@ -256,3 +256,38 @@ fn block_numbers_are_kept_by_line() {
     assert_eq!(p.block_number(5), None);
     assert_eq!(p.block_number(6), Some(60));
 }
+
+/// RS274/NGC: a program opened by a `%` line ends at the next `%` line. What follows is not
+/// run; lines there with words are named in a warning, as after M2, and blank or comment
+/// lines are not. A `%` that does not open the program (words before it) demarcates nothing.
+#[test]
+fn a_percent_demarcated_program_ends_at_its_closing_percent() {
+    let body = "G21 G90\nG1 X10 Y0 F100\n%\n";
+    let ends = |p: &Program| p.segments.last().map(|s| mm(s.end_m));
+    let after = run(&format!("(header)\n\n%\n{body}G1 X20 Y20\nG1 X30\n"));
+    assert_eq!(after.segments.len(), 1);
+    assert_point(after.segments[0].end_m, [10.0, 0.0, 0.0]);
+    let said: Vec<&str> = after.warnings.iter().map(|w| w.message.as_str()).collect();
+    assert!(
+        said.iter()
+            .any(|m| m.starts_with("2 block(s)") && m.contains("closing %")),
+        "{said:?}"
+    );
+    let quiet = run(&format!("%\n{body}(done)\n\n; end\n"));
+    assert_eq!(ends(&quiet), Some([10.0, 0.0, 0.0]));
+    assert!(quiet.warnings.is_empty(), "{:?}", quiet.warnings);
+    // After M2 the program has ended already: the blocks between are counted once.
+    let m2 = run(&format!(
+        "%\n{}M2\nG1 X5\n%\nG1 X7\n",
+        &body[..body.len() - 2]
+    ));
+    assert_eq!(m2.segments.len(), 1);
+    assert!(
+        m2.warnings[0].message.starts_with("2 block(s)"),
+        "{:?}",
+        m2.warnings
+    );
+    // Words before the first `%`: it opened nothing, and the program runs to its end.
+    let unopened = run("G21 G90\n%\nG1 X10 Y0 F100\n%\nG1 X20 Y0\n");
+    assert_eq!(ends(&unopened), Some([20.0, 0.0, 0.0]));
+}

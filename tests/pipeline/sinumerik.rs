@@ -86,7 +86,7 @@ fn the_dialect_is_told_from_the_file_or_named() {
 #[test]
 fn what_the_dialect_front_end_does_not_read_is_refused_at_its_line() {
     let text = "%_N_P_MPF\nN10 G710 G90\nN20 CASE R1 OF 1 GOTOF A DEFAULT GOTOF B\nN30 G1 X=$AA_IW[X] F100\nN40 ROTS X30 Y45\n\
-                N50 CYCLE72(\"C1\")\nN60 ASPLINE X1 Y2\nN70 G41 X5\nN80 L123 P2\nM30\n";
+                N50 CYCLE72(\"C1\")\nN60 ASPLINE X1 Y2\nN70 G41 X5\nN80 L123 P2\nN90 CIP X1 Y1 I1=2 J1=3\nM30\n";
     let err = parse_program(text, "p.mpf", &InterpretOptions::default())
         .unwrap_err()
         .to_string();
@@ -98,6 +98,7 @@ fn what_the_dialect_front_end_does_not_read_is_refused_at_its_line() {
         ("p.mpf:7:5", "ASPLINE"),
         ("p.mpf:8:5", "G41"),
         ("p.mpf:9:5", "L123"),
+        ("p.mpf:10:5", "CIP"),
     ] {
         assert!(
             err.contains(&format!("{place}: {word}")),
@@ -610,5 +611,55 @@ fn what_cam_posts_write_around_the_path_is_read() {
             matches!(&first.kind, contourcheck::gcode::GcodeErrorKind::Unsupported { word: w, .. } if w.starts_with(word)),
             "{first}"
         );
+    }
+}
+
+/// 840D programming manual, "Inch/metric dimensioning": G70/G71 switch the geometric data
+/// alone, the feed staying in the basic system (metric here); G700/G710 switch the feed
+/// too. X1 is 25.4 mm under either inch code; F10 is 10 mm/min under G70, 254 mm/min
+/// (10 inch/min) under G700, and back to 10 mm/min under G710 and G71.
+#[test]
+fn g70_switches_the_geometry_to_inch_and_g700_the_feed_too() {
+    let mm_per_min = |v_m_per_s: f64| v_m_per_s * 60_000.0;
+    for (code, feed_mm_per_min) in [("G70", 10.0), ("G700", 254.0)] {
+        let p = parse(&format!("G90 G17\n{code}\nG1 X1 Y0 F10\nM30\n"), "u.mpf");
+        let s = &p.segments[0];
+        assert!((s.end_m[0] - 0.0254).abs() < 1e-12, "{code}: {:?}", s.end_m);
+        assert!(
+            (mm_per_min(s.feed_m_per_s) - feed_mm_per_min).abs() < 1e-9,
+            "{code}: {} mm/min",
+            mm_per_min(s.feed_m_per_s)
+        );
+    }
+    let back = parse(
+        "G90 G17\nG700\nG1 X1 F10\nG710\nG1 X2 F10\nG700 G1 X3\nG71\nG1 X4 F10\nM30\n",
+        "u.mpf",
+    );
+    let feeds: Vec<f64> = back
+        .segments
+        .iter()
+        .map(|s| mm_per_min(s.feed_m_per_s))
+        .collect();
+    let ends: Vec<f64> = back.segments.iter().map(|s| s.end_m[0] * 1e3).collect();
+    for (got, want) in feeds.iter().zip([254.0, 10.0, 10.0, 10.0]) {
+        assert!((got - want).abs() < 1e-9, "{feeds:?}");
+    }
+    for (got, want) in ends.iter().zip([25.4, 2.0, 76.2, 4.0]) {
+        assert!((got - want).abs() < 1e-9, "{ends:?}");
+    }
+}
+
+/// `G601`/`G602` choose the fine or the coarse exact-stop window on the 840D; there being one
+/// window in the machine file, both read as the exact stop they qualify: the same path and
+/// the same exact stops as without them.
+#[test]
+fn exact_stop_window_codes_are_read() {
+    let plain = parse("G90 G17 G710 G60\nG1 X10 F1000\nY10\nM30\n", "w.mpf");
+    for code in ["G601", "G602"] {
+        let p = parse(
+            &format!("G90 G17 G710 G60 {code}\nG1 X10 F1000\n{code} Y10\nM30\n"),
+            "w.mpf",
+        );
+        assert_eq!(p.segments, plain.segments, "{code}");
     }
 }

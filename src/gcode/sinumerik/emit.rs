@@ -275,12 +275,18 @@ impl Translator {
             offset: g_codes.first().map_or(usize::MAX, |g| g.0),
         };
         let mut dwell = false;
-        const REWRITTEN: [u32; 12] = [710, 71, 700, 70, 60, 9, 64, 641, 642, 500, 153, 4];
+        const REWRITTEN: [u32; 14] = [710, 71, 700, 70, 60, 9, 64, 641, 642, 500, 153, 4, 601, 602];
         if g_codes.iter().any(|(_, g)| REWRITTEN.contains(g)) {
             out.plain = false;
         }
         for &(offset, g) in g_codes {
             dwell |= g == 4;
+            // On the 840D G70/G71 switch the geometric data alone; G700/G710 the feeds too.
+            match g {
+                70 | 71 => out.feed_in_basic_system = Some(true),
+                700 | 710 => out.feed_in_basic_system = Some(false),
+                _ => {}
+            }
             if let Some(rs) = self.code(offset, g, &mut modes) {
                 pieces.push((offset, rs));
             }
@@ -317,7 +323,8 @@ impl Translator {
                 modes.offset = offset;
                 None
             }
-            500 => None,
+            // The exact-stop window, fine or coarse: the machine file's one window serves.
+            500 | 601 | 602 => None,
             153 => Some(Piece::Text("G53")),
             4 => Some(Piece::Text("G4")),
             90 | 91 => {

@@ -7,8 +7,8 @@
 //! - `;` comments, `%_N_NAME_MPF` / `_SPF` headers, `N` and `:` block numbers, labels;
 //! - addresses written `X10` or `X=10`, and `X=AC(…)` / `X=IC(…)` for one coordinate
 //!   absolute or incremental against the block's `G90`/`G91`;
-//! - `G710`/`G700` (metric or inch, feeds included) and `G71`/`G70` (positions only) as
-//!   `G21`/`G20`;
+//! - `G710`/`G700` (metric or inch, feeds included) and `G71`/`G70` (geometric data only,
+//!   feeds staying in the basic system, taken as metric) as `G21`/`G20`;
 //! - arcs in the working plane (`G17`, `G18`, `G19`) by centre (`I`, `J`, `K`), by radius
 //!   (`CR=`, negative above 180°) or by opening angle (`AR=`, with the end point or the
 //!   centre), helical with `TURN=` full turns more (RS274/NGC's `P`, one more);
@@ -123,6 +123,9 @@ pub(crate) struct Rewritten {
     /// The path's acceleration profile the line switches to: `SOFT` (jerk limited) or
     /// `BRISK` (acceleration limited).
     pub jerk_limited: Option<bool>,
+    /// Whether feeds stay in the basic system from this line on (`G70`/`G71`: geometric
+    /// data only switch) or follow the inch/metric setting (`G700`/`G710`).
+    pub feed_in_basic_system: Option<bool>,
     /// Whether every word reads the same in RS274/NGC, so that the line is passed on as it
     /// is (most of a CAM program's lines: `G1 X10.5 Y3`).
     plain: bool,
@@ -135,6 +138,7 @@ impl Default for Rewritten {
             spans: Vec::new(),
             warnings: Vec::new(),
             jerk_limited: None,
+            feed_in_basic_system: None,
             plain: true,
         }
     }

@@ -332,6 +332,9 @@ impl Runner<'_, '_> {
             if let Some(jerk_limited) = rewritten.jerk_limited {
                 interp.switch_profile(jerk_limited);
             }
+            if let Some(basic) = rewritten.feed_in_basic_system {
+                interp.feed_in_basic_system(basic);
+            }
             run_line(interp, rewritten.text(text), number, lexed)
                 .map_err(|(offset, kind)| (rewritten.original_offset(offset), kind))
         });

@@ -18,6 +18,8 @@ const SPLINE: &str = "spline and polynomial moves are not supported";
 const COMPRESSOR: &str = "the compressor replaces the programmed blocks by splines the \
      predictor does not model: check the program without COMPCURV/COMPCAD/COMPON";
 const TRANSFORM: &str = "kinematic transformations (TRAORI, TRANSMIT, TRACYL) are not supported";
+const CIRCLE_THROUGH: &str = "circles through an intermediate point (CIP) are not supported: \
+     give the arc by its centre (I, J, K) or radius (CR=)";
 pub(super) const CENTRE_AC_IC: &str = "AC()/IC() applies to coordinates and arc centres only";
 
 /// Keywords that are refused whole, with why.
@@ -46,6 +48,8 @@ fn refused_keyword(name: &str) -> Option<&'static str> {
         COMPRESSOR
     } else if ["TRAORI", "TRANSMIT", "TRACYL"].contains(&name) {
         TRANSFORM
+    } else if name == "CIP" {
+        CIRCLE_THROUGH
     } else {
         return None;
     })
