@@ -487,9 +487,13 @@ pub(crate) fn interpolator_lines(i: &crate::identify::Interpolator) -> Vec<Strin
 /// they differ, so that a user who runs the file knows which figure to expect.
 pub(crate) fn file_line(a: &AxisIdentification) -> Option<String> {
     let file_um = a.file_rms_um?;
-    let why = if a.moving_only {
+    let held = a.held_at_start.is_some_and(|h| h.kept);
+    let why = if a.moving_only && held {
+        "the fit's figures are while moving and hold a force at the record's start; the file \
+         runs the record's starts and stops too, holding none"
+    } else if a.moving_only {
         "the fit's figures are while moving; the file runs the record's starts and stops too"
-    } else if a.held_at_start.is_some_and(|h| h.kept) {
+    } else if held {
         "the fit held a force at the record's start; the file holds none"
     } else {
         "the file's model holds still differently, so other samples are left out"
