@@ -15,6 +15,9 @@
 use std::f64::consts::TAU;
 use std::io::Write;
 
+mod common;
+
+use common::identifying::file_gives_what_is_said;
 use contourcheck::compare::CompareSettings;
 use contourcheck::gcode::{InterpretOptions, Program, parse_program};
 use contourcheck::identify::{AxisIdentification, identify, identify_loop, loop_template};
@@ -267,6 +270,8 @@ fn the_real_table_is_identified_from_the_course_template_and_without_one() {
     }
     per_turn_ripple_on_y_only(&id.axes);
     x_written_as_its_loop(&id.axes);
+    // The file written, run on the record as `diagnose` runs it, gives what is said of it.
+    file_gives_what_is_said(&id, &template, &program, &measured, MeasuredAt::Motor);
     identified_without_a_template(&program, &measured, &id.axes[1]);
 }
 
@@ -318,6 +323,7 @@ fn identified_without_a_template(
     let mut settings = CompareSettings::for_machine(&start);
     settings.measured_at = MeasuredAt::Motor;
     let id = identify_loop(program, &start, measured, &settings).unwrap();
+    file_gives_what_is_said(&id, &start, program, measured, MeasuredAt::Motor);
     for a in &id.axes {
         eprintln!(
             "{} (no template): held out {:.2} µm = {:.1} % of the following error; \

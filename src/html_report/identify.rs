@@ -101,6 +101,7 @@ fn axis_view(report: &IdentifyReport, json: &Json, a: usize) -> AxisView {
         notes.push("Compared while moving: the axis hunts at standstill.".to_string());
     }
     notes.extend(crate::identify::report::while_moving_line(axis));
+    notes.extend(crate::identify::report::file_line(axis));
     notes.extend(crate::identify::report::in_sample_note(axis));
     notes.extend(crate::identify::report::structure_line(axis));
     let kept = crate::identify::report::kept_line(axis);

@@ -207,6 +207,7 @@ fn identify_as(
     let z_not_identified = z_axis::write(z, &mut machine, &mut axes);
     let interpolator = interpolator::read(&ctx, template);
     interpolator::write_limits(&mut machine, &interpolator);
+    whole_record::file_figures(program, &machine, measured, settings, &mut axes);
     Ok(Identification {
         file,
         machine,
@@ -456,6 +457,7 @@ fn unfitted(fit: Fit, template: &AxisConfig) -> Option<(AxisConfig, AxisIdentifi
             largest_at: verdict::largest_at(ctx, axis, offset, &residual, mask),
             rms_template_um: rms_um,
             rms_identified_um: rms_um,
+            file_rms_um: None,
             held_out_template_um: rms_um,
             held_out_identified_um: rms_um,
             held_out_in_sample: false,
@@ -598,6 +600,7 @@ fn identify_on(
             largest_at: verdict::largest_at(ctx, axis, offset, &identified_residual, mask),
             rms_template_um: rms(&template_residual),
             rms_identified_um: rms(&identified_residual),
+            file_rms_um: None,
             held_out_template_um,
             held_out_identified_um,
             held_out_in_sample: !shown,

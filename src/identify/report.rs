@@ -147,7 +147,8 @@ pub(crate) fn held_line(h: &HeldForce, values: &[IdentifiedValue]) -> String {
         "{what}: {value} — a state of the record, not of the machine: not written; fitted on top \
          of the values (after the ripple's and the bristles' figures above), which with it \
          estimated on each half scored predict the held-out halves to {} µm against {} µm \
-         fitted again without it; the figures above hold none, as the file does",
+         fitted again without it; the held-out figures above hold none, as the file does (the \
+         residual above holds it)",
         sig(h.held_out_with_um),
         sig(h.held_out_refit_um)
     )
@@ -219,6 +220,9 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
         super::held_out::identified_words(a)
     );
     if let Some(line) = while_moving_line(a) {
+        let _ = writeln!(s, "  {line}");
+    }
+    if let Some(line) = file_line(a) {
         let _ = writeln!(s, "  {line}");
     }
     let _ = writeln!(s, "  {}", prediction(a));
@@ -479,6 +483,27 @@ pub(crate) fn interpolator_lines(i: &crate::identify::Interpolator) -> Vec<Strin
 
 /// The identified machine as a machine file, its values and their uncertainties in the
 /// header.
+/// What the file written gives on the record, where that is not the fit's figure: why
+/// they differ, so that a user who runs the file knows which figure to expect.
+pub(crate) fn file_line(a: &AxisIdentification) -> Option<String> {
+    let file_um = a.file_rms_um?;
+    let held = a.held_at_start.is_some_and(|h| h.kept);
+    let why = if a.moving_only && held {
+        "the fit's figures are while moving and hold a force at the record's start; the file \
+         runs the record's starts and stops too, holding none"
+    } else if a.moving_only {
+        "the fit's figures are while moving; the file runs the record's starts and stops too"
+    } else if held {
+        "the fit held a force at the record's start; the file holds none"
+    } else {
+        "the file's model holds still differently, so other samples are left out"
+    };
+    Some(format!(
+        "the machine file written leaves {file_um:.3} µm RMS on this record, every sample \
+         compared as `diagnose` compares it ({why})"
+    ))
+}
+
 pub(crate) fn machine_file(
     id: &Identification,
     template: &MachineConfig,
@@ -492,6 +517,9 @@ pub(crate) fn machine_file(
     );
     for a in &id.axes {
         let _ = writeln!(s, "#   {}: {}", a.axis, prediction(a));
+        if let Some(line) = file_line(a) {
+            let _ = writeln!(s, "#   {}: {line}", a.axis);
+        }
         if a.held_out_in_sample {
             let _ = writeln!(
                 s,

@@ -188,6 +188,14 @@ pub struct AxisIdentification {
     pub rms_template_um: f64,
     /// With the identified values.
     pub rms_identified_um: f64,
+    /// What the machine file written gives on this record (µm RMS): its values run on the
+    /// record as `diagnose` compares a machine with it — every sample compared, the file's
+    /// own hunting holds left out, no force held at the start (the file holds none) —, where
+    /// that differs from `rms_identified_um` by more than a twentieth (figures while moving,
+    /// a force held at the start, holds of the file's own); `None` where it does not, or the
+    /// axis was not fitted.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub file_rms_um: Option<f64>,
     /// On each half of the record, the template's residual …
     pub held_out_template_um: f64,
     /// … and that of the values fitted on the other half (µm).
@@ -361,6 +369,7 @@ impl AxisIdentification {
             largest_at: None,
             rms_template_um: template_um,
             rms_identified_um: identified_um,
+            file_rms_um: None,
             held_out_template_um: template_um,
             held_out_identified_um: identified_um,
             held_out_in_sample: false,

@@ -4,9 +4,16 @@
 //! as one that runs; run once more over all of it, it shows itself.
 
 use super::{AxisIdentification, unfitted};
-use crate::compare::Context;
+use crate::compare::{CompareSettings, Comparison, Context, Stepping, compare};
+use crate::gcode::Program;
 use crate::identify::solve::Fit;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
+use crate::numeric::units::um_from_m;
+use crate::trace::measured::MeasuredTrace;
+
+/// How far the file's figure may lie from the fit's before it is said beside it: a
+/// twentieth, the margin every figure of the identification is compared by.
+const SAID_BESIDE: f64 = 0.05;
 
 /// `found` where its configuration runs the whole record; else the template's values, as an
 /// axis the search could not fit (none where even the template cannot be simulated).
@@ -23,6 +30,41 @@ pub(super) fn runs_whole_record(
         return Some(found);
     }
     unfitted(Fit::new(ctx, template, axis, offset), template.axis(axis))
+}
+
+/// Sets each fitted axis's `file_rms_um`: `machine` — the file as written — run on `measured`
+/// as `diagnose` runs a machine file on it (compared afresh with it: its own hunting holds
+/// left out, every other sample compared, no force held at the start), where that residual
+/// lies more than [`SAID_BESIDE`] from the fit's own figure. The fit's figures may be on
+/// other samples (while moving) or hold a force at the start the file cannot: a user runs
+/// the file, and its figure is the one they will see.
+pub(super) fn file_figures(
+    program: &Program,
+    machine: &MachineConfig,
+    measured: &MeasuredTrace,
+    settings: &CompareSettings,
+    axes: &mut [AxisIdentification],
+) {
+    let Ok(Comparison {
+        ctx,
+        offset_s,
+        nominal,
+        ..
+    }) = compare(program, machine, measured, settings, Stepping::Full)
+    else {
+        return;
+    };
+    let fitted = |a: &&mut AxisIdentification| a.too_little.is_none() && a.axis != AxisName::Z;
+    for a in axes.iter_mut().filter(fitted) {
+        let residual = ctx.residual(a.axis, &nominal[a.axis.index()], offset_s);
+        let compared: Vec<f64> = (0..residual.len())
+            .filter(|&k| ctx.compared(a.axis, k))
+            .map(|k| residual[k])
+            .collect();
+        let file_um = um_from_m(crate::compare::residual::rms(&compared));
+        let apart = (file_um - a.rms_identified_um).abs() > SAID_BESIDE * a.rms_identified_um;
+        a.file_rms_um = (file_um.is_finite() && apart).then_some(file_um);
+    }
 }
 
 #[cfg(test)]

@@ -4,6 +4,7 @@
 
 use contourcheck::diagnose::{DiagnoseSettings, diagnose};
 use contourcheck::gcode::Program;
+use contourcheck::identify::Identification;
 use contourcheck::machine::{AxisConfig, AxisName, Controller, MachineConfig};
 use contourcheck::sim::MeasuredAt;
 use contourcheck::trace::measured::{MeasuredTrace, parse_trace};
@@ -135,6 +136,32 @@ pub fn predicted(
             (axis, residual, following_rms_um)
         })
         .collect()
+}
+
+/// That the machine file `id` writes from `template`, read back and run on `measured` as
+/// `diagnose` runs a machine file (every sample compared, the file's own hunting holds left
+/// out, no force held at the start), leaves on X and Y the residual the identification
+/// states the file gives — its `file_rms_um` where it states one, else the fit's own — to a
+/// twentieth: a user who runs the file sees the figure they were told.
+pub fn file_gives_what_is_said(
+    id: &Identification,
+    template: &MachineConfig,
+    program: &Program,
+    measured: &MeasuredTrace,
+    at: MeasuredAt,
+) {
+    let text = id.machine_file(template, "program.nc");
+    let file = MachineConfig::from_toml_str(&text, "identified.toml").unwrap();
+    for (axis, residual_um, _) in predicted(program, &file, measured, at) {
+        let a = &id.axes[axis.index()];
+        let said_um = a.file_rms_um.unwrap_or(a.rms_identified_um);
+        assert!(
+            (residual_um - said_um).abs() <= 0.05 * said_um,
+            "{axis:?}: the file leaves {residual_um:.4} µm RMS, the identification says \
+             {said_um:.4} µm (the fit's {:.4} µm)",
+            a.rms_identified_um
+        );
+    }
 }
 
 /// The value a key has on the hidden axis.
