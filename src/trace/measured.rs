@@ -450,7 +450,7 @@ fn assemble(file: &str, table: Table, layout: TraceLayout) -> Result<MeasuredTra
             row: rows[i],
             // In the column's own unit: which unit that is, the clock's step decides later.
             problem: format!(
-                "the time column's {} does not increase (previous row: {})",
+                "time {} does not increase (previous row: {}; in the time column's own unit)",
                 t[i],
                 t[i - 1]
             ),
