@@ -5,10 +5,14 @@
 //! arcs, the radial deviation (positive outward). `contour3d` measures one segment.
 //!
 //! The search is local and follows the path: for each sample only the segments within a
-//! window of path length around the segment being commanded are tried, the window being
+//! window of path length around the commanded point's place are tried, the window being
 //! the distance between commanded and actual position plus a margin. The cost stays linear
 //! in the length of the run, and a tool passing near an earlier part of the path is never
-//! matched to it.
+//! matched to it. The commanded point's place is followed from sample to sample — it enters
+//! each segment at its start and moves on from where it was — because on an arc of several
+//! turns (G2/G3 with P) its position alone names a point on each turn: taken for the middle
+//! turn, it would put the tool still on the block before the arc out of the window, and
+//! measure it against the arc's circle alone.
 
 use super::contour3d::{Deviation, deviation};
 use crate::path::{Geometry, Motion, Segment};
@@ -99,6 +103,8 @@ pub struct ContourPoint {
 pub struct ContourLocator {
     /// Path length at the start of each segment, and at the end (m).
     cum_m: Vec<f64>,
+    /// The segment and parameter (0–1) the commanded point was last found at.
+    reference_at: Option<(usize, f64)>,
     /// Whether Z is simulated: then the error is measured in 3-D; else Z stands where it is
     /// commanded, which says nothing of the real Z, and the error is the XY projection's.
     three_d: bool,
@@ -115,6 +121,7 @@ impl ContourLocator {
         }
         ContourLocator {
             cum_m,
+            reference_at: None,
             three_d: false,
         }
     }
@@ -163,18 +170,31 @@ impl ContourLocator {
                 && seg.start_m != seg.end_m)
     }
 
+    /// Where to look for the commanded point on segment `c`: where it was on the previous
+    /// sample, at the start of a segment it has just entered, and mid-segment where nothing
+    /// is known (the first sample, a run taken up again further back).
+    fn reference_hint(&self, c: usize) -> f64 {
+        match self.reference_at {
+            Some((seg, u)) if seg == c => u,
+            Some((seg, _)) if seg < c => 0.0,
+            _ => 0.5,
+        }
+    }
+
     /// The contour error of the actual position `q` (m) while segment `c` is commanded at
-    /// `reference` (m).
+    /// `reference` (m), the samples taken in order.
     pub(crate) fn locate(
-        &self,
+        &mut self,
         plan: &Plan,
         c: usize,
         reference: [f64; 3],
         q: [f64; 3],
     ) -> ContourPoint {
-        let (segs, cum) = (&plan.segments, &self.cum_m);
+        let segs = &plan.segments;
         let in_space = self.measures_in_space(&segs[c]);
-        let ref_u = Self::deviation(in_space, &segs[c], reference, 0.5).u;
+        let ref_u = Self::deviation(in_space, &segs[c], reference, self.reference_hint(c)).u;
+        self.reference_at = Some((c, ref_u));
+        let cum = &self.cum_m;
         let s_ref = cum[c] + ref_u * plan.plans[c].length_m;
         let none = ContourPoint {
             error_m: f64::NAN,
@@ -231,7 +251,7 @@ impl ContourLocator {
 /// it is commanded).
 pub fn contour_errors(plan: &Plan, commands: &Commands, x_m: &[f64], y_m: &[f64]) -> ContourSeries {
     let z_m = &commands.z.pos_m;
-    locate_all(&ContourLocator::new(plan), plan, commands, [x_m, y_m, z_m])
+    locate_all(ContourLocator::new(plan), plan, commands, [x_m, y_m, z_m])
 }
 
 /// Contour errors of actual positions in X, Y and Z (one per command sample): in space on
@@ -242,12 +262,12 @@ pub fn contour_errors_in_space(
     commands: &Commands,
     xyz_m: [&[f64]; 3],
 ) -> ContourSeries {
-    locate_all(&ContourLocator::in_3d(plan), plan, commands, xyz_m)
+    locate_all(ContourLocator::in_3d(plan), plan, commands, xyz_m)
 }
 
 /// Each sample's contour error by `locator`.
 fn locate_all(
-    locator: &ContourLocator,
+    mut locator: ContourLocator,
     plan: &Plan,
     commands: &Commands,
     [x_m, y_m, z_m]: [&[f64]; 3],

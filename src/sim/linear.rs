@@ -118,12 +118,9 @@ impl Restriction {
         self.states.len()
     }
 
-    /// Where model state `i` sits here.
-    fn at(&self, i: usize) -> usize {
-        self.states
-            .iter()
-            .position(|&s| s == i)
-            .expect("the state is one the model uses")
+    /// Where model state `i` sits here; `None` for a state the structure does not use.
+    fn at(&self, i: usize) -> Option<usize> {
+        self.states.iter().position(|&s| s == i)
     }
 
     fn row(&self, row: &Row) -> DVector<f64> {
@@ -143,15 +140,20 @@ impl Restriction {
 
 /// The loop's system. The position loop's closed response includes the feed-forward (the
 /// reference enters with its velocity and acceleration); its open loop, read as T/(1 − T),
-/// is only the feedback's, so `feedback_only` leaves the feed-forward out.
-fn loop_system(model: &AxisModel, which: Loop, feedback_only: bool) -> Siso {
+/// is only the feedback's, so `feedback_only` leaves the feed-forward out. `None` for a loop
+/// the axis does not have (see [`loops`]): a position controller on a current amplifier
+/// has no speed command to open a velocity loop at.
+fn loop_system(model: &AxisModel, which: Loop, feedback_only: bool) -> Option<Siso> {
+    if !loops(model).contains(&which) {
+        return None;
+    }
     let full = model.dynamics(nominal_mode());
     let s = model.signals();
     let r = Restriction::of(model);
     let n = r.len();
     let mut a = r.matrix(&full);
     let zero = DVector::zeros(n);
-    match which {
+    Some(match which {
         Loop::Position => Siso {
             a,
             b: if feedback_only {
@@ -169,7 +171,7 @@ fn loop_system(model: &AxisModel, which: Loop, feedback_only: bool) -> Siso {
             // ω_cmd becomes the input: remove its dependence on the states.
             let w = r.row(&s.w_cmd);
             let (target, rate) = model.current_command_target();
-            let (target, zw) = (r.at(target), r.at(ZW));
+            let (target, zw) = (r.at(target)?, r.at(ZW)?);
             let k = model.ks * rate;
             for j in 0..n {
                 a[(target, j)] -= k * w[j];
@@ -191,7 +193,7 @@ fn loop_system(model: &AxisModel, which: Loop, feedback_only: bool) -> Siso {
             // i_cmd becomes the input: the command filter (or the amplifier) sees it instead
             // of the controller.
             let (target, rate) = model.current_command_target();
-            let target = r.at(target);
+            let target = r.at(target)?;
             for j in 0..n {
                 a[(target, j)] = 0.0;
             }
@@ -199,15 +201,18 @@ fn loop_system(model: &AxisModel, which: Loop, feedback_only: bool) -> Siso {
             let mut b = DVector::zeros(n);
             b[target] = rate;
             let mut c = DVector::zeros(n);
-            c[r.at(super::model::I)] = 1.0;
+            c[r.at(super::model::I)?] = 1.0;
             Siso {
                 a,
                 b: [b, zero.clone(), zero],
                 c,
             }
         }
-    }
+    })
 }
+
+/// A response where the axis has no such loop.
+const NO_RESPONSE: Complex<f64> = Complex::new(f64::NAN, f64::NAN);
 
 impl Siso {
     fn response(&self, freq_hz: f64) -> Complex<f64> {
@@ -226,21 +231,25 @@ impl Siso {
 }
 
 /// The loop's closed response without feed-forward, T(f) with f in Hz, as a function: its
-/// open loop is T/(1 − T). Built once, evaluated at as many frequencies as wanted.
+/// open loop is T/(1 − T). Built once, evaluated at as many frequencies as wanted; NaN for
+/// a loop the axis does not have.
 pub(crate) fn feedback_response(model: &AxisModel, which: Loop) -> impl Fn(f64) -> Complex<f64> {
     let sys = loop_system(model, which, true);
-    move |f| sys.response(f)
+    move |f| sys.as_ref().map_or(NO_RESPONSE, |s| s.response(f))
 }
 
 /// The eigenvalues of a loop's closed feedback system (1/s): where its response can peak.
+/// None for a loop the axis does not have.
 pub(crate) fn feedback_poles(model: &AxisModel, which: Loop) -> Vec<Complex<f64>> {
-    let sys = loop_system(model, which, true);
-    decompose::eigenvalues(sys.a).unwrap_or_default()
+    loop_system(model, which, true)
+        .and_then(|sys| decompose::eigenvalues(sys.a))
+        .unwrap_or_default()
 }
 
-/// Closed-loop frequency response of a loop at `freq_hz`.
+/// Closed-loop frequency response of a loop at `freq_hz`; NaN for a loop the axis does not
+/// have (see [`loops`]).
 pub fn closed_loop(model: &AxisModel, which: Loop, freq_hz: f64) -> Complex<f64> {
-    loop_system(model, which, false).response(freq_hz)
+    loop_system(model, which, false).map_or(NO_RESPONSE, |s| s.response(freq_hz))
 }
 
 /// The position loop's steady following error per unit speed (s): what a ramp command
@@ -254,14 +263,14 @@ pub(crate) fn velocity_lag_s(model: &AxisModel) -> f64 {
 }
 
 /// Open-loop frequency response of the feedback, L = T/(1 − T) with T the closed loop
-/// without feed-forward.
+/// without feed-forward; NaN for a loop the axis does not have.
 pub fn open_loop(model: &AxisModel, which: Loop, freq_hz: f64) -> Complex<f64> {
-    let t = loop_system(model, which, true).response(freq_hz);
+    let t = loop_system(model, which, true).map_or(NO_RESPONSE, |s| s.response(freq_hz));
     t / (Complex::new(1.0, 0.0) - t)
 }
 
 /// Magnitude (dB) and phase (degrees, unwrapped from 0 at low frequency) over a frequency
-/// list.
+/// list; none for a loop the axis does not have.
 #[cfg(feature = "cli")]
 pub(crate) fn bode(
     model: &AxisModel,
@@ -269,7 +278,9 @@ pub(crate) fn bode(
     freqs_hz: &[f64],
     open: bool,
 ) -> Vec<(f64, f64, f64)> {
-    let sys = loop_system(model, which, open);
+    let Some(sys) = loop_system(model, which, open) else {
+        return Vec::new();
+    };
     let mut out = Vec::with_capacity(freqs_hz.len());
     let mut prev_phase: Option<f64> = None;
     for &f in freqs_hz {
@@ -320,10 +331,22 @@ pub struct LoopFigures {
     pub dc_gain_db: f64,
 }
 
-/// Crossover, phase margin, −3 dB and −10° frequencies of a loop.
+/// Crossover, phase margin, −3 dB and −10° frequencies of a loop; NaN throughout for a
+/// loop the axis does not have (see [`loops`]).
 pub fn loop_figures(model: &AxisModel, which: Loop) -> LoopFigures {
-    let sys = loop_system(model, which, false);
-    let feedback = loop_system(model, which, true);
+    let (Some(sys), Some(feedback)) = (
+        loop_system(model, which, false),
+        loop_system(model, which, true),
+    ) else {
+        return LoopFigures {
+            which,
+            crossover_hz: f64::NAN,
+            phase_margin_deg: f64::NAN,
+            bandwidth_3db_hz: f64::NAN,
+            phase_10deg_hz: f64::NAN,
+            dc_gain_db: f64::NAN,
+        };
+    };
     let grid = log_space(1e-4, 100_000.0, 360);
     let closed: Vec<Complex<f64>> = grid.iter().map(|&f| sys.response(f)).collect();
     let closed_feedback: Vec<Complex<f64>> = if sys.b == feedback.b {

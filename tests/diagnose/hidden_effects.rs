@@ -182,6 +182,28 @@ fn circle_test_with_nothing_hidden() -> &'static Diagnosis {
     DIAGNOSIS.get_or_init(|| diagnose_hidden("circle-test.nc", None, 20))
 }
 
+#[test]
+fn a_resonance_is_tried_on_a_controller_that_drives_a_current_amplifier() {
+    // small-table's position controller drives the current directly: no velocity loop. Its
+    // own circular test, nothing hidden, diagnosed for a resonance: the fitted frequency is
+    // judged against the loops the axis has, and nothing rings that the preset lacks.
+    let machine = MachineConfig::preset("small-table").unwrap();
+    let prog = program("circle-test.nc");
+    let spec = SynthSpec {
+        seed: 7,
+        ..SynthSpec::default()
+    };
+    let measured = recorded(&prog, &machine, &spec, "small-table.csv");
+    let mut settings = DiagnoseSettings::for_machine(&machine);
+    settings.causes = contourcheck::diagnose::causes::CauseSet::of(&[CauseId::Resonance]);
+    let d = diagnose(&prog, &machine, &measured, &settings).unwrap();
+    assert!(
+        d.causes.iter().all(|c| c.id != CauseId::Resonance),
+        "{:?}",
+        d.causes
+    );
+}
+
 /// Each sample program's record with nothing hidden names nothing (a test per program, so
 /// that they run side by side).
 mod controls_with_nothing_hidden_name_nothing {

@@ -572,3 +572,81 @@ fn a_dwell_s_settling_is_not_following_error_while_cutting() {
     assert!(s.max_positioning_error_m * 1e6 > 10.0 * window_um);
     assert_eq!(s.max_positioning_at.map(|(line, _)| line), Some(3));
 }
+
+/// A line up +Y to (0, 20) mm, then `turns` full ccw circles of radius 5 mm about (0, 15)
+/// mm starting and ending there (G3 … P), then a line on to (10, 20) mm.
+fn line_then_circles(turns: u32) -> CheckRun {
+    let src = format!(
+        "G21 G90 G17\nG0 X0 Y0\nG1 X0 Y20 F1000\nG3 X0 Y20 I0 J-5 P{turns}\nG1 X10 Y20\nM2\n"
+    );
+    run(&src, &MachineConfig::default_preset(), ProfileKind::SCurve)
+}
+
+/// The plan's segment of the circles.
+fn arc_segment(r: &CheckRun) -> u32 {
+    let segments = &r.result.plan.segments;
+    segments
+        .iter()
+        .position(|s| matches!(s.geometry, contourcheck::path::Geometry::Arc(_)))
+        .unwrap() as u32
+}
+
+#[test]
+fn a_tool_still_on_the_line_before_an_arc_of_several_turns_is_measured_against_the_line() {
+    let r = line_then_circles(2);
+    let arc = arc_segment(&r);
+    // While the command is already on the circles, the tool, a following error behind,
+    // is still on the line x = 0 below the corner at y = 20 mm. The line is then the
+    // nearest programmed element: the circle passes (0, 20) at 20 − y from the tool, and
+    // the contour error is the tool's distance from the line, |x|.
+    let mut on_line = 0;
+    for k in 0..r.x.len() {
+        let (x, y) = (r.x.pos_m[k], r.y.pos_m[k]);
+        // On the line: between the circle's centre height and 0.1 mm below the corner, and
+        // within 0.1 mm of x = 0 (where the circle itself lies beyond y = 19.999 mm).
+        let below_corner = (15e-3..19.9e-3).contains(&y) && x.abs() < 0.1e-3;
+        if r.commands.segment[k] != arc || !below_corner {
+            continue;
+        }
+        on_line += 1;
+        let e = r.contour.error_m[k];
+        assert!(
+            (e.abs() - x.abs()).abs() < 1e-9,
+            "sample {k}: tool at ({:.4}, {:.4}) mm, contour error {:.2} µm, off the line {:.2} µm",
+            x * 1e3,
+            y * 1e3,
+            e * 1e6,
+            x.abs() * 1e6
+        );
+    }
+    // F1000 at Kv 1 m/min/mm: a 1 mm lag, 60 ms of samples.
+    assert!(on_line >= 10, "{on_line} samples");
+}
+
+#[test]
+fn the_entry_of_an_arc_of_two_turns_reads_as_that_of_one_turn() {
+    // The same corner into the same circle: until the command has gone half way round the
+    // first turn, the tool moves the same with one turn programmed or two, and the largest
+    // contour error there is the same.
+    let runs = [1, 2].map(line_then_circles);
+    let largest = |r: &CheckRun| {
+        let arc = arc_segment(r);
+        let arc_start = r.commands.segment.iter().position(|&s| s == arc).unwrap();
+        // Half way round: the command at the circle's bottom, y = 10 mm.
+        let half = (arc_start..r.commands.len())
+            .find(|&k| r.commands.y.pos_m[k] < 10.5e-3)
+            .unwrap();
+        (0..half)
+            .map(|k| r.contour.error_m[k])
+            .filter(|e| e.is_finite())
+            .fold(0.0, |m: f64, e| m.max(e.abs()))
+    };
+    let (one, two) = (largest(&runs[0]), largest(&runs[1]));
+    assert!(one > 1e-6, "a corner rounded by {} µm", one * 1e6);
+    assert!(
+        (one - two).abs() < 1e-9,
+        "one turn {} µm, two turns {} µm",
+        one * 1e6,
+        two * 1e6
+    );
+}
