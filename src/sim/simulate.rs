@@ -407,23 +407,8 @@ impl DelayLine {
             self.first += 1;
         }
         let tau = t - j as f64 * self.dt_s;
-        // The delayed instant lies between samples j and j + 1: each is carried to it, and
-        // the two are weighed by nearness, so that a delay just short of a whole number of
-        // cycles reads the later sample, not the earlier one carried a cycle on with its
-        // acceleration held — a delay of nearly nothing is then nearly no delay.
-        let from = |(p, v, a): (f64, f64, f64), s: f64| (p + v * s + 0.5 * a * s * s, v + a * s, a);
-        let early = from(self.recent[j - self.first], tau);
-        let Some(&next) = self.recent.get(j + 1 - self.first) else {
-            return early;
-        };
-        let late = from(next, tau - self.dt_s);
-        let w = tau / self.dt_s;
-        let mix = |e: f64, l: f64| e + w * (l - e);
-        (
-            mix(early.0, late.0),
-            mix(early.1, late.1),
-            mix(early.2, late.2),
-        )
+        let (p, v, a) = self.recent[j - self.first];
+        (p + v * tau + 0.5 * a * tau * tau, v + a * tau, a)
     }
 }
 

@@ -60,23 +60,6 @@ fn a_dead_time_delays_the_whole_response_exactly() {
 }
 
 #[test]
-fn a_dead_time_of_a_nanosecond_is_no_dead_time() {
-    // small-table feeds the command's acceleration forward, and a short raised-cosine move
-    // changes it by up to 0.2 m/s² a cycle (jerk 0.5·v·ω² ≈ 99 m/s³). A delay of 1 ns moves
-    // the command by at most its 0.2 m/s peak speed × 1 ns = 0.2 nm: the runs must agree to
-    // that, not differ by a cycle's change of the commands.
-    let nominal = MachineConfig::preset("small-table").unwrap().y;
-    let mut delayed = nominal.clone();
-    delayed.position_loop.dead_time_ms = 1e-6;
-    let c = move_and_hold(0.02, 0.2, 0.3);
-    let (a, b) = (run(&nominal, &c), run(&delayed, &c));
-    let worst = (0..c.len())
-        .map(|k| (b.pos_m[k] - a.pos_m[k]).abs())
-        .fold(0.0, f64::max);
-    assert!(worst < 1e-9, "{worst:e} m");
-}
-
-#[test]
 fn a_scale_error_stops_the_table_short_by_its_share_of_the_travel() {
     let nominal = x_axis();
     let mut scaled = nominal.clone();
