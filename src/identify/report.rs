@@ -509,8 +509,6 @@ pub(crate) fn interpolator_lines(i: &crate::identify::Interpolator) -> Vec<Strin
     lines
 }
 
-/// The identified machine as a machine file, its values and their uncertainties in the
-/// header.
 /// What the file written gives on the record, where that is not the fit's figure: why
 /// they differ, so that a user who runs the file knows which figure to expect.
 pub(crate) fn file_line(a: &AxisIdentification) -> Option<String> {
@@ -532,6 +530,8 @@ pub(crate) fn file_line(a: &AxisIdentification) -> Option<String> {
     ))
 }
 
+/// The identified machine as a machine file, its values and their uncertainties in the
+/// header.
 pub(crate) fn machine_file(
     id: &Identification,
     template: &MachineConfig,

@@ -690,8 +690,6 @@ mod tests {
         assert!(e.to_string().contains("no column for time"), "{e}");
     }
 
-    /// A vendor export: BOM, CRLF, semicolons and decimal commas, time in ms, vendor
-    /// names, positions in µm counts of 0.1 µm, a comment, and an `EOF` trailer.
     /// Encoders logged in 0.1 µm counts and commands in µm with decimals (a lab's export, no
     /// units in the header): the hint reads the positions as counts and the commands as µm,
     /// whose span (4.9 mm) matches the counts' (49,000 × 0.1 µm).
@@ -722,6 +720,8 @@ mod tests {
         }
     }
 
+    /// A vendor export: BOM, CRLF, semicolons and decimal commas, time in ms, vendor
+    /// names, positions in µm counts of 0.1 µm, a comment, and an `EOF` trailer.
     #[test]
     fn a_vendor_export_reads_without_conversion() {
         let mut text = String::from("\u{feff}// exported by the control\r\n");
