@@ -61,6 +61,9 @@ pub(super) fn file_figures(
             .filter(|&k| ctx.compared(a.axis, k))
             .map(|k| residual[k])
             .collect();
+        if compared.is_empty() {
+            continue;
+        }
         let file_um = um_from_m(crate::compare::residual::rms(&compared));
         let apart = (file_um - a.rms_identified_um).abs() > SAID_BESIDE * a.rms_identified_um;
         a.file_rms_um = (file_um.is_finite() && apart).then_some(file_um);
