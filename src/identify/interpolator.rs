@@ -12,9 +12,11 @@
 use serde::Serialize;
 
 use crate::compare::Context;
-use crate::machine::{AxisName, MachineConfig};
+use crate::machine::{AxisName, Limits, MachineConfig};
 use crate::numeric::units::mm_per_min_from_m_per_s;
+use crate::path::Motion;
 use crate::plan::AxisCommands;
+use crate::trace::recorded::{DERIVATIVE_HALF_WIDTH_S, local_derivatives};
 
 /// The interpolator's peaks in a record, per axis: X, Y, and Z where the record holds Z's
 /// commands and the template simulates Z (where a limit found can be written).
@@ -27,16 +29,28 @@ pub struct Interpolator {
     pub path_speed_mm_per_min: f64,
     /// Per axis: peak velocity (mm/min).
     pub velocity_mm_per_min: Vec<f64>,
+    /// Per axis: peak velocity (mm/min) where the program moves at its feed.
+    pub feed_mm_per_min: Vec<f64>,
+    /// Per axis: peak velocity (mm/min) in the program's rapids.
+    pub rapid_mm_per_min: Vec<f64>,
+    /// Per axis, the template's limits the peaks are held against: the feed (mm/min), the
+    /// rapid rate (mm/min) and the acceleration (m/s²).
+    pub template_feed_mm_per_min: Vec<f64>,
+    /// See `template_feed_mm_per_min`.
+    pub template_rapid_mm_per_min: Vec<f64>,
+    /// See `template_feed_mm_per_min`.
+    pub template_accel_m_per_s2: Vec<f64>,
     /// Peak acceleration (m/s²).
     pub accel_m_per_s2: Vec<f64>,
     /// Peak jerk (m/s³): the 99.5th percentile of the acceleration's rate, so that the
-    /// single cycles of a stepped acceleration (a trapezoidal interpolator has no jerk
+    /// single spikes of a stepped acceleration (a trapezoidal interpolator has no jerk
     /// limit) are not taken for the control's jerk.
     pub jerk_m_per_s3: Vec<f64>,
     /// Per axis, the peak acceleration (m/s²) and jerk (m/s³) the template's planner gives
     /// the same program: what the moves demanded.
     pub demanded_accel_m_per_s2: Vec<f64>,
-    /// The same for the jerk.
+    /// The same for the jerk: the planner's largest, however briefly it asks it (its
+    /// acceleration is exact, not read from rounded positions).
     pub demanded_jerk_m_per_s3: Vec<f64>,
     /// Whether the record shows the acceleration held at its peak (flat for `PLATEAU_S`,
     /// in `PLATEAUS` stretches, while the path speed ramped with the axis) where the moves
@@ -111,16 +125,6 @@ fn rate(a: &[f64], dt: f64) -> Vec<f64> {
     a.windows(2).map(|w| (w[1] - w[0]) / dt).collect()
 }
 
-/// The peak jerk of the acceleration `a`: the 99.5th percentile of its rate.
-fn jerk(a: &[f64], dt: f64) -> f64 {
-    let mut rates: Vec<f64> = rate(a, dt).iter().map(|r| r.abs()).collect();
-    rates.sort_by(f64::total_cmp);
-    rates
-        .get(((rates.len() as f64) * 0.995) as usize)
-        .copied()
-        .unwrap_or(0.0)
-}
-
 /// The axes whose peaks a record shows: X and Y, and Z where the record holds its commands
 /// and `template` simulates it.
 fn axes_read(ctx: &Context, template: &MachineConfig) -> Vec<AxisName> {
@@ -131,14 +135,82 @@ fn axes_read(ctx: &Context, template: &MachineConfig) -> Vec<AxisName> {
         .collect()
 }
 
-/// The path speed over `axes` and its rate (the path's acceleration along its direction,
-/// v·a/|v|, or |a| where the path stands), per sample.
-fn path_speed_and_rate(axes: &[&AxisCommands]) -> (Vec<f64>, Vec<f64>) {
-    let n = axes.iter().map(|a| a.vel_m_per_s.len()).min().unwrap_or(0);
+/// How much jerk (m/s³) the rounding of recorded positions may put into the peaks read:
+/// the window the positions are differentiated over widens until a step of their
+/// resolution, over its cube, stays below this.
+const JERK_FROM_ROUNDING_M_PER_S3: f64 = 0.01;
+/// Differences of recorded positions smaller than this (m) are the arithmetic's, not a
+/// resolution.
+const LEAST_RESOLUTION_M: f64 = 1e-12;
+/// How many steps of the smallest size show it to be the positions' resolution.
+const RESOLUTION_STEPS: usize = 10;
+
+/// The half-width (s) the recorded positions are differentiated over: the derivative fit's
+/// own (wide enough for a 10 kHz record, at least one sample each side), widened where
+/// the positions are rounded to a resolution coarse enough that its steps would read as
+/// jerk.
+fn half_width_s(positions: &[&[f64]], dt: f64) -> f64 {
+    let rounding =
+        resolution_m(positions).map_or(0.0, |q| (q / JERK_FROM_ROUNDING_M_PER_S3).cbrt());
+    DERIVATIVE_HALF_WIDTH_S.max(1.5 * dt).max(rounding)
+}
+
+/// The resolution the positions are rounded to (m), where they show one: their smallest
+/// step, taken by many of their steps (an encoder's count as the axis creeps). Positions
+/// written to more digits than they move by in a sample show none.
+fn resolution_m(positions: &[&[f64]]) -> Option<f64> {
+    let steps: Vec<f64> = positions
+        .iter()
+        .flat_map(|p| p.windows(2).map(|w| (w[1] - w[0]).abs()))
+        .filter(|d| *d > LEAST_RESOLUTION_M)
+        .collect();
+    let q = steps.iter().copied().fold(f64::INFINITY, f64::min);
+    let at_q = steps.iter().filter(|d| **d < 1.5 * q).count();
+    (q.is_finite() && at_q >= RESOLUTION_STEPS.max(steps.len() / 100)).then_some(q)
+}
+
+/// One axis's recorded commands differentiated at every sample: velocity (m/s),
+/// acceleration (m/s²), and jerk (m/s³) — the acceleration's change across the window it
+/// was fitted over, so that a step of it (a trapezoidal interpolator) reads as a spike of
+/// one sample, not as a plateau.
+struct Derived {
+    vel: Vec<f64>,
+    acc: Vec<f64>,
+    jerk: Vec<f64>,
+}
+
+fn derive(pos: &[f64], dt: f64, half: f64) -> Derived {
+    let (vel, acc): (Vec<f64>, Vec<f64>) = (0..pos.len())
+        .map(|k| local_derivatives(pos, dt, k as f64 * dt, half))
+        .unzip();
+    let m = ((half / dt).floor() as usize).max(1);
+    let jerk = (0..acc.len())
+        .map(|k| match (k.checked_sub(m), acc.get(k + m)) {
+            (Some(lo), Some(hi)) => (hi - acc[lo]) / (2.0 * m as f64 * dt),
+            _ => 0.0,
+        })
+        .collect();
+    Derived { vel, acc, jerk }
+}
+
+/// The 99.5th percentile of the magnitudes in `v`: the single spikes of a stepped
+/// acceleration (a trapezoidal interpolator has no jerk limit) are not the control's jerk.
+fn percentile_995(v: &[f64]) -> f64 {
+    let mut m: Vec<f64> = v.iter().map(|r| r.abs()).collect();
+    m.sort_by(f64::total_cmp);
+    m.get(((m.len() as f64) * 0.995) as usize)
+        .copied()
+        .unwrap_or(0.0)
+}
+
+/// The path speed over the axes' `vel` and `acc` and its rate (the path's acceleration
+/// along its direction, v·a/|v|, or |a| where the path stands), per sample.
+fn path_speed_and_rate(axes: &[(&[f64], &[f64])]) -> (Vec<f64>, Vec<f64>) {
+    let n = axes.iter().map(|a| a.0.len()).min().unwrap_or(0);
     (0..n)
         .map(|k| {
             let (vv, va, aa) = axes.iter().fold((0.0, 0.0, 0.0), |(vv, va, aa), a| {
-                let (v, acc) = (a.vel_m_per_s[k], a.acc_m_per_s2[k]);
+                let (v, acc) = (a.0[k], a.1[k]);
                 (vv + v * v, va + v * acc, aa + acc * acc)
             });
             let speed: f64 = vv.sqrt();
@@ -148,75 +220,190 @@ fn path_speed_and_rate(axes: &[&AxisCommands]) -> (Vec<f64>, Vec<f64>) {
         .unzip()
 }
 
-/// The peaks of the context's commands, and what `template`'s planner demands on the same
-/// program.
-pub(crate) fn read(ctx: &Context, template: &MachineConfig) -> Interpolator {
+/// The record's samples compared (first to last), and for each whether the program moves
+/// at its feed there (else at its rapid rate, or stands after one).
+fn stretch(ctx: &Context, offset_s: f64) -> (std::ops::RangeInclusive<usize>, Vec<bool>) {
+    let (first, last) = match (ctx.samples.first(), ctx.samples.last()) {
+        (Some(&a), Some(&b)) => (a, b),
+        _ => (0, 0),
+    };
+    let c = &ctx.commands;
+    let feed = (first..=last)
+        .map(|i| {
+            let t = ctx.prog_time(i, offset_s);
+            let k = (t / c.dt_s).round().clamp(0.0, (c.len().max(1) - 1) as f64) as usize;
+            let segment = c.segment.get(k).map_or(0, |&s| s as usize);
+            ctx.plan
+                .segments
+                .get(segment)
+                .is_none_or(|s| s.motion == Motion::Feed)
+        })
+        .collect();
+    (first..=last, feed)
+}
+
+/// The record's own commands of `axes`, over its whole length.
+fn recorded<'m>(ctx: &'m Context, axes: &[AxisName]) -> Vec<&'m [f64]> {
+    let m = ctx.measured;
+    let empty: &[f64] = &[];
+    axes.iter()
+        .map(|&a| match (a, &m.commands) {
+            (AxisName::Z, _) => m.z_cmd_m.as_deref().unwrap_or(empty),
+            (_, Some(c)) => c[a.index()].as_slice(),
+            (_, None) => empty,
+        })
+        .collect()
+}
+
+/// The recorded `positions` differentiated over the record (so that the stretch's ends
+/// are fitted on both sides), cut to the stretch `range`.
+fn derive_stretch(
+    positions: &[&[f64]],
+    range: std::ops::RangeInclusive<usize>,
+    dt: f64,
+) -> Vec<Derived> {
+    let len = positions.iter().map(|p| p.len()).min().unwrap_or(0);
+    let range = *range.start()..(range.end() + 1).min(len);
+    let cut_positions: Vec<&[f64]> = positions
+        .iter()
+        .map(|p| p.get(range.clone()).unwrap_or_default())
+        .collect();
+    let half = half_width_s(&cut_positions, dt);
+    positions
+        .iter()
+        .map(|p| {
+            let d = derive(&p[..len], dt, half);
+            let cut = |v: Vec<f64>| v.get(range.clone()).unwrap_or_default().to_vec();
+            Derived {
+                vel: cut(d.vel),
+                acc: cut(d.acc),
+                jerk: cut(d.jerk),
+            }
+        })
+        .collect()
+}
+
+/// The peak of `vel` (mm/min) over the samples whose `feed` is `on_feed` (the program
+/// at its feed, or in a rapid).
+fn peak_speed(vel: &[f64], feed: &[bool], on_feed: bool) -> f64 {
+    let v: Vec<f64> = vel
+        .iter()
+        .zip(feed.iter().chain(std::iter::repeat(&true)))
+        .filter(|(_, f)| **f == on_feed)
+        .map(|(v, _)| *v)
+        .collect();
+    mm_per_min_from_m_per_s(peak(&v))
+}
+
+/// The peaks of the record's own commands over the stretch compared (differentiated at the
+/// record's own rate), and what `template`'s planner demands on the same program.
+pub(crate) fn read(ctx: &Context, template: &MachineConfig, offset_s: f64) -> Interpolator {
     let read = axes_read(ctx, template);
-    let axes: Vec<&AxisCommands> = read.iter().map(|&a| ctx.commands.axis(a)).collect();
+    let dt = ctx.measured.dt_s;
+    let positions = recorded(ctx, &read);
+    let (range, feed) = stretch(ctx, offset_s);
+    let derived = derive_stretch(&positions, range, dt);
     let planned = crate::plan::sample(&ctx.plan);
     let demanded: Vec<&AxisCommands> = read.iter().map(|&a| planned.axis(a)).collect();
     let demanded_accel: Vec<f64> = demanded.iter().map(|a| peak(&a.acc_m_per_s2)).collect();
     let demanded_jerk: Vec<f64> = demanded
         .iter()
-        .map(|a| jerk(&a.acc_m_per_s2, planned.dt_s))
+        .map(|a| peak(&rate(&a.acc_m_per_s2, planned.dt_s)))
         .collect();
-    let accel: Vec<f64> = axes.iter().map(|a| peak(&a.acc_m_per_s2)).collect();
-    let jerks: Vec<f64> = axes.iter().map(|a| jerk(&a.acc_m_per_s2, ctx.dt)).collect();
+    let accel: Vec<f64> = derived.iter().map(|d| peak(&d.acc)).collect();
+    let jerks: Vec<f64> = derived.iter().map(|d| percentile_995(&d.jerk)).collect();
     // The path over the axes read (a plunge of Z alone ramps it too).
-    let (speed, along) = path_speed_and_rate(&axes);
-    let accel_limited = axes.iter().enumerate().map(|(i, a)| {
+    let pairs: Vec<(&[f64], &[f64])> = derived.iter().map(|d| (&d.vel[..], &d.acc[..])).collect();
+    let (speed, along) = path_speed_and_rate(&pairs);
+    let held = |i: usize, d: &Derived, jerk: bool| {
         let s = Series {
-            held: &a.acc_m_per_s2,
-            own: &a.vel_m_per_s,
-            path: &speed,
-            dt: ctx.dt,
+            held: if jerk { &d.jerk } else { &d.acc },
+            own: if jerk { &d.acc } else { &d.vel },
+            path: if jerk { &along } else { &speed },
+            dt,
         };
-        held_at(&s, accel[i], demanded_accel[i])
-    });
-    let jerk_limited = axes.iter().enumerate().map(|(i, a)| {
-        let s = Series {
-            held: &rate(&a.acc_m_per_s2, ctx.dt),
-            own: &a.acc_m_per_s2,
-            path: &along,
-            dt: ctx.dt,
-        };
-        held_at(&s, jerks[i], demanded_jerk[i])
-    });
+        if jerk {
+            held_at(&s, jerks[i], demanded_jerk[i])
+        } else {
+            held_at(&s, accel[i], demanded_accel[i])
+        }
+    };
+    let speeds = |on_feed: bool| -> Vec<f64> {
+        derived
+            .iter()
+            .map(|d| peak_speed(&d.vel, &feed, on_feed))
+            .collect()
+    };
+    let limits: Vec<&Limits> = read.iter().map(|&a| &template.axis(a).limits).collect();
     Interpolator {
         path_speed_mm_per_min: mm_per_min_from_m_per_s(peak(&speed)),
-        velocity_mm_per_min: axes
+        velocity_mm_per_min: derived
             .iter()
-            .map(|a| mm_per_min_from_m_per_s(peak(&a.vel_m_per_s)))
+            .map(|d| mm_per_min_from_m_per_s(peak(&d.vel)))
             .collect(),
-        accel_limited: accel_limited.collect(),
-        jerk_limited: jerk_limited.collect(),
+        feed_mm_per_min: speeds(true),
+        rapid_mm_per_min: speeds(false),
+        accel_limited: derived
+            .iter()
+            .enumerate()
+            .map(|(i, d)| held(i, d, false))
+            .collect(),
+        jerk_limited: derived
+            .iter()
+            .enumerate()
+            .map(|(i, d)| held(i, d, true))
+            .collect(),
         accel_m_per_s2: accel,
         jerk_m_per_s3: jerks,
         demanded_accel_m_per_s2: demanded_accel,
         demanded_jerk_m_per_s3: demanded_jerk,
+        template_feed_mm_per_min: limits.iter().map(|l| l.max_feed_mm_per_min).collect(),
+        template_rapid_mm_per_min: limits.iter().map(|l| l.rapid_mm_per_min).collect(),
+        template_accel_m_per_s2: limits.iter().map(|l| l.max_accel_m_per_s2).collect(),
         axes: read,
     }
 }
 
+/// How far beyond a template's limit a record's peak must go to disprove it: the peaks are
+/// fitted and carry the fit's rounding.
+const BEYOND_SHARE: f64 = 1.01;
+
+/// Whether a record's `peak` goes beyond the template's `limit`.
+pub(crate) fn beyond(peak: f64, limit: f64) -> bool {
+    peak > BEYOND_SHARE * limit
+}
+
 /// The peaks as the machine's acceleration and jerk limits where the record shows them held
 /// (rounded up to three significant digits); elsewhere the moves did not reach the control's
-/// limits and the template's stay.
+/// limits and the template's stay — except where the record went beyond them: a limit the
+/// record disproves is raised to its peak (speeds at feed and at rapid, and the
+/// acceleration).
 pub(crate) fn write_limits(machine: &mut MachineConfig, interpolator: &Interpolator) {
-    for (i, &axis) in interpolator.axes.iter().enumerate() {
+    let i = interpolator;
+    for (k, &axis) in i.axes.iter().enumerate() {
         let limits = &mut machine.axis_mut(axis).limits;
-        if interpolator.accel_limited[i] {
-            limits.max_accel_m_per_s2 = round_up(interpolator.accel_m_per_s2[i]);
+        if i.accel_limited[k] || beyond(i.accel_m_per_s2[k], limits.max_accel_m_per_s2) {
+            limits.max_accel_m_per_s2 = round_up(i.accel_m_per_s2[k]);
         }
-        if interpolator.jerk_limited[i] {
-            limits.max_jerk_m_per_s3 = round_up(interpolator.jerk_m_per_s3[i]);
+        if i.jerk_limited[k] {
+            limits.max_jerk_m_per_s3 = round_up(i.jerk_m_per_s3[k]);
         }
+        if beyond(i.feed_mm_per_min[k], limits.max_feed_mm_per_min) {
+            limits.max_feed_mm_per_min = round_up(i.feed_mm_per_min[k]);
+        }
+        if beyond(i.rapid_mm_per_min[k], limits.rapid_mm_per_min) {
+            limits.rapid_mm_per_min = round_up(i.rapid_mm_per_min[k]);
+        }
+        // A rapid no slower than the fastest feed, as every control has it.
+        limits.rapid_mm_per_min = limits.rapid_mm_per_min.max(limits.max_feed_mm_per_min);
     }
 }
 
 /// Rounded up to three significant digits.
 fn round_up(v: f64) -> f64 {
     let e = 10f64.powf(v.abs().log10().floor() - 2.0);
-    (v / e).ceil() * e
+    // A peak read a rounding above a round value is that value.
+    (v / e * (1.0 - 1e-9)).ceil() * e
 }
 
 #[cfg(test)]
