@@ -13,7 +13,7 @@ use common::program_text;
 use common::reference::{Recording, record};
 use contourcheck::check::{CheckSettings, check};
 use contourcheck::compare::CompareSettings;
-use contourcheck::identify::{identify_loop, loop_template};
+use contourcheck::identify::{identify, identify_loop, loop_template};
 use contourcheck::machine::{AxisName, MachineConfig};
 use contourcheck::sim::MeasuredAt;
 use contourcheck::trace::measured::parse_trace;
@@ -96,5 +96,76 @@ fn without_a_template_the_records_jerk_accel_feed_and_travel_are_written() {
     assert!(
         (predicted - actual).abs() <= 0.1 * actual,
         "square: identified machine {predicted:.2} µm, the machine {actual:.2} µm"
+    );
+}
+
+/// The small circle of the samples (R10 at F800, once each way) on the heavy preset with X's
+/// Kv at 1.2 m/min/mm instead of 1.0, recorded by the independent reference at 2 ms with its
+/// commands and 0.05 µm of noise, identified from the preset.
+///
+/// The circle never asks for more than its radius needs: X's centripetal peak is
+/// v²/r = (13.3 mm/s)²/10 mm = 0.018 m/s², its jerk v³/r² = 0.024 m/s³, far below the
+/// preset's 0.5 m/s² and 5 m/s³; the moves out of the circle (the rapid to its start) lie
+/// outside the stretch compared. No limit may come out below the preset's: written, it would
+/// slow the next program. And at steady feed the following error of a proportional position
+/// loop is v/Kv = 13.3 mm/s / 20 s⁻¹ = 0.667 mm: the written machine's largest while cutting
+/// within 1 % of the machine's is Kv within 1 % (0.012 m/min/mm), its feed not capped.
+#[test]
+fn a_circle_at_one_feed_writes_its_gain_and_no_limit_below_the_templates() {
+    let template = MachineConfig::default_preset();
+    let mut truth = template.clone();
+    truth.x.position_loop.kv_m_per_min_per_mm = 1.2;
+    let program = common::sample_program("small-circle.nc");
+    let rec = Recording {
+        sample_s: 2e-3,
+        noise_m: 0.05e-6,
+        step_s: 1e-5,
+        seed: 38,
+        ..Recording::default()
+    };
+    let csv = record(&program, &truth.x, &truth.y, &rec);
+    let measured = parse_trace(&csv, "small-circle.csv").unwrap();
+    let mut settings = CompareSettings::for_machine(&template);
+    settings.measured_at = MeasuredAt::Table;
+    let id = identify(&program, &template, &measured, &settings).unwrap();
+    let kv = id.axes[0]
+        .values
+        .iter()
+        .find(|v| v.key == "position_loop.kv_m_per_min_per_mm")
+        .expect("X's Kv fitted");
+    assert!(kv.determined, "{kv:?}");
+    common::assert_within_k_sigma("X Kv", 1.2, kv.value, kv.uncertainty, 3.0);
+    let i = &id.interpolator;
+    for axis in AxisName::BOTH {
+        let (written, preset) = (&id.machine.axis(axis).limits, &template.axis(axis).limits);
+        let pairs = [
+            (
+                "acceleration",
+                written.max_accel_m_per_s2,
+                preset.max_accel_m_per_s2,
+            ),
+            ("jerk", written.max_jerk_m_per_s3, preset.max_jerk_m_per_s3),
+            (
+                "feed",
+                written.max_feed_mm_per_min,
+                preset.max_feed_mm_per_min,
+            ),
+            ("rapid", written.rapid_mm_per_min, preset.rapid_mm_per_min),
+        ];
+        for (what, w, p) in pairs {
+            assert!(
+                w >= p,
+                "{axis} {what}: written {w}, the preset's {p}: {i:?}"
+            );
+        }
+    }
+    let fe_um = |machine: &MachineConfig| {
+        let run = check(&program, machine, &CheckSettings::for_machine(machine)).unwrap();
+        run.result.summary.max_following_error_cutting_m[0] * 1e6
+    };
+    let (predicted, actual) = (fe_um(&id.machine), fe_um(&truth));
+    assert!(
+        (predicted - actual).abs() <= 0.01 * actual,
+        "X following error while cutting: written machine {predicted:.1} µm, the machine {actual:.1} µm"
     );
 }
