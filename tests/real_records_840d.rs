@@ -276,11 +276,37 @@ fn identify_on_the_840d_trace_writes_a_machine_and_says_what_it_cannot_determine
     for v in &z.values {
         assert!(!v.determined, "Z {} determined: {v:?}", v.key);
     }
-    assert_eq!(
-        id.machine.axis(AxisName::Z),
-        template.axis(AxisName::Z),
-        "Z written other than the template's"
+    // But for its limits: the rapid's speed, counted as a rapid (the program's own G0 Z,
+    // though the record's commands join the program's plane path while Z still comes
+    // down), goes beyond the preset's Z rapid rate and is written in its place — within a
+    // tenth of the fastest Z of the file's rows in the stretch (the peak is read through
+    // ±30 ms of the 50 Hz rows, their one-row differences are not); Z has no feed move
+    // there, so its feed limit stays the preset's.
+    let c = &id.coverage;
+    let rows = commanded_z(&dir);
+    let file_peak = z_peak_speed_of_rows(&rows, c.compared_from_s, c.compared_to_s);
+    let i = &id.interpolator;
+    let k = i
+        .axes
+        .iter()
+        .position(|&a| a == AxisName::Z)
+        .expect("Z read");
+    assert!(
+        (i.rapid_mm_per_min[k] - file_peak).abs() < 0.1 * file_peak && i.feed_mm_per_min[k] == 0.0,
+        "{i:?}, file {file_peak}"
     );
+    let (written, preset) = (id.machine.axis(AxisName::Z), template.axis(AxisName::Z));
+    assert!(
+        written.limits.rapid_mm_per_min >= i.rapid_mm_per_min[k],
+        "{written:?}"
+    );
+    assert_eq!(
+        written.limits.max_feed_mm_per_min,
+        preset.limits.max_feed_mm_per_min
+    );
+    let mut but_limits = written.clone();
+    but_limits.limits = preset.limits.clone();
+    assert_eq!(&but_limits, preset, "Z written other than the template's");
 }
 
 /// The same trace in its machine coordinates, no offset given: refused, and told the one

@@ -4,17 +4,19 @@
 //! `check` plans the next program about as that control did.
 //!
 //! A peak is a limit only where the axis stayed at it, flat, in several stretches of the
-//! record, and the template's own planner would have asked for more on the same program:
-//! the moves demanded more than the machine gave. A circle at one feed never asks its
-//! axes for more than its radius needs; written as the limit, that peak would make every
-//! other program look gentler than the machine runs it.
+//! record, and the template's own planner would have asked for more of it in the same
+//! segments of the program, its commands read as the record's are: the moves demanded more
+//! than the machine gave. A circle at one feed never asks its axes for more than its radius
+//! needs; written as the limit, that peak would make every other program look gentler than
+//! the machine runs it.
 
 use serde::Serialize;
 
 use crate::compare::Context;
-use crate::machine::{AxisName, MachineConfig};
+use crate::machine::{AxisName, Limits, MachineConfig};
 use crate::numeric::units::mm_per_min_from_m_per_s;
-use crate::plan::AxisCommands;
+use crate::path::{Geometry, Motion, Segment};
+use crate::trace::recorded::{DERIVATIVE_HALF_WIDTH_S, local_derivatives};
 
 /// The interpolator's peaks in a record, per axis: X, Y, and Z where the record holds Z's
 /// commands and the template simulates Z (where a limit found can be written).
@@ -27,20 +29,34 @@ pub struct Interpolator {
     pub path_speed_mm_per_min: f64,
     /// Per axis: peak velocity (mm/min).
     pub velocity_mm_per_min: Vec<f64>,
+    /// Per axis: peak velocity (mm/min) where the program moves at its feed.
+    pub feed_mm_per_min: Vec<f64>,
+    /// Per axis: peak velocity (mm/min) in the program's rapids.
+    pub rapid_mm_per_min: Vec<f64>,
+    /// Per axis, the template's limits the peaks are held against: the feed (mm/min), the
+    /// rapid rate (mm/min) and the acceleration (m/s²).
+    pub template_feed_mm_per_min: Vec<f64>,
+    /// See `template_feed_mm_per_min`.
+    pub template_rapid_mm_per_min: Vec<f64>,
+    /// See `template_feed_mm_per_min`.
+    pub template_accel_m_per_s2: Vec<f64>,
     /// Peak acceleration (m/s²).
     pub accel_m_per_s2: Vec<f64>,
     /// Peak jerk (m/s³): the 99.5th percentile of the acceleration's rate, so that the
-    /// single cycles of a stepped acceleration (a trapezoidal interpolator has no jerk
+    /// single spikes of a stepped acceleration (a trapezoidal interpolator has no jerk
     /// limit) are not taken for the control's jerk.
     pub jerk_m_per_s3: Vec<f64>,
-    /// Per axis, the peak acceleration (m/s²) and jerk (m/s³) the template's planner gives
-    /// the same program: what the moves demanded.
+    /// Per axis, the peak acceleration (m/s²) the template's planner gives the segments of
+    /// the program the stretch compared covers: what those moves demanded. Its commands are
+    /// read as the record's are, over the same window.
     pub demanded_accel_m_per_s2: Vec<f64>,
-    /// The same for the jerk.
+    /// The same for the jerk (m/s³): the planner's largest over those segments, however
+    /// briefly it asks it.
     pub demanded_jerk_m_per_s3: Vec<f64>,
     /// Whether the record shows the acceleration held at its peak (flat for `PLATEAU_S`,
-    /// in `PLATEAUS` stretches, while the path speed ramped with the axis) where the moves
-    /// demanded more: the control's limit, not only what these moves needed.
+    /// in `PLATEAUS` stretches, while the path speed ramped with the axis), each in a
+    /// segment whose moves demanded more: the control's limit, not only what these moves
+    /// needed.
     pub accel_limited: Vec<bool>,
     /// Whether it shows the jerk held at its peak.
     pub jerk_limited: Vec<bool>,
@@ -65,60 +81,51 @@ const PLATEAU_SAMPLES: usize = 2;
 const RAMPING_SHARE: f64 = 0.5;
 
 /// One axis's series judged for a plateau: `held` (its acceleration, or the rate of it)
-/// and `own` the series `held` is the rate of (its velocity, or its acceleration), and
-/// `path` the path's counterpart of `own` (the path speed, or its rate), all sampled every
-/// `dt`.
+/// and `own` the series `held` is the rate of (its velocity, or its acceleration), `path`
+/// the path's counterpart of `own` (the path speed, or its rate), `demand` the largest the
+/// template's planner asks of `held` in the segment of the program each sample belongs to
+/// (its commands read as the record's, over the same window) and `given` the largest the
+/// record gave in that segment, all sampled every `dt`.
 struct Series<'a> {
     held: &'a [f64],
     own: &'a [f64],
     path: &'a [f64],
+    demand: &'a [f64],
+    given: &'a [f64],
     dt: f64,
 }
 
-/// Whether `s.held` stays within `PLATEAU_SHARE` of `peak` for `PLATEAU_S` (and at least
-/// `PLATEAU_SAMPLES`) in `PLATEAUS` separate stretches across which the path ramped with
-/// the axis, and the moves `demanded` more than the peak.
-fn held_at(s: &Series, peak: f64, demanded: f64) -> bool {
+/// Whether `s.held` stays flat at `peak` — within `PLATEAU_SHARE` of it either way — for
+/// `PLATEAU_S` (and at least `PLATEAU_SAMPLES`) in `PLATEAUS` separate stretches across
+/// which the path ramped with the axis, each in a segment whose moves demanded more than
+/// the record gave there (and more than the peak). A spike through the peak's level (a
+/// stepped acceleration's rate) is not flat there; where the planner asks no more in the
+/// same segment than the record gave, that is what the move needed, not a limit.
+fn held_at(s: &Series, peak: f64) -> bool {
     let need = ((PLATEAU_S / s.dt).ceil() as usize).max(PLATEAU_SAMPLES);
     let change = |v: &[f64], k: usize| match (v.get(k + 1 - need), v.get(k)) {
         (Some(a), Some(b)) => (b - a).abs(),
         _ => 0.0,
     };
+    let flat = |x: f64| x.abs() >= PLATEAU_SHARE * peak && x.abs() * PLATEAU_SHARE <= peak;
+    let demanded =
+        |k: usize| (k + 1 - need..=k).all(|j| peak.max(s.given[j]) < PLATEAU_SHARE * s.demand[j]);
     let (mut run, mut stretches) = (0usize, 0usize);
     for (k, x) in s.held.iter().enumerate() {
-        run = if peak > 0.0 && x.abs() >= PLATEAU_SHARE * peak {
-            run + 1
-        } else {
-            0
-        };
-        if run == need {
+        run = if peak > 0.0 && flat(*x) { run + 1 } else { 0 };
+        if run == need && k < s.demand.len().min(s.given.len()) && demanded(k) {
             let own = change(s.own, k);
             if own > 0.0 && change(s.path, k) >= RAMPING_SHARE * own {
                 stretches += 1;
             }
         }
     }
-    stretches >= PLATEAUS && peak < PLATEAU_SHARE * demanded
+    stretches >= PLATEAUS
 }
 
 /// The largest magnitude in `v`.
 fn peak(v: &[f64]) -> f64 {
     v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
-}
-
-/// The rate of `a` sampled every `dt`.
-fn rate(a: &[f64], dt: f64) -> Vec<f64> {
-    a.windows(2).map(|w| (w[1] - w[0]) / dt).collect()
-}
-
-/// The peak jerk of the acceleration `a`: the 99.5th percentile of its rate.
-fn jerk(a: &[f64], dt: f64) -> f64 {
-    let mut rates: Vec<f64> = rate(a, dt).iter().map(|r| r.abs()).collect();
-    rates.sort_by(f64::total_cmp);
-    rates
-        .get(((rates.len() as f64) * 0.995) as usize)
-        .copied()
-        .unwrap_or(0.0)
 }
 
 /// The axes whose peaks a record shows: X and Y, and Z where the record holds its commands
@@ -131,14 +138,82 @@ fn axes_read(ctx: &Context, template: &MachineConfig) -> Vec<AxisName> {
         .collect()
 }
 
-/// The path speed over `axes` and its rate (the path's acceleration along its direction,
-/// v·a/|v|, or |a| where the path stands), per sample.
-fn path_speed_and_rate(axes: &[&AxisCommands]) -> (Vec<f64>, Vec<f64>) {
-    let n = axes.iter().map(|a| a.vel_m_per_s.len()).min().unwrap_or(0);
+/// How much jerk (m/s³) the rounding of recorded positions may put into the peaks read:
+/// the window the positions are differentiated over widens until a step of their
+/// resolution, over its cube, stays below this.
+const JERK_FROM_ROUNDING_M_PER_S3: f64 = 0.01;
+/// Differences of recorded positions smaller than this (m) are the arithmetic's, not a
+/// resolution.
+const LEAST_RESOLUTION_M: f64 = 1e-12;
+/// How many steps of the smallest size show it to be the positions' resolution.
+const RESOLUTION_STEPS: usize = 10;
+
+/// The half-width (s) the recorded positions are differentiated over: the derivative fit's
+/// own (wide enough for a 10 kHz record, at least one sample each side), widened where
+/// the positions are rounded to a resolution coarse enough that its steps would read as
+/// jerk.
+fn half_width_s(positions: &[&[f64]], dt: f64) -> f64 {
+    let rounding =
+        resolution_m(positions).map_or(0.0, |q| (q / JERK_FROM_ROUNDING_M_PER_S3).cbrt());
+    DERIVATIVE_HALF_WIDTH_S.max(1.5 * dt).max(rounding)
+}
+
+/// The resolution the positions are rounded to (m), where they show one: their smallest
+/// step, taken by many of their steps (an encoder's count as the axis creeps). Positions
+/// written to more digits than they move by in a sample show none.
+fn resolution_m(positions: &[&[f64]]) -> Option<f64> {
+    let steps: Vec<f64> = positions
+        .iter()
+        .flat_map(|p| p.windows(2).map(|w| (w[1] - w[0]).abs()))
+        .filter(|d| *d > LEAST_RESOLUTION_M)
+        .collect();
+    let q = steps.iter().copied().fold(f64::INFINITY, f64::min);
+    let at_q = steps.iter().filter(|d| **d < 1.5 * q).count();
+    (q.is_finite() && at_q >= RESOLUTION_STEPS.max(steps.len() / 100)).then_some(q)
+}
+
+/// One axis's recorded commands differentiated at every sample: velocity (m/s),
+/// acceleration (m/s²), and jerk (m/s³) — the acceleration's change across the window it
+/// was fitted over, so that a step of it (a trapezoidal interpolator) reads as a spike of
+/// one sample, not as a plateau.
+struct Derived {
+    vel: Vec<f64>,
+    acc: Vec<f64>,
+    jerk: Vec<f64>,
+}
+
+fn derive(pos: &[f64], dt: f64, half: f64) -> Derived {
+    let (vel, acc): (Vec<f64>, Vec<f64>) = (0..pos.len())
+        .map(|k| local_derivatives(pos, dt, k as f64 * dt, half))
+        .unzip();
+    let m = ((half / dt).floor() as usize).max(1);
+    let jerk = (0..acc.len())
+        .map(|k| match (k.checked_sub(m), acc.get(k + m)) {
+            (Some(lo), Some(hi)) => (hi - acc[lo]) / (2.0 * m as f64 * dt),
+            _ => 0.0,
+        })
+        .collect();
+    Derived { vel, acc, jerk }
+}
+
+/// The 99.5th percentile of the magnitudes in `v`: the single spikes of a stepped
+/// acceleration (a trapezoidal interpolator has no jerk limit) are not the control's jerk.
+fn percentile_995(v: &[f64]) -> f64 {
+    let mut m: Vec<f64> = v.iter().map(|r| r.abs()).collect();
+    m.sort_by(f64::total_cmp);
+    m.get(((m.len() as f64) * 0.995) as usize)
+        .copied()
+        .unwrap_or(0.0)
+}
+
+/// The path speed over the axes' `vel` and `acc` and its rate (the path's acceleration
+/// along its direction, v·a/|v|, or |a| where the path stands), per sample.
+fn path_speed_and_rate(axes: &[(&[f64], &[f64])]) -> (Vec<f64>, Vec<f64>) {
+    let n = axes.iter().map(|a| a.0.len()).min().unwrap_or(0);
     (0..n)
         .map(|k| {
             let (vv, va, aa) = axes.iter().fold((0.0, 0.0, 0.0), |(vv, va, aa), a| {
-                let (v, acc) = (a.vel_m_per_s[k], a.acc_m_per_s2[k]);
+                let (v, acc) = (a.0[k], a.1[k]);
                 (vv + v * v, va + v * acc, aa + acc * acc)
             });
             let speed: f64 = vv.sqrt();
@@ -148,75 +223,307 @@ fn path_speed_and_rate(axes: &[&AxisCommands]) -> (Vec<f64>, Vec<f64>) {
         .unzip()
 }
 
-/// The peaks of the context's commands, and what `template`'s planner demands on the same
-/// program.
-pub(crate) fn read(ctx: &Context, template: &MachineConfig) -> Interpolator {
-    let read = axes_read(ctx, template);
-    let axes: Vec<&AxisCommands> = read.iter().map(|&a| ctx.commands.axis(a)).collect();
-    let planned = crate::plan::sample(&ctx.plan);
-    let demanded: Vec<&AxisCommands> = read.iter().map(|&a| planned.axis(a)).collect();
-    let demanded_accel: Vec<f64> = demanded.iter().map(|a| peak(&a.acc_m_per_s2)).collect();
-    let demanded_jerk: Vec<f64> = demanded
-        .iter()
-        .map(|a| jerk(&a.acc_m_per_s2, planned.dt_s))
+/// The record's samples compared (first to last), and for each the segment of the program
+/// it belongs to (none past the commands' end).
+fn stretch(ctx: &Context, offset_s: f64) -> (std::ops::RangeInclusive<usize>, Vec<Option<usize>>) {
+    let (first, last) = match (ctx.samples.first(), ctx.samples.last()) {
+        (Some(&a), Some(&b)) => (a, b),
+        _ => (0, 0),
+    };
+    let c = &ctx.commands;
+    let segments = (first..=last)
+        .map(|i| {
+            let t = ctx.prog_time(i, offset_s);
+            let k = (t / c.dt_s).round().clamp(0.0, (c.len().max(1) - 1) as f64) as usize;
+            c.segment.get(k).map(|&s| s as usize)
+        })
         .collect();
-    let accel: Vec<f64> = axes.iter().map(|a| peak(&a.acc_m_per_s2)).collect();
-    let jerks: Vec<f64> = axes.iter().map(|a| jerk(&a.acc_m_per_s2, ctx.dt)).collect();
+    (first..=last, segments)
+}
+
+/// Whether the program moves at its feed in `segment` (else at its rapid rate, or stands
+/// after one): the move's own kind, as the program gives it.
+fn at_feed(ctx: &Context, segment: Option<usize>) -> bool {
+    segment
+        .and_then(|s| ctx.plan.segments.get(s))
+        .is_none_or(|s| s.motion == Motion::Feed)
+}
+
+/// Whether `segment` moves `axis`: a line or a helix whose end differs from its start
+/// along it, or an arc in a plane holding it.
+fn moves(segment: &Segment, axis: AxisName) -> bool {
+    let a = axis.index();
+    let along = (segment.end_m[a] - segment.start_m[a]).abs() > MOVED_M;
+    match segment.geometry {
+        Geometry::Line => along,
+        Geometry::Arc(_) => along || segment.plane.axes()[..2].contains(&a),
+        Geometry::Dwell { .. } => false,
+    }
+}
+
+/// A move shorter than this along an axis does not move it (m).
+const MOVED_M: f64 = 1e-9;
+
+/// Per sample of the stretch, the segment of the program `axis` moves in there: the
+/// segment the sample is placed on where that moves the axis; else the last one before it
+/// that does (the axis still finishing that move: a rapid of Z before the plane's path
+/// joins the program is placed on the first block of that path), or the first after.
+/// Its move's kind (rapid or feed) is the one the axis's speed there is counted under.
+fn axis_segments(ctx: &Context, axis: AxisName, placed: &[Option<usize>]) -> Vec<Option<usize>> {
+    let segs = &ctx.plan.segments;
+    // Per segment of the program, the one the axis moves in there, by one pass each way.
+    let mut last = None;
+    let before: Vec<Option<usize>> = (0..segs.len())
+        .map(|j| {
+            last = if moves(&segs[j], axis) { Some(j) } else { last };
+            last
+        })
+        .collect();
+    let mut next = None;
+    let mut after: Vec<Option<usize>> = (0..segs.len())
+        .rev()
+        .map(|j| {
+            next = if moves(&segs[j], axis) { Some(j) } else { next };
+            next
+        })
+        .collect();
+    after.reverse();
+    placed
+        .iter()
+        .map(|&p| {
+            let s = p.filter(|&s| s < segs.len())?;
+            before[s].or(after[s]).or(Some(s))
+        })
+        .collect()
+}
+
+/// The record's own commands of `axes`, over its whole length.
+fn recorded<'m>(ctx: &'m Context, axes: &[AxisName]) -> Vec<&'m [f64]> {
+    let m = ctx.measured;
+    let empty: &[f64] = &[];
+    axes.iter()
+        .map(|&a| match (a, &m.commands) {
+            (AxisName::Z, _) => m.z_cmd_m.as_deref().unwrap_or(empty),
+            (_, Some(c)) => c[a.index()].as_slice(),
+            (_, None) => empty,
+        })
+        .collect()
+}
+
+/// The half-width (s) the record's `positions` are differentiated over in the stretch
+/// `range` (see [`half_width_s`]).
+fn stretch_half_width_s(
+    positions: &[&[f64]],
+    range: &std::ops::RangeInclusive<usize>,
+    dt: f64,
+) -> f64 {
+    let cut: Vec<&[f64]> = positions
+        .iter()
+        .map(|p| p.get(range.clone()).unwrap_or_default())
+        .collect();
+    half_width_s(&cut, dt)
+}
+
+/// The recorded `positions` differentiated over `half` (s) over the whole record (so that
+/// the stretch's ends are fitted on both sides), cut to the stretch `range`.
+fn derive_stretch(
+    positions: &[&[f64]],
+    range: std::ops::RangeInclusive<usize>,
+    dt: f64,
+    half: f64,
+) -> Vec<Derived> {
+    let len = positions.iter().map(|p| p.len()).min().unwrap_or(0);
+    let range = *range.start()..(range.end() + 1).min(len);
+    positions
+        .iter()
+        .map(|p| {
+            let d = derive(&p[..len], dt, half);
+            let cut = |v: Vec<f64>| v.get(range.clone()).unwrap_or_default().to_vec();
+            Derived {
+                vel: cut(d.vel),
+                acc: cut(d.acc),
+                jerk: cut(d.jerk),
+            }
+        })
+        .collect()
+}
+
+/// What the template's planner demands of one axis, per segment of the program: its largest
+/// acceleration (m/s²) and jerk (m/s³) there, its commands read as the record's are
+/// (differentiated over the same half-width, the jerk over the same window).
+struct Demand {
+    accel: Vec<f64>,
+    jerk: Vec<f64>,
+}
+
+/// Per axis of `axes`, what the template's planner (the context's plan) demands of it,
+/// its commands differentiated over `half` (s) as the record's are.
+fn demands(ctx: &Context, axes: &[AxisName], half: f64) -> Vec<Demand> {
+    let planned = crate::plan::sample(&ctx.plan);
+    let n = ctx.plan.segments.len();
+    axes.iter()
+        .map(|&a| {
+            let d = derive(&planned.axis(a).pos_m, planned.dt_s, half);
+            let mut demand = Demand {
+                accel: vec![0.0; n],
+                jerk: vec![0.0; n],
+            };
+            for (k, &s) in planned.segment.iter().enumerate() {
+                if let (Some(acc), Some(jerk)) = (demand.accel.get_mut(s as usize), d.jerk.get(k)) {
+                    *acc = acc.max(d.acc[k].abs());
+                    demand.jerk[s as usize] = demand.jerk[s as usize].max(jerk.abs());
+                }
+            }
+            demand
+        })
+        .collect()
+}
+
+/// The peak of `vel` (mm/min) over the samples whose `feed` is `on_feed` (the program
+/// at its feed, or in a rapid).
+fn peak_speed(vel: &[f64], feed: &[bool], on_feed: bool) -> f64 {
+    let v: Vec<f64> = vel
+        .iter()
+        .zip(feed.iter().chain(std::iter::repeat(&true)))
+        .filter(|(_, f)| **f == on_feed)
+        .map(|(v, _)| *v)
+        .collect();
+    mm_per_min_from_m_per_s(peak(&v))
+}
+
+/// Per sample of the stretch, the value of `per_segment` for the segment it belongs to.
+fn on_samples(per_segment: &[f64], segments: &[Option<usize>]) -> Vec<f64> {
+    segments
+        .iter()
+        .map(|s| s.and_then(|s| per_segment.get(s)).copied().unwrap_or(0.0))
+        .collect()
+}
+
+/// Per sample of the stretch, the largest magnitude of `v` over the samples in the same
+/// segment (of those on `segments`).
+fn segment_peaks(v: &[f64], segments: &[Option<usize>]) -> Vec<f64> {
+    let n = segments.iter().flatten().max().map_or(0, |s| s + 1);
+    let mut per_segment = vec![0.0f64; n];
+    for (x, s) in v.iter().zip(segments) {
+        if let Some(m) = s.and_then(|s| per_segment.get_mut(s)) {
+            *m = m.max(x.abs());
+        }
+    }
+    on_samples(&per_segment, segments)
+}
+
+/// The peaks of the record's own commands over the stretch compared (differentiated at the
+/// record's own rate), and what `template`'s planner demands of the same segments.
+pub(crate) fn read(ctx: &Context, template: &MachineConfig, offset_s: f64) -> Interpolator {
+    let read = axes_read(ctx, template);
+    let dt = ctx.measured.dt_s;
+    let positions = recorded(ctx, &read);
+    let (range, placed) = stretch(ctx, offset_s);
+    let segments: Vec<Vec<Option<usize>>> = read
+        .iter()
+        .map(|&a| axis_segments(ctx, a, &placed))
+        .collect();
+    let half = stretch_half_width_s(&positions, &range, dt);
+    let derived = derive_stretch(&positions, range, dt, half);
+    let demands = demands(ctx, &read, half);
+    let accel: Vec<f64> = derived.iter().map(|d| peak(&d.acc)).collect();
+    let jerks: Vec<f64> = derived.iter().map(|d| percentile_995(&d.jerk)).collect();
     // The path over the axes read (a plunge of Z alone ramps it too).
-    let (speed, along) = path_speed_and_rate(&axes);
-    let accel_limited = axes.iter().enumerate().map(|(i, a)| {
+    let pairs: Vec<(&[f64], &[f64])> = derived.iter().map(|d| (&d.vel[..], &d.acc[..])).collect();
+    let (speed, along) = path_speed_and_rate(&pairs);
+    let held = |i: usize, jerk: bool| {
+        let (d, demand, segments) = (&derived[i], &demands[i], &segments[i]);
+        let demand = on_samples(if jerk { &demand.jerk } else { &demand.accel }, segments);
+        let held = if jerk { &d.jerk } else { &d.acc };
         let s = Series {
-            held: &a.acc_m_per_s2,
-            own: &a.vel_m_per_s,
-            path: &speed,
-            dt: ctx.dt,
+            held,
+            own: if jerk { &d.acc } else { &d.vel },
+            path: if jerk { &along } else { &speed },
+            demand: &demand,
+            given: &segment_peaks(held, segments),
+            dt,
         };
-        held_at(&s, accel[i], demanded_accel[i])
-    });
-    let jerk_limited = axes.iter().enumerate().map(|(i, a)| {
-        let s = Series {
-            held: &rate(&a.acc_m_per_s2, ctx.dt),
-            own: &a.acc_m_per_s2,
-            path: &along,
-            dt: ctx.dt,
-        };
-        held_at(&s, jerks[i], demanded_jerk[i])
-    });
+        held_at(&s, if jerk { jerks[i] } else { accel[i] })
+    };
+    let speeds = |on_feed: bool| -> Vec<f64> {
+        derived
+            .iter()
+            .zip(&segments)
+            .map(|(d, segments)| {
+                let feed: Vec<bool> = segments.iter().map(|&s| at_feed(ctx, s)).collect();
+                peak_speed(&d.vel, &feed, on_feed)
+            })
+            .collect()
+    };
+    let demanded = |jerk: bool| -> Vec<f64> {
+        demands
+            .iter()
+            .zip(&segments)
+            .map(|(d, s)| peak(&on_samples(if jerk { &d.jerk } else { &d.accel }, s)))
+            .collect()
+    };
+    let limits: Vec<&Limits> = read.iter().map(|&a| &template.axis(a).limits).collect();
     Interpolator {
         path_speed_mm_per_min: mm_per_min_from_m_per_s(peak(&speed)),
-        velocity_mm_per_min: axes
+        velocity_mm_per_min: derived
             .iter()
-            .map(|a| mm_per_min_from_m_per_s(peak(&a.vel_m_per_s)))
+            .map(|d| mm_per_min_from_m_per_s(peak(&d.vel)))
             .collect(),
-        accel_limited: accel_limited.collect(),
-        jerk_limited: jerk_limited.collect(),
+        feed_mm_per_min: speeds(true),
+        rapid_mm_per_min: speeds(false),
+        accel_limited: (0..read.len()).map(|i| held(i, false)).collect(),
+        jerk_limited: (0..read.len()).map(|i| held(i, true)).collect(),
         accel_m_per_s2: accel,
         jerk_m_per_s3: jerks,
-        demanded_accel_m_per_s2: demanded_accel,
-        demanded_jerk_m_per_s3: demanded_jerk,
+        demanded_accel_m_per_s2: demanded(false),
+        demanded_jerk_m_per_s3: demanded(true),
+        template_feed_mm_per_min: limits.iter().map(|l| l.max_feed_mm_per_min).collect(),
+        template_rapid_mm_per_min: limits.iter().map(|l| l.rapid_mm_per_min).collect(),
+        template_accel_m_per_s2: limits.iter().map(|l| l.max_accel_m_per_s2).collect(),
         axes: read,
     }
 }
 
+/// How far beyond a template's limit a record's peak must go to disprove it: the peaks are
+/// fitted and carry the fit's rounding.
+const BEYOND_SHARE: f64 = 1.01;
+
+/// Whether a record's `peak` goes beyond the template's `limit`.
+pub(crate) fn beyond(peak: f64, limit: f64) -> bool {
+    peak > BEYOND_SHARE * limit
+}
+
 /// The peaks as the machine's acceleration and jerk limits where the record shows them held
 /// (rounded up to three significant digits); elsewhere the moves did not reach the control's
-/// limits and the template's stay.
+/// limits and the template's stay — except where the record went beyond them: a limit the
+/// record disproves is raised to its peak (speeds at feed and at rapid, and the
+/// acceleration).
 pub(crate) fn write_limits(machine: &mut MachineConfig, interpolator: &Interpolator) {
-    for (i, &axis) in interpolator.axes.iter().enumerate() {
+    let i = interpolator;
+    for (k, &axis) in i.axes.iter().enumerate() {
         let limits = &mut machine.axis_mut(axis).limits;
-        if interpolator.accel_limited[i] {
-            limits.max_accel_m_per_s2 = round_up(interpolator.accel_m_per_s2[i]);
+        if i.accel_limited[k] || beyond(i.accel_m_per_s2[k], limits.max_accel_m_per_s2) {
+            limits.max_accel_m_per_s2 = round_up(i.accel_m_per_s2[k]);
         }
-        if interpolator.jerk_limited[i] {
-            limits.max_jerk_m_per_s3 = round_up(interpolator.jerk_m_per_s3[i]);
+        if i.jerk_limited[k] {
+            limits.max_jerk_m_per_s3 = round_up(i.jerk_m_per_s3[k]);
         }
+        if beyond(i.feed_mm_per_min[k], limits.max_feed_mm_per_min) {
+            limits.max_feed_mm_per_min = round_up(i.feed_mm_per_min[k]);
+        }
+        if beyond(i.rapid_mm_per_min[k], limits.rapid_mm_per_min) {
+            limits.rapid_mm_per_min = round_up(i.rapid_mm_per_min[k]);
+        }
+        // A rapid no slower than the fastest feed, as every control has it.
+        limits.rapid_mm_per_min = limits.rapid_mm_per_min.max(limits.max_feed_mm_per_min);
     }
 }
 
 /// Rounded up to three significant digits.
 fn round_up(v: f64) -> f64 {
     let e = 10f64.powf(v.abs().log10().floor() - 2.0);
-    (v / e).ceil() * e
+    // A peak read a rounding above a round value is that value.
+    (v / e * (1.0 - 1e-9)).ceil() * e
 }
 
 #[cfg(test)]
@@ -245,21 +552,45 @@ mod tests {
         // for 2: held. Along a line the path speed is the axis's own over the cosine of
         // its angle: here the axis moves alone.
         let (vel, acc) = two_trapezoids(0.5, 20, dt);
+        let (two, half) = (vec![2.0; acc.len()], vec![0.5; acc.len()]);
         let along = |path| Series {
             held: &acc,
             own: &vel,
             path,
+            demand: &two,
+            given: &half,
             dt,
         };
-        assert!(held_at(&along(&vel), 0.5, 2.0));
+        assert!(held_at(&along(&vel), 0.5));
         // On a line at 60° to the axis: the path speed twice the axis's.
         let twice: Vec<f64> = vel.iter().map(|v| 2.0 * v).collect();
-        assert!(held_at(&along(&twice), 0.5, 2.0));
+        assert!(held_at(&along(&twice), 0.5));
         // The same where the planner gives 0.5 itself: the moves asked no more.
-        assert!(!held_at(&along(&vel), 0.5, 0.5));
+        let s = Series {
+            demand: &half,
+            ..along(&vel)
+        };
+        assert!(!held_at(&s, 0.5));
+        // Where the record itself gave 2 elsewhere in the same segments (a stepped
+        // acceleration's rate passing through the plateau's level): the planner asked no
+        // more than the record gave there.
+        let s = Series {
+            given: &two,
+            ..along(&vel)
+        };
+        assert!(!held_at(&s, 0.5));
+        // Where it asks more only where the first ramp is: one stretch, not a limit.
+        let first: Vec<f64> = (0..acc.len())
+            .map(|k| if k < 30 { 2.0 } else { 0.5 })
+            .collect();
+        let s = Series {
+            demand: &first,
+            ..along(&vel)
+        };
+        assert!(!held_at(&s, 0.5));
         // At constant path speed (a circle's centripetal peaks): not a limit.
         let constant = vec![0.1; vel.len()];
-        assert!(!held_at(&along(&constant), 0.5, 2.0));
+        assert!(!held_at(&along(&constant), 0.5));
         // One stretch only (the first ramp up): not.
         let once: Vec<f64> = acc
             .iter()
@@ -270,14 +601,16 @@ mod tests {
             held: &once,
             ..along(&vel)
         };
-        assert!(!held_at(&s, 0.5, 2.0));
+        assert!(!held_at(&s, 0.5));
         // A single-sample spike: not.
         let spike: Vec<f64> = (0..60).map(|k| if k == 30 { 0.5 } else { 0.1 }).collect();
         let s = Series {
             held: &spike,
             ..along(&vel)
         };
-        assert!(!held_at(&s, 0.5, 2.0));
+        assert!(!held_at(&s, 0.5));
+        // Ramps at 0.5 are no plateau at 0.25: that level is crossed, not held.
+        assert!(!held_at(&along(&vel), 0.25));
     }
 
     #[test]
@@ -290,13 +623,16 @@ mod tests {
         let (vel, acc) = two_trapezoids(0.2, 83, dt);
         let mut path = vel.clone();
         path.extend([10.0 / 60.0; 50]);
+        let demand = vec![0.3; acc.len()];
         let s = Series {
             held: &acc,
             own: &vel,
             path: &path,
+            demand: &demand,
+            given: &vec![0.2; acc.len()],
             dt,
         };
-        assert!(held_at(&s, 0.2, 0.3));
+        assert!(held_at(&s, 0.2));
     }
 
     #[test]
@@ -305,18 +641,21 @@ mod tests {
         // peak is no plateau; two are, with the path speed's change across them.
         let dt = 0.02;
         let (vel, acc) = two_trapezoids(0.2, 5, dt);
+        let demand = vec![0.3; acc.len()];
         let s = Series {
             held: &acc,
             own: &vel,
             path: &vel,
+            demand: &demand,
+            given: &vec![0.2; acc.len()],
             dt,
         };
-        assert!(held_at(&s, 0.2, 0.3));
+        assert!(held_at(&s, 0.2));
         let spikes: Vec<f64> = (0..40)
             .map(|k| if k % 10 == 3 { 0.2 } else { 0.0 })
             .collect();
         let s = Series { held: &spikes, ..s };
-        assert!(!held_at(&s, 0.2, 0.3));
+        assert!(!held_at(&s, 0.2));
     }
 
     #[test]

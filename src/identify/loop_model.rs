@@ -33,8 +33,8 @@ const VELOCITY_BANDWIDTH_HZ: f64 = 50.0;
 const DEFAULT_KV: f64 = 3.0;
 const MAX_LAG_KV: f64 = 10.0;
 
-/// The model's starting point for `measured`: the small-table preset's mechanics with a
-/// cascade per axis, its Kv read from the record's steady lag (the speed over the following
+/// The model's starting point for `measured`: the small-table preset's mechanics, with no
+/// travel limits (see the body), and a cascade per axis, its Kv read from the record's steady lag (the speed over the following
 /// error while moving), its velocity loop set to [`VELOCITY_BANDWIDTH_HZ`].
 pub(crate) fn template(measured: &MeasuredTrace) -> MachineConfig {
     let mut m = MachineConfig::preset("small-table").expect("a built-in preset");
@@ -75,7 +75,11 @@ pub(crate) fn template(measured: &MeasuredTrace) -> MachineConfig {
         if let Some(amp) = &mut a.amplifier {
             amp.i_max_a = None;
         }
+        // The preset's travel is its own table's, not this machine's: the record shows
+        // where the machine reaches, and no travel limit is set that it would disprove.
+        a.limits.travel_mm = None;
     }
+    m.z.limits_mut().travel_mm = None;
     m
 }
 

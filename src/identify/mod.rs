@@ -205,7 +205,7 @@ fn identify_as(
         axes.push(identified);
     }
     let z_not_identified = z_axis::write(z, &mut machine, &mut axes);
-    let interpolator = interpolator::read(&ctx, template);
+    let interpolator = interpolator::read(&ctx, template, offset);
     interpolator::write_limits(&mut machine, &interpolator);
     whole_record::file_figures(program, &machine, measured, settings, &mut axes);
     Ok(Identification {

@@ -442,18 +442,35 @@ pub(crate) fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
     })
 }
 
-/// The record's interpolator in words: the path speed, then per axis its speed and its
-/// acceleration and jerk, each said to be held (written as the limit) or only a peak.
+/// The record's interpolator in words: the path speed, then per axis its speeds and its
+/// acceleration and jerk, each said to be held (written as the limit), beyond the
+/// template's limit (its peak written), or only a peak.
 #[cfg(feature = "html-report")]
 pub(crate) fn interpolator_lines(i: &crate::identify::Interpolator) -> Vec<String> {
-    let limit = |value: f64, demanded: f64, unit: &str, held: bool| {
+    use super::interpolator::beyond;
+    let limit = |value: f64, demanded: f64, unit: &str, held: bool, template: Option<f64>| {
         if held {
             format!(
                 "{value:.3} {unit} (held where the template's planner asked {demanded:.3}: \
                  written as the limit)"
             )
+        } else if let Some(t) = template.filter(|t| beyond(value, *t)) {
+            format!(
+                "peak {value:.3} {unit} (beyond the template's limit of {t:.3}: the peak is \
+                 written as the limit)"
+            )
         } else {
             format!("peak {value:.3} {unit} (not shown to be a limit: the template's stays)")
+        }
+    };
+    let speed = |what: &str, value: f64, template: f64| {
+        if beyond(value, template) {
+            format!(
+                "{what} up to {value:.0} mm/min (beyond the template's {template:.0}: \
+                 written as the limit)"
+            )
+        } else {
+            format!("{what} up to {value:.0} mm/min")
         }
     };
     let mut lines = vec![format!(
@@ -462,19 +479,30 @@ pub(crate) fn interpolator_lines(i: &crate::identify::Interpolator) -> Vec<Strin
     )];
     for (k, axis) in i.axes.iter().enumerate() {
         lines.push(format!(
-            "{axis}: up to {:.0} mm/min, acceleration {}, jerk {}",
-            i.velocity_mm_per_min[k],
+            "{axis}: {}, {}, acceleration {}, jerk {}",
+            speed(
+                "at feed",
+                i.feed_mm_per_min[k],
+                i.template_feed_mm_per_min[k]
+            ),
+            speed(
+                "in rapids",
+                i.rapid_mm_per_min[k],
+                i.template_rapid_mm_per_min[k]
+            ),
             limit(
                 i.accel_m_per_s2[k],
                 i.demanded_accel_m_per_s2[k],
                 "m/s²",
-                i.accel_limited[k]
+                i.accel_limited[k],
+                Some(i.template_accel_m_per_s2[k])
             ),
             limit(
                 i.jerk_m_per_s3[k],
                 i.demanded_jerk_m_per_s3[k],
                 "m/s³",
-                i.jerk_limited[k]
+                i.jerk_limited[k],
+                None
             ),
         ));
     }

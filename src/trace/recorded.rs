@@ -22,7 +22,7 @@ use crate::trace::signal::sample;
 
 /// Half-width of the derivative fit (s): wide enough to average a 10 kHz record's
 /// quantisation, short against any feed change a servo follows.
-const DERIVATIVE_HALF_WIDTH_S: f64 = 3e-3;
+pub(crate) const DERIVATIVE_HALF_WIDTH_S: f64 = 3e-3;
 
 /// What recorded commands ask of an axis beyond what the machine file says it can do.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]

@@ -23,6 +23,7 @@ mod held_start;
 mod hidden_machines;
 mod lead_lag_family;
 mod leads;
+mod limits;
 mod presliding;
 mod ripple;
 mod z_axis;

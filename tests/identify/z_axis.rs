@@ -133,8 +133,14 @@ fn jerk_capped_demand(template: &MachineConfig, axis: AxisName, feed_mm_per_min:
 
 /// Every axis's acceleration limit read as the reference's ramp and written, its jerk (a
 /// step: a trapezoidal interpolator has no jerk limit) neither read nor written. Z's
-/// fastest move runs at `z_feed` (mm/min) in the template's plan.
-fn limits_read_as_the_ramp(template: &MachineConfig, id: &Identification, z_feed: f64) {
+/// fastest move runs at `z_feed` (mm/min) in the template's plan; the record was sampled
+/// every `sample_s`.
+fn limits_read_as_the_ramp(
+    template: &MachineConfig,
+    id: &Identification,
+    z_feed: f64,
+    sample_s: f64,
+) {
     let i = &id.interpolator;
     assert_eq!(i.accel_limited.len(), 3, "{i:?}");
     let written = id.machine_file(template, "plunges.nc");
@@ -145,13 +151,15 @@ fn limits_read_as_the_ramp(template: &MachineConfig, id: &Identification, z_feed
     {
         // Each axis moved alone at 1000 mm/min: the template's planner asks √(v·jerk)
         // = 0.289 m/s² of it, below its 0.5 m/s² limit — the apex of a triangle in the
-        // acceleration, sampled every cycle: up to jerk·cycle/2 below it. A rapid of Z at
-        // the template's 4000 mm/min asks its limit.
+        // acceleration, sampled every cycle (up to jerk·cycle/2 below it) and read as the
+        // record is, through a window of ±max(3 ms, 1.5 samples) (a triangle's apex
+        // averaged over it: at most jerk·window lower). A rapid of Z at the template's
+        // 4000 mm/min asks its limit, flat.
         let feed = if axis == AxisName::Z { z_feed } else { 1000.0 };
         let demand = jerk_capped_demand(template, axis, feed);
-        let sampled =
-            template.axis(axis).limits.max_jerk_m_per_s3 * template.interpolation.cycle_ms * 1e-3
-                / 2.0;
+        let window_s = 3e-3f64.max(1.5 * sample_s);
+        let sampled = template.axis(axis).limits.max_jerk_m_per_s3
+            * (template.interpolation.cycle_ms * 1e-3 / 2.0 + window_s);
         let demanded = i.demanded_accel_m_per_s2[k];
         assert!(
             demanded >= demand - sampled && demanded <= 1.01 * demand,
@@ -184,7 +192,7 @@ fn acceleration_limits_are_read_where_the_record_holds_them_below_the_demand() {
     // top speed, yet each axis's own ramps still show its limit.
     let (template, id) = plunges_identified(PLUNGES_AND_RAPID, 2e-3, 2.0);
     let rapid = template.axis(AxisName::Z).limits.rapid_mm_per_min;
-    limits_read_as_the_ramp(&template, &id, rapid);
+    limits_read_as_the_ramp(&template, &id, rapid, 2e-3);
 }
 
 #[test]
@@ -193,7 +201,7 @@ fn acceleration_limits_are_read_from_a_50_hz_record_on_a_coarse_cycle() {
     // whose control interpolates every 10 ms: a 5 ms plateau is shorter than a cycle, yet
     // the ramps — 167 ms, eight samples each — show the limit.
     let (template, id) = plunges_identified(PLUNGES, 0.02, 10.0);
-    limits_read_as_the_ramp(&template, &id, 1000.0);
+    limits_read_as_the_ramp(&template, &id, 1000.0, 0.02);
 }
 
 /// A square of 50 mm at F3000 run by the reference with a jerk-limited interpolator: each
