@@ -93,6 +93,10 @@ pub(super) const STILL_M_PER_S: f64 = 1e-7;
 const SETTLED_M: f64 = 2e-6;
 /// How far the model must move in a settled hold to count as hunting (m).
 const HUNTING_M: f64 = 0.02e-6;
+/// How long the model must stand within [`HUNTING_M`] to count as at rest (s): longer than a
+/// stick at a reversal of the approach lasts, far shorter than a hunting cycle (its
+/// integrator winds against static friction for a good part of a second).
+const QUIET_S: f64 = 0.05;
 /// How long after a hunting hold the axis's start is left out too (s): three time constants
 /// of a position loop of Kv = 1 m/min/mm, where a difference in the state the hunting left
 /// has fallen to a twentieth.
@@ -480,7 +484,7 @@ impl Context<'_> {
     }
 
     /// The samples of `axis` at which it holds still and the model `trace` hunts: from where
-    /// the model has settled within [`SETTLED_M`] of the command until
+    /// the model has settled within [`SETTLED_M`] of the command ([`settled_at`]) until
     /// [`START_AFTER_HUNTING_S`] after the command moves again, in every hold where the model
     /// moves by more than [`HUNTING_M`] after settling.
     ///
@@ -514,10 +518,8 @@ impl Context<'_> {
             let command: Vec<f64> = (start..k)
                 .map(|j| self.command_at(axis, times[j]).0)
                 .collect();
-            // Settled from just after the last sample still outside the band.
-            let settled = (0..model.len())
-                .rposition(|i| (model[i] - command[i]).abs() >= SETTLED_M)
-                .map_or(0, |i| i + 1);
+            let quiet = (QUIET_S / self.sample_dt_s).ceil().max(3.0) as usize;
+            let settled = settled_at(&model, &command, quiet);
             if settled + 2 > model.len() {
                 continue;
             }
@@ -526,7 +528,11 @@ impl Context<'_> {
                 .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
                     (l.min(v), h.max(v))
                 });
-            if hi - lo > HUNTING_M {
+            let measured = self.measured_axis(axis);
+            let record: Vec<f64> = (start + settled..k)
+                .filter_map(|j| measured.get(self.samples[j]).copied())
+                .collect();
+            if hi - lo > HUNTING_M || self.record_hunts(&record, quiet) {
                 // And the start that follows: when the table breaks away depends on where
                 // in its cycle the hunting left it, a difference the loop takes a few of its
                 // time constants to forget.
@@ -540,6 +546,26 @@ impl Context<'_> {
             }
         }
         mask
+    }
+
+    /// Whether the record of an axis holding still (`record`, from where its model came to
+    /// rest) moves by more than [`SETTLED_M`] between its averages over `quiet` samples, and
+    /// beyond what its noise moves them: the machine hunts there even where its model, come to
+    /// rest a little differently, holds (a table stuck within its loop's elastic give stays,
+    /// one stuck a little further out breaks away), and the two cannot be compared point by
+    /// point either.
+    fn record_hunts(&self, record: &[f64], quiet: usize) -> bool {
+        let means: Vec<f64> = record
+            .chunks_exact(quiet)
+            .map(|c| c.iter().sum::<f64>() / quiet as f64)
+            .collect();
+        let (lo, hi) = means
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                (l.min(v), h.max(v))
+            });
+        let noise_of_mean = self.noise_sigma / (quiet as f64).sqrt();
+        means.len() >= 2 && hi - lo > SETTLED_M.max(6.0 * noise_of_mean)
     }
 
     /// The measured axis at the context's samples.
@@ -731,6 +757,29 @@ impl Context<'_> {
             sample(&c.vel_m_per_s, self.dt, t),
         )
     }
+}
+
+/// Where in a hold the model has settled (index into `model`, one sample per entry, with its
+/// `command`): just after the last sample outside [`SETTLED_M`] of the command, or, where
+/// earlier, the first sample from which the model stands still for `quiet` samples. An
+/// approach ends where the table first comes to rest; what moves it after that is its
+/// integrator winding against static friction. A loop that hunts by more than the band (a
+/// stiff integrator breaks the table away and slips it micrometres past its target) would
+/// otherwise count every excursion of its hunting as part of the approach.
+fn settled_at(model: &[f64], command: &[f64], quiet: usize) -> usize {
+    let band = (0..model.len())
+        .rposition(|i| (model[i] - command[i]).abs() >= SETTLED_M)
+        .map_or(0, |i| i + 1);
+    let at_rest = |i: usize| {
+        let (lo, hi) = model[i..i + quiet]
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                (l.min(v), h.max(v))
+            });
+        hi - lo <= HUNTING_M
+    };
+    let rest = (0..(model.len() + 1).saturating_sub(quiet).min(band)).find(|&i| at_rest(i));
+    rest.unwrap_or(band)
 }
 
 /// Where a measured axis stood while its command moved.

@@ -3,7 +3,8 @@
 //! (another controller, a measuring point the model does not describe), those values can
 //! be ones no machine has — two kilonewtons of low-speed friction on an axis with two
 //! hundred newtons of Coulomb friction, or a "resonance" at the servo loop's own
-//! crossover. Such a cause is reported as fitting but implausible, never as found.
+//! crossover. Such a cause is reported as fitting but implausible, never as found. Nor is
+//! one whose level the record does not tell from the machine's own value.
 
 use crate::diagnose::causes::CauseId;
 use crate::machine::AxisConfig;
@@ -50,6 +51,38 @@ const CROSSOVER_MARGIN: f64 = 0.1;
 /// How near (relative) it may lie to a lightly damped closed-loop mode the model already
 /// has: there it is that mode with another damping, not an extra structure.
 const MODE_MARGIN: f64 = 0.025;
+
+/// How many standard uncertainties from zero a cause's level must lie to count as found:
+/// within two, the record is consistent with no such effect at all (a normal deviate falls
+/// that far one time in twenty).
+const DETERMINED_SIGMAS: f64 = 2.0;
+
+/// Why a fitted cause is not determined, or `None` when it is: its level (the first value,
+/// `values` with standard uncertainties `sigma`) lies within [`DETERMINED_SIGMAS`] of zero, or
+/// has no uncertainty. A residual can fall with such a fit — the fit bends the model towards
+/// whatever the residual holds — but the record does not tell the effect from none.
+pub(crate) fn undetermined(cause: CauseId, values: &[f64], sigma: &[f64]) -> Option<String> {
+    let param = cause.params().first()?;
+    let (value, s) = (*values.first()?, *sigma.first()?);
+    let sig = super::cause_text::with_uncertainty;
+    if !(s.is_finite() && s > 0.0) {
+        return Some(format!(
+            "fits, but not determined: {} = {} {} has no uncertainty the record fixes",
+            param.key,
+            sig(value, s),
+            param.unit
+        ));
+    }
+    (value.abs() < DETERMINED_SIGMAS * s).then(|| {
+        format!(
+            "fits, but not determined: {} = {} {} lies within {DETERMINED_SIGMAS} standard \
+             uncertainties of zero",
+            param.key,
+            sig(value, s),
+            param.unit
+        )
+    })
+}
 
 /// Why fitted `values` of `cause` are implausible on `axis` (its nominal settings), or
 /// `None` when they are not.
@@ -213,6 +246,30 @@ fn loop_frequency_near(model: &AxisModel, freq_hz: f64) -> Option<(String, f64)>
 mod tests {
     use super::*;
     use crate::machine::MachineConfig;
+
+    #[test]
+    fn a_level_within_two_uncertainties_of_zero_is_not_determined() {
+        let said = |cause, values: &[f64], sigma: &[f64]| undetermined(cause, values, sigma);
+        // 126 ± 175 N of Stribeck excess on an axis with none: zero lies 0.7 σ away.
+        let why = said(CauseId::Stribeck, &[126.0, 100.0], &[175.0, 50.0]).unwrap();
+        assert!(
+            why.contains("stribeck_level_n") && why.contains("126 ± 175"),
+            "{why}"
+        );
+        // 126 ± 40 N: 3.2 σ from zero, determined.
+        assert_eq!(
+            said(CauseId::Stribeck, &[126.0, 100.0], &[40.0, 50.0]),
+            None
+        );
+        // A Coulomb coefficient of 0.03 ± 0.02: 1.5 σ from none.
+        assert!(said(CauseId::CoulombFriction, &[0.03], &[0.02]).is_some());
+        // 0.0149 ± 0.0040: 3.7 σ from none, determined.
+        assert_eq!(said(CauseId::CoulombFriction, &[0.0149], &[0.0040]), None);
+        // A dead time of 0.000 ± 0.017 ms where the machine has none.
+        assert!(said(CauseId::DeadTime, &[0.0], &[0.017]).is_some());
+        // No uncertainty: nothing the record fixes.
+        assert!(said(CauseId::DeadTime, &[0.5], &[f64::NAN]).is_some());
+    }
 
     fn ripple_verdict(amplitude_n: f64) -> Option<String> {
         let machine = MachineConfig::default_preset();

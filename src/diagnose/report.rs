@@ -372,8 +372,8 @@ impl DiagnoseReport {
         if hx > 0.0 || hy > 0.0 {
             let _ = writeln!(
                 s,
-                "left out: X {hx:.1} s, Y {hy:.1} s where the axis holds still and the model hunts \
-                 about its target (a limit cycle of static friction whose phase no model times)"
+                "left out: X {hx:.1} s, Y {hy:.1} s where the axis holds still and the model or the machine \
+                 hunts about its target (a limit cycle of static friction whose phase no model times)"
             );
         }
         if let Some(drift) = self.timing_drift_ms

@@ -15,7 +15,7 @@ use serde::Serialize;
 use super::fit::{self, Fitted};
 use super::fit_starts::{initial_guess, starts};
 use super::holdout::{HeldOut, JudgedOn, Validation, held_out};
-use super::plausible::{Observed, implausible};
+use super::plausible::{Observed, implausible, undetermined};
 use super::{Alternative, DiagnoseSettings, FittedParam, FoundCause, Skipped, ripple};
 use crate::compare::context::Context;
 use crate::compare::residual::{
@@ -442,6 +442,9 @@ fn judge(
         &observed[axis.index()],
     ) {
         return Err(format!("fits, but implausible: {why}"));
+    }
+    if let Some(why) = undetermined(cause, &fitted.values, &fitted.sigma) {
+        return Err(why);
     }
     if let Some(why) = worse_somewhere(ctx, now, s.try_.statistical, axis, fitted) {
         return Err(why);

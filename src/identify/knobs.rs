@@ -268,6 +268,23 @@ const fn corner(key: &'static str) -> Knob {
         max: 1e5,
     }
 }
+
+/// The share of its controller's Nyquist frequency a fitted corner stays below. A discrete
+/// controller cannot place a corner at or above its Nyquist frequency at all; below it, its
+/// Tustin realisation puts a continuous corner f at atan(π f T)/(π T), 15 % low at half the
+/// Nyquist frequency and worse beyond — there the continuous model's corner no longer stands
+/// for the controller's.
+const CORNER_NYQUIST_SHARE: f64 = 0.5;
+
+/// The highest corner (Hz) a fit searches on a controller that runs every `period_s` (s).
+pub(crate) fn corner_ceiling_hz(period_s: f64) -> f64 {
+    if period_s.is_finite() && period_s > 0.0 {
+        CORNER_NYQUIST_SHARE * 0.5 / period_s
+    } else {
+        f64::INFINITY
+    }
+}
+
 const CORNERS: [Knob; 4] = [
     corner("controller.zero_1_hz"),
     corner("controller.zero_2_hz"),
@@ -543,6 +560,26 @@ fn leading(coefficients: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_corner_stays_where_a_controller_at_the_records_rate_can_place_it() {
+        // The real table's controller: 10 kHz.
+        let t = 1e-4;
+        let ceiling = corner_ceiling_hz(t);
+        let nyquist = 0.5 / t;
+        assert!(ceiling < nyquist, "{ceiling} Hz");
+        // Tustin at period T realises a continuous corner f at atan(π f T)/(π T): at the
+        // ceiling 15 % low; at the Nyquist frequency 36 % low.
+        let realised = |f: f64| (std::f64::consts::PI * f * t).atan() / (std::f64::consts::PI * t);
+        assert!(
+            realised(ceiling) / ceiling > 0.84,
+            "{}",
+            realised(ceiling) / ceiling
+        );
+        assert!(realised(nyquist) / nyquist < 0.65);
+        // A record without a sampling step bounds nothing.
+        assert!(corner_ceiling_hz(0.0).is_infinite());
+    }
     use crate::machine::MachineConfig;
 
     #[test]

@@ -7,7 +7,7 @@ use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector};
 
-use super::knobs::{HELD_AT_START, Knob, get, set_all};
+use super::knobs::{self, HELD_AT_START, Knob, get, set_all};
 use crate::compare::Context;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::numeric::lsq::{
@@ -441,10 +441,17 @@ impl Problem<'_, '_, '_> {
             let s = k.scale_at(t);
             ((-level - t).min(0.0) / s, (level - t).max(0.0) / s)
         } else if k.logarithmic {
-            (
-                (-FACTOR_RANGE.ln()).max((k.min / t).ln()),
-                FACTOR_RANGE.ln().min((k.max / t).ln()),
-            )
+            // The controller runs every cycle of the machine, or faster where its record
+            // shows it (a servo trace samples its controller's every cycle).
+            let max = if k.is_corner() {
+                let ctx = self.fit.ctx;
+                k.max
+                    .min(knobs::corner_ceiling_hz(ctx.dt.min(ctx.measured.dt_s)))
+            } else {
+                k.max
+            };
+            let lower = (-FACTOR_RANGE.ln()).max((k.min / t).ln());
+            (lower, FACTOR_RANGE.ln().min((max / t).ln()).max(lower))
         } else {
             let s = k.scale_at(t);
             ((k.min - t) / s, (k.max - t) / s)
