@@ -310,10 +310,10 @@ fn x_written_as_its_loop(axes: &[AxisIdentification]) {
 }
 
 /// The no-template half of the test above: the loop model beats the regression, stays
-/// within the separate model's bound, and finds Y's ripple at the motor's turn. Y is
-/// written as the family the table runs (an integrating lead-lag on a current amplifier),
-/// and predicts its held-out halves within a tenth of what the course template's fit of
-/// that structure (`y_from_template`, started from the handout's plant and design) does.
+/// within the separate model's bound. Y's two families are compared on every sample, and
+/// the one written predicts its held-out halves within a tenth of what the course
+/// template's fit of that structure (`y_from_template`, started from the handout's plant
+/// and design) does.
 fn identified_without_a_template(
     program: &Program,
     measured: &MeasuredTrace,
@@ -355,8 +355,7 @@ fn identified_without_a_template(
     }
     // The handout's controller and plant give the lead-lag's structure and a start next to
     // its values; without them the family is chosen and started from the record alone, and
-    // lands within a tenth of the handout's fit (the cascade, lacking the integrator ×
-    // lead-lag's shape, left Y above it by a sixth).
+    // lands within a tenth of the handout's fit.
     // X's fit away from the standstills is fitted again with the force its first start held
     // on top of the loop's values and the ripple: the separate model, holding it with its
     // ripple per motor turn, predicts X's halves to 17.1 and 16.0 %. The values fitted with
@@ -370,17 +369,15 @@ fn identified_without_a_template(
     // A state of the record: the machine written holds none at its start.
     assert_eq!(id.machine.x.held_at_start_n, 0.0);
     let y = &id.axes[1];
-    assert!(y.kept.contains("integrating lead-lag"), "{}", y.kept);
+    // Without the handout neither family is favoured: both are fitted and compared.
+    assert!(y.kept.contains("families compared"), "{}", y.kept);
     assert!(
         y.held_out_share < 1.1 * y_from_template.held_out_share,
         "Y: {:.3} without a template, {:.3} from the course's",
         y.held_out_share,
         y_from_template.held_out_share
     );
-    // Y's ripple per motor turn (above), found without a template at the lead the handout's
-    // 1.59 mm/rad gives: a 10 mm screw (9.990 mm a turn, to its three digits).
-    let period_mm = id.machine.y.errors.force_ripple_period_mm;
-    assert!((period_mm - MOTOR_TURN_MM).abs() < 0.02, "{period_mm}");
-    let y = id.axes[1].force_ripple.as_ref().expect("Y's period chosen");
-    assert!(y.written, "{y:?}");
+    // Y's ripple per motor turn is not looked for at the handout's lead without it: among
+    // the leads tried none takes a tenth off the other half's residual on every sample (the
+    // course's route finds it, as a model's value, at 7 % of its residual).
 }
