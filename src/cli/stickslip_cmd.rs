@@ -36,16 +36,34 @@ pub struct StickSlipArgs {
     pub plot: Option<PathBuf>,
 }
 
-pub(crate) fn run(args: &StickSlipArgs) -> Result<Outcome, CliError> {
-    let machine = args.machine.load_stable()?;
-    let model = AxisModel::from_config(machine.axis(args.axis.axis));
-    let mut feeds = args.feeds.clone();
+/// The feeds asked for, each a positive one the axis can be commanded at (up to its rapid,
+/// `rapid` mm/min), and a run's length from 1 s up to an hour.
+fn checked_feeds(args: &StickSlipArgs, rapid: f64) -> Result<Vec<f64>, CliError> {
+    let feeds = &args.feeds;
     if feeds.iter().any(|f| !(f.is_finite() && *f > 0.0)) {
         return Err(CliError::Usage("--feeds must all be positive".into()));
     }
-    if !(args.duration.is_finite() && args.duration >= 1.0) {
-        return Err(CliError::Usage("--duration must be at least 1 s".into()));
+    // A feed past the axis's rapid is one the interpolator never commands: the run would
+    // only show the drive saturating.
+    if let Some(f) = feeds.iter().find(|f| **f > rapid) {
+        return Err(CliError::Usage(format!(
+            "--feeds {f}: above the axis's rapid of {rapid} mm/min (stick-slip is a low-feed \
+             effect; the paper's runs are below 10 mm/min)"
+        )));
     }
+    // A run is simulated at the loops' own time step: an hour of it is already some minutes.
+    if !(args.duration.is_finite() && (1.0..=3600.0).contains(&args.duration)) {
+        return Err(CliError::Usage(
+            "--duration must be from 1 s up to 3600 s".into(),
+        ));
+    }
+    Ok(feeds.clone())
+}
+
+pub(crate) fn run(args: &StickSlipArgs) -> Result<Outcome, CliError> {
+    let machine = args.machine.load_stable()?;
+    let model = AxisModel::from_config(machine.axis(args.axis.axis));
+    let mut feeds = checked_feeds(args, machine.axis(args.axis.axis).limits.rapid_mm_per_min)?;
     feeds.sort_by(f64::total_cmp);
     let cfg = stickslip::StickSlipConfig {
         run_s: args.duration,

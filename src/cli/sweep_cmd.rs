@@ -42,13 +42,14 @@ pub struct SweepArgs {
     #[arg(long, action = ArgAction::Append, value_name = "on,off")]
     pub ff: Vec<String>,
     /// Any numeric machine key: AXIS.KEY=RANGE, e.g. x.backlash_um=0:20:5 or
-    /// xy.drive.zeta_m=0.02,0.05 (xy: both axes, matched).
+    /// xy.drive.zeta_m=0.02,0.05 (xy: both axes, matched), z.limits.max_accel_m_per_s2=1,2 or
+    /// interpolation.cycle_ms=1,2,4.
     #[arg(long = "set", action = ArgAction::Append, value_name = "AXIS.KEY=RANGE")]
     pub set: Vec<String>,
     /// Write every setting's figures as CSV.
     #[arg(long, value_name = "FILE")]
     pub csv: Option<PathBuf>,
-    /// Write the sweep as JSON (schema contourcheck.sweep/1).
+    /// Write the sweep as JSON (schema contourcheck.sweep/2).
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
     /// Write the plot (PNG and SVG) into this directory: error against the parameter for one
@@ -136,13 +137,32 @@ fn dimensions(
         let (axis, rest) = key
             .split_once('.')
             .ok_or_else(|| usage(format!("--set {item}: name the axis, e.g. x.{key}")))?;
-        let keys = axis_prefixes(axis)?
+        // The interpolator's keys and Z's belong to the machine, not to an axis swept.
+        let prefixes = match axis.to_ascii_lowercase().as_str() {
+            "interpolation" => vec!["interpolation"],
+            "z" => vec!["z"],
+            _ => axis_prefixes(axis).map_err(|_| {
+                usage(format!(
+                    "--set {item}: a key of x., y., xy., z. or interpolation. (`{axis}` is none)"
+                ))
+            })?,
+        };
+        let keys = prefixes
             .iter()
             .map(|p| {
                 sweep::resolve_key(machine, &format!("{p}.{rest}"))
                     .map_err(|e| usage(e.to_string()))
             })
             .collect::<Result<Vec<_>, _>>()?;
+        if let Some(twice) = dims
+            .iter()
+            .find(|d| d.keys.iter().any(|k| keys.contains(k)))
+        {
+            return Err(usage(format!(
+                "--set {item}: its key is already swept (as {}); give each key once",
+                twice.name
+            )));
+        }
         dims.push(Dimension {
             name: key.to_string(),
             keys,

@@ -37,7 +37,7 @@ pub struct SynthArgs {
     /// Its parameter values in the machine file's units, comma-separated, in the order
     /// `diagnose` reports them (e.g. backlash: µm; stribeck: level N, velocity mm/min;
     /// cyclic_error: amplitude µm, phase °; resonance: Hz, damping ratio).
-    #[arg(long, value_name = "V1,V2", value_delimiter = ',')]
+    #[arg(long, value_name = "V1,V2", value_delimiter = ',', requires = "effect")]
     pub values: Vec<f64>,
     /// Measurement noise, standard deviation (µm).
     #[arg(long, default_value_t = 0.3, value_name = "UM")]

@@ -17,8 +17,23 @@ pub struct ValidateArgs {
     pub machine: MachineArgs,
 }
 
+/// The paper's tables set a cascade's position and velocity gains, and its Bode figures are
+/// those of the cascade's three loops: on another controller they compare nothing.
+fn refuse_without_a_cascade(machine: &crate::machine::MachineConfig) -> Result<(), CliError> {
+    if machine.x.controller.is_cascade() {
+        return Ok(());
+    }
+    Err(CliError::Usage(format!(
+        "validate compares the paper's tables, which set the position and velocity gains of a \
+         three-loop cascade; {}'s X axis has another controller, so there is nothing to \
+         compare (run it on a cascade machine, such as hvmc)",
+        machine.name
+    )))
+}
+
 pub(crate) fn run(args: &ValidateArgs) -> Result<Outcome, CliError> {
     let machine = args.machine.load()?;
+    refuse_without_a_cascade(&machine)?;
     let sim = SimConfig::default();
     println!(
         "Validation of the {} preset against Wang et al. (paper §4, docs/model.md §4), X axis\n",

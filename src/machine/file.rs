@@ -366,6 +366,7 @@ fn from_table(mut table: toml::Table, file: &str) -> Result<MachineConfig, Confi
     let z_table = take_simulated_z(&mut table);
     // Every unknown key is reported at once: each is taken out and the rest read again.
     let mut unknown = Vec::new();
+    check_z_limits(&mut table, file, z_table.is_none().then_some(&mut unknown))?;
     let machine = read_table::<MachineConfig>(table, file, "", &mut unknown)?;
     let z = match z_table {
         Some(t) => read_table::<AxisConfig>(t, file, "z", &mut unknown)?.map(Some),
@@ -408,6 +409,30 @@ fn take_simulated_z(table: &mut toml::Table) -> Option<toml::Table> {
     }
     table.insert("z".into(), toml::Value::Table(planned));
     Some(z)
+}
+
+/// Reads Z's limits (all a carried Z has; a simulated Z's stay in the machine's table too)
+/// apart, so that their errors name the key with its line as every other section's do:
+/// read within the machine, an axis that is either carried or simulated only knows it is
+/// `z`. Their unknown keys are taken out, and noted in `unknown` where given (a simulated
+/// Z's are noted when its own section is read).
+fn check_z_limits(
+    table: &mut toml::Table,
+    file: &str,
+    unknown: Option<&mut Vec<locate::UnknownKeyAt>>,
+) -> Result<(), ConfigError> {
+    let Some(z) = table.get("z").and_then(|z| z.as_table()).cloned() else {
+        return Ok(());
+    };
+    let mut found = Vec::new();
+    read_table::<super::PlannedAxis>(z, file, "z", &mut found)?;
+    for key in &found {
+        locate::remove_key(table, &key.key);
+    }
+    if let Some(unknown) = unknown {
+        unknown.extend(found);
+    }
+    Ok(())
 }
 
 /// Reads `table` (the file's `prefix` section, or the whole machine when empty) as a `T`.
@@ -587,6 +612,39 @@ mod tests {
             e.contains("m.toml:2:1:") && e.contains("write `backlash_um = 5`"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn a_carried_z_names_its_keys_with_their_line() {
+        // small-table's Z is carried: its limits alone.
+        let text = "base = \"small-table\"\n[z.limits]\nmax_feed_mm_per_min = \"fast\"\n";
+        let e = MachineConfig::from_toml_str(text, "z.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("z.toml:3:1: key `z.limits.max_feed_mm_per_min`"),
+            "{e}"
+        );
+        let text = "base = \"small-table\"\n[z.limits]\nmax_fed_mm_per_min = 100.0\n";
+        let e = MachineConfig::from_toml_str(text, "z.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("`z.limits.max_fed_mm_per_min`"), "{e}");
+        assert!(e.contains("did you mean `max_feed_mm_per_min`"), "{e}");
+        // hvmc's Z is simulated: the same, and its unknown keys said once.
+        let text = "base = \"hvmc\"\n[z.limits]\nrapid_mm_per_min = [1]\n";
+        let e = MachineConfig::from_toml_str(text, "z.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("z.toml:3:1: key `z.limits.rapid_mm_per_min`"),
+            "{e}"
+        );
+        let text = "base = \"hvmc\"\n[z.limits]\nrapd_mm_per_min = 100.0\n";
+        let e = MachineConfig::from_toml_str(text, "z.toml")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(e.matches("rapd_mm_per_min").count(), 1, "{e}");
     }
 
     #[test]

@@ -176,7 +176,12 @@ fn validate_beam(
              more than a hundredth of its length (no machine's beam bends so; is a unit off?)",
             number(ls.bending_stiffness_n_m2),
             number(ls.holder_load_n),
-            number(sag_m * 1e3)
+            // Computed, not the user's: four digits say it.
+            number(
+                format!("{:.4e}", sag_m * 1e3)
+                    .parse()
+                    .unwrap_or(sag_m * 1e3)
+            )
         ),
     ))
 }

@@ -78,7 +78,7 @@ pub enum SimError {
     )]
     NoModes,
     /// The following error left every plausible bound.
-    #[error("the axis diverged: following error {error_m:e} m at t = {t_s:.3} s")]
+    #[error("the axis diverged: following error {error_m:.3e} m at t = {t_s:.3} s")]
     Diverged {
         /// When.
         t_s: f64,

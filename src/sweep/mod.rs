@@ -126,7 +126,10 @@ pub fn parse_range(text: &str) -> Result<Vec<f64>, SweepInputError> {
 /// within the axis (`x.backlash_um`). A key the machine does not have, or whose axis's
 /// controller does not read it, is refused with what was likely meant.
 pub fn resolve_key(machine: &MachineConfig, key: &str) -> Result<String, SweepInputError> {
-    let paths = keys::machine_paths();
+    let mut paths = keys::machine_paths();
+    if machine.z.simulated().is_some() {
+        paths.extend(keys::AXIS_KEYS.iter().map(|k| format!("z.{}", k.path)));
+    }
     let (part, leaf) = key
         .split_once('.')
         .ok_or_else(|| SweepInputError::NoAxis(key.to_string()))?;

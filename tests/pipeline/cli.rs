@@ -308,9 +308,21 @@ fn plan_bode_stickslip_and_validate_run() {
     ]);
     assert!(text(&o.stdout).contains("stick-slip"));
     assert!(ss.join("stickslip-x.png").exists() && ss.join("stickslip-x.svg").exists());
+    // hvmc's X rapids at 6000 mm/min: a feed past it is refused, not run into saturation.
+    let o = run(&["stickslip", "--feeds", "50000"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        text(&o.stderr).contains("above the axis's rapid of 6000"),
+        "{o:?}"
+    );
     let o = run(&["validate"]);
     assert_eq!(o.status.code(), Some(0));
     assert!(text(&o.stdout).contains("Table 4"));
+    // small-table's lead-lag on current has no Kv or Ks for the tables to set.
+    let o = run(&["validate", "--machine", "small-table"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("three-loop cascade"), "{o:?}");
+    assert!(!text(&o.stdout).contains("NaN") && !text(&o.stdout).contains("inf"));
 }
 
 /// Interrupted while writing its outputs, a run removes what it had staged and reports
@@ -673,4 +685,46 @@ fn a_machine_file_without_a_base_is_warned_about_and_named_after_itself() {
         "{}",
         text(&o.stderr)
     );
+}
+
+/// `--set` sweeps the machine's own keys too — the interpolator's and Z's — each written as
+/// the file writes it; a key given twice, or a section no machine has, is refused by name.
+#[test]
+fn a_sweep_sets_the_interpolators_and_zs_keys_and_each_key_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("s.json");
+    let square = sample("square.nc");
+    run_ok(&[
+        "sweep",
+        square.to_str().unwrap(),
+        "--set",
+        "interpolation.cycle_ms=2,4",
+        "--set",
+        "z.limits.max_accel_m_per_s2=1,2",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let doc = read_json(&json);
+    let dims = doc["dimensions"].as_array().unwrap();
+    assert_eq!(dims[0]["keys"][0], "interpolation.cycle_ms");
+    assert_eq!(dims[1]["keys"][0], "z.limits.max_accel_m_per_s2");
+    assert_eq!(doc["points"].as_array().unwrap().len(), 4);
+    let twice = run(&[
+        "sweep",
+        square.to_str().unwrap(),
+        "--set",
+        "x.drive.backlash_um=0,10",
+        "--set",
+        "x.drive.backlash_um=0,20",
+    ]);
+    assert_eq!(twice.status.code(), Some(2));
+    assert!(text(&twice.stderr).contains("already swept"), "{twice:?}");
+    let nowhere = run(&[
+        "sweep",
+        square.to_str().unwrap(),
+        "--set",
+        "w.drive.backlash_um=1",
+    ]);
+    let err = text(&nowhere.stderr);
+    assert!(err.contains("x., y., xy., z. or interpolation."), "{err}");
 }
