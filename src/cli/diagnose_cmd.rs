@@ -226,12 +226,26 @@ fn stage_compensation(
     dir: &Path,
     machine: &crate::machine::MachineConfig,
 ) -> Result<String, CliError> {
-    use crate::diagnose::compensation::{compensation, linuxcnc_file, neutral_csv};
+    use crate::diagnose::compensation::{
+        compensation, gaps_behind_a_scale, linuxcnc_file, neutral_csv,
+    };
     let tables = compensation(machine);
+    // A gap the loop takes out needs no entry; say why it is missing from the table.
+    let left_out: String = gaps_behind_a_scale(machine)
+        .iter()
+        .map(|(axis, gap_um)| {
+            format!(
+                "\n  {axis}'s {gap_um:.2} µm backlash needs no entry: its loop closes on a linear \
+                 scale beyond the gap and holds the table where the scale reads, so an offset \
+                 would move the table by it"
+            )
+        })
+        .collect();
     if tables.is_empty() {
-        return Ok(
-            "compensation: nothing to compensate (no measuring error, map or backlash)".into(),
-        );
+        return Ok(format!(
+            "compensation: nothing to compensate (no measuring error or map, no backlash \
+             before the loop's feedback){left_out}"
+        ));
     }
     std::fs::create_dir_all(dir).map_err(|e| CliError::Read {
         path: dir.display().to_string(),
@@ -249,7 +263,7 @@ fn stage_compensation(
         written.push(name);
     }
     Ok(format!(
-        "compensation: {} in {}",
+        "compensation: {} in {}{left_out}",
         written.join(", "),
         dir.display()
     ))

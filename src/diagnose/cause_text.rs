@@ -8,10 +8,11 @@ use std::fmt::Write as _;
 use super::report::CauseReport;
 use super::{Alternative, HeldOutMeasure, JudgedOn};
 use crate::diagnose::causes::CauseId;
+use crate::machine::{AxisName, Feedback};
 
 /// One named cause: its values, how strongly the record supports it, the residual it
 /// explains, on the data it was not fitted on, what to do, and what else fits almost as well.
-pub(super) fn write_cause(s: &mut String, i: usize, c: &CauseReport) {
+pub(super) fn write_cause(s: &mut String, i: usize, c: &CauseReport, feedback: Option<Feedback>) {
     let params: Vec<String> = c
         .params
         .iter()
@@ -81,8 +82,30 @@ pub(super) fn write_cause(s: &mut String, i: usize, c: &CauseReport) {
              residual averaged over the slips are what it is judged on"
         );
     }
-    let _ = writeln!(s, "     what to do: {}", next_step(c));
+    let _ = writeln!(s, "     what to do: {}", next_step(c, feedback));
     write_alternatives(s, &c.alternatives);
+}
+
+/// Where a fitted gap of `gap_um` goes. On a motor encoder the control adds it at each
+/// reversal; behind a linear scale the loop already holds the table where the scale reads,
+/// so the same entry would move the table by the gap and make the lost motion it meant to
+/// remove.
+fn backlash_step(axis: AxisName, gap_um: f64, feedback: Option<Feedback>) -> String {
+    match feedback {
+        Some(Feedback::LinearScale) => format!(
+            "enter no backlash compensation for the {axis} axis: its loop closes on a linear \
+             scale beyond the {:.4} mm gap and takes it out at rest, so an entry would add that \
+             much lost motion; the reversal spikes while the nut crosses the gap remain (a \
+             preloaded nut or the control's reversal-spike compensation reduces them)",
+            gap_um * 1e-3
+        ),
+        _ => format!(
+            "enter {:.4} mm as the {axis} axis's backlash compensation (LinuxCNC: BACKLASH in \
+             its [JOINT_n] section; SINUMERIK: MD32450 $MA_BACKLASH): its loop closes on the \
+             motor, and the table trails the motor by the gap after each reversal",
+            gap_um * 1e-3
+        ),
+    }
 }
 
 /// The causes a record cannot tell from the one named, each with its values and what
@@ -158,16 +181,13 @@ pub(crate) fn strength(c: &CauseReport) -> String {
 }
 
 /// What a user does about a cause once it is named: where the value goes, or what to check.
-pub(crate) fn next_step(c: &CauseReport) -> String {
+/// `feedback` is where the axis's loop reads it (none for an axis not simulated in the
+/// plane): a backlash compensation belongs only to a loop closed before the gap.
+pub(crate) fn next_step(c: &CauseReport, feedback: Option<Feedback>) -> String {
     let axis = c.axis;
     let value = c.params.first().map_or(f64::NAN, |p| p.value);
     match c.id {
-        CauseId::Backlash => format!(
-            "enter {:.4} mm as the {axis} axis's backlash compensation (LinuxCNC: BACKLASH in \
-             its [JOINT_n] section; SINUMERIK: MD32450 $MA_BACKLASH); behind a linear scale the \
-             loop takes most of it out, and what shows is the reversal spikes",
-            value * 1e-3
-        ),
+        CauseId::Backlash => backlash_step(axis, value, feedback),
         CauseId::KvGain => format!(
             "the {axis} axis's position gain is not the machine file's: check it on the control \
              (SINUMERIK MD32200 $MA_POS_CTRLGAIN; LinuxCNC: the position PID's P gain) and keep \

@@ -7,7 +7,11 @@
 //! the axis is put at rest where its feedback reads the position (as the control holds it),
 //! and the table's place there, less the position, is the error (a linear scale reading too
 //! long leaves the table short; a lead error on a motor encoder moves it along). Backlash
-//! adds half the gap against the direction of travel.
+//! follows where the loop closes: on a motor encoder the table trails the screw by half the
+//! gap, against the direction of travel; on a linear scale the loop reads the table beyond
+//! the gap and holds it where the scale says, so at rest the gap leaves no offset and the
+//! table carries none (an offset there would move the table by it and create the lost
+//! motion it meant to remove).
 //!
 //! Two layouts are written:
 //! - a control-neutral CSV, `axis,position_mm,forward_um,reverse_um` (documented in
@@ -21,7 +25,7 @@
 #[cfg(feature = "cli")]
 use std::fmt::Write as _;
 
-use crate::machine::{AxisName, MachineConfig};
+use crate::machine::{AxisName, Feedback, MachineConfig};
 use crate::numeric::units::{m_from_mm, um_from_m};
 use crate::sim::AxisModel;
 use crate::sim::geometry::CrossTerms;
@@ -55,7 +59,11 @@ fn axis_compensation(machine: &MachineConfig, axis: AxisName) -> Option<AxisComp
     let config = machine.axis(axis);
     let model = AxisModel::from_config(config);
     let map = CrossTerms::of(machine, axis);
-    let half_gap_um = 0.5 * config.drive.backlash_um;
+    // Only a loop closed before the gap leaves the table off by half of it at rest.
+    let half_gap_um = match config.position_loop.feedback {
+        Feedback::MotorEncoder => 0.5 * config.drive.backlash_um,
+        Feedback::LinearScale => 0.0,
+    };
     // Beyond the scale the axis reads half the offset more travelling forward.
     let half_offset_um = 0.5 * config.errors.direction_offset_um;
     if !model.measuring.is_active()
@@ -77,6 +85,19 @@ fn axis_compensation(machine: &MachineConfig, axis: AxisName) -> Option<AxisComp
         })
         .collect();
     Some(AxisCompensation { axis, points })
+}
+
+/// The axes whose backlash (µm) the tables leave out because their loops read the table
+/// beyond the gap.
+pub fn gaps_behind_a_scale(machine: &MachineConfig) -> Vec<(AxisName, f64)> {
+    AxisName::BOTH
+        .into_iter()
+        .map(|axis| (axis, machine.axis(axis)))
+        .filter(|(_, c)| {
+            c.position_loop.feedback == Feedback::LinearScale && c.drive.backlash_um > 0.0
+        })
+        .map(|(axis, c)| (axis, c.drive.backlash_um))
+        .collect()
 }
 
 /// Where the table has points: those of a learned position map (within LinuxCNC's limit),
@@ -126,8 +147,9 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_scale_error_and_backlash_become_offsets_by_direction() {
+    fn a_scale_error_is_an_offset_and_a_gap_behind_the_scale_is_none() {
         let mut m = MachineConfig::default_preset();
+        assert_eq!(m.x.position_loop.feedback, Feedback::LinearScale);
         // The X scale reads 100 ppm long: the control holds the table 100 ppm short.
         m.x.errors.scale_error_ppm = 100.0;
         m.x.drive.backlash_um = 8.0;
@@ -138,15 +160,34 @@ mod tests {
         let at = |p: f64| *x.points.iter().find(|q| (q.0 - p).abs() < 1e-9).unwrap();
         let (_, forward, reverse) = at(1000.0);
         // Held where the scale reads 1000 mm, the table stands at 1000/(1 + 10⁻⁴) mm:
-        // 99.990 µm short; the gap puts it 4 µm behind the direction of travel.
+        // 99.990 µm short whichever way it came, the gap lying before the scale.
         let short_um = -1e6 * 1e-4 / (1.0 + 1e-4);
-        assert!((forward - (short_um - 4.0)).abs() < 1e-6, "{forward}");
-        assert!((reverse - (short_um + 4.0)).abs() < 1e-6, "{reverse}");
+        assert!((forward - short_um).abs() < 1e-6, "{forward}");
+        assert!((reverse - short_um).abs() < 1e-6, "{reverse}");
         let text = linuxcnc_file(x);
         assert_eq!(text.lines().count(), x.points.len());
-        assert!(text.contains("\n1000.0000 -0.103990 -0.095990\n"), "{text}");
-        // Nothing to compensate on the nominal machine.
+        assert!(text.contains("\n1000.0000 -0.099990 -0.099990\n"), "{text}");
+        assert_eq!(gaps_behind_a_scale(&m), vec![(AxisName::X, 8.0)]);
+        // Nothing to compensate on the nominal machine, nor for a gap behind the scale.
         assert!(compensation(&MachineConfig::default_preset()).is_empty());
+        m.x.errors.scale_error_ppm = 0.0;
+        assert!(compensation(&m).is_empty());
+    }
+
+    #[test]
+    fn a_gap_before_a_motor_encoder_is_half_of_it_against_the_travel() {
+        let mut m = MachineConfig::default_preset();
+        m.x.position_loop.feedback = Feedback::MotorEncoder;
+        m.x.drive.backlash_um = 8.0;
+        // The loop holds the motor; travelling + the nut pushes the table from behind,
+        // 4 µm short of the motor's place, travelling − 4 µm beyond it.
+        let tables = compensation(&m);
+        assert_eq!(tables.len(), 1);
+        for &(_, forward, reverse) in &tables[0].points {
+            assert!((forward + 4.0).abs() < 1e-6, "{forward}");
+            assert!((reverse - 4.0).abs() < 1e-6, "{reverse}");
+        }
+        assert!(gaps_behind_a_scale(&m).is_empty());
     }
 
     #[test]

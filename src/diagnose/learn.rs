@@ -47,9 +47,10 @@ const FRICTION_POINT_COUNTS: [usize; 4] = [16, 32, 64, 128];
 const SMALLEST_SHARE: f64 = 0.5;
 /// Share of the held-out residual's power above the noise a term must remove.
 const SMALLEST_GAIN: f64 = 0.25;
-/// Friction a table may add, as multiples of the axis's Coulomb friction: never below none
-/// at all, and not beyond a guideway near seizing.
-const FRICTION_ADDED_RANGE: (f64, f64) = (-1.0, 3.0);
+/// Most friction a table may add, as a multiple of the axis's Coulomb friction: not beyond
+/// a guideway near seizing. (The least keeps the friction at or above none in total:
+/// [`least_friction_added_n`].)
+const MOST_FRICTION_ADDED: f64 = 3.0;
 /// Ridge on a friction table's least squares, relative to the mean diagonal: enough to keep
 /// points the record hardly visits from swinging, far too little to bias the rest.
 const RIDGE: f64 = 1e-4;
@@ -265,7 +266,11 @@ impl Learner<'_, '_> {
                 .collect::<Vec<(f64, f64)>>()
         };
         let whole = table(&|_| true);
-        let (least, most) = (FRICTION_ADDED_RANGE.0 * f_c, FRICTION_ADDED_RANGE.1 * f_c);
+        let errors = &self.machine.axis(self.axis).errors;
+        let (least, most) = (
+            least_friction_added_n(&model, term, errors),
+            MOST_FRICTION_ADDED * f_c,
+        );
         if whole.iter().any(|&(_, f)| f < least || f > most) {
             return None;
         }
@@ -510,6 +515,20 @@ fn with_friction_table(
     *at = points.iter().map(|p| p.0).collect();
     *values = points.iter().map(|p| p.1).collect();
     m
+}
+
+/// The least a learned friction table of `term` may add (N): friction never pushes the
+/// table, so the static level with a position map, and the sliding level with the position
+/// map and the speed curve together (the other table as the machine has it), stay at or
+/// above zero — as validation asks of a machine file.
+fn least_friction_added_n(model: &AxisModel, term: Term, errors: &crate::machine::Errors) -> f64 {
+    let lowest = |v: &[f64]| v.iter().copied().fold(0.0f64, f64::min);
+    match term {
+        Term::FrictionSpeed => -(model.f_c + lowest(&errors.friction_map_n)).max(0.0),
+        _ => -(model.f_c + lowest(&errors.friction_speed_n))
+            .min(model.f_s)
+            .max(0.0),
+    }
 }
 
 /// The value of largest magnitude in a table, signed.

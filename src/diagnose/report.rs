@@ -279,13 +279,18 @@ impl DiagnoseReport {
         }
     }
 
+    /// Where `axis`'s position loop reads it; none for an axis outside the plane.
+    pub(crate) fn feedback_of(&self, axis: AxisName) -> Option<Feedback> {
+        self.loop_feedback.get(axis.index()).copied()
+    }
+
     /// The summary for the terminal (the report's [`Display`](std::fmt::Display)).
     fn summary_text(&self) -> String {
         let mut s = String::new();
         self.write_record(&mut s);
         let _ = writeln!(s, "\n{}", self.verdict);
         for (i, c) in self.causes.iter().enumerate() {
-            write_cause(&mut s, i, c);
+            write_cause(&mut s, i, c, self.feedback_of(c.axis));
         }
         for r in &self.rejected {
             let _ = writeln!(

@@ -14,6 +14,7 @@ use crate::diagnose::cause_text::{next_step, strength};
 use crate::diagnose::circular::CircularComparison;
 use crate::diagnose::report::{CauseReport, DiagnoseReport};
 use crate::figures::DiagnoseFigures;
+use crate::machine::Feedback;
 
 /// The page's view of a diagnosis.
 #[derive(Serialize)]
@@ -209,11 +210,20 @@ fn ranked_causes(r: &DiagnoseReport, json: &Json) -> Vec<CauseView> {
     order
         .into_iter()
         .enumerate()
-        .map(|(rank, i)| cause_view(rank + 1, i, &r.causes[i], json))
+        .map(|(rank, i)| {
+            let c = &r.causes[i];
+            cause_view(rank + 1, i, c, r.feedback_of(c.axis), json)
+        })
         .collect()
 }
 
-fn cause_view(rank: usize, i: usize, c: &CauseReport, json: &Json) -> CauseView {
+fn cause_view(
+    rank: usize,
+    i: usize,
+    c: &CauseReport,
+    feedback: Option<Feedback>,
+    json: &Json,
+) -> CauseView {
     let at = |field: &str| format!("causes[{i}].{field}");
     let params = c
         .params
@@ -240,7 +250,7 @@ fn cause_view(rank: usize, i: usize, c: &CauseReport, json: &Json) -> CauseView 
             fig(json, &at("held_out.rms_after_um"), 3),
         ],
         strength: strength(c),
-        what_to_do: next_step(c),
+        what_to_do: next_step(c, feedback),
         alternatives: c
             .alternatives
             .iter()

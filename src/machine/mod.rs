@@ -249,14 +249,16 @@ pub struct Errors {
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub friction_map_mm: Vec<f64>,
     /// … and the Coulomb friction added there (N at the table, linear in between, held
-    /// beyond the ends); the static friction rises by as much.
+    /// beyond the ends); the static friction rises by as much. Negative where the guideway
+    /// runs looser, never so far that the total goes below zero.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub friction_map_n: Vec<f64>,
     /// Friction that depends on the table's speed beyond the Coulomb, viscous and Stribeck
     /// terms: speeds (mm/min, increasing, from 0) …
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub friction_speed_mm_per_min: Vec<f64>,
-    /// … and the sliding friction added there (N at the table, against the motion).
+    /// … and the sliding friction added there (N at the table, against the motion; with
+    /// the position map's, never below zero in total).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub friction_speed_n: Vec<f64>,
     /// A force that repeats with the table's position (N at the table): a motor's torque
@@ -462,6 +464,23 @@ impl Friction {
     /// Whether the friction has a presliding (bristle) state.
     pub fn has_presliding(&self) -> bool {
         self.bristle_stiffness_n_per_um > 0.0
+    }
+
+    /// The Coulomb friction on a table of `table_mass_kg` (N), c·M_T·g.
+    pub fn coulomb_n(&self, table_mass_kg: f64) -> f64 {
+        self.coulomb_coefficient * table_mass_kg * crate::numeric::units::GRAVITY_M_PER_S2
+    }
+
+    /// The static friction (N) over a Coulomb friction of `coulomb_n`: the ratio's, and no
+    /// less than Coulomb's with the Stribeck excess (the Stribeck curve starts at the static
+    /// level) — except where bristles carry a level
+    /// near rest below Coulomb's (validation refuses a Stribeck excess with it): friction
+    /// that grows with speed at low speed.
+    pub fn static_n(&self, coulomb_n: f64) -> f64 {
+        if self.has_presliding() && self.static_to_coulomb < 1.0 {
+            return self.static_to_coulomb * coulomb_n;
+        }
+        (self.static_to_coulomb * coulomb_n).max(coulomb_n + self.stribeck_level_n)
     }
 }
 

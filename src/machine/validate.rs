@@ -80,6 +80,7 @@ fn validate_axis(c: &Checker, axis: &str, a: &AxisConfig) -> Result<(), ConfigEr
     let k = |s: &str| format!("{axis}.{s}");
     validate_mechanics(c, &k, a)?;
     validate_tables(c, &k, &a.errors)?;
+    validate_friction_total(c, &k, a)?;
     validate_limits(c, &k("limits"), &a.limits)
 }
 
@@ -482,6 +483,99 @@ fn validate_tables(
         c.check(&sa, first, Rule::Range(0.0, 1e6))?;
     }
     Ok(())
+}
+
+/// The friction the tables add keeps the total at or above zero everywhere: friction takes
+/// force from the table's motion and never gives it. The tables are linear between their
+/// points and held beyond, so their lowest points are the lowest anywhere: the position
+/// map's lowest entry lowers the static level and, with the speed curve's lowest, the
+/// sliding one.
+fn validate_friction_total(
+    c: &Checker,
+    k: &dyn Fn(&str) -> String,
+    a: &AxisConfig,
+) -> Result<(), ConfigError> {
+    let f = &a.friction;
+    let e = &a.errors;
+    let f_c = f.coulomb_n(a.drive.table_mass_kg);
+    let f_s = f.static_n(f_c);
+    let lowest = |values: &[f64]| {
+        values
+            .iter()
+            .copied()
+            .enumerate()
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .filter(|&(_, v)| v < 0.0)
+    };
+    let map = lowest(&e.friction_map_n);
+    let speed = lowest(&e.friction_speed_n);
+    let entry = |key: &str, (i, v): (usize, f64)| format!("{}[{i}] = {v} N", k(key));
+    let map_entry = map.map(|m| entry("errors.friction_map_n", m));
+    if let (Some((_, m)), Some(text)) = (map, &map_entry)
+        && f_s + m < 0.0
+    {
+        return Err(negative_friction(
+            c,
+            k,
+            "friction_map_n",
+            text,
+            "static",
+            f_s,
+            m,
+        ));
+    }
+    let map_n = map.map_or(0.0, |(_, m)| m);
+    if let Some(s) = speed
+        && f_c + map_n + s.1 < 0.0
+    {
+        let text = match &map_entry {
+            Some(m) => format!("{} with {m}", entry("errors.friction_speed_n", s)),
+            None => entry("errors.friction_speed_n", s),
+        };
+        return Err(negative_friction(
+            c,
+            k,
+            "friction_speed_n",
+            &text,
+            "sliding",
+            f_c,
+            map_n + s.1,
+        ));
+    }
+    if let (Some(text), true) = (&map_entry, f_c + map_n < 0.0) {
+        return Err(negative_friction(
+            c,
+            k,
+            "friction_map_n",
+            text,
+            "sliding",
+            f_c,
+            map_n,
+        ));
+    }
+    Ok(())
+}
+
+/// The error for a table `entry` whose `added_n` takes the axis's `level` friction of
+/// `level_n` below zero.
+fn negative_friction(
+    c: &Checker,
+    k: &dyn Fn(&str) -> String,
+    key: &str,
+    entry: &str,
+    level: &str,
+    level_n: f64,
+    added_n: f64,
+) -> ConfigError {
+    c.inconsistent(
+        &k(&format!("errors.{key}")),
+        format!(
+            "takes the {level} friction below zero: {entry} added to the axis's {level_n:.1} N \
+             leaves {:.1} N, and friction never pushes the table (its tables may lower it to \
+             zero at most)",
+            level_n + added_n
+        ),
+    )
 }
 
 #[cfg(test)]

@@ -418,8 +418,9 @@ impl<'a> AxisSim<'a> {
         if m.presliding.is_some() {
             return false;
         }
-        let f_e = (m.breakaway_force(&self.signals, mode.contact) * *x)[0];
         let v = x[V2];
+        let f_e = (m.breakaway_force(&self.signals, mode.contact) * *x)[0]
+            + Self::maps_sliding_held_n(m, x, mode.friction);
         let f_s = m.f_s + x[FSX];
         let want = match mode.friction {
             FrictionMode::SlipPos if v < 0.0 => Self::at_zero_speed(f_e, f_s),
@@ -448,6 +449,28 @@ impl<'a> AxisSim<'a> {
             friction_inputs(m, x, *mode);
         }
         true
+    }
+
+    /// The friction maps' sliding part that a sliding table's held input `FX` carries with
+    /// the sign of its motion (N, as it enters the breakaway force's `−FX`); zero at rest.
+    /// It is friction, not a force on the table: at a speed zero crossing the table meets
+    /// the static level (`f_s` with the map's static part) instead, so the force that would
+    /// move it leaves it out — as a lower `f_c` leaves nothing in `FX`. Kept in, a map taking
+    /// away more than `f_s − f_c` made the table too "pushed" to stick yet too weakly driven
+    /// to go on: it stayed sliding forward at a speed below zero, each tick the same event.
+    /// Taken where the table is now rather than where the input was held: the same for a
+    /// map that is flat over the sub-step, and within its change over one otherwise. (The
+    /// Stribeck excess stays in, as the stick-slip figures were validated with.)
+    fn maps_sliding_held_n(m: &AxisModel, x: &Aug, friction: FrictionMode) -> f64 {
+        let sign = match friction {
+            FrictionMode::SlipPos => 1.0,
+            FrictionMode::SlipNeg => -1.0,
+            FrictionMode::Stick => return 0.0,
+        };
+        if !m.has_friction_maps() {
+            return 0.0;
+        }
+        sign * m.friction_added_n(x[X2], x[V2]).0
     }
 
     /// At a speed zero crossing: stick if static friction `f_s` can hold the net force `f_e`.

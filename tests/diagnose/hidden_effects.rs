@@ -768,3 +768,76 @@ mod small_table_records_with_commands_name_nothing {
         assert_nominal_record_explained("square.nc");
     }
 }
+
+/// Backlash hidden on X of the circle test, diagnosed, and its compensation table written
+/// from the fitted machine, with the loop read on a linear scale and on the motor encoder.
+/// The gap is fitted; where it goes follows where the loop closes.
+mod backlash_compensation_follows_the_feedback {
+    use super::*;
+    use contourcheck::diagnose::compensation::compensation;
+    use contourcheck::diagnose::report::DiagnoseReport;
+    use contourcheck::machine::Feedback;
+
+    const HIDDEN_UM: f64 = 8.0;
+
+    /// The diagnosed machine and the report's text, for the nominal machine with X read by
+    /// `feedback` and `HIDDEN_UM` of backlash hidden on X.
+    fn diagnosed(feedback: Feedback) -> (MachineConfig, String) {
+        let circle = program("circle-r50.nc");
+        let mut machine = MachineConfig::default_preset();
+        machine.x.position_loop.feedback = feedback;
+        let spec = SynthSpec {
+            effect: Some((CauseId::Backlash, AxisName::X, vec![HIDDEN_UM])),
+            offset_s: 0.33,
+            seed: 83,
+            ..SynthSpec::default()
+        };
+        let measured = recorded(&circle, &machine, &spec, "gap.csv");
+        let settings = DiagnoseSettings::for_machine(&machine);
+        let d = diagnose(&circle, &machine, &measured, &settings).unwrap();
+        let gap = d
+            .causes
+            .iter()
+            .find(|c| c.id == CauseId::Backlash && c.axis == AxisName::X)
+            .unwrap_or_else(|| panic!("backlash on X not named: {:?}", d.rejected));
+        assert!((gap.params[0].value - HIDDEN_UM).abs() <= 0.25 * HIDDEN_UM);
+        let text = DiagnoseReport::new(&d, "circle.nc", &measured, &machine).to_string();
+        (d.machine, text)
+    }
+
+    #[test]
+    fn behind_a_linear_scale_no_offset() {
+        let (fitted, text) = diagnosed(Feedback::LinearScale);
+        assert!(fitted.x.drive.backlash_um > 0.0);
+        // The scale holds the table where it reads whatever side of the gap the nut is
+        // on: nothing is left at rest, so nothing is written.
+        assert!(
+            compensation(&fitted).is_empty(),
+            "{:?}",
+            compensation(&fitted)
+        );
+        assert!(!text.contains("MD32450"), "{text}");
+        assert!(
+            text.contains("enter no backlash compensation for the X axis"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn before_a_motor_encoder_half_the_gap_against_the_travel() {
+        let (fitted, text) = diagnosed(Feedback::MotorEncoder);
+        let tables = compensation(&fitted);
+        assert_eq!(tables.len(), 1);
+        assert_eq!(tables[0].axis, AxisName::X);
+        // The motor is held; travelling + the nut pushes the table from behind, half the
+        // gap short; travelling − half the gap beyond. The gap is fitted within 25 %.
+        for &(_, forward, reverse) in &tables[0].points {
+            assert!(
+                (forward + 0.5 * HIDDEN_UM).abs() <= 0.125 * HIDDEN_UM,
+                "{forward}"
+            );
+            assert!((reverse + forward).abs() < 1e-9, "{forward} {reverse}");
+        }
+        assert!(text.contains("MD32450"), "{text}");
+    }
+}

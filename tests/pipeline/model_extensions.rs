@@ -161,22 +161,8 @@ fn a_stribeck_excess_raises_the_start_up_error_and_nothing_at_speed() {
     );
 }
 
-#[test]
-fn friction_added_everywhere_is_coulomb_friction_and_a_local_map_converges() {
-    // A friction map that adds 300 N over the whole travel, with as much static friction,
-    // is the Coulomb friction raised by 300 N: the same trace through a move, its reversal
-    // and the standstill after (with the static friction the nominal ratio above it).
-    let nominal = x_axis();
-    let mut mapped = nominal.clone();
-    mapped.errors.friction_map_mm = vec![-1000.0, 1000.0];
-    mapped.errors.friction_map_n = vec![300.0, 300.0];
-    let mut raised = nominal.clone();
-    let g_m = nominal.drive.table_mass_kg * 9.80665;
-    let f_c = nominal.friction.coulomb_coefficient * g_m;
-    raised.friction.coulomb_coefficient = (f_c + 300.0) / g_m;
-    // f_s + 300 N over the raised Coulomb friction.
-    raised.friction.static_to_coulomb =
-        (nominal.friction.static_to_coulomb * f_c + 300.0) / (f_c + 300.0);
+/// A move of 10 mm, a reversal and back, with standstills after each.
+fn there_and_back() -> AxisCommands {
     let mut c = move_and_hold(0.01, 1.0, 0.3);
     let back = move_and_hold(-0.01, 1.0, 0.5);
     for k in 1..back.len() {
@@ -186,15 +172,43 @@ fn friction_added_everywhere_is_coulomb_friction_and_a_local_map_converges() {
             back.acc_m_per_s2[k],
         );
     }
-    let (a, b) = (run(&mapped, &c), run(&raised, &c));
+    c
+}
+
+/// A friction map that adds `added_n` over the whole travel, to the static friction as much
+/// as to Coulomb's, is the Coulomb friction changed by `added_n` with the static friction
+/// the nominal ratio's plus `added_n`: the same physics two ways, the same trace through a
+/// move, its reversal and the standstills; and unlike the nominal run's.
+fn assert_map_everywhere_is_coulomb_friction(added_n: f64) {
+    let nominal = x_axis();
+    let mut mapped = nominal.clone();
+    mapped.errors.friction_map_mm = vec![-1000.0, 1000.0];
+    mapped.errors.friction_map_n = vec![added_n, added_n];
+    let mut changed = nominal.clone();
+    let g_m = nominal.drive.table_mass_kg * 9.80665;
+    let f_c = nominal.friction.coulomb_coefficient * g_m;
+    changed.friction.coulomb_coefficient = (f_c + added_n) / g_m;
+    changed.friction.static_to_coulomb =
+        (nominal.friction.static_to_coulomb * f_c + added_n) / (f_c + added_n);
+    let c = there_and_back();
+    let (a, b) = (run(&mapped, &c), run(&changed, &c));
     let worst = largest_gap(&a, &b);
     // Alike to the nanometre the event location leaves (a friction held with the old sign
     // past a switch until the next sub-step was 35 nm off).
-    assert!(worst < 1e-8, "{worst:e} m");
-    // And the extra friction shows: the following error differs from the nominal run's.
+    assert!(worst < 1e-8, "{added_n} N: {worst:e} m");
+    // And the changed friction shows: the trace differs from the nominal run's by ten times
+    // that bound at least (100 N across the 3.6·10⁸ N/m axial stiffness alone is 0.28 µm,
+    // carried through each start and the reversal until the loop takes it out).
+    let apart = largest_gap(&run(&nominal, &c), &a);
+    assert!(apart > 1e-7, "{added_n} N: {apart:e} m");
+}
+
+#[test]
+fn friction_added_everywhere_is_coulomb_friction_and_a_local_map_converges() {
+    assert_map_everywhere_is_coulomb_friction(300.0);
+    let nominal = x_axis();
+    let c = there_and_back();
     let plain = run(&nominal, &c);
-    let apart = largest_gap(&plain, &a);
-    assert!(apart > 1e-7, "{apart:e} m");
     // A tight spot (600 N over 2 mm) is met inside a step at whatever sub-step the friction is
     // held for: halving the sub-step changes the trace by far less than the spot's effect.
     let mut spot = nominal.clone();
@@ -215,6 +229,15 @@ fn friction_added_everywhere_is_coulomb_friction_and_a_local_map_converges() {
         effect > 1e-7 && change < 0.02 * effect,
         "effect {effect:e}, change {change:e}"
     );
+}
+
+/// A map below zero is a looser guideway: 100 N less (more than the static friction's 77 N
+/// over Coulomb's, where a sliding table coming to rest once found itself pushed on by the
+/// friction it had just lost) and 500 N less run as a lower Coulomb friction does.
+#[test]
+fn friction_taken_away_everywhere_is_a_lower_coulomb_friction() {
+    assert_map_everywhere_is_coulomb_friction(-100.0);
+    assert_map_everywhere_is_coulomb_friction(-500.0);
 }
 
 /// The largest difference between two runs' positions (m).

@@ -43,3 +43,43 @@ fn a_beam_bent_by_a_hundredth_of_its_length_by_its_holder_is_refused() {
     );
     assert!(at(1.1 * least).is_ok(), "{:?}", at(1.1 * least).err());
 }
+
+#[test]
+fn friction_tables_that_take_the_friction_below_zero_are_refused_naming_the_entry() {
+    // hvmc's X: f_c = 0.010 · 6000 kg · 9.81 m/s² = 588.6 N sliding, 1.13 times that at rest.
+    let f_c = 0.010 * 6000.0 * 9.81;
+    let with = |section: &str| read(&format!("base = \"hvmc\"\n[x.errors]\n{section}"));
+    let map = |n: f64| {
+        with(&format!(
+            "friction_map_mm = [-500.0, 0.0, 500.0]\nfriction_map_n = [0.0, {n}, 0.0]\n"
+        ))
+    };
+    // A looser stretch down to no friction at all is a guideway; 1 N further is not.
+    assert!(map(-(f_c - 0.5)).is_ok(), "{:?}", map(-(f_c - 0.5)).err());
+    let e = map(-(f_c + 1.0)).expect_err("friction below zero");
+    assert!(
+        e.contains("m.toml:4:1: key `x.errors.friction_map_n`"),
+        "{e}"
+    );
+    assert!(e.contains("x.errors.friction_map_n[1] = -589.6 N"), "{e}");
+    assert!(e.contains("leaves -1.0 N"), "{e}");
+    // A speed curve alone, and one that goes below zero only with the map's loose spot.
+    let speed = |n: f64| {
+        format!("friction_speed_mm_per_min = [0.0, 100.0]\nfriction_speed_n = [0.0, {n}]\n")
+    };
+    let e = with(&speed(-1000.0)).expect_err("friction below zero");
+    assert!(e.contains("x.errors.friction_speed_n[1] = -1000 N"), "{e}");
+    let half = 0.5 * f_c + 1.0;
+    assert!(with(&speed(-half)).is_ok());
+    let both = format!(
+        "friction_map_mm = [-500.0, 500.0]\nfriction_map_n = [{}, 0.0]\n{}",
+        -half,
+        speed(-half)
+    );
+    let e = with(&both).expect_err("together below zero");
+    assert!(
+        e.contains("key `x.errors.friction_speed_n`")
+            && e.contains("with x.errors.friction_map_n[0]"),
+        "{e}"
+    );
+}

@@ -16,10 +16,10 @@ impl AxisModel {
     pub fn from_config(c: &AxisConfig) -> AxisModel {
         let m = Mechanics::of(c);
         let kt = c.motor.kt_nm_per_a;
-        let f_c = c.friction.coulomb_coefficient * m.mt * GRAVITY_M_PER_S2;
+        let f_c = c.friction.coulomb_n(m.mt);
         let (kf, ka) = feedforward(c);
         let drive = DriveLoops::of(c);
-        let f_s = breakaway_force(c, f_c);
+        let f_s = c.friction.static_n(f_c);
         let (friction_map, friction_speed) = friction_maps(&c.errors);
         AxisModel {
             kp: cascade_position_gain(c, &m),
@@ -95,19 +95,6 @@ fn cascade_position_gain(c: &AxisConfig, m: &Mechanics) -> f64 {
         }
         _ => 0.0,
     }
-}
-
-/// The force friction holds at rest (N). With a Stribeck excess the friction at rest is
-/// f_c + level: the break-away force cannot be lower than that (the Stribeck curve starts
-/// at static friction).
-fn breakaway_force(c: &AxisConfig, f_c: f64) -> f64 {
-    let f = &c.friction;
-    if f.has_presliding() && f.static_to_coulomb < 1.0 {
-        // Bristles carry a level near rest below Coulomb's (validation refuses a Stribeck
-        // excess with it): friction that grows with speed at low speed.
-        return f.static_to_coulomb * f_c;
-    }
-    (f.static_to_coulomb * f_c).max(f_c + f.stribeck_level_n)
 }
 
 /// The Stribeck excess (N) and the speed it falls over (m/s), where there is one.
