@@ -12,6 +12,8 @@
 
 use std::fmt;
 
+use crate::trace::numerals;
+
 /// A quantity a trace column holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Signal {
@@ -106,7 +108,7 @@ const LENGTH_UNITS: [(&str, f64); 6] = [
 
 /// Reads a unit for a signal: a time or length unit, or `counts:RESOLUTION` with a length
 /// unit on the resolution (`counts:0.1um`).
-fn parse_unit(text: &str, signal: Signal) -> Result<Unit, String> {
+pub(crate) fn parse_unit(text: &str, signal: Signal) -> Result<Unit, String> {
     let t = text.trim();
     let table: &[(&'static str, f64)] = if signal.is_time() {
         &TIME_UNITS
@@ -326,6 +328,9 @@ pub struct Dialect {
     pub delimiter: Delimiter,
     /// Numbers written with a decimal comma (`0,125`).
     pub decimal_comma: bool,
+    /// Whether a number in the file shows which mark is the decimal one (`0,125`,
+    /// `999.8000`, `4.999,8000`); only then is the other mark read as digit grouping.
+    pub decimal_known: bool,
 }
 
 /// Whether a line is a comment: `#`, `//`, `%` or `;` first (`;` only when it is not the
@@ -335,8 +340,12 @@ pub(crate) fn is_comment(line: &str) -> bool {
     l.starts_with('#') || l.starts_with("//") || l.starts_with('%')
 }
 
-/// Sniffs the dialect from the header line and the next few data lines.
+/// Sniffs the dialect from the header line and the data lines: the delimiter from the
+/// header, the decimal mark from the numbers of the first twenty lines that tell it (see
+/// [`numerals::mark_evidence`]), or of the first line further down that does; where none
+/// does, a decimal point.
 pub(crate) fn sniff(header: &str, data: &[&str]) -> Dialect {
+    const SAMPLE_LINES: usize = 20;
     let count = |b: char| header.matches(b).count();
     let delimiter = if count('\t') > 0 {
         Delimiter::Byte(b'\t')
@@ -347,17 +356,28 @@ pub(crate) fn sniff(header: &str, data: &[&str]) -> Dialect {
     } else {
         Delimiter::Whitespace
     };
-    // A decimal comma shows as digits on both sides of a comma in data fields, possible
-    // only when the comma is not the separator.
-    let decimal_comma = delimiter != Delimiter::Byte(b',')
-        && data.iter().any(|l| {
-            let b = l.as_bytes();
-            (1..b.len().saturating_sub(1))
-                .any(|i| b[i] == b',' && b[i - 1].is_ascii_digit() && b[i + 1].is_ascii_digit())
-        });
+    let comma_splits = delimiter == Delimiter::Byte(b',');
+    let (mut comma, mut point) = (0usize, 0usize);
+    for (i, line) in data.iter().enumerate() {
+        if i >= SAMPLE_LINES && comma + point > 0 {
+            break;
+        }
+        for field in fields(line, delimiter) {
+            match numerals::mark_evidence(field, comma_splits) {
+                Some(true) => comma += 1,
+                Some(false) => point += 1,
+                None => {}
+            }
+        }
+    }
+    // Without evidence every comma between digits could be either (`1,000`): the point is
+    // taken for the decimal mark, and such a comma is refused at its row, never guessed.
+    let decimal_known = comma_splits || comma + point > 0;
+    let decimal_comma = comma > point;
     Dialect {
         delimiter,
         decimal_comma,
+        decimal_known,
     }
 }
 
@@ -369,14 +389,38 @@ pub(crate) fn fields(line: &str, d: Delimiter) -> Vec<&str> {
     }
 }
 
-/// Reads a number as written in the dialect.
+/// Reads a number as written in the dialect: its decimal mark, and digit grouping by the
+/// other mark where the file shows which is which.
 pub(crate) fn number(field: &str, dialect: &Dialect) -> Option<f64> {
-    let v = if dialect.decimal_comma {
-        field.replace(',', ".").parse::<f64>()
+    let (decimal, group) = if dialect.decimal_comma {
+        (',', '.')
     } else {
-        field.parse::<f64>()
+        ('.', ',')
     };
-    v.ok().filter(|v| v.is_finite())
+    let plain = |t: &str| t.parse::<f64>().ok().filter(|v| v.is_finite());
+    if !field.contains(group) {
+        return if dialect.decimal_comma {
+            plain(&field.replace(',', "."))
+        } else {
+            plain(field)
+        };
+    }
+    if dialect.decimal_known
+        && let Some(digits) = numerals::ungrouped(field, decimal, group)
+    {
+        return plain(&digits);
+    }
+    // A point that groups nothing in a decimal-comma file: a column written with a point
+    // by another tool, read as written.
+    if dialect.decimal_comma && !field.contains(',') {
+        return plain(field);
+    }
+    None
+}
+
+/// Why a field is not a number in the dialect, for the message at its row.
+pub(crate) fn why_not_a_number(field: &str, dialect: &Dialect) -> String {
+    numerals::why_not_a_number(field, dialect.decimal_comma, dialect.decimal_known)
 }
 
 /// A signal found in the header: its column index, header text and unit.

@@ -1,0 +1,166 @@
+//! A text table's data rows: rows that hold nothing, the trailer after the data, the
+//! mapped columns read (numbers as the file writes them, a clock time in the time column).
+
+use super::{MeasuredError, Table, UnusedColumn, slot};
+use crate::trace::format::{self, Delimiter, Dialect, Mapped};
+use crate::trace::numerals;
+
+/// The most lines after the data that are skipped as a trailer (`EOF;;;`, a checksum, a
+/// summary block): more lines of text than this are not a trailer, and are read as data —
+/// so the first is refused at its row.
+const MOST_TRAILER_ROWS: usize = 100;
+
+/// The rows with something in a field: a row of separators only (`;;;;`, as a spreadsheet
+/// writes for an empty line) holds nothing and is passed over like a blank line.
+pub(super) fn without_empty_rows<'a>(
+    data: &[(u64, &'a str)],
+    dialect: &Dialect,
+) -> Vec<(u64, &'a str)> {
+    let separator = match dialect.delimiter {
+        Delimiter::Byte(b) => b,
+        Delimiter::Whitespace => b' ',
+    };
+    data.iter()
+        .filter(|(_, l)| {
+            l.bytes()
+                .any(|b| b != separator && b != b'"' && !b.is_ascii_whitespace())
+        })
+        .copied()
+        .collect()
+}
+
+/// Whether a field is written like a number or a clock time in any convention (digits with
+/// signs, marks, an exponent, colons): such a field is data, never a trailer, and where it
+/// cannot be read it is refused at its row.
+fn looks_numeric(field: &str) -> bool {
+    let f = field.trim().trim_matches('"');
+    f.bytes().any(|b| b.is_ascii_digit())
+        && f.bytes()
+            .all(|b| b.is_ascii_digit() || b"+-.,eE: '".contains(&b))
+}
+
+/// The data without its trailer, and how many rows that was: the rows at the end whose time
+/// field is text (`EOF`, `Summe`, empty), at most [`MOST_TRAILER_ROWS`] of them. A row whose
+/// time looks like a number ends the trailer, however it is written.
+pub(super) fn without_trailer<'d, 'a>(
+    data: &'d [(u64, &'a str)],
+    time_col: usize,
+    dialect: &Dialect,
+) -> (&'d [(u64, &'a str)], usize) {
+    let is_text = |line: &str| {
+        let f = format::fields(line, dialect.delimiter);
+        !looks_numeric(f.get(time_col).copied().unwrap_or(""))
+    };
+    let trailer = data.iter().rev().take_while(|(_, l)| is_text(l)).count();
+    if trailer > MOST_TRAILER_ROWS || trailer == data.len() {
+        return (data, 0);
+    }
+    (&data[..data.len() - trailer], trailer)
+}
+
+/// The mapped columns of a text table's data rows, in SI units; a field that is not a number
+/// is an error at its row, saying why. A time column of clock times (`00:00:01.234`) is read
+/// in seconds, and its mapping says so.
+pub(super) fn read_rows(
+    file: &str,
+    data: &[(u64, &str)],
+    mapped: &mut [Mapped],
+    dialect: &Dialect,
+) -> Result<Table, MeasuredError> {
+    let clock = clock_column(data, &mut mapped[0], dialect);
+    let mut table = Table {
+        rows: Vec::with_capacity(data.len()),
+        ..Table::default()
+    };
+    for &(row, line) in data {
+        let f = format::fields(line, dialect.delimiter);
+        for m in mapped.iter() {
+            let text = f.get(m.index).map_or("", |v| v.trim_matches('"'));
+            let column = || format!("column {} '{}' ({})", m.index + 1, m.header, m.signal.key());
+            let at_row = |problem: String| MeasuredError::Row {
+                file: file.into(),
+                row,
+                problem: format!("{}: {problem}", column()),
+            };
+            let value = if clock && m.signal.is_time() {
+                numerals::clock_seconds(text)
+                    .map_err(&at_row)?
+                    .ok_or_else(|| {
+                        at_row(format!(
+                            "'{text}' is not a clock time h:mm:ss.fff like the first row's"
+                        ))
+                    })?
+            } else {
+                format::number(text, dialect)
+                    .map(|v| v * m.unit.to_si)
+                    .ok_or_else(|| at_row(format::why_not_a_number(text, dialect)))?
+            };
+            match slot(m.signal) {
+                None => table.t.push(value),
+                Some(k) => table.cols[k].push(value),
+            }
+        }
+        table.rows.push(row);
+    }
+    if clock {
+        past_midnight(&mut table.t);
+    }
+    Ok(table)
+}
+
+/// Whether the time column holds clock times (its first row's time has a `:`); if so its
+/// unit becomes seconds, from the clock.
+fn clock_column(data: &[(u64, &str)], time: &mut Mapped, dialect: &Dialect) -> bool {
+    let first = data.first().map_or("", |(_, line)| {
+        format::fields(line, dialect.delimiter)
+            .get(time.index)
+            .copied()
+            .unwrap_or("")
+    });
+    let clock = first.contains(':');
+    if clock {
+        time.unit = format::time_units()
+            .find(|u| u.label == "s")
+            .unwrap_or(time.unit);
+        time.unit_from = "clock times h:mm:ss";
+    }
+    clock
+}
+
+/// Clock times that pass midnight go on counting: a time half a day or more before the one
+/// above is on the next day.
+fn past_midnight(t: &mut [f64]) {
+    const DAY_S: f64 = 86_400.0;
+    let mut days = 0.0;
+    for i in 1..t.len() {
+        let before = t[i - 1];
+        t[i] += days;
+        if t[i] < before - DAY_S / 2.0 {
+            days += DAY_S;
+            t[i] += DAY_S;
+        }
+    }
+}
+
+/// A text table's columns that no signal was mapped to, each with its range.
+pub(super) fn unused_text_columns(
+    headers: &[&str],
+    mapped: &[Mapped],
+    data: &[(u64, &str)],
+    dialect: &Dialect,
+) -> Vec<UnusedColumn> {
+    let rows: Vec<Vec<&str>> = data
+        .iter()
+        .map(|(_, line)| format::fields(line, dialect.delimiter))
+        .collect();
+    (0..headers.len())
+        .filter(|i| !mapped.iter().any(|m| m.index == *i))
+        .map(|i| {
+            let values = rows.iter().map(|f| {
+                f.get(i)
+                    .and_then(|v| format::number(v.trim_matches('"'), dialect))
+            });
+            UnusedColumn::of(headers[i], values)
+        })
+        .collect()
+}
