@@ -5,7 +5,8 @@
 //! command line or in a small TOML trace profile) or is recognised from the header's usual
 //! spellings (`t_s`, `time`, `Time [ms]`; `x_mm`, `X`, `X_act`, `X_ActPos`; `x_cmd_mm`,
 //! `X_ref`, `X_Traj` …). Units come from the mapping, from brackets in the header
-//! (`Time [ms]`, `X (µm)`) or from a suffix (`_ms`, `_um`); counts need a stated
+//! (`Time [ms]`, `X (µm)`), from a suffix (`_ms`, `_um`) or from a units row under the
+//! header (`s;mm;mm`, read in `measured`); counts need a stated
 //! resolution (`x=X_enc[counts:0.0001mm]`). The text may be comma, semicolon, tab or
 //! whitespace separated, with a decimal comma, a byte-order mark, CRLF line ends, comment
 //! lines and trailer lines after the data.

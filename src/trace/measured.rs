@@ -553,7 +553,8 @@ pub fn parse_trace_with(
     let mut mapped = format::map_columns(&headers, map)
         .map_err(|e| data_error(format!("row {header_row} (header): {e}")))?;
     let data = text::without_empty_rows(data, &dialect);
-    let (data, trailer_rows) = text::without_trailer(&data, mapped[0].index, &dialect);
+    let data = text::without_units_row(file, &data, &mut mapped, &dialect)?;
+    let (data, trailer_rows) = text::without_trailer(data, mapped[0].index, &dialect);
     let table = text::read_rows(file, data, &mut mapped, &dialect)?;
     let unused = text::unused_text_columns(&headers, &mapped, data, &dialect);
     let layout = TraceLayout {

@@ -160,3 +160,45 @@ proptest::proptest! {
         let _ = parse_trace(&text, "fuzz.csv");
     }
 }
+
+/// The record with a units row under a header that names none: time in `time_unit`, X and Y
+/// and their commands (the positions, as a servo trace with no error) in `length_unit`.
+fn with_units_row(units: &str, time_scale: f64, length_scale: f64) -> String {
+    let mut text = format!("t,x,y,x_cmd,y_cmd\n{units}\n");
+    for [t_ms, x, y] in record() {
+        let (t, x, y) = (t_ms * 1e-3 * time_scale, x * length_scale, y * length_scale);
+        text.push_str(&format!("{t},{x},{y},{x},{y}\n"));
+    }
+    text
+}
+
+#[test]
+fn a_units_row_under_the_header_gives_the_columns_units() {
+    // Seconds and µm as written; the same record in ms and mm: both read as the record.
+    for (units, time_scale, length_scale) in [
+        ("s,um,um,um,um", 1.0, 1.0),
+        ("[ms],[mm],[mm],[mm],[mm]", 1e3, 1e-3),
+        ("\"s\",\"µm\",\"µm\",\"µm\",\"µm\"", 1.0, 1.0),
+    ] {
+        let m = parse_trace(&with_units_row(units, time_scale, length_scale), "u.csv")
+            .unwrap_or_else(|e| panic!("{units}: {e}"));
+        assert_is_the_record(&m);
+        let commands = m.commands.as_ref().unwrap();
+        assert!((commands[0][700] - m.x_m[700]).abs() < 1e-15);
+        assert!(m.layout.describe()[2].contains("units row"), "{units}");
+    }
+    // A unit that is no length, and one the header already names otherwise, are refused at
+    // the row, saying it looks like a units row.
+    let e = parse_trace(&with_units_row("s,mm/s,um,um,um", 1.0, 1.0), "u.csv").unwrap_err();
+    assert!(
+        e.to_string().contains("row 2: this looks like a units row"),
+        "{e}"
+    );
+    assert!(e.to_string().contains("'mm/s'"), "{e}");
+    let text = with_units_row("s,um,um,um,um", 1.0, 1.0).replacen("t,x,", "t,x [mm],", 1);
+    let e = parse_trace(&text, "u.csv").unwrap_err().to_string();
+    assert!(
+        e.contains("row 2: this looks like a units row") && e.contains("mm by the header"),
+        "{e}"
+    );
+}

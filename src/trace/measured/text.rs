@@ -1,5 +1,6 @@
-//! A text table's data rows: rows that hold nothing, the trailer after the data, the
-//! mapped columns read (numbers as the file writes them, a clock time in the time column).
+//! A text table's data rows: rows that hold nothing, a units row under the header, the
+//! trailer after the data, the mapped columns read (numbers as the file writes them, a
+//! clock time in the time column).
 
 use super::{MeasuredError, Table, UnusedColumn, slot};
 use crate::trace::format::{self, Delimiter, Dialect, Mapped};
@@ -27,6 +28,70 @@ pub(super) fn without_empty_rows<'a>(
         })
         .copied()
         .collect()
+}
+
+/// The data without a units row right under the header (`s;mm;mm`, `[s],[um],…`, as data
+/// acquisition software writes one): a row none of whose mapped fields is written like a
+/// number and one of which is a unit of its signal. Its units become the mapped columns'
+/// where the header named none; a unit the header names otherwise, or a field that is no
+/// unit, is refused at the row. A mapping's unit stands (the user said so).
+pub(super) fn without_units_row<'d, 'a>(
+    file: &str,
+    data: &'d [(u64, &'a str)],
+    mapped: &mut [Mapped],
+    dialect: &Dialect,
+) -> Result<&'d [(u64, &'a str)], MeasuredError> {
+    let Some(&(row, line)) = data.first() else {
+        return Ok(data);
+    };
+    let fields = format::fields(line, dialect.delimiter);
+    let unit_of = |m: &Mapped| unit_text(fields.get(m.index).copied().unwrap_or(""));
+    let is_units_row = mapped.iter().all(|m| !looks_numeric(unit_of(m)))
+        && mapped
+            .iter()
+            .any(|m| format::parse_unit(unit_of(m), m.signal).is_ok());
+    if !is_units_row {
+        return Ok(data);
+    }
+    let refuse = |m: &Mapped, problem: String| MeasuredError::Row {
+        file: file.into(),
+        row,
+        problem: format!(
+            "this looks like a units row: column {} '{}' ({}): {problem}",
+            m.index + 1,
+            m.header,
+            m.signal.key()
+        ),
+    };
+    for m in mapped.iter_mut() {
+        let text = unit_of(m);
+        if text.is_empty() || m.unit_from == "mapping" {
+            continue;
+        }
+        let unit = format::parse_unit(text, m.signal).map_err(|e| refuse(m, e))?;
+        if m.unit_from == "default" {
+            m.unit = unit;
+            m.unit_from = "units row";
+        } else if (unit.to_si / m.unit.to_si - 1.0).abs() > 1e-9 {
+            let problem = format!(
+                "'{text}' here, {} by the header; name the unit once, or map the column \
+                 with --columns",
+                m.unit.label
+            );
+            return Err(refuse(m, problem));
+        }
+    }
+    Ok(&data[1..])
+}
+
+/// A unit as a units row writes it, without quotes or brackets: `[mm]`, `(s)`, `"um"`.
+fn unit_text(field: &str) -> &str {
+    let f = field.trim().trim_matches('"').trim();
+    let inner = f
+        .strip_prefix('[')
+        .and_then(|f| f.strip_suffix(']'))
+        .or_else(|| f.strip_prefix('(').and_then(|f| f.strip_suffix(')')));
+    inner.unwrap_or(f).trim()
 }
 
 /// Whether a field is written like a number or a clock time in any convention (digits with
