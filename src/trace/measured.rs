@@ -304,11 +304,14 @@ pub fn read_trace_with(
     if mat::is_mat_file(&bytes) || mat::is_named_as_mat_file(path, &bytes) {
         return parse_mat_trace(&bytes, &file, map);
     }
-    let text = sinumerik::decode(&bytes);
+    // Spreadsheets save "Unicode text" as UTF-16: text, though its bytes hold zeros.
+    let utf16 = text::utf16_text(&bytes);
+    let is_utf16 = utf16.is_some();
+    let text = utf16.unwrap_or_else(|| sinumerik::decode(&bytes));
     if sinumerik::is_sinumerik_trace(&text) {
         return assemble_named(&file, sinumerik::sinumerik_columns(&text, &file)?, map);
     }
-    if let Some(problem) = unreadable_kind(&bytes) {
+    if !is_utf16 && let Some(problem) = unreadable_kind(&bytes) {
         return Err(data_error_in(&file)(problem));
     }
     // Lab exports are not always UTF-8 (a µ in Latin-1); only numbers matter here.

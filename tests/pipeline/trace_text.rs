@@ -202,3 +202,39 @@ fn a_units_row_under_the_header_gives_the_columns_units() {
         "{e}"
     );
 }
+
+#[test]
+fn utf16_text_is_read_as_text() {
+    // As a spreadsheet saves "Unicode text": UTF-16, tab-separated, with or without a
+    // byte-order mark, either byte order.
+    let text = table(|v| format!("{v:.4}")).replace(';', "\t");
+    let units: Vec<u16> = text.encode_utf16().collect();
+    let bytes = |bom: bool, little: bool| {
+        let mut out: Vec<u8> = Vec::new();
+        for u in bom
+            .then_some(0xfeff)
+            .into_iter()
+            .chain(units.iter().copied())
+        {
+            out.extend(if little {
+                u.to_le_bytes()
+            } else {
+                u.to_be_bytes()
+            });
+        }
+        out
+    };
+    let dir = tempfile::tempdir().unwrap();
+    for (bom, little) in [(true, true), (true, false), (false, true), (false, false)] {
+        let path = dir.path().join("unicode.txt");
+        std::fs::write(&path, bytes(bom, little)).unwrap();
+        let m = contourcheck::trace::measured::read_trace(&path)
+            .unwrap_or_else(|e| panic!("BOM {bom}, little-endian {little}: {e}"));
+        assert_is_the_record(&m);
+    }
+    // A binary file that starts like a byte-order mark is still refused as binary.
+    let path = dir.path().join("capture.bin");
+    std::fs::write(&path, [0xff, 0xfe, 0, 0, 1, 0, 2, 0, 0x10, 0x27, 0, 0]).unwrap();
+    let e = contourcheck::trace::measured::read_trace(&path).unwrap_err();
+    assert!(e.to_string().contains("a binary file"), "{e}");
+}

@@ -207,6 +207,45 @@ fn past_midnight(t: &mut [f64]) {
     }
 }
 
+/// The text of a file written in UTF-16 (a spreadsheet's "Unicode text"): with a byte-order
+/// mark, or without one where the first bytes are plain text with a zero byte beside every
+/// character (`T\0i\0m\0e\0`), and whose first characters are text. `None` for any other
+/// file.
+pub(super) fn utf16_text(bytes: &[u8]) -> Option<String> {
+    let head = &bytes[..bytes.len().min(512) & !1];
+    let plain_beside_zeros = |zero: usize| {
+        head.len() >= 8
+            && head.chunks(2).all(|pair| {
+                pair[zero] == 0
+                    && (pair[1 - zero].is_ascii_graphic() || pair[1 - zero].is_ascii_whitespace())
+            })
+    };
+    let little = match bytes {
+        [0xff, 0xfe, ..] => true,
+        [0xfe, 0xff, ..] => false,
+        _ if plain_beside_zeros(1) => true,
+        _ if plain_beside_zeros(0) => false,
+        _ => return None,
+    };
+    let units = bytes.chunks_exact(2).map(|pair| {
+        if little {
+            u16::from_le_bytes([pair[0], pair[1]])
+        } else {
+            u16::from_be_bytes([pair[0], pair[1]])
+        }
+    });
+    let text: String = char::decode_utf16(units)
+        .map(|c| c.unwrap_or(char::REPLACEMENT_CHARACTER))
+        .collect();
+    // A binary file that happens to start with a byte-order mark decodes to control codes.
+    let text = text.trim_start_matches('\u{feff}');
+    let readable = text
+        .chars()
+        .take(256)
+        .all(|c| !c.is_control() || matches!(c, '\t' | '\r' | '\n'));
+    readable.then(|| text.to_string())
+}
+
 /// A text table's columns that no signal was mapped to, each with its range.
 pub(super) fn unused_text_columns(
     headers: &[&str],
