@@ -345,7 +345,7 @@ pub(crate) fn is_comment(line: &str) -> bool {
 /// header, the decimal mark from the numbers of the first twenty lines that tell it (see
 /// [`numerals::mark_evidence`]), or of the first line further down that does; where none
 /// does, a decimal point.
-pub(crate) fn sniff(header: &str, data: &[&str]) -> Dialect {
+pub(crate) fn sniff<'a>(header: &str, data: impl IntoIterator<Item = &'a str>) -> Dialect {
     const SAMPLE_LINES: usize = 20;
     let count = |b: char| header.matches(b).count();
     let delimiter = if count('\t') > 0 {
@@ -359,7 +359,7 @@ pub(crate) fn sniff(header: &str, data: &[&str]) -> Dialect {
     };
     let comma_splits = delimiter == Delimiter::Byte(b',');
     let (mut comma, mut point) = (0usize, 0usize);
-    for (i, line) in data.iter().enumerate() {
+    for (i, line) in data.into_iter().enumerate() {
         if i >= SAMPLE_LINES && comma + point > 0 {
             break;
         }
@@ -915,14 +915,14 @@ mod tests {
 
     #[test]
     fn dialects_are_sniffed() {
-        let d = sniff("Zeit;X;Y", &["0,001;1,5;2"]);
+        let d = sniff("Zeit;X;Y", ["0,001;1,5;2"]);
         assert_eq!(d.delimiter, Delimiter::Byte(b';'));
         assert!(d.decimal_comma);
         assert_eq!(number("1,5", &d), Some(1.5));
-        let d = sniff("t x y", &["0.1 1 2"]);
+        let d = sniff("t x y", ["0.1 1 2"]);
         assert_eq!(d.delimiter, Delimiter::Whitespace);
         assert_eq!(fields("  0.1   1\t2 ", d.delimiter), vec!["0.1", "1", "2"]);
-        let d = sniff("t,x,y", &["0.1,1,2"]);
+        let d = sniff("t,x,y", ["0.1,1,2"]);
         assert!(!d.decimal_comma);
     }
 

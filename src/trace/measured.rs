@@ -537,26 +537,25 @@ pub fn parse_trace_with(
     }
     let data_error = data_error_in(file);
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    // (1-based row, line) of every line that is neither blank nor a comment.
+    // (1-based row, line) of every line that is neither blank (or separators only, as a
+    // spreadsheet writes an empty row: `;;;;`) nor a comment.
     let lines: Vec<(u64, &str)> = text
         .lines()
         .enumerate()
         .map(|(i, l)| (i as u64 + 1, l.trim_end_matches('\r')))
-        .filter(|(_, l)| !l.trim().is_empty() && !format::is_comment(l))
+        .filter(|(_, l)| text::holds_something(l) && !format::is_comment(l))
         .collect();
     let Some(((header_row, header), data)) = lines.split_first() else {
         return Err(data_error("no header line".into()));
     };
-    let all: Vec<&str> = data.iter().map(|(_, l)| *l).collect();
-    let dialect = format::sniff(header, &all);
+    let dialect = format::sniff(header, data.iter().map(|(_, l)| *l));
     let headers: Vec<&str> = format::fields(header, dialect.delimiter)
         .into_iter()
         .map(|h| h.trim_matches('"'))
         .collect();
     let mut mapped = format::map_columns(&headers, map)
         .map_err(|e| data_error(format!("row {header_row} (header): {e}")))?;
-    let data = text::without_empty_rows(data, &dialect);
-    let data = text::without_units_row(file, &data, &mut mapped, &dialect)?;
+    let data = text::without_units_row(file, data, &mut mapped, &dialect)?;
     let (data, trailer_rows) = text::without_trailer(data, mapped[0].index, &dialect);
     let table = text::read_rows(file, data, &mut mapped, &dialect)?;
     let unused = text::unused_text_columns(&headers, &mapped, data, &dialect);

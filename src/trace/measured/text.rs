@@ -1,9 +1,9 @@
-//! A text table's data rows: rows that hold nothing, a units row under the header, the
+//! A text table's data rows: lines that hold nothing, a units row under the header, the
 //! trailer after the data, the mapped columns read (numbers as the file writes them, a
 //! clock time in the time column).
 
 use super::{MeasuredError, Table, UnusedColumn, slot};
-use crate::trace::format::{self, Delimiter, Dialect, Mapped};
+use crate::trace::format::{self, Dialect, Mapped};
 use crate::trace::numerals;
 
 /// The most lines after the data that are skipped as a trailer (`EOF;;;`, a checksum, a
@@ -11,23 +11,11 @@ use crate::trace::numerals;
 /// so the first is refused at its row.
 const MOST_TRAILER_ROWS: usize = 100;
 
-/// The rows with something in a field: a row of separators only (`;;;;`, as a spreadsheet
-/// writes for an empty line) holds nothing and is passed over like a blank line.
-pub(super) fn without_empty_rows<'a>(
-    data: &[(u64, &'a str)],
-    dialect: &Dialect,
-) -> Vec<(u64, &'a str)> {
-    let separator = match dialect.delimiter {
-        Delimiter::Byte(b) => b,
-        Delimiter::Whitespace => b' ',
-    };
-    data.iter()
-        .filter(|(_, l)| {
-            l.bytes()
-                .any(|b| b != separator && b != b'"' && !b.is_ascii_whitespace())
-        })
-        .copied()
-        .collect()
+/// Whether a line holds something: not blank, and not separators only (`;;;;`, as a
+/// spreadsheet writes an empty row), which hold nothing whatever the delimiter.
+pub(super) fn holds_something(line: &str) -> bool {
+    line.bytes()
+        .any(|b| !b.is_ascii_whitespace() && !b",;\"".contains(&b))
 }
 
 /// The data without a units row right under the header (`s;mm;mm`, `[s],[um],…`, as data
