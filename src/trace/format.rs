@@ -5,12 +5,15 @@
 //! command line or in a small TOML trace profile) or is recognised from the header's usual
 //! spellings (`t_s`, `time`, `Time [ms]`; `x_mm`, `X`, `X_act`, `X_ActPos`; `x_cmd_mm`,
 //! `X_ref`, `X_Traj` …). Units come from the mapping, from brackets in the header
-//! (`Time [ms]`, `X (µm)`) or from a suffix (`_ms`, `_um`); counts need a stated
+//! (`Time [ms]`, `X (µm)`), from a suffix (`_ms`, `_um`) or from a units row under the
+//! header (`s;mm;mm`, read in `measured`); counts need a stated
 //! resolution (`x=X_enc[counts:0.0001mm]`). The text may be comma, semicolon, tab or
 //! whitespace separated, with a decimal comma, a byte-order mark, CRLF line ends, comment
 //! lines and trailer lines after the data.
 
 use std::fmt;
+
+use crate::trace::numerals;
 
 /// A quantity a trace column holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -106,7 +109,7 @@ const LENGTH_UNITS: [(&str, f64); 6] = [
 
 /// Reads a unit for a signal: a time or length unit, or `counts:RESOLUTION` with a length
 /// unit on the resolution (`counts:0.1um`).
-fn parse_unit(text: &str, signal: Signal) -> Result<Unit, String> {
+pub(crate) fn parse_unit(text: &str, signal: Signal) -> Result<Unit, String> {
     let t = text.trim();
     let table: &[(&'static str, f64)] = if signal.is_time() {
         &TIME_UNITS
@@ -326,6 +329,9 @@ pub struct Dialect {
     pub delimiter: Delimiter,
     /// Numbers written with a decimal comma (`0,125`).
     pub decimal_comma: bool,
+    /// Whether a number in the file shows which mark is the decimal one (`0,125`,
+    /// `999.8000`, `4.999,8000`); only then is the other mark read as digit grouping.
+    pub decimal_known: bool,
 }
 
 /// Whether a line is a comment: `#`, `//`, `%` or `;` first (`;` only when it is not the
@@ -335,8 +341,12 @@ pub(crate) fn is_comment(line: &str) -> bool {
     l.starts_with('#') || l.starts_with("//") || l.starts_with('%')
 }
 
-/// Sniffs the dialect from the header line and the next few data lines.
-pub(crate) fn sniff(header: &str, data: &[&str]) -> Dialect {
+/// Sniffs the dialect from the header line and the data lines: the delimiter from the
+/// header, the decimal mark from the numbers of the first twenty lines that tell it (see
+/// [`numerals::mark_evidence`]), or of the first line further down that does; where none
+/// does, a decimal point.
+pub(crate) fn sniff<'a>(header: &str, data: impl IntoIterator<Item = &'a str>) -> Dialect {
+    const SAMPLE_LINES: usize = 20;
     let count = |b: char| header.matches(b).count();
     let delimiter = if count('\t') > 0 {
         Delimiter::Byte(b'\t')
@@ -347,17 +357,28 @@ pub(crate) fn sniff(header: &str, data: &[&str]) -> Dialect {
     } else {
         Delimiter::Whitespace
     };
-    // A decimal comma shows as digits on both sides of a comma in data fields, possible
-    // only when the comma is not the separator.
-    let decimal_comma = delimiter != Delimiter::Byte(b',')
-        && data.iter().any(|l| {
-            let b = l.as_bytes();
-            (1..b.len().saturating_sub(1))
-                .any(|i| b[i] == b',' && b[i - 1].is_ascii_digit() && b[i + 1].is_ascii_digit())
-        });
+    let comma_splits = delimiter == Delimiter::Byte(b',');
+    let (mut comma, mut point) = (0usize, 0usize);
+    for (i, line) in data.into_iter().enumerate() {
+        if i >= SAMPLE_LINES && comma + point > 0 {
+            break;
+        }
+        for field in fields(line, delimiter) {
+            match numerals::mark_evidence(field, comma_splits) {
+                Some(true) => comma += 1,
+                Some(false) => point += 1,
+                None => {}
+            }
+        }
+    }
+    // Without evidence every comma between digits could be either (`1,000`): the point is
+    // taken for the decimal mark, and such a comma is refused at its row, never guessed.
+    let decimal_known = comma_splits || comma + point > 0;
+    let decimal_comma = comma > point;
     Dialect {
         delimiter,
         decimal_comma,
+        decimal_known,
     }
 }
 
@@ -369,14 +390,38 @@ pub(crate) fn fields(line: &str, d: Delimiter) -> Vec<&str> {
     }
 }
 
-/// Reads a number as written in the dialect.
+/// Reads a number as written in the dialect: its decimal mark, and digit grouping by the
+/// other mark where the file shows which is which.
 pub(crate) fn number(field: &str, dialect: &Dialect) -> Option<f64> {
-    let v = if dialect.decimal_comma {
-        field.replace(',', ".").parse::<f64>()
+    let (decimal, group) = if dialect.decimal_comma {
+        (',', '.')
     } else {
-        field.parse::<f64>()
+        ('.', ',')
     };
-    v.ok().filter(|v| v.is_finite())
+    let plain = |t: &str| t.parse::<f64>().ok().filter(|v| v.is_finite());
+    if !field.contains(group) {
+        return if dialect.decimal_comma {
+            plain(&field.replace(',', "."))
+        } else {
+            plain(field)
+        };
+    }
+    if dialect.decimal_known
+        && let Some(digits) = numerals::ungrouped(field, decimal, group)
+    {
+        return plain(&digits);
+    }
+    // A point that groups nothing in a decimal-comma file: a column written with a point
+    // by another tool, read as written.
+    if dialect.decimal_comma && !field.contains(',') {
+        return plain(field);
+    }
+    None
+}
+
+/// Why a field is not a number in the dialect, for the message at its row.
+pub(crate) fn why_not_a_number(field: &str, dialect: &Dialect) -> String {
+    numerals::why_not_a_number(field, dialect.decimal_comma, dialect.decimal_known)
 }
 
 /// A signal found in the header: its column index, header text and unit.
@@ -870,14 +915,14 @@ mod tests {
 
     #[test]
     fn dialects_are_sniffed() {
-        let d = sniff("Zeit;X;Y", &["0,001;1,5;2"]);
+        let d = sniff("Zeit;X;Y", ["0,001;1,5;2"]);
         assert_eq!(d.delimiter, Delimiter::Byte(b';'));
         assert!(d.decimal_comma);
         assert_eq!(number("1,5", &d), Some(1.5));
-        let d = sniff("t x y", &["0.1 1 2"]);
+        let d = sniff("t x y", ["0.1 1 2"]);
         assert_eq!(d.delimiter, Delimiter::Whitespace);
         assert_eq!(fields("  0.1   1\t2 ", d.delimiter), vec!["0.1", "1", "2"]);
-        let d = sniff("t,x,y", &["0.1,1,2"]);
+        let d = sniff("t,x,y", ["0.1,1,2"]);
         assert!(!d.decimal_comma);
     }
 

@@ -11,7 +11,7 @@
 use std::path::Path;
 
 use crate::trace::columns::NamedColumns;
-use crate::trace::format::{self, ColumnMap, Dialect, Mapped, Signal};
+use crate::trace::format::{self, ColumnMap, Signal};
 use crate::trace::halscope;
 use crate::trace::mat;
 use crate::trace::sinumerik;
@@ -20,6 +20,7 @@ use crate::trace::twincat;
 mod layout;
 mod sampling;
 mod steady;
+mod text;
 
 pub use layout::{Source, TraceLayout, UnusedColumn};
 pub use sampling::{HeldRows, StepStats};
@@ -303,11 +304,14 @@ pub fn read_trace_with(
     if mat::is_mat_file(&bytes) || mat::is_named_as_mat_file(path, &bytes) {
         return parse_mat_trace(&bytes, &file, map);
     }
-    let text = sinumerik::decode(&bytes);
+    // Spreadsheets save "Unicode text" as UTF-16: text, though its bytes hold zeros.
+    let utf16 = text::utf16_text(&bytes);
+    let is_utf16 = utf16.is_some();
+    let text = utf16.unwrap_or_else(|| sinumerik::decode(&bytes));
     if sinumerik::is_sinumerik_trace(&text) {
         return assemble_named(&file, sinumerik::sinumerik_columns(&text, &file)?, map);
     }
-    if let Some(problem) = unreadable_kind(&bytes) {
+    if !is_utf16 && let Some(problem) = unreadable_kind(&bytes) {
         return Err(data_error_in(&file)(problem));
     }
     // Lab exports are not always UTF-8 (a µ in Latin-1); only numbers matter here.
@@ -533,39 +537,28 @@ pub fn parse_trace_with(
     }
     let data_error = data_error_in(file);
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    // (1-based row, line) of every line that is neither blank nor a comment.
+    // (1-based row, line) of every line that is neither blank (or separators only, as a
+    // spreadsheet writes an empty row: `;;;;`) nor a comment.
     let lines: Vec<(u64, &str)> = text
         .lines()
         .enumerate()
         .map(|(i, l)| (i as u64 + 1, l.trim_end_matches('\r')))
-        .filter(|(_, l)| !l.trim().is_empty() && !format::is_comment(l))
+        .filter(|(_, l)| text::holds_something(l) && !format::is_comment(l))
         .collect();
     let Some(((header_row, header), data)) = lines.split_first() else {
         return Err(data_error("no header line".into()));
     };
-    let sample: Vec<&str> = data.iter().take(20).map(|(_, l)| *l).collect();
-    let dialect = format::sniff(header, &sample);
+    let dialect = format::sniff(header, data.iter().map(|(_, l)| *l));
     let headers: Vec<&str> = format::fields(header, dialect.delimiter)
         .into_iter()
         .map(|h| h.trim_matches('"'))
         .collect();
-    let mapped = format::map_columns(&headers, map)
+    let mut mapped = format::map_columns(&headers, map)
         .map_err(|e| data_error(format!("row {header_row} (header): {e}")))?;
-    let time_col = mapped[0].index;
-    // Lines after the last one whose time field is a number are a trailer (`EOF,,,`, a
-    // checksum) — skipped; anything unreadable before that is an error at its row.
-    let time_of = |line: &str| {
-        format::fields(line, dialect.delimiter)
-            .get(time_col)
-            .and_then(|f| format::number(f.trim_matches('"'), &dialect))
-    };
-    let data_end = data
-        .iter()
-        .rposition(|(_, l)| time_of(l).is_some())
-        .map_or(0, |i| i + 1);
-    let trailer_rows = data.len() - data_end;
-    let table = read_rows(file, &data[..data_end], &mapped, &dialect)?;
-    let unused = unused_text_columns(&headers, &mapped, &data[..data_end], &dialect);
+    let data = text::without_units_row(file, data, &mut mapped, &dialect)?;
+    let (data, trailer_rows) = text::without_trailer(data, mapped[0].index, &dialect);
+    let table = text::read_rows(file, data, &mut mapped, &dialect)?;
+    let unused = text::unused_text_columns(&headers, &mapped, data, &dialect);
     let layout = TraceLayout {
         source: Source::Text(dialect),
         mapped,
@@ -574,67 +567,6 @@ pub fn parse_trace_with(
         work_offset_m: None,
     };
     assemble(file, table, layout)
-}
-
-/// The mapped columns of a text table's data rows, in SI units; a field that is not a number
-/// is an error at its row.
-fn read_rows(
-    file: &str,
-    data: &[(u64, &str)],
-    mapped: &[Mapped],
-    dialect: &Dialect,
-) -> Result<Table, MeasuredError> {
-    let mut table = Table {
-        rows: Vec::with_capacity(data.len()),
-        ..Table::default()
-    };
-    for &(row, line) in data {
-        let f = format::fields(line, dialect.delimiter);
-        for m in mapped {
-            let text = f.get(m.index).map_or("", |v| v.trim_matches('"'));
-            let value = format::number(text, dialect)
-                .map(|v| v * m.unit.to_si)
-                .ok_or_else(|| MeasuredError::Row {
-                    file: file.into(),
-                    row,
-                    problem: format!(
-                        "column {} '{}' ({}): '{text}' is not a finite number",
-                        m.index + 1,
-                        m.header,
-                        m.signal.key()
-                    ),
-                })?;
-            match slot(m.signal) {
-                None => table.t.push(value),
-                Some(k) => table.cols[k].push(value),
-            }
-        }
-        table.rows.push(row);
-    }
-    Ok(table)
-}
-
-/// A text table's columns that no signal was mapped to, each with its range.
-fn unused_text_columns(
-    headers: &[&str],
-    mapped: &[Mapped],
-    data: &[(u64, &str)],
-    dialect: &Dialect,
-) -> Vec<UnusedColumn> {
-    let rows: Vec<Vec<&str>> = data
-        .iter()
-        .map(|(_, line)| format::fields(line, dialect.delimiter))
-        .collect();
-    (0..headers.len())
-        .filter(|i| !mapped.iter().any(|m| m.index == *i))
-        .map(|i| {
-            let values = rows.iter().map(|f| {
-                f.get(i)
-                    .and_then(|v| format::number(v.trim_matches('"'), dialect))
-            });
-            UnusedColumn::of(headers[i], values)
-        })
-        .collect()
 }
 
 /// The grid positions sit on, if they do (an encoder's count, a display's last digit): the

@@ -13,6 +13,7 @@ pub mod inspect;
 pub mod mat;
 pub(crate) mod mat5;
 pub mod measured;
+pub(crate) mod numerals;
 pub mod placement;
 pub mod recorded;
 pub mod signal;

@@ -32,6 +32,7 @@ mod sweep;
 mod cut_records;
 mod records_with_z;
 mod trace_files;
+mod trace_text;
 mod work_offset;
 mod z_circular;
 mod z_placement;
