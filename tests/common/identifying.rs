@@ -2,6 +2,7 @@
 //! machine file as designed and as it ran, the independent integrator's record of a machine
 //! as its motor encoders read it, and how well a machine predicts a record.
 
+use contourcheck::check::{CheckSettings, check};
 use contourcheck::diagnose::{DiagnoseSettings, diagnose};
 use contourcheck::gcode::Program;
 use contourcheck::identify::Identification;
@@ -225,4 +226,24 @@ pub fn corners_hz(coefficients: &[f64]) -> Vec<f64> {
     };
     hz.sort_by(f64::total_cmp);
     hz
+}
+
+/// A machine written by an identification predicts `program`'s largest contour error within
+/// a tenth of what the machine recorded (`truth`) gives: the use a file is written for.
+#[track_caller]
+pub fn predicts_contour_within_a_tenth(
+    program: &Program,
+    written: &MachineConfig,
+    truth: &MachineConfig,
+) {
+    let contour_um = |machine: &MachineConfig| {
+        let run = check(program, machine, &CheckSettings::for_machine(machine)).unwrap();
+        run.result.summary.max_contour_error_m * 1e6
+    };
+    let (predicted, actual) = (contour_um(written), contour_um(truth));
+    assert!(
+        (predicted - actual).abs() <= 0.1 * actual,
+        "{}: identified machine {predicted:.2} µm, the machine {actual:.2} µm",
+        program.file
+    );
 }

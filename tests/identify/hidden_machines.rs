@@ -12,12 +12,11 @@
 use crate::common;
 
 use common::identifying::{
-    encoder_record, fitted_program, gain_per_inertia, hidden_value, lead_lag_designed_and_run,
-    lead_lag_toml, other_program, predicted,
+    self, encoder_record, fitted_program, gain_per_inertia, hidden_value,
+    lead_lag_designed_and_run, lead_lag_toml, other_program, predicted,
 };
 use common::reference::{self, Recording};
 use common::{assert_within_k_sigma, foreign_commands, program_text};
-use contourcheck::check::{CheckSettings, check};
 use contourcheck::compare::CompareSettings;
 use contourcheck::diagnose::synth::{SynthSpec, synthesize};
 use contourcheck::gcode::Program;
@@ -817,13 +816,5 @@ fn limits_a_circle_never_reached_stay_the_templates_and_a_square_is_predicted() 
         );
     }
     let square = program_text("G21 G17 G90 G94\nG0 X0 Y0\nG1 X100 F3000\nY100\nX0\nY0\nM2\n");
-    let contour_um = |machine: &MachineConfig| {
-        let run = check(&square, machine, &CheckSettings::for_machine(machine)).unwrap();
-        run.result.summary.max_contour_error_m * 1e6
-    };
-    let (predicted, actual) = (contour_um(&id.machine), contour_um(&truth));
-    assert!(
-        (predicted - actual).abs() <= 0.1 * actual,
-        "square at F3000: identified machine {predicted:.2} µm, the machine {actual:.2} µm"
-    );
+    identifying::predicts_contour_within_a_tenth(&square, &id.machine, &truth);
 }

@@ -9,8 +9,8 @@
 
 use crate::common;
 
-use common::program_text;
 use common::reference::{Recording, record};
+use common::{identifying, program_text};
 use contourcheck::check::{CheckSettings, check};
 use contourcheck::compare::CompareSettings;
 use contourcheck::identify::{identify, identify_loop, loop_template};
@@ -88,15 +88,7 @@ fn without_a_template_the_records_jerk_accel_feed_and_travel_are_written() {
     // The square planned by the written machine: within a tenth of the machine's own
     // contour error.
     let square = program_text(SQUARE);
-    let contour_um = |machine: &MachineConfig| {
-        let run = check(&square, machine, &CheckSettings::for_machine(machine)).unwrap();
-        run.result.summary.max_contour_error_m * 1e6
-    };
-    let (predicted, actual) = (contour_um(&id.machine), contour_um(&truth));
-    assert!(
-        (predicted - actual).abs() <= 0.1 * actual,
-        "square: identified machine {predicted:.2} µm, the machine {actual:.2} µm"
-    );
+    identifying::predicts_contour_within_a_tenth(&square, &id.machine, &truth);
 }
 
 /// The small circle of the samples (R10 at F800, once each way) on the heavy preset with X's
