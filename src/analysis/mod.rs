@@ -16,7 +16,7 @@ pub mod thinning;
 
 use serde::Serialize;
 
-use crate::analysis::circular::{CirclePath, CircleSamples, CircularTest, circles};
+use crate::analysis::circular::{CirclePath, CircleSamples, CircularTest, Commanded, circles};
 use crate::analysis::contour::{ContourLocator, ContourPoint};
 pub use crate::analysis::hotspot::RunPlace;
 use crate::analysis::hotspot::{AxisSteady, Hotspot, HotspotConfig, HotspotFinder, RunSample};
@@ -283,7 +283,9 @@ impl RunAnalyser {
                     ],
                 },
             );
-            self.circles.push(point.segment, [pos_m[0], pos_m[1], z_m]);
+            let command = Commanded::of(c, i);
+            self.circles
+                .push(point.segment, [pos_m[0], pos_m[1], z_m], command);
             self.plot.push(PlotPoint {
                 pos_m,
                 z_m,

@@ -54,11 +54,13 @@ pub(crate) fn circular_comparison(ctx: &Context, s: &Series, z: &ZFindings) -> C
     let circles = circles(&ctx.plan.segments);
     let zs = z.series.as_ref();
     let none: &[f64] = &[];
+    let command = s.commands();
     let of = |xy: &[Vec<f64>; 2], z: Option<&Vec<f64>>| {
         circular_test(
             &circles,
             &s.segment,
             [&xy[0], &xy[1], z.map_or(none, |z| z)],
+            &command,
         )
     };
     let left_out = circles
@@ -76,7 +78,7 @@ pub(crate) fn circular_comparison(ctx: &Context, s: &Series, z: &ZFindings) -> C
                 &s.measured[1][..],
                 zs.map_or(none, |z| &z.measured),
             ];
-            let on_it = radial_points(c, &s.segment, measured).len();
+            let on_it = radial_points(&circles, c, &s.segment, measured, &command).len();
             (on_it < MIN_SAMPLES).then(|| {
                 (
                     c,

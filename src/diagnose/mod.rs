@@ -209,6 +209,20 @@ pub struct Series {
     pub contour_in_space: bool,
     /// The plan segment nearest each measured sample.
     pub segment: Vec<u32>,
+    /// The plan segment each sample's command lies on.
+    pub command_segment: Vec<u32>,
+    /// Commanded Z (m).
+    pub reference_z: Vec<f64>,
+}
+
+impl Series {
+    /// Where each sample was commanded, for the circles' figures.
+    pub(crate) fn commands(&self) -> crate::analysis::circular::CommandSeries<'_> {
+        crate::analysis::circular::CommandSeries {
+            segment: &self.command_segment,
+            pos_m: [&self.reference[0], &self.reference[1], &self.reference_z],
+        }
+    }
 }
 
 /// The outcome of a diagnosis.
