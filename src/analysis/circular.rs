@@ -48,6 +48,10 @@ pub struct Circle {
     pub plane: Plane,
     /// Where the plane lies along its normal (m): Z for an XY circle, Y for ZX, X for YZ.
     pub height_m: f64,
+    /// Its path's length, all turns (m).
+    pub length_m: f64,
+    /// The polar angle of its start (and end) about the centre (rad).
+    pub start_rad: f64,
 }
 
 /// The full circles among `segments`: feed arcs of constant radius, in their plane (not
@@ -72,6 +76,8 @@ pub(crate) fn circles(segments: &[Segment]) -> Vec<Circle> {
                     feed_m_per_s: s.feed_m_per_s,
                     plane: s.plane(),
                     height_m: s.start_m[s.plane().axes()[2]],
+                    length_m: a.sweep_rad.abs() * a.r_start_m,
+                    start_rad: a.theta_start_rad,
                 })
             }
             _ => None,
@@ -91,21 +97,37 @@ pub(crate) fn radial_points(
     segment: &[u32],
     pos_m: [&[f64]; 3],
     command: &CommandSeries,
+    entry: EntrySettling,
 ) -> Vec<(f64, f64)> {
-    let mut gathered = CircleSamples::new(circles.to_vec());
+    let mut gathered = CircleSamples::new(circles.to_vec(), entry);
     for (k, &s) in segment.iter().enumerate() {
         gathered.push(s, position(pos_m, k), command.at(k));
     }
     let Some(&i) = gathered.by_segment.get(&c.segment) else {
         return Vec::new();
     };
-    let points = gathered.points.swap_remove(i);
-    points
-        .into_points()
-        .into_iter()
-        .map(|p| c.polar(p.0))
-        .collect()
+    let lead_m = gathered.leads_m[i];
+    let (points, _) = settled(c, gathered.points.swap_remove(i), lead_m);
+    points.into_iter().map(|p| c.polar(p)).collect()
 }
+
+/// A circle's points the figures come from, and how far past its start they begin
+/// (degrees): those taken once the loops had settled into the circle, away from its start
+/// and end by `lead_m` of commanded path; all of them where those are too few for figures
+/// (the circle too short or too sparsely sampled for its loops' settling).
+fn settled(c: &Circle, points: PeakThinned<Point>, lead_m: f64) -> (Vec<[f64; 2]>, f64) {
+    let all = points.into_points();
+    let within: Vec<[f64; 2]> = all.iter().filter(|p| p.2).map(|p| p.0).collect();
+    if within.len() >= MIN_SAMPLES {
+        (within, (lead_m / c.radius_m).to_degrees())
+    } else {
+        (all.into_iter().map(|p| p.0).collect(), 0.0)
+    }
+}
+
+/// A point of a path on a circle: where (m), its radial deviation (m), and whether the
+/// loops had settled into the circle there.
+type Point = ([f64; 2], f64, bool);
 
 /// Where a sample was commanded: the plan segment the command lies on, and the commanded
 /// X, Y and Z (m).
@@ -147,6 +169,42 @@ impl CommandSeries<'_> {
 /// are resampled and fitted), far below any arc worth a circular test.
 const SET_OFF_M: f64 = 1e-6;
 
+/// How many of its slowest loop's time constants (1/Kv) a circle's start is left out for:
+/// the entry transient — the radial deviation building from the approach's to the circle's
+/// steady lag — has fallen to e⁻⁵, under 1 % of that lag, by then (a ballbar's overshoot
+/// arc leaves it out the same way).
+const ENTRY_TIME_CONSTANTS: f64 = 5.0;
+
+/// The position loops' time constants (1/Kv, s; X, Y, Z) that set how much of each circle's
+/// start its figures leave out: the stretch the loop needs to settle into the circle.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct EntrySettling {
+    /// Time constant of X, Y and Z (s); zero for an axis that arrives with its command.
+    pub time_constant_s: [f64; 3],
+}
+
+impl EntrySettling {
+    /// The loops of `machine` (a cascade's Kv, another controller's equivalent).
+    pub(crate) fn of(machine: &crate::machine::MachineConfig) -> Self {
+        EntrySettling {
+            time_constant_s: crate::plan::InPosition::kv_per_s_of(machine).map(|kv| 1.0 / kv),
+        }
+    }
+
+    /// The commanded path left out at circle `c`'s start (m): the slower of its plane's
+    /// loops' settling at the programmed feed, at most a quarter turn.
+    fn lead_m(&self, c: &Circle) -> f64 {
+        let [a, b, _] = c.plane.axes();
+        let tau_s = self.time_constant_s[a].max(self.time_constant_s[b]);
+        let lead_m = ENTRY_TIME_CONSTANTS * tau_s * c.feed_m_per_s;
+        if lead_m.is_finite() {
+            lead_m.clamp(0.0, 0.25 * std::f64::consts::TAU * c.radius_m)
+        } else {
+            0.0
+        }
+    }
+}
+
 /// How far the command has run along one circle, sample by sample. A sample counts toward
 /// the circle's figures only once the command has set off on it: while the command still
 /// stands at the circle's start (the control waiting for the axes to settle after the
@@ -179,9 +237,12 @@ impl Progress {
         };
     }
 
-    /// Whether the command has set off along the circle.
-    fn has_set_off(&self) -> bool {
-        self.run_m.is_some()
+    /// Whether the command has set off along circle `c` and runs between `lead_m` past its
+    /// start and `lead_m` before its end: the loops settle into the circle after its start,
+    /// and out of it as the command slows into its end (the table, lagging, follows later).
+    fn is_within(&self, c: &Circle, lead_m: f64) -> bool {
+        self.run_m
+            .is_some_and(|run| run > lead_m && (lead_m == 0.0 || run < c.length_m - lead_m))
     }
 }
 
@@ -247,6 +308,11 @@ pub struct CircleFigures {
     pub scale_mismatch_ppm: f64,
     /// Samples the figures come from.
     pub samples: usize,
+    /// How far past its start (degrees of the circle) the figures begin, and how far before
+    /// its end they stop: the commanded path the loops need to settle into the circle, and
+    /// the one the command slows down over into its end, left out as a ballbar's overshoot
+    /// arcs are.
+    pub start_left_out_deg: f64,
 }
 
 /// The hysteresis of a pair of circles run in opposite directions (µm).
@@ -314,8 +380,9 @@ pub(crate) fn circular_test(
     segment: &[u32],
     pos_m: [&[f64]; 3],
     command: &CommandSeries,
+    entry: EntrySettling,
 ) -> CircularTest {
-    let mut gathered = CircleSamples::new(circles.to_vec());
+    let mut gathered = CircleSamples::new(circles.to_vec(), entry);
     for (k, &s) in segment.iter().enumerate() {
         gathered.push(s, position(pos_m, k), command.at(k));
     }
@@ -343,17 +410,21 @@ pub struct CircleSamples {
     /// Index into `circles` by plan segment.
     by_segment: std::collections::HashMap<usize, usize>,
     /// Points kept per circle: (position m, radial deviation m).
-    points: Vec<PeakThinned<([f64; 2], f64)>>,
+    points: Vec<PeakThinned<Point>>,
     /// How far the command has run along each circle.
     progress: Vec<Progress>,
     /// The previous sample's command (m).
     last_command_m: Option<[f64; 3]>,
+    /// The commanded path left out at each circle's start (m).
+    leads_m: Vec<f64>,
 }
 
 impl CircleSamples {
-    /// Gathers the samples on `circles`.
-    pub(crate) fn new(circles: Vec<Circle>) -> Self {
+    /// Gathers the samples on `circles`, each from where the loops of `entry` have settled
+    /// into it.
+    pub(crate) fn new(circles: Vec<Circle>, entry: EntrySettling) -> Self {
         CircleSamples {
+            leads_m: circles.iter().map(|c| entry.lead_m(c)).collect(),
             by_segment: circles
                 .iter()
                 .enumerate()
@@ -361,7 +432,7 @@ impl CircleSamples {
                 .collect(),
             points: circles
                 .iter()
-                .map(|_| PeakThinned::new(MAX_POINTS, |p: &([f64; 2], f64)| p.1.abs()))
+                .map(|_| PeakThinned::new(MAX_POINTS, |p: &Point| p.1.abs()))
                 .collect(),
             progress: vec![Progress::default(); circles.len()],
             last_command_m: None,
@@ -383,13 +454,14 @@ impl CircleSamples {
         let nearest_on_it = segment as usize == c.segment
             || (self.by_segment.get(&(segment as usize)))
                 .is_some_and(|&j| self.circles[j].is_same_circle(&c));
-        if !self.progress[i].has_set_off() || !nearest_on_it {
+        if !self.progress[i].is_within(&c, 0.0) || !nearest_on_it {
             return;
         }
+        let settled = self.progress[i].is_within(&c, self.leads_m[i]);
         let pos_m = self.circles[i].plane.coords(pos_m);
         if pos_m[0].is_finite() && pos_m[1].is_finite() {
             let radial = self.circles[i].polar(pos_m).1;
-            self.points[i].push((pos_m, radial));
+            self.points[i].push((pos_m, radial, settled));
         }
     }
 
@@ -397,20 +469,26 @@ impl CircleSamples {
     /// circles with the points they come from.
     pub(crate) fn test(self) -> (CircularTest, Vec<CirclePath>) {
         let mut out = CircularTest::default();
-        let kept: Vec<(Circle, Vec<[f64; 2]>)> = self
-            .circles
-            .into_iter()
+        let mut kept: Vec<(Circle, Vec<[f64; 2]>)> = Vec::new();
+        let gathered = (self.circles.into_iter())
             .zip(self.points)
-            .map(|(c, p)| {
-                (
-                    c,
-                    p.into_points().into_iter().map(|p| p.0).collect::<Vec<_>>(),
-                )
-            })
-            .filter(|(_, p)| p.len() >= MIN_SAMPLES)
-            .collect();
-        for (c, p) in &kept {
-            out.circles.push(figures(c, p));
+            .zip(self.leads_m);
+        for ((c, p), lead_m) in gathered {
+            let (points, left_out_deg) = settled(&c, p, lead_m);
+            if points.len() >= MIN_SAMPLES {
+                let mut f = figures(&c, &points);
+                f.start_left_out_deg = left_out_deg;
+                // A quadrant point whose neighbourhood the left-out start and end cut into
+                // has no spike the points can measure.
+                for (q, spike) in f.reversal_spikes_um.iter_mut().enumerate() {
+                    let off = (c.start_rad.to_degrees() - 90.0 * q as f64).rem_euclid(360.0);
+                    if left_out_deg > 0.0 && off.min(360.0 - off) < left_out_deg + 3.0 {
+                        *spike = f64::NAN;
+                    }
+                }
+                out.circles.push(f);
+                kept.push((c, points));
+            }
         }
         for (i, (a, pa)) in kept.iter().enumerate() {
             let partner = kept[i + 1..]
@@ -454,6 +532,7 @@ fn figures(c: &Circle, p: &[[f64; 2]]) -> CircleFigures {
         diagonal_ellipse_urad: 2.0 * along_diagonals / c.radius_m * 1e6,
         scale_mismatch_ppm: 2.0 * along_axes / c.radius_m * 1e6,
         samples: p.len(),
+        start_left_out_deg: 0.0,
     }
 }
 
@@ -734,7 +813,7 @@ impl CircularTest {
                 })
                 .collect();
             s.push_str(&format!(
-                "  line {:>4} {:<3} R{:<8} {}G {:>7.2} µm   F {:+.2} / {:+.2} µm   reversal spikes 0/90/180/270°: {} µm\n",
+                "  line {:>4} {:<3} R{:<8} {}G {:>7.2} µm   F {:+.2} / {:+.2} µm   reversal spikes 0/90/180/270°: {} µm{}\n",
                 c.line,
                 c.direction,
                 // To the µm, as the plots give it: the arc's end-point rounding is no radius.
@@ -743,7 +822,15 @@ impl CircularTest {
                 c.g_um,
                 c.f_max_um,
                 c.f_min_um,
-                spikes.join(" ")
+                spikes.join(" "),
+                if c.start_left_out_deg > 0.05 {
+                    format!(
+                        "   ({:.1}° at its start and end left out: the loops settling)",
+                        c.start_left_out_deg
+                    )
+                } else {
+                    String::new()
+                }
             ));
         }
         for p in &self.pairs {

@@ -384,7 +384,7 @@ pub fn diagnose_validated(
                     .any(|a| tries_allowed(machine, settings, a, c))
             }),
         beyond_machine: beyond_machine_compared(measured, machine, &ctx, outcome.offset_s),
-        ..assemble(&ctx, outcome, summary, z)
+        ..assemble(&ctx, machine, outcome, summary, z)
     })
 }
 
@@ -534,10 +534,12 @@ fn learn_unexplained(
     learned
 }
 
-/// The diagnosis from the search's outcome, its figures and Z's findings; the caller adds
-/// what needs the settings and the nominal machine.
+/// The diagnosis from the search's outcome, its figures and Z's findings (the circles'
+/// settling from the nominal `machine`'s loops); the caller adds what needs the settings and
+/// the rest of the nominal machine.
 fn assemble(
     ctx: &Context,
+    machine: &MachineConfig,
     outcome: search::Outcome,
     summary: Summary,
     z: z_axis::ZFindings,
@@ -558,7 +560,7 @@ fn assemble(
         after: summary.after,
         places: summary.places,
         machine: outcome.machine,
-        circular: circular::circular_comparison(ctx, &summary.series, &z),
+        circular: circular::circular_comparison(ctx, machine, &summary.series, &z),
         series: summary.series,
         samples: ctx.samples.len(),
         sample_step_s: ctx.measured.dt_s,

@@ -507,4 +507,11 @@ fn a_circle_recorded_with_its_commands_is_measured_from_where_its_commands_set_o
     // 20 µrad on R10 is an ellipse of ±0.1 µm, a third of the record's noise.
     let pair = test.pairs[0];
     assert!(pair.squareness_urad.abs() < 20.0, "{pair:?}");
+    // A lag the same at every angle is no ellipse along the axes either: well under 1 % of
+    // lag/R (3200 ppm), which the entry transient, left in, would reach a quarter of.
+    let lag_over_radius_ppm = lag_um / (r * 1e6) * 1e6;
+    assert!(
+        pair.scale_mismatch_ppm.abs() < 0.01 * lag_over_radius_ppm,
+        "{pair:?}"
+    );
 }

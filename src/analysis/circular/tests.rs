@@ -31,6 +31,7 @@ fn circular_test(circles: &[Circle], segment: &[u32], pos_m: [&[f64]; 3]) -> Cir
         &segment,
         [&pos_m[0], &pos_m[1], &pos_m[2]],
         &command,
+        EntrySettling::default(),
     )
 }
 
@@ -44,6 +45,8 @@ fn circle(ccw: bool, segment: usize) -> Circle {
         feed_m_per_s: 1000.0 / 60_000.0,
         plane: Plane::Xy,
         height_m: 0.0,
+        length_m: std::f64::consts::TAU * 0.1,
+        start_rad: 0.0,
     }
 }
 
