@@ -48,6 +48,10 @@ pub struct Circle {
     pub plane: Plane,
     /// Where the plane lies along its normal (m): Z for an XY circle, Y for ZX, X for YZ.
     pub height_m: f64,
+    /// Its path's length, all turns (m).
+    pub length_m: f64,
+    /// The polar angle of its start (and end) about the centre (rad).
+    pub start_rad: f64,
 }
 
 /// The full circles among `segments`: feed arcs of constant radius, in their plane (not
@@ -72,6 +76,8 @@ pub(crate) fn circles(segments: &[Segment]) -> Vec<Circle> {
                     feed_m_per_s: s.feed_m_per_s,
                     plane: s.plane(),
                     height_m: s.start_m[s.plane().axes()[2]],
+                    length_m: a.sweep_rad.abs() * a.r_start_m,
+                    start_rad: a.theta_start_rad,
                 })
             }
             _ => None,
@@ -79,18 +85,165 @@ pub(crate) fn circles(segments: &[Segment]) -> Vec<Circle> {
         .collect()
 }
 
-/// The samples of a path on circle `c` (`segment[k]` the plan segment sample `k` lies
-/// nearest, `[x, y, z]` its position, m; `z` may be empty where the path has no Z): each
-/// one's polar angle about the programmed centre in the circle's plane (rad) and radial
-/// deviation from the programmed radius (m, outward positive). A circle outside XY gets
-/// none without Z.
-pub(crate) fn radial_points(c: &Circle, segment: &[u32], pos_m: [&[f64]; 3]) -> Vec<(f64, f64)> {
-    (0..segment.len())
-        .filter(|&k| segment[k] as usize == c.segment)
-        .map(|k| c.plane.coords(position(pos_m, k)))
-        .filter(|p| p[0].is_finite() && p[1].is_finite())
-        .map(|p| c.polar(p))
-        .collect()
+/// The samples of a path on circle `c`, one of `circles` (`segment[k]` the plan segment
+/// sample `k` lies nearest, `[x, y, z]` its position, m; `z` may be empty where the path has
+/// no Z; `command` where it was commanded): each one's polar angle about the programmed
+/// centre in the circle's plane (rad) and radial deviation from the programmed radius (m,
+/// outward positive), for the samples that count toward the circle's figures
+/// ([`CircleSamples::push`]). A circle outside XY gets none without Z.
+pub(crate) fn radial_points(
+    circles: &[Circle],
+    c: &Circle,
+    segment: &[u32],
+    pos_m: [&[f64]; 3],
+    command: &CommandSeries,
+    entry: EntrySettling,
+) -> Vec<(f64, f64)> {
+    let mut gathered = CircleSamples::new(circles.to_vec(), entry);
+    for (k, &s) in segment.iter().enumerate() {
+        gathered.push(s, position(pos_m, k), command.at(k));
+    }
+    let Some(&i) = gathered.by_segment.get(&c.segment) else {
+        return Vec::new();
+    };
+    let lead_m = gathered.leads_m[i];
+    let (points, _) = settled(c, gathered.points.swap_remove(i), lead_m);
+    points.into_iter().map(|p| c.polar(p)).collect()
+}
+
+/// A circle's points the figures come from, and how far past its start they begin
+/// (degrees): those taken once the loops had settled into the circle, away from its start
+/// and end by `lead_m` of commanded path; all of them where those are too few for figures
+/// (the circle too short or too sparsely sampled for its loops' settling).
+fn settled(c: &Circle, points: PeakThinned<Point>, lead_m: f64) -> (Vec<[f64; 2]>, f64) {
+    let all = points.into_points();
+    let within: Vec<[f64; 2]> = all.iter().filter(|p| p.2).map(|p| p.0).collect();
+    if within.len() >= MIN_SAMPLES {
+        (within, (lead_m / c.radius_m).to_degrees())
+    } else {
+        (all.into_iter().map(|p| p.0).collect(), 0.0)
+    }
+}
+
+/// A point of a path on a circle: where (m), its radial deviation (m), and whether the
+/// loops had settled into the circle there.
+type Point = ([f64; 2], f64, bool);
+
+/// Where a sample was commanded: the plan segment the command lies on, and the commanded
+/// X, Y and Z (m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Commanded {
+    pub(crate) segment: u32,
+    pub(crate) pos_m: [f64; 3],
+}
+
+impl Commanded {
+    /// Where sample `i` of `commands` is commanded.
+    pub(crate) fn of(commands: &crate::plan::Commands, i: usize) -> Self {
+        let at = |a: &crate::plan::AxisCommands| a.pos_m[i];
+        Commanded {
+            segment: commands.segment[i],
+            pos_m: [at(&commands.x), at(&commands.y), at(&commands.z)],
+        }
+    }
+}
+
+/// The commands of a path's samples, axis by axis; `z` may be empty (Z stands).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct CommandSeries<'a> {
+    pub(crate) segment: &'a [u32],
+    pub(crate) pos_m: [&'a [f64]; 3],
+}
+
+impl CommandSeries<'_> {
+    fn at(&self, k: usize) -> Commanded {
+        Commanded {
+            segment: self.segment[k],
+            pos_m: self.pos_m.map(|v| v.get(k).copied().unwrap_or(0.0)),
+        }
+    }
+}
+
+/// How far a command must have moved from where it first stood on a circle to have set off
+/// along it (m): far above the rounding a standing command carries (recorded commands
+/// are resampled and fitted), far below any arc worth a circular test.
+const SET_OFF_M: f64 = 1e-6;
+
+/// How many of its slowest loop's time constants (1/Kv) a circle's start is left out for:
+/// the entry transient — the radial deviation building from the approach's to the circle's
+/// steady lag — has fallen to e⁻⁵, under 1 % of that lag, by then (a ballbar's overshoot
+/// arc leaves it out the same way).
+const ENTRY_TIME_CONSTANTS: f64 = 5.0;
+
+/// The position loops' time constants (1/Kv, s; X, Y, Z) that set how much of each circle's
+/// start its figures leave out: the stretch the loop needs to settle into the circle.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct EntrySettling {
+    /// Time constant of X, Y and Z (s); zero for an axis that arrives with its command.
+    pub time_constant_s: [f64; 3],
+}
+
+impl EntrySettling {
+    /// The loops of `machine` (a cascade's Kv, another controller's equivalent).
+    pub(crate) fn of(machine: &crate::machine::MachineConfig) -> Self {
+        EntrySettling {
+            time_constant_s: crate::plan::InPosition::kv_per_s_of(machine).map(|kv| 1.0 / kv),
+        }
+    }
+
+    /// The commanded path left out at circle `c`'s start (m): the slower of its plane's
+    /// loops' settling at the programmed feed, at most a quarter turn.
+    fn lead_m(&self, c: &Circle) -> f64 {
+        let [a, b, _] = c.plane.axes();
+        let tau_s = self.time_constant_s[a].max(self.time_constant_s[b]);
+        let lead_m = ENTRY_TIME_CONSTANTS * tau_s * c.feed_m_per_s;
+        if lead_m.is_finite() {
+            lead_m.clamp(0.0, 0.25 * std::f64::consts::TAU * c.radius_m)
+        } else {
+            0.0
+        }
+    }
+}
+
+/// How far the command has run along one circle, sample by sample. A sample counts toward
+/// the circle's figures only once the command has set off on it: while the command still
+/// stands at the circle's start (the control waiting for the axes to settle after the
+/// approach, a record whose commands were placed on the circle as soon as they reached
+/// it), the table is still arriving from the approach, and what it shows is the approach.
+#[derive(Debug, Clone, Copy, Default)]
+struct Progress {
+    /// Where the command first stood on the circle (m).
+    entry_m: Option<[f64; 3]>,
+    /// The command's path along the circle since it set off (m); `None` before.
+    run_m: Option<f64>,
+}
+
+impl Progress {
+    /// Takes the next sample's command, `last` the previous sample's (m).
+    fn advance(&mut self, c: &Circle, command: Commanded, last: Option<[f64; 3]>) {
+        if command.segment as usize != c.segment {
+            return;
+        }
+        let distance = |a: [f64; 3], b: [f64; 3]| -> f64 {
+            (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()
+        };
+        let entry = *self.entry_m.get_or_insert(command.pos_m);
+        self.run_m = match (self.run_m, last) {
+            (Some(run), Some(last)) => Some(run + distance(command.pos_m, last)),
+            _ => {
+                let away = distance(command.pos_m, entry);
+                (away > SET_OFF_M).then_some(away)
+            }
+        };
+    }
+
+    /// Whether the command has set off along circle `c` and runs between `lead_m` past its
+    /// start and `lead_m` before its end: the loops settle into the circle after its start,
+    /// and out of it as the command slows into its end (the table, lagging, follows later).
+    fn is_within(&self, c: &Circle, lead_m: f64) -> bool {
+        self.run_m
+            .is_some_and(|run| run > lead_m && (lead_m == 0.0 || run < c.length_m - lead_m))
+    }
 }
 
 /// Sample `k` of a path given axis by axis, NaN on an axis that has none there.
@@ -155,6 +308,11 @@ pub struct CircleFigures {
     pub scale_mismatch_ppm: f64,
     /// Samples the figures come from.
     pub samples: usize,
+    /// How far past its start (degrees of the circle) the figures begin, and how far before
+    /// its end they stop: the commanded path the loops need to settle into the circle, and
+    /// the one the command slows down over into its end, left out as a ballbar's overshoot
+    /// arcs are.
+    pub start_left_out_deg: f64,
 }
 
 /// The hysteresis of a pair of circles run in opposite directions (µm).
@@ -214,17 +372,19 @@ pub struct CircularTest {
 pub(crate) const MIN_SAMPLES: usize = 36;
 
 /// The circular-test figures of a path: `segment[k]` is the plan segment sample `k` lies
-/// nearest to (as the contour search found it), `[x, y, z]` its position (m). Each circle
-/// is measured in its own plane; `z` may be empty (a path without Z), and a circle in ZX or
-/// YZ then gets no figures.
+/// nearest to (as the contour search found it), `[x, y, z]` its position (m), `command`
+/// where it was commanded. Each circle is measured in its own plane; `z` may be empty (a
+/// path without Z), and a circle in ZX or YZ then gets no figures.
 pub(crate) fn circular_test(
     circles: &[Circle],
     segment: &[u32],
     pos_m: [&[f64]; 3],
+    command: &CommandSeries,
+    entry: EntrySettling,
 ) -> CircularTest {
-    let mut gathered = CircleSamples::new(circles.to_vec());
+    let mut gathered = CircleSamples::new(circles.to_vec(), entry);
     for (k, &s) in segment.iter().enumerate() {
-        gathered.push(s, position(pos_m, k));
+        gathered.push(s, position(pos_m, k), command.at(k));
     }
     gathered.test().0
 }
@@ -250,13 +410,21 @@ pub struct CircleSamples {
     /// Index into `circles` by plan segment.
     by_segment: std::collections::HashMap<usize, usize>,
     /// Points kept per circle: (position m, radial deviation m).
-    points: Vec<PeakThinned<([f64; 2], f64)>>,
+    points: Vec<PeakThinned<Point>>,
+    /// How far the command has run along each circle.
+    progress: Vec<Progress>,
+    /// The previous sample's command (m).
+    last_command_m: Option<[f64; 3]>,
+    /// The commanded path left out at each circle's start (m).
+    leads_m: Vec<f64>,
 }
 
 impl CircleSamples {
-    /// Gathers the samples on `circles`.
-    pub(crate) fn new(circles: Vec<Circle>) -> Self {
+    /// Gathers the samples on `circles`, each from where the loops of `entry` have settled
+    /// into it.
+    pub(crate) fn new(circles: Vec<Circle>, entry: EntrySettling) -> Self {
         CircleSamples {
+            leads_m: circles.iter().map(|c| entry.lead_m(c)).collect(),
             by_segment: circles
                 .iter()
                 .enumerate()
@@ -264,21 +432,36 @@ impl CircleSamples {
                 .collect(),
             points: circles
                 .iter()
-                .map(|_| PeakThinned::new(MAX_POINTS, |p: &([f64; 2], f64)| p.1.abs()))
+                .map(|_| PeakThinned::new(MAX_POINTS, |p: &Point| p.1.abs()))
                 .collect(),
+            progress: vec![Progress::default(); circles.len()],
+            last_command_m: None,
             circles,
         }
     }
 
-    /// Takes a sample at `pos_m` (X, Y, Z) lying nearest plan segment `segment`.
-    pub(crate) fn push(&mut self, segment: u32, pos_m: [f64; 3]) {
-        let Some(&i) = self.by_segment.get(&(segment as usize)) else {
+    /// Takes a sample at `pos_m` (X, Y, Z) lying nearest plan segment `segment`, commanded
+    /// at `command`. It counts toward a circle while its command runs along that circle
+    /// ([`Progress`]) and the path lies nearest that circle (or another pass round the
+    /// same one: two circles of one centre and radius are equally near, to the rounding).
+    pub(crate) fn push(&mut self, segment: u32, pos_m: [f64; 3], command: Commanded) {
+        let last = self.last_command_m.replace(command.pos_m);
+        let Some(&i) = self.by_segment.get(&(command.segment as usize)) else {
             return;
         };
+        let c = self.circles[i];
+        self.progress[i].advance(&c, command, last);
+        let nearest_on_it = segment as usize == c.segment
+            || (self.by_segment.get(&(segment as usize)))
+                .is_some_and(|&j| self.circles[j].is_same_circle(&c));
+        if !self.progress[i].is_within(&c, 0.0) || !nearest_on_it {
+            return;
+        }
+        let settled = self.progress[i].is_within(&c, self.leads_m[i]);
         let pos_m = self.circles[i].plane.coords(pos_m);
         if pos_m[0].is_finite() && pos_m[1].is_finite() {
             let radial = self.circles[i].polar(pos_m).1;
-            self.points[i].push((pos_m, radial));
+            self.points[i].push((pos_m, radial, settled));
         }
     }
 
@@ -286,20 +469,26 @@ impl CircleSamples {
     /// circles with the points they come from.
     pub(crate) fn test(self) -> (CircularTest, Vec<CirclePath>) {
         let mut out = CircularTest::default();
-        let kept: Vec<(Circle, Vec<[f64; 2]>)> = self
-            .circles
-            .into_iter()
+        let mut kept: Vec<(Circle, Vec<[f64; 2]>)> = Vec::new();
+        let gathered = (self.circles.into_iter())
             .zip(self.points)
-            .map(|(c, p)| {
-                (
-                    c,
-                    p.into_points().into_iter().map(|p| p.0).collect::<Vec<_>>(),
-                )
-            })
-            .filter(|(_, p)| p.len() >= MIN_SAMPLES)
-            .collect();
-        for (c, p) in &kept {
-            out.circles.push(figures(c, p));
+            .zip(self.leads_m);
+        for ((c, p), lead_m) in gathered {
+            let (points, left_out_deg) = settled(&c, p, lead_m);
+            if points.len() >= MIN_SAMPLES {
+                let mut f = figures(&c, &points);
+                f.start_left_out_deg = left_out_deg;
+                // A quadrant point whose neighbourhood the left-out start and end cut into
+                // has no spike the points can measure.
+                for (q, spike) in f.reversal_spikes_um.iter_mut().enumerate() {
+                    let off = (c.start_rad.to_degrees() - 90.0 * q as f64).rem_euclid(360.0);
+                    if left_out_deg > 0.0 && off.min(360.0 - off) < left_out_deg + 3.0 {
+                        *spike = f64::NAN;
+                    }
+                }
+                out.circles.push(f);
+                kept.push((c, points));
+            }
         }
         for (i, (a, pa)) in kept.iter().enumerate() {
             let partner = kept[i + 1..]
@@ -343,6 +532,7 @@ fn figures(c: &Circle, p: &[[f64; 2]]) -> CircleFigures {
         diagonal_ellipse_urad: 2.0 * along_diagonals / c.radius_m * 1e6,
         scale_mismatch_ppm: 2.0 * along_axes / c.radius_m * 1e6,
         samples: p.len(),
+        start_left_out_deg: 0.0,
     }
 }
 
@@ -623,7 +813,7 @@ impl CircularTest {
                 })
                 .collect();
             s.push_str(&format!(
-                "  line {:>4} {:<3} R{:<8} {}G {:>7.2} µm   F {:+.2} / {:+.2} µm   reversal spikes 0/90/180/270°: {} µm\n",
+                "  line {:>4} {:<3} R{:<8} {}G {:>7.2} µm   F {:+.2} / {:+.2} µm   reversal spikes 0/90/180/270°: {} µm{}\n",
                 c.line,
                 c.direction,
                 // To the µm, as the plots give it: the arc's end-point rounding is no radius.
@@ -632,7 +822,15 @@ impl CircularTest {
                 c.g_um,
                 c.f_max_um,
                 c.f_min_um,
-                spikes.join(" ")
+                spikes.join(" "),
+                if c.start_left_out_deg > 0.05 {
+                    format!(
+                        "   ({:.1}° at its start and end left out: the loops settling)",
+                        c.start_left_out_deg
+                    )
+                } else {
+                    String::new()
+                }
             ));
         }
         for p in &self.pairs {
@@ -676,235 +874,4 @@ fn plane_label(plane: Plane) -> String {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn circle(ccw: bool, segment: usize) -> Circle {
-        Circle {
-            segment,
-            line: 10 + segment as u32,
-            center_m: [0.0, 0.0],
-            radius_m: 0.1,
-            ccw,
-            feed_m_per_s: 1000.0 / 60_000.0,
-            plane: Plane::Xy,
-            height_m: 0.0,
-        }
-    }
-
-    /// Points of a circle of `radius` about `center`, one per degree (mid-degree, off the
-    /// 1° bins' edges).
-    fn ring(center: [f64; 2], radius: impl Fn(f64) -> f64) -> (Vec<f64>, Vec<f64>) {
-        (0..360)
-            .map(|d| {
-                let a = (d as f64 + 0.5).to_radians();
-                let r = radius(a);
-                (center[0] + r * a.cos(), center[1] + r * a.sin())
-            })
-            .unzip()
-    }
-
-    #[test]
-    fn an_off_centre_circle_has_no_circular_deviation_but_a_radial_one() {
-        // 5 µm off centre in X, 2 µm too small: G 0, F from −7 to +3 µm.
-        let (x, y) = ring([5e-6, 0.0], |_| 0.1 - 2e-6);
-        let t = circular_test(&[circle(true, 0)], &vec![0; 360], [&x, &y, &[]]);
-        let c = t.circles[0];
-        assert!(c.g_um < 1e-3, "{c:?}");
-        assert!(
-            (c.f_max_um - 3.0).abs() < 1e-3 && (c.f_min_um + 7.0).abs() < 1e-3,
-            "{c:?}"
-        );
-    }
-
-    #[test]
-    fn an_ellipse_shows_its_axes_difference_as_g_and_opposite_paths_their_hysteresis() {
-        // r = R + 4 µm·cos 2θ: G = 8 µm. The clockwise path lies 3 µm further out: H = 3 µm.
-        let (x1, y1) = ring([0.0, 0.0], |a| 0.1 + 4e-6 * (2.0 * a).cos());
-        let (x2, y2) = ring([0.0, 0.0], |a| 0.1 + 3e-6 + 4e-6 * (2.0 * a).cos());
-        let segment: Vec<u32> = [vec![0; 360], vec![1; 360]].concat();
-        let t = circular_test(
-            &[circle(true, 0), circle(false, 1)],
-            &segment,
-            [&[x1, x2].concat(), &[y1, y2].concat(), &[]],
-        );
-        assert!((t.circles[0].g_um - 8.0).abs() < 0.01, "{:?}", t.circles[0]);
-        assert!((t.pairs[0].h_um - 3.0).abs() < 0.01, "{:?}", t.pairs[0]);
-        assert!(
-            (t.pairs[0].g_both_um - 11.0).abs() < 0.02,
-            "{:?}",
-            t.pairs[0]
-        );
-    }
-
-    #[test]
-    fn opposite_circles_in_planes_apart_are_no_pair() {
-        // The same centre and radius in the plane's coordinates, run both ways: one pair
-        // where both lie at one height in one plane; none at heights 5 mm apart, nor for a
-        // ZX circle beside an XY one.
-        let (x, y) = ring([0.0, 0.0], |_| 0.1);
-        let segment: Vec<u32> = [vec![0; 360], vec![1; 360]].concat();
-        let (xs, ys) = ([x.clone(), x].concat(), [y.clone(), y].concat());
-        let pairs = |second: Circle| {
-            let z = vec![0.0; 720];
-            circular_test(&[circle(true, 0), second], &segment, [&xs, &ys, &z])
-                .pairs
-                .len()
-        };
-        assert_eq!(pairs(circle(false, 1)), 1);
-        let lower = Circle {
-            height_m: -0.005,
-            ..circle(false, 1)
-        };
-        assert_eq!(pairs(lower), 0);
-        let upright = Circle {
-            plane: Plane::Zx,
-            ..circle(false, 1)
-        };
-        assert!(!upright.is_same_circle(&circle(true, 0)));
-        assert!(!lower.is_same_circle(&circle(true, 0)));
-    }
-
-    #[test]
-    fn a_spike_at_a_quadrant_point_is_measured_against_its_neighbourhood() {
-        // A 6 µm outward bump within ±2° of 90°.
-        let (x, y) = ring([0.0, 0.0], |a| {
-            let d = (a.to_degrees() - 90.5).abs();
-            0.1 + if d <= 2.0 { 6e-6 } else { 0.0 }
-        });
-        let t = circular_test(&[circle(true, 0)], &vec![0; 360], [&x, &y, &[]]);
-        let s = t.circles[0].reversal_spikes_um;
-        assert!((s[1] - 6.0).abs() < 1e-6 && s[0].abs() < 1e-6, "{s:?}");
-    }
-
-    /// Both directions of the R100 circle at F1000 as axes with lags `tau_s` ([X, Y]) and
-    /// the X reading `alpha`·y more and (1 + `scale`)·x, from the commanded point at
-    /// `theta` — what a ballbar would record.
-    fn pair_of(tau_s: [f64; 2], alpha: f64, scale: f64) -> CircularTest {
-        let omega = (1000.0 / 60_000.0) / 0.1;
-        let path = |ccw: bool| -> (Vec<f64>, Vec<f64>) {
-            let w = if ccw { omega } else { -omega };
-            (0..720)
-                .map(|k| {
-                    let theta = (k as f64 + 0.5).to_radians() * 0.5;
-                    let x = 0.1 * (theta - w * tau_s[0]).cos();
-                    let y = 0.1 * (theta - w * tau_s[1]).sin();
-                    ((1.0 + scale) * x + alpha * y, y)
-                })
-                .unzip()
-        };
-        opposite_pair(path)
-    }
-
-    #[test]
-    fn squareness_servo_and_scale_mismatch_are_told_apart_by_direction() {
-        // Squareness 50 µrad: the same diagonal ellipse both ways.
-        let t = pair_of([0.0, 0.0], 50e-6, 0.0);
-        let p = t.pairs[0];
-        assert!((p.squareness_urad - 50.0).abs() < 0.5, "{p:?}");
-        assert!(
-            p.servo_mismatch_ms.abs() < 0.05 && p.scale_mismatch_ppm.abs() < 0.5,
-            "{p:?}"
-        );
-        // Y lagging X by 6.67 ms (Kv 0.9 against 1.0 m/min/mm): an ellipse that turns
-        // with the direction.
-        let t = pair_of([0.060, 0.060 + 0.0066667], 0.0, 0.0);
-        let p = t.pairs[0];
-        assert!((p.servo_mismatch_ms - 6.6667).abs() < 0.07, "{p:?}");
-        assert!(p.squareness_urad.abs() < 0.5, "{p:?}");
-        // Its ellipse, 111 µm across, is no lost motion, play or bow.
-        for v in [
-            p.backlash_x_um,
-            p.backlash_y_um,
-            p.lateral_play_x_um,
-            p.lateral_play_y_um,
-            p.straightness_x_um,
-            p.straightness_y_um,
-        ] {
-            assert!(v.abs() < 0.3, "{p:?}");
-        }
-        // The X scale 30 ppm long: an ellipse along the axes.
-        let t = pair_of([0.0, 0.0], 0.0, 30e-6);
-        let p = t.pairs[0];
-        assert!((p.scale_mismatch_ppm - 30.0).abs() < 0.3, "{p:?}");
-        assert!(
-            p.squareness_urad.abs() < 0.5 && p.servo_mismatch_ms.abs() < 0.05,
-            "{p:?}"
-        );
-        assert!((t.circles[0].diagonal_ellipse_urad).abs() < 0.5);
-    }
-
-    /// Both directions of the R100 circle, the tool off the commanded point by
-    /// `off(θ, direction of X, direction of Y)` (m).
-    fn pair_reading(off: impl Fn(f64, f64, f64) -> [f64; 2]) -> CircularTest {
-        let path = |ccw: bool| -> (Vec<f64>, Vec<f64>) {
-            let turn = if ccw { 1.0 } else { -1.0 };
-            (0..1440)
-                .map(|k| {
-                    let theta = (k as f64 + 0.5).to_radians() * 0.25;
-                    // Counter-clockwise, X travels −sin θ and Y cos θ.
-                    let (dir_x, dir_y) =
-                        (-turn * theta.sin().signum(), turn * theta.cos().signum());
-                    let [dx, dy] = off(theta, dir_x, dir_y);
-                    (0.1 * theta.cos() + dx, 0.1 * theta.sin() + dy)
-                })
-                .unzip()
-        };
-        opposite_pair(path)
-    }
-
-    /// The figures of the R100 circle run counter-clockwise (segment 0) and clockwise
-    /// (segment 1) along the paths `path(ccw)` gives.
-    fn opposite_pair(path: impl Fn(bool) -> (Vec<f64>, Vec<f64>)) -> CircularTest {
-        let ((x1, y1), (x2, y2)) = (path(true), path(false));
-        let segment: Vec<u32> = [vec![0; x1.len()], vec![1; x2.len()]].concat();
-        circular_test(
-            &[circle(true, 0), circle(false, 1)],
-            &segment,
-            [&[x1, x2].concat(), &[y1, y2].concat(), &[]],
-        )
-    }
-
-    #[test]
-    fn straightness_lateral_play_and_lost_motion_are_read_from_their_shapes() {
-        // Y's travel bowed 5 µm over the diameter as X sees it, X shifting 4 µm across Y's
-        // reversals, Y lagging 3 µm behind its direction of travel.
-        let t = pair_reading(|theta, _dir_x, dir_y| {
-            let bow = -5e-6 * theta.sin().powi(2);
-            [bow + 2e-6 * dir_y, -1.5e-6 * dir_y]
-        });
-        let p = t.pairs[0];
-        let near = |v: f64, want: f64| (v - want).abs() < 0.25;
-        assert!(
-            near(p.straightness_x_um, 5.0) && near(p.straightness_y_um, 0.0),
-            "{p:?}"
-        );
-        assert!(
-            near(p.lateral_play_x_um, 4.0) && near(p.lateral_play_y_um, 0.0),
-            "{p:?}"
-        );
-        assert!(
-            near(p.backlash_y_um, 3.0) && near(p.backlash_x_um, 0.0),
-            "{p:?}"
-        );
-        assert!(p.squareness_urad.abs() < 1.0, "{p:?}");
-        // The same on the other axes.
-        let t = pair_reading(|theta, dir_x, _dir_y| {
-            let bow = -5e-6 * theta.cos().powi(2);
-            [-1.5e-6 * dir_x, bow + 2e-6 * dir_x]
-        });
-        let p = t.pairs[0];
-        assert!(
-            near(p.straightness_y_um, 5.0) && near(p.straightness_x_um, 0.0),
-            "{p:?}"
-        );
-        assert!(
-            near(p.lateral_play_y_um, 4.0) && near(p.lateral_play_x_um, 0.0),
-            "{p:?}"
-        );
-        assert!(
-            near(p.backlash_x_um, 3.0) && near(p.backlash_y_um, 0.0),
-            "{p:?}"
-        );
-    }
-}
+mod tests;

@@ -16,7 +16,9 @@ pub mod thinning;
 
 use serde::Serialize;
 
-use crate::analysis::circular::{CirclePath, CircleSamples, CircularTest, circles};
+use crate::analysis::circular::{
+    CirclePath, CircleSamples, CircularTest, Commanded, EntrySettling, circles,
+};
 use crate::analysis::contour::{ContourLocator, ContourPoint};
 pub use crate::analysis::hotspot::RunPlace;
 use crate::analysis::hotspot::{AxisSteady, Hotspot, HotspotConfig, HotspotFinder, RunSample};
@@ -196,7 +198,7 @@ impl RunAnalyser {
                 plan.config.cycle_s,
                 max_hotspots,
             ),
-            circles: CircleSamples::new(circles(&plan.segments)),
+            circles: CircleSamples::new(circles(&plan.segments), EntrySettling::of(machine)),
             plot: PeakThinned::new(PLOT_POINTS, |p| {
                 if p.error_m.is_finite() {
                     p.error_m.abs()
@@ -283,7 +285,9 @@ impl RunAnalyser {
                     ],
                 },
             );
-            self.circles.push(point.segment, [pos_m[0], pos_m[1], z_m]);
+            let command = Commanded::of(c, i);
+            self.circles
+                .push(point.segment, [pos_m[0], pos_m[1], z_m], command);
             self.plot.push(PlotPoint {
                 pos_m,
                 z_m,

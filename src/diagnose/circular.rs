@@ -6,7 +6,10 @@ use serde::Serialize;
 
 use super::z_axis::ZFindings;
 use super::{Context, Series};
-use crate::analysis::circular::{CircularTest, MIN_SAMPLES, circles, circular_test, radial_points};
+use crate::analysis::circular::{
+    CircularTest, EntrySettling, MIN_SAMPLES, circles, circular_test, radial_points,
+};
+use crate::machine::MachineConfig;
 use crate::path::Plane;
 
 /// Circular-test figures of the same circles three ways.
@@ -18,6 +21,9 @@ pub struct CircularComparison {
     pub nominal: CircularTest,
     /// Predicted by the extended model.
     pub extended: CircularTest,
+    /// The loops' settling each circle's start is left out by, as for the figures.
+    #[serde(skip)]
+    pub entry: EntrySettling,
     /// The program's full circles the record gives no figures for, and why.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub left_out: Vec<CircleLeftOut>,
@@ -49,16 +55,26 @@ impl std::fmt::Display for CircleLeftOut {
 }
 
 /// The figures of the measured, nominal and extended paths, on the samples the measured
-/// path assigns to each circle; Z from `z` where it was compared.
-pub(crate) fn circular_comparison(ctx: &Context, s: &Series, z: &ZFindings) -> CircularComparison {
+/// path assigns to each circle, each from where the loops of `machine` have settled into it;
+/// Z from `z` where it was compared.
+pub(crate) fn circular_comparison(
+    ctx: &Context,
+    machine: &MachineConfig,
+    s: &Series,
+    z: &ZFindings,
+) -> CircularComparison {
+    let entry = EntrySettling::of(machine);
     let circles = circles(&ctx.plan.segments);
     let zs = z.series.as_ref();
     let none: &[f64] = &[];
+    let command = s.commands();
     let of = |xy: &[Vec<f64>; 2], z: Option<&Vec<f64>>| {
         circular_test(
             &circles,
             &s.segment,
             [&xy[0], &xy[1], z.map_or(none, |z| z)],
+            &command,
+            entry,
         )
     };
     let left_out = circles
@@ -76,7 +92,7 @@ pub(crate) fn circular_comparison(ctx: &Context, s: &Series, z: &ZFindings) -> C
                 &s.measured[1][..],
                 zs.map_or(none, |z| &z.measured),
             ];
-            let on_it = radial_points(c, &s.segment, measured).len();
+            let on_it = radial_points(&circles, c, &s.segment, measured, &command, entry).len();
             (on_it < MIN_SAMPLES).then(|| {
                 (
                     c,
@@ -96,6 +112,7 @@ pub(crate) fn circular_comparison(ctx: &Context, s: &Series, z: &ZFindings) -> C
         measured: of(&s.measured, zs.map(|z| &z.measured)),
         nominal: of(&s.nominal, zs.map(|z| &z.nominal)),
         extended: of(&s.extended, zs.map(|z| &z.extended)),
+        entry,
         left_out,
     }
 }

@@ -209,6 +209,20 @@ pub struct Series {
     pub contour_in_space: bool,
     /// The plan segment nearest each measured sample.
     pub segment: Vec<u32>,
+    /// The plan segment each sample's command lies on.
+    pub command_segment: Vec<u32>,
+    /// Commanded Z (m).
+    pub reference_z: Vec<f64>,
+}
+
+impl Series {
+    /// Where each sample was commanded, for the circles' figures.
+    pub(crate) fn commands(&self) -> crate::analysis::circular::CommandSeries<'_> {
+        crate::analysis::circular::CommandSeries {
+            segment: &self.command_segment,
+            pos_m: [&self.reference[0], &self.reference[1], &self.reference_z],
+        }
+    }
 }
 
 /// The outcome of a diagnosis.
@@ -370,7 +384,7 @@ pub fn diagnose_validated(
                     .any(|a| tries_allowed(machine, settings, a, c))
             }),
         beyond_machine: beyond_machine_compared(measured, machine, &ctx, outcome.offset_s),
-        ..assemble(&ctx, outcome, summary, z)
+        ..assemble(&ctx, machine, outcome, summary, z)
     })
 }
 
@@ -520,10 +534,12 @@ fn learn_unexplained(
     learned
 }
 
-/// The diagnosis from the search's outcome, its figures and Z's findings; the caller adds
-/// what needs the settings and the nominal machine.
+/// The diagnosis from the search's outcome, its figures and Z's findings (the circles'
+/// settling from the nominal `machine`'s loops); the caller adds what needs the settings and
+/// the rest of the nominal machine.
 fn assemble(
     ctx: &Context,
+    machine: &MachineConfig,
     outcome: search::Outcome,
     summary: Summary,
     z: z_axis::ZFindings,
@@ -544,7 +560,7 @@ fn assemble(
         after: summary.after,
         places: summary.places,
         machine: outcome.machine,
-        circular: circular::circular_comparison(ctx, &summary.series, &z),
+        circular: circular::circular_comparison(ctx, machine, &summary.series, &z),
         series: summary.series,
         samples: ctx.samples.len(),
         sample_step_s: ctx.measured.dt_s,

@@ -94,6 +94,8 @@ pub(super) fn summarize(
     );
     s.path_s_m = cm.path_s_m.clone();
     s.segment = cm.segment.clone();
+    s.command_segment = view.segment.clone();
+    s.reference_z = view.z.pos_m.clone();
     let (vs_nominal, vs_extended) = (comparable_contours(&cm, &cn), comparable_contours(&cm, &ce));
     let diff = |a: &[f64], b: &[f64]| -> Vec<f64> { a.iter().zip(b).map(|(x, y)| x - y).collect() };
     s.contour_residual = [

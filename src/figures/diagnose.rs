@@ -304,10 +304,17 @@ fn polar_plots(d: &Diagnosis, name: &str, extended_name: &str) -> Polar {
                 label: label.to_string(),
                 width,
                 g_um,
-                points: radial_points(c, &s.segment, pos_m)
-                    .into_iter()
-                    .map(|(a, r)| (a, um_from_m(r)))
-                    .collect(),
+                points: radial_points(
+                    &d.circles,
+                    c,
+                    &s.segment,
+                    pos_m,
+                    &s.commands(),
+                    d.circular.entry,
+                )
+                .into_iter()
+                .map(|(a, r)| (a, um_from_m(r)))
+                .collect(),
             }
         };
         let circular = &d.circular;

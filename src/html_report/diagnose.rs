@@ -345,6 +345,7 @@ mod tests {
             diagonal_ellipse_urad: 0.0,
             scale_mismatch_ppm: 0.0,
             samples: 100,
+            start_left_out_deg: 0.0,
         }
     }
 
@@ -364,6 +365,7 @@ mod tests {
             measured: test(vec![circle(3, 12, 5.0), circle(7, 12, 6.0)]),
             nominal: test(vec![circle(7, 12, 16.0)]),
             extended: test(vec![circle(3, 12, 25.0), circle(7, 12, 26.0)]),
+            entry: Default::default(),
             left_out: Vec::new(),
         };
         let json = serde_json::json!({ "circular_test": c });

@@ -28,18 +28,19 @@ use contourcheck::trace::measured::{parse_table, parse_trace};
 #[test]
 fn backlash_on_either_axis() {
     let d = assert_found("circle-r50.nc", CauseId::Backlash, AxisName::X, &[10.0], 1);
-    // The ballbar figures: the measured spikes at X's reversals (0°, 180°) stand well above
-    // the nominal model's and the extended model reproduces them to a micrometre.
+    // The ballbar figures: the measured spikes at X's reversal at 180° stand well above the
+    // nominal model's and the extended model reproduces them to a micrometre. (Its reversal
+    // at 0°, where the circles start and end, lies in the stretch left out while the loops
+    // settle into the circle.)
     let c = &d.circular;
     for k in 0..c.measured.circles.len() {
-        for q in [0, 2] {
-            let (m, n, e) = (
-                c.measured.circles[k].reversal_spikes_um[q],
-                c.nominal.circles[k].reversal_spikes_um[q],
-                c.extended.circles[k].reversal_spikes_um[q],
-            );
-            assert!(m > n + 2.0 && (m - e).abs() < 1.0, "{m} {n} {e}");
-        }
+        assert!(c.measured.circles[k].reversal_spikes_um[0].is_nan());
+        let (m, n, e) = (
+            c.measured.circles[k].reversal_spikes_um[2],
+            c.nominal.circles[k].reversal_spikes_um[2],
+            c.extended.circles[k].reversal_spikes_um[2],
+        );
+        assert!(m > n + 2.0 && (m - e).abs() < 1.0, "{m} {n} {e}");
     }
     assert_found("circle-r50.nc", CauseId::Backlash, AxisName::Y, &[6.0], 2);
 }

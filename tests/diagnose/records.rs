@@ -462,3 +462,56 @@ fn bad_measured_data_names_the_row_and_writes_nothing() {
     assert!(err.contains("bad.csv: row 32"), "{err}");
     assert!(!json.exists());
 }
+
+/// The small circle recorded with its commands on the nominal machine: the commands reach
+/// the circle's start while the table still settles from the approach rapid (the control
+/// waits there for the in-position check). The circle's figures come from the samples
+/// whose command runs along the circle: the radial deviation is the position loop's steady
+/// lag on a circle, v²/(2·R·Kv²) inward (a first-order loop lags v/Kv in time; on radius R
+/// that chord falls short of the circle by R(1 − cos(v/(R·Kv)))), and G cannot exceed it
+/// by more than the friction spikes and the noise, nor does a square machine show an ellipse
+/// along the diagonals.
+#[test]
+fn a_circle_recorded_with_its_commands_is_measured_from_where_its_commands_set_off() {
+    let nominal = MachineConfig::default_preset();
+    assert_eq!(nominal.x.position_loop.velocity_feedforward, 0.0);
+    let prog = program("small-circle.nc");
+    let spec = SynthSpec {
+        offset_s: 0.5,
+        with_commands: true,
+        ..SynthSpec::default()
+    };
+    let measured = recorded(&prog, &nominal, &spec, "nom.csv");
+    let d = diagnose(
+        &prog,
+        &nominal,
+        &measured,
+        &DiagnoseSettings::for_machine(&nominal),
+    )
+    .unwrap();
+    // R10 at F800; Kv in 1/s from m/min/mm.
+    let (v, r) = (0.8 / 60.0, 0.010);
+    let kv = nominal.x.position_loop.kv_m_per_min_per_mm * 1000.0 / 60.0;
+    let lag_um = v * v / (2.0 * r * kv * kv) * 1e6;
+    assert!((lag_um - 32.0).abs() < 0.1, "{lag_um}");
+    let test = &d.circular.measured;
+    assert_eq!(test.circles.len(), 2, "{test:?}");
+    for c in &test.circles {
+        // The steady lag, within the 0.3 µm noise and the friction's few µm at reversals.
+        assert!(
+            (c.f_min_um + lag_um).abs() < 0.1 * lag_um,
+            "{c:?} against {lag_um}"
+        );
+        assert!(c.g_um < 1.1 * lag_um, "{c:?} against {lag_um}");
+    }
+    // 20 µrad on R10 is an ellipse of ±0.1 µm, a third of the record's noise.
+    let pair = test.pairs[0];
+    assert!(pair.squareness_urad.abs() < 20.0, "{pair:?}");
+    // A lag the same at every angle is no ellipse along the axes either: well under 1 % of
+    // lag/R (3200 ppm), which the entry transient, left in, would reach a quarter of.
+    let lag_over_radius_ppm = lag_um / (r * 1e6) * 1e6;
+    assert!(
+        pair.scale_mismatch_ppm.abs() < 0.01 * lag_over_radius_ppm,
+        "{pair:?}"
+    );
+}
