@@ -32,6 +32,7 @@ pub mod search;
 mod summary;
 pub mod synth;
 pub mod table;
+pub mod table_verdict;
 pub mod z_axis;
 
 use serde::Serialize;
