@@ -45,6 +45,14 @@ pub enum CliError {
     /// A diagnosis could not be made.
     #[error("{0}")]
     Diagnose(#[from] crate::diagnose::DiagnoseError),
+    /// A table of steady following errors does not fit the machine.
+    #[error("{file}: {source}")]
+    Table {
+        /// The table.
+        file: String,
+        /// Why.
+        source: crate::diagnose::table::TableError,
+    },
     /// A machine could not be identified.
     #[error("{0}")]
     Identify(#[from] crate::identify::IdentifyError),

@@ -286,15 +286,19 @@ fn run_table(
         ));
     }
     let rows = read_table(path)?;
+    let file = path.display().to_string();
     let bar = spinner("fitting the table");
     let d = diagnose_table(
         machine,
         &rows,
         &crate::sim::SimConfig::default(),
         args.evidence,
-    )?;
+    )
+    .map_err(|source| CliError::Table {
+        file: file.clone(),
+        source,
+    })?;
     bar.finish_and_clear();
-    let file = path.display().to_string();
     if let Some(json) = &args.json {
         let mut batch = OutputBatch::new();
         batch.stage(json, |w| {

@@ -67,13 +67,31 @@ pub(crate) fn run(args: &PlanArgs) -> Result<Outcome, CliError> {
     );
     println!("time      {}", format_duration(planned.total_time_s));
     println!("peaks     speed (mm/min)  accel (m/s²)  jerk (m/s³, sampled)");
+    let mut steps = false;
     for (name, axis) in [("X", &commands.x), ("Y", &commands.y), ("Z", &commands.z)] {
         let p = axis.peaks(commands.dt_s);
+        // A velocity step has no acceleration of its own: shown as sampled, and marked.
+        let (accel, jerk) = match p.step_accel_m_per_s2 {
+            Some(a) if a > p.accel_m_per_s2 => {
+                steps = true;
+                (format!("{a:.4} *"), "step *".to_string())
+            }
+            _ => (
+                format!("{:.4}  ", p.accel_m_per_s2),
+                format!("{:.3}  ", p.jerk_m_per_s3),
+            ),
+        };
         println!(
-            "  {name}       {:>12.1}  {:>12.4}  {:>12.3}",
+            "  {name}       {:>12.1}  {accel:>14}  {jerk:>14}",
             mm_per_min_from_m_per_s(p.speed_m_per_s),
-            p.accel_m_per_s2,
-            p.jerk_m_per_s3
+        );
+    }
+    if steps {
+        println!(
+            "  * the speed steps ({} profile): the step over one {} ms cycle, as sampled; \
+             its true acceleration and jerk are unbounded",
+            config.profile,
+            config.cycle_s * 1e3
         );
     }
     print_notes_and_warnings(&program, &planned.warnings);

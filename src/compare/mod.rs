@@ -17,6 +17,7 @@ pub mod start;
 use crate::check::CheckSettings;
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig};
+use crate::numeric::units::um_from_m;
 use crate::sim::{MeasuredAt, SimError};
 use crate::trace::measured::{MeasuredError, MeasuredTrace};
 
@@ -91,6 +92,48 @@ pub enum CompareError {
     /// The nominal model cannot be simulated.
     #[error("{0}")]
     Sim(#[from] SimError),
+    /// No axis is commanded to move where the record is compared.
+    #[error(
+        "{file}: the record holds no motion: where it is compared, X is commanded to move \
+         {:.1} µm and Y {:.1} µm — nothing to judge a model by; record the axes while the \
+         program moves them",
+        travel_um[0],
+        travel_um[1]
+    )]
+    NoMotion {
+        /// The measurement file.
+        file: String,
+        /// How far X and Y are commanded over the compared samples (µm).
+        travel_um: [f64; 2],
+    },
+}
+
+/// Commanded travel (m) below which a compared stretch holds no motion: a micrometre is
+/// within a record's noise, and nothing a model predicts of moving axes shows there.
+pub const LEAST_MOTION_M: f64 = 1e-6;
+
+/// Refuses a comparison at the clock offset `offset_s` in which neither X nor Y, nor Z
+/// where it is compared, is commanded to move [`LEAST_MOTION_M`] over the compared samples:
+/// a model that holds still matches any record of still axes, which says nothing of it.
+pub(crate) fn require_motion(
+    ctx: &Context,
+    machine: &MachineConfig,
+    offset_s: f64,
+) -> Result<(), CompareError> {
+    let travel_m = |a| ctx.command_travel_m(a, offset_s);
+    let xy = AxisName::BOTH.map(travel_m);
+    let z = ctx
+        .z_comparable(machine)
+        .is_ok()
+        .then(|| travel_m(AxisName::Z));
+    // NaN compares false: a travel that cannot be measured is no motion either.
+    if xy.iter().chain(z.iter()).any(|&t| t >= LEAST_MOTION_M) {
+        return Ok(());
+    }
+    Err(CompareError::NoMotion {
+        file: ctx.measured.file.clone(),
+        travel_um: xy.map(um_from_m),
+    })
 }
 
 /// A record placed on a program, with the nominal machine's simulation on its timeline.

@@ -225,6 +225,7 @@ impl<'a> Validation<'a> {
             offset_s,
         };
         v.offset_s = v.best_offset(&v.traces.clone());
+        crate::compare::require_motion(&v.ctx, machine, v.offset_s)?;
         Ok(v)
     }
 

@@ -32,6 +32,7 @@ pub mod search;
 mod summary;
 pub mod synth;
 pub mod table;
+pub mod table_verdict;
 pub mod z_axis;
 
 use serde::Serialize;
@@ -41,7 +42,7 @@ use crate::compare::residual;
 pub use crate::compare::residual::{AxisResidual, ResidualStats};
 pub use crate::compare::start::{Coverage, StartKind};
 pub use crate::compare::{CompareError, CompareSettings, Context, Stepping};
-use crate::compare::{Comparison, compare};
+use crate::compare::{Comparison, compare, require_motion};
 use crate::gcode::Program;
 use crate::machine::{AxisName, MachineConfig, ZAxis};
 use crate::numeric::units::um_from_m;
@@ -317,18 +318,14 @@ pub fn diagnose_validated(
     let mut validation = validation
         .map(|v| holdout::Validation::new(program, machine, v, &settings.compare))
         .transpose()?;
+    let on = &settings.compare;
     let Comparison {
         ctx,
         offset_s,
         nominal,
         nominal_z,
-    } = compare(
-        program,
-        machine,
-        measured,
-        &settings.compare,
-        Stepping::Full,
-    )?;
+    } = compare(program, machine, measured, on, Stepping::Full)?;
+    require_motion(&ctx, machine, offset_s)?;
     let window_s = settings.event_window_s;
     let models = Models {
         nominal: &nominal,

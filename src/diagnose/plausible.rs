@@ -44,7 +44,7 @@ const LATERAL_PLAY_MAX_UM: f64 = 100.0;
 /// Largest lost motion beyond a scale (µm): a worn holder's or head's play.
 const DIRECTION_OFFSET_MAX_UM: f64 = 100.0;
 /// A position gain this far from the set one is a wrong machine file, not a cause.
-const KV_RATIO_MAX: f64 = 5.0;
+pub(crate) const KV_RATIO_MAX: f64 = 5.0;
 /// How near (relative) a fitted resonance may lie to a loop's crossover before it is taken
 /// for the loop's own overshoot rather than the structure.
 const CROSSOVER_MARGIN: f64 = 0.1;

@@ -14,7 +14,9 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::diagnose::causes::CauseId;
-use crate::machine::{AxisConfig, MachineConfig};
+use crate::diagnose::plausible::KV_RATIO_MAX;
+use crate::diagnose::table_verdict::{EXACT_MM, Figures, TableVerdict};
+use crate::machine::{AxisConfig, AxisName, MachineConfig};
 use crate::numeric::golden_section;
 use crate::numeric::units::{m_per_s_from_mm_per_min, mm_from_m};
 use crate::plan::AxisCommands;
@@ -98,6 +100,11 @@ pub struct TableCause {
 /// The outcome.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TableDiagnosis {
+    /// What the table lets one say.
+    pub verdict: TableVerdict,
+    /// The figures it is drawn from.
+    #[serde(flatten)]
+    pub figures: Figures,
     /// Noise floor: scatter of alike rows (mm, standard deviation).
     pub noise_floor_mm: f64,
     /// Rows the noise floor was estimated from.
@@ -173,73 +180,140 @@ fn noise_floor(rows: &[TableRow], predicted: &[f64]) -> (f64, usize) {
     }
 }
 
+/// Why a table cannot be diagnosed on a machine.
+#[derive(Debug, thiserror::Error)]
+pub enum TableError {
+    /// The model cannot be simulated with a row's settings.
+    #[error("{0}")]
+    Sim(#[from] SimError),
+    /// A row's axis has no cascade: the row's Kv and K_s have nothing to set.
+    #[error(
+        "line {line}: axis {axis}: {why} — the row's kv_m_per_min_per_mm and ks_nm_s_per_rad \
+         have nothing to set on this machine; a table of steady errors by Kv and K_s needs a \
+         machine whose {axis} axis is the cascade (e.g. --machine hvmc)"
+    )]
+    NoCascade {
+        /// 1-based line of the first such row.
+        line: u64,
+        /// Its axis.
+        axis: AxisName,
+        /// Why the axis has no Kv.
+        why: &'static str,
+    },
+}
+
+/// Refuses rows whose axis has no Kv and K_s to set them in.
+fn cascade_rows(machine: &MachineConfig, rows: &[TableRow]) -> Result<(), TableError> {
+    for r in rows {
+        if let Some(why) = CauseId::KvGain.inapplicable_to(machine.axis(r.axis)) {
+            return Err(TableError::NoCascade {
+                line: r.line,
+                axis: r.axis,
+                why,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// RMS (mm) of measured − `predicted` over the rows `idx`.
+fn rms_of(rows: &[TableRow], predicted: &[f64], idx: &[usize]) -> f64 {
+    let ss: f64 = idx
+        .iter()
+        .map(|&i| (rows[i].measured_mm - predicted[i]).powi(2))
+        .sum();
+    (ss / idx.len().max(1) as f64).sqrt()
+}
+
+/// Per table label: its rows' spread about both models.
+fn table_stats(rows: &[TableRow], nominal: &[f64], extended: &[f64]) -> Vec<TableStats> {
+    let mut labels: Vec<String> = rows.iter().map(|r| r.table.clone()).collect();
+    labels.dedup();
+    labels
+        .into_iter()
+        .map(|label| {
+            let idx: Vec<usize> = (0..rows.len())
+                .filter(|&i| rows[i].table == label)
+                .collect();
+            let mad = |p: &[f64]| {
+                idx.iter()
+                    .map(|&i| (rows[i].measured_mm - p[i]).abs())
+                    .sum::<f64>()
+                    / idx.len() as f64
+            };
+            TableStats {
+                rows: idx.len(),
+                mad_nominal_mm: mad(nominal),
+                mad_extended_mm: mad(extended),
+                rms_nominal_mm: rms_of(rows, nominal, &idx),
+                rms_extended_mm: rms_of(rows, extended, &idx),
+                table: label,
+            }
+        })
+        .collect()
+}
+
+/// The factor on every row's Kv that fits the table best, searched on a logarithmic scale
+/// over the gains a machine of this file could have.
+fn fitted_gain(machine: &MachineConfig, rows: &[TableRow], sim: &SimConfig) -> f64 {
+    let cost = |ln_gain: f64| {
+        predict_all(machine, rows, ln_gain.exp(), sim).map_or(f64::INFINITY, |p| rss(rows, &p))
+    };
+    let bound = KV_RATIO_MAX.ln();
+    golden_section(-bound, bound, 1e-7, &cost).exp()
+}
+
 /// Diagnoses a table on a machine.
 pub fn diagnose_table(
     machine: &MachineConfig,
     rows: &[TableRow],
     sim: &SimConfig,
     evidence: f64,
-) -> Result<TableDiagnosis, SimError> {
+) -> Result<TableDiagnosis, TableError> {
+    cascade_rows(machine, rows)?;
     let nominal = predict_all(machine, rows, 1.0, sim)?;
     let (sigma, noise_rows) = noise_floor(rows, &nominal);
-    let rss0 = rss(rows, &nominal);
-    let n = rows.len() as f64;
-    let cost =
-        |gain: f64| predict_all(machine, rows, gain, sim).map_or(f64::INFINITY, |p| rss(rows, &p));
-    let gain = golden_section(0.5, 2.0, 1e-6, &cost);
-    let evidence_of = |r: f64| {
-        if sigma.is_finite() && sigma > 0.0 {
-            (rss0 - r) / (sigma * sigma) - n.ln()
-        } else {
-            f64::NEG_INFINITY
-        }
+    let gain = fitted_gain(machine, rows, sim);
+    let fitted = predict_all(machine, rows, gain, sim)?;
+    let all: Vec<usize> = (0..rows.len()).collect();
+    let figures = Figures {
+        ratio: median_ratio(rows, &nominal),
+        measured_rms_mm: (rows.iter().map(|r| r.measured_mm.powi(2)).sum::<f64>()
+            / rows.len().max(1) as f64)
+            .sqrt(),
+        residual_rms_nominal_mm: rms_of(rows, &nominal, &all),
+        residual_rms_fitted_mm: rms_of(rows, &fitted, &all),
+        noise_floor_mm: sigma,
     };
-    let kv = evidence_of(cost(gain));
+    let plausible = (1.0 / KV_RATIO_MAX..=KV_RATIO_MAX).contains(&figures.ratio);
+    let n = rows.len() as f64;
+    let kv = if sigma.is_finite() && sigma > EXACT_MM {
+        (rss(rows, &nominal) - rss(rows, &fitted)) / (sigma * sigma) - n.ln()
+    } else {
+        f64::NEG_INFINITY
+    };
     let candidates = vec![TableCause {
         id: CauseId::KvGain,
         parameter: "gain factor on the set Kv",
         value: gain,
         evidence: kv,
-        significant: kv >= evidence,
+        significant: plausible && kv >= evidence,
     }];
-    let best = candidates.iter().find(|c| c.significant).map(|c| c.id);
-    let extended = if best.is_some() {
-        predict_all(machine, rows, gain, sim)?
+    let kept = candidates.iter().find(|c| c.significant).map(|c| c.id);
+    let verdict = figures.verdict(kept.is_some(), noise_rows);
+    let extended = if kept.is_some() {
+        fitted
     } else {
         nominal.clone()
     };
-    let mut labels: Vec<String> = rows.iter().map(|r| r.table.clone()).collect();
-    labels.dedup();
-    let tables = labels
-        .into_iter()
-        .map(|label| {
-            let idx: Vec<usize> = (0..rows.len())
-                .filter(|&i| rows[i].table == label)
-                .collect();
-            let stat = |p: &[f64], abs: bool| {
-                let v: Vec<f64> = idx.iter().map(|&i| rows[i].measured_mm - p[i]).collect();
-                if abs {
-                    v.iter().map(|x| x.abs()).sum::<f64>() / v.len() as f64
-                } else {
-                    (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
-                }
-            };
-            TableStats {
-                rows: idx.len(),
-                mad_nominal_mm: stat(&nominal, true),
-                mad_extended_mm: stat(&extended, true),
-                rms_nominal_mm: stat(&nominal, false),
-                rms_extended_mm: stat(&extended, false),
-                table: label,
-            }
-        })
-        .collect();
     Ok(TableDiagnosis {
+        verdict,
+        figures,
         noise_floor_mm: sigma,
         noise_rows,
         candidates,
-        kept: best,
-        tables,
+        kept,
+        tables: table_stats(rows, &nominal, &extended),
         rows: rows
             .iter()
             .zip(nominal.iter().zip(&extended))
@@ -250,6 +324,27 @@ pub fn diagnose_table(
             })
             .collect(),
     })
+}
+
+/// The median of measured ÷ nominal over the rows: how far the table lies from the model
+/// as a factor, unmoved by a few odd rows.
+fn median_ratio(rows: &[TableRow], nominal: &[f64]) -> f64 {
+    let mut r: Vec<f64> = rows
+        .iter()
+        .zip(nominal)
+        .filter(|(_, p)| **p > 0.0)
+        .map(|(row, p)| row.measured_mm / p)
+        .collect();
+    if r.is_empty() {
+        return f64::NAN;
+    }
+    r.sort_by(f64::total_cmp);
+    let m = r.len() / 2;
+    if r.len() % 2 == 1 {
+        r[m]
+    } else {
+        0.5 * (r[m - 1] + r[m])
+    }
 }
 
 /// Schema id of the table diagnosis as JSON.
@@ -290,18 +385,7 @@ impl TableDiagnosis {
             "Diagnosis of the steady following errors in {file} ({} rows) on {machine}",
             self.rows.len()
         );
-        if self.noise_rows > 0 {
-            let _ = writeln!(
-                s,
-                "noise floor {:.4} mm (scatter of {} rows the model predicts alike)",
-                self.noise_floor_mm, self.noise_rows
-            );
-        } else {
-            let _ = writeln!(
-                s,
-                "no rows the model predicts alike: the noise floor cannot be estimated, no cause can be named"
-            );
-        }
+        let _ = writeln!(s, "{}", self.scatter_line());
         let _ = writeln!(s, "\nCandidates:");
         for c in &self.candidates {
             let _ = writeln!(
@@ -326,29 +410,33 @@ impl TableDiagnosis {
         s
     }
 
+    /// What the scatter of alike rows is, or why the table has none.
+    #[cfg(feature = "cli")]
+    fn scatter_line(&self) -> String {
+        if self.noise_rows == 0 {
+            "not determined: no repeated rows to judge the scatter (no two rows the model \
+             predicts alike), so no cause can be named"
+                .into()
+        } else if self.noise_floor_mm <= EXACT_MM {
+            format!(
+                "not determined: the {} rows the model predicts alike agree exactly, which is no \
+                 estimate of the scatter, so no cause can be named",
+                self.noise_rows
+            )
+        } else {
+            format!(
+                "noise floor {:.4} mm (scatter of {} rows the model predicts alike)",
+                self.noise_floor_mm, self.noise_rows
+            )
+        }
+    }
+
     /// The verdict: the cause kept, or why none is.
     #[cfg(feature = "cli")]
     fn verdict(&self) -> String {
-        if let Some(id) = self.kept {
-            return format!("Significant cause: {}.", id.as_str());
-        }
-        let rms = (self
-            .rows
-            .iter()
-            .map(|r| (r.row.measured_mm - r.nominal_mm).powi(2))
-            .sum::<f64>()
-            / self.rows.len().max(1) as f64)
-            .sqrt();
-        if self.noise_floor_mm.is_finite() && rms > 2.0 * self.noise_floor_mm {
-            format!(
-                "No significant cause: the residual ({rms:.4} mm RMS) exceeds the scatter of alike rows \
-                 ({:.4} mm), but a gain error does not explain it — the rows scatter about the model without a trend.",
-                self.noise_floor_mm
-            )
-        } else {
-            "No significant cause: the nominal model predicts the table to within its scatter."
-                .into()
-        }
+        let c = &self.candidates[0];
+        self.figures
+            .sentence(self.verdict, self.kept.unwrap_or(c.id).as_str(), c.value)
     }
 
     /// Each table's spread about both models.

@@ -121,23 +121,44 @@ pub struct AxisPeaks {
     pub accel_m_per_s2: f64,
     /// Largest |Δa_ref|/T between consecutive samples (m/s³).
     pub jerk_m_per_s3: f64,
+    /// Where the velocity steps between two samples by more than their accelerations could
+    /// take it (the ideal profile sets the feed at once): the largest such |Δv_ref|/T (m/s²),
+    /// the step as sampled — its true acceleration is unbounded. `None` where v_ref follows
+    /// a_ref.
+    pub step_accel_m_per_s2: Option<f64>,
 }
 
 impl AxisCommands {
-    /// Peak speed, acceleration and (sampled) jerk.
+    /// Peak speed, acceleration and (sampled) jerk, and any velocity step.
     pub fn peaks(&self, dt_s: f64) -> AxisPeaks {
         let max_abs = |v: &[f64]| v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         let jerk = self
             .acc_m_per_s2
             .windows(2)
             .fold(0.0f64, |m, w| m.max((w[1] - w[0]).abs() / dt_s));
+        // Over one cycle the velocity changes by at most the larger of the accelerations at
+        // its ends times the cycle (a trapezoid's switch mid-cycle included); twice that
+        // leaves room for an S-curve's peak between samples. A change beyond it is a step.
+        let step = (1..self.vel_m_per_s.len())
+            .filter_map(|k| {
+                let dv = (self.vel_m_per_s[k] - self.vel_m_per_s[k - 1]).abs();
+                let a = self.acc_m_per_s2[k]
+                    .abs()
+                    .max(self.acc_m_per_s2[k - 1].abs());
+                (dv > 2.0 * a * dt_s + STEP_FLOOR_M_PER_S).then_some(dv / dt_s)
+            })
+            .reduce(f64::max);
         AxisPeaks {
             speed_m_per_s: max_abs(&self.vel_m_per_s),
             accel_m_per_s2: max_abs(&self.acc_m_per_s2),
             jerk_m_per_s3: jerk,
+            step_accel_m_per_s2: step,
         }
     }
 }
+
+/// A velocity change below this over one cycle (m/s, 0.06 mm/min) is rounding, not a step.
+const STEP_FLOOR_M_PER_S: f64 = 1e-6;
 
 /// Samples a plan at its interpolation cycle, from t = 0 to the end of the program, with
 /// the plan's own waits at exact stops.
@@ -210,5 +231,42 @@ impl<'p> Sampler<'p> {
         out.y.push(y.0, y.1, y.2);
         out.z.push(z.0, z.1, z.2);
         out.segment.push(self.index as u32);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The commands of a 2 ms cycle: standing, then `v` from one sample to the next with no
+    /// acceleration (the ideal profile's start), or reached at `a` over its cycles.
+    fn start(v: f64, a: Option<f64>) -> AxisCommands {
+        let dt = 0.002;
+        let mut c = AxisCommands::default();
+        let (mut x, mut speed) = (0.0, 0.0);
+        for k in 0..200 {
+            let (acc, next) = match a {
+                None if k >= 10 => (0.0, v),
+                Some(a) if k >= 10 && speed < v => (a, (speed + a * dt).min(v)),
+                _ => (0.0, speed),
+            };
+            c.push(x, speed, acc);
+            speed = next;
+            x += speed * dt;
+        }
+        c
+    }
+
+    #[test]
+    fn a_velocity_step_is_its_change_over_one_cycle() {
+        // 1000 mm/min = 1/60 m/s within 2 ms: (1/60) / 0.002 = 8.33 m/s².
+        let p = start(1.0 / 60.0, None).peaks(0.002);
+        assert_eq!(p.accel_m_per_s2, 0.0);
+        let step = p.step_accel_m_per_s2.unwrap();
+        assert!((step - 1.0 / 60.0 / 0.002).abs() < 1e-9, "{step}");
+        // Reached at 0.5 m/s² the same speed has no step: its peak is the acceleration.
+        let p = start(1.0 / 60.0, Some(0.5)).peaks(0.002);
+        assert_eq!(p.step_accel_m_per_s2, None);
+        assert_eq!(p.accel_m_per_s2, 0.5);
     }
 }

@@ -14,3 +14,4 @@ mod odd_records;
 mod records;
 mod reference_records;
 mod ripple;
+mod tables;

@@ -107,6 +107,47 @@ fn a_measurement_of_another_program_is_rejected_with_the_reason() {
     );
 }
 
+/// The first 0.1 s of a record whose program starts 0.5 s in: every command is the start
+/// point, nothing moved. Nothing fits a model that holds still better than any other, so the
+/// diagnosis refuses the record, as its first record and as the one it judges on; the same
+/// record kept on to 1.2 s (the program's approach has run 0.7 s) is diagnosed.
+#[test]
+fn a_record_in_which_nothing_moves_is_refused() {
+    use contourcheck::compare::CompareError;
+    use contourcheck::diagnose::diagnose_validated;
+    let nominal = MachineConfig::default_preset();
+    let prog = program("small-circle.nc");
+    let spec = SynthSpec {
+        offset_s: 0.5,
+        with_commands: true,
+        ..SynthSpec::default()
+    };
+    let mut csv = Vec::new();
+    synthesize(&prog, &nominal, &spec)
+        .unwrap()
+        .write_csv(&mut csv)
+        .unwrap();
+    let csv = String::from_utf8(csv).unwrap();
+    // The header and the samples at t < `until_s` (2 ms apart).
+    let cut = |until_s: f64| -> String {
+        let n = (until_s / 0.002).round() as usize;
+        csv.lines().take(1 + n).map(|l| format!("{l}\n")).collect()
+    };
+    let still = parse_trace(&cut(0.1), "still.csv").unwrap();
+    let settings = DiagnoseSettings::for_machine(&nominal);
+    let e = diagnose(&prog, &nominal, &still, &settings).unwrap_err();
+    assert!(
+        matches!(e, CompareError::NoMotion { travel_um, .. } if travel_um == [0.0, 0.0]),
+        "{e}"
+    );
+    assert!(e.to_string().contains("the record holds no motion"), "{e}");
+    let moving = parse_trace(&cut(1.2), "moving.csv").unwrap();
+    let e = diagnose_validated(&prog, &nominal, &moving, Some(&still), &settings).unwrap_err();
+    assert!(matches!(e, CompareError::NoMotion { .. }), "{e}");
+    let d = diagnose(&prog, &nominal, &moving, &settings).unwrap();
+    assert!(d.causes.is_empty(), "a nominal record");
+}
+
 /// A CNC trace in machine coordinates of a program run under a work offset: the commands
 /// run beside the program by the offset, which the refusal measures and names; given with
 /// the offset, the same record is diagnosed, and nothing is named on a nominal machine.
