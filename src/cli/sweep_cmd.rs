@@ -123,9 +123,11 @@ fn dimensions(
                 sweep::parse_range(range).map_err(|e| usage(e.to_string()))?
             };
             let prefixes = axis_prefixes(&axis)?;
+            let keys: Vec<String> = prefixes.iter().map(|p| format!("{p}.{key}")).collect();
+            refuse_twice(&dims, &keys, &format!("--{name} {range}"))?;
             dims.push(Dimension {
                 name: format!("{axis}.{name}"),
-                keys: prefixes.iter().map(|p| format!("{p}.{key}")).collect(),
+                keys,
                 values,
             });
         }
@@ -154,15 +156,7 @@ fn dimensions(
                     .map_err(|e| usage(e.to_string()))
             })
             .collect::<Result<Vec<_>, _>>()?;
-        if let Some(twice) = dims
-            .iter()
-            .find(|d| d.keys.iter().any(|k| keys.contains(k)))
-        {
-            return Err(usage(format!(
-                "--set {item}: its key is already swept (as {}); give each key once",
-                twice.name
-            )));
-        }
+        refuse_twice(&dims, &keys, &format!("--set {item}"))?;
         dims.push(Dimension {
             name: key.to_string(),
             keys,
@@ -179,6 +173,21 @@ fn dimensions(
         return Err(usage(format!("{points} settings: more than 100000")));
     }
     Ok(dims)
+}
+
+/// A key swept twice would make two columns of which the first has no effect: refused,
+/// naming the argument (`given`) and the dimension that already sweeps it.
+fn refuse_twice(dims: &[Dimension], keys: &[String], given: &str) -> Result<(), CliError> {
+    match dims
+        .iter()
+        .find(|d| d.keys.iter().any(|k| keys.contains(k)))
+    {
+        Some(twice) => Err(CliError::Usage(format!(
+            "{given}: its key is already swept (as {}); give each key once",
+            twice.name
+        ))),
+        None => Ok(()),
+    }
 }
 
 fn on_off(text: &str) -> Result<Vec<f64>, CliError> {

@@ -443,7 +443,11 @@ fn judge(
     ) {
         return Err(format!("fits, but implausible: {why}"));
     }
-    if let Some(why) = undetermined(cause, &fitted.values, &fitted.sigma) {
+    let own = cause
+        .params()
+        .first()
+        .map_or(0.0, |p| super::causes::get(current.axis(axis), p.key));
+    if let Some(why) = undetermined(cause, &fitted.values, &fitted.sigma, own) {
         return Err(why);
     }
     if let Some(why) = worse_somewhere(ctx, now, s.try_.statistical, axis, fitted) {

@@ -76,7 +76,11 @@ impl Figures {
             TableVerdict::WithinScatter
         }
     }
+}
 
+/// The verdict in words: what the command line prints.
+#[cfg(feature = "cli")]
+impl Figures {
     /// `rms` as a share of the measured errors (%).
     fn percent(&self, rms: f64) -> f64 {
         100.0 * rms / self.measured_rms_mm

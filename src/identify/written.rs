@@ -37,7 +37,8 @@ pub(super) fn of(
 /// what it predicts. The two shares are counted on different samples (the fit away from
 /// the standstills leaves them out), so that fit is a candidate only where, run as its file
 /// is on every sample (`on_every_sample`, µm), it leaves no more than the fit on every
-/// sample predicts of the halves it did not see, by the margin any fit with more in it must
+/// sample predicts of the halves it did not see (where it has such a figure: a half's fit
+/// with a point of its own), by the margin any fit with more in it must
 /// earn ([`verdict::predicts_better`]): a file the user runs on the record it came from sees
 /// the standstills too, and a fit that is worse on them than another is on data it never
 /// saw is not the model to predict other programs with.
@@ -52,10 +53,14 @@ fn best_written(
     {
         return m.clone();
     }
+    // Where neither half of the fit on every sample found a point of its own, its figure is
+    // its own residual on the samples it was fitted to — no held-out figure to hold another
+    // fit's file to.
     let everywhere_um = everywhere.1.held_out_identified_um;
+    let held_out = !everywhere.1.held_out_in_sample;
     let while_moving = while_moving.filter(|m| {
         let moving_um = on_every_sample(&m.0);
-        moving_um.is_some_and(|m| !verdict::predicts_better(everywhere_um, m))
+        !held_out || moving_um.is_some_and(|m| !verdict::predicts_better(everywhere_um, m))
     });
     let best = [Some(everywhere.clone()), while_moving]
         .into_iter()

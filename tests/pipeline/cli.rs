@@ -719,6 +719,19 @@ fn a_sweep_sets_the_interpolators_and_zs_keys_and_each_key_once() {
     ]);
     assert_eq!(twice.status.code(), Some(2));
     assert!(text(&twice.stderr).contains("already swept"), "{twice:?}");
+    // The same through a shortcut and through --set.
+    let twice = run(&[
+        "sweep",
+        square.to_str().unwrap(),
+        "--kv",
+        "0.8,1",
+        "--set",
+        "x.position_loop.kv_m_per_min_per_mm=0.9",
+    ]);
+    assert!(
+        text(&twice.stderr).contains("already swept (as x.kv)"),
+        "{twice:?}"
+    );
     let nowhere = run(&[
         "sweep",
         square.to_str().unwrap(),
