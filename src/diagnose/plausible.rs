@@ -58,17 +58,10 @@ const MODE_MARGIN: f64 = 0.025;
 const DETERMINED_SIGMAS: f64 = 2.0;
 
 /// Why a fitted cause is not determined, or `None` when it is: its level (the first value,
-/// `values` with standard uncertainties `sigma`) lies within [`DETERMINED_SIGMAS`] of the
-/// machine's own value of it (`nominal`: a fitted value replaces the machine's, so a gain's
-/// "no such effect" is the gain set, a backlash's the backlash the file already has), or has
-/// no uncertainty. A residual can fall with such a fit — the fit bends the model towards
+/// `values` with standard uncertainties `sigma`) lies within [`DETERMINED_SIGMAS`] of zero, or
+/// has no uncertainty. A residual can fall with such a fit — the fit bends the model towards
 /// whatever the residual holds — but the record does not tell the effect from none.
-pub(crate) fn undetermined(
-    cause: CauseId,
-    values: &[f64],
-    sigma: &[f64],
-    nominal: f64,
-) -> Option<String> {
+pub(crate) fn undetermined(cause: CauseId, values: &[f64], sigma: &[f64]) -> Option<String> {
     let param = cause.params().first()?;
     let (value, s) = (*values.first()?, *sigma.first()?);
     let sig = super::cause_text::with_uncertainty;
@@ -80,16 +73,10 @@ pub(crate) fn undetermined(
             param.unit
         ));
     }
-    let own = if nominal.is_finite() { nominal } else { 0.0 };
-    ((value - own).abs() < DETERMINED_SIGMAS * s).then(|| {
-        let of = if own == 0.0 {
-            "zero".to_string()
-        } else {
-            format!("the machine's own {own}")
-        };
+    (value.abs() < DETERMINED_SIGMAS * s).then(|| {
         format!(
             "fits, but not determined: {} = {} {} lies within {DETERMINED_SIGMAS} standard \
-             uncertainties of {of}",
+             uncertainties of zero",
             param.key,
             sig(value, s),
             param.unit
@@ -262,7 +249,7 @@ mod tests {
 
     #[test]
     fn a_level_within_two_uncertainties_of_zero_is_not_determined() {
-        let said = |cause, values: &[f64], sigma: &[f64]| undetermined(cause, values, sigma, 0.0);
+        let said = |cause, values: &[f64], sigma: &[f64]| undetermined(cause, values, sigma);
         // 126 ± 175 N of Stribeck excess on an axis with none: zero lies 0.7 σ away.
         let why = said(CauseId::Stribeck, &[126.0, 100.0], &[175.0, 50.0]).unwrap();
         assert!(
@@ -282,14 +269,6 @@ mod tests {
         assert!(said(CauseId::DeadTime, &[0.0], &[0.017]).is_some());
         // No uncertainty: nothing the record fixes.
         assert!(said(CauseId::DeadTime, &[0.5], &[f64::NAN]).is_some());
-        // A gain is judged against the gain set: 0.98 ± 0.02 where 1.0 is set is 1 σ from
-        // the machine as it is; 0.90 ± 0.01 is 10 σ from it.
-        let kv = |value, sigma| undetermined(CauseId::KvGain, &[value], &[sigma], 1.0);
-        let why = kv(0.98, 0.02).unwrap();
-        assert!(why.contains("the machine's own 1"), "{why}");
-        assert_eq!(kv(0.90, 0.01), None);
-        // 8 ± 3 µm of backlash found where the file already has 6: not told from it.
-        assert!(undetermined(CauseId::Backlash, &[8.0], &[3.0], 6.0).is_some());
     }
 
     fn ripple_verdict(amplitude_n: f64) -> Option<String> {

@@ -443,11 +443,7 @@ fn judge(
     ) {
         return Err(format!("fits, but implausible: {why}"));
     }
-    let own = cause
-        .params()
-        .first()
-        .map_or(0.0, |p| super::causes::get(current.axis(axis), p.key));
-    if let Some(why) = undetermined(cause, &fitted.values, &fitted.sigma, own) {
+    if let Some(why) = undetermined(cause, &fitted.values, &fitted.sigma) {
         return Err(why);
     }
     if let Some(why) = worse_somewhere(ctx, now, s.try_.statistical, axis, fitted) {
