@@ -285,6 +285,27 @@ pub(crate) fn corner_ceiling_hz(period_s: f64) -> f64 {
     }
 }
 
+/// The period (s) an axis's controller runs at, where the machine file gives one: a transfer
+/// function written in z runs every `sample_ms`. One written in s has none — the simulation
+/// integrates its states exactly with the drive's, the reference a polynomial in time over
+/// each interpolation cycle, so neither the interpolation cycle nor a record's sampling is
+/// its period (a position controller often runs several times per interpolation cycle, and
+/// a trace is logged at whatever rate its logger was set to): 0.
+pub(crate) fn controller_period_s(axis: &AxisConfig) -> f64 {
+    match &axis.controller {
+        Controller::TransferFunction(tf) if tf.sample_ms > 0.0 => 1e-3 * tf.sample_ms,
+        _ => 0.0,
+    }
+}
+
+/// The highest corner (Hz) a fit searches on `axis`'s controller: below half its own Nyquist
+/// frequency where it has a period, unbounded but for the knob's range where it runs in
+/// continuous time. What the record can resolve is not a bound: a corner the record does not
+/// determine is put back to the template's (see `CORNER_UNDETERMINED`).
+pub(crate) fn corner_ceiling_of(axis: &AxisConfig) -> f64 {
+    corner_ceiling_hz(controller_period_s(axis))
+}
+
 const CORNERS: [Knob; 4] = [
     corner("controller.zero_1_hz"),
     corner("controller.zero_2_hz"),
@@ -577,8 +598,35 @@ mod tests {
             realised(ceiling) / ceiling
         );
         assert!(realised(nyquist) / nyquist < 0.65);
-        // A record without a sampling step bounds nothing.
+        // A controller without a period bounds nothing.
         assert!(corner_ceiling_hz(0.0).is_infinite());
+    }
+
+    #[test]
+    fn a_corner_is_bounded_by_its_controllers_period_not_by_a_records() {
+        // A 10 kHz controller written in z (sample_ms 0.1), its lead's pole at 400 Hz: half
+        // its Nyquist frequency of 5 kHz is 2.5 kHz, whatever rate its trace was logged at
+        // (at 1 kHz, half that record's Nyquist frequency would be 250 Hz, below the pole).
+        let mut axis = MachineConfig::preset("small-table").unwrap().x;
+        let Controller::TransferFunction(tf) = &mut axis.controller else {
+            panic!("the small table runs a transfer function");
+        };
+        tf.sample_ms = 0.1;
+        assert!((controller_period_s(&axis) - 1e-4).abs() < 1e-15);
+        let ceiling = corner_ceiling_of(&axis);
+        assert!((ceiling - 2500.0).abs() < 1e-9, "{ceiling} Hz");
+        assert!(ceiling > 400.0);
+        // Written in s, the controller runs in continuous time in the simulation: no period,
+        // no ceiling but the corner's own range.
+        let Controller::TransferFunction(tf) = &mut axis.controller else {
+            unreachable!()
+        };
+        tf.sample_ms = 0.0;
+        assert_eq!(controller_period_s(&axis), 0.0);
+        assert!(corner_ceiling_of(&axis).is_infinite());
+        // Nor has the cascade one.
+        axis.controller = Controller::Cascade;
+        assert!(corner_ceiling_of(&axis).is_infinite());
     }
     use crate::machine::MachineConfig;
 

@@ -441,12 +441,10 @@ impl Problem<'_, '_, '_> {
             let s = k.scale_at(t);
             ((-level - t).min(0.0) / s, (level - t).max(0.0) / s)
         } else if k.logarithmic {
-            // The controller runs every cycle of the machine, or faster where its record
-            // shows it (a servo trace samples its controller's every cycle).
+            // A corner stays where the controller's own period lets it be placed: the
+            // record's sampling and the interpolation cycle are not that period.
             let max = if k.is_corner() {
-                let ctx = self.fit.ctx;
-                k.max
-                    .min(knobs::corner_ceiling_hz(ctx.dt.min(ctx.measured.dt_s)))
+                k.max.min(knobs::corner_ceiling_of(self.base))
             } else {
                 k.max
             };

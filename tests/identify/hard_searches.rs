@@ -30,7 +30,7 @@ use contourcheck::sim::MeasuredAt;
 
 /// The lead-lag table of `common::identifying` (its corners in Hz), the small table's viscous
 /// friction set to `viscous_n_s_per_m`.
-fn lead_lag(gain: f64, [z1, z2, p]: [f64; 3], viscous_n_s_per_m: f64) -> MachineConfig {
+pub(crate) fn lead_lag(gain: f64, [z1, z2, p]: [f64; 3], viscous_n_s_per_m: f64) -> MachineConfig {
     let text = lead_lag_toml(gain, z1, z2, p);
     let mut machine = MachineConfig::from_toml_str(&text, "lead-lag.toml").unwrap();
     machine.x.friction.viscous_n_s_per_m = viscous_n_s_per_m;

@@ -18,6 +18,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod corner_ceiling;
 mod hard_searches;
 mod held_start;
 mod hidden_machines;
