@@ -42,9 +42,11 @@ pub struct Interpolator {
     pub template_accel_m_per_s2: Vec<f64>,
     /// Peak acceleration (m/s²).
     pub accel_m_per_s2: Vec<f64>,
-    /// Peak jerk (m/s³): the 99.5th percentile of the acceleration's rate, so that the
-    /// single spikes of a stepped acceleration (a trapezoidal interpolator has no jerk
-    /// limit) are not taken for the control's jerk.
+    /// Peak jerk (m/s³): the highest level the acceleration's rate keeps for a plateau's
+    /// length (`PLATEAU_S`, at least `PLATEAU_SAMPLES`), so that the short spikes of a
+    /// stepped acceleration (a trapezoidal interpolator has no jerk limit) and of rounded
+    /// positions are not taken for the control's jerk, however short the jerk's phases
+    /// are against the record.
     pub jerk_m_per_s3: Vec<f64>,
     /// Per axis, the peak acceleration (m/s²) the template's planner gives the segments of
     /// the program the stretch compared covers: what those moves demanded. Its commands are
@@ -101,8 +103,12 @@ struct Series<'a> {
 /// the record gave there (and more than the peak). A spike through the peak's level (a
 /// stepped acceleration's rate) is not flat there; where the planner asks no more in the
 /// same segment than the record gave, that is what the move needed, not a limit.
+///
+/// Every plateau's length of every flat run is judged, not only the first: a run that starts
+/// where the demand or the path's ramp is not yet shown (a segment's first samples) counts
+/// where further on it is, once per run.
 fn held_at(s: &Series, peak: f64) -> bool {
-    let need = ((PLATEAU_S / s.dt).ceil() as usize).max(PLATEAU_SAMPLES);
+    let need = plateau_samples(s.dt);
     let change = |v: &[f64], k: usize| match (v.get(k + 1 - need), v.get(k)) {
         (Some(a), Some(b)) => (b - a).abs(),
         _ => 0.0,
@@ -110,17 +116,54 @@ fn held_at(s: &Series, peak: f64) -> bool {
     let flat = |x: f64| x.abs() >= PLATEAU_SHARE * peak && x.abs() * PLATEAU_SHARE <= peak;
     let demanded =
         |k: usize| (k + 1 - need..=k).all(|j| peak.max(s.given[j]) < PLATEAU_SHARE * s.demand[j]);
-    let (mut run, mut stretches) = (0usize, 0usize);
+    let ramping = |k: usize| {
+        let own = change(s.own, k);
+        own > 0.0 && change(s.path, k) >= RAMPING_SHARE * own
+    };
+    let (mut run, mut counted, mut stretches) = (0usize, false, 0usize);
     for (k, x) in s.held.iter().enumerate() {
         run = if peak > 0.0 && flat(*x) { run + 1 } else { 0 };
-        if run == need && k < s.demand.len().min(s.given.len()) && demanded(k) {
-            let own = change(s.own, k);
-            if own > 0.0 && change(s.path, k) >= RAMPING_SHARE * own {
-                stretches += 1;
-            }
+        counted &= run > 0;
+        if !counted
+            && run >= need
+            && k < s.demand.len().min(s.given.len())
+            && demanded(k)
+            && ramping(k)
+        {
+            counted = true;
+            stretches += 1;
         }
     }
     stretches >= PLATEAUS
+}
+
+/// The samples a plateau spans at a sampling step of `dt` (s).
+fn plateau_samples(dt: f64) -> usize {
+    ((PLATEAU_S / dt).ceil() as usize).max(PLATEAU_SAMPLES)
+}
+
+/// The highest magnitude `v` keeps over `need` samples in a row (the largest of the
+/// windows' least magnitudes); where `v` is shorter, its least magnitude.
+fn held_peak(v: &[f64], need: usize) -> f64 {
+    let need = need.clamp(1, v.len().max(1));
+    // The window's least magnitude by a queue of candidates, increasing from its front.
+    let mut queue = std::collections::VecDeque::<usize>::new();
+    let mut best = 0.0f64;
+    for (k, x) in v.iter().enumerate() {
+        while queue.back().is_some_and(|&j| v[j].abs() >= x.abs()) {
+            queue.pop_back();
+        }
+        queue.push_back(k);
+        if queue.front().is_some_and(|&j| j + need <= k) {
+            queue.pop_front();
+        }
+        if k + 1 >= need
+            && let Some(&j) = queue.front()
+        {
+            best = best.max(v[j].abs());
+        }
+    }
+    best
 }
 
 /// The largest magnitude in `v`.
@@ -194,16 +237,6 @@ fn derive(pos: &[f64], dt: f64, half: f64) -> Derived {
         })
         .collect();
     Derived { vel, acc, jerk }
-}
-
-/// The 99.5th percentile of the magnitudes in `v`: the single spikes of a stepped
-/// acceleration (a trapezoidal interpolator has no jerk limit) are not the control's jerk.
-fn percentile_995(v: &[f64]) -> f64 {
-    let mut m: Vec<f64> = v.iter().map(|r| r.abs()).collect();
-    m.sort_by(f64::total_cmp);
-    m.get(((m.len() as f64) * 0.995) as usize)
-        .copied()
-        .unwrap_or(0.0)
 }
 
 /// The path speed over the axes' `vel` and `acc` and its rate (the path's acceleration
@@ -427,7 +460,12 @@ pub(crate) fn read(ctx: &Context, template: &MachineConfig, offset_s: f64) -> In
     let derived = derive_stretch(&positions, range, dt, half);
     let demands = demands(ctx, &read, half);
     let accel: Vec<f64> = derived.iter().map(|d| peak(&d.acc)).collect();
-    let jerks: Vec<f64> = derived.iter().map(|d| percentile_995(&d.jerk)).collect();
+    // The jerk's peak over its plateaus: a percentile over every sample missed the jerk's
+    // phases where long moves at constant feed outnumber them.
+    let jerks: Vec<f64> = derived
+        .iter()
+        .map(|d| held_peak(&d.jerk, plateau_samples(dt)))
+        .collect();
     // The path over the axes read (a plunge of Z alone ramps it too).
     let pairs: Vec<(&[f64], &[f64])> = derived.iter().map(|d| (&d.vel[..], &d.acc[..])).collect();
     let (speed, along) = path_speed_and_rate(&pairs);
@@ -528,7 +566,7 @@ fn round_up(v: f64) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    use super::{Series, held_at, round_up};
+    use super::{Series, held_at, held_peak, plateau_samples, round_up};
 
     /// A trapezoidal ramp of one axis: `a` (m/s²) for `ramp` samples from rest, cruise,
     /// and the same down, twice; its velocity and acceleration every `dt`.
@@ -656,6 +694,61 @@ mod tests {
             .collect();
         let s = Series { held: &spikes, ..s };
         assert!(!held_at(&s, 0.2));
+    }
+
+    #[test]
+    fn a_plateau_whose_first_samples_were_not_demanded_counts_further_on() {
+        // Each ramp's first three samples lie where the planner asks no more than the
+        // record gave (0.5); from the fourth on it asks 2. A plateau is 5 samples at 1 ms:
+        // the first window of each ramp is not demanded, the ones after it are.
+        let dt = 1e-3;
+        let (vel, acc) = two_trapezoids(0.5, 20, dt);
+        assert_eq!(plateau_samples(dt), 5);
+        let starts = [5, 35, 60, 90];
+        let demand: Vec<f64> = (0..acc.len())
+            .map(|k| {
+                if starts.iter().any(|&s| (s..s + 3).contains(&k)) {
+                    0.5
+                } else {
+                    2.0
+                }
+            })
+            .collect();
+        let s = Series {
+            held: &acc,
+            own: &vel,
+            path: &vel,
+            demand: &demand,
+            given: &vec![0.5; acc.len()],
+            dt,
+        };
+        assert!(held_at(&s, 0.5));
+    }
+
+    #[test]
+    fn the_jerks_peak_is_its_plateau_however_long_the_record_around_it() {
+        // 20 s at 1 kHz; the jerk held at 5 m/s³ for 20 ms four times: 80 of 20 000
+        // samples, 0.4 % — below the top half per cent a percentile would read. Single
+        // samples at 50 m/s³ (a stepped acceleration's, or rounding's) are no plateau.
+        let dt = 1e-3;
+        let mut jerk = vec![0.0; 20_000];
+        for (n, start) in [1000, 6000, 11_000, 16_000].into_iter().enumerate() {
+            let sign = if n % 2 == 0 { 1.0 } else { -1.0 };
+            jerk[start..start + 20].fill(sign * 5.0);
+            jerk[start + 500] = 50.0;
+        }
+        let need = plateau_samples(dt);
+        assert_eq!(held_peak(&jerk, need), 5.0);
+        // Two samples at 50 next to each other are no 5 ms plateau either.
+        jerk[3000] = 50.0;
+        jerk[3001] = 50.0;
+        assert_eq!(held_peak(&jerk, need), 5.0);
+        // A plateau of 5 samples of 7 is.
+        jerk[8000..8005].fill(-7.0);
+        assert_eq!(held_peak(&jerk, need), 7.0);
+        // A record shorter than a plateau: its least magnitude.
+        assert_eq!(held_peak(&[3.0, -2.0], need), 2.0);
+        assert_eq!(held_peak(&[], need), 0.0);
     }
 
     #[test]
