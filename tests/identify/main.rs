@@ -18,7 +18,6 @@
 #[path = "../common/mod.rs"]
 mod common;
 
-mod corner_ceiling;
 mod hard_searches;
 mod held_start;
 mod hidden_machines;
@@ -26,6 +25,7 @@ mod lead_lag_family;
 mod leads;
 mod limits;
 mod presliding;
+mod record_rate;
 mod ripple;
 mod z_axis;
 mod z_reasons;
