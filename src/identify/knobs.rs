@@ -298,12 +298,19 @@ pub(crate) fn controller_period_s(axis: &AxisConfig) -> f64 {
     }
 }
 
-/// The highest corner (Hz) a fit searches on `axis`'s controller: below half its own Nyquist
-/// frequency where it has a period, unbounded but for the knob's range where it runs in
-/// continuous time. What the record can resolve is not a bound: a corner the record does not
-/// determine is put back to the template's (see `CORNER_UNDETERMINED`).
-pub(crate) fn corner_ceiling_of(axis: &AxisConfig) -> f64 {
-    corner_ceiling_hz(controller_period_s(axis))
+/// The highest corner (Hz) a fit searches on `axis`'s controller, from a record sampled
+/// every `record_step_s` (s): below half its own Nyquist frequency where it has a period,
+/// and below the record's Nyquist frequency always. A corner above the latter lies where
+/// the record has no samples to place it: fitted there, it follows the noise of the few
+/// points its tail bends (a pole at 92 kHz from a 10 kHz trace), a value no controller of
+/// that record could be shown to have.
+pub(crate) fn corner_ceiling_of(axis: &AxisConfig, record_step_s: f64) -> f64 {
+    let record_nyquist_hz = if record_step_s.is_finite() && record_step_s > 0.0 {
+        0.5 / record_step_s
+    } else {
+        f64::INFINITY
+    };
+    corner_ceiling_hz(controller_period_s(axis)).min(record_nyquist_hz)
 }
 
 const CORNERS: [Knob; 4] = [
@@ -603,19 +610,21 @@ mod tests {
     }
 
     #[test]
-    fn a_corner_is_bounded_by_its_controllers_period_not_by_a_records() {
+    fn a_corner_is_bounded_by_its_controllers_period_and_by_its_records_nyquist() {
         // A 10 kHz controller written in z (sample_ms 0.1), its lead's pole at 400 Hz: half
-        // its Nyquist frequency of 5 kHz is 2.5 kHz, whatever rate its trace was logged at
-        // (at 1 kHz, half that record's Nyquist frequency would be 250 Hz, below the pole).
+        // its Nyquist frequency of 5 kHz is 2.5 kHz on a trace of every cycle; logged at
+        // 1 kHz, that record's Nyquist frequency of 500 Hz (not half of it, 250 Hz, below
+        // the pole).
         let mut axis = MachineConfig::preset("small-table").unwrap().x;
         let Controller::TransferFunction(tf) = &mut axis.controller else {
             panic!("the small table runs a transfer function");
         };
         tf.sample_ms = 0.1;
         assert!((controller_period_s(&axis) - 1e-4).abs() < 1e-15);
-        let ceiling = corner_ceiling_of(&axis);
+        let ceiling = corner_ceiling_of(&axis, 1e-4);
         assert!((ceiling - 2500.0).abs() < 1e-9, "{ceiling} Hz");
         assert!(ceiling > 400.0);
+        assert!((corner_ceiling_of(&axis, 1e-3) - 500.0).abs() < 1e-9);
         // Written in s, the controller runs in continuous time in the simulation: no period,
         // no ceiling but the corner's own range.
         let Controller::TransferFunction(tf) = &mut axis.controller else {
@@ -623,10 +632,12 @@ mod tests {
         };
         tf.sample_ms = 0.0;
         assert_eq!(controller_period_s(&axis), 0.0);
-        assert!(corner_ceiling_of(&axis).is_infinite());
-        // Nor has the cascade one.
+        assert!(corner_ceiling_of(&axis, 0.0).is_infinite());
+        // Nor has the cascade one. A record logged at 1 kHz bounds either below its Nyquist
+        // frequency of 500 Hz, above the 400 Hz pole.
+        assert!((corner_ceiling_of(&axis, 1e-3) - 500.0).abs() < 1e-9);
         axis.controller = Controller::Cascade;
-        assert!(corner_ceiling_of(&axis).is_infinite());
+        assert!(corner_ceiling_of(&axis, 0.0).is_infinite());
     }
     use crate::machine::MachineConfig;
 

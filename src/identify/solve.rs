@@ -441,10 +441,13 @@ impl Problem<'_, '_, '_> {
             let s = k.scale_at(t);
             ((-level - t).min(0.0) / s, (level - t).max(0.0) / s)
         } else if k.logarithmic {
-            // A corner stays where the controller's own period lets it be placed: the
-            // record's sampling and the interpolation cycle are not that period.
+            // A corner stays where the controller's own period lets it be placed and the
+            // record can place it: the interpolation cycle is not the controller's period.
             let max = if k.is_corner() {
-                k.max.min(knobs::corner_ceiling_of(self.base))
+                k.max.min(knobs::corner_ceiling_of(
+                    self.base,
+                    self.fit.ctx.measured.dt_s,
+                ))
             } else {
                 k.max
             };
