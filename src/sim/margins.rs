@@ -162,6 +162,46 @@ pub(crate) fn response_grid(
     )
 }
 
+/// What a closed response shows on its Bode plot: its largest gain and where, and where it
+/// first falls to −3 dB and first lags by 10°.
+#[cfg(feature = "cli")]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct ClosedFigures {
+    /// The largest gain (dB); the low-frequency gain where it only falls.
+    pub peak_db: f64,
+    /// Where that is (Hz); 0 where the gain only falls.
+    pub peak_hz: f64,
+    /// First frequency where the gain falls to −3 dB (Hz).
+    pub bandwidth_3db_hz: f64,
+    /// First frequency where the phase reaches −10° (Hz).
+    pub phase_10deg_hz: f64,
+}
+
+/// The figures of one of a loop's closed responses, each read off that response alone: the
+/// feedback loop's T (`with_feedforward` false) or the command's with its feed-forward,
+/// which can rise far above T where the feed-forward drives a resonance T keeps down.
+#[cfg(feature = "cli")]
+pub(crate) fn closed_figures(
+    model: &AxisModel,
+    which: Loop,
+    with_feedforward: bool,
+) -> ClosedFigures {
+    let grid = response_grid(model, which, (FROM_HZ, TO_HZ), PER_DECADE);
+    let (peak_hz, peak_db) = if with_feedforward {
+        closed_peak(&grid, &linear::command_response(model, which))
+    } else {
+        closed_peak(&grid, &feedback_response(model, which))
+    };
+    let (bandwidth_3db_hz, phase_10deg_hz) =
+        linear::response_bandwidths(model, which, with_feedforward);
+    ClosedFigures {
+        peak_db,
+        peak_hz,
+        bandwidth_3db_hz,
+        phase_10deg_hz,
+    }
+}
+
 /// The logarithmic grid with, around each (frequency, damping) sharper than the grid
 /// resolves (ζ below 0.3), points a quarter of the resonance's half-width ζ·f apart over
 /// four half-widths either side: where a gain crosses 1 on a resonance's flank, a sample
