@@ -288,14 +288,15 @@ fn print_least_damped(model: &AxisModel, config: &AxisConfig, axis: AxisName) {
     }
 }
 
-/// Where the least damped closed-loop mode `overall` is one of the mechanics' left as they
-/// damp it (a screw's kilohertz torsion), the least damped of the loops' own modes too: the
-/// figure a gain setting is judged by (`sweep`'s `loop damping`).
+/// Where the least damped closed-loop mode `overall` is one of the mechanics' that the loops
+/// leave where the mechanics put it (a screw's kilohertz torsion), the least damped of the
+/// modes the loops act on too: the figure a gain setting is judged by (`sweep`'s `loop
+/// damping`).
 fn print_least_damped_loop_mode(model: &AxisModel, overall: &linear::ModalFigure) {
     match margins::least_damped_loop_mode(model) {
         Some(own) if own != *overall => println!(
-            "least damped of the loops' own modes: {:.1} Hz, damping ratio {:.3} (the {:.1} Hz \
-             mode is the mechanics', left as they damp it)",
+            "least damped of the modes the loops act on: {:.1} Hz, damping ratio {:.3} (the \
+             {:.1} Hz mode is the mechanics', left where they put it)",
             own.frequency_hz, own.damping, overall.frequency_hz
         ),
         _ => {}
