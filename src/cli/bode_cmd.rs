@@ -20,7 +20,8 @@ pub struct BodeArgs {
     pub machine: MachineArgs,
     #[command(flatten)]
     pub axis: AxisArg,
-    /// Write magnitude and phase of the closed loops into this directory, as
+    /// Write magnitude and phase of each loop, closed (with feed-forward too where it has
+    /// one) and open, into this directory, as
     /// bode-<axis>.png and .svg.
     #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
@@ -46,7 +47,10 @@ pub(crate) fn run(args: &BodeArgs) -> Result<Outcome, CliError> {
             .iter()
             .flat_map(|m| loop_curves(&model, m))
             .collect();
-        let title = format!("Closed loops, {} axis of {}", args.axis.axis, machine.name);
+        let title = format!(
+            "Closed and open loops, {} axis of {}",
+            args.axis.axis, machine.name
+        );
         let stem = format!("bode-{}", args.axis.axis.as_str());
         let footer = Footer::new(&machine.name).sampling(format!(
             "{} axis, linearised: friction viscous only, nut in contact",
