@@ -10,7 +10,7 @@ use crate::machine::{AxisConfig, AxisName};
 use crate::plot::Footer;
 use crate::plot::bode::{BodeCurve, BodeMark, BodePlot};
 use crate::sim::AxisModel;
-use crate::sim::linear;
+use crate::sim::linear::{self, Response, feedback_response};
 use crate::sim::margins::{self, LoopMargins, MIN_GAIN_MARGIN_DB, MIN_PHASE_MARGIN_DEG};
 
 /// Arguments of `bode`.
@@ -20,7 +20,8 @@ pub struct BodeArgs {
     pub machine: MachineArgs,
     #[command(flatten)]
     pub axis: AxisArg,
-    /// Write magnitude and phase of the closed loops into this directory, as
+    /// Write magnitude and phase of each loop, closed (with feed-forward too where it has
+    /// one) and open, into this directory, as
     /// bode-<axis>.png and .svg.
     #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
@@ -44,18 +45,12 @@ pub(crate) fn run(args: &BodeArgs) -> Result<Outcome, CliError> {
     if let Some(path) = &args.plot {
         let curves = margins
             .iter()
-            .map(|m| BodeCurve {
-                label: format!("{} loop: {}", m.which.name(), margin_summary(m)),
-                points: linear::bode(
-                    &model,
-                    m.which,
-                    &margins::response_grid(&model, m.which, (0.1, 10_000.0), 60),
-                    false,
-                ),
-                marks: marks(m),
-            })
+            .flat_map(|m| loop_curves(&model, m))
             .collect();
-        let title = format!("Closed loops, {} axis of {}", args.axis.axis, machine.name);
+        let title = format!(
+            "Closed and open loops, {} axis of {}",
+            args.axis.axis, machine.name
+        );
         let stem = format!("bode-{}", args.axis.axis.as_str());
         let footer = Footer::new(&machine.name).sampling(format!(
             "{} axis, linearised: friction viscous only, nut in contact",
@@ -66,7 +61,42 @@ pub(crate) fn run(args: &BodeArgs) -> Result<Outcome, CliError> {
     Ok(Outcome::Ok)
 }
 
-/// A loop's margins in a few words: `PM 62.7°, GM 14.2 dB, peak +1.3 dB`.
+/// A loop's curves: its feedback loop closed (marked at its own peak), from the command
+/// with the feed-forward where it has one (marked at that response's own peak), and its open
+/// loop, where the margins are read (marked at the crossovers).
+fn loop_curves(model: &AxisModel, m: &LoopMargins) -> Vec<BodeCurve> {
+    let grid = margins::response_grid(model, m.which, (0.1, 10_000.0), 60);
+    let curve = |label: String, response, marks| BodeCurve {
+        label,
+        points: linear::bode(model, m.which, &grid, response),
+        marks,
+    };
+    let name = m.which.name();
+    let mut out = vec![curve(
+        format!("{name}: feedback loop closed, peak {:+.1} dB", m.peak_db),
+        Response::Feedback,
+        peak_mark(m.peak_hz, m.peak_db),
+    )];
+    if linear::has_feedforward(model, m.which) {
+        let f = margins::closed_figures(model, m.which, true);
+        out.push(curve(
+            format!(
+                "{name}: command with feed-forward, peak {:+.1} dB",
+                f.peak_db
+            ),
+            Response::WithFeedforward,
+            peak_mark(f.peak_hz, f.peak_db),
+        ));
+    }
+    out.push(curve(
+        format!("{name}: open loop, {}", margin_summary(m)),
+        Response::Open,
+        margin_marks(m),
+    ));
+    out
+}
+
+/// A loop's margins in a few words: `PM 62.7°, GM 14.2 dB`.
 fn margin_summary(m: &LoopMargins) -> String {
     let gm = if m.gain_margin_db.is_finite() {
         format!("{:.1} dB", m.gain_margin_db)
@@ -78,20 +108,26 @@ fn margin_summary(m: &LoopMargins) -> String {
     } else {
         "∞".into()
     };
-    format!("PM {pm}, GM {gm}, peak {:+.1} dB", m.peak_db)
+    format!("PM {pm}, GM {gm}")
 }
 
-/// The marks of a loop's curves: its resonance peak on the magnitude, its phase margin at
-/// the gain crossover and its gain margin at the phase crossover on the phase.
-fn marks(m: &LoopMargins) -> Vec<BodeMark> {
-    let mut out = Vec::new();
-    if m.peak_hz > 0.0 && m.peak_db > 0.05 {
-        out.push(BodeMark {
-            freq_hz: m.peak_hz,
+/// A response's peak marked on its magnitude, where it rises above its low-frequency gain.
+fn peak_mark(peak_hz: f64, peak_db: f64) -> Vec<BodeMark> {
+    if peak_hz > 0.0 && peak_db > 0.05 {
+        vec![BodeMark {
+            freq_hz: peak_hz,
             on_phase: false,
-            label: format!("peak {:+.1} dB at {}", m.peak_db, hz(m.peak_hz)),
-        });
+            label: format!("peak {peak_db:+.1} dB at {}", hz(peak_hz)),
+        }]
+    } else {
+        Vec::new()
     }
+}
+
+/// The margins marked on the open loop's phase: the phase margin at the gain crossover, the
+/// gain margin at the phase crossover.
+fn margin_marks(m: &LoopMargins) -> Vec<BodeMark> {
+    let mut out = Vec::new();
     if let Some(f) = m.crossover_hz {
         out.push(BodeMark {
             freq_hz: f,
@@ -136,28 +172,34 @@ fn cell(v: f64, width: usize, decimals: usize, unit: &str, missing: &mut bool) -
     }
 }
 
-/// Each loop's crossover, margins, closed-loop peak and bandwidths, and low-frequency gain.
+/// Each loop's crossover and margins, its feedback loop's peak, bandwidths and
+/// low-frequency gain; below, where the command also reaches a loop through feed-forward,
+/// that response's own figures.
 fn print_loop_table(model: &AxisModel, margins: &[LoopMargins]) {
     println!(
-        "loop       crossover  phase margin  gain margin  closed-loop peak      closed −3 dB  \
-         closed −10°  gain at crossover/100"
+        "{:<9} {:>11} {:>13} {:>12}  {:<20} {:>13} {:>12} {:>14}",
+        "loop",
+        "crossover",
+        "phase margin",
+        "gain margin",
+        "feedback loop: peak",
+        "−3 dB",
+        "−10°",
+        "gain at fc/100"
     );
     let mut missing = false;
     for m in margins {
-        let f = linear::loop_figures(model, m.which);
-        let low = linear::closed_loop(model, m.which, f.crossover_hz / 100.0);
-        let peak = if m.peak_hz > 0.0 {
-            format!("{:>+6.2} dB at {:>8}", m.peak_db, hz(m.peak_hz))
-        } else {
-            format!("{:>+6.2} dB {:>11}", m.peak_db, "(none)")
-        };
+        let f = margins::closed_figures(model, m.which, false);
+        let crossover = m.crossover_hz.unwrap_or(f64::NAN);
+        let low = feedback_response(model, m.which)(crossover / 100.0);
         let mut c = |v, w, d, u| cell(v, w, d, u, &mut missing);
         println!(
-            "{:<9} {} {} {} {peak} {} {} {}",
+            "{:<9} {} {} {} {} {} {} {}",
             m.which.name(),
-            c(m.crossover_hz.unwrap_or(f64::NAN), 8, 2, " Hz"),
+            c(crossover, 8, 2, " Hz"),
             c(m.phase_margin_deg, 12, 1, "°"),
             c(m.gain_margin_db, 9, 1, " dB"),
+            peak_cell(f.peak_hz, f.peak_db),
             c(f.bandwidth_3db_hz, 10, 2, " Hz"),
             c(f.phase_10deg_hz, 9, 2, " Hz"),
             c(20.0 * low.norm().log10(), 10, 2, " dB"),
@@ -165,6 +207,29 @@ fn print_loop_table(model: &AxisModel, margins: &[LoopMargins]) {
     }
     if missing {
         println!("— : the loop does not reach that point between 0.1 mHz and 100 kHz");
+    }
+    for m in margins {
+        if linear::has_feedforward(model, m.which) {
+            let f = margins::closed_figures(model, m.which, true);
+            let mut c = |v, w, d, u| cell(v, w, d, u, &mut missing);
+            println!(
+                "{} loop, command to {} with feed-forward: peak {}, −3 dB {}, −10° {}",
+                m.which.name(),
+                m.which.name(),
+                peak_cell(f.peak_hz, f.peak_db).trim(),
+                c(f.bandwidth_3db_hz, 0, 2, " Hz"),
+                c(f.phase_10deg_hz, 0, 2, " Hz"),
+            );
+        }
+    }
+}
+
+/// A response's peak: its gain and where, or that it only falls.
+fn peak_cell(peak_hz: f64, peak_db: f64) -> String {
+    if peak_hz > 0.0 {
+        format!("{peak_db:>+6.2} dB at {:>8}", hz(peak_hz))
+    } else {
+        format!("{peak_db:>+6.2} dB {:>11}", "(none)")
     }
 }
 
@@ -227,14 +292,15 @@ fn print_least_damped(model: &AxisModel, config: &AxisConfig, axis: AxisName) {
     }
 }
 
-/// Where the least damped closed-loop mode `overall` is one of the mechanics' left as they
-/// damp it (a screw's kilohertz torsion), the least damped of the loops' own modes too: the
-/// figure a gain setting is judged by (`sweep`'s `loop damping`).
+/// Where the least damped closed-loop mode `overall` is one of the mechanics' that the loops
+/// leave where the mechanics put it (a screw's kilohertz torsion), the least damped of the
+/// modes the loops act on too: the figure a gain setting is judged by (`sweep`'s `loop
+/// damping`).
 fn print_least_damped_loop_mode(model: &AxisModel, overall: &linear::ModalFigure) {
     match margins::least_damped_loop_mode(model) {
         Some(own) if own != *overall => println!(
-            "least damped of the loops' own modes: {:.1} Hz, damping ratio {:.3} (the {:.1} Hz \
-             mode is the mechanics', left as they damp it)",
+            "least damped of the modes the loops act on: {:.1} Hz, damping ratio {:.3} (the \
+             {:.1} Hz mode is the mechanics', left where they put it)",
             own.frequency_hz, own.damping, overall.frequency_hz
         ),
         _ => {}

@@ -62,9 +62,11 @@ pub struct SweepArgs {
     /// Settings listed on the terminal.
     #[arg(long, default_value_t = 20, value_name = "N")]
     pub rows: usize,
-    /// Least damping ratio of the closed loops' own modes (the mechanics' own left aside)
-    /// of a healthy setting: below it a setting is flagged and ranked after every healthy
-    /// one, whatever its contour error.
+    /// Least damping ratio of a healthy setting's closed-loop modes of the loops' making
+    /// (their own, or a mode of the mechanics they damp less than the mechanics alone):
+    /// below it a setting is flagged and ranked after every healthy one, whatever its
+    /// contour error. The `loop damping` column is the least damping of every mode the
+    /// loops act on, with its frequency.
     #[arg(long, default_value_t = crate::sweep::POOR_DAMPING, value_name = "ZETA")]
     pub min_damping: f64,
     /// Least phase margin of every loop of a healthy setting (degrees).
@@ -323,8 +325,9 @@ fn print_table(
 ) {
     println!(
         "sweep of {program} on {machine}: ranked by the largest contour error; a setting with \
-         a loop below {}° of phase margin or {} dB of gain margin, or a closed loop's own mode \
-         damped below ζ {}, is flagged and ranked after every healthy one",
+         a loop below {}° of phase margin or {} dB of gain margin, or a closed-loop mode of the \
+         loops' making (their own, or the mechanics' damped less than alone) damped below ζ {}, \
+         is flagged and ranked after every healthy one",
         t.min_phase_margin_deg, t.min_gain_margin_db, t.min_damping
     );
     let head: Vec<String> = dims.iter().map(|d| format!("{:>10}", d.name)).collect();

@@ -269,16 +269,30 @@ pub fn open_loop(model: &AxisModel, which: Loop, freq_hz: f64) -> Complex<f64> {
     t / (Complex::new(1.0, 0.0) - t)
 }
 
-/// Magnitude (dB) and phase (degrees, unwrapped from 0 at low frequency) over a frequency
-/// list; none for a loop the axis does not have.
+/// Which of a loop's responses a Bode plot draws.
+#[cfg(feature = "cli")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Response {
+    /// The open loop L = T/(1 − T), where the margins are read.
+    Open,
+    /// The feedback loop closed, T = L/(1 + L), feed-forward left out.
+    Feedback,
+    /// From the command to the loop's output with the feed-forward added.
+    WithFeedforward,
+}
+
+/// Magnitude (dB) and phase (degrees, unwrapped from 0 at low frequency) of one of a
+/// loop's responses over a frequency list; none for a loop the axis does not have.
 #[cfg(feature = "cli")]
 pub(crate) fn bode(
     model: &AxisModel,
     which: Loop,
     freqs_hz: &[f64],
-    open: bool,
+    response: Response,
 ) -> Vec<(f64, f64, f64)> {
-    let Some(sys) = loop_system(model, which, open) else {
+    let open = response == Response::Open;
+    let feedback_only = response != Response::WithFeedforward;
+    let Some(sys) = loop_system(model, which, feedback_only) else {
         return Vec::new();
     };
     let mut out = Vec::with_capacity(freqs_hz.len());
@@ -301,6 +315,14 @@ pub(crate) fn bode(
         }
         prev_phase = Some(phase);
         out.push((f, 20.0 * h.norm().log10(), phase));
+    }
+    if open && let Some(&(_, _, first, ..)) = out.first() {
+        // An open loop's integrators put its phase below 0° at low frequency, where the
+        // margins are read against −180°: its curve starts in (−360°, 0°], not a turn above.
+        let turns = 360.0 * (first / 360.0).ceil();
+        for p in &mut out {
+            p.2 -= turns;
+        }
     }
     out
 }
@@ -364,14 +386,7 @@ pub fn loop_figures(model: &AxisModel, which: Loop) -> LoopFigures {
     // A loop with several integrators starts below −180°: the margin is read modulo a turn.
     let phase_margin_deg =
         (180.0 + unwrapped_phase(&feedback, crossover_hz) + 180.0).rem_euclid(360.0) - 180.0;
-    let gain_3db = 1.0 / 2f64.sqrt();
-    let bandwidth_3db_hz = first_crossing(
-        &grid,
-        |f| sys.response(f).norm() - gain_3db,
-        &closed,
-        |t| t.norm() - gain_3db,
-    );
-    let phase_10deg_hz = first_crossing_phase(&sys, &grid, -10.0);
+    let (bandwidth_3db_hz, phase_10deg_hz) = bandwidths(&sys, &grid, &closed);
     LoopFigures {
         which,
         crossover_hz,
@@ -380,6 +395,57 @@ pub fn loop_figures(model: &AxisModel, which: Loop) -> LoopFigures {
         phase_10deg_hz,
         dc_gain_db: 20.0 * sys.response(1e-4).norm().log10(),
     }
+}
+
+/// The first frequencies where a closed response `sys` falls to −3 dB and where its phase
+/// reaches −10°, read on `grid` where it takes the values `closed`.
+fn bandwidths(sys: &Siso, grid: &[f64], closed: &[Complex<f64>]) -> (f64, f64) {
+    let gain_3db = 1.0 / 2f64.sqrt();
+    let bandwidth_3db_hz = first_crossing(
+        grid,
+        |f| sys.response(f).norm() - gain_3db,
+        closed,
+        |t| t.norm() - gain_3db,
+    );
+    (bandwidth_3db_hz, first_crossing_phase(sys, grid, -10.0))
+}
+
+/// The −3 dB and −10° frequencies of one of a loop's closed responses: the feedback loop's
+/// T = L/(1 + L) (`with_feedforward` false) or the command's with the feed-forward the
+/// position loop adds to it; NaN for a loop the axis does not have.
+#[cfg(feature = "cli")]
+pub(crate) fn response_bandwidths(
+    model: &AxisModel,
+    which: Loop,
+    with_feedforward: bool,
+) -> (f64, f64) {
+    let Some(sys) = loop_system(model, which, !with_feedforward) else {
+        return (f64::NAN, f64::NAN);
+    };
+    let grid = log_space(1e-4, 100_000.0, 360);
+    let closed: Vec<Complex<f64>> = grid.iter().map(|&f| sys.response(f)).collect();
+    bandwidths(&sys, &grid, &closed)
+}
+
+/// Whether the loop's command reaches it through a feed-forward as well as its feedback:
+/// its response from the command then differs from its feedback loop's T.
+#[cfg(feature = "cli")]
+pub(crate) fn has_feedforward(model: &AxisModel, which: Loop) -> bool {
+    match (
+        loop_system(model, which, false),
+        loop_system(model, which, true),
+    ) {
+        (Some(with), Some(without)) => with.b != without.b,
+        _ => false,
+    }
+}
+
+/// The loop's closed response from its command with the feed-forward, as a function of f
+/// in Hz; NaN for a loop the axis does not have.
+#[cfg(feature = "cli")]
+pub(crate) fn command_response(model: &AxisModel, which: Loop) -> impl Fn(f64) -> Complex<f64> {
+    let sys = loop_system(model, which, false);
+    move |f| sys.as_ref().map_or(NO_RESPONSE, |s| s.response(f))
 }
 
 /// First frequency on the grid where `g` changes sign from positive, refined by bisection.

@@ -8,9 +8,9 @@
 //! damped resonance — where a margin is lost — is never stepped over; each crossing is then
 //! refined by bisection and each peak by golden-section search.
 //!
-//! Beside them, the closed loops' own modes: the closed-loop eigenvalues less those the
-//! loops leave where the mechanics alone put them (a ball screw's kilohertz torsional mode,
-//! damped by its material whatever the gains), so that a least damping read from them says
+//! Beside them, the modes the loops act on: the closed-loop eigenvalues less those the loops
+//! leave where the mechanics alone put them (a ball screw's kilohertz torsional mode, damped
+//! by its material whatever the gains), so that a least damping read from them says
 //! something about the loops' setting.
 
 use std::f64::consts::TAU;
@@ -160,6 +160,46 @@ pub(crate) fn response_grid(
         (from_hz, to_hz),
         per_decade,
     )
+}
+
+/// What a closed response shows on its Bode plot: its largest gain and where, and where it
+/// first falls to −3 dB and first lags by 10°.
+#[cfg(feature = "cli")]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct ClosedFigures {
+    /// The largest gain (dB); the low-frequency gain where it only falls.
+    pub peak_db: f64,
+    /// Where that is (Hz); 0 where the gain only falls.
+    pub peak_hz: f64,
+    /// First frequency where the gain falls to −3 dB (Hz).
+    pub bandwidth_3db_hz: f64,
+    /// First frequency where the phase reaches −10° (Hz).
+    pub phase_10deg_hz: f64,
+}
+
+/// The figures of one of a loop's closed responses, each read off that response alone: the
+/// feedback loop's T (`with_feedforward` false) or the command's with its feed-forward,
+/// which can rise far above T where the feed-forward drives a resonance T keeps down.
+#[cfg(feature = "cli")]
+pub(crate) fn closed_figures(
+    model: &AxisModel,
+    which: Loop,
+    with_feedforward: bool,
+) -> ClosedFigures {
+    let grid = response_grid(model, which, (FROM_HZ, TO_HZ), PER_DECADE);
+    let (peak_hz, peak_db) = if with_feedforward {
+        closed_peak(&grid, &linear::command_response(model, which))
+    } else {
+        closed_peak(&grid, &feedback_response(model, which))
+    };
+    let (bandwidth_3db_hz, phase_10deg_hz) =
+        linear::response_bandwidths(model, which, with_feedforward);
+    ClosedFigures {
+        peak_db,
+        peak_hz,
+        bandwidth_3db_hz,
+        phase_10deg_hz,
+    }
 }
 
 /// The logarithmic grid with, around each (frequency, damping) sharper than the grid
@@ -324,17 +364,47 @@ pub(crate) fn mechanical_modes(model: &AxisModel) -> Vec<ModalFigure> {
         .collect()
 }
 
-/// Whether closed-loop mode `m` is mechanical mode `own` as the loops leave it: within a
-/// tenth of its frequency, and damped at least half as well. A loop that takes more of a
-/// mode's damping than that (a position gain ringing with the table on its screw) has made
-/// the mode its own.
-fn left_as_it_is(m: &ModalFigure, own: &ModalFigure) -> bool {
-    (m.frequency_hz / own.frequency_hz - 1.0).abs() <= 0.1 && m.damping >= 0.5 * own.damping
+/// A closed-loop mode as a point of the complex plane (1/s), upper half.
+fn eigenvalue(m: &ModalFigure) -> Complex<f64> {
+    let omega = TAU * m.frequency_hz;
+    Complex::new(
+        m.real_per_s,
+        (omega * omega - m.real_per_s * m.real_per_s)
+            .max(0.0)
+            .sqrt(),
+    )
 }
 
-/// The closed loops' own oscillatory modes: every closed-loop mode with a damping below 1
-/// except, for each mode of the mechanics alone, the closed-loop mode left where it is.
-pub(crate) fn loop_modes(model: &AxisModel) -> Vec<ModalFigure> {
+/// A closed-loop mode the loops act on, with the damping the mechanics alone give the mode
+/// it continues (none for a mode of the loops' own).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct LoopMode {
+    /// The closed-loop mode.
+    pub mode: ModalFigure,
+    /// The damping ratio of the mechanics' mode it continues, where it continues one.
+    pub mechanics_damping: Option<f64>,
+}
+
+impl LoopMode {
+    /// Whether the loops made this mode or damp it less than the mechanics alone: where a
+    /// damping below the threshold is the setting's doing.
+    pub(crate) fn of_the_loops_making(&self) -> bool {
+        self.mechanics_damping
+            .is_none_or(|own| self.mode.damping < own)
+    }
+}
+
+/// How far (as a share of its decay rate, the half-width of its resonance in rad/s) the loops
+/// may move a mode of the mechanics before they act on it.
+const LEFT_AS_IT_IS: f64 = 0.1;
+
+/// The closed loops' oscillatory modes that the loops act on: every closed-loop mode with a
+/// damping below 1 except, for each mode of the mechanics alone, its continuation where the
+/// loops leave it where the mechanics put it — its eigenvalue moved by less than a tenth of
+/// its decay rate (a screw's kilohertz torsion, far above every loop's crossover). Which
+/// modes count does not depend on how well the loops damp them, so the least damping over
+/// them moves continuously with the gains.
+pub(crate) fn loop_modes(model: &AxisModel) -> Vec<LoopMode> {
     let mut modes: Vec<ModalFigure> = closed_loop_modes(model)
         .into_iter()
         .filter(|m| m.damping < 0.999 && m.frequency_hz > 0.0 && m.real_per_s.is_finite())
@@ -345,27 +415,54 @@ pub(crate) fn loop_modes(model: &AxisModel) -> Vec<ModalFigure> {
         (a.frequency_hz - b.frequency_hz).abs() <= 1e-9 * b.frequency_hz
             && (a.damping - b.damping).abs() <= 1e-9
     });
+    let mut out: Vec<Option<LoopMode>> = modes
+        .iter()
+        .map(|&mode| {
+            Some(LoopMode {
+                mode,
+                mechanics_damping: None,
+            })
+        })
+        .collect();
     for own in mechanical_modes(model) {
+        let at = eigenvalue(&own);
+        // Its continuation: the closed-loop mode nearest it, within a tenth of its frequency.
         let nearest = modes
             .iter()
             .enumerate()
-            .filter(|(_, m)| left_as_it_is(m, &own))
+            .filter(|(_, m)| (m.frequency_hz / own.frequency_hz - 1.0).abs() <= 0.1)
             .min_by(|a, b| {
-                let d = |m: &ModalFigure| (m.frequency_hz / own.frequency_hz - 1.0).abs();
+                let d = |m: &ModalFigure| (eigenvalue(m) - at).norm();
                 d(a.1).total_cmp(&d(b.1))
-            })
-            .map(|(i, _)| i);
-        if let Some(i) = nearest {
-            modes.remove(i);
+            });
+        let Some((i, m)) = nearest else { continue };
+        if (eigenvalue(m) - at).norm() <= LEFT_AS_IT_IS * own.real_per_s.abs() {
+            out[i] = None;
+        } else if let Some(lm) = &mut out[i] {
+            lm.mechanics_damping = Some(own.damping);
         }
     }
-    modes
+    out.into_iter().flatten().collect()
 }
 
-/// The least damped of the closed loops' own modes ([`loop_modes`]).
+/// The least damped of the modes the loops act on ([`loop_modes`]): `sweep`'s `loop damping`.
 pub(crate) fn least_damped_loop_mode(model: &AxisModel) -> Option<ModalFigure> {
-    loop_modes(model)
-        .into_iter()
+    least_of(loop_modes(model).into_iter())
+}
+
+/// The least damped of the modes of the loops' making ([`LoopMode::of_the_loops_making`]):
+/// what a setting is flagged by.
+pub(crate) fn least_damped_of_the_loops_making(model: &AxisModel) -> Option<ModalFigure> {
+    least_of(
+        loop_modes(model)
+            .into_iter()
+            .filter(LoopMode::of_the_loops_making),
+    )
+}
+
+fn least_of(modes: impl Iterator<Item = LoopMode>) -> Option<ModalFigure> {
+    modes
+        .map(|m| m.mode)
         .min_by(|a, b| a.damping.total_cmp(&b.damping))
 }
 
@@ -390,7 +487,10 @@ mod tests {
         // The torsional mode (≈ 10 kHz, ζ 0.02) and the axial one.
         assert_eq!(own.len(), 2, "{own:?}");
         let loops = loop_modes(&model);
-        assert!(loops.iter().all(|m| m.frequency_hz < 5_000.0), "{loops:?}");
+        assert!(
+            loops.iter().all(|m| m.mode.frequency_hz < 5_000.0),
+            "{loops:?}"
+        );
         let all = closed_loop_modes(&model);
         assert!(all.iter().any(|m| m.frequency_hz > 5_000.0));
     }

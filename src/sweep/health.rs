@@ -1,6 +1,6 @@
 //! Whether a setting is one to put on a machine: each loop's stability margins from the
-//! linear model `bode` reads ([`crate::sim::margins`]) and the damping of the closed loops'
-//! own modes, against thresholds engineers commission to. A setting short of any is flagged
+//! linear model `bode` reads ([`crate::sim::margins`]) and the damping of the closed-loop
+//! modes the loops act on, against thresholds engineers commission to. A setting short of any is flagged
 //! and ranked after every healthy one, whatever its contour error: a small error bought
 //! with a ringing loop is not a result.
 
@@ -14,12 +14,15 @@ use crate::sim::AxisModel;
 use crate::sim::linear::{Loop, ModalFigure};
 use crate::sim::margins::{
     self, LoopMargins, MIN_GAIN_MARGIN_DB, MIN_PHASE_MARGIN_DEG, least_damped_loop_mode,
+    least_damped_of_the_loops_making,
 };
 
-/// Least damping ratio of the closed loops' own modes below which a setting is flagged
+/// Least damping ratio below which a closed-loop mode of the loops' making flags a setting
 /// (the default of `sweep --min-damping`): a mode damped less rings for dozens of periods
-/// after every corner. The mechanics' own modes (a screw's torsion, damped by its material
-/// whatever the gains) are not the loops' and are not counted.
+/// after every corner. A mode of the loops' own counts, and a mode of the mechanics that the
+/// loops damp less than the mechanics alone; one the loops leave as damped as the
+/// mechanics make it (a screw's torsion, damped by its material whatever the gains) is not
+/// the setting's doing.
 pub const POOR_DAMPING: f64 = 0.05;
 
 /// The thresholds a healthy setting meets.
@@ -29,7 +32,7 @@ pub struct Thresholds {
     pub min_phase_margin_deg: f64,
     /// Least gain margin of every loop, up or down (dB).
     pub min_gain_margin_db: f64,
-    /// Least damping ratio of the closed loops' own modes.
+    /// Least damping ratio of the closed-loop modes of the loops' making.
     pub min_damping: f64,
 }
 
@@ -57,11 +60,15 @@ pub struct AxisMargins {
 pub struct Health {
     /// X's and Y's loops.
     pub margins: Vec<AxisMargins>,
-    /// Least damping ratio of the closed loops' own modes, X and Y (infinite where none
-    /// oscillates).
+    /// Least damping ratio of the closed-loop modes the loops act on, X and Y (infinite
+    /// where none oscillates): the modes counted do not depend on their damping, so the
+    /// figure moves continuously with the gains.
     pub loop_damping: f64,
     /// That mode's frequency (Hz) and axis.
     pub loop_damping_at: Option<(AxisName, f64)>,
+    /// The least damped mode of the loops' making, X and Y — their own, or one of the
+    /// mechanics that they damp less than the mechanics alone: (axis, Hz, damping ratio).
+    pub loops_making: Option<(AxisName, f64, f64)>,
 }
 
 /// Why a setting is flagged.
@@ -98,7 +105,7 @@ pub enum Flag {
         /// How far its gain may fall (dB).
         db: f64,
     },
-    /// A closed loop's own mode is damped less than the threshold.
+    /// A closed-loop mode of the loops' making is damped less than the threshold.
     PoorDamping {
         /// Axis.
         axis: AxisName,
@@ -172,7 +179,9 @@ pub struct AxisCache {
     read: Mutex<HashMap<String, AxisReading>>,
 }
 
-type AxisReading = (Vec<LoopMargins>, Option<ModalFigure>);
+/// An axis's loops' margins, its least damped mode the loops act on, and its least damped
+/// mode of the loops' making.
+type AxisReading = (Vec<LoopMargins>, Option<ModalFigure>, Option<ModalFigure>);
 
 impl AxisCache {
     fn reading(&self, config: &AxisConfig) -> AxisReading {
@@ -181,7 +190,11 @@ impl AxisCache {
             return r.clone();
         }
         let model = AxisModel::from_config(config);
-        let r = (margins::margins(&model), least_damped_loop_mode(&model));
+        let r = (
+            margins::margins(&model),
+            least_damped_loop_mode(&model),
+            least_damped_of_the_loops_making(&model),
+        );
         self.read
             .lock()
             .expect("no reader panics")
@@ -190,7 +203,7 @@ impl AxisCache {
     }
 }
 
-/// The margins of both axes' loops and the least damping of their own modes.
+/// The margins of both axes' loops and the least damping of the modes they act on.
 pub fn health(machine: &MachineConfig) -> Health {
     health_with(machine, &AxisCache::default())
 }
@@ -199,15 +212,21 @@ pub fn health(machine: &MachineConfig) -> Health {
 pub(crate) fn health_with(machine: &MachineConfig, cache: &AxisCache) -> Health {
     let mut loop_damping = f64::INFINITY;
     let mut loop_damping_at = None;
+    let mut loops_making: Option<(AxisName, f64, f64)> = None;
     let margins = AxisName::BOTH
         .iter()
         .map(|&axis| {
-            let (loops, least) = cache.reading(machine.axis(axis));
+            let (loops, least, making) = cache.reading(machine.axis(axis));
             if let Some(m) = least
                 && m.damping < loop_damping
             {
                 loop_damping = m.damping;
                 loop_damping_at = Some((axis, m.frequency_hz));
+            }
+            if let Some(m) = making
+                && loops_making.is_none_or(|(_, _, z)| m.damping < z)
+            {
+                loops_making = Some((axis, m.frequency_hz, m.damping));
             }
             AxisMargins { axis, loops }
         })
@@ -216,6 +235,7 @@ pub(crate) fn health_with(machine: &MachineConfig, cache: &AxisCache) -> Health 
         margins,
         loop_damping,
         loop_damping_at,
+        loops_making,
     }
 }
 
@@ -249,13 +269,13 @@ impl Health {
                 }
             }
         }
-        if self.loop_damping < t.min_damping
-            && let Some((axis, frequency_hz)) = self.loop_damping_at
+        if let Some((axis, frequency_hz, damping)) = self.loops_making
+            && damping < t.min_damping
         {
             flags.push(Flag::PoorDamping {
                 axis,
                 frequency_hz,
-                damping: self.loop_damping,
+                damping,
             });
         }
         flags

@@ -206,7 +206,7 @@ pub enum PointResult {
     Ok {
         /// Figures.
         metrics: Metrics,
-        /// Each loop's margins and the least damping of the loops' own modes.
+        /// Each loop's margins and the least damping of the modes the loops act on.
         health: Health,
         /// What falls short of the thresholds (empty: a healthy setting).
         flags: Vec<Flag>,
@@ -273,7 +273,7 @@ impl SweepPoint {
 }
 
 /// Flags the settings that fall short of `thresholds` (any loop's phase or gain margin,
-/// the least damping of the loops' own modes) and ranks every setting by
+/// the least damping of the modes of the loops' making) and ranks every setting by
 /// [`SweepPoint::rank_key`]: no flagged setting is ever ranked before a healthy one.
 pub fn rank(points: &mut [SweepPoint], thresholds: &Thresholds) {
     for p in points.iter_mut() {

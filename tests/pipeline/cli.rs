@@ -653,7 +653,7 @@ fn a_machine_file_without_a_base_is_warned_about_and_named_after_itself() {
     let out = text(&o.stdout);
     assert!(out.starts_with("X axis of my-table "), "{out}");
     // The least damped closed-loop mode is the screw's torsion, damped by its material
-    // whatever the gains: the loops' own least damped mode is named beside it, better damped.
+    // whatever the gains: the least damped mode the loops act on is named beside it.
     let figures = |prefix: &str| -> (String, f64) {
         let line = out
             .lines()
@@ -665,7 +665,7 @@ fn a_machine_file_without_a_base_is_warned_about_and_named_after_itself() {
         (hz.trim().to_string(), zeta)
     };
     let (overall_hz, overall_zeta) = figures("least damped closed-loop mode:");
-    let (_, own_zeta) = figures("least damped of the loops' own modes:");
+    let (_, own_zeta) = figures("least damped of the modes the loops act on:");
     assert!(own_zeta > overall_zeta, "{out}");
     assert!(
         out.contains(&format!("(the {overall_hz} Hz mode is the mechanics'")),

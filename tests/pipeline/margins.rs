@@ -302,3 +302,96 @@ fn the_heavy_machines_gain_margin_is_the_distance_to_its_largest_stable_kv() {
     // Below the 6 dB engineers ask for: the preset's Kv of 1 is a setting at its limit.
     assert!(m.gain_margin_db < margins::MIN_GAIN_MARGIN_DB);
 }
+
+/// One line of `bode`'s output that starts with `prefix`.
+fn line_of<'a>(out: &'a str, prefix: &str) -> &'a str {
+    out.lines()
+        .find(|l| l.starts_with(prefix))
+        .unwrap_or_else(|| panic!("no line {prefix:?} in\n{out}"))
+}
+
+/// The number before `unit` in `text` (the first such), in that unit; kHz read as Hz.
+fn number_before(text: &str, unit: &str) -> f64 {
+    let at = text
+        .find(unit)
+        .unwrap_or_else(|| panic!("{unit:?} in {text:?}"));
+    let word = text[..at].split_whitespace().last().unwrap();
+    let v: f64 = word
+        .parse()
+        .unwrap_or_else(|_| panic!("{word:?} in {text:?}"));
+    if unit.trim_start().starts_with("kHz") {
+        v * 1e3
+    } else {
+        v
+    }
+}
+
+/// `bode`'s feedback-loop figures belong to T = L/(1 + L): with L of unit gain and phase
+/// −180° + PM at the crossover, T there is 1/(2 sin(PM/2)) at −90° + PM/2 — so its −10°
+/// comes before the crossover and its −3 dB after it, and its peak is at least that gain.
+/// The response from the command with the small table's acceleration feed-forward is a
+/// different one: its own peak is the largest gain of that response, found here on a fine
+/// grid of its own.
+#[test]
+fn bode_figures_each_belong_to_one_response() {
+    let o = crate::common::cli::run_ok(&["bode", "--machine", "small-table"]);
+    let out = crate::common::cli::text(&o.stdout);
+    let row = line_of(&out, "position ");
+    let cells: Vec<&str> = row.split_whitespace().collect();
+    let crossover_hz: f64 = cells[1].parse().unwrap();
+    let pm_deg: f64 = cells[3].trim_end_matches('°').parse().unwrap();
+    let peak_db: f64 = cells[6].parse().unwrap();
+    let (bw_3db_hz, phase_10_hz): (f64, f64) =
+        (cells[11].parse().unwrap(), cells[13].parse().unwrap());
+    let machine = MachineConfig::preset("small-table").unwrap();
+    let model = AxisModel::from_config(&machine.x);
+    let l = linear::open_loop(&model, Loop::Position, crossover_hz);
+    assert!((l.norm() - 1.0).abs() < 2e-3, "{l}");
+    let margin = (l.arg().to_degrees() + 180.0).rem_euclid(360.0);
+    assert!((margin - pm_deg).abs() < 0.1, "{margin} against {pm_deg}");
+    let t_at_fc_db = 20.0 * (1.0 / (2.0 * (pm_deg / 2.0).to_radians().sin())).log10();
+    let t_phase_deg = -90.0 + pm_deg / 2.0;
+    assert!(
+        t_phase_deg < -10.0 && t_at_fc_db > -3.0,
+        "{t_phase_deg} {t_at_fc_db}"
+    );
+    assert!(
+        phase_10_hz < crossover_hz && bw_3db_hz > crossover_hz,
+        "{row}"
+    );
+    assert!(peak_db >= t_at_fc_db - 0.01, "{row}: {t_at_fc_db}");
+    // The feed-forward response's own peak, its largest gain on 4000 points a decade.
+    let ff = line_of(
+        &out,
+        "position loop, command to position with feed-forward:",
+    );
+    let (ff_db, ff_hz) = (number_before(ff, " dB at"), {
+        let at = &ff[ff.find(" dB at ").unwrap() + 7..];
+        let unit = if at.split(',').next().unwrap().contains("kHz") {
+            " kHz"
+        } else {
+            " Hz"
+        };
+        number_before(at, unit)
+    });
+    let (mut best_db, mut best_hz) = (f64::MIN, 0.0);
+    for i in 0..=20_000 {
+        let f = 10f64.powf(-1.0 + 5.0 * f64::from(i) / 20_000.0);
+        let db = 20.0
+            * linear::closed_loop(&model, Loop::Position, f)
+                .norm()
+                .log10();
+        if db > best_db {
+            (best_db, best_hz) = (db, f);
+        }
+    }
+    assert!(best_db > 10.0, "{best_db} at {best_hz}");
+    assert!(
+        (ff_db - best_db).abs() < 0.02,
+        "{ff}: {best_db:.3} dB at {best_hz:.1} Hz"
+    );
+    assert!(
+        (ff_hz / best_hz - 1.0).abs() < 0.01,
+        "{ff}: {best_hz:.1} Hz"
+    );
+}
