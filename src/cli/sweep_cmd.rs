@@ -63,7 +63,7 @@ pub struct SweepArgs {
     #[arg(long, default_value_t = 20, value_name = "N")]
     pub rows: usize,
     /// Least damping ratio of a healthy setting's closed-loop modes of the loops' making
-    /// (their own, or a mode of the mechanics they damp less than the mechanics alone):
+    /// (their own, or a mode of the mechanics they leave with less than half its own damping):
     /// below it a setting is flagged and ranked after every healthy one, whatever its
     /// contour error. The `loop damping` column is the least damping of every mode the
     /// loops act on, with its frequency.
@@ -326,7 +326,7 @@ fn print_table(
     println!(
         "sweep of {program} on {machine}: ranked by the largest contour error; a setting with \
          a loop below {}° of phase margin or {} dB of gain margin, or a closed-loop mode of the \
-         loops' making (their own, or the mechanics' damped less than alone) damped below ζ {}, \
+         loops' making (their own, or the mechanics' left with less than half their damping) damped below ζ {}, \
          is flagged and ranked after every healthy one",
         t.min_phase_margin_deg, t.min_gain_margin_db, t.min_damping
     );

@@ -260,8 +260,8 @@ fn a_setting_short_of_its_margins_is_never_ranked_best() {
 
 /// Sweeping X alone on the heavy machine leaves Y at the preset's Kv of 1, whose gain
 /// margin — its distance to Y's own edge of stability, by the closed-loop eigenvalues — is
-/// below 6 dB, and its table mode is damped below 0.05: every setting is short by those same
-/// figures, none is crowned, and what they share is said once. X's own margin at Kv 0.6 is
+/// below 6 dB: every setting is short by that same figure, none is crowned, and what they
+/// share is said once. X's own margin at Kv 0.6 is
 /// ample.
 #[test]
 fn a_shortfall_every_setting_shares_is_named_once() {
@@ -277,7 +277,7 @@ fn a_shortfall_every_setting_shares_is_named_once() {
         20.0 * (edge_of_stability_kv(&as_x) / machine.y.position_loop.kv_m_per_min_per_mm).log10();
     assert!(y_db < 6.0, "{y_db}");
     let shared = sweep::shared_shortfall(&points).unwrap();
-    assert_eq!(shared.len(), 2, "{shared:?}");
+    assert_eq!(shared.len(), 1, "{shared:?}");
     let Flag::GainMargin {
         axis: AxisName::Y,
         which: Loop::Position,
@@ -287,20 +287,15 @@ fn a_shortfall_every_setting_shares_is_named_once() {
         panic!("{shared:?}")
     };
     assert!((db - y_db).abs() < 0.02, "{db} against {y_db}");
-    // And Y's table mode, which its loops leave damped below the 0.05 and below the
-    // mechanics' own (X's, at the lower gains, is better damped).
-    let (axial_hz, axial_zeta) = table_mode(&machine.y);
-    let Flag::PoorDamping {
-        axis: AxisName::Y,
-        frequency_hz,
-        damping,
-    } = shared[1]
-    else {
-        panic!("{shared:?}")
-    };
+    // Y's table mode is left at more than half the damping its screw alone gives it: the
+    // machine's, not the setting's doing, and not flagged however far below 0.05 it lies.
+    // (The screw's axial mode alone is damped by the file's ζ_m, 0.05: the loop leaves it
+    // at 0.030.)
+    let (_, axial_zeta) = table_mode(&machine.y);
+    let alone = machine.y.drive.zeta_m;
     assert!(
-        (frequency_hz - axial_hz).abs() < 1e-6 && (damping - axial_zeta).abs() < 1e-9,
-        "{shared:?}: {axial_zeta} at {axial_hz} Hz"
+        axial_zeta < 0.05 && axial_zeta > 0.5 * alone,
+        "{axial_zeta} of {alone}"
     );
     // X at Kv 0.6 is flagged for Y alone; a laxer rule crowns a setting, and nothing is
     // shared then.
