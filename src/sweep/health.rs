@@ -20,9 +20,9 @@ use crate::sim::margins::{
 /// Least damping ratio below which a closed-loop mode of the loops' making flags a setting
 /// (the default of `sweep --min-damping`): a mode damped less rings for dozens of periods
 /// after every corner. A mode of the loops' own counts, and a mode of the mechanics that the
-/// loops damp less than the mechanics alone; one the loops leave as damped as the
-/// mechanics make it (a screw's torsion, damped by its material whatever the gains) is not
-/// the setting's doing.
+/// loops leave with less than half the damping the mechanics alone give it; one the loops
+/// leave about as damped as the mechanics make it (a screw's torsion, damped by its
+/// material whatever the gains) is not the setting's doing.
 pub const POOR_DAMPING: f64 = 0.05;
 
 /// The thresholds a healthy setting meets.
@@ -67,7 +67,7 @@ pub struct Health {
     /// That mode's frequency (Hz) and axis.
     pub loop_damping_at: Option<(AxisName, f64)>,
     /// The least damped mode of the loops' making, X and Y — their own, or one of the
-    /// mechanics that they damp less than the mechanics alone: (axis, Hz, damping ratio).
+    /// mechanics they leave with less than half its own damping: (axis, Hz, damping ratio).
     pub loops_making: Option<(AxisName, f64, f64)>,
 }
 
