@@ -451,6 +451,8 @@ pub struct Mapped {
     pub unit: Unit,
     /// Where the unit came from: "mapping", "header", "default".
     pub unit_from: &'static str,
+    /// The step of the finest digit a text file prints in this column, in its unit.
+    pub print_step: Option<f64>,
 }
 
 /// Finds every signal's column in `headers`, from `map` when given, else by the usual
@@ -544,6 +546,7 @@ fn mapped(
         header: header.to_string(),
         unit,
         unit_from,
+        print_step: None,
     })
 }
 
