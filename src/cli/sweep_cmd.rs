@@ -62,6 +62,10 @@ pub struct SweepArgs {
     /// Settings listed on the terminal.
     #[arg(long, default_value_t = 20, value_name = "N")]
     pub rows: usize,
+    /// Most settings a sweep runs (the product of every range's values): each simulates
+    /// the whole program, so a step finer than meant is refused rather than run for hours.
+    #[arg(long, default_value_t = 1000, value_name = "N")]
+    pub max_settings: usize,
     /// Least damping ratio of a healthy setting's closed-loop modes of the loops' making
     /// (their own, or a mode of the mechanics they leave with less than half its own damping):
     /// below it a setting is flagged and ranked after every healthy one, whatever its
@@ -235,12 +239,13 @@ pub(crate) fn run(args: &SweepArgs, m: &ArgMatches) -> Result<Outcome, CliError>
     let plan = args.planning.config(&machine)?;
     let program = load_program(&args.program, &machine)?;
     let dims = dimensions(args, m, &machine)?;
-    let total: usize = dims.iter().map(|d| d.values.len()).product();
+    let total = settings_within(&dims, args.max_settings)?;
     let bar = progress(total as u64, "sweep");
     let mut points = sweep::run(&program, &machine, &plan, &dims, !args.serial, &|| {
         bar.inc(1)
     });
     bar.finish_and_clear();
+    refuse_all_invalid(&points)?;
     sweep::rank(&mut points, &thresholds);
     let mut batch = OutputBatch::new();
     if let Some(path) = &args.csv {
@@ -278,6 +283,47 @@ pub(crate) fn run(args: &SweepArgs, m: &ArgMatches) -> Result<Outcome, CliError>
         );
     }
     Ok(Outcome::Ok)
+}
+
+/// The number of settings the ranges make, refused above `max`.
+fn settings_within(dims: &[Dimension], max: usize) -> Result<usize, CliError> {
+    let total = dims
+        .iter()
+        .map(|d| d.values.len())
+        .try_fold(1usize, usize::checked_mul)
+        .unwrap_or(usize::MAX);
+    if total > max {
+        let counts: Vec<String> = dims
+            .iter()
+            .map(|d| format!("{} {}", d.values.len(), d.name))
+            .collect();
+        return Err(CliError::Usage(format!(
+            "{total} settings ({}) exceed --max-settings {max}: take a coarser step, or raise \
+             --max-settings",
+            counts.join(" × ")
+        )));
+    }
+    Ok(total)
+}
+
+/// A sweep none of whose settings could be made (every value out of its key's range) is an
+/// error, naming why: it has nothing to rank.
+fn refuse_all_invalid(points: &[SweepPoint]) -> Result<(), CliError> {
+    let mut reasons: Vec<&str> = Vec::new();
+    for p in points {
+        match &p.result {
+            PointResult::Invalid { reason } => {
+                if !reasons.contains(&reason.as_str()) {
+                    reasons.push(reason);
+                }
+            }
+            _ => return Ok(()),
+        }
+    }
+    Err(CliError::Usage(format!(
+        "every setting swept is invalid, none simulated: {}",
+        reasons.join("; ")
+    )))
 }
 
 /// Why no row is crowned, where none meets the thresholds: what every setting falls short

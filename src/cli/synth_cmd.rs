@@ -10,7 +10,7 @@ use super::Outcome;
 use super::common::{CliError, MachineArgs, TraceArgs, load_program};
 use crate::cli::output::OutputBatch;
 use crate::diagnose::causes::CauseId;
-use crate::diagnose::synth::{CommandStream, SynthSpec, synthesize};
+use crate::diagnose::synth::{CommandStream, SynthSpec, synthesize, synthesize_recorded};
 use crate::machine::{AxisName, MachineConfig};
 use crate::numeric::units::{m_from_um, s_from_ms};
 use crate::sim::MeasuredAt;
@@ -20,8 +20,9 @@ use crate::trace::measured::MeasuredTrace;
 /// Arguments of `synth`.
 #[derive(Debug, Args)]
 pub struct SynthArgs {
-    /// The part program.
-    pub program: PathBuf,
+    /// The part program (not needed with --commands, whose stream runs instead of its plan).
+    #[arg(required_unless_present = "commands")]
+    pub program: Option<PathBuf>,
     /// Where to write the measurement (CSV: t_s, x_mm, y_mm[, x_cmd_mm, y_cmd_mm]).
     #[arg(long, short, value_name = "FILE")]
     pub out: PathBuf,
@@ -92,7 +93,6 @@ pub(crate) fn run(args: &SynthArgs) -> Result<Outcome, CliError> {
         .transpose()
         .map_err(|e| CliError::Usage(format!("--out-columns: {e}")))?;
     let machine = args.machine.load_stable()?;
-    let program = load_program(&args.program, &machine)?;
     let commands = match &args.commands {
         Some(path) => Some(command_stream(&args.trace.read(path)?)),
         None => None,
@@ -108,7 +108,23 @@ pub(crate) fn run(args: &SynthArgs) -> Result<Outcome, CliError> {
         quantization_m: m_from_um(args.quantization_um),
         measured_at: args.measured_at,
     };
-    let synthetic = synthesize(&program, &machine, &spec)?;
+    let synthetic = match (&spec.commands, &args.program) {
+        (Some(stream), program) => {
+            if let Some(program) = program {
+                eprintln!(
+                    "warning: {} is not run: the stream of --commands runs in its place",
+                    program.display()
+                );
+            }
+            synthesize_recorded(stream, &machine, &spec)?
+        }
+        (None, Some(program)) => synthesize(&load_program(program, &machine)?, &machine, &spec)?,
+        (None, None) => {
+            return Err(CliError::Usage(
+                "give the PROGRAM to run, or --commands FILE".into(),
+            ));
+        }
+    };
     let mut batch = OutputBatch::new();
     batch.stage(&args.out, |w| match &layout {
         Some(layout) => synthetic.write_csv_as(w, layout),

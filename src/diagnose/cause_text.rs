@@ -65,10 +65,7 @@ pub(super) fn write_cause(s: &mut String, i: usize, c: &CauseReport, feedback: O
         JudgedOn::OtherHalf => "fitted on half of the record, the other half's",
         JudgedOn::SecondRecord => "fitted on this record, the second record's",
     };
-    let measure = match h.measure {
-        HeldOutMeasure::Rms => "RMS",
-        HeldOutMeasure::ChatterMismatch => "chatter amplitude mismatch",
-    };
+    let measure = h.measure.words();
     let _ = writeln!(
         s,
         "     held out: {unseen} {} {measure} {:.3} → {:.3} µm",

@@ -43,6 +43,9 @@ pub struct HeldOut {
     pub rms_before_um: f64,
     /// After, with the values fitted on the other half (µm).
     pub rms_after_um: f64,
+    /// The samples of the axis the two figures are over: the held-out half's (or the second
+    /// record's) it compares, which may be few where the axis holds still most of the time.
+    pub samples: usize,
     /// What the two figures measure: the RMS residual, or for a cause fitted on stick-slip
     /// statistics the RMS mismatch of chatter amplitude per window (point by point a model
     /// that chatters as the machine does, out of phase, scores worse than one that does not).
@@ -57,6 +60,16 @@ pub enum HeldOutMeasure {
     Rms,
     /// The RMS mismatch of chatter amplitude per 0.25 s window.
     ChatterMismatch,
+}
+
+impl HeldOutMeasure {
+    /// The figures' name in a sentence (`RMS 1.2 → 0.8 µm`).
+    pub(crate) fn words(self) -> &'static str {
+        match self {
+            HeldOutMeasure::Rms => "RMS",
+            HeldOutMeasure::ChatterMismatch => "chatter amplitude mismatch",
+        }
+    }
 }
 
 /// The compared samples in two halves. The record is cut into stretches — each window
@@ -158,7 +171,11 @@ fn judged(
             sum_sq(&res_before) + sum_sq(&other_before) - sum_sq(&res_after) - sum_sq(&other_after);
         gain / (test.noise_sigma * test.noise_sigma) * independent_share(&res_after)
     };
-    let rms = |v: &[f64]| (sum_sq(v) / v.len().max(1) as f64).sqrt() * 1e6;
+    // Over the samples the axis's residual holds: those it leaves out (hunting holds, the
+    // run-in) are zeros in it, and counted they would dilute the figure towards nothing.
+    let samples = test.compared_count(axis);
+    let compared = samples.max(1) as f64;
+    let rms = |v: &[f64]| (sum_sq(v) / compared).sqrt() * 1e6;
     let (rms_before_um, rms_after_um, measure) = if statistical {
         let mismatch = |trace: &[f64], offset: f64| {
             1e6 * chatter_mismatch(
@@ -181,6 +198,7 @@ fn judged(
         evidence,
         rms_before_um,
         rms_after_um,
+        samples,
         measure,
     }
 }

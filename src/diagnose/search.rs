@@ -475,8 +475,14 @@ fn judge(
             JudgedOn::SecondRecord => "the second record",
         };
         return Err(format!(
-            "fits, but does not hold on {unseen} (held-out evidence {:.1}, RMS {:.3} → {:.3} µm)",
-            held.evidence, held.rms_before_um, held.rms_after_um
+            "fits, but does not hold on {unseen} (held-out evidence {:.1}; its {} there, over \
+             the {} samples of {} compared, {:.3} → {:.3} µm)",
+            held.evidence,
+            held.measure.words(),
+            held.samples,
+            axis.letter(),
+            held.rms_before_um,
+            held.rms_after_um
         ));
     }
     Ok(held)

@@ -18,6 +18,7 @@ use crate::check::{CheckSettings, plan_commands};
 use crate::diagnose::causes::{self, CauseId};
 use crate::gcode::Program;
 use crate::machine::{AxisConfig, AxisName, MachineConfig};
+use crate::plan::Commands;
 use crate::sim::{AxisModel, MeasuredAt, SimError, simulate};
 use crate::trace::format::{ColumnMap, Signal, Unit};
 use crate::trace::recorded::commands_from_record;
@@ -98,22 +99,56 @@ fn hide(axis: &mut AxisConfig, cause: CauseId, values: &[f64]) {
     }
 }
 
-/// Runs `program` on `nominal` with the hidden effect and measures it.
+/// Runs `program` on `nominal` with the hidden effect and measures it; where the spec holds
+/// a recorded command stream (`spec.commands`), that runs instead, as
+/// [`synthesize_recorded`] runs it, and the program plays no part.
 pub fn synthesize(
     program: &Program,
     nominal: &MachineConfig,
     spec: &SynthSpec,
 ) -> Result<Synthetic, SimError> {
+    if let Some(stream) = &spec.commands {
+        return synthesize_recorded(stream, nominal, spec);
+    }
+    let machine = with_hidden_effect(nominal, spec);
+    let settings = CheckSettings::for_machine(&machine);
+    let (_, planned) = plan_commands(program, &machine, &settings)?;
+    measure(machine, &settings, &planned, None, spec)
+}
+
+/// Runs another interpolator's command stream `stream` on `nominal` with the hidden effect
+/// and measures it: no program is planned (the stream is taken to the machine's
+/// interpolation cycle; `spec.commands` is not read).
+pub fn synthesize_recorded(
+    stream: &CommandStream,
+    nominal: &MachineConfig,
+    spec: &SynthSpec,
+) -> Result<Synthetic, SimError> {
+    let machine = with_hidden_effect(nominal, spec);
+    let settings = CheckSettings::for_machine(&machine);
+    let cycle_s = settings.plan.cycle_s;
+    let commands = commands_from_record(&stream.x_m, &stream.y_m, stream.dt_s, cycle_s);
+    measure(machine, &settings, &commands, Some(stream), spec)
+}
+
+/// `nominal` with the spec's hidden effect.
+fn with_hidden_effect(nominal: &MachineConfig, spec: &SynthSpec) -> MachineConfig {
     let mut machine = nominal.clone();
     if let Some((cause, axis, values)) = &spec.effect {
         hide(machine.axis_mut(*axis), *cause, values);
     }
-    let settings = CheckSettings::for_machine(&machine);
-    let (_, planned) = plan_commands(program, &machine, &settings)?;
-    let commands = match &spec.commands {
-        Some(stream) => commands_from_record(&stream.x_m, &stream.y_m, stream.dt_s, planned.dt_s),
-        None => planned,
-    };
+    machine
+}
+
+/// `commands` run on `machine` and measured as the spec says; the record's commands are
+/// `recorded`'s own values where given, else `commands` sampled.
+fn measure(
+    machine: MachineConfig,
+    settings: &CheckSettings,
+    commands: &Commands,
+    recorded: Option<&CommandStream>,
+    spec: &SynthSpec,
+) -> Result<Synthetic, SimError> {
     let traces = [AxisName::X, AxisName::Y].map(|a| {
         let c = if a == AxisName::X {
             &commands.x
@@ -152,7 +187,7 @@ pub fn synthesize(
         .map(|k| {
             let t_meas = k as f64 * spec.sample_s;
             let t = t_meas - spec.offset_s;
-            let (xc, yc) = match &spec.commands {
+            let (xc, yc) = match recorded {
                 // Recorded commands are the control's own values, not a resampling of them.
                 Some(s) => (sample(&s.x_m, s.dt_s, t), sample(&s.y_m, s.dt_s, t)),
                 None => (

@@ -122,3 +122,22 @@ pub struct Amplifier {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub i_max_a: Option<f64>,
 }
+
+/// Where in a `[axis.controller]` section its error lies, and the error there: the section
+/// is read whole by its `structure` tag, so the reader's own error names the section alone.
+/// Read again as the structure's own keys, the error names the key (`output`,
+/// `numerator[1]`, …) with what is wrong with it; `None` where the section names no
+/// structure with keys of its own, or they read.
+pub(crate) fn error_within(section: &toml::Table) -> Option<(String, String)> {
+    fn read<T: serde::de::DeserializeOwned>(keys: toml::Table) -> Option<(String, String)> {
+        let e = serde_path_to_error::deserialize::<_, T>(toml::Value::Table(keys)).err()?;
+        Some((e.path().to_string(), e.inner().to_string()))
+    }
+    let mut keys = section.clone();
+    let structure = keys.remove("structure")?;
+    match structure.as_str()? {
+        "transfer_function" => read::<TransferFunction>(keys),
+        "state_feedback" => read::<StateFeedback>(keys),
+        _ => None,
+    }
+}

@@ -449,9 +449,8 @@ fn read_table<T: serde::de::DeserializeOwned>(
         match serde_path_to_error::deserialize::<_, T>(toml::Value::Table(table.clone())) {
             Ok(value) => return Ok(unknown.is_empty().then_some(value)),
             Err(e) => {
-                let path = e.path().to_string();
-                let error =
-                    classify_serde_error(file, &prefixed(prefix, &path), &e.inner().to_string());
+                let (path, message) = within_tagged_section(&table, e);
+                let error = classify_serde_error(file, &prefixed(prefix, &path), &message);
                 if let ConfigError::UnknownKey { key, hint, .. } = &error
                     && unknown.len() < 100
                     && locate::remove_key(&mut table, unprefixed(prefix, key))
@@ -465,6 +464,29 @@ fn read_table<T: serde::de::DeserializeOwned>(
                 return Ok(None);
             }
         }
+    }
+}
+
+/// The dotted path of a reading error and its message, within the section it names where
+/// that section is read whole by a tag (`[axis.controller]`'s `structure`): the key in it
+/// that is wrong, not the section.
+fn within_tagged_section(
+    table: &toml::Table,
+    e: serde_path_to_error::Error<toml::de::Error>,
+) -> (String, String) {
+    let path = e.path().to_string();
+    let message = e.inner().to_string();
+    let section = path.split('.').try_fold(table, |t, k| t.get(k)?.as_table());
+    match section {
+        Some(section) if path.ends_with("controller") => {
+            match super::controller::error_within(section) {
+                // A missing key's path is the section's own (`.`).
+                Some((inner, message)) if inner != "." => (format!("{path}.{inner}"), message),
+                Some((_, message)) => (path, message),
+                None => (path, message),
+            }
+        }
+        _ => (path, message),
     }
 }
 
@@ -612,6 +634,66 @@ mod tests {
             e.contains("m.toml:2:1:") && e.contains("write `backlash_um = 5`"),
             "{e}"
         );
+    }
+
+    /// The error of a key within a controller section, which is read whole by its
+    /// `structure`, names that key at its own line, not the section at its header.
+    #[test]
+    fn a_controller_key_in_error_is_named_at_its_line() {
+        let error = |body: &str| {
+            let text = format!("base = \"small-table\"\n[x.controller]\n{body}");
+            MachineConfig::from_toml_str(&text, "m.toml")
+                .unwrap_err()
+                .to_string()
+        };
+        let e = error("output = \"voltage\"\n");
+        assert!(
+            e.starts_with("m.toml:3:1: key `x.controller.output` unknown variant"),
+            "{e}"
+        );
+        let e = error("numerator = \"1,2,3\"\n");
+        assert!(
+            e.starts_with("m.toml:3:1: key `x.controller.numerator`"),
+            "{e}"
+        );
+        assert!(e.ends_with("write `numerator = [1, 2, 3]`"), "{e}");
+        let e = error(
+            "structure = \"state_feedback\"\nvelocity_gain_a_s_per_mm = 1.0\n\
+             position_gain_a_per_mm = \"x\"\n",
+        );
+        assert!(
+            e.starts_with("m.toml:5:1: key `x.controller.position_gain_a_per_mm`"),
+            "{e}"
+        );
+        let e = error("structure = \"state_feedback\"\nvelocity_gain_a_s_per_mm = 1.0\n");
+        assert!(
+            e.contains("missing key `x.controller.position_gain_a_per_mm`"),
+            "{e}"
+        );
+    }
+
+    /// A travel whose two ends are equal is named as such; an entry of the list written as
+    /// text is shown written in the list, at the list's line.
+    #[test]
+    fn a_travel_without_length_or_of_text_says_what_is_wrong() {
+        let error = |travel: &str| {
+            let text = format!("base = \"small-table\"\n[x.limits]\ntravel_mm = {travel}\n");
+            MachineConfig::from_toml_str(&text, "m.toml")
+                .unwrap_err()
+                .to_string()
+        };
+        let e = error("[0.0, 0.0]");
+        assert!(
+            e.contains("its two ends are equal") && !e.contains("come first"),
+            "{e}"
+        );
+        assert!(error("[5.0, 0.0]").contains("the lowest position must come first"));
+        let e = error("[\"a\", \"b\"]");
+        assert!(
+            e.starts_with("m.toml:3:1: key `x.limits.travel_mm[0]`"),
+            "{e}"
+        );
+        assert!(e.contains("`travel_mm = [a number, …]`"), "{e}");
     }
 
     #[test]

@@ -77,6 +77,25 @@ pub(crate) fn plain_words(path: &str, message: &str) -> String {
     let Some(rest) = message.strip_prefix("invalid type: string ") else {
         return message.to_string();
     };
+    if let Some((text, _)) = rest
+        .split_once(", expected a sequence")
+        .or_else(|| rest.split_once(", expected an array"))
+    {
+        // A list written as one text ("1,2,3"): its numbers, as a list.
+        let numbers: Option<Vec<f64>> = text
+            .trim_matches('"')
+            .split([',', ';', ' '])
+            .filter(|t| !t.is_empty())
+            .map(|t| t.parse::<f64>().ok())
+            .collect();
+        let example = match numbers {
+            Some(n) if !n.is_empty() => n.iter().map(f64::to_string).collect::<Vec<_>>().join(", "),
+            _ => "a number, …".to_string(),
+        };
+        return format!(
+            "must be a list of numbers, not the text {text}: write `{leaf} = [{example}]`"
+        );
+    }
     if !(rest.contains("f64") || rest.contains("a number") || rest.contains("integer")) {
         return message.to_string();
     }
@@ -87,9 +106,13 @@ pub(crate) fn plain_words(path: &str, message: &str) -> String {
         .next()
         .and_then(|t| t.parse::<f64>().ok());
     let example = number.map_or("a number".to_string(), |n| n.to_string());
+    // An entry of a list is written in the list, its numbers without quotes.
+    let write = match leaf.split_once('[') {
+        Some((list, _)) => format!("the list's entries as numbers: `{list} = [{example}, …]`"),
+        None => format!("`{leaf} = {example}`"),
+    };
     format!(
-        "must be a number, not the text {text}: write `{leaf} = {example}` (the unit is part of \
-         the key's name)"
+        "must be a number, not the text {text}: write {write} (the unit is part of the key's name)"
     )
 }
 
@@ -147,7 +170,8 @@ fn syntax_place(message: &str) -> Option<(usize, usize)> {
 /// The error with the line and column of its key in the file's `text`, where the text shows
 /// it: `m.toml:3:1: key …`.
 pub(crate) fn located(e: ConfigError, text: &str) -> ConfigError {
-    let at = |file: String, key: &str| match find_key(text, key) {
+    // An entry of a list (`travel_mm[0]`) is where the list is set.
+    let at = |file: String, key: &str| match find_key(text, key.split('[').next().unwrap_or(key)) {
         Some((line, column)) => format!("{file}:{line}:{column}"),
         None => file,
     };

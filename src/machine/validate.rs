@@ -390,7 +390,13 @@ fn validate_limits(c: &Checker, prefix: &str, l: &Limits) -> Result<(), ConfigEr
     if let Some([lo, hi]) = l.travel_mm {
         c.check(&k("travel_mm"), lo, Rule::Range(-1e6, 1e6))?;
         c.check(&k("travel_mm"), hi, Rule::Range(-1e6, 1e6))?;
-        if lo >= hi {
+        if lo == hi {
+            return Err(c.inconsistent(
+                &k("travel_mm"),
+                format!("is [{lo}, {hi}]: its two ends are equal, leaving the axis no travel"),
+            ));
+        }
+        if lo > hi {
             return Err(c.inconsistent(
                 &k("travel_mm"),
                 format!("is [{lo}, {hi}]: the lowest position must come first"),

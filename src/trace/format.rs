@@ -130,10 +130,9 @@ pub(crate) fn parse_unit(text: &str, signal: Signal) -> Result<Unit, String> {
                 format!("counts need a resolution with a unit, as counts:0.1um (got '{t}')")
             })?;
         let (number, unit) = res.split_at(split);
-        let step: f64 = number
-            .trim()
-            .parse()
-            .map_err(|_| format!("the count resolution '{number}' is not a number"))?;
+        let step: f64 = number.trim().parse().map_err(|_| {
+            format!("the count resolution '{res}' is not a number with a unit, as counts:0.1um")
+        })?;
         let unit = parse_unit(unit, signal)?;
         if !(step.is_finite() && step > 0.0) {
             return Err(format!("the count resolution '{number}' must be positive"));
@@ -240,6 +239,21 @@ impl ColumnMap {
         }
         if self.get(Signal::XCmd).is_some() != self.get(Signal::YCmd).is_some() {
             return Err("x_cmd and y_cmd go together".into());
+        }
+        // One column read as two signals (y=x_mm beside x=x_mm) is a slip of the mapping:
+        // the record would be compared with an axis it does not hold.
+        for (i, (a, spec)) in self.specs.iter().enumerate() {
+            if let Some((b, _)) = self.specs[i + 1..]
+                .iter()
+                .find(|(_, s)| s.name == spec.name)
+            {
+                return Err(format!(
+                    "the column '{}' is mapped to both {} and {}: each needs a column of its own",
+                    spec.name,
+                    a.key(),
+                    b.key()
+                ));
+            }
         }
         Ok(())
     }
@@ -437,6 +451,8 @@ pub struct Mapped {
     pub unit: Unit,
     /// Where the unit came from: "mapping", "header", "default".
     pub unit_from: &'static str,
+    /// The step of the finest digit a text file prints in this column, in its unit.
+    pub print_step: Option<f64>,
 }
 
 /// Finds every signal's column in `headers`, from `map` when given, else by the usual
@@ -530,6 +546,7 @@ fn mapped(
         header: header.to_string(),
         unit,
         unit_from,
+        print_step: None,
     })
 }
 
@@ -852,6 +869,22 @@ mod tests {
                 .contains("y=")
         );
         assert!(ColumnMap::parse("t=T,x=a,y=b,x_cmd=c").is_err());
+    }
+
+    #[test]
+    fn a_column_mapped_twice_or_a_count_without_number_is_refused_by_name() {
+        let e = ColumnMap::parse("t=t_s,x=x_mm,y=x_mm")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("'x_mm' is mapped to both x and y"), "{e}");
+        let e = ColumnMap::parse("t=t_s,x=x_mm,y=y_mm,x_cmd=x_mm,y_cmd=y_c")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("'x_mm' is mapped to both x and x_cmd"), "{e}");
+        let e = ColumnMap::parse("t=t_s,x=x_mm[counts:abc],y=y_mm")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("'abc'"), "{e}");
     }
 
     #[test]

@@ -4,6 +4,7 @@
 //! a record from an unfamiliar machine.
 
 use crate::numeric::units::um_from_m;
+use crate::trace::format::{Mapped, Signal};
 use crate::trace::measured::{MeasuredTrace, quantum};
 
 /// An axis moves where its position changes by more than this over the window (m).
@@ -26,6 +27,9 @@ pub struct TraceSummary {
     pub moving: Vec<(f64, f64)>,
     /// Quantisation step of X and Y (m), where the positions sit on a grid.
     pub quantum_m: [Option<f64>; 2],
+    /// The file's print precision of X and Y where their grid is that step and no coarser:
+    /// the decimals printed and their unit's label.
+    pub printed: [Option<(i32, &'static str)>; 2],
     /// Largest following error of X and Y (m) and when (s), with recorded commands.
     pub max_following: Option<[(f64, f64); 2]>,
 }
@@ -41,14 +45,60 @@ pub fn summarise(trace: &MeasuredTrace) -> TraceSummary {
                 .unwrap_or((0.0, 0.0))
         })
     });
+    let column = |signal| trace.layout.mapped.iter().find(|m| m.signal == signal);
+    let grids = [
+        grid(&trace.x_m, column(Signal::X)),
+        grid(&trace.y_m, column(Signal::Y)),
+    ];
     TraceSummary {
         samples: n,
         duration_s: trace.dt_s * (n.saturating_sub(1)) as f64,
         rate_hz: 1.0 / trace.dt_s,
         jitter_share: trace.steps.jitter_rms_s / trace.steps.median_s,
         moving: moving_stretches(trace),
-        quantum_m: [quantum(&trace.x_m), quantum(&trace.y_m)],
+        quantum_m: grids.map(|g| g.0),
+        printed: grids.map(|g| g.1),
         max_following,
+    }
+}
+
+/// An axis's grid (m) and, where that grid is the step of the last digit the file prints,
+/// its decimals and unit: the file's print precision, not a count of the measuring system
+/// (whose count, if any, is no coarser). Where the file prints the positions as text, the
+/// grid is the greatest common divisor of the changes counted in that last digit, whole
+/// numbers (exact, where a divisor of floating-point differences drifts over thousands of
+/// samples); else, or where the changes are not whole numbers of it (a resampled record),
+/// as [`quantum`] finds it. A column in counts is never its print precision: its grid is
+/// the count.
+fn grid(x: &[f64], column: Option<&Mapped>) -> (Option<f64>, Option<(i32, &'static str)>) {
+    let Some((column, step)) = column.and_then(|c| Some((c, c.print_step?))) else {
+        return (quantum(x), None);
+    };
+    let step_m = step * column.unit.to_si;
+    let digits: Option<Vec<u64>> = x
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs() / step_m)
+        .map(|d| ((d - d.round()).abs() < 1e-3).then_some(d.round() as u64))
+        .collect();
+    let Some(digits) = digits else {
+        return (quantum(x), None);
+    };
+    let gcd = |mut a: u64, mut b: u64| {
+        while b > 0 {
+            (a, b) = (b, a % b);
+        }
+        a
+    };
+    match digits.into_iter().fold(0, gcd) {
+        0 => (None, None),
+        g => {
+            let printed = g == 1 && column.unit.label != "counts";
+            let decimals = -step.log10().round() as i32;
+            (
+                Some(g as f64 * step_m),
+                printed.then_some((decimals, column.unit.label)),
+            )
+        }
     }
 }
 
@@ -122,13 +172,20 @@ impl TraceSummary {
             s.push_str(&format!(" (first {a:.3}–{b:.3} s)"));
         }
         s.push('\n');
-        for (axis, q) in ["X", "Y"].iter().zip(self.quantum_m) {
-            match q {
-                Some(q) => s.push_str(&format!(
+        for ((axis, q), printed) in ["X", "Y"].iter().zip(self.quantum_m).zip(self.printed) {
+            match (q, printed) {
+                (Some(q), Some((decimals, unit))) => {
+                    s.push_str(&format!(
+                        "{axis} grid    positions on a {:.4} µm grid: the file's print precision \
+                         ({decimals} decimals of {unit}); no coarser count shows\n",
+                        um_from_m(q)
+                    ));
+                }
+                (Some(q), None) => s.push_str(&format!(
                     "{axis} grid    positions on a {:.4} µm grid\n",
                     um_from_m(q)
                 )),
-                None => s.push_str(&format!("{axis} grid    no quantisation visible\n")),
+                (None, _) => s.push_str(&format!("{axis} grid    no quantisation visible\n")),
             }
         }
         match &self.max_following {
@@ -179,5 +236,40 @@ mod tests {
         assert_eq!(s.quantum_m[1], None);
         let (e, _) = s.max_following.unwrap()[0];
         assert!((e - 5e-6).abs() < 0.06e-6, "{e}");
+    }
+
+    /// A smooth motion printed to 7 decimals of mm sits on the 0.1 nm grid of its last digit:
+    /// that is the file's print precision, said so; the same motion counted in 0.1 µm and
+    /// printed to 7 decimals sits on the count's grid, a thousand times the last digit's.
+    #[test]
+    fn a_grid_of_the_last_printed_digit_is_the_print_precision() {
+        let record = |count_mm: Option<f64>| {
+            let mut text = String::from("t_s,x_mm,y_mm\n");
+            for k in 0..2000 {
+                let t = k as f64 * 1e-3;
+                let x = 10.0 * (2.0 * t).sin();
+                let x = count_mm.map_or(x, |q| (x / q).round() * q);
+                text.push_str(&format!("{t:.3},{x:.7},{:.7}\n", x / 3.0));
+            }
+            summarise(&parse_trace(&text, "p.csv").unwrap())
+        };
+        let printed = record(None);
+        let q = printed.quantum_m[0].unwrap();
+        assert!((q - 1e-10).abs() < 1e-15, "{q}");
+        assert_eq!(printed.printed[0], Some((7, "mm")));
+        assert!(
+            printed
+                .text()
+                .contains("the file's print precision (7 decimals of mm)")
+        );
+        let counted = record(Some(1e-4));
+        let q = counted.quantum_m[0].unwrap();
+        assert!((q - 1e-7).abs() < 1e-12, "{q}");
+        assert_eq!(counted.printed[0], None);
+        assert!(
+            !counted
+                .text()
+                .contains("X grid    positions on a 0.1000 µm grid:")
+        );
     }
 }

@@ -741,3 +741,36 @@ fn a_sweep_sets_the_interpolators_and_zs_keys_and_each_key_once() {
     let err = text(&nowhere.stderr);
     assert!(err.contains("x., y., xy., z. or interpolation."), "{err}");
 }
+
+/// A sweep none of whose settings can be made fails with why; one whose ranges make more
+/// settings than `--max-settings` (1000 unless raised) is refused before it runs, naming
+/// how many: 0.5 to 1 by 0.0001 is (1 − 0.5)/0.0001 + 1 = 5001 values, and 0.5 to 1.5 by
+/// 0.01 beside 10 to 20 by 1 is 101 × 11 = 1111.
+#[test]
+fn a_sweep_with_nothing_to_run_or_too_much_is_refused() {
+    let square = sample("square.nc");
+    let sweep = |args: &[&str]| run(&[&["sweep", square.to_str().unwrap()][..], args].concat());
+    let invalid = sweep(&["--ks", "1e9"]);
+    assert_eq!(invalid.status.code(), Some(2), "{invalid:?}");
+    let err = text(&invalid.stderr);
+    assert!(err.contains("every setting swept is invalid"), "{err}");
+    assert!(err.contains("x.velocity_loop.ks_nm_s_per_rad"), "{err}");
+    let fine = sweep(&["--kv", "0.5:1:0.0001"]);
+    assert_eq!(fine.status.code(), Some(2), "{fine:?}");
+    assert!(text(&fine.stderr).contains("5001 settings"), "{fine:?}");
+    let grid = sweep(&["--kv", "0.5:1.5:0.01", "--ks", "10:20:1"]);
+    assert!(
+        text(&grid.stderr).contains("1111 settings (101 x.kv × 11 x.ks)"),
+        "{grid:?}"
+    );
+    let few = sweep(&["--kv", "0.9,1,1.1", "--max-settings", "2"]);
+    assert!(text(&few.stderr).contains("3 settings"), "{few:?}");
+    run_ok(&[
+        "sweep",
+        square.to_str().unwrap(),
+        "--kv",
+        "0.9,1,1.1",
+        "--max-settings",
+        "3",
+    ]);
+}

@@ -439,3 +439,54 @@ fn identify_compares_a_motor_record_at_the_motor() {
         );
     }
 }
+
+/// `synth --commands` runs the stream without a program: given none, or one it does not
+/// run, it writes the same record, whose commands are the stream's own values moved by the
+/// clock offset (0.5 s: 250 samples of 2 ms). Given neither, it asks for one of them.
+#[test]
+fn synth_runs_a_command_stream_without_a_program() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let circle = sample("small-circle.nc");
+    let circle = circle.to_str().unwrap();
+    run_ok(&[
+        "synth",
+        circle,
+        "--out",
+        &path("stream.csv"),
+        "--with-commands",
+    ]);
+    let stream = ["--commands", &path("stream.csv")];
+    run_ok(&[&["synth", "--out", &path("alone.csv")][..], &stream].concat());
+    let square = sample("square.nc");
+    let both = [
+        "synth",
+        square.to_str().unwrap(),
+        "--out",
+        &path("both.csv"),
+    ];
+    let o = run_ok(&[&both[..], &stream].concat());
+    assert!(
+        text(&o.stderr).contains("square.nc is not run"),
+        "{}",
+        text(&o.stderr)
+    );
+    let read = |name: &str| std::fs::read_to_string(dir.path().join(name)).unwrap();
+    assert_eq!(read("alone.csv"), read("both.csv"));
+    let x_cmd = |name: &str| -> Vec<f64> {
+        let t = read(name);
+        let cell = |l: &str| l.split(',').nth(3).unwrap().parse::<f64>().unwrap();
+        t.lines().skip(1).map(cell).collect()
+    };
+    let (given, recorded) = (x_cmd("stream.csv"), x_cmd("alone.csv"));
+    assert!(given.len() > 1000 && recorded.len() >= given.len() + 250);
+    for (k, (g, r)) in given.iter().zip(&recorded[250..]).enumerate() {
+        assert!(
+            (g - r).abs() < 1e-9,
+            "sample {k}: {g} mm given, {r} mm recorded"
+        );
+    }
+    let o = run(&["synth", "--out", &path("none.csv")]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    assert!(text(&o.stderr).contains("<PROGRAM>"), "{}", text(&o.stderr));
+}

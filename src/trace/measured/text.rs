@@ -125,6 +125,10 @@ pub(super) fn read_rows(
         rows: Vec::with_capacity(data.len()),
         ..Table::default()
     };
+    let decimal = if dialect.decimal_comma { ',' } else { '.' };
+    // The finest digit each column prints, by its index.
+    let width = mapped.iter().map(|m| m.index + 1).max().unwrap_or(0);
+    let mut steps = vec![f64::INFINITY; width];
     for &(row, line) in data {
         let f = format::fields(line, dialect.delimiter);
         for m in mapped.iter() {
@@ -148,6 +152,7 @@ pub(super) fn read_rows(
                     .map(|v| v * m.unit.to_si)
                     .ok_or_else(|| at_row(format::why_not_a_number(text, dialect)))?
             };
+            steps[m.index] = steps[m.index].min(printed_step(text, decimal));
             match slot(m.signal) {
                 None => table.t.push(value),
                 Some(k) => table.cols[k].push(value),
@@ -158,7 +163,24 @@ pub(super) fn read_rows(
     if clock {
         past_midnight(&mut table.t);
     }
+    for m in mapped.iter_mut() {
+        m.print_step = Some(steps[m.index]).filter(|s| s.is_finite());
+    }
     Ok(table)
+}
+
+/// The step of the last digit `field` prints, in its own unit: `0.0004991` → 1e-7,
+/// `12` → 1, `1.5e-3` → 1e-4; `decimal` is the dialect's decimal separator.
+fn printed_step(field: &str, decimal: char) -> f64 {
+    let (mantissa, exponent) = match field.find(['e', 'E']) {
+        Some(i) => (&field[..i], field[i + 1..].parse::<i32>().unwrap_or(0)),
+        None => (field, 0),
+    };
+    let decimals = mantissa
+        .split_once(decimal)
+        .map_or(0, |(_, d)| d.chars().filter(char::is_ascii_digit).count())
+        as i32;
+    10f64.powi(exponent - decimals)
 }
 
 /// Whether the time column holds clock times (its first row's time has a `:`); if so its
@@ -255,4 +277,23 @@ pub(super) fn unused_text_columns(
             UnusedColumn::of(headers[i], values)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::printed_step;
+
+    #[test]
+    fn the_last_printed_digit_is_read_with_its_exponent_and_decimal_sign() {
+        for (field, decimal, step) in [
+            ("0.0004991", '.', 1e-7),
+            ("12", '.', 1.0),
+            ("1.5e-3", '.', 1e-4),
+            ("-3,25", ',', 1e-2),
+            ("2.50E2", '.', 1.0),
+        ] {
+            let got = printed_step(field, decimal);
+            assert!((got / step - 1.0).abs() < 1e-12, "{field}: {got}");
+        }
+    }
 }
