@@ -7,7 +7,7 @@
 //! ([`Context::simulate_axis`]). Rapids and the waits after them are left out of the
 //! residual, except in a record with its commands that is mostly rapids.
 
-use super::hunting::{QUIET_S, SETTLED_M, arrived_at, model_hunts_from};
+use super::hunting::{QUIET_S, arrived_at, model_hunts_from, record_hunts_from};
 use super::residual::{chatter_noise_power, chatter_windows};
 use crate::machine::{AxisName, MachineConfig};
 use crate::path::Motion;
@@ -478,9 +478,10 @@ impl Context<'_> {
     /// The samples of `axis` at which it holds still and the model `trace` hunts: in every
     /// hold where the model, once come to rest, moves again (or never rests and swings
     /// without decaying: [`model_hunts_from`]), from where it first rested until
-    /// [`START_AFTER_HUNTING_S`] after the command moves again; and likewise where the record
-    /// hunts from its own arrival within [`SETTLED_M`] of the command
-    /// ([`Context::record_hunts`]), from there.
+    /// [`START_AFTER_HUNTING_S`] after the command moves again; and likewise where the record,
+    /// judged by the same rule on its 50 ms averages from its own arrival within 2 µm
+    /// of the command ([`record_hunts_from`]), hunts — by less than the band, it may, while its
+    /// model rests.
     ///
     /// An axis held by a proportional-plus-integral loop against static friction above its
     /// Coulomb friction does not rest: its integrator winds until the table breaks away, slips
@@ -518,8 +519,9 @@ impl Context<'_> {
             let record: Vec<f64> = (start..k)
                 .map(|j| measured.get(self.samples[j]).copied().unwrap_or(f64::NAN))
                 .collect();
-            let record_from =
-                arrived_at(&record, &command).filter(|&a| self.record_hunts(&record[a..], quiet));
+            let record_from = arrived_at(&record, &command).and_then(|a| {
+                record_hunts_from(&record[a..], quiet, self.noise_sigma).map(|r| a + r)
+            });
             let Some(from) = model_hunts_from(&model, quiet).or(record_from) else {
                 continue;
             };
@@ -533,27 +535,6 @@ impl Context<'_> {
             mask[start + from..end].iter_mut().for_each(|m| *m = true);
         }
         mask
-    }
-
-    /// Whether the record of an axis holding still (`record`, from where it first came within
-    /// [`SETTLED_M`] of its command) moves by more than that band between its averages over
-    /// `quiet` samples, and beyond what its noise moves them: the machine hunts there even
-    /// where its model, come to rest a little differently, holds (a table stuck within its
-    /// loop's elastic give stays, one stuck a little further out breaks away), and the two
-    /// cannot be compared point by point either. A record settling the rest of the way from
-    /// the band's edge moves its averages by less than the band.
-    fn record_hunts(&self, record: &[f64], quiet: usize) -> bool {
-        let means: Vec<f64> = record
-            .chunks_exact(quiet)
-            .map(|c| c.iter().sum::<f64>() / quiet as f64)
-            .collect();
-        let (lo, hi) = means
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
-                (l.min(v), h.max(v))
-            });
-        let noise_of_mean = self.noise_sigma / (quiet as f64).sqrt();
-        means.len() >= 2 && hi - lo > SETTLED_M.max(6.0 * noise_of_mean)
     }
 
     /// The measured axis at the context's samples.
