@@ -10,6 +10,7 @@
 mod align;
 pub mod context;
 mod held;
+mod hunting;
 mod offset;
 pub mod residual;
 pub mod start;

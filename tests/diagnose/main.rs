@@ -10,6 +10,7 @@ mod common;
 mod force_ripple;
 mod foreign_commands;
 mod hidden_effects;
+mod hunting;
 mod odd_records;
 mod records;
 mod reference_records;
