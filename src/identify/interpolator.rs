@@ -71,8 +71,12 @@ const PLATEAU_SHARE: f64 = 0.98;
 const PLATEAUS: usize = 2;
 
 /// The fewest samples a plateau spans however coarse the sampling: one sample is a spike,
-/// and only two show how the path speed changed across the plateau.
-const PLATEAU_SAMPLES: usize = 2;
+/// and two can be a step. A step of the acceleration (or speed) is fitted over a window
+/// and differenced over one as wide ([`derive`]): at a coarse rate (400 Hz and below) its
+/// rate reads as a trapezoid whose top is under two samples wide, so two neighbours can
+/// share one level — a jerk "held" where the interpolator has no jerk limit at all. Three
+/// in a row are a plateau no step makes.
+const PLATEAU_SAMPLES: usize = 3;
 
 /// How much the path's counterpart must change over a plateau, as a share of the axis's
 /// own change, for the plateau to be the interpolator ramping at its limit: along a line
@@ -217,8 +221,9 @@ fn resolution_m(positions: &[&[f64]]) -> Option<f64> {
 
 /// One axis's recorded commands differentiated at every sample: velocity (m/s),
 /// acceleration (m/s²), and jerk (m/s³) — the acceleration's change across the window it
-/// was fitted over, so that a step of it (a trapezoidal interpolator) reads as a spike of
-/// one sample, not as a plateau.
+/// was fitted over, so that a step of it (a trapezoidal interpolator) reads as a spike no
+/// wider than the window (at most two samples on its top: see [`PLATEAU_SAMPLES`]), not as
+/// a plateau.
 struct Derived {
     vel: Vec<f64>,
     acc: Vec<f64>,
@@ -566,7 +571,7 @@ fn round_up(v: f64) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    use super::{Series, held_at, held_peak, plateau_samples, round_up};
+    use super::{Series, derive, half_width_s, held_at, held_peak, plateau_samples, round_up};
 
     /// A trapezoidal ramp of one axis: `a` (m/s²) for `ramp` samples from rest, cruise,
     /// and the same down, twice; its velocity and acceleration every `dt`.
@@ -749,6 +754,34 @@ mod tests {
         // A record shorter than a plateau: its least magnitude.
         assert_eq!(held_peak(&[3.0, -2.0], need), 2.0);
         assert_eq!(held_peak(&[], need), 0.0);
+    }
+
+    #[test]
+    fn a_stepped_acceleration_at_a_coarse_rate_holds_no_jerk() {
+        // A trapezoidal interpolator (no jerk limit) logged at 50 Hz: the acceleration
+        // steps 0 -> 1 m/s² midway between two samples, holds for a second and steps back.
+        // Its true jerk is unbounded at the steps and zero elsewhere: the derived jerk may
+        // spike there but must keep no level over a plateau, else the step is read as a
+        // jerk limit of about Δa/(2·dt) = 25 m/s³.
+        let dt = 0.02;
+        let t_step = [0.51, 1.51];
+        let pos: Vec<f64> = (0..150)
+            .map(|k| {
+                let t = k as f64 * dt;
+                let ramp = |t0: f64| (t - t0).max(0.0).powi(2) / 2.0;
+                ramp(t_step[0]) - ramp(t_step[1])
+            })
+            .collect();
+        let half = half_width_s(&[&pos[..]], dt);
+        let d = derive(&pos, dt, half);
+        let need = plateau_samples(dt);
+        let step_rate = 1.0 / (2.0 * dt);
+        assert!(
+            held_peak(&d.jerk, need) < 0.5 * step_rate,
+            "{} of {step_rate} m/s³: {:?}",
+            held_peak(&d.jerk, need),
+            &d.jerk[20..32]
+        );
     }
 
     #[test]
