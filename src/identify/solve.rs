@@ -443,11 +443,12 @@ impl Problem<'_, '_, '_> {
         } else if k.logarithmic {
             // A corner stays where the controller's own period lets it be placed and the
             // record can place it: the interpolation cycle is not the controller's period.
+            // It never rises above that, but one the design put higher keeps its place (the
+            // search may lower it): the box must hold the start, not move it before any
+            // search.
             let max = if k.is_corner() {
-                k.max.min(knobs::corner_ceiling_of(
-                    self.base,
-                    self.fit.ctx.measured.dt_s,
-                ))
+                let ceiling = knobs::corner_ceiling_of(self.base, self.fit.ctx.measured.dt_s);
+                k.max.min(ceiling.max(t))
             } else {
                 k.max
             };
