@@ -7,7 +7,6 @@
 //! ([`Context::simulate_axis`]). Rapids and the waits after them are left out of the
 //! residual, except in a record with its commands that is mostly rapids.
 
-use super::hunting::{QUIET_S, arrived_at, model_hunts_from, record_hunts_from};
 use super::residual::{chatter_noise_power, chatter_windows};
 use crate::machine::{AxisName, MachineConfig};
 use crate::path::Motion;
@@ -89,6 +88,15 @@ pub struct Context<'a> {
 /// A command slower than this stands (m/s): recorded commands' speeds are fitted and carry
 /// their rounding.
 pub(super) const STILL_M_PER_S: f64 = 1e-7;
+/// How close to its command a holding axis must have come to count as settled (m): beyond
+/// the approach, which the comparison keeps, and wide enough for any hunting.
+const SETTLED_M: f64 = 2e-6;
+/// How far the model must move in a settled hold to count as hunting (m).
+const HUNTING_M: f64 = 0.02e-6;
+/// How long the model must stand within [`HUNTING_M`] to count as at rest (s): longer than a
+/// stick at a reversal of the approach lasts, far shorter than a hunting cycle (its
+/// integrator winds against static friction for a good part of a second).
+const QUIET_S: f64 = 0.05;
 /// How long after a hunting hold the axis's start is left out too (s): three time constants
 /// of a position loop of Kv = 1 m/min/mm, where a difference in the state the hunting left
 /// has fallen to a twentieth.
@@ -496,13 +504,10 @@ impl Context<'_> {
             .collect()
     }
 
-    /// The samples of `axis` at which it holds still and the model `trace` hunts: in every
-    /// hold where the model, once come to rest, moves again (or never rests and swings
-    /// without decaying: [`model_hunts_from`]), from where it first rested until
-    /// [`START_AFTER_HUNTING_S`] after the command moves again; and likewise where the record,
-    /// judged by the same rule on its 50 ms averages from its own arrival within 2 µm
-    /// of the command ([`record_hunts_from`]), hunts — by less than the band, it may, while its
-    /// model rests.
+    /// The samples of `axis` at which it holds still and the model `trace` hunts: from where
+    /// the model has settled within [`SETTLED_M`] of the command ([`settled_at`]) until
+    /// [`START_AFTER_HUNTING_S`] after the command moves again, in every hold where the model
+    /// moves by more than [`HUNTING_M`] after settling.
     ///
     /// An axis held by a proportional-plus-integral loop against static friction above its
     /// Coulomb friction does not rest: its integrator winds until the table breaks away, slips
@@ -511,16 +516,13 @@ impl Context<'_> {
     /// machine, hunt out of phase, and compared point by point that mismatch reads as a
     /// systematic residual that friction causes bend to fit (independent records of squares,
     /// where each axis holds while the other moves, named Stribeck and Coulomb friction that
-    /// way). So those samples are left out of the axis's residual; the approach before them,
-    /// and the other axis, are compared as ever. A loop that only settles — a linear one, or
-    /// one whose friction holds the table where it first stops — is compared throughout.
+    /// way). So those samples are left out of the axis's residual; the settling before them,
+    /// and the other axis, are compared as ever.
     pub(crate) fn hunting_holds(&self, axis: AxisName, trace: &[f64], offset_s: f64) -> Vec<bool> {
         let times = self.sample_times(offset_s);
         let n = times.len();
         let mut mask = vec![false; n];
         let still = |t: f64| self.command_at(axis, t).1.abs() < STILL_M_PER_S;
-        let quiet = (QUIET_S / self.sample_dt_s).ceil().max(3.0) as usize;
-        let measured = self.measured_axis(axis);
         let mut k = 0;
         while k < n {
             if !still(times[k]) {
@@ -537,25 +539,54 @@ impl Context<'_> {
             let command: Vec<f64> = (start..k)
                 .map(|j| self.command_at(axis, times[j]).0)
                 .collect();
-            let record: Vec<f64> = (start..k)
-                .map(|j| measured.get(self.samples[j]).copied().unwrap_or(f64::NAN))
-                .collect();
-            let record_from = arrived_at(&record, &command).and_then(|a| {
-                record_hunts_from(&record[a..], quiet, self.noise_sigma).map(|r| a + r)
-            });
-            let Some(from) = model_hunts_from(&model, quiet).or(record_from) else {
+            let quiet = (QUIET_S / self.sample_dt_s).ceil().max(3.0) as usize;
+            let settled = settled_at(&model, &command, quiet);
+            if settled + 2 > model.len() {
                 continue;
-            };
-            // And the start that follows: when the table breaks away depends on where in its
-            // cycle the hunting left it, a difference the loop takes a few of its time
-            // constants to forget.
-            let t_start = times.get(k).copied().unwrap_or(f64::INFINITY);
-            let end = (k..n)
-                .find(|&j| times[j] - t_start > START_AFTER_HUNTING_S)
-                .unwrap_or(n);
-            mask[start + from..end].iter_mut().for_each(|m| *m = true);
+            }
+            let (lo, hi) = model[settled..]
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                    (l.min(v), h.max(v))
+                });
+            let measured = self.measured_axis(axis);
+            let record: Vec<f64> = (start + settled..k)
+                .filter_map(|j| measured.get(self.samples[j]).copied())
+                .collect();
+            if hi - lo > HUNTING_M || self.record_hunts(&record, quiet) {
+                // And the start that follows: when the table breaks away depends on where
+                // in its cycle the hunting left it, a difference the loop takes a few of its
+                // time constants to forget.
+                let t_start = times.get(k).copied().unwrap_or(f64::INFINITY);
+                let end = (k..n)
+                    .find(|&j| times[j] - t_start > START_AFTER_HUNTING_S)
+                    .unwrap_or(n);
+                mask[start + settled..end]
+                    .iter_mut()
+                    .for_each(|m| *m = true);
+            }
         }
         mask
+    }
+
+    /// Whether the record of an axis holding still (`record`, from where its model came to
+    /// rest) moves by more than [`SETTLED_M`] between its averages over `quiet` samples, and
+    /// beyond what its noise moves them: the machine hunts there even where its model, come to
+    /// rest a little differently, holds (a table stuck within its loop's elastic give stays,
+    /// one stuck a little further out breaks away), and the two cannot be compared point by
+    /// point either.
+    fn record_hunts(&self, record: &[f64], quiet: usize) -> bool {
+        let means: Vec<f64> = record
+            .chunks_exact(quiet)
+            .map(|c| c.iter().sum::<f64>() / quiet as f64)
+            .collect();
+        let (lo, hi) = means
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                (l.min(v), h.max(v))
+            });
+        let noise_of_mean = self.noise_sigma / (quiet as f64).sqrt();
+        means.len() >= 2 && hi - lo > SETTLED_M.max(6.0 * noise_of_mean)
     }
 
     /// The measured axis at the context's samples.
@@ -747,6 +778,29 @@ impl Context<'_> {
             sample(&c.vel_m_per_s, self.dt, t),
         )
     }
+}
+
+/// Where in a hold the model has settled (index into `model`, one sample per entry, with its
+/// `command`): just after the last sample outside [`SETTLED_M`] of the command, or, where
+/// earlier, the first sample from which the model stands still for `quiet` samples. An
+/// approach ends where the table first comes to rest; what moves it after that is its
+/// integrator winding against static friction. A loop that hunts by more than the band (a
+/// stiff integrator breaks the table away and slips it micrometres past its target) would
+/// otherwise count every excursion of its hunting as part of the approach.
+fn settled_at(model: &[f64], command: &[f64], quiet: usize) -> usize {
+    let band = (0..model.len())
+        .rposition(|i| (model[i] - command[i]).abs() >= SETTLED_M)
+        .map_or(0, |i| i + 1);
+    let at_rest = |i: usize| {
+        let (lo, hi) = model[i..i + quiet]
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                (l.min(v), h.max(v))
+            });
+        hi - lo <= HUNTING_M
+    };
+    let rest = (0..(model.len() + 1).saturating_sub(quiet).min(band)).find(|&i| at_rest(i));
+    rest.unwrap_or(band)
 }
 
 /// Where a measured axis stood while its command moved.

@@ -10,7 +10,6 @@
 mod align;
 pub mod context;
 mod held;
-mod hunting;
 mod offset;
 pub mod residual;
 pub mod start;

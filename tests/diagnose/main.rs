@@ -10,7 +10,6 @@ mod common;
 mod force_ripple;
 mod foreign_commands;
 mod hidden_effects;
-mod hunting;
 mod odd_records;
 mod records;
 mod reference_records;
