@@ -164,7 +164,7 @@ pub(super) fn read_rows(
         past_midnight(&mut table.t);
     }
     for m in mapped.iter_mut() {
-        m.print_step = Some(steps[m.index]).filter(|s| s.is_finite());
+        m.print_step = Some(steps[m.index]).filter(|s| s.is_finite() && *s > 0.0);
     }
     Ok(table)
 }
@@ -180,7 +180,8 @@ fn printed_step(field: &str, decimal: char) -> f64 {
         .split_once(decimal)
         .map_or(0, |(_, d)| d.chars().filter(char::is_ascii_digit).count())
         as i32;
-    10f64.powi(exponent - decimals)
+    // A field's own exponent can be any i32 ("1.5e-2147483648"): saturate rather than overflow.
+    10f64.powi(exponent.saturating_sub(decimals))
 }
 
 /// Whether the time column holds clock times (its first row's time has a `:`); if so its
@@ -295,5 +296,12 @@ mod tests {
             let got = printed_step(field, decimal);
             assert!((got / step - 1.0).abs() < 1e-12, "{field}: {got}");
         }
+    }
+
+    #[test]
+    fn an_exponent_at_the_end_of_its_range_neither_overflows_nor_claims_a_step() {
+        // i32::MIN minus one decimal would overflow; the step is then below any f64 (0).
+        assert_eq!(printed_step("1.5e-2147483648", '.'), 0.0);
+        assert!(printed_step("1.5e2147483647", '.').is_infinite());
     }
 }
