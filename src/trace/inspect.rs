@@ -177,8 +177,9 @@ impl TraceSummary {
                 (Some(q), Some((decimals, unit))) => {
                     s.push_str(&format!(
                         "{axis} grid    positions on a {:.4} µm grid: the file's print precision \
-                         ({decimals} decimals of {unit}); no coarser count shows\n",
-                        um_from_m(q)
+                         ({}); no coarser count shows\n",
+                        um_from_m(q),
+                        print_precision(decimals, unit)
                     ));
                 }
                 (Some(q), None) => s.push_str(&format!(
@@ -200,6 +201,20 @@ impl TraceSummary {
             None => s.push_str("commands  not recorded: no following error\n"),
         }
         s
+    }
+}
+
+/// A print precision in words: the decimals a file prints (`3 decimals of mm`), or, where
+/// its last digit printed is a unit or above (a field written with an exponent, `15e2`, or
+/// without decimals), the step of that digit (`a step of 100 mm`): a count of decimals is
+/// never negative.
+fn print_precision(decimals: i32, unit: &str) -> String {
+    match decimals {
+        1 => format!("1 decimal of {unit}"),
+        d if d > 1 => format!("{d} decimals of {unit}"),
+        // Up to a million the step reads as a whole number; beyond, as a power of ten.
+        d if d >= -6 => format!("a step of {} {unit}", 10u64.pow(d.unsigned_abs())),
+        d => format!("a step of 1e{} {unit}", d.unsigned_abs()),
     }
 }
 
@@ -271,5 +286,40 @@ mod tests {
                 .text()
                 .contains("X grid    positions on a 0.1000 µm grid:")
         );
+    }
+
+    /// Decimals are counted only below the unit: a last digit of 1, 100 or 10^9 mm is a step.
+    #[test]
+    fn a_print_precision_of_a_unit_or_above_is_a_step() {
+        assert_eq!(print_precision(7, "mm"), "7 decimals of mm");
+        assert_eq!(print_precision(1, "µm"), "1 decimal of µm");
+        assert_eq!(print_precision(0, "mm"), "a step of 1 mm");
+        assert_eq!(print_precision(-2, "mm"), "a step of 100 mm");
+        assert_eq!(print_precision(-9, "m"), "a step of 1e9 m");
+        assert_eq!(print_precision(i32::MIN, "m"), "a step of 1e2147483648 m");
+    }
+
+    /// Positions written with an exponent and one digit of mantissa (`3e2` mm) change in
+    /// whole hundreds of mm: the grid is 100 mm = 1e8 µm, and the text says a step of 100 mm,
+    /// not "-2 decimals".
+    #[test]
+    fn positions_printed_with_an_exponent_read_as_a_step() {
+        let mut text = String::from("t_s,x_mm,y_mm\n");
+        for k in 0..200 {
+            let t = k as f64 * 1e-3;
+            // 1e2 … 20e2 mm, each held for ten samples, Y a step behind.
+            let (x, y) = (1 + k / 10, 1 + k / 12);
+            text.push_str(&format!("{t:.3},{x}e2,{y}e2\n"));
+        }
+        let s = summarise(&parse_trace(&text, "e.csv").unwrap());
+        let q = s.quantum_m[0].unwrap();
+        assert!((q - 0.1).abs() < 1e-12, "{q}");
+        assert_eq!(s.printed[0], Some((-2, "mm")));
+        let out = s.text();
+        assert!(
+            out.contains("X grid    positions on a 100000.0000 µm grid: the file's print precision (a step of 100 mm)"),
+            "{out}"
+        );
+        assert!(!out.contains("-2 decimals"), "{out}");
     }
 }
