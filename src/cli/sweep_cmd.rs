@@ -66,11 +66,12 @@ pub struct SweepArgs {
     /// the whole program, so a step finer than meant is refused rather than run for hours.
     #[arg(long, default_value_t = 1000, value_name = "N")]
     pub max_settings: usize,
-    /// Least damping ratio of a healthy setting's closed-loop modes of the loops' making
-    /// (their own, or a mode of the mechanics they leave with less than half its own damping):
-    /// below it a setting is flagged and ranked after every healthy one, whatever its
-    /// contour error. The `loop damping` column is the least damping of every mode the
-    /// loops act on, with its frequency.
+    /// Damping ratio below which a closed-loop mode flags a setting (ranked after every
+    /// healthy one, whatever its contour error). A mode of the loops' own flags it below
+    /// ZETA; a mode of the mechanics flags it only below both ZETA and half the damping the
+    /// mechanics alone give it. The `loop damping` column shows the least damping of every
+    /// mode the loops act on, flagged or not; that mode's axis and frequency are in the
+    /// JSON (`loop_damping_at`), a flagged mode's in the row's flag.
     #[arg(long, default_value_t = crate::sweep::POOR_DAMPING, value_name = "ZETA")]
     pub min_damping: f64,
     /// Least phase margin of every loop of a healthy setting (degrees).
@@ -371,10 +372,12 @@ fn print_table(
 ) {
     println!(
         "sweep of {program} on {machine}: ranked by the largest contour error; a setting with \
-         a loop below {}° of phase margin or {} dB of gain margin, or a closed-loop mode of the \
-         loops' making (their own, or the mechanics' left with less than half their damping) damped below ζ {}, \
-         is flagged and ranked after every healthy one",
-        t.min_phase_margin_deg, t.min_gain_margin_db, t.min_damping
+         a loop below {}° of phase margin or {} dB of gain margin, a closed-loop mode of the \
+         loops' own damped below ζ {z}, or a mode of the mechanics damped below both ζ {z} and \
+         half its damping on the mechanics alone, is flagged and ranked after every healthy one",
+        t.min_phase_margin_deg,
+        t.min_gain_margin_db,
+        z = t.min_damping
     );
     let head: Vec<String> = dims.iter().map(|d| format!("{:>10}", d.name)).collect();
     println!(

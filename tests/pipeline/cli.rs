@@ -774,3 +774,24 @@ fn a_sweep_with_nothing_to_run_or_too_much_is_refused() {
         "3",
     ]);
 }
+
+/// `sweep --help` says what `--min-damping` flags as the health rule does it — a mode of the
+/// mechanics only below both the threshold and half its damping on the mechanics alone —
+/// and promises the mode's frequency only where it is written (the JSON and the flag), not
+/// in the `loop damping` column, which holds the damping alone.
+#[test]
+fn sweep_help_says_which_modes_min_damping_flags() {
+    let o = run_ok(&["sweep", "--help"]);
+    let help = text(&o.stdout)
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ");
+    assert!(
+        help.contains(
+            "a mode of the mechanics flags it only below both ZETA and half the damping the \
+             mechanics alone give it"
+        ) && help.contains("(`loop_damping_at`)"),
+        "{help}"
+    );
+    assert!(!help.contains("with its frequency"), "{help}");
+}
