@@ -47,9 +47,19 @@ pub(crate) fn draw_legend<DB: DrawingBackend, CT: CoordTranslate>(
         return Ok(());
     }
     let b = legend_box(plot, entries, points_px);
-    let (xs, ys) = plot.get_pixel_range();
-    let area = plot.strip_coord_spec();
-    // The area draws in its own pixels, from the plotting area's top-left.
+    draw_legend_in(plot, entries, b)
+}
+
+/// Draws the legend of `entries` in the box `b` (backend px, as [`legend_box`] gives it) on
+/// `area`: inside a chart's plotting area, or on the area around it, beside the chart.
+pub(crate) fn draw_legend_in<DB: DrawingBackend, CT: CoordTranslate>(
+    area: &DrawingArea<DB, CT>,
+    entries: &[LegendEntry],
+    b: PixelBox,
+) -> PlotResult {
+    let (xs, ys) = area.get_pixel_range();
+    let area = area.strip_coord_spec();
+    // The area draws in its own pixels, from its top-left.
     let (x0, y0) = (b.0 - xs.start, b.1 - ys.start);
     let (x1, y1) = (b.2 - xs.start, b.3 - ys.start);
     area.draw(&Rectangle::new(

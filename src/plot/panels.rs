@@ -1,12 +1,13 @@
 //! Stacked panels of curves over an abscissa of the same kind (time or path length), each
-//! with its own range, ordinate and legend: measured against modelled traces, residuals before and after.
+//! with its own range, ordinate and legend (beside it, never over its data): measured
+//! against modelled traces, residuals before and after.
 
 use plotters::coord::Shift;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
-use super::labels::along_polyline;
-use super::legend::{LegendEntry, draw_legend};
+use super::labels::{along_polyline, legend_size};
+use super::legend::{LEGEND_FONT_PX, LegendEntry, draw_legend, draw_legend_in};
 use super::{FONT, Figure, PlotResult, err, series_color};
 
 /// One curve. A NaN ordinate breaks the line (a stretch left out, a rapid).
@@ -45,6 +46,13 @@ impl Figure for PanelsPlot {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> PlotResult {
         let root = root.titled(&self.title, (FONT, 26)).map_err(err)?;
         let areas = root.split_evenly((self.panels.len().max(1), 1));
+        // Every panel keeps the same room for its legend, so that their abscissas line up.
+        let legend_w = self
+            .panels
+            .iter()
+            .map(|p| legend_size_of(&legend_entries(&p.curves)).0)
+            .max()
+            .unwrap_or(0);
         for (panel, area) in self.panels.iter().zip(areas.iter()) {
             // Each panel spans its own curves (one may be a close-up).
             let (x0, x1) = panel
@@ -53,17 +61,33 @@ impl Figure for PanelsPlot {
                 .flat_map(|c| c.points.iter())
                 .fold((f64::MAX, f64::MIN), |(a, b), p| (a.min(p.0), b.max(p.0)));
             let range = if x0 < x1 { (x0, x1) } else { (0.0, 1.0) };
-            draw_panel(panel, area, range, &self.x_label)?;
+            draw_panel(panel, area, range, &self.x_label, legend_w)?;
         }
         Ok(())
     }
 }
 
+/// The gap (px) between a panel's chart and the legend beside it.
+const LEGEND_GAP_PX: i32 = 10;
+
+/// The size (px) of the legend of `entries`.
+fn legend_size_of(entries: &[LegendEntry]) -> (i32, i32) {
+    if entries.is_empty() {
+        return (0, 0);
+    }
+    let texts: Vec<String> = entries.iter().map(|e| e.text.clone()).collect();
+    legend_size(&texts, LEGEND_FONT_PX)
+}
+
+/// One panel, its legend beside the chart on the right (`legend_w` px kept for it): a
+/// residual or a trace fills its panel from end to end and edge to edge, leaving no corner
+/// a legend could take without hiding data.
 fn draw_panel<DB: DrawingBackend>(
     panel: &Panel,
     area: &DrawingArea<DB, Shift>,
     (x0, x1): (f64, f64),
     x_label: &str,
+    legend_w: i32,
 ) -> PlotResult {
     let ys = panel
         .curves
@@ -73,9 +97,15 @@ fn draw_panel<DB: DrawingBackend>(
     let (lo, hi) = ys.fold((f64::MAX, f64::MIN), |(a, b), y| (a.min(y), b.max(y)));
     let (lo, hi) = if lo <= hi { (lo, hi) } else { (-1.0, 1.0) };
     let pad = 0.08 * (hi - lo).max(1e-3);
+    let room = if legend_w > 0 {
+        legend_w + 2 * LEGEND_GAP_PX
+    } else {
+        10
+    };
     let mut chart = ChartBuilder::on(area)
         .caption(&panel.caption, (FONT, 18))
         .margin(10)
+        .margin_right(room)
         .x_label_area_size(40)
         .y_label_area_size(75)
         .build_cartesian_2d(x0..x1, (lo - pad)..(hi + pad))
@@ -88,37 +118,39 @@ fn draw_panel<DB: DrawingBackend>(
         .axis_desc_style((FONT, 15))
         .draw()
         .map_err(err)?;
-    draw_curves(&mut chart, &panel.curves)
+    draw_lines(&mut chart, &panel.curves)?;
+    let entries = legend_entries(&panel.curves);
+    if entries.is_empty() {
+        return Ok(());
+    }
+    let (w, h) = legend_size_of(&entries);
+    let (xs, ys) = chart.plotting_area().get_pixel_range();
+    let left = xs.end + LEGEND_GAP_PX;
+    draw_legend_in(area, &entries, (left, ys.start, left + w, ys.start + h))
 }
 
-/// Draws the legend (where it covers fewest of the curves) and `curves` on `chart`, each
-/// broken where its ordinate is NaN.
-pub(super) fn draw_curves<'a, DB: DrawingBackend + 'a>(
-    chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
-    curves: &[Curve],
-) -> PlotResult {
-    let style_of = |curve: &Curve| match curve.color {
+/// A curve's colour and line width: its series colour, or light grey for a reference.
+fn style_of(curve: &Curve) -> (RGBColor, u32) {
+    match curve.color {
         Some(i) => (series_color(i), curve.width),
         None => (RGBColor(150, 150, 150), curve.width),
-    };
-    let pieces = |curve: &'_ Curve| {
-        curve
-            .points
-            .split(|p| !p.1.is_finite())
-            .filter(|r| r.len() > 1)
-            .map(|r| r.to_vec())
-            .collect::<Vec<_>>()
-    };
-    let mut drawn_px = Vec::new();
-    for curve in curves {
-        for piece in pieces(curve) {
-            let px: Vec<(i32, i32)> = piece.iter().map(|p| chart.backend_coord(p)).collect();
-            drawn_px.extend(along_polyline(&px));
-        }
     }
-    // One legend entry per curve, however many pieces it is drawn in; none for a curve
-    // without a name (a second curve of an entry already made).
-    let entries: Vec<LegendEntry> = curves
+}
+
+/// A curve's pieces of two points or more, broken where its ordinate is NaN.
+fn pieces(curve: &Curve) -> Vec<Vec<(f64, f64)>> {
+    curve
+        .points
+        .split(|p| !p.1.is_finite())
+        .filter(|r| r.len() > 1)
+        .map(|r| r.to_vec())
+        .collect()
+}
+
+/// One legend entry per curve, however many pieces it is drawn in; none for a curve without
+/// a name (a second curve of an entry already made) or without a piece to draw.
+fn legend_entries(curves: &[Curve]) -> Vec<LegendEntry> {
+    curves
         .iter()
         .filter(|c| !c.name.is_empty() && !pieces(c).is_empty())
         .map(|c| {
@@ -129,8 +161,31 @@ pub(super) fn draw_curves<'a, DB: DrawingBackend + 'a>(
                 width,
             }
         })
-        .collect();
-    draw_legend(chart.plotting_area(), &entries, &drawn_px)?;
+        .collect()
+}
+
+/// Draws the legend (where it covers fewest of the curves) and `curves` on `chart`, each
+/// broken where its ordinate is NaN.
+pub(super) fn draw_curves<'a, DB: DrawingBackend + 'a>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    curves: &[Curve],
+) -> PlotResult {
+    let mut drawn_px = Vec::new();
+    for curve in curves {
+        for piece in pieces(curve) {
+            let px: Vec<(i32, i32)> = piece.iter().map(|p| chart.backend_coord(p)).collect();
+            drawn_px.extend(along_polyline(&px));
+        }
+    }
+    draw_legend(chart.plotting_area(), &legend_entries(curves), &drawn_px)?;
+    draw_lines(chart, curves)
+}
+
+/// Draws `curves` on `chart`, each broken where its ordinate is NaN.
+fn draw_lines<'a, DB: DrawingBackend + 'a>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    curves: &[Curve],
+) -> PlotResult {
     for curve in curves {
         let (color, width) = style_of(curve);
         for piece in pieces(curve) {
@@ -140,4 +195,83 @@ pub(super) fn draw_curves<'a, DB: DrawingBackend + 'a>(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The value of attribute `name` in one SVG element's text.
+    fn attr(element: &str, name: &str) -> Option<String> {
+        let at = element.find(&format!(" {name}=\""))? + name.len() + 3;
+        Some(element[at..].split('"').next()?.to_string())
+    }
+
+    /// Residuals that fill their panels — noise about zero from end to end, as a model's
+    /// residual over a whole record is — leave no corner free: every legend (the translucent
+    /// box, 0.85 opaque) lies beside its chart, with no point of any curve inside it.
+    #[test]
+    fn a_legend_beside_panels_that_fill_their_charts_hides_no_data() {
+        let noise = |seed: u64| -> Vec<(f64, f64)> {
+            (0..4000)
+                .map(|k| {
+                    let v = ((k as u64 * 2_654_435_761 + seed) % 1000) as f64 / 500.0 - 1.0;
+                    (k as f64 * 1e-3, v)
+                })
+                .collect()
+        };
+        let panel = |caption: &str| Panel {
+            caption: caption.into(),
+            y_label: "residual (µm)".into(),
+            curves: vec![
+                Curve {
+                    name: "nominal model".into(),
+                    points: noise(7),
+                    color: None,
+                    width: 1,
+                },
+                Curve {
+                    name: "extended model".into(),
+                    points: noise(11).into_iter().map(|(t, v)| (t, 0.5 * v)).collect(),
+                    color: Some(0),
+                    width: 1,
+                },
+            ],
+        };
+        let plot = PanelsPlot {
+            title: "residual over time".into(),
+            x_label: "program time (s)".into(),
+            panels: vec![panel("X"), panel("Y"), panel("contour")],
+        };
+        let svg = crate::plot::svg_text(&plot).unwrap();
+        let elements: Vec<&str> = svg.split('<').collect();
+        let legends: Vec<[f64; 4]> = elements
+            .iter()
+            .filter(|e| e.starts_with("rect") && attr(e, "opacity").as_deref() == Some("0.85"))
+            .map(|e| ["x", "y", "width", "height"].map(|n| attr(e, n).unwrap().parse().unwrap()))
+            .collect();
+        assert_eq!(legends.len(), 3, "one legend a panel");
+        let points: Vec<(f64, f64)> = elements
+            .iter()
+            .filter(|e| e.starts_with("polyline"))
+            .filter_map(|e| attr(e, "points"))
+            .filter(|p| p.split_whitespace().count() > 2)
+            .flat_map(|p| {
+                p.split_whitespace()
+                    .map(|xy| {
+                        let (x, y) = xy.split_once(',').unwrap();
+                        (x.parse().unwrap(), y.parse().unwrap())
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        assert!(points.len() > 1000, "{}", points.len());
+        for [x, y, w, h] in legends {
+            let inside = points
+                .iter()
+                .filter(|&&(px, py)| px >= x && px <= x + w && py >= y && py <= y + h)
+                .count();
+            assert_eq!(inside, 0, "legend at ({x}, {y}) covers {inside} points");
+        }
+    }
 }

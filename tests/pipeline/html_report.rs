@@ -78,6 +78,7 @@ fn assert_self_contained(text: &str) {
         "the page loads something"
     );
     assert!(text.contains("@page { size: A4"), "no A4 page size");
+    assert_prints_compactly(text);
     for url in ["http://", "https://"] {
         let outside: Vec<&str> = text
             .match_indices(url)
@@ -86,6 +87,44 @@ fn assert_self_contained(text: &str) {
             .collect();
         assert!(outside.is_empty(), "addresses on the page: {outside:?}");
     }
+}
+
+/// The millimetres of the first `name: …mm` declaration in `css` after `from` (the first
+/// length where the declaration lists several).
+fn mm_after(css: &str, from: &str, name: &str) -> f64 {
+    let rest = &css[css.find(from).unwrap_or_else(|| panic!("no {from:?}"))..];
+    let value = &rest[rest.find(&format!("{name}:")).unwrap() + name.len() + 1..];
+    let first = value.split_whitespace().next().unwrap();
+    first
+        .trim_end_matches(';')
+        .strip_suffix("mm")
+        .unwrap_or_else(|| panic!("{name}: {first} is not in mm"))
+        .parse()
+        .unwrap()
+}
+
+/// The page prints compactly: on paper no figure is split across pages, no section is
+/// pushed onto a page of its own, and two figures with their captions and a heading share
+/// an A4 page — a plot is 3:2, at the page's full width taller than half its height (297 mm
+/// less the `@page` margins), so its print height is held below that.
+fn assert_prints_compactly(text: &str) {
+    let print = &text[text.find("@media print").expect("print rules")..];
+    assert!(
+        print.contains("break-inside: avoid") && print.contains("page-break-inside: avoid"),
+        "a figure may split across pages"
+    );
+    assert!(!text.contains("break-before: page"), "a forced page break");
+    let page_mm = 297.0 - 2.0 * mm_after(text, "@page", "margin");
+    let figure_mm = mm_after(print, "figure {", "margin");
+    let svg_mm = mm_after(print, "figure svg", "max-height");
+    // A caption's two lines at 8.5 pt (3 mm each, 1 mm above), a heading at 11.5 pt with its
+    // 4 + 1.5 mm margins.
+    let (caption_mm, heading_mm) = (7.0, 10.0);
+    let two = 2.0 * (svg_mm + 2.0 * figure_mm + caption_mm) + heading_mm;
+    assert!(
+        two <= page_mm,
+        "two figures take {two} mm of a {page_mm} mm page"
+    );
 }
 
 fn read(path: &Path) -> String {
