@@ -228,6 +228,33 @@ pub fn corners_hz(coefficients: &[f64]) -> Vec<f64> {
     hz
 }
 
+/// Prints X's held-out figures of `id` — the fit's, as a share of the following error, the
+/// template's and the record's noise — and its values, for the log of a test that fails.
+pub fn print_x_held_out(id: &Identification) {
+    let x = &id.axes[0];
+    eprintln!(
+        "X: held out {:.3} µm ({:.1} % of the following error), template {:.3} µm, noise \
+         {:.3} µm; {:?}",
+        x.held_out_identified_um,
+        100.0 * x.held_out_share,
+        x.held_out_template_um,
+        id.noise_um,
+        x.values
+    );
+}
+
+/// The zeros' and the poles' corners (Hz, lowest first) of the transfer function `id` wrote
+/// for X, printed for the log; panics where X's controller is not a transfer function.
+#[track_caller]
+pub fn x_corners_hz(id: &Identification) -> (Vec<f64>, Vec<f64>) {
+    let Controller::TransferFunction(found) = &id.machine.x.controller else {
+        panic!("X: a transfer function, not {:?}", id.machine.x.controller);
+    };
+    let (zeros, poles) = (corners_hz(&found.numerator), corners_hz(&found.denominator));
+    eprintln!("X: zeros {zeros:?} Hz, poles {poles:?} Hz");
+    (zeros, poles)
+}
+
 /// A machine written by an identification predicts `program`'s largest contour error within
 /// a tenth of what the machine recorded (`truth`) gives: the use a file is written for.
 #[track_caller]

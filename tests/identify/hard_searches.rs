@@ -20,12 +20,13 @@ use crate::common;
 
 use common::assert_within_k_sigma;
 use common::identifying::{
-    corners_hz, encoder_record, encoder_record_with_tight_spot, fitted_program, hidden_value,
-    lead_lag_designed_and_run, lead_lag_toml, other_program, predicted,
+    encoder_record, encoder_record_with_tight_spot, fitted_program, hidden_value,
+    lead_lag_designed_and_run, lead_lag_toml, other_program, predicted, print_x_held_out,
+    x_corners_hz,
 };
 use contourcheck::compare::CompareSettings;
 use contourcheck::identify::identify;
-use contourcheck::machine::{Controller, MachineConfig};
+use contourcheck::machine::MachineConfig;
 use contourcheck::sim::MeasuredAt;
 
 /// The lead-lag table of `common::identifying` (its corners in Hz), the small table's viscous
@@ -52,25 +53,13 @@ fn a_controller_tuned_three_times_off_its_design_is_found_from_trial_starts() {
     let measured = encoder_record(&program, &truth, 41);
     let id = identify(&program, &template, &measured, &settings).unwrap();
     let x = &id.axes[0];
-    eprintln!(
-        "X: held out {:.3} µm ({:.1} % of the following error), template {:.3} µm, noise {:.3} µm; {:?}",
-        x.held_out_identified_um,
-        100.0 * x.held_out_share,
-        x.held_out_template_um,
-        id.noise_um,
-        x.values
-    );
+    print_x_held_out(&id);
     // The controller that ran: its corners, as written into the machine file, within 20 % —
     // the pole at 240 Hz too, six times the crossover: with the design's 80 Hz in its place
     // the rest of the fit no longer reaches the record's noise, so the record excludes the
     // design's pole even where it leaves the corner looser than a measurement.
-    let Controller::TransferFunction(found) = &id.machine.x.controller else {
-        panic!("a transfer function");
-    };
-    let found_corners: Vec<f64> = corners_hz(&found.numerator)
-        .into_iter()
-        .chain(corners_hz(&found.denominator))
-        .collect();
+    let (zeros, poles) = x_corners_hz(&id);
+    let found_corners: Vec<f64> = zeros.into_iter().chain(poles).collect();
     assert_eq!(found_corners.len(), run.len(), "corners {found_corners:?}");
     for (f, want) in found_corners.iter().zip(run) {
         assert!(

@@ -6,11 +6,12 @@
 
 use crate::common;
 
-use common::identifying::{corners_hz, encoder_recording, fitted_program, reference_trace};
+use common::identifying::{
+    encoder_recording, fitted_program, print_x_held_out, reference_trace, x_corners_hz,
+};
 use common::reference::Recording;
 use contourcheck::compare::CompareSettings;
 use contourcheck::identify::identify;
-use contourcheck::machine::Controller;
 
 use crate::hard_searches::lead_lag;
 use contourcheck::sim::MeasuredAt;
@@ -32,21 +33,8 @@ fn a_corner_above_a_quarter_of_the_records_rate_is_not_cut_off_there() {
     };
     let measured = reference_trace(&program, &truth, &rec);
     let id = identify(&program, &template, &measured, &settings).unwrap();
-    let x = &id.axes[0];
-    eprintln!(
-        "X: held out {:.3} µm ({:.1} % of the following error), template {:.3} µm, noise {:.3} µm; {:?}",
-        x.held_out_identified_um,
-        100.0 * x.held_out_share,
-        x.held_out_template_um,
-        id.noise_um,
-        x.values
-    );
-    let Controller::TransferFunction(found) = &id.machine.x.controller else {
-        panic!("a transfer function");
-    };
-    let poles = corners_hz(&found.denominator);
-    let zeros = corners_hz(&found.numerator);
-    eprintln!("zeros {zeros:?} Hz, poles {poles:?} Hz");
+    print_x_held_out(&id);
+    let (zeros, poles) = x_corners_hz(&id);
     // Half of the 1 kHz record's Nyquist frequency is 250 Hz: a search bounded there could
     // write no pole above it. The machine's is at 400 Hz.
     let pole = poles[0];
