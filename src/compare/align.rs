@@ -718,11 +718,15 @@ impl Context<'_> {
 fn timing_drift(ctx: &Context, x: &[f64], y: &[f64], offset: f64) -> f64 {
     /// How far either half may lie from the whole record's offset (s).
     const REACH_S: f64 = 0.5;
-    let half = ctx.samples.len() / 2;
-    let (first, second) = ctx.samples.split_at(half);
+    let (n, half) = (ctx.samples.len(), ctx.samples.len() / 2);
+    // Positions among the compared samples, every fourth: what the context's masks are
+    // indexed by.
+    let (first, second): (Vec<usize>, Vec<usize>) = (
+        (0..half).step_by(4).collect(),
+        (half..n).step_by(4).collect(),
+    );
     let best = |part: &[usize]| {
-        let mut sub = ctx.clone();
-        sub.samples = part.iter().step_by(4).copied().collect();
+        let sub = ctx.keeping(part);
         let cost = |o: f64| sub.offset_cost(x, y, o);
         // A 5 ms scan, then golden section about its best: over half a second the
         // mismatch need not be unimodal.
@@ -732,7 +736,7 @@ fn timing_drift(ctx: &Context, x: &[f64], y: &[f64], offset: f64) -> f64 {
             .unwrap_or(offset);
         golden_section(start - 0.005, start + 0.005, 1e-6, &cost)
     };
-    best(second) - best(first)
+    best(&second) - best(&first)
 }
 
 /// The standstills inside the commands (both axes still for at least 10 ms, neither at the

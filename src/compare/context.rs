@@ -413,6 +413,36 @@ impl Context<'_> {
             .collect()
     }
 
+    /// The context on the compared samples at `positions` (indices into its samples, not
+    /// record indices): the samples, and with them each axis's masks of samples left out.
+    /// The masks are indexed by position among the samples, so a part that took them over
+    /// as they were would read them at the wrong samples: a hold late in the record would
+    /// never reach a half, and an early one would cover other time. Positions beyond the
+    /// samples are skipped.
+    pub(crate) fn keeping(&self, positions: &[usize]) -> Self {
+        let kept: Vec<usize> = positions
+            .iter()
+            .copied()
+            .filter(|&k| k < self.samples.len())
+            .collect();
+        let part = |mask: &Vec<bool>| -> Vec<bool> {
+            // An empty mask leaves nothing out, in the part as in the whole.
+            if mask.is_empty() {
+                Vec::new()
+            } else {
+                kept.iter()
+                    .map(|&k| mask.get(k).copied().unwrap_or(false))
+                    .collect()
+            }
+        };
+        Context {
+            samples: kept.iter().map(|&k| self.samples[k]).collect(),
+            holding: self.holding.each_ref().map(part),
+            unsettled: self.unsettled.each_ref().map(part),
+            ..self.clone()
+        }
+    }
+
     /// How many samples of `axis` its point-by-point residual holds.
     pub(crate) fn compared_count(&self, axis: AxisName) -> usize {
         (0..self.samples.len())

@@ -72,28 +72,32 @@ impl HeldOutMeasure {
     }
 }
 
-/// The compared samples in two halves. The record is cut into stretches — each window
-/// around an event of the axis (a reversal, an acceleration) on its own, the quiet time
-/// between them in pieces of at most an eighth of the record — and the events alternate
-/// between the halves, as do the quiet pieces: a cause that lives at reversals has
-/// reversals in both halves.
-fn halves(ctx: &Context, near_event: &[bool]) -> (Vec<usize>, Vec<usize>) {
-    let longest = (ctx.samples.len() / BLOCKS).max(1);
+/// The compared samples in two halves, as positions among them: what the context's masks
+/// are indexed by ([`Context::keeping`] takes a half), `near_event` holding one entry per
+/// compared sample. The record is cut into stretches — each window around an event of the
+/// axis (a reversal, an acceleration) on its own, the quiet time between them in pieces of
+/// at most an eighth of the record — and the events alternate between the halves, as do
+/// the quiet pieces: a cause that lives at reversals has reversals in both halves. Windows
+/// that run together (an axis that accelerates all along a circle is near an event
+/// throughout) are cut too, into pieces of `window_len` samples, one window: taken whole,
+/// such a run would give one half all of the axis's motion and the other only its
+/// standstills.
+fn halves(near_event: &[bool], window_len: usize) -> (Vec<usize>, Vec<usize>) {
+    let longest = [(near_event.len() / BLOCKS).max(1), window_len.max(1)];
     let (mut first, mut second) = (Vec::new(), Vec::new());
     let mut counts = [0usize; 2];
     let mut run_len = 0usize;
-    for (k, &i) in ctx.samples.iter().enumerate() {
-        let event = near_event[k];
-        let starts_run = k == 0 || near_event[k - 1] != event || (!event && run_len >= longest);
+    for (k, &event) in near_event.iter().enumerate() {
+        let starts_run = k == 0 || near_event[k - 1] != event || run_len >= longest[event as usize];
         if starts_run {
             counts[event as usize] += 1;
             run_len = 0;
         }
         run_len += 1;
         if counts[event as usize] % 2 == 1 {
-            first.push(i);
+            first.push(k);
         } else {
-            second.push(i);
+            second.push(k);
         }
     }
     (first, second)
@@ -116,11 +120,16 @@ pub(crate) fn held_out(
         offset_s,
     } = now;
     let (_, near_event) = ctx.event_masks(axis, offset_s, event_window_s);
-    let (fit_on, judge_on) = halves(ctx, &near_event);
-    let mut train = ctx.clone();
-    train.samples = fit_on;
-    let mut test = ctx.clone();
-    test.samples = judge_on;
+    // A window spans the event's time on either side of it; one sample more for where its
+    // ends fall between samples, so that a window on its own is never cut.
+    let window_len = (2.0 * event_window_s / ctx.sample_dt_s).ceil() + 1.0;
+    let window_len = if window_len.is_finite() {
+        window_len as usize
+    } else {
+        1
+    };
+    let (fit_on, judge_on) = halves(&near_event, window_len);
+    let (train, test) = (ctx.keeping(&fit_on), ctx.keeping(&judge_on));
     let other = &traces[axis.other().index()];
     let starts = [values.to_vec()];
     let fitted = if statistical {
@@ -303,5 +312,82 @@ impl<'a> Validation<'a> {
             }
         }
         self.offset_s = self.best_offset(&self.traces.clone());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::halves;
+    use crate::compare::{CompareSettings, context};
+    use crate::diagnose::synth::{SynthSpec, synthesize};
+    use crate::gcode::{InterpretOptions, parse_program};
+    use crate::machine::{AxisName, MachineConfig};
+    use crate::trace::measured::parse_trace;
+
+    /// A part of the compared samples leaves out exactly the samples the whole record left
+    /// out among those it keeps. The masks are indexed by position among the compared
+    /// samples: a half that took them over as they were would read the first half of them
+    /// for its own, and a hold in the record's last fifth would reach neither half.
+    #[test]
+    fn a_late_hold_reaches_each_half_at_its_own_samples() {
+        let machine = MachineConfig::default_preset();
+        let text = "G21 G90 G17 G94\nG0 X0 Y0\nG1 X30 Y-10 F1200\nM2\n";
+        let program = parse_program(text, "line.nc", &InterpretOptions::default()).unwrap();
+        let mut csv = Vec::new();
+        synthesize(&program, &machine, &SynthSpec::default())
+            .unwrap()
+            .write_csv(&mut csv)
+            .unwrap();
+        let measured = parse_trace(&String::from_utf8(csv).unwrap(), "line.csv").unwrap();
+        let settings = CompareSettings::for_machine(&machine);
+        let (mut ctx, _) = context(&program, &machine, &measured, &settings).unwrap();
+        let n = ctx.samples.len();
+        assert!(n >= 80, "{n} samples");
+        // Left out by construction: X holds in the record's last fifth, Y has not settled
+        // in its first tenth; Z leaves nothing out.
+        let held = |k: usize| 5 * k >= 4 * n;
+        let unsettled = |k: usize| 10 * k < n;
+        ctx.holding[AxisName::X.index()] = (0..n).map(held).collect();
+        ctx.unsettled[AxisName::Y.index()] = (0..n).map(unsettled).collect();
+        // Quiet throughout: pieces of an eighth of the record alternate, so the last fifth
+        // (from 0.8 of it) lies partly in the 7th piece and wholly over the 8th.
+        let (first, second) = halves(&vec![false; n], 1);
+        for positions in [&first, &second] {
+            let part = ctx.keeping(positions);
+            assert_eq!(part.samples.len(), positions.len());
+            for (j, &k) in positions.iter().enumerate() {
+                assert_eq!(part.samples[j], ctx.samples[k]);
+                assert_eq!(part.compared(AxisName::X, j), !held(k), "X at {k} of {n}");
+                assert_eq!(part.compared(AxisName::Y, j), !unsettled(k), "Y at {k}");
+            }
+            let own_holds = positions.iter().filter(|&&k| held(k)).count();
+            assert!(own_holds > 0, "the late hold reaches both halves");
+            assert_eq!(
+                part.compared_count(AxisName::X),
+                positions.len() - own_holds
+            );
+            assert!(part.holding[AxisName::Z.index()].is_empty());
+        }
+        // A position beyond the samples is no sample of the part.
+        assert_eq!(ctx.keeping(&[0, n, n + 7]).samples, vec![ctx.samples[0]]);
+    }
+
+    /// Windows around events that run together are cut one window long and alternate, so
+    /// both halves see the axis move; a window on its own stays whole in one half.
+    #[test]
+    fn a_run_of_events_is_shared_between_the_halves_and_a_lone_window_is_not_cut() {
+        // 800 samples near an event from 100 to 700: six windows of 100 run together.
+        let near: Vec<bool> = (0..800).map(|k| (100..700).contains(&k)).collect();
+        let (first, second) = halves(&near, 100);
+        let events = |half: &[usize]| half.iter().filter(|&&k| near[k]).count();
+        assert_eq!((events(&first), events(&second)), (300, 300));
+        assert_eq!(first.len() + second.len(), 800);
+        // Two lone windows of 100 samples: one in each half, each whole.
+        let lone: Vec<bool> = (0..800)
+            .map(|k| (100..200).contains(&k) || (400..500).contains(&k))
+            .collect();
+        let (first, second) = halves(&lone, 100);
+        assert!((100..200).all(|k| first.contains(&k)));
+        assert!((400..500).all(|k| second.contains(&k)));
     }
 }
