@@ -474,6 +474,14 @@ fn judge(
             JudgedOn::OtherHalf => "the half of the record it was not fitted on",
             JudgedOn::SecondRecord => "the second record",
         };
+        if held.samples == 0 {
+            // Nothing to judge on is not evidence against the cause: say so, not "0 samples".
+            return Err(format!(
+                "fits, but {unseen} compares no sample of {}: it cannot be judged on data it \
+                 was not fitted on",
+                axis.letter()
+            ));
+        }
         return Err(format!(
             "fits, but does not hold on {unseen} (held-out evidence {:.1}; its {} there, over \
              the {} samples of {} compared, {:.3} → {:.3} µm)",
