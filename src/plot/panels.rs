@@ -46,13 +46,26 @@ impl Figure for PanelsPlot {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> PlotResult {
         let root = root.titled(&self.title, (FONT, 26)).map_err(err)?;
         let areas = root.split_evenly((self.panels.len().max(1), 1));
-        // Every panel keeps the same room for its legend, so that their abscissas line up.
-        let legend_w = self
+        // Every panel keeps the same room for its legend, so that their abscissas line up;
+        // none where a legend would not fit beside its chart (a long one in a short panel, or
+        // one wider than a third of the figure): those legends go inside, where they cover
+        // fewest of the curves.
+        let sizes: Vec<(i32, i32)> = self
             .panels
             .iter()
-            .map(|p| legend_size_of(&legend_entries(&p.curves)).0)
-            .max()
-            .unwrap_or(0);
+            .map(|p| legend_size_of(&legend_entries(&p.curves)))
+            .collect();
+        let fits = areas.first().is_none_or(|a| {
+            let (w, h) = a.dim_in_pixel();
+            sizes.iter().all(|&(lw, lh)| {
+                3 * (lw + 2 * LEGEND_GAP_PX) <= w as i32 && lh + PANEL_FRAME_PX <= h as i32
+            })
+        });
+        let legend_w = if fits {
+            sizes.iter().map(|s| s.0).max().unwrap_or(0)
+        } else {
+            0
+        };
         for (panel, area) in self.panels.iter().zip(areas.iter()) {
             // Each panel spans its own curves (one may be a close-up).
             let (x0, x1) = panel
@@ -69,6 +82,8 @@ impl Figure for PanelsPlot {
 
 /// The gap (px) between a panel's chart and the legend beside it.
 const LEGEND_GAP_PX: i32 = 10;
+/// A panel's height (px) not in its chart's plotting area: caption, margins, abscissa labels.
+const PANEL_FRAME_PX: i32 = 90;
 
 /// The size (px) of the legend of `entries`.
 fn legend_size_of(entries: &[LegendEntry]) -> (i32, i32) {
@@ -118,6 +133,9 @@ fn draw_panel<DB: DrawingBackend>(
         .axis_desc_style((FONT, 15))
         .draw()
         .map_err(err)?;
+    if legend_w == 0 {
+        return draw_curves(&mut chart, &panel.curves);
+    }
     draw_lines(&mut chart, &panel.curves)?;
     let entries = legend_entries(&panel.curves);
     if entries.is_empty() {
@@ -244,15 +262,10 @@ mod tests {
             panels: vec![panel("X"), panel("Y"), panel("contour")],
         };
         let svg = crate::plot::svg_text(&plot).unwrap();
-        let elements: Vec<&str> = svg.split('<').collect();
-        let legends: Vec<[f64; 4]> = elements
-            .iter()
-            .filter(|e| e.starts_with("rect") && attr(e, "opacity").as_deref() == Some("0.85"))
-            .map(|e| ["x", "y", "width", "height"].map(|n| attr(e, n).unwrap().parse().unwrap()))
-            .collect();
+        let legends = legend_boxes(&svg);
         assert_eq!(legends.len(), 3, "one legend a panel");
-        let points: Vec<(f64, f64)> = elements
-            .iter()
+        let points: Vec<(f64, f64)> = svg
+            .split('<')
             .filter(|e| e.starts_with("polyline"))
             .filter_map(|e| attr(e, "points"))
             .filter(|p| p.split_whitespace().count() > 2)
@@ -272,6 +285,57 @@ mod tests {
                 .filter(|&&(px, py)| px >= x && px <= x + w && py >= y && py <= y + h)
                 .count();
             assert_eq!(inside, 0, "legend at ({x}, {y}) covers {inside} points");
+        }
+    }
+
+    /// The legends' boxes (the translucent rectangles, 0.85 opaque) of an SVG figure: x, y,
+    /// width, height in px, top to bottom as drawn.
+    fn legend_boxes(svg: &str) -> Vec<[f64; 4]> {
+        svg.split('<')
+            .filter(|e| e.starts_with("rect") && attr(e, "opacity").as_deref() == Some("0.85"))
+            .map(|e| ["x", "y", "width", "height"].map(|n| attr(e, n).unwrap().parse().unwrap()))
+            .collect()
+    }
+
+    /// Six short panels of twelve named curves each: a legend of twelve rows (14 px text,
+    /// some 22 px a row) is taller than a sixth of the figure, and beside its chart it would
+    /// run into the panels below. Each is drawn inside its own panel instead.
+    #[test]
+    fn a_legend_taller_than_its_panel_stays_within_the_panel() {
+        let curve = |i: usize| Curve {
+            name: format!("setting {i}"),
+            points: (0..50).map(|k| (k as f64, (k * i) as f64)).collect(),
+            color: Some(i),
+            width: 1,
+        };
+        let panel = |caption: &str| Panel {
+            caption: caption.into(),
+            y_label: "µm".into(),
+            curves: (0..12).map(curve).collect(),
+        };
+        let plot = PanelsPlot {
+            title: "many settings".into(),
+            x_label: "s".into(),
+            panels: ["a", "b", "c", "d", "e", "f"]
+                .into_iter()
+                .map(panel)
+                .collect(),
+        };
+        let legends = legend_boxes(&crate::plot::svg_text(&plot).unwrap());
+        assert_eq!(legends.len(), 6, "one legend a panel");
+        let (width, height) = (crate::plot::SIZE.0 as f64, crate::plot::SIZE.1 as f64);
+        // Panel k spans at most [k·H/6, (k+1)·H/6 + the title's height] (the title, under
+        // 60 px, is taken off the top before the panels share the rest).
+        for (k, [x, y, w, h]) in legends.into_iter().enumerate() {
+            let band = height / 6.0;
+            assert!(x >= 0.0 && x + w <= width, "legend {k} at x {x}, {w} wide");
+            assert!(
+                y >= k as f64 * band && y + h <= (k + 1) as f64 * band + 60.0,
+                "legend {k} spans {y}..{} px, its panel {}..{} px",
+                y + h,
+                k as f64 * band,
+                (k + 1) as f64 * band + 60.0
+            );
         }
     }
 }
