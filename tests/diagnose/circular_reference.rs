@@ -430,11 +430,15 @@ fn circles_of_a_lead_lag_controller_in_independent_records() {
 }
 
 /// The entry window: 10° past it the radial deviation is the closed form's steady one
-/// within three noise sigma. Fails: on the cascade the first 10° past 5/Kv of path still
-/// sit 1.1 µm (F600) and 1.5 µm (F1000) inside the steady radius, the next 10° within
-/// 0.01 µm — the window leaves part of the entry transient in the figures.
+/// within three noise sigma. Fails on the cascade: the reference's interpolator sets off on
+/// the circle as soon as the rapid's command stops, with no in-position wait, so the table
+/// still lags the rapid by about 1 mm, radially (1.06 mm in the circle's first degree at
+/// F600, decaying at Kv degree by degree as e^(-Kv t)); five time constants leave about
+/// 7 µm of it at the window's end, and the first 10° past it sit 1.1 µm (F600) and 1.5 µm
+/// (F1000) inside the steady radius, the next 10° within 0.01 µm. A window sized from the
+/// lag the table actually enters with (its logarithm against the noise, over Kv) would not.
 #[test]
-#[ignore = "the entry window of 5/Kv leaves about 1 µm of entry transient on the cascade"]
+#[ignore = "5/Kv leaves ~1 µm of a rapid's unsettled lag when the record's control does not wait in position"]
 fn the_entry_window_leaves_the_transient_out() {
     let cases = [
         (cascade_case("cascade R30 F600", 30.0, 600.0), 1),
@@ -447,6 +451,24 @@ fn the_entry_window_leaves_the_transient_out() {
     };
     let failures: Vec<String> = (cases.iter())
         .filter_map(|(c, seed)| check(c, *seed, entry))
+        .collect();
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
+/// Short circles, whose loops' settling is longer than a quarter turn, keep their figures:
+/// a quarter turn left out at each end, the other half measured, the figures the record's.
+#[test]
+fn short_circles_keep_their_figures() {
+    let figures_only = Checks {
+        steady: false,
+        entry: false,
+    };
+    let cases = [
+        (cascade_case("cascade R3 F1000", 3.0, 1000.0), 21),
+        (lead_lag_case("lead-lag R2 F3000", 2.0, 3000.0), 22),
+    ];
+    let failures: Vec<String> = (cases.iter())
+        .filter_map(|(c, seed)| check(c, *seed, figures_only))
         .collect();
     assert!(failures.is_empty(), "{failures:#?}");
 }
