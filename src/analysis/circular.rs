@@ -184,10 +184,37 @@ pub struct EntrySettling {
 }
 
 impl EntrySettling {
-    /// The loops of `machine` (a cascade's Kv, another controller's equivalent).
+    /// The loops of `machine`: a cascade's Kv; for another controller the decay rate of its
+    /// slowest closed-loop mode, not its bandwidth — a controller with integral action
+    /// settles into the circle's steady lag at the pace its integrator's mode sets, often
+    /// ten times slower than its bandwidth, and a window from the bandwidth keeps the entry
+    /// transient in the figures.
     pub(crate) fn of(machine: &crate::machine::MachineConfig) -> Self {
+        let kv = crate::plan::InPosition::kv_per_s_of(machine);
+        let slowest_per_s = |a: &crate::machine::AxisConfig, kv_per_s: f64| {
+            if a.controller.is_cascade() {
+                kv_per_s
+            } else {
+                let rate =
+                    crate::sim::linear::settling_rate_per_s(&crate::sim::AxisModel::from_config(a));
+                if rate.is_finite() && rate > 0.0 {
+                    rate
+                } else {
+                    kv_per_s
+                }
+            }
+        };
+        let z_per_s = machine
+            .z
+            .simulated()
+            .map_or(kv[2], |z| slowest_per_s(z, kv[2]));
+        let rate_per_s = [
+            slowest_per_s(&machine.x, kv[0]),
+            slowest_per_s(&machine.y, kv[1]),
+            z_per_s,
+        ];
         EntrySettling {
-            time_constant_s: crate::plan::InPosition::kv_per_s_of(machine).map(|kv| 1.0 / kv),
+            time_constant_s: rate_per_s.map(|r| 1.0 / r),
         }
     }
 

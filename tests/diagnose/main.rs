@@ -7,6 +7,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod circular_reference;
 mod force_ripple;
 mod foreign_commands;
 mod hidden_effects;
