@@ -310,6 +310,10 @@ fn figures_disagree(
 
 /// Where the record's radial deviation leaves the closed form's: on the circle's second
 /// half away from the reversals (the steady loss), and over the first 10° past the window.
+/// No figure of the code under test enters here: this checks the reference record against
+/// physics, so that the figures `diagnose` states are compared with a record whose circle is
+/// known to be the machine's, and that the window the test works out has let the entry
+/// transient die away.
 fn closed_form_disagrees(
     case: &Case,
     within: &[OnCircle],
