@@ -116,7 +116,9 @@ impl Schema {
 
     /// Whether `path` (object keys, arrays left out) is described by its full path: a row
     /// names it, or a key below it (it is that key's object), or a path above it whose row
-    /// names each of the keys between.
+    /// names each of the keys between. A row's words are taken as a set, not in their
+    /// nesting (`loops[]: e`): a key filed under the wrong object of a row that names both
+    /// still passes — the check finds keys the document leaves out, not misplaced ones.
     fn describes(&self, path: &[String]) -> bool {
         self.rows.iter().any(|row| {
             row.paths.iter().any(|field| {

@@ -475,7 +475,8 @@ fn judge(
             JudgedOn::SecondRecord => "the second record",
         };
         if held.samples == 0 {
-            // Nothing to judge on is not evidence against the cause: say so, not "0 samples".
+            // The cause cannot be judged, so it is not named: say that, rather than that it
+            // failed "over the 0 samples".
             return Err(format!(
                 "fits, but {unseen} compares no sample of {}: it cannot be judged on data it \
                  was not fitted on",

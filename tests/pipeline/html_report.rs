@@ -117,9 +117,12 @@ fn assert_prints_compactly(text: &str) {
     let page_mm = 297.0 - 2.0 * mm_after(text, "@page", "margin");
     let figure_mm = mm_after(print, "figure {", "margin");
     let svg_mm = mm_after(print, "figure svg", "max-height");
-    // A caption's two lines at 8.5 pt (3 mm each, 1 mm above), a heading at 11.5 pt with its
-    // 4 + 1.5 mm margins.
-    let (caption_mm, heading_mm) = (7.0, 10.0);
+    // A caption's two lines at 8.5 pt, 1 mm above; a heading's line at 11.5 pt with its
+    // 4 + 1.5 mm margins and its 1 px rule (0.26 mm); lines 1.25 of their font (1 pt is
+    // 25.4/72 mm).
+    let line_mm = |pt: f64| 1.25 * pt * 25.4 / 72.0;
+    let caption_mm = 2.0 * line_mm(8.5) + 1.0;
+    let heading_mm = line_mm(11.5) + 4.0 + 1.5 + 25.4 / 96.0;
     let two = 2.0 * (svg_mm + 2.0 * figure_mm + caption_mm) + heading_mm;
     assert!(
         two <= page_mm,
