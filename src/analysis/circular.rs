@@ -115,13 +115,13 @@ pub(crate) fn radial_points(
 /// (degrees): those taken once the loops had settled into the circle, away from its start
 /// and end by `lead_m` of commanded path; all of them where those are too few for figures
 /// (the circle too short or too sparsely sampled for its loops' settling).
-fn settled(c: &Circle, points: PeakThinned<Point>, lead_m: f64) -> (Vec<[f64; 2]>, f64) {
+fn settled(c: &Circle, points: PeakThinned<Point>, lead_m: [f64; 2]) -> (Vec<[f64; 2]>, [f64; 2]) {
     let all = points.into_points();
     let within: Vec<[f64; 2]> = all.iter().filter(|p| p.2).map(|p| p.0).collect();
     if within.len() >= MIN_SAMPLES {
-        (within, (lead_m / c.radius_m).to_degrees())
+        (within, lead_m.map(|m| (m / c.radius_m).to_degrees()))
     } else {
-        (all.into_iter().map(|p| p.0).collect(), 0.0)
+        (all.into_iter().map(|p| p.0).collect(), [0.0; 2])
     }
 }
 
@@ -169,11 +169,18 @@ impl CommandSeries<'_> {
 /// are resampled and fitted), far below any arc worth a circular test.
 const SET_OFF_M: f64 = 1e-6;
 
-/// How many of its slowest loop's time constants (1/Kv) a circle's start is left out for:
-/// the entry transient — the radial deviation building from the approach's to the circle's
-/// steady lag — has fallen to e⁻⁵, under 1 % of that lag, by then (a ballbar's overshoot
-/// arc leaves it out the same way).
+/// The fewest of its slowest loop's time constants (1/Kv) a circle's start and end are left
+/// out for: an entry transient — the radial deviation building from the approach's to the
+/// circle's steady one — that starts from the circle's own lag has fallen to e⁻⁵, under 1 %
+/// of it, by then (a ballbar's overshoot arc leaves it out the same way).
 const ENTRY_TIME_CONSTANTS: f64 = 5.0;
+
+/// What an entry transient may still amount to where a circle's figures begin (m): a tenth
+/// of a micrometre, the finest step a ballbar or laser shows. A table that sets off on the
+/// circle still off it radially by more than e⁵ times this (a control that starts the
+/// circle without waiting in position after a rapid, the table still a millimetre short)
+/// is left out for ln(deviation / this) time constants instead of five.
+const ENTRY_RESIDUE_M: f64 = 0.1e-6;
 
 /// The position loops' time constants (1/Kv, s; X, Y, Z) that set how much of each circle's
 /// start its figures leave out: the stretch the loop needs to settle into the circle.
@@ -218,12 +225,35 @@ impl EntrySettling {
         }
     }
 
-    /// The commanded path left out at circle `c`'s start (m): the slower of its plane's
-    /// loops' settling at the programmed feed, at most a quarter turn.
+    /// The commanded path left out at circle `c`'s start and end (m) where the table enters
+    /// it with no more than the circle's own lag: five of the slower of its plane's loops'
+    /// time constants at the programmed feed, at most a quarter turn.
     fn lead_m(&self, c: &Circle) -> f64 {
+        self.lead_for_m(c, ENTRY_TIME_CONSTANTS)
+    }
+
+    /// The commanded path left out at circle `c`'s start (m) where the table, as the command
+    /// sets off on the circle, lies `entry_radial_m` off its radius: the radial deviation
+    /// decays at the loops' pace, so it takes ln(deviation / [`ENTRY_RESIDUE_M`]) time
+    /// constants to fall below what the figures could show, never fewer than five. (A lag
+    /// along the path enters the radius only at second order, or turned by the circle's
+    /// angle, ω/Kv of it: the five cover it.)
+    fn entry_lead_m(&self, c: &Circle, entry_radial_m: f64) -> f64 {
+        let needed = (entry_radial_m.abs() / ENTRY_RESIDUE_M).ln();
+        let time_constants = if needed.is_finite() {
+            needed.max(ENTRY_TIME_CONSTANTS)
+        } else {
+            ENTRY_TIME_CONSTANTS
+        };
+        self.lead_for_m(c, time_constants)
+    }
+
+    /// `time_constants` of the slower of circle `c`'s plane's loops, as commanded path at its
+    /// feed (m), at most a quarter turn.
+    fn lead_for_m(&self, c: &Circle, time_constants: f64) -> f64 {
         let [a, b, _] = c.plane.axes();
         let tau_s = self.time_constant_s[a].max(self.time_constant_s[b]);
-        let lead_m = ENTRY_TIME_CONSTANTS * tau_s * c.feed_m_per_s;
+        let lead_m = time_constants * tau_s * c.feed_m_per_s;
         if lead_m.is_finite() {
             lead_m.clamp(0.0, 0.25 * std::f64::consts::TAU * c.radius_m)
         } else {
@@ -264,12 +294,14 @@ impl Progress {
         };
     }
 
-    /// Whether the command has set off along circle `c` and runs between `lead_m` past its
-    /// start and `lead_m` before its end: the loops settle into the circle after its start,
-    /// and out of it as the command slows into its end (the table, lagging, follows later).
-    fn is_within(&self, c: &Circle, lead_m: f64) -> bool {
-        self.run_m
-            .is_some_and(|run| run > lead_m && (lead_m == 0.0 || run < c.length_m - lead_m))
+    /// Whether the command has set off along circle `c` and runs between `lead_m[0]` past
+    /// its start and `lead_m[1]` before its end: the loops settle into the circle after its
+    /// start, and out of it as the command slows into its end (the table, lagging, follows
+    /// later).
+    fn is_within(&self, c: &Circle, lead_m: [f64; 2]) -> bool {
+        self.run_m.is_some_and(|run| {
+            run > lead_m[0] && (lead_m[1] == 0.0 || run < c.length_m - lead_m[1])
+        })
     }
 }
 
@@ -335,11 +367,14 @@ pub struct CircleFigures {
     pub scale_mismatch_ppm: f64,
     /// Samples the figures come from.
     pub samples: usize,
-    /// How far past its start (degrees of the circle) the figures begin, and how far before
-    /// its end they stop: the commanded path the loops need to settle into the circle, and
-    /// the one the command slows down over into its end, left out as a ballbar's overshoot
-    /// arcs are.
+    /// How far past its start (degrees of the circle) the figures begin: the commanded path
+    /// the loops need to settle into the circle, longer where the table set off on it still
+    /// far off its radius; left out as a ballbar's overshoot arc is. As much or less is left
+    /// out before its end, where the command slows into it.
     pub start_left_out_deg: f64,
+    /// How far before its end (degrees) the figures stop: five of the loops' time
+    /// constants at the feed, where the command slows into its end.
+    pub end_left_out_deg: f64,
 }
 
 /// The hysteresis of a pair of circles run in opposite directions (µm).
@@ -442,8 +477,11 @@ pub struct CircleSamples {
     progress: Vec<Progress>,
     /// The previous sample's command (m).
     last_command_m: Option<[f64; 3]>,
-    /// The commanded path left out at each circle's start (m).
-    leads_m: Vec<f64>,
+    /// The commanded path left out at each circle's start and end (m); the start's set
+    /// once the command sets off on the circle, from how far off it the table is then.
+    leads_m: Vec<[f64; 2]>,
+    /// The loops' settling the leads come from.
+    entry: EntrySettling,
 }
 
 impl CircleSamples {
@@ -451,7 +489,8 @@ impl CircleSamples {
     /// into it.
     pub(crate) fn new(circles: Vec<Circle>, entry: EntrySettling) -> Self {
         CircleSamples {
-            leads_m: circles.iter().map(|c| entry.lead_m(c)).collect(),
+            leads_m: circles.iter().map(|c| [entry.lead_m(c); 2]).collect(),
+            entry,
             by_segment: circles
                 .iter()
                 .enumerate()
@@ -477,15 +516,19 @@ impl CircleSamples {
             return;
         };
         let c = self.circles[i];
+        let waiting = self.progress[i].run_m.is_none();
         self.progress[i].advance(&c, command, last);
+        let pos_m = self.circles[i].plane.coords(pos_m);
+        if waiting && self.progress[i].run_m.is_some() && pos_m.iter().all(|v| v.is_finite()) {
+            self.leads_m[i][0] = self.entry.entry_lead_m(&c, c.polar(pos_m).1);
+        }
         let nearest_on_it = segment as usize == c.segment
             || (self.by_segment.get(&(segment as usize)))
                 .is_some_and(|&j| self.circles[j].is_same_circle(&c));
-        if !self.progress[i].is_within(&c, 0.0) || !nearest_on_it {
+        if !self.progress[i].is_within(&c, [0.0; 2]) || !nearest_on_it {
             return;
         }
         let settled = self.progress[i].is_within(&c, self.leads_m[i]);
-        let pos_m = self.circles[i].plane.coords(pos_m);
         if pos_m[0].is_finite() && pos_m[1].is_finite() {
             let radial = self.circles[i].polar(pos_m).1;
             self.points[i].push((pos_m, radial, settled));
@@ -501,10 +544,11 @@ impl CircleSamples {
             .zip(self.points)
             .zip(self.leads_m);
         for ((c, p), lead_m) in gathered {
-            let (points, left_out_deg) = settled(&c, p, lead_m);
+            let (points, [left_out_deg, end_left_out_deg]) = settled(&c, p, lead_m);
             if points.len() >= MIN_SAMPLES {
                 let mut f = figures(&c, &points);
                 f.start_left_out_deg = left_out_deg;
+                f.end_left_out_deg = end_left_out_deg;
                 // A quadrant point whose neighbourhood the left-out start and end cut into
                 // has no spike the points can measure.
                 for (q, spike) in f.reversal_spikes_um.iter_mut().enumerate() {
@@ -560,6 +604,7 @@ fn figures(c: &Circle, p: &[[f64; 2]]) -> CircleFigures {
         scale_mismatch_ppm: 2.0 * along_axes / c.radius_m * 1e6,
         samples: p.len(),
         start_left_out_deg: 0.0,
+        end_left_out_deg: 0.0,
     }
 }
 
@@ -850,14 +895,7 @@ impl CircularTest {
                 c.f_max_um,
                 c.f_min_um,
                 spikes.join(" "),
-                if c.start_left_out_deg > 0.05 {
-                    format!(
-                        "   ({:.1}° at its start and end left out: the loops settling)",
-                        c.start_left_out_deg
-                    )
-                } else {
-                    String::new()
-                }
+                left_out_text(c.start_left_out_deg, c.end_left_out_deg)
             ));
         }
         for p in &self.pairs {
@@ -892,6 +930,21 @@ impl CircularTest {
 }
 
 /// A circle's plane as its figures' line names it: nothing for XY, `ZX (G18) ` otherwise.
+/// What a circle's line says of the arcs its figures leave out at its start and end (deg):
+/// one angle where both are alike, both where the start's is longer (a table that set off
+/// on the circle far off it); nothing where none is left out.
+fn left_out_text(start_deg: f64, end_deg: f64) -> String {
+    if start_deg <= 0.05 {
+        String::new()
+    } else if (start_deg - end_deg).abs() < 0.05 {
+        format!("   ({start_deg:.1}° at its start and end left out: the loops settling)")
+    } else {
+        format!(
+            "   ({start_deg:.1}° at its start and {end_deg:.1}° at its end left out: the loops settling)"
+        )
+    }
+}
+
 fn plane_label(plane: Plane) -> String {
     if plane.is_xy() {
         String::new()

@@ -346,6 +346,7 @@ mod tests {
             scale_mismatch_ppm: 0.0,
             samples: 100,
             start_left_out_deg: 0.0,
+            end_left_out_deg: 0.0,
         }
     }
 

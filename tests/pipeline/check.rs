@@ -225,6 +225,7 @@ fn a_circle_from_rest_shows_no_backlash_or_scale_from_its_entry() {
     let test = &r.result.circular;
     for c in &test.circles {
         assert!((c.start_left_out_deg - left_out_deg).abs() < 0.05, "{c:?}");
+        assert!((c.end_left_out_deg - left_out_deg).abs() < 0.05, "{c:?}");
         assert!((c.f_min_um + lag_um).abs() < 0.05 * lag_um, "{c:?}");
     }
     let pair = test.pairs[0];

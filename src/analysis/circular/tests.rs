@@ -264,3 +264,23 @@ fn straightness_lateral_play_and_lost_motion_are_read_from_their_shapes() {
         "{p:?}"
     );
 }
+
+/// The start's window from the deviation the table sets off with: a radial deviation r
+/// decaying as r·e^(−t/τ) falls to 0.1 µm after ln(r / 0.1 µm) time constants — 9.21 for a
+/// millimetre (ln 10⁴) — and never fewer than five are left out; the end keeps five.
+#[test]
+fn the_entry_window_grows_with_the_deviation_the_table_sets_off_with() {
+    let tau_s = 0.02;
+    let entry = EntrySettling {
+        time_constant_s: [tau_s, tau_s, 0.0],
+    };
+    let c = circle(true, 0);
+    let per_time_constant_m = tau_s * c.feed_m_per_s;
+    let far = entry.entry_lead_m(&c, -1e-3) / per_time_constant_m;
+    assert!((far - 4.0 * std::f64::consts::LN_10).abs() < 1e-9, "{far}");
+    for near_m in [0.0, 1e-7, 5e-6, -14.8e-6] {
+        let lead = entry.entry_lead_m(&c, near_m) / per_time_constant_m;
+        assert!((lead - 5.0).abs() < 1e-9, "{near_m}: {lead}");
+    }
+    assert!((entry.lead_m(&c) / per_time_constant_m - 5.0).abs() < 1e-9);
+}
