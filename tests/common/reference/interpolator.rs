@@ -9,6 +9,9 @@ use contourcheck::path::{Geometry, Motion};
 /// A block of the interpolator: its duration and its XYZ position at a time into it.
 type Block = (f64, Box<dyn Fn(f64) -> [f64; 3]>);
 
+/// A position evaluated (m), by its time's bits.
+type Kept = (u64, [f64; 3]);
+
 /// A block's distance travelled (m) at a time into it (s).
 type Distance = Box<dyn Fn(f64) -> f64>;
 
@@ -92,7 +95,7 @@ pub struct Trapezoids {
     /// The positions last evaluated, by the time's bits: a record's axes read the command
     /// at the same instants, and each Runge–Kutta step reads its midpoint twice, so most
     /// evaluations repeat one exactly (the same time, the same position bit for bit).
-    recent: RefCell<[Option<(u64, [f64; 3])>; RECENT]>,
+    recent: RefCell<[Option<Kept>; RECENT]>,
     /// Where the next evaluation is kept in `recent`.
     slot: Cell<usize>,
 }
