@@ -166,13 +166,15 @@ fn apart_stated(statement: &str) -> (f64, f64) {
 
 #[test]
 fn an_axis_that_travels_less_than_two_periods_of_any_lead_is_not_looked_at() {
-    // X travels 3 mm, Y 12 mm. The shortest lead ball screws are made with is 2 mm (the
+    // X travels 3 mm, Y 6 mm. The shortest lead ball screws are made with is 2 mm (the
     // makers' catalogues): two of its periods are 4 mm, more than X's stroke, so no lead is
-    // tried on X; Y travels six periods of it.
-    let (x_stroke_mm, shortest_lead_mm) = (3.0, 2.0);
-    assert!(x_stroke_mm < 2.0 * shortest_lead_mm);
+    // tried on X; Y travels three periods of it (its ramps to F900 at 0.5 m/s² take
+    // v²/2a = 0.23 mm each: the samples compared still cover more than two).
+    let (x_stroke_mm, y_stroke_mm, shortest_lead_mm) = (3.0, 6.0, 2.0);
+    assert!(x_stroke_mm < 2.0 * shortest_lead_mm && y_stroke_mm >= 3.0 * shortest_lead_mm);
     let program = program_text(&format!(
-        "G21 G17 G90 G94\nG0 X0 Y0\nG1 X{x_stroke_mm} F600\nY12 F900\nX0 F600\nY0 F900\nM2\n"
+        "G21 G17 G90 G94\nG0 X0 Y0\nG1 X{x_stroke_mm} F600\nY{y_stroke_mm} F900\nX0 F600\n\
+         Y0 F900\nM2\n"
     ));
     let id = identified(&program, &record(&program, Timed::default()));
     let (x, y) = (&id.axes[0], &id.axes[1]);

@@ -1,11 +1,16 @@
 //! A continuous interpolator: each block on its own trapezoidal (or jerk-limited) profile,
 //! stopping at every block end, evaluated at any time.
 
+use std::cell::{Cell, RefCell};
+
 use contourcheck::gcode::Program;
 use contourcheck::path::{Geometry, Motion};
 
 /// A block of the interpolator: its duration and its XYZ position at a time into it.
 type Block = (f64, Box<dyn Fn(f64) -> [f64; 3]>);
+
+/// A position evaluated (m), by its time's bits.
+type Kept = (u64, [f64; 3]);
 
 /// A block's distance travelled (m) at a time into it (s).
 type Distance = Box<dyn Fn(f64) -> f64>;
@@ -87,7 +92,17 @@ pub struct Trapezoids {
     blocks: Vec<Block>,
     /// Total duration (s).
     pub duration_s: f64,
+    /// The positions last evaluated, by the time's bits: a record's axes read the command
+    /// at the same instants, and each Runge–Kutta step reads its midpoint twice, so most
+    /// evaluations repeat one exactly (the same time, the same position bit for bit).
+    recent: RefCell<[Option<Kept>; RECENT]>,
+    /// Where the next evaluation is kept in `recent`.
+    slot: Cell<usize>,
 }
+
+/// How many positions [`Trapezoids`] keeps: a step of two axes with feed-forward asks for
+/// nine instants (three for each difference at three of the step's times).
+const RECENT: usize = 16;
 
 impl Trapezoids {
     pub fn new(program: &Program, accel: f64, pre_s: f64, post_s: f64) -> Trapezoids {
@@ -168,11 +183,35 @@ impl Trapezoids {
         let end = segments.last().unwrap().end_m;
         blocks.push((post_s, Box::new(move |_| end)));
         let duration_s = blocks.iter().map(|b| b.0).sum();
-        Trapezoids { blocks, duration_s }
+        Trapezoids {
+            blocks,
+            duration_s,
+            recent: RefCell::new([None; RECENT]),
+            slot: Cell::new(0),
+        }
     }
 
     /// The commanded XYZ position at `t` (m).
     pub fn position(&self, t: f64) -> [f64; 3] {
+        let key = t.to_bits();
+        let known = self
+            .recent
+            .borrow()
+            .iter()
+            .flatten()
+            .find(|r| r.0 == key)
+            .map(|r| r.1);
+        known.unwrap_or_else(|| {
+            let p = self.evaluated(t);
+            let slot = self.slot.get();
+            self.recent.borrow_mut()[slot] = Some((key, p));
+            self.slot.set((slot + 1) % RECENT);
+            p
+        })
+    }
+
+    /// The commanded XYZ position at `t` (m), evaluated on its block.
+    fn evaluated(&self, t: f64) -> [f64; 3] {
         let mut start = 0.0;
         for (k, (d, f)) in self.blocks.iter().enumerate() {
             if t < start + d || k + 1 == self.blocks.len() {
