@@ -233,19 +233,25 @@ impl EntrySettling {
     }
 
     /// The commanded path left out at circle `c`'s start (m) where the table, as the command
-    /// sets off on the circle, lies `entry_radial_m` off its radius: the radial deviation
-    /// decays at the loops' pace, so it takes ln(deviation / [`ENTRY_RESIDUE_M`]) time
-    /// constants to fall below what the figures could show, never fewer than five. (A lag
-    /// along the path enters the radius only at second order, or turned by the circle's
-    /// angle, ω/Kv of it: the five cover it.)
-    fn entry_lead_m(&self, c: &Circle, entry_radial_m: f64) -> f64 {
+    /// sets off on the circle `set_off_m` along it, lies `entry_radial_m` off its radius: the
+    /// radial deviation decays at the loops' pace, so it takes ln(deviation /
+    /// [`ENTRY_RESIDUE_M`]) time constants from there to fall below what the figures could
+    /// show, never fewer than five.
+    ///
+    /// The deviation is taken against the programmed radius alone. Two parts of an entry
+    /// it does not count, both of order d²/R for a lag d along the path: the circle's own
+    /// steady loss the deviation settles to (entered along its tangent, the lagging table
+    /// sets off d²/2R outside and settles d²/2R inside), and a lag along the path that the
+    /// turning circle brings into the radius (from rest, about (n + 1)·e⁻ⁿ·d²/R after n time
+    /// constants: 1.7 µm at five for a 1 mm lag on R20). Estimating the entry from the
+    /// commands through the loops would count them.
+    fn entry_lead_m(&self, c: &Circle, entry_radial_m: f64, set_off_m: f64) -> f64 {
         let needed = (entry_radial_m.abs() / ENTRY_RESIDUE_M).ln();
-        let time_constants = if needed.is_finite() {
-            needed.max(ENTRY_TIME_CONSTANTS)
-        } else {
-            ENTRY_TIME_CONSTANTS
-        };
-        self.lead_for_m(c, time_constants)
+        if needed.is_nan() || needed <= ENTRY_TIME_CONSTANTS {
+            return self.lead_m(c);
+        }
+        let lead_m = set_off_m + self.lead_for_m(c, needed);
+        lead_m.min(0.25 * std::f64::consts::TAU * c.radius_m)
     }
 
     /// `time_constants` of the slower of circle `c`'s plane's loops, as commanded path at its
@@ -519,8 +525,10 @@ impl CircleSamples {
         let waiting = self.progress[i].run_m.is_none();
         self.progress[i].advance(&c, command, last);
         let pos_m = self.circles[i].plane.coords(pos_m);
-        if waiting && self.progress[i].run_m.is_some() && pos_m.iter().all(|v| v.is_finite()) {
-            self.leads_m[i][0] = self.entry.entry_lead_m(&c, c.polar(pos_m).1);
+        if let (true, Some(set_off_m)) = (waiting, self.progress[i].run_m)
+            && pos_m.iter().all(|v| v.is_finite())
+        {
+            self.leads_m[i][0] = self.entry.entry_lead_m(&c, c.polar(pos_m).1, set_off_m);
         }
         let nearest_on_it = segment as usize == c.segment
             || (self.by_segment.get(&(segment as usize)))
@@ -929,7 +937,6 @@ impl CircularTest {
     }
 }
 
-/// A circle's plane as its figures' line names it: nothing for XY, `ZX (G18) ` otherwise.
 /// What a circle's line says of the arcs its figures leave out at its start and end (deg):
 /// one angle where both are alike, both where the start's is longer (a table that set off
 /// on the circle far off it); nothing where none is left out.
@@ -945,6 +952,7 @@ fn left_out_text(start_deg: f64, end_deg: f64) -> String {
     }
 }
 
+/// A circle's plane as its figures' line names it: nothing for XY, `ZX (G18) ` otherwise.
 fn plane_label(plane: Plane) -> String {
     if plane.is_xy() {
         String::new()

@@ -267,11 +267,18 @@ fn check(case: &Case, seed: u64, checks: Checks) -> Option<String> {
     let d = diagnose(&program, &case.machine, &measured, &settings).unwrap();
     let length_m = TAU * radius_m;
     let on = on_circle(&csv, radius_m);
-    // How far off its radius the table is as the command sets off on the circle.
-    let entry_m = on.first().map_or(0.0, |p| p.radial_m.abs());
-    let time_constants = (entry_m / ENTRY_RESIDUE_M).ln().max(ENTRY_TIME_CONSTANTS);
-    let lead_m = (time_constants * case.tau_s * speed_m_per_s).min(0.25 * length_m);
+    // How far off its radius the table is as the command sets off on the circle, and where
+    // along it that is: the deviation decays from there.
+    let (set_off_m, entry_m) = on
+        .first()
+        .map_or((0.0, 0.0), |p| (p.run_m, p.radial_m.abs()));
     let end_m = (ENTRY_TIME_CONSTANTS * case.tau_s * speed_m_per_s).min(0.25 * length_m);
+    let time_constants = (entry_m / ENTRY_RESIDUE_M).ln();
+    let lead_m = if time_constants > ENTRY_TIME_CONSTANTS {
+        (set_off_m + time_constants * case.tau_s * speed_m_per_s).min(0.25 * length_m)
+    } else {
+        end_m
+    };
     let within: Vec<OnCircle> = (on.into_iter())
         .filter(|p| p.run_m > lead_m && p.run_m < length_m - end_m)
         .collect();

@@ -276,10 +276,12 @@ fn the_entry_window_grows_with_the_deviation_the_table_sets_off_with() {
     };
     let c = circle(true, 0);
     let per_time_constant_m = tau_s * c.feed_m_per_s;
-    let far = entry.entry_lead_m(&c, -1e-3) / per_time_constant_m;
+    // Counted from where the command set off: 0.1 mm along the circle.
+    let set_off_m = 1e-4;
+    let far = (entry.entry_lead_m(&c, -1e-3, set_off_m) - set_off_m) / per_time_constant_m;
     assert!((far - 4.0 * std::f64::consts::LN_10).abs() < 1e-9, "{far}");
     for near_m in [0.0, 1e-7, 5e-6, -14.8e-6] {
-        let lead = entry.entry_lead_m(&c, near_m) / per_time_constant_m;
+        let lead = entry.entry_lead_m(&c, near_m, set_off_m) / per_time_constant_m;
         assert!((lead - 5.0).abs() < 1e-9, "{near_m}: {lead}");
     }
     assert!((entry.lead_m(&c) / per_time_constant_m - 5.0).abs() < 1e-9);
