@@ -168,8 +168,8 @@ fn apart_stated(statement: &str) -> (f64, f64) {
 fn an_axis_that_travels_less_than_two_periods_of_any_lead_is_not_looked_at() {
     // X travels 3 mm, Y 6 mm. The shortest lead ball screws are made with is 2 mm (the
     // makers' catalogues): two of its periods are 4 mm, more than X's stroke, so no lead is
-    // tried on X; Y travels three periods of it (its ramps to F900 at 0.5 m/s² take
-    // v²/2a = 0.23 mm each: the samples compared still cover more than two).
+    // tried on X; Y's positions range over 6 mm, three periods of it (a lead is looked at
+    // on an axis whose range covers two).
     let (x_stroke_mm, y_stroke_mm, shortest_lead_mm) = (3.0, 6.0, 2.0);
     assert!(x_stroke_mm < 2.0 * shortest_lead_mm && y_stroke_mm >= 3.0 * shortest_lead_mm);
     let program = program_text(&format!(

@@ -30,9 +30,9 @@ const FAST: f64 = 6000.0;
 /// √(v·jerk) = 0.289 m/s² and back: the jerk held for 58 ms four times a move, where the
 /// no-template planner asks 100 m/s³. Each ramp to speed takes 2·√(v/jerk) = 0.115 s and
 /// v·0.115 s / 2 = 0.96 mm: a 10 mm side reaches the feed and holds it for 8 mm, as a longer
-/// one would (the fit re-simulates the whole record: a side three times as long only
-/// tripled the time at constant feed). At F6000 (100 mm/s) √(v·jerk) = 0.71 m/s² exceeds
-/// 0.5: the acceleration is held at 0.5 for v/a − a/j = 0.1 s in each of the four ramps,
+/// one would (the fit re-simulates the whole record: a side three times as long held the
+/// feed for 28 mm against 8, 3.5 times the time). At F6000 (100 mm/s) √(v·jerk) = 0.71 m/s²
+/// exceeds 0.5: the acceleration is held at 0.5 for v/a − a/j = 0.1 s in each of the four ramps,
 /// where the no-template planner asks more; and X reaches 180 mm, beyond ±150 mm.
 const RECORDED: &str = "G21 G17 G90 G94\nG0 X0 Y0\nG1 X10 F1000\nY10\nX0\nY0\n\
                         G1 X180 F6000\nG1 X0\nM2\n";
