@@ -98,7 +98,8 @@ fn axis_view(report: &IdentifyReport, json: &Json, a: usize) -> AxisView {
         report.identification.noise_um,
     ));
     if axis.moving_only {
-        notes.push("Compared while moving: the axis hunts at standstill.".to_string());
+        let note = crate::identify::report::MOVING_ONLY_NOTE;
+        notes.push(format!("C{}.", &note[1..]));
     }
     notes.extend(crate::identify::report::while_moving_line(axis));
     notes.extend(crate::identify::report::file_line(axis));

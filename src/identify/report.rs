@@ -195,6 +195,12 @@ pub(crate) fn summary_text(id: &Identification, template: &MachineConfig) -> Str
     s
 }
 
+/// Why an axis is compared away from its standstills: what `written` checked, not a guess
+/// at the cause (a hunting hold, or a wind-up at rest the model does not carry, look alike
+/// to it).
+pub(crate) const MOVING_ONLY_NOTE: &str = "compared while moving: the fit over every sample, \
+     standstills included, predicts the held-out halves no better";
+
 /// One axis: its residuals, what they predict against the template and the regression, and
 /// its values.
 #[cfg(feature = "cli")]
@@ -211,9 +217,9 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
         a.rms_template_um,
         a.rms_identified_um,
         if a.moving_only {
-            ", compared while moving: the axis hunts at standstill"
+            format!(", {MOVING_ONLY_NOTE}")
         } else {
-            ""
+            String::new()
         },
         a.following_error_rms_um,
         a.held_out_template_um,
