@@ -198,6 +198,7 @@ pub(crate) fn summary_text(id: &Identification, template: &MachineConfig) -> Str
 /// Why an axis is compared away from its standstills: what `written` checked, not a guess
 /// at the cause (a hunting hold, or a wind-up at rest the model does not carry, look alike
 /// to it).
+#[cfg(any(feature = "cli", feature = "html-report"))]
 pub(crate) const MOVING_ONLY_NOTE: &str = "compared while moving: the fit over every sample, \
      standstills included, predicts the held-out halves no better";
 
