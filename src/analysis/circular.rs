@@ -95,19 +95,16 @@ pub(crate) fn circles(segments: &[Segment]) -> Vec<Circle> {
 /// no Z; `command` where it was commanded): each one's polar angle about the programmed
 /// centre in the circle's plane (rad) and radial deviation from the programmed radius (m,
 /// outward positive), for the samples that count toward the circle's figures
-/// ([`CircleSamples::push`]). A circle outside XY gets none without Z.
+/// ([`CircleSamples::push`]) within `windows`. A circle outside XY gets none without Z.
 pub(crate) fn radial_points(
     circles: &[Circle],
     c: &Circle,
     segment: &[u32],
     pos_m: [&[f64]; 3],
     command: &CommandSeries,
-    entry: EntrySettling,
+    windows: &CircleWindows,
 ) -> Vec<(f64, f64)> {
-    let mut gathered = CircleSamples::new(circles.to_vec(), entry);
-    for (k, &s) in segment.iter().enumerate() {
-        gathered.push(s, position(pos_m, k), command.at(k));
-    }
+    let mut gathered = gather(circles, segment, pos_m, command, windows);
     let Some(&i) = gathered.by_segment.get(&c.segment) else {
         return Vec::new();
     };
@@ -155,21 +152,21 @@ impl Commanded {
     }
 }
 
-/// The commands of a path's samples, axis by axis (`z` may be empty: Z stands), and their
-/// program times (s).
+/// The commands of a path's samples, axis by axis; `z` may be empty (Z stands).
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct CommandSeries<'a> {
     pub(crate) segment: &'a [u32],
     pub(crate) pos_m: [&'a [f64]; 3],
-    pub(crate) t_s: &'a [f64],
 }
 
 impl CommandSeries<'_> {
+    /// Sample `k`'s command, without its time: the circles' windows are given
+    /// ([`CircleWindows`]), and the loops' model that reads the time is not run.
     fn at(&self, k: usize) -> Commanded {
         Commanded {
             segment: self.segment[k],
             pos_m: self.pos_m.map(|v| v.get(k).copied().unwrap_or(0.0)),
-            t_s: self.t_s.get(k).copied().unwrap_or(f64::NAN),
+            t_s: f64::NAN,
         }
     }
 }
@@ -285,9 +282,10 @@ pub struct CircleFigures {
     /// Samples the figures come from.
     pub samples: usize,
     /// How far past its start (degrees of the circle) the figures begin: the commanded path
-    /// the loops need to settle into the circle, longer where the table set off on it still
-    /// far off its radius; left out as a ballbar's overshoot arc is. As much or less is left
-    /// out before its end, where the command slows into it.
+    /// the loops need to settle into the circle, longer where the commands set off on it
+    /// with the loops carrying a lag unlike the circle's own (from rest, straight from a
+    /// rapid); left out as a ballbar's overshoot arc is. As much or less is left out before
+    /// its end, where the command slows into it.
     pub start_left_out_deg: f64,
     /// How far before its end (degrees) the figures stop: five of the loops' time
     /// constants at the feed, where the command slows into its end.
@@ -359,13 +357,64 @@ pub(crate) fn circular_test(
     segment: &[u32],
     pos_m: [&[f64]; 3],
     command: &CommandSeries,
-    entry: EntrySettling,
+    windows: &CircleWindows,
 ) -> CircularTest {
-    let mut gathered = CircleSamples::new(circles.to_vec(), entry);
+    gather(circles, segment, pos_m, command, windows).test().0
+}
+
+/// A path's samples on `circles` (as [`circular_test`] takes them), each circle's figures
+/// from within `windows`.
+fn gather(
+    circles: &[Circle],
+    segment: &[u32],
+    pos_m: [&[f64]; 3],
+    command: &CommandSeries,
+    windows: &CircleWindows,
+) -> CircleSamples {
+    let mut gathered = CircleSamples::new(circles.to_vec(), EntrySettling::default());
+    gathered.windows_given = true;
+    for (c, lead_m) in gathered.circles.iter().zip(&mut gathered.leads_m) {
+        *lead_m = windows
+            .by_segment
+            .get(&c.segment)
+            .copied()
+            .unwrap_or([0.0; 2]);
+    }
     for (k, &s) in segment.iter().enumerate() {
         gathered.push(s, position(pos_m, k), command.at(k));
     }
-    gathered.test().0
+    gathered
+}
+
+/// The commanded path each circle's figures leave out at its start and end (m), by plan
+/// segment: worked out from the program's commands alone ([`CircleWindows::of`]), so that
+/// every path compared on them — a measurement, a model's prediction — leaves out the same.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct CircleWindows {
+    by_segment: std::collections::HashMap<usize, [f64; 2]>,
+}
+
+impl CircleWindows {
+    /// The windows of `circles` as the loops of `entry` settle into them under `commands`
+    /// (the program's, on its clock, from its start).
+    pub(crate) fn of(
+        circles: &[Circle],
+        commands: &crate::plan::Commands,
+        entry: EntrySettling,
+    ) -> Self {
+        let mut gathered = CircleSamples::new(circles.to_vec(), entry);
+        for i in 0..commands.len() {
+            let command = Commanded::of(commands, i, commands.time_s(i));
+            // No position: only the commands are followed.
+            gathered.push(command.segment, [f64::NAN; 3], command);
+        }
+        CircleWindows {
+            by_segment: (gathered.circles.iter())
+                .zip(gathered.leads_m)
+                .map(|(c, lead_m)| (c.segment, lead_m))
+                .collect(),
+        }
+    }
 }
 
 /// Points kept per circle before a long one is thinned (each kept point then the farthest
@@ -402,6 +451,8 @@ pub struct CircleSamples {
     /// Their first-order model following the commands, which the entry transient is read
     /// from.
     lag: LoopLag,
+    /// Whether the windows are given rather than worked out here.
+    windows_given: bool,
 }
 
 impl CircleSamples {
@@ -423,6 +474,7 @@ impl CircleSamples {
             progress: vec![Progress::default(); circles.len()],
             last_command_m: None,
             lag: LoopLag::default(),
+            windows_given: false,
             circles,
         }
     }
@@ -433,14 +485,17 @@ impl CircleSamples {
     /// same one: two circles of one centre and radius are equally near, to the rounding).
     pub(crate) fn push(&mut self, segment: u32, pos_m: [f64; 3], command: Commanded) {
         let last = self.last_command_m.replace(command.pos_m);
-        (self.lag).advance(self.entry.time_constant_s, command.t_s, command.pos_m);
+        let working_out = !self.windows_given;
+        if working_out {
+            (self.lag).advance(self.entry.time_constant_s, command.t_s, command.pos_m);
+        }
         let Some(&i) = self.by_segment.get(&(command.segment as usize)) else {
             return;
         };
         let c = self.circles[i];
         let waiting = self.progress[i].run_m.is_none();
         self.progress[i].advance(&c, command, last);
-        if let (true, Some(set_off_m)) = (waiting, self.progress[i].run_m) {
+        if let (true, true, Some(set_off_m)) = (working_out, waiting, self.progress[i].run_m) {
             let transient_m = self.entry.transient_m(&c, command.pos_m, self.lag.lag_m);
             self.leads_m[i][0] = self.entry.entry_lead_m(&c, transient_m, set_off_m);
         }

@@ -222,7 +222,6 @@ impl Series {
         crate::analysis::circular::CommandSeries {
             segment: &self.command_segment,
             pos_m: [&self.reference[0], &self.reference[1], &self.reference_z],
-            t_s: &self.t_s,
         }
     }
 }

@@ -22,18 +22,16 @@ fn circular_test(circles: &[Circle], segment: &[u32], pos_m: [&[f64]; 3]) -> Cir
         pos_m[1].clone(),
         pos_m[2].clone(),
     ];
-    let t_s: Vec<f64> = (0..segment.len()).map(|k| k as f64 * 1e-3).collect();
     let command = CommandSeries {
         segment: &segment,
         pos_m: [&command_m[0], &command_m[1], &command_m[2]],
-        t_s: &t_s,
     };
     super::circular_test(
         circles,
         &segment,
         [&pos_m[0], &pos_m[1], &pos_m[2]],
         &command,
-        EntrySettling::default(),
+        &CircleWindows::default(),
     )
 }
 
