@@ -202,7 +202,7 @@ impl LoopLag {
 /// samples, or a clock that turned back) adds its jump; a loop without lag (τ zero) or what
 /// no number describes (a missing time's or position's NaN) leaves none.
 fn lag_step(lag_m: f64, moved_m: f64, step_s: f64, tau_s: f64) -> f64 {
-    if !(tau_s > 0.0) || step_s.is_nan() {
+    if tau_s.is_nan() || tau_s <= 0.0 || step_s.is_nan() {
         return 0.0;
     }
     let next_m = if step_s > 0.0 {
