@@ -29,6 +29,11 @@ use crate::analysis::thinning::PeakThinned;
 use crate::numeric::units::{mm_from_m, um_from_m};
 use crate::path::{Geometry, Motion, Plane, Segment};
 
+mod entry;
+
+pub use entry::EntrySettling;
+use entry::LoopLag;
+
 /// A full circle of the program.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Circle {
@@ -90,19 +95,16 @@ pub(crate) fn circles(segments: &[Segment]) -> Vec<Circle> {
 /// no Z; `command` where it was commanded): each one's polar angle about the programmed
 /// centre in the circle's plane (rad) and radial deviation from the programmed radius (m,
 /// outward positive), for the samples that count toward the circle's figures
-/// ([`CircleSamples::push`]). A circle outside XY gets none without Z.
+/// ([`CircleSamples::push`]) within `windows`. A circle outside XY gets none without Z.
 pub(crate) fn radial_points(
     circles: &[Circle],
     c: &Circle,
     segment: &[u32],
     pos_m: [&[f64]; 3],
     command: &CommandSeries,
-    entry: EntrySettling,
+    windows: &CircleWindows,
 ) -> Vec<(f64, f64)> {
-    let mut gathered = CircleSamples::new(circles.to_vec(), entry);
-    for (k, &s) in segment.iter().enumerate() {
-        gathered.push(s, position(pos_m, k), command.at(k));
-    }
+    let mut gathered = gather(circles, segment, pos_m, command, windows);
     let Some(&i) = gathered.by_segment.get(&c.segment) else {
         return Vec::new();
     };
@@ -129,21 +131,23 @@ fn settled(c: &Circle, points: PeakThinned<Point>, lead_m: [f64; 2]) -> (Vec<[f6
 /// loops had settled into the circle there.
 type Point = ([f64; 2], f64, bool);
 
-/// Where a sample was commanded: the plan segment the command lies on, and the commanded
-/// X, Y and Z (m).
+/// Where and when a sample was commanded: the plan segment the command lies on, the
+/// commanded X, Y and Z (m), and the program time (s).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Commanded {
     pub(crate) segment: u32,
     pub(crate) pos_m: [f64; 3],
+    pub(crate) t_s: f64,
 }
 
 impl Commanded {
-    /// Where sample `i` of `commands` is commanded.
-    pub(crate) fn of(commands: &crate::plan::Commands, i: usize) -> Self {
+    /// Where sample `i` of `commands` is commanded, at program time `t_s`.
+    pub(crate) fn of(commands: &crate::plan::Commands, i: usize, t_s: f64) -> Self {
         let at = |a: &crate::plan::AxisCommands| a.pos_m[i];
         Commanded {
             segment: commands.segment[i],
             pos_m: [at(&commands.x), at(&commands.y), at(&commands.z)],
+            t_s,
         }
     }
 }
@@ -156,10 +160,13 @@ pub(crate) struct CommandSeries<'a> {
 }
 
 impl CommandSeries<'_> {
+    /// Sample `k`'s command, without its time: the circles' windows are given
+    /// ([`CircleWindows`]), and the loops' model that reads the time is not run.
     fn at(&self, k: usize) -> Commanded {
         Commanded {
             segment: self.segment[k],
             pos_m: self.pos_m.map(|v| v.get(k).copied().unwrap_or(0.0)),
+            t_s: f64::NAN,
         }
     }
 }
@@ -168,105 +175,6 @@ impl CommandSeries<'_> {
 /// along it (m): far above the rounding a standing command carries (recorded commands
 /// are resampled and fitted), far below any arc worth a circular test.
 const SET_OFF_M: f64 = 1e-6;
-
-/// The fewest of its slowest loop's time constants (1/Kv) a circle's start and end are left
-/// out for: an entry transient — the radial deviation building from the approach's to the
-/// circle's steady one — that starts from the circle's own lag has fallen to e⁻⁵, under 1 %
-/// of it, by then (a ballbar's overshoot arc leaves it out the same way).
-const ENTRY_TIME_CONSTANTS: f64 = 5.0;
-
-/// What an entry transient may still amount to where a circle's figures begin (m): a tenth
-/// of a micrometre, the finest step a ballbar or laser shows. A table that sets off on the
-/// circle still off it radially by more than e⁵ times this (a control that starts the
-/// circle without waiting in position after a rapid, the table still a millimetre short)
-/// is left out for ln(deviation / this) time constants instead of five.
-const ENTRY_RESIDUE_M: f64 = 0.1e-6;
-
-/// The position loops' time constants (1/Kv, s; X, Y, Z) that set how much of each circle's
-/// start its figures leave out: the stretch the loop needs to settle into the circle.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct EntrySettling {
-    /// Time constant of X, Y and Z (s); zero for an axis that arrives with its command.
-    pub time_constant_s: [f64; 3],
-}
-
-impl EntrySettling {
-    /// The loops of `machine`: a cascade's Kv; for another controller the decay rate of its
-    /// slowest closed-loop mode, not its bandwidth — a controller with integral action
-    /// settles into the circle's steady lag at the pace its integrator's mode sets, often
-    /// ten times slower than its bandwidth, and a window from the bandwidth keeps the entry
-    /// transient in the figures.
-    pub(crate) fn of(machine: &crate::machine::MachineConfig) -> Self {
-        let kv = crate::plan::InPosition::kv_per_s_of(machine);
-        let slowest_per_s = |a: &crate::machine::AxisConfig, kv_per_s: f64| {
-            if a.controller.is_cascade() {
-                kv_per_s
-            } else {
-                let rate =
-                    crate::sim::linear::settling_rate_per_s(&crate::sim::AxisModel::from_config(a));
-                if rate.is_finite() && rate > 0.0 {
-                    rate
-                } else {
-                    kv_per_s
-                }
-            }
-        };
-        let z_per_s = machine
-            .z
-            .simulated()
-            .map_or(kv[2], |z| slowest_per_s(z, kv[2]));
-        let rate_per_s = [
-            slowest_per_s(&machine.x, kv[0]),
-            slowest_per_s(&machine.y, kv[1]),
-            z_per_s,
-        ];
-        EntrySettling {
-            time_constant_s: rate_per_s.map(|r| 1.0 / r),
-        }
-    }
-
-    /// The commanded path left out at circle `c`'s start and end (m) where the table enters
-    /// it with no more than the circle's own lag: five of the slower of its plane's loops'
-    /// time constants at the programmed feed, at most a quarter turn.
-    fn lead_m(&self, c: &Circle) -> f64 {
-        self.lead_for_m(c, ENTRY_TIME_CONSTANTS)
-    }
-
-    /// The commanded path left out at circle `c`'s start (m) where the table, as the command
-    /// sets off on the circle `set_off_m` along it, lies `entry_radial_m` off its radius: the
-    /// radial deviation decays at the loops' pace, so it takes ln(deviation /
-    /// [`ENTRY_RESIDUE_M`]) time constants from there to fall below what the figures could
-    /// show, never fewer than five.
-    ///
-    /// The deviation is taken against the programmed radius alone. Two parts of an entry
-    /// it does not count, both of order d²/R for a lag d along the path: the circle's own
-    /// steady loss the deviation settles to (entered along its tangent, the lagging table
-    /// sets off d²/2R outside and settles d²/2R inside), and a lag along the path that the
-    /// turning circle brings into the radius (from rest, about (n + 1)·e⁻ⁿ·d²/R after n time
-    /// constants: 1.7 µm at five for a 1 mm lag on R20). Estimating the entry from the
-    /// commands through the loops would count them.
-    fn entry_lead_m(&self, c: &Circle, entry_radial_m: f64, set_off_m: f64) -> f64 {
-        let needed = (entry_radial_m.abs() / ENTRY_RESIDUE_M).ln();
-        if needed.is_nan() || needed <= ENTRY_TIME_CONSTANTS {
-            return self.lead_m(c);
-        }
-        let lead_m = set_off_m + self.lead_for_m(c, needed);
-        lead_m.min(0.25 * std::f64::consts::TAU * c.radius_m)
-    }
-
-    /// `time_constants` of the slower of circle `c`'s plane's loops, as commanded path at its
-    /// feed (m), at most a quarter turn.
-    fn lead_for_m(&self, c: &Circle, time_constants: f64) -> f64 {
-        let [a, b, _] = c.plane.axes();
-        let tau_s = self.time_constant_s[a].max(self.time_constant_s[b]);
-        let lead_m = time_constants * tau_s * c.feed_m_per_s;
-        if lead_m.is_finite() {
-            lead_m.clamp(0.0, 0.25 * std::f64::consts::TAU * c.radius_m)
-        } else {
-            0.0
-        }
-    }
-}
 
 /// How far the command has run along one circle, sample by sample. A sample counts toward
 /// the circle's figures only once the command has set off on it: while the command still
@@ -374,9 +282,10 @@ pub struct CircleFigures {
     /// Samples the figures come from.
     pub samples: usize,
     /// How far past its start (degrees of the circle) the figures begin: the commanded path
-    /// the loops need to settle into the circle, longer where the table set off on it still
-    /// far off its radius; left out as a ballbar's overshoot arc is. As much or less is left
-    /// out before its end, where the command slows into it.
+    /// the loops need to settle into the circle, longer where the commands set off on it
+    /// with the loops carrying a lag unlike the circle's own (from rest, straight from a
+    /// rapid); left out as a ballbar's overshoot arc is. As much or less is left out before
+    /// its end, where the command slows into it.
     pub start_left_out_deg: f64,
     /// How far before its end (degrees) the figures stop: five of the loops' time
     /// constants at the feed, where the command slows into its end.
@@ -448,13 +357,64 @@ pub(crate) fn circular_test(
     segment: &[u32],
     pos_m: [&[f64]; 3],
     command: &CommandSeries,
-    entry: EntrySettling,
+    windows: &CircleWindows,
 ) -> CircularTest {
-    let mut gathered = CircleSamples::new(circles.to_vec(), entry);
+    gather(circles, segment, pos_m, command, windows).test().0
+}
+
+/// A path's samples on `circles` (as [`circular_test`] takes them), each circle's figures
+/// from within `windows`.
+fn gather(
+    circles: &[Circle],
+    segment: &[u32],
+    pos_m: [&[f64]; 3],
+    command: &CommandSeries,
+    windows: &CircleWindows,
+) -> CircleSamples {
+    let mut gathered = CircleSamples::new(circles.to_vec(), EntrySettling::default());
+    gathered.windows_given = true;
+    for (c, lead_m) in gathered.circles.iter().zip(&mut gathered.leads_m) {
+        *lead_m = windows
+            .by_segment
+            .get(&c.segment)
+            .copied()
+            .unwrap_or([0.0; 2]);
+    }
     for (k, &s) in segment.iter().enumerate() {
         gathered.push(s, position(pos_m, k), command.at(k));
     }
-    gathered.test().0
+    gathered
+}
+
+/// The commanded path each circle's figures leave out at its start and end (m), by plan
+/// segment: worked out from the program's commands alone ([`CircleWindows::of`]), so that
+/// every path compared on them — a measurement, a model's prediction — leaves out the same.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct CircleWindows {
+    by_segment: std::collections::HashMap<usize, [f64; 2]>,
+}
+
+impl CircleWindows {
+    /// The windows of `circles` as the loops of `entry` settle into them under `commands`
+    /// (the program's, on its clock, from its start).
+    pub(crate) fn of(
+        circles: &[Circle],
+        commands: &crate::plan::Commands,
+        entry: EntrySettling,
+    ) -> Self {
+        let mut gathered = CircleSamples::new(circles.to_vec(), entry);
+        for i in 0..commands.len() {
+            let command = Commanded::of(commands, i, commands.time_s(i));
+            // No position: only the commands are followed.
+            gathered.push(command.segment, [f64::NAN; 3], command);
+        }
+        CircleWindows {
+            by_segment: (gathered.circles.iter())
+                .zip(gathered.leads_m)
+                .map(|(c, lead_m)| (c.segment, lead_m))
+                .collect(),
+        }
+    }
 }
 
 /// Points kept per circle before a long one is thinned (each kept point then the farthest
@@ -484,10 +444,15 @@ pub struct CircleSamples {
     /// The previous sample's command (m).
     last_command_m: Option<[f64; 3]>,
     /// The commanded path left out at each circle's start and end (m); the start's set
-    /// once the command sets off on the circle, from how far off it the table is then.
+    /// once the command sets off on the circle, from the entry transient then.
     leads_m: Vec<[f64; 2]>,
     /// The loops' settling the leads come from.
     entry: EntrySettling,
+    /// Their first-order model following the commands, which the entry transient is read
+    /// from.
+    lag: LoopLag,
+    /// Whether the windows are given rather than worked out here.
+    windows_given: bool,
 }
 
 impl CircleSamples {
@@ -508,6 +473,8 @@ impl CircleSamples {
                 .collect(),
             progress: vec![Progress::default(); circles.len()],
             last_command_m: None,
+            lag: LoopLag::default(),
+            windows_given: false,
             circles,
         }
     }
@@ -518,18 +485,21 @@ impl CircleSamples {
     /// same one: two circles of one centre and radius are equally near, to the rounding).
     pub(crate) fn push(&mut self, segment: u32, pos_m: [f64; 3], command: Commanded) {
         let last = self.last_command_m.replace(command.pos_m);
+        let working_out = !self.windows_given;
+        if working_out {
+            (self.lag).advance(self.entry.time_constant_s, command.t_s, command.pos_m);
+        }
         let Some(&i) = self.by_segment.get(&(command.segment as usize)) else {
             return;
         };
         let c = self.circles[i];
         let waiting = self.progress[i].run_m.is_none();
         self.progress[i].advance(&c, command, last);
-        let pos_m = self.circles[i].plane.coords(pos_m);
-        if let (true, Some(set_off_m)) = (waiting, self.progress[i].run_m)
-            && pos_m.iter().all(|v| v.is_finite())
-        {
-            self.leads_m[i][0] = self.entry.entry_lead_m(&c, c.polar(pos_m).1, set_off_m);
+        if let (true, true, Some(set_off_m)) = (working_out, waiting, self.progress[i].run_m) {
+            let transient_m = self.entry.transient_m(&c, command.pos_m, self.lag.lag_m);
+            self.leads_m[i][0] = self.entry.entry_lead_m(&c, transient_m, set_off_m);
         }
+        let pos_m = self.circles[i].plane.coords(pos_m);
         let nearest_on_it = segment as usize == c.segment
             || (self.by_segment.get(&(segment as usize)))
                 .is_some_and(|&j| self.circles[j].is_same_circle(&c));

@@ -285,7 +285,7 @@ impl RunAnalyser {
                     ],
                 },
             );
-            let command = Commanded::of(c, i);
+            let command = Commanded::of(c, i, t_s);
             self.circles
                 .push(point.segment, [pos_m[0], pos_m[1], z_m], command);
             self.plot.push(PlotPoint {

@@ -7,7 +7,7 @@ use serde::Serialize;
 use super::z_axis::ZFindings;
 use super::{Context, Series};
 use crate::analysis::circular::{
-    CircularTest, EntrySettling, MIN_SAMPLES, circles, circular_test, radial_points,
+    CircleWindows, CircularTest, EntrySettling, MIN_SAMPLES, circles, circular_test, radial_points,
 };
 use crate::machine::MachineConfig;
 use crate::path::Plane;
@@ -21,9 +21,10 @@ pub struct CircularComparison {
     pub nominal: CircularTest,
     /// Predicted by the extended model.
     pub extended: CircularTest,
-    /// The loops' settling each circle's start is left out by, as for the figures.
+    /// What each circle's figures leave out at its start and end, alike for the three
+    /// paths: worked out from the program's commands.
     #[serde(skip)]
-    pub entry: EntrySettling,
+    pub windows: CircleWindows,
     /// The program's full circles the record gives no figures for, and why.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub left_out: Vec<CircleLeftOut>,
@@ -55,16 +56,17 @@ impl std::fmt::Display for CircleLeftOut {
 }
 
 /// The figures of the measured, nominal and extended paths, on the samples the measured
-/// path assigns to each circle, each from where the loops of `machine` have settled into it;
-/// Z from `z` where it was compared.
+/// path assigns to each circle, each from where the loops of `machine` have settled into it
+/// as the program's commands tell (one window for all three paths, no noise in it); Z from
+/// `z` where it was compared.
 pub(crate) fn circular_comparison(
     ctx: &Context,
     machine: &MachineConfig,
     s: &Series,
     z: &ZFindings,
 ) -> CircularComparison {
-    let entry = EntrySettling::of(machine);
     let circles = circles(&ctx.plan.segments);
+    let windows = CircleWindows::of(&circles, &ctx.commands, EntrySettling::of(machine));
     let zs = z.series.as_ref();
     let none: &[f64] = &[];
     let command = s.commands();
@@ -74,7 +76,7 @@ pub(crate) fn circular_comparison(
             &s.segment,
             [&xy[0], &xy[1], z.map_or(none, |z| z)],
             &command,
-            entry,
+            &windows,
         )
     };
     let left_out = circles
@@ -92,7 +94,7 @@ pub(crate) fn circular_comparison(
                 &s.measured[1][..],
                 zs.map_or(none, |z| &z.measured),
             ];
-            let on_it = radial_points(&circles, c, &s.segment, measured, &command, entry).len();
+            let on_it = radial_points(&circles, c, &s.segment, measured, &command, &windows).len();
             (on_it < MIN_SAMPLES).then(|| {
                 (
                     c,
@@ -112,7 +114,7 @@ pub(crate) fn circular_comparison(
         measured: of(&s.measured, zs.map(|z| &z.measured)),
         nominal: of(&s.nominal, zs.map(|z| &z.nominal)),
         extended: of(&s.extended, zs.map(|z| &z.extended)),
-        entry,
+        windows,
         left_out,
     }
 }

@@ -310,7 +310,7 @@ fn polar_plots(d: &Diagnosis, name: &str, extended_name: &str) -> Polar {
                     &s.segment,
                     pos_m,
                     &s.commands(),
-                    d.circular.entry,
+                    &d.circular.windows,
                 )
                 .into_iter()
                 .map(|(a, r)| (a, um_from_m(r)))

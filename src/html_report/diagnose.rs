@@ -366,7 +366,7 @@ mod tests {
             measured: test(vec![circle(3, 12, 5.0), circle(7, 12, 6.0)]),
             nominal: test(vec![circle(7, 12, 16.0)]),
             extended: test(vec![circle(3, 12, 25.0), circle(7, 12, 26.0)]),
-            entry: Default::default(),
+            windows: Default::default(),
             left_out: Vec::new(),
         };
         let json = serde_json::json!({ "circular_test": c });

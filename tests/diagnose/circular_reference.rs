@@ -25,8 +25,11 @@ const NOISE_M: f64 = 0.1e-6;
 const ENTRY_TIME_CONSTANTS: f64 = 5.0;
 
 /// What the entry transient may still amount to where the figures begin (m): a ballbar's
-/// finest step. A table that sets off on the circle r off its radius is left out until
-/// r·e^(−t/τ) has fallen to it, ln(r / this) time constants, where that is more than five.
+/// finest step. The transient is the lag a first-order loop of each axis's time constant
+/// carries behind the commands as they set off on the circle, less the lag it carries on the
+/// circle for ever; its radial part r decays as r·e^(−t/τ), and its part d along the path is
+/// turned into the radius by the circle, ωτ per time constant: the start is left out until
+/// (|r| + n·ωτ·|d|)·e⁻ⁿ has fallen to this, where that takes more than five.
 const ENTRY_RESIDUE_M: f64 = 0.1e-6;
 
 /// A counter-clockwise full circle of `radius_mm` about the origin at `feed` (mm/min),
@@ -150,6 +153,65 @@ struct OnCircle {
     command_rad: f64,
 }
 
+/// The time constants the entry is left out for ([`ENTRY_RESIDUE_M`]), from the record's
+/// commands (CSV: t in s, x, y, x_cmd, y_cmd in mm) alone: a first-order loop of each axis's
+/// time constant, at rest on the first command and integrated by fourth-order Runge-Kutta
+/// with the command linear between samples, lags them by e where the command sets off on the
+/// circle; less the steady lag z·jωτ/(1 + jωτ) of the command z = R·e^{jθ} (X its real part,
+/// Y its imaginary part), e is split along the radius and the path, and n solved by
+/// n ← ln((|r| + n·ωτ·|d|) / residue) from above.
+fn entry_time_constants(case: &Case, csv: &str) -> f64 {
+    let radius_m = case.radius_mm * 1e-3;
+    let start = [radius_m * START_RAD.cos(), radius_m * START_RAD.sin()];
+    let rows: Vec<(f64, [f64; 2])> = (csv.lines().skip(1))
+        .map(|line| {
+            let v: Vec<f64> = line.split(',').map(|f| f.parse().unwrap()).collect();
+            (v[0], [v[3] * 1e-3, v[4] * 1e-3])
+        })
+        .collect();
+    let mut model = rows[0].1;
+    let mut set_off = None;
+    for pair in rows.windows(2) {
+        let ((t0, c0), (t1, c1)) = (pair[0], pair[1]);
+        let h = t1 - t0;
+        for a in 0..2 {
+            let cmd = |t: f64| c0[a] + (c1[a] - c0[a]) * (t - t0) / h;
+            let f = |t: f64, p: f64| (cmd(t) - p) / case.tau_axes_s[a];
+            let p = model[a];
+            let k1 = f(t0, p);
+            let k2 = f(t0 + 0.5 * h, p + 0.5 * h * k1);
+            let k3 = f(t0 + 0.5 * h, p + 0.5 * h * k2);
+            let k4 = f(t1, p + h * k3);
+            model[a] = p + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+        }
+        let on = (c1[0].hypot(c1[1]) - radius_m).abs() < 1e-9;
+        if on && (c1[0] - start[0]).hypot(c1[1] - start[1]) > 1e-6 {
+            set_off = Some((c1, [c1[0] - model[0], c1[1] - model[1]]));
+            break;
+        }
+    }
+    let Some((command, lag)) = set_off else {
+        return ENTRY_TIME_CONSTANTS;
+    };
+    let theta = command[1].atan2(command[0]);
+    let omega = case.feed / 60_000.0 / radius_m;
+    let steady = |tau_s: f64| {
+        let jwt = Complex::new(0.0, omega * tau_s);
+        Complex::from_polar(radius_m, theta) * jwt / (1.0 + jwt)
+    };
+    let delta = [
+        lag[0] - steady(case.tau_axes_s[0]).re,
+        lag[1] - steady(case.tau_axes_s[1]).im,
+    ];
+    let radial = (delta[0] * theta.cos() + delta[1] * theta.sin()).abs();
+    let along = (-delta[0] * theta.sin() + delta[1] * theta.cos()).abs();
+    let mut n: f64 = 50.0;
+    for _ in 0..200 {
+        n = ((radial + n * omega * case.tau_s * along) / ENTRY_RESIDUE_M).ln();
+    }
+    n.max(ENTRY_TIME_CONSTANTS)
+}
+
 /// The samples of a record (CSV: t, x, y, x_cmd, y_cmd in mm) whose command runs on the
 /// circle of `radius_m` about the origin that starts and ends at [`START_RAD`].
 fn on_circle(csv: &str, radius_m: f64) -> Vec<OnCircle> {
@@ -226,6 +288,8 @@ struct Case {
     radius_mm: f64,
     feed: f64,
     tau_s: f64,
+    /// X's and Y's own time constants (s), of their slowest modes.
+    tau_axes_s: [f64; 2],
     /// X's and Y's command-to-table responses at the circle's ω.
     response: [Complex<f64>; 2],
 }
@@ -267,13 +331,10 @@ fn check(case: &Case, seed: u64, checks: Checks) -> Option<String> {
     let d = diagnose(&program, &case.machine, &measured, &settings).unwrap();
     let length_m = TAU * radius_m;
     let on = on_circle(&csv, radius_m);
-    // How far off its radius the table is as the command sets off on the circle, and where
-    // along it that is: the deviation decays from there.
-    let (set_off_m, entry_m) = on
-        .first()
-        .map_or((0.0, 0.0), |p| (p.run_m, p.radial_m.abs()));
+    // Where along the circle the command sets off: the transient decays from there.
+    let set_off_m = on.first().map_or(0.0, |p| p.run_m);
     let end_m = (ENTRY_TIME_CONSTANTS * case.tau_s * speed_m_per_s).min(0.25 * length_m);
-    let time_constants = (entry_m / ENTRY_RESIDUE_M).ln();
+    let time_constants = entry_time_constants(case, &csv);
     let lead_m = if time_constants > ENTRY_TIME_CONSTANTS {
         (set_off_m + time_constants * case.tau_s * speed_m_per_s).min(0.25 * length_m)
     } else {
@@ -384,6 +445,7 @@ fn cascade_case(name: &'static str, radius_mm: f64, feed: f64) -> Case {
         radius_mm,
         feed,
         tau_s: 1.0 / kv_per_s,
+        tau_axes_s: [1.0 / kv_per_s; 2],
         response: [g; 2],
         machine,
     }
@@ -404,14 +466,13 @@ fn lead_lag_case(name: &'static str, radius_mm: f64, feed: f64) -> Case {
     let response = axes
         .each_ref()
         .map(|a| a.response(Complex::new(0.0, omega)));
-    let rate_per_s = axes[0]
-        .slowest_rate_per_s()
-        .min(axes[1].slowest_rate_per_s());
+    let rates_per_s = axes.each_ref().map(|a| a.slowest_rate_per_s());
     Case {
         name,
         radius_mm,
         feed,
-        tau_s: 1.0 / rate_per_s,
+        tau_s: 1.0 / rates_per_s[0].min(rates_per_s[1]),
+        tau_axes_s: rates_per_s.map(|r| 1.0 / r),
         response,
         machine,
     }
@@ -462,7 +523,8 @@ fn circles_of_a_lead_lag_controller_in_independent_records() {
 /// by about 1 mm, radially (1.06 mm in the circle's first degree at F600), decaying as
 /// e^(−Kv t): five time constants would leave about 7 µm of it at the window's end (the
 /// first 10° past it then 1.1 µm at F600 and 1.5 µm at F1000 inside the steady radius); the
-/// window taken from the deviation the table sets off with leaves under 0.1 µm.
+/// window worked out from the commands (a first-order loop's lag as they set off on the
+/// circle, less the circle's own) leaves under 0.1 µm.
 #[test]
 fn the_entry_window_leaves_the_transient_out() {
     let cases = [

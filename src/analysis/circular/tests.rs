@@ -31,7 +31,7 @@ fn circular_test(circles: &[Circle], segment: &[u32], pos_m: [&[f64]; 3]) -> Cir
         &segment,
         [&pos_m[0], &pos_m[1], &pos_m[2]],
         &command,
-        EntrySettling::default(),
+        &CircleWindows::default(),
     )
 }
 
@@ -265,24 +265,150 @@ fn straightness_lateral_play_and_lost_motion_are_read_from_their_shapes() {
     );
 }
 
-/// The start's window from the deviation the table sets off with: a radial deviation r
-/// decaying as r·e^(−t/τ) falls to 0.1 µm after ln(r / 0.1 µm) time constants — 9.21 for a
-/// millimetre (ln 10⁴) — and never fewer than five are left out; the end keeps five.
+/// The bound (|radial| + n·|turned|)·e⁻ⁿ falls to 0.1 µm after n time constants: for a
+/// millimetre radially and nothing along the path, ln(1 mm / 0.1 µm) = ln 10⁴ = 9.2103;
+/// for 1 mm along the path on a circle turning ωτ = 0.05 per time constant,
+/// n·50 µm·e⁻ⁿ = 0.1 µm, i.e. n = ln(500·n) = 8.3351 (by hand, iterating n ← ln(500·n)
+/// from 9). Never fewer than the floor; nothing known gives the floor; any finite
+/// transient an answer that meets the bound.
 #[test]
-fn the_entry_window_grows_with_the_deviation_the_table_sets_off_with() {
-    let tau_s = 0.02;
+fn the_entry_time_constants_meet_the_residue_bound() {
+    use super::entry::settling_time_constants as solve;
+    let residual = |a: f64, b: f64, n: f64| ((a + n * b).ln() - n - (0.1e-6f64).ln()).abs();
+    let radial_only = solve(1e-3, 0.0, 5.0);
+    assert!(
+        (radial_only - 4.0 * std::f64::consts::LN_10).abs() < 1e-9,
+        "{radial_only}"
+    );
+    let turned_only = solve(0.0, 0.05 * 1e-3, 5.0);
+    assert!((turned_only - 8.3351).abs() < 1e-4, "{turned_only}");
+    assert!(residual(0.0, 5e-5, turned_only) < 1e-9);
+    // Both: more than either alone, on the bound.
+    let both = solve(20e-6, 5e-5, 5.0);
+    assert!(
+        both > turned_only && residual(20e-6, 5e-5, both) < 1e-9,
+        "{both}"
+    );
+    // A sign is no size: −1 mm is a millimetre.
+    assert_eq!(solve(-1e-3, 0.0, 5.0), radial_only);
+    // 5 µm radially falls below 0.1 µm in ln 50 = 3.9: the floor holds.
+    assert_eq!(solve(5e-6, 0.0, 5.0), 5.0);
+    assert!((solve(5e-6, 0.0, 0.0) - (50.0f64).ln()).abs() < 1e-9);
+    for (a, b) in [(0.0, 0.0), (f64::NAN, 0.0), (0.0, f64::NAN)] {
+        assert_eq!(solve(a, b, 5.0), 5.0, "{a} {b}");
+    }
+    for (a, b) in [(1e300, 0.0), (0.0, 1e300), (1e300, 1e300)] {
+        let n = solve(a, b, 5.0);
+        assert!(n.is_finite() && residual(a, b, n) < 1e-9, "{a} {b}: {n}");
+    }
+    let n = solve(f64::INFINITY, 0.0, 5.0);
+    assert!(n.is_finite() && n >= 5.0, "{n}");
+}
+
+/// A first-order loop of time constant τ lags a command ramping at v from rest by
+/// v·τ·(1 − e^(−t/τ)), whatever the sampling: X ramps under τ = 50 ms, Y stands, Z has no
+/// lag (τ zero), sampled at uneven steps of 0.7 and 1.9 ms.
+#[test]
+fn the_loop_model_lags_a_ramp_as_the_closed_form() {
+    let (v_m_per_s, tau_s) = (0.02, 0.05);
+    let mut lag = super::entry::LoopLag::default();
+    let mut t_s = 0.0;
+    for k in 0..400 {
+        lag.advance(
+            [tau_s, 0.03, 0.0],
+            t_s,
+            [v_m_per_s * t_s, 0.1, v_m_per_s * t_s],
+        );
+        let want_m = v_m_per_s * tau_s * (1.0 - (-t_s / tau_s).exp());
+        assert!(
+            (lag.lag_m[0] - want_m).abs() < 1e-12 * v_m_per_s * tau_s,
+            "{t_s}"
+        );
+        assert!(lag.lag_m[1] == 0.0 && lag.lag_m[2] == 0.0, "{t_s}");
+        t_s += if k % 2 == 0 { 0.7e-3 } else { 1.9e-3 };
+    }
+    // A clock that gives no time (NaN) leaves no lag; the next ramp starts from rest.
+    lag.advance([tau_s; 3], f64::NAN, [1.0; 3]);
+    assert_eq!(lag.lag_m, [0.0; 3]);
+}
+
+/// On the R100 circle at F1000 (ω = 1/6 rad/s) under τ = 60 ms (ωτ = 0.01), a first-order
+/// loop carries the steady lag R·jωτ/(1 + jωτ) behind the command: Rω²τ²/(1 + ω²τ²) =
+/// 9.999 µm of it radial (the table inside the command) and Rωτ/(1 + ω²τ²) = 999.9 µm along
+/// the path. A model carrying that lag has no transient; one at rest has all of it.
+#[test]
+fn the_entry_transient_is_the_lag_less_the_circles_own() {
     let entry = EntrySettling {
-        time_constant_s: [tau_s, tau_s, 0.0],
+        time_constant_s: [0.06, 0.06, 0.0],
+    };
+    let wt: f64 = 0.01;
+    let (radial_m, along_m) = (0.1 * wt * wt / (1.0 + wt * wt), 0.1 * wt / (1.0 + wt * wt));
+    for (ccw, theta) in [(true, 0.0), (true, 1.0), (false, 2.5)] {
+        let c = circle(ccw, 0);
+        let (sin, cos) = f64::sin_cos(theta);
+        let turn = if ccw { 1.0 } else { -1.0 };
+        // Radially outward and along the direction of travel.
+        let steady_m = [
+            radial_m * cos - turn * along_m * sin,
+            radial_m * sin + turn * along_m * cos,
+            0.0,
+        ];
+        let command_m = [0.1 * cos, 0.1 * sin, 0.0];
+        let none = entry.transient_m(&c, command_m, steady_m);
+        // To the rounding of a millimetre's lag (1e-19 m a digit).
+        assert!(none[0].abs() < 1e-14 && none[1].abs() < 1e-14, "{none:?}");
+        let all = entry.transient_m(&c, command_m, [0.0; 3]);
+        assert!((all[0].abs() - radial_m).abs() < 1e-14, "{all:?}");
+        assert!((all[1].abs() - along_m).abs() < 1e-14, "{all:?}");
+    }
+}
+
+/// The R100 circle at F1000 under τ = 60 ms, its command standing at the start and then
+/// setting off at full feed (a step of speed) while the loop stands: the transient is the
+/// whole steady lag above, 9.999 µm radial and 999.9 µm along the path, which the turning
+/// circle (ωτ = 0.01) brings into the radius: (10 µm + n·10 µm)·e⁻ⁿ = 0.1 µm after
+/// n = 6.638 time constants (by hand, n ← ln(100·(1 + n))), 3.803° at 0.573° each, and the
+/// set-off step's 16.7 µm: 3.813° (that step's own lag moves it by under 0.01°). Entered
+/// at speed along its tangent, the model already carries the steady lag along the path and
+/// nothing across it: only the 10 µm radial part is a transient, ln 100 = 4.6 time
+/// constants, and five are left out, 2.865°. The end keeps five.
+#[test]
+fn the_entry_window_is_worked_out_from_the_commands() {
+    let entry = EntrySettling {
+        time_constant_s: [0.06, 0.06, 0.0],
     };
     let c = circle(true, 0);
-    let per_time_constant_m = tau_s * c.feed_m_per_s;
-    // Counted from where the command set off: 0.1 mm along the circle.
-    let set_off_m = 1e-4;
-    let far = (entry.entry_lead_m(&c, -1e-3, set_off_m) - set_off_m) / per_time_constant_m;
-    assert!((far - 4.0 * std::f64::consts::LN_10).abs() < 1e-9, "{far}");
-    for near_m in [0.0, 1e-7, 5e-6, -14.8e-6] {
-        let lead = entry.entry_lead_m(&c, near_m, set_off_m) / per_time_constant_m;
-        assert!((lead - 5.0).abs() < 1e-9, "{near_m}: {lead}");
+    let omega = c.feed_m_per_s / c.radius_m;
+    let step_s = 1e-3;
+    let turn_steps = (std::f64::consts::TAU / (omega * step_s)).round() as usize;
+    let on_circle = |k: usize| {
+        let a = omega * step_s * k.min(turn_steps) as f64;
+        [0.1 * a.cos(), 0.1 * a.sin(), 0.0]
+    };
+    // Standing 1 s at the start, or running 2 s up the tangent line x = R into it.
+    let from_rest: Vec<([f64; 3], u32)> = (0..1000)
+        .map(|_| (on_circle(0), 0))
+        .chain((1..=turn_steps).map(|k| (on_circle(k), 0)))
+        .collect();
+    let up_tangent: Vec<([f64; 3], u32)> = (0..2000)
+        .map(|k| {
+            let behind_m = c.feed_m_per_s * step_s * (2000 - k) as f64;
+            ([0.1, -behind_m, 0.0], 1)
+        })
+        .chain((0..=turn_steps).map(|k| (on_circle(k), 0)))
+        .collect();
+    for (commands, want_deg) in [(from_rest, 3.813), (up_tangent, 2.865)] {
+        let mut gathered = CircleSamples::new(vec![c], entry);
+        for (k, &(pos_m, segment)) in commands.iter().enumerate() {
+            let command = Commanded {
+                segment,
+                pos_m,
+                t_s: k as f64 * step_s,
+            };
+            gathered.push(segment, pos_m, command);
+        }
+        let f = gathered.test().0.circles[0];
+        assert!((f.start_left_out_deg - want_deg).abs() < 0.01, "{f:?}");
+        assert!((f.end_left_out_deg - 2.865).abs() < 0.001, "{f:?}");
     }
-    assert!((entry.lead_m(&c) / per_time_constant_m - 5.0).abs() < 1e-9);
 }

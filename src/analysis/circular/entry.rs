@@ -1,0 +1,216 @@
+//! How much of a circle's start its figures leave out: the entry transient worked out from
+//! the commands alone. A first-order model of each axis's loop (the time constant of its
+//! slowest closed-loop mode) follows the commands up to where the command sets off on the
+//! circle; what its lag there differs from the lag it would carry had it run round the circle
+//! forever is the transient, which decays at the loop's pace while the turning circle brings
+//! its part along the path into the radius. Reading only the commands, the window is the
+//! same for every path compared on them (a measurement, a model's prediction), and no noise
+//! enters it.
+
+use nalgebra::Complex;
+
+use super::Circle;
+
+/// The fewest of its slowest loop's time constants (1/Kv) a circle's start and end are left
+/// out for: an entry transient that starts from the circle's own lag has fallen to e⁻⁵,
+/// under 1 % of it, by then (a ballbar's overshoot arc leaves it out the same way).
+pub(super) const ENTRY_TIME_CONSTANTS: f64 = 5.0;
+
+/// What an entry transient may still amount to where a circle's figures begin (m): a tenth
+/// of a micrometre, the finest step a ballbar or laser shows.
+pub(super) const ENTRY_RESIDUE_M: f64 = 0.1e-6;
+
+/// The most time constants a transient is given: more than ln(f64::MAX / 0.1 µm) plus
+/// ln(1000), so that any finite transient has fallen below [`ENTRY_RESIDUE_M`] by then; the
+/// quarter turn a window may take bounds it long before.
+const MAX_TIME_CONSTANTS: f64 = 1000.0;
+
+/// The position loops' time constants (1/Kv, s; X, Y, Z) that set how much of each circle's
+/// start its figures leave out: the stretch the loop needs to settle into the circle.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct EntrySettling {
+    /// Time constant of X, Y and Z (s); zero for an axis that arrives with its command.
+    pub time_constant_s: [f64; 3],
+}
+
+impl EntrySettling {
+    /// The loops of `machine`: a cascade's Kv; for another controller the decay rate of its
+    /// slowest closed-loop mode, not its bandwidth — a controller with integral action
+    /// settles into the circle's steady lag at the pace its integrator's mode sets, often
+    /// ten times slower than its bandwidth, and a window from the bandwidth keeps the entry
+    /// transient in the figures.
+    pub(crate) fn of(machine: &crate::machine::MachineConfig) -> Self {
+        let kv = crate::plan::InPosition::kv_per_s_of(machine);
+        let slowest_per_s = |a: &crate::machine::AxisConfig, kv_per_s: f64| {
+            if a.controller.is_cascade() {
+                kv_per_s
+            } else {
+                let rate =
+                    crate::sim::linear::settling_rate_per_s(&crate::sim::AxisModel::from_config(a));
+                if rate.is_finite() && rate > 0.0 {
+                    rate
+                } else {
+                    kv_per_s
+                }
+            }
+        };
+        let z_per_s = machine
+            .z
+            .simulated()
+            .map_or(kv[2], |z| slowest_per_s(z, kv[2]));
+        let rate_per_s = [
+            slowest_per_s(&machine.x, kv[0]),
+            slowest_per_s(&machine.y, kv[1]),
+            z_per_s,
+        ];
+        EntrySettling {
+            time_constant_s: rate_per_s.map(|r| 1.0 / r),
+        }
+    }
+
+    /// The commanded path left out at circle `c`'s start and end (m) where the table enters
+    /// it with no more than the circle's own lag: five of the slower of its plane's loops'
+    /// time constants at the programmed feed, at most a quarter turn.
+    pub(super) fn lead_m(&self, c: &Circle) -> f64 {
+        self.lead_for_m(c, ENTRY_TIME_CONSTANTS)
+    }
+
+    /// The commanded path left out at circle `c`'s start (m) where the command sets off on
+    /// it `set_off_m` along it with the entry transient `transient_m` (radial, along the
+    /// path; [`EntrySettling::transient_m`]): the time constants
+    /// [`settling_time_constants`] gives from there, never fewer than five.
+    pub(super) fn entry_lead_m(&self, c: &Circle, transient_m: [f64; 2], set_off_m: f64) -> f64 {
+        let turned_m = self.omega_tau(c) * transient_m[1];
+        let needed = settling_time_constants(transient_m[0], turned_m, ENTRY_TIME_CONSTANTS);
+        if needed <= ENTRY_TIME_CONSTANTS {
+            return self.lead_m(c);
+        }
+        let lead_m = set_off_m + self.lead_for_m(c, needed);
+        lead_m.min(0.25 * std::f64::consts::TAU * c.radius_m)
+    }
+
+    /// The slower of circle `c`'s plane's loops' time constants (s).
+    fn tau_s(&self, c: &Circle) -> f64 {
+        let [a, b, _] = c.plane.axes();
+        self.time_constant_s[a].max(self.time_constant_s[b])
+    }
+
+    /// The angle the circle turns through in that time constant (rad), at its feed.
+    fn omega_tau(&self, c: &Circle) -> f64 {
+        c.feed_m_per_s / c.radius_m * self.tau_s(c)
+    }
+
+    /// `time_constants` of the slower of circle `c`'s plane's loops, as commanded path at its
+    /// feed (m), at most a quarter turn.
+    fn lead_for_m(&self, c: &Circle, time_constants: f64) -> f64 {
+        let lead_m = time_constants * self.tau_s(c) * c.feed_m_per_s;
+        if lead_m.is_finite() {
+            lead_m.clamp(0.0, 0.25 * std::f64::consts::TAU * c.radius_m)
+        } else {
+            0.0
+        }
+    }
+
+    /// The entry transient where the command stands at `command_m` on circle `c` with the
+    /// loops' model lagging it by `lag_m` (X, Y, Z; [`LoopLag`]): that lag less the one the
+    /// model carries on the circle at its feed for ever, split into its radial part and its
+    /// part along the path (m, signed).
+    pub(super) fn transient_m(&self, c: &Circle, command_m: [f64; 3], lag_m: [f64; 3]) -> [f64; 2] {
+        let (theta, _) = c.polar(c.plane.coords(command_m));
+        let [a, b, _] = c.plane.axes();
+        // Round the centre, the command is z = R·e^{jθ} turning at ω (counter-clockwise
+        // positive); a first-order loop of time constant τ lags it by z·jωτ/(1 + jωτ), the
+        // first axis by its real part, the second by its imaginary part.
+        let omega = c.feed_m_per_s / c.radius_m * if c.ccw { 1.0 } else { -1.0 };
+        let z = Complex::from_polar(c.radius_m, theta);
+        let steady = |tau_s: f64| {
+            let jwt = Complex::new(0.0, omega * tau_s);
+            z * jwt / (1.0 + jwt)
+        };
+        let lag = c.plane.coords(lag_m);
+        let delta = [
+            lag[0] - steady(self.time_constant_s[a]).re,
+            lag[1] - steady(self.time_constant_s[b]).im,
+        ];
+        let (sin, cos) = theta.sin_cos();
+        [
+            delta[0] * cos + delta[1] * sin,
+            -delta[0] * sin + delta[1] * cos,
+        ]
+    }
+}
+
+/// How many time constants an entry transient takes to fall to [`ENTRY_RESIDUE_M`] in the
+/// radius, at least `floor`: a transient of radial part `radial_m` and of part along the path
+/// d decays as e^(−t/τ) while the circle turns ωτ per time constant, bringing up to n·ωτ·|d|
+/// (`turned_m` = ωτ·d) of it into the radius after n of them, so what remains in the radius
+/// is at most (|radial| + n·|turned|)·e⁻ⁿ. The smallest n from which that stays below the
+/// residue, by bisection (past its one maximum, at n = 1 − |radial|/|turned|, the bound
+/// falls). Nothing known of the transient (NaN) gives the floor.
+pub(super) fn settling_time_constants(radial_m: f64, turned_m: f64, floor: f64) -> f64 {
+    let (a, b) = (radial_m.abs(), turned_m.abs());
+    if a.is_nan() || b.is_nan() {
+        return floor;
+    }
+    // The bound's logarithm over the residue's: positive while more than it remains.
+    let excess = |n: f64| (a + n * b).ln() - n - ENTRY_RESIDUE_M.ln();
+    let peak = if b > 0.0 { 1.0 - a / b } else { 0.0 };
+    let mut lo = floor.max(peak).min(MAX_TIME_CONSTANTS);
+    if excess(lo) <= 0.0 {
+        return floor;
+    }
+    let mut hi = MAX_TIME_CONSTANTS;
+    for _ in 0..64 {
+        let mid = 0.5 * (lo + hi);
+        if excess(mid) > 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    hi
+}
+
+/// A first-order model of each axis's loop following the commands sample by sample: its
+/// lag behind them (m), the state [`EntrySettling::transient_m`] reads.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct LoopLag {
+    /// The previous command's time (s) and position (m); `None` before the first.
+    last: Option<(f64, [f64; 3])>,
+    /// The command less the model's position, X, Y, Z (m).
+    pub(super) lag_m: [f64; 3],
+}
+
+impl LoopLag {
+    /// Takes the command at `command_m` at time `t_s`, the loops' time constants `tau_s`.
+    /// The model starts at rest on the first command.
+    pub(super) fn advance(&mut self, tau_s: [f64; 3], t_s: f64, command_m: [f64; 3]) {
+        if let Some((last_s, last_m)) = self.last {
+            for axis in 0..3 {
+                let moved_m = command_m[axis] - last_m[axis];
+                self.lag_m[axis] = lag_step(self.lag_m[axis], moved_m, t_s - last_s, tau_s[axis]);
+            }
+        }
+        self.last = Some((t_s, command_m));
+    }
+}
+
+/// The lag of a first-order loop of time constant `tau_s` (m) a step of `step_s` after it
+/// lagged by `lag_m`, its command having moved `moved_m` at an even speed meanwhile (how
+/// commands run between samples): the lag tends to speed·τ at the loop's pace, exactly,
+/// e·a + speed·τ·(1 − a) with a = e^(−step/τ). A command that jumps (no time between
+/// samples, or a clock that turned back) adds its jump; a loop without lag (τ zero) or what
+/// no number describes (a missing time's or position's NaN) leaves none.
+fn lag_step(lag_m: f64, moved_m: f64, step_s: f64, tau_s: f64) -> f64 {
+    if tau_s.is_nan() || tau_s <= 0.0 || step_s.is_nan() {
+        return 0.0;
+    }
+    let next_m = if step_s > 0.0 {
+        let x = step_s / tau_s;
+        let rise = -(-x).exp_m1();
+        lag_m * (1.0 - rise) + moved_m * rise / x
+    } else {
+        lag_m + moved_m
+    };
+    if next_m.is_finite() { next_m } else { 0.0 }
+}
