@@ -347,6 +347,43 @@ pub struct CircularTest {
 
 /// Fewest samples on a circle for figures worth stating.
 pub(crate) const MIN_SAMPLES: usize = 36;
+/// How far either side of a quadrant point its reversal spike is taken to stand (degrees):
+/// the spike is measured there, and the steps across it are fitted outside it.
+const SPIKE_HALF_WIDTH_DEG: f64 = 3.0;
+/// How many of the loops' time constants a reversal spike's tail runs on past its quadrant
+/// point (the loop pushing the axis back onto its command after friction turned), and the
+/// most of the circle it may take there (degrees): the ellipses are fitted outside.
+const SPIKE_TAIL_TIME_CONSTANTS: f64 = 4.0;
+const SPIKE_TAIL_MAX_DEG: f64 = 40.0;
+
+/// Where a path's reversal spikes stand: from [`SPIKE_HALF_WIDTH_DEG`] before each quadrant
+/// point to its tail's end past it, in the direction of travel.
+#[derive(Debug, Clone, Copy)]
+struct SpikeZones {
+    ccw: bool,
+    tail_deg: f64,
+}
+
+impl SpikeZones {
+    fn of(c: &Circle, entry: &EntrySettling) -> Self {
+        let tail_deg = (SPIKE_TAIL_TIME_CONSTANTS * entry.omega_tau(c)).to_degrees();
+        SpikeZones {
+            ccw: c.ccw,
+            // f64::max and min pass over a NaN: no loop known, the spike's own width.
+            tail_deg: tail_deg.min(SPIKE_TAIL_MAX_DEG).max(SPIKE_HALF_WIDTH_DEG),
+        }
+    }
+
+    /// Whether the angle (degrees, about the centre) lies in a spike's zone.
+    fn contains(&self, angle_deg: f64) -> bool {
+        let travel = if self.ccw { 1.0 } else { -1.0 };
+        [0.0, 90.0, 180.0, 270.0].iter().any(|q| {
+            let d = (angle_deg - q).rem_euclid(360.0);
+            let past = travel * if d > 180.0 { d - 360.0 } else { d };
+            (-SPIKE_HALF_WIDTH_DEG..=self.tail_deg).contains(&past)
+        })
+    }
+}
 
 /// The circular-test figures of a path: `segment[k]` is the plan segment sample `k` lies
 /// nearest to (as the contour search found it), `[x, y, z]` its position (m), `command`
@@ -371,7 +408,7 @@ fn gather(
     command: &CommandSeries,
     windows: &CircleWindows,
 ) -> CircleSamples {
-    let mut gathered = CircleSamples::new(circles.to_vec(), EntrySettling::default());
+    let mut gathered = CircleSamples::new(circles.to_vec(), windows.entry);
     gathered.windows_given = true;
     for (c, lead_m) in gathered.circles.iter().zip(&mut gathered.leads_m) {
         *lead_m = windows
@@ -392,6 +429,8 @@ fn gather(
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct CircleWindows {
     by_segment: std::collections::HashMap<usize, [f64; 2]>,
+    /// The loops they were worked out for, which also set how far the reversal spikes run.
+    entry: EntrySettling,
 }
 
 impl CircleWindows {
@@ -413,6 +452,7 @@ impl CircleWindows {
                 .zip(gathered.leads_m)
                 .map(|(c, lead_m)| (c.segment, lead_m))
                 .collect(),
+            entry,
         }
     }
 }
@@ -518,20 +558,22 @@ impl CircleSamples {
     pub(crate) fn test(self) -> (CircularTest, Vec<CirclePath>) {
         let mut out = CircularTest::default();
         let mut kept: Vec<(Circle, Vec<[f64; 2]>)> = Vec::new();
+        let entry = self.entry;
         let gathered = (self.circles.into_iter())
             .zip(self.points)
             .zip(self.leads_m);
         for ((c, p), lead_m) in gathered {
             let (points, [left_out_deg, end_left_out_deg]) = settled(&c, p, lead_m);
             if points.len() >= MIN_SAMPLES {
-                let mut f = figures(&c, &points);
+                let mut f = figures(&c, &points, SpikeZones::of(&c, &entry));
                 f.start_left_out_deg = left_out_deg;
                 f.end_left_out_deg = end_left_out_deg;
                 // A quadrant point whose neighbourhood the left-out start and end cut into
                 // has no spike the points can measure.
                 for (q, spike) in f.reversal_spikes_um.iter_mut().enumerate() {
                     let off = (c.start_rad.to_degrees() - 90.0 * q as f64).rem_euclid(360.0);
-                    if left_out_deg > 0.0 && off.min(360.0 - off) < left_out_deg + 3.0 {
+                    let reach = left_out_deg + SPIKE_HALF_WIDTH_DEG;
+                    if left_out_deg > 0.0 && off.min(360.0 - off) < reach {
                         *spike = f64::NAN;
                     }
                 }
@@ -549,7 +591,7 @@ impl CircleSamples {
                 } else {
                     ((b, pb), (a, pa))
                 };
-                out.pairs.push(hysteresis(ccw, cw));
+                out.pairs.push(hysteresis(ccw, cw, &entry));
             }
         }
         let paths = kept
@@ -561,11 +603,11 @@ impl CircleSamples {
 }
 
 /// G, F, the reversal spikes and the ellipses of one circle's points.
-fn figures(c: &Circle, p: &[[f64; 2]]) -> CircleFigures {
+fn figures(c: &Circle, p: &[[f64; 2]], zones: SpikeZones) -> CircleFigures {
     let center = least_squares_center(p).unwrap_or(c.center_m);
     let (lo, hi) = radial_range(p, center, 0.0);
     let (f_min, f_max) = radial_range(p, c.center_m, c.radius_m);
-    let h = harmonics(p, center);
+    let h = harmonics(p, center, zones);
     let (along_axes, along_diagonals) = (h.cos2(), h.sin2());
     CircleFigures {
         segment: c.segment,
@@ -632,14 +674,17 @@ impl Harmonics {
 }
 
 /// The radius about `center` up to its 3θ terms, fitted by least squares (the once-per-turn
-/// terms take up a centre slightly off).
-fn harmonics(p: &[[f64; 2]], center: [f64; 2]) -> Harmonics {
+/// terms take up a centre slightly off) outside the reversal spikes' `zones`: four spikes
+/// of one height cancel in the 2θ terms, but a circle whose start or end is left out keeps
+/// three, and friction's spikes would read as an ellipse of their own (tens of ppm on a
+/// small circle).
+fn harmonics(p: &[[f64; 2]], center: [f64; 2], zones: SpikeZones) -> Harmonics {
     let mut ata = nalgebra::SMatrix::<f64, 7, 7>::zeros();
     let mut atb = nalgebra::SVector::<f64, 7>::zeros();
     for q in p {
         let (dx, dy) = (q[0] - center[0], q[1] - center[1]);
         let r = dx.hypot(dy);
-        if r == 0.0 {
+        if r == 0.0 || zones.contains(dy.atan2(dx).to_degrees()) {
             continue;
         }
         let row = Harmonics::basis(dx / r, dy / r);
@@ -704,7 +749,7 @@ fn reversal_spikes(c: &Circle, p: &[[f64; 2]]) -> [f64; 4] {
             .collect();
         let near: Vec<f64> = polar
             .iter()
-            .filter(|(a, _)| offset_from(*a, quadrant).abs() <= 3.0)
+            .filter(|(a, _)| offset_from(*a, quadrant).abs() <= SPIKE_HALF_WIDTH_DEG)
             .map(|(_, r)| *r)
             .collect();
         if ring.len() < 4 || near.is_empty() {
@@ -722,9 +767,15 @@ fn reversal_spikes(c: &Circle, p: &[[f64; 2]]) -> [f64; 4] {
 }
 
 /// H, the bidirectional G, squareness and servo mismatch of two opposite circles.
-fn hysteresis(ccw: (&Circle, &Vec<[f64; 2]>), cw: (&Circle, &Vec<[f64; 2]>)) -> Hysteresis {
-    let terms =
-        |c: &Circle, p: &[[f64; 2]]| harmonics(p, least_squares_center(p).unwrap_or(c.center_m));
+fn hysteresis(
+    ccw: (&Circle, &Vec<[f64; 2]>),
+    cw: (&Circle, &Vec<[f64; 2]>),
+    entry: &EntrySettling,
+) -> Hysteresis {
+    let zones = |c: &Circle| SpikeZones::of(c, entry);
+    let terms = |c: &Circle, p: &[[f64; 2]]| {
+        harmonics(p, least_squares_center(p).unwrap_or(c.center_m), zones(c))
+    };
     let (h_ccw, h_cw) = (terms(ccw.0, ccw.1), terms(cw.0, cw.1));
     // Each ellipse as 2·term/R: along the axes, along the diagonals.
     let r = ccw.0.radius_m;
@@ -762,7 +813,7 @@ fn hysteresis(ccw: (&Circle, &Vec<[f64; 2]>), cw: (&Circle, &Vec<[f64; 2]>)) -> 
     let h = difference.iter().map(|d| d.1.abs()).fold(0.0, f64::max);
     let (play_x, play_y) = lateral_play(&difference);
     // Each path's smooth shape about the programmed centre, which the steps are taken on.
-    let paths = [ccw, cw].map(|(c, p)| (c, p, harmonics(p, c.center_m)));
+    let paths = [ccw, cw].map(|(c, p)| (c, p, harmonics(p, c.center_m, zones(c))));
     let lost_motion = |quadrants: [f64; 2]| {
         let steps: Vec<f64> = paths
             .iter()
@@ -829,7 +880,7 @@ fn step_across(c: &Circle, p: &[[f64; 2]], smooth: &Harmonics, quadrant: f64) ->
         let (angle, radial) = c.polar(q);
         let d = (angle.to_degrees() - quadrant).rem_euclid(360.0);
         let delta = travel * if d > 180.0 { d - 360.0 } else { d };
-        if !(3.0..=20.0).contains(&delta.abs()) {
+        if !(SPIKE_HALF_WIDTH_DEG..=20.0).contains(&delta.abs()) {
             continue;
         }
         let r = radial + c.radius_m - smooth.at(angle.cos(), angle.sin());

@@ -97,9 +97,14 @@ fn axis_view(report: &IdentifyReport, json: &Json, a: usize) -> AxisView {
         axis,
         report.identification.noise_um,
     ));
-    if axis.moving_only {
-        let note = crate::identify::report::MOVING_ONLY_NOTE;
-        notes.push(format!("C{}.", &note[1..]));
+    if let Some(note) = crate::identify::report::moving_only_note(axis) {
+        // A sentence of its own: capitalised, closed.
+        let mut chars = note.chars();
+        let first = chars
+            .next()
+            .map(|c| c.to_uppercase().to_string())
+            .unwrap_or_default();
+        notes.push(format!("{first}{}.", chars.as_str()));
     }
     notes.extend(crate::identify::report::while_moving_line(axis));
     notes.extend(crate::identify::report::file_line(axis));

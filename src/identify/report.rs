@@ -195,12 +195,25 @@ pub(crate) fn summary_text(id: &Identification, template: &MachineConfig) -> Str
     s
 }
 
-/// Why an axis is compared away from its standstills: what `written` checked, not a guess
-/// at the cause (a hunting hold, or a wind-up at rest the model does not carry, look alike
-/// to it).
+/// Why an axis is compared away from its standstills, where it is: what `written` checked,
+/// not a guess at the cause (a hunting hold, or a wind-up at rest the model does not carry,
+/// look alike to it). A fit away from the standstills that reaches the record's noise is
+/// written for that alone; one that does not, for predicting its held-out halves better
+/// than the fit over every sample.
 #[cfg(any(feature = "cli", feature = "html-report"))]
-pub(crate) const MOVING_ONLY_NOTE: &str = "compared while moving: the fit over every sample, \
-     standstills included, predicts the held-out halves no better";
+pub(crate) fn moving_only_note(a: &AxisIdentification) -> Option<&'static str> {
+    match (a.moving_only, a.reached) {
+        (false, _) => None,
+        (true, true) => Some(
+            "compared while moving: away from its standstills the fit reaches the record's \
+             noise, over every sample it does not",
+        ),
+        (true, false) => Some(
+            "compared while moving: the fit over every sample, standstills included, predicts \
+             the held-out halves no better",
+        ),
+    }
+}
 
 /// One axis: its residuals, what they predict against the template and the regression, and
 /// its values.
@@ -217,11 +230,7 @@ fn axis_summary(s: &mut String, a: &AxisIdentification, noise_um: f64) {
         a.axis,
         a.rms_template_um,
         a.rms_identified_um,
-        if a.moving_only {
-            format!(", {MOVING_ONLY_NOTE}")
-        } else {
-            String::new()
-        },
+        moving_only_note(a).map_or(String::new(), |note| format!(", {note}")),
         a.following_error_rms_um,
         a.held_out_template_um,
         super::held_out::identified_words(a)
@@ -603,4 +612,23 @@ pub(crate) fn machine_file(
     let _ = writeln!(s, "base = \"none\"\n");
     s.push_str(&id.machine.to_toml());
     s
+}
+
+#[cfg(all(test, any(feature = "cli", feature = "html-report")))]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_fit_while_moving_says_which_check_wrote_it() {
+        let mut a = AxisIdentification::scored(1.0, 0.5);
+        a.moving_only = false;
+        assert_eq!(moving_only_note(&a), None);
+        // Written for reaching the noise away from the standstills ...
+        a.moving_only = true;
+        a.reached = true;
+        assert!(moving_only_note(&a).is_some_and(|n| n.contains("reaches the record's noise")));
+        // ... or, above it, for predicting the held-out halves better.
+        a.reached = false;
+        assert!(moving_only_note(&a).is_some_and(|n| n.contains("held-out halves no better")));
+    }
 }

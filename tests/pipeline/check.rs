@@ -229,6 +229,27 @@ fn a_circle_from_rest_shows_no_backlash_or_scale_from_its_entry() {
     let lag_um = v * v / (2.0 * radius * kv * kv) * 1e6;
     let left_out_deg = (5.0 / kv * v / radius).to_degrees();
     let test = &r.result.circular;
+    // The first circle from rest, in closed form (above): n ← ln((A + n·ωτ·D) / 0.1 µm) from
+    // above, the rapid's rest within the in-position window w taken either way into A.
+    let wt = v / radius / kv;
+    let (a_m, d_m) = (
+        radius * wt * wt / (1.0 + wt * wt),
+        radius * wt / (1.0 + wt * wt),
+    );
+    let from_rest_deg = |radial_m: f64| {
+        let mut n: f64 = 50.0;
+        for _ in 0..200 {
+            n = ((radial_m + n * wt * d_m) / 0.1e-6).ln();
+        }
+        (n * wt).to_degrees()
+    };
+    let w_m = machine.interpolation.in_position_window_mm * 1e-3;
+    let first = test.circles[0].start_left_out_deg;
+    assert!((from_rest_deg(a_m) - 40.0).abs() < 0.05);
+    assert!(
+        first > from_rest_deg(a_m - w_m) - 0.01 && first < from_rest_deg(a_m + w_m) + 0.16,
+        "{first}"
+    );
     for c in &test.circles {
         let omega = if c.direction == "ccw" { v } else { -v } / radius;
         let n = entry_time_constants(&r.commands, c.segment as u32, radius, omega, 1.0 / kv);
@@ -248,17 +269,9 @@ fn a_circle_from_rest_shows_no_backlash_or_scale_from_its_entry() {
     // the friction's reversal spikes.
     assert!(pair.backlash_x_um.abs() < 0.1 * lag_um, "{pair:?}");
     assert!(pair.backlash_y_um.abs() < 0.1 * lag_um, "{pair:?}");
-    // The ellipse along the axes on the same machine without Coulomb friction: with it, the
-    // reversal spikes at the three quadrant points the figures keep (the fourth, at 0°, lies
-    // in the stretch left out) read as an ellipse of their own, tens of ppm on R10, which a
-    // window long enough for the whole entry no longer hides among the entry's rest.
-    let mut smooth = machine.clone();
-    smooth.x.friction.coulomb_coefficient = 0.0;
-    smooth.y.friction.coulomb_coefficient = 0.0;
-    let pair = run(&src, &smooth, ProfileKind::SCurve)
-        .result
-        .circular
-        .pairs[0];
+    // The ellipse along the axes: the friction's reversal spikes at the three quadrant points
+    // the figures keep (the fourth, at 0°, lies in the stretch left out) would read as one of
+    // their own, tens of ppm on R10, were they not left out of the ellipse's fit.
     let lag_over_radius_ppm = lag_um / (radius * 1e6) * 1e6;
     assert!(
         pair.scale_mismatch_ppm.abs() < 0.01 * lag_over_radius_ppm,

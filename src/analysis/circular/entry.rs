@@ -96,7 +96,7 @@ impl EntrySettling {
     }
 
     /// The angle the circle turns through in that time constant (rad), at its feed.
-    fn omega_tau(&self, c: &Circle) -> f64 {
+    pub(super) fn omega_tau(&self, c: &Circle) -> f64 {
         c.feed_m_per_s / c.radius_m * self.tau_s(c)
     }
 

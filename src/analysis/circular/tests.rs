@@ -135,6 +135,24 @@ fn a_spike_at_a_quadrant_point_is_measured_against_its_neighbourhood() {
     assert!((s[1] - 6.0).abs() < 1e-6 && s[0].abs() < 1e-6, "{s:?}");
 }
 
+#[test]
+fn spikes_at_three_quadrant_points_read_as_no_ellipse() {
+    // X's scale 20 ppm long — the radius R·(1 + s·cos²θ), whose 2θ term R·s/2 is read back
+    // as s — with 20 µm spikes within ±2° of 90°, 180° and 270° and none at 0° (a start
+    // left out there). Fitted with them, the three would add (2/360)·(−1 + 1 − 1)·5·20 µm
+    // to the 2θ term: −11 ppm on R100.
+    let scale = 20e-6;
+    let (x, y) = ring([0.0, 0.0], |a| {
+        let deg = a.to_degrees();
+        let spike = [90.5, 180.5, 270.5].iter().any(|q| (deg - q).abs() <= 2.0);
+        0.1 * (1.0 + scale * a.cos().powi(2)) + if spike { 20e-6 } else { 0.0 }
+    });
+    let t = circular_test(&[circle(true, 0)], &vec![0; 360], [&x, &y, &[]]);
+    let c = &t.circles[0];
+    assert!((c.scale_mismatch_ppm - 20.0).abs() < 0.2, "{c:?}");
+    assert!(c.diagonal_ellipse_urad.abs() < 0.2, "{c:?}");
+}
+
 /// Both directions of the R100 circle at F1000 as axes with lags `tau_s` ([X, Y]) and
 /// the X reading `alpha`·y more and (1 + `scale`)·x, from the commanded point at
 /// `theta` — what a ballbar would record.
