@@ -369,8 +369,12 @@ impl SpikeZones {
         let tail_deg = (SPIKE_TAIL_TIME_CONSTANTS * entry.omega_tau(c)).to_degrees();
         SpikeZones {
             ccw: c.ccw,
-            // f64::max and min pass over a NaN: no loop known, the spike's own width.
-            tail_deg: tail_deg.min(SPIKE_TAIL_MAX_DEG).max(SPIKE_HALF_WIDTH_DEG),
+            // No loop known (a NaN): the spike's own width.
+            tail_deg: if tail_deg.is_nan() {
+                SPIKE_HALF_WIDTH_DEG
+            } else {
+                tail_deg.clamp(SPIKE_HALF_WIDTH_DEG, SPIKE_TAIL_MAX_DEG)
+            },
         }
     }
 
