@@ -575,9 +575,7 @@ impl CircleSamples {
                 // A quadrant point whose neighbourhood the left-out start and end cut into
                 // has no spike the points can measure.
                 for (q, spike) in f.reversal_spikes_um.iter_mut().enumerate() {
-                    let off = (c.start_rad.to_degrees() - 90.0 * q as f64).rem_euclid(360.0);
-                    let reach = left_out_deg + SPIKE_HALF_WIDTH_DEG;
-                    if left_out_deg > 0.0 && off.min(360.0 - off) < reach {
+                    if cut_by_windows(&c, 90.0 * q as f64, [left_out_deg, end_left_out_deg]) {
                         *spike = f64::NAN;
                     }
                 }
@@ -604,6 +602,17 @@ impl CircleSamples {
             .collect();
         (out, paths)
     }
+}
+
+/// Whether the spike at quadrant point `quadrant_deg` of circle `c` stands in or against
+/// the stretches its figures leave out (degrees): the start's, past the circle's start in
+/// its direction of travel, and the end's, before it (a full circle ends where it starts).
+fn cut_by_windows(c: &Circle, quadrant_deg: f64, [start_deg, end_deg]: [f64; 2]) -> bool {
+    let travel = if c.ccw { 1.0 } else { -1.0 };
+    let d = (quadrant_deg - c.start_rad.to_degrees()).rem_euclid(360.0);
+    let past = travel * if d > 180.0 { d - 360.0 } else { d };
+    let window = if past >= 0.0 { start_deg } else { end_deg };
+    window > 0.0 && past.abs() < window + SPIKE_HALF_WIDTH_DEG
 }
 
 /// G, F, the reversal spikes and the ellipses of one circle's points.

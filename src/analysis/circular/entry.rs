@@ -116,15 +116,15 @@ impl EntrySettling {
     /// model carries on the circle at its feed for ever, split into its radial part and its
     /// part along the path (m, signed).
     pub(super) fn transient_m(&self, c: &Circle, command_m: [f64; 3], lag_m: [f64; 3]) -> [f64; 2] {
-        let (theta, _) = c.polar(c.plane.coords(command_m));
+        let (theta_rad, _) = c.polar(c.plane.coords(command_m));
         let [a, b, _] = c.plane.axes();
         // Round the centre, the command is z = R·e^{jθ} turning at ω (counter-clockwise
         // positive); a first-order loop of time constant τ lags it by z·jωτ/(1 + jωτ), the
         // first axis by its real part, the second by its imaginary part.
-        let omega = c.feed_m_per_s / c.radius_m * if c.ccw { 1.0 } else { -1.0 };
-        let z = Complex::from_polar(c.radius_m, theta);
+        let omega_rad_per_s = c.feed_m_per_s / c.radius_m * if c.ccw { 1.0 } else { -1.0 };
+        let z = Complex::from_polar(c.radius_m, theta_rad);
         let steady = |tau_s: f64| {
-            let jwt = Complex::new(0.0, omega * tau_s);
+            let jwt = Complex::new(0.0, omega_rad_per_s * tau_s);
             z * jwt / (1.0 + jwt)
         };
         let lag = c.plane.coords(lag_m);
@@ -132,7 +132,7 @@ impl EntrySettling {
             lag[0] - steady(self.time_constant_s[a]).re,
             lag[1] - steady(self.time_constant_s[b]).im,
         ];
-        let (sin, cos) = theta.sin_cos();
+        let (sin, cos) = theta_rad.sin_cos();
         [
             delta[0] * cos + delta[1] * sin,
             -delta[0] * sin + delta[1] * cos,

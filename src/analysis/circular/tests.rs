@@ -430,3 +430,27 @@ fn the_entry_window_is_worked_out_from_the_commands() {
         assert!((f.end_left_out_deg - 2.865).abs() < 0.001, "{f:?}");
     }
 }
+
+#[test]
+fn a_spike_is_cut_only_by_the_window_on_its_own_side_of_the_start() {
+    // Counter-clockwise from 30°: 0° lies 30° before the start, in the end's window of 22.9°
+    // (and 3° of the spike's own) — not cut; the start's 40° would have reached it.
+    let ccw = Circle {
+        start_rad: 30f64.to_radians(),
+        ..circle(true, 0)
+    };
+    assert!(!cut_by_windows(&ccw, 0.0, [40.0, 22.9]));
+    assert!(cut_by_windows(&ccw, 0.0, [40.0, 28.0]));
+    // 90° lies 60° past the start: cut by a start window beyond 57°.
+    assert!(!cut_by_windows(&ccw, 90.0, [56.0, 22.9]));
+    assert!(cut_by_windows(&ccw, 90.0, [58.0, 22.9]));
+    // Clockwise from 30°, 0° lies 30° past the start.
+    let cw = Circle {
+        start_rad: 30f64.to_radians(),
+        ..circle(false, 0)
+    };
+    assert!(cut_by_windows(&cw, 0.0, [40.0, 5.0]));
+    assert!(!cut_by_windows(&cw, 90.0, [40.0, 5.0]));
+    // Nothing left out, nothing cut.
+    assert!(!cut_by_windows(&cw, 0.0, [0.0, 0.0]));
+}
