@@ -159,7 +159,10 @@ struct OnCircle {
 /// with the command linear between samples, lags them by e where the command sets off on the
 /// circle; less the steady lag z·jωτ/(1 + jωτ) of the command z = R·e^{jθ} (X its real part,
 /// Y its imaginary part), e is split along the radius and the path, and n solved by
-/// n ← ln((|r| + n·ωτ·|d|) / residue) from above.
+/// n ← ln((|r| + n·ωτ·|d| + p(n)) / residue) from above. p is what two loops of their own
+/// paces bring into the radius with the circle standing still: the parts of e decaying as
+/// e^(−t/τx) and e^(−t/τy) turn it by their difference, at most
+/// |e|/2 · min(1, n·(τslow/τfast − 1)) after n of the slower's time constants.
 fn entry_time_constants(case: &Case, csv: &str) -> f64 {
     let radius_m = case.radius_mm * 1e-3;
     let start = [radius_m * START_RAD.cos(), radius_m * START_RAD.sin()];
@@ -205,9 +208,12 @@ fn entry_time_constants(case: &Case, csv: &str) -> f64 {
     ];
     let radial = (delta[0] * theta.cos() + delta[1] * theta.sin()).abs();
     let along = (-delta[0] * theta.sin() + delta[1] * theta.cos()).abs();
+    let [tx, ty] = case.tau_axes_s;
+    let paces_apart = tx.max(ty) / tx.min(ty) - 1.0;
+    let parted = |n: f64| 0.5 * delta[0].hypot(delta[1]) * (n * paces_apart).min(1.0);
     let mut n: f64 = 50.0;
     for _ in 0..200 {
-        n = ((radial + n * omega * case.tau_s * along) / ENTRY_RESIDUE_M).ln();
+        n = ((radial + n * omega * case.tau_s * along + parted(n)) / ENTRY_RESIDUE_M).ln();
     }
     n.max(ENTRY_TIME_CONSTANTS)
 }

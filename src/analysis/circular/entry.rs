@@ -78,15 +78,34 @@ impl EntrySettling {
     /// The commanded path left out at circle `c`'s start (m) where the command sets off on
     /// it `set_off_m` along it with the entry transient `transient_m` (radial, along the
     /// path; [`EntrySettling::transient_m`]): the time constants
-    /// [`settling_time_constants`] gives from there, never fewer than five.
+    /// [`settling_within`] gives from there, never fewer than five.
     pub(super) fn entry_lead_m(&self, c: &Circle, transient_m: [f64; 2], set_off_m: f64) -> f64 {
         let turned_m = self.omega_tau(c) * transient_m[1];
-        let needed = settling_time_constants(transient_m[0], turned_m, ENTRY_TIME_CONSTANTS);
+        let apart = Apart {
+            size_m: 0.5 * transient_m[0].hypot(transient_m[1]),
+            per_time_constant: self.apart_per_time_constant(c),
+        };
+        let needed = settling_within(transient_m[0], turned_m, apart, ENTRY_TIME_CONSTANTS);
         if needed <= ENTRY_TIME_CONSTANTS {
             return self.lead_m(c);
         }
         let lead_m = set_off_m + self.lead_for_m(c, needed);
         lead_m.min(0.25 * std::f64::consts::TAU * c.radius_m)
+    }
+
+    /// How much faster the faster of circle `c`'s plane's loops settles than the slower, less
+    /// one (τ_slow/τ_fast − 1); none where one axis arrives with its command (it carries no
+    /// transient to part from the other's).
+    fn apart_per_time_constant(&self, c: &Circle) -> f64 {
+        let [a, b, _] = c.plane.axes();
+        let (ta, tb) = (self.time_constant_s[a], self.time_constant_s[b]);
+        let (fast, slow) = (ta.min(tb), ta.max(tb));
+        let ratio = slow / fast - 1.0;
+        if fast > 0.0 && ratio.is_finite() {
+            ratio
+        } else {
+            0.0
+        }
     }
 
     /// The slower of circle `c`'s plane's loops' time constants (s).
@@ -140,21 +159,44 @@ impl EntrySettling {
     }
 }
 
+/// What the plane's two loops settling at their own paces bring into the radius: the
+/// transient's parts decay as e^(−t/τa) and e^(−t/τb), and their difference turns it, up to
+/// `size_m` (half the transient) · min(1, n·`per_time_constant`) · e⁻ⁿ after n of the slower
+/// loop's time constants, the circle standing still.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Apart {
+    pub(super) size_m: f64,
+    pub(super) per_time_constant: f64,
+}
+
 /// How many time constants an entry transient takes to fall to [`ENTRY_RESIDUE_M`] in the
 /// radius, at least `floor`: a transient of radial part `radial_m` and of part along the path
 /// d decays as e^(−t/τ) while the circle turns ωτ per time constant, bringing up to n·ωτ·|d|
 /// (`turned_m` = ωτ·d) of it into the radius after n of them, so what remains in the radius
-/// is at most (|radial| + n·|turned|)·e⁻ⁿ. The smallest n from which that stays below the
-/// residue, by bisection (past its one maximum, at n = 1 − |radial|/|turned|, the bound
+/// is at most (|radial| + n·|turned|)·e⁻ⁿ, and with what the loops' paces part ([`Apart`])
+/// added. The smallest n from which that stays below the residue, by bisection (past its
+/// one maximum, at n = 1 − |radial|/|turned|, and past n = 1 where the paces part, the bound
 /// falls). Nothing known of the transient (NaN) gives the floor.
-pub(super) fn settling_time_constants(radial_m: f64, turned_m: f64, floor: f64) -> f64 {
+pub(super) fn settling_within(radial_m: f64, turned_m: f64, apart: Apart, floor: f64) -> f64 {
     let (a, b) = (radial_m.abs(), turned_m.abs());
+    let (c, k) = (apart.size_m.abs(), apart.per_time_constant.abs());
     if a.is_nan() || b.is_nan() {
         return floor;
     }
+    // NaN parts of the loops' difference count as none.
+    let parted = |n: f64| {
+        if (c * k).is_nan() {
+            0.0
+        } else {
+            c * (n * k).min(1.0)
+        }
+    };
     // The bound's logarithm over the residue's: positive while more than it remains.
-    let excess = |n: f64| (a + n * b).ln() - n - ENTRY_RESIDUE_M.ln();
-    let peak = if b > 0.0 { 1.0 - a / b } else { 0.0 };
+    let excess = |n: f64| (a + n * b + parted(n)).ln() - n - ENTRY_RESIDUE_M.ln();
+    // Past the plain bound's one maximum, and past n = 1 where the paces part (each piece
+    // of the bound falls from there).
+    let parts: f64 = if c * k > 0.0 { 1.0 } else { 0.0 };
+    let peak = parts.max(if b > 0.0 { 1.0 - a / b } else { 0.0 });
     let mut lo = floor.max(peak).min(MAX_TIME_CONSTANTS);
     if excess(lo) <= 0.0 {
         return floor;

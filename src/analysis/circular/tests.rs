@@ -291,7 +291,12 @@ fn straightness_lateral_play_and_lost_motion_are_read_from_their_shapes() {
 /// transient an answer that meets the bound.
 #[test]
 fn the_entry_time_constants_meet_the_residue_bound() {
-    use super::entry::settling_time_constants as solve;
+    use super::entry::{Apart, settling_within};
+    let none = Apart {
+        size_m: 0.0,
+        per_time_constant: 0.0,
+    };
+    let solve = |a: f64, b: f64, floor: f64| settling_within(a, b, none, floor);
     let residual = |a: f64, b: f64, n: f64| ((a + n * b).ln() - n - (0.1e-6f64).ln()).abs();
     let radial_only = solve(1e-3, 0.0, 5.0);
     assert!(
@@ -453,4 +458,34 @@ fn a_spike_is_cut_only_by_the_window_on_its_own_side_of_the_start() {
     assert!(!cut_by_windows(&cw, 90.0, [40.0, 5.0]));
     // Nothing left out, nothing cut.
     assert!(!cut_by_windows(&cw, 0.0, [0.0, 0.0]));
+}
+
+/// Two loops at their own paces: a transient of 1 mm whose halves part by up to 0.5 mm·e⁻ⁿ
+/// once they have (a tenth apart in pace: after ten time constants) — with nothing radial
+/// or turned, 0.5 mm·e⁻ⁿ = 0.1 µm at n = ln 5000 = 8.517; a hundredth apart, the parting
+/// 0.5 mm·0.01·n·e⁻ⁿ = 0.1 µm at n with n·e⁻ⁿ = 0.02 (5.642: n ← ln 50 + ln n from 5 gives
+/// 5.521, 5.620, 5.638, 5.641, 5.642).
+#[test]
+fn loops_of_two_paces_part_the_transient_into_the_radius() {
+    use super::entry::{Apart, settling_within};
+    let apart = |k: f64| Apart {
+        size_m: 0.5e-3,
+        per_time_constant: k,
+    };
+    let far = settling_within(0.0, 0.0, apart(10.0), 5.0);
+    assert!((far - 5000f64.ln()).abs() < 1e-6, "{far}");
+    let near = settling_within(0.0, 0.0, apart(0.01), 0.0);
+    assert!(((near * (-near).exp()) - 0.02).abs() < 1e-9, "{near}");
+    assert!((near - 5.642).abs() < 0.001, "{near}");
+    // Loops of one pace part nothing: the plain bound.
+    assert_eq!(
+        settling_within(1e-3, 0.0, apart(0.0), 5.0),
+        4.0 * std::f64::consts::LN_10
+    );
+    // Nothing known of the parting counts as none; never below the floor.
+    let nan = Apart {
+        size_m: f64::NAN,
+        per_time_constant: 0.5,
+    };
+    assert_eq!(settling_within(0.0, 0.0, nan, 5.0), 5.0);
 }
