@@ -8,6 +8,8 @@ pub mod cli;
 #[allow(dead_code)]
 pub mod diagnosing;
 #[allow(dead_code)]
+pub mod entry;
+#[allow(dead_code)]
 pub mod identifying;
 #[allow(dead_code)]
 pub mod reference;

@@ -20,17 +20,10 @@ use std::f64::consts::TAU;
 /// Measurement noise of the records (m): small, so that the figures show the loops.
 const NOISE_M: f64 = 0.1e-6;
 
-/// Loop time constants the entry is left out for at the least, as ballbar practice leaves an
-/// overshoot arc: a transient has fallen to e⁻⁵ of its start by then.
-const ENTRY_TIME_CONSTANTS: f64 = 5.0;
-
-/// What the entry transient may still amount to where the figures begin (m): a ballbar's
-/// finest step. The transient is the lag a first-order loop of each axis's time constant
-/// carries behind the commands as they set off on the circle, less the lag it carries on the
-/// circle for ever; its radial part r decays as r·e^(−t/τ), and its part d along the path is
-/// turned into the radius by the circle, ωτ per time constant: the start is left out until
-/// (|r| + n·ωτ·|d|)·e⁻ⁿ has fallen to this, where that takes more than five.
-const ENTRY_RESIDUE_M: f64 = 0.1e-6;
+// The entry is left out for at least five loop time constants, as ballbar practice leaves an
+// overshoot arc (a transient has fallen to e⁻⁵ of its start by then), and longer while more
+// than a ballbar's finest step of it would remain in the radius.
+use common::entry::ENTRY_TIME_CONSTANTS;
 
 /// A counter-clockwise full circle of `radius_mm` about the origin at `feed` (mm/min),
 /// entered at its 45° point where a rapid left the axes standing: the entry is then no
@@ -153,16 +146,9 @@ struct OnCircle {
     command_rad: f64,
 }
 
-/// The time constants the entry is left out for ([`ENTRY_RESIDUE_M`]), from the record's
-/// commands (CSV: t in s, x, y, x_cmd, y_cmd in mm) alone: a first-order loop of each axis's
-/// time constant, at rest on the first command and integrated by fourth-order Runge-Kutta
-/// with the command linear between samples, lags them by e where the command sets off on the
-/// circle; less the steady lag z·jωτ/(1 + jωτ) of the command z = R·e^{jθ} (X its real part,
-/// Y its imaginary part), e is split along the radius and the path, and n solved by
-/// n ← ln((|r| + n·ωτ·|d| + p(n)) / residue) from above. p is what two loops of their own
-/// paces bring into the radius with the circle standing still: the parts of e decaying as
-/// e^(−t/τx) and e^(−t/τy) turn it by their difference, at most
-/// |e|/2 · min(1, n·(τslow/τfast − 1)) after n of the slower's time constants.
+/// The time constants the entry is left out for ([`common::entry::ENTRY_RESIDUE_M`]), from the record's
+/// commands (CSV: t in s, x, y, x_cmd, y_cmd in mm) alone, where the command sets off on the
+/// circle ([`common::entry::entry_time_constants`]).
 fn entry_time_constants(case: &Case, csv: &str) -> f64 {
     let radius_m = case.radius_mm * 1e-3;
     let start = [radius_m * START_RAD.cos(), radius_m * START_RAD.sin()];
@@ -172,50 +158,12 @@ fn entry_time_constants(case: &Case, csv: &str) -> f64 {
             (v[0], [v[3] * 1e-3, v[4] * 1e-3])
         })
         .collect();
-    let mut model = rows[0].1;
-    let mut set_off = None;
-    for pair in rows.windows(2) {
-        let ((t0, c0), (t1, c1)) = (pair[0], pair[1]);
-        let h = t1 - t0;
-        for a in 0..2 {
-            let cmd = |t: f64| c0[a] + (c1[a] - c0[a]) * (t - t0) / h;
-            let f = |t: f64, p: f64| (cmd(t) - p) / case.tau_axes_s[a];
-            let p = model[a];
-            let k1 = f(t0, p);
-            let k2 = f(t0 + 0.5 * h, p + 0.5 * h * k1);
-            let k3 = f(t0 + 0.5 * h, p + 0.5 * h * k2);
-            let k4 = f(t1, p + h * k3);
-            model[a] = p + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-        }
-        let on = (c1[0].hypot(c1[1]) - radius_m).abs() < 1e-9;
-        if on && (c1[0] - start[0]).hypot(c1[1] - start[1]) > 1e-6 {
-            set_off = Some((c1, [c1[0] - model[0], c1[1] - model[1]]));
-            break;
-        }
-    }
-    let Some((command, lag)) = set_off else {
-        return ENTRY_TIME_CONSTANTS;
+    let sets_off = |_: usize, c: [f64; 2]| {
+        let on = (c[0].hypot(c[1]) - radius_m).abs() < 1e-9;
+        on && (c[0] - start[0]).hypot(c[1] - start[1]) > 1e-6
     };
-    let theta = command[1].atan2(command[0]);
-    let omega = case.feed / 60_000.0 / radius_m;
-    let steady = |tau_s: f64| {
-        let jwt = Complex::new(0.0, omega * tau_s);
-        Complex::from_polar(radius_m, theta) * jwt / (1.0 + jwt)
-    };
-    let delta = [
-        lag[0] - steady(case.tau_axes_s[0]).re,
-        lag[1] - steady(case.tau_axes_s[1]).im,
-    ];
-    let radial = (delta[0] * theta.cos() + delta[1] * theta.sin()).abs();
-    let along = (-delta[0] * theta.sin() + delta[1] * theta.cos()).abs();
-    let [tx, ty] = case.tau_axes_s;
-    let paces_apart = tx.max(ty) / tx.min(ty) - 1.0;
-    let parted = |n: f64| 0.5 * delta[0].hypot(delta[1]) * (n * paces_apart).min(1.0);
-    let mut n: f64 = 50.0;
-    for _ in 0..200 {
-        n = ((radial + n * omega * case.tau_s * along + parted(n)) / ENTRY_RESIDUE_M).ln();
-    }
-    n.max(ENTRY_TIME_CONSTANTS)
+    let omega_rad_per_s = case.feed / 60_000.0 / radius_m;
+    common::entry::entry_time_constants(&rows, sets_off, radius_m, omega_rad_per_s, case.tau_axes_s)
 }
 
 /// The samples of a record (CSV: t, x, y, x_cmd, y_cmd in mm) whose command runs on the

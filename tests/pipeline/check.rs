@@ -279,62 +279,38 @@ fn a_circle_from_rest_shows_no_backlash_or_scale_from_its_entry() {
     );
 }
 
-/// The time constants a circle's start is left out for, from the run's commands alone: a
-/// first-order loop of time constant `tau_s` on each axis, at rest on the first command and
-/// integrated by fourth-order Runge-Kutta with the command linear between samples, lags them
-/// by e where the commands on plan segment `segment` (the circle of `radius_m` about the
-/// origin, turning at `omega`, counter-clockwise positive) have moved a micrometre from
-/// where they first stood. Less the steady lag z·jωτ/(1 + jωτ) of the command z = R·e^{jθ}
-/// (X its real part, Y its imaginary part), e is split along the radius (r) and the path
-/// (d), and (|r| + n·ωτ·|d|)·e⁻ⁿ = 0.1 µm solved by n ← ln((|r| + n·ωτ·|d|) / 0.1 µm) from
-/// above; five at the least.
+/// The time constants a circle's start is left out for, from the run's commands alone
+/// ([`crate::common::entry::entry_time_constants`]): both axes of time constant `tau_s`, set off
+/// where the commands on plan segment `segment` (the circle of `radius_m` about the origin,
+/// turning at `omega_rad_per_s`) have moved a micrometre from where they first stood.
 fn entry_time_constants(
     commands: &contourcheck::plan::Commands,
     segment: u32,
     radius_m: f64,
-    omega: f64,
+    omega_rad_per_s: f64,
     tau_s: f64,
 ) -> f64 {
-    let h = commands.dt_s;
-    let at = |k: usize| [commands.x.pos_m[k], commands.y.pos_m[k]];
-    let mut model = at(0);
+    let rows: Vec<(f64, [f64; 2])> = (0..commands.segment.len())
+        .map(|k| {
+            let t_s = k as f64 * commands.dt_s;
+            (t_s, [commands.x.pos_m[k], commands.y.pos_m[k]])
+        })
+        .collect();
     let mut first: Option<[f64; 2]> = None;
-    let mut set_off = None;
-    for k in 1..commands.segment.len() {
-        let (c0, c1) = (at(k - 1), at(k));
-        for a in 0..2 {
-            let cmd = |s: f64| c0[a] + (c1[a] - c0[a]) * s / h;
-            let f = |s: f64, p: f64| (cmd(s) - p) / tau_s;
-            let p = model[a];
-            let k1 = f(0.0, p);
-            let k2 = f(0.5 * h, p + 0.5 * h * k1);
-            let k3 = f(0.5 * h, p + 0.5 * h * k2);
-            let k4 = f(h, p + h * k3);
-            model[a] = p + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
-        }
+    let sets_off = |k: usize, c: [f64; 2]| {
         if commands.segment[k] != segment {
-            continue;
+            return false;
         }
-        let start = *first.get_or_insert(c1);
-        if (c1[0] - start[0]).hypot(c1[1] - start[1]) > 1e-6 {
-            set_off = Some((c1, [c1[0] - model[0], c1[1] - model[1]]));
-            break;
-        }
-    }
-    let Some((command, lag)) = set_off else {
-        return 5.0;
+        let start = *first.get_or_insert(c);
+        (c[0] - start[0]).hypot(c[1] - start[1]) > 1e-6
     };
-    let theta = command[1].atan2(command[0]);
-    let jwt = nalgebra::Complex::new(0.0, omega * tau_s);
-    let steady = nalgebra::Complex::from_polar(radius_m, theta) * jwt / (1.0 + jwt);
-    let delta = [lag[0] - steady.re, lag[1] - steady.im];
-    let radial = (delta[0] * theta.cos() + delta[1] * theta.sin()).abs();
-    let along = (-delta[0] * theta.sin() + delta[1] * theta.cos()).abs();
-    let mut n: f64 = 50.0;
-    for _ in 0..200 {
-        n = ((radial + n * (omega * tau_s).abs() * along) / 0.1e-6).ln();
-    }
-    n.max(5.0)
+    crate::common::entry::entry_time_constants(
+        &rows,
+        sets_off,
+        radius_m,
+        omega_rad_per_s,
+        [tau_s; 2],
+    )
 }
 
 #[test]
