@@ -50,26 +50,26 @@ pub struct Fitted {
     pub other: Vec<f64>,
 }
 
-/// The start of lowest `cost` and the clock offset it was judged at, each start looked at
-/// one simulation step per control cycle: a first look that only chooses where the fit
-/// begins, at a quarter of the cost of the fit's own steps (which matters for the grids of
-/// tens of starts). A single start is taken as it is, at `offset_s`.
+/// The start whose residual is lowest at the clock offset that suits it best
+/// ([`Model::rss_at_best_offset`]), and that offset, each start looked at one simulation
+/// step per control cycle: a first look that only chooses where the fit begins, at a
+/// quarter of the cost of the fit's own steps (which matters for the grids of tens of
+/// starts). A single start is taken as it is, at `offset_s`.
 fn best_start<'s>(
-    ctx: &Context,
+    model: &Model,
     starts: &'s [Vec<f64>],
     offset_s: f64,
-    cost: &dyn Fn(&Context, &[f64]) -> (f64, f64),
 ) -> Option<(&'s [f64], f64)> {
     if let [only] = starts {
         return Some((only.as_slice(), offset_s));
     }
     let screen = Context {
         stepping: Stepping::PerCycle,
-        ..ctx.clone()
+        ..model.ctx.clone()
     };
     starts
         .iter()
-        .map(|s| (cost(&screen, s), s))
+        .map(|s| (model.rss_at_best_offset(&screen, s, offset_s), s))
         .min_by(|a, b| a.0.0.total_cmp(&b.0.0))
         .map(|((_, offset), s)| (s.as_slice(), offset))
 }
@@ -94,10 +94,7 @@ pub(crate) fn fit_cause(
         other,
         simulated: Simulated::default(),
     };
-    let (start, start_offset) =
-        best_start(ctx, starts, offset_s, &|screen: &Context, s: &[f64]| {
-            model.rss_at_best_offset(screen, s, offset_s)
-        })?;
+    let (start, start_offset) = best_start(&model, starts, offset_s)?;
     let (values, nm_offset, best) = model.nelder_mead_from(start, start_offset);
     let problem = Problem { model };
     let p0 = problem.model.scaled(&values, nm_offset);
