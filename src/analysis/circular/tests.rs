@@ -377,10 +377,10 @@ fn the_entry_transient_is_the_lag_less_the_circles_own() {
             0.0,
         ];
         let command_m = [0.1 * cos, 0.1 * sin, 0.0];
-        let none = entry.transient_m(&c, command_m, steady_m);
+        let none = entry.transient_m(&c, command_m, steady_m, c.feed_m_per_s);
         // To the rounding of a millimetre's lag (1e-19 m a digit).
         assert!(none[0].abs() < 1e-14 && none[1].abs() < 1e-14, "{none:?}");
-        let all = entry.transient_m(&c, command_m, [0.0; 3]);
+        let all = entry.transient_m(&c, command_m, [0.0; 3], c.feed_m_per_s);
         assert!((all[0].abs() - radial_m).abs() < 1e-14, "{all:?}");
         assert!((all[1].abs() - along_m).abs() < 1e-14, "{all:?}");
     }
