@@ -359,7 +359,8 @@ impl Entries {
 impl Entering {
     /// Takes the command at `t_s` having run `run_m` along the circle; where its speed over
     /// the last `tau_s` agrees with its speed over the `tau_s` before (each at least a
-    /// sample's step), where that began (m along the circle) and the speed over both (m/s).
+    /// sample's step), where that began (m along the circle) and the speed over the last
+    /// (m/s).
     fn steady(&mut self, tau_s: f64, t_s: f64, run_m: f64) -> Option<(f64, f64)> {
         if self.recent.is_empty() {
             // Standing just before, the command was at no speed there.
@@ -386,8 +387,7 @@ impl Entering {
         let (t1_s, run1_m) = self.recent[mid];
         let before = (run1_m - run0_m) / (t1_s - t0_s);
         let last = (run_m - run1_m) / (t_s - t1_s);
-        let speed_m_per_s = (run_m - run0_m) / (t_s - t0_s);
-        ((last - before).abs() <= STEADY_SPEED_SHARE * speed_m_per_s && speed_m_per_s > 0.0)
-            .then_some((run0_m, speed_m_per_s))
+        // The newer of the two: what the speed still gained over the older is behind it.
+        ((last - before).abs() <= STEADY_SPEED_SHARE * last && last > 0.0).then_some((run0_m, last))
     }
 }
