@@ -288,7 +288,7 @@ pub struct CircleFigures {
     /// its end, where the command slows into it.
     pub start_left_out_deg: f64,
     /// How far before its end (degrees) the figures stop: five of the loops' time
-    /// constants at the feed, where the command slows into its end.
+    /// constants at the speed the command runs round it, where it slows into its end.
     pub end_left_out_deg: f64,
 }
 

@@ -1,15 +1,17 @@
 //! How much of a circle's start its figures leave out: the entry transient worked out from
 //! the commands alone. A first-order model of each axis's loop (the time constant of its
-//! slowest closed-loop mode) follows the commands up to where the command sets off on the
-//! circle; what its lag there differs from the lag it would carry had it run round the circle
-//! forever is the transient, which decays at the loop's pace while the turning circle brings
-//! its part along the path into the radius. Reading only the commands, the window is the
+//! slowest closed-loop mode) follows the commands up to where the command runs round the
+//! circle at its own speed (past its ramp from rest, which the lag still grows over; the
+//! programmed feed or less); what its lag there differs from the lag it would carry had it run
+//! round the circle at that speed forever is the transient, which decays at the loop's pace
+//! while the turning circle brings its part along the path into the radius. The window's time
+//! constants are counted at that speed. Reading only the commands, the window is the
 //! same for every path compared on them (a measurement, a model's prediction), and no noise
 //! enters it.
 
-use nalgebra::Complex;
-
 use std::collections::{HashMap, VecDeque};
+
+use nalgebra::Complex;
 
 use super::{Circle, Commanded};
 
@@ -77,8 +79,8 @@ impl EntrySettling {
         }
     }
 
-    /// The commanded path left out at circle `c`'s start and end (m) where the table enters
-    /// it with no more than the circle's own lag: five of the slower of its plane's loops'
+    /// The commanded path left out at circle `c`'s start and end (m) until the command's
+    /// speed on it is known ([`Entries::enter`]): five of the slower of its plane's loops'
     /// time constants at the programmed feed, at most a quarter turn.
     pub(super) fn lead_m(&self, c: &Circle) -> f64 {
         self.lead_for_m(c, ENTRY_TIME_CONSTANTS)
