@@ -256,8 +256,9 @@ fn a_circle_from_rest_shows_no_backlash_or_scale_from_its_entry() {
         let w = entry_window(&r.commands, c.segment as u32, (radius, ccw), 1.0 / kv);
         assert!((w.speed_m_per_s - v).abs() < 1e-6 * v, "{w:?}");
         // The replica's own residue under 0.1 µm where the window ends, which is within 1 %
-        // short of the replica's (read up to two time constants later, where the speed is
-        // known steady, the code's bound counts the turning done by then exactly) or the
+        // short of the replica's (each finds where the command reached its speed its own
+        // way: the code where its speeds over two loop time constants agree to 0.1 %, the
+        // replica where every step's is within 0.1 % of the speed half a turn on) or the
         // set-off's own step of path past it, 27 µm (0.15°) at most.
         let start = c.start_left_out_deg;
         let rows = command_rows(&r.commands);

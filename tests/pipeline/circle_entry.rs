@@ -68,10 +68,10 @@ fn radial_band_m(r: &CheckRun, segment: u32, from_m: f64, until_m: f64) -> f64 {
 /// What the figures of the one circle of run `r` leave out and keep, against the replica
 /// (loops of time constant `tau_s`, the command running round at `v` m/s): the replica
 /// finds that speed from the commands; the start's window leaves the replica's own residue
-/// under 0.1 µm and ends within 1 % short of the replica's window (read where the speed is
-/// known steady, up to two time constants past the replica's point, the code's bound counts
-/// the turning done by then exactly, the replica's by its linear bound n·ωτ·|d|) or a
-/// sample's step past it; five time constants at that speed before the end, to the 0.1 %
+/// under 0.1 µm and ends within 1 % short of the replica's window or a sample's step past
+/// it (each finds where the command reached its speed its own way: the code where its
+/// speeds over two loop time constants agree to 0.1 %, the replica where every step's is
+/// within 0.1 % of the speed half a turn on); five time constants at that speed before the end, to the 0.1 %
 /// the speed is read to ([`ENTRY_TIME_CONSTANTS`]). Past the window the path's radial band is
 /// what the transient leaves, 0.2 µm for both its sides, and G with it: no out-of-roundness
 /// on a machine with none. Returns the replica's residue at `at_m` of path.

@@ -25,10 +25,12 @@ pub(super) const ENTRY_TIME_CONSTANTS: f64 = 5.0;
 pub(super) const ENTRY_RESIDUE_M: f64 = 0.1e-6;
 
 /// How far the command's speed over one of the slower loop's time constants may differ
-/// from its speed over the one before (a share of their mean) for it to run at its own speed
-/// on a circle: what the speed still gains adds that share of the circle's lag, which five
-/// time constants bring under 0.1 µm up to a lag of 15 mm, far beyond any Kv's; wider than
-/// what the rounding of recorded commands puts on a speed over that long.
+/// from its speed over the one before (a share of the newer) for it to run at its own speed
+/// on a circle: a ramp that ends within the older leaves at most √(2·share) of the circle's
+/// lag still to build past where it is read, which the window's own time constants bring
+/// to a small part of 0.1 µm where a ramp from rest needs more than eight (e⁻⁸ of 4.5 % of
+/// a millimetre's lag: 0.015 µm); wider than what the rounding of recorded commands puts on
+/// a speed over that long.
 const STEADY_SPEED_SHARE: f64 = 1e-3;
 
 /// The most time constants a transient is given: more than ln(f64::MAX / 0.1 µm) plus
@@ -87,16 +89,15 @@ impl EntrySettling {
     }
 
     /// The commanded path left out at circle `c`'s start and end (m), the command running
-    /// round it at `speed_m_per_s` from `reach_m` along it on, the entry transient
-    /// `transient_m` (radial, along the path; [`EntrySettling::transient_m`]) read `here_m`
-    /// along it: the time constants [`settling_within`] gives from where it was read, never
-    /// fewer than five from where the speed was reached; five before the end. Each at most
-    /// a quarter turn.
+    /// round it at `speed_m_per_s` from `reach_m` along it on, where the entry transient
+    /// `transient_m` (radial, along the path; [`EntrySettling::transient_m`]) was read: the
+    /// time constants [`settling_within`] gives from there, never fewer than five; five
+    /// before the end. Each at most a quarter turn.
     fn leads_m(
         &self,
         c: &Circle,
         transient_m: [f64; 2],
-        [reach_m, here_m]: [f64; 2],
+        reach_m: f64,
         speed_m_per_s: f64,
     ) -> [f64; 2] {
         let tau_s = self.tau_s(c);
@@ -105,9 +106,9 @@ impl EntrySettling {
             size_m: 0.5 * transient_m[0].hypot(transient_m[1]),
             per_time_constant: self.apart_per_time_constant(c),
         };
-        let needed = settling_within(transient_m[0], turned_m, apart, 0.0);
+        let needed = settling_within(transient_m[0], turned_m, apart, ENTRY_TIME_CONSTANTS);
         let path_m = |n: f64| n * tau_s * speed_m_per_s;
-        let start_m = (reach_m + path_m(ENTRY_TIME_CONSTANTS)).max(here_m + path_m(needed));
+        let start_m = reach_m + path_m(needed);
         [start_m, path_m(ENTRY_TIME_CONSTANTS)].map(|m| quarter_turn_at_most(c, m))
     }
 
@@ -296,27 +297,36 @@ pub(super) struct Entries {
     entering: HashMap<usize, Entering>,
 }
 
-/// One circle's entry: the command's recent times (s) and path run along it (m), from two
-/// of the slower loop's time constants before the newest on, while its speed is not known
-/// to be steady.
+/// One circle's entry: the command's recent samples on it, from two of the slower loop's
+/// time constants before the newest on, while its speed is not known to be steady.
 #[derive(Debug, Clone, Default)]
 struct Entering {
-    recent: VecDeque<(f64, f64)>,
-    /// The last time (s) the command stood on the circle before it set off.
-    standing_s: Option<f64>,
+    recent: VecDeque<OnCircle>,
+    /// The last sample at which the command stood on the circle before it set off.
+    standing: Option<OnCircle>,
     decided: bool,
+}
+
+/// A command on a circle: its time (s), the path it has run along the circle (m), where it
+/// stands (m) and the loops' model's lag behind it then (m; X, Y, Z).
+#[derive(Debug, Clone, Copy)]
+struct OnCircle {
+    t_s: f64,
+    run_m: f64,
+    command_m: [f64; 3],
+    lag_m: [f64; 3],
 }
 
 impl Entries {
     /// Takes the command on circle `c` (the `i`th gathered), having run `run_m` along it
     /// since it set off (`None` before); the loops' model has taken it. Returns the
     /// circle's windows (start, end; m) where they change: a quarter turn at the start where
-    /// the command sets off, none of the circle yet counting as settled, then where its speed
-    /// over the last of the slower loop's time constants has come within
-    /// [`STEADY_SPEED_SHARE`] of its speed over the one before — the speed it runs at, which
-    /// a feed override or a small radius's acceleration may hold below the programmed feed —
-    /// the windows of the entry transient read there ([`EntrySettling::transient_m`]), the
-    /// ramp onto that speed inside the model's lag by then. From the set-off, at the
+    /// the command sets off, none of the circle yet counting as settled; then, once its
+    /// speed over the last of the slower loop's time constants has come within
+    /// [`STEADY_SPEED_SHARE`] of its speed over the one before, the windows of the entry
+    /// transient read where those began ([`EntrySettling::transient_m`]): where the command
+    /// reached the speed it runs at, which a feed override or a small radius's acceleration
+    /// may hold below the programmed feed, past the ramp onto it. From the set-off, at the
     /// programmed feed, where no loop's pace or no time is known; at the quarter turn where
     /// the speed never steadies before it.
     pub(super) fn enter(
@@ -327,21 +337,27 @@ impl Entries {
         run_m: Option<f64>,
     ) -> Option<[f64; 2]> {
         let e = self.entering.entry(i).or_default();
+        let at = |run_m: f64| OnCircle {
+            t_s: command.t_s,
+            run_m,
+            command_m: command.pos_m,
+            lag_m: self.lag.lag_m,
+        };
         let Some(run_m) = run_m.filter(|_| !e.decided) else {
-            e.standing_s = Some(command.t_s);
+            e.standing = Some(at(0.0));
             return None;
         };
         let tau_s = entry.tau_s(c);
         let quarter_m = 0.25 * std::f64::consts::TAU * c.radius_m;
         let first = e.recent.is_empty();
-        let read = |speed_m_per_s: f64, reach_m: f64| {
-            let transient_m = entry.transient_m(c, command.pos_m, self.lag.lag_m, speed_m_per_s);
-            entry.leads_m(c, transient_m, [reach_m, run_m], speed_m_per_s)
+        let read = |p: OnCircle, speed_m_per_s: f64| {
+            let transient_m = entry.transient_m(c, p.command_m, p.lag_m, speed_m_per_s);
+            entry.leads_m(c, transient_m, p.run_m, speed_m_per_s)
         };
         let decided = if !(tau_s > 0.0 && tau_s.is_finite() && command.t_s.is_finite()) {
-            Some(read(c.feed_m_per_s, run_m))
-        } else if let Some((reach_m, speed_m_per_s)) = e.steady(tau_s, command.t_s, run_m) {
-            Some(read(speed_m_per_s, reach_m))
+            Some(read(at(run_m), c.feed_m_per_s))
+        } else if let Some((reached, speed_m_per_s)) = e.steady(tau_s, at(run_m)) {
+            Some(read(reached, speed_m_per_s))
         } else if run_m >= quarter_m {
             Some([quarter_m, entry.lead_m(c)])
         } else {
@@ -359,37 +375,36 @@ impl Entries {
 }
 
 impl Entering {
-    /// Takes the command at `t_s` having run `run_m` along the circle; where its speed over
-    /// the last `tau_s` agrees with its speed over the `tau_s` before (each at least a
-    /// sample's step), where that began (m along the circle) and the speed over the last
-    /// (m/s).
-    fn steady(&mut self, tau_s: f64, t_s: f64, run_m: f64) -> Option<(f64, f64)> {
+    /// Takes the command's sample `p`; where its speed over the last `tau_s` agrees with
+    /// its speed over the `tau_s` before (each at least a sample's step), the sample where
+    /// that began and the speed over the last (m/s).
+    fn steady(&mut self, tau_s: f64, p: OnCircle) -> Option<(OnCircle, f64)> {
         if self.recent.is_empty() {
             // Standing just before, the command was at no speed there.
-            if let Some(standing_s) = self.standing_s.filter(|&s| s < t_s) {
-                self.recent.push_back((standing_s, 0.0));
+            if let Some(standing) = self.standing.filter(|s| s.t_s < p.t_s) {
+                self.recent.push_back(standing);
             }
         }
         // A clock that stands or turns back, or no number, says nothing of a speed.
-        let newer = self.recent.back().is_none_or(|&(last_s, _)| t_s > last_s);
-        if !(newer && run_m.is_finite()) {
+        let newer = self.recent.back().is_none_or(|last| p.t_s > last.t_s);
+        if !(newer && p.run_m.is_finite()) {
             return None;
         }
-        self.recent.push_back((t_s, run_m));
-        let since_s = t_s - 2.0 * tau_s;
-        while self.recent.len() > 3 && self.recent[1].0 <= since_s {
+        self.recent.push_back(p);
+        let since_s = p.t_s - 2.0 * tau_s;
+        while self.recent.len() > 3 && self.recent[1].t_s <= since_s {
             self.recent.pop_front();
         }
         let n = self.recent.len();
-        let (t0_s, run0_m) = self.recent[0];
-        if n < 3 || t0_s > since_s {
+        let first = self.recent[0];
+        if n < 3 || first.t_s > since_s {
             return None;
         }
-        let mid = (self.recent.partition_point(|p| p.0 <= t_s - tau_s)).clamp(2, n - 1) - 1;
-        let (t1_s, run1_m) = self.recent[mid];
-        let before = (run1_m - run0_m) / (t1_s - t0_s);
-        let last = (run_m - run1_m) / (t_s - t1_s);
+        let mid = (self.recent.partition_point(|q| q.t_s <= p.t_s - tau_s)).clamp(2, n - 1) - 1;
+        let mid = self.recent[mid];
+        let before = (mid.run_m - first.run_m) / (mid.t_s - first.t_s);
+        let last = (p.run_m - mid.run_m) / (p.t_s - mid.t_s);
         // The newer of the two: what the speed still gained over the older is behind it.
-        ((last - before).abs() <= STEADY_SPEED_SHARE * last && last > 0.0).then_some((run0_m, last))
+        ((last - before).abs() <= STEADY_SPEED_SHARE * last && last > 0.0).then_some((first, last))
     }
 }

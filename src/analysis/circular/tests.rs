@@ -493,11 +493,10 @@ fn loops_of_two_paces_part_the_transient_into_the_radius() {
 /// The R100 circle of F1000 run at 60 % of its feed (an override): v = 10 mm/s, ω = 0.1
 /// rad/s, ωτ = 0.006 under τ = 60 ms, set off from rest at that speed. The transient is the
 /// whole steady lag at that speed, Rω²τ²/(1 + ω²τ²) = 3.6 µm radial and Rωτ/(1 + ω²τ²) =
-/// 600 µm along the path: n ← ln((A + n·ωτ·D)/0.1 µm) gives 5.446 time constants, and the
-/// window is that many at v, n·ωτ = 1.872° (at the feed it would be 3.120°); the end's five
-/// at v, 1.719°. Read a few time constants later, where the speed is known steady, the bound
-/// differs by the turning's square, (2ωτ)² ≈ 1e-4 of it. Without a clock the window is
-/// worked out at the set-off at the programmed feed, no panic.
+/// 600 µm along the path: n ← ln((A + n·ωτ·D)/0.1 µm) gives 5.447 time constants, and the
+/// window is that many at v from the set-off, n·ωτ = 1.873°; the end's five at v, 1.719° (at
+/// the feed: 2.865°). Without a clock the window is worked out at the set-off at the
+/// programmed feed, no panic.
 #[test]
 fn the_window_is_counted_at_the_speed_the_command_runs() {
     let entry = EntrySettling {
@@ -520,7 +519,7 @@ fn the_window_is_counted_at_the_speed_the_command_runs() {
     for _ in 0..200 {
         n = ((a_m + n * wt * d_m) / 0.1e-6).ln();
     }
-    assert!((n - 5.446).abs() < 0.001, "{n}");
+    assert!((n - 5.447).abs() < 0.001, "{n}");
     for timed in [true, false] {
         let mut gathered = CircleSamples::new(vec![c], entry);
         for k in 0..1000 + turn_steps {
