@@ -31,8 +31,8 @@ use crate::path::{Geometry, Motion, Plane, Segment};
 
 mod entry;
 
+use entry::Entries;
 pub use entry::EntrySettling;
-use entry::LoopLag;
 
 /// A full circle of the program.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -288,7 +288,7 @@ pub struct CircleFigures {
     /// its end, where the command slows into it.
     pub start_left_out_deg: f64,
     /// How far before its end (degrees) the figures stop: five of the loops' time
-    /// constants at the feed, where the command slows into its end.
+    /// constants at the speed the command runs round it, where it slows into its end.
     pub end_left_out_deg: f64,
 }
 
@@ -487,14 +487,14 @@ pub struct CircleSamples {
     progress: Vec<Progress>,
     /// The previous sample's command (m).
     last_command_m: Option<[f64; 3]>,
-    /// The commanded path left out at each circle's start and end (m); the start's set
-    /// once the command sets off on the circle, from the entry transient then.
+    /// The commanded path left out at each circle's start and end (m); set once the
+    /// command runs at its own speed on the circle, from the entry transient there.
     leads_m: Vec<[f64; 2]>,
     /// The loops' settling the leads come from.
     entry: EntrySettling,
-    /// Their first-order model following the commands, which the entry transient is read
-    /// from.
-    lag: LoopLag,
+    /// Their first-order model following the commands, and the commands' speed on each
+    /// circle, which the entry transient is read from.
+    lag: Entries,
     /// Whether the windows are given rather than worked out here.
     windows_given: bool,
 }
@@ -517,7 +517,7 @@ impl CircleSamples {
                 .collect(),
             progress: vec![Progress::default(); circles.len()],
             last_command_m: None,
-            lag: LoopLag::default(),
+            lag: Entries::default(),
             windows_given: false,
             circles,
         }
@@ -531,17 +531,16 @@ impl CircleSamples {
         let last = self.last_command_m.replace(command.pos_m);
         let working_out = !self.windows_given;
         if working_out {
-            (self.lag).advance(self.entry.time_constant_s, command.t_s, command.pos_m);
+            (self.lag.lag).advance(self.entry.time_constant_s, command.t_s, command.pos_m);
         }
         let Some(&i) = self.by_segment.get(&(command.segment as usize)) else {
             return;
         };
         let c = self.circles[i];
-        let waiting = self.progress[i].run_m.is_none();
         self.progress[i].advance(&c, command, last);
-        if let (true, true, Some(set_off_m)) = (working_out, waiting, self.progress[i].run_m) {
-            let transient_m = self.entry.transient_m(&c, command.pos_m, self.lag.lag_m);
-            self.leads_m[i][0] = self.entry.entry_lead_m(&c, transient_m, set_off_m);
+        if working_out {
+            let entered = (self.lag).enter(i, (&self.entry, &c), command, self.progress[i].run_m);
+            self.leads_m[i] = entered.unwrap_or(self.leads_m[i]);
         }
         let pos_m = self.circles[i].plane.coords(pos_m);
         let nearest_on_it = segment as usize == c.segment

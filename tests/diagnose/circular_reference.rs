@@ -146,24 +146,20 @@ struct OnCircle {
     command_rad: f64,
 }
 
-/// The time constants the entry is left out for ([`common::entry::ENTRY_RESIDUE_M`]), from the record's
-/// commands (CSV: t in s, x, y, x_cmd, y_cmd in mm) alone, where the command sets off on the
-/// circle ([`common::entry::entry_time_constants`]).
-fn entry_time_constants(case: &Case, csv: &str) -> f64 {
+/// The start window ([`common::entry::ENTRY_RESIDUE_M`]), from the record's commands (CSV:
+/// t in s, x, y, x_cmd, y_cmd in mm) alone, where the command runs round the circle at its
+/// own speed ([`common::entry::entry_window`]).
+fn entry_window(case: &Case, csv: &str) -> common::entry::EntryWindow {
     let radius_m = case.radius_mm * 1e-3;
-    let start = [radius_m * START_RAD.cos(), radius_m * START_RAD.sin()];
     let rows: Vec<(f64, [f64; 2])> = (csv.lines().skip(1))
         .map(|line| {
             let v: Vec<f64> = line.split(',').map(|f| f.parse().unwrap()).collect();
             (v[0], [v[3] * 1e-3, v[4] * 1e-3])
         })
         .collect();
-    let sets_off = |_: usize, c: [f64; 2]| {
-        let on = (c[0].hypot(c[1]) - radius_m).abs() < 1e-9;
-        on && (c[0] - start[0]).hypot(c[1] - start[1]) > 1e-6
-    };
-    let omega_rad_per_s = case.feed / 60_000.0 / radius_m;
-    common::entry::entry_time_constants(&rows, sets_off, radius_m, omega_rad_per_s, case.tau_axes_s)
+    let on = |_: usize, c: [f64; 2]| (c[0].hypot(c[1]) - radius_m).abs() < 1e-9;
+    common::entry::entry_window(&rows, on, radius_m, true, case.tau_axes_s)
+        .expect("the circle runs half a turn")
 }
 
 /// The samples of a record (CSV: t, x, y, x_cmd, y_cmd in mm) whose command runs on the
@@ -285,15 +281,15 @@ fn check(case: &Case, seed: u64, checks: Checks) -> Option<String> {
     let d = diagnose(&program, &case.machine, &measured, &settings).unwrap();
     let length_m = TAU * radius_m;
     let on = on_circle(&csv, radius_m);
-    // Where along the circle the command sets off: the transient decays from there.
-    let set_off_m = on.first().map_or(0.0, |p| p.run_m);
+    // The transient decays from where the command runs at its own speed, the programmed
+    // feed's on these circles.
+    let window = entry_window(case, &csv);
+    assert!(
+        (window.speed_m_per_s / speed_m_per_s - 1.0).abs() < 1e-4,
+        "{window:?}"
+    );
     let end_m = (ENTRY_TIME_CONSTANTS * case.tau_s * speed_m_per_s).min(0.25 * length_m);
-    let time_constants = entry_time_constants(case, &csv);
-    let lead_m = if time_constants > ENTRY_TIME_CONSTANTS {
-        (set_off_m + time_constants * case.tau_s * speed_m_per_s).min(0.25 * length_m)
-    } else {
-        end_m
-    };
+    let lead_m = window.start_m.min(0.25 * length_m);
     let within: Vec<OnCircle> = (on.into_iter())
         .filter(|p| p.run_m > lead_m && p.run_m < length_m - end_m)
         .collect();

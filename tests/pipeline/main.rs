@@ -25,6 +25,7 @@ mod three_axes;
 
 // Checks, hotspots and sweeps.
 mod check;
+mod circle_entry;
 mod hotspots;
 mod sweep;
 

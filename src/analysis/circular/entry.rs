@@ -1,15 +1,19 @@
 //! How much of a circle's start its figures leave out: the entry transient worked out from
 //! the commands alone. A first-order model of each axis's loop (the time constant of its
-//! slowest closed-loop mode) follows the commands up to where the command sets off on the
-//! circle; what its lag there differs from the lag it would carry had it run round the circle
-//! forever is the transient, which decays at the loop's pace while the turning circle brings
-//! its part along the path into the radius. Reading only the commands, the window is the
+//! slowest closed-loop mode) follows the commands up to where the command runs round the
+//! circle at its own speed (past its ramp from rest, which the lag still grows over; the
+//! programmed feed or less); what its lag there differs from the lag it would carry had it run
+//! round the circle at that speed forever is the transient, which decays at the loop's pace
+//! while the turning circle brings its part along the path into the radius. The window's time
+//! constants are counted at that speed. Reading only the commands, the window is the
 //! same for every path compared on them (a measurement, a model's prediction), and no noise
 //! enters it.
 
+use std::collections::{HashMap, VecDeque};
+
 use nalgebra::Complex;
 
-use super::Circle;
+use super::{Circle, Commanded};
 
 /// The fewest of its slowest loop's time constants (1/Kv) a circle's start and end are left
 /// out for: an entry transient that starts from the circle's own lag has fallen to e⁻⁵,
@@ -19,6 +23,15 @@ pub(super) const ENTRY_TIME_CONSTANTS: f64 = 5.0;
 /// What an entry transient may still amount to where a circle's figures begin (m): a tenth
 /// of a micrometre, the finest step a ballbar or laser shows.
 pub(super) const ENTRY_RESIDUE_M: f64 = 0.1e-6;
+
+/// How far the command's speed over one of the slower loop's time constants may differ
+/// from its speed over the one before (a share of the newer) for it to run at its own speed
+/// on a circle: a ramp that ends within the older leaves at most √(2·share) of the circle's
+/// lag still to build past where it is read, which the window's own time constants bring
+/// to a small part of 0.1 µm where a ramp from rest needs more than eight (e⁻⁸ of 4.5 % of
+/// a millimetre's lag: 0.015 µm); wider than what the rounding of recorded commands puts on
+/// a speed over that long.
+const STEADY_SPEED_SHARE: f64 = 1e-3;
 
 /// The most time constants a transient is given: more than ln(f64::MAX / 0.1 µm) plus
 /// ln(1000), so that any finite transient has fallen below [`ENTRY_RESIDUE_M`] by then; the
@@ -68,29 +81,35 @@ impl EntrySettling {
         }
     }
 
-    /// The commanded path left out at circle `c`'s start and end (m) where the table enters
-    /// it with no more than the circle's own lag: five of the slower of its plane's loops'
+    /// The commanded path left out at circle `c`'s start and end (m) until the command's
+    /// speed on it is known ([`Entries::enter`]): five of the slower of its plane's loops'
     /// time constants at the programmed feed, at most a quarter turn.
     pub(super) fn lead_m(&self, c: &Circle) -> f64 {
         self.lead_for_m(c, ENTRY_TIME_CONSTANTS)
     }
 
-    /// The commanded path left out at circle `c`'s start (m) where the command sets off on
-    /// it `set_off_m` along it with the entry transient `transient_m` (radial, along the
-    /// path; [`EntrySettling::transient_m`]): the time constants
-    /// [`settling_within`] gives from there, never fewer than five.
-    pub(super) fn entry_lead_m(&self, c: &Circle, transient_m: [f64; 2], set_off_m: f64) -> f64 {
-        let turned_m = self.omega_tau(c) * transient_m[1];
+    /// The commanded path left out at circle `c`'s start and end (m), the command running
+    /// round it at `speed_m_per_s` from `reach_m` along it on, where the entry transient
+    /// `transient_m` (radial, along the path; [`EntrySettling::transient_m`]) was read: the
+    /// time constants [`settling_within`] gives from there, never fewer than five; five
+    /// before the end. Each at most a quarter turn.
+    fn leads_m(
+        &self,
+        c: &Circle,
+        transient_m: [f64; 2],
+        reach_m: f64,
+        speed_m_per_s: f64,
+    ) -> [f64; 2] {
+        let tau_s = self.tau_s(c);
+        let turned_m = speed_m_per_s / c.radius_m * tau_s * transient_m[1];
         let apart = Apart {
             size_m: 0.5 * transient_m[0].hypot(transient_m[1]),
             per_time_constant: self.apart_per_time_constant(c),
         };
         let needed = settling_within(transient_m[0], turned_m, apart, ENTRY_TIME_CONSTANTS);
-        if needed <= ENTRY_TIME_CONSTANTS {
-            return self.lead_m(c);
-        }
-        let lead_m = set_off_m + self.lead_for_m(c, needed);
-        lead_m.min(0.25 * std::f64::consts::TAU * c.radius_m)
+        let path_m = |n: f64| n * tau_s * speed_m_per_s;
+        let start_m = reach_m + path_m(needed);
+        [start_m, path_m(ENTRY_TIME_CONSTANTS)].map(|m| quarter_turn_at_most(c, m))
     }
 
     /// How much faster the faster of circle `c`'s plane's loops settles than the slower, less
@@ -122,25 +141,26 @@ impl EntrySettling {
     /// `time_constants` of the slower of circle `c`'s plane's loops, as commanded path at its
     /// feed (m), at most a quarter turn.
     fn lead_for_m(&self, c: &Circle, time_constants: f64) -> f64 {
-        let lead_m = time_constants * self.tau_s(c) * c.feed_m_per_s;
-        if lead_m.is_finite() {
-            lead_m.clamp(0.0, 0.25 * std::f64::consts::TAU * c.radius_m)
-        } else {
-            0.0
-        }
+        quarter_turn_at_most(c, time_constants * self.tau_s(c) * c.feed_m_per_s)
     }
 
-    /// The entry transient where the command stands at `command_m` on circle `c` with the
-    /// loops' model lagging it by `lag_m` (X, Y, Z; [`LoopLag`]): that lag less the one the
-    /// model carries on the circle at its feed for ever, split into its radial part and its
-    /// part along the path (m, signed).
-    pub(super) fn transient_m(&self, c: &Circle, command_m: [f64; 3], lag_m: [f64; 3]) -> [f64; 2] {
+    /// The entry transient where the command stands at `command_m` on circle `c`, running
+    /// round it at `speed_m_per_s`, with the loops' model lagging it by `lag_m` (X, Y, Z;
+    /// [`LoopLag`]): that lag less the one the model carries on the circle at that speed
+    /// for ever, split into its radial part and its part along the path (m, signed).
+    pub(super) fn transient_m(
+        &self,
+        c: &Circle,
+        command_m: [f64; 3],
+        lag_m: [f64; 3],
+        speed_m_per_s: f64,
+    ) -> [f64; 2] {
         let (theta_rad, _) = c.polar(c.plane.coords(command_m));
         let [a, b, _] = c.plane.axes();
         // Round the centre, the command is z = R·e^{jθ} turning at ω (counter-clockwise
         // positive); a first-order loop of time constant τ lags it by z·jωτ/(1 + jωτ), the
         // first axis by its real part, the second by its imaginary part.
-        let omega_rad_per_s = c.feed_m_per_s / c.radius_m * if c.ccw { 1.0 } else { -1.0 };
+        let omega_rad_per_s = speed_m_per_s / c.radius_m * if c.ccw { 1.0 } else { -1.0 };
         let z = Complex::from_polar(c.radius_m, theta_rad);
         let steady = |tau_s: f64| {
             let jwt = Complex::new(0.0, omega_rad_per_s * tau_s);
@@ -156,6 +176,16 @@ impl EntrySettling {
             delta[0] * cos + delta[1] * sin,
             -delta[0] * sin + delta[1] * cos,
         ]
+    }
+}
+
+/// `lead_m` of commanded path on circle `c` (m), at most a quarter turn; none where no
+/// number says how much.
+fn quarter_turn_at_most(c: &Circle, lead_m: f64) -> f64 {
+    if lead_m.is_finite() {
+        lead_m.clamp(0.0, 0.25 * std::f64::consts::TAU * c.radius_m)
+    } else {
+        0.0
     }
 }
 
@@ -255,4 +285,126 @@ fn lag_step(lag_m: f64, moved_m: f64, step_s: f64, tau_s: f64) -> f64 {
         lag_m + moved_m
     };
     if next_m.is_finite() { next_m } else { 0.0 }
+}
+
+/// The loops' model following the commands, and each circle's entry until its window is
+/// decided: where the command runs round it at its own speed.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Entries {
+    /// The loops' first-order model.
+    pub(super) lag: LoopLag,
+    /// By circle (its index among the circles gathered).
+    entering: HashMap<usize, Entering>,
+}
+
+/// One circle's entry: the command's recent samples on it, from two of the slower loop's
+/// time constants before the newest on, while its speed is not known to be steady.
+#[derive(Debug, Clone, Default)]
+struct Entering {
+    recent: VecDeque<OnCircle>,
+    /// The last sample at which the command stood on the circle before it set off.
+    standing: Option<OnCircle>,
+    decided: bool,
+}
+
+/// A command on a circle: its time (s), the path it has run along the circle (m), where it
+/// stands (m) and the loops' model's lag behind it then (m; X, Y, Z).
+#[derive(Debug, Clone, Copy)]
+struct OnCircle {
+    t_s: f64,
+    run_m: f64,
+    command_m: [f64; 3],
+    lag_m: [f64; 3],
+}
+
+impl Entries {
+    /// Takes the command on circle `c` (the `i`th gathered), having run `run_m` along it
+    /// since it set off (`None` before); the loops' model has taken it. Returns the
+    /// circle's windows (start, end; m) where they change: a quarter turn at the start where
+    /// the command sets off, none of the circle yet counting as settled; then, once its
+    /// speed over the last of the slower loop's time constants has come within
+    /// [`STEADY_SPEED_SHARE`] of its speed over the one before, the windows of the entry
+    /// transient read where those began ([`EntrySettling::transient_m`]): where the command
+    /// reached the speed it runs at, which a feed override or a small radius's acceleration
+    /// may hold below the programmed feed, past the ramp onto it. From the set-off, at the
+    /// programmed feed, where no loop's pace or no time is known; at the quarter turn where
+    /// the speed never steadies before it.
+    pub(super) fn enter(
+        &mut self,
+        i: usize,
+        (entry, c): (&EntrySettling, &Circle),
+        command: Commanded,
+        run_m: Option<f64>,
+    ) -> Option<[f64; 2]> {
+        let e = self.entering.entry(i).or_default();
+        let at = |run_m: f64| OnCircle {
+            t_s: command.t_s,
+            run_m,
+            command_m: command.pos_m,
+            lag_m: self.lag.lag_m,
+        };
+        let Some(run_m) = run_m.filter(|_| !e.decided) else {
+            e.standing = Some(at(0.0));
+            return None;
+        };
+        let tau_s = entry.tau_s(c);
+        let quarter_m = 0.25 * std::f64::consts::TAU * c.radius_m;
+        let first = e.recent.is_empty();
+        let read = |p: OnCircle, speed_m_per_s: f64| {
+            let transient_m = entry.transient_m(c, p.command_m, p.lag_m, speed_m_per_s);
+            entry.leads_m(c, transient_m, p.run_m, speed_m_per_s)
+        };
+        let decided = if !(tau_s > 0.0 && tau_s.is_finite() && command.t_s.is_finite()) {
+            Some(read(at(run_m), c.feed_m_per_s))
+        } else if let Some((reached, speed_m_per_s)) = e.steady(tau_s, at(run_m)) {
+            Some(read(reached, speed_m_per_s))
+        } else if run_m >= quarter_m {
+            Some([quarter_m, entry.lead_m(c)])
+        } else {
+            None
+        };
+        if decided.is_some() {
+            *e = Entering {
+                decided: true,
+                ..Entering::default()
+            };
+            return decided;
+        }
+        first.then(|| [quarter_m, entry.lead_m(c)])
+    }
+}
+
+impl Entering {
+    /// Takes the command's sample `p`; where its speed over the last `tau_s` agrees with
+    /// its speed over the `tau_s` before (each at least a sample's step), the sample where
+    /// that began and the speed over the last (m/s).
+    fn steady(&mut self, tau_s: f64, p: OnCircle) -> Option<(OnCircle, f64)> {
+        if self.recent.is_empty() {
+            // Standing just before, the command was at no speed there.
+            if let Some(standing) = self.standing.filter(|s| s.t_s < p.t_s) {
+                self.recent.push_back(standing);
+            }
+        }
+        // A clock that stands or turns back, or no number, says nothing of a speed.
+        let newer = self.recent.back().is_none_or(|last| p.t_s > last.t_s);
+        if !(newer && p.run_m.is_finite()) {
+            return None;
+        }
+        self.recent.push_back(p);
+        let since_s = p.t_s - 2.0 * tau_s;
+        while self.recent.len() > 3 && self.recent[1].t_s <= since_s {
+            self.recent.pop_front();
+        }
+        let n = self.recent.len();
+        let first = self.recent[0];
+        if n < 3 || first.t_s > since_s {
+            return None;
+        }
+        let mid = (self.recent.partition_point(|q| q.t_s <= p.t_s - tau_s)).clamp(2, n - 1) - 1;
+        let mid = self.recent[mid];
+        let before = (mid.run_m - first.run_m) / (mid.t_s - first.t_s);
+        let last = (p.run_m - mid.run_m) / (p.t_s - mid.t_s);
+        // The newer of the two: what the speed still gained over the older is behind it.
+        ((last - before).abs() <= STEADY_SPEED_SHARE * last && last > 0.0).then_some((first, last))
+    }
 }

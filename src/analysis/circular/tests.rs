@@ -377,10 +377,10 @@ fn the_entry_transient_is_the_lag_less_the_circles_own() {
             0.0,
         ];
         let command_m = [0.1 * cos, 0.1 * sin, 0.0];
-        let none = entry.transient_m(&c, command_m, steady_m);
+        let none = entry.transient_m(&c, command_m, steady_m, c.feed_m_per_s);
         // To the rounding of a millimetre's lag (1e-19 m a digit).
         assert!(none[0].abs() < 1e-14 && none[1].abs() < 1e-14, "{none:?}");
-        let all = entry.transient_m(&c, command_m, [0.0; 3]);
+        let all = entry.transient_m(&c, command_m, [0.0; 3], c.feed_m_per_s);
         assert!((all[0].abs() - radial_m).abs() < 1e-14, "{all:?}");
         assert!((all[1].abs() - along_m).abs() < 1e-14, "{all:?}");
     }
@@ -488,4 +488,70 @@ fn loops_of_two_paces_part_the_transient_into_the_radius() {
         per_time_constant: 0.5,
     };
     assert_eq!(settling_within(0.0, 0.0, nan, 5.0), 5.0);
+}
+
+/// The R100 circle of F1000 run at 60 % of its feed (an override): v = 10 mm/s, ω = 0.1
+/// rad/s, ωτ = 0.006 under τ = 60 ms, set off from rest at that speed. The transient is the
+/// whole steady lag at that speed, Rω²τ²/(1 + ω²τ²) = 3.6 µm radial and Rωτ/(1 + ω²τ²) =
+/// 600 µm along the path: n ← ln((A + n·ωτ·D)/0.1 µm) gives 5.447 time constants, and the
+/// window is that many at v from the set-off, n·ωτ = 1.873°; the end's five at v, 1.719° (at
+/// the feed: 2.865°). Without a clock the window is worked out at the set-off at the
+/// programmed feed, no panic.
+#[test]
+fn the_window_is_counted_at_the_speed_the_command_runs() {
+    let entry = EntrySettling {
+        time_constant_s: [0.06, 0.06, 0.0],
+    };
+    let c = circle(true, 0);
+    let (v, tau_s, step_s) = (0.6 * c.feed_m_per_s, 0.06, 1e-3);
+    let omega = v / c.radius_m;
+    let turn_steps = (std::f64::consts::TAU / (omega * step_s)).round() as usize;
+    let at = |k: usize| {
+        let a = omega * step_s * k.min(turn_steps) as f64;
+        [0.1 * a.cos(), 0.1 * a.sin(), 0.0]
+    };
+    let wt = omega * tau_s;
+    let (a_m, d_m) = (
+        c.radius_m * wt * wt / (1.0 + wt * wt),
+        c.radius_m * wt / (1.0 + wt * wt),
+    );
+    let mut n: f64 = 50.0;
+    for _ in 0..200 {
+        n = ((a_m + n * wt * d_m) / 0.1e-6).ln();
+    }
+    assert!((n - 5.447).abs() < 0.001, "{n}");
+    for timed in [true, false] {
+        let mut gathered = CircleSamples::new(vec![c], entry);
+        for k in 0..1000 + turn_steps {
+            let t_s = if timed { k as f64 * step_s } else { f64::NAN };
+            let pos_m = at(k.saturating_sub(1000));
+            gathered.push(
+                0,
+                pos_m,
+                Commanded {
+                    segment: 0,
+                    pos_m,
+                    t_s,
+                },
+            );
+        }
+        let f = gathered.test().0.circles[0];
+        if timed {
+            let want_deg = (n * wt).to_degrees();
+            assert!(
+                (f.start_left_out_deg - want_deg).abs() < 0.01,
+                "{want_deg} {f:?}"
+            );
+            let end_deg = (5.0 * wt).to_degrees();
+            assert!(
+                (f.end_left_out_deg - end_deg).abs() < 1e-3 * end_deg,
+                "{f:?}"
+            );
+        } else {
+            assert!(
+                f.start_left_out_deg.is_finite() && f.start_left_out_deg <= 90.0,
+                "{f:?}"
+            );
+        }
+    }
 }
