@@ -214,7 +214,7 @@ fn judged(
 
 /// How far the clock offset of a record without its commands is searched around its
 /// alignment when a cause is judged on it (s): a dead time or a gain shifts the best one.
-const OFFSET_SEARCH_S: f64 = 0.02;
+pub(super) const OFFSET_SEARCH_S: f64 = 0.02;
 
 /// A second record of the program, on which every cause fitted on the first is judged.
 #[derive(Clone)]
