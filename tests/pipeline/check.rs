@@ -214,8 +214,9 @@ fn backlash_on_x_shows_at_the_x_reversals_in_both_directions() {
 /// (A + n·ωτ·D)·e⁻ⁿ falls to 0.1 µm after n = 8.73 time constants, 40.0° of the circle,
 /// less or more by what the loop still carries as the command sets off: the rapid's rest
 /// within the in-position window before the first circle, the first circle's lag reversed
-/// before the second — worked out here from the run's commands ([`entry_time_constants`]).
-/// The end leaves out 5/Kv of path (v·5/Kv over R: 22.9°). Both are said.
+/// before the second — worked out here from the run's commands
+/// ([`crate::common::entry::entry_window`]). The end leaves out 5/Kv of path (v·5/Kv over
+/// R: 22.9°). Both are said.
 #[test]
 fn a_circle_from_rest_shows_no_backlash_or_scale_from_its_entry() {
     let machine = MachineConfig::default_preset();

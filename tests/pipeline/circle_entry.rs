@@ -45,7 +45,8 @@ fn run(feed: f64, machine: &MachineConfig) -> CheckRun {
 
 /// The band of radial deviations (m) of the axes' path about the programmed centre, over
 /// the samples whose command runs on the circle's segment between `from_m` past its start
-/// and `until_m` before its end: the run's own positions, not the figures under test.
+/// and `until_m` before its end: the run's own positions, not the figures under test. No
+/// sample there fails (an empty band would pass any bound).
 fn radial_band_m(r: &CheckRun, segment: u32, from_m: f64, until_m: f64) -> f64 {
     let rows = command_rows(&r.commands);
     let on: Vec<usize> = (0..rows.len())
@@ -62,6 +63,10 @@ fn radial_band_m(r: &CheckRun, segment: u32, from_m: f64, until_m: f64) -> f64 {
             (lo, hi) = (lo.min(radial_m), hi.max(radial_m));
         }
     }
+    assert!(
+        hi >= lo,
+        "no sample between {from_m} m and {until_m} m before the end"
+    );
     hi - lo
 }
 
