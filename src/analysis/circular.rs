@@ -30,9 +30,11 @@ use crate::numeric::units::{mm_from_m, um_from_m};
 use crate::path::{Geometry, Motion, Plane, Segment};
 
 mod entry;
+mod spikes;
 
 use entry::Entries;
 pub use entry::EntrySettling;
+use spikes::{SpikeZones, cut_by_windows, reversal_spikes, step_across};
 
 /// A full circle of the program.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -347,48 +349,6 @@ pub struct CircularTest {
 
 /// Fewest samples on a circle for figures worth stating.
 pub(crate) const MIN_SAMPLES: usize = 36;
-/// How far either side of a quadrant point its reversal spike is taken to stand (degrees):
-/// the spike is measured there, and the steps across it are fitted outside it.
-const SPIKE_HALF_WIDTH_DEG: f64 = 3.0;
-/// How many of the loops' time constants a reversal spike's tail runs on past its quadrant
-/// point (the loop pushing the axis back onto its command after friction turned), and the
-/// most of the circle it may take there (degrees): the ellipses are fitted outside.
-const SPIKE_TAIL_TIME_CONSTANTS: f64 = 4.0;
-const SPIKE_TAIL_MAX_DEG: f64 = 40.0;
-
-/// Where a path's reversal spikes stand: from [`SPIKE_HALF_WIDTH_DEG`] before each quadrant
-/// point to its tail's end past it, in the direction of travel.
-#[derive(Debug, Clone, Copy)]
-struct SpikeZones {
-    ccw: bool,
-    tail_deg: f64,
-}
-
-impl SpikeZones {
-    fn of(c: &Circle, entry: &EntrySettling) -> Self {
-        let tail_deg = (SPIKE_TAIL_TIME_CONSTANTS * entry.omega_tau(c)).to_degrees();
-        SpikeZones {
-            ccw: c.ccw,
-            // No loop known (a NaN): the spike's own width.
-            tail_deg: if tail_deg.is_nan() {
-                SPIKE_HALF_WIDTH_DEG
-            } else {
-                tail_deg.clamp(SPIKE_HALF_WIDTH_DEG, SPIKE_TAIL_MAX_DEG)
-            },
-        }
-    }
-
-    /// Whether the angle (degrees, about the centre) lies in a spike's zone.
-    fn contains(&self, angle_deg: f64) -> bool {
-        let travel = if self.ccw { 1.0 } else { -1.0 };
-        [0.0, 90.0, 180.0, 270.0].iter().any(|q| {
-            let d = (angle_deg - q).rem_euclid(360.0);
-            let past = travel * if d > 180.0 { d - 360.0 } else { d };
-            (-SPIKE_HALF_WIDTH_DEG..=self.tail_deg).contains(&past)
-        })
-    }
-}
-
 /// The circular-test figures of a path: `segment[k]` is the plan segment sample `k` lies
 /// nearest to (as the contour search found it), `[x, y, z]` its position (m), `command`
 /// where it was commanded. Each circle is measured in its own plane; `z` may be empty (a
@@ -603,17 +563,6 @@ impl CircleSamples {
     }
 }
 
-/// Whether the spike at quadrant point `quadrant_deg` of circle `c` stands in or against
-/// the stretches its figures leave out (degrees): the start's, past the circle's start in
-/// its direction of travel, and the end's, before it (a full circle ends where it starts).
-fn cut_by_windows(c: &Circle, quadrant_deg: f64, [start_deg, end_deg]: [f64; 2]) -> bool {
-    let travel = if c.ccw { 1.0 } else { -1.0 };
-    let d = (quadrant_deg - c.start_rad.to_degrees()).rem_euclid(360.0);
-    let past = travel * if d > 180.0 { d - 360.0 } else { d };
-    let window = if past >= 0.0 { start_deg } else { end_deg };
-    window > 0.0 && past.abs() < window + SPIKE_HALF_WIDTH_DEG
-}
-
 /// G, F, the reversal spikes and the ellipses of one circle's points.
 fn figures(c: &Circle, p: &[[f64; 2]], zones: SpikeZones) -> CircleFigures {
     let center = least_squares_center(p).unwrap_or(c.center_m);
@@ -739,45 +688,6 @@ fn least_squares_center(p: &[[f64; 2]]) -> Option<[f64; 2]> {
     Some([mean[0] - 0.5 * s[0], mean[1] - 0.5 * s[1]])
 }
 
-/// How far the path bulges at each quadrant point beyond its neighbourhood: the largest
-/// |radial deviation − the median of the ±5°–15° ring| within ±3°, signed.
-fn reversal_spikes(c: &Circle, p: &[[f64; 2]]) -> [f64; 4] {
-    let polar: Vec<(f64, f64)> = p
-        .iter()
-        .map(|q| {
-            let (dx, dy) = (q[0] - c.center_m[0], q[1] - c.center_m[1]);
-            (dy.atan2(dx).to_degrees(), dx.hypot(dy) - c.radius_m)
-        })
-        .collect();
-    let offset_from = |angle: f64, quadrant: f64| {
-        let d = (angle - quadrant).rem_euclid(360.0);
-        if d > 180.0 { d - 360.0 } else { d }
-    };
-    [0.0, 90.0, 180.0, 270.0].map(|quadrant| {
-        let mut ring: Vec<f64> = polar
-            .iter()
-            .filter(|(a, _)| (5.0..=15.0).contains(&offset_from(*a, quadrant).abs()))
-            .map(|(_, r)| *r)
-            .collect();
-        let near: Vec<f64> = polar
-            .iter()
-            .filter(|(a, _)| offset_from(*a, quadrant).abs() <= SPIKE_HALF_WIDTH_DEG)
-            .map(|(_, r)| *r)
-            .collect();
-        if ring.len() < 4 || near.is_empty() {
-            return f64::NAN;
-        }
-        ring.sort_by(f64::total_cmp);
-        let base = ring[ring.len() / 2];
-        let peak = near
-            .iter()
-            .map(|r| r - base)
-            .max_by(|a, b| a.abs().total_cmp(&b.abs()))
-            .unwrap_or(0.0);
-        um_from_m(peak)
-    })
-}
-
 /// H, the bidirectional G, squareness and servo mismatch of two opposite circles.
 fn hysteresis(
     ccw: (&Circle, &Vec<[f64; 2]>),
@@ -876,37 +786,6 @@ fn lateral_play(difference: &[(f64, f64)]) -> (f64, f64) {
         Some(c) if difference.len() >= 90 => (c[2], -c[3]),
         _ => (f64::NAN, f64::NAN),
     }
-}
-
-/// The radial step (m) across the quadrant point `quadrant` (degrees) of circle `c`'s path
-/// `p`, in its direction of travel: r = a + b·δ + step·[δ > 0] fitted over 3° ≤ |δ| ≤ 20°
-/// (δ the angle past the point as the path travels) on what the path's smooth shape (its
-/// terms up to 3θ) leaves — a large servo ellipse bends too much over 20° for a line to
-/// follow; `None` with too few samples a side.
-fn step_across(c: &Circle, p: &[[f64; 2]], smooth: &Harmonics, quadrant: f64) -> Option<f64> {
-    let travel = if c.ccw { 1.0 } else { -1.0 };
-    let mut ata = Matrix3::<f64>::zeros();
-    let mut atb = Vector3::<f64>::zeros();
-    let (mut before, mut after) = (0usize, 0usize);
-    for &q in p {
-        let (angle, radial) = c.polar(q);
-        let d = (angle.to_degrees() - quadrant).rem_euclid(360.0);
-        let delta = travel * if d > 180.0 { d - 360.0 } else { d };
-        if !(SPIKE_HALF_WIDTH_DEG..=20.0).contains(&delta.abs()) {
-            continue;
-        }
-        let r = radial + c.radius_m - smooth.at(angle.cos(), angle.sin());
-        let past = if delta > 0.0 { 1.0 } else { 0.0 };
-        before += (past == 0.0) as usize;
-        after += (past == 1.0) as usize;
-        let row = Vector3::new(1.0, delta, past);
-        ata += row * row.transpose();
-        atb += row * r;
-    }
-    if before < 3 || after < 3 {
-        return None;
-    }
-    ata.lu().solve(&atb).map(|s| s[2])
 }
 
 impl CircularTest {
