@@ -34,7 +34,7 @@ mod spikes;
 
 use entry::Entries;
 pub use entry::EntrySettling;
-use spikes::{SpikeZones, cut_by_windows, reversal_spikes, step_across};
+use spikes::{SpikeZones, cut_by_windows, reversal_spikes, running_or_feed, step_across};
 
 /// A full circle of the program.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -313,8 +313,9 @@ pub struct Hysteresis {
     /// directions share.
     pub squareness_urad: f64,
     /// Servo mismatch (ms, Y lagging X positive): the diagonal ellipse that turns with the
-    /// direction, over the circle's angular speed — the difference of the axes' lags, as
-    /// from different position gains.
+    /// direction, over the circle's angular speed at the speed the command runs round it
+    /// (the programmed feed or less) — the difference of the axes' lags, as from different
+    /// position gains.
     pub servo_mismatch_ms: f64,
     /// Scale mismatch (ppm, X reading longer): the ellipse along the axes both share.
     pub scale_mismatch_ppm: f64,
@@ -374,12 +375,14 @@ fn gather(
 ) -> CircleSamples {
     let mut gathered = CircleSamples::new(circles.to_vec(), windows.entry);
     gathered.windows_given = true;
-    for (c, lead_m) in gathered.circles.iter().zip(&mut gathered.leads_m) {
-        *lead_m = windows
-            .by_segment
-            .get(&c.segment)
+    let leads = gathered
+        .leads_m
+        .iter_mut()
+        .zip(&mut gathered.speeds_m_per_s);
+    for (c, (lead_m, speed_m_per_s)) in gathered.circles.iter().zip(leads) {
+        (*lead_m, *speed_m_per_s) = (windows.by_segment.get(&c.segment))
             .copied()
-            .unwrap_or([0.0; 2]);
+            .unwrap_or(([0.0; 2], c.feed_m_per_s));
     }
     for (k, &s) in segment.iter().enumerate() {
         gathered.push(s, position(pos_m, k), command.at(k));
@@ -388,11 +391,13 @@ fn gather(
 }
 
 /// The commanded path each circle's figures leave out at its start and end (m), by plan
-/// segment: worked out from the program's commands alone ([`CircleWindows::of`]), so that
-/// every path compared on them — a measurement, a model's prediction — leaves out the same.
+/// segment, with the speed the command runs round it at (m/s), which the windows were read
+/// at and the reversal spikes' tails and the servo mismatch are reckoned at: worked out from
+/// the program's commands alone ([`CircleWindows::of`]), so that every path compared on them
+/// — a measurement, a model's prediction — leaves out the same.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct CircleWindows {
-    by_segment: std::collections::HashMap<usize, [f64; 2]>,
+    by_segment: std::collections::HashMap<usize, ([f64; 2], f64)>,
     /// The loops they were worked out for, which also set how far the reversal spikes run.
     entry: EntrySettling,
 }
@@ -413,8 +418,8 @@ impl CircleWindows {
         }
         CircleWindows {
             by_segment: (gathered.circles.iter())
-                .zip(gathered.leads_m)
-                .map(|(c, lead_m)| (c.segment, lead_m))
+                .zip(gathered.leads_m.into_iter().zip(gathered.speeds_m_per_s))
+                .map(|(c, lead)| (c.segment, lead))
                 .collect(),
             entry,
         }
@@ -450,6 +455,9 @@ pub struct CircleSamples {
     /// The commanded path left out at each circle's start and end (m); set once the
     /// command runs at its own speed on the circle, from the entry transient there.
     leads_m: Vec<[f64; 2]>,
+    /// The speed the command runs round each circle at (m/s), where its windows were read:
+    /// the programmed feed until it is found, and where it is not.
+    speeds_m_per_s: Vec<f64>,
     /// The loops' settling the leads come from.
     entry: EntrySettling,
     /// Their first-order model following the commands, and the commands' speed on each
@@ -465,6 +473,7 @@ impl CircleSamples {
     pub(crate) fn new(circles: Vec<Circle>, entry: EntrySettling) -> Self {
         CircleSamples {
             leads_m: circles.iter().map(|c| [entry.lead_m(c); 2]).collect(),
+            speeds_m_per_s: circles.iter().map(|c| c.feed_m_per_s).collect(),
             entry,
             by_segment: circles
                 .iter()
@@ -500,7 +509,9 @@ impl CircleSamples {
         self.progress[i].advance(&c, command, last);
         if working_out {
             let entered = (self.lag).enter(i, (&self.entry, &c), command, self.progress[i].run_m);
-            self.leads_m[i] = entered.unwrap_or(self.leads_m[i]);
+            if let Some((lead_m, speed_m_per_s)) = entered {
+                (self.leads_m[i], self.speeds_m_per_s[i]) = (lead_m, speed_m_per_s);
+            }
         }
         let pos_m = self.circles[i].plane.coords(pos_m);
         let nearest_on_it = segment as usize == c.segment
@@ -520,15 +531,16 @@ impl CircleSamples {
     /// circles with the points they come from.
     pub(crate) fn test(self) -> (CircularTest, Vec<CirclePath>) {
         let mut out = CircularTest::default();
-        let mut kept: Vec<(Circle, Vec<[f64; 2]>)> = Vec::new();
+        let mut kept: Vec<(Circle, Vec<[f64; 2]>, f64)> = Vec::new();
         let entry = self.entry;
         let gathered = (self.circles.into_iter())
             .zip(self.points)
-            .zip(self.leads_m);
-        for ((c, p), lead_m) in gathered {
+            .zip(self.leads_m.into_iter().zip(self.speeds_m_per_s));
+        for ((c, p), (lead_m, speed_m_per_s)) in gathered {
             let (points, [left_out_deg, end_left_out_deg]) = settled(&c, p, lead_m);
             if points.len() >= MIN_SAMPLES {
-                let mut f = figures(&c, &points, SpikeZones::of(&c, &entry));
+                let zones = SpikeZones::of(&c, &entry, speed_m_per_s);
+                let mut f = figures(&c, &points, zones);
                 f.start_left_out_deg = left_out_deg;
                 f.end_left_out_deg = end_left_out_deg;
                 // A quadrant point whose neighbourhood the left-out start and end cut into
@@ -539,25 +551,25 @@ impl CircleSamples {
                     }
                 }
                 out.circles.push(f);
-                kept.push((c, points));
+                kept.push((c, points, speed_m_per_s));
             }
         }
-        for (i, (a, pa)) in kept.iter().enumerate() {
+        for (i, (a, pa, va)) in kept.iter().enumerate() {
             let partner = kept[i + 1..]
                 .iter()
-                .find(|(b, _)| b.ccw != a.ccw && b.is_same_circle(a));
-            if let Some((b, pb)) = partner {
+                .find(|(b, _, _)| b.ccw != a.ccw && b.is_same_circle(a));
+            if let Some((b, pb, vb)) = partner {
                 let (ccw, cw) = if a.ccw {
-                    ((a, pa), (b, pb))
+                    ((a, pa, *va), (b, pb, *vb))
                 } else {
-                    ((b, pb), (a, pa))
+                    ((b, pb, *vb), (a, pa, *va))
                 };
                 out.pairs.push(hysteresis(ccw, cw, &entry));
             }
         }
         let paths = kept
             .into_iter()
-            .map(|(circle, points_m)| CirclePath { circle, points_m })
+            .map(|(circle, points_m, _)| CirclePath { circle, points_m })
             .collect();
         (out, paths)
     }
@@ -688,24 +700,32 @@ fn least_squares_center(p: &[[f64; 2]]) -> Option<[f64; 2]> {
     Some([mean[0] - 0.5 * s[0], mean[1] - 0.5 * s[1]])
 }
 
-/// H, the bidirectional G, squareness and servo mismatch of two opposite circles.
+/// H, the bidirectional G, squareness and servo mismatch of two opposite circles, each with
+/// its points and the speed the command runs round it at (m/s).
 fn hysteresis(
-    ccw: (&Circle, &Vec<[f64; 2]>),
-    cw: (&Circle, &Vec<[f64; 2]>),
+    ccw: (&Circle, &Vec<[f64; 2]>, f64),
+    cw: (&Circle, &Vec<[f64; 2]>, f64),
     entry: &EntrySettling,
 ) -> Hysteresis {
-    let zones = |c: &Circle| SpikeZones::of(c, entry);
-    let terms = |c: &Circle, p: &[[f64; 2]]| {
-        harmonics(p, least_squares_center(p).unwrap_or(c.center_m), zones(c))
+    let zones = |(c, _, speed_m_per_s): (&Circle, &Vec<[f64; 2]>, f64)| {
+        SpikeZones::of(c, entry, speed_m_per_s)
     };
-    let (h_ccw, h_cw) = (terms(ccw.0, ccw.1), terms(cw.0, cw.1));
+    let terms = |run: (&Circle, &Vec<[f64; 2]>, f64)| {
+        let (c, p) = (run.0, run.1);
+        harmonics(p, least_squares_center(p).unwrap_or(c.center_m), zones(run))
+    };
+    let (h_ccw, h_cw) = (terms(ccw), terms(cw));
     // Each ellipse as 2·term/R: along the axes, along the diagonals.
     let r = ccw.0.radius_m;
     let (s_ccw, t_ccw) = (2.0 * h_ccw.cos2() / r, 2.0 * h_ccw.sin2() / r);
     let (s_cw, t_cw) = (2.0 * h_cw.cos2() / r, 2.0 * h_cw.sin2() / r);
-    // A lag Δτ of Y behind X tilts the ellipse by −ω·Δτ counter-clockwise and +ω·Δτ
-    // clockwise (ω = feed/R); a squareness error tilts both alike.
-    let omega = ccw.0.feed_m_per_s / ccw.0.radius_m;
+    // A lag Δτ of Y behind X tilts the ellipse by −ω·Δτ counter-clockwise and +ω'·Δτ
+    // clockwise (ω, ω' = v/R at the speed v each runs at, which a feed override or the
+    // acceleration on a small radius holds below the feed); squareness tilts both alike.
+    let omega_sum = [ccw, cw]
+        .map(|(c, _, speed_m_per_s)| running_or_feed(c, speed_m_per_s) / c.radius_m)
+        .iter()
+        .sum::<f64>();
     let both: Vec<[f64; 2]> = ccw.1.iter().chain(cw.1.iter()).copied().collect();
     let center = least_squares_center(&both).unwrap_or(ccw.0.center_m);
     let (lo, hi) = radial_range(&both, center, 0.0);
@@ -735,7 +755,7 @@ fn hysteresis(
     let h = difference.iter().map(|d| d.1.abs()).fold(0.0, f64::max);
     let (play_x, play_y) = lateral_play(&difference);
     // Each path's smooth shape about the programmed centre, which the steps are taken on.
-    let paths = [ccw, cw].map(|(c, p)| (c, p, harmonics(p, c.center_m, zones(c))));
+    let paths = [ccw, cw].map(|run| (run.0, run.1, harmonics(run.1, run.0.center_m, zones(run))));
     let lost_motion = |quadrants: [f64; 2]| {
         let steps: Vec<f64> = paths
             .iter()
@@ -752,8 +772,8 @@ fn hysteresis(
         g_both_um: um_from_m(hi - lo),
         squareness_urad: 0.5 * (t_ccw + t_cw) * 1e6,
         scale_mismatch_ppm: 0.5 * (s_ccw + s_cw) * 1e6,
-        servo_mismatch_ms: if omega > 0.0 {
-            (t_cw - t_ccw) / (2.0 * omega) * 1e3
+        servo_mismatch_ms: if omega_sum > 0.0 {
+            (t_cw - t_ccw) / omega_sum * 1e3
         } else {
             f64::NAN
         },

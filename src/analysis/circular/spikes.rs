@@ -24,8 +24,11 @@ pub(super) struct SpikeZones {
 }
 
 impl SpikeZones {
-    pub(super) fn of(c: &Circle, entry: &EntrySettling) -> Self {
-        let tail_deg = (SPIKE_TAIL_TIME_CONSTANTS * entry.omega_tau(c)).to_degrees();
+    /// The zones of circle `c`'s path, the command running round it at `speed_m_per_s`
+    /// (the programmed feed where that is no speed).
+    pub(super) fn of(c: &Circle, entry: &EntrySettling, speed_m_per_s: f64) -> Self {
+        let omega_tau = entry.omega_tau(c, running_or_feed(c, speed_m_per_s));
+        let tail_deg = (SPIKE_TAIL_TIME_CONSTANTS * omega_tau).to_degrees();
         SpikeZones {
             ccw: c.ccw,
             // No loop known (a NaN): the spike's own width.
@@ -136,4 +139,14 @@ pub(super) fn step_across(
         return None;
     }
     ata.lu().solve(&atb).map(|s| s[2])
+}
+
+/// The speed the command runs round circle `c` at (m/s): `speed_m_per_s` where it is one,
+/// else the programmed feed.
+pub(super) fn running_or_feed(c: &Circle, speed_m_per_s: f64) -> f64 {
+    if speed_m_per_s.is_finite() && speed_m_per_s > 0.0 {
+        speed_m_per_s
+    } else {
+        c.feed_m_per_s
+    }
 }
