@@ -30,9 +30,11 @@ use crate::numeric::units::{mm_from_m, um_from_m};
 use crate::path::{Geometry, Motion, Plane, Segment};
 
 mod entry;
+mod spikes;
 
 use entry::Entries;
 pub use entry::EntrySettling;
+use spikes::{SpikeZones, cut_by_windows, reversal_spikes, running_or_feed, step_across};
 
 /// A full circle of the program.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -311,8 +313,9 @@ pub struct Hysteresis {
     /// directions share.
     pub squareness_urad: f64,
     /// Servo mismatch (ms, Y lagging X positive): the diagonal ellipse that turns with the
-    /// direction, over the circle's angular speed — the difference of the axes' lags, as
-    /// from different position gains.
+    /// direction, over the circle's angular speed at the speed the command runs round it
+    /// (the programmed feed or less) — the difference of the axes' lags, as from different
+    /// position gains.
     pub servo_mismatch_ms: f64,
     /// Scale mismatch (ppm, X reading longer): the ellipse along the axes both share.
     pub scale_mismatch_ppm: f64,
@@ -347,48 +350,6 @@ pub struct CircularTest {
 
 /// Fewest samples on a circle for figures worth stating.
 pub(crate) const MIN_SAMPLES: usize = 36;
-/// How far either side of a quadrant point its reversal spike is taken to stand (degrees):
-/// the spike is measured there, and the steps across it are fitted outside it.
-const SPIKE_HALF_WIDTH_DEG: f64 = 3.0;
-/// How many of the loops' time constants a reversal spike's tail runs on past its quadrant
-/// point (the loop pushing the axis back onto its command after friction turned), and the
-/// most of the circle it may take there (degrees): the ellipses are fitted outside.
-const SPIKE_TAIL_TIME_CONSTANTS: f64 = 4.0;
-const SPIKE_TAIL_MAX_DEG: f64 = 40.0;
-
-/// Where a path's reversal spikes stand: from [`SPIKE_HALF_WIDTH_DEG`] before each quadrant
-/// point to its tail's end past it, in the direction of travel.
-#[derive(Debug, Clone, Copy)]
-struct SpikeZones {
-    ccw: bool,
-    tail_deg: f64,
-}
-
-impl SpikeZones {
-    fn of(c: &Circle, entry: &EntrySettling) -> Self {
-        let tail_deg = (SPIKE_TAIL_TIME_CONSTANTS * entry.omega_tau(c)).to_degrees();
-        SpikeZones {
-            ccw: c.ccw,
-            // No loop known (a NaN): the spike's own width.
-            tail_deg: if tail_deg.is_nan() {
-                SPIKE_HALF_WIDTH_DEG
-            } else {
-                tail_deg.clamp(SPIKE_HALF_WIDTH_DEG, SPIKE_TAIL_MAX_DEG)
-            },
-        }
-    }
-
-    /// Whether the angle (degrees, about the centre) lies in a spike's zone.
-    fn contains(&self, angle_deg: f64) -> bool {
-        let travel = if self.ccw { 1.0 } else { -1.0 };
-        [0.0, 90.0, 180.0, 270.0].iter().any(|q| {
-            let d = (angle_deg - q).rem_euclid(360.0);
-            let past = travel * if d > 180.0 { d - 360.0 } else { d };
-            (-SPIKE_HALF_WIDTH_DEG..=self.tail_deg).contains(&past)
-        })
-    }
-}
-
 /// The circular-test figures of a path: `segment[k]` is the plan segment sample `k` lies
 /// nearest to (as the contour search found it), `[x, y, z]` its position (m), `command`
 /// where it was commanded. Each circle is measured in its own plane; `z` may be empty (a
@@ -414,12 +375,14 @@ fn gather(
 ) -> CircleSamples {
     let mut gathered = CircleSamples::new(circles.to_vec(), windows.entry);
     gathered.windows_given = true;
-    for (c, lead_m) in gathered.circles.iter().zip(&mut gathered.leads_m) {
-        *lead_m = windows
-            .by_segment
-            .get(&c.segment)
+    let leads = gathered
+        .leads_m
+        .iter_mut()
+        .zip(&mut gathered.speeds_m_per_s);
+    for (c, (lead_m, speed_m_per_s)) in gathered.circles.iter().zip(leads) {
+        (*lead_m, *speed_m_per_s) = (windows.by_segment.get(&c.segment))
             .copied()
-            .unwrap_or([0.0; 2]);
+            .unwrap_or(([0.0; 2], c.feed_m_per_s));
     }
     for (k, &s) in segment.iter().enumerate() {
         gathered.push(s, position(pos_m, k), command.at(k));
@@ -428,11 +391,13 @@ fn gather(
 }
 
 /// The commanded path each circle's figures leave out at its start and end (m), by plan
-/// segment: worked out from the program's commands alone ([`CircleWindows::of`]), so that
-/// every path compared on them — a measurement, a model's prediction — leaves out the same.
+/// segment, with the speed the command runs round it at (m/s), which the windows were read
+/// at and the reversal spikes' tails and the servo mismatch are reckoned at: worked out from
+/// the program's commands alone ([`CircleWindows::of`]), so that every path compared on them
+/// — a measurement, a model's prediction — leaves out the same.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct CircleWindows {
-    by_segment: std::collections::HashMap<usize, [f64; 2]>,
+    by_segment: std::collections::HashMap<usize, ([f64; 2], f64)>,
     /// The loops they were worked out for, which also set how far the reversal spikes run.
     entry: EntrySettling,
 }
@@ -453,8 +418,8 @@ impl CircleWindows {
         }
         CircleWindows {
             by_segment: (gathered.circles.iter())
-                .zip(gathered.leads_m)
-                .map(|(c, lead_m)| (c.segment, lead_m))
+                .zip(gathered.leads_m.into_iter().zip(gathered.speeds_m_per_s))
+                .map(|(c, lead)| (c.segment, lead))
                 .collect(),
             entry,
         }
@@ -490,6 +455,9 @@ pub struct CircleSamples {
     /// The commanded path left out at each circle's start and end (m); set once the
     /// command runs at its own speed on the circle, from the entry transient there.
     leads_m: Vec<[f64; 2]>,
+    /// The speed the command runs round each circle at (m/s), where its windows were read:
+    /// the programmed feed until it is found, and where it is not.
+    speeds_m_per_s: Vec<f64>,
     /// The loops' settling the leads come from.
     entry: EntrySettling,
     /// Their first-order model following the commands, and the commands' speed on each
@@ -505,6 +473,7 @@ impl CircleSamples {
     pub(crate) fn new(circles: Vec<Circle>, entry: EntrySettling) -> Self {
         CircleSamples {
             leads_m: circles.iter().map(|c| [entry.lead_m(c); 2]).collect(),
+            speeds_m_per_s: circles.iter().map(|c| c.feed_m_per_s).collect(),
             entry,
             by_segment: circles
                 .iter()
@@ -540,7 +509,9 @@ impl CircleSamples {
         self.progress[i].advance(&c, command, last);
         if working_out {
             let entered = (self.lag).enter(i, (&self.entry, &c), command, self.progress[i].run_m);
-            self.leads_m[i] = entered.unwrap_or(self.leads_m[i]);
+            if let Some((lead_m, speed_m_per_s)) = entered {
+                (self.leads_m[i], self.speeds_m_per_s[i]) = (lead_m, speed_m_per_s);
+            }
         }
         let pos_m = self.circles[i].plane.coords(pos_m);
         let nearest_on_it = segment as usize == c.segment
@@ -560,15 +531,16 @@ impl CircleSamples {
     /// circles with the points they come from.
     pub(crate) fn test(self) -> (CircularTest, Vec<CirclePath>) {
         let mut out = CircularTest::default();
-        let mut kept: Vec<(Circle, Vec<[f64; 2]>)> = Vec::new();
+        let mut kept: Vec<(Circle, Vec<[f64; 2]>, f64)> = Vec::new();
         let entry = self.entry;
         let gathered = (self.circles.into_iter())
             .zip(self.points)
-            .zip(self.leads_m);
-        for ((c, p), lead_m) in gathered {
+            .zip(self.leads_m.into_iter().zip(self.speeds_m_per_s));
+        for ((c, p), (lead_m, speed_m_per_s)) in gathered {
             let (points, [left_out_deg, end_left_out_deg]) = settled(&c, p, lead_m);
             if points.len() >= MIN_SAMPLES {
-                let mut f = figures(&c, &points, SpikeZones::of(&c, &entry));
+                let zones = SpikeZones::of(&c, &entry, speed_m_per_s);
+                let mut f = figures(&c, &points, zones);
                 f.start_left_out_deg = left_out_deg;
                 f.end_left_out_deg = end_left_out_deg;
                 // A quadrant point whose neighbourhood the left-out start and end cut into
@@ -579,39 +551,28 @@ impl CircleSamples {
                     }
                 }
                 out.circles.push(f);
-                kept.push((c, points));
+                kept.push((c, points, speed_m_per_s));
             }
         }
-        for (i, (a, pa)) in kept.iter().enumerate() {
+        for (i, (a, pa, va)) in kept.iter().enumerate() {
             let partner = kept[i + 1..]
                 .iter()
-                .find(|(b, _)| b.ccw != a.ccw && b.is_same_circle(a));
-            if let Some((b, pb)) = partner {
+                .find(|(b, _, _)| b.ccw != a.ccw && b.is_same_circle(a));
+            if let Some((b, pb, vb)) = partner {
                 let (ccw, cw) = if a.ccw {
-                    ((a, pa), (b, pb))
+                    ((a, pa, *va), (b, pb, *vb))
                 } else {
-                    ((b, pb), (a, pa))
+                    ((b, pb, *vb), (a, pa, *va))
                 };
                 out.pairs.push(hysteresis(ccw, cw, &entry));
             }
         }
         let paths = kept
             .into_iter()
-            .map(|(circle, points_m)| CirclePath { circle, points_m })
+            .map(|(circle, points_m, _)| CirclePath { circle, points_m })
             .collect();
         (out, paths)
     }
-}
-
-/// Whether the spike at quadrant point `quadrant_deg` of circle `c` stands in or against
-/// the stretches its figures leave out (degrees): the start's, past the circle's start in
-/// its direction of travel, and the end's, before it (a full circle ends where it starts).
-fn cut_by_windows(c: &Circle, quadrant_deg: f64, [start_deg, end_deg]: [f64; 2]) -> bool {
-    let travel = if c.ccw { 1.0 } else { -1.0 };
-    let d = (quadrant_deg - c.start_rad.to_degrees()).rem_euclid(360.0);
-    let past = travel * if d > 180.0 { d - 360.0 } else { d };
-    let window = if past >= 0.0 { start_deg } else { end_deg };
-    window > 0.0 && past.abs() < window + SPIKE_HALF_WIDTH_DEG
 }
 
 /// G, F, the reversal spikes and the ellipses of one circle's points.
@@ -739,63 +700,32 @@ fn least_squares_center(p: &[[f64; 2]]) -> Option<[f64; 2]> {
     Some([mean[0] - 0.5 * s[0], mean[1] - 0.5 * s[1]])
 }
 
-/// How far the path bulges at each quadrant point beyond its neighbourhood: the largest
-/// |radial deviation − the median of the ±5°–15° ring| within ±3°, signed.
-fn reversal_spikes(c: &Circle, p: &[[f64; 2]]) -> [f64; 4] {
-    let polar: Vec<(f64, f64)> = p
-        .iter()
-        .map(|q| {
-            let (dx, dy) = (q[0] - c.center_m[0], q[1] - c.center_m[1]);
-            (dy.atan2(dx).to_degrees(), dx.hypot(dy) - c.radius_m)
-        })
-        .collect();
-    let offset_from = |angle: f64, quadrant: f64| {
-        let d = (angle - quadrant).rem_euclid(360.0);
-        if d > 180.0 { d - 360.0 } else { d }
-    };
-    [0.0, 90.0, 180.0, 270.0].map(|quadrant| {
-        let mut ring: Vec<f64> = polar
-            .iter()
-            .filter(|(a, _)| (5.0..=15.0).contains(&offset_from(*a, quadrant).abs()))
-            .map(|(_, r)| *r)
-            .collect();
-        let near: Vec<f64> = polar
-            .iter()
-            .filter(|(a, _)| offset_from(*a, quadrant).abs() <= SPIKE_HALF_WIDTH_DEG)
-            .map(|(_, r)| *r)
-            .collect();
-        if ring.len() < 4 || near.is_empty() {
-            return f64::NAN;
-        }
-        ring.sort_by(f64::total_cmp);
-        let base = ring[ring.len() / 2];
-        let peak = near
-            .iter()
-            .map(|r| r - base)
-            .max_by(|a, b| a.abs().total_cmp(&b.abs()))
-            .unwrap_or(0.0);
-        um_from_m(peak)
-    })
-}
-
-/// H, the bidirectional G, squareness and servo mismatch of two opposite circles.
+/// H, the bidirectional G, squareness and servo mismatch of two opposite circles, each with
+/// its points and the speed the command runs round it at (m/s).
 fn hysteresis(
-    ccw: (&Circle, &Vec<[f64; 2]>),
-    cw: (&Circle, &Vec<[f64; 2]>),
+    ccw: (&Circle, &Vec<[f64; 2]>, f64),
+    cw: (&Circle, &Vec<[f64; 2]>, f64),
     entry: &EntrySettling,
 ) -> Hysteresis {
-    let zones = |c: &Circle| SpikeZones::of(c, entry);
-    let terms = |c: &Circle, p: &[[f64; 2]]| {
-        harmonics(p, least_squares_center(p).unwrap_or(c.center_m), zones(c))
+    let zones = |(c, _, speed_m_per_s): (&Circle, &Vec<[f64; 2]>, f64)| {
+        SpikeZones::of(c, entry, speed_m_per_s)
     };
-    let (h_ccw, h_cw) = (terms(ccw.0, ccw.1), terms(cw.0, cw.1));
+    let terms = |run: (&Circle, &Vec<[f64; 2]>, f64)| {
+        let (c, p) = (run.0, run.1);
+        harmonics(p, least_squares_center(p).unwrap_or(c.center_m), zones(run))
+    };
+    let (h_ccw, h_cw) = (terms(ccw), terms(cw));
     // Each ellipse as 2·term/R: along the axes, along the diagonals.
     let r = ccw.0.radius_m;
     let (s_ccw, t_ccw) = (2.0 * h_ccw.cos2() / r, 2.0 * h_ccw.sin2() / r);
     let (s_cw, t_cw) = (2.0 * h_cw.cos2() / r, 2.0 * h_cw.sin2() / r);
-    // A lag Δτ of Y behind X tilts the ellipse by −ω·Δτ counter-clockwise and +ω·Δτ
-    // clockwise (ω = feed/R); a squareness error tilts both alike.
-    let omega = ccw.0.feed_m_per_s / ccw.0.radius_m;
+    // A lag Δτ of Y behind X tilts the ellipse by −ω·Δτ counter-clockwise and +ω'·Δτ
+    // clockwise (ω, ω' = v/R at the speed v each runs at, which a feed override or the
+    // acceleration on a small radius holds below the feed); squareness tilts both alike.
+    let omega_sum = [ccw, cw]
+        .map(|(c, _, speed_m_per_s)| running_or_feed(c, speed_m_per_s) / c.radius_m)
+        .iter()
+        .sum::<f64>();
     let both: Vec<[f64; 2]> = ccw.1.iter().chain(cw.1.iter()).copied().collect();
     let center = least_squares_center(&both).unwrap_or(ccw.0.center_m);
     let (lo, hi) = radial_range(&both, center, 0.0);
@@ -825,7 +755,7 @@ fn hysteresis(
     let h = difference.iter().map(|d| d.1.abs()).fold(0.0, f64::max);
     let (play_x, play_y) = lateral_play(&difference);
     // Each path's smooth shape about the programmed centre, which the steps are taken on.
-    let paths = [ccw, cw].map(|(c, p)| (c, p, harmonics(p, c.center_m, zones(c))));
+    let paths = [ccw, cw].map(|run| (run.0, run.1, harmonics(run.1, run.0.center_m, zones(run))));
     let lost_motion = |quadrants: [f64; 2]| {
         let steps: Vec<f64> = paths
             .iter()
@@ -842,8 +772,8 @@ fn hysteresis(
         g_both_um: um_from_m(hi - lo),
         squareness_urad: 0.5 * (t_ccw + t_cw) * 1e6,
         scale_mismatch_ppm: 0.5 * (s_ccw + s_cw) * 1e6,
-        servo_mismatch_ms: if omega > 0.0 {
-            (t_cw - t_ccw) / (2.0 * omega) * 1e3
+        servo_mismatch_ms: if omega_sum > 0.0 {
+            (t_cw - t_ccw) / omega_sum * 1e3
         } else {
             f64::NAN
         },
@@ -876,37 +806,6 @@ fn lateral_play(difference: &[(f64, f64)]) -> (f64, f64) {
         Some(c) if difference.len() >= 90 => (c[2], -c[3]),
         _ => (f64::NAN, f64::NAN),
     }
-}
-
-/// The radial step (m) across the quadrant point `quadrant` (degrees) of circle `c`'s path
-/// `p`, in its direction of travel: r = a + b·δ + step·[δ > 0] fitted over 3° ≤ |δ| ≤ 20°
-/// (δ the angle past the point as the path travels) on what the path's smooth shape (its
-/// terms up to 3θ) leaves — a large servo ellipse bends too much over 20° for a line to
-/// follow; `None` with too few samples a side.
-fn step_across(c: &Circle, p: &[[f64; 2]], smooth: &Harmonics, quadrant: f64) -> Option<f64> {
-    let travel = if c.ccw { 1.0 } else { -1.0 };
-    let mut ata = Matrix3::<f64>::zeros();
-    let mut atb = Vector3::<f64>::zeros();
-    let (mut before, mut after) = (0usize, 0usize);
-    for &q in p {
-        let (angle, radial) = c.polar(q);
-        let d = (angle.to_degrees() - quadrant).rem_euclid(360.0);
-        let delta = travel * if d > 180.0 { d - 360.0 } else { d };
-        if !(SPIKE_HALF_WIDTH_DEG..=20.0).contains(&delta.abs()) {
-            continue;
-        }
-        let r = radial + c.radius_m - smooth.at(angle.cos(), angle.sin());
-        let past = if delta > 0.0 { 1.0 } else { 0.0 };
-        before += (past == 0.0) as usize;
-        after += (past == 1.0) as usize;
-        let row = Vector3::new(1.0, delta, past);
-        ata += row * row.transpose();
-        atb += row * r;
-    }
-    if before < 3 || after < 3 {
-        return None;
-    }
-    ata.lu().solve(&atb).map(|s| s[2])
 }
 
 impl CircularTest {

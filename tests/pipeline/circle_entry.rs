@@ -157,3 +157,39 @@ fn a_circle_held_below_its_feed_counts_its_window_at_the_speed_it_runs() {
     assert!((v - 0.75 * 1000.0 / 60_000.0).abs() < 1e-12);
     assert_window(&run(1000.0, &machine(accel)), TAU_S, v, 0.0);
 }
+
+/// The servo mismatch of a pair of R10 circles (counter-clockwise, then clockwise) held to
+/// v = √(0.5·a·R) = 12.5 mm/s at F1000, X's Kv 0.9 against Y's 1.0. A first-order loop of
+/// time constant τ follows the circle at ω = v/R with amplitude R/√(1 + ω²τ²) and phase lag
+/// φ = atan(ωτ); the axes' phases differing by φy − φx tilt each path's ellipse, its sin 2θ
+/// radius term being −½·√((Ax² + Ay²)/2)·sin(φy − φx) counter-clockwise and the opposite
+/// clockwise, and the figure divides the two directions' tilts (2·term/R) by 2ω: Y lags X
+/// by (√((Ax² + Ay²)/2)/R)·sin(φy − φx)/ω, −6.60 ms here (τx = 66.7 ms, τy = 60 ms; the
+/// 1/Kv difference to ω²τ²). Read at the programmed feed's ω the same tilt gives 0.75 of
+/// it, −4.95 ms.
+#[test]
+fn a_pair_held_below_its_feed_shows_the_servo_mismatch_at_the_speed_it_runs() {
+    let accel = 0.03125;
+    let v = (0.5 * accel * RADIUS_M).sqrt();
+    let mut m = machine(accel);
+    m.x.position_loop.kv_m_per_min_per_mm = 0.9;
+    let tau_s = [0.9, 1.0].map(|kv: f64| 60.0 / (kv * 1000.0));
+    let omega = v / RADIUS_M;
+    let phase = tau_s.map(|t| (omega * t).atan());
+    let amplitude_m = tau_s.map(|t| RADIUS_M / (1.0 + (omega * t).powi(2)).sqrt());
+    let mean_m = (0.5 * (amplitude_m[0].powi(2) + amplitude_m[1].powi(2))).sqrt();
+    let expected_ms = 1e3 * mean_m / RADIUS_M * (phase[1] - phase[0]).sin() / omega;
+    assert!((expected_ms + 6.60).abs() < 0.01, "{expected_ms}");
+    let src = "G21 G90 G17 G94\nG0 X10 Y0\nG3 X10 Y0 I-10 J0 F1000\nG2 X10 Y0 I-10 J0 F1000\nM2\n";
+    let program = parse_program(src, "t.nc", &InterpretOptions::default()).unwrap();
+    let mut settings = CheckSettings::for_machine(&m);
+    settings.plan.profile = ProfileKind::Trapezoid;
+    let r = check(&program, &m, &settings).unwrap();
+    let pairs = &r.result.circular.pairs;
+    assert_eq!(pairs.len(), 1, "{:?}", r.result.circular);
+    let got_ms = pairs[0].servo_mismatch_ms;
+    assert!(
+        (got_ms - expected_ms).abs() < 0.01 * expected_ms.abs(),
+        "{got_ms} ms against {expected_ms} ms"
+    );
+}

@@ -133,9 +133,10 @@ impl EntrySettling {
         self.time_constant_s[a].max(self.time_constant_s[b])
     }
 
-    /// The angle the circle turns through in that time constant (rad), at its feed.
-    pub(super) fn omega_tau(&self, c: &Circle) -> f64 {
-        c.feed_m_per_s / c.radius_m * self.tau_s(c)
+    /// The angle the circle turns through in that time constant (rad), the command running
+    /// round it at `speed_m_per_s`.
+    pub(super) fn omega_tau(&self, c: &Circle, speed_m_per_s: f64) -> f64 {
+        speed_m_per_s / c.radius_m * self.tau_s(c)
     }
 
     /// `time_constants` of the slower of circle `c`'s plane's loops, as commanded path at its
@@ -328,14 +329,15 @@ impl Entries {
     /// reached the speed it runs at, which a feed override or a small radius's acceleration
     /// may hold below the programmed feed, past the ramp onto it. From the set-off, at the
     /// programmed feed, where no loop's pace or no time is known; at the quarter turn where
-    /// the speed never steadies before it.
+    /// the speed never steadies before it. With the windows, the speed they were read at
+    /// (m/s): the programmed feed where no speed was found.
     pub(super) fn enter(
         &mut self,
         i: usize,
         (entry, c): (&EntrySettling, &Circle),
         command: Commanded,
         run_m: Option<f64>,
-    ) -> Option<[f64; 2]> {
+    ) -> Option<([f64; 2], f64)> {
         let e = self.entering.entry(i).or_default();
         let at = |run_m: f64| OnCircle {
             t_s: command.t_s,
@@ -352,14 +354,17 @@ impl Entries {
         let first = e.recent.is_empty();
         let read = |p: OnCircle, speed_m_per_s: f64| {
             let transient_m = entry.transient_m(c, p.command_m, p.lag_m, speed_m_per_s);
-            entry.leads_m(c, transient_m, p.run_m, speed_m_per_s)
+            (
+                entry.leads_m(c, transient_m, p.run_m, speed_m_per_s),
+                speed_m_per_s,
+            )
         };
         let decided = if !(tau_s > 0.0 && tau_s.is_finite() && command.t_s.is_finite()) {
             Some(read(at(run_m), c.feed_m_per_s))
         } else if let Some((reached, speed_m_per_s)) = e.steady(tau_s, at(run_m)) {
             Some(read(reached, speed_m_per_s))
         } else if run_m >= quarter_m {
-            Some([quarter_m, entry.lead_m(c)])
+            Some(([quarter_m, entry.lead_m(c)], c.feed_m_per_s))
         } else {
             None
         };
@@ -370,7 +375,7 @@ impl Entries {
             };
             return decided;
         }
-        first.then(|| [quarter_m, entry.lead_m(c)])
+        first.then(|| ([quarter_m, entry.lead_m(c)], c.feed_m_per_s))
     }
 }
 
