@@ -29,8 +29,10 @@ pub(super) const ENTRY_RESIDUE_M: f64 = 0.1e-6;
 /// on a circle: a ramp that ends within the older leaves at most √(2·share) of the circle's
 /// lag still to build past where it is read, which the window's own time constants bring
 /// to a small part of 0.1 µm where a ramp from rest needs more than eight (e⁻⁸ of 4.5 % of
-/// a millimetre's lag: 0.015 µm); wider than what the rounding of recorded commands puts on
-/// a speed over that long.
+/// a millimetre's lag: 0.015 µm). Recorded commands rounded to coarse counts at a slow feed
+/// (1 µm at F100) can pass it a fraction of a time constant early with the speed read about
+/// a percent low: the window is then counted that much short, which leaves about a tenth
+/// more of the residue after eight time constants.
 const STEADY_SPEED_SHARE: f64 = 1e-3;
 
 /// The most time constants a transient is given: more than ln(f64::MAX / 0.1 µm) plus
