@@ -462,7 +462,7 @@ pub struct CircleSamples {
     entry: EntrySettling,
     /// Their first-order model following the commands, and the commands' speed on each
     /// circle, which the entry transient is read from.
-    lag: Entries,
+    entries: Entries,
     /// Whether the windows are given rather than worked out here.
     windows_given: bool,
 }
@@ -486,7 +486,7 @@ impl CircleSamples {
                 .collect(),
             progress: vec![Progress::default(); circles.len()],
             last_command_m: None,
-            lag: Entries::default(),
+            entries: Entries::default(),
             windows_given: false,
             circles,
         }
@@ -500,7 +500,7 @@ impl CircleSamples {
         let last = self.last_command_m.replace(command.pos_m);
         let working_out = !self.windows_given;
         if working_out {
-            (self.lag.lag).advance(self.entry.time_constant_s, command.t_s, command.pos_m);
+            (self.entries.lag).advance(self.entry.time_constant_s, command.t_s, command.pos_m);
         }
         let Some(&i) = self.by_segment.get(&(command.segment as usize)) else {
             return;
@@ -508,7 +508,8 @@ impl CircleSamples {
         let c = self.circles[i];
         self.progress[i].advance(&c, command, last);
         if working_out {
-            let entered = (self.lag).enter(i, (&self.entry, &c), command, self.progress[i].run_m);
+            let entered =
+                (self.entries).enter(i, (&self.entry, &c), command, self.progress[i].run_m);
             if let Some((lead_m, speed_m_per_s)) = entered {
                 (self.leads_m[i], self.speeds_m_per_s[i]) = (lead_m, speed_m_per_s);
             }

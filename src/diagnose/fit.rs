@@ -70,11 +70,17 @@ fn best_start<'s>(
         stepping: Stepping::PerCycle,
         ..model.ctx.clone()
     };
-    starts
+    let (start, screened_s) = starts
         .iter()
         .map(|s| (model.rss_at_best_offset(&screen, s, offset_s), s))
         .min_by(|a, b| a.0.0.total_cmp(&b.0.0))
-        .map(|((_, offset), s)| (s.as_slice(), offset))
+        .map(|((_, offset), s)| (s.as_slice(), offset))?;
+    // The screen steps once a cycle; where the inputs vary within one (a Stribeck curve, a
+    // ripple, a measuring error) its best offset is off the fit's own by part of a cycle:
+    // the chosen start's offset found again on the fit's stepping (the simulation Nelder–Mead
+    // starts from, kept).
+    let (_, offset) = model.rss_at_best_offset(model.ctx, start, screened_s);
+    Some((start, offset))
 }
 
 /// Fits `cause` on `axis` of `machine` point by point, from the best of `starts`

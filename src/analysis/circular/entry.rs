@@ -83,9 +83,10 @@ impl EntrySettling {
         }
     }
 
-    /// The commanded path left out at circle `c`'s start and end (m) until the command's
-    /// speed on it is known ([`Entries::enter`]): five of the slower of its plane's loops'
-    /// time constants at the programmed feed, at most a quarter turn.
+    /// Five of the slower of circle `c`'s plane's loops' time constants at the programmed
+    /// feed, as commanded path (m), at most a quarter turn: the start left out before the
+    /// command sets off on the circle (from the set-off until its speed is known,
+    /// [`Entries::enter`] leaves a quarter turn out), and the end until that speed is known.
     pub(super) fn lead_m(&self, c: &Circle) -> f64 {
         self.lead_for_m(c, ENTRY_TIME_CONSTANTS)
     }
@@ -387,7 +388,7 @@ impl Entering {
     /// that began and the speed over the last (m/s).
     fn steady(&mut self, tau_s: f64, p: OnCircle) -> Option<(OnCircle, f64)> {
         if self.recent.is_empty() {
-            // Standing just before, the command was at no speed there.
+            // The last sample before the set-off: the circle's run starts there (run 0).
             if let Some(standing) = self.standing.filter(|s| s.t_s < p.t_s) {
                 self.recent.push_back(standing);
             }

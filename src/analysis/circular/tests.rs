@@ -496,7 +496,7 @@ fn loops_of_two_paces_part_the_transient_into_the_radius() {
 /// 600 µm along the path: n ← ln((A + n·ωτ·D)/0.1 µm) gives 5.447 time constants, and the
 /// window is that many at v from the set-off, n·ωτ = 1.873°; the end's five at v, 1.719° (at
 /// the feed: 2.865°). Without a clock the window is worked out at the set-off at the
-/// programmed feed, no panic.
+/// programmed feed, no panic (its closed form below).
 #[test]
 fn the_window_is_counted_at_the_speed_the_command_runs() {
     let entry = EntrySettling {
@@ -548,8 +548,28 @@ fn the_window_is_counted_at_the_speed_the_command_runs() {
                 "{f:?}"
             );
         } else {
+            // No clock: the model has no lag, read at the set-off against the circle's steady
+            // lag at the programmed feed (ωτ = 0.01): A = 10.0 µm, D = 999.9 µm, and
+            // n ← ln((A + n·ωτ·D)/0.1 µm) = 6.64 time constants from the set-off step
+            // (0.1 rad/s for 1 ms), the end's five at the feed.
+            let wt_feed = c.feed_m_per_s / c.radius_m * tau_s;
+            let (a_m, d_m) = (
+                c.radius_m * wt_feed * wt_feed / (1.0 + wt_feed * wt_feed),
+                c.radius_m * wt_feed / (1.0 + wt_feed * wt_feed),
+            );
+            let mut n: f64 = 50.0;
+            for _ in 0..200 {
+                n = ((a_m + n * wt_feed * d_m) / 0.1e-6).ln();
+            }
+            assert!((n - 6.64).abs() < 0.01, "{n}");
+            let want_deg = (omega * step_s + n * wt_feed).to_degrees();
             assert!(
-                f.start_left_out_deg.is_finite() && f.start_left_out_deg <= 90.0,
+                (f.start_left_out_deg - want_deg).abs() < 0.01,
+                "{want_deg} {f:?}"
+            );
+            let end_deg = (5.0 * wt_feed).to_degrees();
+            assert!(
+                (f.end_left_out_deg - end_deg).abs() < 1e-3 * end_deg,
                 "{f:?}"
             );
         }
