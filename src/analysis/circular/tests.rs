@@ -490,6 +490,21 @@ fn loops_of_two_paces_part_the_transient_into_the_radius() {
     assert_eq!(settling_within(0.0, 0.0, nan, 5.0), 5.0);
 }
 
+/// The time constants a transient of the whole steady lag takes to fall to 0.1 µm on a
+/// circle of `radius_m` turning ωτ = `wt` per time constant: A = Rω²τ²/(1 + ω²τ²) radial,
+/// D = Rωτ/(1 + ω²τ²) along the path, n ← ln((A + n·ωτ·D)/0.1 µm) from above.
+fn whole_lag_time_constants(radius_m: f64, wt: f64) -> f64 {
+    let (a_m, d_m) = (
+        radius_m * wt * wt / (1.0 + wt * wt),
+        radius_m * wt / (1.0 + wt * wt),
+    );
+    let mut n: f64 = 50.0;
+    for _ in 0..200 {
+        n = ((a_m + n * wt * d_m) / 0.1e-6).ln();
+    }
+    n
+}
+
 /// The R100 circle of F1000 run at 60 % of its feed (an override): v = 10 mm/s, ω = 0.1
 /// rad/s, ωτ = 0.006 under τ = 60 ms, set off from rest at that speed. The transient is the
 /// whole steady lag at that speed, Rω²τ²/(1 + ω²τ²) = 3.6 µm radial and Rωτ/(1 + ω²τ²) =
@@ -511,14 +526,7 @@ fn the_window_is_counted_at_the_speed_the_command_runs() {
         [0.1 * a.cos(), 0.1 * a.sin(), 0.0]
     };
     let wt = omega * tau_s;
-    let (a_m, d_m) = (
-        c.radius_m * wt * wt / (1.0 + wt * wt),
-        c.radius_m * wt / (1.0 + wt * wt),
-    );
-    let mut n: f64 = 50.0;
-    for _ in 0..200 {
-        n = ((a_m + n * wt * d_m) / 0.1e-6).ln();
-    }
+    let n = whole_lag_time_constants(c.radius_m, wt);
     assert!((n - 5.447).abs() < 0.001, "{n}");
     for timed in [true, false] {
         let mut gathered = CircleSamples::new(vec![c], entry);
@@ -553,14 +561,7 @@ fn the_window_is_counted_at_the_speed_the_command_runs() {
             // n ← ln((A + n·ωτ·D)/0.1 µm) = 6.64 time constants from the set-off step
             // (0.1 rad/s for 1 ms), the end's five at the feed.
             let wt_feed = c.feed_m_per_s / c.radius_m * tau_s;
-            let (a_m, d_m) = (
-                c.radius_m * wt_feed * wt_feed / (1.0 + wt_feed * wt_feed),
-                c.radius_m * wt_feed / (1.0 + wt_feed * wt_feed),
-            );
-            let mut n: f64 = 50.0;
-            for _ in 0..200 {
-                n = ((a_m + n * wt_feed * d_m) / 0.1e-6).ln();
-            }
+            let n = whole_lag_time_constants(c.radius_m, wt_feed);
             assert!((n - 6.64).abs() < 0.01, "{n}");
             let want_deg = (omega * step_s + n * wt_feed).to_degrees();
             assert!(
