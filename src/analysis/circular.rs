@@ -22,6 +22,8 @@
 //!   of one axis at the other's reversals, |cos θ| or |sin θ| turning sign with the
 //!   direction) and lost motion (the radial step across an axis's own reversal points).
 
+use std::f64::consts::{PI, TAU};
+
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 
@@ -121,7 +123,10 @@ pub(crate) fn radial_points(
 /// (the circle too short or too sparsely sampled for its loops' settling).
 fn settled(c: &Circle, points: PeakThinned<Point>, lead_m: [f64; 2]) -> (Vec<[f64; 2]>, [f64; 2]) {
     let all = points.into_points();
-    let within: Vec<[f64; 2]> = all.iter().filter(|p| p.2).map(|p| p.0).collect();
+    let within: Vec<[f64; 2]> = (all.iter())
+        .filter(|p| runs_within(c, p.2, lead_m))
+        .map(|p| p.0)
+        .collect();
     if within.len() >= MIN_SAMPLES {
         (within, lead_m.map(|m| (m / c.radius_m).to_degrees()))
     } else {
@@ -129,9 +134,11 @@ fn settled(c: &Circle, points: PeakThinned<Point>, lead_m: [f64; 2]) -> (Vec<[f6
     }
 }
 
-/// A point of a path on a circle: where (m), its radial deviation (m), and whether the
-/// loops had settled into the circle there.
-type Point = ([f64; 2], f64, bool);
+/// A point of a path on a circle: where (m), its radial deviation (m), and the path its
+/// command had run along the circle then (m), which says whether the loops had settled
+/// into the circle there once its windows are known (the end's only after the command has
+/// left it).
+type Point = ([f64; 2], f64, f64);
 
 /// Where and when a sample was commanded: the plan segment the command lies on, the
 /// commanded X, Y and Z (m), and the program time (s).
@@ -183,28 +190,46 @@ const SET_OFF_M: f64 = 1e-6;
 /// stands at the circle's start (the control waiting for the axes to settle after the
 /// approach, a record whose commands were placed on the circle as soon as they reached
 /// it), the table is still arriving from the approach, and what it shows is the approach.
+/// The path is counted as the arc the command's angle about the centre turns through: a
+/// sum of steps between commands rounded to counts would grow with each step's zigzag (0.1 %
+/// at 10 µm steps and 1 µm counts, half a millimetre over an R100 circle), and the windows
+/// at the circle's end are measured back from its programmed length.
 #[derive(Debug, Clone, Copy, Default)]
 struct Progress {
     /// Where the command first stood on the circle (m).
     entry_m: Option<[f64; 3]>,
+    /// The command's polar angle about the centre at the last sample on the circle (rad).
+    angle_rad: Option<f64>,
     /// The command's path along the circle since it set off (m); `None` before.
     run_m: Option<f64>,
 }
 
 impl Progress {
-    /// Takes the next sample's command, `last` the previous sample's (m).
-    fn advance(&mut self, c: &Circle, command: Commanded, last: Option<[f64; 3]>) {
+    /// Takes the next sample's command.
+    fn advance(&mut self, c: &Circle, command: Commanded) {
         if command.segment as usize != c.segment {
             return;
         }
-        let distance = |a: [f64; 3], b: [f64; 3]| -> f64 {
-            (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()
-        };
         let entry = *self.entry_m.get_or_insert(command.pos_m);
-        self.run_m = match (self.run_m, last) {
-            (Some(run), Some(last)) => Some(run + distance(command.pos_m, last)),
+        let (angle_rad, _) = c.polar(c.plane.coords(command.pos_m));
+        let last_rad = self.angle_rad.replace(angle_rad);
+        self.run_m = match (self.run_m, last_rad) {
+            (Some(run), Some(last_rad)) => {
+                // The turn since the last sample, the short way round (its rounding's part
+                // along the path cancels from step to step while the command runs on).
+                let turn_rad = (angle_rad - last_rad + PI).rem_euclid(TAU) - PI;
+                let along_m = c.radius_m * turn_rad.abs();
+                Some(if along_m.is_finite() {
+                    run + along_m
+                } else {
+                    run
+                })
+            }
             _ => {
-                let away = distance(command.pos_m, entry);
+                let away = (0..3)
+                    .map(|i| (command.pos_m[i] - entry[i]).powi(2))
+                    .sum::<f64>()
+                    .sqrt();
                 (away > SET_OFF_M).then_some(away)
             }
         };
@@ -215,10 +240,14 @@ impl Progress {
     /// start, and out of it as the command slows into its end (the table, lagging, follows
     /// later).
     fn is_within(&self, c: &Circle, lead_m: [f64; 2]) -> bool {
-        self.run_m.is_some_and(|run| {
-            run > lead_m[0] && (lead_m[1] == 0.0 || run < c.length_m - lead_m[1])
-        })
+        self.run_m.is_some_and(|run| runs_within(c, run, lead_m))
     }
+}
+
+/// Whether a command that has run `run_m` along circle `c` lies between `lead_m[0]` past its
+/// start and `lead_m[1]` before its end (none left out there where that is zero).
+fn runs_within(c: &Circle, run_m: f64, lead_m: [f64; 2]) -> bool {
+    run_m > lead_m[0] && (lead_m[1] == 0.0 || run_m < c.length_m - lead_m[1])
 }
 
 /// Sample `k` of a path given axis by axis, NaN on an axis that has none there.
@@ -286,11 +315,11 @@ pub struct CircleFigures {
     /// How far past its start (degrees of the circle) the figures begin: the commanded path
     /// the loops need to settle into the circle, longer where the commands set off on it
     /// with the loops carrying a lag unlike the circle's own (from rest, straight from a
-    /// rapid); left out as a ballbar's overshoot arc is. As much or less is left out before
-    /// its end, where the command slows into it.
+    /// rapid); left out as a ballbar's overshoot arc is.
     pub start_left_out_deg: f64,
-    /// How far before its end (degrees) the figures stop: five of the loops' time
-    /// constants at the speed the command runs round it, where it slows into its end.
+    /// How far before its end (degrees) the figures stop: from where the command last ran
+    /// round it at its steady speed (its slowing into the end changes the loops' lag), and
+    /// at least five of the loops' time constants at that speed.
     pub end_left_out_deg: f64,
 }
 
@@ -416,6 +445,7 @@ impl CircleWindows {
             // No position: only the commands are followed.
             gathered.push(command.segment, [f64::NAN; 3], command);
         }
+        gathered.close_windows();
         CircleWindows {
             by_segment: (gathered.circles.iter())
                 .zip(gathered.leads_m.into_iter().zip(gathered.speeds_m_per_s))
@@ -450,10 +480,9 @@ pub struct CircleSamples {
     points: Vec<PeakThinned<Point>>,
     /// How far the command has run along each circle.
     progress: Vec<Progress>,
-    /// The previous sample's command (m).
-    last_command_m: Option<[f64; 3]>,
     /// The commanded path left out at each circle's start and end (m); set once the
-    /// command runs at its own speed on the circle, from the entry transient there.
+    /// command runs at its own speed on the circle, from the entry transient there, the
+    /// end's widened once every sample is in ([`CircleSamples::close_windows`]).
     leads_m: Vec<[f64; 2]>,
     /// The speed the command runs round each circle at (m/s), where its windows were read:
     /// the programmed feed until it is found, and where it is not.
@@ -485,7 +514,6 @@ impl CircleSamples {
                 .map(|_| PeakThinned::new(MAX_POINTS, |p: &Point| p.1.abs()))
                 .collect(),
             progress: vec![Progress::default(); circles.len()],
-            last_command_m: None,
             entries: Entries::default(),
             windows_given: false,
             circles,
@@ -497,7 +525,6 @@ impl CircleSamples {
     /// ([`Progress`]) and the path lies nearest that circle (or another pass round the
     /// same one: two circles of one centre and radius are equally near, to the rounding).
     pub(crate) fn push(&mut self, segment: u32, pos_m: [f64; 3], command: Commanded) {
-        let last = self.last_command_m.replace(command.pos_m);
         let working_out = !self.windows_given;
         if working_out {
             (self.entries.lag).advance(self.entry.time_constant_s, command.t_s, command.pos_m);
@@ -506,7 +533,7 @@ impl CircleSamples {
             return;
         };
         let c = self.circles[i];
-        self.progress[i].advance(&c, command, last);
+        self.progress[i].advance(&c, command);
         if working_out {
             let entered =
                 (self.entries).enter(i, (&self.entry, &c), command, self.progress[i].run_m);
@@ -521,16 +548,28 @@ impl CircleSamples {
         if !self.progress[i].is_within(&c, [0.0; 2]) || !nearest_on_it {
             return;
         }
-        let settled = self.progress[i].is_within(&c, self.leads_m[i]);
+        let run_m = self.progress[i].run_m.unwrap_or(0.0);
         if pos_m[0].is_finite() && pos_m[1].is_finite() {
             let radial = self.circles[i].polar(pos_m).1;
-            self.points[i].push((pos_m, radial, settled));
+            self.points[i].push((pos_m, radial, run_m));
+        }
+    }
+
+    /// Each circle's end window where the command slowed into its end
+    /// ([`Entries::end_lead_m`]), now that every sample is in; given windows stay as given.
+    fn close_windows(&mut self) {
+        if self.windows_given {
+            return;
+        }
+        for (i, c) in self.circles.iter().enumerate() {
+            self.leads_m[i][1] = self.entries.end_lead_m(i, c, self.leads_m[i][1]);
         }
     }
 
     /// The figures of every circle with enough samples and of every opposite pair, and the
     /// circles with the points they come from.
-    pub(crate) fn test(self) -> (CircularTest, Vec<CirclePath>) {
+    pub(crate) fn test(mut self) -> (CircularTest, Vec<CirclePath>) {
+        self.close_windows();
         let mut out = CircularTest::default();
         let mut kept: Vec<(Circle, Vec<[f64; 2]>, f64)> = Vec::new();
         let entry = self.entry;

@@ -301,14 +301,20 @@ pub(super) struct Entries {
     entering: HashMap<usize, Entering>,
 }
 
-/// One circle's entry: the command's recent samples on it, from two of the slower loop's
-/// time constants before the newest on, while its speed is not known to be steady.
+/// One circle's entry and exit: the command's recent samples on it, from two of the slower
+/// loop's time constants before the newest on; whether its start's window is decided; and
+/// how far along it the command last ran at a steady speed.
 #[derive(Debug, Clone, Default)]
 struct Entering {
     recent: VecDeque<OnCircle>,
     /// The last sample at which the command stood on the circle before it set off.
     standing: Option<OnCircle>,
     decided: bool,
+    /// The path run (m) where the newer of the last two spans found steady began: the
+    /// command's speed had not yet changed there, so neither had the loops' lag (they
+    /// answer only to commands already given). Where the command later slows into the
+    /// circle's end, its window reaches back to here.
+    steady_until_m: Option<f64>,
 }
 
 /// A command on a circle: its time (s), the path it has run along the circle (m), where it
@@ -348,11 +354,15 @@ impl Entries {
             command_m: command.pos_m,
             lag_m: self.lag.lag_m,
         };
-        let Some(run_m) = run_m.filter(|_| !e.decided) else {
+        let Some(run_m) = run_m else {
             e.standing = Some(at(0.0));
             return None;
         };
         let tau_s = entry.tau_s(c);
+        if e.decided {
+            e.follow(tau_s, at(run_m));
+            return None;
+        }
         let quarter_m = 0.25 * std::f64::consts::TAU * c.radius_m;
         let first = e.recent.is_empty();
         let read = |p: OnCircle, speed_m_per_s: f64| {
@@ -364,7 +374,8 @@ impl Entries {
         };
         let decided = if !(tau_s > 0.0 && tau_s.is_finite() && command.t_s.is_finite()) {
             Some(read(at(run_m), c.feed_m_per_s))
-        } else if let Some((reached, speed_m_per_s)) = e.steady(tau_s, at(run_m)) {
+        } else if let Some(([reached, newer], speed_m_per_s)) = e.steady(tau_s, at(run_m)) {
+            e.steady_until_m = Some(newer.run_m);
             Some(read(reached, speed_m_per_s))
         } else if run_m >= quarter_m {
             Some(([quarter_m, entry.lead_m(c)], c.feed_m_per_s))
@@ -372,21 +383,43 @@ impl Entries {
             None
         };
         if decided.is_some() {
-            *e = Entering {
-                decided: true,
-                ..Entering::default()
-            };
+            e.decided = true;
             return decided;
         }
         first.then(|| ([quarter_m, entry.lead_m(c)], c.feed_m_per_s))
     }
 }
 
+impl Entries {
+    /// How much of the `i`th circle gathered, `c`, its figures leave out before its end
+    /// (m), at least `lead_m`: where the command slowed into the end after it last ran at a
+    /// steady speed, the path from there on (the loops' lag changes with the speed, and
+    /// what it leaves in the radius is no part of the circle's form), at most a quarter
+    /// turn. Known only once the command has left the circle.
+    pub(super) fn end_lead_m(&self, i: usize, c: &Circle, lead_m: f64) -> f64 {
+        let slowing_m = (self.entering.get(&i))
+            .and_then(|e| e.steady_until_m)
+            .map_or(0.0, |run_m| c.length_m - run_m);
+        lead_m.max(quarter_turn_at_most(c, slowing_m))
+    }
+}
+
 impl Entering {
+    /// Takes the command's sample `p` once its start's window is decided, and notes where
+    /// it last ran at a steady speed.
+    fn follow(&mut self, tau_s: f64, p: OnCircle) {
+        if !(tau_s > 0.0 && tau_s.is_finite()) {
+            return;
+        }
+        if let Some(([_, newer], _)) = self.steady(tau_s, p) {
+            self.steady_until_m = Some(newer.run_m);
+        }
+    }
+
     /// Takes the command's sample `p`; where its speed over the last `tau_s` agrees with
-    /// its speed over the `tau_s` before (each at least a sample's step), the sample where
-    /// that began and the speed over the last (m/s).
-    fn steady(&mut self, tau_s: f64, p: OnCircle) -> Option<(OnCircle, f64)> {
+    /// its speed over the `tau_s` before (each at least a sample's step), the samples where
+    /// the older and the newer of the two spans began, and the speed over the newer (m/s).
+    fn steady(&mut self, tau_s: f64, p: OnCircle) -> Option<([OnCircle; 2], f64)> {
         if self.recent.is_empty() {
             // The last sample before the set-off: the circle's run starts there (run 0).
             if let Some(standing) = self.standing.filter(|s| s.t_s < p.t_s) {
@@ -413,6 +446,7 @@ impl Entering {
         let before = (mid.run_m - first.run_m) / (mid.t_s - first.t_s);
         let last = (p.run_m - mid.run_m) / (p.t_s - mid.t_s);
         // The newer of the two: what the speed still gained over the older is behind it.
-        ((last - before).abs() <= STEADY_SPEED_SHARE * last && last > 0.0).then_some((first, last))
+        ((last - before).abs() <= STEADY_SPEED_SHARE * last && last > 0.0)
+            .then_some(([first, mid], last))
     }
 }

@@ -576,3 +576,66 @@ fn the_window_is_counted_at_the_speed_the_command_runs() {
         }
     }
 }
+
+/// The R100 circle run at v = 10 mm/s from its set-off and slowed into its end at a steady
+/// v/T_d over T_d = 30τ (τ = 60 ms): the slowing takes v·T_d/2 = 9 mm of path (5.16°), longer
+/// than the five time constants at v (3 mm, 1.72°) the end leaves out at least. Commands as a
+/// control records them: at 50 Hz and 1 kHz, rounded to 1 µm and 0.1 µm counts. The end's
+/// window reaches back to where the command last ran at v: the slowing's path, and no more
+/// than one time constant and a sample's step beyond it (where the newer of the last two
+/// spans found steady began). The start's, set off at v from rest, is the whole lag's 5.447
+/// time constants at v (as above), however the commands were recorded.
+#[test]
+fn the_end_window_reaches_back_to_where_the_command_slows() {
+    let tau_s = 0.06;
+    let entry = EntrySettling {
+        time_constant_s: [tau_s, tau_s, 0.0],
+    };
+    let c = circle(true, 0);
+    let v = 0.01;
+    let t_d = 30.0 * tau_s;
+    let slowing_m = 0.5 * v * t_d;
+    let start_time_constants = whole_lag_time_constants(c.radius_m, v / c.radius_m * tau_s);
+    // Path run at time t: at v until the slowing, then v·s − v·s²/(2·T_d) for s into it.
+    let steady_s = (c.length_m - slowing_m) / v;
+    let run_at = |t: f64| {
+        let s = (t - steady_s).clamp(0.0, t_d);
+        v * t.min(steady_s) + v * s - v * s * s / (2.0 * t_d)
+    };
+    for (rate_hz, count_m) in [
+        (50.0, 1e-6),
+        (50.0, 0.1e-6),
+        (1000.0, 1e-6),
+        (1000.0, 0.1e-6),
+    ] {
+        let step_s = 1.0 / rate_hz;
+        let rounded = |x: f64| (x / count_m).round() * count_m;
+        let mut gathered = CircleSamples::new(vec![c], entry);
+        let end_k = ((steady_s + t_d) / step_s).ceil() as usize;
+        for k in 0..=end_k + 10 {
+            let t_s = k as f64 * step_s;
+            let a = run_at(t_s) / c.radius_m;
+            let pos_m = [rounded(0.1 * a.cos()), rounded(0.1 * a.sin()), 0.0];
+            let command = Commanded {
+                segment: 0,
+                pos_m,
+                t_s,
+            };
+            gathered.push(0, pos_m, command);
+        }
+        let f = gathered.test().0.circles[0];
+        let end_m = f.end_left_out_deg.to_radians() * c.radius_m;
+
+        assert!(
+            end_m >= slowing_m,
+            "{rate_hz} Hz, {count_m} m: {end_m} {f:?}"
+        );
+        let most_m = slowing_m + tau_s * v + step_s * v;
+        assert!(end_m < most_m, "{rate_hz} Hz, {count_m} m: {end_m} {f:?}");
+        let start_deg = (start_time_constants * v / c.radius_m * tau_s).to_degrees();
+        assert!(
+            (f.start_left_out_deg - start_deg).abs() < 0.01,
+            "{rate_hz} Hz, {count_m} m: {start_deg} {f:?}"
+        );
+    }
+}
