@@ -35,6 +35,11 @@ pub(super) const ENTRY_RESIDUE_M: f64 = 0.1e-6;
 /// more of the residue after eight time constants.
 const STEADY_SPEED_SHARE: f64 = 1e-3;
 
+/// The slowest speed a command runs round a circle at (m/s; 6 µm/min, under any feed): a
+/// command that stands still reads some 1e-16 m/s where it was resampled from a record
+/// (its last bits), alike over every span, which no steady speed is.
+const RUNNING_M_PER_S: f64 = 1e-7;
+
 /// The most time constants a transient is given: more than ln(f64::MAX / 0.1 µm) plus
 /// ln(1000), so that any finite transient has fallen below [`ENTRY_RESIDUE_M`] by then; the
 /// quarter turn a window may take bounds it long before.
@@ -364,6 +369,9 @@ impl Entries {
             return None;
         }
         let quarter_m = 0.25 * std::f64::consts::TAU * c.radius_m;
+        // Until the speed is known: a quarter turn at the start, five time constants at
+        // the feed before the end.
+        let undecided = ([quarter_m, entry.lead_m(c)], c.feed_m_per_s);
         let first = e.recent.is_empty();
         let read = |p: OnCircle, speed_m_per_s: f64| {
             let transient_m = entry.transient_m(c, p.command_m, p.lag_m, speed_m_per_s);
@@ -378,7 +386,7 @@ impl Entries {
             e.steady_until_m = Some(newer.run_m);
             Some(read(reached, speed_m_per_s))
         } else if run_m >= quarter_m {
-            Some(([quarter_m, entry.lead_m(c)], c.feed_m_per_s))
+            Some(undecided)
         } else {
             None
         };
@@ -386,7 +394,7 @@ impl Entries {
             e.decided = true;
             return decided;
         }
-        first.then(|| ([quarter_m, entry.lead_m(c)], c.feed_m_per_s))
+        first.then_some(undecided)
     }
 }
 
@@ -446,7 +454,7 @@ impl Entering {
         let before = (mid.run_m - first.run_m) / (mid.t_s - first.t_s);
         let last = (p.run_m - mid.run_m) / (p.t_s - mid.t_s);
         // The newer of the two: what the speed still gained over the older is behind it.
-        ((last - before).abs() <= STEADY_SPEED_SHARE * last && last > 0.0)
+        ((last - before).abs() <= STEADY_SPEED_SHARE * last && last > RUNNING_M_PER_S)
             .then_some(([first, mid], last))
     }
 }

@@ -639,3 +639,49 @@ fn the_end_window_reaches_back_to_where_the_command_slows() {
         );
     }
 }
+
+/// A record's commands as a resampled rapid leaves them: the command overshoots onto the
+/// circle by 2 µm along its tangent and comes back (which sets it off: more than 1 µm), then
+/// stands for a second reading a picometre apart from sample to sample along the path (a
+/// fitted resampling's noise; 1.7e-8 m/s over every span alike), then runs round at v =
+/// 10 mm/s. The standing reads no steady speed: the start
+/// is worked out where the command runs, n = 5.447 time constants of the whole lag at v (as
+/// above) plus the overshoot's 4 µm of path (0.0023°).
+#[test]
+fn a_standing_command_has_no_steady_speed() {
+    let tau_s = 0.06;
+    let entry = EntrySettling {
+        time_constant_s: [tau_s, tau_s, 0.0],
+    };
+    let c = circle(true, 0);
+    let (v, step_s) = (0.01, 1e-3);
+    let omega = v / c.radius_m;
+    let turn_steps = (std::f64::consts::TAU / (omega * step_s)).round() as usize;
+    let overshoot = [0.0, 1e-6, 2e-6, 1e-6, 0.0].map(|y| [0.1, y, 0.0]);
+    let standing = (0..1000).map(|k| [0.1, if k % 2 == 0 { 0.0 } else { 1e-12 }, 0.0]);
+    let running = (1..=turn_steps).map(|k| {
+        let a = omega * step_s * k as f64;
+        [0.1 * a.cos(), 0.1 * a.sin(), 0.0]
+    });
+    let mut gathered = CircleSamples::new(vec![c], entry);
+    let commands = overshoot.into_iter().chain(standing).chain(running);
+    for (k, pos_m) in commands.enumerate() {
+        let t_s = k as f64 * step_s;
+        gathered.push(
+            0,
+            pos_m,
+            Commanded {
+                segment: 0,
+                pos_m,
+                t_s,
+            },
+        );
+    }
+    let f = gathered.test().0.circles[0];
+    let n = whole_lag_time_constants(c.radius_m, omega * tau_s);
+    let want_deg = (n * omega * tau_s + 4e-6 / c.radius_m).to_degrees();
+    assert!(
+        (f.start_left_out_deg - want_deg).abs() < 0.001,
+        "{want_deg} {f:?}"
+    );
+}
