@@ -38,7 +38,7 @@ const START_RAD: f64 = std::f64::consts::FRAC_PI_4;
 
 /// The rigid axis's mass at the table (kg) and its viscous friction there (N·s/m), and the
 /// table travel per motor radian (m/rad).
-fn rigid_axis(a: &AxisConfig) -> (f64, f64, f64) {
+pub(crate) fn rigid_axis(a: &AxisConfig) -> (f64, f64, f64) {
     let d = &a.drive;
     let travel_m_per_rad = d.lead_mm * 1e-3 / TAU * d.gear_ratio;
     let j_motor = a.motor.jm_kg_m2 + d.js_kg_m2 * d.gear_ratio.powi(2);

@@ -8,6 +8,7 @@
 mod common;
 
 mod circular_reference;
+mod external_circle_window;
 mod force_ripple;
 mod foreign_commands;
 mod hidden_effects;
