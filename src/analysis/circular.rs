@@ -212,7 +212,12 @@ impl Progress {
         }
         let entry = *self.entry_m.get_or_insert(command.pos_m);
         let (angle_rad, _) = c.polar(c.plane.coords(command.pos_m));
-        let last_rad = self.angle_rad.replace(angle_rad);
+        // A sample without a number keeps the last angle that had one.
+        let last_rad = if angle_rad.is_finite() {
+            self.angle_rad.replace(angle_rad)
+        } else {
+            self.angle_rad
+        };
         self.run_m = match (self.run_m, last_rad) {
             (Some(run), Some(last_rad)) => {
                 // The turn since the last sample, the short way round (its rounding's part
@@ -319,7 +324,8 @@ pub struct CircleFigures {
     pub start_left_out_deg: f64,
     /// How far before its end (degrees) the figures stop: from where the command last ran
     /// round it at its steady speed (its slowing into the end changes the loops' lag), and
-    /// at least five of the loops' time constants at that speed.
+    /// at least five of the loops' time constants at the speed the start's window was read
+    /// at (the programmed feed where none was found); at most a quarter turn.
     pub end_left_out_deg: f64,
 }
 
@@ -529,7 +535,11 @@ impl CircleSamples {
         if working_out {
             (self.entries.lag).advance(self.entry.time_constant_s, command.t_s, command.pos_m);
         }
-        let Some(&i) = self.by_segment.get(&(command.segment as usize)) else {
+        let on = self.by_segment.get(&(command.segment as usize)).copied();
+        if working_out {
+            self.entries.on_circle(on);
+        }
+        let Some(i) = on else {
             return;
         };
         let c = self.circles[i];

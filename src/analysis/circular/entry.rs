@@ -35,6 +35,10 @@ pub(super) const ENTRY_RESIDUE_M: f64 = 0.1e-6;
 /// more of the residue after eight time constants.
 const STEADY_SPEED_SHARE: f64 = 1e-3;
 
+/// How near its end (m) the command's last sample on a circle must lie, beyond two of its
+/// steps, for it to have gone on to the end: a micrometre, past any rounding of the path.
+const END_REACHED_M: f64 = 1e-6;
+
 /// The slowest speed a command runs round a circle at (m/s; 6 µm/min, under any feed): a
 /// command that stands still reads some 1e-16 m/s where it was resampled from a record
 /// (its last bits), alike over every span, which no steady speed is.
@@ -304,6 +308,8 @@ pub(super) struct Entries {
     pub(super) lag: LoopLag,
     /// By circle (its index among the circles gathered).
     entering: HashMap<usize, Entering>,
+    /// The circle the last command lay on.
+    on: Option<usize>,
 }
 
 /// One circle's entry and exit: the command's recent samples on it, from two of the slower
@@ -320,6 +326,9 @@ struct Entering {
     /// answer only to commands already given). Where the command later slows into the
     /// circle's end, its window reaches back to here.
     steady_until_m: Option<f64>,
+    /// The path run at the last sample on the circle and that sample's step (m): whether
+    /// the command went on to the circle's end, or the record stopped before it.
+    last_m: (f64, f64),
 }
 
 /// A command on a circle: its time (s), the path it has run along the circle (m), where it
@@ -363,6 +372,7 @@ impl Entries {
             e.standing = Some(at(0.0));
             return None;
         };
+        e.last_m = (run_m, run_m - e.last_m.0);
         let tau_s = entry.tau_s(c);
         if e.decided {
             e.follow(tau_s, at(run_m));
@@ -405,10 +415,29 @@ impl Entries {
     /// what it leaves in the radius is no part of the circle's form), at most a quarter
     /// turn. Known only once the command has left the circle.
     pub(super) fn end_lead_m(&self, i: usize, c: &Circle, lead_m: f64) -> f64 {
-        let slowing_m = (self.entering.get(&i))
-            .and_then(|e| e.steady_until_m)
+        let Some(e) = self.entering.get(&i) else {
+            return lead_m;
+        };
+        // A record that stops before the circle's end has not seen the command slow.
+        let (last_m, step_m) = e.last_m;
+        let to_end_m = c.length_m - last_m;
+        let slowing_m = e
+            .steady_until_m
+            .filter(|_| to_end_m <= 2.0 * step_m.abs() + END_REACHED_M)
             .map_or(0.0, |run_m| c.length_m - run_m);
         lead_m.max(quarter_turn_at_most(c, slowing_m))
+    }
+
+    /// Takes that the command lies on the `i`th circle gathered (`None`: on none): the
+    /// samples kept for the speed of a circle it has left are dropped.
+    pub(super) fn on_circle(&mut self, i: Option<usize>) {
+        if self.on == i {
+            return;
+        }
+        if let Some(e) = self.on.and_then(|j| self.entering.get_mut(&j)) {
+            e.recent = VecDeque::new();
+        }
+        self.on = i;
     }
 }
 
