@@ -588,9 +588,6 @@ fn the_window_is_counted_at_the_speed_the_command_runs() {
 #[test]
 fn the_end_window_reaches_back_to_where_the_command_slows() {
     let tau_s = 0.06;
-    let entry = EntrySettling {
-        time_constant_s: [tau_s, tau_s, 0.0],
-    };
     let c = circle(true, 0);
     let v = 0.01;
     let t_d = 30.0 * tau_s;
@@ -610,20 +607,12 @@ fn the_end_window_reaches_back_to_where_the_command_slows() {
     ] {
         let step_s = 1.0 / rate_hz;
         let rounded = |x: f64| (x / count_m).round() * count_m;
-        let mut gathered = CircleSamples::new(vec![c], entry);
         let end_k = ((steady_s + t_d) / step_s).ceil() as usize;
-        for k in 0..=end_k + 10 {
-            let t_s = k as f64 * step_s;
-            let a = run_at(t_s) / c.radius_m;
-            let pos_m = [rounded(0.1 * a.cos()), rounded(0.1 * a.sin()), 0.0];
-            let command = Commanded {
-                segment: 0,
-                pos_m,
-                t_s,
-            };
-            gathered.push(0, pos_m, command);
-        }
-        let f = gathered.test().0.circles[0];
+        let commands = (0..=end_k + 10).map(|k| {
+            let a = run_at(k as f64 * step_s) / c.radius_m;
+            [rounded(0.1 * a.cos()), rounded(0.1 * a.sin()), 0.0]
+        });
+        let f = figures_of_commands(c, tau_s, step_s, commands);
         let end_m = f.end_left_out_deg.to_radians() * c.radius_m;
 
         assert!(
@@ -650,9 +639,6 @@ fn the_end_window_reaches_back_to_where_the_command_slows() {
 #[test]
 fn a_standing_command_has_no_steady_speed() {
     let tau_s = 0.06;
-    let entry = EntrySettling {
-        time_constant_s: [tau_s, tau_s, 0.0],
-    };
     let c = circle(true, 0);
     let (v, step_s) = (0.01, 1e-3);
     let omega = v / c.radius_m;
@@ -663,21 +649,8 @@ fn a_standing_command_has_no_steady_speed() {
         let a = omega * step_s * k as f64;
         [0.1 * a.cos(), 0.1 * a.sin(), 0.0]
     });
-    let mut gathered = CircleSamples::new(vec![c], entry);
     let commands = overshoot.into_iter().chain(standing).chain(running);
-    for (k, pos_m) in commands.enumerate() {
-        let t_s = k as f64 * step_s;
-        gathered.push(
-            0,
-            pos_m,
-            Commanded {
-                segment: 0,
-                pos_m,
-                t_s,
-            },
-        );
-    }
-    let f = gathered.test().0.circles[0];
+    let f = figures_of_commands(c, tau_s, step_s, commands);
     let n = whole_lag_time_constants(c.radius_m, omega * tau_s);
     let want_deg = (n * omega * tau_s).to_degrees();
     assert!(
@@ -692,17 +665,37 @@ fn a_standing_command_has_no_steady_speed() {
 #[test]
 fn a_record_that_stops_on_the_circle_has_not_seen_it_slow() {
     let tau_s = 0.06;
-    let entry = EntrySettling {
-        time_constant_s: [tau_s, tau_s, 0.0],
-    };
     let c = circle(false, 0);
     let (v, step_s) = (0.01, 1e-3);
     let omega = v / c.radius_m;
     let steps = (0.75 * std::f64::consts::TAU / (omega * step_s)) as usize;
-    let mut gathered = CircleSamples::new(vec![c], entry);
-    for k in 0..=steps {
+    let commands = (0..=steps).map(|k| {
         let a = -omega * step_s * k as f64;
-        let pos_m = [0.1 * a.cos(), 0.1 * a.sin(), 0.0];
+        [0.1 * a.cos(), 0.1 * a.sin(), 0.0]
+    });
+    let f = figures_of_commands(c, tau_s, step_s, commands);
+    let end_deg = (5.0 * tau_s * omega).to_degrees();
+    assert!((end_deg - 1.719).abs() < 0.001, "{end_deg}");
+    assert!(
+        (f.end_left_out_deg - end_deg).abs() < 1e-3 * end_deg,
+        "{f:?}"
+    );
+}
+
+/// The figures of circle `c` (plan segment 0) from a path run where it is commanded (no
+/// lag), its commands `commands` one every `step_s` from time zero, both loops of time
+/// constant `tau_s`.
+fn figures_of_commands(
+    c: Circle,
+    tau_s: f64,
+    step_s: f64,
+    commands: impl IntoIterator<Item = [f64; 3]>,
+) -> CircleFigures {
+    let entry = EntrySettling {
+        time_constant_s: [tau_s, tau_s, 0.0],
+    };
+    let mut gathered = CircleSamples::new(vec![c], entry);
+    for (k, pos_m) in commands.into_iter().enumerate() {
         let t_s = k as f64 * step_s;
         gathered.push(
             0,
@@ -714,11 +707,5 @@ fn a_record_that_stops_on_the_circle_has_not_seen_it_slow() {
             },
         );
     }
-    let f = gathered.test().0.circles[0];
-    let end_deg = (5.0 * tau_s * omega).to_degrees();
-    assert!((end_deg - 1.719).abs() < 0.001, "{end_deg}");
-    assert!(
-        (f.end_left_out_deg - end_deg).abs() < 1e-3 * end_deg,
-        "{f:?}"
-    );
+    gathered.test().0.circles[0]
 }
