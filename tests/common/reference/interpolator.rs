@@ -34,10 +34,46 @@ fn trapezoid(length: f64, v: f64, accel: f64) -> (f64, Distance) {
     (total, Box::new(distance))
 }
 
-/// A jerk-limited profile over `length` at feed `v`, rest to rest: the acceleration ramps at
-/// `jerk` to `accel` (or to √(v·jerk) where the feed is reached before), holds, and ramps
-/// back; the feed lowered where the block is too short to reach it. Its duration and
-/// distance, exact (the jerk piecewise constant, each phase's motion a cubic).
+/// The seven phases of a jerk-limited profile from rest to `v` and back, each its jerk (m/s³)
+/// and duration (s): the acceleration ramps at `jerk` to `accel` (or to √(v·jerk) where the
+/// feed is reached before), holds, ramps back to the feed, which is held for `cruise_s`, and
+/// the same mirrored down to rest.
+pub fn s_curve_phases(v: f64, accel: f64, jerk: f64, cruise_s: f64) -> [(f64, f64); 7] {
+    let peak = accel.min((v * jerk).sqrt());
+    // No hold where the feed comes first (its rounding below zero too).
+    let (ramp, hold) = (peak / jerk, (v / peak - peak / jerk).max(0.0));
+    [
+        (jerk, ramp),
+        (0.0, hold),
+        (-jerk, ramp),
+        (0.0, cruise_s),
+        (-jerk, ramp),
+        (0.0, hold),
+        (jerk, ramp),
+    ]
+}
+
+/// Distance (m), speed (m/s) and acceleration (m/s²) at `t` (s) into `phases` (jerk and
+/// duration each) from rest: exact, each phase's motion a cubic, summed phase by phase; at
+/// rest once they are over, whatever the rounding of the sums.
+pub fn through_phases(phases: &[(f64, f64)], t: f64) -> (f64, f64, f64) {
+    let (mut s, mut ds, mut dds, mut left) = (0.0, 0.0, 0.0, t.max(0.0));
+    for &(j, d) in phases {
+        let h = left.min(d);
+        s += ds * h + dds * h * h / 2.0 + j * h * h * h / 6.0;
+        ds += dds * h + j * h * h / 2.0;
+        dds += j * h;
+        left -= h;
+    }
+    if left > 0.0 {
+        (s, 0.0, 0.0)
+    } else {
+        (s, ds, dds)
+    }
+}
+
+/// A jerk-limited profile over `length` at feed `v`, rest to rest ([`s_curve_phases`]), the
+/// feed lowered where the block is too short to reach it: its duration and distance.
 fn s_curve(length: f64, v: f64, accel: f64, jerk: f64) -> (f64, Distance) {
     // The distance to reach `v` from rest and stop again.
     let there_and_back = |v: f64| {
@@ -57,30 +93,10 @@ fn s_curve(length: f64, v: f64, accel: f64, jerk: f64) -> (f64, Distance) {
         }
         v = lo;
     }
-    let a = accel.min((v * jerk).sqrt());
-    let (ramp, hold) = (a / jerk, v / a - a / jerk);
     let cruise = (length - there_and_back(v)) / v;
-    let phases = [
-        (jerk, ramp),
-        (0.0, hold),
-        (-jerk, ramp),
-        (0.0, cruise),
-        (-jerk, ramp),
-        (0.0, hold),
-        (jerk, ramp),
-    ];
+    let phases = s_curve_phases(v, accel, jerk, cruise);
     let total = phases.iter().map(|p| p.1).sum();
-    let distance = move |t: f64| {
-        let (mut s, mut v, mut a, mut left) = (0.0, 0.0, 0.0, t);
-        for (j, d) in phases {
-            let h = left.min(d);
-            s += v * h + a * h * h / 2.0 + j * h * h * h / 6.0;
-            v += a * h + j * h * h / 2.0;
-            a += j * h;
-            left -= h;
-        }
-        s.min(length)
-    };
+    let distance = move |t: f64| through_phases(&phases, t).0.min(length);
     (total, Box::new(distance))
 }
 

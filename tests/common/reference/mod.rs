@@ -25,7 +25,7 @@ mod recording;
 #[allow(unused_imports)]
 pub use axis::{Axis, Reference};
 #[allow(unused_imports)]
-pub use interpolator::Trapezoids;
+pub use interpolator::{Trapezoids, s_curve_phases, through_phases};
 #[allow(unused_imports)]
 pub use plant::{Cycle, Plant, Timed};
 #[allow(unused_imports)]
