@@ -185,6 +185,13 @@ impl CommandSeries<'_> {
 /// are resampled and fitted), far below any arc worth a circular test.
 const SET_OFF_M: f64 = 1e-6;
 
+/// How far along the arc from a circle's start a record's first command on it must stand
+/// for the record to have begun with the command running round it (m): a control standing
+/// at the start reads within its counts of it, and a record's commands, placed on the
+/// program, within a few micrometres; a record that began in the last tenth of a
+/// millimetre before the set-off counts its path from its first sample, as one standing.
+const BEGUN_MID_CIRCLE_M: f64 = 1e-4;
+
 /// How far the command has run along one circle, sample by sample. A sample counts toward
 /// the circle's figures only once the command has set off on it: while the command still
 /// stands at the circle's start (the control waiting for the axes to settle after the
@@ -230,6 +237,7 @@ impl Progress {
                     run
                 })
             }
+            (None, None) => c.begun_at_m(angle_rad),
             _ => {
                 let away = (0..3)
                     .map(|i| (command.pos_m[i] - entry[i]).powi(2))
@@ -261,6 +269,22 @@ fn position(pos_m: [&[f64]; 3], k: usize) -> [f64; 3] {
 }
 
 impl Circle {
+    /// The path from the circle's start to the polar angle `angle_rad` in the circle's sense
+    /// (m), where a record's first command on the circle stands there, past its start by
+    /// more than [`BEGUN_MID_CIRCLE_M`] each way: the record began while the command ran
+    /// round it, and the path it has run counts from the circle's start, as the windows at
+    /// its end are measured back from its programmed length (counted from the record's
+    /// first sample, those windows fell short by all the record missed, and the table's
+    /// slowing into the end counted as the circle's form). `None` at the start, where the
+    /// path counts from where the command sets off. On a circle of several turns, the
+    /// first pass's.
+    fn begun_at_m(&self, angle_rad: f64) -> Option<f64> {
+        let sense = if self.ccw { 1.0 } else { -1.0 };
+        let arc_m = self.radius_m * (sense * (angle_rad - self.start_rad)).rem_euclid(TAU);
+        let turn_m = TAU * self.radius_m;
+        (arc_m > BEGUN_MID_CIRCLE_M && arc_m < turn_m - BEGUN_MID_CIRCLE_M).then_some(arc_m)
+    }
+
     /// Whether `other` runs round the same circle as this one, in either direction: the same
     /// plane at the same height, the same centre and radius (to a nanometre).
     pub fn is_same_circle(&self, other: &Circle) -> bool {

@@ -2,26 +2,26 @@
 
 use super::*;
 
-/// The figures of a path commanded where it runs (a path without lag), after a sample
-/// whose command stands a millimetre before the first: every sample of the path counts.
+/// The figures of a path commanded where it runs (a path without lag), each circle's first
+/// sample commanded at the start every circle here has, (0.1 m, 0), where the command stands
+/// before it sets off; the path's first sample is repeated before it, so that every sample
+/// of the first circle counts.
 fn circular_test(circles: &[Circle], segment: &[u32], pos_m: [&[f64]; 3]) -> CircularTest {
-    let before = |v: &[f64], by: f64| -> Vec<f64> {
-        v.first()
-            .map(|&v0| v0 + by)
-            .into_iter()
-            .chain(v.iter().copied())
-            .collect()
-    };
-    let segment: Vec<u32> = before(&segment.iter().map(|&s| s as f64).collect::<Vec<_>>(), 0.0)
+    let before = |v: &[f64]| -> Vec<f64> { v.first().into_iter().chain(v).copied().collect() };
+    let segment: Vec<u32> = segment
+        .first()
         .into_iter()
-        .map(|s| s as u32)
+        .chain(segment)
+        .copied()
         .collect();
-    let pos_m = pos_m.map(|v| before(v, 0.0));
-    let command_m = [
-        before(&pos_m[0][1..], -1e-3),
-        pos_m[1].clone(),
-        pos_m[2].clone(),
-    ];
+    let pos_m = pos_m.map(before);
+    let mut command_m = pos_m.clone();
+    for k in 0..segment.len() {
+        if k == 0 || segment[k] != segment[k - 1] {
+            command_m[0][k] = 0.1;
+            command_m[1][k] = 0.0;
+        }
+    }
     let command = CommandSeries {
         segment: &segment,
         pos_m: [&command_m[0], &command_m[1], &command_m[2]],
@@ -708,4 +708,34 @@ fn figures_of_commands(
         );
     }
     gathered.test().0.circles[0]
+}
+
+/// A record begun while the command ran round a circle counts the command's path from the
+/// circle's start: at every point the path places a given length along full circles in
+/// each plane and sense (the path's own parametrisation, not the polar angle), that length;
+/// none within a tenth of a millimetre of the start either way, where the command may stand.
+#[test]
+fn a_record_begun_mid_circle_counts_from_the_circles_start() {
+    let text = "G21 G90 G17 G94\nG0 X10 Y0 Z0\nG3 X10 Y0 I-10 J0 F1000\nG2 X10 Y0 I-10 J0\n\
+                G18 G2 X10 Z0 I-10 K0\nG19 G3 Y0 Z0 J-5 K0\nM2\n";
+    let program =
+        crate::gcode::parse_program(text, "t.nc", &crate::gcode::InterpretOptions::default())
+            .unwrap();
+    let found = circles(&program.segments);
+    assert_eq!(found.len(), 4, "{found:?}");
+    for c in &found {
+        let seg = program.segments[c.segment];
+        let at = |along_m: f64| {
+            let p = seg.eval(along_m, c.length_m).pos;
+            c.begun_at_m(c.polar(c.plane.coords(p)).0)
+        };
+        for share in [0.01, 0.25, 0.5, 0.75, 0.99] {
+            let along_m = share * c.length_m;
+            let got = at(along_m).unwrap_or(f64::NAN);
+            assert!((got - along_m).abs() < 1e-9, "{c:?} at {along_m}: {got}");
+        }
+        for near_m in [0.0, 5e-5, c.length_m - 5e-5] {
+            assert_eq!(at(near_m), None, "{c:?} at {near_m}");
+        }
+    }
 }
