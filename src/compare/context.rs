@@ -195,6 +195,14 @@ impl Context<'_> {
         self.simulate_axis(&holding, axis)
     }
 
+    /// How many of the context's command cycles come before the record's first command: the
+    /// run-in the comparison puts before a record begun in motion (or arriving from where
+    /// the machine stood), on which the model is moved into the record's state; none where
+    /// the commands begin with the record's.
+    pub(crate) fn run_in_cycles(&self) -> usize {
+        (self.start.run_in_s / self.dt).round() as usize
+    }
+
     /// The context's commands up to the one the sample at program time `until_s` (s) is
     /// read from, for [`Context::simulate_axis_on`]; none where that is all of them. The
     /// simulator steps cycle by cycle on each cycle's command alone, so a trace on them is
@@ -203,7 +211,7 @@ impl Context<'_> {
     pub(crate) fn commands_until(&self, until_s: f64) -> Option<Commands> {
         // A sample between cycles i and i + 1 is interpolated from cycles i − 1 to i + 2
         // (`sample`); the run-in is moved on its own commands, which are kept whole.
-        let run_in = (self.start.run_in_s / self.dt).round() as usize;
+        let run_in = self.run_in_cycles();
         let cycles = ((until_s / self.dt).floor().max(0.0) as usize + 3).max(run_in + 1);
         (cycles < self.commands.len()).then(|| self.commands.first(cycles))
     }
@@ -329,7 +337,7 @@ impl Context<'_> {
         sim: &SimConfig,
     ) -> Option<crate::plan::AxisCommands> {
         let c = commands.axis(axis);
-        let n = ((self.start.run_in_s / self.dt).round() as usize).min(c.len());
+        let n = self.run_in_cycles().min(c.len());
         if n == 0 {
             return Some(c.clone());
         }
@@ -499,7 +507,7 @@ impl Context<'_> {
             None
         } else {
             let c = &self.commands;
-            let begin = ((start.run_in_s / self.dt).round() as usize).min(c.len());
+            let begin = self.run_in_cycles().min(c.len());
             let moves = |k: usize| c.axis(axis).vel_m_per_s[k].abs() >= STILL_M_PER_S;
             (!moves(begin.min(c.len().saturating_sub(1)))).then(|| {
                 (begin..c.len())

@@ -66,7 +66,8 @@ pub(crate) fn circular_comparison(
     z: &ZFindings,
 ) -> CircularComparison {
     let circles = circles(&ctx.plan.segments);
-    let windows = CircleWindows::of(&circles, &ctx.commands, EntrySettling::of(machine));
+    let (commands, run_in) = (&ctx.commands, ctx.run_in_cycles());
+    let windows = CircleWindows::of(&circles, commands, run_in, EntrySettling::of(machine));
     let zs = z.series.as_ref();
     let none: &[f64] = &[];
     let command = s.commands();

@@ -52,6 +52,12 @@ const FAST_S_CURVE: Spec = Spec {
     jerk_m_per_s3: Some(5.0),
     ..FAST
 };
+/// The same at a gentle jerk: the speed ramps for 0.82 s, its slowing into the circle's end
+/// (6.8 mm) longer than five time constants at the feed (5 mm).
+const FAST_GENTLE: Spec = Spec {
+    jerk_m_per_s3: Some(0.1),
+    ..FAST
+};
 /// At a quarter of it on a small circle: the lag a quarter of a millimetre, a count of 1 µm
 /// a four times larger share of the run over a time constant.
 const SLOW: Spec = Spec {
@@ -481,18 +487,21 @@ impl Case {
         // the control's cycles short of the arc by (v·h/R)²/24, 10⁻⁷ at most here.
         let speed_share = 2.0 * taken.count_m * FRAC_1_SQRT_2 / (self.tau_s * speed_m_per_s) + 1e-6;
         let five_deg = deg(ENTRY_TIME_CONSTANTS * self.tau_s * speed_m_per_s) * (1.0 - speed_share);
+        // At least the command's slowing into the end: the loops' lag changes from where the
+        // command's speed does.
+        let slowing_m = 0.5 * speed_m_per_s * self.stream.ramp_s;
+        let least_deg = five_deg.max(deg(slowing_m));
         // And no more than the longer of the five (at the speed read high by as much) and
         // the path from where the command last ran steady: its slowing into the end, the
         // time constant over which a steady speed is read before it and a control's step.
         let period_s = taken.every as f64 * FINE_S;
-        let slowing_m = 0.5 * speed_m_per_s * self.stream.ramp_s;
         let most_deg = (deg(ENTRY_TIME_CONSTANTS * self.tau_s * speed_m_per_s)
             * (1.0 + speed_share))
             .max(deg(slowing_m + speed_m_per_s * (self.tau_s + period_s)));
         check(
-            f.end_left_out_deg >= five_deg && f.end_left_out_deg <= most_deg,
+            f.end_left_out_deg >= least_deg && f.end_left_out_deg <= most_deg,
             format!(
-                "end {:.3}° outside {five_deg:.3}°..{most_deg:.3}°",
+                "end {:.3}° outside {least_deg:.3}°..{most_deg:.3}°",
                 f.end_left_out_deg
             ),
         );
@@ -602,39 +611,52 @@ fn cut_csv(csv: &str, from_s: f64) -> String {
 
 /// Records begun while the command ran round the circle at its feed, a tenth, four tenths
 /// and seven tenths of the way round (at 50 Hz in counts of 0.1 µm, at 1 kHz in counts of
-/// 1 µm): the end is left out as on the whole record — five time constants at the
-/// running speed before the circle's end, where the path counted from the record's first
-/// sample left out the arc the record missed less, and the table's slowing into the end
-/// counted as the circle's form (G 13.6–24.9 µm of the radial lag v²/(2·Kv²·R), 25 µm at
-/// F1000 on R20) — and G no wider than the entry's residue and the counts' spread.
+/// 1 µm; the comparison runs the model in before each one's first command), and the whole
+/// records beside them: the end is left out as on a whole record — at least five time
+/// constants at the running speed, at least the command's slowing into the end where that
+/// is longer (6.8 mm at a jerk of 0.1 m/s³) — where the path counted from the record's
+/// first sample left out the arc the record missed less, and the table's slowing into the
+/// end counted as the circle's form (its radial lag v²/(2·Kv²·R): 25 µm at F1000 on R20,
+/// 6.25 µm at F250 on R5); G no wider than the entry's residue and the counts' spread; the
+/// start at least five time constants past where the record began, at most a quarter turn.
 #[test]
 fn a_record_begun_mid_circle_leaves_the_same_end_out() {
     let mut wrong = Vec::new();
-    for spec in [FAST, SLOW] {
+    for spec in [FAST, FAST_GENTLE, SLOW] {
         let case = Case::new(spec);
-        let cruise_from_s = case.stream.circle_from_s() + case.stream.ramp_s;
-        for taken in [
-            Taken {
-                every: AT_50_HZ,
-                count_m: 0.1e-6,
-            },
-            Taken {
-                every: AT_1_KHZ,
-                count_m: 1e-6,
-            },
-        ] {
-            let csv = trace_csv(&case.run, taken.every, taken.count_m);
-            for share in [0.1, 0.4, 0.7] {
-                let cut = cut_csv(&csv, cruise_from_s + share * case.stream.cruise_s);
-                let f = figures_of(&case.machine, spec, &cut);
-                let begun = format!("begun {share} of the way round");
-                wrong.extend(
-                    case.end_and_band(&f, taken)
-                        .into_iter()
-                        .map(|w| format!("{begun}: {w}")),
-                );
-            }
+        for (every, count_m) in [(AT_50_HZ, 0.1e-6), (AT_1_KHZ, 1e-6)] {
+            wrong.extend(case.begun_later(Taken { every, count_m }));
         }
     }
     assert!(wrong.is_empty(), "{wrong:#?}");
+}
+
+impl Case {
+    /// Where the figures of the record `taken`, whole and begun a tenth, four tenths and
+    /// seven tenths of the way round at the feed, disagree with the closed forms.
+    fn begun_later(&self, taken: Taken) -> Vec<String> {
+        let csv = trace_csv(&self.run, taken.every, taken.count_m);
+        let whole = figures_of(&self.machine, self.spec, &csv);
+        let mut wrong = self.end_and_band(&whole, taken);
+        let deg = |m: f64| (m / self.spec.radius_m()).to_degrees();
+        let speed_m_per_s = self.spec.speed_m_per_s();
+        let five_deg = deg(ENTRY_TIME_CONSTANTS * self.tau_s * speed_m_per_s);
+        let cruise_from_s = self.stream.circle_from_s() + self.stream.ramp_s;
+        for share in [0.1, 0.4, 0.7] {
+            let from_s = cruise_from_s + share * self.stream.cruise_s;
+            let f = figures_of(&self.machine, self.spec, &cut_csv(&csv, from_s));
+            let begun = format!("begun {share} of the way round");
+            let mut found = self.end_and_band(&f, taken);
+            // The first row at or after `from_s`: where the record's commands begin.
+            let first_s =
+                (from_s / (taken.every as f64 * FINE_S)).ceil() * taken.every as f64 * FINE_S;
+            let begun_deg = deg(self.stream.along(first_s).0);
+            let start_deg = f.start_left_out_deg;
+            if !(start_deg >= begun_deg + 0.99 * five_deg && start_deg <= begun_deg + 90.0) {
+                found.push(format!("start {start_deg:.3}° begun at {begun_deg:.3}°"));
+            }
+            wrong.extend(found.into_iter().map(|w| format!("{begun}: {w}")));
+        }
+        wrong
+    }
 }

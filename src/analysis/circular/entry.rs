@@ -104,12 +104,14 @@ impl EntrySettling {
     /// round it at `speed_m_per_s` from `reach_m` along it on, where the entry transient
     /// `transient_m` (radial, along the path; [`EntrySettling::transient_m`]) was read: the
     /// time constants [`settling_within`] gives from there, never fewer than five; five
-    /// before the end. Each at most a quarter turn.
+    /// before the end. Each at most a quarter turn: the start's past `begun_m`, where the
+    /// record's commands began on the circle (its start, or further round where the record
+    /// began while the command ran round it).
     fn leads_m(
         &self,
         c: &Circle,
         transient_m: [f64; 2],
-        reach_m: f64,
+        [begun_m, reach_m]: [f64; 2],
         speed_m_per_s: f64,
     ) -> [f64; 2] {
         let tau_s = self.tau_s(c);
@@ -120,8 +122,11 @@ impl EntrySettling {
         };
         let needed = settling_within(transient_m[0], turned_m, apart, ENTRY_TIME_CONSTANTS);
         let path_m = |n: f64| n * tau_s * speed_m_per_s;
-        let start_m = reach_m + path_m(needed);
-        [start_m, path_m(ENTRY_TIME_CONSTANTS)].map(|m| quarter_turn_at_most(c, m))
+        let start_m = begun_m + quarter_turn_at_most(c, reach_m - begun_m + path_m(needed));
+        [
+            start_m,
+            quarter_turn_at_most(c, path_m(ENTRY_TIME_CONSTANTS)),
+        ]
     }
 
     /// How much faster the faster of circle `c`'s plane's loops settles than the slower, less
@@ -320,6 +325,9 @@ struct Entering {
     recent: VecDeque<OnCircle>,
     /// The last sample at which the command stood on the circle before it set off.
     standing: Option<OnCircle>,
+    /// The path from the circle's start to where the record's commands began on it (m):
+    /// none where they stood at its start first.
+    begun_m: Option<f64>,
     decided: bool,
     /// The path run (m) where the newer of the last two spans found steady began: the
     /// command's speed had not yet changed there, so neither had the loops' lag (they
@@ -343,9 +351,10 @@ struct OnCircle {
 
 impl Entries {
     /// Takes the command on circle `c` (the `i`th gathered), having run `run_m` along it
-    /// since it set off (`None` before); the loops' model has taken it. Returns the
-    /// circle's windows (start, end; m) where they change: a quarter turn at the start where
-    /// the command sets off, none of the circle yet counting as settled; then, once its
+    /// (from where it set off, or from the circle's start where the record began as it ran
+    /// round; `None` before it set off); the loops' model has taken it. Returns the
+    /// circle's windows (start, end; m) where they change: a quarter turn past where the
+    /// commands began on it at the start where the command sets off, none of the circle yet counting as settled; then, once its
     /// speed over the last of the slower loop's time constants has come within
     /// [`STEADY_SPEED_SHARE`] of its speed over the one before, the windows of the entry
     /// transient read where those began ([`EntrySettling::transient_m`]): where the command
@@ -372,21 +381,24 @@ impl Entries {
             e.standing = Some(at(0.0));
             return None;
         };
+        // From the circle's start where the command stood there first; further round where
+        // the record began as it ran round.
+        let begun_m = *(e.begun_m).get_or_insert(if e.standing.is_some() { 0.0 } else { run_m });
         e.last_m = (run_m, run_m - e.last_m.0);
         let tau_s = entry.tau_s(c);
         if e.decided {
             e.follow(tau_s, at(run_m));
             return None;
         }
-        let quarter_m = 0.25 * std::f64::consts::TAU * c.radius_m;
-        // Until the speed is known: a quarter turn at the start, five time constants at
-        // the feed before the end.
+        let quarter_m = begun_m + 0.25 * std::f64::consts::TAU * c.radius_m;
+        // Until the speed is known: a quarter turn past where the commands began on the
+        // circle, five time constants at the feed before the end.
         let undecided = ([quarter_m, entry.lead_m(c)], c.feed_m_per_s);
         let first = e.recent.is_empty();
         let read = |p: OnCircle, speed_m_per_s: f64| {
             let transient_m = entry.transient_m(c, p.command_m, p.lag_m, speed_m_per_s);
             (
-                entry.leads_m(c, transient_m, p.run_m, speed_m_per_s),
+                entry.leads_m(c, transient_m, [begun_m, p.run_m], speed_m_per_s),
                 speed_m_per_s,
             )
         };

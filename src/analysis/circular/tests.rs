@@ -3,9 +3,9 @@
 use super::*;
 
 /// The figures of a path commanded where it runs (a path without lag), each circle's first
-/// sample commanded at the start every circle here has, (0.1 m, 0), where the command stands
-/// before it sets off; the path's first sample is repeated before it, so that every sample
-/// of the first circle counts.
+/// sample commanded at that circle's start, where the command stands before it sets off;
+/// the path's first sample is repeated before it, so that every sample of the first circle
+/// counts.
 fn circular_test(circles: &[Circle], segment: &[u32], pos_m: [&[f64]; 3]) -> CircularTest {
     let before = |v: &[f64]| -> Vec<f64> { v.first().into_iter().chain(v).copied().collect() };
     let segment: Vec<u32> = segment
@@ -17,9 +17,23 @@ fn circular_test(circles: &[Circle], segment: &[u32], pos_m: [&[f64]; 3]) -> Cir
     let pos_m = pos_m.map(before);
     let mut command_m = pos_m.clone();
     for k in 0..segment.len() {
-        if k == 0 || segment[k] != segment[k - 1] {
-            command_m[0][k] = 0.1;
-            command_m[1][k] = 0.0;
+        let first = k == 0 || segment[k] != segment[k - 1];
+        let Some(c) = circles
+            .iter()
+            .find(|c| first && c.segment == segment[k] as usize)
+        else {
+            continue;
+        };
+        let [a, b, normal] = c.plane.axes();
+        let (sin, cos) = c.start_rad.sin_cos();
+        let start = [
+            c.center_m[0] + c.radius_m * cos,
+            c.center_m[1] + c.radius_m * sin,
+        ];
+        for (axis, v) in [(a, start[0]), (b, start[1]), (normal, c.height_m)] {
+            if let Some(x) = command_m[axis].get_mut(k) {
+                *x = v;
+            }
         }
     }
     let command = CommandSeries {
@@ -717,12 +731,13 @@ fn figures_of_commands(
 #[test]
 fn a_record_begun_mid_circle_counts_from_the_circles_start() {
     let text = "G21 G90 G17 G94\nG0 X10 Y0 Z0\nG3 X10 Y0 I-10 J0 F1000\nG2 X10 Y0 I-10 J0\n\
-                G18 G2 X10 Z0 I-10 K0\nG19 G3 Y0 Z0 J-5 K0\nM2\n";
+                G18 G2 X10 Z0 I-10 K0\nG3 X10 Z0 I-10 K0\nG19 G3 Y0 Z0 J-5 K0\n\
+                G2 Y0 Z0 J-5 K0\nM2\n";
     let program =
         crate::gcode::parse_program(text, "t.nc", &crate::gcode::InterpretOptions::default())
             .unwrap();
     let found = circles(&program.segments);
-    assert_eq!(found.len(), 4, "{found:?}");
+    assert_eq!(found.len(), 6, "{found:?}");
     for c in &found {
         let seg = program.segments[c.segment];
         let at = |along_m: f64| {
