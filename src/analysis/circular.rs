@@ -113,24 +113,42 @@ pub(crate) fn radial_points(
         return Vec::new();
     };
     let lead_m = gathered.leads_m[i];
-    let (points, _) = settled(c, gathered.points.swap_remove(i), lead_m);
-    points.into_iter().map(|p| c.polar(p)).collect()
+    let settled = settled(c, gathered.points.swap_remove(i), lead_m);
+    settled.points.into_iter().map(|p| c.polar(p)).collect()
 }
 
-/// A circle's points the figures come from, and how far past its start they begin
-/// (degrees): those taken once the loops had settled into the circle, away from its start
-/// and end by `lead_m` of commanded path; all of them where those are too few for figures
-/// (the circle too short or too sparsely sampled for its loops' settling).
-fn settled(c: &Circle, points: PeakThinned<Point>, lead_m: [f64; 2]) -> (Vec<[f64; 2]>, [f64; 2]) {
+/// The points of a circle its figures come from.
+struct Settled {
+    points: Vec<[f64; 2]>,
+    /// How far past its start and before its end they leave out (degrees).
+    left_out_deg: [f64; 2],
+    /// Whether they include the loops' settling at the start and end: its windows left too
+    /// few points between them, so every point counts.
+    settling_included: bool,
+}
+
+/// A circle's points the figures come from: those taken once the loops had settled into
+/// the circle, away from its start and end by `lead_m` of commanded path; all of them where
+/// those are too few for figures (the circle too short or too sparsely sampled for its
+/// loops' settling) — then the figures hold the settling, and say so.
+fn settled(c: &Circle, points: PeakThinned<Point>, lead_m: [f64; 2]) -> Settled {
     let all = points.into_points();
     let within: Vec<[f64; 2]> = (all.iter())
         .filter(|p| runs_within(c, p.2, lead_m))
         .map(|p| p.0)
         .collect();
     if within.len() >= MIN_SAMPLES {
-        (within, lead_m.map(|m| (m / c.radius_m).to_degrees()))
+        Settled {
+            points: within,
+            left_out_deg: lead_m.map(|m| (m / c.radius_m).to_degrees()),
+            settling_included: false,
+        }
     } else {
-        (all.into_iter().map(|p| p.0).collect(), [0.0; 2])
+        Settled {
+            settling_included: within.len() < all.len(),
+            points: all.into_iter().map(|p| p.0).collect(),
+            left_out_deg: [0.0; 2],
+        }
     }
 }
 
@@ -258,6 +276,12 @@ pub struct CircleFigures {
     /// at least five of the loops' time constants at the speed the start's window was read
     /// at (the programmed feed where none was found); at most a quarter turn.
     pub end_left_out_deg: f64,
+    /// Whether the figures hold the loops' settling at the circle's start and end: the
+    /// windows above left fewer points between them than figures need (a circle too short
+    /// or too sparsely sampled for its loops' settling, or a record holding too little of
+    /// it), so every point counts and nothing is left out. G then is the path's own band,
+    /// not the steady deviation a ballbar's figures describe.
+    pub settling_included: bool,
 }
 
 /// The hysteresis of a pair of circles run in opposite directions (µm).
@@ -533,12 +557,17 @@ impl CircleSamples {
             .zip(self.points)
             .zip(self.leads_m.into_iter().zip(self.speeds_m_per_s));
         for ((c, p), (lead_m, speed_m_per_s)) in gathered {
-            let (points, [left_out_deg, end_left_out_deg]) = settled(&c, p, lead_m);
+            let Settled {
+                points,
+                left_out_deg: [left_out_deg, end_left_out_deg],
+                settling_included,
+            } = settled(&c, p, lead_m);
             if points.len() >= MIN_SAMPLES {
                 let zones = SpikeZones::of(&c, &entry, speed_m_per_s);
                 let mut f = figures(&c, &points, zones);
                 f.start_left_out_deg = left_out_deg;
                 f.end_left_out_deg = end_left_out_deg;
+                f.settling_included = settling_included;
                 // A quadrant point whose neighbourhood the left-out start and end cut into
                 // has no spike the points can measure.
                 for (q, spike) in f.reversal_spikes_um.iter_mut().enumerate() {
@@ -594,6 +623,7 @@ fn figures(c: &Circle, p: &[[f64; 2]], zones: SpikeZones) -> CircleFigures {
         samples: p.len(),
         start_left_out_deg: 0.0,
         end_left_out_deg: 0.0,
+        settling_included: false,
     }
 }
 
@@ -831,7 +861,11 @@ impl CircularTest {
                 c.f_max_um,
                 c.f_min_um,
                 spikes.join(" "),
-                left_out_text(c.start_left_out_deg, c.end_left_out_deg)
+                if c.settling_included {
+                    SETTLING_INCLUDED_TEXT.to_string()
+                } else {
+                    left_out_text(c.start_left_out_deg, c.end_left_out_deg)
+                }
             ));
         }
         for p in &self.pairs {
@@ -864,6 +898,10 @@ impl CircularTest {
         s
     }
 }
+
+/// What a circle's line says where its figures hold the loops' settling.
+const SETTLING_INCLUDED_TEXT: &str =
+    "   (its start and end counted: too few samples between the loops' settling to leave it out)";
 
 /// What a circle's line says of the arcs its figures leave out at its start and end (deg):
 /// one angle where both are alike, both where the start's is longer (a table that set off

@@ -225,7 +225,8 @@ fn headline(json: &Json) -> Vec<(&'static str, Fig, &'static str)> {
     ]
 }
 
-/// One row per circle: line, plane, direction, radius, G, F, the four reversal spikes.
+/// One row per circle: line, plane, direction, radius, G, F, the four reversal spikes, and
+/// whether the figures hold the loops' settling.
 fn circle_rows(json: &Json) -> Vec<Vec<Fig>> {
     let n = json["circular_test"]["circles"]
         .as_array()
@@ -243,6 +244,8 @@ fn circle_rows(json: &Json) -> Vec<Vec<Fig>> {
                 f("f_min_um", 2),
             ];
             row.extend((0..4).map(|k| f(&format!("reversal_spikes_um[{k}]"), 1)));
+            // Where the windows left too few samples, G holds the loops' settling.
+            row.push(f("settling_included", 0));
             row
         })
         .collect()

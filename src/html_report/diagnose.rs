@@ -347,6 +347,7 @@ mod tests {
             samples: 100,
             start_left_out_deg: 0.0,
             end_left_out_deg: 0.0,
+            settling_included: false,
         }
     }
 

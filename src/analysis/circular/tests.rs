@@ -754,3 +754,34 @@ fn a_record_begun_mid_circle_counts_from_the_circles_start() {
         }
     }
 }
+
+/// A circle too sparsely sampled for its loops' settling: under loops of τ = 2 s the R100
+/// circle at F1000 (16.7 mm/s) needs five time constants, 167 mm, at its end and more from
+/// rest at its start, so each window takes its most, a quarter turn, and half the turn is
+/// left. Sampled 80 times a turn, that half holds 39 points — figures enough (36), the
+/// quarter turns left out; sampled 60 times, 29: every point counts, nothing is said to be
+/// left out, and the figures and their line say they hold the settling.
+#[test]
+fn a_circle_too_sparse_for_its_windows_says_its_figures_hold_the_settling() {
+    let c = circle(true, 0);
+    let turn_s = c.length_m / c.feed_m_per_s;
+    for (per_turn, included) in [(80usize, false), (60, true)] {
+        let step_s = turn_s / per_turn as f64;
+        let commands = (0..=per_turn).map(|k| {
+            let a = std::f64::consts::TAU * k as f64 / per_turn as f64;
+            [0.1 * a.cos(), 0.1 * a.sin(), 0.0]
+        });
+        let f = figures_of_commands(c, 2.0, step_s, commands);
+        assert_eq!(f.settling_included, included, "{per_turn}: {f:?}");
+        let left_out_deg = if included { 0.0 } else { 90.0 };
+        assert!((f.start_left_out_deg - left_out_deg).abs() < 1e-9, "{f:?}");
+        assert!((f.end_left_out_deg - left_out_deg).abs() < 1e-9, "{f:?}");
+        let text = CircularTest {
+            circles: vec![f],
+            pairs: Vec::new(),
+        }
+        .text();
+        assert_eq!(text.contains("too few samples between"), included, "{text}");
+        assert_eq!(text.contains("left out"), !included, "{text}");
+    }
+}
