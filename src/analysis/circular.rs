@@ -145,7 +145,9 @@ fn settled(c: &Circle, points: PeakThinned<Point>, lead_m: [f64; 2]) -> Settled 
         }
     } else {
         Settled {
-            settling_included: within.len() < all.len(),
+            // Only windows asked for leave settling out: without them every point is the
+            // circle's own (the first, at its start, merely falls on the window's edge).
+            settling_included: lead_m.iter().any(|&m| m > 0.0) && within.len() < all.len(),
             points: all.into_iter().map(|p| p.0).collect(),
             left_out_deg: [0.0; 2],
         }

@@ -205,7 +205,13 @@ const STATIC: Knob = Knob {
 };
 /// The same on an axis with presliding bristles, where friction near rest may lie below
 /// Coulomb's down to the tenth the machine file allows.
-const STATIC_WITH_BRISTLES: Knob = Knob { min: 0.1, ..STATIC };
+pub(crate) const STATIC_WITH_BRISTLES: Knob = Knob { min: 0.1, ..STATIC };
+/// The level near rest towards − on an axis with bristles, where it differs from the level
+/// towards + ([`STATIC_WITH_BRISTLES`], which then holds towards + alone).
+pub(crate) const STATIC_NEGATIVE_WITH_BRISTLES: Knob = Knob {
+    key: "friction.static_to_coulomb_negative",
+    ..STATIC_WITH_BRISTLES
+};
 
 /// A transfer-function controller's gain at low frequency: the ratio of the lowest-order
 /// coefficients of numerator and denominator (an integrating controller's integral gain, a
@@ -512,6 +518,10 @@ pub(crate) fn get(axis: &AxisConfig, key: &str) -> f64 {
             axis.friction.coulomb_coefficient * axis.drive.table_mass_kg * GRAVITY_M_PER_S2
         }
         "held_at_start_n" => axis.held_at_start_n,
+        // Where the machine gives no level of its own towards −, the one level holds both ways.
+        "friction.static_to_coulomb_negative" => {
+            (axis.friction.static_to_coulomb_negative).unwrap_or(axis.friction.static_to_coulomb)
+        }
         other => crate::machine::keys::get(axis, other).unwrap_or(f64::NAN),
     }
 }

@@ -34,6 +34,7 @@ use crate::machine::AxisConfig;
 use crate::numeric::units::{GRAVITY_M_PER_S2, um_from_m};
 use crate::sim::AxisModel;
 
+mod direction;
 mod gates;
 
 use gates::{Bars, Refusal, WholeFigures, carried, coulomb_held, first_stops};
@@ -78,8 +79,14 @@ pub struct PreslidingVerdict {
     pub statement: String,
     /// The held-out RMS (µm) of the fit without bristles …
     pub held_out_without_um: f64,
-    /// … and with the shape each half chose (NaN where not tried).
+    /// … and with the shape each half chose (NaN where not tried); with a level near rest
+    /// each way where those are written.
     pub held_out_with_um: f64,
+    /// Whether friction near rest is written each way (towards + and towards −).
+    pub by_direction: bool,
+    /// The held-out RMS (µm) of the written shape with one level near rest both ways, where
+    /// a level each way was tried (NaN otherwise).
+    pub held_out_one_level_um: f64,
 }
 
 /// One shape of bristles.
@@ -154,6 +161,8 @@ pub(super) fn tried(
         statement: format!("presliding friction: not determined ({reason})"),
         held_out_without_um: without_um,
         held_out_with_um: with_um,
+        by_direction: false,
+        held_out_one_level_um: f64::NAN,
     };
     let Some(knobs) = refitted(&id, knobs_all) else {
         let reason = "the model fitted has no Coulomb friction for bristles to carry";
@@ -452,39 +461,14 @@ fn written(
     scored: &Scored,
 ) -> Option<(AxisConfig, AxisIdentification)> {
     let with_um = scored.figure_um();
-    let round = &best.round;
-    let config = round.config(&round.whole);
-    let residual = fit.residual(&config)?;
-    let mask = fit.mask();
-    let mut id = id.clone();
-    for v in super::fitted_values(&round.knobs, round, &config, template) {
-        match id.values.iter_mut().find(|w| w.key == v.key) {
-            Some(w) => *w = super::refitted_value(w, v, &round.knobs),
-            None => id.values.push(v),
-        }
-    }
-    for (key, unit) in BRISTLE_KEYS {
-        let value = model_value(key, unit, template, &config);
-        match id.values.iter_mut().find(|w| w.key == key) {
-            Some(w) => *w = value,
-            None => id.values.push(value),
-        }
-    }
-    let (ctx, axis, offset) = (fit.ctx(), fit.axis(), fit.offset());
-    let rms_um = um_from_m(masked_rms(&residual, mask));
     let without_um = id.held_out_identified_um;
-    id.reached = within_noise(rms_um, um_from_m(ctx.noise_sigma));
-    id.rms_identified_um = rms_um;
-    id.held_out_identified_um = with_um;
-    id.held_out_in_sample = false;
-    id.held_out_share = with_um / id.following_error_rms_um;
-    id.better_than_template = verdict::predicts_better(with_um, id.held_out_template_um);
-    id.largest_at = verdict::largest_at(ctx, axis, offset, &residual, mask);
-    id.gain_per_inertia = super::gain_per_inertia(round, &best.base);
-    if id.while_moving.is_some() {
-        let template_residual = fit.residual(template)?;
-        id.while_moving = verdict::while_moving(fit, round, fold, &template_residual);
-    }
+    let (config, mut id) = adopted(
+        fit,
+        (template, fold),
+        id,
+        (&best.round, &best.base),
+        with_um,
+    )?;
     let f = &config.friction;
     id.presliding = Some(PreslidingVerdict {
         written: true,
@@ -501,7 +485,59 @@ fn written(
         ),
         held_out_without_um: without_um,
         held_out_with_um: with_um,
+        by_direction: false,
+        held_out_one_level_um: f64::NAN,
     });
+    Some(direction::tried(
+        fit,
+        (template, fold),
+        (config, id),
+        &best.round.knobs,
+    ))
+}
+
+/// The axis as `round` (fitted about `base`) has it on the whole record: its values replacing
+/// those `id` holds and the bristles' added where the round did not fit them, judged on the
+/// held-out figure `with_um`.
+fn adopted(
+    fit: &Fit,
+    (template, fold): (&AxisConfig, &[bool]),
+    id: &AxisIdentification,
+    (round, base): (&Round, &AxisConfig),
+    with_um: f64,
+) -> Option<(AxisConfig, AxisIdentification)> {
+    let config = round.config(&round.whole);
+    let residual = fit.residual(&config)?;
+    let mask = fit.mask();
+    let mut id = id.clone();
+    for v in super::fitted_values(&round.knobs, round, &config, template) {
+        match id.values.iter_mut().find(|w| w.key == v.key) {
+            Some(w) => *w = super::refitted_value(w, v, &round.knobs),
+            None => id.values.push(v),
+        }
+    }
+    let fitted = |key: &str| round.knobs.iter().any(|k| k.key == key);
+    for (key, unit) in BRISTLE_KEYS.into_iter().filter(|(key, _)| !fitted(key)) {
+        let value = model_value(key, unit, template, &config);
+        match id.values.iter_mut().find(|w| w.key == key) {
+            Some(w) => *w = value,
+            None => id.values.push(value),
+        }
+    }
+    let (ctx, axis, offset) = (fit.ctx(), fit.axis(), fit.offset());
+    let rms_um = um_from_m(masked_rms(&residual, mask));
+    id.reached = within_noise(rms_um, um_from_m(ctx.noise_sigma));
+    id.rms_identified_um = rms_um;
+    id.held_out_identified_um = with_um;
+    id.held_out_in_sample = false;
+    id.held_out_share = with_um / id.following_error_rms_um;
+    id.better_than_template = verdict::predicts_better(with_um, id.held_out_template_um);
+    id.largest_at = verdict::largest_at(ctx, axis, offset, &residual, mask);
+    id.gain_per_inertia = super::gain_per_inertia(round, base);
+    if id.while_moving.is_some() {
+        let template_residual = fit.residual(template)?;
+        id.while_moving = verdict::while_moving(fit, round, fold, &template_residual);
+    }
     Some((config, id))
 }
 
@@ -579,6 +615,8 @@ pub(super) fn not_tried(
             statement: format!("presliding friction: not determined (not tried: {why})"),
             held_out_without_um: id.held_out_identified_um,
             held_out_with_um: f64::NAN,
+            by_direction: false,
+            held_out_one_level_um: f64::NAN,
         });
     }
     (config, id)

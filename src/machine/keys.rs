@@ -456,6 +456,9 @@ pub const AXIS_KEYS: &[AxisKey] = &[
         "presliding (LuGre) bristle damping σ1",
         |a| a.friction.bristle_damping_n_s_per_m
     ),
+    optional!("friction.static_to_coulomb_negative", "", Positive(10.0), Always,
+        "with presliding bristles, friction near rest over Coulomb friction moving towards − where it differs from towards + (friction.static_to_coulomb then holds towards + alone)",
+        |a| a.friction.static_to_coulomb_negative, r => *r),
     optional!("gravity.counterbalance_n", "N", NonNegative(1e7), Always,
         "force of a counterbalance holding a vertical axis up", |a| a.gravity, g => g.counterbalance_n),
     // A beam a holder rides along is some metres; a centimetre is none. How stiff it must be

@@ -458,6 +458,11 @@ pub struct Friction {
     /// Presliding bristle damping σ1 (N·s/m); only with a bristle stiffness.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub bristle_damping_n_s_per_m: f64,
+    /// With presliding bristles, friction near rest over Coulomb's while the table moves
+    /// towards −, where it differs from its level towards + (`static_to_coulomb`, which then
+    /// holds for + alone); absent: the same both ways.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub static_to_coulomb_negative: Option<f64>,
 }
 
 impl Friction {
@@ -481,6 +486,17 @@ impl Friction {
             return self.static_to_coulomb * coulomb_n;
         }
         (self.static_to_coulomb * coulomb_n).max(coulomb_n + self.stribeck_level_n)
+    }
+
+    /// The friction near rest (N) towards + and towards − over a Coulomb friction of
+    /// `coulomb_n`: [`Friction::static_n`] both ways, but where bristles carry a level of
+    /// their own towards −.
+    pub fn rest_n_by_direction(&self, coulomb_n: f64) -> [f64; 2] {
+        let plus_n = self.static_n(coulomb_n);
+        match self.static_to_coulomb_negative {
+            Some(ratio) if self.has_presliding() => [plus_n, ratio * coulomb_n],
+            _ => [plus_n; 2],
+        }
     }
 }
 

@@ -198,6 +198,14 @@ fn validate_presliding(
     f: &super::Friction,
 ) -> Result<(), ConfigError> {
     if !f.has_presliding() {
+        if f.static_to_coulomb_negative.is_some() {
+            return Err(c.inconsistent(
+                &k("friction.static_to_coulomb_negative"),
+                "sets friction near rest towards − for presliding bristles: it needs \
+                 friction.bristle_stiffness_n_per_um"
+                    .into(),
+            ));
+        }
         if f.bristle_damping_n_s_per_m > 0.0 {
             return Err(c.inconsistent(
                 &k("friction.bristle_damping_n_s_per_m"),
@@ -217,6 +225,23 @@ fn validate_presliding(
             ),
         ));
     }
+    if f.static_to_coulomb_negative.is_some() && f.stribeck_level_n > 0.0 {
+        return Err(c.inconsistent(
+            &k("friction.static_to_coulomb_negative"),
+            "sets friction near rest towards − while friction.stribeck_level_n sets it both \
+             ways: give one of the two"
+                .into(),
+        ));
+    }
+    if let Some(ratio) = f.static_to_coulomb_negative.filter(|r| *r < 0.1) {
+        return Err(c.inconsistent(
+            &k("friction.static_to_coulomb_negative"),
+            format!(
+                "is {ratio}: friction near rest below a tenth of Coulomb friction is no \
+                 guideway's (must be at least 0.1)"
+            ),
+        ));
+    }
     if f.static_to_coulomb < 1.0 && f.stribeck_level_n > 0.0 {
         return Err(c.inconsistent(
             &k("friction.static_to_coulomb"),
@@ -227,9 +252,10 @@ fn validate_presliding(
             ),
         ));
     }
-    if (f.static_to_coulomb != 1.0 || f.stribeck_level_n > 0.0)
-        && f.stribeck_velocity_mm_per_min <= 0.0
-    {
+    let rest_differs = f.static_to_coulomb != 1.0
+        || f.stribeck_level_n > 0.0
+        || f.static_to_coulomb_negative.is_some_and(|r| r != 1.0);
+    if rest_differs && f.stribeck_velocity_mm_per_min <= 0.0 {
         return Err(c.inconsistent(
             &k("friction.stribeck_velocity_mm_per_min"),
             "must be positive with presliding bristles whose level near rest differs from \

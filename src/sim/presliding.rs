@@ -33,17 +33,18 @@ pub struct Presliding {
     pub sigma1_n_s_per_m: f64,
     /// Coulomb friction f_c (N).
     pub coulomb_n: f64,
-    /// Friction level at rest f_rest (N): static friction, or below Coulomb's where the
-    /// machine file says so.
-    pub rest_n: f64,
+    /// Friction level at rest f_rest (N) towards + and towards −: static friction, or below
+    /// Coulomb's where the machine file says so; the same both ways unless it gives a level
+    /// towards − of its own (a guideway whose lubrication or preload differs by direction).
+    pub rest_n: [f64; 2],
     /// Speed over which the level at rest passes into Coulomb's (m/s); 0 when they are equal.
     pub fade_m_per_s: f64,
 }
 
 impl Presliding {
     /// The axis's presliding friction, if its machine file gives bristles: Coulomb friction
-    /// `f_c` and the level at rest `f_rest` (N) as the model derives them.
-    pub(crate) fn from_config(c: &AxisConfig, f_c: f64, f_rest: f64) -> Option<Presliding> {
+    /// `f_c` and the level at rest `f_rest` (N) each way as the model derives them.
+    pub(crate) fn from_config(c: &AxisConfig, f_c: f64, f_rest: [f64; 2]) -> Option<Presliding> {
         let f = &c.friction;
         f.has_presliding().then(|| Presliding {
             sigma0_n_per_m: f.bristle_stiffness_n_per_um * 1e6,
@@ -55,14 +56,16 @@ impl Presliding {
     }
 
     /// The steady sliding friction g(v) (N) at speed `v_m_per_s`, with `added_n` from the
-    /// friction maps; never negative.
+    /// friction maps; never negative. The level near rest is that of the direction moved
+    /// (at a standstill the bristles do not bend, whichever is taken).
     pub(crate) fn level_n(&self, v_m_per_s: f64, added_n: f64) -> f64 {
+        let rest_n = self.rest_n[usize::from(v_m_per_s < 0.0)];
         let fade = if self.fade_m_per_s > 0.0 {
             (-(v_m_per_s / self.fade_m_per_s).powi(2)).exp()
         } else {
             0.0
         };
-        (self.coulomb_n + (self.rest_n - self.coulomb_n) * fade + added_n).max(0.0)
+        (self.coulomb_n + (rest_n - self.coulomb_n) * fade + added_n).max(0.0)
     }
 
     /// Sub-steps a cycle of `dt_s` needs for the bristles on a table of `mass_kg`.
@@ -109,7 +112,7 @@ mod tests {
             sigma0_n_per_m: 50e6,
             sigma1_n_s_per_m: 2e4,
             coulomb_n: 100.0,
-            rest_n: 80.0,
+            rest_n: [80.0, 80.0],
             fade_m_per_s: 0.001,
         }
     }
@@ -146,6 +149,21 @@ mod tests {
         assert!((p.level_n(0.01, 0.0) - 100.0).abs() < 1e-9);
         let at_fade = 100.0 - 20.0 * (-1.0f64).exp();
         assert!((p.level_n(-0.001, 0.0) - at_fade).abs() < 1e-12);
+    }
+
+    /// A level near rest towards − of its own acts only while the table moves towards −;
+    /// far above the fade speed both directions slide at Coulomb's level.
+    #[test]
+    fn the_level_near_rest_is_that_of_the_direction_moved() {
+        let p = Presliding {
+            rest_n: [20.0, 140.0],
+            ..bristles()
+        };
+        // At a thousandth of the fade speed the fade is exp(−1e−6): the level near rest.
+        assert!((p.level_n(1e-6, 0.0) - 20.0).abs() < 1e-3);
+        assert!((p.level_n(-1e-6, 0.0) - 140.0).abs() < 1e-3);
+        assert!((p.level_n(0.01, 0.0) - 100.0).abs() < 1e-9);
+        assert!((p.level_n(-0.01, 0.0) - 100.0).abs() < 1e-9);
     }
 
     /// A cycle is cut so that each sub-step is a tenth of the bristles' time scale.

@@ -5,7 +5,9 @@
 //! bristles on either axis.
 //!
 //! X's bristles are written, as a model's shape, and predict the record's held-out halves
-//! better than the fit without them; Y's hybrid friction gets none, and says why.
+//! better than the fit without them; Y's hybrid friction gets none, and says why. Where X's
+//! guideway holds harder near rest one way than the other, a level each way is written
+//! beside them; where it holds alike, one level stays.
 
 use crate::common;
 
@@ -108,6 +110,70 @@ fn bristles_the_record_has_are_written_and_predict_its_held_out_halves_better() 
         assert!(!value.determined && !value.measured, "{value:?}");
     }
     assert!(v.statement.starts_with("presliding friction: bristles of "));
+    // The truth's level near rest is one both ways: no level each way is written.
+    assert!(!v.by_direction, "{v:?}");
+    assert_eq!(f.static_to_coulomb_negative, None, "{f:?}");
+}
+
+/// X's guideway of [`truth`], but its friction near rest differs by direction: a tenth of
+/// Coulomb's towards +, 1.4 times it towards − (the lopsided guideway the real table's
+/// separate model suggested on Y), each start of the program's out-and-back one way.
+fn identified_by_direction() -> &'static Identification {
+    static ID: OnceLock<Identification> = OnceLock::new();
+    ID.get_or_init(|| {
+        let (template, mut truth) = truth();
+        truth.x.friction.static_to_coulomb = 0.1;
+        truth.x.friction.static_to_coulomb_negative = Some(1.4);
+        let measured = encoder_record(&program(), &truth, 43);
+        let mut settings = CompareSettings::for_machine(&template);
+        settings.measured_at = MeasuredAt::Motor;
+        identify(&program(), &template, &measured, &settings).unwrap()
+    })
+}
+
+/// The record's two starts, one each way, cannot be explained by one level near rest: a
+/// level each way is written beside the bristles, and predicts the held-out halves better
+/// than one level by the twentieth a larger model must earn. The truth's friction near rest
+/// is 0.1 × 88.3 = 8.8 N towards + and 1.4 × 88.3 = 123.6 N towards −: the levels come
+/// back on the truth's sides of Coulomb friction (the record fixes which way the guideway
+/// holds harder), apart by the truth's 114.8 N within a quarter — the gain, the lead's
+/// corners and the mass stay the template's where the out-and-back leaves them loose, and
+/// the fit takes up what they miss.
+#[test]
+fn friction_near_rest_that_differs_by_direction_is_written_each_way() {
+    let id = identified_by_direction();
+    let x = &id.axes[0];
+    let v = x
+        .presliding
+        .as_ref()
+        .expect("X's template names no bristles");
+    eprintln!("X: {v:?}; held out share {:.3}", x.held_out_share);
+    assert!(v.written && v.by_direction, "{v:?}");
+    assert!(v.held_out_with_um < 0.95 * v.held_out_one_level_um, "{v:?}");
+    assert_eq!(x.held_out_identified_um, v.held_out_with_um);
+    let machine_x = &id.machine.x;
+    let f = &machine_x.friction;
+    let coulomb_n = f.coulomb_coefficient * machine_x.drive.table_mass_kg * 9.81;
+    let plus_n = f.static_to_coulomb * coulomb_n;
+    let minus_n = f.static_to_coulomb_negative.expect("a level towards −") * coulomb_n;
+    eprintln!("{coulomb_n:.1} N, near rest {plus_n:.1} N towards +, {minus_n:.1} N towards −");
+    assert!(plus_n < coulomb_n && coulomb_n < minus_n, "{f:?}");
+    assert!((minus_n - plus_n - 114.8).abs() < 0.25 * 114.8, "{f:?}");
+    // Fitted values with their uncertainty, not a grid's: towards − the record determines it.
+    let negative = (x.values.iter())
+        .find(|v| v.key == "friction.static_to_coulomb_negative")
+        .expect("reported");
+    assert!(negative.determined && !negative.measured, "{negative:?}");
+    assert!(
+        v.statement.contains("friction near rest by direction"),
+        "{}",
+        v.statement
+    );
+    // The machine file written carries it, and reads back to the same friction.
+    let text = id.machine.to_toml();
+    assert!(text.contains("static_to_coulomb_negative"), "{text}");
+    let back = contourcheck::machine::MachineConfig::from_toml_str(&text, "written.toml").unwrap();
+    assert_eq!(back.x.friction, *f);
 }
 
 #[test]

@@ -83,3 +83,30 @@ fn friction_tables_that_take_the_friction_below_zero_are_refused_naming_the_entr
         "{e}"
     );
 }
+
+#[test]
+fn a_level_near_rest_towards_minus_needs_bristles_and_a_guideways_range() {
+    let bristles = "[x.friction]\ncoulomb_coefficient = 0.1\nstatic_to_coulomb = 0.7\n\
+                    viscous_n_s_per_m = 200.0\nbristle_stiffness_n_per_um = 50.0\n\
+                    bristle_damping_n_s_per_m = 10000.0\nstribeck_velocity_mm_per_min = 600.0\n";
+    let with = |extra: &str| read(&format!("base = \"small-table\"\n{bristles}{extra}"));
+    let read_back = with("static_to_coulomb_negative = 1.4\n").unwrap();
+    assert_eq!(read_back.x.friction.static_to_coulomb_negative, Some(1.4));
+    // Towards − as towards +, a tenth of Coulomb's at least: below it no guideway holds.
+    let low = with("static_to_coulomb_negative = 0.05\n").unwrap_err();
+    assert!(
+        low.contains("x.friction.static_to_coulomb_negative"),
+        "{low}"
+    );
+    // Without bristles there is no level near rest by direction to give: refused, not ignored.
+    let stuck = read(
+        "base = \"small-table\"\n[x.friction]\ncoulomb_coefficient = 0.1\n\
+         static_to_coulomb = 1.3\nviscous_n_s_per_m = 200.0\nstatic_to_coulomb_negative = 1.4\n",
+    )
+    .unwrap_err();
+    assert!(
+        stuck.contains("x.friction.static_to_coulomb_negative"),
+        "{stuck}"
+    );
+    assert!(stuck.contains("bristle_stiffness"), "{stuck}");
+}

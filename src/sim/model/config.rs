@@ -68,7 +68,11 @@ impl AxisModel {
             friction_map,
             friction_speed,
             force_ripple: super::ForceRipple::from_config(&c.errors),
-            presliding: crate::sim::presliding::Presliding::from_config(c, f_c, f_s),
+            presliding: crate::sim::presliding::Presliding::from_config(
+                c,
+                f_c,
+                c.friction.rest_n_by_direction(f_c),
+            ),
             measuring: MeasuringError::from_config(&c.errors, c.drive.lead_mm),
             resonance: (c.errors.resonance_hz > 0.0).then_some({
                 (

@@ -205,14 +205,15 @@ impl<'p> Axis<'p> {
         let (sigma0, sigma1, fade) = p.bristles;
         if sigma0 > 0.0 {
             // LuGre: dz/dt = v − σ0·|v|·z/g(v), F = σ0·z + σ1·dz/dt + f_v·v, with
-            // g(v) = f_c + (f_s − f_c)·exp(−(v/v_s)²).
+            // g(v) = f_c + (f_s − f_c)·exp(−(v/v_s)²), f_s that of the direction moved.
             let v = x[V2];
+            let f_s = if v < 0.0 { p.f_s_negative } else { p.f_s };
             let at_rest = if fade > 0.0 {
                 (-(v / fade).powi(2)).exp()
             } else {
                 0.0
             };
-            let g = f_c + (p.f_s - p.f_c) * at_rest;
+            let g = f_c + (f_s - p.f_c) * at_rest;
             dx[Z_B] = v - sigma0 * v.abs() * x[Z_B] / g;
             let friction = sigma0 * x[Z_B] + sigma1 * dx[Z_B] + p.f_v * v;
             dx[X2] = v;

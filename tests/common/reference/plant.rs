@@ -37,6 +37,9 @@ pub struct Plant {
     pub(super) half_gap: f64,
     pub(super) f_c: f64,
     pub(super) f_s: f64,
+    /// Friction near rest moving towards − where bristles carry a level of their own that
+    /// way (f_s otherwise).
+    pub(super) f_s_negative: f64,
     pub(super) f_v: f64,
     /// Delay between the interpolator and the position controller (s).
     pub(super) dead_time: f64,
@@ -162,6 +165,11 @@ impl Plant {
         let j_theta = reduced(jm / (it * it), js);
         let m_axial = reduced((jm / (it * it) + js) / (r * r), mt);
         let f_c = c.friction.coulomb_coefficient * mt * GRAVITY;
+        let f_s = if c.friction.has_presliding() && c.friction.static_to_coulomb < 1.0 {
+            c.friction.static_to_coulomb * f_c
+        } else {
+            (c.friction.static_to_coulomb * f_c).max(f_c + c.friction.stribeck_level_n)
+        };
         Plant {
             kp: 0.0,
             kf: 0.0,
@@ -189,10 +197,10 @@ impl Plant {
             b_screw: d.screw_viscous_nm_s_per_rad,
             half_gap: 0.5e-6 * d.backlash_um,
             f_c,
-            f_s: if c.friction.has_presliding() && c.friction.static_to_coulomb < 1.0 {
-                c.friction.static_to_coulomb * f_c
-            } else {
-                (c.friction.static_to_coulomb * f_c).max(f_c + c.friction.stribeck_level_n)
+            f_s,
+            f_s_negative: match c.friction.static_to_coulomb_negative {
+                Some(ratio) if c.friction.has_presliding() => ratio * f_c,
+                _ => f_s,
             },
             f_v: c.friction.viscous_n_s_per_m,
             dead_time: c.position_loop.dead_time_ms * 1e-3,
