@@ -17,7 +17,7 @@ use common::identifying::{encoder_record, lead_lag_designed_and_run};
 use common::program_text;
 use contourcheck::compare::CompareSettings;
 use contourcheck::gcode::Program;
-use contourcheck::identify::{Identification, identify};
+use contourcheck::identify::{AxisIdentification, Identification, PreslidingVerdict, identify};
 use contourcheck::machine::MachineConfig;
 use contourcheck::sim::MeasuredAt;
 
@@ -50,34 +50,45 @@ fn identified() -> &'static Identification {
     static ID: OnceLock<Identification> = OnceLock::new();
     ID.get_or_init(|| {
         let (template, truth) = truth();
-        let measured = encoder_record(&program(), &truth, 41);
-        let mut settings = CompareSettings::for_machine(&template);
-        settings.measured_at = MeasuredAt::Motor;
-        let id = identify(&program(), &template, &measured, &settings).unwrap();
-        for a in &id.axes {
-            eprintln!(
-                "{}: reached {}, moving only {}, held out {:.3} µm of {:.3} µm (template {:.3})",
-                a.axis,
-                a.reached,
-                a.moving_only,
-                a.held_out_identified_um,
-                a.following_error_rms_um,
-                a.held_out_template_um
-            );
-        }
-        id
+        identified_from(&template, &truth, 41)
     })
 }
 
-#[test]
-fn bristles_the_record_has_are_written_and_predict_its_held_out_halves_better() {
-    let id = identified();
+/// `truth`'s record of [`program`] (noise seeded by `seed`) identified from `template`.
+fn identified_from(template: &MachineConfig, truth: &MachineConfig, seed: u64) -> Identification {
+    let measured = encoder_record(&program(), truth, seed);
+    let mut settings = CompareSettings::for_machine(template);
+    settings.measured_at = MeasuredAt::Motor;
+    let id = identify(&program(), template, &measured, &settings).unwrap();
+    for a in &id.axes {
+        eprintln!(
+            "{}: reached {}, moving only {}, held out {:.3} µm of {:.3} µm (template {:.3})",
+            a.axis,
+            a.reached,
+            a.moving_only,
+            a.held_out_identified_um,
+            a.following_error_rms_um,
+            a.held_out_template_um
+        );
+    }
+    id
+}
+
+/// X's fit and what it says of presliding friction (its template names none).
+fn x_presliding(id: &Identification) -> (&AxisIdentification, &PreslidingVerdict) {
     let x = &id.axes[0];
     let v = x
         .presliding
         .as_ref()
         .expect("X's template names no bristles");
     eprintln!("X: {v:?}; held out share {:.3}", x.held_out_share);
+    (x, v)
+}
+
+#[test]
+fn bristles_the_record_has_are_written_and_predict_its_held_out_halves_better() {
+    let id = identified();
+    let (x, v) = x_presliding(id);
     assert!(v.written, "{v:?}");
     // Kept only where the halves' fits with them predict the other halves better by the
     // twentieth every larger model must earn.
@@ -124,10 +135,7 @@ fn identified_by_direction() -> &'static Identification {
         let (template, mut truth) = truth();
         truth.x.friction.static_to_coulomb = 0.1;
         truth.x.friction.static_to_coulomb_negative = Some(1.4);
-        let measured = encoder_record(&program(), &truth, 43);
-        let mut settings = CompareSettings::for_machine(&template);
-        settings.measured_at = MeasuredAt::Motor;
-        identify(&program(), &template, &measured, &settings).unwrap()
+        identified_from(&template, &truth, 43)
     })
 }
 
@@ -142,12 +150,7 @@ fn identified_by_direction() -> &'static Identification {
 #[test]
 fn friction_near_rest_that_differs_by_direction_is_written_each_way() {
     let id = identified_by_direction();
-    let x = &id.axes[0];
-    let v = x
-        .presliding
-        .as_ref()
-        .expect("X's template names no bristles");
-    eprintln!("X: {v:?}; held out share {:.3}", x.held_out_share);
+    let (x, v) = x_presliding(id);
     assert!(v.written && v.by_direction, "{v:?}");
     assert!(v.held_out_with_um < 0.95 * v.held_out_one_level_um, "{v:?}");
     assert_eq!(x.held_out_identified_um, v.held_out_with_um);
