@@ -627,6 +627,7 @@ pub(super) fn not_tried(
 pub(super) fn not_written(verdict: &mut Option<PreslidingVerdict>, why: &str) {
     if let Some(v) = verdict.as_mut().filter(|v| v.written) {
         v.written = false;
+        v.by_direction = false;
         v.statement = format!("presliding friction: not determined ({why})");
     }
 }
@@ -713,12 +714,13 @@ mod tests {
         // Written, then the template's values written instead: taken back, with the reason.
         let mut written = Some(PreslidingVerdict {
             written: true,
+            by_direction: true,
             statement: "presliding friction: bristles of 50 N/µm".to_string(),
             ..v
         });
         not_written(&mut written, "the axis's fit is not written");
         let w = written.unwrap();
-        assert!(!w.written);
+        assert!(!w.written && !w.by_direction);
         assert_eq!(
             w.statement,
             "presliding friction: not determined (the axis's fit is not written)"
