@@ -30,7 +30,8 @@ pub struct HeldAtStart {
     pub force_n: f64,
     /// Its standard uncertainty (N).
     pub uncertainty_n: f64,
-    /// The bound searched within: the friction's level at rest where the axis starts (N).
+    /// The bound it lies within: the friction's level at rest where the axis starts, on
+    /// the side it pushes towards (N).
     pub level_n: f64,
 }
 
@@ -47,13 +48,14 @@ impl Context<'_> {
         use_sample: &dyn Fn(usize) -> bool,
     ) -> Option<HeldAtStart> {
         let search = self.held_search(machine, axis, offset_s, use_sample)?;
-        let force_n = golden_section(&search.cost(), -search.level_n, search.level_n)?;
+        let [plus, minus] = search.levels_n;
+        let force_n = golden_section(&search.cost(), -minus, plus)?;
         let residual = |held_n: f64| search.residual(held_n);
-        let uncertainty_n = slope_uncertainty(&residual, force_n, search.level_n)?;
+        let uncertainty_n = slope_uncertainty(&residual, force_n, [-minus, plus])?;
         Some(HeldAtStart {
             force_n,
             uncertainty_n,
-            level_n: search.level_n,
+            level_n: if force_n < 0.0 { minus } else { plus },
         })
     }
 
@@ -85,7 +87,8 @@ impl Context<'_> {
         use_sample: &dyn Fn(usize) -> bool,
     ) -> Option<f64> {
         let search = self.held_search(machine, axis, offset_s, use_sample)?;
-        golden_section(&search.cost(), -search.level_n, search.level_n)
+        let [plus, minus] = search.levels_n;
+        golden_section(&search.cost(), -minus, plus)
     }
 
     /// What the held force's search needs: none where the record does not start at rest,
@@ -101,17 +104,18 @@ impl Context<'_> {
             return None;
         }
         let x0 = self.start.first_command_m[axis.index()];
-        let level_n = AxisModel::from_config(machine.axis(axis)).rest_friction_n(x0);
+        let levels_n = AxisModel::from_config(machine.axis(axis)).rest_friction_n(x0);
         let used: Vec<usize> = (0..self.samples.len())
             .filter(|&k| self.compared(axis, k) && use_sample(k))
             .collect();
-        (level_n > 0.0 && !used.is_empty()).then_some(HeldSearch {
+        let holds = levels_n.iter().any(|&level| level > 0.0);
+        (holds && !used.is_empty()).then_some(HeldSearch {
             ctx: self,
             machine,
             axis,
             offset_s,
             used,
-            level_n,
+            levels_n,
         })
     }
 }
@@ -124,8 +128,9 @@ struct HeldSearch<'s> {
     offset_s: f64,
     /// The compared samples used (by index).
     used: Vec<usize>,
-    /// The friction's level at rest where the axis starts (N): the bound.
-    level_n: f64,
+    /// The friction's levels at rest where the axis starts against a push towards + and
+    /// towards − (N): the bounds.
+    levels_n: [f64; 2],
 }
 
 impl HeldSearch<'_> {
@@ -175,16 +180,17 @@ fn golden_section(cost: &dyn Fn(f64) -> Option<f64>, lo: f64, hi: f64) -> Option
 
 /// The standard uncertainty (N) of a one-value least-squares fit at `force_n`: the
 /// residual's RMS over the root of the sum of its squared slopes, the slope taken by
-/// central difference over a thousandth of `level_n` (one-sided at the bound), widened by
-/// √((1 + ρ)/(1 − ρ)) for the residual's correlation ρ between neighbouring samples.
+/// central difference over a thousandth of the larger bound of `[low_n, high_n]` (one-sided
+/// at a bound), widened by √((1 + ρ)/(1 − ρ)) for the residual's correlation ρ between
+/// neighbouring samples.
 fn slope_uncertainty(
     residual: &dyn Fn(f64) -> Option<Vec<f64>>,
     force_n: f64,
-    level_n: f64,
+    [low_n, high_n]: [f64; 2],
 ) -> Option<f64> {
-    let step = 1e-3 * level_n;
-    let up = (force_n + step).min(level_n);
-    let down = (force_n - step).max(-level_n);
+    let step = 1e-3 * high_n.max(-low_n);
+    let up = (force_n + step).min(high_n);
+    let down = (force_n - step).max(low_n);
     let (r_up, r_down, r) = (residual(up)?, residual(down)?, residual(force_n)?);
     let slope_ss: f64 = r_up
         .iter()

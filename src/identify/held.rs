@@ -63,8 +63,7 @@ pub(super) fn on_top(
     unbent: Option<&AxisConfig>,
 ) -> (AxisConfig, AxisIdentification) {
     let (config, id) = &found;
-    let tried =
-        !id.held_out_in_sample && fit.holds_start(&|_| true) && fit.held_level_n(config) > 0.0;
+    let tried = !id.held_out_in_sample && fit.holds_start(&|_| true) && holds_any(fit, config);
     if !tried || id.reached {
         return found;
     }
@@ -180,7 +179,7 @@ pub(super) fn told_apart(
         && id.held_at_start.is_none()
         && !id.held_out_in_sample
         && fit.holds_start(&|_| true)
-        && fit.held_level_n(config) > 0.0;
+        && holds_any(fit, config);
     if !tried {
         return found;
     }
@@ -214,12 +213,10 @@ pub(super) fn told_apart(
     }
     let refit = Fit::config(&knobs, start, &with.values);
     let p = knobs.len() - 1;
-    let level_n = fit.held_level_n(&refit);
-    let force_n = refit.held_at_start_n.clamp(-level_n, level_n);
-    // The search's bound is its start's level: at the lower of the two, bounded from one side.
-    let at_level = force_n.abs() >= level_n.min(fit.held_level_n(start)) * (1.0 - 1e-6);
+    let (force_n, level_n, at_level) = within_level(fit, &refit, start);
     id.held_at_start = Some(HeldForce {
         force_n,
+        level_n,
         uncertainty_n: match at_level {
             true => f64::INFINITY,
             false => with.sigma[p].max(with.model_sigma[p]),
@@ -344,10 +341,7 @@ fn reported(
         .knobs
         .iter()
         .position(|k| k.key == HELD_AT_START.key)?;
-    let level_n = fit.held_level_n(config);
-    let force_n = config.held_at_start_n.clamp(-level_n, level_n);
-    let bound_n = level_n.min(fit.held_level_n(base));
-    let at_level = force_n.abs() >= bound_n * (1.0 - 1e-6);
+    let (force_n, level_n, at_level) = within_level(fit, config, base);
     // The half without the start kept the whole fit's force: the halves' difference is the
     // start half's step from it whole, not half of two halves' independent spread.
     let apart = (round.halves[0].values[p] - round.halves[1].values[p]).abs();
@@ -376,7 +370,7 @@ fn not_kept(fit: &Fit, config: &AxisConfig) -> HeldForce {
     HeldForce {
         force_n: 0.0,
         uncertainty_n: f64::NAN,
-        level_n: fit.held_level_n(config),
+        level_n: weaker_level_n(fit, config),
         determined: false,
         at_level: false,
         kept: false,
@@ -390,6 +384,31 @@ fn not_kept(fit: &Fit, config: &AxisConfig) -> HeldForce {
 pub(super) fn unwritten(mut config: AxisConfig) -> AxisConfig {
     config.held_at_start_n = 0.0;
     config
+}
+
+/// Whether friction holds the axis at its start with `config` either way.
+fn holds_any(fit: &Fit, config: &AxisConfig) -> bool {
+    fit.held_level_n(config).iter().any(|&level| level > 0.0)
+}
+
+/// The weaker of the friction's levels at rest at the start with `config` (N): a force held
+/// there that friction kept lies within it whichever way it pushes.
+fn weaker_level_n(fit: &Fit, config: &AxisConfig) -> f64 {
+    let [plus, minus] = fit.held_level_n(config);
+    plus.min(minus)
+}
+
+/// `config`'s force held at the start, within the friction's level at rest on its side
+/// (towards + where it pushes towards +); that level (N); and whether the force lies at it —
+/// at the search's bound, the lower of that level and the one at `start`, where the search
+/// began: bounded from one side only.
+fn within_level(fit: &Fit, config: &AxisConfig, start: &AxisConfig) -> (f64, f64, bool) {
+    let [plus, minus] = fit.held_level_n(config);
+    let force_n = config.held_at_start_n.clamp(-minus, plus);
+    let side = |[plus, minus]: [f64; 2]| if force_n < 0.0 { minus } else { plus };
+    let level_n = side([plus, minus]);
+    let bound_n = level_n.min(side(fit.held_level_n(start)));
+    (force_n, level_n, force_n.abs() >= bound_n * (1.0 - 1e-6))
 }
 
 #[cfg(test)]

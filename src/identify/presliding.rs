@@ -277,8 +277,8 @@ fn rounds(
 /// `config`, whose bristles the fit on the whole record chose, with the shape of [`SHAPES`]
 /// that explains the samples `own` allows best at its other values (its Coulomb force as it
 /// is): where a half's fit starts from a whole fit with bristles written, the shape that
-/// half's own samples choose, as each half chose its own here. None where none can be
-/// simulated.
+/// half's own samples choose, as each half chose its own here; levels near rest fitted each
+/// way stay the fit's. None where none can be simulated.
 pub(super) fn own_shape(
     fit: &Fit,
     config: &AxisConfig,
@@ -288,7 +288,11 @@ pub(super) fn own_shape(
     SHAPES
         .par_iter()
         .filter_map(|shape| {
-            let c = shape.on(config, coulomb_n);
+            let mut c = shape.on(config, coulomb_n);
+            if config.friction.static_to_coulomb_negative.is_some() {
+                // Levels near rest fitted each way are the fit's, not the grid's.
+                c.friction.static_to_coulomb = config.friction.static_to_coulomb;
+            }
             let r = fit.residual(&c)?;
             let ss: f64 = (0..r.len()).filter(|&i| own(i)).map(|i| r[i] * r[i]).sum();
             Some((ss, c))

@@ -259,9 +259,10 @@ impl<'c, 'a> Fit<'c, 'a> {
         self.start_sample.is_some_and(use_sample)
     }
 
-    /// The friction's level at rest where the axis starts with `config` (N): the bound of the
-    /// force held there ([`crate::sim::AxisModel::rest_friction_n`]).
-    pub(crate) fn held_level_n(&self, config: &AxisConfig) -> f64 {
+    /// The friction's levels at rest where the axis starts with `config` (N), against a push
+    /// towards + and towards −: the bounds of the force held there
+    /// ([`crate::sim::AxisModel::rest_friction_n`]).
+    pub(crate) fn held_level_n(&self, config: &AxisConfig) -> [f64; 2] {
         let x0 = (self.ctx.start.first_command_m)
             .get(self.axis.index())
             .copied()
@@ -437,9 +438,9 @@ impl Problem<'_, '_, '_> {
         let t = get(self.base, k.key);
         if k.key == HELD_AT_START.key {
             // Within the friction's level at rest: beyond it the table would have slid.
-            let level = self.fit.held_level_n(self.base);
+            let [plus, minus] = self.fit.held_level_n(self.base);
             let s = k.scale_at(t);
-            ((-level - t).min(0.0) / s, (level - t).max(0.0) / s)
+            ((-minus - t).min(0.0) / s, (plus - t).max(0.0) / s)
         } else if k.logarithmic {
             // A corner stays where the controller's own period lets it be placed and the
             // record can place it: the interpolation cycle is not the controller's period.

@@ -457,7 +457,7 @@ pub const AXIS_KEYS: &[AxisKey] = &[
         |a| a.friction.bristle_damping_n_s_per_m
     ),
     optional!("friction.static_to_coulomb_negative", "", Positive(10.0), Always,
-        "with presliding bristles, friction near rest over Coulomb friction moving towards − where it differs from towards + (friction.static_to_coulomb then holds towards + alone)",
+        "with presliding bristles, friction near rest over Coulomb friction moving towards − where it differs from towards + (friction.static_to_coulomb then holds towards + alone): at least 0.1, and not with friction.stribeck_level_n",
         |a| a.friction.static_to_coulomb_negative, r => *r),
     optional!("gravity.counterbalance_n", "N", NonNegative(1e7), Always,
         "force of a counterbalance holding a vertical axis up", |a| a.gravity, g => g.counterbalance_n),

@@ -530,7 +530,9 @@ fn validate_friction_total(
     let f = &a.friction;
     let e = &a.errors;
     let f_c = f.coulomb_n(a.drive.table_mass_kg);
-    let f_s = f.static_n(f_c);
+    // Friction near rest is checked on its lower level where it differs by direction.
+    let [plus_n, minus_n] = f.rest_n_by_direction(f_c);
+    let f_s = plus_n.min(minus_n);
     let lowest = |values: &[f64]| {
         values
             .iter()

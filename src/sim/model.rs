@@ -326,24 +326,26 @@ impl AxisModel {
         self.kp * self.r * self.it
     }
 
-    /// The friction's level at rest with the table at `x` m (N): the most that stuck
-    /// friction (or the bristles) holds against a push before the table slides — the static
-    /// level (below Coulomb's where the bristles have it so) plus what the position's map adds.
-    pub fn rest_friction_n(&self, x: f64) -> f64 {
+    /// The friction's levels at rest with the table at `x` m (N), against a push towards +
+    /// and towards −: the most that stuck friction (or the bristles) holds before the table
+    /// slides — the static level (below Coulomb's, or another towards −, where the bristles
+    /// have it so) plus what the position's map adds.
+    pub fn rest_friction_n(&self, x: f64) -> [f64; 2] {
         let mapped = if self.has_friction_maps() {
             self.friction_added_n(x, 0.0).1
         } else {
             0.0
         };
-        (self.f_s + mapped).max(0.0)
+        let rest_n = self.presliding.map_or([self.f_s; 2], |p| p.rest_n);
+        rest_n.map(|level| (level + mapped).max(0.0))
     }
 
-    /// The force held at the start (N), within the friction's level at rest at `x` m: a
-    /// table held by friction holds no more than that, and a push beyond it would have moved
-    /// the table before the run began.
+    /// The force held at the start (N), within the friction's level at rest at `x` m on its
+    /// side: a table held by friction holds no more than that, and a push beyond it would
+    /// have moved the table before the run began.
     pub fn held_at_start_bounded_n(&self, x: f64) -> f64 {
-        let level = self.rest_friction_n(x);
-        self.held_at_start_n.clamp(-level, level)
+        let [plus, minus] = self.rest_friction_n(x);
+        self.held_at_start_n.clamp(-minus, plus)
     }
 
     /// True when the axis has backlash (a gap to cross at reversals).
@@ -821,6 +823,26 @@ mod tests {
 
     fn hvmc() -> AxisModel {
         AxisModel::from_config(&MachineConfig::default_preset().x)
+    }
+
+    /// A force held at the start lies within the friction's level on its own side: a guideway
+    /// holding 0.1 of Coulomb's near rest towards + and 1.4 towards − holds a push of 0.5
+    /// of Coulomb's towards − as it is, and the same push towards + only up to 0.1.
+    #[test]
+    fn a_held_force_is_bounded_by_the_level_on_its_side() {
+        let mut x = MachineConfig::preset("small-table").unwrap().x;
+        let f = &mut x.friction;
+        (f.bristle_stiffness_n_per_um, f.bristle_damping_n_s_per_m) = (50.0, 1e4);
+        (f.static_to_coulomb, f.static_to_coulomb_negative) = (0.1, Some(1.4));
+        (f.stribeck_level_n, f.stribeck_velocity_mm_per_min) = (0.0, 600.0);
+        let f_c = f.coulomb_n(x.drive.table_mass_kg);
+        let mut held = |force_n: f64| {
+            x.held_at_start_n = force_n;
+            AxisModel::from_config(&x).held_at_start_bounded_n(0.0)
+        };
+        assert!((held(-0.5 * f_c) + 0.5 * f_c).abs() < 1e-9);
+        assert!((held(0.5 * f_c) - 0.1 * f_c).abs() < 1e-9);
+        assert!((held(-2.0 * f_c) + 1.4 * f_c).abs() < 1e-9);
     }
 
     #[test]

@@ -13,7 +13,10 @@
 //! (their difference beyond twice its uncertainty); otherwise the shape stays as it was,
 //! and its statement says why.
 
-use super::{AxisConfig, AxisIdentification, Fit, Knob, Round, held_out, um_from_m, verdict};
+use super::{
+    AxisConfig, AxisIdentification, COULOMB_KEY, FADE_MM_PER_MIN, Fit, Knob, Round, get, held_out,
+    um_from_m, verdict,
+};
 use crate::identify::knobs::{STATIC_KEY, STATIC_NEGATIVE_WITH_BRISTLES, STATIC_WITH_BRISTLES};
 
 /// The axis `written` (bristles written, fitted with `knobs`) with a level near rest each
@@ -77,11 +80,11 @@ pub(super) fn tried(
         return (config, id);
     };
     if let Some(v) = id_each.presliding.as_mut() {
-        v.statement = format!(
-            "{}; friction near rest by direction: {:.2} ± {:.2} of Coulomb's towards +, \
-             {:.2} ± {:.2} towards − (held out {each_um:.3} µm against {one_um:.3} µm with one \
-             level)",
-            v.statement, plus.0, plus.1, minus.0, minus.1
+        v.statement = each_way_words(
+            &config_each,
+            [plus, minus],
+            each_um,
+            [one_um, v.held_out_without_um],
         );
         v.held_out_with_um = each_um;
         v.by_direction = true;
@@ -114,14 +117,43 @@ fn landed(fit: &Fit, config: &AxisConfig, knobs: &[Knob]) -> Result<AxisConfig, 
     Ok(Fit::config(knobs, &start, &whole.values))
 }
 
+/// The statement of bristles written with a level near rest each way (`levels`, each with
+/// its uncertainty) on `config`, held out to `each_um` against `one_um` with one level and
+/// `without_um` without bristles.
+fn each_way_words(
+    config: &AxisConfig,
+    [plus, minus]: [(f64, f64); 2],
+    each_um: f64,
+    [one_um, without_um]: [f64; 2],
+) -> String {
+    let f = &config.friction;
+    format!(
+        "presliding friction: bristles of {} N/µm, damping {:.0} N·s/m, Coulomb's {:.0} N, \
+         friction near rest each way: {:.2} ± {:.2} of Coulomb's towards +, {:.2} ± {:.2} \
+         towards −, regained over {} mm/s, a model's shape with its levels fitted; held out \
+         {each_um:.3} µm against {without_um:.3} µm without bristles and {one_um:.3} µm with one \
+         level near rest",
+        f.bristle_stiffness_n_per_um,
+        f.bristle_damping_n_s_per_m,
+        get(config, COULOMB_KEY),
+        plus.0,
+        plus.1,
+        minus.0,
+        minus.1,
+        FADE_MM_PER_MIN / 60.0,
+    )
+}
+
 /// The levels near rest towards + and towards − the round's fit on the whole record found,
-/// each with its uncertainty.
+/// each with its uncertainty as the report gives it (the round's, or the model's where
+/// larger).
 fn levels(round: &Round) -> [(f64, f64); 2] {
     [STATIC_KEY, STATIC_NEGATIVE_WITH_BRISTLES.key].map(|key| {
         let j = (round.knobs.iter())
             .position(|k| k.key == key)
             .expect("both levels are fitted");
-        (round.whole.values[j], round.sigma[j])
+        let sigma = round.sigma[j].max(round.whole.model_sigma[j]);
+        (round.whole.values[j], sigma)
     })
 }
 

@@ -109,4 +109,16 @@ fn a_level_near_rest_towards_minus_needs_bristles_and_a_guideways_range() {
         "{stuck}"
     );
     assert!(stuck.contains("bristle_stiffness"), "{stuck}");
+    // A Stribeck excess sets the level near rest both ways: with a level towards − as well,
+    // the file says two things of it.
+    let both = read(&format!(
+        "base = \"small-table\"\n{}stribeck_level_n = 20.0\nstatic_to_coulomb_negative = 1.4\n",
+        bristles.replace("static_to_coulomb = 0.7", "static_to_coulomb = 1.0")
+    ))
+    .unwrap_err();
+    assert!(
+        both.contains("x.friction.static_to_coulomb_negative"),
+        "{both}"
+    );
+    assert!(both.contains("stribeck_level_n"), "{both}");
 }
