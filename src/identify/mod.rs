@@ -334,16 +334,13 @@ fn fit_axis(
         m.filter(|m| m.1.reached || m.1.better_than_template)
             .map(|m| m.1.held_out_share)
     };
-    everywhere = match model {
-        Model::Template => {
-            let all = &candidates;
-            presliding::tried(&fit, template.axis(axis), everywhere, all, &moving_share)
-        }
-        Model::Loop(_) => {
-            let why = presliding::WITHOUT_TEMPLATE;
-            presliding::not_tried(everywhere, template.axis(axis), why)
-        }
-    };
+    everywhere = presliding::tried(
+        &fit,
+        template.axis(axis),
+        everywhere,
+        &candidates,
+        &moving_share,
+    );
     everywhere = held::on_top(&fit, template.axis(axis), &candidates, everywhere, None);
     if everywhere.1.reached && verdict::judged_while_moving(&mut everywhere.1, noise_um) {
         return Some(told_apart(everywhere));

@@ -62,14 +62,6 @@ const DAMPING_SHARE: f64 = 0.1;
 /// (besides the fit's own): ball-screw guideways run at some hundredths to a few tenths.
 const COULOMB_SCAN_OF_WEIGHT: [f64; 3] = [0.03, 0.1, 0.3];
 
-/// Why bristles are not tried on the loop model (`--template none`): each shape refits the
-/// loop's values, searched from afar without a template, and on the real table's 5 s record,
-/// beside the ripple the halves find, they bettered its held-out figures by less than a
-/// twentieth (X none, Y 32.7 to 32.4 %) for a fifth more processor time (36 to 43 s).
-pub(super) const WITHOUT_TEMPLATE: &str = "without a template: beside the ripple the halves find, a \
-     shape's refit of the loop model bettered a real table's held-out figures by less than a \
-     twentieth";
-
 /// What the record says of presliding friction on one axis whose template names none.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PreslidingVerdict {
@@ -94,6 +86,8 @@ pub struct PreslidingVerdict {
 struct Shape {
     stiffness_n_per_um: f64,
     level: f64,
+    /// Whether the level near rest is fitted each way, starting from `level` both ways.
+    each_way: bool,
 }
 
 impl Shape {
@@ -101,15 +95,38 @@ impl Shape {
         Shape {
             stiffness_n_per_um,
             level,
+            each_way: false,
+        }
+    }
+
+    /// The same bristles with the level near rest fitted towards + and towards −.
+    fn each_way(self) -> Shape {
+        Shape {
+            each_way: true,
+            ..self
         }
     }
 
     /// The shape as a reason names it.
     fn describe(self) -> String {
+        let each_way = if self.each_way {
+            " fitted each way"
+        } else {
+            ""
+        };
         format!(
-            "bristles of {} N/µm, friction near rest {} of Coulomb's",
+            "bristles of {} N/µm, friction near rest {} of Coulomb's{each_way}",
             self.stiffness_n_per_um, self.level
         )
+    }
+
+    /// What a fit with this shape fits: `knobs`, and with a level each way both levels.
+    fn knobs(self, knobs: &[Knob]) -> Vec<Knob> {
+        if self.each_way {
+            direction::each_way_knobs(knobs)
+        } else {
+            knobs.to_vec()
+        }
     }
 
     /// `config` with these bristles and Coulomb friction `coulomb_n`.
@@ -124,6 +141,7 @@ impl Shape {
         f.bristle_stiffness_n_per_um = self.stiffness_n_per_um;
         f.bristle_damping_n_s_per_m = DAMPING_SHARE * 2.0 * (sigma0 * moving_kg).sqrt();
         f.static_to_coulomb = self.level;
+        f.static_to_coulomb_negative = self.each_way.then_some(self.level);
         f.stribeck_level_n = 0.0;
         f.stribeck_velocity_mm_per_min = FADE_MM_PER_MIN;
         c
@@ -170,46 +188,124 @@ pub(super) fn tried(
         return (config, id);
     };
     let fold = fit.ctx().halves(fit.offset());
-    let rounds = match rounds(fit, &config, &knobs, &fold, (&id, moving_share)) {
-        Ok(rounds) => rounds,
-        Err(reason) => {
-            id.presliding = Some(not(&reason, f64::NAN));
-            return (config, id);
+    let judge = |rounds: &[Tried]| judged(fit, (template, &fold), &id, rounds);
+    let outcome = rounds(fit, &config, &knobs, &fold, (&id, moving_share))
+        .map_err(|reason| Refused::because(reason, f64::NAN))
+        .and_then(|rounds| {
+            judge(&rounds).or_else(|refused| match refused.retry {
+                // One level near rest, on its halves, does not predict better: the shape
+                // they judged, with a level each way.
+                Some(best) => each_way_round(fit, &rounds[best], &fold)
+                    .map_err(|why| Refused::because(why, f64::NAN))
+                    .and_then(|each| judge(&[each]))
+                    .map_err(|each| refused.beside(each)),
+                None => Err(refused),
+            })
+        });
+    match outcome {
+        Ok(found) => found,
+        Err(refused) => {
+            id.presliding = Some(not(&refused.reason, refused.with_um));
+            (config, id)
         }
-    };
-    let Some(scored) = scored(fit, &rounds, &fold, id.reached) else {
+    }
+}
+
+/// Why bristles are not written, with the held-out figure with them where scored (NaN
+/// otherwise); `retry` names the round (by index) whose one level near rest did not predict
+/// better by a twentieth, which may still with a level each way.
+struct Refused {
+    reason: String,
+    with_um: f64,
+    retry: Option<usize>,
+}
+
+impl Refused {
+    fn because(reason: impl Into<String>, with_um: f64) -> Refused {
+        Refused {
+            reason: reason.into(),
+            with_um,
+            retry: None,
+        }
+    }
+
+    /// This refusal with that of the same shape tried again with a level each way.
+    fn beside(self, each: Refused) -> Refused {
+        Refused {
+            reason: format!(
+                "{}; with friction near rest fitted each way: {}",
+                self.reason, each.reason
+            ),
+            with_um: self.with_um,
+            retry: None,
+        }
+    }
+}
+
+/// The axis with the bristles of `rounds` written, where their held-out halves beat the fit
+/// without them (`id`) by a twentieth, the fit holds a Coulomb force, and levels near rest
+/// fitted each way differ beyond their uncertainty; why not otherwise.
+fn judged(
+    fit: &Fit,
+    (template, fold): (&AxisConfig, &[bool]),
+    id: &AxisIdentification,
+    rounds: &[Tried],
+) -> Result<(AxisConfig, AxisIdentification), Refused> {
+    let without_um = id.held_out_identified_um;
+    let Some(scored) = scored(fit, rounds, fold, id.reached) else {
         let reason = "the halves' fits of the shapes chosen, or of the one that fits the whole \
                       record best, could not be simulated or did not move from its whole fit's";
-        id.presliding = Some(not(reason, f64::NAN));
-        return (config, id);
+        return Err(Refused::because(reason, f64::NAN));
     };
     let with_um = scored.figure_um();
-    let kept = held_out::kept_over((with_um, false), (without_um, id.held_out_in_sample));
-    if !kept {
+    let best = &rounds[scored.best];
+    if !held_out::kept_over((with_um, false), (without_um, id.held_out_in_sample)) {
         let reason = format!(
             "held out {with_um:.3} µm with them against {without_um:.3} µm without: not \
              better by a twentieth"
         );
-        id.presliding = Some(not(&reason, with_um));
-        return (config, id);
+        let retry = (!best.shape.each_way).then_some(scored.best);
+        return Err(Refused {
+            retry,
+            ..Refused::because(reason, with_um)
+        });
     }
-    let round = &rounds[scored.best].round;
-    if !holds_coulomb(&round.knobs, &round.whole.values, &round.sigma) {
+    if !holds_coulomb(
+        &best.round.knobs,
+        &best.round.whole.values,
+        &best.round.sigma,
+    ) {
         // The round's fit on the whole record may move Coulomb friction again from where
         // the shape's first fit held it: bristles bent by no friction carry no force.
         let reason = "the fit with them holds no Coulomb force above its uncertainty, and \
                       bristles bent by no friction carry no force";
-        id.presliding = Some(not(reason, with_um));
-        return (config, id);
+        return Err(Refused::because(reason, with_um));
     }
-    match written(fit, (template, &fold), &id, &rounds[scored.best], &scored) {
-        Some(w) => w,
-        None => {
-            let reason = "the axis cannot be simulated on the whole record with them";
-            id.presliding = Some(not(reason, with_um));
-            (config, id)
-        }
-    }
+    let levels = if best.shape.each_way {
+        let apart = direction::apart(&best.round);
+        let why = |why| format!("{}: {why}", best.shape.describe());
+        Some(apart.map_err(|w| Refused::because(why(w), with_um))?)
+    } else {
+        None
+    };
+    written(fit, (template, fold), id, (best, levels), &scored).ok_or_else(|| {
+        let reason = "the axis cannot be simulated on the whole record with them";
+        Refused::because(reason, with_um)
+    })
+}
+
+/// `best`'s shape with its level near rest fitted each way: its fit on the whole record from
+/// where `best`'s landed, where that fits the record better by a twentieth, and its halves.
+fn each_way_round(fit: &Fit, best: &Tried, fold: &[bool]) -> Result<Tried, String> {
+    let knobs = direction::each_way_knobs(&best.round.knobs);
+    let start = direction::landed(fit, &best.round.config(&best.round.whole), &knobs)?;
+    let round = Round::fit(fit, knobs, &start, fold)
+        .ok_or_else(|| "its halves could not be fitted".to_string())?;
+    Ok(Tried {
+        shape: best.shape.each_way(),
+        round,
+        base: start,
+    })
 }
 
 /// The rounds of the shapes worth scoring on the halves. Each shape's fit on the whole
@@ -222,7 +318,9 @@ pub(super) fn tried(
 /// cannot predict those it was not (the halves' fits are two thirds of a round's cost) —,
 /// (b) holds Coulomb friction above its uncertainty, (c) where none reaches the noise, lies
 /// below that held-out share, and (d) is not beaten by another shape's fit by a twentieth.
-/// Why none is, where none is.
+/// Where none is (or the first stopped the others), the first-ranked shape is fitted once
+/// more with its level near rest free each way, and goes on alone where that fit clears
+/// (a) to (c). Why none is, where none is.
 fn rounds(
     fit: &Fit,
     config: &AxisConfig,
@@ -238,31 +336,37 @@ fn rounds(
         noise_um: um_from_m(fit.ctx().noise_sigma),
         following_um: id.following_error_rms_um,
     };
-    let figures = |w: &Fitted| WholeFigures::of(knobs, w, samples);
-    let wholes = gated_wholes(fit, knobs, config, &|shape, first| match first_stops(
-        figures(first).rms_um,
-        &bars,
-        moving_share,
-    ) {
-        Some(share) => Err(Refusal::FirstBelowShare(shape, share).reason()),
+    let figures = |w: &Whole| WholeFigures::of(&w.shape.knobs(knobs), &w.fitted, samples);
+    let gate = |first: &Whole| match first_stops(figures(first).rms_um, &bars, moving_share) {
+        Some(share) => Err(Refusal::FirstBelowShare(first.shape, share).reason()),
         None => Ok(()),
-    })?;
-    let all: Vec<WholeFigures> = wholes.iter().map(|w| figures(&w.2)).collect();
-    let kept = carried(&all, &bars, moving_share).map_err(Refusal::reason)?;
-    let wholes: Vec<(Shape, AxisConfig, Fitted)> = wholes
-        .into_iter()
-        .enumerate()
-        .filter(|(i, _)| kept.contains(i))
-        .map(|(_, w)| w)
-        .collect();
+    };
+    let carried_of = |wholes: Vec<Whole>| {
+        let all: Vec<WholeFigures> = wholes.iter().map(figures).collect();
+        match carried(&all, &bars, moving_share) {
+            Ok(kept) => Ok(keep_only(wholes, &kept)),
+            Err(refusal) => Err((refusal.reason(), wholes.into_iter().next().map(Box::new))),
+        }
+    };
+    let wholes = match gated_wholes(fit, knobs, config, &gate).and_then(carried_of) {
+        Ok(wholes) => wholes,
+        Err((reason, first)) => {
+            // One level near rest cannot be written: the first-ranked shape each way.
+            let each = first.and_then(|first| first_each_way(fit, knobs, &first));
+            let each = each.filter(|w| carried(&[figures(w)], &bars, moving_share).is_ok());
+            let nor = || format!("{reason}; nor with its friction near rest fitted each way");
+            vec![each.ok_or_else(nor)?]
+        }
+    };
     let rounds: Vec<Tried> = wholes
         .into_par_iter()
-        .filter_map(|(shape, base, whole)| {
+        .filter_map(|w| {
             // The round's fit on the whole record starts where this one landed: a step.
-            let landed = Fit::config(knobs, &base, &whole.values);
-            let round = Round::fit(fit, knobs.to_vec(), &landed, fold)?;
+            let knobs = w.shape.knobs(knobs);
+            let landed = Fit::config(&knobs, &w.base, &w.fitted.values);
+            let round = Round::fit(fit, knobs, &landed, fold)?;
             Some(Tried {
-                shape,
+                shape: w.shape,
                 round,
                 base: landed,
             })
@@ -309,18 +413,37 @@ fn holds_coulomb(knobs: &[Knob], values: &[f64], sigma: &[f64]) -> bool {
         .is_some_and(|j| coulomb_held(values[j], sigma[j]))
 }
 
+/// A shape's fit on the whole record, from `base` (the shape at its Coulomb start).
+struct Whole {
+    shape: Shape,
+    base: AxisConfig,
+    fitted: Fitted,
+}
+
+impl Whole {
+    /// `shape`'s fit on the whole record from `base`, of `knobs` and the shape's own.
+    fn of(fit: &Fit, knobs: &[Knob], shape: Shape, base: AxisConfig) -> Option<Whole> {
+        let fitted = fit.run(&shape.knobs(knobs), &base, &|_| true)?;
+        Some(Whole {
+            shape,
+            base,
+            fitted,
+        })
+    }
+}
+
 /// Each shape's fit on the whole record (the loop's values and Coulomb friction fitted
 /// again with it in place), the shape that explains the record best at the fit's loop
 /// values (its Coulomb force scanned) fitted first: where `gate` finds that even its fit
-/// cannot be written, the others are not fitted (`gate`'s reason is returned). A whole fit
-/// costs about a third of a round; an axis the bristles do not help pays one instead of
-/// every shape's.
+/// cannot be written, the others are not fitted, and `gate`'s reason is returned with that
+/// fit. A whole fit costs about a third of a round; an axis the bristles do not help pays
+/// one instead of every shape's.
 fn gated_wholes(
     fit: &Fit,
     knobs: &[Knob],
     config: &AxisConfig,
-    gate: &dyn Fn(Shape, &Fitted) -> Result<(), String>,
-) -> Result<Vec<(Shape, AxisConfig, Fitted)>, String> {
+    gate: &dyn Fn(&Whole) -> Result<(), String>,
+) -> Result<Vec<Whole>, (String, Option<Box<Whole>>)> {
     let mut ranked: Vec<(f64, Shape, AxisConfig)> = SHAPES
         .par_iter()
         .filter_map(|&shape| {
@@ -329,21 +452,41 @@ fn gated_wholes(
         })
         .collect();
     ranked.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let whole = |(_, shape, base): (f64, Shape, AxisConfig)| {
-        let w = fit.run(knobs, &base, &|_| true)?;
-        Some((shape, base, w))
-    };
     let mut rest = ranked.into_iter();
-    let first = rest.next().and_then(whole);
-    if let Some(first) = &first {
-        gate(first.0, &first.2)?;
+    let first = rest
+        .next()
+        .and_then(|(_, shape, base)| Whole::of(fit, knobs, shape, base));
+    if let Some(f) = &first
+        && let Err(reason) = gate(f)
+    {
+        return Err((reason, first.map(Box::new)));
     }
-    let others: Vec<(Shape, AxisConfig, Fitted)> = rest
+    let others: Vec<Whole> = rest
         .collect::<Vec<_>>()
         .into_par_iter()
-        .filter_map(whole)
+        .filter_map(|(_, shape, base)| Whole::of(fit, knobs, shape, base))
         .collect();
     Ok(first.into_iter().chain(others).collect())
+}
+
+/// `wholes` of the indices `kept`, in order.
+fn keep_only(wholes: Vec<Whole>, kept: &[usize]) -> Vec<Whole> {
+    (wholes.into_iter().enumerate())
+        .filter(|(i, _)| kept.contains(i))
+        .map(|(_, w)| w)
+        .collect()
+}
+
+/// The first-ranked shape's fit (`first`, with which one level near rest cannot be written)
+/// fitted again from where it landed with its level near rest free each way. A guideway or
+/// nut whose friction near rest differs by direction lets one level fit the stops of one
+/// direction only, at the other's cost: on the real table Y overruns its stop moving
+/// towards + by 106 µm and its stop moving towards − by 42 µm, where one level gives both
+/// about 60.
+fn first_each_way(fit: &Fit, knobs: &[Knob], first: &Whole) -> Option<Whole> {
+    let mut base = Fit::config(knobs, &first.base, &first.fitted.values);
+    base.friction.static_to_coulomb_negative = Some(first.shape.level);
+    Whole::of(fit, knobs, first.shape.each_way(), base)
 }
 
 /// The knobs of `knobs_all` the fit `id` fitted in its last round (those with an
@@ -456,12 +599,14 @@ fn scored(fit: &Fit, rounds: &[Tried], fold: &[bool], reached: bool) -> Option<S
 }
 
 /// The axis with bristles written: `best`'s fit on the whole record, its values replacing
-/// those fitted again and the bristles' added, judged on the held-out figure `with_um`.
+/// those fitted again and the bristles' added, judged on the held-out figure `with_um`; its
+/// levels near rest each way (`levels`) where the shape fitted them, tried each way after
+/// otherwise.
 fn written(
     fit: &Fit,
     (template, fold): (&AxisConfig, &[bool]),
     id: &AxisIdentification,
-    best: &Tried,
+    (best, levels): (&Tried, Option<[(f64, f64); 2]>),
     scored: &Scored,
 ) -> Option<(AxisConfig, AxisIdentification)> {
     let with_um = scored.figure_um();
@@ -474,9 +619,9 @@ fn written(
         with_um,
     )?;
     let f = &config.friction;
-    id.presliding = Some(PreslidingVerdict {
-        written: true,
-        statement: format!(
+    let statement = match levels {
+        Some(levels) => direction::each_way_words(&config, levels, with_um, (None, without_um)),
+        None => format!(
             "presliding friction: bristles of {} N/µm, damping {:.0} N·s/m, friction near rest \
              {} of Coulomb's ({:.0} N) regained over {} mm/s, a model's shape ({}); held out \
              {with_um:.3} µm against {without_um:.3} µm without",
@@ -487,11 +632,18 @@ fn written(
             FADE_MM_PER_MIN / 60.0,
             chosen_words(scored),
         ),
+    };
+    id.presliding = Some(PreslidingVerdict {
+        written: true,
+        statement,
         held_out_without_um: without_um,
         held_out_with_um: with_um,
-        by_direction: false,
+        by_direction: levels.is_some(),
         held_out_one_level_um: f64::NAN,
     });
+    if levels.is_some() {
+        return Some((config, id));
+    }
     Some(direction::tried(
         fit,
         (template, fold),
@@ -670,6 +822,55 @@ mod tests {
         assert_eq!(f.static_to_coulomb, 0.7);
         assert_eq!(f.stribeck_velocity_mm_per_min, 600.0);
         assert!((get(&c, COULOMB_KEY) - 88.3).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_shape_fitted_each_way_starts_both_levels_at_its_own_and_frees_both() {
+        let x = MachineConfig::preset("small-table").unwrap().x;
+        let shape = Shape::new(150.0, 0.7).each_way();
+        let f = shape.on(&x, 88.3).friction;
+        // Both directions start at the shape's level: the fit, not the grid, parts them.
+        assert_eq!(f.static_to_coulomb, 0.7);
+        assert_eq!(f.static_to_coulomb_negative, Some(0.7));
+        assert_eq!(
+            Shape::new(150.0, 0.7)
+                .on(&x, 88.3)
+                .friction
+                .static_to_coulomb_negative,
+            None
+        );
+        // The knobs of the fit without bristles (no level near rest among them, which each
+        // shape sets) and both levels, towards + and towards −.
+        let knobs = knobs::for_axis(&x);
+        let each: Vec<&str> = shape.knobs(&knobs).iter().map(|k| k.key).collect();
+        let plain: Vec<&str> = knobs.iter().map(|k| k.key).collect();
+        assert_eq!(each[..plain.len()], plain[..]);
+        assert_eq!(
+            each[plain.len()..],
+            [STATIC_KEY, "friction.static_to_coulomb_negative"]
+        );
+        assert!(
+            shape.describe().ends_with("fitted each way"),
+            "{}",
+            shape.describe()
+        );
+    }
+
+    #[test]
+    fn a_refusal_beside_its_try_each_way_gives_both_reasons_and_tries_no_more() {
+        let one = Refused {
+            retry: Some(0),
+            ..Refused::because("held out 22.9 µm with them against 22.8 µm without", 22.9)
+        };
+        let both = one.beside(Refused::because("held out 47.8 µm", 47.8));
+        assert_eq!(
+            both.reason,
+            "held out 22.9 µm with them against 22.8 µm without; with friction near rest \
+             fitted each way: held out 47.8 µm"
+        );
+        // The figure given is the one level's, the shape the halves judged.
+        assert_eq!(both.with_um, 22.9);
+        assert_eq!(both.retry, None);
     }
 
     #[test]

@@ -7,7 +7,8 @@
 //! X's bristles are written, as a model's shape, and predict the record's held-out halves
 //! better than the fit without them; Y's hybrid friction gets none, and says why. Where X's
 //! guideway holds harder near rest one way than the other, a level each way is written
-//! beside them; where it holds alike, one level stays.
+//! beside them; where it holds alike, one level stays. Without a template, the loop model
+//! gets them the same way.
 
 use crate::common;
 
@@ -17,7 +18,9 @@ use common::identifying::{encoder_record, lead_lag_designed_and_run};
 use common::program_text;
 use contourcheck::compare::CompareSettings;
 use contourcheck::gcode::Program;
-use contourcheck::identify::{AxisIdentification, Identification, PreslidingVerdict, identify};
+use contourcheck::identify::{
+    AxisIdentification, Identification, PreslidingVerdict, identify, identify_loop, loop_template,
+};
 use contourcheck::machine::MachineConfig;
 use contourcheck::sim::MeasuredAt;
 
@@ -208,4 +211,42 @@ fn hybrid_friction_gets_no_bristles_and_says_why() {
         v.statement
     );
     assert!(!id.machine.y.friction.has_presliding());
+}
+
+/// Without a template the loop model fitted from the record alone holds Coulomb friction
+/// too, and the bristles are tried on it the same way. The small table (its own cascade, not
+/// the lead-lag above) on X's guideway of [`truth`] holding a tenth of Coulomb's near rest
+/// towards + and 1.4 times it towards −: they are written with a level each way — whether
+/// one level's fit on the whole record goes on to its halves or not —, the levels on the
+/// truth's sides of Coulomb's force (in the loop model's own units: its Coulomb force, like
+/// its mass, describes the loop), and the held-out halves predicted better than the loop
+/// model without them by the twentieth a larger model must earn.
+#[test]
+fn the_loop_model_gets_bristles_with_a_level_each_way_too() {
+    let mut truth = MachineConfig::preset("small-table").unwrap();
+    let f = &mut truth.x.friction;
+    f.coulomb_coefficient = 0.3;
+    f.bristle_stiffness_n_per_um = 50.0;
+    f.bristle_damping_n_s_per_m = 14_900.0;
+    f.static_to_coulomb = 0.1;
+    f.static_to_coulomb_negative = Some(1.4);
+    f.stribeck_level_n = 0.0;
+    f.stribeck_velocity_mm_per_min = 600.0;
+    let measured = encoder_record(&program(), &truth, 43);
+    let start = loop_template(&measured);
+    let mut settings = CompareSettings::for_machine(&start);
+    settings.measured_at = MeasuredAt::Motor;
+    let id = identify_loop(&program(), &start, &measured, &settings).unwrap();
+    let (x, v) = x_presliding(&id);
+    assert!(v.written && v.by_direction, "{v:?}");
+    assert!(v.held_out_with_um < 0.95 * v.held_out_without_um, "{v:?}");
+    assert_eq!(x.held_out_identified_um, v.held_out_with_um);
+    let f = &id.machine.x.friction;
+    let minus = f.static_to_coulomb_negative.expect("a level towards −");
+    assert!(f.static_to_coulomb < 0.25 && 1.0 < minus, "{f:?}");
+    assert!(
+        v.statement.contains("friction near rest each way"),
+        "{}",
+        v.statement
+    );
 }

@@ -29,11 +29,7 @@ pub(super) fn tried(
 ) -> (AxisConfig, AxisIdentification) {
     let (config, mut id) = written;
     let one_um = id.held_out_identified_um;
-    let mut all: Vec<Knob> = (knobs.iter())
-        .filter(|k| k.key != STATIC_KEY)
-        .copied()
-        .collect();
-    all.extend([STATIC_WITH_BRISTLES, STATIC_NEGATIVE_WITH_BRISTLES]);
+    let all = each_way_knobs(knobs);
     let start = match landed(fit, &config, &all) {
         Ok(start) => start,
         Err(why) => {
@@ -63,16 +59,13 @@ pub(super) fn tried(
         say(&mut id, why, one_um);
         return (config, id);
     }
-    let [plus, minus] = levels(&round);
-    if (minus.0 - plus.0).abs() <= 2.0 * plus.1.hypot(minus.1) {
-        let why = format!(
-            "{:.2} ± {:.2} towards + and {:.2} ± {:.2} towards − of Coulomb's do not differ \
-             beyond their uncertainty",
-            plus.0, plus.1, minus.0, minus.1
-        );
-        say(&mut id, why, one_um);
-        return (config, id);
-    }
+    let [plus, minus] = match apart(&round) {
+        Ok(levels) => levels,
+        Err(why) => {
+            say(&mut id, why, one_um);
+            return (config, id);
+        }
+    };
     let adopted = super::adopted(fit, (template, fold), &id, (&round, &start), each_um);
     let Some((config_each, mut id_each)) = adopted else {
         let why = "the fit with them cannot be simulated on the whole record".to_string();
@@ -84,7 +77,7 @@ pub(super) fn tried(
             &config_each,
             [plus, minus],
             each_um,
-            [one_um, v.held_out_without_um],
+            (Some(one_um), v.held_out_without_um),
         );
         v.held_out_with_um = each_um;
         v.by_direction = true;
@@ -93,12 +86,22 @@ pub(super) fn tried(
     (config_each, id_each)
 }
 
+/// `knobs` with the level near rest fitted each way: towards + and towards −.
+pub(super) fn each_way_knobs(knobs: &[Knob]) -> Vec<Knob> {
+    let mut all: Vec<Knob> = (knobs.iter())
+        .filter(|k| k.key != STATIC_KEY)
+        .copied()
+        .collect();
+    all.extend([STATIC_WITH_BRISTLES, STATIC_NEGATIVE_WITH_BRISTLES]);
+    all
+}
+
 /// Where the round with a level each way starts: `config`'s fit (a level towards − equal to
 /// its level towards +) fitted again on the whole record with `knobs`, where that explains
 /// the record better than `config` by the twentieth a larger model must earn — a level each
 /// way that fits the samples it was fitted to no better cannot predict those it was not,
 /// and the halves' fits are two thirds of a round's cost. Why not otherwise.
-fn landed(fit: &Fit, config: &AxisConfig, knobs: &[Knob]) -> Result<AxisConfig, String> {
+pub(super) fn landed(fit: &Fit, config: &AxisConfig, knobs: &[Knob]) -> Result<AxisConfig, String> {
     let mut start = config.clone();
     start.friction.static_to_coulomb_negative = Some(start.friction.static_to_coulomb);
     let unsimulated = || "its fit on the whole record could not be simulated".to_string();
@@ -117,22 +120,40 @@ fn landed(fit: &Fit, config: &AxisConfig, knobs: &[Knob]) -> Result<AxisConfig, 
     Ok(Fit::config(knobs, &start, &whole.values))
 }
 
+/// The levels near rest towards + and towards − `round`'s fit on the whole record found,
+/// each with its uncertainty as the report gives it, where the record tells them apart
+/// (their difference beyond twice its uncertainty); why not otherwise.
+pub(super) fn apart(round: &Round) -> Result<[(f64, f64); 2], String> {
+    let [plus, minus] = levels(round);
+    if (minus.0 - plus.0).abs() <= 2.0 * plus.1.hypot(minus.1) {
+        return Err(format!(
+            "{:.2} ± {:.2} towards + and {:.2} ± {:.2} towards − of Coulomb's do not differ \
+             beyond their uncertainty",
+            plus.0, plus.1, minus.0, minus.1
+        ));
+    }
+    Ok([plus, minus])
+}
+
 /// The statement of bristles written with a level near rest each way (`levels`, each with
-/// its uncertainty) on `config`, held out to `each_um` against `one_um` with one level and
-/// `without_um` without bristles.
-fn each_way_words(
+/// its uncertainty) on `config`, held out to `each_um` against `one_um` with one level
+/// (where scored) and `without_um` without bristles.
+pub(super) fn each_way_words(
     config: &AxisConfig,
     [plus, minus]: [(f64, f64); 2],
     each_um: f64,
-    [one_um, without_um]: [f64; 2],
+    (one_um, without_um): (Option<f64>, f64),
 ) -> String {
     let f = &config.friction;
+    let one = match one_um {
+        Some(one_um) => format!(" and {one_um:.3} µm with one level near rest"),
+        None => String::new(),
+    };
     format!(
         "presliding friction: bristles of {} N/µm, damping {:.0} N·s/m, Coulomb's {:.0} N, \
          friction near rest each way: {:.2} ± {:.2} of Coulomb's towards +, {:.2} ± {:.2} \
          towards −, regained over {} mm/s, a model's shape with its levels fitted; held out \
-         {each_um:.3} µm against {without_um:.3} µm without bristles and {one_um:.3} µm with one \
-         level near rest",
+         {each_um:.3} µm against {without_um:.3} µm without bristles{one}",
         f.bristle_stiffness_n_per_um,
         f.bristle_damping_n_s_per_m,
         get(config, COULOMB_KEY),
