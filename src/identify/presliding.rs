@@ -582,14 +582,9 @@ fn scored(fit: &Fit, rounds: &[Tried], fold: &[bool], reached: bool) -> Option<S
         let cost = |i: usize| rounds[i].round.whole.cost;
         cost(a).total_cmp(&cost(b))
     })?;
-    let round = &rounds[best].round;
     // Above the noise, a written shape whose halves both stayed at its whole fit's values
     // has no held-out figure of its own: the shape is not written.
-    let own = (!reached).then(|| round.held_out_rms_own(fit, fold));
-    if own == Some(None) {
-        return None;
-    }
-    let best_um = held_out::figure(own, || round.held_out_rms(fit, fold))?;
+    let best_um = rounds[best].round.held_out_shown_um(fit, fold, reached)?;
     Some(Scored {
         chosen_um: um_from_m((ss / n as f64).sqrt()),
         agree: matches!(chosen.as_slice(), [Some((a, _)), Some((b, _))] if a == b),

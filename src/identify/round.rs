@@ -429,6 +429,18 @@ impl Round {
         self.held_out_of(fit, fold, fit.mask(), true)
     }
 
+    /// The round's held-out figure (µm) as a fit written as a model is judged by: at the
+    /// record's noise (`reached`) both halves' fits, above it those with a point of their own
+    /// only ([`Round::held_out_rms_own`]). None where above the noise neither half has one,
+    /// or the halves cannot be simulated.
+    pub(super) fn held_out_shown_um(&self, fit: &Fit, fold: &[bool], reached: bool) -> Option<f64> {
+        let own = (!reached).then(|| self.held_out_rms_own(fit, fold));
+        if own == Some(None) {
+            return None;
+        }
+        super::held_out::figure(own, || self.held_out_rms(fit, fold))
+    }
+
     fn held_out_of(&self, fit: &Fit, fold: &[bool], mask: &[bool], own: bool) -> Option<f64> {
         let (mut ss, mut n) = (0.0, 0usize);
         for h in (0..2).filter(|&h| !own || self.halves[h].own_point) {

@@ -39,11 +39,7 @@ pub(super) fn tried(
     };
     // The round's fit on the whole record starts where that one landed: a step.
     let found = Round::fit(fit, all, &start, fold).and_then(|round| {
-        let own = (!id.reached).then(|| round.held_out_rms_own(fit, fold));
-        if own == Some(None) {
-            return None;
-        }
-        let each_um = held_out::figure(own, || round.held_out_rms(fit, fold))?;
+        let each_um = round.held_out_shown_um(fit, fold, id.reached)?;
         Some((round, each_um))
     });
     let Some((round, each_um)) = found else {
