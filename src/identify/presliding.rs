@@ -141,7 +141,6 @@ impl Shape {
         f.bristle_stiffness_n_per_um = self.stiffness_n_per_um;
         f.bristle_damping_n_s_per_m = DAMPING_SHARE * 2.0 * (sigma0 * moving_kg).sqrt();
         f.static_to_coulomb = self.level;
-        f.static_to_coulomb_negative = self.each_way.then_some(self.level);
         f.stribeck_level_n = 0.0;
         f.stribeck_velocity_mm_per_min = FADE_MM_PER_MIN;
         c
@@ -484,8 +483,8 @@ fn keep_only(wholes: Vec<Whole>, kept: &[usize]) -> Vec<Whole> {
 /// towards + by 106 µm and its stop moving towards − by 42 µm, where one level gives both
 /// about 60.
 fn first_each_way(fit: &Fit, knobs: &[Knob], first: &Whole) -> Option<Whole> {
-    let mut base = Fit::config(knobs, &first.base, &first.fitted.values);
-    base.friction.static_to_coulomb_negative = Some(first.shape.level);
+    let landed = Fit::config(knobs, &first.base, &first.fitted.values);
+    let base = direction::each_way_start(&landed);
     Whole::of(fit, knobs, first.shape.each_way(), base)
 }
 
@@ -823,17 +822,12 @@ mod tests {
     fn a_shape_fitted_each_way_starts_both_levels_at_its_own_and_frees_both() {
         let x = MachineConfig::preset("small-table").unwrap().x;
         let shape = Shape::new(150.0, 0.7).each_way();
-        let f = shape.on(&x, 88.3).friction;
+        let one = shape.on(&x, 88.3);
+        assert_eq!(one.friction.static_to_coulomb_negative, None);
         // Both directions start at the shape's level: the fit, not the grid, parts them.
+        let f = direction::each_way_start(&one).friction;
         assert_eq!(f.static_to_coulomb, 0.7);
         assert_eq!(f.static_to_coulomb_negative, Some(0.7));
-        assert_eq!(
-            Shape::new(150.0, 0.7)
-                .on(&x, 88.3)
-                .friction
-                .static_to_coulomb_negative,
-            None
-        );
         // The knobs of the fit without bristles (no level near rest among them, which each
         // shape sets) and both levels, towards + and towards −.
         let knobs = knobs::for_axis(&x);

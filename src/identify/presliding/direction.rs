@@ -92,14 +92,21 @@ pub(super) fn each_way_knobs(knobs: &[Knob]) -> Vec<Knob> {
     all
 }
 
+/// `config` with its level near rest towards − set apart, at its level towards +: where a
+/// fit with a level each way starts.
+pub(super) fn each_way_start(config: &AxisConfig) -> AxisConfig {
+    let mut start = config.clone();
+    start.friction.static_to_coulomb_negative = Some(start.friction.static_to_coulomb);
+    start
+}
+
 /// Where the round with a level each way starts: `config`'s fit (a level towards − equal to
 /// its level towards +) fitted again on the whole record with `knobs`, where that explains
 /// the record better than `config` by the twentieth a larger model must earn — a level each
 /// way that fits the samples it was fitted to no better cannot predict those it was not,
 /// and the halves' fits are two thirds of a round's cost. Why not otherwise.
 pub(super) fn landed(fit: &Fit, config: &AxisConfig, knobs: &[Knob]) -> Result<AxisConfig, String> {
-    let mut start = config.clone();
-    start.friction.static_to_coulomb_negative = Some(start.friction.static_to_coulomb);
+    let start = each_way_start(config);
     let unsimulated = || "its fit on the whole record could not be simulated".to_string();
     let one_m2 = fit.cost(config).ok_or_else(unsimulated)?;
     let whole = fit.run(knobs, &start, &|_| true).ok_or_else(unsimulated)?;
