@@ -192,13 +192,14 @@ fn print_loop_table(model: &AxisModel, margins: &[LoopMargins]) {
         let f = margins::closed_figures(model, m.which, false);
         let crossover = m.crossover_hz.unwrap_or(f64::NAN);
         let low = feedback_response(model, m.which)(crossover / 100.0);
+        let gain_margin = gain_margin_cell(m, &mut missing);
         let mut c = |v, w, d, u| cell(v, w, d, u, &mut missing);
         println!(
             "{:<9} {} {} {} {} {} {} {}",
             m.which.name(),
             c(crossover, 8, 2, " Hz"),
             c(m.phase_margin_deg, 12, 1, "°"),
-            c(m.gain_margin_db, 9, 1, " dB"),
+            gain_margin,
             peak_cell(f.peak_hz, f.peak_db),
             c(f.bandwidth_3db_hz, 10, 2, " Hz"),
             c(f.phase_10deg_hz, 9, 2, " Hz"),
@@ -234,8 +235,36 @@ fn peak_cell(peak_hz: f64, peak_db: f64) -> String {
 }
 
 /// The loops short of the usual margins, each with what it lacks.
+/// The gain margin's cell: none for a loop that is unstable already, which no rise of its
+/// gain makes so (its edge is given below the table).
+fn gain_margin_cell(m: &LoopMargins, missing: &mut bool) -> String {
+    if m.unstable() {
+        format!("{:>12}", "unstable")
+    } else {
+        cell(m.gain_margin_db, 9, 1, " dB", missing)
+    }
+}
+
+/// What an unstable loop's margins say: how far past the edge it is, and where the gain
+/// crosses −180° above 0 dB, how far the gain must fall at least to reach the edge.
+fn unstable_words(m: &LoopMargins) -> String {
+    let past = format!("unstable (phase margin {:.1}°)", m.phase_margin_deg);
+    match m.gain_reduction_hz {
+        Some(at) if m.gain_reduction_margin_db.is_finite() => format!(
+            "{past}: its gain must fall by at least {:.1} dB to reach the edge (at {})",
+            m.gain_reduction_margin_db,
+            hz(at)
+        ),
+        _ => past,
+    }
+}
+
 fn print_short_margins(margins: &[LoopMargins]) {
     for m in margins {
+        if m.unstable() {
+            println!("{} loop: {}", m.which.name(), unstable_words(m));
+            continue;
+        }
         let mut short = Vec::new();
         if m.phase_margin_deg < MIN_PHASE_MARGIN_DEG {
             short.push(format!(

@@ -9,7 +9,7 @@ use super::check_text::{TraceCsv, summary_text};
 use super::common::{CliError, MachineArgs, PlanningArgs, load_program, not_drawn_notes, progress};
 use crate::check::report::{CheckReport, group_warnings};
 use crate::check::{CheckResult, CheckSettings, check_planned};
-use crate::cli::output::{OutputBatch, at_most_one_stdout, write_json};
+use crate::cli::output::{OutputBatch, outputs_apart, write_json};
 use crate::figures::CheckFigures;
 use crate::gcode::SourceFile;
 use crate::plan::{KinematicLimits, plan_segments};
@@ -56,7 +56,22 @@ pub(crate) fn run(args: &CheckArgs) -> Result<Outcome, CliError> {
             "--tolerance {t}: must be a positive number of µm"
         )));
     }
-    at_most_one_stdout([&args.json, &args.trace, &args.report].map(Option::as_ref))?;
+    if args.trace_every == 0 {
+        return Err(CliError::Usage(
+            "--trace-every 0: keep every Nth sample, N at least 1".into(),
+        ));
+    }
+    outputs_apart(
+        &[
+            ("the program", Some(&args.program)),
+            ("--machine", args.machine.machine.as_deref()),
+        ],
+        &[
+            ("--json", args.json.as_deref()),
+            ("--trace", args.trace.as_deref()),
+            ("--report", args.report.as_deref()),
+        ],
+    )?;
     let machine = args.machine.load_stable()?;
     let mut settings = CheckSettings::for_machine(&machine);
     settings.plan = args.planning.config(&machine)?;

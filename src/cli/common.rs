@@ -76,11 +76,17 @@ pub struct MachineArgs {
 impl MachineArgs {
     /// The machine to use: a file where one exists by that name, else a preset.
     pub(crate) fn load(&self) -> Result<MachineConfig, CliError> {
+        self.load_given_as("--machine")
+    }
+
+    /// [`MachineArgs::load`] for a machine given by another `option` (`--template`), which
+    /// an error names.
+    pub(crate) fn load_given_as(&self, option: &str) -> Result<MachineConfig, CliError> {
         match &self.machine {
             Some(path) if !path.exists() && is_preset_name(path) => {
                 Ok(MachineConfig::preset(&path.to_string_lossy())?)
             }
-            Some(path) if !path.exists() => Err(CliError::Usage(no_such_machine(path))),
+            Some(path) if !path.exists() => Err(CliError::Usage(no_such_machine(option, path))),
             Some(path) => {
                 let (machine, warnings) = MachineConfig::load_with_warnings(path)?;
                 for w in warnings {
@@ -93,9 +99,9 @@ impl MachineArgs {
     }
 }
 
-/// A `--machine` that is neither a file nor a preset: the presets there are, and the one
-/// meant where the name is close to one.
-fn no_such_machine(path: &std::path::Path) -> String {
+/// A machine given by `option` that is neither a file nor a preset: the presets there are,
+/// and the one meant where the name is close to one.
+fn no_such_machine(option: &str, path: &std::path::Path) -> String {
     let name = path.to_string_lossy();
     let presets: Vec<&str> = crate::machine::PRESETS.iter().map(|(n, _)| *n).collect();
     let nearest = presets
@@ -105,7 +111,7 @@ fn no_such_machine(path: &std::path::Path) -> String {
         .filter(|(d, _)| *d <= 2)
         .map_or(String::new(), |(_, p)| format!("; did you mean `{p}`?"));
     format!(
-        "--machine {name}: no such file, and no embedded preset of that name (presets: {}){nearest}",
+        "{option} {name}: no such file, and no embedded preset of that name (presets: {}){nearest}",
         presets.join(", ")
     )
 }
@@ -331,16 +337,21 @@ impl TraceArgs {
     }
 }
 
+/// The largest work offset taken (mm, each axis): 100 m, beyond any machine's travel.
+const MAX_WORK_OFFSET_MM: f64 = 1e5;
+
 /// `--work-offset X,Y` (mm) in metres.
 fn work_offset_m(text: &str) -> Result<[f64; 2], CliError> {
     let values: Vec<Option<f64>> = text
         .split(',')
-        .map(|v| v.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
+        .map(|v| v.trim().parse::<f64>().ok())
+        .map(|v| v.filter(|v| v.abs() <= MAX_WORK_OFFSET_MM))
         .collect();
     match values.as_slice() {
         [Some(x), Some(y)] => Ok([x * 1e-3, y * 1e-3]),
         _ => Err(CliError::Usage(format!(
-            "--work-offset '{text}': give X,Y in mm, e.g. --work-offset 471.103,-250"
+            "--work-offset '{text}': give X,Y in mm, each within ±{MAX_WORK_OFFSET_MM} (beyond \
+             any machine's travel), e.g. --work-offset 471.103,-250"
         ))),
     }
 }

@@ -9,7 +9,7 @@ use clap::Args;
 use super::Outcome;
 use super::common::program_or_commands_path;
 use super::common::{CliError, MachineArgs, PlanningArgs, TraceArgs, not_drawn_notes, spinner};
-use crate::cli::output::{OutputBatch, at_most_one_stdout, write_json};
+use crate::cli::output::{OutputBatch, outputs_apart, write_json};
 use crate::diagnose::causes::{CauseId, CauseSet};
 use crate::diagnose::report::{DiagnoseReport, machine_file};
 use crate::diagnose::table::diagnose_table;
@@ -99,7 +99,23 @@ pub(crate) fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
             args.evidence
         )));
     }
-    at_most_one_stdout([&args.json, &args.report, &args.write_machine].map(Option::as_ref))?;
+    let mut inputs = vec![
+        ("the program", args.program.as_deref()),
+        ("--machine", args.machine.machine.as_deref()),
+        ("--table", args.table.as_deref()),
+        ("--trace-profile", args.trace.trace_profile.as_deref()),
+    ];
+    inputs.extend(
+        args.measured
+            .iter()
+            .map(|m| ("--measured", Some(m.as_path()))),
+    );
+    let outputs = [
+        ("--json", args.json.as_deref()),
+        ("--report", args.report.as_deref()),
+        ("--write-machine", args.write_machine.as_deref()),
+    ];
+    outputs_apart(&inputs, &outputs)?;
     let machine = args.machine.load_stable()?;
     if let Some(table) = &args.table {
         return run_table(args, table, &machine);

@@ -8,7 +8,7 @@ use clap::Args;
 use super::Outcome;
 use super::common::{CliError, PlanningArgs, TraceArgs, spinner};
 use super::common::{program_or_commands_path, warn_beyond_machine};
-use crate::cli::output::{OutputBatch, at_most_one_stdout, write_json};
+use crate::cli::output::{OutputBatch, outputs_apart, write_json};
 use crate::compare::CompareSettings;
 use crate::identify::identify;
 use crate::identify::report::{IdentifyReport, machine_file, summary_text};
@@ -58,7 +58,18 @@ pub struct IdentifyArgs {
 
 pub(crate) fn run(args: &IdentifyArgs) -> Result<Outcome, CliError> {
     // `none`: no template — a model of each loop, started from the record itself.
-    at_most_one_stdout([Some(&args.out), args.json.as_ref(), args.report.as_ref()])?;
+    let inputs = [
+        ("the program", args.program.as_deref()),
+        ("--measured", Some(args.measured.as_path())),
+        ("--template", Some(args.template.as_path())),
+        ("--trace-profile", args.trace.trace_profile.as_deref()),
+    ];
+    let outputs = [
+        ("--out", Some(args.out.as_path())),
+        ("--json", args.json.as_deref()),
+        ("--report", args.report.as_deref()),
+    ];
+    outputs_apart(&inputs, &outputs)?;
     let without_template = args.template.as_os_str() == "none";
     let measured = args.trace.read(&args.measured)?;
     let template = if without_template {
@@ -67,7 +78,7 @@ pub(crate) fn run(args: &IdentifyArgs) -> Result<Outcome, CliError> {
         super::common::MachineArgs {
             machine: Some(args.template.clone()),
         }
-        .load()?
+        .load_given_as("--template")?
     };
     eprintln!(
         "{}: {}",

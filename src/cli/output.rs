@@ -350,23 +350,75 @@ fn temp_path(onto: &Path, dest: &Path) -> Result<PathBuf, OutputError> {
     Ok(tmp)
 }
 
-/// Refuses, before any work, a run that names the standard output (`-`) for more than one
-/// of its outputs.
-pub(crate) fn at_most_one_stdout<'a>(
-    outputs: impl IntoIterator<Item = Option<&'a PathBuf>>,
+/// A file named on the command line: the option or argument that names it (`--json`, the
+/// program) and its path, where given.
+pub(crate) type Named<'a> = (&'a str, Option<&'a Path>);
+
+/// Refuses, before any work, outputs that cannot all be written as asked: the standard
+/// output (`-`) named for more than one (two outputs interleaved there could not be told
+/// apart), one file named for two outputs (the later would replace the earlier, leaving
+/// half of what was asked), or an output naming a file the run reads (what the run made of
+/// it would replace it). Streams (`/dev/null`, a FIFO) take any number of outputs.
+pub(crate) fn outputs_apart<'a>(
+    inputs: &[Named<'a>],
+    outputs: &[Named<'a>],
 ) -> Result<(), OutputError> {
-    let dashes = outputs
-        .into_iter()
-        .flatten()
-        .filter(|p| p.as_os_str() == "-")
-        .count();
+    let given = |named: &[Named<'a>]| -> Vec<(&'a str, &'a Path)> {
+        named
+            .iter()
+            .filter_map(|&(what, p)| Some((what, p?)))
+            .collect()
+    };
+    let outputs = given(outputs);
+    let dashes = outputs.iter().filter(|(_, p)| p.as_os_str() == "-").count();
     if dashes > 1 {
         return Err(OutputError::new(
             Path::new("-"),
             "only one output can go to the standard output",
         ));
     }
+    let read: Vec<(&str, PathBuf)> = (given(inputs).into_iter())
+        .filter(|(_, p)| p.is_file())
+        .filter_map(|(what, p)| Some((what, file_place(p)?)))
+        .collect();
+    let mut written: Vec<(&str, PathBuf)> = Vec::new();
+    for (what, path) in outputs {
+        let Some(at) = file_place(path) else {
+            continue;
+        };
+        if let Some((input, _)) = read.iter().find(|(_, p)| *p == at) {
+            let message =
+                format!("{what} names {input}, which the run reads: it would be replaced");
+            return Err(OutputError::new(path, message));
+        }
+        if let Some((first, _)) = written.iter().find(|(_, p)| *p == at) {
+            let message = format!("named for both {first} and {what}: a file holds one output");
+            return Err(OutputError::new(path, message));
+        }
+        written.push((what, at));
+    }
     Ok(())
+}
+
+/// Where an output to `path` lands as a file, absolute, so that two spellings of one place
+/// compare equal: the file its symbolic links lead to, or for one not there yet, its name in
+/// its folder's real path. None for `-` and streams, which are not replaced.
+fn file_place(path: &Path) -> Option<PathBuf> {
+    let Target::File(at) = target_of(path) else {
+        return None;
+    };
+    if let Ok(real) = std::fs::canonicalize(&at) {
+        return Some(real);
+    }
+    let name = at.file_name()?;
+    let dir = (at.parent())
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    Some(
+        std::fs::canonicalize(dir)
+            .unwrap_or_else(|_| dir.to_path_buf())
+            .join(name),
+    )
 }
 
 /// Whether an output of this process took the standard output.

@@ -7,7 +7,7 @@ use clap::Args;
 
 use super::Outcome;
 use super::common::{CliError, MachineArgs, PlanningArgs, format_duration, load_program};
-use crate::cli::output::OutputBatch;
+use crate::cli::output::{OutputBatch, outputs_apart};
 use crate::numeric::units::{mm_from_m, mm_per_min_from_m_per_s};
 use crate::path::Motion;
 use crate::plan::{Commands, KinematicLimits, plan, sample};
@@ -27,6 +27,11 @@ pub struct PlanArgs {
 }
 
 pub(crate) fn run(args: &PlanArgs) -> Result<Outcome, CliError> {
+    let inputs = [
+        ("the program", Some(args.program.as_path())),
+        ("--machine", args.machine.machine.as_deref()),
+    ];
+    outputs_apart(&inputs, &[("--csv", args.csv.as_deref())])?;
     let machine = args.machine.load_stable()?;
     let config = args.planning.config(&machine)?;
     let program = load_program(&args.program, &machine)?;

@@ -11,7 +11,7 @@ use super::Outcome;
 use super::common::{
     CliError, MachineArgs, PlanningArgs, load_program, progress, write_plots_into,
 };
-use crate::cli::output::OutputBatch;
+use crate::cli::output::{OutputBatch, outputs_apart};
 use crate::machine::{AxisName, MachineConfig};
 use crate::plot::Footer;
 use crate::plot::sweep::{SweepHeatMap, SweepLinePlot};
@@ -236,6 +236,15 @@ fn thresholds(args: &SweepArgs) -> Result<Thresholds, CliError> {
 
 pub(crate) fn run(args: &SweepArgs, m: &ArgMatches) -> Result<Outcome, CliError> {
     let thresholds = thresholds(args)?;
+    let inputs = [
+        ("the program", Some(args.program.as_path())),
+        ("--machine", args.machine.machine.as_deref()),
+    ];
+    let outputs = [
+        ("--csv", args.csv.as_deref()),
+        ("--json", args.json.as_deref()),
+    ];
+    outputs_apart(&inputs, &outputs)?;
     let machine = args.machine.load()?;
     let plan = args.planning.config(&machine)?;
     let program = load_program(&args.program, &machine)?;

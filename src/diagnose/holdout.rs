@@ -74,27 +74,39 @@ impl HeldOutMeasure {
 
 /// The compared samples in two halves, as positions among them: what the context's masks
 /// are indexed by ([`Context::keeping`] takes a half), `near_event` holding one entry per
-/// compared sample. The record is cut into stretches — each window around an event of the
-/// axis (a reversal, an acceleration) on its own, the quiet time between them in pieces of
-/// at most an eighth of the record — and the events alternate between the halves, as do
-/// the quiet pieces: a cause that lives at reversals has reversals in both halves. Windows
+/// compared sample and `reversal` marking those of them near a reversal. The record is cut
+/// into stretches — each window around an event of the axis (a reversal, an acceleration)
+/// on its own, the quiet time between them in pieces of at most an eighth of the record —
+/// and the events alternate between the halves, as do the quiet pieces, and the reversals
+/// among themselves: a cause that lives at reversals has reversals in both halves. Windows
 /// that run together (an axis that accelerates all along a circle is near an event
 /// throughout) are cut too, into pieces of `window_len` samples, one window: taken whole,
 /// such a run would give one half all of the axis's motion and the other only its
-/// standstills.
-fn halves(near_event: &[bool], window_len: usize) -> (Vec<usize>, Vec<usize>) {
-    let longest = [(near_event.len() / BLOCKS).max(1), window_len.max(1)];
+/// standstills. A reversal within such a run is a stretch of its own, counted with the
+/// reversals: by the run's pieces, every reversal of a circle test could fall in one half.
+fn halves(near_event: &[bool], reversal: &[bool], window_len: usize) -> (Vec<usize>, Vec<usize>) {
+    let class = |k: usize| match (reversal.get(k).copied().unwrap_or(false), near_event[k]) {
+        (true, _) => 2,
+        (false, true) => 1,
+        (false, false) => 0,
+    };
+    let longest = [
+        (near_event.len() / BLOCKS).max(1),
+        window_len.max(1),
+        window_len.max(1),
+    ];
     let (mut first, mut second) = (Vec::new(), Vec::new());
-    let mut counts = [0usize; 2];
+    let mut counts = [0usize; 3];
     let mut run_len = 0usize;
-    for (k, &event) in near_event.iter().enumerate() {
-        let starts_run = k == 0 || near_event[k - 1] != event || run_len >= longest[event as usize];
+    for k in 0..near_event.len() {
+        let c = class(k);
+        let starts_run = k == 0 || class(k - 1) != c || run_len >= longest[c];
         if starts_run {
-            counts[event as usize] += 1;
+            counts[c] += 1;
             run_len = 0;
         }
         run_len += 1;
-        if counts[event as usize] % 2 == 1 {
+        if counts[c] % 2 == 1 {
             first.push(k);
         } else {
             second.push(k);
@@ -119,7 +131,7 @@ pub(crate) fn held_out(
         traces,
         offset_s,
     } = now;
-    let (_, near_event) = ctx.event_masks(axis, offset_s, event_window_s);
+    let (reversal, near_event) = ctx.event_masks(axis, offset_s, event_window_s);
     // A window spans the event's time on either side of it; one sample more for where its
     // ends fall between samples, so that a window on its own is never cut.
     let window_len = (2.0 * event_window_s / ctx.sample_dt_s).ceil() + 1.0;
@@ -128,7 +140,7 @@ pub(crate) fn held_out(
     } else {
         1
     };
-    let (fit_on, judge_on) = halves(&near_event, window_len);
+    let (fit_on, judge_on) = halves(&near_event, &reversal, window_len);
     let (train, test) = (ctx.keeping(&fit_on), ctx.keeping(&judge_on));
     let other = &traces[axis.other().index()];
     let starts = [values.to_vec()];
@@ -351,7 +363,7 @@ mod tests {
         ctx.unsettled[AxisName::Y.index()] = (0..n).map(unsettled).collect();
         // Quiet throughout: pieces of an eighth of the record alternate, so the last fifth
         // (from 0.8 of it) lies partly in the 7th piece and wholly over the 8th.
-        let (first, second) = halves(&vec![false; n], 1);
+        let (first, second) = halves(&vec![false; n], &[], 1);
         for positions in [&first, &second] {
             let part = ctx.keeping(positions);
             assert_eq!(part.samples.len(), positions.len());
@@ -378,7 +390,7 @@ mod tests {
     fn a_run_of_events_is_shared_between_the_halves_and_a_lone_window_is_not_cut() {
         // 800 samples near an event from 100 to 700: six windows of 100 run together.
         let near: Vec<bool> = (0..800).map(|k| (100..700).contains(&k)).collect();
-        let (first, second) = halves(&near, 100);
+        let (first, second) = halves(&near, &[], 100);
         let events = |half: &[usize]| half.iter().filter(|&&k| near[k]).count();
         assert_eq!((events(&first), events(&second)), (300, 300));
         assert_eq!(first.len() + second.len(), 800);
@@ -386,8 +398,18 @@ mod tests {
         let lone: Vec<bool> = (0..800)
             .map(|k| (100..200).contains(&k) || (400..500).contains(&k))
             .collect();
-        let (first, second) = halves(&lone, 100);
+        let (first, second) = halves(&lone, &[], 100);
         assert!((100..200).all(|k| first.contains(&k)));
         assert!((400..500).all(|k| second.contains(&k)));
+        // Two reversals in one run of events, seven windows apart (its pieces would give
+        // both to one half): one in each half, each whole.
+        let reversal: Vec<bool> = (0..800)
+            .map(|k| (140..200).contains(&k) || (540..600).contains(&k))
+            .collect();
+        let (first, second) = halves(&near, &reversal, 100);
+        let whole_in =
+            |half: &[usize], r: std::ops::Range<usize>| r.clone().all(|k| half.contains(&k));
+        assert!(whole_in(&first, 140..200) && whole_in(&second, 540..600));
+        assert_eq!(first.len() + second.len(), 800);
     }
 }

@@ -507,7 +507,8 @@ impl DiagnoseReport {
 fn ballbar_and_causes(r: &DiagnoseReport) -> Option<String> {
     let pair = r.circular_test.measured.pairs.first()?;
     let backlash = r.causes.iter().find(|c| c.id == CauseId::Backlash)?;
-    let gap_um = backlash.params.first()?.value;
+    let gap = backlash.params.first()?;
+    let gap_um = gap.value;
     let (step_um, spikes) = match backlash.axis {
         AxisName::X => (pair.backlash_x_um, [0usize, 2]),
         AxisName::Y => (pair.backlash_y_um, [1, 3]),
@@ -535,9 +536,11 @@ fn ballbar_and_causes(r: &DiagnoseReport) -> Option<String> {
     };
     Some(format!(
         "The ballbar's backlash figure for {} ({step_um:+.2} µm, a step across the reversal) \
-         is not the {gap_um:.2} µm named above: {behind}, and what the circle shows of it is the \
+         is not the {} µm named above: {behind}, and what the circle shows of it is the \
          reversal spikes (up to {spike_um:.1} µm at {}'s reversals).",
-        backlash.axis, backlash.axis
+        backlash.axis,
+        with_uncertainty(gap_um, gap.uncertainty),
+        backlash.axis
     ))
 }
 

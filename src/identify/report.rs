@@ -428,8 +428,11 @@ pub(crate) fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
     } else {
         ""
     };
-    let loose = a.judged_while_moving || a.values.iter().any(|v| v.loose);
-    Some(if a.better_than_template && loose {
+    // At the noise on the samples it was fitted to, a fit whose halves disagree was left
+    // loose by the record; above it, the model lacks something, loose values or not.
+    let at_noise = a.judged_while_moving || super::within_noise(a.rms_identified_um, noise_um);
+    let loose = a.values.iter().any(|v| v.loose);
+    Some(if a.better_than_template && at_noise {
         format!(
             "written as a model: it follows the record to its noise ({:.3} µm against {:.3} \
              µm), but its halves predict each other{on} only to {:.3} µm, more than twice \
@@ -440,11 +443,16 @@ pub(crate) fn verdict(a: &AxisIdentification, noise_um: f64) -> Option<String> {
             a.judged_held_out().1
         )
     } else if a.better_than_template {
+        let left = if loose {
+            ", and the record leaves some of its values loose (marked)"
+        } else {
+            ""
+        };
         format!(
             "written as a model: it stays at {:.3} µm against the record's noise of {:.3} µm \
              (the model lacks something of this machine: `diagnose` looks for effects beyond \
-             it), and predicts the held-out halves better than the template — its values \
-             predict, none is a measurement",
+             it){left}, and predicts the held-out halves better than the template — its \
+             values predict, none is a measurement",
             a.rms_identified_um, noise_um
         )
     } else {

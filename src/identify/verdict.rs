@@ -301,6 +301,7 @@ mod tests {
         // the noise (beyond the 2 that determined values reach), a fifth of the template's
         // 1.0 µm: written as a model, but no value is determined.
         let mut id = AxisIdentification::scored(1.0, 0.2);
+        id.rms_identified_um = noise_um;
         id.values = vec![IdentifiedValue::fitted_gain(false)];
         assert!(judged_while_moving(&mut id, noise_um));
         assert!(!id.reached && id.better_than_template && !id.judged_while_moving);
@@ -309,6 +310,15 @@ mod tests {
         let said = super::super::report::verdict(&id, noise_um).expect("a verdict");
         assert!(said.contains("more than twice the noise"), "{said}");
         assert!(!said.contains("while moving"), "{said}");
+        // The same halves of a fit that stays above the noise on every sample (0.2 µm, 3.3
+        // times it): the model lacks something, and its loose value is said as well.
+        id.rms_identified_um = 0.2;
+        let said = super::super::report::verdict(&id, noise_um).expect("a verdict");
+        assert!(!said.contains("follows the record to its noise"), "{said}");
+        assert!(
+            said.contains("lacks something") && said.contains("loose"),
+            "{said}"
+        );
         // Within twice the noise (0.11 µm), the same value stays determined and reached.
         let mut close = AxisIdentification::scored(1.0, 0.11);
         close.values = vec![IdentifiedValue::fitted_gain(false)];

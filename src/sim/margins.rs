@@ -63,6 +63,12 @@ pub struct LoopMargins {
 }
 
 impl LoopMargins {
+    /// Whether the loop is unstable already (its phase margin counted past the edge): its
+    /// gain margins then say how far the gain is from the edge, not how far it may move.
+    pub fn unstable(&self) -> bool {
+        self.phase_margin_deg < 0.0
+    }
+
     /// Whether the loop falls short of a phase margin of `min_phase_deg` or a gain margin
     /// (either way) of `min_gain_db`.
     pub fn short_of(&self, min_phase_deg: f64, min_gain_db: f64) -> bool {

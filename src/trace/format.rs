@@ -185,7 +185,8 @@ impl ColumnMap {
                 MappingError(format!("'{item}': expected KEY=COLUMN, as t=Time[ms]"))
             })?;
             let signal = Signal::from_key(key.trim()).ok_or_else(|| {
-                MappingError(format!("'{key}': the keys are t, x, y, x_cmd, y_cmd"))
+                let keys: Vec<&str> = Signal::ALL.iter().map(|s| s.key()).collect();
+                MappingError(format!("'{key}': the keys are {}", keys.join(", ")))
             })?;
             map.set(signal, column)?;
         }
@@ -885,6 +886,14 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("'abc'"), "{e}");
+        // A key that is none lists every key there is, Z's among them.
+        let e = ColumnMap::parse("t=t_s,x=x_mm,y=y_mm,w=w_mm")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("'w': the keys are t, x, y, x_cmd, y_cmd, z, z_cmd"),
+            "{e}"
+        );
     }
 
     #[test]

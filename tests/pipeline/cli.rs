@@ -215,6 +215,27 @@ fn bode_shows_no_nan_and_refuses_an_unstable_setting() {
     assert_is_the_stability_edge(&shown, contourcheck::machine::AxisName::X);
     let err = text(&o.stderr);
     assert!(err.contains("X axis: unstable"), "{err}");
+    // Just past the edge, the position loop's margins say how far its gain is beyond it —
+    // the gain that must fall, by what separates it from the stable Kv stated — not how far
+    // it may move.
+    let kv = 2.0;
+    let shown = text(&bode_at_kv("edge.toml", kv).stdout);
+    let position = shown.lines().find(|l| l.starts_with("position ")).unwrap();
+    assert!(position.contains("unstable"), "{shown}");
+    assert!(!shown.contains("unstable if its gain falls"), "{shown}");
+    let must_fall_db: f64 = (shown.split("must fall by at least ").nth(1))
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|db| db.parse().ok())
+        .unwrap_or_else(|| panic!("no fall stated: {shown}"));
+    let edge: f64 = (shown.split("is stable below ").nth(1))
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|k| k.parse().ok())
+        .unwrap();
+    let apart_db = 20.0 * (kv / edge).log10();
+    assert!(
+        (must_fall_db - apart_db).abs() <= 0.1,
+        "{must_fall_db} dB against {apart_db}"
+    );
     // A plot directory that cannot be made says why as any other file would.
     let blocked = dir.path().join("hot.toml").join("plots");
     let o = run(&["bode", "--plot", blocked.to_str().unwrap()]);
@@ -222,8 +243,8 @@ fn bode_shows_no_nan_and_refuses_an_unstable_setting() {
     assert!(text(&o.stderr).contains("hot.toml"), "{}", text(&o.stderr));
     assert_eq!(
         std::fs::read_dir(dir.path()).unwrap().count(),
-        2,
-        "only the two machines"
+        3,
+        "only the three machines"
     );
 }
 
@@ -794,4 +815,50 @@ fn sweep_help_says_which_modes_min_damping_flags() {
         "{help}"
     );
     assert!(!help.contains("with its frequency"), "{help}");
+}
+
+/// Numbers no run can use are refused by their option before anything is written: a trace
+/// that keeps every 0th sample, a work offset beyond any machine's travel (or not a number).
+#[test]
+fn numbers_no_run_can_use_are_refused_by_their_option() {
+    let dir = tempfile::tempdir().unwrap();
+    let trace = dir.path().join("t.csv");
+    let square = sample("square.nc");
+    let o = run(&[
+        "check",
+        square.to_str().unwrap(),
+        "--trace",
+        trace.to_str().unwrap(),
+        "--trace-every",
+        "0",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("--trace-every 0"),
+        "{}",
+        text(&o.stderr)
+    );
+    assert!(!trace.exists());
+    let record = dir.path().join("m.csv");
+    run_ok(&[
+        "synth",
+        square.to_str().unwrap(),
+        "--out",
+        record.to_str().unwrap(),
+    ]);
+    for offset in ["1e308,0", "0,-2e5", "nan,0", "inf,1"] {
+        let o = run(&["inspect", record.to_str().unwrap(), "--work-offset", offset]);
+        assert_eq!(o.status.code(), Some(2), "{offset}: {}", text(&o.stderr));
+        assert!(
+            text(&o.stderr).contains(&format!("--work-offset '{offset}'")),
+            "{}",
+            text(&o.stderr)
+        );
+    }
+    run_ok(&[
+        "inspect",
+        record.to_str().unwrap(),
+        "--work-offset",
+        "-471.1,250",
+    ]);
 }

@@ -490,3 +490,77 @@ fn synth_runs_a_command_stream_without_a_program() {
     assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
     assert!(text(&o.stderr).contains("<PROGRAM>"), "{}", text(&o.stderr));
 }
+
+/// The record stands still from its clock's 0 until the program starts: a start a day or
+/// more later (or past any count of samples) is refused by its option, before anything is
+/// simulated or written — not a file of gigabytes, an allocation that fails, or none.
+#[test]
+fn synth_refuses_a_program_start_no_record_waits_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("late.csv");
+    let program = sample("line-60deg.nc");
+    for offset in ["86400", "1e15", "1e300", "-1", "nan"] {
+        let o = run(&[
+            "synth",
+            program.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            &format!("--offset-s={offset}"),
+        ]);
+        assert_eq!(o.status.code(), Some(2), "{offset}: {}", text(&o.stderr));
+        assert!(
+            text(&o.stderr).contains("--offset-s ")
+                && text(&o.stderr).contains("must lie between 0 and 3600 s"),
+            "{offset}: {}",
+            text(&o.stderr)
+        );
+        assert!(!out.exists(), "{offset}");
+    }
+    // An hour's wait at the coarsest step is still a record.
+    run_ok(&[
+        "synth",
+        program.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--offset-s=3600",
+        "--sample-ms=100",
+    ]);
+    let rows = std::fs::read_to_string(&out).unwrap().lines().count();
+    assert!(rows > 36_000, "{rows}");
+}
+
+/// A template that is neither a file nor a preset is named by its own option, with the
+/// preset meant where the name is close to one.
+#[test]
+fn identify_names_a_template_that_is_nowhere_by_its_option() {
+    let dir = tempfile::tempdir().unwrap();
+    let record = dir.path().join("line.csv");
+    let program = sample("line-60deg.nc");
+    let p = program.to_str().unwrap();
+    run_ok(&[
+        "synth",
+        p,
+        "--out",
+        record.to_str().unwrap(),
+        "--with-commands",
+    ]);
+    let out = dir.path().join("id.toml");
+    let o = run(&[
+        "identify",
+        p,
+        "--measured",
+        record.to_str().unwrap(),
+        "--template",
+        "hmvc",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    let e = text(&o.stderr);
+    assert!(e.contains("--template hmvc: no such file"), "{e}");
+    assert!(
+        e.contains("did you mean `hvmc`?") && !e.contains("--machine"),
+        "{e}"
+    );
+    assert!(!out.exists());
+}

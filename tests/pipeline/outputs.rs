@@ -1,6 +1,7 @@
 //! Where outputs go: `-` is the standard output (the data alone there, what is printed for
 //! people on the standard error); a symbolic link is written through and stays a link; a
-//! device or a FIFO is written to in place, not replaced.
+//! device or a FIFO is written to in place, not replaced; an output never replaces a file
+//! the run reads, nor another output of the run.
 
 use std::path::Path;
 use std::process::Output;
@@ -64,6 +65,53 @@ fn a_dash_writes_the_data_alone_to_standard_output() {
     assert_eq!(o.status.code(), Some(2));
     assert!(o.stdout.is_empty());
     assert!(text(&o.stderr).contains("only one output can go to the standard output"));
+}
+
+#[test]
+fn an_output_naming_an_input_or_another_output_is_refused_before_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = dir.path().join("square.nc");
+    std::fs::copy(sample("square.nc"), &program).unwrap();
+    let before = std::fs::read(&program).unwrap();
+    let p = program.to_str().unwrap();
+    // The program itself, spelt another way (through its folder's `..`), and a link to it.
+    let roundabout = dir.path().join("..").join(dir.path().file_name().unwrap());
+    let roundabout = roundabout.join("square.nc");
+    let link = dir.path().join("link.nc");
+    std::os::unix::fs::symlink(&program, &link).unwrap();
+    for out in [p, roundabout.to_str().unwrap(), link.to_str().unwrap()] {
+        let o = run(&["check", p, "--json", out]);
+        assert_eq!(o.status.code(), Some(2), "{out}: {}", text(&o.stderr));
+        assert!(
+            text(&o.stderr).contains("--json names the program, which the run reads"),
+            "{}",
+            text(&o.stderr)
+        );
+        assert_eq!(std::fs::read(&program).unwrap(), before, "{out}");
+    }
+    // A record `synth` made, named again as where `diagnose` writes its machine.
+    let record = dir.path().join("square.csv");
+    let r = record.to_str().unwrap();
+    run_ok(&["synth", p, "--out", r, "--with-commands"]);
+    let recorded = std::fs::read(&record).unwrap();
+    let o = run(&["diagnose", p, "--measured", r, "--write-machine", r]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("--write-machine names --measured"));
+    assert_eq!(std::fs::read(&record).unwrap(), recorded);
+    // One file for two outputs, spelt two ways: refused, nothing written.
+    let same = dir.path().join("same.out");
+    let dotted = dir.path().join(".").join("same.out");
+    let o = check(&[
+        "--json",
+        same.to_str().unwrap(),
+        "--report",
+        dotted.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("named for both --json and --report"));
+    assert!(!same.exists());
+    // Streams take any number.
+    check_ok(&["--json", "/dev/null", "--trace", "/dev/null"]);
 }
 
 #[test]

@@ -8,6 +8,10 @@ use crate::gcode::error::{GcodeErrorKind, Warning};
 use crate::numeric::units::{MM_PER_INCH, m_from_mm};
 use crate::path::{Arc, Geometry, Motion, Plane, Segment};
 
+/// The most turns an arc's `P` may ask for: one block of more is no part program's (a
+/// helix that long is programmed in a loop), and each turn is planned and simulated.
+const MAX_ARC_TURNS: f64 = 10_000.0;
+
 /// LinuxCNC's absolute tolerance on the start/end radius difference of an I/J arc
 /// (CENTER_ARC_RADIUS_TOLERANCE_MM = 2·0.01·√2 mm; the inch value, 2·0.001·√2 in, applies
 /// under G20).
@@ -120,10 +124,12 @@ impl Interpreter {
     fn arc_turns(&self, offset: u32) -> IResult<u32> {
         match self.block.get(b'P') {
             None => Ok(1),
-            Some(p) if p >= 1.0 && p.fract() == 0.0 && p <= 10_000.0 => Ok(p as u32),
+            Some(p) if p >= 1.0 && p.fract() == 0.0 && p <= MAX_ARC_TURNS => Ok(p as u32),
             Some(p) => err(
                 offset,
-                GcodeErrorKind::Invalid(format!("arc P{p}: turns must be a positive integer")),
+                GcodeErrorKind::Invalid(format!(
+                    "arc P{p}: turns must be a whole number from 1 to {MAX_ARC_TURNS}"
+                )),
             ),
         }
     }
