@@ -192,6 +192,15 @@ fn the_840d_trace_from_home_is_diagnosed_from_where_its_commands_join_the_progra
     // program does.
     assert_eq!(c.last_line, 17, "{c:?}");
     assert!(c.from_program_start && !c.to_program_end, "{c:?}");
+    // Where the residual is largest is given on the record's clock, inside the stretch
+    // compared (the model's own clock runs from the join, not the record's start).
+    for p in &d.places {
+        let t = p.t_record_s;
+        assert!(
+            t >= c.compared_from_s - 1e-9 && t <= c.compared_to_s + 1e-9,
+            "{p:?}: {c:?}"
+        );
+    }
     // The 36 m/min rapid from home is beyond the nominal machine's 6 m/min, but the model
     // is not driven by it: what the model follows, from the join on (the end of the rapids
     // and a cut at F350), asks nothing beyond the machine file's limits.

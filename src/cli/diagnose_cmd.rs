@@ -272,14 +272,19 @@ fn stage_compensation(
         w.write_all(csv.as_bytes())
     })?;
     let mut written = vec!["compensation.csv".to_string()];
+    let mut not_written = String::new();
     for t in &tables {
         let name = format!("{}.comp", t.axis.to_string().to_lowercase());
-        let text = linuxcnc_file(t);
-        batch.stage(&dir.join(&name), |w| w.write_all(text.as_bytes()))?;
-        written.push(name);
+        match linuxcnc_file(t) {
+            Ok(text) => {
+                batch.stage(&dir.join(&name), |w| w.write_all(text.as_bytes()))?;
+                written.push(name);
+            }
+            Err(why) => not_written.push_str(&format!("\n  {name} not written: {why}")),
+        }
     }
     Ok(format!(
-        "compensation: {} in {}{left_out}",
+        "compensation: {} in {}{not_written}{left_out}",
         written.join(", "),
         dir.display()
     ))

@@ -25,15 +25,20 @@
 #[cfg(feature = "cli")]
 use std::fmt::Write as _;
 
-use crate::machine::{AxisName, Feedback, MachineConfig};
+use crate::machine::{AxisConfig, AxisName, Feedback, MachineConfig};
 use crate::numeric::units::{m_from_mm, um_from_m};
 use crate::sim::AxisModel;
 use crate::sim::geometry::CrossTerms;
 use crate::sim::model::X2;
 use crate::sim::simulate::rest_state;
 
-/// Points of a table over the travel when the errors are smooth (scale, cyclic).
+/// Points of a table over the travel at least (a scale error is a straight line).
 const GRID_POINTS: usize = 101;
+/// Points a period of a cyclic error gets: a control interpolating linearly between them
+/// misses its sine by at most A·(π/16)²/2, 2 % of its amplitude.
+const POINTS_PER_PERIOD: f64 = 16.0;
+/// Most points of a table: a millimetre's cyclic error over six metres of travel.
+const MOST_POINTS: usize = 100_000;
 /// Most lines LinuxCNC keeps per joint.
 pub const LINUXCNC_MOST_POINTS: usize = 256;
 
@@ -73,7 +78,7 @@ fn axis_compensation(machine: &MachineConfig, axis: AxisName) -> Option<AxisComp
     {
         return None;
     }
-    let positions = positions_mm(machine, axis);
+    let positions = positions_mm(config, &model);
     let points = positions
         .into_iter()
         .map(|p| {
@@ -101,9 +106,9 @@ pub fn gaps_behind_a_scale(machine: &MachineConfig) -> Vec<(AxisName, f64)> {
 }
 
 /// Where the table has points: those of a learned position map (within LinuxCNC's limit),
-/// else an even grid over the axis's travel, or ±500 mm without one.
-fn positions_mm(machine: &MachineConfig, axis: AxisName) -> Vec<f64> {
-    let config = machine.axis(axis);
+/// else an even grid over the axis's travel, or ±500 mm without one: 101 points, or
+/// [`POINTS_PER_PERIOD`] a period of a cyclic error where that is more.
+fn positions_mm(config: &AxisConfig, model: &AxisModel) -> Vec<f64> {
     let map = &config.errors.position_map_mm;
     if !map.is_empty() {
         let every = map.len().div_ceil(LINUXCNC_MOST_POINTS);
@@ -115,8 +120,16 @@ fn positions_mm(machine: &MachineConfig, axis: AxisName) -> Vec<f64> {
         return kept;
     }
     let [lo, hi] = config.limits.travel_mm.unwrap_or([-500.0, 500.0]);
-    (0..GRID_POINTS)
-        .map(|k| lo + (hi - lo) * k as f64 / (GRID_POINTS - 1) as f64)
+    let m = &model.measuring;
+    // A cyclic error needs its points a fraction of its period apart, or the table a
+    // control interpolates between them draws another curve.
+    let per_period = (m.amplitude_m != 0.0 && m.wavenumber_per_m > 0.0).then(|| {
+        let period_mm = 1e3 * std::f64::consts::TAU / m.wavenumber_per_m;
+        ((hi - lo) / period_mm * POINTS_PER_PERIOD).ceil() as usize + 1
+    });
+    let n = per_period.map_or(GRID_POINTS, |n| n.clamp(GRID_POINTS, MOST_POINTS));
+    (0..n)
+        .map(|k| lo + (hi - lo) * k as f64 / (n - 1) as f64)
         .collect()
 }
 
@@ -132,14 +145,23 @@ pub(crate) fn neutral_csv(tables: &[AxisCompensation]) -> String {
     s
 }
 
-/// One axis's table as a LinuxCNC compensation file (type 1, mm).
+/// One axis's table as a LinuxCNC compensation file (type 1, mm); why not where it has
+/// more points than LinuxCNC keeps (a cyclic error's over a long travel).
 #[cfg(feature = "cli")]
-pub(crate) fn linuxcnc_file(table: &AxisCompensation) -> String {
+pub(crate) fn linuxcnc_file(table: &AxisCompensation) -> Result<String, String> {
+    let n = table.points.len();
+    if n > LINUXCNC_MOST_POINTS {
+        return Err(format!(
+            "its table needs {n} points ({POINTS_PER_PERIOD} a period of its cyclic error over \
+             the travel) and LinuxCNC keeps {LINUXCNC_MOST_POINTS} per joint: load \
+             compensation.csv into a control that takes them"
+        ));
+    }
     let mut s = String::new();
     for (p, f, r) in &table.points {
         let _ = writeln!(s, "{p:.4} {:.6} {:.6}", f * 1e-3, r * 1e-3);
     }
-    s
+    Ok(s)
 }
 
 #[cfg(test)]
@@ -164,7 +186,7 @@ mod tests {
         let short_um = -1e6 * 1e-4 / (1.0 + 1e-4);
         assert!((forward - short_um).abs() < 1e-6, "{forward}");
         assert!((reverse - short_um).abs() < 1e-6, "{reverse}");
-        let text = linuxcnc_file(x);
+        let text = linuxcnc_file(x).unwrap();
         assert_eq!(text.lines().count(), x.points.len());
         assert!(text.contains("\n1000.0000 -0.099990 -0.099990\n"), "{text}");
         assert_eq!(gaps_behind_a_scale(&m), vec![(AxisName::X, 8.0)]);
@@ -172,6 +194,36 @@ mod tests {
         assert!(compensation(&MachineConfig::default_preset()).is_empty());
         m.x.errors.scale_error_ppm = 0.0;
         assert!(compensation(&m).is_empty());
+    }
+
+    #[test]
+    fn a_cyclic_error_gets_points_close_enough_to_draw_it_and_no_linuxcnc_file_past_its_limit() {
+        // X's scale reads 3 µm · sin(2π·x/16 mm + 30°) too long over a travel of 1000 mm:
+        // held where the scale reads p, the table stands 3 µm · sin(2π·p/16 + 30°) short
+        // (to within A·k = 1.2·10⁻³ of it).
+        let mut m = MachineConfig::default_preset();
+        m.x.limits.travel_mm = Some([0.0, 1000.0]);
+        m.x.errors.cyclic_amplitude_um = 3.0;
+        m.x.errors.cyclic_period_mm = 16.0;
+        m.x.errors.cyclic_phase_deg = 30.0;
+        let x = &compensation(&m)[0];
+        let short_um =
+            |p: f64| -3.0 * (std::f64::consts::TAU * p / 16.0 + 30f64.to_radians()).sin();
+        // Between every two points, as a control interpolates them: within 2.5 % of the
+        // amplitude (a grid of 101 points, 10 mm apart, would miss it by more than itself).
+        for w in x.points.windows(2) {
+            let ((p0, f0, _), (p1, f1, _)) = (w[0], w[1]);
+            let mid = 0.5 * (p0 + p1);
+            let drawn = 0.5 * (f0 + f1);
+            assert!(
+                (drawn - short_um(mid)).abs() <= 0.025 * 3.0 + 0.01,
+                "{mid} mm: {drawn}"
+            );
+        }
+        // 1001 points: more than LinuxCNC keeps, so no file for it, and why.
+        assert!(x.points.len() > LINUXCNC_MOST_POINTS);
+        let why = linuxcnc_file(x).unwrap_err();
+        assert!(why.contains("256 per joint"), "{why}");
     }
 
     #[test]

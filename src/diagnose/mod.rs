@@ -173,8 +173,11 @@ pub struct ExtraWait {
 pub struct Place {
     /// Axis or "contour".
     pub what: String,
-    /// Time on the program's clock (s).
+    /// Time on the program's clock (s): the clock of the diagnosis's series and plots.
     pub t_s: f64,
+    /// Time on the record's clock (s): where a user finds it in the record, as the stretch
+    /// compared is stated.
+    pub t_record_s: f64,
     /// Measured X (mm).
     pub x_mm: f64,
     /// Measured Y (mm).

@@ -473,7 +473,10 @@ impl DiagnoseReport {
     fn write_places(&self, s: &mut String) {
         if !self.places.is_empty() {
             let with_z = self.places.iter().any(|p| p.z_mm.is_some());
-            let _ = writeln!(s, "\nLargest residuals of the nominal model:");
+            let _ = writeln!(
+                s,
+                "\nLargest residuals of the nominal model (t on the record's clock):"
+            );
             let _ = writeln!(
                 s,
                 "  {:<8} {:>9} {:>10} {:>10}{} {:>6} {:>10}",
@@ -494,7 +497,7 @@ impl DiagnoseReport {
                 let _ = writeln!(
                     s,
                     "  {:<8} {:>9.3} {:>10.3} {:>10.3}{z} {:>6} {:>+10.3}",
-                    p.what, p.t_s, p.x_mm, p.y_mm, p.line, p.residual_um
+                    p.what, p.t_record_s, p.x_mm, p.y_mm, p.line, p.residual_um
                 );
             }
         }

@@ -206,6 +206,7 @@ fn places_of(ctx: &Context, s: &Series, segment: &[u32], z_m: Option<&[f64]>) ->
             places.push(Place {
                 what: what.into(),
                 t_s: s.t_s[k],
+                t_record_s: ctx.measured.time_s(ctx.samples[k]),
                 x_mm: mm_from_m(s.measured[0][k]),
                 y_mm: mm_from_m(s.measured[1][k]),
                 z_mm: z_m.map(|z| mm_from_m(z[k])).filter(|z| z.is_finite()),

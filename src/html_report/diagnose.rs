@@ -274,7 +274,7 @@ fn place_rows(json: &Json) -> (Vec<Vec<Fig>>, bool) {
     let rows = (0..places.len())
         .map(|i| {
             let f = |field: &str, d| fig(json, &format!("places[{i}].{field}"), d);
-            let mut row = vec![f("what", 0), f("t_s", 3), f("x_mm", 3), f("y_mm", 3)];
+            let mut row = vec![f("what", 0), f("t_record_s", 3), f("x_mm", 3), f("y_mm", 3)];
             if with_z {
                 row.push(f("z_mm", 3));
             }
