@@ -83,6 +83,24 @@ pub struct Unit {
     pub label: &'static str,
 }
 
+impl Unit {
+    /// Whether a column in this unit can hold `value`: counts are whole numbers.
+    pub(crate) fn takes(&self, value: f64) -> bool {
+        self.label != COUNTS || value.fract() == 0.0
+    }
+}
+
+/// The label of a count unit (`counts:RESOLUTION`).
+const COUNTS: &str = "counts";
+
+/// Why `text` cannot be a count.
+pub(crate) fn not_a_count(text: &str) -> String {
+    format!(
+        "'{text}' is not a whole number: a column read as counts (counts:RESOLUTION) holds \
+         whole counts; positions in a length unit take it instead, as [mm]"
+    )
+}
+
 const TIME_UNITS: [(&str, f64); 5] = [
     ("s", 1.0),
     ("ms", 1e-3),
@@ -139,7 +157,7 @@ pub(crate) fn parse_unit(text: &str, signal: Signal) -> Result<Unit, String> {
         }
         return Ok(Unit {
             to_si: step * unit.to_si,
-            label: "counts",
+            label: COUNTS,
         });
     }
     let known: Vec<&str> = table.iter().map(|(l, _)| *l).collect();

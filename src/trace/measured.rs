@@ -398,6 +398,17 @@ fn assemble_named(
                 problem: format!("{what} '{name}' ({}): not a finite number", m.signal.key()),
             });
         }
+        if let Some(i) = values.iter().position(|v| !m.unit.takes(*v)) {
+            return Err(MeasuredError::Row {
+                file: file.into(),
+                row: rows.get(i).copied().unwrap_or(i as u64 + 1),
+                problem: format!(
+                    "{what} '{name}' ({}): {}",
+                    m.signal.key(),
+                    format::not_a_count(&values[i].to_string())
+                ),
+            });
+        }
         let si: Vec<f64> = values.iter().map(|v| v * m.unit.to_si).collect();
         match slot(m.signal) {
             None => table.t = si,
@@ -690,6 +701,18 @@ mod tests {
         let m = parse_trace(&text, "v.csv").unwrap();
         assert!((m.dt_s - 5e-4).abs() < 1e-12);
         assert!((m.x_m[10] - 10.0).abs() < 1e-9);
+        // A column of millimetres mapped as counts is refused at its first fraction, not
+        // read as positions on a grid of nothing.
+        let mm = text.replacen("\r\n0,5;1000;", "\r\n0,5;1000,5;", 1);
+        assert_ne!(mm, text);
+        let e = parse_trace_with(&mm, "v.csv", Some(&map))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("row 4") && e.contains("'1000,5' is not a whole number"),
+            "{e}"
+        );
+        assert!(e.contains("column 2 'X_ActPos'"), "{e}");
     }
 
     #[test]

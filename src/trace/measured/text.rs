@@ -148,9 +148,12 @@ pub(super) fn read_rows(
                         ))
                     })?
             } else {
-                format::number(text, dialect)
-                    .map(|v| v * m.unit.to_si)
-                    .ok_or_else(|| at_row(format::why_not_a_number(text, dialect)))?
+                let v = format::number(text, dialect)
+                    .ok_or_else(|| at_row(format::why_not_a_number(text, dialect)))?;
+                if !m.unit.takes(v) {
+                    return Err(at_row(format::not_a_count(text)));
+                }
+                v * m.unit.to_si
             };
             steps[m.index] = steps[m.index].min(printed_step(text, decimal));
             match slot(m.signal) {
