@@ -194,6 +194,7 @@ fn the_840d_trace_from_home_is_diagnosed_from_where_its_commands_join_the_progra
     assert!(c.from_program_start && !c.to_program_end, "{c:?}");
     // Where the residual is largest is given on the record's clock, inside the stretch
     // compared (the model's own clock runs from the join, not the record's start).
+    assert!(!d.places.is_empty(), "{c:?}");
     for p in &d.places {
         let t = p.t_record_s;
         assert!(

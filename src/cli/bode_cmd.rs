@@ -234,7 +234,6 @@ fn peak_cell(peak_hz: f64, peak_db: f64) -> String {
     }
 }
 
-/// The loops short of the usual margins, each with what it lacks.
 /// The gain margin's cell: none for a loop that is unstable already, which no rise of its
 /// gain makes so (its edge is given below the table).
 fn gain_margin_cell(m: &LoopMargins, missing: &mut bool) -> String {
@@ -248,7 +247,11 @@ fn gain_margin_cell(m: &LoopMargins, missing: &mut bool) -> String {
 /// What an unstable loop's margins say: how far past the edge it is, and where the gain
 /// crosses −180° above 0 dB, how far the gain must fall at least to reach the edge.
 fn unstable_words(m: &LoopMargins) -> String {
-    let past = format!("unstable (phase margin {:.1}°)", m.phase_margin_deg);
+    let past = if m.phase_margin_deg.is_finite() {
+        format!("unstable (phase margin {:.1}°)", m.phase_margin_deg)
+    } else {
+        "unstable (its gain never crosses 0 dB)".to_string()
+    };
     match m.gain_reduction_hz {
         Some(at) if m.gain_reduction_margin_db.is_finite() => format!(
             "{past}: its gain must fall by at least {:.1} dB to reach the edge (at {})",
@@ -259,6 +262,8 @@ fn unstable_words(m: &LoopMargins) -> String {
     }
 }
 
+/// The loops short of the usual margins, each with what it lacks; an unstable one, how far
+/// past the edge it is.
 fn print_short_margins(margins: &[LoopMargins]) {
     for m in margins {
         if m.unstable() {

@@ -337,8 +337,9 @@ impl TraceArgs {
     }
 }
 
-/// The largest work offset taken (mm, each axis): 100 m, beyond any machine's travel.
-const MAX_WORK_OFFSET_MM: f64 = 1e5;
+/// The largest work offset taken (mm, each axis): as far as a machine file's travel may
+/// reach.
+const MAX_WORK_OFFSET_MM: f64 = crate::machine::MAX_TRAVEL_MM;
 
 /// `--work-offset X,Y` (mm) in metres.
 fn work_offset_m(text: &str) -> Result<[f64; 2], CliError> {

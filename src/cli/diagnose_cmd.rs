@@ -110,11 +110,20 @@ pub(crate) fn run(args: &DiagnoseArgs) -> Result<Outcome, CliError> {
             .iter()
             .map(|m| ("--measured", Some(m.as_path()))),
     );
-    let outputs = [
+    // The files a compensation folder will hold are outputs too.
+    let tables = (args.write_compensation.as_deref())
+        .map(|dir| ["compensation.csv", "x.comp", "y.comp"].map(|name| dir.join(name)));
+    let mut outputs = vec![
         ("--json", args.json.as_deref()),
         ("--report", args.report.as_deref()),
         ("--write-machine", args.write_machine.as_deref()),
     ];
+    outputs.extend(
+        tables
+            .iter()
+            .flatten()
+            .map(|t| ("--write-compensation", Some(t.as_path()))),
+    );
     outputs_apart(&inputs, &outputs)?;
     let machine = args.machine.load_stable()?;
     if let Some(table) = &args.table {
@@ -243,11 +252,11 @@ fn stage_compensation(
     machine: &crate::machine::MachineConfig,
 ) -> Result<String, CliError> {
     use crate::diagnose::compensation::{
-        compensation, gaps_behind_a_scale, linuxcnc_file, neutral_csv,
+        compensation, cyclic_errors_left_out, gaps_behind_a_scale, linuxcnc_file, neutral_csv,
     };
     let tables = compensation(machine);
     // A gap the loop takes out needs no entry; say why it is missing from the table.
-    let left_out: String = gaps_behind_a_scale(machine)
+    let mut left_out: String = gaps_behind_a_scale(machine)
         .iter()
         .map(|(axis, gap_um)| {
             format!(
@@ -257,6 +266,9 @@ fn stage_compensation(
             )
         })
         .collect();
+    for (axis, why) in cyclic_errors_left_out(machine) {
+        left_out.push_str(&format!("\n  {axis}: {why}"));
+    }
     if tables.is_empty() {
         return Ok(format!(
             "compensation: nothing to compensate (no measuring error or map, no backlash \
@@ -280,7 +292,14 @@ fn stage_compensation(
                 batch.stage(&dir.join(&name), |w| w.write_all(text.as_bytes()))?;
                 written.push(name);
             }
-            Err(why) => not_written.push_str(&format!("\n  {name} not written: {why}")),
+            Err(why) => {
+                let stale = if dir.join(&name).exists() {
+                    format!("; the {name} there is an earlier run's and no longer matches")
+                } else {
+                    String::new()
+                };
+                not_written.push_str(&format!("\n  {name} not written: {why}{stale}"));
+            }
         }
     }
     Ok(format!(

@@ -176,10 +176,10 @@ fn hidden_effect(args: &SynthArgs) -> Result<Option<(CauseId, AxisName, Vec<f64>
     Ok(Some((cause, args.axis, args.values.clone())))
 }
 
-/// The measurement's settings checked; its sampling period (ms).
 /// The longest standstill recorded before the program starts (s).
 const MAX_OFFSET_S: f64 = 3600.0;
 
+/// The measurement's settings checked; its sampling period (ms).
 fn checked_measurement(args: &SynthArgs) -> Result<f64, CliError> {
     let usage = |text: String| Err(CliError::Usage(text));
     if !(args.noise_um.is_finite() && args.noise_um >= 0.0) {

@@ -62,7 +62,11 @@ pub fn compensation(machine: &MachineConfig) -> Vec<AxisCompensation> {
 
 fn axis_compensation(machine: &MachineConfig, axis: AxisName) -> Option<AxisCompensation> {
     let config = machine.axis(axis);
-    let model = AxisModel::from_config(config);
+    let mut model = AxisModel::from_config(config);
+    if cyclic_too_fine(config, &model).is_some() {
+        // Drawn at points its period apart, it would come out as another, slower curve.
+        model.measuring.amplitude_m = 0.0;
+    }
     let map = CrossTerms::of(machine, axis);
     // Only a loop closed before the gap leaves the table off by half of it at rest.
     let half_gap_um = match config.position_loop.feedback {
@@ -119,17 +123,59 @@ fn positions_mm(config: &AxisConfig, model: &AxisModel) -> Vec<f64> {
         kept.truncate(LINUXCNC_MOST_POINTS);
         return kept;
     }
-    let [lo, hi] = config.limits.travel_mm.unwrap_or([-500.0, 500.0]);
-    let m = &model.measuring;
+    let [lo, hi] = travel_mm(config);
     // A cyclic error needs its points a fraction of its period apart, or the table a
-    // control interpolates between them draws another curve.
-    let per_period = (m.amplitude_m != 0.0 && m.wavenumber_per_m > 0.0).then(|| {
-        let period_mm = 1e3 * std::f64::consts::TAU / m.wavenumber_per_m;
-        ((hi - lo) / period_mm * POINTS_PER_PERIOD).ceil() as usize + 1
-    });
-    let n = per_period.map_or(GRID_POINTS, |n| n.clamp(GRID_POINTS, MOST_POINTS));
+    // control interpolates between them draws another curve ([`cyclic_too_fine`] leaves one
+    // out that would need more than the most points).
+    let n = cyclic_points(config, model)
+        .filter(|n| *n <= MOST_POINTS as f64)
+        .map_or(GRID_POINTS, |n| (n as usize).max(GRID_POINTS));
     (0..n)
         .map(|k| lo + (hi - lo) * k as f64 / (n - 1) as f64)
+        .collect()
+}
+
+/// The travel a table spans (mm): the machine file's, or ±500 mm without one.
+fn travel_mm(config: &AxisConfig) -> [f64; 2] {
+    config.limits.travel_mm.unwrap_or([-500.0, 500.0])
+}
+
+/// The points [`POINTS_PER_PERIOD`] a period of the axis's cyclic error need over its
+/// travel, where it has one (unbounded for a period of nothing).
+fn cyclic_points(config: &AxisConfig, model: &AxisModel) -> Option<f64> {
+    let m = &model.measuring;
+    (m.amplitude_m != 0.0 && m.wavenumber_per_m > 0.0).then(|| {
+        let [lo, hi] = travel_mm(config);
+        let period_mm = 1e3 * std::f64::consts::TAU / m.wavenumber_per_m;
+        ((hi - lo) / period_mm * POINTS_PER_PERIOD).ceil() + 1.0
+    })
+}
+
+/// Why the axis's cyclic error is left out of its table, where its period is too short to
+/// draw over the travel within the most points.
+fn cyclic_too_fine(config: &AxisConfig, model: &AxisModel) -> Option<String> {
+    let n = cyclic_points(config, model)?;
+    let [lo, hi] = travel_mm(config);
+    // A period of nothing needs infinitely many (or NaN of them): too many as well.
+    let drawable = n.is_finite() && n <= MOST_POINTS as f64;
+    (!drawable).then(|| {
+        format!(
+            "its cyclic error is left out: {POINTS_PER_PERIOD} points a period over {lo}..{hi} \
+             mm would be {n:.0}, more than the {MOST_POINTS} a table holds"
+        )
+    })
+}
+
+/// The axes whose cyclic error the tables leave out, and why (its period too short to draw
+/// over the travel).
+pub fn cyclic_errors_left_out(machine: &MachineConfig) -> Vec<(AxisName, String)> {
+    AxisName::BOTH
+        .into_iter()
+        .filter_map(|axis| {
+            let config = machine.axis(axis);
+            let why = cyclic_too_fine(config, &AxisModel::from_config(config))?;
+            Some((axis, why))
+        })
         .collect()
 }
 
@@ -224,6 +270,16 @@ mod tests {
         assert!(x.points.len() > LINUXCNC_MOST_POINTS);
         let why = linuxcnc_file(x).unwrap_err();
         assert!(why.contains("256 per joint"), "{why}");
+        assert!(cyclic_errors_left_out(&m).is_empty());
+        // A scale's 20 µm pitch (or a period of nothing) over the metre would need 800,000
+        // points or more: left out of the table, and said, not drawn as an alias of itself.
+        for period_mm in [0.02, 1e-300] {
+            m.x.errors.cyclic_period_mm = period_mm;
+            assert!(compensation(&m).is_empty(), "{period_mm}");
+            let left = cyclic_errors_left_out(&m);
+            assert_eq!(left.len(), 1, "{period_mm}");
+            assert!(left[0].1.contains("left out"), "{left:?}");
+        }
     }
 
     #[test]

@@ -401,7 +401,7 @@ mod tests {
         let (first, second) = halves(&lone, &[], 100);
         assert!((100..200).all(|k| first.contains(&k)));
         assert!((400..500).all(|k| second.contains(&k)));
-        // Two reversals in one run of events, seven windows apart (its pieces would give
+        // Two reversals in one run of events, four windows apart (its pieces would give
         // both to one half): one in each half, each whole.
         let reversal: Vec<bool> = (0..800)
             .map(|k| (140..200).contains(&k) || (540..600).contains(&k))

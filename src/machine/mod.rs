@@ -37,6 +37,9 @@ pub const POSITION_MAP_POINTS: usize = 256;
 /// The default preset's name.
 pub const DEFAULT_PRESET: &str = "hvmc";
 
+/// The farthest an axis's travel may reach from zero (mm): a kilometre, beyond any machine.
+pub const MAX_TRAVEL_MM: f64 = 1e6;
+
 /// A whole machine: interpolation settings, the simulated X and Y axes, and Z — simulated
 /// like them where the file gives its sections, else planned and carried.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

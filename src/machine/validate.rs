@@ -414,8 +414,9 @@ fn validate_transfer_function(
 fn validate_limits(c: &Checker, prefix: &str, l: &Limits) -> Result<(), ConfigError> {
     let k = |s: &str| format!("{prefix}.{s}");
     if let Some([lo, hi]) = l.travel_mm {
-        c.check(&k("travel_mm"), lo, Rule::Range(-1e6, 1e6))?;
-        c.check(&k("travel_mm"), hi, Rule::Range(-1e6, 1e6))?;
+        let far = super::MAX_TRAVEL_MM;
+        c.check(&k("travel_mm"), lo, Rule::Range(-far, far))?;
+        c.check(&k("travel_mm"), hi, Rule::Range(-far, far))?;
         if lo == hi {
             return Err(c.inconsistent(
                 &k("travel_mm"),

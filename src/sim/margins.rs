@@ -60,13 +60,16 @@ pub struct LoopMargins {
     pub peak_db: f64,
     /// Where that is (Hz); 0 where the gain only falls.
     pub peak_hz: f64,
+    /// Whether the loop's closed-loop poles all lie in the left half-plane (those of the
+    /// integrators it does not close aside).
+    pub stable: bool,
 }
 
 impl LoopMargins {
-    /// Whether the loop is unstable already (its phase margin counted past the edge): its
-    /// gain margins then say how far the gain is from the edge, not how far it may move.
+    /// Whether the loop is unstable already: its gain margins then say how far the gain is
+    /// from the edge, not how far it may move.
     pub fn unstable(&self) -> bool {
-        self.phase_margin_deg < 0.0
+        !self.stable
     }
 
     /// Whether the loop falls short of a phase margin of `min_phase_deg` or a gain margin
@@ -134,6 +137,7 @@ fn loop_margins_with(model: &AxisModel, which: Loop, mechanics: &[ModalFigure]) 
         gain_reduction_hz,
         peak_db,
         peak_hz,
+        stable,
     }
 }
 

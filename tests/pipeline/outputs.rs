@@ -98,9 +98,19 @@ fn an_output_naming_an_input_or_another_output_is_refused_before_the_run() {
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o.stderr).contains("--write-machine names --measured"));
     assert_eq!(std::fs::read(&record).unwrap(), recorded);
+    // The same for a file a folder output will hold: the compensation tables' CSV.
+    let tables = dir.path().join("compensation.csv");
+    std::fs::copy(&record, &tables).unwrap();
+    let t = tables.to_str().unwrap();
+    let d = dir.path().to_str().unwrap();
+    let o = run(&["diagnose", p, "--measured", t, "--write-compensation", d]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("--write-compensation names --measured"));
+    assert_eq!(std::fs::read(&tables).unwrap(), recorded);
     // One file for two outputs, spelt two ways: refused, nothing written.
     let same = dir.path().join("same.out");
-    let dotted = dir.path().join(".").join("same.out");
+    std::fs::create_dir(dir.path().join("sub")).unwrap();
+    let dotted = dir.path().join("sub").join("..").join("same.out");
     let o = check(&[
         "--json",
         same.to_str().unwrap(),
