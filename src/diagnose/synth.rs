@@ -258,7 +258,7 @@ impl Synthetic {
 /// `value_si` in `unit` to `resolution_si` (whole counts for a count unit).
 fn in_unit(value_si: f64, unit: Unit, resolution_si: f64) -> String {
     let v = value_si / unit.to_si;
-    if unit.label == "counts" {
+    if unit.is_count() {
         // Adding zero turns a rounded -0 into 0, as a counter would show it.
         return format!("{}", v.round() + 0.0);
     }

@@ -86,7 +86,12 @@ pub struct Unit {
 impl Unit {
     /// Whether a column in this unit can hold `value`: counts are whole numbers.
     pub(crate) fn takes(&self, value: f64) -> bool {
-        self.label != COUNTS || value.fract() == 0.0
+        !self.is_count() || value.fract() == 0.0
+    }
+
+    /// Whether this is a count unit (`counts:RESOLUTION`).
+    pub(crate) fn is_count(&self) -> bool {
+        self.label == COUNTS
     }
 }
 

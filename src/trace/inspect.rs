@@ -92,7 +92,7 @@ fn grid(x: &[f64], column: Option<&Mapped>) -> (Option<f64>, Option<(i32, &'stat
     match digits.into_iter().fold(0, gcd) {
         0 => (None, None),
         g => {
-            let printed = g == 1 && column.unit.label != "counts";
+            let printed = g == 1 && !column.unit.is_count();
             let decimals = -step.log10().round() as i32;
             (
                 Some(g as f64 * step_m),

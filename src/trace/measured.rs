@@ -105,7 +105,7 @@ impl MeasuredTrace {
             let Some(m) = column(signal) else {
                 return false;
             };
-            if m.unit_from == "mapping" || m.unit.label == "counts" || values.is_empty() {
+            if m.unit_from == "mapping" || m.unit.is_count() || values.is_empty() {
                 return false;
             }
             let read: Vec<f64> = values

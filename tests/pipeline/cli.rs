@@ -222,6 +222,7 @@ fn bode_shows_no_nan_and_refuses_an_unstable_setting() {
     let o = bode_at_kv("edge.toml", kv);
     assert_eq!(o.status.code(), Some(2));
     let shown = text(&o.stdout);
+    assert_is_the_stability_edge(&shown, contourcheck::machine::AxisName::X);
     let position = shown.lines().find(|l| l.starts_with("position ")).unwrap();
     assert!(position.contains("unstable"), "{shown}");
     assert!(!shown.contains("unstable if its gain falls"), "{shown}");
