@@ -137,7 +137,7 @@ impl MachineArgs {
             .machine
             .as_ref()
             .map_or("the hvmc preset".to_string(), |p| p.display().to_string());
-        for axis in crate::machine::AxisName::BOTH {
+        for axis in machine.simulated_axes() {
             let config = machine.axis(axis);
             let model = crate::sim::AxisModel::from_config(config);
             if let Err(e) = crate::sim::linear::check_stable(&model) {
@@ -170,10 +170,11 @@ fn unstable_advice(
         ),
         None if config.controller.is_cascade() => format!(
             "no position gain {key} makes it stable: the velocity loop's \
-             (velocity_loop.ks_nm_s_per_rad, ts_ms) or the current loop's settings are"
+             (velocity_loop.ks_nm_s_per_rad, ts_ms) or the current loop's settings are what to \
+             change"
         ),
         None => format!(
-            "its controller's gains in [{}.controller] are",
+            "its controller's gains in [{}.controller] are what to change",
             axis.as_str()
         ),
     };
@@ -374,22 +375,35 @@ pub(crate) fn write_plots_into(
     figure: &impl crate::plot::Figure,
     footer: &Footer,
 ) -> Result<(), CliError> {
+    let mut batch = crate::cli::output::OutputBatch::new();
+    let paths = stage_plots_into(&mut batch, dir, stem, figure, footer)?;
+    batch.commit()?;
+    for path in &paths {
+        println!("plot: {}", path.display());
+    }
+    Ok(())
+}
+
+/// Stages a figure as `<stem>.png` and `<stem>.svg` in the `--plot` directory (made if
+/// missing) into `batch`, to become visible with the command's other outputs; their paths.
+pub(crate) fn stage_plots_into(
+    batch: &mut crate::cli::output::OutputBatch,
+    dir: &Path,
+    stem: &str,
+    figure: &impl crate::plot::Figure,
+    footer: &Footer,
+) -> Result<Vec<std::path::PathBuf>, CliError> {
     std::fs::create_dir_all(dir).map_err(|e| CliError::Read {
         path: dir.display().to_string(),
         message: e.to_string(),
     })?;
-    let mut batch = crate::cli::output::OutputBatch::new();
     let paths: Vec<std::path::PathBuf> = ["png", "svg"]
         .map(|ext| dir.join(format!("{stem}.{ext}")))
         .into();
     for path in &paths {
         batch.stage_with_path(path, |tmp| crate::plot::render(tmp, figure, footer))?;
     }
-    batch.commit()?;
-    for path in &paths {
-        println!("plot: {}", path.display());
-    }
-    Ok(())
+    Ok(paths)
 }
 
 /// Says, before any fitting, where a record's commands ask more of the machine than its file

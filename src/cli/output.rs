@@ -285,6 +285,15 @@ impl OutputBatch {
     /// Moves every staged file into place, then writes what goes to the standard output or
     /// a stream.
     pub(crate) fn commit(mut self) -> Result<(), OutputError> {
+        // Every stream is opened before any file is renamed: one that cannot be opened (a
+        // device's path that is not there) leaves the files as they were.
+        let mut opened = Vec::new();
+        for (dest, pending) in &self.staged {
+            if let Pending::Bytes { target, .. } | Pending::Copy { target, .. } = pending {
+                opened.push(open_stream(target).map_err(|e| OutputError::new(dest, e))?);
+            }
+        }
+        let mut opened = opened.into_iter();
         let staged = std::mem::take(&mut self.staged);
         let (files, streams): (Vec<_>, Vec<_>) = staged
             .into_iter()
@@ -303,7 +312,12 @@ impl OutputBatch {
             forget_staged(tmp);
         }
         for (dest, pending) in streams {
-            write_pending(&pending).map_err(|e| OutputError::new(&dest, e))?;
+            if let Some(w) = matches!(pending, Pending::Bytes { .. } | Pending::Copy { .. })
+                .then(|| opened.next())
+                .flatten()
+            {
+                write_pending(&pending, w).map_err(|e| OutputError::new(&dest, e))?;
+            }
             if let Pending::Copy { tmp, .. } = &pending {
                 let _ = std::fs::remove_file(tmp);
                 forget_staged(tmp);
@@ -314,15 +328,13 @@ impl OutputBatch {
 }
 
 /// Writes what waited for the commit to its stream.
-fn write_pending(pending: &Pending) -> std::io::Result<()> {
+fn write_pending(pending: &Pending, mut w: Box<dyn Write + Send>) -> std::io::Result<()> {
     match pending {
-        Pending::Bytes { target, bytes } => {
-            let mut w = open_stream(target)?;
+        Pending::Bytes { bytes, .. } => {
             w.write_all(bytes)?;
             w.flush()
         }
-        Pending::Copy { tmp, target } => {
-            let mut w = open_stream(target)?;
+        Pending::Copy { tmp, .. } => {
             std::io::copy(&mut std::fs::File::open(tmp)?, &mut w)?;
             w.flush()
         }
@@ -381,6 +393,16 @@ pub(crate) fn outputs_apart<'a>(
         .filter(|(_, p)| p.is_file())
         .filter_map(|(what, p)| Some((what, file_place(p)?)))
         .collect();
+    for &(what, path) in &outputs {
+        if path.as_os_str() == "-" {
+            continue;
+        }
+        let folder = path.parent().filter(|f| !f.as_os_str().is_empty());
+        if let Some(folder) = folder.filter(|f| !f.is_dir()) {
+            let message = format!("{what}: there is no folder {}", folder.display());
+            return Err(OutputError::new(path, message));
+        }
+    }
     let mut written: Vec<(&str, PathBuf)> = Vec::new();
     for (what, path) in outputs {
         let Some(at) = file_place(path) else {

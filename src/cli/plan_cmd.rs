@@ -40,7 +40,7 @@ pub(crate) fn run(args: &PlanArgs) -> Result<Outcome, CliError> {
     if let Some(path) = &args.csv {
         let mut batch = OutputBatch::new();
         batch.stage(path, |w| {
-            write_commands_csv(w, &commands, &planned.segments)
+            write_commands_csv(w, &commands, &planned.segments, &program)
         })?;
         batch.commit()?;
     }
@@ -123,11 +123,13 @@ fn print_notes_and_warnings(program: &crate::gcode::Program, planner: &[crate::g
 }
 
 /// The sampled commands as CSV: time, X/Y/Z position, X/Y velocity and acceleration, and
-/// the source line of the block being executed.
+/// the source line of the block being executed as `check --trace` gives it (`29`, or
+/// `POCKET.SPF:3` in a subprogram's file).
 pub(crate) fn write_commands_csv(
     w: &mut dyn Write,
     c: &Commands,
     segments: &[crate::path::Segment],
+    program: &crate::gcode::Program,
 ) -> std::io::Result<()> {
     let mut out = csv::Writer::from_writer(w);
     out.write_record([
@@ -157,8 +159,7 @@ pub(crate) fn write_commands_csv(
             format!("{:.6}", c.z.acc_m_per_s2[k]),
             segments
                 .get(c.segment[k] as usize)
-                .map_or(0, |s| s.line)
-                .to_string(),
+                .map_or_else(|| "0".into(), |s| program.source_line(s.line).short()),
         ])?;
     }
     out.flush()

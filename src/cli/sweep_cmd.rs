@@ -9,7 +9,7 @@ use serde::Serialize;
 
 use super::Outcome;
 use super::common::{
-    CliError, MachineArgs, PlanningArgs, load_program, progress, write_plots_into,
+    CliError, MachineArgs, PlanningArgs, load_program, progress, stage_plots_into,
 };
 use crate::cli::output::{OutputBatch, outputs_apart};
 use crate::machine::{AxisName, MachineConfig};
@@ -164,6 +164,11 @@ fn dimensions(
             })
             .collect::<Result<Vec<_>, _>>()?;
         refuse_twice(&dims, &keys, &format!("--set {item}"))?;
+        if args.planning.cycle_ms.is_some() && keys.iter().any(|k| k == "interpolation.cycle_ms") {
+            return Err(usage(format!(
+                "--set {item} sweeps the cycle --cycle-ms sets: give one of them"
+            )));
+        }
         dims.push(Dimension {
             name: key.to_string(),
             keys,
@@ -272,7 +277,7 @@ pub(crate) fn run(args: &SweepArgs, m: &ArgMatches) -> Result<Outcome, CliError>
         };
         batch.stage(path, |w| super::output::write_json(w, &doc))?;
     }
-    batch.commit()?;
+    let mut plots = Vec::new();
     if let Some(dir) = &args.plot {
         let footer = super::common::run_footer(
             &machine.name,
@@ -280,7 +285,11 @@ pub(crate) fn run(args: &SweepArgs, m: &ArgMatches) -> Result<Outcome, CliError>
             &program.segments,
             plan.cycle_s,
         );
-        plot(dir, &program.file, &dims, &points, &footer)?;
+        plots = plot(&mut batch, dir, &program.file, &dims, &points, &footer)?;
+    }
+    batch.commit()?;
+    for path in plots {
+        println!("plot: {}", path.display());
     }
     let shown = &points[..points.len().min(args.rows)];
     print_table(&program.file, &machine.name, &dims, shown, &thresholds);
@@ -367,9 +376,29 @@ struct SweepJson<'a> {
 fn value_cells(p: &SweepPoint) -> String {
     p.values
         .iter()
-        .map(|v| format!("{v:>10.4}"))
+        .map(|&v| format!("{:>10}", swept_value(v)))
         .collect::<Vec<_>>()
         .join(" ")
+}
+
+/// A swept value in six significant digits at most, its trailing zeros dropped, and with
+/// an exponent outside 0.001 to 10⁷: a fixed four decimals showed an inertia of 2e-5 kg·m²
+/// as 0.0000 beside one of 4e-5, and a stiffness of 4e8 N/m in fourteen digits.
+fn swept_value(v: f64) -> String {
+    let trimmed = |s: String| {
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    };
+    if v != 0.0 && !(1e-3..1e7).contains(&v.abs()) {
+        let text = format!("{v:.5e}");
+        let (mantissa, exponent) = text.split_once('e').unwrap_or((&text, "0"));
+        return format!("{}e{exponent}", trimmed(mantissa.to_string()));
+    }
+    let decimals = (5 - v.abs().max(1e-3).log10().floor() as i32).clamp(0, 9) as usize;
+    trimmed(format!("{v:.decimals$}"))
 }
 
 fn print_table(
@@ -610,21 +639,30 @@ fn labelled(d: &Dimension) -> String {
 }
 
 fn plot(
+    batch: &mut OutputBatch,
     dir: &Path,
     program: &str,
     dims: &[Dimension],
     points: &[SweepPoint],
     footer: &Footer,
-) -> Result<(), CliError> {
+) -> Result<Vec<PathBuf>, CliError> {
     let name = Path::new(program)
         .file_name()
         .map_or_else(String::new, |n| n.to_string_lossy().into_owned());
-    match dims {
-        [d] => write_plots_into(dir, "sweep", &line_plot(&name, d, points), footer)?,
-        [a, b] => write_plots_into(dir, "sweep", &heat_map(&name, [a, b], points), footer)?,
-        _ => println!("(no plot for {} swept dimensions: use --csv)", dims.len()),
-    }
-    Ok(())
+    Ok(match dims {
+        [d] => stage_plots_into(batch, dir, "sweep", &line_plot(&name, d, points), footer)?,
+        [a, b] => stage_plots_into(
+            batch,
+            dir,
+            "sweep",
+            &heat_map(&name, [a, b], points),
+            footer,
+        )?,
+        _ => {
+            println!("(no plot for {} swept dimensions: use --csv)", dims.len());
+            Vec::new()
+        }
+    })
 }
 
 /// One swept dimension: the contour and following errors against it, unstable settings
@@ -718,5 +756,31 @@ fn heat_map(name: &str, [a, b]: [&Dimension; 2], points: &[SweepPoint]) -> Sweep
         labels: (labelled(a), labelled(b)),
         axes: (a.values.clone(), b.values.clone()),
         cells,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::swept_value;
+
+    /// Values a user sweeps, each told apart and short: a stepped range's rounding gone,
+    /// an inertia and a stiffness in exponent form.
+    #[test]
+    fn swept_values_are_shown_in_significant_digits() {
+        let cases = [
+            (0.7 + 0.1, "0.8"),
+            (20.0, "20"),
+            (1.25, "1.25"),
+            (12000.0, "12000"),
+            (2e-5, "2e-5"),
+            (4e-5, "4e-5"),
+            (4e8, "4e8"),
+            (1e308, "1e308"),
+            (-0.5, "-0.5"),
+            (0.0, "0"),
+        ];
+        for (v, shown) in cases {
+            assert_eq!(swept_value(v), shown, "{v}");
+        }
     }
 }

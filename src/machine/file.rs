@@ -627,6 +627,13 @@ mod tests {
              `backlash_um`?\n  line 5, column 1: `y.position_loop.kv_m_per_mim_per_mm` — did \
              you mean `kv_m_per_min_per_mm`?"
         );
+        // Listed in the file's order, whatever order the sections are read in.
+        let text = "[y.drive]\nbacklsh_um = 5.0\n[x.drive]\nbacklsh_um = 5.0\n";
+        let e = MachineConfig::from_toml_str(text, "m.toml")
+            .unwrap_err()
+            .to_string();
+        let (y_at, x_at) = (e.find("`y.drive").unwrap(), e.find("`x.drive").unwrap());
+        assert!(y_at < x_at, "{e}");
         let e = MachineConfig::from_toml_str("[x.drive]\nbacklash_um = \"5 um\"\n", "m.toml")
             .unwrap_err()
             .to_string();
@@ -749,6 +756,19 @@ mod tests {
             e.unwrap_err().to_string(),
             "m.toml:2:1: unknown key `x.drive.baklash_um` — did you mean `backlash_um`?"
         );
+        // A key written without its unit is pointed to the key with it.
+        for (text, meant) in [
+            ("[x.drive]\nbacklash = 12.0\n", "backlash_um"),
+            ("[y.position_loop]\nkv = 1.0\n", "kv_m_per_min_per_mm"),
+        ] {
+            let e = MachineConfig::from_toml_str(text, "m.toml")
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains(&format!("did you mean `{meant}`? (the unit is part")),
+                "{e}"
+            );
+        }
         let e = MachineConfig::from_toml_str("base = \"none\"\nname = \"a\"\n", "m.toml");
         assert!(matches!(e.unwrap_err(), ConfigError::Missing { .. }));
         // A mass no table has (its dynamics would overflow the simulation) is the key's error.

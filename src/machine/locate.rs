@@ -58,6 +58,18 @@ pub(crate) fn did_you_mean(unknown: &str, serde_message: &str) -> String {
         return String::new();
     };
     let candidates = expected.split('`').skip(1).step_by(2);
+    // A key written without its unit (`backlash` for `backlash_um`, `kv` for
+    // `kv_m_per_min_per_mm`) is far from it by letters, but plainly meant.
+    let with_unit: Vec<&str> = candidates
+        .clone()
+        .filter(|c| {
+            c.strip_prefix(unknown)
+                .is_some_and(|rest| rest.starts_with('_'))
+        })
+        .collect();
+    if let [name] = with_unit.as_slice() {
+        return format!(" — did you mean `{name}`? (the unit is part of the key's name)");
+    }
     let best = candidates
         .map(|c| (strsim::levenshtein(unknown, c), c))
         .min_by_key(|(d, _)| *d);
@@ -190,6 +202,8 @@ pub(crate) fn located(e: ConfigError, text: &str) -> ConfigError {
             for k in &mut keys {
                 k.at = find_key(text, &k.key);
             }
+            // In the file's order (they are found section by section); unplaced ones last.
+            keys.sort_by_key(|k| k.at.unwrap_or((usize::MAX, 0)));
             ConfigError::UnknownKeys { file, keys }
         }
         other => other,

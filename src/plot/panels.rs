@@ -125,8 +125,13 @@ fn draw_panel<DB: DrawingBackend>(
         .y_label_area_size(75)
         .build_cartesian_2d(x0..x1, (lo - pad)..(hi + pad))
         .map_err(err)?;
+    // A label every 20 px at most: plotters' ten labels ran together in a short panel
+    // (fewer than five can leave a symmetric range with 0 alone).
+    let (_, plot_h) = chart.plotting_area().dim_in_pixel();
+    let y_labels = (plot_h as usize / 20).clamp(5, 10);
     chart
         .configure_mesh()
+        .y_labels(y_labels)
         .x_desc(x_label)
         .y_desc(panel.y_label.as_str())
         .label_style((FONT, 14))

@@ -34,6 +34,9 @@ pub struct PolarPlot {
 const NOMINAL: f64 = 1.0;
 /// The largest deviation is drawn this far from the nominal circle.
 const SPAN: f64 = 0.45;
+/// Where the rings' labels stand (degrees): off the quadrants, whose reversal spikes reach
+/// the outer rings.
+const LABEL_DEG: f64 = 67.5;
 
 /// A round number of µm per grid ring for deviations up to `max_um`.
 fn ring_step(max_um: f64) -> f64 {
@@ -74,11 +77,14 @@ fn draw_rings<DB: DrawingBackend>(
             .draw_series(LineSeries::new(circle(r), style))
             .map_err(err)?;
         if i != 0 {
+            // Between the spokes at 45° and 90°: a circle's reversal spikes stand at the
+            // quadrants, where a label on the spoke sat on the trace.
             let label = format!("{:+} µm", i as f64 * step_um);
+            let at = LABEL_DEG.to_radians();
             chart
                 .draw_series(std::iter::once(Text::new(
                     label,
-                    (0.02, r),
+                    (r * at.cos(), r * at.sin()),
                     (FONT, 12).into_font().color(&BLACK.mix(0.6)),
                 )))
                 .map_err(err)?;
@@ -155,7 +161,12 @@ impl Figure for PolarPlot {
             .map_err(err)?;
         draw_rings(&mut chart, rings as i64, step * scale, step)?;
         draw_spokes(&mut chart)?;
-        for (i, t) in self.traces.iter().enumerate() {
+        // Wider lines first: a thin measured trace drawn under a model's wider line that
+        // follows it vanished, legend and all.
+        let mut order: Vec<usize> = (0..self.traces.len()).collect();
+        order.sort_by_key(|&i| std::cmp::Reverse(self.traces[i].width));
+        for i in order {
+            let t = &self.traces[i];
             let pts = t.points.iter().map(|&(a, dev)| {
                 let r = NOMINAL + dev * scale;
                 (r * a.cos(), r * a.sin())

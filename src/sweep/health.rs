@@ -105,6 +105,15 @@ pub enum Flag {
         /// How far its gain may fall (dB).
         db: f64,
     },
+    /// A loop is unstable closed on its own: its margins say how far it is from the edge,
+    /// not how far it may move, and are not given as margins.
+    UnstableLoop {
+        /// Axis.
+        axis: AxisName,
+        /// Loop.
+        #[serde(rename = "loop")]
+        which: Loop,
+    },
     /// A closed-loop mode of the loops' making is damped less than the threshold.
     PoorDamping {
         /// Axis.
@@ -129,6 +138,7 @@ impl Flag {
             Flag::PhaseMargin { axis, .. }
             | Flag::GainMargin { axis, .. }
             | Flag::GainReductionMargin { axis, .. }
+            | Flag::UnstableLoop { axis, .. }
             | Flag::PoorDamping { axis, .. } => axis,
         }
     }
@@ -142,6 +152,7 @@ impl Flag {
             Flag::GainReductionMargin { which, db, .. } => {
                 format!("{} GM −{db:.1} dB", which.name())
             }
+            Flag::UnstableLoop { which, .. } => format!("{} unstable", which.name()),
             Flag::PoorDamping {
                 frequency_hz,
                 damping,
@@ -246,6 +257,10 @@ impl Health {
         for a in &self.margins {
             for m in &a.loops {
                 let (axis, which) = (a.axis, m.which);
+                if m.unstable() {
+                    flags.push(Flag::UnstableLoop { axis, which });
+                    continue;
+                }
                 if m.phase_margin_deg < t.min_phase_margin_deg {
                     flags.push(Flag::PhaseMargin {
                         axis,
@@ -298,5 +313,55 @@ impl Health {
             .flat_map(|a| a.loops.iter().filter(|m| m.which == which))
             .map(figure)
             .reduce(f64::max)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn velocity_loop(stable: bool) -> LoopMargins {
+        // An unstable loop's figures: negative phase margin, a gain "margin" that is the
+        // distance to the edge from the wrong side.
+        LoopMargins {
+            which: Loop::Velocity,
+            crossover_hz: Some(120.0),
+            phase_margin_deg: if stable { 45.0 } else { -12.0 },
+            phase_crossover_hz: Some(300.0),
+            gain_margin_db: if stable { 12.0 } else { 2.5 },
+            gain_reduction_margin_db: f64::INFINITY,
+            gain_reduction_hz: None,
+            peak_db: 3.0,
+            peak_hz: 110.0,
+            stable,
+        }
+    }
+
+    fn health_of(loops: Vec<LoopMargins>) -> Health {
+        Health {
+            margins: vec![AxisMargins {
+                axis: AxisName::Y,
+                loops,
+            }],
+            loop_damping: f64::INFINITY,
+            loop_damping_at: None,
+            loops_making: None,
+        }
+    }
+
+    /// An unstable loop is flagged as unstable, never by a margin it does not have; a stable
+    /// loop with the same crossover is not flagged at all.
+    #[test]
+    fn an_unstable_loop_is_flagged_as_unstable_not_by_its_margins() {
+        let t = Thresholds::default();
+        let flags = health_of(vec![velocity_loop(false)]).flags(&t);
+        assert_eq!(
+            flags,
+            vec![Flag::UnstableLoop {
+                axis: AxisName::Y,
+                which: Loop::Velocity
+            }]
+        );
+        assert!(health_of(vec![velocity_loop(true)]).flags(&t).is_empty());
     }
 }

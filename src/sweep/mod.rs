@@ -368,7 +368,7 @@ fn run_point(
             };
         }
     };
-    for axis in AxisName::BOTH {
+    for axis in machine.simulated_axes() {
         let model = AxisModel::from_config(machine.axis(axis));
         if let Err(SimError::Unstable { frequency_hz, .. }) = linear::check_stable(&model) {
             return PointResult::Unstable { axis, frequency_hz };
@@ -376,10 +376,7 @@ fn run_point(
     }
     let health = health::health_with(&machine, cache);
     let mut settings = CheckSettings::for_machine(&machine);
-    settings.plan = PlanConfig {
-        in_position: settings.plan.in_position,
-        ..*plan
-    };
+    settings.plan = plan_of_setting(plan, base, &machine);
     match check(program, &machine, &settings) {
         Ok(run) => {
             let kv = linear::equivalent_kv_per_s(&AxisModel::from_config(&machine.x));
@@ -402,6 +399,7 @@ fn run_point(
             PointResult::Unstable {
                 axis: match &e {
                     SimError::OnAxis { axis: 'Y', .. } => AxisName::Y,
+                    SimError::OnAxis { axis: 'Z', .. } => AxisName::Z,
                     _ => AxisName::X,
                 },
                 frequency_hz,
@@ -410,6 +408,41 @@ fn run_point(
         Err(e) => PointResult::Invalid {
             reason: e.to_string(),
         },
+    }
+}
+
+/// The planner settings of one setting: its own machine's — a swept key may change the
+/// interpolation cycle, the path's limits, the arcs' share or the in-position check — with
+/// what the caller chose over the base machine's (`chosen` differing from the base's own)
+/// kept. Planned with the base's, a sweep of `interpolation.cycle_ms` gave one figure for
+/// every cycle.
+fn plan_of_setting(
+    chosen: &PlanConfig,
+    base: &MachineConfig,
+    machine: &MachineConfig,
+) -> PlanConfig {
+    let (base_own, own) = (
+        PlanConfig::for_machine(base),
+        PlanConfig::for_machine(machine),
+    );
+    fn kept<T: PartialEq>(chosen: T, base_own: T, own: T) -> T {
+        if chosen != base_own { chosen } else { own }
+    }
+    PlanConfig {
+        profile: chosen.profile,
+        cycle_s: kept(chosen.cycle_s, base_own.cycle_s, own.cycle_s),
+        default_blend_tolerance_m: chosen.default_blend_tolerance_m,
+        arc_normal_share: kept(
+            chosen.arc_normal_share,
+            base_own.arc_normal_share,
+            own.arc_normal_share,
+        ),
+        path_dynamics: kept(
+            chosen.path_dynamics,
+            base_own.path_dynamics,
+            own.path_dynamics,
+        ),
+        in_position: own.in_position,
     }
 }
 

@@ -298,6 +298,20 @@ fn missing_files_and_unstable_gains_are_errors_not_panics() {
         err.contains("if 1/s were meant, write kv_m_per_min_per_mm = 2.400"),
         "{err}"
     );
+    // Z, which the preset simulates, the same (it was let through to the run, whose error
+    // named no file and no gain).
+    let o = check_square_on_machine(
+        "hot-z.toml",
+        "[z.position_loop]\nkv_m_per_min_per_mm = 3.0\n",
+    );
+    assert_eq!(o.status.code(), Some(2));
+    let err = text(&o.stderr);
+    assert!(
+        err.contains("hot-z.toml: the Z axis is unstable")
+            && err.contains("z.position_loop.kv_m_per_min_per_mm (here 3) is stable below"),
+        "{err}"
+    );
+    assert_is_the_stability_edge(&err, contourcheck::machine::AxisName::Z);
 }
 
 #[test]
@@ -547,6 +561,21 @@ fn a_subprogram_files_lines_are_named_by_file_in_the_report_and_the_trace() {
     for want in ["2", "3", "SQUARE.SPF:2", "SQUARE.SPF:5"] {
         assert!(lines.contains(want), "{want} not among {lines:?}");
     }
+    // The plan's commands name them the same way (their line is the last column).
+    let commands = dir.path().join("c.csv");
+    run_ok(&[
+        "plan",
+        main.to_str().unwrap(),
+        "--csv",
+        commands.to_str().unwrap(),
+    ]);
+    let csv = std::fs::read_to_string(&commands).unwrap();
+    let planned: std::collections::BTreeSet<&str> = csv
+        .lines()
+        .skip(1)
+        .filter_map(|row| row.rsplit(',').next())
+        .collect();
+    assert_eq!(planned, lines, "the plan's lines against the trace's");
 }
 
 /// A sweep's CSV has a column for its conditions, flags and each loop's margins per axis;
@@ -618,7 +647,7 @@ fn a_sweep_shows_each_settings_margins_and_flags_the_ringing_one() {
     // The ranking comes first, the margins' table after it.
     let stiff = out
         .lines()
-        .find(|l| l.contains("40.0000     4.0000"))
+        .find(|l| l.contains("  40          4 "))
         .unwrap_or_else(|| panic!("no row in {out}"));
     assert!(
         stiff.contains("ringing") && stiff.contains("flagged: position PM"),
@@ -626,7 +655,7 @@ fn a_sweep_shows_each_settings_margins_and_flags_the_ringing_one() {
     );
     let best = out.lines().find(|l| l.contains("◀ best")).unwrap();
     assert!(
-        !best.contains("40.0000     4.0000") && !best.contains("flagged"),
+        !best.contains("  40          4 ") && !best.contains("flagged"),
         "{best}"
     );
     assert_sweep_files_carry_the_margins(&csv_path, &json);
@@ -764,6 +793,54 @@ fn a_sweep_sets_the_interpolators_and_zs_keys_and_each_key_once() {
     ]);
     let err = text(&nowhere.stderr);
     assert!(err.contains("x., y., xy., z. or interpolation."), "{err}");
+}
+
+/// A sweep writes its outputs together or none: an output whose folder is not there is
+/// refused before the run, and a plot folder that cannot be made leaves the CSV unwritten
+/// (both were left beside the error before); the cycle swept beside `--cycle-ms` is refused.
+#[test]
+fn a_sweep_writes_its_outputs_together_or_none() {
+    let dir = tempfile::tempdir().unwrap();
+    let square = sample("square.nc");
+    let (json, csv) = (dir.path().join("s.json"), dir.path().join("s.csv"));
+    let nowhere = dir.path().join("not-here").join("s.csv");
+    let o = run(&[
+        "sweep",
+        square.to_str().unwrap(),
+        "--kv",
+        "1",
+        "--json",
+        json.to_str().unwrap(),
+        "--csv",
+        nowhere.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("there is no folder"), "{o:?}");
+    assert!(!json.exists());
+    // A regular file where the plots' folder should be.
+    let taken = dir.path().join("plots");
+    std::fs::write(&taken, "a file").unwrap();
+    let o = run(&[
+        "sweep",
+        square.to_str().unwrap(),
+        "--kv",
+        "1",
+        "--csv",
+        csv.to_str().unwrap(),
+        "--plot",
+        taken.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{o:?}");
+    assert!(!csv.exists());
+    let both = run(&[
+        "sweep",
+        square.to_str().unwrap(),
+        "--set",
+        "interpolation.cycle_ms=1,2",
+        "--cycle-ms",
+        "4",
+    ]);
+    assert!(text(&both.stderr).contains("--cycle-ms sets"), "{both:?}");
 }
 
 /// A sweep none of whose settings can be made fails with why; one whose ranges make more

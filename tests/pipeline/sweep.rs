@@ -495,3 +495,91 @@ fn parallel_sweeps_equal_serial_ones() {
     assert_eq!(parallel, serial);
     assert_eq!(parallel.len(), 6);
 }
+
+/// The planner's keys swept plan each setting with its own value. A line of 40 mm at F1000
+/// on the heavy machine (Kv 1 m/min/mm, no feed-forward: a steady following error of
+/// v/Kv): with a path acceleration of 0.005 m/s² the line cannot reach the feed — it peaks
+/// below √(a·L) = 14.1 mm/s, a following error of about 14.1 / 16.67 = 0.85 mm (the
+/// acceleration's own lag, a/Kv² = 18 µm, within the 5 % allowed) —, with 0.4 m/s² it
+/// reaches 16.67 mm/s and lags 1.0 mm. And each row of a swept interpolation cycle is what
+/// `check` gives on the machine with that cycle written in.
+#[test]
+fn the_planners_keys_swept_plan_each_setting_with_its_own_value() {
+    let mut machine = MachineConfig::default_preset();
+    machine.interpolation.path_accel_m_per_s2 = Some(1.0);
+    let line = program("G21 G90 G61\nG0 X0 Y0\nG1 X40 F1000\nM2\n");
+    let accel = Dimension {
+        name: "interpolation.path_accel_m_per_s2".into(),
+        keys: vec!["interpolation.path_accel_m_per_s2".into()],
+        values: vec![0.005, 0.4],
+    };
+    let points = sweep_on(&line, &machine, &[accel]);
+    let following_x_um = |a: f64| match &points.iter().find(|q| q.values == [a]).unwrap().result {
+        PointResult::Ok { metrics, .. } => metrics.max_following_um[0],
+        other => panic!("{a}: {other:?}"),
+    };
+    let kv_per_s = 1000.0 / 60.0;
+    // √(a·L) in mm/s (a in m/s², L in mm: √(1e3·a·L)), over Kv, in µm.
+    let reachable_um = (1e3 * 0.005_f64 * 40.0).sqrt() / kv_per_s * 1e3;
+    let slow = following_x_um(0.005);
+    assert!(
+        slow < 1.05 * reachable_um,
+        "{slow} µm against {reachable_um} µm"
+    );
+    let fast = following_x_um(0.4);
+    let steady_um = (1000.0 / 60.0) / kv_per_s * 1e3;
+    assert!(
+        (fast - steady_um).abs() < 0.01 * steady_um,
+        "{fast} µm against {steady_um} µm"
+    );
+
+    let circle = program("G21 G90 G17 G61\nG0 X10 Y0\nG3 X10 Y0 I-10 J0 F3000\nM2\n");
+    let cycle = Dimension {
+        name: "interpolation.cycle_ms".into(),
+        keys: vec!["interpolation.cycle_ms".into()],
+        values: vec![2.0, 20.0],
+    };
+    for point in sweep_on(&circle, &machine, &[cycle]) {
+        let PointResult::Ok { metrics, .. } = &point.result else {
+            panic!("{point:?}")
+        };
+        let mut own = machine.clone();
+        own.interpolation.cycle_ms = point.values[0];
+        let run = check(&circle, &own, &CheckSettings::for_machine(&own)).unwrap();
+        let checked_um = 1e6 * run.result.summary.max_contour_error_m;
+        assert!(
+            (metrics.max_contour_um - checked_um).abs() < 1e-9 * checked_um.max(1.0),
+            "cycle {} ms: swept {} µm, checked {checked_um} µm",
+            point.values[0],
+            metrics.max_contour_um
+        );
+    }
+}
+
+/// Z's gain swept on the heavy machine, which simulates Z: a setting that makes Z unstable
+/// is flagged on Z (it was said of X), and a stable one runs.
+#[test]
+fn an_unstable_z_is_flagged_on_z() {
+    let machine = MachineConfig::default_preset();
+    let p = program("G21 G90\nG0 X0 Y0 Z0\nG1 X10 Z-2 F500\nM2\n");
+    let dims = [Dimension {
+        name: "z.kv".into(),
+        keys: vec!["z.position_loop.kv_m_per_min_per_mm".into()],
+        values: vec![1.0, 10.0],
+    }];
+    let points = sweep_on(&p, &machine, &dims);
+    // Z's edge by the closed-loop eigenvalues, its loops read as X's.
+    let edge = {
+        let mut as_x = machine.clone();
+        as_x.x = machine.axis(AxisName::Z).clone();
+        edge_of_stability_kv(&as_x)
+    };
+    assert!(edge > 1.0 && edge < 10.0, "{edge}");
+    for q in &points {
+        match (&q.result, q.values[0] > edge) {
+            (PointResult::Unstable { axis, .. }, true) => assert_eq!(*axis, AxisName::Z),
+            (PointResult::Ok { .. }, false) => {}
+            (other, _) => panic!("{:?}: {other:?}", q.values),
+        }
+    }
+}
