@@ -39,9 +39,8 @@ pub(crate) fn run(args: &BodeArgs) -> Result<Outcome, CliError> {
     print_loop_table(&model, &margins);
     print_short_margins(&margins);
     print_least_damped(&model, config, args.axis.axis);
-    // The figures of an unstable loop are shown (they tell where it went wrong), but the
-    // setting is an error.
-    linear::check_stable(&model).map_err(|e| e.on_axis(args.axis.axis.letter(), None))?;
+    // The figures of an unstable loop are shown, and drawn (they tell where it went wrong),
+    // but the setting is an error.
     if let Some(path) = &args.plot {
         let curves = margins
             .iter()
@@ -58,6 +57,7 @@ pub(crate) fn run(args: &BodeArgs) -> Result<Outcome, CliError> {
         ));
         write_plots_into(path, &stem, &BodePlot { title, curves }, &footer)?;
     }
+    linear::check_stable(&model).map_err(|e| e.on_axis(args.axis.axis.letter(), None))?;
     Ok(Outcome::Ok)
 }
 
@@ -72,11 +72,19 @@ fn loop_curves(model: &AxisModel, m: &LoopMargins) -> Vec<BodeCurve> {
         marks,
     };
     let name = m.which.name();
-    let mut out = vec![curve(
-        format!("{name}: feedback loop closed, peak {:+.1} dB", m.peak_db),
-        Response::Feedback,
-        peak_mark(m.peak_hz, m.peak_db),
-    )];
+    // An unstable closed loop has no steady response to a sine: its curve is the transfer
+    // function's, which the label says.
+    let closed = if m.unstable() {
+        format!("{name}: feedback loop closed (unstable: no steady response)")
+    } else {
+        format!("{name}: feedback loop closed, peak {:+.1} dB", m.peak_db)
+    };
+    let peak = if m.unstable() {
+        Vec::new()
+    } else {
+        peak_mark(m.peak_hz, m.peak_db)
+    };
+    let mut out = vec![curve(closed, Response::Feedback, peak)];
     if linear::has_feedforward(model, m.which) {
         let f = margins::closed_figures(model, m.which, true);
         out.push(curve(
@@ -96,8 +104,11 @@ fn loop_curves(model: &AxisModel, m: &LoopMargins) -> Vec<BodeCurve> {
     out
 }
 
-/// A loop's margins in a few words: `PM 62.7°, GM 14.2 dB`.
+/// A loop's margins in a few words: `PM 62.7°, GM 14.2 dB`; `unstable` for a loop that is.
 fn margin_summary(m: &LoopMargins) -> String {
+    if m.unstable() {
+        return "unstable".into();
+    }
     let gm = if m.gain_margin_db.is_finite() {
         format!("{:.1} dB", m.gain_margin_db)
     } else {
@@ -132,14 +143,23 @@ fn margin_marks(m: &LoopMargins) -> Vec<BodeMark> {
         out.push(BodeMark {
             freq_hz: f,
             on_phase: true,
-            label: format!("PM {:.1}° at {}", m.phase_margin_deg, hz(f)),
+            label: if m.unstable() {
+                format!("crossover at {} (unstable)", hz(f))
+            } else {
+                format!("PM {:.1}° at {}", m.phase_margin_deg, hz(f))
+            },
         });
     }
     if let Some(f) = m.phase_crossover_hz {
         out.push(BodeMark {
             freq_hz: f,
             on_phase: true,
-            label: format!("GM {:.1} dB at {}", m.gain_margin_db, hz(f)),
+            // An unstable loop's is no margin: where its phase crosses −180° is what it says.
+            label: if m.unstable() {
+                format!("phase −180° at {}", hz(f))
+            } else {
+                format!("GM {:.1} dB at {}", m.gain_margin_db, hz(f))
+            },
         });
     }
     out

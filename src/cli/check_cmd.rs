@@ -33,8 +33,8 @@ pub struct CheckArgs {
     /// verdict against --tolerance, circular-test figures and polar plots, hotspots, toolpath.
     #[arg(long, value_name = "FILE.html")]
     pub report: Option<PathBuf>,
-    /// Keep every Nth sample in the trace CSV.
-    #[arg(long, default_value_t = 1, value_name = "N")]
+    /// Keep every Nth sample in the trace CSV (with --trace).
+    #[arg(long, default_value_t = 1, value_name = "N", requires = "trace")]
     pub trace_every: usize,
     /// Write plots (PNG and SVG) into this directory: toolpath, contour error along the path,
     /// and a polar plot per circular test.

@@ -331,10 +331,22 @@ impl TraceArgs {
             (None, None) => None,
         };
         let trace = crate::trace::measured::read_trace_with(path, map.as_ref())?;
-        Ok(match &self.work_offset {
+        let mut trace = match &self.work_offset {
             Some(text) => trace.in_work_coordinates(work_offset_m(text)?),
             None => trace,
-        })
+        };
+        for s in trace.bridge_spikes() {
+            eprintln!(
+                "warning: {}: measured {} at {:.6} s lies {:.1} µm off both its neighbours, \
+                 beyond any axis's acceleration over one sample and back: a misread sample, \
+                 bridged by their mean",
+                trace.file,
+                s.signal.to_uppercase(),
+                s.t_s,
+                s.off_m * 1e6
+            );
+        }
+        Ok(trace)
     }
 }
 

@@ -16,7 +16,7 @@ pub struct SourcePos {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum GcodeErrorKind {
     /// A character that starts no G-code item.
-    #[error("unexpected character '{0}'")]
+    #[error("unexpected character {}", shown_char(*.0))]
     UnexpectedChar(char),
     /// A `(` comment that is not closed on its line.
     #[error("comment opened with '(' is not closed on this line")]
@@ -166,5 +166,15 @@ impl fmt::Display for Warning {
         } else {
             write!(f, "{}", self.message)
         }
+    }
+}
+
+/// A character as an error shows it: quoted where it prints, by its code where it does not (a
+/// control character sent raw to the terminal would act, not show).
+fn shown_char(c: char) -> String {
+    if c.is_control() {
+        format!("U+{:04X} (a control character)", c as u32)
+    } else {
+        format!("'{c}'")
     }
 }

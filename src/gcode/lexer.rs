@@ -227,6 +227,22 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
+    /// A character that starts nothing is named; one that does not print, by its code (sent
+    /// raw, an escape would act on the terminal instead of showing).
+    #[test]
+    fn an_unexpected_character_is_shown_as_it_can_be_read() {
+        let message = |line: &str| {
+            let mut out = LexedLine::default();
+            lex_line(line, &mut out).unwrap_err().kind.to_string()
+        };
+        assert_eq!(message("G1 X1 ?"), "unexpected character '?'");
+        let escaped = message("G1 X1 \u{1b}[31m");
+        assert!(
+            escaped.contains("U+001B") && !escaped.contains('\u{1b}'),
+            "{escaped:?}"
+        );
+    }
+
     fn words(line: &str) -> Vec<(char, f64)> {
         let mut out = LexedLine::default();
         lex_line(line, &mut out).unwrap();

@@ -351,7 +351,17 @@ fn explain_missing(e: ConfigError, base: &str, base_table: &toml::Table) -> Conf
     for part in section.split('.') {
         at = at.and_then(|t| t.get(part)).and_then(|v| v.as_table());
     }
-    let why = if at.is_none() && base != "none" {
+    let carried_z = base_table
+        .get("z")
+        .and_then(|z| z.as_table())
+        .is_some_and(|z| z.keys().all(|k| k == "limits"));
+    let why = if key.starts_with("z.") && carried_z && base != "none" {
+        format!(
+            " (the base `{base}` carries Z without simulating it: a section of Z beyond \
+             [z.limits] makes it a simulated axis, whose sections the file then gives whole — \
+             or start from a base that simulates Z, as `hvmc`)"
+        )
+    } else if at.is_none() && base != "none" {
         format!(
             " (the base `{base}` has no [{section}], so a file that adds it gives all its keys)"
         )
@@ -769,6 +779,12 @@ mod tests {
                 "{e}"
             );
         }
+        // A carried Z given a section of a simulated one says which it is and what to do.
+        let text = "base = \"small-table\"\n[z.gravity]\ncounterbalance_n = 100\n";
+        let e = MachineConfig::from_toml_str(text, "m.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("carries Z without simulating it"), "{e}");
         let e = MachineConfig::from_toml_str("base = \"none\"\nname = \"a\"\n", "m.toml");
         assert!(matches!(e.unwrap_err(), ConfigError::Missing { .. }));
         // A mass no table has (its dynamics would overflow the simulation) is the key's error.

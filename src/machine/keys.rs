@@ -167,6 +167,26 @@ macro_rules! optional {
     };
 }
 
+/// A key whose value may be left out of the file (`None`: the machine has no such limit or
+/// setting): set, it is given — a sweep of a path acceleration limit on a machine without
+/// one sets it.
+macro_rules! optional_value {
+    ($path:literal, $unit:literal, $rule:expr, $needs:expr, $meaning:literal, |$a:ident| $field:expr) => {
+        Key {
+            path: $path,
+            unit: $unit,
+            rule: $rule,
+            needs: $needs,
+            meaning: $meaning,
+            get: |$a| $field,
+            set: |$a, value: f64| {
+                $field = Some(value);
+                true
+            },
+        }
+    };
+}
+
 /// A key of the state-feedback and transfer-function controllers, read from whichever the
 /// axis has.
 macro_rules! controller {
@@ -684,10 +704,22 @@ pub const INTERPOLATION_KEYS: &[Key<Interpolation>] = &[
         "share of the acceleration limit an arc may spend on its centripetal part",
         |i| i.arc_normal_share
     ),
-    optional!("path_accel_m_per_s2", "m/s²", Positive(1e4), Always,
-        "path acceleration limit (else the axes')", |i| i.path_accel_m_per_s2, v => *v),
-    optional!("path_jerk_m_per_s3", "m/s³", Positive(1e8), Always,
-        "path jerk limit (else the axes')", |i| i.path_jerk_m_per_s3, v => *v),
+    optional_value!(
+        "path_accel_m_per_s2",
+        "m/s²",
+        Positive(1e4),
+        Always,
+        "path acceleration limit (else the axes')",
+        |i| i.path_accel_m_per_s2
+    ),
+    optional_value!(
+        "path_jerk_m_per_s3",
+        "m/s³",
+        Positive(1e8),
+        Always,
+        "path jerk limit (else the axes')",
+        |i| i.path_jerk_m_per_s3
+    ),
 ];
 
 /// The unit of the axis key `path`, read from the table while the program is built: called

@@ -38,8 +38,14 @@ impl Figure for StickSlipPlot {
             let y_min = values().fold(f64::MAX, f64::min).min(0.0);
             let y_max = values().fold(f64::MIN, f64::max).max(y_min + 1e-3);
             let pad = 0.05 * (y_max - y_min);
+            // The caption shrinks to its panel's width (a glyph about 0.55 of the font's
+            // size wide): at 18 px the longer verdicts ran off both sides of a half-width
+            // panel.
+            let (width_px, _) = area.dim_in_pixel();
+            let glyphs = c.label.chars().count().max(1) as f64;
+            let caption_px = (0.95 * f64::from(width_px) / (0.55 * glyphs)).clamp(10.0, 18.0);
             let mut chart = ChartBuilder::on(area)
-                .caption(&c.label, (FONT, 18))
+                .caption(&c.label, (FONT, caption_px))
                 .margin(10)
                 .x_label_area_size(40)
                 .y_label_area_size(60)

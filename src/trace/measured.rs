@@ -19,12 +19,14 @@ use crate::trace::twincat;
 
 mod layout;
 mod sampling;
+mod spikes;
 mod steady;
 mod text;
 
 pub use layout::{Source, TraceLayout, UnusedColumn};
 pub use sampling::{HeldRows, StepStats};
 use sampling::{held_rows, keep_readings, plausible_clock, resample};
+pub use spikes::Spike;
 pub use steady::{TableRow, parse_table, read_table};
 
 /// A measured trace on a uniform time grid, in SI units.

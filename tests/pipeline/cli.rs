@@ -239,6 +239,26 @@ fn bode_shows_no_nan_and_refuses_an_unstable_setting() {
         (must_fall_db - apart_db).abs() <= 0.1,
         "{must_fall_db} dB against {apart_db}"
     );
+    // Its plot is drawn all the same (it shows where the loop went wrong), its position
+    // loop's curves labelled unstable and not by margins or a peak it does not have; the
+    // status stays 2.
+    let plots = dir.path().join("plots");
+    let m = dir.path().join("edge.toml");
+    let o = run(&[
+        "bode",
+        "--machine",
+        m.to_str().unwrap(),
+        "--plot",
+        plots.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let svg = std::fs::read_to_string(plots.join("bode-x.svg")).unwrap();
+    assert!(
+        svg.contains("position: open loop, unstable")
+            && svg.contains("position: feedback loop closed (unstable"),
+        "labels"
+    );
+    std::fs::remove_dir_all(&plots).unwrap();
     // A plot directory that cannot be made says why as any other file would.
     let blocked = dir.path().join("hot.toml").join("plots");
     let o = run(&["bode", "--plot", blocked.to_str().unwrap()]);
@@ -941,4 +961,18 @@ fn numbers_no_run_can_use_are_refused_by_their_option() {
         "--work-offset",
         "-471.1,250",
     ]);
+}
+
+/// `--trace-every` without `--trace` has nothing to thin: refused, naming `--trace`, rather
+/// than ignored.
+#[test]
+fn trace_every_without_a_trace_is_refused() {
+    let o = run(&[
+        "check",
+        sample("circle-test.nc").to_str().unwrap(),
+        "--trace-every",
+        "10",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(text(&o.stderr).contains("--trace <FILE>"), "{o:?}");
 }

@@ -564,3 +564,60 @@ fn identify_names_a_template_that_is_nowhere_by_its_option() {
     );
     assert!(!out.exists());
 }
+
+/// A record with 8 µm of backlash on Y in which one sample of X, while X moves, was misread
+/// by 5 mm: the sample is bridged and said, with its time on the record's clock, and the
+/// backlash is still found (that one sample had been the whole residual: "no significant
+/// cause").
+#[test]
+fn a_misread_sample_is_bridged_and_said_and_hides_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let (clean, glitched) = (dir.path().join("bl.csv"), dir.path().join("glitch.csv"));
+    let square = sample("square.nc");
+    run_ok(&[
+        "synth",
+        square.to_str().unwrap(),
+        "--effect",
+        "backlash",
+        "--axis",
+        "y",
+        "--values",
+        "8",
+        "--with-commands",
+        "--out",
+        clean.to_str().unwrap(),
+    ]);
+    let text_in = std::fs::read_to_string(&clean).unwrap();
+    let mut rows: Vec<Vec<String>> = text_in
+        .lines()
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect();
+    let x = |r: &Vec<String>| r[1].parse::<f64>().unwrap();
+    // A third into the record, the first row where X moves.
+    let k = (rows.len() / 3..rows.len() - 1)
+        .find(|&k| (x(&rows[k + 1]) - x(&rows[k])).abs() > 1e-3)
+        .unwrap();
+    let at_s = rows[k][0].clone();
+    rows[k][1] = format!("{:.7}", x(&rows[k]) + 5.0);
+    let joined: Vec<String> = rows.iter().map(|r| r.join(",")).collect();
+    std::fs::write(&glitched, joined.join("\n") + "\n").unwrap();
+    let o = run_ok(&[
+        "diagnose",
+        square.to_str().unwrap(),
+        "--measured",
+        glitched.to_str().unwrap(),
+    ]);
+    let (out, err) = (text(&o.stdout), text(&o.stderr));
+    // 5 mm off, within the record's noise and a sample's curvature of the path.
+    let off_um: f64 = err
+        .split(&format!("measured X at {at_s} s lies "))
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("{err}"));
+    assert!(
+        (off_um - 5000.0).abs() < 3.0 && err.contains("bridged"),
+        "{err}"
+    );
+    assert!(out.contains("backlash on Y"), "{out}");
+}

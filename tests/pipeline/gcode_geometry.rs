@@ -245,6 +245,11 @@ fn warnings_for_badly_conditioned_and_nearly_closed_arcs() {
     assert!(p.warnings[0].message.contains("near a half circle"));
     assert_eq!(p.warnings[1].line, 5);
     assert!(p.warnings[1].message.contains("nearly coincide"));
+    // An exact half circle of R10: 1 µm off the chord's half moves the centre by
+    // √(2 · 10 mm · 0.001 mm) = 0.141 mm, a finite figure (it said "inf").
+    let p = run("G21 F100\nG0 X0 Y0\nG2 X20 Y0 R10\n");
+    let message = &p.warnings[0].message;
+    assert!(message.contains("moves it by 141 µm"), "{message}");
 }
 
 /// Block numbers are kept by source line, so that reports can show N40 beside line 4.

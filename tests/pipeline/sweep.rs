@@ -505,8 +505,9 @@ fn parallel_sweeps_equal_serial_ones() {
 /// `check` gives on the machine with that cycle written in.
 #[test]
 fn the_planners_keys_swept_plan_each_setting_with_its_own_value() {
-    let mut machine = MachineConfig::default_preset();
-    machine.interpolation.path_accel_m_per_s2 = Some(1.0);
+    // The preset has no path acceleration limit of its own: the sweep gives it one.
+    let machine = MachineConfig::default_preset();
+    assert_eq!(machine.interpolation.path_accel_m_per_s2, None);
     let line = program("G21 G90 G61\nG0 X0 Y0\nG1 X40 F1000\nM2\n");
     let accel = Dimension {
         name: "interpolation.path_accel_m_per_s2".into(),

@@ -222,8 +222,11 @@ impl Interpreter {
     fn warn_badly_conditioned_r(&mut self, r: f64, half: f64, h: f64) {
         let sweep_deg = 2.0 * (half / r).min(1.0).asin().to_degrees();
         if (180.0 - sweep_deg).abs() < R_ARC_NEAR_HALF_DEG {
-            // d(centre)/d(end point) grows like half/h: how far 1 µm of rounding moves it.
-            let moved_um = if h > 0.0 { half / h } else { f64::INFINITY };
+            // How far 1 µm of rounding that shortens the half chord moves the centre off the
+            // chord: h grows to √(h² + 2·half·δ) — half/h µm per µm where h is large, and
+            // √(2·half·δ) at an exact half circle (h = 0), where the slope is infinite.
+            let delta_mm = 1e-3;
+            let moved_um = 1e3 * ((h * h + 2.0 * half * delta_mm).sqrt() - h);
             self.warnings.push(Warning {
                 line: self.line,
                 message: format!(
