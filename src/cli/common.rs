@@ -335,7 +335,8 @@ impl TraceArgs {
             Some(text) => trace.in_work_coordinates(work_offset_m(text)?),
             None => trace,
         };
-        for s in trace.bridge_spikes() {
+        let spikes = trace.bridge_spikes();
+        for s in spikes.iter().take(SPIKES_SAID) {
             eprintln!(
                 "warning: {}: measured {} at {:.6} s lies {:.1} µm off both its neighbours, \
                  beyond any axis's acceleration over one sample and back: a misread sample, \
@@ -346,9 +347,19 @@ impl TraceArgs {
                 s.off_m * 1e6
             );
         }
+        if spikes.len() > SPIKES_SAID {
+            eprintln!(
+                "warning: {}: {} more misread samples bridged the same way",
+                trace.file,
+                spikes.len() - SPIKES_SAID
+            );
+        }
         Ok(trace)
     }
 }
+
+/// How many misread samples are said one by one; the rest are counted.
+const SPIKES_SAID: usize = 5;
 
 /// The largest work offset taken (mm, each axis): as far as a machine file's travel may
 /// reach.

@@ -362,6 +362,10 @@ fn temp_path(onto: &Path, dest: &Path) -> Result<PathBuf, OutputError> {
     Ok(tmp)
 }
 
+/// The options whose files go into a folder the command makes where it is not there yet:
+/// their folder is not asked to exist before the run.
+const FOLDER_MADE: &[&str] = &["--write-compensation"];
+
 /// A file named on the command line: the option or argument that names it (`--json`, the
 /// program) and its path, where given.
 pub(crate) type Named<'a> = (&'a str, Option<&'a Path>);
@@ -394,7 +398,7 @@ pub(crate) fn outputs_apart<'a>(
         .filter_map(|(what, p)| Some((what, file_place(p)?)))
         .collect();
     for &(what, path) in &outputs {
-        if path.as_os_str() == "-" {
+        if path.as_os_str() == "-" || FOLDER_MADE.contains(&what) {
             continue;
         }
         let folder = path.parent().filter(|f| !f.as_os_str().is_empty());

@@ -279,12 +279,20 @@ pub(crate) fn run(args: &SweepArgs, m: &ArgMatches) -> Result<Outcome, CliError>
     }
     let mut plots = Vec::new();
     if let Some(dir) = &args.plot {
-        let footer = super::common::run_footer(
+        let mut footer = super::common::run_footer(
             &machine.name,
             &program.file,
             &program.segments,
             plan.cycle_s,
         );
+        // A swept cycle is each setting's own: the footer names none.
+        if dims
+            .iter()
+            .flat_map(|d| &d.keys)
+            .any(|k| k == "interpolation.cycle_ms")
+        {
+            footer = footer.sampling("IPO cycle swept");
+        }
         plots = plot(&mut batch, dir, &program.file, &dims, &points, &footer)?;
     }
     batch.commit()?;

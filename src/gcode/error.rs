@@ -170,10 +170,15 @@ impl fmt::Display for Warning {
 }
 
 /// A character as an error shows it: quoted where it prints, by its code where it does not (a
-/// control character sent raw to the terminal would act, not show).
+/// control or format character sent raw to the terminal would act, not show).
 fn shown_char(c: char) -> String {
-    if c.is_control() {
-        format!("U+{:04X} (a control character)", c as u32)
+    // Controls, and the format characters that reorder or hide text on a terminal.
+    let invisible = matches!(
+        c,
+        '\u{200B}'..='\u{200F}' | '\u{202A}'..='\u{202E}' | '\u{2066}'..='\u{2069}' | '\u{FEFF}'
+    );
+    if c.is_control() || invisible {
+        format!("U+{:04X} (a character that does not print)", c as u32)
     } else {
         format!("'{c}'")
     }

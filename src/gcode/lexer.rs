@@ -241,6 +241,8 @@ mod tests {
             escaped.contains("U+001B") && !escaped.contains('\u{1b}'),
             "{escaped:?}"
         );
+        let reversed = message("G1 X1 \u{202e}");
+        assert!(reversed.contains("U+202E"), "{reversed:?}");
     }
 
     fn words(line: &str) -> Vec<(char, f64)> {

@@ -779,6 +779,11 @@ mod tests {
                 "{e}"
             );
         }
+        // A key less a word that is no unit is not said to lack its unit.
+        let e = MachineConfig::from_toml_str("[x.drive]\ngear = 2.0\n", "m.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(!e.contains("the unit is part"), "{e}");
         // A carried Z given a section of a simulated one says which it is and what to do.
         let text = "base = \"small-table\"\n[z.gravity]\ncounterbalance_n = 100\n";
         let e = MachineConfig::from_toml_str(text, "m.toml")

@@ -51,6 +51,13 @@ pub(crate) fn remove_key(table: &mut toml::Table, dotted: &str) -> bool {
     at.remove(leaf).is_some()
 }
 
+/// The first word of the units the machine file's keys end in (`_um`, `_nm_per_a`,
+/// `_kg_m2`, `_m_per_min_per_mm`): a key that is another key less such an ending was written
+/// without its unit.
+const UNIT_WORDS: &[&str] = &[
+    "um", "mm", "m", "n", "nm", "kg", "ms", "s", "hz", "v", "a", "ohm", "mh", "deg", "urad", "ppm",
+];
+
 /// " — did you mean `…`?" when one of the fields serde's message lists as expected is close
 /// to the unknown one; else empty.
 pub(crate) fn did_you_mean(unknown: &str, serde_message: &str) -> String {
@@ -63,8 +70,10 @@ pub(crate) fn did_you_mean(unknown: &str, serde_message: &str) -> String {
     let with_unit: Vec<&str> = candidates
         .clone()
         .filter(|c| {
-            c.strip_prefix(unknown)
-                .is_some_and(|rest| rest.starts_with('_'))
+            (c.strip_prefix(unknown)
+                .and_then(|rest| rest.strip_prefix('_')))
+            .and_then(|unit| unit.split('_').next())
+            .is_some_and(|first| UNIT_WORDS.contains(&first))
         })
         .collect();
     if let [name] = with_unit.as_slice() {

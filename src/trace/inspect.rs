@@ -9,6 +9,10 @@ use crate::trace::measured::{MeasuredTrace, quantum};
 
 /// An axis moves where its position changes by more than this over the window (m).
 const MOVING_M: f64 = 1e-6;
+/// A following error no machine tool's axis reaches (m): a servo trips on following error
+/// long before its axis lags by a tenth of a metre; a figure beyond it says the columns' units
+/// were read wrong.
+const IMPLAUSIBLE_FOLLOWING_M: f64 = 0.1;
 /// The window for deciding motion (s).
 const MOVING_WINDOW_S: f64 = 0.01;
 
@@ -196,6 +200,14 @@ impl TraceSummary {
                         "{axis} follow  largest following error {:.2} µm at {t:.3} s\n",
                         um_from_m(*e)
                     ));
+                    if e.abs() > IMPLAUSIBLE_FOLLOWING_M {
+                        s.push_str(&format!(
+                            "          no machine's axis lags its command by {:.3} m: are \
+                             the columns' units right (counts read as mm, mm as µm)? \
+                             --columns sets them\n",
+                            e.abs()
+                        ));
+                    }
                 }
             }
             None => s.push_str("commands  not recorded: no following error\n"),
@@ -251,6 +263,17 @@ mod tests {
         assert_eq!(s.quantum_m[1], None);
         let (e, _) = s.max_following.unwrap()[0];
         assert!((e - 5e-6).abs() < 0.06e-6, "{e}");
+        assert!(!s.text().contains("no machine's axis lags"));
+        // The position's column read as mm where it holds µm (its command's still µm): the
+        // position runs to 416.7 µm × 1000 = 0.42 m, and the lag with it, which no axis lags.
+        let as_mm = text.replacen("x_um", "x_mm", 1);
+        let s = summarise(&parse_trace(&as_mm, "q.csv").unwrap());
+        assert!(
+            s.text()
+                .contains("no machine's axis lags its command by 0.4"),
+            "{}",
+            s.text()
+        );
     }
 
     /// A smooth motion printed to 7 decimals of mm sits on the 0.1 nm grid of its last digit:

@@ -107,6 +107,22 @@ fn an_output_naming_an_input_or_another_output_is_refused_before_the_run() {
     assert_eq!(o.status.code(), Some(2));
     assert!(text(&o.stderr).contains("--write-compensation names --measured"));
     assert_eq!(std::fs::read(&tables).unwrap(), recorded);
+    // A compensation folder not there yet is made (a file's folder must be there already):
+    // a record with a scale error of 50 ppm on X, which a table compensates.
+    let scaled = dir.path().join("scaled.csv");
+    let s = scaled.to_str().unwrap();
+    let effect = [
+        "--effect",
+        "scale_error",
+        "--values",
+        "50",
+        "--with-commands",
+    ];
+    run_ok(&[&["synth", p, "--out", s][..], &effect].concat());
+    let new_folder = dir.path().join("new").join("tables");
+    let n = new_folder.to_str().unwrap();
+    run_ok(&["diagnose", p, "--measured", s, "--write-compensation", n]);
+    assert!(new_folder.join("compensation.csv").is_file());
     // One file for two outputs, spelt two ways: refused, nothing written.
     let same = dir.path().join("same.out");
     std::fs::create_dir(dir.path().join("sub")).unwrap();

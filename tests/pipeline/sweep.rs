@@ -522,9 +522,10 @@ fn the_planners_keys_swept_plan_each_setting_with_its_own_value() {
     let kv_per_s = 1000.0 / 60.0;
     // √(a·L) in mm/s (a in m/s², L in mm: √(1e3·a·L)), over Kv, in µm.
     let reachable_um = (1e3 * 0.005_f64 * 40.0).sqrt() / kv_per_s * 1e3;
+    // A triangular profile peaks at √(a·L) exactly; the jerk's ramps take a little off it.
     let slow = following_x_um(0.005);
     assert!(
-        slow < 1.05 * reachable_um,
+        slow < 1.05 * reachable_um && slow > 0.85 * reachable_um,
         "{slow} µm against {reachable_um} µm"
     );
     let fast = following_x_um(0.4);

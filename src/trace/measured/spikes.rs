@@ -1,6 +1,6 @@
 //! Single samples a logger got wrong: a measured position off both its neighbours by more
 //! than any machine's axis could move away in one sample and come back (two such samples
-//! side by side are not told from motion, and are left). One such sample of
+//! side by side are not one misread between neighbours, and are left). One such sample of
 //! 5 mm in a record of µm hid every finding of a comparison (its residual was all that
 //! sample); it is bridged by its neighbours' mean and said, never left silently.
 
@@ -10,8 +10,9 @@ use super::MeasuredTrace;
 /// leaves both its neighbours by more than this over one step and back is not the axis.
 const BEYOND_ANY_AXIS_M_PER_S2: f64 = 100.0;
 
-/// How many standard deviations of the record's own second differences (its noise and its
-/// counts) a spike must stand out by besides.
+/// How many standard deviations of the record's own second differences, or counts of its
+/// quantisation where that is more, a spike must stand out by besides: an encoder's count
+/// flickering on a still axis (0, 1, 0: a second difference of two counts) is not one.
 const NOISE_MARGIN: f64 = 10.0;
 
 /// One sample bridged.
@@ -36,8 +37,12 @@ impl MeasuredTrace {
             .chain(std::iter::once(("z", self.z_m.as_mut())));
         for (signal, values) in signals {
             let Some(values) = values else { continue };
-            for k in isolated_spikes(values, dt) {
-                let mean = 0.5 * (values[k - 1] + values[k + 1]);
+            // Each mean from the values as read (the spikes found are never side by side).
+            let means: Vec<(usize, f64)> = isolated_spikes(values, dt)
+                .into_iter()
+                .map(|k| (k, 0.5 * (values[k - 1] + values[k + 1])))
+                .collect();
+            for (k, mean) in means {
                 spikes.push(Spike {
                     signal,
                     t_s: t0 + k as f64 * dt,
@@ -61,12 +66,25 @@ fn isolated_spikes(x: &[f64], dt_s: f64) -> Vec<usize> {
     let mut magnitudes: Vec<f64> = second.iter().map(|d| d.abs()).collect();
     let mid = magnitudes.len() / 2;
     let median = *magnitudes.select_nth_unstable_by(mid, f64::total_cmp).1;
-    let sigma = 1.4826 * median;
-    let bound = BEYOND_ANY_AXIS_M_PER_S2 * dt_s * dt_s + NOISE_MARGIN * sigma;
+    // On a record that mostly stands still the median is 0: its count is the floor.
+    let count = x
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .filter(|d| *d > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    let spread = (1.4826 * median).max(if count.is_finite() { count } else { 0.0 });
+    let bound = BEYOND_ANY_AXIS_M_PER_S2 * dt_s * dt_s + NOISE_MARGIN * spread;
+    let stands_out = |k: usize| {
+        let d2 = second[k - 1];
+        d2.abs() > bound && (x[k + 1] - x[k - 1]).abs() < 0.5 * d2.abs()
+    };
+    // Not beside another: two samples off together are not one misread between neighbours.
     (1..x.len() - 1)
+        .filter(|&k| stands_out(k))
         .filter(|&k| {
-            let d2 = second[k - 1];
-            d2.abs() > bound && (x[k + 1] - x[k - 1]).abs() < 0.5 * d2.abs()
+            let before = k >= 2 && stands_out(k - 1);
+            let after = k + 2 < x.len() && stands_out(k + 1);
+            !before && !after
         })
         .collect()
 }
@@ -97,6 +115,22 @@ mod tests {
         assert!(isolated_spikes(&x, dt).is_empty());
         x[123] += 5e-3;
         assert_eq!(isolated_spikes(&x, dt), vec![123]);
+        // Two side by side are left.
+        x[124] -= 5e-3;
+        assert!(isolated_spikes(&x, dt).is_empty());
+    }
+
+    /// A still axis at 10 kHz read in 1 µm counts, flickering by a count now and then (its
+    /// second differences 2 µm, beyond the 1 µm that 100 m/s² gives over 0.1 ms): no spike.
+    #[test]
+    fn a_count_flickering_on_a_still_axis_is_no_spike() {
+        let x: Vec<f64> = (0..20_000)
+            .map(|k| if k % 97 == 0 { 1e-6 } else { 0.0 })
+            .collect();
+        assert!(isolated_spikes(&x, 1e-4).is_empty());
+        let mut glitched = x.clone();
+        glitched[5000] = 3e-3;
+        assert_eq!(isolated_spikes(&glitched, 1e-4), vec![5000]);
     }
 
     /// Bridged by the neighbours' mean, and said with its time and size.
