@@ -338,3 +338,14 @@ fn offset_told_where_not_given(dir: &std::path::Path, f: &Facts) {
     assert!(said.contains(&flag), "{said}\nexpected {flag}");
     assert!(!said.contains("as well"), "{said}");
 }
+
+/// The control's own 50 Hz trace holds no sample a logger misread: none of its positions is
+/// bridged (the bound there is 100 m/s² · (20 ms)² = 40 mm, and the rapid from home at
+/// 36 m/min turns far inside it).
+#[test]
+fn no_sample_of_the_840d_trace_reads_as_misread() {
+    let Some(dir) = folder() else { return };
+    let mut raw = read_trace(&dir.join(TRACE)).unwrap();
+    let spikes = raw.bridge_spikes();
+    assert!(spikes.is_empty(), "{spikes:?}");
+}

@@ -404,3 +404,23 @@ fn y_gets_bristles_each_way(y: &AxisIdentification, f: &Friction) {
     assert!(f.static_to_coulomb < minus, "{f:?}");
     assert!(y.held_out_share < 0.32, "Y: {:.3}", y.held_out_share);
 }
+
+/// The whole 10 kHz record in 0.1 µm counts, from another writer and another controller,
+/// holds no sample that reads as misread: its counts flicker and its axes reverse and stop,
+/// and none of that is bridged.
+#[test]
+fn no_sample_of_the_real_table_reads_as_misread() {
+    let Some(dir) = std::env::var_os("CONTOURCHECK_REAL_RECORDS") else {
+        let _ = writeln!(std::io::stderr(), "skipped: real records not present");
+        return;
+    };
+    let path = std::path::Path::new(&dir).join("ubc-xy-table/standard.csv");
+    let mut whole = contourcheck::trace::measured::read_trace(&path).unwrap();
+    assert!(
+        whole.dt_s < 2e-4 && whole.x_m.len() > 50_000,
+        "{}",
+        whole.dt_s
+    );
+    let spikes = whole.bridge_spikes();
+    assert!(spikes.is_empty(), "{spikes:?}");
+}
